@@ -1,0 +1,233 @@
+"""Validation helpers shared by all public functions.
+
+Every message names the offending value, e.g. ``lag=250 must be in [1, window=200)``.
+User input is checked with ``ValueError``/``TypeError``, never ``assert``.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+__all__ = [
+    "as_1d_float",
+    "as_2d_float",
+    "check_int",
+    "check_positive",
+    "check_overlap",
+    "check_finite",
+]
+
+
+def as_1d_float(x, name: str = "x") -> np.ndarray:
+    """Coerce ``x`` (array-like or pandas Series) to a C-contiguous 1-D float64 array.
+
+    Parameters
+    ----------
+    x : array_like
+        Input signal.
+    name : str
+        Name used in error messages.
+
+    Returns
+    -------
+    numpy.ndarray
+        C-contiguous float64 copy or view, shape ``(n,)``.
+
+    Raises
+    ------
+    TypeError
+        If ``x`` is not numeric.
+    ValueError
+        If ``x`` is not one-dimensional.
+
+    Examples
+    --------
+    >>> as_1d_float([1, 2, 3]).dtype
+    dtype('float64')
+    """
+    try:
+        arr = np.ascontiguousarray(np.asarray(x, dtype=np.float64))
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be numeric: {exc}") from None
+    if arr.ndim != 1:
+        raise ValueError(f"{name} must be one-dimensional, got shape {arr.shape}")
+    return arr
+
+
+def as_2d_float(x, name: str = "x") -> np.ndarray:
+    """Coerce ``x`` to a C-contiguous 2-D float64 array of shape ``(samples, channels)``.
+
+    A 1-D input becomes one column.
+
+    Parameters
+    ----------
+    x : array_like
+        Input signal(s), samples along axis 0.
+    name : str
+        Name used in error messages.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n, c)``, float64, C-contiguous.
+
+    Raises
+    ------
+    TypeError
+        If ``x`` is not numeric.
+    ValueError
+        If ``x`` has more than two dimensions.
+
+    Examples
+    --------
+    >>> as_2d_float([1.0, 2.0]).shape
+    (2, 1)
+    """
+    try:
+        arr = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be numeric: {exc}") from None
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2:
+        raise ValueError(f"{name} must be 1-D or 2-D (samples x channels), got shape {arr.shape}")
+    return np.ascontiguousarray(arr)
+
+
+def check_int(value, name: str, low: int | None = None, high: int | None = None) -> int:
+    """Check that ``value`` is an integer in ``[low, high)`` and return it as ``int``.
+
+    Parameters
+    ----------
+    value : int
+        Value to check.
+    name : str
+        Name used in error messages.
+    low, high : int, optional
+        Inclusive lower and exclusive upper bounds.
+
+    Returns
+    -------
+    int
+        The value.
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not an integer.
+    ValueError
+        If ``value`` is out of bounds.
+
+    Examples
+    --------
+    >>> check_int(3, "lag", 1, 10)
+    3
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        else:
+            raise TypeError(f"{name}={value!r} must be an integer")
+    value = int(value)
+    if low is not None and value < low:
+        bound = f"[{low}, {high})" if high is not None else f">= {low}"
+        raise ValueError(f"{name}={value} must be in {bound}")
+    if high is not None and value >= high:
+        raise ValueError(f"{name}={value} must be in [{low if low is not None else '-inf'}, {high})")
+    return value
+
+
+def check_positive(value, name: str) -> float:
+    """Check that ``value`` is a finite number > 0.
+
+    Parameters
+    ----------
+    value : float
+        Value to check.
+    name : str
+        Name used in error messages.
+
+    Returns
+    -------
+    float
+        The value.
+
+    Raises
+    ------
+    ValueError
+        If not finite and positive.
+
+    Examples
+    --------
+    >>> check_positive(1000, "sample_rate")
+    1000.0
+    """
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name}={value!r} must be a number") from None
+    if not np.isfinite(v) or v <= 0:
+        raise ValueError(f"{name}={value!r} must be a finite number > 0")
+    return v
+
+
+def check_overlap(overlap) -> float:
+    """Check an overlap in percent, ``0 <= overlap < 100`` (Sec. 4.4).
+
+    Parameters
+    ----------
+    overlap : float
+        Overlap between consecutive windows in percent.
+
+    Returns
+    -------
+    float
+        The overlap.
+
+    Raises
+    ------
+    ValueError
+        If outside ``[0, 100)``.
+
+    Examples
+    --------
+    >>> check_overlap(5)
+    5.0
+    """
+    try:
+        v = float(overlap)
+    except (TypeError, ValueError):
+        raise TypeError(f"overlap={overlap!r} must be a number (percent)") from None
+    if not (0.0 <= v < 100.0):
+        raise ValueError(f"overlap={overlap!r} must be in [0, 100) percent")
+    return v
+
+
+def check_finite(x: np.ndarray, name: str = "x") -> None:
+    """Raise if ``x`` holds NaN or inf, naming the first bad sample.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Array to check.
+    name : str
+        Name used in the message (e.g. the channel).
+
+    Raises
+    ------
+    ValueError
+        If any element is not finite.
+
+    Examples
+    --------
+    >>> check_finite(np.array([1.0, 2.0]))
+    """
+    bad = ~np.isfinite(x)
+    if bad.any():
+        idx = int(np.flatnonzero(bad.reshape(len(x), -1).any(axis=1))[0]) if x.ndim else 0
+        kind = "NaN" if np.isnan(x).any() else "inf"
+        raise ValueError(
+            f"{name} holds {int(bad.sum())} non-finite value(s) ({kind}); first at sample {idx}"
+        )

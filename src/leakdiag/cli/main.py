@@ -1,0 +1,73 @@
+"""The ``leakdiag`` command line.
+
+Sub-commands live in one module each under :mod:`leakdiag.cli` and are loaded lazily, so that
+``leakdiag --help`` is fast. To add a command, add its ``"name": "module:function"`` to
+:data:`COMMANDS`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+import click
+
+from leakdiag._version import __version__
+
+__all__ = ["main", "COMMANDS"]
+
+#: Sub-command name -> "module:attribute" of its click command.
+COMMANDS: dict[str, str] = {
+    "analyze": "leakdiag.cli.analyze:analyze",
+    "demo": "leakdiag.cli.demo:demo",
+}
+
+
+class _LazyGroup(click.Group):
+    def list_commands(self, ctx):
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx, cmd_name):
+        target = COMMANDS.get(cmd_name)
+        if target is None:
+            return None
+        mod, attr = target.split(":")
+        return getattr(importlib.import_module(mod), attr)
+
+
+@click.group(cls=_LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="leakdiag")
+def cli() -> None:
+    """leakdiag: internal leakage diagnosis of hydraulic actuators (VCA and EHA)."""
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; bad input (ValueError) becomes a one-line error and exit code 2.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        Exit code.
+    """
+    try:
+        cli.main(args=argv, prog_name="leakdiag", standalone_mode=False)
+    except click.exceptions.Abort:
+        click.echo("Aborted.", err=True)
+        return 1
+    except click.ClickException as exc:
+        exc.show()
+        return exc.exit_code
+    except (ValueError, TypeError, KeyError, FileNotFoundError) as exc:
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        click.echo(f"leakdiag: error: {msg}", err=True)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

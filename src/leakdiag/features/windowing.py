@@ -1,0 +1,132 @@
+"""Windowing of Sec. 4.4: window size N in samples, overlap in percent.
+
+Conventions (documented in ``docs/features.md``):
+
+* step ``= N - round(N * overlap / 100)``, at least 1 (Python's ``round``, half to even);
+* window ``m`` covers samples ``[m * step, m * step + N)``; only complete windows are used;
+* its timestamp is the time of its **last** sample, ``start_time + (m*step + N - 1) / sample_rate``:
+  the moment the window's value can first be known (causal, as a monitor would see it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from leakdiag._validation import check_int, check_overlap, check_positive
+
+__all__ = ["window_step", "window_starts", "window_times", "n_windows"]
+
+
+def window_step(window: int, overlap: float) -> int:
+    """Step between consecutive windows, ``N - round(N * overlap / 100)``, at least 1.
+
+    Parameters
+    ----------
+    window : int
+        Window size N in samples (>= 2).
+    overlap : float
+        Overlap in percent, ``0 <= overlap < 100``.
+
+    Returns
+    -------
+    int
+        Step in samples.
+
+    Raises
+    ------
+    ValueError
+        If ``window < 2`` or overlap outside ``[0, 100)``.
+
+    Examples
+    --------
+    >>> window_step(200, 5)
+    190
+    >>> window_step(200, 99.9)
+    1
+    """
+    window = check_int(window, "window", 2)
+    overlap = check_overlap(overlap)
+    return max(1, window - int(round(window * overlap / 100.0)))
+
+
+def n_windows(n_samples: int, window: int, overlap: float) -> int:
+    """Number of complete windows in ``n_samples`` samples.
+
+    Parameters
+    ----------
+    n_samples : int
+        Signal length.
+    window : int
+        Window size N in samples.
+    overlap : float
+        Overlap in percent.
+
+    Returns
+    -------
+    int
+        ``0`` if the signal is shorter than one window.
+
+    Examples
+    --------
+    >>> n_windows(1000, 200, 50)
+    9
+    """
+    step = window_step(window, overlap)
+    if n_samples < window:
+        return 0
+    return (n_samples - window) // step + 1
+
+
+def window_starts(n_samples: int, window: int, overlap: float) -> np.ndarray:
+    """First sample index of every complete window.
+
+    Parameters
+    ----------
+    n_samples : int
+        Signal length.
+    window : int
+        Window size N in samples.
+    overlap : float
+        Overlap in percent.
+
+    Returns
+    -------
+    numpy.ndarray
+        int64 array of start indices.
+
+    Examples
+    --------
+    >>> window_starts(10, 4, 50).tolist()
+    [0, 2, 4, 6]
+    """
+    step = window_step(window, overlap)
+    return np.arange(n_windows(n_samples, window, overlap), dtype=np.int64) * step
+
+
+def window_times(starts: np.ndarray, window: int, sample_rate: float = 1.0,
+                 start_time: float = 0.0) -> np.ndarray:
+    """Timestamp of each window: the time of its last sample.
+
+    Parameters
+    ----------
+    starts : numpy.ndarray
+        Window start indices.
+    window : int
+        Window size N in samples.
+    sample_rate : float, default 1.0
+        Sample rate in Hz (1.0 gives time in samples).
+    start_time : float, default 0.0
+        Time of sample 0 in seconds.
+
+    Returns
+    -------
+    numpy.ndarray
+        float64 times in seconds.
+
+    Examples
+    --------
+    >>> window_times(np.array([0, 2]), 4, sample_rate=2.0).tolist()
+    [1.5, 2.5]
+    """
+    sample_rate = check_positive(sample_rate, "sample_rate")
+    return start_time + (np.asarray(starts, dtype=np.float64) + (window - 1)) / sample_rate

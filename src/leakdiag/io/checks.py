@@ -1,0 +1,98 @@
+"""Checks of recording input: time axis, finiteness, length. Messages name file, channel and row."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["infer_sample_rate", "check_channel_finite", "UNIFORM_TIME_RTOL"]
+
+#: Relative tolerance on sample intervals for a time axis to count as uniform.
+UNIFORM_TIME_RTOL = 1e-3
+
+
+def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIFORM_TIME_RTOL) -> float:
+    """Sample rate (Hz) of a uniform time axis in seconds.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Sample times in seconds.
+    source : str
+        File name for messages.
+    rtol : float
+        Allowed relative deviation of each interval from the median interval.
+
+    Returns
+    -------
+    float
+        ``1 / median(diff(t))``.
+
+    Raises
+    ------
+    RecordingError
+        If ``t`` has fewer than 2 samples, NaN, is not strictly increasing, or is not uniform
+        (the message suggests ``--resample``).
+
+    Examples
+    --------
+    >>> infer_sample_rate(np.arange(5) / 1000.0)
+    1000.0
+    """
+    from leakdiag.io.recording import RecordingError
+
+    t = np.asarray(t, dtype=np.float64)
+    if len(t) < 2:
+        raise RecordingError(f"{source}: column 'time' has {len(t)} sample(s); need at least 2")
+    bad = np.flatnonzero(~np.isfinite(t))
+    if len(bad):
+        raise RecordingError(f"{source}: column 'time' is not finite at row {int(bad[0])}")
+    dt = np.diff(t)
+    nonmono = np.flatnonzero(dt <= 0)
+    if len(nonmono):
+        i = int(nonmono[0]) + 1
+        raise RecordingError(
+            f"{source}: column 'time' is not strictly increasing at row {i} "
+            f"(t[{i - 1}]={t[i - 1]!r}, t[{i}]={t[i]!r})"
+        )
+    med = float(np.median(dt))
+    dev = np.flatnonzero(np.abs(dt - med) > rtol * med)
+    if len(dev):
+        i = int(dev[0]) + 1
+        raise RecordingError(
+            f"{source}: column 'time' is not uniformly sampled: interval before row {i} is "
+            f"{dt[i - 1]!r} s, median {med!r} s ({len(dev)} irregular interval(s)); "
+            f"resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess"
+        )
+    return round(1.0 / med, 9)
+
+
+def check_channel_finite(x: np.ndarray, channel: str, source: str = "<input>") -> None:
+    """Raise if a channel holds NaN or inf, naming file, channel and first row.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Channel samples.
+    channel : str
+        Channel name.
+    source : str
+        File name.
+
+    Raises
+    ------
+    RecordingError
+        With the count and the first bad row.
+
+    Examples
+    --------
+    >>> check_channel_finite(np.array([1.0, 2.0]), "p1")
+    """
+    from leakdiag.io.recording import RecordingError
+
+    bad = np.flatnonzero(~np.isfinite(x))
+    if len(bad):
+        kind = "NaN" if np.isnan(x[bad[0]]) else "inf"
+        raise RecordingError(
+            f"{source}: channel {channel!r} has {len(bad)} non-finite value(s); "
+            f"first {kind} at row {int(bad[0])}"
+        )
