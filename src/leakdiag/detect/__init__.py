@@ -1,1 +1,5 @@
-"""leakdiag.detect"""
+"""Detection: the Sec. 5.2 measure, detectors with calibrated alarms, onset estimation."""
+
+from leakdiag.detect.measure import RMSChange, chunk_rms, pct_change, rms_change
+
+__all__ = ["RMSChange", "rms_change", "pct_change", "chunk_rms"]

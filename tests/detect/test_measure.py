@@ -1,0 +1,85 @@
+"""Sec. 5.2 measure: hand-computed chunk RMS, onset handling, and Eq. 5-3 against the thesis's tables."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from leakdiag.detect import chunk_rms, pct_change, rms_change
+from leakdiag.features import FeatureSeries
+
+
+def _fs(values, window=None, rate=1.0):
+    t = np.arange(len(values), dtype=float)
+    params = {} if window is None else {"window": window, "sample_rate": rate}
+    return FeatureSeries(t, np.asarray(values, float), "f", params)
+
+
+def test_chunk_rms_hand_values():
+    rms, n = chunk_rms([3.0, 4.0, 1.0, -1.0, 2.0, 2.0, 7.0], 2)
+    np.testing.assert_allclose(rms, [np.sqrt(12.5), 1.0, 2.0])
+    assert n.tolist() == [2, 2, 2]
+
+
+def test_chunk_rms_skips_nan_and_all_nan_chunk():
+    rms, n = chunk_rms([np.nan, 2.0, np.nan, np.nan], 2)
+    assert rms[0] == 2.0 and np.isnan(rms[1])
+    assert n.tolist() == [1, 0]
+
+
+def test_rms_change_hand_computed():
+    # before: chunks [1,1,1] [1,1,1]; after [2,2,2] [4,4,4] -> RMS 1,1 | 2,4
+    v = [1, 1, 1, 1, 1, 1, 2, 2, 2, 4, 4, 4]
+    res = rms_change(_fs(v), onset=6.0, chunk=3)
+    assert res.mean_rms_before == 1.0
+    assert res.mean_rms_after == 3.0
+    assert res.pct_change_signed == pytest.approx(200.0)
+    assert res.pct_change == pytest.approx(200.0)
+    assert (res.n_chunks_before, res.n_chunks_after, res.n_chunks_straddling) == (2, 2, 0)
+
+
+def test_rms_change_negative_change_reported_absolute():
+    res = rms_change(_fs([2.0] * 10 + [1.0] * 10), onset=10.0, chunk=5)
+    assert res.pct_change_signed == pytest.approx(-50.0)
+    assert res.pct_change == pytest.approx(50.0)
+
+
+def test_straddling_chunks_left_out_and_counted():
+    # windows of 4 samples at rate 1: timestamps are last samples; a window with t_last >= onset
+    # but t_first < onset straddles.
+    v = np.r_[np.ones(8), 3 * np.ones(8)]
+    res = rms_change(_fs(v, window=4), onset=8.0, chunk=4)
+    # chunk 0: t 0..3 -> before; chunk 1: t 4..7 (all t_last < 8) before; chunk 2: t 8..11 with
+    # t_first 5..8 -> straddles; chunk 3: t 12..15, t_first 9..12 -> after
+    assert res.chunk_side.tolist() == [-1, -1, 0, 1]
+    assert res.n_chunks_straddling == 1
+    assert res.mean_rms_after == 3.0
+
+
+def test_trailing_partial_chunk_dropped():
+    res = rms_change(_fs(np.r_[np.ones(10), 2 * np.ones(13)]), onset=10.0, chunk=5)
+    assert res.n_windows_dropped == 3 and res.n_chunks_after == 2
+
+
+def test_no_chunk_after_onset_is_an_error():
+    with pytest.raises(ValueError, match="at least one whole chunk on each side"):
+        rms_change(_fs(np.ones(10)), onset=100.0, chunk=5)
+
+
+def test_bad_chunk():
+    with pytest.raises(ValueError, match="chunk=0"):
+        rms_change(_fs(np.ones(10)), onset=5.0, chunk=0)
+
+
+def test_pct_change_zero_before_is_nan():
+    assert np.isnan(pct_change(0.0, 1.0))
+
+
+def test_thesis_tables_inconsistent_rows_are_exactly_the_flagged_ones(shared_dir):
+    """Recompute Eq. 5-3 from each printed table row's own RMS columns (Sec. 5.2)."""
+    t = pd.read_csv(shared_dir / "thesis" / "tables.csv")
+    recomputed = np.abs(pct_change(t["mean_rms_before"], t["mean_rms_after"]))
+    np.testing.assert_allclose(recomputed, t["pct_change_recomputed"], atol=6e-4)
+    disagrees = np.abs(recomputed - t["pct_change_reported"]) > 0.5
+    flagged = ~t["consistent"].astype(bool)
+    assert flagged.sum() > 0
+    assert (disagrees.to_numpy() == flagged.to_numpy()).all(), t.loc[disagrees != flagged, "table"]
