@@ -149,7 +149,7 @@ def rms_change(fs: FeatureSeries, onset: float, chunk: int = 10) -> RMSChange:
     onset : float
         Leak onset time in seconds (same time base as ``fs.time``).
     chunk : int, default 10
-        Chunk length in feature values (the thesis does not state it; see ``docs/detect.md``).
+        Chunk length in feature values (the thesis does not state it; see ``docs/measure.md``).
 
     Returns
     -------

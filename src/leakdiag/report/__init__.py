@@ -1,1 +1,1 @@
-"""leakdiag.report"""
+"""Reports: figures in the thesis style, HTML and Markdown reports."""
