@@ -1,0 +1,306 @@
+"""On-disk cache of simulated recordings, keyed by a hash of everything that shapes them.
+
+A simulation is identified by ``(system, every keyword argument, seed, leakdiag version)``. The
+key is the SHA-256 of a canonical JSON rendering of that tuple, so a changed parameter misses
+and an unchanged one hits. Entries are a Parquet file of the channels plus a JSON sidecar
+(sample rate, start time, units, metadata, the key's inputs), written atomically so that several
+Dask workers can fill the cache at once.
+
+The cache folder is, in order: the ``cache_dir=`` argument, ``$LEAKDIAG_CACHE``,
+``~/.cache/leakdiag``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from leakdiag._version import __version__
+from leakdiag.io.recording import Recording
+
+__all__ = [
+    "CACHE_ENV",
+    "SIMULATORS",
+    "resolve_cache_dir",
+    "canonical",
+    "cache_key",
+    "cached_simulation",
+    "clear_cache",
+]
+
+#: Environment variable naming the cache folder.
+CACHE_ENV = "LEAKDIAG_CACHE"
+
+#: System name -> "module:function" of its simulator (resolved lazily).
+SIMULATORS: dict[str, str] = {
+    "vca": "leakdiag.sim:simulate_vca",
+    "eha": "leakdiag.sim:simulate_eha",
+}
+
+#: Version of the on-disk entry layout; part of the key so a layout change never reads stale files.
+_LAYOUT = 1
+
+
+def resolve_cache_dir(cache_dir: str | os.PathLike | None = None) -> Path:
+    """Folder of the simulation cache.
+
+    Parameters
+    ----------
+    cache_dir : path-like, optional
+        Explicit folder. Default: ``$LEAKDIAG_CACHE`` if set, else ``~/.cache/leakdiag``.
+
+    Returns
+    -------
+    pathlib.Path
+        The folder (not created here).
+
+    Examples
+    --------
+    >>> resolve_cache_dir("/tmp/ld-cache").as_posix()
+    '/tmp/ld-cache'
+    """
+    if cache_dir is not None:
+        return Path(cache_dir).expanduser()
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return Path(env).expanduser()
+    return Path.home() / ".cache" / "leakdiag"
+
+
+def canonical(value: Any) -> Any:
+    """Turn a parameter value into plain JSON data with one spelling per value.
+
+    Dataclasses become ``{"__type__": name, fields...}``, numpy scalars and arrays become Python
+    numbers and lists, tuples become lists, dict keys are sorted, floats keep their full ``repr``
+    (NaN and infinities become strings).
+
+    Parameters
+    ----------
+    value : object
+        Parameter value.
+
+    Returns
+    -------
+    object
+        JSON-serialisable data.
+
+    Raises
+    ------
+    TypeError
+        For a value with no canonical form (e.g. a function), naming its type.
+
+    Examples
+    --------
+    >>> canonical({"b": (1, 2.5), "a": np.float64(0.1)})
+    {'a': 0.1, 'b': [1, 2.5]}
+    """
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        out = {"__type__": type(value).__qualname__}
+        for f in dataclasses.fields(value):
+            out[f.name] = canonical(getattr(value, f.name))
+        return out
+    if isinstance(value, dict):
+        return {str(k): canonical(value[k]) for k in sorted(value, key=str)}
+    if isinstance(value, (list, tuple)):
+        return [canonical(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return [canonical(v) for v in value.tolist()]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        v = float(value)
+        return v if math.isfinite(v) else repr(v)
+    if value is None or isinstance(value, str):
+        return value
+    raise TypeError(f"cannot build a cache key from a value of type {type(value).__name__}: {value!r}")
+
+
+def cache_key(system: str, params: dict[str, Any], version: str = __version__) -> str:
+    """SHA-256 key of a simulation: system, all parameters (seed included) and version.
+
+    Parameters
+    ----------
+    system : str
+        Simulator name, e.g. ``"vca"``.
+    params : dict
+        Every keyword argument passed to the simulator, the seed included.
+    version : str, default leakdiag's version
+        Package version; a new version never reuses old entries.
+
+    Returns
+    -------
+    str
+        64 hexadecimal characters.
+
+    Examples
+    --------
+    >>> k1 = cache_key("vca", {"leak_lpm": 0.1, "seed": 1})
+    >>> k2 = cache_key("vca", {"seed": 1, "leak_lpm": 0.1})
+    >>> k1 == k2, k1 == cache_key("vca", {"leak_lpm": 0.1, "seed": 2})
+    (True, False)
+    """
+    payload = {"system": str(system), "params": canonical(dict(params)),
+               "version": str(version), "layout": _LAYOUT}
+    text = json.dumps(payload, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _resolve_simulator(system: str) -> Callable[..., Recording]:
+    if system not in SIMULATORS:
+        raise ValueError(f"unknown system {system!r}; known: {sorted(SIMULATORS)}")
+    mod, attr = SIMULATORS[system].split(":")
+    return getattr(importlib.import_module(mod), attr)
+
+
+def _json_default(obj):
+    try:
+        return canonical(obj)
+    except TypeError:
+        return repr(obj)
+
+
+def _write_entry(rec: Recording, folder: Path, key: str, inputs: dict) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    folder.mkdir(parents=True, exist_ok=True)
+    table = pa.table({name: pa.array(values) for name, values in rec.channels.items()})
+    side = {"key": key, "inputs": inputs, "sample_rate": rec.sample_rate,
+            "start_time": rec.start_time, "units": rec.units, "meta": rec.meta,
+            "channels": list(rec.channels)}
+    # Write both files under temporary names, then rename: readers never see half an entry.
+    fd, tmp_pq = tempfile.mkstemp(prefix=f".{key}.", suffix=".parquet", dir=folder)
+    os.close(fd)
+    fd, tmp_js = tempfile.mkstemp(prefix=f".{key}.", suffix=".json", dir=folder)
+    os.close(fd)
+    try:
+        pq.write_table(table, tmp_pq)
+        Path(tmp_js).write_text(json.dumps(side, default=_json_default, indent=1))
+        os.replace(tmp_pq, folder / f"{key}.parquet")
+        os.replace(tmp_js, folder / f"{key}.json")
+    finally:
+        for tmp in (tmp_pq, tmp_js):
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+
+
+def _read_entry(folder: Path, key: str) -> Recording | None:
+    import pyarrow.parquet as pq
+
+    pq_path, js_path = folder / f"{key}.parquet", folder / f"{key}.json"
+    if not (pq_path.is_file() and js_path.is_file()):
+        return None
+    try:
+        side = json.loads(js_path.read_text())
+        table = pq.read_table(pq_path)
+    except (OSError, ValueError):
+        return None  # a damaged entry is a miss; it is rewritten
+    chans = {name: table.column(name).to_numpy() for name in side["channels"]}
+    meta = dict(side["meta"])
+    meta["cache_key"] = key
+    return Recording(chans, side["sample_rate"], side["start_time"], dict(side["units"]), meta)
+
+
+def cached_simulation(system: str, *, cache_dir: str | os.PathLike | None = None,
+                      simulator: Callable[..., Recording] | None = None, refresh: bool = False,
+                      **kwargs) -> Recording:
+    """Simulate a recording, or read it from the on-disk cache if the same run was made before.
+
+    Parameters
+    ----------
+    system : str
+        ``"vca"`` or ``"eha"`` (:data:`SIMULATORS`), or any name when ``simulator`` is given.
+    cache_dir : path-like, optional
+        Cache folder (see :func:`resolve_cache_dir`).
+    simulator : callable, optional
+        Function ``simulator(**kwargs) -> Recording``; default the system's simulator in
+        :mod:`leakdiag.sim`. Its qualified name is part of the key.
+    refresh : bool, default False
+        Ignore an existing entry and simulate again (the entry is overwritten).
+    **kwargs
+        Simulator arguments (``duration``, ``leak_lpm``, ``onset``, ``seed``, ``load``, ``params``
+        ...); every one of them, and leakdiag's version, goes into the key.
+
+    Returns
+    -------
+    Recording
+        The recording; ``meta['cache_key']`` holds the key and ``meta['cache_hit']`` whether it
+        came from disk.
+
+    Raises
+    ------
+    ValueError
+        For an unknown system.
+    TypeError
+        If an argument has no canonical form for the key.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> def ramp(n, seed):
+    ...     return Recording({"p1": np.arange(n) + seed}, sample_rate=10.0)
+    >>> d = tempfile.mkdtemp()
+    >>> a = cached_simulation("ramp", simulator=ramp, cache_dir=d, n=5, seed=1)
+    >>> b = cached_simulation("ramp", simulator=ramp, cache_dir=d, n=5, seed=1)
+    >>> a.meta["cache_hit"], b.meta["cache_hit"], b["p1"].tolist()
+    (False, True, [1.0, 2.0, 3.0, 4.0, 5.0])
+    """
+    fn = simulator if simulator is not None else _resolve_simulator(system)
+    name = f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', repr(fn))}"
+    inputs = {"simulator": name, **kwargs}
+    key = cache_key(system, inputs)
+    folder = resolve_cache_dir(cache_dir)
+    if not refresh:
+        rec = _read_entry(folder, key)
+        if rec is not None:
+            rec.meta["cache_hit"] = True
+            return rec
+    _write_entry(fn(**kwargs), folder, key, canonical(inputs))
+    # Return what was stored, so a cold and a warm run see exactly the same recording.
+    rec = _read_entry(folder, key)
+    rec.meta["cache_hit"] = False
+    return rec
+
+
+def clear_cache(cache_dir: str | os.PathLike | None = None) -> int:
+    """Delete every cache entry in the folder; return the number of entries removed.
+
+    Parameters
+    ----------
+    cache_dir : path-like, optional
+        Cache folder (see :func:`resolve_cache_dir`).
+
+    Returns
+    -------
+    int
+        Entries (Parquet + JSON pairs) removed.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> clear_cache(tempfile.mkdtemp())
+    0
+    """
+    folder = resolve_cache_dir(cache_dir)
+    if not folder.is_dir():
+        return 0
+    n = 0
+    for js in folder.glob("*.json"):
+        pq_path = js.with_suffix(".parquet")
+        if len(js.stem) == 64:
+            js.unlink()
+            if pq_path.exists():
+                pq_path.unlink()
+            n += 1
+    return n
