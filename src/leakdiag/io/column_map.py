@@ -1,0 +1,391 @@
+"""Column maps: which file column is which channel, in which unit and scale.
+
+A column map is a :class:`ColumnMap` (file options plus one :class:`ChannelSpec` per channel). It
+is built from a TOML file, a dict, or command-line strings (``p1=PG_1:counts*0.5``); see
+``docs/io.md`` for the syntax.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+from leakdiag.io.recording import RecordingError
+from leakdiag.io.units import COUNTS, QUANTITY_SI_UNIT, UNITS, known_units
+
+__all__ = [
+    "ChannelSpec",
+    "ColumnMap",
+    "TIME_UNITS",
+    "load_column_map",
+    "parse_column_spec",
+    "build_column_map",
+]
+
+#: Units of a time column: seconds and sub-multiples, or a sample counter.
+TIME_UNITS = ("s", "ms", "us", "samples")
+
+_FILE_KEYS = ("separator", "sample_rate_hz", "time_column", "time_unit")
+_CHANNEL_KEYS = ("column", "unit", "gain", "offset", "si_unit")
+_NUM = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_SCALE_RE = re.compile(
+    rf"^\s*(?P<unit>[^\s*+\->]+?)?\s*"
+    rf"(?:(?P<sign>[-+])\s*(?P<offset>{_NUM}))?\s*"
+    rf"(?:\*\s*(?P<gain>[-+]?{_NUM}))?\s*"
+    rf"(?:->\s*(?P<si>\S+))?\s*$"
+)
+_NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+@dataclass(frozen=True)
+class ChannelSpec:
+    """Where one channel comes from and how to scale it to SI.
+
+    ``si = (raw - offset) * gain * factor(unit)`` (see :func:`leakdiag.io.units.to_si`).
+
+    Parameters
+    ----------
+    column : str
+        Column (or variable) name in the file.
+    unit : str, optional
+        Unit of the column, e.g. ``"psi"``, ``"mm"``, ``"counts"``; None = already SI.
+    gain : float, optional
+        Scale after subtracting ``offset``; required to turn ``counts`` into SI (without it
+        counts are kept as counts).
+    offset : float, default 0.0
+        Raw value subtracted before ``gain``.
+    si_unit : str, optional
+        SI unit of scaled counts for a non-standard channel (e.g. ``"rad"``).
+
+    Raises
+    ------
+    RecordingError
+        If the unit is unknown, or gain/offset are not finite, or gain is zero.
+
+    Examples
+    --------
+    >>> ChannelSpec("PG_1", unit="counts", gain=0.5).gain
+    0.5
+    """
+
+    column: str
+    unit: str | None = None
+    gain: float | None = None
+    offset: float = 0.0
+    si_unit: str | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.column, str) or not self.column:
+            raise RecordingError(f"column={self.column!r} must be a non-empty string")
+        if self.unit is not None and self.unit != COUNTS and self.unit not in UNITS:
+            raise RecordingError(
+                f"column {self.column!r}: unknown unit {self.unit!r}; "
+                f"known units: {', '.join(known_units())}"
+            )
+        if self.gain is not None:
+            g = _finite(self.gain, "gain", self.column)
+            if g == 0.0:
+                raise RecordingError(f"column {self.column!r}: gain={self.gain!r} must not be 0")
+            object.__setattr__(self, "gain", g)
+        object.__setattr__(self, "offset", _finite(self.offset, "offset", self.column))
+        si_units = sorted(set(QUANTITY_SI_UNIT.values()))
+        if self.si_unit is not None and self.si_unit not in si_units:
+            raise RecordingError(
+                f"column {self.column!r}: si_unit={self.si_unit!r} must be one of "
+                f"{', '.join(si_units)}"
+            )
+
+
+def _finite(value: Any, name: str, column: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise RecordingError(f"column {column!r}: {name}={value!r} must be a number") from None
+    if not math.isfinite(v):
+        raise RecordingError(f"column {column!r}: {name}={value!r} must be finite")
+    return v
+
+
+@dataclass(frozen=True)
+class ColumnMap:
+    """File options and channel specs for reading a recording.
+
+    Parameters
+    ----------
+    channels : dict of str to ChannelSpec
+        Channel name (``p1``, ``p2``, ``x``, ``u``, ``x_ref``, ``leak_flow`` or any identifier)
+        -> its spec. Only these columns are read; other columns are ignored.
+    separator : str, optional
+        Field separator of a text file; None = auto-detect.
+    sample_rate_hz : float, optional
+        Sample rate when there is no time column in seconds.
+    time_column : str, optional
+        Name of the time column (default: a column named ``time`` if present).
+    time_unit : {"s", "ms", "us", "samples"}, default "s"
+        Unit of the time column; ``samples`` is a sample counter that needs ``sample_rate_hz``.
+
+    Raises
+    ------
+    RecordingError
+        Bad channel name, bad time unit, non-positive sample rate.
+
+    Examples
+    --------
+    >>> cmap = ColumnMap({"p1": ChannelSpec("PG_1", "counts")}, sample_rate_hz=1000)
+    >>> cmap.channels["p1"].column, cmap.sample_rate_hz
+    ('PG_1', 1000.0)
+    """
+
+    channels: dict[str, ChannelSpec] = field(default_factory=dict)
+    separator: str | None = None
+    sample_rate_hz: float | None = None
+    time_column: str | None = None
+    time_unit: str = "s"
+
+    def __post_init__(self) -> None:
+        chans = {}
+        for name, spec in dict(self.channels).items():
+            if not isinstance(name, str) or not _NAME_RE.match(name):
+                raise RecordingError(f"channel name {name!r} must be an identifier like 'p1'")
+            if name == "time":
+                raise RecordingError(
+                    "'time' is not a channel; set time_column (and time_unit) in [file]"
+                )
+            if not isinstance(spec, ChannelSpec):
+                raise RecordingError(f"channel {name!r}: spec must be a ChannelSpec, got {spec!r}")
+            chans[name] = spec
+        object.__setattr__(self, "channels", chans)
+        if self.time_unit not in TIME_UNITS:
+            raise RecordingError(
+                f"time_unit={self.time_unit!r} must be one of {', '.join(TIME_UNITS)}"
+            )
+        if self.sample_rate_hz is not None:
+            v = _finite(self.sample_rate_hz, "sample_rate_hz", "[file]")
+            if v <= 0:
+                raise RecordingError(f"sample_rate_hz={self.sample_rate_hz!r} must be > 0")
+            object.__setattr__(self, "sample_rate_hz", v)
+        if self.separator is not None and (not isinstance(self.separator, str)
+                                           or not self.separator):
+            raise RecordingError(f"separator={self.separator!r} must be a non-empty string")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The map as a TOML-shaped dict (``{"file": {...}, "channels": {...}}``), Nones dropped.
+
+        Returns
+        -------
+        dict
+            Round-trips through :func:`load_column_map`.
+
+        Examples
+        --------
+        >>> ColumnMap({"p1": ChannelSpec("P", "bar")}).to_dict()
+        {'file': {'time_unit': 's'}, 'channels': {'p1': {'column': 'P', 'unit': 'bar', 'offset': 0.0}}}
+        """
+        file = {k: getattr(self, k) for k in _FILE_KEYS if getattr(self, k) is not None}
+        chans = {n: {k: v for k, v in asdict(s).items() if v is not None}
+                 for n, s in self.channels.items()}
+        return {"file": file, "channels": chans}
+
+
+def _spec_from_value(name: str, value: Any, where: str) -> ChannelSpec:
+    if isinstance(value, ChannelSpec):
+        return value
+    if isinstance(value, str):
+        return parse_column_spec(f"{name}={value}")[1]
+    if isinstance(value, Mapping):
+        unknown = sorted(set(value) - set(_CHANNEL_KEYS))
+        if unknown:
+            raise RecordingError(
+                f"{where}channel {name!r}: unknown key(s) {unknown}; allowed: {list(_CHANNEL_KEYS)}"
+            )
+        if "column" not in value:
+            raise RecordingError(f"{where}channel {name!r}: missing key 'column'")
+        try:
+            return ChannelSpec(**dict(value))
+        except RecordingError as exc:
+            raise RecordingError(f"{where}channel {name!r}: {exc}") from None
+    raise RecordingError(
+        f"{where}channel {name!r}: expected a column name, a table or a ChannelSpec, got {value!r}"
+    )
+
+
+def _from_dict(data: Mapping[str, Any], where: str = "") -> ColumnMap:
+    if set(data) <= {"file", "channels"}:
+        file = dict(data.get("file", {}))
+        chans = data.get("channels", {})
+    else:  # flat shorthand {"p1": "PG_1:counts", ...}
+        file, chans = {}, data
+    unknown = sorted(set(file) - set(_FILE_KEYS))
+    if unknown:
+        raise RecordingError(f"{where}[file]: unknown key(s) {unknown}; allowed: {list(_FILE_KEYS)}")
+    if not isinstance(chans, Mapping):
+        raise RecordingError(f"{where}[channels] must be a table, got {chans!r}")
+    specs = {name: _spec_from_value(name, v, where) for name, v in chans.items()}
+    try:
+        return ColumnMap(specs, **file)
+    except RecordingError as exc:
+        raise RecordingError(f"{where}{exc}") from None
+
+
+def load_column_map(source: "ColumnMap | Mapping[str, Any] | str | Path") -> ColumnMap:
+    """Load a column map from a TOML file, a dict or an existing :class:`ColumnMap`.
+
+    Parameters
+    ----------
+    source : ColumnMap, dict, str or pathlib.Path
+        A TOML file path; a dict shaped like the TOML (``{"file": {...}, "channels": {...}}``);
+        or a flat dict ``{"p1": "PG_1:counts*0.5", "p2": {"column": "PG_2"}}`` whose string
+        values use the right-hand side of :func:`parse_column_spec`.
+
+    Returns
+    -------
+    ColumnMap
+
+    Raises
+    ------
+    RecordingError
+        Missing or unparsable TOML file, unknown keys (typos), unknown units, bad values;
+        the message names the map file.
+
+    Examples
+    --------
+    >>> cmap = load_column_map({"file": {"sample_rate_hz": 1000},
+    ...                         "channels": {"p1": {"column": "PG_1", "unit": "psi"}}})
+    >>> cmap.channels["p1"]
+    ChannelSpec(column='PG_1', unit='psi', gain=None, offset=0.0, si_unit=None)
+    >>> load_column_map({"p1": "PG_1:counts*0.5"}).channels["p1"].gain
+    0.5
+    """
+    if isinstance(source, ColumnMap):
+        return source
+    if isinstance(source, Mapping):
+        return _from_dict(source)
+    if not isinstance(source, (str, Path)):
+        raise TypeError(f"column map must be a ColumnMap, dict or TOML path, got {source!r}")
+    path = Path(source)
+    if not path.is_file():
+        raise RecordingError(f"{path}: column map file not found")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise RecordingError(f"{path}: not a valid TOML column map: {exc}") from None
+    return _from_dict(data, where=f"{path}: ")
+
+
+def parse_column_spec(spec: str) -> tuple[str, ChannelSpec]:
+    """Parse one command-line column spec ``CHANNEL=COLUMN[:UNIT[-OFFSET|+OFFSET][*GAIN][->SI]]``.
+
+    Parameters
+    ----------
+    spec : str
+        E.g. ``"p1=PG_1:psi"``, ``"p1=PG_1:counts*0.5"``, ``"p1=PG_1:counts-8192*0.5"``
+        (``si = (raw - 8192) * 0.5``), ``"angle=Angle:counts*0.00038->rad"``, or
+        ``"time=Time:samples"`` (the time column and its unit, see :func:`build_column_map`).
+        The column is everything between ``=`` and the **last** ``:``; names containing ``:``
+        need a TOML map.
+
+    Returns
+    -------
+    channel : str
+        Channel name.
+    spec : ChannelSpec
+        Column, unit, gain, offset and si_unit. For ``time`` the unit is the time unit.
+
+    Raises
+    ------
+    RecordingError
+        If the spec does not follow the syntax or names an unknown unit.
+
+    Examples
+    --------
+    >>> parse_column_spec("p1=PG_1:counts-8192*0.5")
+    ('p1', ChannelSpec(column='PG_1', unit='counts', gain=0.5, offset=8192.0, si_unit=None))
+    >>> parse_column_spec("x = Pos:mm")
+    ('x', ChannelSpec(column='Pos', unit='mm', gain=None, offset=0.0, si_unit=None))
+    """
+    syntax = "CHANNEL=COLUMN[:UNIT[-OFFSET][*GAIN][->SI_UNIT]]"
+    if not isinstance(spec, str) or "=" not in spec:
+        raise RecordingError(f"column spec {spec!r} must look like {syntax}, e.g. p1=PG_1:psi")
+    name, rhs = (s.strip() for s in spec.split("=", 1))
+    if not _NAME_RE.match(name):
+        raise RecordingError(f"column spec {spec!r}: channel name {name!r} must be an identifier")
+    column, scale = (rhs.rsplit(":", 1) + [None])[:2] if ":" in rhs else (rhs, None)
+    column = column.strip()
+    if not column:
+        raise RecordingError(f"column spec {spec!r}: empty column name; syntax {syntax}")
+    if scale is None:
+        return name, ChannelSpec(column)
+    m = _SCALE_RE.match(scale)
+    if m is None:
+        raise RecordingError(f"column spec {spec!r}: cannot parse {scale!r}; syntax {syntax}")
+    unit = m["unit"]
+    if name == "time":
+        if unit not in TIME_UNITS or m["gain"] or m["offset"] or m["si"]:
+            raise RecordingError(
+                f"column spec {spec!r}: the time column takes only a unit, one of "
+                f"{', '.join(TIME_UNITS)}"
+            )
+        return name, ChannelSpec(column, None if unit == "samples" else unit)
+    offset = 0.0
+    if m["offset"] is not None:
+        offset = float(m["offset"]) * (1.0 if m["sign"] == "-" else -1.0)
+    gain = None if m["gain"] is None else float(m["gain"])
+    try:
+        return name, ChannelSpec(column, unit, gain, offset, m["si"])
+    except RecordingError as exc:
+        raise RecordingError(f"column spec {spec!r}: {exc}") from None
+
+
+def build_column_map(specs: Iterable[str] = (), *, base: Any = None, **file_options: Any
+                     ) -> ColumnMap:
+    """Build a :class:`ColumnMap` from command-line specs, optionally on top of a map file.
+
+    This is what ``--map map.toml --col p1=PG_1:psi --col time=Time:samples`` maps to.
+
+    Parameters
+    ----------
+    specs : iterable of str
+        Column specs for :func:`parse_column_spec`; they add or replace channels of ``base``.
+        ``time=COLUMN[:UNIT]`` sets ``time_column`` (and ``time_unit``) instead of a channel.
+    base : ColumnMap, dict, str or pathlib.Path, optional
+        A map to start from (anything :func:`load_column_map` accepts).
+    **file_options
+        ``separator``, ``sample_rate_hz``, ``time_column``, ``time_unit``; None values are
+        ignored, others override ``base``.
+
+    Returns
+    -------
+    ColumnMap
+
+    Raises
+    ------
+    RecordingError
+        Bad spec, unknown unit or file option.
+
+    Examples
+    --------
+    >>> cmap = build_column_map(["p1=PG_1:counts", "time=Time:samples"], sample_rate_hz=1000)
+    >>> cmap.time_column, cmap.time_unit, cmap.sample_rate_hz, list(cmap.channels)
+    ('Time', 'samples', 1000.0, ['p1'])
+    """
+    cmap = ColumnMap() if base is None else load_column_map(base)
+    unknown = sorted(set(file_options) - set(_FILE_KEYS))
+    if unknown:
+        raise RecordingError(f"unknown file option(s) {unknown}; allowed: {list(_FILE_KEYS)}")
+    options = {k: v for k, v in file_options.items() if v is not None}
+    channels = dict(cmap.channels)
+    if isinstance(specs, str):
+        specs = [specs]
+    for s in specs:
+        name, chan = parse_column_spec(s)
+        if name == "time":
+            options["time_column"] = chan.column
+            if ":" in s.split("=", 1)[1]:
+                options["time_unit"] = "samples" if chan.unit is None else chan.unit
+        else:
+            channels[name] = chan
+    return replace(cmap, channels=channels, **options)

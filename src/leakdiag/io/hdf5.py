@@ -1,0 +1,171 @@
+"""HDF5 recordings (h5py): one dataset per channel, attributes for rate, start, units, meta."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from leakdiag.io.header import HEADER_FORMAT, decode_header, encode_header
+from leakdiag.io.recording import Recording, RecordingError
+from leakdiag.io.table import RawTable, flatten_arrays
+
+__all__ = ["CHANNEL_GROUP", "read_hdf5", "write_hdf5", "hdf5_tree"]
+
+#: Group holding one dataset per channel.
+CHANNEL_GROUP = "channels"
+
+
+def write_hdf5(rec: Recording, path: str | os.PathLike) -> None:
+    """Write a recording as HDF5.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    path : str or path-like
+        Output file (overwritten).
+
+    Raises
+    ------
+    RecordingError
+        If a channel name contains ``/`` or the metadata is not JSON-serialisable.
+
+    Notes
+    -----
+    Layout: datasets ``/channels/<name>`` (float64, attribute ``unit``) and ``/time`` (s);
+    root attributes ``format`` (``"leakdiag-recording"``), ``version``, ``sample_rate`` (Hz),
+    ``start_time`` (s), ``channels`` (JSON list, the order), ``units`` and ``meta`` (JSON).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.h5"
+    >>> write_hdf5(Recording({"p1": np.array([1.0, 2.0])}, 2.0), p)
+    >>> read_hdf5(p).header["units"]
+    {'p1': 'Pa'}
+    """
+    import h5py
+
+    bad = [n for n in rec.channels if "/" in n or n in (".", "")]
+    if bad:
+        raise RecordingError(f"{path}: channel name(s) {bad} cannot be HDF5 dataset names")
+    header = json.loads(encode_header(rec))
+    with h5py.File(path, "w") as f:
+        f.attrs["format"] = HEADER_FORMAT
+        f.attrs["version"] = header["version"]
+        f.attrs["sample_rate"] = header["sample_rate"]
+        f.attrs["start_time"] = header["start_time"]
+        f.attrs["channels"] = json.dumps(header["channels"])
+        f.attrs["units"] = json.dumps(header["units"])
+        f.attrs["meta"] = json.dumps(header["meta"], allow_nan=True)
+        f.create_dataset("time", data=rec.time)
+        group = f.create_group(CHANNEL_GROUP)
+        for name, values in rec.channels.items():
+            ds = group.create_dataset(name, data=values)
+            if name in rec.units:
+                ds.attrs["unit"] = rec.units[name]
+
+
+def _attr_text(value) -> str:
+    return value.decode("utf-8") if isinstance(value, bytes) else str(value)
+
+
+def hdf5_tree(group) -> dict:
+    """Nested dict of the numeric datasets of an open h5py group (MATLAB v7.3 aware).
+
+    Parameters
+    ----------
+    group : h5py.Group
+        An open group (or file).
+
+    Returns
+    -------
+    dict
+        Name -> numpy array or nested dict. Datasets with a ``MATLAB_class`` attribute are
+        transposed back to MATLAB's row/column orientation; MATLAB text, cells, empty
+        arrays and the ``#refs#`` group are left out.
+    """
+    import h5py
+
+    out: dict = {}
+    for key, item in group.items():
+        if key.startswith("#"):
+            continue
+        if isinstance(item, h5py.Group):
+            out[key] = hdf5_tree(item)
+            continue
+        mclass = _attr_text(item.attrs.get("MATLAB_class", b""))
+        if mclass in ("char", "cell") or "MATLAB_empty" in item.attrs:
+            continue
+        if item.dtype.kind not in "biuf":
+            continue
+        data = item[()]
+        out[key] = data.T if mclass and np.ndim(data) >= 2 else data
+    return out
+
+
+def read_hdf5(path: str | os.PathLike, sep: str = "/") -> RawTable:
+    """Read an HDF5 file into a :class:`RawTable`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file: one written by :func:`write_hdf5`, or any HDF5 file whose numeric datasets
+        are channels (a column per vector; see :func:`leakdiag.io.table.flatten_arrays`).
+    sep : str, default "/"
+        Joins group and dataset names of a generic file (``"."`` for MATLAB v7.3 files).
+
+    Returns
+    -------
+    RawTable
+        A leakdiag file gives its channels under their names, ``time``, and the header.
+
+    Raises
+    ------
+    RecordingError
+        If the file is not HDF5 or holds no numeric vectors.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.h5"
+    >>> write_hdf5(Recording({"p1": np.array([1.0, 2.0])}, 2.0), p)
+    >>> read_hdf5(p).names
+    ['time', 'p1']
+    """
+    import h5py
+
+    source = str(path)
+    try:
+        f = h5py.File(Path(path), "r")
+    except OSError as exc:
+        raise RecordingError(f"{source}: unreadable as HDF5: {exc}") from None
+    with f:
+        if _attr_text(f.attrs.get("format", b"")) == HEADER_FORMAT:
+            header = {
+                "format": HEADER_FORMAT,
+                "version": int(f.attrs["version"]),
+                "sample_rate": float(f.attrs["sample_rate"]),
+                "start_time": float(f.attrs["start_time"]),
+                "channels": json.loads(_attr_text(f.attrs["channels"])),
+                "units": json.loads(_attr_text(f.attrs["units"])),
+                "meta": json.loads(_attr_text(f.attrs["meta"])),
+            }
+            header = decode_header(json.dumps(header), source)
+            group = f[CHANNEL_GROUP]
+            missing = [n for n in header["channels"] if n not in group]
+            if missing:
+                raise RecordingError(f"{source}: header lists channel(s) {missing} that are "
+                                     f"not in /{CHANNEL_GROUP}")
+            columns = {"time": np.asarray(f["time"][()], dtype=np.float64)}
+            columns.update({n: np.asarray(group[n][()], dtype=np.float64)
+                            for n in header["channels"]})
+            return RawTable(columns, source, header)
+        tree = hdf5_tree(f)
+    columns = dict(flatten_arrays(tree, sep=sep))
+    if not columns:
+        raise RecordingError(f"{source}: holds no numeric vectors (no channels)")
+    return RawTable(columns, source)

@@ -1,0 +1,165 @@
+"""Delimited text files (CSV, TSV, ...): read any, write CSV."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from leakdiag.io.recording import Recording, RecordingError
+from leakdiag.io.table import RawTable
+
+__all__ = ["SEPARATOR_CANDIDATES", "detect_separator", "read_text", "write_csv"]
+
+#: Separators tried by :func:`detect_separator`, in order of preference on a tie.
+SEPARATOR_CANDIDATES = ("\t", ",", ";", "|")
+
+_SNIFF_LINES = 5
+
+
+def detect_separator(lines: list[str]) -> str:
+    """Guess the field separator from the first lines of a text file.
+
+    Parameters
+    ----------
+    lines : list of str
+        The header line and a few data lines.
+
+    Returns
+    -------
+    str
+        The candidate of :data:`SEPARATOR_CANDIDATES` that occurs most often in the header
+        and at least once in every given line, or ``r"\\s+"`` (runs of blanks) if none does.
+
+    Examples
+    --------
+    >>> detect_separator(["time\\tp1\\tp2", "0\\t1\\t2"])
+    '\\t'
+    >>> detect_separator(["time,p1", "0,1e5"])
+    ','
+    >>> detect_separator(["time p1", "0 1"])
+    '\\\\s+'
+    """
+    best, best_count = None, 0
+    for sep in SEPARATOR_CANDIDATES:
+        count = lines[0].count(sep) if lines else 0
+        if count > best_count and all(sep in line for line in lines[1:]):
+            best, best_count = sep, count
+    return best if best is not None else r"\s+"
+
+
+def _first_lines(path: Path, source: str) -> list[str]:
+    lines: list[str] = []
+    try:
+        with open(path, encoding="utf-8-sig") as fh:
+            for line in fh:
+                if line.strip():
+                    lines.append(line.rstrip("\r\n"))
+                if len(lines) >= _SNIFF_LINES:
+                    break
+    except UnicodeDecodeError:
+        raise RecordingError(f"{source}: unreadable as text (not UTF-8); is it a binary file?"
+                             ) from None
+    except OSError as exc:
+        raise RecordingError(f"{source}: cannot open: {exc.strerror}") from None
+    return lines
+
+
+def read_text(path: str | os.PathLike, separator: str | None = None) -> RawTable:
+    """Read a delimited text file with one header row into a :class:`RawTable`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+    separator : str, optional
+        Field separator; None = :func:`detect_separator`.
+
+    Returns
+    -------
+    RawTable
+        One column per header name (names stripped of blanks): float64 where every value is a
+        number or empty (NaN), object (text) otherwise. Trailing separators at the end of rows
+        (empty trailing fields) are ignored.
+
+    Raises
+    ------
+    RecordingError
+        Empty file, header without data rows, unparsable text (rows with more fields than the
+        header), or a non-text file.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.csv"
+    >>> _ = p.write_text("time,p1\\n0,1\\n0.5,2\\n")
+    >>> read_text(p).columns["p1"]
+    array([1., 2.])
+    """
+    import pandas as pd
+
+    path = Path(path)
+    source = str(path)
+    lines = _first_lines(path, source)
+    if not lines:
+        raise RecordingError(f"{source}: file is empty")
+    sep = separator if separator is not None else detect_separator(lines)
+    try:
+        df = pd.read_csv(path, sep=sep, index_col=False, skipinitialspace=True,
+                         encoding="utf-8-sig", engine="c" if len(sep) == 1 else "python")
+    except pd.errors.EmptyDataError:
+        raise RecordingError(f"{source}: file is empty") from None
+    except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as exc:
+        msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+        raise RecordingError(f"{source}: cannot parse as delimited text "
+                             f"(separator {sep!r}): {msg}") from None
+    if len(df) == 0:
+        raise RecordingError(f"{source}: has a header ({', '.join(map(str, df.columns))}) "
+                             f"but no data rows")
+    columns: dict[str, np.ndarray] = {}
+    for col in df.columns:
+        s = df[col]
+        name = str(col).strip()
+        if pd.api.types.is_numeric_dtype(s) and not pd.api.types.is_bool_dtype(s):
+            columns[name] = s.to_numpy(dtype=np.float64, na_value=np.nan)
+        else:
+            columns[name] = s.to_numpy(dtype=object, na_value=None)
+    return RawTable(columns, source)
+
+
+def write_csv(rec: Recording, path: str | os.PathLike) -> None:
+    """Write a recording as CSV: a ``time`` column (s) and one column per channel.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    path : str or path-like
+        Output file.
+
+    Raises
+    ------
+    RecordingError
+        If a channel is named ``time``.
+
+    Notes
+    -----
+    Values are written with the shortest repr that reads back to the same float64, so
+    channels round-trip exactly. CSV holds no units or metadata: channels are assumed to be
+    in SI units when read back, and the sample rate is re-derived from the time column. Use
+    Parquet or HDF5 to keep units and metadata.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.csv"
+    >>> write_csv(Recording({"p1": np.array([1.0, 2.0])}, sample_rate=2.0), p)
+    >>> p.read_text().splitlines()
+    ['time,p1', '0.0,1.0', '0.5,2.0']
+    """
+    if "time" in rec.channels:
+        raise RecordingError(f"{path}: a channel named 'time' collides with the time column")
+    df = rec.to_pandas()
+    df.attrs.clear()
+    df.to_csv(path, index=False, float_format=None, lineterminator="\n")
