@@ -1,23 +1,21 @@
 """Streaming: windowed features, detector scores and alarms computed chunk by chunk.
 
-:class:`FeatureSpec` + :class:`StreamingFeature` compute Eq. 4.1-4.3 incrementally with a state of
-less than one window per channel; :class:`Monitor` combines features with detectors (the
+Given a :class:`~leakdiag.features.methods.MethodSpec`, :class:`StreamingFeature` computes
+Eq. 4.1-4.3 incrementally with a state of less than one window per channel; :class:`Monitor` combines features with detectors (the
 :class:`WindowScorer` protocol) into :class:`WindowEvent` s; :mod:`leakdiag.stream.sources` reads
 Parquet/HDF5/CSV files in chunks (larger than memory), follows growing files and stdin, and paces
 replays. See ``docs/operations.md``.
 """
 
-from leakdiag.stream.feature import METHODS, FeatureSpec, StreamingFeature, parse_lag_ratio
+from leakdiag.stream.feature import STREAM_METHODS, StreamingFeature
 from leakdiag.stream.monitor import Monitor, WindowEvent, WindowScorer, check_scorer
 from leakdiag.stream.sources import (ChunkSource, csv_lines, open_chunks, paced,
                                      recording_chunks, tail_csv)
 from leakdiag.stream.summary import stream_feature
 
 __all__ = [
-    "METHODS",
-    "FeatureSpec",
+    "STREAM_METHODS",
     "StreamingFeature",
-    "parse_lag_ratio",
     "Monitor",
     "WindowEvent",
     "WindowScorer",

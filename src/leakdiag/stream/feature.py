@@ -1,6 +1,7 @@
 """A windowed feature computed incrementally over chunks of any size.
 
-:class:`FeatureSpec` says *what* is computed (method, channels, window, overlap, lag);
+:class:`~leakdiag.features.methods.MethodSpec` says *what* is computed (method, channels,
+window, overlap, lag or lag ratio);
 :class:`StreamingFeature` keeps the smallest state that lets it compute each window as soon as
 its last sample arrives: the samples from the start of the next incomplete window onward, i.e.
 fewer than ``window`` samples per channel (the lag lies inside the window in Eq. 4.1-4.3).
@@ -13,130 +14,16 @@ from typing import Mapping
 
 import numpy as np
 
-from leakdiag._validation import as_1d_float, check_int, check_overlap, check_positive
+from leakdiag._validation import as_1d_float, check_positive
+from leakdiag.features.methods import MethodSpec
 from leakdiag.features.series import FeatureSeries
 from leakdiag.features.windowing import window_step
 from leakdiag.stream import kernels
 
-__all__ = ["FeatureSpec", "StreamingFeature", "METHODS", "parse_lag_ratio"]
+__all__ = ["StreamingFeature", "STREAM_METHODS"]
 
-#: Streaming methods and how many channels each takes (thesis Sec. 4.1-4.3).
-METHODS: dict[str, int] = {
-    "autocorrelation": 1,  # Eq. 4.1
-    "cross_correlation": 2,  # Eq. 4.2, channels (y, x)
-    "metric_length_ratio": 1,  # Eq. 4.3
-}
-
-
-def parse_lag_ratio(lag_ratio: str) -> tuple[int, int]:
-    """Parse a lag ratio ``"l:k"`` of Eq. 4.3 into ``(l, k)`` with ``l > k >= 1``.
-
-    Parameters
-    ----------
-    lag_ratio : str
-        Ratio as the thesis writes it, e.g. ``"83:3"``.
-
-    Returns
-    -------
-    tuple of int
-        ``(l, k)``.
-
-    Raises
-    ------
-    ValueError
-        If the text is not two integers separated by ``:`` with ``l > k >= 1``.
-
-    Examples
-    --------
-    >>> parse_lag_ratio("83:3")
-    (83, 3)
-    """
-    parts = str(lag_ratio).split(":")
-    try:
-        ell, k = (int(p) for p in parts)
-    except ValueError:
-        raise ValueError(f"lag_ratio={lag_ratio!r} must be 'l:k' with integers l > k >= 1") from None
-    if not ell > k >= 1:
-        raise ValueError(f"lag_ratio={lag_ratio!r} must be 'l:k' with integers l > k >= 1")
-    return ell, k
-
-
-@dataclass(frozen=True)
-class FeatureSpec:
-    """What a streaming feature computes.
-
-    Parameters
-    ----------
-    method : {"autocorrelation", "cross_correlation", "metric_length_ratio"}
-        Eq. 4.1, 4.2 or 4.3.
-    channels : tuple of str
-        One channel, or two ``(y, x)`` for ``cross_correlation`` (``x`` is the lagged one).
-    window : int
-        Window size N in samples (>= 2).
-    overlap : float
-        Overlap between windows in percent, ``[0, 100)``.
-    lag : int, default 1
-        Lag in samples: ``[1, window)`` for autocorrelation, ``[0, window)`` for cross
-        correlation; ignored by ``metric_length_ratio``.
-    lag_ratio : str, default "83:3"
-        ``"l:k"`` of Eq. 4.3 with ``l < window``; used by ``metric_length_ratio`` only.
-
-    Raises
-    ------
-    ValueError
-        For an unknown method, a wrong number of channels or out-of-range settings.
-
-    Examples
-    --------
-    >>> FeatureSpec("autocorrelation", ("p1",), window=200, overlap=5, lag=1).step
-    190
-    """
-
-    method: str
-    channels: tuple[str, ...]
-    window: int
-    overlap: float
-    lag: int = 1
-    lag_ratio: str = "83:3"
-
-    def __post_init__(self) -> None:
-        if self.method not in METHODS:
-            raise ValueError(f"method={self.method!r} is not one of {sorted(METHODS)}")
-        chans = (self.channels,) if isinstance(self.channels, str) else tuple(self.channels)
-        object.__setattr__(self, "channels", chans)
-        if len(chans) != METHODS[self.method]:
-            raise ValueError(
-                f"method={self.method!r} takes {METHODS[self.method]} channel(s), got {chans}"
-            )
-        window = check_int(self.window, "window", 2)
-        object.__setattr__(self, "window", window)
-        object.__setattr__(self, "overlap", check_overlap(self.overlap))
-        low = 0 if self.method == "cross_correlation" else 1
-        object.__setattr__(self, "lag", check_int(self.lag, "lag", low, window))
-        if self.method == "metric_length_ratio":
-            ell, _ = parse_lag_ratio(self.lag_ratio)
-            if ell >= window:
-                raise ValueError(f"lag_ratio={self.lag_ratio!r} needs l < {window=}")
-
-    @property
-    def step(self) -> int:
-        """Step between window starts in samples (Sec. 4.4 convention)."""
-        return window_step(self.window, self.overlap)
-
-    def to_dict(self) -> dict:
-        """Plain, JSON-serialisable settings (``channels`` as a list).
-
-        Returns
-        -------
-        dict
-        """
-        d = {"method": self.method, "channels": list(self.channels), "window": self.window,
-             "overlap": self.overlap}
-        if self.method == "metric_length_ratio":
-            d["lag_ratio"] = self.lag_ratio
-        else:
-            d["lag"] = self.lag
-        return d
+#: Methods the streaming path computes (canonical names of :mod:`leakdiag.features.methods`).
+STREAM_METHODS: tuple[str, ...] = ("autocorrelation", "cross-correlation", "metric-length")
 
 
 class StreamingFeature:
@@ -144,8 +31,8 @@ class StreamingFeature:
 
     Parameters
     ----------
-    spec : FeatureSpec
-        Method and settings.
+    spec : MethodSpec
+        Method and settings; one of :data:`STREAM_METHODS`.
     sample_rate : float, default 1.0
         Sample rate in Hz (1.0 gives times in samples).
     start_time : float, default 0.0
@@ -165,7 +52,7 @@ class StreamingFeature:
 
     Examples
     --------
-    >>> spec = FeatureSpec("autocorrelation", ("p1",), window=4, overlap=50, lag=1)
+    >>> spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=4, overlap=50)
     >>> sf = StreamingFeature(spec, sample_rate=1.0)
     >>> len(sf.push({"p1": [1.0, 2.0, 3.0]}))
     0
@@ -174,13 +61,15 @@ class StreamingFeature:
     ([3.0, 5.0], [0.25, -0.15])
     """
 
-    def __init__(self, spec: FeatureSpec, sample_rate: float = 1.0, start_time: float = 0.0):
-        if not isinstance(spec, FeatureSpec):
-            raise TypeError(f"spec must be a FeatureSpec, got {type(spec).__name__}")
+    def __init__(self, spec: MethodSpec, sample_rate: float = 1.0, start_time: float = 0.0):
+        if not isinstance(spec, MethodSpec):
+            raise TypeError(f"spec must be a MethodSpec, got {type(spec).__name__}")
+        if spec.method not in STREAM_METHODS:
+            raise ValueError(f"method={spec.method!r} cannot be streamed; use one of {STREAM_METHODS}")
         self.spec = spec
         self.sample_rate = check_positive(sample_rate, "sample_rate")
         self.start_time = float(start_time)
-        self._step = spec.step
+        self._step = window_step(spec.window, spec.overlap)
         self._n_ch = len(spec.channels)
         self._cap = max(2 * spec.window, 4096)
         self._buf = np.empty((self._n_ch, self._cap))
@@ -188,7 +77,7 @@ class StreamingFeature:
         self.n_samples_seen = 0
         self.n_windows = 0
         self.n_degenerate = 0
-        self._params = {**spec.to_dict(), "sample_rate": self.sample_rate}
+        self._params = {**spec.as_dict(), "sample_rate": self.sample_rate}
 
     @property
     def state_samples(self) -> int:
@@ -278,10 +167,9 @@ class StreamingFeature:
         spec = self.spec
         if spec.method == "autocorrelation":
             kernels._autocorrelation_windows(work[0], n_win, self._step, spec.window, spec.lag, out)
-        elif spec.method == "cross_correlation":
+        elif spec.method == "cross-correlation":
             kernels._cross_correlation_windows(work[0], work[1], n_win, self._step, spec.window,
                                                spec.lag, out)
         else:
-            ell, k = parse_lag_ratio(spec.lag_ratio)
-            kernels._metric_length_ratio_windows(work[0], n_win, self._step, spec.window, ell, k,
-                                                 out)
+            ell, k = spec.lag_ratio
+            kernels._metric_length_ratio_windows(work, n_win, self._step, spec.window, ell, k, out)

@@ -81,12 +81,24 @@ def _cross_correlation_windows(y, x, n_win, step, window, lag, out):
 
 @numba.njit(cache=True)
 def _metric_length_ratio_windows(x, n_win, step, window, ell, k, out):
-    """Eq. 4.3 with the Euclidean norm of a scalar (absolute value, Eq. 4.4)."""
+    """Eq. 4.3 with the Euclidean norm (Eq. 4.4) over the channels (rows) of ``x``."""
+    n_ch = x.shape[0]
     for m in range(n_win):
         s = m * step
         num = 0.0
         den = 0.0
         for j in range(s, s + window - ell):
-            num += abs(x[j + k] - x[j])
-            den += abs(x[j + ell] - x[j])
+            if n_ch == 1:
+                num += abs(x[0, j + k] - x[0, j])
+                den += abs(x[0, j + ell] - x[0, j])
+            else:
+                a = 0.0
+                b = 0.0
+                for c in range(n_ch):
+                    da = x[c, j + k] - x[c, j]
+                    db = x[c, j + ell] - x[c, j]
+                    a += da * da
+                    b += db * db
+                num += np.sqrt(a)
+                den += np.sqrt(b)
         out[m] = num / den if den > 0.0 else np.nan

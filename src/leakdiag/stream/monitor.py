@@ -21,7 +21,8 @@ from typing import Any, Iterable, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
-from leakdiag.stream.feature import FeatureSpec, StreamingFeature
+from leakdiag.features.methods import MethodSpec
+from leakdiag.stream.feature import StreamingFeature
 
 __all__ = ["Monitor", "WindowEvent", "WindowScorer", "check_scorer"]
 
@@ -132,7 +133,7 @@ class Monitor:
 
     Parameters
     ----------
-    specs : FeatureSpec or sequence of FeatureSpec
+    specs : MethodSpec or sequence of MethodSpec
         Features to compute.
     sample_rate : float
         Sample rate in Hz.
@@ -151,17 +152,17 @@ class Monitor:
 
     Examples
     --------
-    >>> spec = FeatureSpec("autocorrelation", ("p1",), window=4, overlap=0, lag=1)
+    >>> spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=4, overlap=0)
     >>> mon = Monitor(spec, sample_rate=10.0)
     >>> [e.time for e in mon.push({"p1": [1.0, 2.0, 4.0, 3.0, 5.0]})]
     [0.3]
     """
 
-    def __init__(self, specs: FeatureSpec | Sequence[FeatureSpec], sample_rate: float,
+    def __init__(self, specs: MethodSpec | Sequence[MethodSpec], sample_rate: float,
                  start_time: float = 0.0, scorers: Any = None):
-        specs = [specs] if isinstance(specs, FeatureSpec) else list(specs)
+        specs = [specs] if isinstance(specs, MethodSpec) else list(specs)
         if not specs:
-            raise ValueError("Monitor needs at least one FeatureSpec")
+            raise ValueError("Monitor needs at least one MethodSpec")
         if scorers is None:
             scorers = [None] * len(specs)
         elif not isinstance(scorers, (list, tuple)):

@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from leakdiag.features.series import FeatureSeries
-from leakdiag.stream.feature import FeatureSpec, StreamingFeature
+from leakdiag.features.methods import MethodSpec
+from leakdiag.stream.feature import StreamingFeature
 from leakdiag.stream.sources import ChunkSource
 
 __all__ = ["stream_feature"]
 
 
-def stream_feature(source: ChunkSource, spec: FeatureSpec, progress: bool = False) -> FeatureSeries:
+def stream_feature(source: ChunkSource, spec: MethodSpec, progress: bool = False) -> FeatureSeries:
     """Compute a feature over every chunk of ``source``; only the feature series is kept.
 
     Parameters
@@ -19,7 +20,7 @@ def stream_feature(source: ChunkSource, spec: FeatureSpec, progress: bool = Fals
     source : ChunkSource
         Chunks of samples (from :func:`~leakdiag.stream.open_chunks` or
         :func:`~leakdiag.stream.recording_chunks`).
-    spec : FeatureSpec
+    spec : MethodSpec
         Method and settings.
     progress : bool, default False
         Show a tqdm progress bar in samples.
@@ -40,7 +41,7 @@ def stream_feature(source: ChunkSource, spec: FeatureSpec, progress: bool = Fals
     >>> from leakdiag.io.recording import Recording
     >>> from leakdiag.stream.sources import recording_chunks
     >>> rec = Recording({"p1": np.sin(np.arange(1000) / 5.0)}, sample_rate=100.0)
-    >>> spec = FeatureSpec("autocorrelation", ("p1",), window=200, overlap=5, lag=1)
+    >>> spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=5)
     >>> fs = stream_feature(recording_chunks(rec, 333), spec)
     >>> len(fs), round(float(fs.values[0]), 2)
     (5, 0.98)
@@ -64,6 +65,6 @@ def stream_feature(source: ChunkSource, spec: FeatureSpec, progress: bool = Fals
             bar.close()
     t = np.concatenate(times) if times else np.empty(0)
     v = np.concatenate(values) if values else np.empty(0)
-    params = {**spec.to_dict(), "sample_rate": source.sample_rate,
+    params = {**spec.as_dict(), "sample_rate": source.sample_rate,
               "n_samples": feat.n_samples_seen, "n_degenerate": feat.n_degenerate}
     return FeatureSeries(t, v, spec.method, params)
