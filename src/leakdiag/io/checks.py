@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["infer_sample_rate", "check_channel_finite", "UNIFORM_TIME_RTOL"]
+__all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "UNIFORM_TIME_RTOL"]
 
 #: Relative tolerance on sample intervals for a time axis to count as uniform.
 UNIFORM_TIME_RTOL = 1e-3
 
 
-def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIFORM_TIME_RTOL) -> float:
+def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIFORM_TIME_RTOL,
+                      column: str = "time") -> float:
     """Sample rate (Hz) of a uniform time axis in seconds.
 
     Parameters
@@ -21,6 +22,8 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
         File name for messages.
     rtol : float
         Allowed relative deviation of each interval from the median interval.
+    column : str, default "time"
+        Name of the time column, for messages.
 
     Returns
     -------
@@ -42,16 +45,16 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
 
     t = np.asarray(t, dtype=np.float64)
     if len(t) < 2:
-        raise RecordingError(f"{source}: column 'time' has {len(t)} sample(s); need at least 2")
+        raise RecordingError(f"{source}: column {column!r} has {len(t)} sample(s); need at least 2")
     bad = np.flatnonzero(~np.isfinite(t))
     if len(bad):
-        raise RecordingError(f"{source}: column 'time' is not finite at row {int(bad[0])}")
+        raise RecordingError(f"{source}: column {column!r} is not finite at row {int(bad[0])}")
     dt = np.diff(t)
     nonmono = np.flatnonzero(dt <= 0)
     if len(nonmono):
         i = int(nonmono[0]) + 1
         raise RecordingError(
-            f"{source}: column 'time' is not strictly increasing at row {i} "
+            f"{source}: column {column!r} is not strictly increasing at row {i} "
             f"(t[{i - 1}]={t[i - 1]!r}, t[{i}]={t[i]!r})"
         )
     med = float(np.median(dt))
@@ -59,7 +62,7 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
     if len(dev):
         i = int(dev[0]) + 1
         raise RecordingError(
-            f"{source}: column 'time' is not uniformly sampled: interval before row {i} is "
+            f"{source}: column {column!r} is not uniformly sampled: interval before row {i} is "
             f"{dt[i - 1]!r} s, median {med!r} s ({len(dev)} irregular interval(s)); "
             f"resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess"
         )
@@ -95,4 +98,52 @@ def check_channel_finite(x: np.ndarray, channel: str, source: str = "<input>") -
         raise RecordingError(
             f"{source}: channel {channel!r} has {len(bad)} non-finite value(s); "
             f"first {kind} at row {int(bad[0])}"
+        )
+
+
+def check_length(rec, window: int, channel: str | None = None) -> None:
+    """Raise if a recording is shorter than one analysis window.
+
+    For feature callers: call it before windowing so the user sees the file and the window,
+    not an empty feature series.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    window : int
+        Window length in samples (>= 1).
+    channel : str, optional
+        Channel the window runs over; it must exist and is named in the message.
+
+    Raises
+    ------
+    RecordingError
+        If ``rec`` has fewer than ``window`` samples, or lacks ``channel``.
+    TypeError, ValueError
+        If ``window`` is not an integer >= 1.
+
+    Examples
+    --------
+    >>> from leakdiag.io.recording import Recording
+    >>> rec = Recording({"p1": np.zeros(150)}, 1000.0, meta={"source": "run.csv"})
+    >>> check_length(rec, 100, "p1")
+    >>> check_length(rec, 200, "p1")
+    Traceback (most recent call last):
+    ...
+    leakdiag.io.recording.RecordingError: run.csv: channel 'p1' has 150 samples (0.15 s), fewer than one window of 200 samples; use a smaller window or a longer recording
+    """
+    from leakdiag._validation import check_int
+    from leakdiag.io.recording import RecordingError
+
+    window = check_int(window, "window", 1)
+    source = rec.meta.get("source", "<recording>")
+    if channel is not None:
+        rec.require(channel)
+    n = rec.n_samples
+    if n < window:
+        what = f"channel {channel!r}" if channel is not None else "recording"
+        raise RecordingError(
+            f"{source}: {what} has {n} samples ({n / rec.sample_rate:g} s), fewer than one "
+            f"window of {window} samples; use a smaller window or a longer recording"
         )

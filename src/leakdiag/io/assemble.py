@@ -1,0 +1,254 @@
+"""From a :class:`RawTable` and a column map to a checked :class:`Recording` in SI units."""
+
+from __future__ import annotations
+
+import copy
+from typing import Any, Mapping
+
+import numpy as np
+
+from leakdiag._validation import check_positive
+from leakdiag.io.checks import UNIFORM_TIME_RTOL, check_channel_finite, infer_sample_rate
+from leakdiag.io.column_map import ChannelSpec, ColumnMap
+from leakdiag.io.recording import STANDARD_CHANNELS, Recording, RecordingError
+from leakdiag.io.resample import resample_linear
+from leakdiag.io.table import RawTable
+from leakdiag.io.units import UNITS, to_si
+
+__all__ = ["table_to_recording"]
+
+_TEXT_PREVIEW = 30
+
+
+def _numeric(table: RawTable, column: str, channel: str) -> np.ndarray:
+    """The column as float64; text in it is an error naming channel, column and row."""
+    values = table.columns[column]
+    if values.dtype != object:
+        return np.asarray(values, dtype=np.float64)
+    import pandas as pd
+
+    coerced = pd.to_numeric(pd.Series(values, dtype=object), errors="coerce").to_numpy(
+        dtype=np.float64, na_value=np.nan)
+    present = np.array([v is not None and not (isinstance(v, str) and not v.strip())
+                        and not (isinstance(v, float) and np.isnan(v)) for v in values])
+    bad = np.flatnonzero(present & np.isnan(coerced))
+    if len(bad):
+        row = int(bad[0])
+        text = str(values[row])[:_TEXT_PREVIEW]
+        raise RecordingError(
+            f"{table.source}: channel {channel!r} (column {column!r}) holds text, not numbers: "
+            f"row {row} is {text!r} ({len(bad)} non-numeric value(s))"
+        )
+    return coerced
+
+
+def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | None
+            ) -> dict[str, ChannelSpec]:
+    """Channel -> spec: the map's channels, or every non-time column when there is no map."""
+    available = table.names
+    if cmap is not None and cmap.channels:
+        specs = dict(cmap.channels)
+        for name, spec in specs.items():
+            if spec.column not in table.columns:
+                raise RecordingError(
+                    f"{table.source}: missing column {spec.column!r} for channel {name!r}; "
+                    f"available columns: {available}"
+                )
+    else:
+        time_col = cmap.time_column if cmap is not None and cmap.time_column else "time"
+        specs = {c: ChannelSpec(c) for c in available if c != time_col}
+        if not any(c in STANDARD_CHANNELS for c in specs):
+            raise RecordingError(
+                f"{table.source}: no column is named like a channel "
+                f"({', '.join(STANDARD_CHANNELS)}); available columns: {available}; "
+                f"give a column map (--map FILE or --col p1=COLUMN:UNIT)"
+            )
+        bad = [c for c in specs if not c.isidentifier()]
+        if bad:
+            raise RecordingError(
+                f"{table.source}: column name(s) {bad} are not valid channel names; give a "
+                f"column map that selects the columns to read"
+            )
+        for name in specs:
+            if table.columns[name].dtype == object:
+                try:
+                    _numeric(table, name, name)
+                except RecordingError as exc:
+                    raise RecordingError(
+                        f"{exc}; without a column map every column is read - give a map that "
+                        f"selects the numeric columns"
+                    ) from None
+    for name, unit in (units or {}).items():
+        if name not in specs:
+            raise RecordingError(
+                f"{table.source}: units given for channel {name!r}, which is not read; "
+                f"channels: {list(specs)}"
+            )
+        try:
+            specs[name] = ChannelSpec(specs[name].column, unit, specs[name].gain,
+                                      specs[name].offset, specs[name].si_unit)
+        except RecordingError as exc:
+            raise RecordingError(f"{table.source}: channel {name!r}: {exc}") from None
+    return specs
+
+
+def _check_lengths(table: RawTable, columns: dict[str, str]) -> None:
+    lengths = {label: len(table.columns[col]) for label, col in columns.items()}
+    if len(set(lengths.values())) > 1:
+        desc = ", ".join(f"{label}={n}" for label, n in lengths.items())
+        raise RecordingError(f"{table.source}: channels have different lengths ({desc})")
+
+
+def _time_axis(table: RawTable, cmap: ColumnMap | None, sample_rate: float | None,
+               resample: float | None) -> tuple[str | None, np.ndarray | None, float | None]:
+    """(time column, times in s or None, sample rate or None)."""
+    source = table.source
+    rate = sample_rate if sample_rate is not None else (cmap.sample_rate_hz if cmap else None)
+    if rate is not None:
+        try:
+            rate = check_positive(rate, "sample_rate")
+        except (TypeError, ValueError) as exc:
+            raise RecordingError(f"{source}: {exc}") from None
+    col = cmap.time_column if cmap is not None and cmap.time_column else None
+    if col is not None and col not in table.columns:
+        raise RecordingError(f"{source}: missing time column {col!r}; available columns: "
+                             f"{table.names}")
+    if col is None and "time" in table.columns:
+        col = "time"
+    if col is None:
+        return None, None, rate
+    raw = _numeric(table, col, "time")
+    unit = cmap.time_unit if cmap is not None else "s"
+    if unit == "samples":
+        if rate is None:
+            raise RecordingError(
+                f"{source}: time column {col!r} is a sample counter; give the sample rate "
+                f"(sample_rate=..., --sample-rate, or sample_rate_hz in the map)"
+            )
+        t = raw / rate
+    else:
+        t = raw * UNITS[unit][1]
+    bad = np.flatnonzero(~np.isfinite(t))
+    if len(bad):
+        raise RecordingError(f"{source}: time column {col!r} is not a finite number at row "
+                             f"{int(bad[0])}")
+    if resample is not None:
+        return col, t, rate
+    inferred = infer_sample_rate(t, source=source, column=col)
+    if rate is not None and unit != "samples" and abs(inferred - rate) > UNIFORM_TIME_RTOL * rate:
+        raise RecordingError(
+            f"{source}: sample rate {rate!r} Hz disagrees with time column {col!r} "
+            f"({inferred!r} Hz); drop one of them"
+        )
+    return col, t, inferred
+
+
+def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
+                       sample_rate: float | None = None, resample: float | None = None,
+                       units: Mapping[str, str] | None = None) -> Recording:
+    """Select, check and convert the columns of a raw table into a :class:`Recording`.
+
+    Parameters
+    ----------
+    table : RawTable
+        Columns as read from a file.
+    column_map : ColumnMap, optional
+        Which column is which channel (others are ignored). Without one, a file written by
+        leakdiag is restored exactly from its header, and any other file must name its
+        columns ``time``, ``p1``, ``p2``, ``x``, ``u``, ``x_ref``, ``leak_flow`` (SI units);
+        then every column is read.
+    sample_rate : float, optional
+        Sample rate in Hz; needed when there is no time column in seconds (overrides the
+        map's ``sample_rate_hz``).
+    resample : float, optional
+        Target rate in Hz: linearly interpolate a (possibly non-uniform) time axis onto a
+        uniform grid; recorded in ``meta["resampled"]``.
+    units : dict of str to str, optional
+        Channel -> unit of the values in the file (overrides the map's units).
+
+    Returns
+    -------
+    Recording
+        Channels in SI units (or ``counts``), ``meta["source"]`` the file name unless the
+        file's own metadata names a source, ``meta["column_map"]`` when a map was used.
+
+    Raises
+    ------
+    RecordingError
+        Missing column, text in a mapped column, NaN/inf, channels of different lengths,
+        non-monotonic or non-uniform time, no sample rate, unknown unit. The message names
+        the file, the channel or column, and the row.
+
+    Examples
+    --------
+    >>> t = RawTable({"Time": np.arange(1.0, 4.0), "PG_1": np.array([10., 20., 30.])}, "a.txt")
+    >>> cmap = ColumnMap({"p1": ChannelSpec("PG_1", "bar")}, sample_rate_hz=100.0,
+    ...                  time_column="Time", time_unit="samples")
+    >>> rec = table_to_recording(t, cmap)
+    >>> rec["p1"].tolist(), rec.sample_rate, rec.start_time
+    ([1000000.0, 2000000.0, 3000000.0], 100.0, 0.01)
+    """
+    source = table.source
+    header = table.header
+    if header is not None and column_map is None and units is None and resample is None:
+        return _from_header(table, header, sample_rate)
+    specs = _select(table, column_map, units)
+    time_col, t, rate = _time_axis(table, column_map, sample_rate, resample)
+    lengths = {name: spec.column for name, spec in specs.items()}
+    if time_col is not None:
+        lengths = {f"time column {time_col!r}": time_col, **lengths}
+    _check_lengths(table, lengths)
+    channels: dict[str, np.ndarray] = {}
+    out_units: dict[str, str] = {}
+    for name, spec in specs.items():
+        raw = _numeric(table, spec.column, name)
+        check_channel_finite(raw, name, source)
+        try:
+            values, unit = to_si(raw, spec.unit, gain=spec.gain, offset=spec.offset,
+                                 channel=name, si_unit=spec.si_unit)
+        except ValueError as exc:
+            raise RecordingError(f"{source}: {exc}") from None
+        channels[name] = values
+        if unit is not None:
+            out_units[name] = unit
+    meta: dict[str, Any] = copy.deepcopy(header["meta"]) if header is not None else {}
+    meta.setdefault("source", source)
+    if column_map is not None:
+        meta["column_map"] = column_map.to_dict()
+    start = float(t[0]) if t is not None else 0.0
+    if resample is not None:
+        if t is None:
+            if rate is None:
+                raise RecordingError(f"{source}: resampling needs a time column or a sample rate")
+            t = np.arange(len(next(iter(channels.values())))) / rate
+        n_source = len(t)
+        start, channels = resample_linear(t, channels, resample, source)
+        meta["resampled"] = {"sample_rate_hz": float(resample), "method": "linear",
+                             "source_samples": n_source, "time_column": time_col}
+        rate = float(resample)
+    if rate is None:
+        raise RecordingError(
+            f"{source}: no time column (no column named 'time'; columns: {table.names}) and "
+            f"no sample rate; give sample_rate (--sample-rate) or a time column in the map"
+        )
+    return Recording(channels, rate, start, out_units, meta)
+
+
+def _from_header(table: RawTable, header: dict[str, Any], sample_rate: float | None
+                 ) -> Recording:
+    source = table.source
+    rate = header["sample_rate"]
+    if sample_rate is not None and sample_rate != rate:
+        raise RecordingError(f"{source}: sample_rate={sample_rate!r} disagrees with the file's "
+                             f"stored sample rate {rate!r} Hz")
+    missing = [c for c in header["channels"] if c not in table.columns]
+    if missing:
+        raise RecordingError(f"{source}: header lists channel(s) {missing} missing from the "
+                             f"file; available columns: {table.names}")
+    channels = {}
+    for name in header["channels"]:
+        values = np.asarray(table.columns[name], dtype=np.float64)
+        check_channel_finite(values, name, source)
+        channels[name] = values
+    return Recording(channels, rate, header["start_time"], dict(header["units"]),
+                     copy.deepcopy(header["meta"]))
