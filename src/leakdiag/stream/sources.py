@@ -77,86 +77,93 @@ def _select(names: Sequence[str], channels: Sequence[str] | None, source: str) -
     return list(channels)
 
 
-def _meta_from_json(blobs: Iterable) -> dict:
-    """First JSON object among ``blobs`` that carries a sample rate or metadata."""
-    for blob in blobs:
-        try:
-            d = json.loads(blob)
-        except (TypeError, ValueError):
-            continue
-        if isinstance(d, dict):
-            return d
-    return {}
+#: Key of the leakdiag JSON header in Parquet schema metadata (layout of :mod:`leakdiag.io`).
+PARQUET_HEADER_KEY = b"leakdiag"
+#: HDF5 group with one dataset per channel (layout of :mod:`leakdiag.io`).
+HDF5_CHANNEL_GROUP = "channels"
+
+
+def _json_dict(blob) -> dict:
+    if isinstance(blob, bytes):
+        blob = blob.decode("utf-8")
+    try:
+        d = json.loads(blob)
+    except (TypeError, ValueError):
+        return {}
+    return d if isinstance(d, dict) else {}
 
 
 def _rate_start(t_head: np.ndarray | None, sample_rate: float | None, start_time: float | None,
-                found: dict, source: str) -> tuple[float, float]:
+                header: dict, source: str) -> tuple[float, float]:
+    """Sample rate and start time: explicit argument, else the file header, else the time column."""
     if sample_rate is None:
-        sample_rate = found.get("sample_rate")
+        sample_rate = header.get("sample_rate")
     if sample_rate is None and t_head is not None and len(t_head) >= 2:
         sample_rate = infer_sample_rate(t_head, source=source)
     if sample_rate is None:
         raise RecordingError(f"{source}: no 'time' column and no sample rate; pass sample_rate")
     if start_time is None:
-        start_time = float(t_head[0]) if t_head is not None and len(t_head) else float(
-            found.get("start_time", 0.0))
+        start_time = header.get("start_time")
+    if start_time is None:
+        start_time = float(t_head[0]) if t_head is not None and len(t_head) else 0.0
     return check_positive(sample_rate, "sample_rate"), float(start_time)
 
 
 def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
-    pf = pq.ParquetFile(path)
+    try:
+        pf = pq.ParquetFile(path)
+    except (pa.ArrowException, OSError) as exc:
+        raise RecordingError(f"{path}: unreadable as Parquet: {exc}") from None
     names = pf.schema_arrow.names
     chans = _select(names, channels, path)
-    md = pf.schema_arrow.metadata or {}
-    found = _meta_from_json(v for k, v in md.items() if b"pandas" not in k)
-    found = {**found, **found.get("meta", {})} if isinstance(found.get("meta"), dict) else found
+    header = _json_dict((pf.schema_arrow.metadata or {}).get(PARQUET_HEADER_KEY, b""))
     t_head = None
-    if TIME_COLUMN in names and pf.metadata.num_rows >= 2:
+    if TIME_COLUMN in names and pf.metadata.num_rows >= 2 and "sample_rate" not in header:
         first = next(pf.iter_batches(batch_size=4096, columns=[TIME_COLUMN]))
         t_head = first.column(0).to_numpy(zero_copy_only=False).astype(np.float64)
-    fs, t0 = _rate_start(t_head, sample_rate, start_time, found, path)
+    fs, t0 = _rate_start(t_head, sample_rate, start_time, header, path)
 
     def gen():
         for batch in pf.iter_batches(batch_size=chunk_samples, columns=chans):
             yield {c: np.ascontiguousarray(batch.column(i).to_numpy(zero_copy_only=False),
                                            dtype=np.float64) for i, c in enumerate(chans)}
 
-    meta = {k: found[k] for k in ("onset", "leak_lpm", "source") if k in found}
+    meta = dict(header.get("meta") or {})
     return ChunkSource(gen(), fs, t0, chans, pf.metadata.num_rows, path, meta)
 
 
 def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
     import h5py
 
-    with h5py.File(path, "r") as f:
-        group = f
-        for cand in ("channels", "recording", "data"):
-            if cand in f and isinstance(f[cand], h5py.Group):
-                group = f[cand]
-                break
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise RecordingError(f"{path}: unreadable as HDF5: {exc}") from None
+    with f:
+        group = f[HDF5_CHANNEL_GROUP] if isinstance(f.get(HDF5_CHANNEL_GROUP), h5py.Group) else f
         names = [k for k, v in group.items() if isinstance(v, h5py.Dataset) and v.ndim == 1]
         chans = _select(names, channels, path)
         if not chans:
             raise RecordingError(f"{path}: no 1-D channel datasets found")
-        attrs = {**dict(f.attrs), **dict(group.attrs)}
-        found = {k: (v.item() if hasattr(v, "item") else v) for k, v in attrs.items()
-                 if k in ("sample_rate", "start_time", "onset", "leak_lpm", "source")}
-        found.update(_meta_from_json(v for v in attrs.values() if isinstance(v, (str, bytes))))
-        t_head = group[TIME_COLUMN][:4096].astype(np.float64) if TIME_COLUMN in group else None
+        header = {k: float(f.attrs[k]) for k in ("sample_rate", "start_time") if k in f.attrs}
+        meta = _json_dict(f.attrs["meta"]) if "meta" in f.attrs else {}
+        t_head = None
+        if "sample_rate" not in header and TIME_COLUMN in f:
+            t_head = np.asarray(f[TIME_COLUMN][:4096], dtype=np.float64)
         n = len(group[chans[0]])
         gname = group.name
-    fs, t0 = _rate_start(t_head, sample_rate, start_time, found, path)
+    fs, t0 = _rate_start(t_head, sample_rate, start_time, header, path)
 
     def gen():
-        with h5py.File(path, "r") as f:
-            g = f[gname]
+        with h5py.File(path, "r") as h:
+            g = h[gname]
             for i0 in range(0, n, chunk_samples):
                 yield {c: np.ascontiguousarray(g[c][i0:i0 + chunk_samples], dtype=np.float64)
                        for c in chans}
 
-    meta = {k: found[k] for k in ("onset", "leak_lpm") if k in found}
     return ChunkSource(gen(), fs, t0, chans, n, path, meta)
 
 
@@ -388,9 +395,11 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
     src = csv_lines(_Lines(), channels, sample_rate)
     src.source = path
 
+    inner = src.chunks
+
     def gen():
         try:
-            yield from src.chunks
+            yield from inner
         finally:
             f.close()
 

@@ -1,0 +1,150 @@
+"""Chunked sources: Parquet/HDF5/CSV readers give back the samples, rate and start time; stdin
+lines; a growing file; real-time pacing with an injected clock."""
+
+import io
+import threading
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from leakdiag.io.recording import Recording, RecordingError
+from leakdiag.stream import csv_lines, open_chunks, paced, recording_chunks, tail_csv
+
+
+def _rec(n=1000):
+    rng = np.random.default_rng(0)
+    return Recording({"p1": rng.normal(size=n), "p2": rng.normal(size=n)}, sample_rate=500.0,
+                     start_time=1.5, meta={"onset": 2.0, "leak_lpm": 0.2, "source": "sim"})
+
+
+def _gather(src, chans=("p1", "p2")):
+    chunks = list(src)
+    return {c: np.concatenate([ch[c] for ch in chunks]) for c in chans}, [len(ch[chans[0]]) for ch in chunks]
+
+
+def test_parquet_chunks_with_leakdiag_header(tmp_path):
+    from leakdiag.io.parquet import write_parquet
+
+    rec, path = _rec(), tmp_path / "r.parquet"
+    write_parquet(rec, path)
+    src = open_chunks(path, chunk_samples=300)
+    assert (src.sample_rate, src.start_time, src.n_samples) == (500.0, 1.5, 1000)
+    assert src.meta["onset"] == 2.0 and src.channels == ["p1", "p2"]
+    data, sizes = _gather(src)
+    assert sizes == [300, 300, 300, 100]
+    np.testing.assert_array_equal(data["p1"], rec["p1"])
+
+
+def test_hdf5_chunks_with_leakdiag_layout(tmp_path):
+    from leakdiag.io.hdf5 import write_hdf5
+
+    rec, path = _rec(), tmp_path / "r.h5"
+    write_hdf5(rec, path)
+    src = open_chunks(path, channels=["p2"], chunk_samples=400)
+    assert (src.sample_rate, src.start_time, src.meta["leak_lpm"]) == (500.0, 1.5, 0.2)
+    data, sizes = _gather(src, ("p2",))
+    assert sizes == [400, 400, 200]
+    np.testing.assert_array_equal(data["p2"], rec["p2"])
+
+
+def test_plain_parquet_infers_rate_from_time(tmp_path):
+    path = tmp_path / "plain.parquet"
+    pd.DataFrame({"time": 10.0 + np.arange(50) / 200.0, "p1": np.arange(50.0)}).to_parquet(path)
+    src = open_chunks(path, chunk_samples=64)
+    assert (src.sample_rate, src.start_time) == (200.0, 10.0)
+    np.testing.assert_array_equal(_gather(src, ("p1",))[0]["p1"], np.arange(50.0))
+
+
+def test_csv_chunks(tmp_path):
+    path = tmp_path / "r.csv"
+    rec = _rec(100)
+    rec.to_pandas().to_csv(path, index=False)
+    src = open_chunks(path, chunk_samples=30)
+    assert src.sample_rate == pytest.approx(500.0) and src.start_time == pytest.approx(1.5)
+    data, sizes = _gather(src)
+    assert sizes == [30, 30, 30, 10]
+    np.testing.assert_allclose(data["p2"], rec["p2"], rtol=1e-15)
+
+
+def test_open_chunks_errors(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nope.parquet: no such file"):
+        open_chunks(tmp_path / "nope.parquet")
+    bad = tmp_path / "bad.parquet"
+    bad.write_text("not parquet")
+    with pytest.raises(RecordingError, match="bad.parquet: unreadable as Parquet"):
+        open_chunks(bad)
+    txt = tmp_path / "x.txt"
+    txt.write_text("")
+    with pytest.raises(RecordingError, match="unknown file type '.txt'"):
+        open_chunks(txt)
+    path = tmp_path / "r.csv"
+    pd.DataFrame({"p1": [1.0, 2.0]}).to_csv(path, index=False)
+    with pytest.raises(RecordingError, match="no 'time' column and no sample rate"):
+        open_chunks(path)
+    with pytest.raises(RecordingError, match=r"missing channel\(s\) \['p9'\]"):
+        open_chunks(path, channels=["p9"], sample_rate=10.0)
+
+
+def test_recording_chunks_are_views():
+    rec = _rec(10)
+    chunks = list(recording_chunks(rec, 4))
+    assert [len(c["p1"]) for c in chunks] == [4, 4, 2]
+    assert np.shares_memory(chunks[0]["p1"], rec["p1"])
+
+
+def test_csv_lines_one_chunk_per_line():
+    s = io.StringIO("time,p1,p2\n0.0,1,5\n0.1,2,6\n\n0.2,3,7\n")
+    src = csv_lines(s, channels=["p2"])
+    assert src.sample_rate == pytest.approx(10.0)
+    assert [c["p2"].tolist() for c in src] == [[5.0], [6.0], [7.0]]
+
+
+def test_csv_lines_errors():
+    with pytest.raises(RecordingError, match="empty input"):
+        csv_lines(io.StringIO(""))
+    src = csv_lines(io.StringIO("p1,p2\n1,2\n3\n"), sample_rate=5.0)
+    with pytest.raises(RecordingError, match="CSV line has 1 fields, header has 2"):
+        list(src)
+
+
+def test_tail_follows_a_growing_file(tmp_path):
+    path = tmp_path / "live.csv"
+    path.write_text("time,p1\n0.00,0\n0.01,1\n")
+
+    def writer():
+        with open(path, "a") as f:
+            for i in range(2, 6):
+                time.sleep(0.02)
+                f.write(f"{i / 100:.2f},")  # partial line first: must wait for the newline
+                f.flush()
+                time.sleep(0.02)
+                f.write(f"{i}\n")
+                f.flush()
+
+    th = threading.Thread(target=writer)
+    th.start()
+    src = tail_csv(path, poll_s=0.01, idle_timeout_s=0.5)
+    got = [v for c in src for v in c["p1"].tolist()]
+    th.join()
+    assert src.sample_rate == pytest.approx(100.0)
+    assert got == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+
+
+def test_paced_releases_chunks_at_stream_time():
+    rec = Recording({"p1": np.zeros(1000)}, sample_rate=100.0)  # 10 s of data
+    now = [0.0]
+    sleeps = []
+
+    def sleep(dt):
+        sleeps.append(dt)
+        now[0] += dt
+
+    out = list(paced(recording_chunks(rec, 250), speed=2.0, clock=lambda: now[0], sleep=sleep))
+    assert len(out) == 4
+    # chunk i ends at (i+1)*2.5 s of stream time -> released at (i+1)*1.25 s of wall time
+    assert sleeps == pytest.approx([1.25, 1.25, 1.25, 1.25])
+    assert now[0] == pytest.approx(5.0)
+    with pytest.raises(ValueError, match="speed=0"):
+        list(paced(recording_chunks(rec, 250), speed=0))
