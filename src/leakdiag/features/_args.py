@@ -1,0 +1,166 @@
+"""Argument checks shared by the windowed features (messages name the offending value).
+
+The public feature functions coerce and check their input here, then call a Numba kernel that
+only computes (house style, practice 2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from leakdiag._validation import as_1d_float, as_2d_float, check_finite, check_overlap, check_positive
+from leakdiag.features.windowing import window_starts, window_step, window_times
+
+__all__ = [
+    "WindowPlan",
+    "signal_1d",
+    "signal_2d",
+    "channel_names",
+    "check_window",
+    "check_lag",
+    "parse_lag_ratio",
+    "check_length",
+    "check_starts",
+    "plan_windows",
+]
+
+
+def _writeable(arr: np.ndarray) -> np.ndarray:
+    # One Numba specialisation only: read-only inputs (pandas 3 views, frozen arrays) are copied.
+    return arr if arr.flags.writeable else arr.copy()
+
+
+def signal_1d(x, name: str = "x") -> np.ndarray:
+    """Coerce a 1-D signal to a writeable C-contiguous float64 array and check it is finite."""
+    arr = _writeable(as_1d_float(x, name))
+    check_finite(arr, name)
+    return arr
+
+
+def signal_2d(x, name: str = "x") -> np.ndarray:
+    """Coerce a ``(samples, channels)`` signal (1-D becomes one channel) and check it is finite."""
+    arr = _writeable(as_2d_float(x, name))
+    check_finite(arr, name)
+    return arr
+
+
+def channel_names(x, default: str, n_channels: int = 1) -> tuple[str, ...]:
+    """Channel names of ``x``: a pandas name/columns when there are some, else positional names."""
+    columns = getattr(x, "columns", None)
+    if columns is not None:
+        return tuple(str(c) for c in columns)
+    name = getattr(x, "name", None)
+    if name is not None and n_channels == 1:
+        return (str(name),)
+    if n_channels == 1:
+        return (default,)
+    return tuple(f"{default}[{i}]" for i in range(n_channels))
+
+
+def check_window(window) -> int:
+    """Window size N in samples, an integer >= 2."""
+    if isinstance(window, bool) or not isinstance(window, (int, np.integer)):
+        if isinstance(window, float) and window.is_integer():
+            window = int(window)
+        else:
+            raise TypeError(f"window={window!r} must be an integer number of samples")
+    window = int(window)
+    if window < 2:
+        raise ValueError(f"window={window} must be >= 2 samples")
+    return window
+
+
+def check_lag(lag, window: int) -> int:
+    """Lag in samples, an integer in ``[1, window)``."""
+    if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)):
+        if isinstance(lag, float) and lag.is_integer():
+            lag = int(lag)
+        else:
+            raise TypeError(f"lag={lag!r} must be an integer number of samples")
+    lag = int(lag)
+    if not 1 <= lag < window:
+        raise ValueError(f"lag={lag} must be in [1, window={window})")
+    return lag
+
+
+def parse_lag_ratio(lag_ratio, window: int) -> tuple[int, int]:
+    """Parse a metric-length lag ratio ``"l:k"`` (or a tuple ``(l, k)``) into ``(l, k)``.
+
+    ``l > k >= 1`` and ``l < window`` are required (Eq. 4.3).
+    """
+    if isinstance(lag_ratio, str):
+        parts = lag_ratio.split(":")
+        try:
+            if len(parts) != 2:
+                raise ValueError
+            l_step, k_step = int(parts[0].strip()), int(parts[1].strip())
+        except ValueError:
+            raise ValueError(f"lag_ratio={lag_ratio!r} must look like 'l:k', e.g. '83:3'") from None
+    else:
+        try:
+            l_raw, k_raw = lag_ratio
+        except (TypeError, ValueError):
+            raise TypeError(f"lag_ratio={lag_ratio!r} must be 'l:k' or a pair (l, k)") from None
+        for v in (l_raw, k_raw):
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+                raise TypeError(f"lag_ratio={lag_ratio!r} must hold integers")
+        l_step, k_step = int(l_raw), int(k_raw)
+    if not l_step > k_step >= 1:
+        raise ValueError(f"lag_ratio={lag_ratio!r} needs l > k >= 1, got l={l_step}, k={k_step}")
+    if l_step >= window:
+        raise ValueError(f"lag_ratio={lag_ratio!r}: l={l_step} must be < window={window}")
+    return l_step, k_step
+
+
+def check_length(n_samples: int, window: int) -> None:
+    """Raise if the signal is shorter than one window."""
+    if n_samples < window:
+        raise ValueError(
+            f"signal length {n_samples} is shorter than one window (window={window} samples)"
+        )
+
+
+def check_starts(starts, n_samples: int, window: int) -> np.ndarray:
+    """Window start indices as int64, each with ``0 <= start <= n_samples - window``."""
+    arr = np.asarray(starts)
+    if arr.ndim != 1:
+        raise ValueError(f"starts must be one-dimensional, got shape {arr.shape}")
+    if arr.size and not np.issubdtype(arr.dtype, np.integer):
+        raise TypeError(f"starts must hold integers, got dtype {arr.dtype}")
+    arr = np.ascontiguousarray(arr, dtype=np.int64)
+    if arr.size:
+        bad = np.flatnonzero((arr < 0) | (arr > n_samples - window))
+        if bad.size:
+            i = int(bad[0])
+            raise ValueError(
+                f"starts[{i}]={int(arr[i])} must be in [0, {n_samples - window}] "
+                f"(signal length {n_samples}, window={window})"
+            )
+    return arr
+
+
+@dataclass(frozen=True)
+class WindowPlan:
+    """The regular windows of Sec. 4.4 for one signal (starts, timestamps and settings)."""
+
+    starts: np.ndarray
+    time: np.ndarray
+    window: int
+    overlap: float
+    step: int
+
+
+def plan_windows(n_samples: int, window: int, overlap, sample_rate, start_time) -> WindowPlan:
+    """Check the windowing settings against the signal length and lay out the windows."""
+    overlap = check_overlap(overlap)
+    sample_rate = check_positive(sample_rate, "sample_rate")
+    try:
+        start_time = float(start_time)
+    except (TypeError, ValueError):
+        raise TypeError(f"start_time={start_time!r} must be a number (seconds)") from None
+    check_length(n_samples, window)
+    starts = window_starts(n_samples, window, overlap)
+    time = window_times(starts, window, sample_rate, start_time)
+    return WindowPlan(starts, time, window, overlap, window_step(window, overlap))
