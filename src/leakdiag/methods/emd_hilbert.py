@@ -177,4 +177,5 @@ def emd_hilbert_feature(recording, params: EMDHilbertParams = EMDHilbertParams()
     return FeatureSeries(times, np.sqrt(ms), "emd_hilbert",
                          {"channels": params.channels, "window": params.window,
                           "overlap": params.overlap, "block": params.block,
-                          "margin": params.margin})
+                          "margin": params.margin,
+                          "sample_rate": recording.sample_rate})

@@ -200,4 +200,4 @@ def fft_band_feature(recording, params: FFTBandParams = FFTBandParams()) -> Feat
     times = window_times(starts, params.window, fs_hz, recording.start_time)
     return FeatureSeries(times, np.sqrt(ms), "fft_band",
                          {"channels": params.channels, "band_hz": band, "window": params.window,
-                          "overlap": params.overlap})
+                          "overlap": params.overlap, "sample_rate": fs_hz})

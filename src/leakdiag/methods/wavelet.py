@@ -252,4 +252,5 @@ def wavelet_feature(recording, params: WaveletParams = WaveletParams()) -> Featu
     times = window_times(starts, params.window, fs_hz, recording.start_time)
     return FeatureSeries(times, np.sqrt(ms), "wavelet",
                          {"channels": params.channels, "wavelet": params.wavelet, "level": level,
-                          "window": params.window, "overlap": params.overlap})
+                          "window": params.window, "overlap": params.overlap,
+                          "sample_rate": fs_hz})
