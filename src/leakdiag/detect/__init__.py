@@ -3,4 +3,17 @@
 from leakdiag.detect.analysis import Analysis, analyze_recording
 from leakdiag.detect.measure import RMSChange, chunk_rms, pct_change, rms_change
 
-__all__ = ["Analysis", "analyze_recording", "RMSChange", "rms_change", "pct_change", "chunk_rms"]
+__all__ = ["Analysis", "analyze_recording", "RMSChange", "rms_change", "pct_change", "chunk_rms",
+           "Alarm", "Detector", "Verdict", "FeatureDetector", "CombinedDetector", "thesis_detector"]
+
+#: Detector names loaded on first use (scikit-learn is slow to import).
+_LAZY = {"Alarm": "base", "Detector": "base", "Verdict": "base", "FeatureDetector": "methods",
+         "CombinedDetector": "methods", "thesis_detector": "methods"}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f"leakdiag.detect.{_LAZY[name]}"), name)
+    raise AttributeError(f"module 'leakdiag.detect' has no attribute {name!r}")

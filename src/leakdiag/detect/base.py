@@ -1,0 +1,422 @@
+"""The detector interface: one feature extractor + the shared alarm (threshold, CUSUM, onset).
+
+Protocol (scikit-learn conventions)
+-----------------------------------
+Every detector subclasses :class:`Detector` and implements **one** method::
+
+    def _feature_series(self, recording) -> FeatureSeries: ...
+
+returning the feature (one value per window, timestamp = window's last sample, ``params`` holding
+``window`` in samples and ``sample_rate`` in Hz so that window centres are known). Everything else
+is shared: *what is scored* (the feature) is separate from *how it is searched* (the
+:class:`Alarm`: CUSUM threshold for a target false-alarm rate per hour, onset search).
+
+Rules for a subclass (so that ``get_params``, ``set_params`` and ``sklearn.base.clone`` work):
+
+* ``__init__`` takes every setting as an explicit keyword argument, **including** ``alarm=None``,
+  and stores each one verbatim (``self.window = window``) -- no validation, no derived values
+  (validate in ``_feature_series``);
+* fitted state goes in attributes ending in ``_``; a detector that must learn something about its
+  features from healthy data (e.g. a covariance) overrides ``_fit_features(recordings)``, which
+  :meth:`Detector.fit` calls first;
+* register it for the benchmark in :data:`leakdiag.bench.registry.METHODS` by name.
+
+Life cycle::
+
+    det = FeatureDetector("autocorrelation", ("p1",), lag=1, window=200, overlap=5)
+    det.fit(healthy_recordings)           # healthy mean/std, threshold_, penalty_
+    det.score(rec)                        # FeatureSeries: CUSUM evidence over time (std units)
+    det.predict(rec)                      # Verdict: leak, onset_s, alarm_time_s, confidence, ...
+    det.calibrate(leaking_simulations)    # optional: calibration_ for leak_lpm (L/min)
+
+Fitting (:meth:`Detector.fit`), for healthy runs only: the feature's healthy mean ``mean_`` and
+standard deviation ``std_`` (pooled over windows after ``burn_in_s``); the standardised series
+``z = (f - mean_) / std_``; the CUSUM level ``threshold_`` for ``alarm.false_alarms_per_hour``
+(:func:`leakdiag.detect.threshold.calibrate_threshold`); the change-point penalty ``penalty_`` =
+``alarm.penalty_factor`` x the largest single-split L2 gain on the healthy ``z`` series, so that
+the offline search finds no change on the healthy runs it was fitted on.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from sklearn.base import BaseEstimator
+
+from leakdiag._validation import check_int, check_positive
+from leakdiag.detect.cusum import DIRECTIONS, cusum
+from leakdiag.detect.onset import ONSET_METHODS, best_split_gain, change_points, cusum_onset
+from leakdiag.detect.threshold import AlarmThreshold, calibrate_threshold
+from leakdiag.features.series import FeatureSeries
+
+__all__ = ["Alarm", "Verdict", "Detector"]
+
+
+@dataclass(frozen=True)
+class Alarm:
+    """How a detector searches its feature: the shared alarm logic.
+
+    Parameters
+    ----------
+    false_alarms_per_hour : float, default 1.0
+        Target false alarms per hour of healthy operation; sets the CUSUM threshold.
+    drift : float, default 0.5
+        CUSUM allowance k in healthy standard deviations.
+    direction : {"both", "up", "down"}, default "both"
+        Feature changes that count as evidence (the thesis sees correlations fall and the
+        metric-length ratio rise; "both" assumes neither).
+    onset_method : {"binseg", "pelt", "cusum"}, default "binseg"
+        Onset estimator: offline change points (``ruptures``) or the CUSUM's excursion start.
+    burn_in_s : float, default 5.0
+        Seconds at the start of each recording left out (start-up transient).
+    penalty_factor : float, default 1.0
+        Change-point penalty as a multiple of the largest healthy single-split gain.
+    min_size : int, default 5
+        Minimum segment length (windows) for the change-point search.
+
+    Raises
+    ------
+    ValueError
+        For a value out of range (the message names it).
+
+    Examples
+    --------
+    >>> Alarm(false_alarms_per_hour=0.1).onset_method
+    'binseg'
+    """
+
+    false_alarms_per_hour: float = 1.0
+    drift: float = 0.5
+    direction: str = "both"
+    onset_method: str = "binseg"
+    burn_in_s: float = 5.0
+    penalty_factor: float = 1.0
+    min_size: int = 5
+
+    def __post_init__(self) -> None:
+        check_positive(self.false_alarms_per_hour, "false_alarms_per_hour")
+        check_positive(self.penalty_factor, "penalty_factor")
+        check_int(self.min_size, "min_size", 1)
+        if not (np.isfinite(self.drift) and self.drift >= 0):
+            raise ValueError(f"drift={self.drift!r} must be a finite number >= 0")
+        if not (np.isfinite(self.burn_in_s) and self.burn_in_s >= 0):
+            raise ValueError(f"burn_in_s={self.burn_in_s!r} must be a finite number >= 0")
+        if self.direction not in DIRECTIONS:
+            raise ValueError(f"direction={self.direction!r} must be one of {sorted(DIRECTIONS)}")
+        if self.onset_method not in ONSET_METHODS:
+            raise ValueError(f"onset_method={self.onset_method!r} must be one of {ONSET_METHODS}")
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What a detector concludes about one recording.
+
+    Attributes
+    ----------
+    leak : bool
+        True if the CUSUM reached ``threshold``.
+    onset_s : float or None
+        Estimated leak onset (s), None without an alarm.
+    alarm_time_s : float or None
+        Time of the first alarm (s): when an online monitor would have raised it.
+    confidence : float
+        ``exp(-rate(score_max) * T)`` in [0, 1]: one minus the probability that healthy operation
+        of the same duration ``T`` reaches ``score_max`` (rate from the healthy calibration).
+    leak_lpm : float or None
+        Leak flow estimate in L/min when the detector has a calibration and raised an alarm.
+    leak_lpm_interval : tuple of float or None
+        Prediction interval of ``leak_lpm``.
+    leak_lpm_in_range : bool or None
+        Whether the feature shift lies inside the calibrated range.
+    score_max : float
+        Largest CUSUM value after the burn-in (std units): the per-run statistic.
+    threshold : float
+        CUSUM alarm level used.
+    shift : float or None
+        Mean standardised feature after minus before ``onset_s``.
+    onset_method : str
+        Estimator that produced ``onset_s`` (``"cusum"`` when the offline search found nothing).
+    detector : str
+        Feature name.
+    """
+
+    leak: bool
+    onset_s: float | None
+    alarm_time_s: float | None
+    confidence: float
+    leak_lpm: float | None
+    leak_lpm_interval: tuple[float, float] | None
+    leak_lpm_in_range: bool | None
+    score_max: float
+    threshold: float
+    shift: float | None
+    onset_method: str
+    detector: str
+
+    def as_dict(self) -> dict[str, Any]:
+        """Fields as a flat dict (interval split in two columns)."""
+        lo, hi = self.leak_lpm_interval if self.leak_lpm_interval else (None, None)
+        return {"leak": self.leak, "onset_s": self.onset_s, "alarm_time_s": self.alarm_time_s,
+                "confidence": self.confidence, "leak_lpm": self.leak_lpm,
+                "leak_lpm_low": lo, "leak_lpm_high": hi,
+                "leak_lpm_in_range": self.leak_lpm_in_range, "score_max": self.score_max,
+                "threshold": self.threshold, "shift": self.shift,
+                "onset_method": self.onset_method, "detector": self.detector}
+
+
+@dataclass(frozen=True)
+class _Trace:
+    time: np.ndarray
+    start: np.ndarray
+    z: np.ndarray
+    s_up: np.ndarray
+    s_down: np.ndarray
+    name: str = "feature"
+    params: dict = field(default_factory=dict)
+
+
+def _as_recordings(recordings) -> list:
+    if hasattr(recordings, "channels"):
+        return [recordings]
+    recs = list(recordings)
+    if not recs:
+        raise ValueError("fit needs at least one healthy recording, got none")
+    return recs
+
+
+class Detector(BaseEstimator):
+    """Base class of every leak detector (see the module docstring for the protocol).
+
+    Subclasses implement ``_feature_series(recording) -> FeatureSeries`` and keep an ``alarm``
+    parameter (an :class:`Alarm` or None for the defaults).
+    """
+
+    alarm: Alarm | None = None
+
+    # -------------------------------------------------------------- subclass hooks
+    def _feature_series(self, recording) -> FeatureSeries:  # pragma: no cover - abstract
+        raise NotImplementedError(f"{type(self).__name__} must implement _feature_series")
+
+    def _fit_features(self, recordings: list) -> None:
+        """Learn feature-level state from healthy recordings (default: nothing)."""
+
+    # -------------------------------------------------------------- helpers
+    def _alarm(self) -> Alarm:
+        a = self.alarm if self.alarm is not None else Alarm()
+        if not isinstance(a, Alarm):
+            raise TypeError(f"alarm={a!r} must be an Alarm or None")
+        return a
+
+    def _check_fitted(self) -> None:
+        if not hasattr(self, "threshold_"):
+            raise ValueError(f"{type(self).__name__} is not fitted; call fit(healthy_recordings) first")
+
+    def _series(self, recording) -> tuple[np.ndarray, np.ndarray, np.ndarray, FeatureSeries]:
+        fs = self._feature_series(recording)
+        t = np.asarray(fs.time, dtype=np.float64)
+        v = np.asarray(fs.values, dtype=np.float64)
+        window = fs.params.get("window")
+        rate = fs.params.get("sample_rate")
+        start = t - (window - 1) / rate if window and rate else t.copy()
+        keep = start >= recording.start_time + self._alarm().burn_in_s
+        return t[keep], start[keep], v[keep], fs
+
+    def _trace(self, recording) -> _Trace:
+        self._check_fitted()
+        t, start, v, fs = self._series(recording)
+        z = (v - self.mean_) / self.std_
+        a = self._alarm()
+        s_up, s_down = cusum(z, a.drift, a.direction)
+        return _Trace(t, start, z, s_up, s_down, fs.name, dict(fs.params))
+
+    # -------------------------------------------------------------- public API
+    def fit(self, recordings, y=None) -> "Detector":
+        """Learn the healthy feature distribution, the alarm threshold and the penalty.
+
+        Parameters
+        ----------
+        recordings : list of Recording
+            Healthy runs (no leak). A single Recording is accepted.
+        y : ignored
+            Present for scikit-learn compatibility.
+
+        Returns
+        -------
+        Detector
+            ``self``, with ``mean_``, ``std_``, ``threshold_`` (float), ``alarm_threshold_``
+            (:class:`~leakdiag.detect.threshold.AlarmThreshold`), ``penalty_``, ``n_healthy_``,
+            ``healthy_hours_`` and ``feature_name_``.
+
+        Raises
+        ------
+        ValueError
+            No usable windows, zero healthy variance, or too little healthy data.
+        """
+        recs = _as_recordings(recordings)
+        a = self._alarm()
+        self._fit_features(recs)
+        series = [self._series(r) for r in recs]
+        values = np.concatenate([s[2] for s in series])
+        values = values[np.isfinite(values)]
+        if len(values) < 2:
+            raise ValueError(f"fit: only {len(values)} finite feature values after "
+                             f"burn_in_s={a.burn_in_s} in {len(recs)} healthy recording(s)")
+        mean, std = float(values.mean()), float(values.std(ddof=1))
+        if not std > 0:
+            raise ValueError(f"fit: the healthy feature has zero variance (all {mean!r}); "
+                             "it cannot separate leaking from healthy runs")
+        self.mean_, self.std_ = mean, std
+        zs = [(s[2] - mean) / std for s in series]
+        durations = [max(0.0, r.duration - a.burn_in_s) for r in recs]
+        self.alarm_threshold_: AlarmThreshold = calibrate_threshold(
+            zs, durations, a.false_alarms_per_hour, a.drift, a.direction)
+        self.threshold_ = self.alarm_threshold_.threshold
+        gains = [best_split_gain(z[np.isfinite(z)], a.min_size) for z in zs]
+        self.penalty_ = a.penalty_factor * max(max(gains), 1.0)
+        self.n_healthy_ = len(recs)
+        self.healthy_hours_ = float(sum(durations)) / 3600.0
+        self.feature_name_ = series[0][3].name
+        return self
+
+    def standardize(self, recording) -> FeatureSeries:
+        """The feature standardised with the healthy mean and std, after the burn-in.
+
+        Parameters
+        ----------
+        recording : Recording
+            Any recording with the channels the feature needs.
+
+        Returns
+        -------
+        FeatureSeries
+            ``z = (f - mean_) / std_`` (healthy standard deviations).
+        """
+        tr = self._trace(recording)
+        return FeatureSeries(tr.time, tr.z, f"z[{tr.name}]", tr.params)
+
+    def score(self, recording) -> FeatureSeries:
+        """Evidence of a leak over time: the CUSUM ``max(S+, S-)`` in healthy std units.
+
+        Parameters
+        ----------
+        recording : Recording
+            Recording to score.
+
+        Returns
+        -------
+        FeatureSeries
+            One value per window after the burn-in; an alarm is raised where it reaches
+            ``threshold_``.
+        """
+        tr = self._trace(recording)
+        return FeatureSeries(tr.time, np.maximum(tr.s_up, tr.s_down), f"cusum[{tr.name}]",
+                             {**tr.params, "threshold": self.threshold_})
+
+    def shift(self, recording, onset_s: float) -> float:
+        """Mean standardised feature after minus before ``onset_s``.
+
+        Windows ending before ``onset_s`` count as before, windows starting at or after it as
+        after; windows spanning the onset are left out.
+
+        Parameters
+        ----------
+        recording : Recording
+            Recording.
+        onset_s : float
+            Onset time in seconds.
+
+        Returns
+        -------
+        float
+            NaN when one side has no finite window.
+        """
+        tr = self._trace(recording)
+        return _shift(tr, float(onset_s))
+
+    def predict(self, recording) -> Verdict:
+        """Verdict on one recording: leak or not, onset, alarm time, confidence, leak size.
+
+        Parameters
+        ----------
+        recording : Recording
+            Recording to judge.
+
+        Returns
+        -------
+        Verdict
+        """
+        tr = self._trace(recording)
+        a = self._alarm()
+        h = self.threshold_
+        stat = np.maximum(tr.s_up, tr.s_down)
+        smax = float(stat.max()) if len(stat) else 0.0
+        hours = float(tr.time[-1] - tr.start[0]) / 3600.0 if len(stat) else 0.0
+        confidence = float(np.exp(-self.alarm_threshold_.rate_at(smax) * hours))
+        above = np.flatnonzero(stat >= h)
+        if len(above) == 0:
+            return Verdict(False, None, None, confidence, None, None, None, smax, h, None,
+                           a.onset_method, tr.name)
+        i_alarm = int(above[0])
+        branch = tr.s_up if tr.s_up[i_alarm] >= h else tr.s_down
+        j = cusum_onset(branch, i_alarm)
+        method = "cusum"
+        if a.onset_method != "cusum":
+            finite = np.flatnonzero(np.isfinite(tr.z))
+            cps = change_points(tr.z[finite], self.penalty_, a.onset_method, a.min_size)
+            cps = [int(finite[c]) for c in cps if finite[c] <= i_alarm]
+            if cps:
+                j, method = cps[-1], a.onset_method
+        onset = float((tr.time[j] + tr.start[j]) / 2.0)
+        shift = _shift(tr, onset)
+        lpm = interval = inside = None
+        cal = getattr(self, "calibration_", None)
+        if cal is not None and np.isfinite(shift):
+            lpm, interval, inside = cal.estimate(shift)
+        return Verdict(True, onset, float(tr.time[i_alarm]), confidence, lpm, interval, inside,
+                       smax, h, shift, method, tr.name)
+
+    def calibrate(self, recordings, level: float = 0.9, validity: dict | None = None) -> "Detector":
+        """Fit ``calibration_``: feature shift at the true onset against the true leak flow.
+
+        Parameters
+        ----------
+        recordings : list of Recording
+            Simulated runs with ``meta['onset']`` (s) and ``meta['leak_lpm']`` (L/min); disjoint
+            from the runs the detector will be scored on.
+        level : float, default 0.9
+            Prediction-interval coverage.
+        validity : dict, optional
+            Conditions of the calibration (rig, load, input); stored in the calibration.
+
+        Returns
+        -------
+        Detector
+            ``self`` with ``calibration_`` (:class:`~leakdiag.detect.leaksize.LeakCalibration`).
+
+        Raises
+        ------
+        ValueError
+            If a recording lacks ``onset`` or ``leak_lpm`` metadata.
+        """
+        from leakdiag.detect.leaksize import fit_leak_calibration
+
+        shifts, flows = [], []
+        for rec in _as_recordings(recordings):
+            if rec.onset is None or rec.meta.get("leak_lpm") is None:
+                raise ValueError(f"{rec.meta.get('source', '<recording>')}: calibrate needs "
+                                 "meta['onset'] and meta['leak_lpm']")
+            shifts.append(self.shift(rec, rec.onset))
+            flows.append(float(rec.meta["leak_lpm"]))
+        self.calibration_ = fit_leak_calibration(shifts, flows, level, validity)
+        return self
+
+
+def _shift(tr: _Trace, onset: float) -> float:
+    finite = np.isfinite(tr.z)
+    before = finite & (tr.time < onset)
+    after = finite & (tr.start >= onset)
+    if not before.any() or not after.any():
+        return float("nan")
+    return float(tr.z[after].mean() - tr.z[before].mean())

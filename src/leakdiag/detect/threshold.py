@@ -1,0 +1,153 @@
+"""Alarm threshold for a target false-alarm rate per hour, estimated from healthy feature series.
+
+The CUSUM of :mod:`leakdiag.detect.cusum` restarts after every alarm. On the healthy series the
+number of alarms ``N(h)`` is counted for a grid of thresholds ``h``; the false-alarm rate is
+``N(h) / T`` with ``T`` the healthy time in hours. When ``T`` is too short to observe the target
+rate directly, ``log rate(h)`` is extrapolated linearly in ``h`` (the CUSUM's run length grows
+exponentially with ``h``; Siegmund's approximation) from the grid points with at least
+``MIN_ALARMS_FOR_FIT`` alarms. The method used is recorded, never hidden.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from leakdiag._validation import check_positive
+from leakdiag.detect.cusum import cusum_alarm_count
+
+__all__ = ["AlarmThreshold", "calibrate_threshold", "MIN_ALARMS_FOR_FIT"]
+
+#: Grid points need this many healthy alarms to enter the log-linear fit (leakdiag choice).
+MIN_ALARMS_FOR_FIT = 3
+#: Threshold grid in healthy standard deviations (leakdiag choice; CUSUM levels beyond 200 std
+#: are never needed for features standardised on healthy data).
+THRESHOLD_GRID = np.concatenate([np.arange(0.25, 10.0, 0.25), np.arange(10.0, 200.0, 1.0)])
+
+
+@dataclass(frozen=True)
+class AlarmThreshold:
+    """Result of :func:`calibrate_threshold`.
+
+    Attributes
+    ----------
+    threshold : float
+        CUSUM alarm level h (healthy std units).
+    target_per_hour : float
+        Requested false-alarm rate (alarms per hour of healthy operation).
+    fitted_per_hour : float
+        Rate on the healthy series it was fitted on, at ``threshold`` (often 0: measure the
+        achieved rate on held-out healthy runs).
+    healthy_hours : float
+        Healthy time used.
+    method : str
+        ``"empirical"`` (target observed directly) or ``"extrapolated"`` (log-linear tail).
+    log_rate_intercept, log_rate_slope : float
+        ``log(rate per hour) = a + b h`` fitted on the tail (NaN when not fitted).
+    grid, rate_per_hour : numpy.ndarray
+        Threshold grid and measured rate at each grid point.
+    """
+
+    threshold: float
+    target_per_hour: float
+    fitted_per_hour: float
+    healthy_hours: float
+    method: str
+    log_rate_intercept: float
+    log_rate_slope: float
+    grid: np.ndarray
+    rate_per_hour: np.ndarray
+
+    def rate_at(self, h: float) -> float:
+        """Estimated false-alarm rate per hour at level ``h``.
+
+        Parameters
+        ----------
+        h : float
+            CUSUM level.
+
+        Returns
+        -------
+        float
+            Measured rate where it was observed with at least ``MIN_ALARMS_FOR_FIT`` alarms,
+            else the log-linear extrapolation (or the one-alarm bound ``1 / healthy_hours``).
+        """
+        counts = self.rate_per_hour * self.healthy_hours
+        ok = counts >= MIN_ALARMS_FOR_FIT
+        if ok.any() and h <= self.grid[ok].max():
+            return float(np.interp(h, self.grid, self.rate_per_hour))
+        if np.isfinite(self.log_rate_slope):
+            return float(np.exp(self.log_rate_intercept + self.log_rate_slope * h))
+        return 1.0 / self.healthy_hours
+
+
+def calibrate_threshold(z_series, durations_s, target_per_hour: float, drift: float = 0.5,
+                        direction: str = "both") -> AlarmThreshold:
+    """CUSUM threshold giving ``target_per_hour`` false alarms per hour on healthy data.
+
+    Parameters
+    ----------
+    z_series : list of array_like
+        Standardised healthy feature series, one per healthy run.
+    durations_s : list of float
+        Duration covered by each series in seconds.
+    target_per_hour : float
+        Target false alarms per hour of healthy operation (> 0).
+    drift : float, default 0.5
+        CUSUM allowance k.
+    direction : {"both", "up", "down"}, default "both"
+        CUSUM direction.
+
+    Returns
+    -------
+    AlarmThreshold
+
+    Raises
+    ------
+    ValueError
+        If there is no healthy data, or too few healthy alarms on the grid to fit the tail.
+
+    Notes
+    -----
+    ``rate(h) = N(h) / T``. The smallest grid ``h`` with ``rate(h) <= target`` is used if the
+    healthy time holds at least ``MIN_ALARMS_FOR_FIT / target`` hours; otherwise
+    ``h = (log(target) - a) / b`` from the least-squares fit of ``log rate = a + b h``.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> thr = calibrate_threshold([rng.standard_normal(20000)], [3600.0], 1.0)
+    >>> thr.method, thr.threshold > 3
+    ('extrapolated', True)
+    """
+    target = check_positive(target_per_hour, "target_per_hour")
+    zs = [np.asarray(z, dtype=np.float64) for z in z_series]
+    hours = float(np.sum(durations_s)) / 3600.0
+    if not zs or hours <= 0:
+        raise ValueError("calibrate_threshold needs at least one healthy series of positive duration")
+    grid = THRESHOLD_GRID
+    counts = np.array([sum(cusum_alarm_count(z, h, drift, direction) for z in zs) for h in grid],
+                      dtype=np.float64)
+    rate = counts / hours
+    ok = counts >= MIN_ALARMS_FOR_FIT
+    a = b = float("nan")
+    if ok.sum() >= 2:
+        b, a = np.polyfit(grid[ok], np.log(rate[ok]), 1)
+    if target * hours >= MIN_ALARMS_FOR_FIT and (rate <= target).any():
+        h = float(grid[np.argmax(rate <= target)])
+        method = "empirical"
+    elif np.isfinite(b) and b < 0:
+        h = float((np.log(target) - a) / b)
+        h = max(h, float(grid[ok].max()))
+        method = "extrapolated"
+    else:
+        raise ValueError(
+            f"cannot set a threshold for target_per_hour={target}: only {hours:.3g} h of healthy "
+            f"data and {int(ok.sum())} threshold levels with >= {MIN_ALARMS_FOR_FIT} alarms; "
+            f"give more or longer healthy recordings"
+        )
+    fitted = sum(cusum_alarm_count(z, h, drift, direction) for z in zs) / hours
+    return AlarmThreshold(threshold=h, target_per_hour=target, fitted_per_hour=float(fitted),
+                          healthy_hours=hours, method=method, log_rate_intercept=float(a),
+                          log_rate_slope=float(b), grid=grid, rate_per_hour=rate)
