@@ -8,6 +8,7 @@ replays. See ``docs/operations.md``.
 """
 
 from leakdiag.stream.feature import STREAM_METHODS, StreamingFeature
+from leakdiag.stream.detector import DetectorScorer
 from leakdiag.stream.monitor import Monitor, WindowEvent, WindowScorer, check_scorer
 from leakdiag.stream.sources import (ChunkSource, csv_lines, open_chunks, paced,
                                      recording_chunks, tail_csv)
@@ -20,6 +21,7 @@ __all__ = [
     "WindowEvent",
     "WindowScorer",
     "check_scorer",
+    "DetectorScorer",
     "ChunkSource",
     "open_chunks",
     "recording_chunks",

@@ -2,14 +2,15 @@
 
 A detector plugs in through the small :class:`WindowScorer` protocol. Any object with
 
-* ``score_windows(values) -> scores`` (one score per feature value, called with consecutive
-  blocks of values in time order; it may keep state, but the scores must not depend on how the
-  values are split into blocks), and
+* ``score_windows(values, time) -> scores`` (one score per feature value; ``time`` holds the
+  windows' timestamps in s; called with consecutive blocks of windows in time order; it may keep
+  state, but the scores must not depend on how the windows are split into blocks), and
 * either ``alarm_windows(scores) -> bool array`` or a numeric attribute ``threshold_``
-  (alarm when ``score > threshold_``)
+  (alarm when ``score >= threshold_``)
 
-can be given to :class:`Monitor`; the fitted detectors of :mod:`leakdiag.detect` are meant to
-provide these two hooks.
+can be given to :class:`Monitor`. A fitted :class:`leakdiag.detect.base.Detector` with a
+``spec()`` (e.g. :class:`~leakdiag.detect.methods.FeatureDetector`) is wrapped automatically in
+:class:`~leakdiag.stream.detector.DetectorScorer`, which runs its CUSUM incrementally.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ __all__ = ["Monitor", "WindowEvent", "WindowScorer", "check_scorer"]
 class WindowScorer(Protocol):
     """Protocol of a detector the monitor can call once per block of new feature values."""
 
-    def score_windows(self, values: np.ndarray) -> np.ndarray:  # pragma: no cover - protocol
+    def score_windows(self, values: np.ndarray, time: np.ndarray) -> np.ndarray:  # pragma: no cover
         """Return one score per value (same shape), causal in time."""
 
 
@@ -57,13 +58,13 @@ def check_scorer(scorer: Any) -> Any:
     --------
     >>> class Above:
     ...     threshold_ = 0.5
-    ...     def score_windows(self, values):
+    ...     def score_windows(self, values, time):
     ...         return values
     >>> check_scorer(Above()).threshold_
     0.5
     """
     if not callable(getattr(scorer, "score_windows", None)):
-        raise TypeError(f"{type(scorer).__name__} has no score_windows(values) method")
+        raise TypeError(f"{type(scorer).__name__} has no score_windows(values, time) method")
     if not callable(getattr(scorer, "alarm_windows", None)):
         thr = getattr(scorer, "threshold_", None)
         if not isinstance(thr, (int, float, np.floating, np.integer)) or isinstance(thr, bool):
@@ -76,7 +77,7 @@ def check_scorer(scorer: Any) -> Any:
 def _alarms(scorer: Any, scores: np.ndarray) -> np.ndarray:
     if callable(getattr(scorer, "alarm_windows", None)):
         return np.asarray(scorer.alarm_windows(scores), dtype=bool)
-    return np.asarray(scores > float(scorer.threshold_), dtype=bool)
+    return np.asarray(scores >= float(scorer.threshold_), dtype=bool)
 
 
 def _json_number(v: float) -> float | None:
@@ -140,8 +141,8 @@ class Monitor:
     start_time : float, default 0.0
         Time of the first sample in seconds.
     scorers : object or sequence of object, optional
-        A :class:`WindowScorer` per spec (None entries allowed), or a single scorer when there
-        is one spec.
+        A :class:`WindowScorer` or a fitted leakdiag detector per spec (None entries allowed),
+        or a single one when there is one spec.
 
     Raises
     ------
@@ -169,7 +170,10 @@ class Monitor:
             scorers = [scorers]
         if len(scorers) != len(specs):
             raise ValueError(f"got {len(scorers)} scorer(s) for {len(specs)} feature spec(s)")
-        self.scorers = [None if s is None else check_scorer(s) for s in scorers]
+        from leakdiag.stream.detector import as_scorer
+
+        self.scorers = [None if s is None else check_scorer(as_scorer(s, sp, sample_rate, start_time))
+                        for s, sp in zip(scorers, specs)]
         self.features = [StreamingFeature(s, sample_rate, start_time) for s in specs]
         self.channels = sorted({c for s in specs for c in s.channels})
 
@@ -198,7 +202,7 @@ class Monitor:
             fs = feat.push(chunk)
             scores = alarms = None
             if scorer is not None and len(fs):
-                scores = np.asarray(scorer.score_windows(fs.values), dtype=np.float64)
+                scores = np.asarray(scorer.score_windows(fs.values, fs.time), dtype=np.float64)
                 if scores.shape != fs.values.shape:
                     raise ValueError(
                         f"score_windows returned shape {scores.shape} for {fs.values.shape} values"

@@ -1,0 +1,150 @@
+"""Run a fitted :class:`leakdiag.detect.base.Detector` online: its CUSUM, window by window.
+
+:class:`DetectorScorer` implements the monitor's :class:`~leakdiag.stream.monitor.WindowScorer`
+protocol from the detector's fitted state only (``mean_``, ``std_``, ``threshold_`` and its
+``alarm`` settings ``drift``, ``direction``, ``burn_in_s``), so that streamed scores equal
+``detector.score(recording)`` on the same data: ``z = (f - mean_) / std_``, Page's CUSUM without
+restart, score ``max(S+, S-)``, alarm when it reaches ``threshold_``; windows that start within
+the burn-in are not scored (NaN, no alarm); NaN features leave the statistics unchanged.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from leakdiag._validation import check_positive
+
+__all__ = ["DetectorScorer", "as_scorer"]
+
+
+class DetectorScorer:
+    """Incremental CUSUM scores and alarms of a fitted leakdiag detector.
+
+    Parameters
+    ----------
+    detector : leakdiag.detect.base.Detector
+        Fitted (has ``mean_``, ``std_``, ``threshold_``).
+    window : int
+        Window size N of the monitored feature in samples (for window start times).
+    sample_rate : float
+        Sample rate in Hz.
+    start_time : float, default 0.0
+        Time of the stream's first sample in s (the burn-in counts from it).
+
+    Raises
+    ------
+    ValueError
+        If the detector is not fitted.
+
+    Notes
+    -----
+    Page's CUSUM on the standardised feature, as in :func:`leakdiag.detect.cusum.cusum`:
+
+    .. math:: S^+_i = \\max(0, S^+_{i-1} + z_i - k),\\quad S^-_i = \\max(0, S^-_{i-1} - z_i - k)
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> det = SimpleNamespace(mean_=0.0, std_=1.0, threshold_=2.0,
+    ...                       alarm=SimpleNamespace(drift=0.5, direction="both", burn_in_s=0.0))
+    >>> sc = DetectorScorer(det, window=2, sample_rate=1.0)
+    >>> sc.score_windows(np.array([1.0, 2.0, 2.0]), np.array([1.0, 2.0, 3.0])).tolist()
+    [0.5, 2.0, 3.5]
+    """
+
+    def __init__(self, detector: Any, window: int, sample_rate: float, start_time: float = 0.0):
+        if not hasattr(detector, "threshold_"):
+            raise ValueError(f"{type(detector).__name__} is not fitted; call fit(...) first")
+        alarm = getattr(detector, "alarm", None)
+        if alarm is None:
+            from leakdiag.detect.base import Alarm
+
+            alarm = Alarm()
+        self.detector = detector
+        self.mean_, self.std_ = float(detector.mean_), float(detector.std_)
+        self.threshold_ = float(detector.threshold_)
+        self.drift = float(alarm.drift)
+        self.direction = str(alarm.direction)
+        self._burn_in_end = float(start_time) + float(alarm.burn_in_s)
+        self._span = (int(window) - 1) / check_positive(sample_rate, "sample_rate")
+        self._s_up = 0.0
+        self._s_down = 0.0
+
+    def score_windows(self, values: np.ndarray, time: np.ndarray) -> np.ndarray:
+        """CUSUM score ``max(S+, S-)`` after each window (NaN within the burn-in).
+
+        Parameters
+        ----------
+        values : numpy.ndarray
+            Feature values of consecutive windows.
+        time : numpy.ndarray
+            Their timestamps (s, last sample).
+
+        Returns
+        -------
+        numpy.ndarray
+            Scores in healthy standard deviations, shape of ``values``.
+        """
+        out = np.full(len(values), np.nan)
+        up, down = self.direction in ("up", "both"), self.direction in ("down", "both")
+        for i, (v, t) in enumerate(zip(values, time)):
+            if t - self._span < self._burn_in_end:
+                continue
+            z = (v - self.mean_) / self.std_
+            if not np.isnan(z):
+                if up:
+                    self._s_up = max(0.0, self._s_up + z - self.drift)
+                if down:
+                    self._s_down = max(0.0, self._s_down - z - self.drift)
+            out[i] = max(self._s_up, self._s_down)
+        return out
+
+    def alarm_windows(self, scores: np.ndarray) -> np.ndarray:
+        """Alarm where the score reaches ``threshold_`` (never within the burn-in).
+
+        Parameters
+        ----------
+        scores : numpy.ndarray
+            Output of :meth:`score_windows`.
+
+        Returns
+        -------
+        numpy.ndarray
+            Boolean, shape of ``scores``.
+        """
+        s = np.asarray(scores, dtype=np.float64)
+        return np.where(np.isnan(s), False, s >= self.threshold_)
+
+
+def as_scorer(obj: Any, spec: Any, sample_rate: float, start_time: float = 0.0) -> Any:
+    """Return ``obj`` if it has ``score_windows``; wrap a fitted leakdiag detector otherwise.
+
+    Parameters
+    ----------
+    obj : object
+        A :class:`~leakdiag.stream.monitor.WindowScorer` or a fitted detector with ``spec()``.
+    spec : MethodSpec
+        The monitored feature; must equal the detector's own ``spec()``.
+    sample_rate : float
+        Sample rate in Hz.
+    start_time : float, default 0.0
+        Time of the first sample in s.
+
+    Returns
+    -------
+    object
+        Something with ``score_windows``.
+
+    Raises
+    ------
+    ValueError
+        If a detector's feature differs from ``spec``.
+    """
+    if callable(getattr(obj, "score_windows", None)) or not callable(getattr(obj, "spec", None)):
+        return obj
+    own = obj.spec()
+    if own != spec:
+        raise ValueError(f"detector feature {own.label!r} differs from the monitored {spec.label!r}")
+    return DetectorScorer(obj, spec.window, sample_rate, start_time)

@@ -1,0 +1,63 @@
+"""DetectorScorer: a fitted leakdiag detector run online gives the same CUSUM as detector.score."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from leakdiag.features.methods import MethodSpec
+from leakdiag.io.recording import Recording
+from leakdiag.stream import DetectorScorer, Monitor, recording_chunks
+
+
+def _ar(n, a, seed):
+    return lfilter([1.0], [1.0, -a], np.random.default_rng(seed).normal(size=n))
+
+
+def _fake(burn_in_s=0.0, direction="both"):
+    return SimpleNamespace(mean_=1.0, std_=2.0, threshold_=3.0,
+                           alarm=SimpleNamespace(drift=0.5, direction=direction, burn_in_s=burn_in_s))
+
+
+def test_cusum_by_hand_and_burn_in():
+    # z = (v - 1) / 2 = [-, 2, 2, -2]; first window starts at t - 1 = 0 < burn-in 0.5 -> skipped
+    sc = DetectorScorer(_fake(burn_in_s=0.5), window=2, sample_rate=1.0)
+    s = sc.score_windows(np.array([5.0, 5.0, 5.0, -3.0]), np.array([1.0, 2.0, 3.0, 4.0]))
+    # S+: 1.5, 3.0, then 3 - 2 - .5 = 0.5; S-: 0, 0, then 2 - .5 = 1.5 -> max = 1.5
+    np.testing.assert_allclose(s, [np.nan, 1.5, 3.0, 1.5])
+    assert sc.alarm_windows(s).tolist() == [False, False, True, False]
+
+
+def test_direction_up_ignores_falls():
+    sc = DetectorScorer(_fake(direction="up"), window=2, sample_rate=1.0)
+    s = sc.score_windows(np.array([-9.0, -9.0]), np.array([1.0, 2.0]))
+    assert s.tolist() == [0.0, 0.0]
+
+
+def test_unfitted_detector_is_refused():
+    with pytest.raises(ValueError, match="SimpleNamespace is not fitted"):
+        DetectorScorer(SimpleNamespace(), window=2, sample_rate=1.0)
+
+
+def test_fitted_feature_detector_streams_like_batch():
+    F = pytest.importorskip("leakdiag.features")
+    if not hasattr(F, "autocorrelation"):
+        pytest.skip("batch features not landed yet")
+    from leakdiag.detect.methods import FeatureDetector
+
+    healthy = [Recording({"p1": _ar(60000, 0.9, s)}, 1000.0) for s in range(3)]
+    det = FeatureDetector("autocorrelation", ("p1",), lag=1, window=200, overlap=5).fit(healthy)
+    rec = Recording({"p1": np.r_[_ar(30000, 0.9, 10), _ar(30000, 0.5, 11)]}, 1000.0,
+                    start_time=2.0)
+    batch = det.score(rec)
+    events = list(Monitor(det.spec(), 1000.0, 2.0, scorers=det).run(recording_chunks(rec, 777)))
+    scored = [e for e in events if not np.isnan(e.score)]
+    np.testing.assert_allclose([e.score for e in scored], batch.values, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose([e.time for e in scored], batch.time, atol=1e-12)
+    verdict = det.predict(rec)
+    assert verdict.leak and next(e.time for e in events if e.alarm) == pytest.approx(
+        verdict.alarm_time_s)
+    with pytest.raises(ValueError, match="differs from the monitored"):
+        Monitor(MethodSpec("autocorrelation", ("p1",), lag=2, window=200, overlap=5), 1000.0,
+                scorers=det)
