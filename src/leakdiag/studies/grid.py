@@ -1,0 +1,319 @@
+"""Fast grids of the Sec. 5.2 measure over (lag, window, overlap) on one recording.
+
+For every lag and window size the feature is evaluated once, at the union of the window starts of
+all requested overlaps, with the features' ``*_at`` kernels (cost O(n + starts) per call, flat in
+the window size); each overlap then picks its own windows out of that union. The Sec. 5.2 measure
+(chunk RMS, mean RMS before/after, % change; :func:`leakdiag.detect.rms_change`) is taken for
+every setting. :func:`grid_loop` is the plain per-setting loop (one full feature computation per
+setting) that the fast path must equal.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from leakdiag.detect.measure import rms_change
+from leakdiag.features.series import FeatureSeries
+from leakdiag.features.windowing import window_starts, window_step, window_times
+
+__all__ = ["MEASURE_COLUMNS", "SETTING_COLUMNS", "parse_lag", "lag_label", "grid", "grid_loop",
+           "measure_row"]
+
+#: Setting columns of every sweep table (one row per setting).
+SETTING_COLUMNS = ["method", "channels", "lag", "lag_ratio", "window", "overlap"]
+#: Measure columns (thesis: mean RMS before, after, % change) plus counts.
+MEASURE_COLUMNS = ["mean_rms_before", "mean_rms_after", "pct_change", "pct_change_signed",
+                   "n_windows", "n_chunks_before", "n_chunks_after", "n_chunks_straddling",
+                   "n_nan_windows", "chunk"]
+
+
+def parse_lag(method: str, lag) -> int | tuple[int, int]:
+    """A lag as the method takes it: an int for correlations, ``(l, k)`` for metric length.
+
+    Parameters
+    ----------
+    method : str
+        Method name (any alias of :func:`leakdiag.features.methods.normalize_method`).
+    lag : int, str or tuple
+        ``1``, ``"4"``, ``"83:3"`` or ``(83, 3)``.
+
+    Returns
+    -------
+    int or tuple of int
+
+    Raises
+    ------
+    ValueError
+        If the lag does not fit the method.
+
+    Examples
+    --------
+    >>> parse_lag("ratio_of_metric_lengths", "83:3"), parse_lag("acf", "4")
+    ((83, 3), 4)
+    """
+    from leakdiag.features.methods import normalize_method, parse_lag_ratio
+
+    m = normalize_method(method)
+    if m == "metric-length":
+        return parse_lag_ratio(lag)
+    if isinstance(lag, str) and ":" in lag:
+        raise ValueError(f"lag={lag!r} is a lag ratio; {m} takes an integer lag")
+    try:
+        return int(lag)
+    except (TypeError, ValueError):
+        raise ValueError(f"lag={lag!r} must be an integer for {m}") from None
+
+
+def lag_label(lag) -> str:
+    """The thesis's spelling of a lag: ``"4"`` or ``"83:3"``.
+
+    Parameters
+    ----------
+    lag : int or tuple of int
+        Lag or lag ratio.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> lag_label((83, 3)), lag_label(4)
+    ('83:3', '4')
+    """
+    if isinstance(lag, tuple):
+        return f"{lag[0]}:{lag[1]}"
+    return str(lag)
+
+
+def _spec(method, channels, lag, window, overlap):
+    from leakdiag.features.methods import MethodSpec
+
+    if isinstance(lag, tuple):
+        return MethodSpec(method, tuple(channels), lag_ratio=lag, window=window, overlap=overlap)
+    return MethodSpec(method, tuple(channels), lag=lag, window=window, overlap=overlap)
+
+
+def measure_row(fs: FeatureSeries, onset: float, chunk: int, method: str, channels, lag,
+                window: int, overlap: float) -> dict:
+    """One tidy row: the setting and the Sec. 5.2 measure of a feature series.
+
+    Parameters
+    ----------
+    fs : FeatureSeries
+        Feature series at that setting.
+    onset : float
+        Leak onset in seconds.
+    chunk : int
+        Chunk length in feature values.
+    method : str
+        Canonical method name.
+    channels : sequence of str
+        Channels, ``(y, x)`` for cross-correlation.
+    lag : int or tuple of int
+        Lag or lag ratio.
+    window : int
+        Window size in samples.
+    overlap : float
+        Overlap in percent.
+
+    Returns
+    -------
+    dict
+        Keys :data:`SETTING_COLUMNS` + :data:`MEASURE_COLUMNS`; measure values are NaN when
+        there is no whole chunk on one side of the onset.
+    """
+    row = {"method": method, "channels": ",".join(channels),
+           "lag": None if isinstance(lag, tuple) else int(lag),
+           "lag_ratio": lag_label(lag) if isinstance(lag, tuple) else None,
+           "window": int(window), "overlap": float(overlap)}
+    try:
+        res = rms_change(fs, onset, chunk=chunk)
+    except ValueError:
+        row.update({k: np.nan for k in MEASURE_COLUMNS[:4]})
+        row.update(n_windows=len(fs), n_chunks_before=0, n_chunks_after=0,
+                   n_chunks_straddling=0, n_nan_windows=int(np.isnan(fs.values).sum()),
+                   chunk=chunk)
+        return row
+    d = res.as_dict()
+    row.update({k: d[k] for k in MEASURE_COLUMNS})
+    return row
+
+
+def _at_function(method: str):
+    """The features' evaluate-at-starts kernel for a method, or None if not available."""
+    import importlib
+
+    name = {"autocorrelation": "autocorrelation_at", "cross-correlation": "cross_correlation_at",
+            "metric-length": "metric_length_ratio_at"}.get(method)
+    if name is None:
+        return None
+    for mod in ("leakdiag.features", "leakdiag.features.correlation",
+                "leakdiag.features.metric_length"):
+        try:
+            fn = getattr(importlib.import_module(mod), name, None)
+        except ImportError:
+            fn = None
+        if fn is not None:
+            return fn
+    return None
+
+
+def _values_at(fn, method, recording, channels, lag, window, starts):
+    if method == "cross-correlation":
+        return fn(recording[channels[0]], recording[channels[1]], lag, starts, window)
+    if method == "metric-length":
+        x = recording[channels[0]] if len(channels) == 1 else np.column_stack(
+            [recording[c] for c in channels])
+        return fn(x, lag, starts, window)
+    return fn(recording[channels[0]], lag, starts, window)
+
+
+def _frame(rows):
+    import pandas as pd
+
+    df = pd.DataFrame(rows, columns=SETTING_COLUMNS + MEASURE_COLUMNS)
+    df["lag"] = df["lag"].astype("Int64")
+    return df
+
+
+def _prepare(recording, method, channels, lags, onset):
+    from leakdiag.features.methods import METHODS, normalize_method
+
+    m = normalize_method(method)
+    chans = tuple(channels) if channels else METHODS[m]
+    if isinstance(channels, str):
+        chans = tuple(c.strip() for c in channels.split(",") if c.strip())
+    recording.require(*chans)
+    lag_values = [parse_lag(m, lag) for lag in lags]
+    if onset is None:
+        onset = recording.onset
+    if onset is None:
+        raise ValueError("no leak onset: pass onset= (s) or use a recording with meta['onset']")
+    return m, chans, lag_values, float(onset)
+
+
+def grid(recording, method: str, channels: Sequence[str] | str | None,
+         lags: Iterable, windows: Iterable[int], overlaps: Iterable[float], *,
+         onset: float | None = None, chunk: int = 10):
+    """Sec. 5.2 measure for every (lag, window, overlap), reusing work across overlaps.
+
+    Parameters
+    ----------
+    recording : Recording
+        The recording (``meta['onset']`` is the default onset).
+    method : str
+        ``autocorrelation``, ``cross-correlation`` or ``metric-length`` (aliases accepted).
+    channels : sequence of str or str, optional
+        Channels (``"p1,p2"`` = cross-correlation of p1 as y with p2 as x); default the method's.
+    lags : iterable
+        Lags (ints) or lag ratios (``"83:3"``) for metric length.
+    windows : iterable of int
+        Window sizes in samples.
+    overlaps : iterable of float
+        Overlaps in percent.
+    onset : float, optional
+        Leak onset in seconds (default ``recording.onset``).
+    chunk : int, default 10
+        Chunk length of the RMS in feature values (see ``docs/studies.md``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per valid setting (a lag not smaller than the window is skipped), columns
+        :data:`SETTING_COLUMNS` + :data:`MEASURE_COLUMNS`, ordered lag, window, overlap.
+
+    Raises
+    ------
+    ValueError
+        If there is no onset, or a lag does not fit the method.
+
+    Notes
+    -----
+    Equal to :func:`grid_loop` (the plain loop over settings) up to floating-point rounding;
+    the per-setting measure is Eq. 5-1 to 5-3 of the thesis.
+
+    Examples
+    --------
+    >>> from leakdiag.io.recording import Recording
+    >>> rng = np.random.default_rng(0)
+    >>> e = rng.normal(size=4000)
+    >>> x = np.empty(4000); x[0] = 0.0
+    >>> for i in range(1, 4000):
+    ...     x[i] = (0.9 if i < 2000 else 0.3) * x[i - 1] + e[i]
+    >>> rec = Recording({"p1": x}, sample_rate=100.0, meta={"onset": 20.0})
+    >>> t = grid(rec, "autocorrelation", "p1", [1], [100], [0, 50])
+    >>> bool((t.pct_change_signed < -40).all()), t.n_windows.tolist()
+    (True, [40, 79])
+    """
+    m, chans, lag_values, onset = _prepare(recording, method, channels, lags, onset)
+    fn = _at_function(m)
+    windows = [int(w) for w in windows]
+    overlaps = [float(o) for o in overlaps]
+    n, rate, t0 = recording.n_samples, recording.sample_rate, recording.start_time
+    rows = []
+    for lag, window in itertools.product(lag_values, windows):
+        top = lag[0] if isinstance(lag, tuple) else lag
+        if top >= window or window > n:
+            continue
+        per_ov = {ov: window_starts(n, window, ov) for ov in overlaps}
+        if fn is not None:
+            union = np.unique(np.concatenate(list(per_ov.values())))
+            vals = _values_at(fn, m, recording, chans, lag, window, union)
+        for ov in overlaps:
+            starts = per_ov[ov]
+            if fn is not None:
+                v = vals[np.searchsorted(union, starts)]
+                fs = FeatureSeries(window_times(starts, window, rate, t0), v, m,
+                                   {"window": window, "sample_rate": rate})
+            else:
+                fs = _feature(recording, m, chans, lag, window, ov)
+            rows.append(measure_row(fs, onset, chunk, m, chans, lag, window, ov))
+    return _frame(rows)
+
+
+def _feature(recording, method, chans, lag, window, overlap) -> FeatureSeries:
+    from leakdiag.features.methods import compute_feature
+
+    return compute_feature(recording, _spec(method, chans, lag, window, overlap))
+
+
+def grid_loop(recording, method: str, channels: Sequence[str] | str | None,
+              lags: Iterable, windows: Iterable[int], overlaps: Iterable[float], *,
+              onset: float | None = None, chunk: int = 10):
+    """The plain loop: one full feature computation per setting (reference for :func:`grid`).
+
+    Parameters
+    ----------
+    recording : Recording
+        The recording.
+    method : str
+        Method name.
+    channels : sequence of str or str, optional
+        Channels.
+    lags, windows, overlaps : iterable
+        Settings, as for :func:`grid`.
+    onset : float, optional
+        Leak onset in seconds.
+    chunk : int, default 10
+        Chunk length in feature values.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Same rows and columns as :func:`grid`.
+    """
+    m, chans, lag_values, onset = _prepare(recording, method, channels, lags, onset)
+    rows = []
+    for lag, window, ov in itertools.product(lag_values, [int(w) for w in windows],
+                                             [float(o) for o in overlaps]):
+        top = lag[0] if isinstance(lag, tuple) else lag
+        if top >= window or window > recording.n_samples:
+            continue
+        window_step(window, ov)  # validates overlap like the fast path
+        fs = _feature(recording, m, chans, lag, window, ov)
+        rows.append(measure_row(fs, onset, chunk, m, chans, lag, window, ov))
+    return _frame(rows)
