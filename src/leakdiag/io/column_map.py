@@ -87,11 +87,11 @@ class ChannelSpec:
                 f"known units: {', '.join(known_units())}"
             )
         if self.gain is not None:
-            g = _finite(self.gain, "gain", self.column)
+            g = _finite(self.gain, "gain", f"column {self.column!r}")
             if g == 0.0:
                 raise RecordingError(f"column {self.column!r}: gain={self.gain!r} must not be 0")
             object.__setattr__(self, "gain", g)
-        object.__setattr__(self, "offset", _finite(self.offset, "offset", self.column))
+        object.__setattr__(self, "offset", _finite(self.offset, "offset", f"column {self.column!r}"))
         si_units = sorted(set(QUANTITY_SI_UNIT.values()))
         if self.si_unit is not None and self.si_unit not in si_units:
             raise RecordingError(
@@ -100,13 +100,13 @@ class ChannelSpec:
             )
 
 
-def _finite(value: Any, name: str, column: str) -> float:
+def _finite(value: Any, name: str, where: str) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise RecordingError(f"column {column!r}: {name}={value!r} must be a number") from None
+        raise RecordingError(f"{where}: {name}={value!r} must be a number") from None
     if not math.isfinite(v):
-        raise RecordingError(f"column {column!r}: {name}={value!r} must be finite")
+        raise RecordingError(f"{where}: {name}={value!r} must be finite")
     return v
 
 

@@ -1,0 +1,159 @@
+"""Writing and reading back: Parquet and HDF5 exactly (samples, rate, start, units, meta); CSV samples."""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from leakdiag.io import Recording, RecordingError, read_recording, write_recording
+
+
+def _rec(n=50, rng_seed=0, **meta):
+    rng = np.random.default_rng(rng_seed)
+    chans = {"p1": 1e7 + 1e5 * rng.standard_normal(n), "p2": 5e6 + rng.standard_normal(n),
+             "x": rng.uniform(-0.05, 0.05, n), "u": np.sin(np.arange(n) / 7.0),
+             "leak_flow": np.full(n, 1.6e-6)}
+    return Recording(chans, 1000.0, start_time=0.25, units={"u": "V"},
+                     meta={"onset": 0.3, "leak_lpm": 0.1, "source": "simulate_vca", **meta})
+
+
+def _assert_same(a: Recording, b: Recording):
+    assert list(a.channels) == list(b.channels)
+    for k in a.channels:
+        np.testing.assert_array_equal(a[k], b[k])
+        assert a[k].tobytes() == b[k].tobytes()
+    assert a.sample_rate == b.sample_rate
+    assert a.start_time == b.start_time
+    assert a.units == b.units
+    assert a.meta == b.meta
+
+
+@pytest.mark.parametrize("ext", [".parquet", ".h5", ".hdf5", ".pq"])
+def test_exact_round_trip(tmp_path, ext):
+    rec = _rec(params={"piston_area_m2": 1.2e-3, "nested": {"a": [1, 2.5, None]}},
+               seed_value=7, flag=True, label="run 1 (µ)")
+    path = write_recording(rec, tmp_path / f"run{ext}")
+    assert path == tmp_path / f"run{ext}"
+    _assert_same(rec, read_recording(path))
+
+
+@pytest.mark.parametrize("ext", [".parquet", ".h5"])
+def test_numpy_metadata_becomes_plain_python(tmp_path, ext):
+    rec = _rec(seed=np.int64(3), gain=np.float32(0.5), arr=np.arange(3), tup=(1, 2))
+    back = read_recording(write_recording(rec, tmp_path / f"r{ext}"))
+    assert back.meta["seed"] == 3 and type(back.meta["seed"]) is int
+    assert back.meta["gain"] == 0.5
+    assert back.meta["arr"] == [0, 1, 2]
+    assert back.meta["tup"] == [1, 2]  # documented: tuples come back as lists
+
+
+@pytest.mark.parametrize("ext", [".parquet", ".h5"])
+def test_non_finite_metadata_survives(tmp_path, ext):
+    back = read_recording(write_recording(_rec(achieved=float("nan"), bound=float("-inf")),
+                                          tmp_path / f"r{ext}"))
+    assert np.isnan(back.meta["achieved"]) and back.meta["bound"] == -np.inf
+
+
+@pytest.mark.parametrize("ext", [".parquet", ".h5"])
+def test_metadata_that_json_cannot_hold(tmp_path, ext):
+    rec = _rec(callback=object())
+    with pytest.raises(RecordingError, match=r"simulate_vca: metadata cannot be stored: object"):
+        write_recording(rec, tmp_path / f"r{ext}")
+    assert not list(tmp_path.iterdir())  # no partial file left behind
+
+
+def test_csv_round_trip_samples_exact_units_si(tmp_path):
+    rec = _rec()
+    path = write_recording(rec, tmp_path / "sub dir (1)" / "run.csv")
+    back = read_recording(path)
+    for k in rec.channels:
+        assert back[k].tobytes() == rec[k].tobytes()
+    assert back.sample_rate == 1000.0
+    assert back.start_time == 0.25
+    assert back.units == {"p1": "Pa", "p2": "Pa", "x": "m", "u": "V", "leak_flow": "m^3/s"}
+    assert back.meta == {"source": str(path)}  # CSV holds no metadata (documented)
+
+
+def test_other_tools_can_read_our_parquet(tmp_path):
+    import pandas as pd
+
+    rec = _rec(n=5)
+    df = pd.read_parquet(write_recording(rec, tmp_path / "r.parquet"))
+    assert list(df.columns) == ["time", "p1", "p2", "x", "u", "leak_flow"]
+    np.testing.assert_allclose(df["time"], 0.25 + np.arange(5) / 1000.0, rtol=0, atol=1e-15)
+
+
+def test_hdf5_layout(tmp_path):
+    import h5py
+
+    path = write_recording(_rec(n=4), tmp_path / "r.h5")
+    with h5py.File(path) as f:
+        assert f.attrs["sample_rate"] == 1000.0
+        assert f.attrs["start_time"] == 0.25
+        assert f["channels/p1"].attrs["unit"] == "Pa"
+        assert f["channels/p1"].shape == (4,)
+        assert '"onset": 0.3' in f.attrs["meta"]
+
+
+def test_overwrite_replaces(tmp_path):
+    path = tmp_path / "r.parquet"
+    write_recording(_rec(n=10), path)
+    write_recording(_rec(n=20), path)
+    assert read_recording(path).n_samples == 20
+    assert [p.name for p in tmp_path.iterdir()] == ["r.parquet"]
+
+
+def test_write_errors(tmp_path):
+    with pytest.raises(RecordingError, match=r"cannot write files with extension '.xlsx'; "
+                                             r"known: .csv, .parquet"):
+        write_recording(_rec(), tmp_path / "r.xlsx")
+    rec = Recording({"time": np.zeros(3)}, 10.0)
+    with pytest.raises(RecordingError, match="a channel named 'time' collides"):
+        write_recording(rec, tmp_path / "r.parquet")
+    with pytest.raises(RecordingError, match="cannot be HDF5 dataset names"):
+        write_recording(Recording({"a/b": np.zeros(3)}, 10.0), tmp_path / "r.h5")
+    with pytest.raises(TypeError, match="rec must be a Recording"):
+        write_recording({"p1": [1.0]}, tmp_path / "r.csv")
+
+
+def test_sample_rate_argument_must_agree_with_stored(tmp_path):
+    path = write_recording(_rec(), tmp_path / "r.parquet")
+    assert read_recording(path, sample_rate=1000.0).sample_rate == 1000.0
+    with pytest.raises(RecordingError, match=r"sample_rate=500.0 disagrees with the file's stored"):
+        read_recording(path, sample_rate=500.0)
+
+
+def test_map_on_a_leakdiag_file_goes_through_the_generic_path(tmp_path):
+    path = write_recording(_rec(n=10), tmp_path / "r.parquet")
+    back = read_recording(path, {"p1": "p1:Pa", "pressure_kpa": "p2:kPa"})
+    assert list(back.channels) == ["p1", "pressure_kpa"]
+    np.testing.assert_allclose(back["pressure_kpa"], _rec(n=10)["p2"] * 1e3)
+    assert back.meta["onset"] == 0.3  # stored metadata kept
+    assert back.sample_rate == 1000.0
+
+
+finite = st.floats(-1e12, 1e12, allow_nan=False, allow_infinity=False, width=64)
+
+
+@settings(max_examples=15, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(values=st.lists(finite, min_size=2, max_size=30),
+       rate=st.floats(0.1, 1e6, allow_nan=False),
+       start=st.floats(-1e3, 1e3, allow_nan=False),
+       ext=st.sampled_from([".parquet", ".h5"]),
+       meta=st.dictionaries(st.text(min_size=1, max_size=5),
+                            st.one_of(st.integers(-10**6, 10**6), finite, st.text(max_size=5),
+                                      st.booleans(), st.none()), max_size=4))
+def test_round_trip_property(tmp_path, values, rate, start, ext, meta):
+    rec = Recording({"p1": np.array(values), "x": -np.array(values)}, rate, start,
+                    {"p1": "counts"}, meta)
+    _assert_same(rec, read_recording(write_recording(rec, tmp_path / f"h{ext}")))
+
+
+@settings(max_examples=15, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(values=st.lists(finite, min_size=2, max_size=30))
+def test_csv_samples_round_trip_property(tmp_path, values):
+    rec = Recording({"p1": np.array(values)}, 1000.0)
+    back = read_recording(write_recording(rec, tmp_path / "h.csv"))
+    assert back["p1"].tobytes() == rec["p1"].tobytes()
