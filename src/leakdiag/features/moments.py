@@ -1,0 +1,251 @@
+"""Windowed statistical moments of thesis Sec. 4.7 (Eq. 4.11-4.14), the stationarity check."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from leakdiag.features import _args
+from leakdiag.features._degenerate import warn_degenerate
+
+__all__ = ["moments", "moments_at", "MOMENT_COLUMNS"]
+
+#: Columns of the :func:`moments` DataFrame.
+MOMENT_COLUMNS = ("time", "mean", "variance", "skewness", "kurtosis")
+
+
+@numba.njit(cache=True)
+def _shift(s1, s2, s3, s4, n, d):  # pragma: no cover - compiled
+    """Given sums of ``(x - c)^p`` (p = 1..4) over ``n`` samples, sums of ``(x - c + d)^p``."""
+    d2 = d * d
+    m2 = s2 + 2.0 * d * s1 + n * d2
+    m3 = s3 + 3.0 * d * s2 + 3.0 * d2 * s1 + n * d2 * d
+    m4 = s4 + 4.0 * d * s3 + 6.0 * d2 * s2 + 4.0 * d2 * d * s1 + n * d2 * d2
+    return m2, m3, m4
+
+
+@numba.njit(cache=True)
+def _moment_sums(x, window, starts):  # pragma: no cover - compiled
+    """Per window: mean and the sums of 2nd, 3rd, 4th powers of deviations from it.
+
+    Anchored block sums as in :mod:`leakdiag.features._blocksums` (blocks of N samples; suffix
+    sums anchored at the block's last sample, prefix sums at the next block's first), shifted
+    exactly to the window mean by the binomial expansion. ``starts`` must be sorted.
+    """
+    n = x.shape[0]
+    m_len = window
+    g = np.empty((m_len, 4))
+    f = np.empty((m_len, 4))
+    n_win = starts.shape[0]
+    mean = np.empty(n_win)
+    c2 = np.empty(n_win)
+    c3 = np.empty(n_win)
+    c4 = np.empty(n_win)
+    cur_b = -1
+    a0 = 0.0
+    f_b = -1
+    f_len = 0
+    a1 = 0.0
+    r1 = 0.0
+    r2 = 0.0
+    r3 = 0.0
+    r4 = 0.0
+    for w in range(n_win):
+        s = starts[w]
+        b = s // m_len
+        b0 = b * m_len
+        e = min(b0 + m_len, n)
+        if b != cur_b:
+            cur_b = b
+            a0 = x[e - 1]
+            t1 = 0.0
+            t2 = 0.0
+            t3 = 0.0
+            t4 = 0.0
+            for j in range(e - 1, s - 1, -1):
+                d = x[j] - a0
+                dd = d * d
+                t1 += d
+                t2 += dd
+                t3 += dd * d
+                t4 += dd * dd
+                i = j - b0
+                g[i, 0] = t1
+                g[i, 1] = t2
+                g[i, 2] = t3
+                g[i, 3] = t4
+        i0 = s - b0
+        n0 = e - s
+        n1 = m_len - n0
+        if n1 > 0:
+            if f_b != b + 1:
+                f_b = b + 1
+                f_len = 0
+                a1 = x[e]
+                r1 = 0.0
+                r2 = 0.0
+                r3 = 0.0
+                r4 = 0.0
+            while f_len < n1:
+                d = x[e + f_len] - a1
+                dd = d * d
+                r1 += d
+                r2 += dd
+                r3 += dd * d
+                r4 += dd * dd
+                f[f_len, 0] = r1
+                f[f_len, 1] = r2
+                f[f_len, 2] = r3
+                f[f_len, 3] = r4
+                f_len += 1
+            da = a1 - a0
+            k = n1 - 1
+            off = (g[i0, 0] + f[k, 0] + n1 * da) / m_len
+            p2, p3, p4 = _shift(g[i0, 0], g[i0, 1], g[i0, 2], g[i0, 3], n0, -off)
+            q2, q3, q4 = _shift(f[k, 0], f[k, 1], f[k, 2], f[k, 3], n1, da - off)
+            p2 += q2
+            p3 += q3
+            p4 += q4
+        else:
+            off = g[i0, 0] / m_len
+            p2, p3, p4 = _shift(g[i0, 0], g[i0, 1], g[i0, 2], g[i0, 3], n0, -off)
+        mean[w] = a0 + off
+        c2[w] = p2
+        c3[w] = p3
+        c4[w] = p4
+    return mean, c2, c3, c4
+
+
+def _moment_values(x: np.ndarray, starts: np.ndarray, window: int) -> np.ndarray:
+    order = None
+    if starts.size > 1 and not bool(np.all(starts[1:] >= starts[:-1])):
+        order = np.argsort(starts, kind="stable")
+        starts = np.ascontiguousarray(starts[order])
+    mean, c2, c3, c4 = _moment_sums(x, window, starts)
+    bad = c2 <= 0.0
+    c2_safe = np.where(bad, 1.0, c2)
+    s2 = c2_safe / (window - 1)  # sample variance s^2 (Eq. 4.13-4.14)
+    s = np.sqrt(s2)
+    skew = np.where(bad, np.nan, c3 / ((window - 1) * s2 * s))
+    kurt = np.where(bad, np.nan, c4 / ((window - 1) * s2 * s2))
+    variance = np.where(bad, 0.0, c2 / window)  # Eq. 4.12, population variance
+    warn_degenerate(bad, "zero variance (skewness and kurtosis)", stacklevel=4)
+    out = np.column_stack([mean, variance, skew, kurt])
+    if order is not None:
+        back = np.empty_like(out)
+        back[order] = out
+        out = back
+    return out
+
+
+def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.0,
+            start_time: float = 0.0):
+    r"""Windowed mean, variance, skewness and kurtosis (thesis Sec. 4.7, Eq. 4.11-4.14).
+
+    Parameters
+    ----------
+    x : array_like or pandas.Series
+        Signal, shape ``(n,)`` (e.g. pressure in Pa).
+    window : int, default 400
+        Window size N in samples, ``>= 2`` (the thesis uses 400).
+    overlap : float, default 50.0
+        Overlap in percent, ``0 <= overlap < 100`` (the thesis uses 50).
+    sample_rate : float, default 1.0
+        Sample rate in Hz.
+    start_time : float, default 0.0
+        Time of sample 0 in seconds.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per window, columns ``time`` (s, last sample of the window), ``mean`` (unit of
+        ``x``), ``variance`` (unit squared, population, divide by N), ``skewness`` and
+        ``kurtosis`` (dimensionless, NaN for a constant window). ``df.attrs`` holds the settings
+        (``window``, ``overlap``, ``step``, ``channels``, ``sample_rate``, ``start_time``).
+
+    Raises
+    ------
+    ValueError
+        Bad ``window``/``overlap``, a signal shorter than one window, NaN/inf in ``x``.
+    TypeError
+        If ``x`` is not numeric.
+
+    Warns
+    -----
+    DegenerateWindowWarning
+        One warning counting constant windows (variance 0, skewness and kurtosis NaN).
+
+    Notes
+    -----
+    With :math:`\bar{x}` the window mean (Eq. 4.11), :math:`\sigma^2 = \sum (x_j-\bar{x})^2/N`
+    (Eq. 4.12) and the sample standard deviation :math:`s = \sqrt{\sum (x_j-\bar{x})^2/(N-1)}`:
+
+    .. math:: \mathrm{skewness} = \frac{\sum_{j=1}^{N} (x_j - \bar{x})^3}{(N-1) s^3}, \qquad
+              \mathrm{kurtosis} = \frac{\sum_{j=1}^{N} (x_j - \bar{x})^4}{(N-1) s^4}
+
+    The printed Eq. 4.13 has a square in the numerator; a square over :math:`(N-1)s^3` is not
+    dimensionless and is always positive, so the cube (the standard definition) is used, with
+    the thesis's :math:`(N-1)s^3` denominator. Kurtosis is not excess kurtosis (about 3 for
+    Gaussian data), as printed. See ``docs/features.md``.
+
+    References
+    ----------
+    Thesis Sec. 4.7, Eq. 4.11-4.14; Challis and Kitney (1991).
+
+    Examples
+    --------
+    >>> df = moments([1.0, 2.0, 3.0, 10.0], window=4, overlap=0)
+    >>> df.round(4).iloc[0].tolist()
+    [3.0, 4.0, 12.5, 0.8818, 1.6728]
+    """
+    import pandas as pd
+
+    x_arr = _args.signal_1d(x, "x")
+    window = _args.check_window(window)
+    plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
+    values = _moment_values(x_arr, plan.starts, window)
+    df = pd.DataFrame({"time": plan.time, "mean": values[:, 0], "variance": values[:, 1],
+                       "skewness": values[:, 2], "kurtosis": values[:, 3]})
+    df.attrs.update({"window": window, "overlap": plan.overlap, "step": plan.step,
+                     "channels": _args.channel_names(x, "x"), "sample_rate": float(sample_rate),
+                     "start_time": float(start_time)})
+    return df
+
+
+def moments_at(x, starts, window: int) -> np.ndarray:
+    """Eq. 4.11-4.14 for arbitrary window starts.
+
+    Parameters
+    ----------
+    x : array_like
+        Signal, shape ``(n,)``.
+    starts : array_like of int
+        Window starts, ``0 <= start <= n - window``, any order.
+    window : int
+        Window size N in samples.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(len(starts), 4)``: mean, variance, skewness, kurtosis per start.
+
+    Raises
+    ------
+    ValueError
+        Bad ``window``, a start out of range, a signal shorter than one window, NaN/inf.
+
+    Warns
+    -----
+    DegenerateWindowWarning
+        One warning counting constant windows.
+
+    Examples
+    --------
+    >>> moments_at([5.0, 1.0, 2.0, 3.0, 10.0], [1], 4).round(4).tolist()
+    [[4.0, 12.5, 0.8818, 1.6728]]
+    """
+    x_arr = _args.signal_1d(x, "x")
+    window = _args.check_window(window)
+    _args.check_length(len(x_arr), window)
+    starts = _args.check_starts(starts, len(x_arr), window)
+    return _moment_values(x_arr, starts, window)
