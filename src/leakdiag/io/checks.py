@@ -55,7 +55,7 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
         i = int(nonmono[0]) + 1
         raise RecordingError(
             f"{source}: column {column!r} is not strictly increasing at row {i} "
-            f"(t[{i - 1}]={t[i - 1]!r}, t[{i}]={t[i]!r})"
+            f"(t[{i - 1}]={float(t[i - 1])!r}, t[{i}]={float(t[i])!r})"
         )
     med = float(np.median(dt))
     dev = np.flatnonzero(np.abs(dt - med) > rtol * med)
@@ -63,7 +63,7 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
         i = int(dev[0]) + 1
         raise RecordingError(
             f"{source}: column {column!r} is not uniformly sampled: interval before row {i} is "
-            f"{dt[i - 1]!r} s, median {med!r} s ({len(dev)} irregular interval(s)); "
+            f"{float(dt[i - 1])!r} s, median {med!r} s ({len(dev)} irregular interval(s)); "
             f"resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess"
         )
     return round(1.0 / med, 9)

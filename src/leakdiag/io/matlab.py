@@ -50,6 +50,7 @@ def read_mat(path: str | os.PathLike) -> RawTable:
     """
     import h5py
     import scipy.io
+    from scipy.io.matlab import MatReadError
 
     source = str(path)
     path = Path(path)
@@ -60,7 +61,7 @@ def read_mat(path: str | os.PathLike) -> RawTable:
         return RawTable(table.columns, source)
     try:
         data = scipy.io.loadmat(path, simplify_cells=True)
-    except (ValueError, TypeError, OSError, NotImplementedError) as exc:
+    except (MatReadError, ValueError, TypeError, OSError, NotImplementedError) as exc:
         raise RecordingError(f"{source}: unreadable as a MATLAB .mat file: {exc}") from None
     columns = dict(flatten_arrays({k: v for k, v in data.items() if not k.startswith("__")}))
     if not columns:

@@ -1,0 +1,149 @@
+"""The error catalogue of docs/io.md: each bad input gives one RecordingError naming the problem."""
+
+import numpy as np
+import pytest
+
+from leakdiag.io import Recording, RecordingError, check_length, read_recording
+
+
+def _write(tmp_path, text, name="run.csv"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_file_not_found(tmp_path):
+    with pytest.raises(RecordingError, match=r"missing.csv: file not found"):
+        read_recording(tmp_path / "missing.csv")
+
+
+def test_directory(tmp_path):
+    with pytest.raises(RecordingError, match="is a directory"):
+        read_recording(tmp_path)
+
+
+def test_unknown_format(tmp_path):
+    path = _write(tmp_path, "x", "run.xlsx")
+    with pytest.raises(RecordingError, match=r"run.xlsx: cannot read files with extension "
+                                             r"'.xlsx'; known: .csv, .tsv, .txt, .dat, .parquet"):
+        read_recording(path)
+
+
+def test_empty_file(tmp_path):
+    with pytest.raises(RecordingError, match=r"run.csv: file is empty"):
+        read_recording(_write(tmp_path, ""))
+    with pytest.raises(RecordingError, match=r"file is empty"):
+        read_recording(_write(tmp_path, "\n\n  \n"))
+
+
+def test_header_without_rows(tmp_path):
+    with pytest.raises(RecordingError, match=r"has a header \(time, p1\) but no data rows"):
+        read_recording(_write(tmp_path, "time,p1\n"))
+
+
+def test_binary_file_with_text_extension(tmp_path):
+    path = tmp_path / "run.csv"
+    path.write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(RecordingError, match=r"run.csv: unreadable as text \(not UTF-8\)"):
+        read_recording(path)
+
+
+@pytest.mark.parametrize("ext, what", [(".parquet", "Parquet"), (".h5", "HDF5"),
+                                       (".mat", "a MATLAB .mat file")])
+def test_unreadable_binary_formats(tmp_path, ext, what):
+    path = _write(tmp_path, "time,p1\n0,1\n", f"run{ext}")
+    with pytest.raises(RecordingError, match=rf"run{ext}: unreadable as {what}"):
+        read_recording(path)
+
+
+def test_missing_column_lists_available(tmp_path):
+    path = _write(tmp_path, "t,PA,PB\n0,1,2\n1,2,3\n")
+    with pytest.raises(RecordingError, match=r"run.csv: missing column 'PG_1' for channel 'p1'; "
+                                             r"available columns: \['t', 'PA', 'PB'\]"):
+        read_recording(path, {"p1": "PG_1"}, sample_rate=1)
+    with pytest.raises(RecordingError, match=r"missing time column 'Time'; available columns"):
+        read_recording(path, {"file": {"time_column": "Time"}, "channels": {"p1": "PA"}})
+
+
+def test_no_standard_column_without_map(tmp_path):
+    path = _write(tmp_path, "t,PA,PB\n0,1,2\n1,2,3\n")
+    with pytest.raises(RecordingError, match=r"no column is named like a channel \(p1, p2, x, u, "
+                                             r"x_ref, leak_flow\); available columns: \['t', 'PA', "
+                                             r"'PB'\]; give a column map"):
+        read_recording(path)
+
+
+@pytest.mark.parametrize("value, kind", [("nan", "NaN"), ("inf", "inf"), ("", "NaN")])
+def test_non_finite_names_channel_and_first_row(tmp_path, value, kind):
+    path = _write(tmp_path, f"time,p1,p2\n0,1,1\n1,2,2\n2,3,{value}\n3,4,{value}\n")
+    with pytest.raises(RecordingError, match=rf"run.csv: channel 'p2' has 2 non-finite value\(s\); "
+                                             rf"first {kind} at row 2"):
+        read_recording(path)
+
+
+def test_non_monotonic_time_names_row(tmp_path):
+    path = _write(tmp_path, "time,p1\n0,1\n1,2\n3,3\n2,4\n")
+    with pytest.raises(RecordingError, match=r"column 'time' is not strictly increasing at row 3 "
+                                             r"\(t\[2\]=3.0, t\[3\]=2.0\)"):
+        read_recording(path)
+    with pytest.raises(RecordingError, match=r"time is not strictly increasing at row 3"):
+        read_recording(path, resample=1.0)
+
+
+def test_non_uniform_time_suggests_resample(tmp_path):
+    path = _write(tmp_path, "time,p1\n0,1\n1,2\n2,3\n3.5,4\n4.5,5\n")
+    with pytest.raises(RecordingError, match=r"column 'time' is not uniformly sampled: interval "
+                                             r"before row 3 is 1.5 s.*--resample RATE_HZ"):
+        read_recording(path)
+
+
+def test_non_finite_time(tmp_path):
+    path = _write(tmp_path, "time,p1\n0,1\n,2\n2,3\n")
+    with pytest.raises(RecordingError, match=r"time column 'time' is not a finite number at row 1"):
+        read_recording(path)
+
+
+def test_sample_counter_needs_a_rate(tmp_path):
+    path = _write(tmp_path, "n,p\n1,1\n2,2\n")
+    with pytest.raises(RecordingError, match=r"time column 'n' is a sample counter; give the "
+                                             r"sample rate"):
+        read_recording(path, {"file": {"time_column": "n", "time_unit": "samples"},
+                              "channels": {"p1": "p"}})
+
+
+def test_dropped_samples_in_counter(tmp_path):
+    path = _write(tmp_path, "n,p\n1,1\n2,2\n3,3\n5,4\n6,5\n")
+    cmap = {"file": {"time_column": "n", "time_unit": "samples", "sample_rate_hz": 1000},
+            "channels": {"p1": "p"}}
+    with pytest.raises(RecordingError, match=r"column 'n' is not uniformly sampled: interval "
+                                             r"before row 3"):
+        read_recording(path, cmap)
+
+
+def test_invalid_sample_rate_argument(tmp_path):
+    path = _write(tmp_path, "p1\n1\n2\n")
+    with pytest.raises(RecordingError, match=r"run.csv: sample_rate=-1 must be a finite number > 0"):
+        read_recording(path, sample_rate=-1)
+
+
+def test_rows_longer_than_header(tmp_path):
+    path = _write(tmp_path, "time,p1\n0,1\n1,2,3,4\n")
+    with pytest.raises(RecordingError, match=r"run.csv: cannot parse as delimited text"):
+        read_recording(path)
+
+
+def test_check_length():
+    rec = Recording({"p1": np.zeros(150), "p2": np.zeros(150)}, 1000.0,
+                    meta={"source": "run.csv"})
+    check_length(rec, 150, "p1")  # exactly one window is enough
+    with pytest.raises(RecordingError, match=r"run.csv: channel 'p1' has 150 samples \(0.15 s\), "
+                                             r"fewer than one window of 151 samples"):
+        check_length(rec, 151, "p1")
+    with pytest.raises(RecordingError, match=r"run.csv: recording has 150 samples"):
+        check_length(rec, 200)
+    with pytest.raises(RecordingError, match=r"missing channel\(s\) \['x'\]"):
+        check_length(rec, 10, "x")
+    with pytest.raises(ValueError, match=r"window=0 must be"):
+        check_length(rec, 0)
+    with pytest.raises(TypeError, match=r"window=1.5 must be an integer"):
+        check_length(rec, 1.5)
