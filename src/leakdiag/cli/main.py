@@ -20,6 +20,8 @@ __all__ = ["main", "COMMANDS"]
 COMMANDS: dict[str, str] = {
     "analyze": "leakdiag.cli.analyze:analyze",
     "demo": "leakdiag.cli.demo:demo",
+    "monitor": "leakdiag.cli.monitor:monitor",
+    "batch": "leakdiag.cli.batch:batch",
 }
 
 

@@ -1,0 +1,201 @@
+"""``leakdiag monitor``: stream a recording, a growing file or stdin through the windowed features.
+
+Each completed window becomes one JSON line (time, value, and with a fitted detector its score and
+alarm); alarms are printed as they are raised and cleared.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import sys
+import time
+
+import click
+
+__all__ = ["monitor", "build_source", "load_detector", "parse_replay"]
+
+_METHOD_CHOICES = ["autocorrelation", "cross-correlation", "metric-length"]
+#: Suffixes streamed in chunks without loading the file (others go through read_recording).
+_CHUNKED_SUFFIXES = (".parquet", ".pq", ".h5", ".hdf5", ".csv")
+
+
+def parse_replay(replay: str) -> float | None:
+    """Replay speed from ``fast``, ``realtime`` or a factor such as ``10`` / ``10x``.
+
+    Parameters
+    ----------
+    replay : str
+        The option value.
+
+    Returns
+    -------
+    float or None
+        Speed factor (1.0 is real time); None for as fast as possible.
+
+    Raises
+    ------
+    click.BadParameter
+        For anything else.
+
+    Examples
+    --------
+    >>> parse_replay("fast") is None, parse_replay("realtime"), parse_replay("20x")
+    (True, 1.0, 20.0)
+    """
+    key = replay.strip().lower()
+    if key == "fast":
+        return None
+    if key in ("realtime", "real-time", "1x"):
+        return 1.0
+    try:
+        v = float(key.rstrip("x"))
+    except ValueError:
+        v = -1.0
+    if not v > 0:
+        raise click.BadParameter(f"--replay={replay!r}: use fast, realtime or a factor like 10x")
+    return v
+
+
+def load_detector(path: str):
+    """Load a pickled fitted detector (or any :class:`~leakdiag.stream.WindowScorer`).
+
+    Parameters
+    ----------
+    path : str
+        Pickle file; only load files you trust (pickle runs code).
+
+    Returns
+    -------
+    object
+        The unpickled detector.
+
+    Raises
+    ------
+    click.BadParameter
+        If the file cannot be unpickled.
+    """
+    try:
+        with open(path, "rb") as f:
+            return pickle.load(f)
+    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ImportError) as exc:
+        raise click.BadParameter(f"--detector {path}: cannot load: {exc}") from None
+
+
+def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: int,
+                 idle_timeout: float | None):
+    """The chunk source for ``--input``: stdin, a followed CSV, a chunked file or a recording.
+
+    Parameters
+    ----------
+    input_path : str
+        ``-`` for CSV lines on stdin, else a file.
+    channels : sequence of str
+        Channels needed.
+    follow : bool
+        Follow a growing CSV file.
+    sample_rate : float or None
+        Sample rate in Hz when the input has no time column.
+    chunk : int
+        Samples per chunk for files.
+    idle_timeout : float or None
+        Stop following after this many seconds without new data.
+
+    Returns
+    -------
+    ChunkSource
+    """
+    from leakdiag.stream import csv_lines, open_chunks, recording_chunks, tail_csv
+
+    if input_path == "-":
+        return csv_lines(sys.stdin, channels, sample_rate)
+    if follow:
+        return tail_csv(input_path, channels, sample_rate, idle_timeout_s=idle_timeout)
+    if os.path.splitext(input_path)[1].lower() in _CHUNKED_SUFFIXES:
+        return open_chunks(input_path, channels, chunk, sample_rate)
+    import leakdiag.io as lio
+
+    rec = lio.read_recording(input_path, sample_rate=sample_rate)
+    return recording_chunks(rec, chunk, channels)
+
+
+def _spec(method, channels, lag, lag_ratio, window, overlap, detector):
+    from leakdiag.features.methods import MethodSpec
+
+    if detector is not None and callable(getattr(detector, "spec", None)) and method is None:
+        return detector.spec()
+    method = method or "autocorrelation"
+    kw = {}
+    if method in ("autocorrelation", "cross-correlation"):
+        kw["lag"] = 1 if lag is None else lag
+    else:
+        kw["lag_ratio"] = lag_ratio or "83:3"
+    chans = tuple(c.strip() for c in channels.split(",")) if channels else ()
+    return MethodSpec(method, chans, window=window, overlap=overlap, **kw)
+
+
+@click.command()
+@click.option("--input", "-i", "input_path", required=True,
+              help="Recording file (Parquet, HDF5, CSV, ...) or '-' for CSV lines on stdin.")
+@click.option("--replay", default="fast", show_default=True,
+              help="Replay speed of a file: fast, realtime, or a factor like 10x.")
+@click.option("--follow", is_flag=True, help="Follow a growing CSV file (like tail -f).")
+@click.option("--idle-timeout", type=float, default=None,
+              help="With --follow: stop after this many seconds without new lines.")
+@click.option("--method", "-m", type=click.Choice(_METHOD_CHOICES), default=None,
+              help="Feature (default: the detector's, else autocorrelation).")
+@click.option("--channels", "-c", default=None, help="Channels, e.g. p1 | p1,p2 | u,x.")
+@click.option("--lag", type=int, default=None, help="Lag in samples (correlations; default 1).")
+@click.option("--lag-ratio", default=None, help="Metric-length lag ratio l:k (default 83:3).")
+@click.option("--window", "-w", type=int, default=200, show_default=True, help="Window N (samples).")
+@click.option("--overlap", "-o", type=float, default=5.0, show_default=True, help="Overlap (%).")
+@click.option("--detector", "detector_path", type=click.Path(exists=True, dir_okay=False),
+              help="Pickled fitted detector (its feature settings are used unless --method).")
+@click.option("--sample-rate", type=float, default=None, help="Sample rate (Hz) without a time column.")
+@click.option("--chunk", type=int, default=65536, show_default=True, help="Samples per file chunk.")
+@click.option("--events", type=click.Path(dir_okay=False), default=None,
+              help="Write one JSON line per window to this file ('-' for stdout).")
+@click.option("--quiet", "-q", is_flag=True, help="Do not print alarms and the summary.")
+def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag_ratio, window,
+            overlap, detector_path, sample_rate, chunk, events, quiet):
+    """Monitor a stream: feature value per window, detector score and alarm, as soon as known."""
+    from leakdiag.stream import Monitor, paced
+
+    detector = load_detector(detector_path) if detector_path else None
+    spec = _spec(method, channels, lag, lag_ratio, window, overlap, detector)
+    source = build_source(input_path, list(spec.channels), follow, sample_rate, chunk, idle_timeout)
+    mon = Monitor(spec, source.sample_rate, source.start_time, scorers=detector)
+    speed = None if input_path == "-" or follow else parse_replay(replay)
+    out = None
+    if events == "-":
+        out = sys.stdout
+    elif events:
+        out = open(events, "w", encoding="utf-8")
+    say = (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=out is sys.stdout))
+    n_win = n_alarm = 0
+    alarm_on = False
+    t0 = time.perf_counter()
+    try:
+        for chunk_ in paced(source, speed):
+            evs = mon.push(chunk_)
+            if out is not None and evs:
+                out.write("".join(e.to_json() + "\n" for e in evs))
+                out.flush()
+            n_win += len(evs)
+            for e in evs:
+                if e.alarm and not alarm_on:
+                    n_alarm += 1
+                    say(f"ALARM   t={e.time:.6g} s  {spec.label}  value={e.value:.6g}  "
+                        f"score={e.score:.6g}")
+                elif alarm_on and e.alarm is False:
+                    say(f"cleared t={e.time:.6g} s  score={e.score:.6g}")
+                if e.alarm is not None:
+                    alarm_on = e.alarm
+    finally:
+        if out is not None and out is not sys.stdout:
+            out.close()
+    dt = time.perf_counter() - t0
+    n = mon.n_samples_seen
+    say(f"{source.source}: {n} samples at {source.sample_rate:g} Hz, {n_win} windows "
+        f"({spec.label}), {n_alarm} alarm(s), {mon.features[0].n_degenerate} degenerate; "
+        f"{n / dt if dt > 0 else float('inf'):.3g} samples/s")
