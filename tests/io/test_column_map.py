@@ -68,6 +68,8 @@ def test_flat_dict_shorthand():
         ("leak_flow=Q:L/min", ("leak_flow", ChannelSpec("Q", "L/min"))),
         ("leak_flow=Q:m^3/s", ("leak_flow", ChannelSpec("Q", "m^3/s"))),
         ("x=a:b:mm", ("x", ChannelSpec("a:b", "mm"))),  # column is up to the LAST colon
+        ("p1=data(:,2)", ("p1", ChannelSpec("data(:,2)"))),  # colons in () belong to the name
+        ("p1=S.v(:,2):bar*2", ("p1", ChannelSpec("S.v(:,2)", "bar", 2.0))),
         ("angle=Angle:counts*0.001->rad", ("angle", ChannelSpec("Angle", "counts", 0.001,
                                                                 si_unit="rad"))),
         ("u=Cmd:V*-1", ("u", ChannelSpec("Cmd", "V", -1.0))),

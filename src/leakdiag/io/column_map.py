@@ -276,6 +276,19 @@ def load_column_map(source: "ColumnMap | Mapping[str, Any] | str | Path") -> Col
     return _from_dict(data, where=f"{path}: ")
 
 
+def _last_top_level_colon(text: str) -> int:
+    """Index of the last ``:`` outside parentheses (``data(:,2)`` keeps its colon), or -1."""
+    depth, cut = 0, -1
+    for i, ch in enumerate(text):
+        if ch == "(":
+            depth += 1
+        elif ch == ")":
+            depth = max(depth - 1, 0)
+        elif ch == ":" and depth == 0:
+            cut = i
+    return cut
+
+
 def parse_column_spec(spec: str) -> tuple[str, ChannelSpec]:
     """Parse one command-line column spec ``CHANNEL=COLUMN[:UNIT[-OFFSET|+OFFSET][*GAIN][->SI]]``.
 
@@ -285,8 +298,8 @@ def parse_column_spec(spec: str) -> tuple[str, ChannelSpec]:
         E.g. ``"p1=PG_1:psi"``, ``"p1=PG_1:counts*0.5"``, ``"p1=PG_1:counts-8192*0.5"``
         (``si = (raw - 8192) * 0.5``), ``"angle=Angle:counts*0.00038->rad"``, or
         ``"time=Time:samples"`` (the time column and its unit, see :func:`build_column_map`).
-        The column is everything between ``=`` and the **last** ``:``; names containing ``:``
-        need a TOML map.
+        The column is everything between ``=`` and the **last** ``:`` outside parentheses
+        (so ``p1=data(:,2):bar`` works); other names containing ``:`` need a TOML map.
 
     Returns
     -------
@@ -313,7 +326,8 @@ def parse_column_spec(spec: str) -> tuple[str, ChannelSpec]:
     name, rhs = (s.strip() for s in spec.split("=", 1))
     if not _NAME_RE.match(name):
         raise RecordingError(f"column spec {spec!r}: channel name {name!r} must be an identifier")
-    column, scale = (rhs.rsplit(":", 1) + [None])[:2] if ":" in rhs else (rhs, None)
+    cut = _last_top_level_colon(rhs)
+    column, scale = (rhs, None) if cut < 0 else (rhs[:cut], rhs[cut + 1:])
     column = column.strip()
     if not column:
         raise RecordingError(f"column spec {spec!r}: empty column name; syntax {syntax}")
@@ -384,7 +398,7 @@ def build_column_map(specs: Iterable[str] = (), *, base: Any = None, **file_opti
         name, chan = parse_column_spec(s)
         if name == "time":
             options["time_column"] = chan.column
-            if ":" in s.split("=", 1)[1]:
+            if _last_top_level_colon(s.split("=", 1)[1]) >= 0:
                 options["time_unit"] = "samples" if chan.unit is None else chan.unit
         else:
             channels[name] = chan

@@ -91,8 +91,9 @@ def resample_linear(t: np.ndarray, channels: Mapping[str, np.ndarray], sample_ra
     if len(bad):
         i = int(bad[0]) + 1
         raise RecordingError(
-            f"{source}: time is not strictly increasing at row {i} (t[{i - 1}]={float(t[i - 1])!r}, "
-            f"t[{i}]={float(t[i])!r}); resampling needs increasing times"
+            f"{source}: time is not strictly increasing at row {i} "
+            f"(t[{i - 1}]={float(t[i - 1])!r}, t[{i}]={float(t[i])!r}); "
+            f"resampling needs increasing times"
         )
     grid = uniform_grid(t[0], t[-1], sample_rate)
     return float(t[0]), {name: np.interp(grid, t, np.asarray(v, dtype=np.float64))

@@ -1,0 +1,95 @@
+"""The real rotary-actuator recordings read through the generic reader and the example map.
+
+Skipped when ``<repo>/../shared`` is absent. No library code knows about this data set: only
+``docs/examples/rotary_actuator_map.toml`` does.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from leakdiag.io import RecordingError, build_column_map, read_recording
+
+REPO = Path(__file__).resolve().parents[2]
+MAP = REPO / "docs" / "examples" / "rotary_actuator_map.toml"
+ADC_MAX = 2**14 - 1  # 14-bit ADC, data README
+
+
+@pytest.fixture(scope="module")
+def files(shared_dir):
+    found = sorted((shared_dir / "realdata" / "rotary-actuators" / "Data").glob("*/*.txt"))
+    if not found:
+        pytest.skip("no rotary-actuator recordings found")
+    # one per unit folder (the folder names contain spaces and parentheses)
+    by_unit = {}
+    for f in found:
+        by_unit.setdefault(f.parent.name, f)
+    return list(by_unit.values())
+
+
+def test_reads_one_file_per_unit(files):
+    assert any("(" in f.parent.name and " " in f.parent.name for f in files)
+    for path in files:
+        rec = read_recording(path, MAP)
+        assert rec.n_samples == 3000
+        assert rec.sample_rate == 1000.0
+        assert rec.channel_names == ["p1", "p2", "angle"]
+        assert rec.units == {"p1": "counts", "p2": "counts", "angle": "counts"}
+        for name, values in rec.channels.items():
+            assert 0 <= values.min() <= values.max() <= ADC_MAX, (path.name, name)
+            assert np.all(values == np.round(values)), "counts are integers"
+        # Time is a 1-based counter: t = counter / rate
+        assert rec.start_time == pytest.approx(0.001)
+        assert rec.duration == pytest.approx(3.0)
+        assert rec.meta["source"] == str(path)
+
+
+def test_values_match_a_plain_parse(files):
+    path = files[0]
+    lines = path.read_text().splitlines()
+    header = lines[0].split("\t")
+    i1, i2 = header.index("PG_1"), header.index("PG_2")
+    pg1 = [float(line.split("\t")[i1]) for line in lines[1:]]
+    pg2 = [float(line.split("\t")[i2]) for line in lines[1:]]
+    rec = read_recording(path, MAP)
+    assert rec["p1"].tolist() == pg1
+    assert rec["p2"].tolist() == pg2
+
+
+def test_command_line_specs_give_the_same_recording(files):
+    path = files[-1]
+    cmap = build_column_map(["p1=PG_1:counts", "p2=PG_2:counts", "angle=Angle:counts",
+                             "time=Time:samples"], sample_rate_hz=1000)
+    a, b = read_recording(path, cmap), read_recording(path, MAP)
+    for k in a.channels:
+        assert a[k].tobytes() == b[k].tobytes()
+    assert (a.sample_rate, a.start_time) == (b.sample_rate, b.start_time)
+
+
+def test_scaled_counts(files):
+    # a made-up scale, only to check the arithmetic: (counts - 8192) * 1000 Pa
+    cmap = build_column_map(["p1=PG_1:counts-8192*1000"], sample_rate_hz=1000)
+    raw = read_recording(files[0], MAP)["p1"]
+    rec = read_recording(files[0], cmap)
+    assert rec.units == {"p1": "Pa"}
+    np.testing.assert_array_equal(rec["p1"], (raw - 8192) * 1000)
+
+
+def test_without_a_map_the_junk_text_columns_are_an_error(files):
+    with pytest.raises(RecordingError, match=r"no column is named like a channel"):
+        read_recording(files[0], sample_rate=1000)
+
+
+def test_mapping_a_junk_text_column_is_an_error(files):
+    cmap = build_column_map(["p1=F_Names"], sample_rate_hz=1000)
+    with pytest.raises(RecordingError, match=r"channel 'p1' \(column 'F_Names'\) holds text, not "
+                                             r"numbers: row 0 is 'Var_Accel1'"):
+        read_recording(files[0], cmap)
+
+
+def test_half_empty_numeric_junk_column_gives_first_nan_row(files):
+    cmap = build_column_map(["p1=F_Values"], sample_rate_hz=1000)
+    with pytest.raises(RecordingError, match=r"channel 'p1' has \d+ non-finite value\(s\); first "
+                                             r"NaN at row \d+"):
+        read_recording(files[0], cmap)
