@@ -5,9 +5,12 @@ shared sums. The fast features must agree with these. Degenerate windows (consta
 zero Eq. 4.3 denominator) give NaN here too; a window counts as constant when all its samples are
 equal, which is what makes the variance exactly zero.
 
-The window mean is computed in two passes (``m = mean(w)``, then ``m += mean(w - m)``): the
-plain ``mean(w)`` of 5 + 1e-6 noise is off by ~1e-15 absolute, i.e. 1e-9 of the spread, and that
-alone moves Eq. 4.1 by up to 1e-9 relative (checked against exact rational arithmetic in
+Each window is first shifted by its own first sample (``w - w[0]``; Eq. 4.1-4.2 and 4.12-4.14
+are invariant to it, and for samples within a factor 2 of each other the subtraction is exact),
+then its mean is computed in two passes (``m = mean(w)``, then ``m += mean(w - m)``). Without
+this, the double nearest to the mean of 8.6e6 + kPa noise, or of two nearly equal samples, is off
+by up to half an ulp of 8.6e6 (1e-9 Pa), which alone moves Eq. 4.1 by ~1e-9 relative: the
+reference would be the less accurate side (checked against exact rational arithmetic in
 ``test_reference_vs_exact``).
 """
 
@@ -28,10 +31,15 @@ def window_mean(w: np.ndarray) -> float:
     return float(m + np.mean(w - m))
 
 
+def _shifted(w) -> np.ndarray:
+    w = np.asarray(w, dtype=np.float64)
+    return w - w[0]
+
+
 def autocorrelation_window(w: np.ndarray, lag: int) -> float:
     """Eq. 4.1 on one window."""
-    w = np.asarray(w, dtype=np.float64)
-    if np.all(w == w[0]):
+    w = _shifted(w)
+    if np.all(w == 0):
         return np.nan
     d = w - window_mean(w)
     n = len(w)
@@ -40,9 +48,9 @@ def autocorrelation_window(w: np.ndarray, lag: int) -> float:
 
 def cross_correlation_window(wy: np.ndarray, wx: np.ndarray, lag: int) -> float:
     """Eq. 4.2 on one window, population variances."""
-    wy = np.asarray(wy, dtype=np.float64)
-    wx = np.asarray(wx, dtype=np.float64)
-    if np.all(wy == wy[0]) or np.all(wx == wx[0]):
+    wy = _shifted(wy)
+    wx = _shifted(wx)
+    if np.all(wy == 0) or np.all(wx == 0):
         return np.nan
     n = len(wx)
     dy = wy - window_mean(wy)
@@ -70,10 +78,11 @@ def moments_window(w: np.ndarray) -> tuple[float, float, float, float]:
     """Eq. 4.11-4.14 on one window: mean, population variance, skewness, kurtosis."""
     w = np.asarray(w, dtype=np.float64)
     n = len(w)
-    mean = window_mean(w)
+    mean = float(w[0] + window_mean(w - w[0]))
     if np.all(w == w[0]):
         return mean, 0.0, np.nan, np.nan
-    d = w - mean
+    w = _shifted(w)
+    d = w - window_mean(w)
     var = float(np.sum(d**2) / n)
     s = np.sqrt(np.sum(d**2) / (n - 1))
     skew = float(np.sum(d**3) / ((n - 1) * s**3))
