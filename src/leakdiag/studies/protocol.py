@@ -1,0 +1,307 @@
+"""The thesis's experimental protocol on the simulators, as serialisable cases.
+
+:class:`ProtocolConfig` holds every setting of a reproduction (durations, onsets, leak sizes,
+loads, seeds, chunk length). :func:`build_cases` turns it into plain-dict cases of three kinds,
+each run by the pure :func:`run_case` (serially or on Dask, see :mod:`leakdiag.studies.executor`):
+
+* ``"tables"``: one simulated experiment (case study 1 or 2 of a system), every row of
+  ``tables.csv`` of that case computed at its stated setting, plus the Sec. 4.4 procedure
+  (:func:`~leakdiag.studies.sweep.ofat_sweep`) run on our own values;
+* ``"sensitivity"``: one experiment of case study 3 (leak size x load x seed x duration), every
+  preferred method of the thesis measured;
+* ``"stationarity"``: the Sec. 4.7 analysis of the case-study-1 experiment.
+
+Simulations go through :func:`~leakdiag.studies.cache.cached_simulation`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["ProtocolConfig", "QUICK", "FULL", "build_cases", "run_case", "simulate_case",
+           "SENSITIVITY_METHODS"]
+
+VCA_DURATION_S = 400.0  # Sec. 4.5: 400 s experiments, leak at about 200 s
+VCA_ONSET_S = 200.0  # Sec. 4.5
+EHA_DURATION_S = 180.0  # Sec. 6 case studies: 180 s, leak after 90 s
+EHA_ONSET_S = 90.0  # Sec. 6
+VCA_CASE_LEAKS_LPM = {1: 0.10, 2: 0.047}  # Sec. 5.1 case studies 1 and 2
+EHA_CASE_LEAKS_LPM = {1: 1.2, 2: 0.98}  # Sec. 6 case studies 1 and 2
+VCA_SENSITIVITY_LPM = (0.047, 0.1, 0.2, 0.3, 0.4, 0.5)  # Sec. 5.1 case study 3: 0.047-0.5
+EHA_SENSITIVITY_LPM = (0.77, 0.98, 1.2, 1.4, 1.63)  # Sec. 6 case study 3: 0.77-1.63
+VCA_SENSITIVITY_DURATIONS_S = (300.0, 400.0, 600.0)  # Sec. 5.1: tests of 300, 400 and 600 s
+STATIONARITY_WINDOW = 400  # Sec. 4.7.1: window 400
+STATIONARITY_OVERLAP = 50.0  # Sec. 4.7.1: 50 % overlap
+
+#: Methods measured in the sensitivity study (Figs. 5-23 to 5-28, 6-5 to 6-20): the thesis's
+#: preferred settings (case-study-2 tables), p2 variants as in Figs. 5-24 and 5-28.
+SENSITIVITY_METHODS = {
+    "vca": (("autocorrelation", "p1", "1", 200, 5.0), ("autocorrelation", "p2", "1", 200, 5.0),
+            ("cross-correlation", "p1,p2", "1", 100, 5.0),
+            ("cross-correlation", "u,x", "1", 100, 5.0),
+            ("metric-length", "p1", "83:3", 500, 5.0), ("metric-length", "p2", "83:3", 500, 5.0)),
+    "eha": (("autocorrelation", "p1", "1", 200, 10.0),
+            ("cross-correlation", "p1,p2", "16", 100, 10.0),
+            ("cross-correlation", "u,x", "8", 100, 5.0),
+            ("metric-length", "p1", "43:3", 400, 5.0)),
+}
+
+
+@dataclass(frozen=True)
+class ProtocolConfig:
+    """Every setting of a reproduction run (stored with its results).
+
+    Parameters
+    ----------
+    name : str
+        ``"full"`` or ``"quick"`` (or any label).
+    vca_duration_s, vca_onset_s : float
+        Case-study 1 and 2 VCA experiment length and leak onset, s.
+    eha_duration_s, eha_onset_s : float
+        Same for the EHA.
+    vca_load, eha_load : str
+        Load of the case-study 1-2 experiments: VCA ``"spring"`` (Sec. 4.5), EHA ``"none"``
+        (Sec. 6, "no-load condition").
+    table_seed : int
+        Seed of the case-study 1-2 experiments.
+    vca_sensitivity_lpm, eha_sensitivity_lpm : tuple of float
+        Leak sizes of case study 3, L/min.
+    vca_sensitivity_durations_s : tuple of float
+        VCA experiment lengths of case study 3 (leak at half time), s.
+    eha_sensitivity_duration_s : float
+        EHA experiment length of case study 3, s.
+    loads : tuple of str
+        Loads of case study 3.
+    sensitivity_seeds : tuple of int
+        Seeds of case study 3.
+    chunk : int
+        RMS chunk length in feature values (Sec. 5.2; not stated in the thesis).
+    cache_dir : str or None
+        Simulation cache folder (None: default, see :func:`leakdiag.studies.cache.resolve_cache_dir`).
+
+    Examples
+    --------
+    >>> QUICK.vca_duration_s, FULL.vca_duration_s
+    (60.0, 400.0)
+    """
+
+    name: str = "full"
+    vca_duration_s: float = VCA_DURATION_S
+    vca_onset_s: float = VCA_ONSET_S
+    eha_duration_s: float = EHA_DURATION_S
+    eha_onset_s: float = EHA_ONSET_S
+    vca_load: str = "spring"
+    eha_load: str = "none"
+    table_seed: int = 0
+    vca_sensitivity_lpm: tuple = VCA_SENSITIVITY_LPM
+    eha_sensitivity_lpm: tuple = EHA_SENSITIVITY_LPM
+    vca_sensitivity_durations_s: tuple = VCA_SENSITIVITY_DURATIONS_S
+    eha_sensitivity_duration_s: float = EHA_DURATION_S
+    loads: tuple = ("spring", "none")
+    sensitivity_seeds: tuple = (1, 2)
+    chunk: int = 10
+    cache_dir: str | None = None
+    extra: dict = field(default_factory=dict)
+
+    def as_dict(self) -> dict:
+        """All fields as plain data.
+
+        Returns
+        -------
+        dict
+        """
+        return dataclasses.asdict(self)
+
+
+#: The thesis protocol at full length.
+FULL = ProtocolConfig()
+#: A short version for CI: 60 s VCA (leak at 30 s), 40 s EHA (leak at 20 s), one seed, two
+#: leak sizes per system, one VCA duration.
+QUICK = ProtocolConfig(name="quick", vca_duration_s=60.0, vca_onset_s=30.0, eha_duration_s=40.0,
+                       eha_onset_s=20.0, vca_sensitivity_lpm=(0.047, 0.5),
+                       eha_sensitivity_lpm=(0.77, 1.63), vca_sensitivity_durations_s=(60.0,),
+                       eha_sensitivity_duration_s=40.0, sensitivity_seeds=(1,))
+
+
+def build_cases(cfg: ProtocolConfig, systems=("vca", "eha")) -> list[dict]:
+    """All cases of a reproduction as plain dicts (each runnable by :func:`run_case`).
+
+    Parameters
+    ----------
+    cfg : ProtocolConfig
+        Settings.
+    systems : sequence of {"vca", "eha"}
+        Systems to include.
+
+    Returns
+    -------
+    list of dict
+
+    Raises
+    ------
+    ValueError
+        For an unknown system.
+
+    Examples
+    --------
+    >>> cases = build_cases(QUICK, ["vca"])
+    >>> sorted({c["kind"] for c in cases}), len(cases)
+    (['sensitivity', 'stationarity', 'tables'], 7)
+    """
+    cases = []
+    for system in systems:
+        if system not in ("vca", "eha"):
+            raise ValueError(f"unknown system {system!r}; use 'vca' or 'eha'")
+        vca = system == "vca"
+        dur = cfg.vca_duration_s if vca else cfg.eha_duration_s
+        onset = cfg.vca_onset_s if vca else cfg.eha_onset_s
+        load = cfg.vca_load if vca else cfg.eha_load
+        leaks = VCA_CASE_LEAKS_LPM if vca else EHA_CASE_LEAKS_LPM
+        base = {"system": system, "chunk": cfg.chunk, "cache_dir": cfg.cache_dir}
+        for cs, leak in leaks.items():
+            sim = {"duration": dur, "leak_lpm": leak, "onset": onset, "load": load,
+                   "seed": cfg.table_seed}
+            cases.append({**base, "kind": "tables", "case_study": cs, "sim": sim})
+        cases.append({**base, "kind": "stationarity", "case_study": 1,
+                      "sim": {"duration": dur, "leak_lpm": leaks[1], "onset": onset,
+                              "load": load, "seed": cfg.table_seed}})
+        durations = cfg.vca_sensitivity_durations_s if vca else (cfg.eha_sensitivity_duration_s,)
+        for leak in (cfg.vca_sensitivity_lpm if vca else cfg.eha_sensitivity_lpm):
+            for load3 in cfg.loads:
+                for d in durations:
+                    for seed in cfg.sensitivity_seeds:
+                        sim = {"duration": float(d), "leak_lpm": float(leak),
+                               "onset": float(d) / 2, "load": load3, "seed": int(seed)}
+                        cases.append({**base, "kind": "sensitivity", "case_study": 3,
+                                      "sim": sim})
+    return cases
+
+
+def simulate_case(case: dict):
+    """The (cached) simulated recording of a case.
+
+    Parameters
+    ----------
+    case : dict
+        A case from :func:`build_cases`.
+
+    Returns
+    -------
+    Recording
+    """
+    from leakdiag.studies.cache import cached_simulation
+
+    return cached_simulation(case["system"], cache_dir=case.get("cache_dir"), **case["sim"])
+
+
+def _spec(method, channels, lag, window, overlap):
+    from leakdiag.features.methods import MethodSpec, normalize_method
+
+    m = normalize_method(method)
+    chans = tuple(c.strip() for c in str(channels).split(","))
+    if m == "metric-length":
+        return MethodSpec(m, chans, lag_ratio=str(lag), window=int(window), overlap=float(overlap))
+    return MethodSpec(m, chans, lag=int(lag), window=int(window), overlap=float(overlap))
+
+
+def _measure(rec, spec, onset, chunk, keep_series=False) -> dict:
+    from leakdiag.features.methods import compute_feature
+    from leakdiag.studies.grid import measure_row
+
+    fs = compute_feature(rec, spec)
+    lag = spec.lag_ratio if spec.lag_ratio is not None else spec.lag
+    row = measure_row(fs, onset, chunk, spec.method, spec.channels, lag, spec.window,
+                      spec.overlap)
+    if keep_series:
+        row["series_time"] = np.asarray(fs.time, dtype=np.float32)
+        row["series_values"] = np.asarray(fs.values, dtype=np.float32)
+    return row
+
+
+def _run_tables(case, rec) -> dict:
+    from leakdiag.studies.select import SelectionRule
+    from leakdiag.studies.sweep import ofat_sweep
+    from leakdiag.studies.thesis import channels_of, load_tables
+
+    t = load_tables()
+    t = t[(t.system.str.lower() == case["system"]) & (t.case_study == case["case_study"])]
+    onset = float(rec.onset if rec.onset is not None else case["sim"]["onset"])
+    rows = []
+    for r in t.itertuples(index=False):
+        spec = _spec(r.method, ",".join(channels_of(r.signals)), r.lag, r.window, r.overlap_pct)
+        out = _measure(rec, spec, onset, case["chunk"], keep_series=True)
+        out["row_id"] = int(r.row_id)
+        rows.append(out)
+    ofat = []
+    if case["case_study"] == 1:
+        for (method, signals), g in t.groupby(["method", "signals"], sort=False):
+            lags = list(dict.fromkeys(g.loc[g.varied.isin(["lag", "lag_ratio"]), "lag"]))
+            wins = list(dict.fromkeys(g.loc[g.varied == "window", "window"].astype(int)))
+            ovs = list(dict.fromkeys(g.loc[g.varied == "overlap", "overlap_pct"].astype(float)))
+            if not (lags and wins and ovs):
+                continue
+            first = g.iloc[0]
+            try:
+                res = ofat_sweep(rec, method, ",".join(channels_of(signals)), lags, wins, ovs,
+                                 start_window=int(first.window),
+                                 start_overlap=float(first.overlap_pct), rule=SelectionRule(),
+                                 onset=onset, chunk=case["chunk"])
+            except ValueError as exc:
+                ofat.append({"method": method, "signals": signals, "error": str(exc)})
+                continue
+            ofat.append({"method": method, "signals": signals, **{f"chosen_{k}": v for k, v in
+                                                                   res.chosen.items()},
+                         "table": res.table()})
+    return {"rows": rows, "ofat": ofat, "leak_lpm_achieved": rec.meta.get("leak_lpm_achieved")}
+
+
+def _run_sensitivity(case, rec) -> dict:
+    onset = float(rec.onset if rec.onset is not None else case["sim"]["onset"])
+    rows = []
+    for method, chans, lag, window, overlap in SENSITIVITY_METHODS[case["system"]]:
+        row = _measure(rec, _spec(method, chans, lag, window, overlap), onset, case["chunk"])
+        row.update({k: case["sim"][k] for k in ("leak_lpm", "load", "seed", "duration")})
+        row["system"] = case["system"]
+        row["leak_lpm_achieved"] = rec.meta.get("leak_lpm_achieved")
+        rows.append(row)
+    return {"rows": rows}
+
+
+def run_case(case: dict) -> dict:
+    """Run one case: simulate (cached), then measure. Pure: same case, same result.
+
+    Parameters
+    ----------
+    case : dict
+        A case from :func:`build_cases`.
+
+    Returns
+    -------
+    dict
+        ``"tables"``: ``rows`` (one per thesis table row, with the feature series) and ``ofat``;
+        ``"sensitivity"``: ``rows`` (one per method); ``"stationarity"``: see
+        :func:`leakdiag.studies.stationarity.stationarity`. Always ``cache_hit`` and ``case``.
+
+    Raises
+    ------
+    ValueError
+        For an unknown case kind.
+    """
+    rec = simulate_case(case)
+    kind = case["kind"]
+    if kind == "tables":
+        out = _run_tables(case, rec)
+    elif kind == "sensitivity":
+        out = _run_sensitivity(case, rec)
+    elif kind == "stationarity":
+        from leakdiag.studies.stationarity import stationarity
+
+        out = stationarity(rec, window=STATIONARITY_WINDOW, overlap=STATIONARITY_OVERLAP)
+    else:
+        raise ValueError(f"unknown case kind {kind!r}")
+    out["cache_hit"] = bool(rec.meta.get("cache_hit"))
+    out["case"] = case
+    return out
