@@ -27,7 +27,38 @@ __all__ = [
 ]
 
 # --- VCA (owner: VCA engineer) -------------------------------------------------------------
-# (simulate_vca, VCAParams ... are added below once written)
+from leakdiag.sim.reference import (  # noqa: E402
+    ChirpReference,
+    PseudoRandomSteps,
+    SampledReference,
+    SineReference,
+    as_reference,
+)
+from leakdiag.sim.sensors import SensorParams  # noqa: E402
+from leakdiag.sim.vca_conditions import OperatingConditions  # noqa: E402
+from leakdiag.sim.vca_control import FixedGainController  # noqa: E402
+from leakdiag.sim.vca_integrator import integrate_closed_loop, rk4_advance  # noqa: E402
+from leakdiag.sim.vca_model import default_inputs, vca_leak_flow, vca_rhs  # noqa: E402
+from leakdiag.sim.vca_params import VCAParams  # noqa: E402
+from leakdiag.sim.vca_simulate import simulate_vca  # noqa: E402
+
+__all__ += [
+    "ChirpReference",
+    "FixedGainController",
+    "OperatingConditions",
+    "PseudoRandomSteps",
+    "SampledReference",
+    "SensorParams",
+    "SineReference",
+    "VCAParams",
+    "as_reference",
+    "default_inputs",
+    "integrate_closed_loop",
+    "rk4_advance",
+    "simulate_vca",
+    "vca_leak_flow",
+    "vca_rhs",
+]
 
 # --- EHA (owner: EHA engineer): add `from leakdiag.sim.eha... import simulate_eha, EHAParams`
 # and extend __all__ here. ---------------------------------------------------------------------

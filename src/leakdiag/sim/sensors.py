@@ -1,0 +1,205 @@
+"""Sensor models of the test rigs (thesis Sec. 2.2): pressure transducer + ADC, encoder, DAC.
+
+Shared by the VCA and EHA simulators. The scalar functions are Numba-compiled so that a
+closed-loop integrator can measure inside its loop (the controller sees the *measured*
+position, as on the rig); the array functions apply the same models to whole channels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numba
+import numpy as np
+
+from leakdiag._validation import check_int, check_positive
+
+__all__ = [
+    "PSI_PA",
+    "SensorParams",
+    "quantize",
+    "adc_reading",
+    "measure_pressure",
+    "measure_position",
+]
+
+#: 1 psi in Pa.
+PSI_PA = 6894.757293168
+#: Pressure transducer range, 0-3000 psig (Sec. 2.2: "a range of 3000 Psig ... 21 MPa").
+PRESSURE_FULL_SCALE_PA = 3000.0 * PSI_PA
+#: DAS16F input-output board: 12-bit A/D and D/A converters (Keithley MetraByte DAS-16F data
+#: sheet; the thesis names the board in Sec. 2.2 but not its resolution).
+DAS16F_BITS = 12
+#: Encoder accuracy, 0.03 mm linear displacement (Sec. 2.2, M5312 quadrature encoder card).
+ENCODER_RESOLUTION_M = 0.03e-3
+
+
+@dataclass(frozen=True)
+class SensorParams:
+    """Sensor chain of the rig (Sec. 2.2).
+
+    Parameters
+    ----------
+    pressure_full_scale_pa : float, default 3000 psi = 20.68 MPa
+        Pressure transducer range (0 to full scale, gauge); readings are clipped to it.
+    pressure_adc_bits : int, default 12
+        ADC resolution over the transducer range (DAS16F, 12 bit): quantum
+        ``full_scale / 2**bits`` = 5.05 kPa.
+    pressure_noise_std_pa : float, default 10e3
+        Standard deviation of white noise added before the ADC (about 0.05 % of full scale;
+        the thesis does not state it, this is typical for a strain-gauge transducer and cable).
+    position_resolution_m : float, default 0.03e-3
+        Encoder quantum (Sec. 2.2, 0.03 mm).
+    control_dac_bits : int, default 12
+        D/A resolution of the control signal over ``[-control_limit, +control_limit]``.
+
+    Raises
+    ------
+    ValueError
+        If a value is not positive (the noise may be 0).
+
+    Examples
+    --------
+    >>> s = SensorParams()
+    >>> round(s.pressure_quantum_pa)
+    5050
+    """
+
+    pressure_full_scale_pa: float = PRESSURE_FULL_SCALE_PA
+    pressure_adc_bits: int = DAS16F_BITS
+    pressure_noise_std_pa: float = 10e3
+    position_resolution_m: float = ENCODER_RESOLUTION_M
+    control_dac_bits: int = DAS16F_BITS
+
+    def __post_init__(self) -> None:
+        check_positive(self.pressure_full_scale_pa, "pressure_full_scale_pa")
+        check_int(self.pressure_adc_bits, "pressure_adc_bits", 1, 33)
+        check_int(self.control_dac_bits, "control_dac_bits", 1, 33)
+        check_positive(self.position_resolution_m, "position_resolution_m")
+        noise = float(self.pressure_noise_std_pa)
+        if not np.isfinite(noise) or noise < 0:
+            raise ValueError(f"pressure_noise_std_pa={self.pressure_noise_std_pa!r} must be >= 0")
+
+    @property
+    def pressure_quantum_pa(self) -> float:
+        """ADC step in Pa, ``full_scale / 2**bits``."""
+        return self.pressure_full_scale_pa / 2.0**self.pressure_adc_bits
+
+    def to_dict(self) -> dict:
+        """Field name -> value (for recording metadata)."""
+        return asdict(self)
+
+
+@numba.njit(cache=True)
+def quantize(value, step):
+    """Round ``value`` to the nearest multiple of ``step`` (Numba-compiled scalar).
+
+    Parameters
+    ----------
+    value : float
+        Value to quantise.
+    step : float
+        Quantum, > 0.
+
+    Returns
+    -------
+    float
+        ``round(value / step) * step``.
+
+    Examples
+    --------
+    >>> round(quantize(0.100e-3, 0.03e-3), 9)
+    9e-05
+    """
+    return np.round(value / step) * step
+
+
+@numba.njit(cache=True)
+def adc_reading(value, noise, full_scale, quantum):
+    """Reading of a unipolar transducer through an ADC (Numba-compiled scalar).
+
+    Parameters
+    ----------
+    value : float
+        True value (e.g. Pa gauge).
+    noise : float
+        Noise sample added before conversion (same unit).
+    full_scale : float
+        Upper end of the range; the reading is clipped to ``[0, full_scale - quantum]``.
+    quantum : float
+        ADC step.
+
+    Returns
+    -------
+    float
+        Quantised, clipped reading.
+
+    Examples
+    --------
+    >>> adc_reading(1.26, 0.0, 10.0, 0.5)
+    1.5
+    >>> adc_reading(-3.0, 0.0, 10.0, 0.5)
+    0.0
+    """
+    r = np.round((value + noise) / quantum) * quantum
+    top = full_scale - quantum
+    if r < 0.0:
+        return 0.0
+    if r > top:
+        return top
+    return r
+
+
+def measure_pressure(pressure, sensors: SensorParams, rng: np.random.Generator) -> np.ndarray:
+    """Pressure channel as recorded: noise, ADC quantisation, clipping to the transducer range.
+
+    Parameters
+    ----------
+    pressure : array_like
+        True gauge pressure in Pa.
+    sensors : SensorParams
+        Sensor chain.
+    rng : numpy.random.Generator
+        Source of the noise.
+
+    Returns
+    -------
+    numpy.ndarray
+        Measured pressure in Pa, same shape.
+
+    Examples
+    --------
+    >>> s = SensorParams(pressure_noise_std_pa=0.0)
+    >>> measure_pressure([1e6, -5.0], s, np.random.default_rng(0)).tolist() == [
+    ...     round(1e6 / s.pressure_quantum_pa) * s.pressure_quantum_pa, 0.0]
+    True
+    """
+    p = np.ascontiguousarray(pressure, dtype=np.float64)
+    q = sensors.pressure_quantum_pa
+    noisy = p + sensors.pressure_noise_std_pa * rng.standard_normal(p.shape)
+    return np.clip(np.round(noisy / q) * q, 0.0, sensors.pressure_full_scale_pa - q)
+
+
+def measure_position(position, sensors: SensorParams) -> np.ndarray:
+    """Position channel as recorded: encoder quantisation (no noise; an encoder counts).
+
+    Parameters
+    ----------
+    position : array_like
+        True position in m.
+    sensors : SensorParams
+        Sensor chain.
+
+    Returns
+    -------
+    numpy.ndarray
+        Position rounded to ``position_resolution_m``.
+
+    Examples
+    --------
+    >>> measure_position([0.0, 0.016e-3, -0.046e-3], SensorParams()).round(8).tolist()
+    [0.0, 3e-05, -6e-05]
+    """
+    x = np.ascontiguousarray(position, dtype=np.float64)
+    q = sensors.position_resolution_m
+    return np.round(x / q) * q

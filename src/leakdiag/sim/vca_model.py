@@ -1,0 +1,188 @@
+"""Right-hand side of the VCA model, thesis Eqs. 2-1 to 2-5, as plain Numba functions.
+
+State ``[x_p, v_p, P_1, P_2, x_v, v_v]`` (m, m/s, Pa, Pa, m, m/s). Inputs
+``[u, k_l, dP_s, beta_scale, damping_scale, spring_scale]`` (see :data:`INPUT_INDEX`):
+control signal (V), the leakage coefficient in force at that instant (Eq. 2-4 units
+m^3/(s Pa^0.5), Eq. 2-5 units m^3/(s Pa)), a supply-pressure offset (Pa, pump ripple) and
+multipliers of the bulk modulus, viscous damping and spring stiffness (operating conditions;
+1 = nominal). ``params`` is :meth:`VCAParams.to_array`.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+__all__ = ["STATE_NAMES", "INPUT_INDEX", "vca_rhs", "vca_leak_flow", "default_inputs"]
+
+#: Names of the six states, in order.
+STATE_NAMES = ("x", "v", "p1", "p2", "xv", "vv")
+#: Index of each input of ``vca_rhs``.
+INPUT_INDEX = {"u": 0, "leak_coefficient": 1, "supply_offset_pa": 2, "beta_scale": 3,
+               "damping_scale": 4, "spring_scale": 5}
+_MIN_VOLUME_M3 = 1e-7  # guard against a volume <= 0 if an end stop is overrun
+
+
+def default_inputs(u: float = 0.0, leak_coefficient: float = 0.0) -> np.ndarray:
+    """Inputs array for nominal operating conditions.
+
+    Parameters
+    ----------
+    u : float, default 0.0
+        Control signal in V.
+    leak_coefficient : float, default 0.0
+        Leakage coefficient in force.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``[u, leak_coefficient, 0, 1, 1, 1]``.
+
+    Examples
+    --------
+    >>> default_inputs(1.5).tolist()
+    [1.5, 0.0, 0.0, 1.0, 1.0, 1.0]
+    """
+    return np.array([u, leak_coefficient, 0.0, 1.0, 1.0, 1.0], dtype=np.float64)
+
+
+@numba.njit(cache=True)
+def _sqrt_reg(dp, ptr):
+    # sgn(dp) sqrt(|dp|), laminar below ~ptr: dp / (dp^2 + ptr^2)^(1/4)
+    return dp / np.sqrt(np.sqrt(dp * dp + ptr * ptr))
+
+
+@numba.njit(cache=True)
+def vca_leak_flow(p1, p2, leak_coefficient, params):
+    """Internal leakage flow from chamber 1 to chamber 2, Eq. 2-4 or Eq. 2-5 (m^3/s).
+
+    Parameters
+    ----------
+    p1, p2 : float
+        Chamber pressures in Pa.
+    leak_coefficient : float
+        :math:`k_l` in force.
+    params : numpy.ndarray
+        :meth:`VCAParams.to_array`; entry ``leak_model`` selects turbulent (0) or laminar (1).
+
+    Returns
+    -------
+    float
+        :math:`Q_l = k_l\\,\\mathrm{sgn}(P_1-P_2)\\sqrt{|P_1-P_2|}` (turbulent, regularised
+        below ``ptr_leak``) or :math:`k_l (P_1 - P_2)` (laminar).
+
+    Examples
+    --------
+    >>> from leakdiag.sim.vca_params import VCAParams
+    >>> pa = VCAParams().to_array("laminar")
+    >>> float(vca_leak_flow(2e6, 1e6, 1e-12, pa))
+    1e-06
+    """
+    dp = p1 - p2
+    if leak_coefficient == 0.0:
+        return 0.0
+    if params[18] == 1.0:
+        return leak_coefficient * dp
+    return leak_coefficient * _sqrt_reg(dp, params[20])
+
+
+@numba.njit(cache=True)
+def _rhs_into(t, s, inp, prm, out):
+    x = s[0]
+    v = s[1]
+    p1 = s[2]
+    p2 = s[3]
+    xv = s[4]
+    vv = s[5]
+    area = prm[0]
+    ps = prm[5] + inp[2]
+    pt = prm[6]
+    half = prm[12]
+    # Mechanics, Eq. 2-1 + spring load, Coulomb friction, end stops (not in the thesis).
+    force = area * (p1 - p2) - prm[2] * inp[4] * v - prm[15] * inp[5] * x
+    if prm[16] > 0.0:
+        force -= prm[16] * np.tanh(v / prm[17])
+    if x > half:
+        force -= prm[13] * (x - half) + prm[14] * v
+    elif x < -half:
+        force -= prm[13] * (x + half) + prm[14] * v
+    # Valve flows, Eq. 2-2 (critically lapped, matched orifices; Q2 leaves chamber 2).
+    g = prm[7] * prm[8] * xv
+    ptr = prm[19]  # ptr_valve
+    if xv >= 0.0:
+        q1 = g * _sqrt_reg(ps - p1, ptr)
+        q2 = g * _sqrt_reg(p2 - pt, ptr)
+    else:
+        q1 = g * _sqrt_reg(p1 - pt, ptr)
+        q2 = g * _sqrt_reg(ps - p2, ptr)
+    ql = vca_leak_flow(p1, p2, inp[1], prm)
+    beta = prm[4] * inp[3]
+    v1 = prm[3] + area * x
+    v2 = prm[3] - area * x
+    if v1 < _MIN_VOLUME_M3:
+        v1 = _MIN_VOLUME_M3
+    if v2 < _MIN_VOLUME_M3:
+        v2 = _MIN_VOLUME_M3
+    dp1 = beta / v1 * (q1 - ql - area * v)
+    dp2 = beta / v2 * (-q2 + ql + area * v)
+    # Pressures bounded between tank and supply (cavitation / relief), not in Eq. 2-1.
+    if (p1 >= ps and dp1 > 0.0) or (p1 <= pt and dp1 < 0.0):
+        dp1 = 0.0
+    if (p2 >= ps and dp2 > 0.0) or (p2 <= pt and dp2 < 0.0):
+        dp2 = 0.0
+    wv = prm[10]
+    out[0] = v
+    out[1] = force / prm[1]
+    out[2] = dp1
+    out[3] = dp2
+    out[4] = vv
+    out[5] = -wv * wv * xv - 2.0 * prm[11] * wv * vv + prm[9] * wv * wv * inp[0]
+
+
+@numba.njit(cache=True)
+def vca_rhs(t, state, inputs, params):
+    """Time derivative of the VCA state, Eqs. 2-1 to 2-5 (Numba-compiled).
+
+    Parameters
+    ----------
+    t : float
+        Time in s (unused: the model is time-invariant given ``inputs``).
+    state : numpy.ndarray
+        ``[x_p, v_p, P_1, P_2, x_v, v_v]`` in m, m/s, Pa, Pa, m, m/s.
+    inputs : numpy.ndarray
+        ``[u, k_l, dP_s, beta_scale, damping_scale, spring_scale]``, see
+        :func:`default_inputs`.
+    params : numpy.ndarray
+        :meth:`VCAParams.to_array`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(6,)``, the derivatives.
+
+    Notes
+    -----
+    .. math::
+
+        \\dot x_p = v_p,\\quad
+        m\\dot v_p = A(P_1 - P_2) - d v_p - k_s x_p - F_c\\tanh(v_p/v_c) + F_{stop}
+
+        \\dot P_1 = \\frac{\\beta}{V + A x_p}(Q_1 - Q_l - A v_p),\\quad
+        \\dot P_2 = \\frac{\\beta}{V - A x_p}(-Q_2 + Q_l + A v_p)   \\quad (2\\text{-}1)
+
+        \\dot v_v = -\\omega_v^2 x_v - 2\\xi\\omega_v v_v + k_v\\omega_v^2 u
+
+    with :math:`Q_1, Q_2` from Eq. 2-2 and :math:`Q_l` from Eq. 2-4 or 2-5. A pressure at its
+    bound (tank or supply) does not move further outwards.
+
+    Examples
+    --------
+    >>> from leakdiag.sim.vca_params import VCAParams
+    >>> p = VCAParams()
+    >>> s = np.array([0.0, 0.0, 8.6e6, 8.6e6, 0.0, 0.0])
+    >>> vca_rhs(0.0, s, default_inputs(), p.to_array()).tolist()  # at rest, valve closed
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    """
+    out = np.empty(6)
+    _rhs_into(t, state, inputs, params, out)
+    return out

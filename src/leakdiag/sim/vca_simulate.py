@@ -1,0 +1,334 @@
+"""``simulate_vca``: a closed-loop VCA experiment as a :class:`~leakdiag.io.Recording`."""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+
+from leakdiag._validation import check_positive
+from leakdiag._version import __version__
+from leakdiag.io.recording import Recording
+from leakdiag.sim.leak import (
+    LeakSchedule,
+    calibrate_leak_coefficient,
+    lpm_to_m3s,
+    m3s_to_lpm,
+)
+from leakdiag.sim.reference import as_reference
+from leakdiag.sim.sensors import SensorParams
+from leakdiag.sim.vca_conditions import OperatingConditions
+from leakdiag.sim.vca_control import FixedGainController
+from leakdiag.sim.vca_integrator import ClosedLoopResult, integrate_closed_loop, rk4_advance
+from leakdiag.sim.vca_model import vca_leak_flow
+from leakdiag.sim.vca_params import LEAK_MODELS, LOADS, VCAParams
+
+__all__ = ["simulate_vca", "DEFAULT_MAX_STEP_S", "initial_leak_coefficient"]
+
+#: Largest RK4 step (s). Halving it changes pressures by < 0.01 % RMS (docs/models.md), and it
+#: keeps the stiffest mode (end-stop contact, ~2850 rad/s) well inside RK4's stability region.
+DEFAULT_MAX_STEP_S = 2.5e-4
+#: Typical |P1 - P2| used only for the first guess of the leak coefficient (Pa).
+_TYPICAL_LOAD_PRESSURE_PA = {"none": 3e4, "spring": 8e5}
+_CHUNK_S = 10.0  # progress granularity (s of simulated time)
+
+
+def initial_leak_coefficient(leak_lpm: float, leak_model: str, load: str) -> float:
+    """First guess of the leakage coefficient for a target mean leak.
+
+    Parameters
+    ----------
+    leak_lpm : float
+        Target mean leak in L/min.
+    leak_model : {"turbulent", "laminar"}
+        Eq. 2-4 or Eq. 2-5.
+    load : {"none", "spring"}
+        Sets the typical load pressure used (30 kPa without load, 0.8 MPa with the spring).
+
+    Returns
+    -------
+    float
+        ``Q / sqrt(dp)`` (turbulent) or ``Q / dp`` (laminar), SI.
+
+    Examples
+    --------
+    >>> round(initial_leak_coefficient(0.6, "laminar", "spring"), 20)
+    1.25e-11
+    """
+    dp = _TYPICAL_LOAD_PRESSURE_PA[load]
+    q = lpm_to_m3s(leak_lpm)
+    return q / math.sqrt(dp) if leak_model == "turbulent" else q / dp
+
+
+def _leak_stable_substeps(k_leak: float, leak_model: str, params: VCAParams, fs: float) -> int:
+    r"""RK4 steps per sample that keep the leak path stable: ``h * lambda_leak <= 1``.
+
+    The leak couples the chambers with rate :math:`\lambda = \beta (1/V_1 + 1/V_2)\,
+    dQ_l/d\Delta p`; with the volumes taken as ``V/2`` (a factor-2 margin for an off-centre
+    piston) :math:`\lambda = 4 \beta\, dQ_l/d\Delta p / V`. The slope is :math:`k_l` (laminar)
+    or :math:`k_l/\sqrt{p_{tr}}` (regularised turbulent law at 0).
+    """
+    if k_leak <= 0:
+        return 1
+    slope = k_leak if leak_model == "laminar" else k_leak / math.sqrt(
+        params.leak_transition_pressure_pa)
+    lam = 4.0 * params.bulk_modulus_pa * slope / params.chamber_volume_m3
+    return max(1, math.ceil(lam / fs))
+
+
+def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sched, cond, s0,
+                           noise1, noise2, sensors: SensorParams | None) -> ClosedLoopResult:
+    """Slow path: a user controller ``u = controller(t, x_ref, x_m, p1_m, p2_m)`` in Python."""
+    from leakdiag.sim.sensors import adc_reading, quantize
+
+    n = x_ref.size
+    out_state = np.empty((n, 6))
+    out_meas = np.empty((n, 3))
+    out_u = np.empty(n)
+    out_q = np.empty(n)
+    s = s0.copy()
+    h = 1.0 / fs / n_sub
+    sched_arr = sched.to_array()
+    for k in range(n):
+        t = k / fs
+        out_state[k] = s
+        out_q[k] = vca_leak_flow(s[2], s[3], k_leak * sched.multiplier(t), prm)
+        if sensors is not None:
+            fsc, q = sensors.pressure_full_scale_pa, sensors.pressure_quantum_pa
+            xm = quantize(s[0], sensors.position_resolution_m)
+            p1m = adc_reading(s[2], noise1[k], fsc, q)
+            p2m = adc_reading(s[3], noise2[k], fsc, q)
+        else:
+            xm, p1m, p2m = s[0], s[2], s[3]
+        out_meas[k] = (xm, p1m, p2m)
+        u = float(controller(t, x_ref[k], xm, p1m, p2m))
+        if not math.isfinite(u):
+            raise ValueError(f"controller returned u={u!r} at t={t} s")
+        u = min(max(u, -u_max), u_max)
+        out_u[k] = u
+        rk4_advance(s, t, h, n_sub, u, k_leak, sched_arr, cond, prm)
+    return ClosedLoopResult(out_state, out_meas, out_u, out_q)
+
+
+def simulate_vca(
+    duration: float = 400.0,
+    leak_lpm: float | None = 0.10,
+    onset: float = 200.0,
+    leak_model: str = "turbulent",
+    load: str = "none",
+    seed: int = 1,
+    sensors: bool = True,
+    params: VCAParams | None = None,
+    sample_rate: float = 1000.0,
+    *,
+    leak_kind: str = "step",
+    ramp_duration: float = 100.0,
+    leak_coefficient: float | None = None,
+    reference=None,
+    reference_seed: int | None = None,
+    controller: FixedGainController | Callable | None = None,
+    conditions: OperatingConditions | None = None,
+    sensor_params: SensorParams | None = None,
+    max_step: float = DEFAULT_MAX_STEP_S,
+    calibration_rtol: float = 0.02,
+    progress: Callable[[int], None] | None = None,
+) -> Recording:
+    """Simulate a closed-loop valve-controlled actuator experiment (thesis Ch. 2, Sec. 4.5).
+
+    Parameters
+    ----------
+    duration : float, default 400.0
+        Length of the run in s (Sec. 4.5: 400 s).
+    leak_lpm : float or None, default 0.10
+        Target mean leak after the onset in L/min (Sec. 5.1: 0.047-0.5); 0 or None: no leak.
+    onset : float, default 200.0
+        Leak onset in s (Sec. 4.5: leak introduced at 200 s); must lie inside the run.
+    leak_model : {"turbulent", "laminar"}, default "turbulent"
+        Eq. 2-4 or Eq. 2-5.
+    load : {"none", "spring"}, default "none"
+        No load, or the spring of ``params.spring_stiffness_n_per_m`` (Sec. 4.5).
+    seed : int, default 1
+        Seed of the reference sequence and the sensor noise: same seed, same output bit for bit.
+    sensors : bool, default True
+        Record measured signals (ADC, noise, encoder, DAC). False: the true, noise-free states
+        at the output rate (the controller then also sees the true position), for physics checks.
+    params : VCAParams, optional
+        Physical parameters; default Table 2-1.
+    sample_rate : float, default 1000.0
+        Output and control rate in Hz (not stated in the thesis; 1 kHz chosen).
+    leak_kind : {"step", "ramp"}, default "step"
+        Step at the onset, or linear ramp over ``ramp_duration`` (seal wear).
+    ramp_duration : float, default 100.0
+        Ramp length in s.
+    leak_coefficient : float, optional
+        Use this leakage coefficient instead of calibrating one to ``leak_lpm``.
+    reference : optional
+        Anything :func:`~leakdiag.sim.reference.as_reference` accepts; default pseudorandom
+        steps of 2-20 mm.
+    reference_seed : int, optional
+        Seed of the reference alone (another reference sequence for the same noise).
+    controller : FixedGainController or callable, optional
+        Fixed-gain gains (fast compiled path), or ``controller(t, x_ref, x_m, p1_m, p2_m) -> u``
+        in Python (slow path, about 100x slower).
+    conditions : OperatingConditions, optional
+        Supply ripple, temperature drift, spring change; default nominal.
+    sensor_params : SensorParams, optional
+        Sensor chain; default Sec. 2.2.
+    max_step : float, default 2.5e-4
+        Largest RK4 step in s; the step is ``1 / (sample_rate * ceil(1 / (sample_rate * max_step)))``.
+    calibration_rtol : float, default 0.02
+        Relative tolerance of the leak calibration.
+    progress : callable, optional
+        ``progress(n_samples_done)`` called every 10 s of simulated time.
+
+    Returns
+    -------
+    Recording
+        Channels ``p1``, ``p2`` (Pa), ``x`` (m), ``u`` (V), ``leak_flow`` (m^3/s, true), ``x_ref``
+        (m). ``meta``: ``system="vca"``, ``onset`` (None without leak), ``leak_lpm`` (target),
+        ``leak_lpm_achieved``, ``leak_coefficient``, ``leak_model``, ``leak_kind``, ``load``,
+        ``seed``, ``params`` (dict), ``controller``, ``sensors``, ``conditions``, ``rk4_step_s``,
+        ``calibration_runs``, ``rated_flow_lpm``, ``leakdiag_version``, ``source``.
+
+    Raises
+    ------
+    ValueError
+        If an argument is out of range (the message names it), e.g. an onset outside the run.
+    leakdiag.sim.leak.LeakCalibrationError
+        If the leak cannot be calibrated to the target.
+
+    Notes
+    -----
+    Model: Eqs. 2-1 to 2-5 (see :func:`~leakdiag.sim.vca_model.vca_rhs`). Integration: fixed-step
+    RK4, control held between samples. The achieved leak is the mean of :math:`|Q_l|` over the
+    samples at or after the onset (Sec. 4.5, "the mean of the leak after 200 seconds"); the
+    calibration runs the *same* experiment (same seed) 2-4 times, so a calibrated run costs 2-4
+    simulations.
+
+    Examples
+    --------
+    >>> rec = simulate_vca(duration=4.0, leak_lpm=None, seed=3)
+    >>> rec.channel_names
+    ['p1', 'p2', 'x', 'u', 'leak_flow', 'x_ref']
+    >>> rec.meta["system"], rec.meta["leak_lpm_achieved"], rec.n_samples
+    ('vca', 0.0, 4000)
+    """
+    duration = check_positive(duration, "duration")
+    fs = check_positive(sample_rate, "sample_rate")
+    max_step = check_positive(max_step, "max_step")
+    if leak_model not in LEAK_MODELS:
+        raise ValueError(f"leak_model={leak_model!r} must be one of {list(LEAK_MODELS)}")
+    if load not in LOADS:
+        raise ValueError(f"load={load!r} must be one of {list(LOADS)}")
+    if leak_kind not in ("step", "ramp"):
+        raise ValueError(f"leak_kind={leak_kind!r} must be 'step' or 'ramp'")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed={seed!r} must be a non-negative integer")
+    params = VCAParams() if params is None else params
+    if not isinstance(params, VCAParams):
+        raise TypeError(f"params must be a VCAParams, got {type(params).__name__}")
+    conditions = OperatingConditions() if conditions is None else conditions
+    sensor_params = SensorParams() if sensor_params is None else sensor_params
+    n = int(round(duration * fs))
+    if n < 2:
+        raise ValueError(f"duration={duration} s at sample_rate={fs} Hz gives fewer than 2 samples")
+    n_sub = max(1, math.ceil(1.0 / (fs * max_step) - 1e-9))
+    has_leak = leak_lpm is not None and leak_lpm != 0
+    if has_leak:
+        leak_lpm = check_positive(leak_lpm, "leak_lpm")
+        onset = float(onset)
+        if not (0.0 <= onset < (n - 1) / fs):
+            raise ValueError(f"onset={onset} s must lie in [0, duration={duration}) s")
+        sched = LeakSchedule(leak_kind, onset, ramp_duration)
+    else:
+        sched = LeakSchedule("none")
+
+    # --- random streams: reference and noise independent, both from `seed`
+    ref_ss, noise_ss = np.random.SeedSequence(int(seed)).spawn(2)
+    ref_rng = np.random.default_rng(ref_ss if reference_seed is None else reference_seed)
+    t = np.arange(n) / fs
+    x_ref = np.ascontiguousarray(as_reference(reference).samples(t, ref_rng), dtype=np.float64)
+    noise = np.random.default_rng(noise_ss).standard_normal((2, n))
+    noise *= sensor_params.pressure_noise_std_pa
+    sens_arr = None
+    if sensors:
+        sens_arr = np.array([sensor_params.position_resolution_m,
+                             sensor_params.pressure_full_scale_pa,
+                             sensor_params.pressure_quantum_pa,
+                             2 * params.control_limit_v / 2.0**sensor_params.control_dac_bits])
+
+    prm = params.to_array(leak_model, load)
+    cond = conditions.to_array(duration)
+    p_mid = 0.5 * (params.supply_pressure_pa + params.tank_pressure_pa)
+    s0 = np.array([0.0, 0.0, p_mid, p_mid, 0.0, 0.0])
+    ctrl = FixedGainController() if controller is None else controller
+    chunk = max(1, int(round(_CHUNK_S * fs)))
+
+    def run(k_leak: float) -> ClosedLoopResult:
+        n_sub_k = max(n_sub, _leak_stable_substeps(k_leak, leak_model, params, fs))
+        if isinstance(ctrl, FixedGainController):
+            return integrate_closed_loop(x_ref, fs, n_sub_k, prm, ctrl.to_array(),
+                                         params.control_limit_v, k_leak, sched.to_array(), cond,
+                                         s0, noise[0], noise[1], sens_arr, chunk, progress)
+        if not callable(ctrl):
+            raise TypeError("controller must be a FixedGainController or a callable")
+        return _python_controller_run(ctrl, x_ref, fs, n_sub_k, prm, params.control_limit_v,
+                                      k_leak, sched, cond, s0, noise[0], noise[1],
+                                      sensor_params if sensors else None)
+
+    i_on = int(math.ceil(onset * fs - 1e-9)) if has_leak else n
+
+    def mean_leak_lpm(res: ClosedLoopResult) -> float:
+        return m3s_to_lpm(float(np.mean(np.abs(res.leak_flow[i_on:])))) if i_on < n else 0.0
+
+    runs: dict[float, ClosedLoopResult] = {}
+    calibration_runs = 0
+    if not has_leak:
+        k_leak = 0.0
+        result = run(0.0)
+    elif leak_coefficient is not None:
+        k_leak = check_positive(leak_coefficient, "leak_coefficient")
+        result = run(k_leak)
+    else:
+        def simulate_fn(k: float) -> float:
+            runs[k] = run(k)
+            return mean_leak_lpm(runs[k])
+
+        cal = calibrate_leak_coefficient(
+            simulate_fn, leak_lpm, initial_leak_coefficient(leak_lpm, leak_model, load),
+            rtol=calibration_rtol,
+        )
+        k_leak, result, calibration_runs = cal.coefficient, runs[cal.coefficient], cal.n_evaluations
+
+    if sensors:
+        x_out, p1_out, p2_out = result.measured[:, 0], result.measured[:, 1], result.measured[:, 2]
+    else:
+        x_out, p1_out, p2_out = result.state[:, 0], result.state[:, 2], result.state[:, 3]
+    meta = {
+        "system": "vca",
+        "source": "leakdiag.sim.simulate_vca",
+        "onset": sched.onset_s if has_leak else None,
+        "leak_lpm": float(leak_lpm) if has_leak else 0.0,
+        "leak_lpm_achieved": mean_leak_lpm(result),
+        "leak_coefficient": float(k_leak),
+        "leak_model": leak_model,
+        "leak_kind": sched.kind,
+        "ramp_duration": float(ramp_duration) if sched.kind == "ramp" else None,
+        "load": load,
+        "seed": int(seed),
+        "reference_seed": reference_seed,
+        "reference": type(as_reference(reference)).__name__,
+        "params": params.to_dict(),
+        "controller": ctrl.to_dict() if isinstance(ctrl, FixedGainController) else repr(ctrl),
+        "sensors": sensor_params.to_dict() if sensors else None,
+        "conditions": conditions.to_dict(),
+        "rk4_step_s": 1.0 / (fs * max(n_sub, _leak_stable_substeps(k_leak, leak_model, params,
+                                                                   fs))),
+        "calibration_runs": calibration_runs,
+        "rated_flow_lpm": params.rated_flow_lpm,
+        "leakdiag_version": __version__,
+    }
+    channels = {"p1": p1_out, "p2": p2_out, "x": x_out, "u": result.u,
+                "leak_flow": result.leak_flow, "x_ref": x_ref}
+    return Recording({k: np.array(v) for k, v in channels.items()}, fs, 0.0, {}, meta)
