@@ -7,7 +7,7 @@ import numpy as np
 SUPPLY_LEVEL_PA = 8.6e6  # order of the VCA chamber pressures (Ch. 2): the large-offset case
 
 
-def make_signals(n: int = 4000, seed: int = 1) -> dict[str, np.ndarray]:
+def make_signals(n: int = 2400, seed: int = 1) -> dict[str, np.ndarray]:
     """Named float64 signals of length ``n``."""
     rng = np.random.default_rng(seed)
     t = np.arange(n)

@@ -121,7 +121,8 @@ def test_cross_correlation_order_is_y_then_lagged_x():
 
 
 # ------------------------------------------------------------------ properties
-finite = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
+# millesimal values: no subnormals (their squares underflow to 0, a different degenerate case)
+finite = st.integers(-10**6, 10**6).map(lambda i: i / 1000.0)
 
 
 @settings(max_examples=40, deadline=None)
