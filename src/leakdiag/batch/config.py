@@ -1,0 +1,239 @@
+"""The batch job configuration: which analyses (with sweeps) and detectors run on every recording.
+
+Read from TOML (schema in ``docs/operations.md``)::
+
+    [job]
+    chunk_samples = 1048576   # samples per read chunk (memory bound)
+    rms_chunk = 10            # feature values per RMS chunk (Sec. 5.2)
+    # onset_s = 30.0          # leak onset for the Sec. 5.2 measure; default: each file's meta
+
+    [[analysis]]
+    method = "autocorrelation"
+    channels = ["p1"]
+    lag = [1, 5]              # a list sweeps: one analysis per combination
+    window = 200
+    overlap = 5
+
+    [[detector]]
+    name = "ac-p1"
+    path = "detector.pkl"     # pickled fitted detector, relative to the TOML file
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import os
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from leakdiag._validation import check_int
+from leakdiag.features.methods import MethodSpec
+from leakdiag.stream.feature import STREAM_METHODS
+
+__all__ = ["BatchConfig", "DetectorRef", "load_config", "config_from_dict",
+           "DEFAULT_CHUNK_SAMPLES", "DEFAULT_RMS_CHUNK"]
+
+#: Samples per read chunk: 1 Mi samples = 8 MB per float64 channel.
+DEFAULT_CHUNK_SAMPLES = 1 << 20
+#: Feature values per RMS chunk of the Sec. 5.2 measure (the analyze command's default).
+DEFAULT_RMS_CHUNK = 10
+
+_ANALYSIS_KEYS = {"method", "channels", "lag", "lag_ratio", "window", "overlap"}
+_SWEEPABLE = ("lag", "lag_ratio", "window", "overlap")
+
+
+@dataclass(frozen=True)
+class DetectorRef:
+    """A pickled fitted detector to run on every recording.
+
+    Parameters
+    ----------
+    name : str
+        Name in the results table.
+    path : str
+        Absolute path of the pickle.
+    sha256 : str
+        Digest of the pickle, so that a re-fitted detector invalidates finished results.
+    """
+
+    name: str
+    path: str
+    sha256: str
+
+
+@dataclass(frozen=True)
+class BatchConfig:
+    """Everything a batch run computes; stored (as JSON) with every result row.
+
+    Parameters
+    ----------
+    analyses : tuple of MethodSpec
+        Streamable features (sweeps already expanded).
+    detectors : tuple of DetectorRef
+        Fitted detectors.
+    chunk_samples : int
+        Samples per read chunk.
+    rms_chunk : int
+        Feature values per RMS chunk (Sec. 5.2).
+    onset_s : float or None
+        Leak onset for the Sec. 5.2 measure; None uses each recording's ``meta['onset']``.
+
+    Raises
+    ------
+    ValueError
+        If there is nothing to run or a method cannot be streamed.
+
+    Examples
+    --------
+    >>> cfg = config_from_dict({"analysis": [{"method": "autocorrelation", "lag": [1, 2]}]})
+    >>> [s.lag for s in cfg.analyses], len(cfg.digest)
+    ([1, 2], 16)
+    """
+
+    analyses: tuple[MethodSpec, ...] = ()
+    detectors: tuple[DetectorRef, ...] = ()
+    chunk_samples: int = DEFAULT_CHUNK_SAMPLES
+    rms_chunk: int = DEFAULT_RMS_CHUNK
+    onset_s: float | None = None
+
+    def __post_init__(self) -> None:
+        if not self.analyses and not self.detectors:
+            raise ValueError("the batch config has no [[analysis]] and no [[detector]]")
+        for s in self.analyses:
+            if s.method not in STREAM_METHODS:
+                raise ValueError(f"analysis method={s.method!r} is not one of {STREAM_METHODS}")
+        object.__setattr__(self, "chunk_samples", check_int(self.chunk_samples, "chunk_samples", 1))
+        object.__setattr__(self, "rms_chunk", check_int(self.rms_chunk, "rms_chunk", 1))
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable form (stored with the results).
+
+        Returns
+        -------
+        dict
+        """
+        return {"analyses": [s.as_dict() for s in self.analyses],
+                "detectors": [{"name": d.name, "path": d.path, "sha256": d.sha256}
+                              for d in self.detectors],
+                "chunk_samples": self.chunk_samples, "rms_chunk": self.rms_chunk,
+                "onset_s": self.onset_s}
+
+    def to_json(self) -> str:
+        """Canonical JSON text of :meth:`to_dict` (sorted keys).
+
+        Returns
+        -------
+        str
+        """
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    @property
+    def digest(self) -> str:
+        """First 16 hex digits of the SHA-256 of :meth:`to_json`; identifies the job's results."""
+        return hashlib.sha256(self.to_json().encode()).hexdigest()[:16]
+
+
+def _as_list(v) -> list:
+    return list(v) if isinstance(v, (list, tuple)) else [v]
+
+
+def _expand(entry: Mapping[str, Any], i: int) -> list[MethodSpec]:
+    unknown = set(entry) - _ANALYSIS_KEYS
+    if unknown:
+        raise ValueError(f"[[analysis]] #{i + 1}: unknown key(s) {sorted(unknown)}; "
+                         f"allowed: {sorted(_ANALYSIS_KEYS)}")
+    if "method" not in entry:
+        raise ValueError(f"[[analysis]] #{i + 1}: needs a method")
+    chans = entry.get("channels", ())
+    chans = tuple(c.strip() for c in chans.split(",")) if isinstance(chans, str) else tuple(chans)
+    keys = [k for k in _SWEEPABLE if k in entry]
+    specs = []
+    for combo in itertools.product(*(_as_list(entry[k]) for k in keys)):
+        kw = dict(zip(keys, combo))
+        try:
+            specs.append(MethodSpec(entry["method"], chans, **kw))
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"[[analysis]] #{i + 1} {kw}: {exc}") from None
+    return specs
+
+
+def _detector(entry: Mapping[str, Any], i: int, base_dir: str) -> DetectorRef:
+    if "path" not in entry:
+        raise ValueError(f"[[detector]] #{i + 1}: needs a path to a pickled fitted detector")
+    path = os.path.abspath(os.path.join(base_dir, entry["path"]))
+    try:
+        with open(path, "rb") as f:
+            digest = hashlib.sha256(f.read()).hexdigest()
+    except OSError as exc:
+        raise ValueError(f"[[detector]] #{i + 1}: cannot read {path}: {exc}") from None
+    name = str(entry.get("name", os.path.splitext(os.path.basename(path))[0]))
+    return DetectorRef(name, path, digest)
+
+
+def config_from_dict(d: Mapping[str, Any], base_dir: str = ".") -> BatchConfig:
+    """Build a :class:`BatchConfig` from the parsed TOML (sweeps expanded).
+
+    Parameters
+    ----------
+    d : dict
+        Tables ``job`` (optional), ``analysis`` (list), ``detector`` (list).
+    base_dir : str, default "."
+        Directory that relative detector paths are relative to.
+
+    Returns
+    -------
+    BatchConfig
+
+    Raises
+    ------
+    ValueError
+        For unknown tables or keys, bad settings (the message names the entry), or no work.
+    """
+    unknown = set(d) - {"job", "analysis", "detector"}
+    if unknown:
+        raise ValueError(f"unknown table(s) {sorted(unknown)}; allowed: job, analysis, detector")
+    job = dict(d.get("job", {}))
+    bad = set(job) - {"chunk_samples", "rms_chunk", "onset_s"}
+    if bad:
+        raise ValueError(f"[job]: unknown key(s) {sorted(bad)}")
+    specs = [s for i, e in enumerate(d.get("analysis", [])) for s in _expand(e, i)]
+    dets = [_detector(e, i, base_dir) for i, e in enumerate(d.get("detector", []))]
+    onset = job.get("onset_s")
+    return BatchConfig(tuple(specs), tuple(dets), job.get("chunk_samples", DEFAULT_CHUNK_SAMPLES),
+                       job.get("rms_chunk", DEFAULT_RMS_CHUNK),
+                       None if onset is None else float(onset))
+
+
+def load_config(path: str | os.PathLike) -> BatchConfig:
+    """Read a batch job TOML file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The TOML file.
+
+    Returns
+    -------
+    BatchConfig
+
+    Raises
+    ------
+    FileNotFoundError
+        If it does not exist.
+    ValueError
+        For invalid TOML or settings (the message names the file).
+    """
+    import tomllib
+
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as f:
+            d = tomllib.load(f)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: invalid TOML: {exc}") from None
+    try:
+        return config_from_dict(d, os.path.dirname(os.path.abspath(path)))
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
