@@ -8,10 +8,30 @@
   (Goharrizi & Sepehri 2012).
 * :mod:`~leakdiag.methods.ekf`: extended Kalman filter on the VCA model with a leak-coefficient
   state (An & Sepehri 2005).
+* :mod:`~leakdiag.methods.detectors`: the four as detectors with ``fit`` / ``score`` /
+  ``predict``.
 
-Sub-modules are imported on demand (PyWavelets, PyEMD and SciPy load only when used).
+Sub-modules are imported on demand (PyWavelets, PyEMD and Numba kernels load only when used).
 """
 
 from __future__ import annotations
 
-__all__ = ["wavelet", "fft_band", "emd_hilbert", "ekf"]
+import importlib
+from typing import Any
+
+__all__ = ["wavelet", "fft_band", "emd_hilbert", "ekf", "detectors", "WaveletDetector",
+           "FFTBandDetector", "EMDHilbertDetector", "EKFDetector"]
+
+_SUBMODULES = {"wavelet", "fft_band", "emd_hilbert", "ekf", "detectors"}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _SUBMODULES:
+        return importlib.import_module(f"leakdiag.methods.{name}")
+    if name in __all__:
+        return getattr(importlib.import_module("leakdiag.methods.detectors"), name)
+    raise AttributeError(f"module 'leakdiag.methods' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -70,66 +70,143 @@ def _jacobian(z, u, scale, prm, inputs, jac):
 
 
 @numba.njit(cache=True)
+def _matmul(a, b, out):
+    n = a.shape[0]
+    m = b.shape[1]
+    kk = a.shape[1]
+    for i in range(n):
+        for j in range(m):
+            acc = 0.0
+            for k in range(kk):
+                acc += a[i, k] * b[k, j]
+            out[i, j] = acc
+
+
+@numba.njit(cache=True)
+def _sandwich(f, p, tmp, out):
+    """out = f @ p @ f.T for square matrices (tmp is scratch)."""
+    n = f.shape[0]
+    _matmul(f, p, tmp)
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += tmp[i, k] * f[j, k]
+            out[i, j] = acc
+
+
+@numba.njit(cache=True)
+def _inv3(s, out):
+    """Inverse of a 3x3 matrix by cofactors; returns False if singular."""
+    c00 = s[1, 1] * s[2, 2] - s[1, 2] * s[2, 1]
+    c01 = s[1, 2] * s[2, 0] - s[1, 0] * s[2, 2]
+    c02 = s[1, 0] * s[2, 1] - s[1, 1] * s[2, 0]
+    det = s[0, 0] * c00 + s[0, 1] * c01 + s[0, 2] * c02
+    if det == 0.0:
+        return False
+    inv = 1.0 / det
+    out[0, 0] = c00 * inv
+    out[1, 0] = c01 * inv
+    out[2, 0] = c02 * inv
+    out[0, 1] = (s[0, 2] * s[2, 1] - s[0, 1] * s[2, 2]) * inv
+    out[1, 1] = (s[0, 0] * s[2, 2] - s[0, 2] * s[2, 0]) * inv
+    out[2, 1] = (s[0, 1] * s[2, 0] - s[0, 0] * s[2, 1]) * inv
+    out[0, 2] = (s[0, 1] * s[1, 2] - s[0, 2] * s[1, 1]) * inv
+    out[1, 2] = (s[0, 2] * s[1, 0] - s[0, 0] * s[1, 2]) * inv
+    out[2, 2] = (s[0, 0] * s[1, 1] - s[0, 1] * s[1, 0]) * inv
+    return True
+
+
+@numba.njit(cache=True)
 def ekf_vca_kernel(y, u, dt, n_sub, prm, scale, z0, p0, qd, r, states, innov, nis, leak):
     """Run the EKF over all samples; write states (physical units), innovations, NIS, leak flow.
 
     ``y`` is ``(n, 3)`` scaled measurements of (x, p1, p2); ``u`` the control signal, held
-    constant over each sample interval (zero-order hold of the previous sample).
+    constant over each sample interval (zero-order hold of the previous sample). Returns the
+    number of samples whose innovation covariance was singular (update skipped).
     """
     n = y.shape[0]
+    ns = N_STATE
     z = z0.copy()
     p = p0.copy()
     inputs = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
-    jac = np.empty((N_STATE, N_STATE))
-    eye = np.eye(N_STATE)
+    jac = np.empty((ns, ns))
+    a = np.empty((ns, ns))
+    a2 = np.empty((ns, ns))
+    step = np.empty((ns, ns))
+    f = np.empty((ns, ns))
+    f2 = np.empty((ns, ns))
+    tmp = np.empty((ns, ns))
     h = dt / n_sub
     meas = np.array(MEAS_IDX)
-    phys = np.empty(6)
+    e = np.empty(3)
+    s = np.empty((3, 3))
+    s_inv = np.empty((3, 3))
+    pht = np.empty((ns, 3))
+    gain = np.empty((ns, 3))
+    se = np.empty(3)
+    n_skipped = 0
     for k in range(n):
         if k > 0:
             # Prediction: covariance with the Jacobian at the prior estimate, then the state.
             _jacobian(z, u[k - 1], scale, prm, inputs, jac)
-            a = jac * h
-            step = eye + a + 0.5 * (a @ a)
-            f = eye.copy()
-            for _ in range(n_sub):
-                f = step @ f
-            p = f @ p @ f.T
-            for i in range(N_STATE):
+            for i in range(ns):
+                for j in range(ns):
+                    a[i, j] = jac[i, j] * h
+            _matmul(a, a, a2)
+            for i in range(ns):
+                for j in range(ns):
+                    step[i, j] = a[i, j] + 0.5 * a2[i, j] + (1.0 if i == j else 0.0)
+            f[:, :] = step
+            for _ in range(n_sub - 1):
+                _matmul(step, f, f2)
+                f[:, :] = f2
+            _sandwich(f, p, tmp, f2)
+            p[:, :] = f2
+            for i in range(ns):
                 p[i, i] += qd[i]
             _rk4(z, u[k - 1], h, n_sub, scale, prm, inputs)
         # Update with the measurements of sample k (Joseph form).
-        e = np.empty(3)
-        s = np.empty((3, 3))
-        pht = np.empty((N_STATE, 3))
         for a_ in range(3):
             e[a_] = y[k, a_] - z[meas[a_]]
             for b_ in range(3):
                 s[a_, b_] = p[meas[a_], meas[b_]]
             s[a_, a_] += r[a_]
-            for i in range(N_STATE):
+            for i in range(ns):
                 pht[i, a_] = p[i, meas[a_]]
-        s_inv = np.linalg.inv(s)
-        gain = pht @ s_inv
-        ikh = eye.copy()
-        for i in range(N_STATE):
-            for a_ in range(3):
-                ikh[i, meas[a_]] -= gain[i, a_]
-        z = z + gain @ e
-        p = ikh @ p @ ikh.T
-        for i in range(N_STATE):
-            for j in range(N_STATE):
+        if _inv3(s, s_inv):
+            _matmul(pht, s_inv, gain)
+            for i in range(ns):
+                for j in range(ns):
+                    step[i, j] = 1.0 if i == j else 0.0
+                for a_ in range(3):
+                    step[i, meas[a_]] -= gain[i, a_]
+            for i in range(ns):
                 acc = 0.0
                 for a_ in range(3):
-                    acc += gain[i, a_] * r[a_] * gain[j, a_]
-                p[i, j] += acc
+                    acc += gain[i, a_] * e[a_]
+                z[i] += acc
+            _sandwich(step, p, tmp, f2)
+            for i in range(ns):
+                for j in range(ns):
+                    acc = 0.0
+                    for a_ in range(3):
+                        acc += gain[i, a_] * r[a_] * gain[j, a_]
+                    p[i, j] = f2[i, j] + acc
+            for a_ in range(3):
+                acc = 0.0
+                for b_ in range(3):
+                    acc += s_inv[a_, b_] * e[b_]
+                se[a_] = acc
+            nis[k] = e[0] * se[0] + e[1] * se[1] + e[2] * se[2]
+        else:
+            n_skipped += 1
+            nis[k] = np.nan
         if z[6] < 0.0:  # a leak coefficient cannot be negative: project onto k_l >= 0
             z[6] = 0.0
-        nis[k] = e @ (s_inv @ e)
         for a_ in range(3):
             innov[k, a_] = e[a_] * scale[meas[a_]]
-        for i in range(N_STATE):
+        for i in range(ns):
             states[k, i] = z[i] * scale[i]
-        for i in range(6):
-            phys[i] = states[k, i]
-        leak[k] = vca_leak_flow(phys[2], phys[3], states[k, 6], prm)
+        leak[k] = vca_leak_flow(states[k, 2], states[k, 3], states[k, 6], prm)
+    return n_skipped

@@ -113,6 +113,9 @@ class EKFResult:
         Normalised innovation squared :math:`e^T S^{-1} e` (chi-square, 3 dof), shape ``(n,)``.
     leak_flow_lpm : numpy.ndarray
         Estimated leak flow :math:`\\hat k_l\\,\\mathrm{sgn}(\\Delta P)\\sqrt{|\\Delta P|}`, L/min.
+    n_skipped : int
+        Samples whose innovation covariance was singular: update skipped, ``nis`` is NaN there
+        (0 with positive measurement noise).
     """
 
     time: np.ndarray
@@ -120,6 +123,7 @@ class EKFResult:
     innovations: np.ndarray
     nis: np.ndarray
     leak_flow_lpm: np.ndarray
+    n_skipped: int = 0
 
     @property
     def leak_coefficient(self) -> np.ndarray:
@@ -214,9 +218,9 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
     innov = np.empty((n, 3))
     nis = np.empty(n)
     leak = np.empty(n)
-    ekf_vca_kernel(y, u, dt, params.substeps, prm, _SCALE, z0, p0, qd, r, states, innov, nis,
-                   leak)
-    return EKFResult(recording.time, states, innov, nis, leak * LPM_PER_M3S)
+    skipped = ekf_vca_kernel(y, u, dt, params.substeps, prm, _SCALE, z0, p0, qd, r, states,
+                             innov, nis, leak)
+    return EKFResult(recording.time, states, innov, nis, leak * LPM_PER_M3S, int(skipped))
 
 
 def ekf_feature(recording, params: EKFParams = EKFParams()) -> FeatureSeries:

@@ -1,0 +1,263 @@
+"""Detectors for the literature methods, with the shared ``fit`` / ``score`` / ``predict``.
+
+Each class only builds its feature (:meth:`_feature_series`); the healthy calibration, CUSUM
+alarm and onset search are those of :class:`leakdiag.detect.base.Detector`. Settings are stored
+verbatim in ``__init__`` (scikit-learn convention) and validated when the feature is computed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from leakdiag.detect.base import Detector
+from leakdiag.features.series import FeatureSeries
+from leakdiag.methods._physics import DEFAULT_NATURAL_FREQUENCY_HZ
+
+__all__ = ["WaveletDetector", "FFTBandDetector", "EMDHilbertDetector", "EKFDetector"]
+
+
+class WaveletDetector(Detector):
+    """Leak detector on the RMS of a wavelet detail level (Goharrizi & Sepehri 2010).
+
+    Parameters
+    ----------
+    channels : tuple of str, default ("p1",)
+        Pressure channels (``("p1", "p2")`` for Thakur's both-chamber variant).
+    wavelet : str, default "db4"
+        Mother wavelet.
+    level : int or None, default None
+        Detail level; None: the level whose band holds ``natural_frequency_hz``.
+    natural_frequency_hz : float, default 69.7
+        Hydraulic natural frequency (Eq. 2-6, Table 2-1).
+    window : int, default 1000
+        Window size N in samples.
+    overlap : float, default 50
+        Overlap in percent.
+    alarm : Alarm, optional
+        Search settings.
+
+    Notes
+    -----
+    Feature: :func:`leakdiag.methods.wavelet.wavelet_feature` (see its assumptions).
+
+    Examples
+    --------
+    >>> WaveletDetector(level=3).get_params()["level"]
+    3
+    """
+
+    def __init__(self, channels=("p1",), wavelet="db4", level=None,
+                 natural_frequency_hz=DEFAULT_NATURAL_FREQUENCY_HZ, window=1000, overlap=50.0,
+                 alarm=None):
+        self.channels = channels
+        self.wavelet = wavelet
+        self.level = level
+        self.natural_frequency_hz = natural_frequency_hz
+        self.window = window
+        self.overlap = overlap
+        self.alarm = alarm
+
+    def _feature_series(self, recording) -> FeatureSeries:
+        from leakdiag.methods.wavelet import WaveletParams, wavelet_feature
+
+        return wavelet_feature(recording, WaveletParams(
+            tuple(self.channels), self.wavelet, self.level, self.natural_frequency_hz,
+            self.window, self.overlap))
+
+
+class FFTBandDetector(Detector):
+    """Leak detector on the pressure RMS in a band around the natural frequency (FFT).
+
+    Parameters
+    ----------
+    channels : tuple of str, default ("p1",)
+        Pressure channels.
+    band_hz : (float, float) or None, default None
+        Band in Hz; None: 0.5 to 1.5 times ``natural_frequency_hz``.
+    natural_frequency_hz : float, default 69.7
+        Hydraulic natural frequency (Eq. 2-6, Table 2-1).
+    window : int, default 1000
+        Window size N in samples.
+    overlap : float, default 50
+        Overlap in percent.
+    alarm : Alarm, optional
+        Search settings.
+
+    Notes
+    -----
+    Feature: :func:`leakdiag.methods.fft_band.fft_band_feature` (Goharrizi & Sepehri 2010).
+
+    Examples
+    --------
+    >>> FFTBandDetector(band_hz=(40.0, 100.0)).get_params()["band_hz"]
+    (40.0, 100.0)
+    """
+
+    def __init__(self, channels=("p1",), band_hz=None,
+                 natural_frequency_hz=DEFAULT_NATURAL_FREQUENCY_HZ, window=1000, overlap=50.0,
+                 alarm=None):
+        self.channels = channels
+        self.band_hz = band_hz
+        self.natural_frequency_hz = natural_frequency_hz
+        self.window = window
+        self.overlap = overlap
+        self.alarm = alarm
+
+    def _feature_series(self, recording) -> FeatureSeries:
+        from leakdiag.methods.fft_band import FFTBandParams, fft_band_feature
+
+        return fft_band_feature(recording, FFTBandParams(
+            tuple(self.channels), self.band_hz, self.natural_frequency_hz, self.window,
+            self.overlap))
+
+
+class EMDHilbertDetector(Detector):
+    """Leak detector on the RMS of the first IMF's instantaneous amplitude (Goharrizi 2012).
+
+    Parameters
+    ----------
+    channels : tuple of str, default ("p1",)
+        Pressure channels.
+    window : int, default 1000
+        Window size N in samples.
+    overlap : float, default 50
+        Overlap in percent.
+    block : int, default 10000
+        Samples per EMD block.
+    margin : int, default 500
+        Context samples on each side of a block.
+    max_sifting : int, default 100
+        Cap on sifting iterations of the first IMF.
+    alarm : Alarm, optional
+        Search settings.
+
+    Notes
+    -----
+    Feature: :func:`leakdiag.methods.emd_hilbert.emd_hilbert_feature`. The slowest method
+    (see ``docs/methods.md`` for seconds per hour of signal).
+
+    Examples
+    --------
+    >>> EMDHilbertDetector(block=5000).get_params()["block"]
+    5000
+    """
+
+    def __init__(self, channels=("p1",), window=1000, overlap=50.0, block=10_000, margin=500,
+                 max_sifting=100, alarm=None):
+        self.channels = channels
+        self.window = window
+        self.overlap = overlap
+        self.block = block
+        self.margin = margin
+        self.max_sifting = max_sifting
+        self.alarm = alarm
+
+    def _feature_series(self, recording) -> FeatureSeries:
+        from leakdiag.methods.emd_hilbert import EMDHilbertParams, emd_hilbert_feature
+
+        return emd_hilbert_feature(recording, EMDHilbertParams(
+            tuple(self.channels), self.window, self.overlap, self.block, self.margin,
+            self.max_sifting))
+
+
+class EKFDetector(Detector):
+    """Leak detector on the VCA extended Kalman filter (An & Sepehri 2005).
+
+    Parameters
+    ----------
+    feature : {"leak_flow", "residual"}, default "leak_flow"
+        Windowed mean estimated leak flow (L/min) or windowed innovation RMS.
+    model : VCAParams or None, default None
+        Model the filter assumes (None: Table 2-1).
+    load : {"none", "spring", "auto"}, default "none"
+        Load the filter assumes; ``"auto"`` reads ``recording.meta['load']`` (the rig's known
+        load configuration; its stiffness is still the nominal one of ``model``).
+    leak_model : {"turbulent", "laminar"}, default "turbulent"
+        Leak law of the coefficient state.
+    pressure_noise_std_pa : float, default 10e3
+        Pressure measurement noise.
+    leak_coefficient_walk : float, default 2e-10
+        Random-walk intensity of the leak coefficient per square-root second.
+    window : int, default 1000
+        Window size N in samples.
+    overlap : float, default 50
+        Overlap in percent.
+    alarm : Alarm, optional
+        Search settings.
+
+    Notes
+    -----
+    Feature: :func:`leakdiag.methods.ekf.ekf_feature`. VCA recordings only (channels ``u``,
+    ``x``, ``p1``, ``p2``).
+
+    Examples
+    --------
+    >>> EKFDetector(feature="residual").get_params()["feature"]
+    'residual'
+    """
+
+    def __init__(self, feature="leak_flow", model=None, load="none", leak_model="turbulent",
+                 pressure_noise_std_pa=10e3, leak_coefficient_walk=2e-10, window=1000,
+                 overlap=50.0, alarm=None):
+        self.feature = feature
+        self.model = model
+        self.load = load
+        self.leak_model = leak_model
+        self.pressure_noise_std_pa = pressure_noise_std_pa
+        self.leak_coefficient_walk = leak_coefficient_walk
+        self.window = window
+        self.overlap = overlap
+        self.alarm = alarm
+
+    def ekf_params(self, recording=None):
+        """The :class:`~leakdiag.methods.ekf.EKFParams` of this detector.
+
+        Parameters
+        ----------
+        recording : Recording, optional
+            Resolves ``load="auto"`` from ``recording.meta['load']`` (default "none").
+
+        Returns
+        -------
+        EKFParams
+        """
+        from leakdiag.methods.ekf import EKFParams
+        from leakdiag.sim.vca_params import VCAParams
+
+        load = self.load
+        if load == "auto":
+            load = recording.meta.get("load", "none") if recording is not None else "none"
+        return EKFParams(model=self.model if self.model is not None else VCAParams(),
+                         load=load, leak_model=self.leak_model,
+                         pressure_noise_std_pa=self.pressure_noise_std_pa,
+                         leak_coefficient_walk=self.leak_coefficient_walk, window=self.window,
+                         overlap=self.overlap, feature=self.feature)
+
+    def _feature_series(self, recording) -> FeatureSeries:
+        from leakdiag.methods.ekf import ekf_feature
+
+        return ekf_feature(recording, self.ekf_params(recording))
+
+    def leak_size_lpm(self, recording, onset_s: float) -> float:
+        """Leak size from the filter alone: mean estimated flow after minus before ``onset_s``.
+
+        Parameters
+        ----------
+        recording : Recording
+            VCA recording.
+        onset_s : float
+            Onset time in s (e.g. ``predict(recording).onset_s``).
+
+        Returns
+        -------
+        float
+            L/min; NaN when one side of the onset has no sample.
+        """
+        from leakdiag.methods.ekf import run_vca_ekf
+
+        res = run_vca_ekf(recording, self.ekf_params(recording))
+        q = np.abs(res.leak_flow_lpm)
+        before, after = res.time < onset_s, res.time >= onset_s
+        if not before.any() or not after.any():
+            return float("nan")
+        return float(q[after].mean() - q[before].mean())
