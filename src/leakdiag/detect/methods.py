@@ -9,6 +9,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from leakdiag.detect.base import Detector
@@ -76,14 +78,20 @@ class FeatureDetector(Detector):
                           lag_ratio=self.lag_ratio, window=self.window, overlap=self.overlap)
 
     def _feature_series(self, recording) -> FeatureSeries:
+        from leakdiag.features import DegenerateWindowWarning
         from leakdiag.features.methods import compute_feature
 
         spec = self.spec()
         if spec.method == "moments":
             raise ValueError("FeatureDetector takes autocorrelation, cross-correlation or "
                              "metric-length, not moments")
-        fs = compute_feature(recording, spec)
-        return FeatureSeries(fs.time, fs.values, spec.label, dict(fs.params))
+        with warnings.catch_warnings():
+            # zero-variance windows are NaN and skipped by the alarm (docs/detect.md); counted
+            warnings.simplefilter("ignore", DegenerateWindowWarning)
+            fs = compute_feature(recording, spec)
+        params = dict(fs.params)
+        params["n_nan_windows"] = int(np.count_nonzero(~np.isfinite(fs.values)))
+        return FeatureSeries(fs.time, fs.values, spec.label, params)
 
 
 def thesis_detector(system: str, method: str, channels=None, alarm=None) -> FeatureDetector:

@@ -1,0 +1,114 @@
+"""Detection methods of the benchmark, by name.
+
+:data:`METHODS` maps a method name to ``"module:factory"``; a factory is
+``factory(system: str, alarm: Alarm) -> Detector`` returning an *unfitted* detector for the rig
+(``"vca"`` or ``"eha"``). To add a method (wavelet, FFT, EMD, EKF, ...), write its factory and add
+one line here; ``leakdiag benchmark --methods NAME ...`` then selects it.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+__all__ = ["METHODS", "make_detector", "thesis_methods", "DEFAULT_METHODS"]
+
+#: Method name -> "module:factory".
+METHODS: dict[str, str] = {
+    "acf-p1": "leakdiag.bench.registry:_acf_p1",
+    "acf-p2": "leakdiag.bench.registry:_acf_p2",
+    "ccf-p1p2": "leakdiag.bench.registry:_ccf_p1p2",
+    "ccf-ux": "leakdiag.bench.registry:_ccf_ux",
+    "mlr-p1": "leakdiag.bench.registry:_mlr_p1",
+    "combined": "leakdiag.bench.registry:_combined",
+}
+
+#: Methods run when ``--methods`` is not given.
+DEFAULT_METHODS = ("acf-p1", "acf-p2", "ccf-p1p2", "ccf-ux", "mlr-p1", "combined")
+
+
+def make_detector(name: str, system: str, alarm):
+    """Build the named method's unfitted detector for a rig.
+
+    Parameters
+    ----------
+    name : str
+        Key of :data:`METHODS`.
+    system : {"vca", "eha"}
+        Rig (selects the thesis's preferred settings).
+    alarm : Alarm
+        Search settings (false-alarm target, onset method).
+
+    Returns
+    -------
+    Detector
+
+    Raises
+    ------
+    ValueError
+        For an unknown name (lists the known ones).
+
+    Examples
+    --------
+    >>> from leakdiag.detect.base import Alarm
+    >>> make_detector("ccf-ux", "vca", Alarm()).channels
+    ('u', 'x')
+    """
+    if name not in METHODS:
+        raise ValueError(f"unknown method {name!r}; known: {sorted(METHODS)}")
+    mod, attr = METHODS[name].split(":")
+    return getattr(importlib.import_module(mod), attr)(system, alarm)
+
+
+def thesis_methods() -> tuple[str, ...]:
+    """Names of the methods of the thesis (one feature each).
+
+    Returns
+    -------
+    tuple of str
+
+    Examples
+    --------
+    >>> thesis_methods()
+    ('acf-p1', 'acf-p2', 'ccf-p1p2', 'ccf-ux', 'mlr-p1')
+    """
+    return ("acf-p1", "acf-p2", "ccf-p1p2", "ccf-ux", "mlr-p1")
+
+
+def _acf_p1(system, alarm):
+    from leakdiag.detect.methods import thesis_detector
+
+    return thesis_detector(system, "autocorrelation", ("p1",), alarm)
+
+
+def _acf_p2(system, alarm):
+    det = _acf_p1(system, alarm)
+    return det.set_params(channels=("p2",))
+
+
+def _ccf_p1p2(system, alarm):
+    from leakdiag.detect.methods import thesis_detector
+
+    return thesis_detector(system, "cross-correlation", ("p1", "p2"), alarm)
+
+
+def _ccf_ux(system, alarm):
+    from leakdiag.detect.methods import thesis_detector
+
+    return thesis_detector(system, "cross-correlation", ("u", "x"), alarm)
+
+
+def _mlr_p1(system, alarm):
+    from leakdiag.detect.methods import thesis_detector
+
+    return thesis_detector(system, "metric-length", ("p1",), alarm)
+
+
+def _combined(system, alarm):
+    from dataclasses import replace
+
+    from leakdiag.detect.methods import CombinedDetector
+
+    parts = [_acf_p1(system, None), _ccf_p1p2(system, None), _ccf_ux(system, None),
+             _mlr_p1(system, None)]
+    # the Mahalanobis distance only grows with a change
+    return CombinedDetector(parts, alarm=replace(alarm, direction="up"))

@@ -1,0 +1,150 @@
+"""The benchmark's report: tables and figures (ROC curves, detection rate against leak size,
+onset error) in a self-contained HTML page (:class:`leakdiag.report.html.Report`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["build_report"]
+
+
+def _roc_figure(runs, system):
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    from leakdiag.bench.scoring import roc_curve
+
+    sub = runs[runs.system == system]
+    methods = list(dict.fromkeys(sub.method))
+    ncol = min(3, len(methods))
+    nrow = int(np.ceil(len(methods) / ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.0 * ncol, 3.4 * nrow), squeeze=False)
+    for ax, m in zip(axes.flat, methods):
+        g = sub[sub.method == m]
+        null = g[g.role == "test_healthy"].score_max
+        for q, lk in g[g.role == "test_leak"].groupby("leak_lpm"):
+            fpr, tpr = roc_curve(null, lk.score_max)
+            ax.step(fpr, tpr, where="post", label=f"{q:g} L/min")
+        ax.plot([0, 1], [0, 1], color="0.7", lw=0.8, ls="--")
+        ax.set_title(m)
+        ax.set_xlabel("false-alarm rate (per run)")
+        ax.set_ylabel("detection rate")
+        ax.legend(fontsize=7, loc="lower right")
+    for ax in list(axes.flat)[len(methods):]:
+        ax.axis("off")
+    fig.tight_layout()
+    return fig
+
+
+def _rate_figure(results, system, rated):
+    import matplotlib.pyplot as plt
+
+    sub = results[results.system == system]
+    fig, ax = plt.subplots(figsize=(6.5, 4.0))
+    for m, g in sub.groupby("method", sort=False):
+        ax.plot(g.leak_lpm, g.detection_rate, marker="o", label=m)
+    ax.axhline(0.9, color="0.5", lw=0.8, ls=":")
+    ax.set_xscale("log")
+    ax.set_xlabel("leak (L/min)")
+    ax.set_ylabel("detection rate at the 1 % per-run false-alarm threshold")
+    ax.set_ylim(-0.03, 1.03)
+    if system in rated:
+        sec = ax.secondary_xaxis("top", functions=(lambda q: 100 * q / rated[system],
+                                                    lambda p: p * rated[system] / 100))
+        sec.set_xlabel("% of rated flow")
+    ax.legend(fontsize=7)
+    ax.set_title(system.upper())
+    fig.tight_layout()
+    return fig
+
+
+def _onset_figure(runs, system):
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    sub = runs[(runs.system == system) & (runs.role == "test_leak")].copy()
+    on = pd.to_numeric(sub.onset_true_s, errors="coerce")
+    sub["err"] = (pd.to_numeric(sub.onset_est_s, errors="coerce") - on)
+    ok = sub.alarm.astype(bool) & (pd.to_numeric(sub.alarm_time_s, errors="coerce") >= on)
+    sub = sub[ok]
+    methods = list(dict.fromkeys(runs[runs.system == system].method))
+    fig, ax = plt.subplots(figsize=(6.5, 3.8))
+    data = [sub[sub.method == m].err.to_numpy() for m in methods]
+    ax.boxplot([d if len(d) else [np.nan] for d in data], showfliers=True)
+    ax.set_xticks(range(1, len(methods) + 1), methods, rotation=30, ha="right")
+    ax.axhline(0.0, color="0.5", lw=0.8)
+    ax.set_ylabel("onset estimate - true onset (s)")
+    ax.set_title(f"{system.upper()}: onset error of detected runs")
+    fig.tight_layout()
+    return fig
+
+
+def build_report(suite_run, results, summary, by_condition, command: str):
+    """Assemble the benchmark report.
+
+    Parameters
+    ----------
+    suite_run : SuiteRun
+        Output of :func:`leakdiag.bench.run.run_suite`.
+    results, summary, by_condition : pandas.DataFrame
+        Results per leak size, minimum detectable leak, and results per load and noise level.
+    command : str
+        The command line that made the report (printed in it).
+
+    Returns
+    -------
+    leakdiag.report.html.Report
+    """
+    from leakdiag.report.html import Report
+
+    s = suite_run.settings
+    rep = Report("leakdiag detection benchmark")
+    rep.paragraph(f"Made by `{command}` (suite version {s['suite_version']}, leakdiag "
+                  f"{_version()}). Systems: {', '.join(s['systems'])}. Methods: "
+                  f"{', '.join(s['methods'])}.")
+    rep.heading("How to read it")
+    a = s["alarm"]
+    rep.bullets([
+        "Every method is fitted on healthy runs of its group (rig, load, noise level) and scored "
+        "on held-out runs of the same group; leak-size calibrations use other leaking runs. "
+        "Seeds are fixed (see docs/detect.md).",
+        "Healthy and leaking runs both vary the reference sequence, supply-pressure ripple "
+        "(VCA), fluid temperature (bulk modulus and damping), load-spring stiffness (under load) "
+        "and sensor noise; only the leak differs systematically.",
+        f"Per-run statistic: the largest CUSUM value (drift {a.drift}, direction "
+        f"{a.direction}) after a {a.burn_in_s} s burn-in. AUC: held-out healthy runs against "
+        "leaking runs of one size.",
+        f"Threshold: set on the fitting runs for a false-alarm probability of "
+        f"{100 * s['false_alarm_per_run']:g} % per run (converted to alarms per hour). "
+        "false_alarm_rate is measured on the held-out healthy runs, per run.",
+        "Detection: an alarm at or after the true onset. Minimum detectable leak: the smallest "
+        "size detected in >= 90 % of runs, with every larger size also >= 90 %.",
+        f"Onset estimate: {a.onset_method} change points on the standardised feature (penalty "
+        "from the healthy runs), falling back to the CUSUM's excursion start.",
+    ])
+    rep.heading("Minimum detectable leak")
+    rep.table(summary, "Minimum detectable leak per method and rig (NaN: not reached)")
+    rep.heading("Results per leak size")
+    rep.table(results, "One row per method, rig and leak size")
+    for system in dict.fromkeys(results.system):
+        rep.heading(system.upper(), level=3)
+        rep.figure(_rate_figure(results, system, suite_run.rated_flow_lpm),
+                   f"{system.upper()}: detection rate against leak size")
+        rep.figure(_roc_figure(suite_run.runs, system), f"{system.upper()}: ROC curves per method")
+        rep.figure(_onset_figure(suite_run.runs, system),
+                   f"{system.upper()}: onset error of detected runs")
+    rep.heading("Results per load and noise level")
+    rep.table(by_condition, "Detection rate and AUC per condition")
+    errors = suite_run.runs[suite_run.runs.role == "error"] if "role" in suite_run.runs else []
+    if len(errors):
+        rep.heading("Methods that could not be fitted")
+        rep.table(errors[["method", "system", "load", "noise_level", "error"]])
+    return rep
+
+
+def _version() -> str:
+    from leakdiag._version import __version__
+
+    return __version__

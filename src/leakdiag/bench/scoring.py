@@ -1,0 +1,194 @@
+"""Scores of the benchmark from the per-run table: ROC AUC, detection and false-alarm rates,
+minimum detectable leak, onset error and detection delay.
+
+Definitions (also in ``docs/detect.md``):
+
+* per-run statistic: the largest CUSUM value after the burn-in (:attr:`Verdict.score_max`);
+  held-out healthy runs give its null distribution, leaking runs of one size the alternative;
+* false-alarm rate: fraction of held-out healthy runs with an alarm (**per run** of the suite's
+  duration; also converted to alarms per hour assuming Poisson alarms);
+* detection: an alarm at or after the true onset (an alarm before it is a false alarm, not a
+  detection);
+* minimum detectable leak: the smallest leak size whose detection rate is >= 90 % and stays
+  >= 90 % at every larger size of the suite (NaN if none);
+* onset error: ``|onset estimate - true onset|`` over detected runs; delay: ``alarm - onset``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["roc_auc", "roc_curve", "summarise", "minimum_detectable", "RESULT_COLUMNS",
+           "SUMMARY_COLUMNS", "DETECTION_RATE_REQUIRED"]
+
+#: Detection rate that defines the minimum detectable leak (issue 5).
+DETECTION_RATE_REQUIRED = 0.9
+#: Columns of results.csv (the contract), in order; extra columns follow.
+RESULT_COLUMNS = ["method", "system", "leak_lpm", "n_runs", "auc", "detection_rate",
+                  "false_alarm_rate", "onset_error_median_s", "onset_error_p90_s",
+                  "detection_delay_median_s"]
+#: Columns of summary.csv.
+SUMMARY_COLUMNS = ["method", "system", "min_detectable_lpm", "min_detectable_pct_rated",
+                   "rated_flow_lpm", "false_alarm_rate", "false_alarm_target", "n_test_healthy"]
+
+
+def roc_auc(null, alt) -> float:
+    """Area under the ROC curve: probability that a leaking run outscores a healthy one.
+
+    Parameters
+    ----------
+    null : array_like
+        Per-run statistic of healthy runs.
+    alt : array_like
+        Per-run statistic of leaking runs.
+
+    Returns
+    -------
+    float
+        Mann-Whitney estimate, ties counted one half; NaN if either set is empty.
+
+    Examples
+    --------
+    >>> roc_auc([0.0, 1.0], [2.0, 3.0]), roc_auc([0.0, 1.0], [1.0, 0.0])
+    (1.0, 0.5)
+    """
+    n = np.asarray(null, dtype=np.float64)
+    a = np.asarray(alt, dtype=np.float64)
+    if len(n) == 0 or len(a) == 0:
+        return float("nan")
+    greater = (a[:, None] > n[None, :]).sum()
+    ties = (a[:, None] == n[None, :]).sum()
+    return float((greater + 0.5 * ties) / (len(a) * len(n)))
+
+
+def roc_curve(null, alt) -> tuple[np.ndarray, np.ndarray]:
+    """False- and true-positive rates for every threshold (alarm when statistic >= threshold).
+
+    Parameters
+    ----------
+    null, alt : array_like
+        Per-run statistics of healthy and leaking runs.
+
+    Returns
+    -------
+    fpr, tpr : numpy.ndarray
+        From (0, 0) to (1, 1), non-decreasing.
+
+    Examples
+    --------
+    >>> fpr, tpr = roc_curve([0.0, 1.0], [2.0, 3.0])
+    >>> fpr.tolist(), tpr.tolist()
+    ([0.0, 0.0, 0.0, 0.5, 1.0], [0.0, 0.5, 1.0, 1.0, 1.0])
+    """
+    n = np.asarray(null, dtype=np.float64)
+    a = np.asarray(alt, dtype=np.float64)
+    thr = np.unique(np.concatenate([n, a]))[::-1]
+    fpr = np.array([0.0] + [(n >= t).mean() for t in thr])
+    tpr = np.array([0.0] + [(a >= t).mean() for t in thr])
+    return fpr, tpr
+
+
+def _q(x, q):
+    return float(np.quantile(x, q)) if len(x) else float("nan")
+
+
+def summarise(runs, rated_flow_lpm: dict[str, float] | None = None):
+    """The results table (one row per method, system and leak size).
+
+    Parameters
+    ----------
+    runs : pandas.DataFrame
+        Per-run table with ``method, system, role, leak_lpm, score_max, alarm, alarm_time_s,
+        onset_true_s, onset_est_s, duration_s`` (roles ``test_healthy`` and ``test_leak`` used).
+    rated_flow_lpm : dict, optional
+        System -> rated flow (L/min) for the ``leak_pct_rated`` column.
+
+    Returns
+    -------
+    pandas.DataFrame
+        :data:`RESULT_COLUMNS` then ``leak_pct_rated, false_alarms_per_hour, n_test_healthy``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> runs = pd.DataFrame({"method": "m", "system": "vca",
+    ...     "role": ["test_healthy"] * 2 + ["test_leak"] * 2, "leak_lpm": [0, 0, 0.1, 0.1],
+    ...     "score_max": [1.0, 2.0, 9.0, 1.5], "alarm": [False, True, True, False],
+    ...     "alarm_time_s": [None, 5.0, 12.0, None], "onset_true_s": [None, None, 10.0, 10.0],
+    ...     "onset_est_s": [None, 4.0, 10.5, None], "duration_s": 3600.0})
+    >>> r = summarise(runs).iloc[0]
+    >>> [float(r[c]) for c in ("auc", "detection_rate", "false_alarm_rate", "onset_error_median_s")]
+    [0.75, 0.5, 0.5, 0.5]
+    """
+    import pandas as pd
+
+    rated = rated_flow_lpm or {}
+    rows = []
+    for (method, system), g in runs.groupby(["method", "system"], sort=False):
+        healthy = g[g.role == "test_healthy"]
+        far = float(healthy.alarm.astype(bool).mean()) if len(healthy) else float("nan")
+        hours = float(healthy.duration_s.mean()) / 3600.0 if len(healthy) else float("nan")
+        far_h = -np.log1p(-min(far, 1 - 1e-12)) / hours if len(healthy) else float("nan")
+        leak = g[g.role == "test_leak"]
+        for q, lk in leak.groupby("leak_lpm", sort=True):
+            alarm_t = pd.to_numeric(lk.alarm_time_s, errors="coerce")
+            onset = pd.to_numeric(lk.onset_true_s, errors="coerce")
+            est = pd.to_numeric(lk.onset_est_s, errors="coerce")
+            det = lk.alarm.astype(bool).to_numpy() & (alarm_t >= onset).to_numpy()
+            err = np.abs(est - onset).to_numpy()[det]
+            delay = (alarm_t - onset).to_numpy()[det]
+            rows.append({
+                "method": method, "system": system, "leak_lpm": float(q), "n_runs": len(lk),
+                "auc": roc_auc(healthy.score_max, lk.score_max),
+                "detection_rate": float(det.mean()), "false_alarm_rate": far,
+                "onset_error_median_s": _q(err, 0.5), "onset_error_p90_s": _q(err, 0.9),
+                "detection_delay_median_s": _q(delay, 0.5),
+                "leak_pct_rated": (100.0 * q / rated[system]) if system in rated else float("nan"),
+                "false_alarms_per_hour": far_h, "n_test_healthy": len(healthy),
+            })
+    return pd.DataFrame(rows, columns=RESULT_COLUMNS + ["leak_pct_rated", "false_alarms_per_hour",
+                                                        "n_test_healthy"])
+
+
+def minimum_detectable(results, rated_flow_lpm: dict[str, float] | None = None,
+                       false_alarm_target: float = float("nan")):
+    """Minimum detectable leak per method and system.
+
+    Parameters
+    ----------
+    results : pandas.DataFrame
+        Output of :func:`summarise`.
+    rated_flow_lpm : dict, optional
+        System -> rated flow (L/min).
+    false_alarm_target : float, optional
+        The per-run false-alarm target the thresholds were set for (reported).
+
+    Returns
+    -------
+    pandas.DataFrame
+        :data:`SUMMARY_COLUMNS`.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> res = pd.DataFrame({"method": "m", "system": "vca", "leak_lpm": [0.01, 0.05, 0.1, 0.5],
+    ...     "detection_rate": [0.95, 0.5, 0.9, 1.0], "false_alarm_rate": 0.0, "n_test_healthy": 20})
+    >>> float(minimum_detectable(res).min_detectable_lpm.iloc[0])
+    0.1
+    """
+    import pandas as pd
+
+    rated = rated_flow_lpm or {}
+    rows = []
+    for (method, system), g in results.groupby(["method", "system"], sort=False):
+        g = g.sort_values("leak_lpm")
+        ok = (g.detection_rate >= DETECTION_RATE_REQUIRED).to_numpy()
+        tail_ok = np.flip(np.logical_and.accumulate(np.flip(ok)))
+        mdl = float(g.leak_lpm.to_numpy()[tail_ok][0]) if tail_ok.any() else float("nan")
+        rf = rated.get(system, float("nan"))
+        rows.append({"method": method, "system": system, "min_detectable_lpm": mdl,
+                     "min_detectable_pct_rated": 100.0 * mdl / rf,
+                     "rated_flow_lpm": rf, "false_alarm_rate": float(g.false_alarm_rate.iloc[0]),
+                     "false_alarm_target": false_alarm_target,
+                     "n_test_healthy": int(g.n_test_healthy.iloc[0])})
+    return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)
