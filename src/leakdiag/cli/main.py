@@ -22,6 +22,7 @@ COMMANDS: dict[str, str] = {
     "demo": "leakdiag.cli.demo:demo",
     "monitor": "leakdiag.cli.monitor:monitor",
     "batch": "leakdiag.cli.batch:batch",
+    "benchmark": "leakdiag.cli.benchmark:benchmark",
 }
 
 
