@@ -1,0 +1,46 @@
+"""``leakdiag batch``: run a job (analyses, sweeps, fitted detectors) over many recordings on Dask."""
+
+from __future__ import annotations
+
+import click
+
+__all__ = ["batch"]
+
+
+@click.command()
+@click.argument("inputs", nargs=-1, required=True)
+@click.option("--config", "config_path", required=True,
+              type=click.Path(exists=True, dir_okay=False), help="Job TOML (docs/operations.md).")
+@click.option("--out", required=True, type=click.Path(),
+              help="Results folder, a Parquet dataset (e.g. results.parquet); resumable.")
+@click.option("--scheduler", default=None,
+              help="Address of an existing Dask scheduler (default: a local cluster).")
+@click.option("--workers", type=int, default=2, show_default=True,
+              help="Worker processes of the local cluster.")
+@click.option("--serial", is_flag=True, help="Run in this process, without Dask.")
+@click.option("--retry-errors", is_flag=True, help="Re-run recordings whose result is an error.")
+@click.option("--no-progress", is_flag=True, help="Hide the progress bar.")
+def batch(inputs, config_path, out, scheduler, workers, serial, retry_errors, no_progress):
+    """Run the job in --config on every recording matching INPUTS (quote globs: 'data/**/*.parquet').
+
+    One row per recording and analysis/detector goes to --out; a bad file becomes a row with its
+    error; a re-run skips finished recordings.
+    """
+    from leakdiag.batch import load_config, read_results, run_batch
+    from leakdiag.batch.runner import LOCAL
+
+    if workers < 1:
+        raise click.BadParameter(f"--workers={workers} must be >= 1")
+    cfg = load_config(config_path)
+    sched = None if serial else (scheduler or LOCAL)
+    s = run_batch(list(inputs), cfg, out, scheduler=sched, n_workers=workers,
+                  progress=not no_progress, retry_errors=retry_errors)
+    if s.n_inputs == 0:
+        raise click.UsageError(f"no recording matches {' '.join(inputs)}")
+    df = read_results(out)
+    n_rows = int((df["job_digest"] == cfg.digest).sum())
+    click.echo(f"{s.n_inputs} recording(s): {s.n_run} run, {s.n_skipped} already done, "
+               f"{s.n_errors} error(s) in this run; {n_rows} row(s) for job {cfg.digest} in {out}")
+    bad = df[(df["status"] == "error") & (df["job_digest"] == cfg.digest)]
+    for _, r in bad.iterrows():
+        click.echo(f"  error: {r['recording']}: {r['error']}", err=True)
