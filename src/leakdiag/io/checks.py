@@ -28,7 +28,8 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
     Returns
     -------
     float
-        ``1 / median(diff(t))``.
+        ``(len(t) - 1) / (t[-1] - t[0])`` rounded to 9 decimals (the median interval is used
+        only to check uniformity).
 
     Raises
     ------
@@ -66,7 +67,9 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
             f"{float(dt[i - 1])!r} s, median {med!r} s ({len(dev)} irregular interval(s)); "
             f"resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess"
         )
-    return round(1.0 / med, 9)
+    # Over a uniform axis the mean interval (span / intervals) is the most accurate estimate:
+    # the median of differences of large time values carries their rounding error.
+    return round(float((len(t) - 1) / (t[-1] - t[0])), 9)
 
 
 def check_channel_finite(x: np.ndarray, channel: str, source: str = "<input>") -> None:

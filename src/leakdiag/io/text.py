@@ -145,8 +145,9 @@ def write_csv(rec: Recording, path: str | os.PathLike) -> None:
 
     Notes
     -----
-    Values are written with the shortest repr that reads back to the same float64, so
-    channels round-trip exactly. CSV holds no units or metadata: channels are assumed to be
+    Values are written (by Arrow's CSV writer) with the shortest text that reads back to the
+    same float64, so channels round-trip exactly (except that ``-0.0`` in a column of whole
+    numbers reads back as ``0.0``). CSV holds no units or metadata: channels are assumed to be
     in SI units when read back, and the sample rate is re-derived from the time column. Use
     Parquet or HDF5 to keep units and metadata.
 
@@ -156,10 +157,17 @@ def write_csv(rec: Recording, path: str | os.PathLike) -> None:
     >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.csv"
     >>> write_csv(Recording({"p1": np.array([1.0, 2.0])}, sample_rate=2.0), p)
     >>> p.read_text().splitlines()
-    ['time,p1', '0.0,1.0', '0.5,2.0']
+    ['time,p1', '0,1', '0.5,2']
     """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
     if "time" in rec.channels:
         raise RecordingError(f"{path}: a channel named 'time' collides with the time column")
-    df = rec.to_pandas()
-    df.attrs.clear()
-    df.to_csv(path, index=False, float_format=None, lineterminator="\n")
+    bad = [n for n in rec.channels if any(c in n for c in ',"\r\n')]
+    if bad:
+        raise RecordingError(f"{path}: channel name(s) {bad} cannot be CSV header names")
+    table = pa.table({"time": rec.time, **rec.channels})
+    with open(path, "wb") as fh:
+        fh.write((",".join(table.column_names) + "\n").encode("utf-8"))
+        pacsv.write_csv(table, fh, pacsv.WriteOptions(include_header=False))
