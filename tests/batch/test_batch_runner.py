@@ -1,0 +1,195 @@
+"""Batch: config parsing and sweeps, run_case rows against references, error rows, resumability,
+a killed run keeps finished results, the CLI."""
+
+import os
+import pickle
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from _batch_helpers import SlowScorer, make_recording
+from leakdiag.batch import (BatchConfig, config_from_dict, load_config, read_results, run_batch,
+                            run_case)
+from leakdiag.batch.store import result_key
+from leakdiag.cli.main import cli
+from leakdiag.detect.measure import rms_change
+from leakdiag.features.series import FeatureSeries
+from leakdiag.features.windowing import window_starts, window_times
+from leakdiag.io.parquet import write_parquet
+
+JOB = {"job": {"rms_chunk": 10},
+       "analysis": [{"method": "autocorrelation", "channels": ["p1"], "lag": [1, 3],
+                     "window": 200, "overlap": 5},
+                    {"method": "metric-length", "channels": "p1", "lag_ratio": "83:3",
+                     "window": 500, "overlap": 5}]}
+
+
+def ac(x, lag, window, overlap):
+    out = []
+    for s in window_starts(len(x), window, overlap):
+        d = x[s:s + window] - x[s:s + window].mean()
+        out.append(np.sum(d[:-lag] * d[lag:]) / np.sum(d * d))
+    return np.array(out)
+
+
+@pytest.fixture()
+def recordings(tmp_path):
+    paths = []
+    for i in range(3):
+        sub = tmp_path / "recordings" / f"rig{i % 2}"
+        sub.mkdir(parents=True, exist_ok=True)
+        p = sub / f"run{i}.parquet"
+        write_parquet(make_recording(i), p)
+        paths.append(p)
+    (tmp_path / "recordings" / "rig0" / "broken.parquet").write_bytes(b"PAR1 garbage")
+    return tmp_path, paths
+
+
+def test_config_sweep_and_digest(tmp_path):
+    cfg = config_from_dict(JOB)
+    assert [s.label for s in cfg.analyses] == [
+        "autocorrelation p1 1 N=200 5%", "autocorrelation p1 3 N=200 5%",
+        "metric-length p1 83:3 N=500 5%"]
+    assert cfg.digest == config_from_dict(JOB).digest
+    assert cfg.digest != config_from_dict({**JOB, "job": {"rms_chunk": 5}}).digest
+    toml = tmp_path / "job.toml"
+    toml.write_text('[[analysis]]\nmethod = "cross-correlation"\nchannels = ["u", "x"]\n'
+                    'lag = 1\nwindow = [100, 200]\noverlap = [5, 10]\n')
+    assert len(load_config(toml).analyses) == 4
+
+
+@pytest.mark.parametrize("d, msg", [
+    ({}, "has no \\[\\[analysis\\]\\] and no \\[\\[detector\\]\\]"),
+    ({"analysis": [{"method": "moments"}]}, "method='moments' is not one of"),
+    ({"analysis": [{"method": "autocorrelation", "lags": 2}]}, "unknown key\\(s\\) \\['lags'\\]"),
+    ({"analysis": [{"method": "autocorrelation", "lag": [1, 300]}]},
+     "#1 {'lag': 300}: lag=300 must be in \\[1, 200\\)"),
+    ({"detector": [{"path": "/no/such.pkl"}]}, "\\[\\[detector\\]\\] #1: cannot read"),
+    ({"jobs": {}}, "unknown table\\(s\\) \\['jobs'\\]"),
+])
+def test_config_errors(d, msg):
+    with pytest.raises(ValueError, match=msg):
+        config_from_dict(d)
+
+
+def test_load_config_names_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[[analysis]\n")
+    with pytest.raises(ValueError, match="bad.toml: invalid TOML"):
+        load_config(bad)
+
+
+def test_run_case_rows_equal_references(recordings):
+    _, paths = recordings
+    cfg = config_from_dict(JOB)
+    rows = run_case(str(paths[1]), cfg)
+    assert [r["status"] for r in rows] == ["ok"] * 3
+    rec = make_recording(1)
+    for r, lag in zip(rows[:2], (1, 3)):
+        ref = ac(rec["p1"], lag, 200, 5)
+        assert r["lag"] == lag and r["n_windows"] == len(ref) == 63
+        assert r["value_mean"] == pytest.approx(ref.mean(), rel=1e-9)
+        assert r["value_min"] == pytest.approx(ref.min(), rel=1e-9)
+        t = window_times(window_starts(12000, 200, 5), 200, 1000.0)
+        m = rms_change(FeatureSeries(t, ref, "ac", {"window": 200, "sample_rate": 1000.0}), 6.0, 10)
+        assert r["pct_change_signed"] == pytest.approx(m.pct_change_signed, rel=1e-9)
+        assert r["onset_s"] == 6.0
+    # planted truth: the correlation falls after the onset
+    assert rows[0]["pct_change_signed"] < -20
+    assert rows[2]["lag_ratio"] == "83:3" and rows[2]["n_samples"] == 12000
+
+
+def test_bad_file_becomes_error_row(recordings):
+    tmp, _ = recordings
+    rows = run_case(str(tmp / "recordings" / "rig0" / "broken.parquet"), config_from_dict(JOB))
+    assert len(rows) == 1 and rows[0]["status"] == "error"
+    assert "unreadable as Parquet" in rows[0]["error"]
+    rows = run_case(str(tmp / "missing.parquet"), config_from_dict(JOB))
+    assert "FileNotFoundError" in rows[0]["error"]
+
+
+def test_detector_rows(recordings, tmp_path):
+    _, paths = recordings
+    det = tmp_path / "det.pkl"
+    det.write_bytes(pickle.dumps(SlowScorer()))
+    cfg = config_from_dict({"detector": [{"name": "slow", "path": str(det)}]})
+    (row,) = run_case(str(paths[0]), cfg)
+    ref = ac(make_recording(0)["p1"], 1, 200, 5)
+    assert row["kind"] == "detector" and row["name"] == "slow"
+    assert row["score_max"] == pytest.approx((1 - ref).max(), rel=1e-9)
+    first = int(np.argmax(1 - ref >= 0.5))
+    assert row["alarm"] and row["alarm_time_s"] == pytest.approx((first * 190 + 199) / 1000.0)
+
+
+def test_resume_skips_finished_and_recomputes_changed(recordings):
+    tmp, paths = recordings
+    cfg, out = config_from_dict(JOB), tmp / "results.parquet"
+    pattern = str(tmp / "recordings" / "**" / "*.parquet")
+    s1 = run_batch([pattern], cfg, out, progress=False)
+    assert (s1.n_inputs, s1.n_run, s1.n_errors) == (4, 4, 1)
+    df = read_results(out)
+    assert len(df) == 3 * 3 + 1 and set(df["status"]) == {"ok", "error"}
+    assert pd.read_parquet(out).shape == df.shape  # a plain Parquet dataset
+    s2 = run_batch([pattern], cfg, out, progress=False)
+    assert (s2.n_skipped, s2.n_run) == (4, 0)
+    # a leftover temporary file of a killed write is ignored; an edited recording is re-run
+    (out / ".deadbeef.123.tmp").write_bytes(b"partial")
+    write_parquet(make_recording(7), paths[0])
+    os.utime(paths[0], ns=(time.time_ns(), time.time_ns() + 10**9))
+    s3 = run_batch([pattern], cfg, out, progress=False, retry_errors=True)
+    assert (s3.n_skipped, s3.n_run) == (2, 2)
+    assert len(read_results(out)) == len(df) + 3  # the old rows of the edited file remain too
+    assert (out / f"{result_key(paths[0], cfg.digest)}.parquet").exists()
+
+
+def test_killed_run_loses_no_finished_result(recordings, tmp_path):
+    tmp, paths = recordings
+    for i in range(3, 8):
+        write_parquet(make_recording(i), tmp / "recordings" / f"extra{i}.parquet")
+    det = tmp_path / "slow.pkl"
+    det.write_bytes(pickle.dumps(SlowScorer(delay_s=0.25)))
+    job = tmp_path / "job.toml"
+    job.write_text(f'[[detector]]\nname = "slow"\npath = "{det}"\n')
+    out = tmp_path / "res.parquet"
+    args = [sys.executable, "-m", "leakdiag.cli.main", "batch",
+            str(tmp / "recordings" / "**" / "*.parquet"), "--config", str(job), "--out", str(out),
+            "--serial", "--no-progress"]
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parent)}
+    proc = subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 60
+    while time.time() < deadline and len(list(out.glob("*.parquet"))) < 2:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    kept = sorted(out.glob("*.parquet"))
+    assert 2 <= len(kept) < 9, "the run was not interrupted mid-way"
+    assert len(read_results(out)) == len(kept)  # every kept file is complete and readable
+    cfg = load_config(job)
+    s = run_batch([str(tmp / "recordings" / "**" / "*.parquet")], cfg, out, progress=False)
+    assert s.n_skipped == len(kept) and s.n_run == 9 - len(kept)
+    df = read_results(out)
+    assert len(df) == 9 and df["path"].is_unique
+
+
+def test_cli_serial(recordings):
+    tmp, _ = recordings
+    job = tmp / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\nlag = 1\n'
+                   'window = 200\noverlap = 5\n')
+    out = tmp / "results.parquet"
+    r = CliRunner().invoke(cli, ["batch", str(tmp / "recordings" / "**" / "*.parquet"),
+                                 "--config", str(job), "--out", str(out), "--serial",
+                                 "--no-progress"])
+    assert r.exit_code == 0, r.output
+    assert "4 recording(s): 4 run, 0 already done, 1 error(s) in this run; 4 row(s)" in r.output
+    assert "error: broken.parquet: RecordingError" in r.output
+    r = CliRunner().invoke(cli, ["batch", str(tmp / "nothing" / "*.parquet"), "--config", str(job),
+                                 "--out", str(out), "--serial"])
+    assert r.exit_code != 0 and "no recording matches" in r.output
