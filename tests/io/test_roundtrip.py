@@ -57,7 +57,8 @@ def test_non_finite_metadata_survives(tmp_path, ext):
 @pytest.mark.parametrize("ext", [".parquet", ".h5"])
 def test_metadata_that_json_cannot_hold(tmp_path, ext):
     rec = _rec(callback=object())
-    with pytest.raises(RecordingError, match=r"simulate_vca: metadata cannot be stored: object"):
+    with pytest.raises(RecordingError, match=rf"r{ext}: metadata cannot be stored \(key\(s\) "
+                                             r"\['callback'\]\): object"):
         write_recording(rec, tmp_path / f"r{ext}")
     assert not list(tmp_path.iterdir())  # no partial file left behind
 

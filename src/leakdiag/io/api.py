@@ -156,6 +156,10 @@ def write_recording(rec: Recording, path: str | os.PathLike) -> Path:
     fmt = _format(path, WRITE_FORMATS, "write")
     if not isinstance(rec, Recording):
         raise TypeError(f"rec must be a Recording, got {type(rec).__name__}")
+    if fmt != "csv":
+        from leakdiag.io.header import encode_header
+
+        encode_header(rec, str(path))  # fail on unstorable metadata before touching the disk
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
     try:

@@ -52,7 +52,7 @@ def write_hdf5(rec: Recording, path: str | os.PathLike) -> None:
     bad = [n for n in rec.channels if "/" in n or n in (".", "")]
     if bad:
         raise RecordingError(f"{path}: channel name(s) {bad} cannot be HDF5 dataset names")
-    header = json.loads(encode_header(rec))
+    header = json.loads(encode_header(rec, str(path)))
     with h5py.File(path, "w") as f:
         f.attrs["format"] = HEADER_FORMAT
         f.attrs["version"] = header["version"]

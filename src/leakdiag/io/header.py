@@ -32,13 +32,15 @@ def _jsonable(obj: Any) -> Any:
     raise TypeError(f"{type(obj).__name__} {obj!r} is not JSON-serialisable")
 
 
-def encode_header(rec: Recording) -> str:
+def encode_header(rec: Recording, source: str | None = None) -> str:
     """JSON text of a recording's header (everything but the samples).
 
     Parameters
     ----------
     rec : Recording
         The recording.
+    source : str, optional
+        File being written, for messages (default: ``rec.meta["source"]``).
 
     Returns
     -------
@@ -49,7 +51,7 @@ def encode_header(rec: Recording) -> str:
     Raises
     ------
     RecordingError
-        If ``meta`` holds a value JSON cannot store (the message names it).
+        If ``meta`` holds a value JSON cannot store (the message names its key).
 
     Notes
     -----
@@ -75,8 +77,15 @@ def encode_header(rec: Recording) -> str:
     try:
         return json.dumps(header, default=_jsonable, allow_nan=True)
     except (TypeError, ValueError) as exc:
+        where = source if source is not None else rec.meta.get("source", "<recording>")
+        bad = []
+        for key, value in rec.meta.items():
+            try:
+                json.dumps(value, default=_jsonable, allow_nan=True)
+            except (TypeError, ValueError):
+                bad.append(key)
         raise RecordingError(
-            f"{rec.meta.get('source', '<recording>')}: metadata cannot be stored: {exc}"
+            f"{where}: metadata cannot be stored (key(s) {bad}): {exc}"
         ) from None
 
 

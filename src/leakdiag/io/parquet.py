@@ -51,7 +51,7 @@ def write_parquet(rec: Recording, path: str | os.PathLike) -> None:
 
     if "time" in rec.channels:
         raise RecordingError(f"{path}: a channel named 'time' collides with the time column")
-    header = encode_header(rec)
+    header = encode_header(rec, str(path))
     table = pa.table({"time": rec.time, **rec.channels})
     table = table.replace_schema_metadata({HEADER_KEY: header.encode("utf-8")})
     pq.write_table(table, path)
