@@ -44,7 +44,7 @@ def test_header_without_rows(tmp_path):
 def test_binary_file_with_text_extension(tmp_path):
     path = tmp_path / "run.csv"
     path.write_bytes(bytes(range(256)) * 4)
-    with pytest.raises(RecordingError, match=r"run.csv: unreadable as text \(not UTF-8\)"):
+    with pytest.raises(RecordingError, match=r"run.csv: unreadable as text \(binary data\)"):
         read_recording(path)
 
 
@@ -147,3 +147,12 @@ def test_check_length():
         check_length(rec, 0)
     with pytest.raises(TypeError, match=r"window=1.5 must be an integer"):
         check_length(rec, 1.5)
+
+
+def test_latin1_text_is_read(tmp_path):
+    path = tmp_path / "daq.csv"
+    path.write_bytes("time;p1;T in \xb0C\n0;1;20\n1;2;21\n".encode("latin-1"))
+    rec = read_recording(path, {"p1": "p1"})
+    assert rec["p1"].tolist() == [1.0, 2.0]
+    rec = read_recording(path, {"temp": "T in \xb0C"})
+    assert rec["temp"].tolist() == [20.0, 21.0]

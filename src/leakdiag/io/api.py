@@ -80,9 +80,12 @@ def read_recording(path: str | os.PathLike, column_map: Any = None, *,
     >>> rec = read_recording(p)
     >>> rec.sample_rate, rec["p1"].tolist(), rec.units["x"]
     (1000.0, [100000.0, 200000.0, 300000.0], 'm')
-    >>> rec = read_recording(p, {"pa": "p1:bar"}, units=None)
-    >>> rec["pa"].tolist()
-    [10000000000.0, 20000000000.0, 30000000000.0]
+    >>> q = pathlib.Path(tempfile.mkdtemp()) / "rig.txt"
+    >>> _ = q.write_text("n\tPA_bar\tnote\n1\t10\tstart\n2\t12\t\n3\t14\t\n")
+    >>> rec = read_recording(q, {"file": {"time_column": "n", "time_unit": "samples"},
+    ...                          "channels": {"p1": "PA_bar:bar"}}, sample_rate=100)
+    >>> rec["p1"].tolist(), rec.units, rec.sample_rate
+    ([1000000.0, 1200000.0, 1400000.0], {'p1': 'Pa'}, 100.0)
     """
     from leakdiag.io.assemble import table_to_recording
     from leakdiag.io.column_map import load_column_map

@@ -87,6 +87,14 @@ def hdf5_tree(group) -> dict:
         Name -> numpy array or nested dict. Datasets with a ``MATLAB_class`` attribute are
         transposed back to MATLAB's row/column orientation; MATLAB text, cells, empty
         arrays and the ``#refs#`` group are left out.
+
+    Examples
+    --------
+    >>> import h5py, io
+    >>> with h5py.File(io.BytesIO(), "w") as f:
+    ...     f["daq/p"] = np.arange(3.0)
+    ...     hdf5_tree(f)["daq"]["p"].tolist()
+    [0.0, 1.0, 2.0]
     """
     import h5py
 

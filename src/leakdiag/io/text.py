@@ -16,6 +16,7 @@ __all__ = ["SEPARATOR_CANDIDATES", "detect_separator", "read_text", "write_csv"]
 SEPARATOR_CANDIDATES = ("\t", ",", ";", "|")
 
 _SNIFF_LINES = 5
+_SNIFF_BYTES = 1 << 16
 
 
 def detect_separator(lines: list[str]) -> str:
@@ -49,21 +50,23 @@ def detect_separator(lines: list[str]) -> str:
     return best if best is not None else r"\s+"
 
 
-def _first_lines(path: Path, source: str) -> list[str]:
-    lines: list[str] = []
+def _sniff(path: Path, source: str) -> tuple[list[str], str]:
+    """First non-blank lines and the encoding: UTF-8 (BOM allowed), else Latin-1."""
     try:
-        with open(path, encoding="utf-8-sig") as fh:
-            for line in fh:
-                if line.strip():
-                    lines.append(line.rstrip("\r\n"))
-                if len(lines) >= _SNIFF_LINES:
-                    break
-    except UnicodeDecodeError:
-        raise RecordingError(f"{source}: unreadable as text (not UTF-8); is it a binary file?"
-                             ) from None
+        with open(path, "rb") as fh:
+            head = fh.read(_SNIFF_BYTES)
     except OSError as exc:
         raise RecordingError(f"{source}: cannot open: {exc.strerror}") from None
-    return lines
+    if b"\x00" in head:
+        raise RecordingError(f"{source}: unreadable as text (binary data); is it another format?")
+    cut = head.rfind(b"\n")
+    complete = head if cut < 0 or len(head) < _SNIFF_BYTES else head[:cut + 1]
+    try:
+        text, encoding = complete.decode("utf-8-sig"), "utf-8-sig"
+    except UnicodeDecodeError:  # e.g. Windows DAQ exports with a degree sign in cp1252
+        text, encoding = complete.decode("latin-1"), "latin-1"
+    lines = [line.rstrip("\r") for line in text.split("\n") if line.strip()]
+    return lines[:_SNIFF_LINES], encoding
 
 
 def read_text(path: str | os.PathLike, separator: str | None = None) -> RawTable:
@@ -87,7 +90,7 @@ def read_text(path: str | os.PathLike, separator: str | None = None) -> RawTable
     ------
     RecordingError
         Empty file, header without data rows, unparsable text (rows with more fields than the
-        header), or a non-text file.
+        header), or a binary file. Text that is not UTF-8 is read as Latin-1.
 
     Examples
     --------
@@ -101,13 +104,13 @@ def read_text(path: str | os.PathLike, separator: str | None = None) -> RawTable
 
     path = Path(path)
     source = str(path)
-    lines = _first_lines(path, source)
+    lines, encoding = _sniff(path, source)
     if not lines:
         raise RecordingError(f"{source}: file is empty")
     sep = separator if separator is not None else detect_separator(lines)
     try:
         df = pd.read_csv(path, sep=sep, index_col=False, skipinitialspace=True,
-                         encoding="utf-8-sig", engine="c" if len(sep) == 1 else "python")
+                         encoding=encoding, engine="c" if len(sep) == 1 else "python")
     except pd.errors.EmptyDataError:
         raise RecordingError(f"{source}: file is empty") from None
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as exc:
