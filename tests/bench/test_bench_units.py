@@ -1,0 +1,108 @@
+"""Suite, registry and scoring of the benchmark: hand-computed values and invariants."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from leakdiag.bench.registry import METHODS, make_detector
+from leakdiag.bench.run import per_run_target_per_hour, simulator_kwargs
+from leakdiag.bench.scoring import minimum_detectable, roc_auc, roc_curve, summarise
+from leakdiag.bench.suite import QUICK_SUITES, SUITES, Nuisance, build_suite
+from leakdiag.detect.base import Alarm
+
+
+def test_suite_is_fixed_disjoint_and_reproducible():
+    a, b = build_suite(), build_suite()
+    assert [c.seed for c in a] == [c.seed for c in b]
+    assert [c.nuisance for c in a] == [c.nuisance for c in b]
+    seeds = [c.seed for c in a]
+    assert len(seeds) == len(set(seeds))  # every run its own seed: roles are disjoint
+    vca = [c for c in a if c.system == "vca"]
+    assert min(c.leak_lpm for c in vca if c.leak_lpm > 0) == 0.01
+    assert max(c.leak_lpm for c in vca) == 0.5
+    eha = [c for c in a if c.system == "eha"]
+    assert {c.leak_lpm for c in eha if c.leak_lpm > 0} == {0.1, 0.2, 0.5, 1.0, 1.63}
+    assert {(c.load, c.noise_level) for c in vca} == {("none", "low"), ("none", "high"),
+                                                       ("spring", "low"), ("spring", "high")}
+
+
+def test_nuisance_draws_inside_ranges_for_healthy_and_leaking_alike():
+    n = Nuisance()
+    for c in build_suite(SUITES, ("vca",)):
+        nz = c.nuisance
+        assert n.supply_ripple_pa[0] <= nz["supply_ripple_pa"] <= n.supply_ripple_pa[1]
+        assert n.temperature_rise_k[0] <= nz["temperature_rise_k"] <= n.temperature_rise_k[1]
+        if c.leak_lpm > 0:
+            lo, hi = SUITES["vca"].onset_range_s
+            assert lo <= c.onset_s <= hi
+    temps = lambda role: [c.nuisance["temperature_rise_k"] for c in build_suite() if c.role == role]  # noqa: E731
+    # same distribution for healthy and leaking runs: means within 2 K of each other
+    assert abs(np.mean(temps("test_healthy")) - np.mean(temps("test_leak"))) < 2.0
+
+
+def test_simulator_kwargs_switch_spring_change_with_load():
+    cases = build_suite(SUITES, ("vca",))
+    none = next(c for c in cases if c.load == "none")
+    spring = next(c for c in cases if c.load == "spring")
+    assert simulator_kwargs(none)["conditions"].spring_change_time_s is None
+    assert simulator_kwargs(spring)["conditions"].spring_change_factor == spring.nuisance[
+        "spring_change_factor"]
+    assert simulator_kwargs(spring)["sensor_params"].pressure_noise_std_pa == spring.noise_std_pa
+
+
+def test_per_run_target_conversion():
+    # 1 % per run of 1 h monitored: -ln(0.99) alarms per hour
+    assert per_run_target_per_hour(0.01, 3600.0 + 5.0, 5.0) == pytest.approx(-math.log(0.99))
+    with pytest.raises(ValueError, match="per_run"):
+        per_run_target_per_hour(1.0, 100.0, 5.0)
+
+
+def test_registry_builds_unfitted_detectors():
+    for name in METHODS:
+        det = make_detector(name, "vca", Alarm())
+        assert not hasattr(det, "threshold_")
+    with pytest.raises(ValueError, match="unknown method 'nope'"):
+        make_detector("nope", "vca", Alarm())
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.integers(0, 5), min_size=1, max_size=12),
+       st.lists(st.integers(0, 5), min_size=1, max_size=12))
+def test_auc_equals_area_under_roc_curve(null, alt):
+    fpr, tpr = roc_curve(null, alt)
+    area = float(np.sum(np.diff(fpr) * (tpr[1:] + tpr[:-1]) / 2))  # trapezoid handles ties
+    assert roc_auc(null, alt) == pytest.approx(area)
+
+
+def test_summarise_counts_alarm_before_onset_as_not_detected():
+    runs = pd.DataFrame({
+        "method": "m", "system": "vca", "role": ["test_healthy"] * 4 + ["test_leak"] * 4,
+        "leak_lpm": [0.0] * 4 + [0.2] * 4, "score_max": [1, 2, 3, 4, 5, 6, 7, 8],
+        "alarm": [False, False, False, True, True, True, True, False],
+        "alarm_time_s": [None, None, None, 3.0, 9.0, 11.0, 13.0, None],
+        "onset_true_s": [None] * 4 + [10.0] * 4, "onset_est_s": [None] * 4 + [8.0, 10.5, 11.0, None],
+        "duration_s": 100.0})
+    r = summarise(runs, {"vca": 40.0}).iloc[0]
+    assert r.auc == 1.0 and r.false_alarm_rate == 0.25
+    assert r.detection_rate == 0.5  # the alarm at 9 s precedes the onset at 10 s
+    assert r.onset_error_median_s == pytest.approx(0.75) and r.detection_delay_median_s == 2.0
+    assert r.leak_pct_rated == pytest.approx(0.5)
+    assert r.false_alarms_per_hour == pytest.approx(-math.log(0.75) * 36)
+
+
+def test_minimum_detectable_requires_all_larger_sizes():
+    res = pd.DataFrame({"method": "m", "system": "vca", "leak_lpm": [0.01, 0.05, 0.1],
+                        "detection_rate": [0.9, 1.0, 0.85], "false_alarm_rate": 0.0,
+                        "n_test_healthy": 10})
+    assert math.isnan(minimum_detectable(res).min_detectable_lpm.iloc[0])
+    res.loc[2, "detection_rate"] = 0.95
+    out = minimum_detectable(res, {"vca": 50.0}).iloc[0]
+    assert out.min_detectable_lpm == 0.01 and out.min_detectable_pct_rated == pytest.approx(0.02)
+
+
+def test_quick_suite_is_small():
+    assert len(build_suite(QUICK_SUITES)) <= 30

@@ -1,0 +1,105 @@
+"""CUSUM, change points, threshold calibration and leak-size calibration against references."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from leakdiag.detect.cusum import cusum, cusum_alarm_count
+from leakdiag.detect.leaksize import fit_leak_calibration
+from leakdiag.detect.onset import best_split_gain, change_points, cusum_onset
+from leakdiag.detect.threshold import calibrate_threshold
+
+
+def _cusum_ref(z, k, h=np.inf):
+    sp = sn = 0.0
+    up, dn, count = [], [], 0
+    for v in z:
+        if not np.isnan(v):
+            sp, sn = max(0.0, sp + v - k), max(0.0, sn - v - k)
+        up.append(sp)
+        dn.append(sn)
+        if sp >= h or sn >= h:
+            count, sp, sn = count + 1, 0.0, 0.0
+    return np.array(up), np.array(dn), count
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.floats(-5, 5) | st.just(float("nan")), min_size=1, max_size=60),
+       st.floats(0, 2), st.floats(0.5, 8))
+def test_cusum_equals_plain_reference(z, k, h):
+    up, dn = cusum(z, k)
+    ru, rd, rc = _cusum_ref(z, k)
+    np.testing.assert_allclose(up, ru)
+    np.testing.assert_allclose(dn, rd)
+    assert cusum_alarm_count(z, h, k) == _cusum_ref(z, k, h)[2]
+
+
+def test_cusum_direction_and_strided_input():
+    z = np.array([0.0, 9.0, 3.0, 9.0, -3.0, 9.0])[::2]  # strided view [0, 3, -3]
+    up, dn = cusum(z, 0.5, "up")
+    assert up.tolist() == [0.0, 2.5, 0.0] and dn.tolist() == [0.0, 0.0, 0.0]
+    with pytest.raises(ValueError, match="direction='left'"):
+        cusum(z, 0.5, "left")
+    with pytest.raises(ValueError, match="drift=-1.0"):
+        cusum(z, -1.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-10, 10), min_size=10, max_size=40))
+def test_best_split_gain_equals_brute_force(z):
+    z = np.array(z)
+    cost = lambda s: float(((s - s.mean()) ** 2).sum())  # noqa: E731
+    ref = max(cost(z) - cost(z[:t]) - cost(z[t:]) for t in range(5, len(z) - 4))
+    assert best_split_gain(z, 5) == pytest.approx(ref, rel=1e-9, abs=1e-9)
+
+
+@pytest.mark.parametrize("method", ["pelt", "binseg"])
+def test_change_points_planted_step(method):
+    rng = np.random.default_rng(3)
+    z = rng.standard_normal(400)
+    z[250:] += 1.5
+    healthy_pen = max(best_split_gain(rng.standard_normal(400)) for _ in range(20))
+    cps = change_points(z, healthy_pen, method)
+    assert len(cps) == 1 and abs(cps[0] - 250) <= 5
+    assert change_points(rng.standard_normal(400), 3 * healthy_pen, method) == []
+
+
+def test_cusum_onset_and_penalty_validation():
+    assert cusum_onset([1.0, 2.0, 3.0], 2) == 0
+    with pytest.raises(ValueError, match="penalty"):
+        change_points(np.zeros(20), 0.0)
+
+
+def test_threshold_empirical_mode_achieves_rate_on_held_out_noise():
+    # 50 h of 1-s windows: the target 2/h is observed directly (>= 3 alarms), so the rate on
+    # another 50 h must match within Poisson error (expected 100 alarms; 3 sigma = 30)
+    rng = np.random.default_rng(7)
+    fit = [rng.standard_normal(3600) for _ in range(50)]
+    thr = calibrate_threshold(fit, [3600.0] * 50, 2.0)
+    assert thr.method == "empirical" and thr.fitted_per_hour <= 2.0
+    held = sum(cusum_alarm_count(rng.standard_normal(3600), thr.threshold) for _ in range(50))
+    assert 70 <= held <= 130
+
+
+def test_threshold_needs_enough_data():
+    with pytest.raises(ValueError, match="healthy"):
+        calibrate_threshold([np.zeros(5)], [5.0], 1.0)
+
+
+def test_leak_calibration_interval_covers_truth():
+    rng = np.random.default_rng(11)
+    q = np.repeat([0.1, 0.2, 0.3, 0.4], 10)
+    shift = 2.0 + 10.0 * q + rng.normal(0, 0.2, q.size)
+    cal = fit_leak_calibration(shift, q)
+    assert cal.slope_lpm == pytest.approx(0.1, rel=0.1)
+    hits = 0
+    for _ in range(200):
+        qt = rng.uniform(0.1, 0.4)
+        est, (lo, hi), inside = cal.estimate(2.0 + 10.0 * qt + rng.normal(0, 0.2))
+        hits += lo <= qt <= hi
+    assert 0.8 <= hits / 200 <= 0.98  # nominal 90 %
+    with pytest.raises(ValueError, match="all feature shifts are equal"):
+        fit_leak_calibration([1.0, 1.0, 1.0], [0.1, 0.2, 0.3])
+    with pytest.raises(ValueError, match=">= 3"):
+        fit_leak_calibration([1.0, 2.0], [0.1, 0.2])
