@@ -81,7 +81,7 @@ def read_recording(path: str | os.PathLike, column_map: Any = None, *,
     >>> rec.sample_rate, rec["p1"].tolist(), rec.units["x"]
     (1000.0, [100000.0, 200000.0, 300000.0], 'm')
     >>> q = pathlib.Path(tempfile.mkdtemp()) / "rig.txt"
-    >>> _ = q.write_text("n\tPA_bar\tnote\n1\t10\tstart\n2\t12\t\n3\t14\t\n")
+    >>> _ = q.write_text("n\\tPA_bar\\tnote\\n1\\t10\\tstart\\n2\\t12\\t\\n3\\t14\\t\\n")
     >>> rec = read_recording(q, {"file": {"time_column": "n", "time_unit": "samples"},
     ...                          "channels": {"p1": "PA_bar:bar"}}, sample_rate=100)
     >>> rec["p1"].tolist(), rec.units, rec.sample_rate
