@@ -109,11 +109,7 @@ def _column_map(column_map, cols):
         return column_map
     import leakdiag.io as lio
 
-    spec = lio.parse_column_spec(list(cols))
-    if column_map:
-        base = lio.load_column_map(column_map)
-        return base.merged(spec) if hasattr(base, "merged") else spec
-    return spec
+    return lio.build_column_map(list(cols), base=column_map)
 
 
 def _write_outputs(result, out: Path) -> None:
