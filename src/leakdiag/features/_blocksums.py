@@ -27,7 +27,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["lag0_stats", "lagged_cross_sums"]
+__all__ = ["lag0_stats", "lagged_cross_sums", "safe_ratio", "safe_ratio_sqrt"]
 
 
 @numba.njit(cache=True)
@@ -43,20 +43,20 @@ def lag0_stats(x, window, starts):  # pragma: no cover - compiled
     ref = np.empty(n_win)
     off = np.empty(n_win)
     ss = np.empty(n_win)
-    cur_b = -1
+    inv_m = 1.0 / m_len
+    b0 = 0
+    e = -1  # end of the current block; -1: none yet (starts are sorted, so blocks only advance)
     c0 = 0.0
-    f_b = -1
+    f_b0 = -1
     f_len = 0
     c1 = 0.0
     sa = 0.0
     sc = 0.0
     for w in range(n_win):
         s = starts[w]
-        b = s // m_len
-        b0 = b * m_len
-        e = min(b0 + m_len, n)
-        if b != cur_b:
-            cur_b = b
+        if s >= b0 + m_len or e < 0:  # entered a new block: one integer division per block
+            b0 = (s // m_len) * m_len
+            e = min(b0 + m_len, n)
             c0 = x[e - 1]
             ta = 0.0
             tc = 0.0
@@ -71,8 +71,8 @@ def lag0_stats(x, window, starts):  # pragma: no cover - compiled
         n1 = m_len - n0
         a0 = ga[i0]
         if n1 > 0:
-            if f_b != b + 1:
-                f_b = b + 1
+            if f_b0 != e:
+                f_b0 = e
                 f_len = 0
                 c1 = x[e]
                 sa = 0.0
@@ -86,13 +86,13 @@ def lag0_stats(x, window, starts):  # pragma: no cover - compiled
                 f_len += 1
             dc = c1 - c0
             a1 = fa[n1 - 1]
-            o = (a0 + a1 + n1 * dc) / m_len
+            o = (a0 + a1 + n1 * dc) * inv_m
             d0 = -o
             d1 = dc - o
             acc = gc[i0] + 2.0 * d0 * a0 + n0 * d0 * d0
             acc += fc[n1 - 1] + 2.0 * d1 * a1 + n1 * d1 * d1
         else:
-            o = a0 / m_len
+            o = a0 * inv_m
             acc = gc[i0] - o * a0
         ref[w] = c0
         off[w] = o
@@ -116,10 +116,11 @@ def lagged_cross_sums(u, v, lag, window, starts, ru, offu, rv, offv):  # pragma:
     fc = np.empty(m_len)
     n_win = starts.shape[0]
     out = np.empty(n_win)
-    cur_b = -1
+    b0 = 0
+    e = -1
     gcu = 0.0
     gcv = 0.0
-    f_b = -1
+    f_b0 = -1
     f_len = 0
     fcu = 0.0
     fcv = 0.0
@@ -128,11 +129,9 @@ def lagged_cross_sums(u, v, lag, window, starts, ru, offu, rv, offv):  # pragma:
     sc = 0.0
     for w in range(n_win):
         s = starts[w]
-        b = s // m_len
-        b0 = b * m_len
-        e = min(b0 + m_len, n_pairs)
-        if b != cur_b:
-            cur_b = b
+        if s >= b0 + m_len or e < 0:
+            b0 = (s // m_len) * m_len
+            e = min(b0 + m_len, n_pairs)
             gcu = u[e - 1]
             gcv = v[e - 1 + lag]
             ta = 0.0
@@ -154,8 +153,8 @@ def lagged_cross_sums(u, v, lag, window, starts, ru, offu, rv, offv):  # pragma:
         acc = gc[i0] + dv0 * ga[i0] + du0 * gb[i0] + n0 * du0 * dv0
         n1 = m_len - n0
         if n1 > 0:
-            if f_b != b + 1:
-                f_b = b + 1
+            if f_b0 != e:
+                f_b0 = e
                 f_len = 0
                 fcu = u[e]
                 fcv = v[e + lag]
@@ -178,3 +177,31 @@ def lagged_cross_sums(u, v, lag, window, starts, ru, offu, rv, offv):  # pragma:
             acc += fc[k] + dv1 * fa[k] + du1 * fb[k] + n1 * du1 * dv1
         out[w] = acc
     return out
+
+
+@numba.njit(cache=True)
+def safe_ratio(num, den):  # pragma: no cover - compiled
+    """``num / den`` with NaN where ``den <= 0`` (a degenerate window); also the NaN count."""
+    out = np.empty(num.shape[0])
+    n_bad = 0
+    for i in range(num.shape[0]):
+        if den[i] > 0.0:
+            out[i] = num[i] / den[i]
+        else:
+            out[i] = np.nan
+            n_bad += 1
+    return out, n_bad
+
+
+@numba.njit(cache=True)
+def safe_ratio_sqrt(num, den_x, den_y):  # pragma: no cover - compiled
+    """``num / (sqrt(den_x) sqrt(den_y))``, NaN where either is ``<= 0``; also the NaN count."""
+    out = np.empty(num.shape[0])
+    n_bad = 0
+    for i in range(num.shape[0]):
+        if den_x[i] > 0.0 and den_y[i] > 0.0:
+            out[i] = num[i] / (np.sqrt(den_x[i]) * np.sqrt(den_y[i]))
+        else:
+            out[i] = np.nan
+            n_bad += 1
+    return out, n_bad

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import warnings
 
-import numpy as np
-
 __all__ = ["DegenerateWindowWarning", "warn_degenerate"]
 
 
@@ -16,22 +14,23 @@ class DegenerateWindowWarning(RuntimeWarning):
     """
 
 
-def warn_degenerate(bad: np.ndarray, what: str, stacklevel: int = 3) -> None:
-    """Warn once if any entry of the boolean mask ``bad`` is set, counting them.
+def warn_degenerate(n_bad: int, n_windows: int, what: str, stacklevel: int = 3) -> None:
+    """Warn once, with the count, if ``n_bad > 0`` windows out of ``n_windows`` are degenerate.
 
     Parameters
     ----------
-    bad : numpy.ndarray of bool
-        One entry per window, True where the window is degenerate.
+    n_bad : int
+        Number of degenerate windows (their values are NaN).
+    n_windows : int
+        Number of windows computed.
     what : str
         The reason, e.g. ``"zero variance"``.
     stacklevel : int
         Passed to :func:`warnings.warn` so the warning points at the user's call.
     """
-    n_bad = int(np.count_nonzero(bad))
     if n_bad:
         warnings.warn(
-            f"{n_bad} of {bad.size} windows have {what}; their values are NaN",
+            f"{int(n_bad)} of {int(n_windows)} windows have {what}; their values are NaN",
             DegenerateWindowWarning,
             stacklevel=stacklevel,
         )

@@ -5,7 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from leakdiag.features import _args
-from leakdiag.features._blocksums import lag0_stats, lagged_cross_sums
+from leakdiag.features._blocksums import (
+    lag0_stats,
+    lagged_cross_sums,
+    safe_ratio,
+    safe_ratio_sqrt,
+)
 from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
 
@@ -31,10 +36,8 @@ def _auto_values(x: np.ndarray, lag: int, starts: np.ndarray, window: int) -> np
     starts, order = _sorted(starts)
     ref, off, ss = lag0_stats(x, window, starts)
     num = lagged_cross_sums(x, x, lag, window, starts, ref, off, ref, off)
-    bad = ss <= 0.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        values = np.where(bad, np.nan, num / np.where(bad, 1.0, ss))
-    warn_degenerate(bad, "zero variance", stacklevel=4)
+    values, n_bad = safe_ratio(num, ss)
+    warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return _unsort(values, order)
 
 
@@ -44,11 +47,8 @@ def _cross_values(y: np.ndarray, x: np.ndarray, lag: int, starts: np.ndarray,
     ry, offy, ssy = lag0_stats(y, window, starts)
     rx, offx, ssx = lag0_stats(x, window, starts)
     num = lagged_cross_sums(y, x, lag, window, starts, ry, offy, rx, offx)
-    bad = (ssx <= 0.0) | (ssy <= 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        den = np.where(bad, 1.0, np.sqrt(np.where(bad, 1.0, ssx)) * np.sqrt(np.where(bad, 1.0, ssy)))
-        values = np.where(bad, np.nan, num / den)
-    warn_degenerate(bad, "zero variance", stacklevel=4)
+    values, n_bad = safe_ratio_sqrt(num, ssx, ssy)
+    warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return _unsort(values, order)
 
 

@@ -8,6 +8,7 @@ import numba
 import numpy as np
 
 from leakdiag.features import _args
+from leakdiag.features._blocksums import safe_ratio
 from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
 
@@ -15,76 +16,79 @@ __all__ = ["metric_length_ratio", "metric_length_ratio_at"]
 
 
 @numba.njit(cache=True)
-def _step_length(x, j, step):  # pragma: no cover - compiled
-    """Euclidean norm over channels of ``x[j + step] - x[j]`` (Eq. 4.4)."""
+def _step_lengths(x, step, n_terms):  # pragma: no cover - compiled
+    """``||x[j + step] - x[j]||`` for ``j < n_terms``: Euclidean norm over channels (Eq. 4.4)."""
     n_ch = x.shape[1]
+    out = np.empty(n_terms)
     if n_ch == 1:
-        return abs(x[j + step, 0] - x[j, 0])
-    acc = 0.0
-    for c in range(n_ch):
-        d = x[j + step, c] - x[j, c]
-        acc += d * d
-    return math.sqrt(acc)
+        for j in range(n_terms):
+            out[j] = abs(x[j + step, 0] - x[j, 0])
+    else:
+        for j in range(n_terms):
+            acc = 0.0
+            for c in range(n_ch):
+                d = x[j + step, c] - x[j, c]
+                acc += d * d
+            out[j] = math.sqrt(acc)
+    return out
 
 
 @numba.njit(cache=True)
-def _metric_sums(x, l_step, k_step, window, starts):  # pragma: no cover - compiled
-    """Per window: sums over ``j = s .. s+N-l-1`` of ``|x_{j+k}-x_j|`` and ``|x_{j+l}-x_j|``.
+def _window_sums2(t1, t2, m_len, starts):  # pragma: no cover - compiled
+    """Sums of ``t1`` and ``t2`` over ``[s, s + m_len)`` for each sorted start ``s``.
 
-    Same block layout as :mod:`leakdiag.features._blocksums` (blocks of ``M = N - l`` terms,
+    Same block layout as :mod:`leakdiag.features._blocksums` (blocks of ``m_len`` terms,
     suffix sums for the block holding ``s``, lazy prefix sums for the next one), so each window
-    sum adds at most two partial sums of at most ``M`` non-negative terms: relative error of a
-    few ulps times ``M``, independent of the signal length. ``starts`` must be sorted.
+    sum adds at most two partial sums of at most ``m_len`` non-negative terms: relative error
+    of a few ulps times ``m_len``, independent of the signal length.
     """
-    n_terms = x.shape[0] - l_step
-    m_len = window - l_step
-    gk = np.empty(m_len)
-    gl = np.empty(m_len)
-    fk = np.empty(m_len)
-    fl = np.empty(m_len)
+    n_terms = t1.shape[0]
+    g1 = np.empty(m_len)
+    g2 = np.empty(m_len)
+    f1 = np.empty(m_len)
+    f2 = np.empty(m_len)
     n_win = starts.shape[0]
-    num = np.empty(n_win)
-    den = np.empty(n_win)
-    cur_b = -1
-    f_b = -1
+    out1 = np.empty(n_win)
+    out2 = np.empty(n_win)
+    b0 = 0
+    e = -1
+    f_b0 = -1
     f_len = 0
-    sk = 0.0
-    sl = 0.0
+    r1 = 0.0
+    r2 = 0.0
     for w in range(n_win):
         s = starts[w]
-        b = s // m_len
-        b0 = b * m_len
-        e = min(b0 + m_len, n_terms)
-        if b != cur_b:
-            cur_b = b
-            tk = 0.0
-            tl = 0.0
+        if s >= b0 + m_len or e < 0:
+            b0 = (s // m_len) * m_len
+            e = min(b0 + m_len, n_terms)
+            a1 = 0.0
+            a2 = 0.0
             for j in range(e - 1, s - 1, -1):
-                tk += _step_length(x, j, k_step)
-                tl += _step_length(x, j, l_step)
-                gk[j - b0] = tk
-                gl[j - b0] = tl
+                a1 += t1[j]
+                a2 += t2[j]
+                g1[j - b0] = a1
+                g2[j - b0] = a2
         i0 = s - b0
-        a_k = gk[i0]
-        a_l = gl[i0]
+        v1 = g1[i0]
+        v2 = g2[i0]
         n1 = m_len - (e - s)
         if n1 > 0:
-            if f_b != b + 1:
-                f_b = b + 1
+            if f_b0 != e:
+                f_b0 = e
                 f_len = 0
-                sk = 0.0
-                sl = 0.0
+                r1 = 0.0
+                r2 = 0.0
             while f_len < n1:
-                sk += _step_length(x, e + f_len, k_step)
-                sl += _step_length(x, e + f_len, l_step)
-                fk[f_len] = sk
-                fl[f_len] = sl
+                r1 += t1[e + f_len]
+                r2 += t2[e + f_len]
+                f1[f_len] = r1
+                f2[f_len] = r2
                 f_len += 1
-            a_k += fk[n1 - 1]
-            a_l += fl[n1 - 1]
-        num[w] = a_k
-        den[w] = a_l
-    return num, den
+            v1 += f1[n1 - 1]
+            v2 += f2[n1 - 1]
+        out1[w] = v1
+        out2[w] = v2
+    return out1, out2
 
 
 def _ratio_values(x2: np.ndarray, l_step: int, k_step: int, starts: np.ndarray,
@@ -93,10 +97,12 @@ def _ratio_values(x2: np.ndarray, l_step: int, k_step: int, starts: np.ndarray,
     if starts.size > 1 and not bool(np.all(starts[1:] >= starts[:-1])):
         order = np.argsort(starts, kind="stable")
         starts = np.ascontiguousarray(starts[order])
-    num, den = _metric_sums(x2, l_step, k_step, window, starts)
-    bad = den <= 0.0
-    values = np.where(bad, np.nan, num / np.where(bad, 1.0, den))
-    warn_degenerate(bad, "zero metric length at step l (Eq. 4.3 denominator)", stacklevel=4)
+    n_terms = len(x2) - l_step  # Eq. 4.3: both sums run over the same N - l terms
+    num, den = _window_sums2(_step_lengths(x2, k_step, n_terms), _step_lengths(x2, l_step, n_terms),
+                             window - l_step, starts)
+    values, n_bad = safe_ratio(num, den)
+    warn_degenerate(n_bad, len(values), "zero metric length at step l (Eq. 4.3 denominator)",
+                    stacklevel=4)
     if order is not None:
         out = np.empty_like(values)
         out[order] = values

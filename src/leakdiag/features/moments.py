@@ -129,7 +129,8 @@ def _moment_values(x: np.ndarray, starts: np.ndarray, window: int) -> np.ndarray
     skew = np.where(bad, np.nan, c3 / ((window - 1) * s2 * s))
     kurt = np.where(bad, np.nan, c4 / ((window - 1) * s2 * s2))
     variance = np.where(bad, 0.0, c2 / window)  # Eq. 4.12, population variance
-    warn_degenerate(bad, "zero variance (skewness and kurtosis)", stacklevel=4)
+    warn_degenerate(int(np.count_nonzero(bad)), len(bad),
+                    "zero variance (skewness and kurtosis)", stacklevel=4)
     out = np.column_stack([mean, variance, skew, kurt])
     if order is not None:
         back = np.empty_like(out)
