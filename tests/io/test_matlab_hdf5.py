@@ -150,3 +150,29 @@ def test_empty_parquet(tmp_path):
     pq.write_table(pa.table({"time": pa.array([], pa.float64())}), path)
     with pytest.raises(RecordingError, match=r"empty.parquet: has columns \(time\) but no rows"):
         read_recording(path)
+
+
+def test_generic_parquet_with_standard_names_needs_no_map(tmp_path):
+    import pandas as pd
+
+    path = tmp_path / "pandas.parquet"
+    pd.DataFrame({"time": T, "p1": P1, "x": X}).to_parquet(path)
+    rec = read_recording(path)
+    assert rec.sample_rate == 100.0
+    assert rec.channel_names == ["p1", "x"]
+    np.testing.assert_array_equal(rec["p1"], P1)
+    assert rec.meta == {"source": str(path)}
+
+
+@pytest.mark.parametrize("dtype", ["int16", "uint16", "int32", "float32", "float64"])
+def test_integer_and_single_precision_columns(tmp_path, dtype):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    counts = np.array([0, 8191, 16383, 42], dtype=dtype)
+    path = tmp_path / f"{dtype}.parquet"
+    pq.write_table(pa.table({"PG_1": counts}), path)
+    rec = read_recording(path, {"p1": "PG_1:counts"}, sample_rate=1000)
+    assert rec["p1"].dtype == np.float64
+    assert rec["p1"].tolist() == [0.0, 8191.0, 16383.0, 42.0]
+    assert rec.units == {"p1": "counts"}
