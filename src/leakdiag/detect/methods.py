@@ -13,6 +13,7 @@ import warnings
 
 import numpy as np
 
+from leakdiag._validation import check_int
 from leakdiag.detect.base import Detector
 from leakdiag.features.series import FeatureSeries
 
@@ -143,6 +144,10 @@ class CombinedDetector(Detector):
     ----------
     detectors : list of FeatureDetector
         Feature extractors (only their feature settings are used; their alarms are ignored).
+    smooth : int, default 5
+        Causal moving average over this many consecutive feature vectors before the distance
+        (1: none); averaging reduces the per-window noise that a single distance would add up
+        over all features.
     alarm : Alarm, optional
         Search settings of the combined detector.
 
@@ -162,8 +167,9 @@ class CombinedDetector(Detector):
     2
     """
 
-    def __init__(self, detectors=None, alarm=None):
+    def __init__(self, detectors=None, smooth=5, alarm=None):
         self.detectors = detectors
+        self.smooth = smooth
         self.alarm = alarm
 
     def _matrix(self, recording) -> tuple[np.ndarray, np.ndarray, dict]:
@@ -176,7 +182,20 @@ class CombinedDetector(Detector):
             idx = np.searchsorted(fs.time, ref.time, side="right") - 1
             col = np.where(idx >= 0, np.asarray(fs.values)[np.clip(idx, 0, None)], np.nan)
             cols.append(col)
-        return np.asarray(ref.time), np.column_stack(cols), dict(ref.params)
+        mat = np.column_stack(cols)
+        k = check_int(self.smooth, "smooth", 1)
+        if k > 1:
+            # causal moving average of the finite values (NaN: degenerate windows skipped)
+            fin = np.isfinite(mat)
+            zero = np.zeros((1, mat.shape[1]))
+            c = np.cumsum(np.vstack([zero, np.where(fin, mat, 0.0)]), axis=0)
+            n = np.cumsum(np.vstack([zero, fin]), axis=0)
+            avg = np.full_like(mat, np.nan)
+            cnt = n[k:] - n[:-k]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                avg[k - 1:] = np.where(cnt > 0, (c[k:] - c[:-k]) / cnt, np.nan)
+            mat = avg
+        return np.asarray(ref.time), mat, dict(ref.params)
 
     def _fit_features(self, recordings: list) -> None:
         burn = self._alarm().burn_in_s
