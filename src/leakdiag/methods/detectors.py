@@ -126,8 +126,8 @@ class EMDHilbertDetector(Detector):
         Samples per EMD block.
     margin : int, default 500
         Context samples on each side of a block.
-    max_sifting : int, default 100
-        Cap on sifting iterations of the first IMF.
+    sifting_iterations : int or None, default 10
+        Fixed number of sifting iterations (None: PyEMD's stopping criteria).
     alarm : Alarm, optional
         Search settings.
 
@@ -143,13 +143,13 @@ class EMDHilbertDetector(Detector):
     """
 
     def __init__(self, channels=("p1",), window=1000, overlap=50.0, block=10_000, margin=500,
-                 max_sifting=100, alarm=None):
+                 sifting_iterations=10, alarm=None):
         self.channels = channels
         self.window = window
         self.overlap = overlap
         self.block = block
         self.margin = margin
-        self.max_sifting = max_sifting
+        self.sifting_iterations = sifting_iterations
         self.alarm = alarm
 
     def _feature_series(self, recording) -> FeatureSeries:
@@ -157,7 +157,7 @@ class EMDHilbertDetector(Detector):
 
         return emd_hilbert_feature(recording, EMDHilbertParams(
             tuple(self.channels), self.window, self.overlap, self.block, self.margin,
-            self.max_sifting))
+            self.sifting_iterations))
 
 
 class EKFDetector(Detector):
