@@ -186,12 +186,12 @@ class BenchCase:
 SUITES: dict[str, SystemSuite] = {
     "vca": SystemSuite(
         system="vca", leak_lpm=(0.01, 0.02, 0.047, 0.1, 0.2, 0.5), loads=("none", "spring"),
-        noise_levels={"low": 10e3, "high": 40e3}, duration_s=120.0, onset_range_s=(50.0, 70.0),
-        n_fit=8, n_cal=2, n_test_healthy=20, n_test_leak=8, base_seed=1_000_000),
+        noise_levels={"low": 10e3, "high": 40e3}, duration_s=200.0, onset_range_s=(80.0, 120.0),
+        n_fit=10, n_cal=2, n_test_healthy=25, n_test_leak=10, base_seed=1_000_000),
     "eha": SystemSuite(
         system="eha", leak_lpm=(0.1, 0.2, 0.5, 1.0, 1.63), loads=("none", "spring"),
-        noise_levels={"low": 10e3, "high": 40e3}, duration_s=60.0, onset_range_s=(25.0, 35.0),
-        n_fit=8, n_cal=2, n_test_healthy=20, n_test_leak=8, base_seed=2_000_000),
+        noise_levels={"low": 10e3, "high": 40e3}, duration_s=120.0, onset_range_s=(50.0, 70.0),
+        n_fit=10, n_cal=2, n_test_healthy=25, n_test_leak=10, base_seed=2_000_000),
 }
 
 #: The ``--quick`` suite (CI): one group per rig, short runs, few seeds, the largest leaks.
