@@ -156,3 +156,10 @@ def test_latin1_text_is_read(tmp_path):
     assert rec["p1"].tolist() == [1.0, 2.0]
     rec = read_recording(path, {"temp": "T in \xb0C"})
     assert rec["temp"].tolist() == [20.0, 21.0]
+
+
+def test_bad_dict_map_names_the_data_file(tmp_path):
+    path = _write(tmp_path, "time,P\n0,1\n1,2\n")
+    with pytest.raises(RecordingError, match=r"run.csv: column map: column spec 'p1=P:atm': .*"
+                                             r"unknown unit 'atm'"):
+        read_recording(path, {"p1": "P:atm"})

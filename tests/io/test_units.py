@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from leakdiag.io.units import UNITS, known_units, to_si, unit_factor, unit_quantity
@@ -99,6 +99,7 @@ def test_known_units_complete():
     assert unit_factor.__doc__ and unit_quantity("counts") == "counts"
 
 
+@settings(max_examples=40, deadline=None)
 @given(st.sampled_from([u for u, (q, _) in UNITS.items() if q == "pressure"]),
        st.floats(-1e6, 1e6, allow_nan=False))
 def test_conversion_is_linear(unit, value):

@@ -96,7 +96,12 @@ def read_recording(path: str | os.PathLike, column_map: Any = None, *,
     if path.is_dir():
         raise RecordingError(f"{path}: is a directory, not a recording file")
     fmt = _format(path, READ_FORMATS, "read")
-    cmap = None if column_map is None else load_column_map(column_map)
+    try:
+        cmap = None if column_map is None else load_column_map(column_map)
+    except RecordingError as exc:
+        if isinstance(column_map, (str, os.PathLike)):
+            raise  # the message names the map file
+        raise RecordingError(f"{path}: column map: {exc}") from None
     if fmt == "text":
         from leakdiag.io.text import read_text
 
