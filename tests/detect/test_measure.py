@@ -83,3 +83,11 @@ def test_thesis_tables_inconsistent_rows_are_exactly_the_flagged_ones(shared_dir
     flagged = ~t["consistent"].astype(bool)
     assert flagged.sum() > 0
     assert (disagrees.to_numpy() == flagged.to_numpy()).all(), t.loc[disagrees != flagged, "table"]
+
+
+def test_all_nan_chunk_counted_as_empty_not_straddling():
+    v = np.r_[np.ones(5), np.full(5, np.nan), 2 * np.ones(10)]
+    res = rms_change(_fs(v), onset=10.0, chunk=5)
+    assert res.chunk_side.tolist() == [-1, 2, 1, 1]
+    assert (res.n_chunks_empty, res.n_chunks_straddling, res.n_nan_windows) == (1, 0, 5)
+    assert res.pct_change_signed == pytest.approx(100.0)

@@ -35,6 +35,9 @@ def format_verdict(table) -> str:
             f"{int(b)}/{int(a)}/{int(x)}" for b, a, x in
             zip(show["n_chunks_before"], show["n_chunks_after"], show["n_chunks_straddling"])]
         cols += ["mean_rms_before", "mean_rms_after", "% change", "signed", "chunks b/a/x"]
+    if show["n_nan_windows"].fillna(0).astype(int).any():
+        show["NaN windows"] = show["n_nan_windows"].fillna(0).astype(int)
+        cols.append("NaN windows")
     show["overlap"] = show["overlap"].map(lambda v: f"{v:g}%")
     return show[cols].to_string(index=False)
 

@@ -16,7 +16,7 @@ __all__ = ["Analysis", "analyze_recording", "VERDICT_COLUMNS"]
 VERDICT_COLUMNS = [
     "method", "channels", "setting", "window", "overlap", "n_windows", "mean_rms_before",
     "mean_rms_after", "pct_change", "pct_change_signed", "n_chunks_before", "n_chunks_after",
-    "n_chunks_straddling", "n_nan_windows",
+    "n_chunks_straddling", "n_chunks_empty", "n_nan_windows",
 ]
 
 

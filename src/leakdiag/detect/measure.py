@@ -28,6 +28,8 @@ class RMSChange:
         Chunks used on each side.
     n_chunks_straddling : int
         Chunks holding a window that is not wholly on one side of the onset (left out).
+    n_chunks_empty : int
+        Chunks whose feature values are all NaN (left out).
     n_windows : int
         Feature values (windows) in the series.
     n_windows_dropped : int
@@ -41,7 +43,7 @@ class RMSChange:
     chunk_time, chunk_rms : numpy.ndarray
         Time (of each chunk's last window) and RMS of every chunk, straddling ones included.
     chunk_side : numpy.ndarray
-        Per chunk: -1 before, +1 after, 0 straddling or empty.
+        Per chunk: -1 before, +1 after, 0 straddling, 2 empty (all NaN).
     """
 
     mean_rms_before: float
@@ -51,6 +53,7 @@ class RMSChange:
     n_chunks_before: int
     n_chunks_after: int
     n_chunks_straddling: int
+    n_chunks_empty: int
     n_windows: int
     n_windows_dropped: int
     n_nan_windows: int
@@ -64,7 +67,8 @@ class RMSChange:
         """Scalar fields as a plain dict (for tables)."""
         return {k: getattr(self, k) for k in (
             "mean_rms_before", "mean_rms_after", "pct_change", "pct_change_signed",
-            "n_chunks_before", "n_chunks_after", "n_chunks_straddling", "n_windows",
+            "n_chunks_before", "n_chunks_after", "n_chunks_straddling", "n_chunks_empty",
+            "n_windows",
             "n_windows_dropped", "n_nan_windows", "chunk", "onset")}
 
 
@@ -196,7 +200,7 @@ def rms_change(fs: FeatureSeries, onset: float, chunk: int = 10) -> RMSChange:
     before_w = (t_last < onset)[: k * chunk].reshape(k, chunk).all(axis=1)
     after_w = (t_first >= onset)[: k * chunk].reshape(k, chunk).all(axis=1)
     usable = n_valid > 0
-    side = np.where(before_w & usable, -1, np.where(after_w & usable, 1, 0)).astype(np.int8)
+    side = np.where(~usable, 2, np.where(before_w, -1, np.where(after_w, 1, 0))).astype(np.int8)
     nb, na = int((side == -1).sum()), int((side == 1).sum())
     if nb == 0 or na == 0:
         raise ValueError(
@@ -212,7 +216,8 @@ def rms_change(fs: FeatureSeries, onset: float, chunk: int = 10) -> RMSChange:
     return RMSChange(
         mean_rms_before=before, mean_rms_after=after, pct_change=abs(signed),
         pct_change_signed=signed, n_chunks_before=nb, n_chunks_after=na,
-        n_chunks_straddling=int(k - nb - na), n_windows=m, n_windows_dropped=m - k * chunk,
+        n_chunks_straddling=int((side == 0).sum()), n_chunks_empty=int((side == 2).sum()),
+        n_windows=m, n_windows_dropped=m - k * chunk,
         n_nan_windows=n_nan, chunk=chunk, onset=onset, chunk_time=t_chunk, chunk_rms=rms,
         chunk_side=side,
     )

@@ -7,7 +7,10 @@ settings per system (Ch. 5 and 6, case study 2 tables) are in :data:`THESIS_PREF
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from leakdiag._validation import check_int, check_overlap
 
@@ -270,7 +273,6 @@ def compute_feature(recording, spec: MethodSpec):
     RecordingError
         If a channel is missing or the recording is shorter than one window.
     """
-    from leakdiag import features as F
     from leakdiag.io.recording import RecordingError
 
     recording.require(*spec.channels)
@@ -281,19 +283,30 @@ def compute_feature(recording, spec: MethodSpec):
         )
     kw = dict(window=spec.window, overlap=spec.overlap, sample_rate=recording.sample_rate,
               start_time=recording.start_time)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fs = _dispatch(recording, spec, kw)
+    source = recording.meta.get("source")
+    where = f"{source}: " if source else ""
+    for w in caught:  # re-emit naming the file, method and channels
+        warnings.warn(f"{where}{spec.label}: {w.message}", w.category, stacklevel=2)
+    if spec.method == "moments":
+        return fs
+    fs.params["channels"] = ",".join(spec.channels)
+    fs.params["window"] = spec.window
+    fs.params["sample_rate"] = recording.sample_rate
+    return fs
+
+
+def _dispatch(recording, spec: MethodSpec, kw: dict):
+    from leakdiag import features as F
+
     ch = spec.channels
     if spec.method == "autocorrelation":
-        fs = F.autocorrelation(recording[ch[0]], lag=spec.lag, **kw)
-    elif spec.method == "cross-correlation":
-        fs = F.cross_correlation(recording[ch[0]], recording[ch[1]], lag=spec.lag, **kw)
-    elif spec.method == "metric-length":
-        import numpy as np
-
+        return F.autocorrelation(recording[ch[0]], lag=spec.lag, **kw)
+    if spec.method == "cross-correlation":
+        return F.cross_correlation(recording[ch[0]], recording[ch[1]], lag=spec.lag, **kw)
+    if spec.method == "metric-length":
         x = recording[ch[0]] if len(ch) == 1 else np.column_stack([recording[c] for c in ch])
-        fs = F.metric_length_ratio(x, lag_ratio=spec.lag_ratio, **kw)
-    else:
-        return F.moments(recording[ch[0]], **kw)
-    fs.params.setdefault("channels", ",".join(ch))
-    fs.params.setdefault("window", spec.window)
-    fs.params.setdefault("sample_rate", recording.sample_rate)
-    return fs
+        return F.metric_length_ratio(x, lag_ratio=spec.lag_ratio, **kw)
+    return F.moments(recording[ch[0]], **kw)

@@ -1,0 +1,114 @@
+"""analyze_recording and MethodSpec: the pipeline equals the direct feature + measure calls."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import leakdiag as ld
+from leakdiag.detect.analysis import analyze_recording
+from leakdiag.features.methods import MethodSpec, compute_feature, parse_lag_ratio, thesis_defaults
+
+
+@pytest.fixture(scope="module")
+def rec():
+    rng = np.random.default_rng(0)
+    n, fs = 20_000, 1000.0
+    t = np.arange(n) / fs
+    leak = t >= 10.0
+    # AR(1) noise whose correlation drops after the "leak": a planted change in every feature
+    e = rng.standard_normal((n, 2))
+    p1 = np.empty(n)
+    p1[0] = 0.0
+    for i in range(1, n):
+        p1[i] = (0.3 if leak[i] else 0.9) * p1[i - 1] + e[i, 0]
+    p2 = -0.8 * p1 + 0.5 * e[:, 1]
+    x = np.cumsum(e[:, 1]) * 1e-5
+    u = np.roll(x, -3) * 100 + 0.01 * rng.standard_normal(n)
+    return ld.Recording({"p1": 8.6e6 + 1e4 * p1, "p2": 4e6 + 1e4 * p2, "x": x, "u": u}, fs,
+                        meta={"onset": 10.0, "source": "synthetic"})
+
+
+def test_table_equals_direct_calls(rec):
+    spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=5)
+    res = analyze_recording(rec, [spec])
+    fs = ld.features.autocorrelation(rec["p1"], lag=1, window=200, overlap=5, sample_rate=1000.0)
+    fs.params["window"], fs.params["sample_rate"] = 200, 1000.0
+    direct = ld.detect.rms_change(fs, onset=10.0, chunk=10)
+    row = res.table.iloc[0]
+    assert row["mean_rms_before"] == pytest.approx(direct.mean_rms_before, rel=1e-12)
+    assert row["mean_rms_after"] == pytest.approx(direct.mean_rms_after, rel=1e-12)
+    assert row["n_windows"] == len(fs)
+    # planted: AR coefficient 0.9 -> 0.3, so the lag-1 autocorrelation falls a lot
+    assert row["pct_change_signed"] < -50
+
+
+def test_all_four_methods_and_moments_rows(rec):
+    specs = list(thesis_defaults("vca")) + [MethodSpec("moments", ("p1",), window=400, overlap=50)]
+    res = analyze_recording(rec, specs)
+    assert res.table["method"].tolist() == [
+        "autocorrelation", "cross-correlation", "cross-correlation", "metric-length",
+        "moments:mean", "moments:variance", "moments:skewness", "moments:kurtosis"]
+    assert res.table["channels"].tolist()[:4] == ["p1", "p1,p2", "u,x", "p1"]
+    assert res.table["setting"].tolist()[:4] == ["1", "1", "1", "83:3"]
+    # the mean of p1 does not change (AR noise about 8.6e6): moments:mean changes by < 0.1 %
+    assert abs(res.table.set_index("method").loc["moments:mean", "pct_change_signed"]) < 0.1
+    frame = res.features_frame()
+    assert len(frame) == sum(len(s) for s in res.series)
+
+
+def test_no_onset_gives_table_without_measure(rec):
+    r = ld.Recording(dict(rec.channels), rec.sample_rate)
+    res = analyze_recording(r, thesis_defaults("vca", "autocorrelation"))
+    assert res.onset is None and res.table["mean_rms_before"].isna().all()
+
+
+def test_missing_channel_error_names_it(rec):
+    r = ld.Recording({"p1": rec["p1"]}, rec.sample_rate, meta={"source": "rig.csv"})
+    with pytest.raises(ld.io.RecordingError, match=r"rig.csv: missing channel\(s\) \['p2'\]"):
+        analyze_recording(r, [MethodSpec("cross-correlation", ("p1", "p2"))], onset=5.0)
+
+
+def test_too_short_for_window_error():
+    r = ld.Recording({"p1": np.arange(50.0)}, 100.0, meta={"source": "short.csv"})
+    with pytest.raises(ld.io.RecordingError, match="short.csv: 50 samples is shorter than one window"):
+        compute_feature(r, MethodSpec("autocorrelation", ("p1",), window=200))
+
+
+def test_degenerate_warning_names_source_and_method():
+    r = ld.Recording({"p1": np.r_[np.ones(400), np.arange(400.0) % 7]}, 1.0, meta={"source": "f.csv"})
+    with pytest.warns(RuntimeWarning, match=r"f.csv: autocorrelation p1 1 N=100 0%: 4 of 8 windows"):
+        compute_feature(r, MethodSpec("autocorrelation", ("p1",), window=100, overlap=0))
+
+
+@pytest.mark.parametrize("kw,match", [
+    (dict(method="nope"), "unknown method 'nope'"),
+    (dict(method="autocorrelation", channels=("p1", "p2")), "takes one channel"),
+    (dict(method="cross-correlation", channels=("p1",)), "takes two channels"),
+    (dict(method="autocorrelation", lag=200, window=200), "lag=200 must be in"),
+    (dict(method="metric-length", lag_ratio="3:83"), "needs l > k >= 1"),
+    (dict(method="metric-length", lag_ratio="83:3", window=80), "must be < window=80"),
+    (dict(method="metric-length", lag=2), "takes no lag"),
+])
+def test_method_spec_validation(kw, match):
+    with pytest.raises(ValueError, match=match):
+        MethodSpec(**kw)
+
+
+def test_parse_lag_ratio_forms():
+    assert parse_lag_ratio("83:3") == parse_lag_ratio((83, 3)) == parse_lag_ratio(" 83 : 3 ") == (83, 3)
+    with pytest.raises(ValueError, match="'l:k'"):
+        parse_lag_ratio("83-3")
+
+
+def test_thesis_defaults_match_case_study_2_tables(shared_dir):
+    """THESIS_PREFERRED is the setting of each case-study-2 table in tables.csv."""
+    t = pd.read_csv(shared_dir / "thesis" / "tables.csv")
+    cs2 = t[(t.case_study == 2)].drop_duplicates(["system", "method", "signals"])
+    for _, row in cs2.iterrows():
+        system = row.system.lower()
+        chans = tuple(c.strip().lower() for c in row.signals.split(","))
+        specs = [s for s in thesis_defaults(system, row.method)
+                 if len(chans) == 1 or s.channels == chans]
+        assert specs, (system, row.method, chans)
+        s = specs[0]
+        assert (s.setting, s.window, s.overlap) == (str(row.lag), int(row.window), float(row.overlap_pct))
