@@ -75,3 +75,16 @@ def test_resample_errors():
         resample_linear(np.arange(3.0), {}, 0)
     with pytest.raises(RecordingError, match=r"cannot resample 1 sample\(s\)"):
         resample_linear(np.zeros(1), {}, 1.0)
+
+
+def test_resample_fills_dropped_counter_samples(tmp_path):
+    path = tmp_path / "gaps.txt"
+    path.write_text("n\tP\n1\t10\n2\t20\n4\t40\n5\t50\n")
+    cmap = {"file": {"time_column": "n", "time_unit": "samples", "sample_rate_hz": 1000},
+            "channels": {"p1": "P:counts"}}
+    with pytest.raises(RecordingError, match="not uniformly sampled"):
+        read_recording(path, cmap)
+    rec = read_recording(path, cmap, resample=1000)
+    np.testing.assert_allclose(rec["p1"], [10, 20, 30, 40, 50], atol=1e-9)
+    assert rec.start_time == pytest.approx(0.001)
+    assert rec.units == {"p1": "counts"}

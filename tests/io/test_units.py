@@ -106,3 +106,28 @@ def test_conversion_is_linear(unit, value):
     (a, b), _ = to_si([value, 2 * value], unit, channel="p1")
     assert b == pytest.approx(2 * a, rel=1e-12, abs=1e-300)
     assert a == pytest.approx(value * unit_factor(unit), rel=1e-15, abs=1e-300)
+
+
+def test_import_io_is_light():
+    import subprocess
+    import sys
+
+    code = ("import sys, leakdiag.io; heavy = [m for m in ('pandas', 'pyarrow', 'h5py', "
+            "'scipy.io', 'matplotlib') if m in sys.modules]; print(','.join(heavy))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "", f"import leakdiag.io pulls in {out.stdout.strip()}"
+
+
+@pytest.mark.parametrize("make", [
+    lambda a: a[::2],                                  # strided view
+    lambda a: np.asarray(a, dtype=np.float32),         # single precision
+    lambda a: a.astype(np.int64),                      # integers
+    lambda a: __import__("pandas").Series(a),          # pandas Series
+])
+def test_to_si_accepts_array_likes(make):
+    base = np.arange(8.0)
+    base.setflags(write=False)                         # read-only input
+    arr = make(base)
+    values, unit = to_si(arr, "kPa", channel="p1")
+    assert unit == "Pa" and values.dtype == np.float64
+    np.testing.assert_array_equal(values, np.asarray(arr, dtype=np.float64) * 1e3)
