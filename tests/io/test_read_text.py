@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from leakdiag.io import RecordingError, read_recording
 from leakdiag.io.text import detect_separator
@@ -133,3 +135,22 @@ def test_explicit_separator(tmp_path):
     path = _write(tmp_path, "time:p1\n0:1\n1:2\n")
     rec = read_recording(path, {"file": {"separator": ":"}, "channels": {"p1": "p1"}})
     assert rec["p1"].tolist() == [1.0, 2.0]
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(sep=st.sampled_from([",", "\t", ";", "|"]),
+       trailing=st.booleans(),
+       crlf=st.booleans(),
+       data=st.lists(st.tuples(st.floats(-1e9, 1e9, allow_nan=False),
+                               st.integers(-2**31, 2**31)), min_size=2, max_size=12))
+def test_any_separator_and_line_ending_reads_back(tmp_path, sep, trailing, crlf, data):
+    end = (sep if trailing else "") + ("\r\n" if crlf else "\n")
+    lines = [sep.join(["time", "p1", "raw"]) + end]
+    lines += [sep.join([repr(i / 100), repr(a), str(b)]) + end for i, (a, b) in enumerate(data)]
+    path = tmp_path / "h.txt"
+    path.write_bytes("".join(lines).encode())
+    rec = read_recording(path, {"p1": "p1", "counts": "raw:counts"})
+    assert rec["p1"].tolist() == [a for a, _ in data]
+    assert rec["counts"].tolist() == [float(b) for _, b in data]
+    assert rec.sample_rate == 100.0
