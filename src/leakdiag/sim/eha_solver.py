@@ -1,0 +1,350 @@
+"""Integrators of the EHA model: a fixed-step Rosenbrock kernel (Numba) and a SciPy reference.
+
+The EHA is stiff: the free line orifice couples a 50 cm^3 line to its chamber with a time
+constant of a few microseconds, so explicit methods would need steps of ~1e-5 s, and it is
+strongly nonlinear where an orifice changes direction (its conductance changes tenfold). The fast
+path is the two-stage, L-stable Rosenbrock method ROS2 (order 2,
+:math:`\\gamma = 1 + 1/\\sqrt 2`) with a finite-difference Jacobian and local error control
+(steps shrink at the orifice switches, grow elsewhere). Inputs are given at the output samples
+and interpolated linearly in between.
+:func:`integrate_reference` solves the same :func:`~leakdiag.sim.eha_model.eha_rhs` with SciPy's
+implicit ``Radau`` solver and tight tolerances, for tests and ``make bench``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from leakdiag._validation import as_2d_float, check_int, check_positive
+from leakdiag.sim.eha_model import (
+    N_INPUTS, N_STATES, S_I, S_P1, S_PA, S_PB, S_P2, S_V, S_W, S_X, S_Z, _rhs_into,
+)
+
+__all__ = ["integrate_fast", "integrate_reference", "Solution", "DEFAULT_RTOL",
+           "DEFAULT_MAX_STEP_S"]
+
+#: Default local error tolerance and largest step; chosen by the study in docs/models.md (EHA).
+DEFAULT_RTOL = 3e-3
+DEFAULT_MAX_STEP_S = 1e-3
+DEFAULT_JACOBIAN_EVERY = 3
+GAMMA = 1.0 + 1.0 / np.sqrt(2.0)  # ROS2 (Verwer et al., 1999)
+SQRT_EPS = 1.4901161193847656e-08
+# Typical magnitude per state: absolute error floor and finite-difference increment floor.
+_STATE_SCALE = np.array([1e-2, 1e-1, 1e6, 1e6, 1e6, 1e6, 1.0, 100.0, 1.0])
+
+
+@numba.njit(cache=True)
+def _lu_factor(a, piv):
+    """In-place LU factorisation with partial pivoting (small dense matrices)."""
+    n = a.shape[0]
+    for k in range(n):
+        m = k
+        big = abs(a[k, k])
+        for r in range(k + 1, n):
+            if abs(a[r, k]) > big:
+                big = abs(a[r, k])
+                m = r
+        piv[k] = m
+        if m != k:
+            for c in range(n):
+                tmp = a[k, c]
+                a[k, c] = a[m, c]
+                a[m, c] = tmp
+        inv = 1.0 / a[k, k]
+        for r in range(k + 1, n):
+            a[r, k] *= inv
+            f = a[r, k]
+            if f != 0.0:
+                for c in range(k + 1, n):
+                    a[r, c] -= f * a[k, c]
+
+
+@numba.njit(cache=True)
+def _lu_solve(a, piv, b):
+    """Solve in place ``A x = b`` with the factors of :func:`_lu_factor`."""
+    n = a.shape[0]
+    for k in range(n):
+        m = piv[k]
+        if m != k:
+            tmp = b[k]
+            b[k] = b[m]
+            b[m] = tmp
+    for r in range(n):
+        s = b[r]
+        for c in range(r):
+            s -= a[r, c] * b[c]
+        b[r] = s
+    for r in range(n - 1, -1, -1):
+        s = b[r]
+        for c in range(r + 1, n):
+            s -= a[r, c] * b[c]
+        b[r] = s / a[r, r]
+
+
+@numba.njit(cache=True)
+def _jacobian(t, y, inp, params, f0, scale, fd, jac):
+    """Forward-difference Jacobian of the rhs at ``(t, y)``; ``f0`` is ``f(t, y)``."""
+    n = y.shape[0]
+    for m in range(n):
+        ym = y[m]
+        d = SQRT_EPS * max(abs(ym), scale[m])
+        y[m] = ym + d
+        _rhs_into(t, y, inp, params, fd)
+        y[m] = ym
+        for r in range(n):
+            jac[r, m] = (fd[r] - f0[r]) / d
+
+
+@numba.njit(cache=True)
+def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, out, stats):
+    """Adaptive ROS2 between output samples; writes states at the samples into ``out``.
+
+    ``stats`` receives [accepted steps, rejected steps, Jacobian evaluations, min step].
+    """
+    n_out = inputs.shape[0]
+    n = y0.shape[0]
+    n_in = inputs.shape[1]
+    y = y0.copy()
+    for m in range(n):
+        out[0, m] = y[m]
+    f0 = np.empty(n)
+    f1 = np.empty(n)
+    fd = np.empty(n)
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    ys = np.empty(n)
+    jac = np.empty((n, n))
+    w = np.empty((n, n))
+    piv = np.empty(n, dtype=np.int64)
+    in0 = np.empty(n_in)
+    in1 = np.empty(n_in)
+    h = min(h_max, dt_out) * 0.1
+    h_min = 1e-10 * dt_out
+    n_acc = 0
+    n_rej = 0
+    n_jac = 0
+    since_jac = jac_every  # force a Jacobian on the first step
+    smallest = h_max
+    for j in range(n_out - 1):
+        tj = t0 + j * dt_out
+        t_end = tj + dt_out
+        t = tj
+        while t_end - t > 1e-12 * dt_out:
+            remaining = t_end - t
+            hs = min(h, h_max)
+            if hs >= remaining * 0.999:
+                hs = remaining
+            elif hs > 0.5 * remaining:
+                hs = 0.5 * remaining  # two even steps instead of a sliver at the end
+            a0 = (t - tj) / dt_out
+            a1 = (t + hs - tj) / dt_out
+            for c in range(n_in):
+                in0[c] = inputs[j, c] + a0 * (inputs[j + 1, c] - inputs[j, c])
+                in1[c] = inputs[j, c] + a1 * (inputs[j + 1, c] - inputs[j, c])
+            _rhs_into(t, y, in0, params, f0)
+            if since_jac >= jac_every:
+                _jacobian(t, y, in0, params, f0, scale, fd, jac)
+                n_jac += 1
+                since_jac = 0
+            for r in range(n):
+                for c in range(n):
+                    w[r, c] = -GAMMA * hs * jac[r, c]
+                w[r, r] += 1.0
+            _lu_factor(w, piv)
+            for r in range(n):
+                k1[r] = f0[r]
+            _lu_solve(w, piv, k1)
+            for r in range(n):
+                ys[r] = y[r] + hs * k1[r]
+            _rhs_into(t + hs, ys, in1, params, f1)
+            for r in range(n):
+                k2[r] = f1[r] - 2.0 * k1[r]
+            _lu_solve(w, piv, k2)
+            # error of the embedded first-order solution y + h k1
+            err = 0.0
+            for r in range(n):
+                e = 0.5 * hs * (k1[r] + k2[r])
+                tol = rtol * (scale[r] + abs(y[r]))
+                err += (e / tol) ** 2
+            err = np.sqrt(err / n)
+            if not np.isfinite(err):
+                err = 1e10
+            if err <= 1.0 or hs <= h_min:
+                for r in range(n):
+                    y[r] += hs * (1.5 * k1[r] + 0.5 * k2[r])
+                t = t_end if hs == remaining else t + hs
+                n_acc += 1
+                since_jac += 1
+                if hs < smallest:
+                    smallest = hs
+                fac = 0.9 / np.sqrt(max(err, 1e-8))
+                h = hs * min(4.0, max(0.2, fac))
+            else:
+                n_rej += 1
+                since_jac = jac_every  # fresh Jacobian for the retry
+                h = hs * max(0.1, 0.9 / np.sqrt(err))
+        for m in range(n):
+            out[j + 1, m] = y[m]
+    stats[0] = n_acc
+    stats[1] = n_rej
+    stats[2] = n_jac
+    stats[3] = smallest
+
+
+@dataclass(frozen=True)
+class Solution:
+    """States at the output samples plus solver statistics.
+
+    Attributes
+    ----------
+    states : numpy.ndarray
+        Shape ``(n, N_STATES)``; row 0 is the initial state.
+    n_accepted, n_rejected, n_jacobians : int
+        Accepted and rejected steps, Jacobian evaluations.
+    min_step_s : float
+        Smallest accepted step, s.
+    """
+
+    states: np.ndarray
+    n_accepted: int
+    n_rejected: int
+    n_jacobians: int
+    min_step_s: float
+
+
+def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
+                   rtol: float = DEFAULT_RTOL, max_step: float | None = None,
+                   jacobian_every: int = DEFAULT_JACOBIAN_EVERY) -> Solution:
+    """Integrate the EHA with the adaptive ROS2 kernel; states at the output samples.
+
+    Parameters
+    ----------
+    y0 : array_like
+        Initial state, shape ``(N_STATES,)``.
+    inputs : array_like
+        Inputs at the output samples, shape ``(n, N_INPUTS)``; linear in between.
+    params : numpy.ndarray
+        ``EHAParams.to_array(...)``.
+    sample_rate : float
+        Output rate in Hz; sample ``j`` is at ``t0 + j / sample_rate``.
+    t0 : float, default 0.0
+        Time of the first sample, s.
+    rtol : float, default DEFAULT_RTOL
+        Local error tolerance, relative to ``|y| + typical magnitude`` of each state.
+    max_step : float, optional
+        Largest step in s (default ``DEFAULT_MAX_STEP_S``).
+    jacobian_every : int, default DEFAULT_JACOBIAN_EVERY
+        Re-evaluate the finite-difference Jacobian every this many accepted steps (and after
+        every rejected step). ROS2 stays second order with an outdated Jacobian.
+
+    Returns
+    -------
+    Solution
+        States and step statistics.
+
+    Raises
+    ------
+    ValueError
+        If shapes do not match, or a value is not finite / positive.
+
+    Notes
+    -----
+    ROS2 of Verwer et al.: with :math:`W = I - \\gamma h J`,
+    :math:`W k_1 = f(t_n, y_n)`, :math:`W k_2 = f(t_n + h, y_n + h k_1) - 2 k_1`,
+    :math:`y_{n+1} = y_n + \\tfrac32 h k_1 + \\tfrac12 h k_2`. It is second order for any
+    matrix :math:`J` and L-stable for the exact Jacobian. The local error is estimated against
+    the embedded first-order solution :math:`y_n + h k_1`, i.e.
+    :math:`\\tfrac12 h (k_1 + k_2)`, and the step follows the usual
+    :math:`0.9\\,\\mathrm{err}^{-1/2}` controller. Steps end exactly on the output samples, so
+    no interpolation of the solution is needed; the sequence of steps depends only on the
+    inputs, hence runs are bit-for-bit reproducible.
+
+    References
+    ----------
+    Verwer, Spee, Blom and Hundsdorfer (1999), SIAM J. Sci. Comput. 20(4), 1456-1480.
+
+    Examples
+    --------
+    >>> from leakdiag.sim.eha_params import EHAParams
+    >>> prm = EHAParams()
+    >>> y0 = np.zeros(N_STATES); y0[2:6] = prm.accumulator_pressure_pa
+    >>> u = np.tile([0.0, 0.0, 1.0, 1.0, 0.0, 0.0], (11, 1))
+    >>> sol = integrate_fast(y0, u, prm.to_array(), sample_rate=1000.0)
+    >>> sol.states.shape, float(np.abs(sol.states[-1] - y0).max())
+    ((11, 9), 0.0)
+    """
+    y0 = np.ascontiguousarray(y0, dtype=np.float64)
+    if y0.shape != (N_STATES,):
+        raise ValueError(f"y0 must have shape ({N_STATES},), got {y0.shape}")
+    inputs = as_2d_float(inputs, "inputs")
+    if inputs.shape[1] != N_INPUTS or inputs.shape[0] < 1:
+        raise ValueError(f"inputs must have shape (n >= 1, {N_INPUTS}), got {inputs.shape}")
+    params = np.ascontiguousarray(params, dtype=np.float64)
+    fs = check_positive(sample_rate, "sample_rate")
+    rtol = check_positive(rtol, "rtol")
+    h_max = check_positive(DEFAULT_MAX_STEP_S if max_step is None else max_step, "max_step")
+    jac_every = check_int(jacobian_every, "jacobian_every", 1)
+    if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(inputs))):
+        raise ValueError("y0 and inputs must be finite")
+    out = np.empty((inputs.shape[0], N_STATES))
+    stats = np.zeros(4)
+    _ros2_kernel(y0, inputs, float(t0), 1.0 / fs, params, _STATE_SCALE, rtol, h_max,
+                 jac_every, out, stats)
+    return Solution(out, int(stats[0]), int(stats[1]), int(stats[2]), float(stats[3]))
+
+
+def integrate_reference(y0, inputs, params, sample_rate: float, t0: float = 0.0,
+                        rtol: float = 1e-7, method: str = "Radau") -> np.ndarray:
+    """Integrate the same model with SciPy's implicit ``solve_ivp`` (slow reference).
+
+    Parameters
+    ----------
+    y0, inputs, params, sample_rate, t0
+        As :func:`integrate_fast`.
+    rtol : float, default 1e-7
+        Relative tolerance; absolute tolerances are ``rtol`` times a typical state magnitude.
+    method : {"Radau", "BDF"}, default "Radau"
+        Implicit SciPy method.
+
+    Returns
+    -------
+    numpy.ndarray
+        States at the output samples, shape ``(n, N_STATES)``.
+
+    Raises
+    ------
+    RuntimeError
+        If the SciPy solver fails (its message is included).
+    """
+    from scipy.integrate import solve_ivp
+
+    from leakdiag.sim.eha_model import eha_rhs
+
+    y0 = np.ascontiguousarray(y0, dtype=np.float64)
+    inputs = as_2d_float(inputs, "inputs")
+    params = np.ascontiguousarray(params, dtype=np.float64)
+    dt_out = 1.0 / check_positive(sample_rate, "sample_rate")
+    n = inputs.shape[0]
+    t_eval = t0 + np.arange(n) * dt_out
+    last = n - 1
+
+    def fun(t, y):
+        a = (t - t0) / dt_out
+        j = min(max(int(np.floor(a)), 0), max(last - 1, 0))
+        frac = min(max(a - j, 0.0), 1.0) if last > 0 else 0.0
+        row = inputs[j] + frac * (inputs[min(j + 1, last)] - inputs[j])
+        return eha_rhs(t, np.ascontiguousarray(y), row, params)
+
+    sol = solve_ivp(fun, (t_eval[0], t_eval[-1]), y0, method=method, t_eval=t_eval,
+                    rtol=rtol, atol=rtol * _STATE_SCALE, max_step=dt_out)
+    if not sol.success:
+        raise RuntimeError(f"reference solver {method} failed: {sol.message}")
+    return np.ascontiguousarray(sol.y.T)
+
+
+# keep the state indices importable from here for the tests and the benchmark
+STATE_INDEX = {"x": S_X, "v": S_V, "p1": S_P1, "p2": S_P2, "pa": S_PA, "pb": S_PB,
+               "current": S_I, "motor_speed": S_W, "speed_error_integral": S_Z}
