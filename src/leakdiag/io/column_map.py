@@ -21,15 +21,21 @@ __all__ = [
     "ChannelSpec",
     "ColumnMap",
     "TIME_UNITS",
+    "FILE_KEYS",
+    "CHANNEL_KEYS",
+    "CHANNEL_NAME_RE",
     "load_column_map",
 ]
 
 #: Units of a time column: seconds and sub-multiples, or a sample counter.
 TIME_UNITS = ("s", "ms", "us", "samples")
 
-_FILE_KEYS = ("separator", "sample_rate_hz", "time_column", "time_unit")
-_CHANNEL_KEYS = ("column", "unit", "gain", "offset", "si_unit")
-_NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+#: Keys allowed in the ``[file]`` table.
+FILE_KEYS = ("separator", "sample_rate_hz", "time_column", "time_unit")
+#: Keys allowed in a ``[channels.<name>]`` table.
+CHANNEL_KEYS = ("column", "unit", "gain", "offset", "si_unit")
+#: A channel name is an identifier.
+CHANNEL_NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
 @dataclass(frozen=True)
@@ -140,7 +146,7 @@ class ColumnMap:
     def __post_init__(self) -> None:
         chans = {}
         for name, spec in dict(self.channels).items():
-            if not isinstance(name, str) or not _NAME_RE.match(name):
+            if not isinstance(name, str) or not CHANNEL_NAME_RE.match(name):
                 raise RecordingError(f"channel name {name!r} must be an identifier like 'p1'")
             if name == "time":
                 raise RecordingError(
@@ -176,7 +182,7 @@ class ColumnMap:
         >>> ColumnMap({"p1": ChannelSpec("P", "bar")}).to_dict()
         {'file': {'time_unit': 's'}, 'channels': {'p1': {'column': 'P', 'unit': 'bar', 'offset': 0.0}}}
         """
-        file = {k: getattr(self, k) for k in _FILE_KEYS if getattr(self, k) is not None}
+        file = {k: getattr(self, k) for k in FILE_KEYS if getattr(self, k) is not None}
         chans = {n: {k: v for k, v in asdict(s).items() if v is not None}
                  for n, s in self.channels.items()}
         return {"file": file, "channels": chans}
@@ -190,10 +196,10 @@ def _spec_from_value(name: str, value: Any, where: str) -> ChannelSpec:
 
         return parse_column_spec(f"{name}={value}")[1]
     if isinstance(value, Mapping):
-        unknown = sorted(set(value) - set(_CHANNEL_KEYS))
+        unknown = sorted(set(value) - set(CHANNEL_KEYS))
         if unknown:
             raise RecordingError(
-                f"{where}channel {name!r}: unknown key(s) {unknown}; allowed: {list(_CHANNEL_KEYS)}"
+                f"{where}channel {name!r}: unknown key(s) {unknown}; allowed: {list(CHANNEL_KEYS)}"
             )
         if "column" not in value:
             raise RecordingError(f"{where}channel {name!r}: missing key 'column'")
@@ -212,9 +218,9 @@ def _from_dict(data: Mapping[str, Any], where: str = "") -> ColumnMap:
         chans = data.get("channels", {})
     else:  # flat shorthand {"p1": "PG_1:counts", ...}
         file, chans = {}, data
-    unknown = sorted(set(file) - set(_FILE_KEYS))
+    unknown = sorted(set(file) - set(FILE_KEYS))
     if unknown:
-        raise RecordingError(f"{where}[file]: unknown key(s) {unknown}; allowed: {list(_FILE_KEYS)}")
+        raise RecordingError(f"{where}[file]: unknown key(s) {unknown}; allowed: {list(FILE_KEYS)}")
     if not isinstance(chans, Mapping):
         raise RecordingError(f"{where}[channels] must be a table, got {chans!r}")
     specs = {name: _spec_from_value(name, v, where) for name, v in chans.items()}

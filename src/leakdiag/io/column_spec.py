@@ -15,8 +15,8 @@ from dataclasses import replace
 from typing import Any, Iterable
 
 from leakdiag.io.column_map import (
-    _FILE_KEYS,
-    _NAME_RE,
+    FILE_KEYS,
+    CHANNEL_NAME_RE,
     TIME_UNITS,
     ChannelSpec,
     ColumnMap,
@@ -83,7 +83,7 @@ def parse_column_spec(spec: str) -> tuple[str, ChannelSpec]:
     if not isinstance(spec, str) or "=" not in spec:
         raise RecordingError(f"column spec {spec!r} must look like {syntax}, e.g. p1=PG_1:psi")
     name, rhs = (s.strip() for s in spec.split("=", 1))
-    if not _NAME_RE.match(name):
+    if not CHANNEL_NAME_RE.match(name):
         raise RecordingError(f"column spec {spec!r}: channel name {name!r} must be an identifier")
     cut = _last_top_level_colon(rhs)
     column, scale = (rhs, None) if cut < 0 else (rhs[:cut], rhs[cut + 1:])
@@ -146,9 +146,9 @@ def build_column_map(specs: Iterable[str] = (), *, base: Any = None, **file_opti
     ('Time', 'samples', 1000.0, ['p1'])
     """
     cmap = ColumnMap() if base is None else load_column_map(base)
-    unknown = sorted(set(file_options) - set(_FILE_KEYS))
+    unknown = sorted(set(file_options) - set(FILE_KEYS))
     if unknown:
-        raise RecordingError(f"unknown file option(s) {unknown}; allowed: {list(_FILE_KEYS)}")
+        raise RecordingError(f"unknown file option(s) {unknown}; allowed: {list(FILE_KEYS)}")
     options = {k: v for k, v in file_options.items() if v is not None}
     channels = dict(cmap.channels)
     if isinstance(specs, str):
