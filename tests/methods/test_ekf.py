@@ -1,0 +1,64 @@
+import numpy as np
+import pytest
+
+from leakdiag.io.recording import Recording, RecordingError
+from leakdiag.methods.ekf import EKFParams, ekf_feature, run_vca_ekf
+
+
+@pytest.fixture(scope="module")
+def noise_free_leak():
+    from leakdiag.sim.vca_simulate import simulate_vca
+
+    return simulate_vca(30.0, 0.5, 10.0, seed=3, sensors=False)
+
+
+def test_leak_coefficient_converges_on_noise_free_run(noise_free_leak):
+    rec = noise_free_leak
+    res = run_vca_ekf(rec)
+    t = res.time
+    k_true = rec.meta["leak_coefficient"]
+    k_hat = res.leak_coefficient
+    assert np.mean(k_hat[t >= 20]) == pytest.approx(k_true, rel=0.02)
+    assert np.max(k_hat[(t > 2) & (t < 10)]) < 0.02 * k_true  # no leak before the onset
+    # leak size in L/min from the filter equals the simulator's mean |Q_l| after the onset
+    q_true = np.abs(rec["leak_flow"][t >= 20]).mean() * 60_000.0
+    assert np.abs(res.leak_flow_lpm[t >= 20]).mean() == pytest.approx(q_true, rel=0.03)
+    assert res.n_skipped == 0
+    # the tracked pressures follow the measurements closely (residuals << 1 bar)
+    assert np.sqrt(np.mean(res.innovations[t > 2, 1:] ** 2)) < 1e4
+
+
+def test_feature_leak_flow_rises_at_onset(noise_free_leak):
+    fs = ekf_feature(noise_free_leak, EKFParams(window=1000, overlap=0))
+    before = fs.values[(fs.time > 2) & (fs.time < 10)]
+    after = fs.values[fs.time > 20]
+    t = noise_free_leak.time
+    q_true = np.abs(noise_free_leak["leak_flow"][t >= 19]).mean() * 60_000.0
+    assert before.max() < 0.01 and after.mean() == pytest.approx(q_true, rel=0.03)
+    assert fs.name == "ekf_leak_flow" and fs.params["sample_rate"] == 1000.0
+
+
+def test_residual_feature_is_normalised():
+    n = 2000
+    rng = np.random.default_rng(0)
+    rec = Recording({"u": np.zeros(n), "x": np.zeros(n),
+                     "p1": 8.6e6 + 1e4 * rng.standard_normal(n),
+                     "p2": 8.6e6 + 1e4 * rng.standard_normal(n)}, 1000.0)
+    fs = ekf_feature(rec, EKFParams(feature="residual", overlap=0))
+    # innovations of pure measurement noise: sqrt(NIS / 3) near (slightly below) 1
+    assert np.all((fs.values > 0.5) & (fs.values < 1.2))
+
+
+def test_errors():
+    n = 10
+    rec = Recording({"u": np.zeros(n), "x": np.zeros(n), "p1": np.zeros(n)}, 1000.0)
+    with pytest.raises(RecordingError, match=r"missing channel\(s\) \['p2'\]"):
+        run_vca_ekf(rec)
+    bad = Recording({"u": np.zeros(n), "x": np.zeros(n), "p1": np.zeros(n),
+                     "p2": np.r_[np.zeros(n - 1), np.nan]}, 1000.0)
+    with pytest.raises(ValueError, match="p2 holds 1 non-finite"):
+        run_vca_ekf(bad)
+    with pytest.raises(ValueError, match="feature='x' must be one of"):
+        EKFParams(feature="x")
+    with pytest.raises(ValueError, match="load='heavy' must be one of"):
+        EKFParams(load="heavy")
