@@ -114,7 +114,7 @@ def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time) -
     import pyarrow.parquet as pq
 
     try:
-        pf = pq.ParquetFile(path)
+        pf = pq.ParquetFile(path, pre_buffer=False)  # pre-buffering reads whole row groups ahead
     except (pa.ArrowException, OSError) as exc:
         raise RecordingError(f"{path}: unreadable as Parquet: {exc}") from None
     names = pf.schema_arrow.names
