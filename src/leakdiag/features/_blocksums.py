@@ -27,14 +27,32 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["lag0_stats", "lagged_cross_sums", "safe_ratio", "safe_ratio_sqrt"]
+__all__ = ["block_of", "lag0_stats", "lagged_cross_sums", "safe_ratio", "safe_ratio_sqrt"]
+
+
+@numba.njit(cache=True)
+def block_of(starts, w, m_len):  # pragma: no cover - compiled
+    """Block start ``b0`` holding ``starts[w]`` and the end ``w_end`` of the run of starts in it."""
+    b0 = (starts[w] // m_len) * m_len
+    w_end = w + 1
+    n_win = starts.shape[0]
+    while w_end < n_win and starts[w_end] < b0 + m_len:
+        w_end += 1
+    return b0, w_end
 
 
 @numba.njit(cache=True)
 def lag0_stats(x, window, starts):  # pragma: no cover - compiled
-    """Per window: ``ref`` (a window sample), ``off`` (mean - ref) and sum of squared deviations."""
-    n = x.shape[0]
+    """Per window: ``ref`` (a window sample), ``off`` (mean - ref) and sum of squared deviations.
+
+    For a start ``s`` in the block ``[b0, e = b0 + N)`` with ``i = s - b0``, the window is the
+    tail ``[s, e)`` (``N - i`` samples, suffix sums ``g*[i]`` anchored at ``x[e-1]``) plus the
+    head ``[e, e + i)`` of the next block (``i`` samples, prefix sums ``f*[i]`` anchored at
+    ``x[e]``; ``f*[0] = 0``), so the per-window step is branch-free.
+    """
     m_len = window
+    fm = float(m_len)
+    inv_m = 1.0 / fm
     ga = np.empty(m_len)
     gc = np.empty(m_len)
     fa = np.empty(m_len)
@@ -43,60 +61,44 @@ def lag0_stats(x, window, starts):  # pragma: no cover - compiled
     ref = np.empty(n_win)
     off = np.empty(n_win)
     ss = np.empty(n_win)
-    inv_m = 1.0 / m_len
-    b0 = 0
-    e = -1  # end of the current block; -1: none yet (starts are sorted, so blocks only advance)
-    c0 = 0.0
-    f_b0 = -1
-    f_len = 0
-    c1 = 0.0
-    sa = 0.0
-    sc = 0.0
-    for w in range(n_win):
-        s = starts[w]
-        if s >= b0 + m_len or e < 0:  # entered a new block: one integer division per block
-            b0 = (s // m_len) * m_len
-            e = min(b0 + m_len, n)
-            c0 = x[e - 1]
-            ta = 0.0
-            tc = 0.0
-            for j in range(e - 1, s - 1, -1):
-                d = x[j] - c0
-                ta += d
-                tc += d * d
-                ga[j - b0] = ta
-                gc[j - b0] = tc
-        i0 = s - b0
-        n0 = e - s
-        n1 = m_len - n0
-        a0 = ga[i0]
-        if n1 > 0:
-            if f_b0 != e:
-                f_b0 = e
-                f_len = 0
-                c1 = x[e]
-                sa = 0.0
-                sc = 0.0
-            while f_len < n1:
-                d = x[e + f_len] - c1
-                sa += d
-                sc += d * d
-                fa[f_len] = sa
-                fc[f_len] = sc
-                f_len += 1
-            dc = c1 - c0
-            a1 = fa[n1 - 1]
-            o = (a0 + a1 + n1 * dc) * inv_m
-            d0 = -o
+    w = 0
+    while w < n_win:
+        b0, w_end = block_of(starts, w, m_len)
+        e = b0 + m_len
+        c0 = x[e - 1]
+        ta = 0.0
+        tc = 0.0
+        for j in range(e - 1, starts[w] - 1, -1):
+            d = x[j] - c0
+            ta += d
+            tc += d * d
+            ga[j - b0] = ta
+            gc[j - b0] = tc
+        need = starts[w_end - 1] - b0
+        c1 = x[e] if need > 0 else c0
+        ta = 0.0
+        tc = 0.0
+        fa[0] = 0.0
+        fc[0] = 0.0
+        for i in range(need):
+            d = x[e + i] - c1
+            ta += d
+            tc += d * d
+            fa[i + 1] = ta
+            fc[i + 1] = tc
+        dc = c1 - c0
+        for k in range(w, w_end):
+            i = starts[k] - b0
+            fi = float(i)
+            a0 = ga[i]
+            a1 = fa[i]
+            o = (a0 + a1 + fi * dc) * inv_m
             d1 = dc - o
-            acc = gc[i0] + 2.0 * d0 * a0 + n0 * d0 * d0
-            acc += fc[n1 - 1] + 2.0 * d1 * a1 + n1 * d1 * d1
-        else:
-            o = a0 * inv_m
-            acc = gc[i0] - o * a0
-        ref[w] = c0
-        off[w] = o
-        ss[w] = acc
+            ref[k] = c0
+            off[k] = o
+            ss[k] = (gc[i] - 2.0 * o * a0 + (fm - fi) * o * o
+                     + fc[i] + 2.0 * d1 * a1 + fi * d1 * d1)
+        w = w_end
     return ref, off, ss
 
 
@@ -105,9 +107,11 @@ def lagged_cross_sums(u, v, lag, window, starts, ru, offu, rv, offv):  # pragma:
     """Per window: ``sum_{j=s}^{s+N-lag-1} (u_j - mean u)(v_{j+lag} - mean v)``.
 
     The window means are given as ``ru + offu`` and ``rv + offv`` (from :func:`lag0_stats`).
+    Pair ``j`` is ``(u_j, v_{j+lag})``; blocks of ``M = N - lag`` pairs, laid out as in
+    :func:`lag0_stats`; the anchors are the pair at the block's end and the next block's start.
     """
-    n_pairs = u.shape[0] - lag
     m_len = window - lag
+    fm = float(m_len)
     ga = np.empty(m_len)
     gb = np.empty(m_len)
     gc = np.empty(m_len)
@@ -116,66 +120,52 @@ def lagged_cross_sums(u, v, lag, window, starts, ru, offu, rv, offv):  # pragma:
     fc = np.empty(m_len)
     n_win = starts.shape[0]
     out = np.empty(n_win)
-    b0 = 0
-    e = -1
-    gcu = 0.0
-    gcv = 0.0
-    f_b0 = -1
-    f_len = 0
-    fcu = 0.0
-    fcv = 0.0
-    sa = 0.0
-    sb = 0.0
-    sc = 0.0
-    for w in range(n_win):
-        s = starts[w]
-        if s >= b0 + m_len or e < 0:
-            b0 = (s // m_len) * m_len
-            e = min(b0 + m_len, n_pairs)
-            gcu = u[e - 1]
-            gcv = v[e - 1 + lag]
-            ta = 0.0
-            tb = 0.0
-            tc = 0.0
-            for j in range(e - 1, s - 1, -1):
-                du = u[j] - gcu
-                dv = v[j + lag] - gcv
-                ta += du
-                tb += dv
-                tc += du * dv
-                ga[j - b0] = ta
-                gb[j - b0] = tb
-                gc[j - b0] = tc
-        i0 = s - b0
-        n0 = e - s
-        du0 = (gcu - ru[w]) - offu[w]
-        dv0 = (gcv - rv[w]) - offv[w]
-        acc = gc[i0] + dv0 * ga[i0] + du0 * gb[i0] + n0 * du0 * dv0
-        n1 = m_len - n0
-        if n1 > 0:
-            if f_b0 != e:
-                f_b0 = e
-                f_len = 0
-                fcu = u[e]
-                fcv = v[e + lag]
-                sa = 0.0
-                sb = 0.0
-                sc = 0.0
-            while f_len < n1:
-                du = u[e + f_len] - fcu
-                dv = v[e + f_len + lag] - fcv
-                sa += du
-                sb += dv
-                sc += du * dv
-                fa[f_len] = sa
-                fb[f_len] = sb
-                fc[f_len] = sc
-                f_len += 1
-            du1 = (fcu - ru[w]) - offu[w]
-            dv1 = (fcv - rv[w]) - offv[w]
-            k = n1 - 1
-            acc += fc[k] + dv1 * fa[k] + du1 * fb[k] + n1 * du1 * dv1
-        out[w] = acc
+    w = 0
+    while w < n_win:
+        b0, w_end = block_of(starts, w, m_len)
+        e = b0 + m_len
+        cu0 = u[e - 1]
+        cv0 = v[e - 1 + lag]
+        ta = 0.0
+        tb = 0.0
+        tc = 0.0
+        for j in range(e - 1, starts[w] - 1, -1):
+            du = u[j] - cu0
+            dv = v[j + lag] - cv0
+            ta += du
+            tb += dv
+            tc += du * dv
+            ga[j - b0] = ta
+            gb[j - b0] = tb
+            gc[j - b0] = tc
+        need = starts[w_end - 1] - b0
+        cu1 = u[e] if need > 0 else cu0
+        cv1 = v[e + lag] if need > 0 else cv0
+        ta = 0.0
+        tb = 0.0
+        tc = 0.0
+        fa[0] = 0.0
+        fb[0] = 0.0
+        fc[0] = 0.0
+        for i in range(need):
+            du = u[e + i] - cu1
+            dv = v[e + i + lag] - cv1
+            ta += du
+            tb += dv
+            tc += du * dv
+            fa[i + 1] = ta
+            fb[i + 1] = tb
+            fc[i + 1] = tc
+        for k in range(w, w_end):
+            i = starts[k] - b0
+            fi = float(i)
+            du0 = (cu0 - ru[k]) - offu[k]
+            dv0 = (cv0 - rv[k]) - offv[k]
+            du1 = (cu1 - ru[k]) - offu[k]
+            dv1 = (cv1 - rv[k]) - offv[k]
+            out[k] = (gc[i] + dv0 * ga[i] + du0 * gb[i] + (fm - fi) * du0 * dv0
+                      + fc[i] + dv1 * fa[i] + du1 * fb[i] + fi * du1 * dv1)
+        w = w_end
     return out
 
 
