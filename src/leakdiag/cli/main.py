@@ -23,6 +23,9 @@ COMMANDS: dict[str, str] = {
     "monitor": "leakdiag.cli.monitor:monitor",
     "batch": "leakdiag.cli.batch:batch",
     "benchmark": "leakdiag.cli.benchmark:benchmark",
+    "sweep": "leakdiag.cli.sweep:sweep",
+    "sensitivity": "leakdiag.cli.sensitivity:sensitivity",
+    "reproduce": "leakdiag.cli.reproduce:reproduce",
 }
 
 

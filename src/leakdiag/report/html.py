@@ -188,7 +188,7 @@ class Report:
         rows = [[format_value(v, digits) for v in row] for row in df.itertuples(index=False)]
         self._blocks.append(_Block("table", (caption, cols, text_cols, rows)))
 
-    def figure(self, fig, caption: str, dpi: int = 90) -> str:
+    def figure(self, fig, caption: str, dpi: int = 72) -> str:
         """Add a matplotlib figure (rendered to PNG now, then closed); return its file name.
 
         Parameters
@@ -197,7 +197,7 @@ class Report:
             The figure.
         caption : str
             Caption.
-        dpi : int, default 90
+        dpi : int, default 72
             Resolution of the PNG.
 
         Returns

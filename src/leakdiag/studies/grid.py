@@ -10,7 +10,9 @@ setting) that the fast path must equal.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
+import warnings
 from typing import Iterable, Sequence
 
 import numpy as np
@@ -20,7 +22,7 @@ from leakdiag.features.series import FeatureSeries
 from leakdiag.features.windowing import window_starts, window_step, window_times
 
 __all__ = ["MEASURE_COLUMNS", "SETTING_COLUMNS", "parse_lag", "lag_label", "grid", "grid_loop",
-           "measure_row"]
+           "measure_row", "quiet_degenerate"]
 
 #: Setting columns of every sweep table (one row per setting).
 SETTING_COLUMNS = ["method", "channels", "lag", "lag_ratio", "window", "overlap"]
@@ -28,6 +30,25 @@ SETTING_COLUMNS = ["method", "channels", "lag", "lag_ratio", "window", "overlap"
 MEASURE_COLUMNS = ["mean_rms_before", "mean_rms_after", "pct_change", "pct_change_signed",
                    "n_windows", "n_chunks_before", "n_chunks_after", "n_chunks_straddling",
                    "n_nan_windows", "chunk"]
+
+
+@contextlib.contextmanager
+def quiet_degenerate():
+    """Silence the features' zero-variance warning inside a sweep.
+
+    A sweep evaluates thousands of settings; each degenerate (zero-variance) window is already
+    a NaN value and is counted per setting in the ``n_nan_windows`` column, so the per-call
+    warning is redundant there. Other warnings pass through.
+
+    Yields
+    ------
+    None
+    """
+    from leakdiag.features import DegenerateWindowWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DegenerateWindowWarning)
+        yield
 
 
 def parse_lag(method: str, lag) -> int | tuple[int, int]:
@@ -262,7 +283,8 @@ def grid(recording, method: str, channels: Sequence[str] | str | None,
         per_ov = {ov: window_starts(n, window, ov) for ov in overlaps}
         if fn is not None:
             union = np.unique(np.concatenate(list(per_ov.values())))
-            vals = _values_at(fn, m, recording, chans, lag, window, union)
+            with quiet_degenerate():
+                vals = _values_at(fn, m, recording, chans, lag, window, union)
         for ov in overlaps:
             starts = per_ov[ov]
             if fn is not None:
@@ -278,7 +300,8 @@ def grid(recording, method: str, channels: Sequence[str] | str | None,
 def _feature(recording, method, chans, lag, window, overlap) -> FeatureSeries:
     from leakdiag.features.methods import compute_feature
 
-    return compute_feature(recording, _spec(method, chans, lag, window, overlap))
+    with quiet_degenerate():
+        return compute_feature(recording, _spec(method, chans, lag, window, overlap))
 
 
 def grid_loop(recording, method: str, channels: Sequence[str] | str | None,

@@ -209,9 +209,10 @@ def _spec(method, channels, lag, window, overlap):
 
 def _measure(rec, spec, onset, chunk, keep_series=False) -> dict:
     from leakdiag.features.methods import compute_feature
-    from leakdiag.studies.grid import measure_row
+    from leakdiag.studies.grid import measure_row, quiet_degenerate
 
-    fs = compute_feature(rec, spec)
+    with quiet_degenerate():
+        fs = compute_feature(rec, spec)
     lag = spec.lag_ratio if spec.lag_ratio is not None else spec.lag
     row = measure_row(fs, onset, chunk, spec.method, spec.channels, lag, spec.window,
                       spec.overlap)

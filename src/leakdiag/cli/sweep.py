@@ -1,0 +1,158 @@
+"""``leakdiag sweep``: one-factor-at-a-time (Sec. 4.4) or full grid of the Sec. 5.2 measure."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+__all__ = ["sweep", "format_table"]
+
+
+def format_table(table) -> str:
+    """Render a sweep table for the terminal (thesis columns first).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Sweep table.
+
+    Returns
+    -------
+    str
+    """
+    show = table.copy()
+    show["setting"] = [lr if isinstance(lr, str) else str(lag) for lag, lr in
+                       zip(show["lag"], show["lag_ratio"])]
+    cols = [c for c in ("varied",) if c in show] + ["setting", "window", "overlap",
+                                                     "mean_rms_before", "mean_rms_after",
+                                                     "pct_change", "pct_change_signed",
+                                                     "n_windows", "n_chunks_before",
+                                                     "n_chunks_after"]
+    for c in ("mean_rms_before", "mean_rms_after"):
+        show[c] = show[c].map(lambda v: f"{v:.5g}")
+    show["pct_change"] = show["pct_change"].map(lambda v: f"{v:.2f}")
+    show["pct_change_signed"] = show["pct_change_signed"].map(lambda v: f"{v:+.2f}")
+    show["overlap"] = show["overlap"].map(lambda v: f"{v:g}")
+    return show[cols].to_string(index=False)
+
+
+def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> list[Path]:
+    from leakdiag.features.methods import compute_feature
+    from leakdiag.report.figures import save_figure
+    from leakdiag.report.study_plots import plot_pct_vs_parameter, plot_stacked
+    from leakdiag.studies.grid import _spec, parse_lag, quiet_degenerate
+
+    written = []
+    for varied, g in varied_groups:
+        if len(g) == 0:
+            continue
+        series, rms, titles, xs, labels = [], [], [], [], []
+        for r in g.itertuples(index=False):
+            lag = parse_lag(method, r.lag_ratio if isinstance(r.lag_ratio, str) else r.lag)
+            with quiet_degenerate():
+                fs = compute_feature(rec, _spec(r.method, r.channels.split(","), lag, r.window,
+                                                r.overlap))
+            series.append((fs.time, fs.values))
+            rms.append((r.mean_rms_before, r.mean_rms_after, r.pct_change_signed)
+                       if r.mean_rms_before == r.mean_rms_before else None)
+            lab = r.lag_ratio if isinstance(r.lag_ratio, str) else str(r.lag)
+            titles.append(f"{r.method} {r.channels}: lag {lab}, window {r.window}, "
+                          f"overlap {r.overlap:g}%")
+            xs.append({"lag": float(lab.split(":")[0]), "window": r.window,
+                       "overlap": r.overlap}[varied])
+            labels.append({"lag": lab, "window": str(r.window), "overlap": f"{r.overlap:g}"}[varied])
+        if len(series) > 6:
+            keep = sorted(set(int(round(i)) for i in
+                              [k * (len(series) - 1) / 5 for k in range(6)]))
+            panels = [series[i] for i in keep], [titles[i] for i in keep], [rms[i] for i in keep]
+        else:
+            panels = series, titles, rms
+        p = out / f"panels_{varied}.png"
+        save_figure(plot_stacked(panels[0], onset=onset, titles=panels[1], rms=panels[2]), p)
+        written.append(p)
+        p = out / f"pct_vs_{varied}.png"
+        save_figure(plot_pct_vs_parameter(xs, g["pct_change"].to_numpy(), xlabel=varied,
+                                          title=f"{method} {channels}: % change against {varied}",
+                                          xticklabels=labels), p)
+        written.append(p)
+    return written
+
+
+@click.command()
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option("--method", "-m", default="autocorrelation", show_default=True,
+              help="autocorrelation | cross-correlation | metric-length (thesis spellings too).")
+@click.option("--channels", "-c", default=None, help="Channels, e.g. p1 | p1,p2 | u,x.")
+@click.option("--lags", default="1,2,4,8", show_default=True,
+              help="Lags (1,2,4 or 1:30:1) or lag ratios (83:3,57:3).")
+@click.option("--windows", default="100:800:100", show_default=True,
+              help="Window sizes in samples (list or start:stop:step).")
+@click.option("--overlaps", default="5,25,50", show_default=True, help="Overlaps in percent.")
+@click.option("--mode", type=click.Choice(["ofat", "grid"]), default="ofat", show_default=True,
+              help="ofat: Sec. 4.4 (vary lag, keep the best; window; overlap). grid: all combos.")
+@click.option("--onset", type=float, default=None, help="Leak onset (s); default: file metadata.")
+@click.option("--chunk", type=int, default=10, show_default=True,
+              help="Feature values per RMS chunk (Sec. 5.2).")
+@click.option("--min-chunks", type=int, default=3, show_default=True,
+              help="Selection rule: whole RMS chunks needed on each side of the onset.")
+@click.option("--tolerance", type=float, default=0.0, show_default=True,
+              help="Selection rule: % points within the best that count as ties.")
+@click.option("--sample-rate", type=float, help="Sample rate in Hz when the file has no time column.")
+@click.option("--out", type=click.Path(file_okay=False), default=None,
+              help="Folder for sweep.csv, sweep.parquet and the figures.")
+@click.option("--no-figures", is_flag=True, help="Skip the figures.")
+def sweep(file, method, channels, lags, windows, overlaps, mode, onset, chunk, min_chunks,
+          tolerance, sample_rate, out, no_figures):
+    """Sweep lag, window and overlap on FILE; print the table of the Sec. 5.2 measure."""
+    import leakdiag.io as lio
+    from leakdiag.features.methods import normalize_method
+    from leakdiag.studies.grid import grid
+    from leakdiag.studies.select import SelectionRule, preferred_setting
+    from leakdiag.studies.sweep import ofat_sweep, parse_values
+
+    m = normalize_method(method)
+    lag_values = parse_values(lags, str if m == "metric-length" else int)
+    win_values = parse_values(windows, int)
+    ov_values = parse_values(overlaps, float)
+    rec = lio.read_recording(file, sample_rate=sample_rate)
+    rule = SelectionRule(min_chunks_per_side=min_chunks, tolerance_pct=tolerance)
+    onset = onset if onset is not None else rec.onset
+    if mode == "ofat":
+        res = ofat_sweep(rec, m, channels, lag_values, win_values, ov_values, rule=rule,
+                         onset=onset, chunk=chunk)
+        table = res.table()
+        chosen = res.chosen
+        groups = [(k, res.tables[k]) for k in ("lag", "window", "overlap")]
+    else:
+        table = grid(rec, m, channels, lag_values, win_values, ov_values, onset=onset,
+                     chunk=chunk)
+        best = preferred_setting(table, rule)
+        chosen = {"lag": best["lag_ratio"] if isinstance(best["lag_ratio"], str)
+                  else int(best["lag"]), "window": int(best["window"]),
+                  "overlap": float(best["overlap"])}
+        groups = [("lag", table[(table.window == chosen["window"])
+                                & (table.overlap == chosen["overlap"])]),
+                  ("window", _at_lag(table, chosen["lag"]).query("overlap == @chosen['overlap']")),
+                  ("overlap", _at_lag(table, chosen["lag"]).query("window == @chosen['window']"))]
+    click.echo(f"{file}: {rec.n_samples} samples at {rec.sample_rate:g} Hz, onset {onset:g} s, "
+               f"{m} {channels or ''}, {len(table)} settings ({mode})")
+    click.echo(format_table(table))
+    click.echo(f"preferred (max |% change|, >= {min_chunks} chunks per side, tolerance "
+               f"{tolerance:g}): lag {chosen['lag']}, window {chosen['window']}, overlap "
+               f"{chosen['overlap']:g}%")
+    if out:
+        o = Path(out)
+        o.mkdir(parents=True, exist_ok=True)
+        table.to_csv(o / "sweep.csv", index=False)
+        table.astype({"lag_ratio": "string"}).to_parquet(o / "sweep.parquet", index=False)
+        written = ["sweep.csv", "sweep.parquet"]
+        if not no_figures:
+            written += [p.name for p in _figures(rec, table, m, channels, onset, o, groups)]
+        click.echo(f"wrote {o}/: {', '.join(written)}")
+
+
+def _at_lag(table, lag):
+    if isinstance(lag, str):
+        return table[table.lag_ratio == lag]
+    return table[table.lag == lag]

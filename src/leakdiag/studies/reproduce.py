@@ -1,0 +1,332 @@
+"""``leakdiag reproduce``: run the thesis protocol on the simulators and compare with the thesis.
+
+:func:`reproduce` runs every case of :func:`~leakdiag.studies.protocol.build_cases` on an
+executor, then assembles: one row per row of the thesis's ``tables.csv`` with our measure beside
+the thesis's and the direction verdicts (:func:`assemble_tables`), the preferred settings (rule
+versus thesis), the sensitivity table and ranges, and the stationarity tests.
+:func:`write_outputs` writes ``tables.csv``, ``sensitivity.csv``, ``index.html`` and
+``report.md``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from leakdiag.studies.protocol import FULL, QUICK, ProtocolConfig, build_cases, run_case
+
+__all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings",
+           "sensitivity_summary", "write_outputs", "CONTRACT_COLUMNS"]
+
+#: Columns of ``tables.csv`` written by :func:`write_outputs` (the outside contract).
+CONTRACT_COLUMNS = [
+    "table", "system", "case_study", "leak_lpm", "method", "signals", "varied", "lag", "window",
+    "overlap_pct", "mean_rms_before", "mean_rms_after", "pct_change", "pct_change_signed",
+    "thesis_mean_rms_before", "thesis_mean_rms_after", "thesis_pct_change",
+    "thesis_pct_change_recomputed", "thesis_pct_change_signed", "direction_agrees",
+    "trend_ours", "trend_thesis", "trend_agrees", "n_windows", "n_chunks_before",
+    "n_chunks_after", "n_chunks_straddling", "chunk", "note",
+]
+
+
+@dataclass
+class Reproduction:
+    """Everything one reproduction run computed (the report is built from this only).
+
+    Attributes
+    ----------
+    config : ProtocolConfig
+        Settings of the run.
+    systems : tuple of str
+        Systems run.
+    tables : pandas.DataFrame
+        :data:`CONTRACT_COLUMNS`, one row per thesis table row of the systems run.
+    series : dict
+        ``row_id`` -> ``(time, values)`` feature series of each table row.
+    preferred : pandas.DataFrame
+        Per sweep table: our rule's pick, the rule applied to the thesis's values, the thesis's
+        choice.
+    ofat : list of dict
+        Sec. 4.4 procedure on the case-study-1 simulation per method (chosen values, tables).
+    sensitivity : pandas.DataFrame
+        One row per case-study-3 experiment and method.
+    stationarity : dict
+        System -> ``{"moments": {channel: DataFrame}, "tests": DataFrame}``.
+    timing : dict
+        Wall time, number of cases, cache hits.
+    """
+
+    config: ProtocolConfig
+    systems: tuple
+    tables: Any
+    series: dict
+    preferred: Any
+    ofat: list
+    sensitivity: Any
+    stationarity: dict
+    timing: dict = field(default_factory=dict)
+
+
+def assemble_tables(thesis, rows: list[dict]):
+    """Our measure beside the thesis's, with the direction and trend verdicts.
+
+    Parameters
+    ----------
+    thesis : pandas.DataFrame
+        :func:`leakdiag.studies.thesis.load_tables` (possibly filtered).
+    rows : list of dict
+        Our measure rows, each with ``row_id``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        :data:`CONTRACT_COLUMNS` plus ``row_id``, in the thesis's row order.
+
+    Notes
+    -----
+    ``direction_agrees``: ``sign(pct_change_signed) == sign(thesis after - before)``; false if
+    our value is NaN. ``trend_*`` (sweep tables only, same value on every row of a table): sign
+    of the Spearman correlation between the varied parameter and |% change| (0 = flat,
+    ``|rho| < TREND_FLAT``); ``trend_agrees`` is empty for the signal tables.
+    """
+    import pandas as pd
+
+    from leakdiag.studies.thesis import row_sign, trend_sign, varied_value
+
+    ours = pd.DataFrame(rows).set_index("row_id")
+    t = thesis.set_index("row_id").copy()
+    out = pd.DataFrame(index=t.index)
+    for c in ("table", "system", "case_study", "leak_lpm", "method", "signals", "varied", "lag",
+              "window", "overlap_pct"):
+        out[c] = t[c]
+    for c in ("mean_rms_before", "mean_rms_after", "pct_change", "pct_change_signed",
+              "n_windows", "n_chunks_before", "n_chunks_after", "n_chunks_straddling", "chunk"):
+        out[c] = ours[c].reindex(t.index)
+    out["thesis_mean_rms_before"] = t["mean_rms_before"]
+    out["thesis_mean_rms_after"] = t["mean_rms_after"]
+    out["thesis_pct_change"] = t["pct_change_reported"]
+    out["thesis_pct_change_recomputed"] = t["pct_change_recomputed"]
+    out["thesis_pct_change_signed"] = t["thesis_sign"] * t["pct_change_recomputed"]
+    our_sign = row_sign(out["pct_change_signed"])
+    out["direction_agrees"] = (our_sign == t["thesis_sign"].to_numpy()) & (our_sign != 0)
+    out["trend_ours"] = pd.array([pd.NA] * len(out), dtype="Int64")
+    out["trend_thesis"] = pd.array([pd.NA] * len(out), dtype="Int64")
+    out["trend_agrees"] = pd.array([pd.NA] * len(out), dtype="boolean")
+    for _, g in out.groupby("table", sort=False):
+        if g["varied"].iloc[0] == "signal" or len(g) < 2:
+            continue
+        x = [varied_value(v, lag, w, o) for v, lag, w, o in
+             zip(g.varied, g.lag, g.window, g.overlap_pct)]
+        ts_ours = trend_sign(x, g["pct_change"])
+        ts_thesis = trend_sign(x, g["thesis_pct_change_recomputed"])
+        out.loc[g.index, "trend_ours"] = ts_ours
+        out.loc[g.index, "trend_thesis"] = ts_thesis
+        out.loc[g.index, "trend_agrees"] = ts_ours == ts_thesis
+    out["note"] = t["note"]
+    return out.reset_index()[["row_id"] + CONTRACT_COLUMNS]
+
+
+def preferred_settings(tables, rule=None):
+    """Per sweep table: the rule's pick on our values, on the thesis's values, and the thesis's.
+
+    Parameters
+    ----------
+    tables : pandas.DataFrame
+        Output of :func:`assemble_tables`.
+    rule : SelectionRule, optional
+        Default :class:`~leakdiag.studies.select.SelectionRule` ().
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``table``, ``system``, ``method``, ``signals``, ``varied``, ``ours_rule``,
+        ``ours_rule_pct``, ``thesis_values_rule``, ``thesis_choice``, ``thesis_choice_pct``,
+        ``ours_agrees_with_thesis_choice``.
+    """
+    import pandas as pd
+
+    from leakdiag.studies.select import THESIS_CHOICES, SelectionRule, preferred_setting
+
+    rule = rule or SelectionRule()
+    out = []
+    for tab, g in tables.groupby("table", sort=False):
+        v = g["varied"].iloc[0]
+        if v == "signal":
+            continue
+        col = {"lag": "lag", "lag_ratio": "lag", "window": "window", "overlap": "overlap_pct"}[v]
+
+        def frame(before, after, pct, signed, nb, na):
+            return pd.DataFrame({"lag": pd.to_numeric(g["lag"].str.split(":").str[0]),
+                                 "window": g["window"].to_numpy(),
+                                 "overlap": g["overlap_pct"].to_numpy(), "pct_change": pct,
+                                 "pct_change_signed": signed, "n_chunks_before": nb,
+                                 "n_chunks_after": na, "value": g[col].to_numpy()})
+
+        ours = frame(g.mean_rms_before, g.mean_rms_after, g["pct_change"].to_numpy(dtype=float),
+                     g.pct_change_signed.to_numpy(dtype=float),
+                     g.n_chunks_before.fillna(0).to_numpy(), g.n_chunks_after.fillna(0).to_numpy())
+        th = frame(None, None, g.thesis_pct_change_recomputed.to_numpy(dtype=float),
+                   g.thesis_pct_change_signed.to_numpy(dtype=float),
+                   np.full(len(g), 10**6), np.full(len(g), 10**6))
+        try:
+            pick = preferred_setting(ours, rule)
+            ours_v, ours_pct = pick["value"], float(pick["pct_change"])
+        except ValueError:
+            ours_v, ours_pct = None, float("nan")
+        th_v = preferred_setting(th, rule)["value"]
+        choice = THESIS_CHOICES.get(tab)
+        match = g[g[col].astype(str) == str(choice)]
+        if match.empty and col == "overlap_pct":
+            match = g[g[col].astype(float) == float(choice)]
+        out.append({"table": tab, "system": g.system.iloc[0], "method": g.method.iloc[0],
+                    "signals": g.signals.iloc[0], "varied": v, "ours_rule": ours_v,
+                    "ours_rule_pct": ours_pct, "thesis_values_rule": th_v,
+                    "thesis_choice": choice,
+                    "thesis_choice_pct": float(match.thesis_pct_change.iloc[0]) if len(match)
+                    else float("nan"),
+                    "ours_agrees_with_thesis_choice": str(ours_v) == str(choice)
+                    or (col == "overlap_pct" and ours_v is not None
+                        and float(ours_v) == float(choice))})
+    return pd.DataFrame(out)
+
+
+def sensitivity_summary(sens, thesis_ranges=None):
+    """Range of |% change| per system and method (Table 5-17) beside the thesis's range.
+
+    Parameters
+    ----------
+    sens : pandas.DataFrame
+        Sensitivity rows (``system``, ``method``, ``channels``, ``pct_change``, ``leak_lpm``).
+    thesis_ranges : pandas.DataFrame, optional
+        :func:`leakdiag.studies.thesis.load_sensitivity` (default: the shipped copy).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Per (system, method, channels): ``min_pct``, ``max_pct``, ``n_runs``, the Spearman trend
+        of |% change| along leak size, the feature's direction, and the thesis's range.
+    """
+    import pandas as pd
+
+    from leakdiag.studies.thesis import load_sensitivity, spearman
+
+    th = load_sensitivity() if thesis_ranges is None else thesis_ranges
+    name = {"autocorrelation": "autocorrelation", "cross-correlation": "cross_correlation",
+            "metric-length": "ratio_of_metric_lengths"}
+    out = []
+    for (system, method, chans), g in sens.groupby(["system", "method", "channels"], sort=False):
+        sig = chans.upper()
+        m = th[(th.system == system.upper()) & (th.method == name[method])]
+        if len(m) > 1:
+            m = m[m.signals.str.replace(" or ", ",").str.contains(sig.split(",")[0])]
+            if sig.count(",") and len(m) > 1:
+                m = m[m.signals == sig]
+        m = m.iloc[0] if len(m) else None
+        pct = g["pct_change"].to_numpy(dtype=float)
+        out.append({"system": system, "method": method, "channels": chans,
+                    "n_runs": int(np.isfinite(pct).sum()),
+                    "min_pct": float(np.nanmin(pct)) if np.isfinite(pct).any() else np.nan,
+                    "max_pct": float(np.nanmax(pct)) if np.isfinite(pct).any() else np.nan,
+                    "rho_pct_vs_leak": spearman(g["leak_lpm"], pct),
+                    "share_falling": float((g["pct_change_signed"] < 0).mean()),
+                    "thesis_min_pct": np.nan if m is None else float(m.sensitivity_min_pct),
+                    "thesis_max_pct": np.nan if m is None else float(m.sensitivity_max_pct),
+                    "thesis_source": "" if m is None else m.source})
+    return pd.DataFrame(out)
+
+
+def reproduce(systems=("vca", "eha"), config: ProtocolConfig | None = None, *, quick=False,
+              scheduler: str | None = "local", n_workers: int | None = None,
+              progress: bool = True) -> Reproduction:
+    """Run the thesis protocol on the simulators and gather everything the report needs.
+
+    Parameters
+    ----------
+    systems : sequence of {"vca", "eha"}
+        Systems.
+    config : ProtocolConfig, optional
+        Settings (default :data:`~leakdiag.studies.protocol.FULL`, or ``QUICK`` if ``quick``).
+    quick : bool, default False
+        Use the short protocol.
+    scheduler : str or None, default "local"
+        Executor: ``"serial"``, ``"local"`` (a Dask LocalCluster) or a scheduler address.
+    n_workers : int, optional
+        Workers of the local cluster.
+    progress : bool, default True
+        Progress bars.
+
+    Returns
+    -------
+    Reproduction
+    """
+    import pandas as pd
+
+    from leakdiag.studies.executor import run_cases
+    from leakdiag.studies.thesis import load_tables
+
+    cfg = config or (QUICK if quick else FULL)
+    systems = tuple(systems)
+    t0 = time.perf_counter()
+    cases = build_cases(cfg, systems)
+    results = run_cases(run_case, cases, scheduler=scheduler, n_workers=n_workers,
+                        desc=f"reproduce {'+'.join(systems)} ({cfg.name})", progress=progress)
+    thesis = load_tables()
+    thesis = thesis[thesis.system.str.lower().isin(systems)]
+    rows, series, ofat, sens, stat = [], {}, [], [], {}
+    for cr in results:
+        res, case = cr.result, cr.config
+        if case["kind"] == "tables":
+            for r in res["rows"]:
+                series[r["row_id"]] = (r.pop("series_time"), r.pop("series_values"))
+                rows.append(r)
+            for o in res["ofat"]:
+                ofat.append({"system": case["system"], **o})
+        elif case["kind"] == "sensitivity":
+            sens += res["rows"]
+        elif case["kind"] == "stationarity":
+            stat[case["system"]] = {"moments": res["moments"],
+                                    "tests": pd.DataFrame(res["tests"])}
+    tables = assemble_tables(thesis, rows)
+    timing = {"wall_s": time.perf_counter() - t0, "n_cases": len(cases),
+              "cache_hits": sum(bool(cr.result.get("cache_hit")) for cr in results),
+              "case_s": float(sum(cr.elapsed_s for cr in results))}
+    return Reproduction(cfg, systems, tables, series, preferred_settings(tables), ofat,
+                        pd.DataFrame(sens), stat, timing)
+
+
+def write_outputs(rep: Reproduction, out_dir, command: str = "") -> dict[str, Path]:
+    """Write ``tables.csv``, ``sensitivity.csv``, ``preferred.csv``, ``index.html``, ``report.md``.
+
+    Parameters
+    ----------
+    rep : Reproduction
+        Results of :func:`reproduce`.
+    out_dir : path-like
+        Output folder (created).
+    command : str, optional
+        Command line that made the run (printed in the report).
+
+    Returns
+    -------
+    dict
+        Name -> path of every file written.
+    """
+    from leakdiag.report.reproduction import build_report
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    rep.tables.drop(columns=["row_id"]).to_csv(out / "tables.csv", index=False)
+    paths["tables"] = out / "tables.csv"
+    rep.sensitivity.to_csv(out / "sensitivity.csv", index=False)
+    paths["sensitivity"] = out / "sensitivity.csv"
+    rep.preferred.to_csv(out / "preferred.csv", index=False)
+    paths["preferred"] = out / "preferred.csv"
+    report = build_report(rep, command=command)
+    written = report.write(out)
+    paths.update(written)
+    return paths
