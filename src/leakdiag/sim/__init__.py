@@ -62,3 +62,9 @@ __all__ += [
 
 # --- EHA (owner: EHA engineer): add `from leakdiag.sim.eha... import simulate_eha, EHAParams`
 # and extend __all__ here. ---------------------------------------------------------------------
+from leakdiag.sim.eha import simulate_eha  # noqa: E402
+from leakdiag.sim.eha_drive import EHAConditions  # noqa: E402
+from leakdiag.sim.eha_model import eha_rhs  # noqa: E402
+from leakdiag.sim.eha_params import EHAParams  # noqa: E402
+
+__all__ += ["EHAConditions", "EHAParams", "eha_rhs", "simulate_eha"]

@@ -1,0 +1,297 @@
+"""Simulated EHA experiments (thesis Ch. 3, Sec. 4.6): :func:`simulate_eha`.
+
+The electrohydrostatic actuator is driven open loop by ``3 sin 4t`` V for 180 s with a leak
+switched on at 90 s (Sec. 4.6), or, as the thesis proposes for future work (Sec. 7.2), closed
+loop around an outer position loop. The model is :func:`~leakdiag.sim.eha_model.eha_rhs`, the
+integrator :func:`~leakdiag.sim.eha_solver.integrate_fast`, the leak schedule and calibration
+come from :mod:`leakdiag.sim.leak` and the sensor chain from :mod:`leakdiag.sim.sensors`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from leakdiag._validation import check_positive
+from leakdiag._version import __version__
+from leakdiag.io.recording import Recording
+from leakdiag.sim.eha_drive import LOADS, MODES, EHAConditions, build_inputs
+from leakdiag.sim.eha_model import IN_KLEAK, IN_U, IN_XREF, N_STATES, S_P1, S_P2, S_PA, S_PB, S_X
+from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha_solver import DEFAULT_RTOL, integrate_fast
+from leakdiag.sim.leak import LeakSchedule, calibrate_leak_coefficient, m3s_to_lpm
+from leakdiag.sim.sensors import SensorParams, measure_position, measure_pressure
+
+__all__ = ["simulate_eha", "EHA_SENSORS", "initial_state", "DEFAULT_REFERENCE_AMPLITUDE_M"]
+
+#: EHA sensor chain (Sec. 3.2): 3000 psi pressure sensors read by the 14-bit Quanser Q8 A/D;
+#: the position encoder's resolution is not given, the VCA rig's 0.03 mm is assumed.
+EHA_SENSORS = SensorParams(pressure_adc_bits=14, control_dac_bits=14)
+#: Input amplitude of Sec. 4.6, V.
+DEFAULT_AMPLITUDE_V = 3.0
+#: Closed-loop reference amplitude, m: the open-loop stroke of 3 sin 4t is about +-39 mm.
+DEFAULT_REFERENCE_AMPLITUDE_M = 0.04
+#: Input frequency of Sec. 4.6, rad/s.
+DEFAULT_FREQUENCY_RAD_S = 4.0
+
+
+def initial_state(params: EHAParams) -> np.ndarray:
+    """Rest at mid-stroke with every pressure at the accumulator charge pressure.
+
+    Parameters
+    ----------
+    params : EHAParams
+        Rig parameters.
+
+    Returns
+    -------
+    numpy.ndarray
+        State vector, shape ``(N_STATES,)``.
+
+    Examples
+    --------
+    >>> initial_state(EHAParams())[2:6].tolist()
+    [1400000.0, 1400000.0, 1400000.0, 1400000.0]
+    """
+    y0 = np.zeros(N_STATES)
+    y0[S_P1:S_PB + 1] = params.accumulator_pressure_pa
+    return y0
+
+
+def _initial_leak_coefficient(leak_lpm: float, params: EHAParams, load: str) -> float:
+    """First guess of k_l: target flow over sqrt of a typical chamber pressure difference."""
+    area = params.piston_area_m2
+    # mean piston speed of a sine at 3 V with the whole pump flow, m/s
+    v_typ = (2.0 / math.pi) * params.pump_flow_per_rad_m3 * (
+        params.speed_command_gain_rad_per_s_per_v * DEFAULT_AMPLITUDE_V) / area
+    force = params.viscous_damping_n_s_per_m * v_typ + params.preload_force_n
+    if load == "spring":
+        force += params.spring_stiffness_n_per_m * v_typ / DEFAULT_FREQUENCY_RAD_S
+    dp = force / area
+    return (leak_lpm / 60_000.0) / math.sqrt(dp)
+
+
+def simulate_eha(
+    duration: float = 180.0,
+    leak_lpm: float | None = 1.2,
+    onset: float = 90.0,
+    seed: int = 1,
+    sensors: bool = True,
+    params: EHAParams | None = None,
+    load: str = "none",
+    mode: str = "open-loop",
+    sample_rate: float = 1000.0,
+    *,
+    amplitude: float | None = None,
+    frequency_rad_s: float = DEFAULT_FREQUENCY_RAD_S,
+    leak_kind: str = "step",
+    ramp_duration: float = 30.0,
+    leak_coefficient: float | None = None,
+    conditions: EHAConditions | None = None,
+    sensor_params: SensorParams | None = None,
+    rtol: float = DEFAULT_RTOL,
+    calibration_rtol: float = 0.02,
+) -> Recording:
+    """Simulate an EHA experiment (thesis Ch. 3 model, Sec. 4.6 procedure).
+
+    Parameters
+    ----------
+    duration : float, default 180.0
+        Length of the run in s (Sec. 4.6: 180 s).
+    leak_lpm : float or None, default 1.2
+        Target mean leak after the onset in L/min (Sec. 6: 0.77-1.63, case study 1: 1.2);
+        0 or None: no leak.
+    onset : float, default 90.0
+        Leak onset in s (Sec. 4.6: at 90 s); must lie inside the run.
+    seed : int, default 1
+        Seed of the sensor noise and of the random operating conditions: same seed, same
+        output bit for bit.
+    sensors : bool, default True
+        Record measured signals (pressure A/D with noise, encoder, D/A). False: the true,
+        noise-free states at the output rate.
+    params : EHAParams, optional
+        Rig parameters; default Table 3-1 plus the decisions in ``docs/models.md``.
+    load : {"none", "spring"}, default "none"
+        No load, or the spring of ``params.spring_stiffness_n_per_m`` (Sec. 4.6).
+    mode : {"open-loop", "closed-loop"}, default "open-loop"
+        Open loop: ``u = amplitude sin(frequency t)`` V drives the motor (Sec. 4.6). Closed
+        loop: ``u = K_x (x_ref - x)`` with ``x_ref = amplitude sin(frequency t)`` m (Sec. 7.2).
+    sample_rate : float, default 1000.0
+        Output rate in Hz.
+    amplitude : float, optional
+        Sine amplitude: default 3 V (open loop) or 0.04 m (closed loop).
+    frequency_rad_s : float, default 4.0
+        Sine frequency in rad/s (Sec. 4.6: ``3 sin 4t``).
+    leak_kind : {"step", "ramp"}, default "step"
+        Step at the onset, or linear ramp over ``ramp_duration`` (seal wear).
+    ramp_duration : float, default 30.0
+        Ramp length in s.
+    leak_coefficient : float, optional
+        Use this coefficient :math:`k_l` (m^3/(s sqrt(Pa))) instead of calibrating one.
+    conditions : EHAConditions, optional
+        Temperature drift, spring change, amplitude/frequency variation; default nominal.
+    sensor_params : SensorParams, optional
+        Sensor chain; default :data:`EHA_SENSORS` (Sec. 3.2).
+    rtol : float, default 3e-3
+        Local error tolerance of the integrator (see ``docs/models.md`` for the study).
+    calibration_rtol : float, default 0.02
+        Relative tolerance of the leak calibration.
+
+    Returns
+    -------
+    Recording
+        Channels ``p1``, ``p2`` (chamber pressures, Pa; thesis :math:`P_A, P_B`), ``x`` (m,
+        0 at mid-stroke), ``u`` (V), ``leak_flow`` (m^3/s, true, chamber 1 to 2), ``pa``, ``pb``
+        (pump-side line pressures, Pa; thesis :math:`P_1, P_2`) and, closed loop, ``x_ref``
+        (m). ``meta``: ``system="eha"``, ``mode``, ``load``, ``onset`` (None without leak),
+        ``leak_lpm`` (target), ``leak_lpm_achieved``, ``leak_pct_of_rated_flow``,
+        ``leak_coefficient``, ``leak_kind``, ``ramp_duration``, ``seed``, ``params`` (dict),
+        ``rated_flow_lpm``, ``amplitude``, ``frequency_rad_s``, ``conditions``, ``sensors``,
+        ``rtol``, ``solver_steps``, ``calibration_runs``, ``leakdiag_version``, ``source``.
+
+    Raises
+    ------
+    ValueError
+        If an argument is out of range (the message names it), e.g. an onset outside the run.
+    TypeError
+        If ``params`` is not an :class:`EHAParams`.
+    leakdiag.sim.leak.LeakCalibrationError
+        If the leak cannot be calibrated to the target.
+
+    Notes
+    -----
+    Model: Eqs. 3-1 to 3-19 with the leak of Eq. 2-4 between the chambers (see
+    :func:`~leakdiag.sim.eha_model.eha_rhs`). The achieved leak is the mean of
+    :math:`|Q_l|` over the samples at or after the onset (Sec. 4.6, "the average leak after 90
+    seconds"); the calibration runs the same experiment 2-4 times. The leak coefficient is an
+    input sampled at the output rate, so a step leak rises over the one sample interval before
+    the onset sample. In closed-loop mode the position loop sees the true position.
+
+    Examples
+    --------
+    >>> rec = simulate_eha(duration=2.0, leak_lpm=None, seed=3)
+    >>> rec.channel_names
+    ['p1', 'p2', 'x', 'u', 'leak_flow', 'pa', 'pb']
+    >>> rec.meta["system"], rec.meta["leak_lpm_achieved"], rec.n_samples
+    ('eha', 0.0, 2000)
+    """
+    duration = check_positive(duration, "duration")
+    fs = check_positive(sample_rate, "sample_rate")
+    if mode not in MODES:
+        raise ValueError(f"mode={mode!r} must be one of {list(MODES)}")
+    if load not in LOADS:
+        raise ValueError(f"load={load!r} must be one of {list(LOADS)}")
+    if leak_kind not in ("step", "ramp"):
+        raise ValueError(f"leak_kind={leak_kind!r} must be 'step' or 'ramp'")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed={seed!r} must be a non-negative integer")
+    params = EHAParams() if params is None else params
+    if not isinstance(params, EHAParams):
+        raise TypeError(f"params must be an EHAParams, got {type(params).__name__}")
+    conditions = EHAConditions() if conditions is None else conditions
+    if not isinstance(conditions, EHAConditions):
+        raise TypeError(f"conditions must be an EHAConditions, got {type(conditions).__name__}")
+    sensor_params = EHA_SENSORS if sensor_params is None else sensor_params
+    if amplitude is None:
+        amplitude = DEFAULT_AMPLITUDE_V if mode == "open-loop" else DEFAULT_REFERENCE_AMPLITUDE_M
+    amplitude = check_positive(amplitude, "amplitude")
+    frequency_rad_s = check_positive(frequency_rad_s, "frequency_rad_s")
+    n = int(round(duration * fs))
+    if n < 2:
+        raise ValueError(f"duration={duration} s at sample_rate={fs} Hz gives fewer than 2 samples")
+    has_leak = leak_lpm is not None and leak_lpm != 0
+    if has_leak:
+        leak_lpm = check_positive(leak_lpm, "leak_lpm")
+        onset = float(onset)
+        if not (0.0 <= onset < (n - 1) / fs):
+            raise ValueError(f"onset={onset} s must lie in [0, duration={duration}) s")
+        sched = LeakSchedule(leak_kind, onset, ramp_duration)
+    else:
+        sched = LeakSchedule("none")
+
+    cond_ss, noise_ss = np.random.SeedSequence(int(seed)).spawn(2)
+    t = np.arange(n) / fs
+    base = build_inputs(t, params, mode, load, amplitude, frequency_rad_s, conditions,
+                        rng=np.random.default_rng(cond_ss))
+    multiplier = sched.multipliers(t)
+    prm = params.to_array(closed_loop=(mode == "closed-loop"))
+    y0 = initial_state(params)
+    i_on = int(math.ceil(onset * fs - 1e-9)) if has_leak else n
+    ptr = params.laminar_transition_pa
+
+    def run(k_leak: float):
+        inputs = base.copy()
+        inputs[:, IN_KLEAK] = k_leak * multiplier
+        sol = integrate_fast(y0, inputs, prm, fs, rtol=rtol)
+        dp = sol.states[:, S_P1] - sol.states[:, S_P2]
+        q = inputs[:, IN_KLEAK] * dp / np.sqrt(np.sqrt(dp * dp + ptr * ptr))
+        return sol, q
+
+    def mean_leak_lpm(q: np.ndarray) -> float:
+        return m3s_to_lpm(float(np.mean(np.abs(q[i_on:])))) if i_on < n else 0.0
+
+    runs: dict[float, tuple] = {}
+    calibration_runs = 0
+    if not has_leak:
+        k_leak = 0.0
+        sol, q_leak = run(0.0)
+    elif leak_coefficient is not None:
+        k_leak = check_positive(leak_coefficient, "leak_coefficient")
+        sol, q_leak = run(k_leak)
+    else:
+        def simulate_fn(k: float) -> float:
+            runs[k] = run(k)
+            return mean_leak_lpm(runs[k][1])
+
+        cal = calibrate_leak_coefficient(
+            simulate_fn, leak_lpm, _initial_leak_coefficient(leak_lpm, params, load),
+            rtol=calibration_rtol)
+        k_leak, calibration_runs = cal.coefficient, cal.n_evaluations
+        sol, q_leak = runs[k_leak]
+
+    states = sol.states
+    if mode == "closed-loop":
+        u = params.position_gain_v_per_m * (base[:, IN_XREF] - states[:, S_X])
+    else:
+        u = base[:, IN_U].copy()
+    u = np.clip(u, -params.command_limit_v, params.command_limit_v)
+    chans = {"p1": states[:, S_P1], "p2": states[:, S_P2], "x": states[:, S_X], "u": u,
+             "leak_flow": q_leak, "pa": states[:, S_PA], "pb": states[:, S_PB]}
+    if sensors:
+        rng = np.random.default_rng(noise_ss)
+        for name in ("p1", "p2", "pa", "pb"):
+            chans[name] = measure_pressure(chans[name], sensor_params, rng)
+        chans["x"] = measure_position(chans["x"], sensor_params)
+        dac = 2.0 * params.command_limit_v / 2.0**sensor_params.control_dac_bits
+        chans["u"] = np.round(u / dac) * dac  # D/A of the command, as sensors.quantize
+    if mode == "closed-loop":
+        chans["x_ref"] = base[:, IN_XREF]
+    achieved = mean_leak_lpm(q_leak)
+    meta = {
+        "system": "eha",
+        "source": "leakdiag.sim.simulate_eha",
+        "mode": mode,
+        "load": load,
+        "onset": sched.onset_s if has_leak else None,
+        "leak_lpm": float(leak_lpm) if has_leak else 0.0,
+        "leak_lpm_achieved": achieved,
+        "leak_pct_of_rated_flow": 100.0 * achieved / params.rated_pump_flow_lpm,
+        "leak_coefficient": float(k_leak),
+        "leak_model": "turbulent",
+        "leak_kind": sched.kind,
+        "ramp_duration": float(ramp_duration) if sched.kind == "ramp" else None,
+        "seed": int(seed),
+        "params": params.to_dict(),
+        "rated_flow_lpm": params.rated_pump_flow_lpm,
+        "amplitude": float(amplitude),
+        "frequency_rad_s": float(frequency_rad_s),
+        "conditions": conditions.to_dict(),
+        "sensors": sensor_params.to_dict() if sensors else None,
+        "rtol": float(rtol),
+        "solver_steps": sol.n_accepted,
+        "calibration_runs": calibration_runs,
+        "leakdiag_version": __version__,
+    }
+    units = {"pa": "Pa", "pb": "Pa"}
+    return Recording({k: np.array(v) for k, v in chans.items()}, fs, 0.0, units, meta)
