@@ -42,7 +42,9 @@ class AlarmThreshold:
     healthy_hours : float
         Healthy time used.
     method : str
-        ``"empirical"`` (target observed directly) or ``"extrapolated"`` (log-linear tail).
+        ``"empirical"`` (target observed directly), ``"extrapolated"`` (log-linear tail) or
+        ``"extrapolated-capped"`` (the extrapolation passed the top of the grid, 200 std, and
+        was capped there: too little healthy data for the target).
     log_rate_intercept, log_rate_slope : float
         ``log(rate per hour) = a + b h`` fitted on the tail (NaN when not fitted).
     grid, rate_per_hour : numpy.ndarray
@@ -141,6 +143,9 @@ def calibrate_threshold(z_series, durations_s, target_per_hour: float, drift: fl
         h = float((np.log(target) - a) / b)
         h = max(h, float(grid[ok].max()))
         method = "extrapolated"
+        if h > grid[-1]:
+            # a nearly flat tail (few alarm levels) extrapolates absurdly far: cap and say so
+            h, method = float(grid[-1]), "extrapolated-capped"
     else:
         raise ValueError(
             f"cannot set a threshold for target_per_hour={target}: only {hours:.3g} h of healthy "
