@@ -1,0 +1,1 @@
+"""Benchmarks run by ``make bench`` (``pytest benchmarks``); see ``benchmarks/harness.py``."""
