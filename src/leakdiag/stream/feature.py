@@ -26,6 +26,14 @@ __all__ = ["StreamingFeature", "STREAM_METHODS"]
 STREAM_METHODS: tuple[str, ...] = ("autocorrelation", "cross-correlation", "metric-length")
 
 
+def _as_column(values, name: str) -> np.ndarray:
+    """Fast path for a contiguous 1-D float64 array; :func:`as_1d_float` otherwise."""
+    if (type(values) is np.ndarray and values.dtype == np.float64 and values.ndim == 1
+            and values.flags.c_contiguous):
+        return values
+    return as_1d_float(values, name)
+
+
 class StreamingFeature:
     """Compute a windowed feature chunk by chunk; each window as soon as it completes.
 
@@ -86,11 +94,11 @@ class StreamingFeature:
 
     def _coerce(self, chunk) -> list[np.ndarray]:
         names = self.spec.channels
-        if isinstance(chunk, Mapping):
+        if type(chunk) is dict or isinstance(chunk, Mapping):
             missing = [c for c in names if c not in chunk]
             if missing:
                 raise KeyError(f"chunk has no channel(s) {missing}; has {sorted(chunk)}")
-            cols = [as_1d_float(chunk[c], c) for c in names]
+            cols = [_as_column(chunk[c], c) for c in names]
         else:
             arr = np.asarray(chunk, dtype=np.float64)
             if arr.ndim == 1 and self._n_ch == 1:
@@ -106,6 +114,8 @@ class StreamingFeature:
         for name, col in zip(names, cols):
             if len(col) != n:
                 raise ValueError(f"chunk channels differ in length: {names[0]}={n}, {name}={len(col)}")
+            if np.isfinite(np.add.reduce(col)):  # fast path: a finite sum means all are finite
+                continue
             bad = np.flatnonzero(~np.isfinite(col))
             if len(bad):
                 raise ValueError(
@@ -158,7 +168,8 @@ class StreamingFeature:
         first = self.n_windows
         self.n_windows += n_win
         self.n_samples_seen += c
-        self.n_degenerate += int(np.isnan(values).sum())
+        if n_win:
+            self.n_degenerate += int(np.count_nonzero(np.isnan(values)))
         starts = (first + np.arange(n_win, dtype=np.float64)) * self._step
         times = self.start_time + (starts + (self.spec.window - 1)) / self.sample_rate
         return FeatureSeries(times, values, self.spec.method, dict(self._params))
