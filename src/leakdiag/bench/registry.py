@@ -20,10 +20,17 @@ METHODS: dict[str, str] = {
     "ccf-ux": "leakdiag.bench.registry:_ccf_ux",
     "mlr-p1": "leakdiag.bench.registry:_mlr_p1",
     "combined": "leakdiag.bench.registry:_combined",
+    # literature methods (issue 6; factories in leakdiag.methods.registry)
+    "wavelet-p1": "leakdiag.methods.registry:wavelet_p1",
+    "wavelet-p1p2": "leakdiag.methods.registry:wavelet_p1p2",
+    "fft-p1": "leakdiag.methods.registry:fft_p1",
+    "emd-p1": "leakdiag.methods.registry:emd_p1",
+    "ekf": "leakdiag.methods.registry:ekf",
 }
 
 #: Methods run when ``--methods`` is not given.
-DEFAULT_METHODS = ("acf-p1", "acf-p2", "ccf-p1p2", "ccf-ux", "mlr-p1", "combined")
+DEFAULT_METHODS = ("acf-p1", "acf-p2", "ccf-p1p2", "ccf-ux", "mlr-p1", "combined",
+                   "wavelet-p1", "wavelet-p1p2", "fft-p1", "emd-p1", "ekf")
 
 
 def make_detector(name: str, system: str, alarm):

@@ -96,9 +96,14 @@ def simulator_kwargs(case) -> dict:
             temperature_rise_k=nz["temperature_rise_k"],
             spring_change_time_s=nz["spring_change_time_s"] if spring else None,
             spring_change_factor=nz["spring_change_factor"] if spring else 1.0)
-        return {"duration": case.duration_s, "leak_lpm": leak, "onset": onset, "load": case.load,
-                "seed": case.seed, "reference_seed": nz["reference_seed"], "conditions": cond,
-                "sensor_params": SensorParams(pressure_noise_std_pa=case.noise_std_pa)}
+        kw = {"duration": case.duration_s, "leak_lpm": leak, "onset": onset, "load": case.load,
+              "seed": case.seed, "reference_seed": nz["reference_seed"], "conditions": cond,
+              "sensor_params": SensorParams(pressure_noise_std_pa=case.noise_std_pa)}
+        if case.excitation == "structured":  # issue 6: periodic-step test input
+            from leakdiag.sim.excitation import structured_excitation
+
+            kw["reference"] = structured_excitation("vca")
+        return kw
     raise ValueError(f"no simulator mapping for system={case.system!r}")
 
 

@@ -124,7 +124,10 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None):
 
     rated = rated_flow_lpm or {}
     rows = []
-    for (method, system), g in runs.groupby(["method", "system"], sort=False):
+    if "excitation" not in runs.columns:
+        runs = runs.assign(excitation="operating")
+    for (method, system, excitation), g in runs.groupby(["method", "system", "excitation"],
+                                                        sort=False):
         healthy = g[g.role == "test_healthy"]
         far = float(healthy.alarm.astype(bool).mean()) if len(healthy) else float("nan")
         hours = float(healthy.duration_s.mean()) / 3600.0 if len(healthy) else float("nan")
@@ -145,9 +148,10 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None):
                 "detection_delay_median_s": _q(delay, 0.5),
                 "leak_pct_rated": (100.0 * q / rated[system]) if system in rated else float("nan"),
                 "false_alarms_per_hour": far_h, "n_test_healthy": len(healthy),
+                "excitation": excitation,
             })
     return pd.DataFrame(rows, columns=RESULT_COLUMNS + ["leak_pct_rated", "false_alarms_per_hour",
-                                                        "n_test_healthy"])
+                                                        "n_test_healthy", "excitation"])
 
 
 def minimum_detectable(results, rated_flow_lpm: dict[str, float] | None = None,
@@ -180,7 +184,10 @@ def minimum_detectable(results, rated_flow_lpm: dict[str, float] | None = None,
 
     rated = rated_flow_lpm or {}
     rows = []
-    for (method, system), g in results.groupby(["method", "system"], sort=False):
+    if "excitation" not in results.columns:
+        results = results.assign(excitation="operating")
+    for (method, system, excitation), g in results.groupby(["method", "system", "excitation"],
+                                                           sort=False):
         g = g.sort_values("leak_lpm")
         ok = (g.detection_rate >= DETECTION_RATE_REQUIRED).to_numpy()
         tail_ok = np.flip(np.logical_and.accumulate(np.flip(ok)))
@@ -190,5 +197,5 @@ def minimum_detectable(results, rated_flow_lpm: dict[str, float] | None = None,
                      "min_detectable_pct_rated": 100.0 * mdl / rf,
                      "rated_flow_lpm": rf, "false_alarm_rate": float(g.false_alarm_rate.iloc[0]),
                      "false_alarm_target": false_alarm_target,
-                     "n_test_healthy": int(g.n_test_healthy.iloc[0])})
-    return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)
+                     "n_test_healthy": int(g.n_test_healthy.iloc[0]), "excitation": excitation})
+    return pd.DataFrame(rows, columns=SUMMARY_COLUMNS + ["excitation"])

@@ -24,12 +24,13 @@ __all__ = ["SUITE_VERSION", "SystemSuite", "Nuisance", "BenchCase", "SUITES", "Q
            "build_suite", "ROLES", "EXCITATIONS"]
 
 #: Version of the suite (seeds, sizes, nuisance ranges). Bump on any change.
-SUITE_VERSION = "1"
+SUITE_VERSION = "2"  # 2: structured-excitation groups in the full suite (issue 6)
 #: Run roles, see the module docstring.
 ROLES = ("fit", "cal", "test_healthy", "test_leak")
 #: Excitation conditions; "operating" is the thesis's (pseudo-random steps for the VCA, a sine
-#: for the EHA). A structured test input can be added here by name.
-EXCITATIONS = ("operating",)
+#: for the EHA); "structured" is the periodic-step test input of
+#: :func:`leakdiag.sim.excitation.structured_excitation` (issue 6).
+EXCITATIONS = ("operating", "structured")
 #: Offset between role seed blocks (leakdiag choice; keeps seeds of different roles disjoint).
 _ROLE_SEED_OFFSET = {"fit": 0, "cal": 100_000, "test_healthy": 200_000, "test_leak": 300_000}
 
@@ -119,6 +120,8 @@ class SystemSuite:
         First seed of the rig's block.
     nuisance : Nuisance
         Ranges of the leak-free variations.
+    excitations : tuple of str, default ("operating",)
+        Excitation conditions (names from :data:`EXCITATIONS`); one group each.
     """
 
     system: str
@@ -133,6 +136,7 @@ class SystemSuite:
     n_test_leak: int
     base_seed: int
     nuisance: Nuisance = field(default_factory=Nuisance)
+    excitations: tuple[str, ...] = ("operating",)
 
 
 @dataclass(frozen=True)
@@ -187,11 +191,13 @@ SUITES: dict[str, SystemSuite] = {
     "vca": SystemSuite(
         system="vca", leak_lpm=(0.01, 0.02, 0.047, 0.1, 0.2, 0.5), loads=("none", "spring"),
         noise_levels={"low": 10e3, "high": 40e3}, duration_s=200.0, onset_range_s=(80.0, 120.0),
-        n_fit=10, n_cal=2, n_test_healthy=25, n_test_leak=10, base_seed=1_000_000),
+        n_fit=10, n_cal=2, n_test_healthy=25, n_test_leak=10, base_seed=1_000_000,
+        excitations=EXCITATIONS),
     "eha": SystemSuite(
         system="eha", leak_lpm=(0.1, 0.2, 0.5, 1.0, 1.63), loads=("none", "spring"),
         noise_levels={"low": 10e3, "high": 40e3}, duration_s=120.0, onset_range_s=(50.0, 70.0),
-        n_fit=10, n_cal=2, n_test_healthy=25, n_test_leak=10, base_seed=2_000_000),
+        n_fit=10, n_cal=2, n_test_healthy=25, n_test_leak=10, base_seed=2_000_000,
+        excitations=EXCITATIONS),
 }
 
 #: The ``--quick`` suite (CI): one group per rig, short runs, few seeds, the largest leaks.
@@ -249,7 +255,7 @@ def build_suite(suites: dict[str, SystemSuite] | None = None,
         if name not in suites:
             raise ValueError(f"unknown system {name!r}; the suite has {sorted(suites)}")
         s = suites[name]
-        groups = [(ld, nz, ex) for ld in s.loads for nz in s.noise_levels for ex in EXCITATIONS]
+        groups = [(ld, nz, ex) for ld in s.loads for nz in s.noise_levels for ex in s.excitations]
         for g, (load, noise, exc) in enumerate(groups):
             plan = [("fit", 0.0, 0, s.n_fit), ("test_healthy", 0.0, 0, s.n_test_healthy)]
             for j, q in enumerate(s.leak_lpm):

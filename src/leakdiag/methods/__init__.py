@@ -19,10 +19,10 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-__all__ = ["wavelet", "fft_band", "emd_hilbert", "ekf", "detectors", "WaveletDetector",
+__all__ = ["wavelet", "fft_band", "emd_hilbert", "ekf", "detectors", "registry", "WaveletDetector",
            "FFTBandDetector", "EMDHilbertDetector", "EKFDetector"]
 
-_SUBMODULES = {"wavelet", "fft_band", "emd_hilbert", "ekf", "detectors"}
+_SUBMODULES = {"wavelet", "fft_band", "emd_hilbert", "ekf", "detectors", "registry"}
 
 
 def __getattr__(name: str) -> Any:

@@ -151,7 +151,8 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
     leakdiag.io.RecordingError
         If a channel is missing.
     ValueError
-        If a channel holds NaN or inf, or the recording has fewer than 2 samples.
+        If a channel holds NaN or inf, the recording has fewer than 2 samples, or its
+        ``meta['system']`` is not ``"vca"``.
 
     Notes
     -----
@@ -187,6 +188,10 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
     """
     from leakdiag.methods._ekf_kernel import ekf_vca_kernel
 
+    system = recording.meta.get("system", "vca")
+    if system != "vca":
+        raise ValueError(f"{recording.meta.get('source', '<recording>')}: system={system!r}; "
+                         "the EKF implements the VCA model only (no EHA filter)")
     recording.require("u", "x", "p1", "p2")
     n = recording.n_samples
     if n < 2:

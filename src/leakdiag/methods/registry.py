@@ -1,0 +1,141 @@
+"""Benchmark factories of the literature methods: ``factory(system, alarm) -> Detector``.
+
+They follow :mod:`leakdiag.bench.registry` (``"name": "module:factory"`` in its ``METHODS``);
+:data:`LITERATURE_METHODS` lists the names and targets so that the benchmark registry can
+include them with one update.
+"""
+
+from __future__ import annotations
+
+__all__ = ["LITERATURE_METHODS", "wavelet_p1", "wavelet_p1p2", "fft_p1", "emd_p1", "ekf"]
+
+#: Benchmark name -> "module:factory" of each literature method.
+LITERATURE_METHODS: dict[str, str] = {
+    "wavelet-p1": "leakdiag.methods.registry:wavelet_p1",
+    "wavelet-p1p2": "leakdiag.methods.registry:wavelet_p1p2",
+    "fft-p1": "leakdiag.methods.registry:fft_p1",
+    "emd-p1": "leakdiag.methods.registry:emd_p1",
+    "ekf": "leakdiag.methods.registry:ekf",
+}
+
+
+def wavelet_p1(system, alarm):
+    """Wavelet detail RMS of chamber-1 pressure (Goharrizi & Sepehri 2010).
+
+    Parameters
+    ----------
+    system : {"vca", "eha"}
+        Rig (both have the 69.7 Hz natural frequency of Tables 2-1 and 3-1).
+    alarm : Alarm
+        Search settings.
+
+    Returns
+    -------
+    WaveletDetector
+
+    Examples
+    --------
+    >>> wavelet_p1("vca", None).channels
+    ('p1',)
+    """
+    from leakdiag.methods.detectors import WaveletDetector
+
+    return WaveletDetector(channels=("p1",), alarm=alarm)
+
+
+def wavelet_p1p2(system, alarm):
+    """Wavelet detail RMS of both chamber pressures (Thakur 2011).
+
+    Parameters
+    ----------
+    system : {"vca", "eha"}
+        Rig.
+    alarm : Alarm
+        Search settings.
+
+    Returns
+    -------
+    WaveletDetector
+
+    Examples
+    --------
+    >>> wavelet_p1p2("eha", None).channels
+    ('p1', 'p2')
+    """
+    from leakdiag.methods.detectors import WaveletDetector
+
+    return WaveletDetector(channels=("p1", "p2"), alarm=alarm)
+
+
+def fft_p1(system, alarm):
+    """FFT band RMS of chamber-1 pressure (Goharrizi & Sepehri 2010).
+
+    Parameters
+    ----------
+    system : {"vca", "eha"}
+        Rig.
+    alarm : Alarm
+        Search settings.
+
+    Returns
+    -------
+    FFTBandDetector
+
+    Examples
+    --------
+    >>> fft_p1("vca", None).band_hz is None
+    True
+    """
+    from leakdiag.methods.detectors import FFTBandDetector
+
+    return FFTBandDetector(channels=("p1",), alarm=alarm)
+
+
+def emd_p1(system, alarm):
+    """EMD + Hilbert first-IMF amplitude RMS of chamber-1 pressure (Goharrizi & Sepehri 2012).
+
+    Parameters
+    ----------
+    system : {"vca", "eha"}
+        Rig.
+    alarm : Alarm
+        Search settings.
+
+    Returns
+    -------
+    EMDHilbertDetector
+
+    Examples
+    --------
+    >>> emd_p1("vca", None).sifting_iterations
+    10
+    """
+    from leakdiag.methods.detectors import EMDHilbertDetector
+
+    return EMDHilbertDetector(channels=("p1",), alarm=alarm)
+
+
+def ekf(system, alarm):
+    """Extended Kalman filter with a leak-coefficient state (An & Sepehri 2005), VCA model.
+
+    Parameters
+    ----------
+    system : {"vca", "eha"}
+        Rig. For ``"eha"`` the detector is returned but its ``fit`` raises ``ValueError``
+        (no EHA filter yet), which the benchmark reports as an error row.
+    alarm : Alarm
+        Search settings.
+
+    Returns
+    -------
+    EKFDetector
+        Leak-flow feature, load taken from the recording's metadata (``load="auto"``).
+
+    Examples
+    --------
+    >>> ekf("vca", None).load
+    'auto'
+    """
+    from leakdiag.methods.detectors import EKFDetector
+
+    return EKFDetector(feature="leak_flow", load="auto", alarm=alarm)
