@@ -6,6 +6,7 @@ import numba
 import numpy as np
 
 from leakdiag.features import _args
+from leakdiag.features._blocksums import block_of
 from leakdiag.features._degenerate import warn_degenerate
 
 __all__ = ["moments", "moments_at", "MOMENT_COLUMNS"]
@@ -28,12 +29,14 @@ def _shift(s1, s2, s3, s4, n, d):  # pragma: no cover - compiled
 def _moment_sums(x, window, starts):  # pragma: no cover - compiled
     """Per window: mean and the sums of 2nd, 3rd, 4th powers of deviations from it.
 
-    Anchored block sums as in :mod:`leakdiag.features._blocksums` (blocks of N samples; suffix
-    sums anchored at the block's last sample, prefix sums at the next block's first), shifted
-    exactly to the window mean by the binomial expansion. ``starts`` must be sorted.
+    Anchored block sums as in :func:`leakdiag.features._blocksums.lag0_stats` (blocks of N
+    samples; suffix sums anchored at the block's last sample, prefix sums at the next block's
+    first, ``f[0] = 0``), shifted exactly to the window mean by the binomial expansion.
+    ``starts`` must be sorted.
     """
-    n = x.shape[0]
     m_len = window
+    fm = float(m_len)
+    inv_m = 1.0 / fm
     g = np.empty((m_len, 4))
     f = np.empty((m_len, 4))
     n_win = starts.shape[0]
@@ -41,78 +44,60 @@ def _moment_sums(x, window, starts):  # pragma: no cover - compiled
     c2 = np.empty(n_win)
     c3 = np.empty(n_win)
     c4 = np.empty(n_win)
-    cur_b = -1
-    a0 = 0.0
-    f_b = -1
-    f_len = 0
-    a1 = 0.0
-    r1 = 0.0
-    r2 = 0.0
-    r3 = 0.0
-    r4 = 0.0
-    for w in range(n_win):
-        s = starts[w]
-        b = s // m_len
-        b0 = b * m_len
-        e = min(b0 + m_len, n)
-        if b != cur_b:
-            cur_b = b
-            a0 = x[e - 1]
-            t1 = 0.0
-            t2 = 0.0
-            t3 = 0.0
-            t4 = 0.0
-            for j in range(e - 1, s - 1, -1):
-                d = x[j] - a0
-                dd = d * d
-                t1 += d
-                t2 += dd
-                t3 += dd * d
-                t4 += dd * dd
-                i = j - b0
-                g[i, 0] = t1
-                g[i, 1] = t2
-                g[i, 2] = t3
-                g[i, 3] = t4
-        i0 = s - b0
-        n0 = e - s
-        n1 = m_len - n0
-        if n1 > 0:
-            if f_b != b + 1:
-                f_b = b + 1
-                f_len = 0
-                a1 = x[e]
-                r1 = 0.0
-                r2 = 0.0
-                r3 = 0.0
-                r4 = 0.0
-            while f_len < n1:
-                d = x[e + f_len] - a1
-                dd = d * d
-                r1 += d
-                r2 += dd
-                r3 += dd * d
-                r4 += dd * dd
-                f[f_len, 0] = r1
-                f[f_len, 1] = r2
-                f[f_len, 2] = r3
-                f[f_len, 3] = r4
-                f_len += 1
-            da = a1 - a0
-            k = n1 - 1
-            off = (g[i0, 0] + f[k, 0] + n1 * da) / m_len
-            p2, p3, p4 = _shift(g[i0, 0], g[i0, 1], g[i0, 2], g[i0, 3], n0, -off)
-            q2, q3, q4 = _shift(f[k, 0], f[k, 1], f[k, 2], f[k, 3], n1, da - off)
-            p2 += q2
-            p3 += q3
-            p4 += q4
-        else:
-            off = g[i0, 0] / m_len
-            p2, p3, p4 = _shift(g[i0, 0], g[i0, 1], g[i0, 2], g[i0, 3], n0, -off)
-        mean[w] = a0 + off
-        c2[w] = p2
-        c3[w] = p3
-        c4[w] = p4
+    w = 0
+    while w < n_win:
+        b0, w_end = block_of(starts, w, m_len)
+        e = b0 + m_len
+        a0 = x[e - 1]
+        t1 = 0.0
+        t2 = 0.0
+        t3 = 0.0
+        t4 = 0.0
+        for j in range(e - 1, starts[w] - 1, -1):
+            d = x[j] - a0
+            dd = d * d
+            t1 += d
+            t2 += dd
+            t3 += dd * d
+            t4 += dd * dd
+            i = j - b0
+            g[i, 0] = t1
+            g[i, 1] = t2
+            g[i, 2] = t3
+            g[i, 3] = t4
+        need = starts[w_end - 1] - b0
+        a1 = x[e] if need > 0 else a0
+        t1 = 0.0
+        t2 = 0.0
+        t3 = 0.0
+        t4 = 0.0
+        f[0, 0] = 0.0
+        f[0, 1] = 0.0
+        f[0, 2] = 0.0
+        f[0, 3] = 0.0
+        for i in range(need):
+            d = x[e + i] - a1
+            dd = d * d
+            t1 += d
+            t2 += dd
+            t3 += dd * d
+            t4 += dd * dd
+            f[i + 1, 0] = t1
+            f[i + 1, 1] = t2
+            f[i + 1, 2] = t3
+            f[i + 1, 3] = t4
+        da = a1 - a0
+        for k in range(w, w_end):
+            i = starts[k] - b0
+            fi = float(i)
+            off = (g[i, 0] + f[i, 0] + fi * da) * inv_m
+            p2, p3, p4 = _shift(g[i, 0], g[i, 1], g[i, 2], g[i, 3], fm - fi, -off)
+            q2, q3, q4 = _shift(f[i, 0], f[i, 1], f[i, 2], f[i, 3], fi, da - off)
+            mean[k] = a0 + off
+            c2[k] = p2 + q2
+            c3[k] = p3 + q3
+            c4[k] = p4 + q4
+        w = w_end
     return mean, c2, c3, c4
 
 
