@@ -11,6 +11,7 @@ from leakdiag._validation import check_positive
 from leakdiag._version import __version__
 from leakdiag.io.recording import Recording
 from leakdiag.sim.leak import (
+    LeakCalibrationError,
     LeakSchedule,
     calibrate_leak_coefficient,
     lpm_to_m3s,
@@ -32,6 +33,8 @@ DEFAULT_MAX_STEP_S = 2.5e-4
 #: Typical |P1 - P2| used only for the first guess of the leak coefficient (Pa).
 _TYPICAL_LOAD_PRESSURE_PA = {"none": 3e4, "spring": 8e5}
 _CHUNK_S = 10.0  # progress granularity (s of simulated time)
+#: Most RK4 steps per sample a (huge) leak coefficient may demand before the run is refused.
+MAX_SUBSTEPS = 64
 
 
 def initial_leak_coefficient(leak_lpm: float, leak_model: str, load: str) -> float:
@@ -196,7 +199,8 @@ def simulate_vca(
     ValueError
         If an argument is out of range (the message names it), e.g. an onset outside the run.
     leakdiag.sim.leak.LeakCalibrationError
-        If the leak cannot be calibrated to the target.
+        If the leak cannot be calibrated to the target, or a coefficient would need more than
+        :data:`MAX_SUBSTEPS` RK4 steps per sample to stay stable.
 
     Notes
     -----
@@ -237,6 +241,9 @@ def simulate_vca(
     has_leak = leak_lpm is not None and leak_lpm != 0
     if has_leak:
         leak_lpm = check_positive(leak_lpm, "leak_lpm")
+        if leak_lpm >= params.rated_flow_lpm:
+            raise ValueError(f"leak_lpm={leak_lpm} must be below the rated flow "
+                             f"{params.rated_flow_lpm:.1f} L/min")
         onset = float(onset)
         if not (0.0 <= onset < (n - 1) / fs):
             raise ValueError(f"onset={onset} s must lie in [0, duration={duration}) s")
@@ -267,6 +274,12 @@ def simulate_vca(
 
     def run(k_leak: float) -> ClosedLoopResult:
         n_sub_k = max(n_sub, _leak_stable_substeps(k_leak, leak_model, params, fs))
+        if n_sub_k > MAX_SUBSTEPS:
+            raise LeakCalibrationError(
+                f"leak coefficient {k_leak:.4g} ({leak_model}) would need {n_sub_k} RK4 steps per "
+                f"sample (> {MAX_SUBSTEPS}); such a leak short-circuits the actuator (rated flow "
+                f"{params.rated_flow_lpm:.1f} L/min)"
+            )
         if isinstance(ctrl, FixedGainController):
             return integrate_closed_loop(x_ref, fs, n_sub_k, prm, ctrl.to_array(),
                                          params.control_limit_v, k_leak, sched.to_array(), cond,

@@ -1,0 +1,178 @@
+"""simulate_vca: API contract, reproducibility, leak calibration, sensors, options."""
+
+import numpy as np
+import pytest
+
+import leakdiag as ld
+from leakdiag.sim import (
+    FixedGainController,
+    OperatingConditions,
+    SensorParams,
+    SineReference,
+    VCAParams,
+    simulate_vca,
+)
+from leakdiag.sim.leak import LeakCalibrationError
+
+SHORT = dict(duration=12.0, onset=6.0)
+
+
+@pytest.fixture(scope="module")
+def rec():
+    return simulate_vca(leak_lpm=0.1, seed=5, **SHORT)
+
+
+def test_contract_channels_units_meta(rec):
+    assert rec.channel_names == ["p1", "p2", "x", "u", "leak_flow", "x_ref"]
+    assert rec.units["leak_flow"] == "m^3/s" and rec.units["p1"] == "Pa"
+    assert rec.sample_rate == 1000.0 and rec.n_samples == 12_000
+    m = rec.meta
+    assert m["system"] == "vca" and m["onset"] == 6.0 and rec.onset == 6.0
+    assert m["leak_lpm"] == 0.1 and m["seed"] == 5
+    assert m["leakdiag_version"] == ld.__version__
+    assert m["params"] == VCAParams().to_dict()
+    assert m["rated_flow_lpm"] == pytest.approx(VCAParams().rated_flow_lpm)
+    assert 1 <= m["calibration_runs"] <= 6
+
+
+def test_achieved_leak_is_mean_abs_leak_after_onset(rec):
+    q = rec["leak_flow"]
+    i_on = 6000
+    assert np.all(q[:i_on] == 0.0)
+    assert rec.meta["leak_lpm_achieved"] == pytest.approx(np.mean(np.abs(q[i_on:])) * 60_000,
+                                                          rel=1e-12)
+
+
+@pytest.mark.parametrize("target", [0.047, 0.1, 0.5])
+@pytest.mark.parametrize("load, leak_model", [("none", "turbulent"), ("spring", "laminar")])
+def test_calibrated_leak_hits_target_within_2_percent(target, load, leak_model):
+    r = simulate_vca(leak_lpm=target, load=load, leak_model=leak_model, seed=2, **SHORT)
+    achieved = np.mean(np.abs(r["leak_flow"][6000:])) * 60_000  # L/min, recomputed
+    assert abs(achieved - target) <= 0.02 * target
+    assert r.meta["leak_lpm_achieved"] == pytest.approx(achieved)
+
+
+def test_ramp_leak_grows_and_is_calibrated():
+    r = simulate_vca(leak_lpm=0.1, leak_kind="ramp", ramp_duration=4.0, load="spring",
+                     seed=2, **SHORT)
+    q = np.abs(r["leak_flow"])
+    assert np.all(q[:6000] == 0.0)
+    # mean over 1 s blocks grows during the ramp (spring load keeps |P1 - P2| large)
+    blocks = q[6000:10000].reshape(4, 1000).mean(axis=1)
+    assert np.all(np.diff(blocks) > 0)
+    assert abs(r.meta["leak_lpm_achieved"] - 0.1) <= 0.002
+    assert r.meta["leak_kind"] == "ramp"
+
+
+def test_same_seed_identical_different_seed_differs():
+    a = simulate_vca(leak_lpm=0.1, seed=11, **SHORT)
+    b = simulate_vca(leak_lpm=0.1, seed=11, **SHORT)
+    for ch in a.channel_names:
+        assert np.array_equal(a[ch], b[ch]), ch
+    c = simulate_vca(leak_lpm=0.1, seed=12, **SHORT)
+    assert not np.array_equal(a["x_ref"], c["x_ref"])
+    assert not np.array_equal(a["p1"], c["p1"])
+
+
+def test_reference_seed_changes_only_the_reference():
+    a = simulate_vca(leak_lpm=None, seed=3, duration=3.0)
+    b = simulate_vca(leak_lpm=None, seed=3, duration=3.0, reference_seed=99)
+    assert not np.array_equal(a["x_ref"], b["x_ref"])
+    # noise stream unchanged: at t = 0 both start centred at Ps/2, same noise draw
+    assert a["p1"][0] == b["p1"][0]
+
+
+def test_no_leak_has_zero_leak_flow_and_no_onset():
+    r = simulate_vca(leak_lpm=0, duration=2.0)
+    assert np.all(r["leak_flow"] == 0.0)
+    assert r.meta["onset"] is None and r.meta["leak_lpm_achieved"] == 0.0
+
+
+def test_sensors_quantise_and_add_noise():
+    kw = dict(leak_lpm=None, duration=2.0, seed=8)
+    meas = simulate_vca(sensors=True, **kw)
+    s = SensorParams()
+    x_counts = meas["x"] / s.position_resolution_m
+    assert np.allclose(x_counts, np.round(x_counts), atol=1e-6)
+    p_codes = meas["p1"] / s.pressure_quantum_pa
+    assert np.allclose(p_codes, np.round(p_codes), atol=1e-6)
+    true = simulate_vca(sensors=False, **kw)
+    # the controller sees different signals, so compare the noise level on the first sample
+    # only statistically: measured minus true pressure has ~ noise + quantisation spread
+    d = meas["p1"][:1] - true["p1"][:1]
+    assert abs(d[0]) < 6 * s.pressure_noise_std_pa
+    assert not np.allclose(np.diff(true["x"][:50]) % s.position_resolution_m, 0)
+
+
+def test_python_controller_equals_compiled_controller():
+    g = FixedGainController()
+    state = {"i": 0.0}
+
+    def ctrl(t, x_ref, x_m, p1_m, p2_m):
+        e = x_ref - x_m
+        new = state["i"] + e * 1e-3
+        u = g.position_gain_v_per_m * e + g.integral_gain_v_per_m_s * new \
+            - g.pressure_gain_v_per_pa * (p1_m - p2_m)
+        if abs(u) <= 10.0:
+            state["i"] = new
+        return u
+
+    kw = dict(leak_lpm=None, duration=0.6, sensors=False, seed=1)
+    fast = simulate_vca(**kw)
+    slow = simulate_vca(controller=ctrl, **kw)
+    assert np.allclose(fast["x"], slow["x"], rtol=0, atol=1e-12)
+    assert np.allclose(fast["u"], slow["u"], rtol=0, atol=1e-9)
+
+
+def test_sine_reference_and_conditions_change_signals_without_leak():
+    kw = dict(leak_lpm=None, duration=3.0, seed=1, load="spring", sensors=False,
+              reference=SineReference(10e-3, 0.5))
+    nominal = simulate_vca(**kw)
+    assert nominal["x_ref"][250] == pytest.approx(10e-3 * np.sin(2 * np.pi * 0.5 * 0.25))
+    varied = simulate_vca(conditions=OperatingConditions(
+        supply_ripple_pa=5e5, temperature_rise_k=15.0, spring_change_time_s=1.5,
+        spring_change_factor=1.3), **kw)
+    assert np.all(varied["leak_flow"] == 0.0)
+    dp_n = nominal["p1"] - nominal["p2"]
+    dp_v = varied["p1"] - varied["p2"]
+    # stiffer spring after 1.5 s: larger load pressure for the same position
+    late = slice(2000, 3000)
+    ratio = np.mean(np.abs(dp_v[late])) / np.mean(np.abs(dp_n[late]))
+    assert 1.15 < ratio < 1.45
+    assert varied.meta["conditions"]["temperature_rise_k"] == 15.0
+
+
+@pytest.mark.parametrize(
+    "kwargs, exc, match",
+    [
+        ({"onset": 500.0}, ValueError, "onset=500.0 s must lie in"),
+        ({"leak_model": "orifice"}, ValueError, "leak_model='orifice' must be one of"),
+        ({"load": "mass"}, ValueError, "load='mass' must be one of"),
+        ({"leak_lpm": -0.1}, ValueError, "leak_lpm=-0.1 must be"),
+        ({"seed": -1}, ValueError, "seed=-1 must be"),
+        ({"sample_rate": 0}, ValueError, "sample_rate=0 must be"),
+        ({"leak_kind": "pulse"}, ValueError, "leak_kind='pulse' must be"),
+        ({"params": {"mass_kg": 1}}, TypeError, "params must be a VCAParams"),
+        ({"controller": 3}, TypeError, "controller must be"),
+    ],
+)
+def test_validation_messages(kwargs, exc, match):
+    base = dict(duration=2.0, onset=1.0)
+    base.update(kwargs)
+    with pytest.raises(exc, match=match):
+        simulate_vca(**base)
+
+
+def test_leak_beyond_rated_flow_is_refused():
+    with pytest.raises(ValueError, match="leak_lpm=100.0 must be below the rated flow 43.3"):
+        simulate_vca(leak_lpm=100.0, duration=1.0, onset=0.5)
+
+
+def test_huge_leak_coefficient_is_refused_not_integrated_forever():
+    with pytest.raises(LeakCalibrationError, match="RK4 steps per sample"):
+        simulate_vca(leak_lpm=0.1, leak_coefficient=1e-5, duration=1.0, onset=0.5)
+
+
+def test_impossible_tolerance_raises_calibration_error():
+    with pytest.raises(LeakCalibrationError, match="did not reach"):
+        simulate_vca(leak_lpm=0.1, duration=1.0, onset=0.5, calibration_rtol=1e-12)
