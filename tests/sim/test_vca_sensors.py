@@ -1,0 +1,103 @@
+"""Sensor models (Sec. 2.2) and position references used by the VCA simulator."""
+
+import numpy as np
+import pytest
+
+from leakdiag.sim import (
+    ChirpReference,
+    PseudoRandomSteps,
+    SampledReference,
+    SensorParams,
+    SineReference,
+    as_reference,
+)
+from leakdiag.sim.sensors import PSI_PA, adc_reading, measure_pressure, measure_position, quantize
+
+
+def test_sensor_defaults_from_sec_2_2():
+    s = SensorParams()
+    assert s.pressure_full_scale_pa == pytest.approx(3000 * 6894.757, rel=1e-6)  # 20.68 MPa
+    assert s.pressure_quantum_pa == pytest.approx(3000 * PSI_PA / 4096)
+    assert s.position_resolution_m == 0.03e-3
+
+
+def test_quantize_and_adc_hand_values():
+    assert quantize(0.07, 0.03) == pytest.approx(0.06)
+    assert quantize(-0.05, 0.03) == pytest.approx(-0.06)
+    assert adc_reading(3.2, 0.0, 10.0, 1.0) == 3.0
+    assert adc_reading(3.2, 0.4, 10.0, 1.0) == 4.0  # noise before the converter
+    assert adc_reading(25.0, 0.0, 10.0, 1.0) == 9.0  # top code
+    assert adc_reading(-2.0, 0.0, 10.0, 1.0) == 0.0  # gauge transducer cannot go below 0
+
+
+def test_measure_pressure_noise_statistics():
+    s = SensorParams()
+    rng = np.random.default_rng(0)
+    p = np.full(20_000, 8.6e6)
+    m = measure_pressure(p, s, rng)
+    # noise std 10 kPa plus uniform quantisation (q^2/12)
+    expected = np.sqrt(s.pressure_noise_std_pa**2 + s.pressure_quantum_pa**2 / 12)
+    assert np.std(m) == pytest.approx(expected, rel=0.05)
+    assert abs(np.mean(m) - 8.6e6) < 500.0
+
+
+def test_measure_position_strided_and_readonly():
+    x = np.arange(10.0)[::2] * 1e-5
+    x.flags.writeable = False
+    out = measure_position(x, SensorParams())
+    assert out.tolist() == pytest.approx([0.0, 3e-5, 3e-5, 6e-5, 9e-5])
+
+
+def test_sensor_validation():
+    with pytest.raises(ValueError, match="pressure_noise_std_pa=-1 must be >= 0"):
+        SensorParams(pressure_noise_std_pa=-1)
+    with pytest.raises(ValueError, match="pressure_adc_bits=0 must be in"):
+        SensorParams(pressure_adc_bits=0)
+
+
+def test_pseudorandom_steps_ranges_and_holds():
+    ref = PseudoRandomSteps(min_amplitude_m=2e-3, max_amplitude_m=20e-3, min_hold_s=1.0,
+                            max_hold_s=5.0)
+    t = np.arange(0, 400, 0.001)
+    x = ref.samples(t, np.random.default_rng(3))
+    assert np.all((np.abs(x) >= 2e-3) & (np.abs(x) <= 20e-3))
+    edges = np.flatnonzero(np.diff(x)) + 1
+    holds = np.diff(edges) / 1000.0
+    assert holds.min() >= 1.0 - 1e-9 and holds.max() <= 5.0 + 1e-9
+    assert 400 / 5 <= len(edges) + 1 <= 400 / 1 + 1
+    assert (x > 0).mean() == pytest.approx(0.5, abs=0.15)  # bipolar
+    same = ref.samples(t, np.random.default_rng(3))
+    assert np.array_equal(x, same)
+
+
+def test_sine_chirp_sampled_hand_values():
+    t = np.array([0.0, 0.5, 1.0])
+    assert SineReference(2.0, 0.5, 1.0).samples(t, None) == pytest.approx([1.0, 3.0, 1.0])
+    # linear chirp 0 -> 2 Hz over 1 s: phase 2 pi (t^2) -> sin(2 pi * 0.25) at t = 0.5
+    assert ChirpReference(1.0, 0.0, 2.0, 1.0).samples(np.array([0.5]), None)[0] == \
+        pytest.approx(1.0)
+    assert SampledReference(np.array([1.0, 2.0, 3.0])).samples(np.zeros(2), None).tolist() == \
+        [1.0, 2.0]
+
+
+def test_as_reference_from_files(tmp_path):
+    import pandas as pd
+
+    np.save(tmp_path / "r.npy", np.array([1e-3, 2e-3]))
+    assert as_reference(tmp_path / "r.npy").samples(np.zeros(3), None).tolist() == \
+        [1e-3, 2e-3, 2e-3]
+    pd.DataFrame({"x_ref": [0.5e-3, 1e-3]}).to_csv(tmp_path / "r.csv", index=False)
+    assert as_reference(str(tmp_path / "r.csv")).samples(np.zeros(2), None).tolist() == \
+        [0.5e-3, 1e-3]
+    pd.DataFrame({"y": [1.0]}).to_csv(tmp_path / "bad.csv", index=False)
+    with pytest.raises(ValueError, match="no 'x_ref' column"):
+        as_reference(tmp_path / "bad.csv")
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        as_reference(tmp_path / "nope.npy")
+
+
+def test_reference_validation():
+    with pytest.raises(ValueError, match="max_amplitude_m=0.001 must be >= min_amplitude_m"):
+        PseudoRandomSteps(min_amplitude_m=2e-3, max_amplitude_m=1e-3)
+    with pytest.raises(ValueError, match="reference holds 1 non-finite"):
+        SampledReference(np.array([np.nan])).samples(np.zeros(2), None)
