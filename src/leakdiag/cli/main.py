@@ -23,6 +23,7 @@ COMMANDS: dict[str, str] = {
     "monitor": "leakdiag.cli.monitor:monitor",
     "batch": "leakdiag.cli.batch:batch",
     "benchmark": "leakdiag.cli.benchmark:benchmark",
+    "detect": "leakdiag.cli.detect:detect",
     "sweep": "leakdiag.cli.sweep:sweep",
     "sensitivity": "leakdiag.cli.sensitivity:sensitivity",
     "reproduce": "leakdiag.cli.reproduce:reproduce",
