@@ -20,6 +20,7 @@ __all__ = ["main", "COMMANDS"]
 COMMANDS: dict[str, str] = {
     "analyze": "leakdiag.cli.analyze:analyze",
     "demo": "leakdiag.cli.demo:demo",
+    "simulate": "leakdiag.cli.simulate:simulate",
     "monitor": "leakdiag.cli.monitor:monitor",
     "batch": "leakdiag.cli.batch:batch",
     "benchmark": "leakdiag.cli.benchmark:benchmark",
