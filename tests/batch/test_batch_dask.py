@@ -28,7 +28,7 @@ def test_local_cluster_equals_serial(tmp_path):
     pattern = [str(rec_dir / "*.parquet")]
     run_batch(pattern, cfg, tmp_path / "serial", progress=False)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster:
+                      dashboard_address=":0") as cluster:
         assert len(cluster.workers) == 2
         s = run_batch(pattern, cfg, tmp_path / "dask", scheduler=cluster.scheduler_address,
                       progress=False)

@@ -269,7 +269,7 @@ def _run_dask(todo, config, scheduler, n_workers, finish) -> None:
     cluster = None
     if scheduler == LOCAL:
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+                               dashboard_address=":0")  # a free port: no clash
         client = Client(cluster)
     else:
         client = Client(scheduler)

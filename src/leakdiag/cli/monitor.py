@@ -197,5 +197,5 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
     dt = time.perf_counter() - t0
     n = mon.n_samples_seen
     say(f"{source.source}: {n} samples at {source.sample_rate:g} Hz, {n_win} windows "
-        f"({spec.label}), {n_alarm} alarm(s), {mon.features[0].n_degenerate} degenerate; "
-        f"{n / dt if dt > 0 else float('inf'):.3g} samples/s")
+        f"({spec.label}), {n_alarm} alarm(s), {mon.features[0].n_degenerate} degenerate, "
+        f"in {dt:.3g} s")

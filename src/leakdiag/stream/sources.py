@@ -275,16 +275,26 @@ def recording_chunks(rec: Recording, chunk_samples: int = DEFAULT_CHUNK_SAMPLES,
     return ChunkSource(gen(), rec.sample_rate, rec.start_time, chans, n, source, dict(rec.meta))
 
 
-def _parse_lines(lines: list[str], header: list[str], chans: list[str]) -> dict:
-    arr = np.loadtxt(io.StringIO("".join(lines)), delimiter=",", ndmin=2)
-    if arr.shape[1] != len(header):
-        raise RecordingError(f"CSV line has {arr.shape[1]} fields, header has {len(header)}")
-    return {c: np.ascontiguousarray(arr[:, header.index(c)]) for c in chans}
+def _parse_lines(lines: list[str], header: list[str], cols: list[int], chans: list[str]) -> dict:
+    rows = []
+    for line in lines:
+        fields = line.split(",")
+        if len(fields) != len(header):
+            raise RecordingError(f"CSV line has {len(fields)} fields, header has {len(header)}: "
+                                 f"{line.strip()[:80]!r}")
+        try:
+            rows.append([float(fields[i]) for i in cols])
+        except ValueError as exc:
+            raise RecordingError(f"CSV line {line.strip()[:80]!r}: {exc}") from None
+    arr = np.array(rows, dtype=np.float64).reshape(len(rows), len(cols))
+    return {c: np.ascontiguousarray(arr[:, i]) for i, c in enumerate(chans)}
 
 
 def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float | None = None,
               batch_lines: int = 1) -> ChunkSource:
     """CSV lines from a text stream (e.g. stdin): a header line, then one sample per line.
+
+    Blank lines and lines starting with ``#`` are skipped.
 
     Parameters
     ----------
@@ -319,13 +329,14 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
         raise RecordingError("<stdin>: empty input; expected a CSV header line")
     header = [h.strip() for h in header_line.split(",")]
     chans = _select(header, channels, "<stdin>")
+    cols = [header.index(c) for c in chans]
     pending: list[str] = []
     if sample_rate is None or TIME_COLUMN in header:
         while len(pending) < 2:
             line = stream.readline()
             if not line:
                 break
-            if line.strip():
+            if line.strip() and not line.startswith("#"):
                 pending.append(line)
     t_head = None
     if TIME_COLUMN in header and len(pending) >= 1:
@@ -335,13 +346,13 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
     def gen():
         buf: list[str] = []
         for line in itertools.chain(pending, iter(stream.readline, "")):
-            if line.strip():
+            if line.strip() and not line.startswith("#"):
                 buf.append(line)
             if len(buf) >= batch_lines:
-                yield _parse_lines(buf, header, chans)
+                yield _parse_lines(buf, header, cols, chans)
                 buf = []
         if buf:
-            yield _parse_lines(buf, header, chans)
+            yield _parse_lines(buf, header, cols, chans)
 
     return ChunkSource(gen(), fs, t0, chans, None, "<stdin>", {})
 
