@@ -1,0 +1,153 @@
+"""simulate_eha: leak calibration, reproducibility, sensors, closed loop, conditions, errors."""
+
+import numpy as np
+import pytest
+
+import leakdiag as ld
+from leakdiag.sim.eha import EHA_SENSORS, simulate_eha
+from leakdiag.sim.eha_drive import EHAConditions, build_inputs
+from leakdiag.sim.eha_model import IN_BETA_SCALE, IN_FV_SCALE, IN_KLEAK, IN_SPRING, IN_XREF
+from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.leak import LeakSchedule
+
+SHORT = {"duration": 12.0, "onset": 6.0}
+
+
+@pytest.mark.parametrize("target", [0.77, 1.2, 1.63])
+def test_calibrated_leak_hits_target_within_2_percent(target):
+    rec = simulate_eha(leak_lpm=target, sensors=False, **SHORT)
+    i_on = int(6.0 * rec.sample_rate)
+    achieved = np.mean(np.abs(rec["leak_flow"][i_on:])) * 60_000
+    assert achieved == pytest.approx(rec.meta["leak_lpm_achieved"], rel=1e-12)
+    assert abs(achieved - target) <= 0.02 * target
+    assert np.all(rec["leak_flow"][: i_on - 1] == 0.0)
+    assert rec.meta["leak_pct_of_rated_flow"] == pytest.approx(100 * achieved / 19.6)
+    assert 1 <= rec.meta["calibration_runs"] <= 6
+
+
+def test_ramp_leak_grows_and_hits_target():
+    rec = simulate_eha(leak_lpm=1.2, leak_kind="ramp", ramp_duration=3.0, sensors=False, **SHORT)
+    q = np.abs(rec["leak_flow"])
+    fs = int(rec.sample_rate)
+    assert np.all(q[: 6 * fs] == 0.0)
+    assert q[int(6.5 * fs):int(7 * fs)].mean() < q[10 * fs:].mean()
+    assert rec.meta["leak_lpm_achieved"] == pytest.approx(1.2, rel=0.02)
+    assert rec.meta["leak_kind"] == "ramp" and rec.meta["ramp_duration"] == 3.0
+
+
+def test_leak_reduces_piston_motion_open_loop():
+    rec = simulate_eha(leak_lpm=1.63, sensors=False, **SHORT)
+    x = rec["x"]
+    fs = int(rec.sample_rate)
+    # stroke per cycle (period pi/2 s) before and after the onset
+    before = np.ptp(x[int(3 * fs):int(3 * fs + 1.571 * fs)])
+    after = np.ptp(x[int(9 * fs):int(9 * fs + 1.571 * fs)])
+    assert after < 0.95 * before
+
+
+def test_same_seed_same_output_bit_for_bit():
+    kw = dict(leak_coefficient=8e-8, conditions=EHAConditions(amplitude_variation=0.05), **SHORT)
+    a = simulate_eha(seed=7, **kw)
+    b = simulate_eha(seed=7, **kw)
+    c = simulate_eha(seed=8, **kw)
+    for name in a.channel_names:
+        assert np.array_equal(a[name], b[name]), name
+    assert not np.array_equal(a["p1"], c["p1"])
+    assert a.meta == b.meta
+
+
+def test_sensors_quantise_and_true_states_without():
+    true = simulate_eha(leak_lpm=None, sensors=False, duration=2.0)
+    meas = simulate_eha(leak_lpm=None, sensors=True, duration=2.0)
+    q = EHA_SENSORS.pressure_quantum_pa
+    assert q == pytest.approx(3000 * 6894.757293168 / 2**14)  # 14-bit Q8 A/D, 1.26 kPa
+    for name in ("p1", "p2", "pa", "pb"):
+        r = meas[name] / q
+        assert np.allclose(r, np.round(r), atol=1e-6), name
+        assert np.std(meas[name] - true[name]) == pytest.approx(10e3, rel=0.1)
+    assert np.allclose(meas["x"] / 0.03e-3, np.round(meas["x"] / 0.03e-3))
+    assert np.max(np.abs(meas["x"] - true["x"])) <= 0.015e-3 + 1e-12
+    np.testing.assert_array_equal(meas["leak_flow"], true["leak_flow"])
+    assert true.meta["sensors"] is None and meas.meta["sensors"]["pressure_adc_bits"] == 14
+
+
+def test_recording_contract():
+    rec = ld.sim.simulate_eha(duration=3.0, onset=1.5, leak_coefficient=8e-8, seed=1)
+    assert rec.channel_names == ["p1", "p2", "x", "u", "leak_flow", "pa", "pb"]
+    assert rec.units["pa"] == rec.units["p1"] == "Pa" and rec.units["leak_flow"] == "m^3/s"
+    assert rec.sample_rate == 1000.0 and rec.n_samples == 3000
+    m = rec.meta
+    for key in ("leak_lpm", "leak_lpm_achieved", "onset", "seed", "params", "leakdiag_version"):
+        assert key in m
+    assert m["system"] == "eha" and m["onset"] == 1.5 and m["leakdiag_version"] == ld.__version__
+    assert EHAParams.from_dict(m["params"]) == EHAParams()
+    # the command is the D/A-quantised 3 sin 4t
+    t = rec.time
+    assert np.max(np.abs(rec["u"] - 3 * np.sin(4 * t))) <= 10 / 2**14 + 1e-12
+
+
+def test_closed_loop_tracks_the_reference():
+    rec = simulate_eha(mode="closed-loop", sensors=False, leak_coefficient=8e-8, duration=6.0,
+                       onset=3.0)
+    e = rec["x"] - rec["x_ref"]
+    fs = int(rec.sample_rate)
+    assert "x_ref" in rec.channel_names
+    assert np.max(np.abs(rec["x_ref"])) == pytest.approx(0.04, rel=1e-3)
+    # 20 rad/s position loop at 4 rad/s: amplitude error below ~25 % of the reference
+    assert np.sqrt(np.mean(e[fs:] ** 2)) < 0.25 * 0.04 / np.sqrt(2)
+    # u is the position loop's command K_x (x_ref - x), clipped to +-10 V
+    np.testing.assert_allclose(rec["u"], np.clip(400.0 * e * -1, -10, 10), atol=1e-12)
+
+
+def test_build_inputs_conditions_hand_values():
+    prm = EHAParams()
+    t = np.arange(5) * 10.0  # 50 s
+    cond = EHAConditions(temperature_rise_k=10.0, spring_change_time_s=20.0,
+                         spring_change_factor=0.5)
+    inp = build_inputs(t, prm, load="spring", conditions=cond, leak_coefficient=2e-8,
+                       leak_schedule=LeakSchedule("step", onset_s=30.0))
+    # temperature rises linearly 0 .. 10 K over the 50 s run: 0, 2, 4, 6, 8 K
+    np.testing.assert_allclose(inp[:, IN_BETA_SCALE], 1 - 0.005 * np.array([0, 2, 4, 6, 8]))
+    np.testing.assert_allclose(inp[:, IN_FV_SCALE], 1 - 0.02 * np.array([0, 2, 4, 6, 8]))
+    np.testing.assert_allclose(inp[:, IN_SPRING], [2e4, 2e4, 1e4, 1e4, 1e4])
+    np.testing.assert_allclose(inp[:, IN_KLEAK], [0, 0, 0, 2e-8, 2e-8])
+    cl = build_inputs(np.array([0.0, np.pi / 8]), prm, mode="closed-loop", amplitude=0.04)
+    np.testing.assert_allclose(cl[:, IN_XREF], [0.0, 0.04], atol=1e-15)
+
+
+def test_amplitude_variation_is_slow_and_sized():
+    prm = EHAParams()
+    t = np.arange(200_000) / 1000.0
+    inp = build_inputs(t, prm, conditions=EHAConditions(amplitude_variation=0.1),
+                       rng=np.random.default_rng(0))
+    u = inp[:, 0]
+    peaks = [np.abs(u[i:i + 1571]).max() / 3.0 for i in range(0, len(u) - 1571, 1571)]
+    assert 0.02 < np.std(peaks) < 0.2  # ~10 % variation of the amplitude
+    # slow: with a 20 s correlation time, consecutive cycles (1.57 s) differ by
+    # sqrt(2 (1 - exp(-1.57/20))) = 0.39 std; white noise would give 1.41 std
+    assert np.std(np.diff(peaks)) < 0.7 * np.std(peaks)
+
+
+@pytest.mark.parametrize(
+    "kwargs, exc, match",
+    [
+        ({"mode": "pid"}, ValueError, r"mode='pid' must be one of \['open-loop', 'closed-loop'\]"),
+        ({"load": "mass"}, ValueError, "load='mass' must be one of"),
+        ({"onset": 200.0}, ValueError, r"onset=200.0 s must lie in \[0, duration=180.0\)"),
+        ({"leak_lpm": -1.0}, ValueError, "leak_lpm=-1.0 must be a finite number > 0"),
+        ({"seed": -3}, ValueError, "seed=-3 must be a non-negative integer"),
+        ({"params": {"mass_kg": 1}}, TypeError, "params must be an EHAParams"),
+        ({"leak_kind": "pulse"}, ValueError, "leak_kind='pulse' must be 'step' or 'ramp'"),
+        ({"duration": 0.001}, ValueError, "fewer than 2 samples"),
+    ],
+)
+def test_argument_errors(kwargs, exc, match):
+    with pytest.raises(exc, match=match):
+        simulate_eha(**kwargs)
+
+
+def test_conditions_validation():
+    with pytest.raises(ValueError, match=r"amplitude_variation=1.5 must be in \[0, 1\)"):
+        EHAConditions(amplitude_variation=1.5)
+    with pytest.raises(ValueError, match="variation_time_constant_s=0.0"):
+        EHAConditions(variation_time_constant_s=0.0)
