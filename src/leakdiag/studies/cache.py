@@ -160,7 +160,10 @@ def _resolve_simulator(system: str) -> Callable[..., Recording]:
     if system not in SIMULATORS:
         raise ValueError(f"unknown system {system!r}; known: {sorted(SIMULATORS)}")
     mod, attr = SIMULATORS[system].split(":")
-    return getattr(importlib.import_module(mod), attr)
+    fn = getattr(importlib.import_module(mod), attr, None)
+    if fn is None:
+        raise ValueError(f"no simulator for system {system!r}: {mod} has no {attr}")
+    return fn
 
 
 def _json_default(obj):

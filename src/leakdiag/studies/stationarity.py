@@ -135,14 +135,16 @@ def stationarity(recording, channels=("p1", "p2", "x", "u"), window: int = 400,
         results of :func:`stationarity_tests`).
     """
     from leakdiag.features.methods import MethodSpec, compute_feature
+    from leakdiag.studies.grid import quiet_degenerate
 
     moments, tests = {}, []
     onset = recording.onset
     for ch in channels:
         if ch not in recording:
             continue
-        moments[ch] = compute_feature(recording, MethodSpec("moments", (ch,), window=window,
-                                                            overlap=overlap))
+        with quiet_degenerate():  # zero-variance windows are NaN rows of the moments frame
+            moments[ch] = compute_feature(recording, MethodSpec("moments", (ch,), window=window,
+                                                                overlap=overlap))
         parts = [("whole", recording[ch])]
         if onset is not None:
             i = int(round((onset - recording.start_time) * recording.sample_rate))
