@@ -101,3 +101,23 @@ def test_parse_replay_and_errors(run_file, tmp_path):
     bad.write_bytes(b"not a pickle")
     r = CliRunner().invoke(cli, ["monitor", "-i", str(run_file[0]), "--detector", str(bad)])
     assert r.exit_code != 0 and "cannot load" in r.output
+
+
+def test_monitor_follow_and_text_fallback(run_file, tmp_path):
+    _, rec = run_file
+    part = rec.slice_time(None, 1.5)  # 1000 samples -> 5 windows of 200 at 5 % overlap
+    csv = tmp_path / "live.csv"
+    part.to_pandas()[["time", "p1"]].to_csv(csv, index=False)
+    ev = tmp_path / "f.jsonl"
+    r = CliRunner().invoke(cli, ["monitor", "-i", str(csv), "--follow", "--idle-timeout", "0.2",
+                                 "-c", "p1", "--events", str(ev)])
+    assert r.exit_code == 0, r.output
+    np.testing.assert_allclose([e["value"] for e in _events(ev)], ac_ref(part["p1"], 1, 200, 5),
+                               rtol=1e-9)
+    tsv = tmp_path / "run.tsv"  # not a chunked format: loaded whole through read_recording
+    part.to_pandas()[["time", "p1"]].to_csv(tsv, index=False, sep="\t")
+    ev2 = tmp_path / "t.jsonl"
+    r = CliRunner().invoke(cli, ["monitor", "-i", str(tsv), "-c", "p1", "--events", str(ev2)])
+    assert r.exit_code == 0, r.output
+    assert [e["value"] for e in _events(ev2)] == pytest.approx([e["value"] for e in _events(ev)],
+                                                               rel=1e-9)
