@@ -5,12 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from leakdiag.features import _args
-from leakdiag.features._blocksums import (
-    lag0_stats,
-    lagged_cross_sums,
-    safe_ratio,
-    safe_ratio_sqrt,
-)
+from leakdiag.features._blocksums import autocorrelation_sorted, cross_correlation_sorted
 from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
 
@@ -34,9 +29,7 @@ def _unsort(values: np.ndarray, order: np.ndarray | None) -> np.ndarray:
 
 def _auto_values(x: np.ndarray, lag: int, starts: np.ndarray, window: int) -> np.ndarray:
     starts, order = _sorted(starts)
-    ref, off, ss = lag0_stats(x, window, starts)
-    num = lagged_cross_sums(x, x, lag, window, starts, ref, off, ref, off)
-    values, n_bad = safe_ratio(num, ss)
+    values, n_bad = autocorrelation_sorted(x, lag, window, starts)
     warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return _unsort(values, order)
 
@@ -44,10 +37,7 @@ def _auto_values(x: np.ndarray, lag: int, starts: np.ndarray, window: int) -> np
 def _cross_values(y: np.ndarray, x: np.ndarray, lag: int, starts: np.ndarray,
                   window: int) -> np.ndarray:
     starts, order = _sorted(starts)
-    ry, offy, ssy = lag0_stats(y, window, starts)
-    rx, offx, ssx = lag0_stats(x, window, starts)
-    num = lagged_cross_sums(y, x, lag, window, starts, ry, offy, rx, offx)
-    values, n_bad = safe_ratio_sqrt(num, ssx, ssy)
+    values, n_bad = cross_correlation_sorted(y, x, lag, window, starts)
     warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return _unsort(values, order)
 

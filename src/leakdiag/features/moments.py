@@ -29,7 +29,7 @@ def _shift(s1, s2, s3, s4, n, d):  # pragma: no cover - compiled
 def _moment_sums(x, window, starts):  # pragma: no cover - compiled
     """Per window: mean and the sums of 2nd, 3rd, 4th powers of deviations from it.
 
-    Anchored block sums as in :func:`leakdiag.features._blocksums.lag0_stats` (blocks of N
+    Anchored block sums as in :mod:`leakdiag.features._blocksums` (blocks of N
     samples; suffix sums anchored at the block's last sample, prefix sums at the next block's
     first, ``f[0] = 0``), shifted exactly to the window mean by the binomial expansion.
     ``starts`` must be sorted.
