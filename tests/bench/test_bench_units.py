@@ -106,3 +106,12 @@ def test_minimum_detectable_requires_all_larger_sizes():
 
 def test_quick_suite_is_small():
     assert len(build_suite(QUICK_SUITES)) <= 30
+
+
+def test_seeds_do_not_depend_on_selected_excitations():
+    from dataclasses import replace
+
+    full = [c for c in build_suite(SUITES, ("vca",)) if c.excitation == "operating"]
+    only = build_suite({"vca": replace(SUITES["vca"], excitations=("operating",))})
+    assert [c.seed for c in full] == [c.seed for c in only]
+    assert [c.nuisance for c in full] == [c.nuisance for c in only]

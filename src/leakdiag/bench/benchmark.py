@@ -51,7 +51,7 @@ def _by_condition(runs, rated):
 
 
 def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
-                  false_alarm_per_run: float = 0.01, onset_method: str = "binseg",
+                  excitations=None, false_alarm_per_run: float = 0.01, onset_method: str = "binseg",
                   scheduler: str = "serial", n_workers: int | None = None,
                   cache_dir: str | None = None, progress: bool = True,
                   command: str = "leakdiag benchmark") -> BenchmarkResult:
@@ -69,6 +69,9 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
         Registry names (default :data:`~leakdiag.bench.registry.DEFAULT_METHODS`).
     systems : sequence of str, optional
         Rigs (default: every rig of the suite whose simulator is available).
+    excitations : sequence of str, optional
+        Restrict every rig's excitation conditions (default: all of the suite's); the seeds of
+        the selected runs do not change.
     false_alarm_per_run : float, default 0.01
         Target false-alarm probability per healthy run.
     onset_method : {"binseg", "pelt", "cusum"}, default "binseg"
@@ -112,6 +115,16 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
         if s not in base:
             raise ValueError(f"unknown system {s!r}; the suite has {sorted(base)}")
     suites = {s: base[s] for s in systems}
+    if excitations is not None:
+        from dataclasses import replace as _replace
+
+        from leakdiag.bench.suite import EXCITATIONS
+
+        for e in excitations:
+            if e not in EXCITATIONS:
+                raise ValueError(f"unknown excitation {e!r}; known: {list(EXCITATIONS)}")
+        suites = {k: _replace(v, excitations=tuple(e for e in v.excitations if e in excitations))
+                  for k, v in suites.items()}
     alarm = Alarm(onset_method=onset_method)
     sr = run_suite(suites, methods, false_alarm_per_run=false_alarm_per_run, alarm=alarm,
                    scheduler=scheduler, n_workers=n_workers, cache_dir=cache_dir,

@@ -24,7 +24,8 @@ __all__ = ["SUITE_VERSION", "SystemSuite", "Nuisance", "BenchCase", "SUITES", "Q
            "build_suite", "ROLES", "EXCITATIONS"]
 
 #: Version of the suite (seeds, sizes, nuisance ranges). Bump on any change.
-SUITE_VERSION = "2"  # 2: structured-excitation groups in the full suite (issue 6)
+SUITE_VERSION = "3"  # 2: structured-excitation groups (issue 6); 3: seeds independent of the
+#: selected excitations, 20 held-out healthy and 8 leaking runs per size and group
 #: Run roles, see the module docstring.
 ROLES = ("fit", "cal", "test_healthy", "test_leak")
 #: Excitation conditions; "operating" is the thesis's (pseudo-random steps for the VCA, a sine
@@ -33,6 +34,8 @@ ROLES = ("fit", "cal", "test_healthy", "test_leak")
 EXCITATIONS = ("operating", "structured")
 #: Offset between role seed blocks (leakdiag choice; keeps seeds of different roles disjoint).
 _ROLE_SEED_OFFSET = {"fit": 0, "cal": 100_000, "test_healthy": 200_000, "test_leak": 300_000}
+#: Offset between excitation seed blocks (operating 0, structured 50 000).
+_EXCITATION_SEED_OFFSET = 50_000
 
 
 @dataclass(frozen=True)
@@ -191,12 +194,12 @@ SUITES: dict[str, SystemSuite] = {
     "vca": SystemSuite(
         system="vca", leak_lpm=(0.01, 0.02, 0.047, 0.1, 0.2, 0.5), loads=("none", "spring"),
         noise_levels={"low": 10e3, "high": 40e3}, duration_s=200.0, onset_range_s=(80.0, 120.0),
-        n_fit=10, n_cal=2, n_test_healthy=25, n_test_leak=10, base_seed=1_000_000,
+        n_fit=10, n_cal=2, n_test_healthy=20, n_test_leak=8, base_seed=1_000_000,
         excitations=EXCITATIONS),
     "eha": SystemSuite(
         system="eha", leak_lpm=(0.1, 0.2, 0.5, 1.0, 1.63), loads=("none", "spring"),
         noise_levels={"low": 10e3, "high": 40e3}, duration_s=120.0, onset_range_s=(50.0, 70.0),
-        n_fit=10, n_cal=2, n_test_healthy=25, n_test_leak=10, base_seed=2_000_000,
+        n_fit=10, n_cal=2, n_test_healthy=20, n_test_leak=8, base_seed=2_000_000,
         excitations=EXCITATIONS),
 }
 
@@ -235,10 +238,11 @@ def build_suite(suites: dict[str, SystemSuite] | None = None,
 
     Notes
     -----
-    Seed of run ``i`` of role ``r`` in group ``g`` (groups numbered in the order loads x noise
-    levels x excitations), leak size index ``j``:
-    ``base_seed + offset[r] + 10_000 * g + 1_000 * j + i`` with offsets fit 0, cal 100 000,
-    test_healthy 200 000, test_leak 300 000.
+    Seed of run ``i`` of role ``r`` in group ``g`` (loads x noise levels, numbered in that
+    order), excitation index ``e`` in :data:`EXCITATIONS`, leak size index ``j``:
+    ``base_seed + offset[r] + 50_000 * e + 10_000 * g + 1_000 * j + i`` with offsets fit 0,
+    cal 100 000, test_healthy 200 000, test_leak 300 000. A run's seed does not depend on which
+    excitations are selected.
 
     Examples
     --------
@@ -255,15 +259,18 @@ def build_suite(suites: dict[str, SystemSuite] | None = None,
         if name not in suites:
             raise ValueError(f"unknown system {name!r}; the suite has {sorted(suites)}")
         s = suites[name]
-        groups = [(ld, nz, ex) for ld in s.loads for nz in s.noise_levels for ex in s.excitations]
-        for g, (load, noise, exc) in enumerate(groups):
+        groups = [(g, ld, nz, ex) for g, (ld, nz) in enumerate(
+            [(ld, nz) for ld in s.loads for nz in s.noise_levels]) for ex in s.excitations]
+        for g, load, noise, exc in groups:
             plan = [("fit", 0.0, 0, s.n_fit), ("test_healthy", 0.0, 0, s.n_test_healthy)]
             for j, q in enumerate(s.leak_lpm):
                 plan.append(("cal", q, j, s.n_cal))
                 plan.append(("test_leak", q, j, s.n_test_leak))
             for role, q, j, n in plan:
                 for i in range(n):
-                    seed = s.base_seed + _ROLE_SEED_OFFSET[role] + 10_000 * g + 1_000 * j + i
+                    e = EXCITATIONS.index(exc)
+                    seed = (s.base_seed + _ROLE_SEED_OFFSET[role] + _EXCITATION_SEED_OFFSET * e
+                            + 10_000 * g + 1_000 * j + i)
                     rng = np.random.default_rng(seed)
                     onset = float(rng.uniform(*s.onset_range_s)) if q > 0 else None
                     nuis = s.nuisance.draw(rng, s.duration_s)
