@@ -176,3 +176,17 @@ def test_huge_leak_coefficient_is_refused_not_integrated_forever():
 def test_impossible_tolerance_raises_calibration_error():
     with pytest.raises(LeakCalibrationError, match="did not reach"):
         simulate_vca(leak_lpm=0.1, duration=1.0, onset=0.5, calibration_rtol=1e-12)
+
+
+def test_python_controller_with_sensors_sees_quantised_position_and_drives_dac():
+    seen = []
+
+    def ctrl(t, x_ref, x_m, p1_m, p2_m):
+        seen.append(x_m)
+        return 1000.0 * (x_ref - x_m) + 0.00123
+
+    r = simulate_vca(leak_lpm=None, duration=0.3, seed=2, controller=ctrl)
+    q = SensorParams().position_resolution_m
+    assert np.allclose(np.asarray(seen) / q, np.round(np.asarray(seen) / q), atol=1e-6)
+    dac = 20.0 / 4096
+    assert np.allclose(r["u"] / dac, np.round(r["u"] / dac), atol=1e-6)

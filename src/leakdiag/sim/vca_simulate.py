@@ -109,6 +109,8 @@ def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sch
         if not math.isfinite(u):
             raise ValueError(f"controller returned u={u!r} at t={t} s")
         u = min(max(u, -u_max), u_max)
+        if sensors is not None:  # 12-bit DAC, as in the compiled path
+            u = float(quantize(u, 2 * u_max / 2.0**sensors.control_dac_bits))
         out_u[k] = u
         rk4_advance(s, t, h, n_sub, u, k_leak, sched_arr, cond, prm)
     return ClosedLoopResult(out_state, out_meas, out_u, out_q)
