@@ -293,3 +293,21 @@ def test_at_errors():
     with pytest.raises(TypeError, match="starts must hold integers"):
         autocorrelation_at(np.arange(30.0), 1, [0.5], 10)
     assert autocorrelation_at(np.arange(30.0), 1, [], 10).shape == (0,)
+
+
+def test_times_equal_windowing_module_exactly():
+    from leakdiag.features.windowing import window_starts, window_times
+
+    x = SIGNALS["random"]
+    for overlap, rate, t0 in [(5, 1000.0, 0.0), (99, 333.0, 12.5), (50, 1.0, -3.0)]:
+        fs = autocorrelation(x, lag=2, window=123, overlap=overlap, sample_rate=rate,
+                             start_time=t0)
+        expected = window_times(window_starts(len(x), 123, overlap), 123, rate, t0)
+        np.testing.assert_array_equal(fs.time, expected)
+
+
+def test_overflowing_sum_is_not_mistaken_for_non_finite():
+    x = np.full(20, 1e308)  # the sum overflows to inf, yet every sample is finite
+    with pytest.warns(DegenerateWindowWarning, match="^2 of 2 windows"):
+        fs = autocorrelation(x, lag=1, window=10, overlap=0)
+    assert np.isnan(fs.values).all()

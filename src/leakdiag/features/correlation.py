@@ -12,8 +12,8 @@ from leakdiag.features.series import FeatureSeries
 __all__ = ["autocorrelation", "cross_correlation", "autocorrelation_at", "cross_correlation_at"]
 
 
-def _sorted(starts: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-    if starts.size < 2 or bool(np.all(starts[1:] >= starts[:-1])):
+def _sorted(starts: np.ndarray, assume_sorted: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+    if assume_sorted or starts.size < 2 or bool(np.all(starts[1:] >= starts[:-1])):
         return starts, None
     order = np.argsort(starts, kind="stable")
     return np.ascontiguousarray(starts[order]), order
@@ -27,16 +27,17 @@ def _unsort(values: np.ndarray, order: np.ndarray | None) -> np.ndarray:
     return out
 
 
-def _auto_values(x: np.ndarray, lag: int, starts: np.ndarray, window: int) -> np.ndarray:
-    starts, order = _sorted(starts)
+def _auto_values(x: np.ndarray, lag: int, starts: np.ndarray, window: int,
+                 assume_sorted: bool = False) -> np.ndarray:
+    starts, order = _sorted(starts, assume_sorted)
     values, n_bad = autocorrelation_sorted(x, lag, window, starts)
     warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return _unsort(values, order)
 
 
 def _cross_values(y: np.ndarray, x: np.ndarray, lag: int, starts: np.ndarray,
-                  window: int) -> np.ndarray:
-    starts, order = _sorted(starts)
+                  window: int, assume_sorted: bool = False) -> np.ndarray:
+    starts, order = _sorted(starts, assume_sorted)
     values, n_bad = cross_correlation_sorted(y, x, lag, window, starts)
     warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return _unsort(values, order)
@@ -123,7 +124,7 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
-    values = _auto_values(x_arr, lag, plan.starts, window)
+    values = _auto_values(x_arr, lag, plan.starts, window, assume_sorted=True)
     params = {"lag": lag, "window": window, "overlap": plan.overlap, "step": plan.step,
               "channels": _args.channel_names(x, "x"), "sample_rate": float(sample_rate),
               "start_time": float(start_time)}
@@ -198,7 +199,7 @@ def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
-    values = _cross_values(y_arr, x_arr, lag, plan.starts, window)
+    values = _cross_values(y_arr, x_arr, lag, plan.starts, window, assume_sorted=True)
     params = {"lag": lag, "window": window, "overlap": plan.overlap, "step": plan.step,
               "channels": _args.channel_names(y, "y") + _args.channel_names(x, "x"),
               "sample_rate": float(sample_rate), "start_time": float(start_time)}
