@@ -77,3 +77,64 @@ def test_bench_latency(benchmark, chunk):
     benchmark.extra_info["median_latency_s"] = worst_typical
     _report(f"latency chunk={chunk} (median)", worst_typical * 1e3, LATENCY_GOAL_S * 1e3, "ms",
             "lower")
+
+
+FILE_ROWS = 1 << 25  # 32 Mi samples x 2 channels: a 0.5 GB Parquet file
+CHILD = r"""
+import json, resource, sys
+
+def peak_rss_bytes():
+    # VmHWM is the peak RSS of this process's own address space. ru_maxrss is not usable here:
+    # Linux carries the parent's RSS high-water mark over fork + exec into the child's ru_maxrss.
+    try:
+        with open("/proc/self/status") as f:
+            return next(int(l.split()[1]) * 1024 for l in f if l.startswith("VmHWM"))
+    except (OSError, StopIteration):
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+import time
+from leakdiag.features.methods import MethodSpec
+from leakdiag.stream import open_chunks, stream_feature
+spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=5)
+t0 = time.perf_counter()
+fs = stream_feature(open_chunks(sys.argv[1], ["p1"]), spec)
+print(json.dumps({"s": time.perf_counter() - t0, "n": fs.params["n_samples"],
+                  "rss": peak_rss_bytes()}))
+"""
+
+
+@pytest.mark.parametrize("fmt", ["parquet", "hdf5"])
+def test_bench_file_streaming(benchmark, tmp_path, fmt):
+    """Larger than memory: read a file in chunks and stream it; figure = samples/s and peak RSS."""
+    import json
+    import subprocess
+    import sys
+
+    from leakdiag.io.recording import Recording
+
+    x = np.random.default_rng(2).normal(size=FILE_ROWS)
+    rec = Recording({"p1": x, "p2": x[::-1].copy()}, sample_rate=10_000.0)
+    path = tmp_path / f"big.{'parquet' if fmt == 'parquet' else 'h5'}"
+    if fmt == "parquet":
+        from leakdiag.io.parquet import write_parquet
+
+        write_parquet(rec, path)
+    else:
+        from leakdiag.io.hdf5 import write_hdf5
+
+        write_hdf5(rec, path)
+    del rec, x
+    size = path.stat().st_size
+
+    def run():
+        out = subprocess.run([sys.executable, "-c", CHILD, str(path)], capture_output=True,
+                             text=True, check=True)
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
+    info = benchmark.pedantic(run, rounds=1, iterations=1)
+    path.unlink()
+    assert info["n"] == FILE_ROWS
+    benchmark.extra_info.update(samples_per_s=info["n"] / info["s"], peak_rss_bytes=info["rss"])
+    _report(f"{fmt} file {size / 1e9:.2f} GB streamed (read + autocorrelation)",
+            info["n"] / info["s"], THROUGHPUT_GOAL_SAMPLES_PER_S, "samples/s", "higher")
+    _report(f"{fmt} file {size / 1e9:.2f} GB peak RSS", info["rss"] / 2**20, 1024, "MiB", "lower")
