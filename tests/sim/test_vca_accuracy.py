@@ -110,3 +110,15 @@ def test_other_sample_rates_agree_with_1khz(fs):
     assert r.meta["rk4_step_s"] <= DEFAULT_MAX_STEP_S
     # the step response settles on the reference whatever the control rate
     assert r["x"][-1] == pytest.approx(6e-3, abs=0.05e-3)
+
+
+def test_per_sample_leak_coefficient_array_equals_schedule():
+    xr, args = _case("spring", "turbulent", 5e-9)
+    params, gains, u_max, _, sched, cond, s0 = args
+    a = integrate_closed_loop(xr, FS, N_SUB, *args)  # step at 0.3 s via the schedule
+    k = np.where(np.arange(len(xr)) / FS >= 0.3, 5e-9, 0.0)
+    b = integrate_closed_loop(xr, FS, N_SUB, params, gains, u_max, k,
+                              LeakSchedule("step", onset_s=0.0).to_array(), cond, s0)
+    assert np.array_equal(a.state, b.state) and np.array_equal(a.leak_flow, b.leak_flow)
+    with pytest.raises(ValueError, match="leak_coefficient must be a number or have"):
+        integrate_closed_loop(xr, FS, N_SUB, params, gains, u_max, k[:5], sched, cond, s0)

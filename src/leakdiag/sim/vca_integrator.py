@@ -61,7 +61,7 @@ def _rk4_steps(s, t0, h, n_steps, u, k_leak, sched, cond, prm, ps_max,
 
 
 @numba.njit(cache=True)
-def _closed_loop_kernel(s, integ, i0, i1, prm, gains, u_max, x_ref, sched, k_leak, cond, n_sub,
+def _closed_loop_kernel(s, integ, i0, i1, prm, gains, u_max, x_ref, sched, k_arr, cond, n_sub,
                         dt_out, noise1, noise2, sens, use_sensors, out_state, out_meas, out_u,
                         out_q):
     # samples [i0, i1); s (state) and integ[0] (controller integral) are carried in place
@@ -78,6 +78,7 @@ def _closed_loop_kernel(s, integ, i0, i1, prm, gains, u_max, x_ref, sched, k_lea
         t = k * dt_out
         for i in range(6):
             out_state[k, i] = s[i]
+        k_leak = k_arr[k] if k_arr.shape[0] > 1 else k_arr[0]
         out_q[k] = vca_leak_flow(s[2], s[3], k_leak * leak_multiplier(t, sched), prm)
         if use_sensors:
             xm = quantize(s[0], sens[0])
@@ -183,8 +184,10 @@ def integrate_closed_loop(x_ref, sample_rate, n_sub, params, gains, u_max, leak_
         :meth:`FixedGainController.to_array`.
     u_max : float
         Control saturation in V.
-    leak_coefficient : float
-        Full leakage coefficient (Eq. 2-4 or 2-5 units).
+    leak_coefficient : float or array_like
+        Full leakage coefficient (Eq. 2-4 or 2-5 units), multiplied by ``schedule``; or one
+        coefficient per output sample (held over the sample), e.g. an arbitrary wear history,
+        then usually with ``LeakSchedule("step", onset_s=0.0)`` (multiplier 1).
     schedule : numpy.ndarray
         :meth:`LeakSchedule.to_array`.
     cond : numpy.ndarray
@@ -250,11 +253,15 @@ def integrate_closed_loop(x_ref, sample_rate, n_sub, params, gains, u_max, leak_
     gains = np.ascontiguousarray(gains, dtype=np.float64)
     sched = np.ascontiguousarray(schedule, dtype=np.float64)
     cond = np.ascontiguousarray(cond, dtype=np.float64)
+    k_arr = np.atleast_1d(np.ascontiguousarray(leak_coefficient, dtype=np.float64))
+    if k_arr.ndim != 1 or k_arr.size not in (1, n):
+        raise ValueError(f"leak_coefficient must be a number or have len(x_ref)={n} samples, "
+                         f"got shape {k_arr.shape}")
     step = n if chunk is None else check_int(chunk, "chunk", 1)
     for i0 in range(0, n, max(step, 1)):
         i1 = min(n, i0 + step)
         _closed_loop_kernel(s, integ, i0, i1, prm, gains, float(u_max), xr, sched,
-                            float(leak_coefficient), cond, n_sub, 1.0 / fs, n1, n2, sens, use,
+                            k_arr, cond, n_sub, 1.0 / fs, n1, n2, sens, use,
                             out_state, out_meas, out_u, out_q)
         if callback is not None:
             callback(i1 - i0)
