@@ -26,15 +26,18 @@ SPECS = {
 }
 
 
-def _report(name, figure, goal, unit, better):
+def _report(capsys, name, figure, goal, unit, better):
+    """Print a figure next to its goal, through pytest's output capture (shown by make bench)."""
     ok = figure >= goal if better == "higher" else figure <= goal
-    print(f"\n[stream bench] {name}: {figure:.4g} {unit} (goal {'>=' if better == 'higher' else '<='}"
-          f" {goal:.4g} {unit}: {'met' if ok else 'NOT met'})")
+    with capsys.disabled():
+        sign = ">=" if better == "higher" else "<="
+        print(f"\n[stream bench] {name}: {figure:.4g} {unit} (goal {sign} {goal:.4g} {unit}: "
+              f"{'met' if ok else 'NOT met'})")
 
 
 @pytest.mark.parametrize("method", list(SPECS))
 @pytest.mark.parametrize("chunk", [1_000, 10_000, 100_000])
-def test_bench_throughput(benchmark, method, chunk):
+def test_bench_throughput(benchmark, capsys, method, chunk):
     spec = SPECS[method]
     rng = np.random.default_rng(0)
     data = {c: rng.normal(size=TOTAL_SAMPLES) for c in spec.channels}
@@ -51,12 +54,12 @@ def test_bench_throughput(benchmark, method, chunk):
     assert n_win == n_windows(TOTAL_SAMPLES, spec.window, spec.overlap)
     rate = TOTAL_SAMPLES / benchmark.stats.stats.min
     benchmark.extra_info["samples_per_s_per_channel"] = rate
-    _report(f"throughput {method} chunk={chunk}", rate, THROUGHPUT_GOAL_SAMPLES_PER_S,
+    _report(capsys, f"throughput {method} chunk={chunk}", rate, THROUGHPUT_GOAL_SAMPLES_PER_S,
             "samples/s/channel", "higher")
 
 
 @pytest.mark.parametrize("chunk", [1, 1_000])
-def test_bench_latency(benchmark, chunk):
+def test_bench_latency(benchmark, capsys, chunk):
     spec = SPECS["autocorrelation"]
     rng = np.random.default_rng(1)
     x = rng.normal(size=400)
@@ -75,8 +78,8 @@ def test_bench_latency(benchmark, chunk):
     benchmark.pedantic(push, setup=setup, rounds=2000, iterations=1, warmup_rounds=10)
     worst_typical = benchmark.stats.stats.median
     benchmark.extra_info["median_latency_s"] = worst_typical
-    _report(f"latency chunk={chunk} (median)", worst_typical * 1e3, LATENCY_GOAL_S * 1e3, "ms",
-            "lower")
+    _report(capsys, f"latency chunk={chunk} (median)", worst_typical * 1e3,
+            LATENCY_GOAL_S * 1e3, "ms", "lower")
 
 
 FILE_ROWS = 1 << 25  # 32 Mi samples x 2 channels: a 0.5 GB Parquet file
@@ -104,7 +107,7 @@ print(json.dumps({"s": time.perf_counter() - t0, "n": fs.params["n_samples"],
 
 
 @pytest.mark.parametrize("fmt", ["parquet", "hdf5"])
-def test_bench_file_streaming(benchmark, tmp_path, fmt):
+def test_bench_file_streaming(benchmark, capsys, tmp_path, fmt):
     """Larger than memory: read a file in chunks and stream it; figure = samples/s and peak RSS."""
     import json
     import subprocess
@@ -135,6 +138,7 @@ def test_bench_file_streaming(benchmark, tmp_path, fmt):
     path.unlink()
     assert info["n"] == FILE_ROWS
     benchmark.extra_info.update(samples_per_s=info["n"] / info["s"], peak_rss_bytes=info["rss"])
-    _report(f"{fmt} file {size / 1e9:.2f} GB streamed (read + autocorrelation)",
+    _report(capsys, f"{fmt} file {size / 1e9:.2f} GB streamed (read + autocorrelation)",
             info["n"] / info["s"], THROUGHPUT_GOAL_SAMPLES_PER_S, "samples/s", "higher")
-    _report(f"{fmt} file {size / 1e9:.2f} GB peak RSS", info["rss"] / 2**20, 1024, "MiB", "lower")
+    _report(capsys, f"{fmt} file {size / 1e9:.2f} GB peak RSS", info["rss"] / 2**20, 1024, "MiB",
+            "lower")

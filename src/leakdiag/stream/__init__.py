@@ -1,7 +1,8 @@
 """Streaming: windowed features, detector scores and alarms computed chunk by chunk.
 
 Given a :class:`~leakdiag.features.methods.MethodSpec`, :class:`StreamingFeature` computes
-Eq. 4.1-4.3 incrementally with a state of less than one window per channel; :class:`Monitor` combines features with detectors (the
+Eq. 4.1-4.3 incrementally with a state of less than one window per channel; :class:`Monitor`
+combines features with detectors (the
 :class:`WindowScorer` protocol) into :class:`WindowEvent` s; :mod:`leakdiag.stream.sources` reads
 Parquet/HDF5/CSV files in chunks (larger than memory), follows growing files and stdin, and paces
 replays. See ``docs/operations.md``.

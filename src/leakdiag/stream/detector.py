@@ -146,5 +146,6 @@ def as_scorer(obj: Any, spec: Any, sample_rate: float, start_time: float = 0.0) 
         return obj
     own = obj.spec()
     if own != spec:
-        raise ValueError(f"detector feature {own.label!r} differs from the monitored {spec.label!r}")
+        raise ValueError(
+            f"detector feature {own.label!r} differs from the monitored {spec.label!r}")
     return DetectorScorer(obj, spec.window, sample_rate, start_time)

@@ -73,7 +73,8 @@ class StreamingFeature:
         if not isinstance(spec, MethodSpec):
             raise TypeError(f"spec must be a MethodSpec, got {type(spec).__name__}")
         if spec.method not in STREAM_METHODS:
-            raise ValueError(f"method={spec.method!r} cannot be streamed; use one of {STREAM_METHODS}")
+            raise ValueError(
+                f"method={spec.method!r} cannot be streamed; use one of {STREAM_METHODS}")
         self.spec = spec
         self.sample_rate = check_positive(sample_rate, "sample_rate")
         self.start_time = float(start_time)
@@ -113,7 +114,8 @@ class StreamingFeature:
         n = len(cols[0])
         for name, col in zip(names, cols):
             if len(col) != n:
-                raise ValueError(f"chunk channels differ in length: {names[0]}={n}, {name}={len(col)}")
+                raise ValueError(
+                    f"chunk channels differ in length: {names[0]}={n}, {name}={len(col)}")
             if np.isfinite(np.add.reduce(col)):  # fast path: a finite sum means all are finite
                 continue
             bad = np.flatnonzero(~np.isfinite(col))

@@ -172,8 +172,9 @@ class Monitor:
             raise ValueError(f"got {len(scorers)} scorer(s) for {len(specs)} feature spec(s)")
         from leakdiag.stream.detector import as_scorer
 
-        self.scorers = [None if s is None else check_scorer(as_scorer(s, sp, sample_rate, start_time))
-                        for s, sp in zip(scorers, specs)]
+        self.scorers = [
+            None if s is None else check_scorer(as_scorer(s, sp, sample_rate, start_time))
+            for s, sp in zip(scorers, specs)]
         self.features = [StreamingFeature(s, sample_rate, start_time) for s in specs]
         self.channels = sorted({c for s in specs for c in s.channels})
 

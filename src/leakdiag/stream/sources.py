@@ -187,7 +187,7 @@ def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time) -> Ch
 def open_chunks(path: str | os.PathLike, channels: Sequence[str] | None = None,
                 chunk_samples: int = DEFAULT_CHUNK_SAMPLES, sample_rate: float | None = None,
                 start_time: float | None = None) -> ChunkSource:
-    """Open a Parquet (``.parquet``/``.pq``), HDF5 (``.h5``/``.hdf5``) or CSV file for chunked reading.
+    """Open a Parquet (``.parquet``/``.pq``), HDF5 (``.h5``/``.hdf5``) or CSV file in chunks.
 
     Parameters
     ----------
