@@ -33,7 +33,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["block_of", "safe_ratio", "autocorrelation_sorted", "cross_correlation_sorted"]
+__all__ = ["block_of", "autocorrelation_sorted", "cross_correlation_sorted"]
 
 
 @numba.njit(cache=True)
@@ -45,21 +45,6 @@ def block_of(starts, w, m_len):  # pragma: no cover - compiled
     while w_end < n_win and starts[w_end] < b0 + m_len:
         w_end += 1
     return b0, w_end
-
-
-@numba.njit(cache=True)
-def safe_ratio(num, den):  # pragma: no cover - compiled
-    """``num / den`` with NaN where ``den <= 0`` (a degenerate window); also the NaN count."""
-    out = np.empty(num.shape[0])
-    n_bad = 0
-    for i in range(num.shape[0]):
-        if den[i] > 0.0:
-            out[i] = num[i] / den[i]
-        else:
-            out[i] = np.nan
-            n_bad += 1
-    return out, n_bad
-
 
 
 @numba.njit(cache=True)

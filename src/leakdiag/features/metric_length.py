@@ -8,7 +8,6 @@ import numba
 import numpy as np
 
 from leakdiag.features import _args
-from leakdiag.features._blocksums import safe_ratio
 from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
 
@@ -16,91 +15,80 @@ __all__ = ["metric_length_ratio", "metric_length_ratio_at"]
 
 
 @numba.njit(cache=True)
-def _step_lengths(x, step, n_terms):  # pragma: no cover - compiled
-    """``||x[j + step] - x[j]||`` for ``j < n_terms``: Euclidean norm over channels (Eq. 4.4)."""
-    n_ch = x.shape[1]
-    out = np.empty(n_terms)
-    if n_ch == 1:
-        for j in range(n_terms):
-            out[j] = abs(x[j + step, 0] - x[j, 0])
-    else:
-        for j in range(n_terms):
-            acc = 0.0
-            for c in range(n_ch):
-                d = x[j + step, c] - x[j, c]
-                acc += d * d
-            out[j] = math.sqrt(acc)
-    return out
+def _metric_sorted(x, l_step, k_step, window, starts):  # pragma: no cover - compiled
+    """Eq. 4.3 for sorted valid starts: ``(values, n_zero_denominator)``.
 
-
-@numba.njit(cache=True)
-def _window_sums2(t1, t2, m_len, starts):  # pragma: no cover - compiled
-    """Sums of ``t1`` and ``t2`` over ``[s, s + m_len)`` for each sorted start ``s``.
-
-    Same block layout as :mod:`leakdiag.features._blocksums` (blocks of ``m_len`` terms,
-    suffix sums for the block holding ``s``, lazy prefix sums for the next one), so each window
-    sum adds at most two partial sums of at most ``m_len`` non-negative terms: relative error
-    of a few ulps times ``m_len``, independent of the signal length.
+    Sums over ``j = s .. s+N-l-1`` of ``||x_{j+k} - x_j||`` and ``||x_{j+l} - x_j||`` (Euclidean
+    norm over the channels of ``x``, shape ``(n, c)``, Eq. 4.4). Same block layout as
+    :mod:`leakdiag.features._blocksums` (blocks of ``M = N - l`` terms, suffix sums for the
+    block holding ``s``, lazily extended prefix sums for the next one, ``f[0] = 0``), so each
+    window sum adds two partial sums of at most ``M`` non-negative terms: relative error of a
+    few ulps times ``M``, independent of the signal length. The terms are computed on the fly
+    (an inner function, which Numba inlines), never stored for the whole signal.
     """
-    n_terms = t1.shape[0]
-    g1 = np.empty(m_len)
-    g2 = np.empty(m_len)
-    f1 = np.empty(m_len)
-    f2 = np.empty(m_len)
+    n_ch = x.shape[1]
+
+    def step_length(j, step):
+        if n_ch == 1:
+            return abs(x[j + step, 0] - x[j, 0])
+        acc = 0.0
+        for c in range(n_ch):
+            d = x[j + step, c] - x[j, c]
+            acc += d * d
+        return math.sqrt(acc)
+
+    m_len = window - l_step
+    gk = np.empty(m_len)
+    gl = np.empty(m_len)
+    fk = np.empty(m_len)
+    fl = np.empty(m_len)
     n_win = starts.shape[0]
-    out1 = np.empty(n_win)
-    out2 = np.empty(n_win)
+    out = np.empty(n_win)
+    n_bad = 0
     b0 = 0
     e = -1
-    f_b0 = -1
     f_len = 0
-    r1 = 0.0
-    r2 = 0.0
     for w in range(n_win):
         s = starts[w]
-        if s >= b0 + m_len or e < 0:
+        if e < 0 or s >= e:
             b0 = (s // m_len) * m_len
-            e = min(b0 + m_len, n_terms)
-            a1 = 0.0
-            a2 = 0.0
+            e = b0 + m_len
+            f_len = 0
+            tk = 0.0
+            tl = 0.0
             for j in range(e - 1, s - 1, -1):
-                a1 += t1[j]
-                a2 += t2[j]
-                g1[j - b0] = a1
-                g2[j - b0] = a2
-        i0 = s - b0
-        v1 = g1[i0]
-        v2 = g2[i0]
-        n1 = m_len - (e - s)
-        if n1 > 0:
-            if f_b0 != e:
-                f_b0 = e
-                f_len = 0
-                r1 = 0.0
-                r2 = 0.0
-            while f_len < n1:
-                r1 += t1[e + f_len]
-                r2 += t2[e + f_len]
-                f1[f_len] = r1
-                f2[f_len] = r2
-                f_len += 1
-            v1 += f1[n1 - 1]
-            v2 += f2[n1 - 1]
-        out1[w] = v1
-        out2[w] = v2
-    return out1, out2
+                tk += step_length(j, k_step)
+                tl += step_length(j, l_step)
+                gk[j - b0] = tk
+                gl[j - b0] = tl
+            fk[0] = 0.0
+            fl[0] = 0.0
+        i = s - b0
+        if f_len < i:
+            tk = fk[f_len]
+            tl = fl[f_len]
+            for t in range(f_len, i):
+                tk += step_length(e + t, k_step)
+                tl += step_length(e + t, l_step)
+                fk[t + 1] = tk
+                fl[t + 1] = tl
+            f_len = i
+        den = gl[i] + fl[i]
+        if den > 0.0:
+            out[w] = (gk[i] + fk[i]) / den
+        else:
+            out[w] = np.nan
+            n_bad += 1
+    return out, n_bad
 
 
 def _ratio_values(x2: np.ndarray, l_step: int, k_step: int, starts: np.ndarray,
-                  window: int) -> np.ndarray:
+                  window: int, assume_sorted: bool = False) -> np.ndarray:
     order = None
-    if starts.size > 1 and not bool(np.all(starts[1:] >= starts[:-1])):
+    if not assume_sorted and starts.size > 1 and not bool(np.all(starts[1:] >= starts[:-1])):
         order = np.argsort(starts, kind="stable")
         starts = np.ascontiguousarray(starts[order])
-    n_terms = len(x2) - l_step  # Eq. 4.3: both sums run over the same N - l terms
-    num, den = _window_sums2(_step_lengths(x2, k_step, n_terms), _step_lengths(x2, l_step, n_terms),
-                             window - l_step, starts)
-    values, n_bad = safe_ratio(num, den)
+    values, n_bad = _metric_sorted(x2, l_step, k_step, window, starts)
     warn_degenerate(n_bad, len(values), "zero metric length at step l (Eq. 4.3 denominator)",
                     stacklevel=4)
     if order is not None:
@@ -180,7 +168,7 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
     window = _args.check_window(window)
     l_step, k_step = _args.parse_lag_ratio(lag_ratio, window)
     plan = _args.plan_windows(len(x2), window, overlap, sample_rate, start_time)
-    values = _ratio_values(x2, l_step, k_step, plan.starts, window)
+    values = _ratio_values(x2, l_step, k_step, plan.starts, window, assume_sorted=True)
     params = {"lag_ratio": f"{l_step}:{k_step}", "l": l_step, "k": k_step, "window": window,
               "overlap": plan.overlap, "step": plan.step,
               "channels": _args.channel_names(x, "x", x2.shape[1]),

@@ -27,7 +27,7 @@ def _shift(s1, s2, s3, s4, n, d):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def _moment_sums(x, window, starts):  # pragma: no cover - compiled
-    """Per window: mean and the sums of 2nd, 3rd, 4th powers of deviations from it.
+    """Per window: mean, variance (Eq. 4.12), skewness and kurtosis; and the NaN count.
 
     Anchored block sums as in :mod:`leakdiag.features._blocksums` (blocks of N
     samples; suffix sums anchored at the block's last sample, prefix sums at the next block's
@@ -41,9 +41,10 @@ def _moment_sums(x, window, starts):  # pragma: no cover - compiled
     f = np.empty((m_len, 4))
     n_win = starts.shape[0]
     mean = np.empty(n_win)
-    c2 = np.empty(n_win)
-    c3 = np.empty(n_win)
-    c4 = np.empty(n_win)
+    var = np.empty(n_win)
+    skew = np.empty(n_win)
+    kurt = np.empty(n_win)
+    n_bad = 0
     w = 0
     while w < n_win:
         b0, w_end = block_of(starts, w, m_len)
@@ -94,34 +95,33 @@ def _moment_sums(x, window, starts):  # pragma: no cover - compiled
             p2, p3, p4 = _shift(g[i, 0], g[i, 1], g[i, 2], g[i, 3], fm - fi, -off)
             q2, q3, q4 = _shift(f[i, 0], f[i, 1], f[i, 2], f[i, 3], fi, da - off)
             mean[k] = a0 + off
-            c2[k] = p2 + q2
-            c3[k] = p3 + q3
-            c4[k] = p4 + q4
+            c2 = p2 + q2
+            if c2 > 0.0:
+                s2 = c2 / (fm - 1.0)  # sample variance s^2 (Eq. 4.13-4.14)
+                var[k] = c2 / fm  # Eq. 4.12, population variance
+                skew[k] = (p3 + q3) / ((fm - 1.0) * s2 * np.sqrt(s2))
+                kurt[k] = (p4 + q4) / ((fm - 1.0) * s2 * s2)
+            else:
+                var[k] = 0.0
+                skew[k] = np.nan
+                kurt[k] = np.nan
+                n_bad += 1
         w = w_end
-    return mean, c2, c3, c4
+    return mean, var, skew, kurt, n_bad
 
 
-def _moment_values(x: np.ndarray, starts: np.ndarray, window: int) -> np.ndarray:
+def _moment_columns(x: np.ndarray, starts: np.ndarray, window: int,
+                    assume_sorted: bool = False) -> tuple[np.ndarray, ...]:
     order = None
-    if starts.size > 1 and not bool(np.all(starts[1:] >= starts[:-1])):
+    if not assume_sorted and starts.size > 1 and not bool(np.all(starts[1:] >= starts[:-1])):
         order = np.argsort(starts, kind="stable")
         starts = np.ascontiguousarray(starts[order])
-    mean, c2, c3, c4 = _moment_sums(x, window, starts)
-    bad = c2 <= 0.0
-    c2_safe = np.where(bad, 1.0, c2)
-    s2 = c2_safe / (window - 1)  # sample variance s^2 (Eq. 4.13-4.14)
-    s = np.sqrt(s2)
-    skew = np.where(bad, np.nan, c3 / ((window - 1) * s2 * s))
-    kurt = np.where(bad, np.nan, c4 / ((window - 1) * s2 * s2))
-    variance = np.where(bad, 0.0, c2 / window)  # Eq. 4.12, population variance
-    warn_degenerate(int(np.count_nonzero(bad)), len(bad),
-                    "zero variance (skewness and kurtosis)", stacklevel=4)
-    out = np.column_stack([mean, variance, skew, kurt])
+    *columns, n_bad = _moment_sums(x, window, starts)
+    warn_degenerate(n_bad, len(starts), "zero variance (skewness and kurtosis)", stacklevel=4)
     if order is not None:
-        back = np.empty_like(out)
-        back[order] = out
-        out = back
-    return out
+        for col in columns:
+            col[order] = col.copy()
+    return tuple(columns)
 
 
 def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.0,
@@ -189,9 +189,9 @@ def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.
     x_arr = _args.signal_1d(x, "x")
     window = _args.check_window(window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
-    values = _moment_values(x_arr, plan.starts, window)
-    df = pd.DataFrame({"time": plan.time, "mean": values[:, 0], "variance": values[:, 1],
-                       "skewness": values[:, 2], "kurtosis": values[:, 3]})
+    mean, variance, skew, kurt = _moment_columns(x_arr, plan.starts, window, assume_sorted=True)
+    df = pd.DataFrame({"time": plan.time, "mean": mean, "variance": variance, "skewness": skew,
+                       "kurtosis": kurt})
     df.attrs.update({"window": window, "overlap": plan.overlap, "step": plan.step,
                      "channels": _args.channel_names(x, "x"), "sample_rate": float(sample_rate),
                      "start_time": float(start_time)})
@@ -234,4 +234,4 @@ def moments_at(x, starts, window: int) -> np.ndarray:
     window = _args.check_window(window)
     _args.check_length(len(x_arr), window)
     starts = _args.check_starts(starts, len(x_arr), window)
-    return _moment_values(x_arr, starts, window)
+    return np.column_stack(_moment_columns(x_arr, starts, window))
