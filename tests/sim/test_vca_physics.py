@@ -153,3 +153,30 @@ def test_fixed_gain_controller_zero_gains_keep_valve_closed():
                                 [0, 0, P_MID, P_MID, 0, 0])
     assert np.all(res.u == 0.0)
     assert np.all(res.state[:, 0] == 0.0)
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    x=st.floats(-0.29, 0.29),
+    v=st.floats(-0.5, 0.5),
+    p1=st.floats(0.1e6, 17e6),
+    p2=st.floats(0.1e6, 17e6),
+    k_leak=st.floats(0.0, 1e-7),
+    laminar=st.booleans(),
+)
+def test_closed_valve_conserves_fluid_volume(x, v, p1, p2, k_leak, laminar):
+    """Valve closed: V1 dP1/beta + V2 dP2/beta = 0 (what leaves chamber 1 enters chamber 2)."""
+    prm = P0.to_array("laminar" if laminar else "turbulent", "none")
+    k = k_leak * 1e-4 if laminar else k_leak
+    d = vca_rhs(0.0, np.array([x, v, p1, p2, 0.0, 0.0]), default_inputs(0.0, k), prm)
+    a, vol, b = P0.piston_area_m2, P0.chamber_volume_m3, P0.bulk_modulus_pa
+    dv1 = (vol + a * x) * d[2] / b  # fluid volume rate into chamber 1 (compressibility)
+    dv2 = (vol - a * x) * d[3] / b
+    assert dv1 + dv2 == pytest.approx(0.0, abs=1e-12 * (1 + abs(dv1)))
+    # and the leak flows from high to low pressure
+    q = dv1 + a * v  # = -Q_l with the valve closed
+    assert q * np.sign(p1 - p2) <= 1e-12 * abs(a * v) + 1e-30
