@@ -61,7 +61,7 @@ def expand_inputs(patterns: Iterable[str]) -> list[str]:
 
 
 def _source(path: str, channels: list[str], chunk_samples: int):
-    from leakdiag.stream.sources import open_chunks, recording_chunks
+    from leakdiag.stream import open_chunks, recording_chunks
 
     if os.path.splitext(path)[1].lower() in _CHUNKED_SUFFIXES:
         return open_chunks(path, channels, chunk_samples)

@@ -2,17 +2,18 @@
 
 Given a :class:`~leakdiag.features.methods.MethodSpec`, :class:`StreamingFeature` computes
 Eq. 4.1-4.3 incrementally with a state of less than one window per channel; :class:`Monitor`
-combines features with detectors (the
-:class:`WindowScorer` protocol) into :class:`WindowEvent` s; :mod:`leakdiag.stream.sources` reads
-Parquet/HDF5/CSV files in chunks (larger than memory), follows growing files and stdin, and paces
-replays. See ``docs/operations.md``.
+combines features with detectors (the :class:`WindowScorer` protocol) into :class:`WindowEvent` s;
+:mod:`leakdiag.stream.files` reads Parquet/HDF5/CSV files in chunks (larger than memory),
+:mod:`leakdiag.stream.live` follows growing files and stdin and paces replays.
+See ``docs/operations.md``.
 """
 
 from leakdiag.stream.feature import STREAM_METHODS, StreamingFeature
 from leakdiag.stream.detector import DetectorScorer
 from leakdiag.stream.monitor import Monitor, WindowEvent, WindowScorer, check_scorer
-from leakdiag.stream.sources import (ChunkSource, csv_lines, open_chunks, paced,
-                                     recording_chunks, tail_csv)
+from leakdiag.stream.chunks import ChunkSource, recording_chunks
+from leakdiag.stream.files import open_chunks
+from leakdiag.stream.live import csv_lines, paced, tail_csv
 from leakdiag.stream.summary import stream_feature
 
 __all__ = [

@@ -9,7 +9,6 @@ fewer than ``window`` samples per channel (the lag lies inside the window in Eq.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np

@@ -7,7 +7,7 @@ import numpy as np
 from leakdiag.features.series import FeatureSeries
 from leakdiag.features.methods import MethodSpec
 from leakdiag.stream.feature import StreamingFeature
-from leakdiag.stream.sources import ChunkSource
+from leakdiag.stream.chunks import ChunkSource
 
 __all__ = ["stream_feature"]
 
@@ -39,7 +39,7 @@ def stream_feature(source: ChunkSource, spec: MethodSpec, progress: bool = False
     Examples
     --------
     >>> from leakdiag.io.recording import Recording
-    >>> from leakdiag.stream.sources import recording_chunks
+    >>> from leakdiag.stream.chunks import recording_chunks
     >>> rec = Recording({"p1": np.sin(np.arange(1000) / 5.0)}, sample_rate=100.0)
     >>> spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=5)
     >>> fs = stream_feature(recording_chunks(rec, 333), spec)

@@ -1,0 +1,126 @@
+"""The :class:`ChunkSource`: a stream of ``{channel: array}`` chunks with its sample rate and
+start time, plus helpers shared by the file and live sources, and :func:`recording_chunks`."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Iterable, Iterator, Sequence
+
+import numpy as np
+
+from leakdiag._validation import check_int, check_positive
+from leakdiag.io.checks import infer_sample_rate
+from leakdiag.io.recording import Recording, RecordingError
+
+__all__ = ["ChunkSource", "recording_chunks", "DEFAULT_CHUNK_SAMPLES", "TIME_COLUMN"]
+
+#: Samples per chunk when reading files (8 MB per float64 channel).
+DEFAULT_CHUNK_SAMPLES = 1 << 20
+#: Name of the time column (s) in tabular recordings.
+TIME_COLUMN = "time"
+
+
+@dataclass
+class ChunkSource:
+    """A stream of chunks with the sample rate and start time needed to stamp windows.
+
+    Parameters
+    ----------
+    chunks : iterable of dict
+        ``{channel: 1-D float64 array}`` per chunk, all channels the same length.
+    sample_rate : float
+        Sample rate in Hz.
+    start_time : float
+        Time of the first sample in seconds.
+    channels : list of str
+        Channel names present in every chunk.
+    n_samples : int or None
+        Total samples if known (for progress bars).
+    source : str
+        File name or description for messages.
+    meta : dict
+        Recording metadata found in the file (``onset``, ``leak_lpm``, ...), possibly empty.
+    """
+
+    chunks: Iterable[dict]
+    sample_rate: float
+    start_time: float
+    channels: list[str]
+    n_samples: int | None = None
+    source: str = "<stream>"
+    meta: dict = field(default_factory=dict)
+
+    def __iter__(self) -> Iterator[dict]:
+        return iter(self.chunks)
+
+
+def _select(names: Sequence[str], channels: Sequence[str] | None, source: str) -> list[str]:
+    avail = [n for n in names if n != TIME_COLUMN]
+    if channels is None:
+        return avail
+    missing = [c for c in channels if c not in avail]
+    if missing:
+        raise RecordingError(f"{source}: missing channel(s) {missing}; available: {sorted(avail)}")
+    return list(channels)
+
+
+def _json_dict(blob) -> dict:
+    if isinstance(blob, bytes):
+        blob = blob.decode("utf-8")
+    try:
+        d = json.loads(blob)
+    except (TypeError, ValueError):
+        return {}
+    return d if isinstance(d, dict) else {}
+
+
+def _rate_start(t_head: np.ndarray | None, sample_rate: float | None, start_time: float | None,
+                header: dict, source: str) -> tuple[float, float]:
+    """Sample rate and start time: explicit argument, else the file header, else the time column."""
+    if sample_rate is None:
+        sample_rate = header.get("sample_rate")
+    if sample_rate is None and t_head is not None and len(t_head) >= 2:
+        sample_rate = infer_sample_rate(t_head, source=source)
+    if sample_rate is None:
+        raise RecordingError(f"{source}: no 'time' column and no sample rate; pass sample_rate")
+    if start_time is None:
+        start_time = header.get("start_time")
+    if start_time is None:
+        start_time = float(t_head[0]) if t_head is not None and len(t_head) else 0.0
+    return check_positive(sample_rate, "sample_rate"), float(start_time)
+
+
+def recording_chunks(rec: Recording, chunk_samples: int = DEFAULT_CHUNK_SAMPLES,
+                     channels: Sequence[str] | None = None) -> ChunkSource:
+    """Replay an in-memory :class:`Recording` as chunks (views, no copy).
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    chunk_samples : int, default 2**20
+        Samples per chunk.
+    channels : sequence of str, optional
+        Channels to include (default: all).
+
+    Returns
+    -------
+    ChunkSource
+
+    Examples
+    --------
+    >>> rec = Recording({"p1": np.arange(5.0)}, sample_rate=10.0)
+    >>> [c["p1"].tolist() for c in recording_chunks(rec, 3)]
+    [[0.0, 1.0, 2.0], [3.0, 4.0]]
+    """
+    chunk_samples = check_int(chunk_samples, "chunk_samples", 1)
+    source = rec.meta.get("source", "<recording>")
+    chans = _select(rec.channel_names, channels, source)
+    n = rec.n_samples
+
+    def gen():
+        for i0 in range(0, n, chunk_samples):
+            yield {c: rec.channels[c][i0:i0 + chunk_samples] for c in chans}
+
+    return ChunkSource(gen(), rec.sample_rate, rec.start_time, chans, n, source, dict(rec.meta))
