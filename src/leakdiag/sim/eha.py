@@ -133,7 +133,7 @@ def simulate_eha(
         Temperature drift, spring change, amplitude/frequency variation; default nominal.
     sensor_params : SensorParams, optional
         Sensor chain; default :data:`EHA_SENSORS` (Sec. 3.2).
-    rtol : float, default 2.5e-4
+    rtol : float, default 3e-4
         Local error tolerance of the integrator (see ``docs/models.md`` for the study).
     calibration_rtol : float, default 0.02
         Relative tolerance of the leak calibration.
