@@ -144,6 +144,16 @@ def test_input_kinds(make):
     np.testing.assert_allclose(got, ac_ref(np.asarray(xin, dtype=float), 1, 50, 10), rtol=1e-12)
 
 
+def test_dataframe_chunk_uses_named_columns():
+    rng = np.random.default_rng(5)
+    df = pd.DataFrame({"time": np.arange(300) / 10.0, "p2": rng.normal(size=300),
+                       "p1": rng.normal(size=300)})
+    spec = MethodSpec("cross-correlation", ("p1", "p2"), lag=1, window=100, overlap=5)
+    got = StreamingFeature(spec).push(df).values
+    np.testing.assert_allclose(got, cc_ref(df["p1"].to_numpy(), df["p2"].to_numpy(), 1, 100, 5),
+                               rtol=1e-12)
+
+
 def test_array_chunk_in_channel_order():
     rng = np.random.default_rng(4)
     y, x = rng.normal(size=300), rng.normal(size=300)

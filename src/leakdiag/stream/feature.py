@@ -94,7 +94,7 @@ class StreamingFeature:
 
     def _coerce(self, chunk) -> list[np.ndarray]:
         names = self.spec.channels
-        if type(chunk) is dict or isinstance(chunk, Mapping):
+        if type(chunk) is dict or isinstance(chunk, Mapping) or hasattr(chunk, "columns"):
             missing = [c for c in names if c not in chunk]
             if missing:
                 raise KeyError(f"chunk has no channel(s) {missing}; has {sorted(chunk)}")
@@ -129,7 +129,7 @@ class StreamingFeature:
 
         Parameters
         ----------
-        chunk : dict of str to array_like, or array_like
+        chunk : dict of str to array_like, pandas.DataFrame, or array_like
             New samples per channel (any length, also 0 or 1), or an array of shape
             ``(samples,)`` / ``(samples, channels)`` in the order of ``spec.channels``.
 
