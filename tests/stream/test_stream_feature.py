@@ -98,26 +98,31 @@ def test_one_sample_at_a_time_equals_one_big_chunk():
     np.testing.assert_array_equal(vals, big.values)  # same kernel, same window data: bit-equal
 
 
-def test_equals_batch_features_module():
-    F = pytest.importorskip("leakdiag.features")
-    if not all(hasattr(F, n) for n in ("autocorrelation", "cross_correlation",
-                                       "metric_length_ratio")):
-        pytest.skip("batch features not landed yet")
-    rng = np.random.default_rng(7)
-    p1, p2 = rng.normal(size=5000).cumsum(), rng.normal(size=5000)
-    kw = dict(window=200, overlap=5, sample_rate=1000.0, start_time=0.5)
+@settings(max_examples=40, deadline=None)
+@given(data=st.data())
+def test_any_chunking_equals_batch_features_module(data):
+    from leakdiag import features as F
+
+    window = data.draw(st.integers(90, 300), label="window")
+    overlap = data.draw(st.sampled_from([0, 5, 10, 50]), label="overlap")
+    lag = data.draw(st.integers(1, 40), label="lag")
+    n = 3000
+    cuts = data.draw(st.lists(st.integers(1, n - 1), max_size=10), label="cuts")
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**31 - 1), label="seed"))
+    p1, p2 = rng.normal(size=n).cumsum(), rng.normal(size=n)
+    kw = dict(window=window, overlap=overlap, sample_rate=1000.0, start_time=0.5)
     pairs = [
-        (MethodSpec("autocorrelation", ("p1",), lag=2, window=200, overlap=5),
-         F.autocorrelation(p1, lag=2, **kw)),
-        (MethodSpec("cross-correlation", ("p1", "p2"), lag=4, window=200, overlap=5),
-         F.cross_correlation(p1, p2, lag=4, **kw)),
-        (MethodSpec("metric-length", ("p1",), lag_ratio="83:3", window=200, overlap=5),
+        (MethodSpec("autocorrelation", ("p1",), lag=lag, window=window, overlap=overlap),
+         F.autocorrelation(p1, lag=lag, **kw)),
+        (MethodSpec("cross-correlation", ("p1", "p2"), lag=lag, window=window, overlap=overlap),
+         F.cross_correlation(p1, p2, lag=lag, **kw)),
+        (MethodSpec("metric-length", ("p1",), lag_ratio="83:3", window=window, overlap=overlap),
          F.metric_length_ratio(p1, lag_ratio="83:3", **kw)),
     ]
     for spec, batch in pairs:
         sf = StreamingFeature(spec, sample_rate=1000.0, start_time=0.5)
-        t, v = _push_in_pieces(sf, {"p1": p1, "p2": p2}, [1, 777, 778, 3001])
-        np.testing.assert_allclose(v, batch.values, rtol=1e-9)
+        t, v = _push_in_pieces(sf, {"p1": p1, "p2": p2}, cuts)
+        np.testing.assert_allclose(v, batch.values, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(t, batch.time, rtol=0, atol=1e-12)
 
 
