@@ -311,3 +311,8 @@ def test_overflowing_sum_is_not_mistaken_for_non_finite():
     with pytest.warns(DegenerateWindowWarning, match="^2 of 2 windows"):
         fs = autocorrelation(x, lag=1, window=10, overlap=0)
     assert np.isnan(fs.values).all()
+
+
+def test_start_time_must_be_a_number():
+    with pytest.raises(TypeError, match=r"start_time='0' must be a number"):
+        autocorrelation(np.arange(30.0), lag=1, window=10, start_time="0")
