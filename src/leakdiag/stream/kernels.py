@@ -45,12 +45,14 @@ def _autocorrelation_windows(x, n_win, step, window, lag, out):
             out[m] = np.nan
             continue
         den = 0.0
-        for j in range(s, s + window):
-            d = x[j] - mean
-            den += d * d
         num = 0.0
         for j in range(s, s + window - lag):
-            num += (x[j] - mean) * (x[j + lag] - mean)
+            d = x[j] - mean
+            den += d * d
+            num += d * (x[j + lag] - mean)
+        for j in range(s + window - lag, s + window):
+            d = x[j] - mean
+            den += d * d
         out[m] = num / den
 
 
@@ -66,16 +68,16 @@ def _cross_correlation_windows(y, x, n_win, step, window, lag, out):
             continue
         vy = 0.0
         vx = 0.0
+        num = 0.0
         for j in range(s, s + window):
             dy = y[j] - my
             dx = x[j] - mx
             vy += dy * dy
             vx += dx * dx
+            if j + lag < s + window:
+                num += dy * (x[j + lag] - mx)
         vy /= window
         vx /= window
-        num = 0.0
-        for j in range(s, s + window - lag):
-            num += (y[j] - my) * (x[j + lag] - mx)
         out[m] = num / window / np.sqrt(vx * vy)
 
 
