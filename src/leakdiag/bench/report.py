@@ -31,7 +31,8 @@ def _roc_figure(runs, system):
         ax.set_title(m)
         ax.set_xlabel("false-alarm rate (per run)")
         ax.set_ylabel("detection rate")
-        ax.legend(fontsize=7, loc="lower right")
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, loc="lower right")
     for ax in list(axes.flat)[len(methods):]:
         ax.axis("off")
     fig.tight_layout()
@@ -54,7 +55,8 @@ def _rate_figure(results, system, rated):
         sec = ax.secondary_xaxis("top", functions=(lambda q: 100 * q / rated[system],
                                                     lambda p: p * rated[system] / 100))
         sec.set_xlabel("% of rated flow")
-    ax.legend(fontsize=7)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7)
     ax.set_title(system.upper())
     fig.tight_layout()
     return fig

@@ -19,6 +19,12 @@ __all__ = ["SimConfig", "EvalConfig", "simulate_case", "evaluate_group", "simula
            "per_run_target_per_hour", "run_suite"]
 
 
+#: EHA stand-in for "another reference sequence": slow random variation (standard deviation,
+#: relative) of the sine input's amplitude and frequency, drawn from the run's seed by
+#: ``simulate_eha`` (``EHAConditions``; realistic 0-0.1, leakdiag choice 0.05).
+EHA_INPUT_VARIATION = 0.05
+
+
 @dataclass(frozen=True)
 class SimConfig:
     """One simulation of the suite.
@@ -104,6 +110,24 @@ def simulator_kwargs(case) -> dict:
 
             kw["reference"] = structured_excitation("vca")
         return kw
+    if case.system == "eha":
+        from dataclasses import replace as _replace
+
+        from leakdiag.sim.eha import EHA_SENSORS
+        from leakdiag.sim.eha_drive import EHAConditions
+
+        if case.excitation != "operating":
+            raise ValueError(f"simulate_eha takes no other input than its sine; excitation="
+                             f"{case.excitation!r} is not available for the EHA")
+        spring = case.load == "spring"
+        cond = EHAConditions(
+            temperature_rise_k=nz["temperature_rise_k"],
+            spring_change_time_s=nz["spring_change_time_s"] if spring else None,
+            spring_change_factor=nz["spring_change_factor"] if spring else 1.0,
+            amplitude_variation=EHA_INPUT_VARIATION, frequency_variation=EHA_INPUT_VARIATION)
+        return {"duration": case.duration_s, "leak_lpm": leak, "onset": onset, "load": case.load,
+                "seed": case.seed, "conditions": cond,
+                "sensor_params": _replace(EHA_SENSORS, pressure_noise_std_pa=case.noise_std_pa)}
     raise ValueError(f"no simulator mapping for system={case.system!r}")
 
 

@@ -200,18 +200,18 @@ SUITES: dict[str, SystemSuite] = {
         system="eha", leak_lpm=(0.1, 0.2, 0.5, 1.0, 1.63), loads=("none", "spring"),
         noise_levels={"low": 10e3, "high": 40e3}, duration_s=120.0, onset_range_s=(50.0, 70.0),
         n_fit=10, n_cal=2, n_test_healthy=20, n_test_leak=8, base_seed=2_000_000,
-        excitations=EXCITATIONS),
+        excitations=("operating",)),  # simulate_eha has no input hook for a structured test
 }
 
 #: The ``--quick`` suite (CI): one group per rig, short runs, few seeds, the largest leaks.
 QUICK_SUITES: dict[str, SystemSuite] = {
     "vca": SystemSuite(
         system="vca", leak_lpm=(0.5,), loads=("none",), noise_levels={"low": 10e3},
-        duration_s=30.0, onset_range_s=(14.0, 16.0), n_fit=3, n_cal=0, n_test_healthy=4,
+        duration_s=30.0, onset_range_s=(14.0, 16.0), n_fit=8, n_cal=0, n_test_healthy=8,
         n_test_leak=3, base_seed=3_000_000),
     "eha": SystemSuite(
         system="eha", leak_lpm=(1.63,), loads=("none",), noise_levels={"low": 10e3},
-        duration_s=30.0, onset_range_s=(14.0, 16.0), n_fit=3, n_cal=0, n_test_healthy=4,
+        duration_s=30.0, onset_range_s=(14.0, 16.0), n_fit=8, n_cal=0, n_test_healthy=8,
         n_test_leak=3, base_seed=4_000_000),
 }
 
@@ -248,7 +248,7 @@ def build_suite(suites: dict[str, SystemSuite] | None = None,
     --------
     >>> cases = build_suite(QUICK_SUITES, ("vca",))
     >>> len(cases), sorted({c.role for c in cases})
-    (10, ['fit', 'test_healthy', 'test_leak'])
+    (19, ['fit', 'test_healthy', 'test_leak'])
     >>> cases[0].seed
     3000000
     """
