@@ -61,6 +61,7 @@ def test_monitor_stdin_cross_correlation():
     lines = "time,p1,p2\n" + "".join(f"{i / 100},{a!r},{b!r}\n" for i, (a, b) in
                                      enumerate(zip(y.tolist(), x.tolist())))
     r = CliRunner().invoke(cli, ["monitor", "-i", "-", "-m", "cross-correlation", "-c", "p1,p2",
+                                 "--batch-lines", "7",
                                  "--lag", "2", "-w", "50", "-o", "10", "--events", "-", "-q"],
                            input=lines)
     assert r.exit_code == 0, r.output

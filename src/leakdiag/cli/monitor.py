@@ -83,7 +83,7 @@ def load_detector(path: str):
 
 
 def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: int,
-                 idle_timeout: float | None):
+                 idle_timeout: float | None, batch_lines: int = 1):
     """The chunk source for ``--input``: stdin, a followed CSV, a chunked file or a recording.
 
     Parameters
@@ -100,6 +100,8 @@ def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: in
         Samples per chunk for files.
     idle_timeout : float or None
         Stop following after this many seconds without new data.
+    batch_lines : int, default 1
+        CSV lines per chunk for stdin and ``--follow`` (1: lowest latency).
 
     Returns
     -------
@@ -108,9 +110,10 @@ def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: in
     from leakdiag.stream import csv_lines, open_chunks, recording_chunks, tail_csv
 
     if input_path == "-":
-        return csv_lines(sys.stdin, channels, sample_rate)
+        return csv_lines(sys.stdin, channels, sample_rate, batch_lines)
     if follow:
-        return tail_csv(input_path, channels, sample_rate, idle_timeout_s=idle_timeout)
+        return tail_csv(input_path, channels, sample_rate, idle_timeout_s=idle_timeout,
+                        batch_lines=batch_lines)
     if os.path.splitext(input_path)[1].lower() in _CHUNKED_SUFFIXES:
         return open_chunks(input_path, channels, chunk, sample_rate)
     import leakdiag.io as lio
@@ -153,17 +156,20 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector):
               help="Pickled fitted detector (its feature settings are used unless --method).")
 @click.option("--sample-rate", type=float, default=None, help="Sample rate (Hz) without a time column.")
 @click.option("--chunk", type=int, default=65536, show_default=True, help="Samples per file chunk.")
+@click.option("--batch-lines", type=int, default=1, show_default=True,
+              help="CSV lines per chunk for stdin/--follow (more: faster, later events).")
 @click.option("--events", type=click.Path(dir_okay=False), default=None,
               help="Write one JSON line per window to this file ('-' for stdout).")
 @click.option("--quiet", "-q", is_flag=True, help="Do not print alarms and the summary.")
 def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag_ratio, window,
-            overlap, detector_path, sample_rate, chunk, events, quiet):
+            overlap, detector_path, sample_rate, chunk, batch_lines, events, quiet):
     """Monitor a stream: feature value per window, detector score and alarm, as soon as known."""
     from leakdiag.stream import Monitor, paced
 
     detector = load_detector(detector_path) if detector_path else None
     spec = _spec(method, channels, lag, lag_ratio, window, overlap, detector)
-    source = build_source(input_path, list(spec.channels), follow, sample_rate, chunk, idle_timeout)
+    source = build_source(input_path, list(spec.channels), follow, sample_rate, chunk, idle_timeout,
+                          batch_lines)
     mon = Monitor(spec, source.sample_rate, source.start_time, scorers=detector)
     speed = None if input_path == "-" or follow else parse_replay(replay)
     out = None

@@ -102,7 +102,7 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
 
 def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
              sample_rate: float | None = None, poll_s: float = 0.05,
-             idle_timeout_s: float | None = None) -> ChunkSource:
+             idle_timeout_s: float | None = None, batch_lines: int = 1) -> ChunkSource:
     """Follow a CSV file that grows (like ``tail -f``): yield complete new lines as they appear.
 
     Parameters
@@ -117,6 +117,8 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
         Seconds between checks for new data.
     idle_timeout_s : float, optional
         Stop after this many seconds without new data (default: follow forever).
+    batch_lines : int, default 1
+        Lines grouped per chunk (1 gives the lowest latency).
 
     Returns
     -------
@@ -146,7 +148,7 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
         def readline(self) -> str:
             return wait_line()
 
-    src = csv_lines(_Lines(), channels, sample_rate)
+    src = csv_lines(_Lines(), channels, sample_rate, batch_lines)
     src.source = path
 
     inner = src.chunks
