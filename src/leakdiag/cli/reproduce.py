@@ -25,7 +25,10 @@ __all__ = ["reproduce"]
 @click.option("--chunk", type=int, default=10, show_default=True,
               help="Feature values per RMS chunk (Sec. 5.2; not stated in the thesis).")
 @click.option("--no-progress", is_flag=True, help="Hide progress bars.")
-def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, no_progress):
+@click.option("--save-results", type=click.Path(dir_okay=False), default=None,
+              help="Also pickle the computed results (to rebuild the report of this run).")
+def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, no_progress,
+              save_results):
     """Reproduce the thesis's case studies, tables, sensitivity and stationarity analysis."""
     from leakdiag.studies.protocol import FULL, QUICK
     from leakdiag.studies.reproduce import reproduce as run
@@ -37,6 +40,11 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, no_progr
     command = "leakdiag " + " ".join(shlex.quote(a) for a in sys.argv[1:]) \
         if sys.argv and sys.argv[0].endswith("leakdiag") else f"leakdiag reproduce {system}" + (
             " --quick" if quick else "")
+    if save_results:
+        import pickle
+
+        with open(save_results, "wb") as fh:
+            pickle.dump((rep, command), fh)
     paths = write_outputs(rep, out, command=command)
     t = rep.tables
     click.echo(f"{len(t)} table rows; direction agrees in {int(t.direction_agrees.sum())}; "

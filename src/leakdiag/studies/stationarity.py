@@ -87,13 +87,16 @@ def stationarity_tests(x, max_points: int = TEST_MAX_POINTS, alpha: float = ALPH
     """
     from statsmodels.tools.sm_exceptions import InterpolationWarning
     from statsmodels.tsa.stattools import adfuller, kpss
+    from threadpoolctl import threadpool_limits
 
     y, factor = decimate_mean(x, max_points)
     if len(y) < 20 or np.ptp(y) == 0:
         return {"adf_stat": np.nan, "adf_p": np.nan, "kpss_stat": np.nan, "kpss_p": np.nan,
                 "kpss_p_bound": "", "decimation": factor, "n_points": len(y),
                 "verdict": "constant or too short"}
-    with warnings.catch_warnings(record=True) as caught:
+    # One BLAS thread: the many small least-squares fits of ADF's lag search are 30x slower
+    # with oversubscribed threads on a busy machine, and the results do not depend on it.
+    with threadpool_limits(1), warnings.catch_warnings(record=True) as caught:
         # statsmodels announces a change of adfuller's return type (FutureWarning); we only
         # read the first two items, which stay the statistic and the p-value.
         warnings.simplefilter("ignore", FutureWarning)
