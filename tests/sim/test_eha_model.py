@@ -164,3 +164,40 @@ def test_command_open_and_closed_loop_with_saturation():
     assert eha_command(y, u, pc) == pytest.approx(400.0 * 0.003)
     u[IN_XREF] = -1.0
     assert eha_command(y, u, pc) == -10.0
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_analytic_jacobian_matches_central_differences(closed):
+    from leakdiag.sim.eha_model import _jacobian_into, _rhs_into
+
+    p = PRM.to_array(closed_loop=closed)
+    rng = np.random.default_rng(5)
+    scale = np.array([1e-2, 1e-1, 1e6, 1e6, 1e6, 1e6, 100.0, 100.0, 1.0])
+    for _ in range(40):
+        y = rest_state()
+        y[S_X] = rng.uniform(-0.25, 0.25)
+        y[S_V] = rng.uniform(-0.2, 0.2)
+        y[S_P1:S_PB + 1] = PACC + rng.uniform(-0.3e6, 1.5e6, 4)
+        y[S_I] = rng.uniform(-2, 2)
+        y[S_W] = rng.uniform(-150, 150)
+        y[S_Z] = rng.uniform(-5, 5)
+        u = nominal_inputs()
+        u[IN_U] = rng.uniform(-3, 3)
+        u[IN_XREF] = rng.uniform(-0.04, 0.04)
+        u[IN_SPRING] = 2e4
+        u[IN_KLEAK] = 8e-8
+        jac = np.zeros((N_STATES, N_STATES))
+        _jacobian_into(0.0, y, u, p, jac)
+        num = np.zeros((N_STATES, N_STATES))
+        fp = np.empty(N_STATES)
+        fm = np.empty(N_STATES)
+        for m in range(N_STATES):
+            d = 1e-7 * scale[m]
+            yp, ym = y.copy(), y.copy()
+            yp[m] += d
+            ym[m] -= d
+            _rhs_into(0.0, yp, u, p, fp)
+            _rhs_into(0.0, ym, u, p, fm)
+            num[:, m] = (fp - fm) / (2 * d)
+        tol = 1e-5 * (np.abs(num) + np.abs(jac)) + 1e-9 * scale[:, None] / scale[None, :]
+        assert np.all(np.abs(jac - num) <= tol)

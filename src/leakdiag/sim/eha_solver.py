@@ -4,7 +4,7 @@ The EHA is stiff: the free line orifice couples a 50 cm^3 line to its chamber wi
 constant of a few microseconds, so explicit methods would need steps of ~1e-5 s, and it is
 strongly nonlinear where an orifice changes direction (its conductance changes tenfold). The fast
 path is the two-stage, L-stable Rosenbrock method ROS2 (order 2,
-:math:`\\gamma = 1 + 1/\\sqrt 2`) with a finite-difference Jacobian and local error control
+:math:`\\gamma = 1 + 1/\\sqrt 2`) with the analytic Jacobian and local error control
 (steps shrink at the orifice switches, grow elsewhere). Inputs are given at the output samples
 and interpolated linearly in between.
 :func:`integrate_reference` solves the same :func:`~leakdiag.sim.eha_model.eha_rhs` with SciPy's
@@ -20,7 +20,7 @@ import numpy as np
 
 from leakdiag._validation import as_2d_float, check_int, check_positive
 from leakdiag.sim.eha_model import (
-    N_INPUTS, N_STATES, S_I, S_P1, S_PA, S_PB, S_P2, S_V, S_W, S_X, S_Z, _rhs_into,
+    N_INPUTS, N_STATES, S_I, S_P1, S_PA, S_PB, S_P2, S_V, S_W, S_X, S_Z, _jacobian_into, _rhs_into,
 )
 
 __all__ = ["integrate_fast", "integrate_reference", "Solution", "DEFAULT_RTOL",
@@ -29,10 +29,10 @@ __all__ = ["integrate_fast", "integrate_reference", "Solution", "DEFAULT_RTOL",
 #: Default local error tolerance and largest step; chosen by the study in docs/models.md (EHA).
 DEFAULT_RTOL = 3e-4
 DEFAULT_MAX_STEP_S = 1e-3
-DEFAULT_JACOBIAN_EVERY = 3
+DEFAULT_JACOBIAN_EVERY = 1
 GAMMA = 1.0 + 1.0 / np.sqrt(2.0)  # ROS2 (Verwer et al., 1999)
 SQRT_EPS = 1.4901161193847656e-08
-# Typical magnitude per state: absolute error floor and finite-difference increment floor.
+# Typical magnitude per state: error tolerance unit and finite-difference increment floor.
 # The motor current gets 100 A (peak currents are ~1 A): its fast ripple does not reach the
 # recorded channels and would otherwise dictate the step (docs/models.md, step-size study).
 _STATE_SCALE = np.array([1e-2, 1e-1, 1e6, 1e6, 1e6, 1e6, 100.0, 100.0, 1.0])
@@ -87,7 +87,7 @@ def _lu_solve(a, piv, b):
 
 
 @numba.njit(cache=True)
-def _jacobian(t, y, inp, params, f0, scale, fd, jac):
+def _jacobian_fd(t, y, inp, params, f0, scale, fd, jac):
     """Forward-difference Jacobian of the rhs at ``(t, y)``; ``f0`` is ``f(t, y)``."""
     n = y.shape[0]
     for m in range(n):
@@ -155,7 +155,7 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
                 since_jac = jac_every
                 last_regime = regime
             if since_jac >= jac_every:
-                _jacobian(t, y, in0, params, f0, scale, fd, jac)
+                _jacobian_into(t, y, in0, params, jac)
                 n_jac += 1
                 since_jac = 0
             for r in range(n):
@@ -246,8 +246,8 @@ def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
     max_step : float, optional
         Largest step in s (default ``DEFAULT_MAX_STEP_S``).
     jacobian_every : int, default DEFAULT_JACOBIAN_EVERY
-        Re-evaluate the finite-difference Jacobian every this many accepted steps (and after
-        every rejected step). ROS2 stays second order with an outdated Jacobian.
+        Re-evaluate the analytic Jacobian every this many accepted steps (and after every
+        rejected step and orifice reversal). ROS2 stays second order with an outdated Jacobian.
 
     Returns
     -------
