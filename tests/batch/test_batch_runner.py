@@ -193,3 +193,11 @@ def test_cli_serial(recordings):
     r = CliRunner().invoke(cli, ["batch", str(tmp / "nothing" / "*.parquet"), "--config", str(job),
                                  "--out", str(out), "--serial"])
     assert r.exit_code != 0 and "no recording matches" in r.output
+
+
+def test_measure_note_when_no_chunk_before_onset(recordings):
+    _, paths = recordings
+    job = {"job": {"onset_s": 0.1}, "analysis": [{"method": "autocorrelation", "channels": ["p1"]}]}
+    (row,) = run_case(str(paths[0]), config_from_dict(job))
+    assert row["status"] == "ok" and row["onset_s"] == 0.1
+    assert row["error"].startswith("Sec. 5.2 measure:") and "pct_change" not in row
