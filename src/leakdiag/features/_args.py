@@ -6,6 +6,7 @@ only computes (house style, practice 2).
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -165,10 +166,11 @@ def plan_windows(n_samples: int, window: int, overlap, sample_rate, start_time) 
     """Check the windowing settings against the signal length and lay out the windows."""
     overlap = check_overlap(overlap)
     sample_rate = check_positive(sample_rate, "sample_rate")
-    try:
-        start_time = float(start_time)
-    except (TypeError, ValueError):
-        raise TypeError(f"start_time={start_time!r} must be a number (seconds)") from None
+    if isinstance(start_time, bool) or not isinstance(start_time, numbers.Real):
+        raise TypeError(f"start_time={start_time!r} must be a number (seconds)")
+    start_time = float(start_time)
+    if not np.isfinite(start_time):
+        raise ValueError(f"start_time={start_time!r} must be finite (seconds)")
     check_length(n_samples, window)
     step = window_step(window, overlap)
     # same values as windowing.window_starts / window_times, without their temporaries
