@@ -74,7 +74,8 @@ def compute_seconds_per_hour(method: str, recording, system: str = "vca",
     Raises
     ------
     ValueError
-        If ``repeats < 1`` or the method is unknown.
+        If ``repeats < 1``, the method is unknown, or its feature needs a fitted detector
+        (``"combined"``).
 
     Examples
     --------
