@@ -20,8 +20,8 @@ from leakdiag.features import (
     cross_correlation,
     cross_correlation_at,
 )
-from tests.features import reference as ref
-from tests.features.signals import SETTINGS, make_signals
+from . import reference as ref
+from .signals import SETTINGS, make_signals
 
 SIGNALS = make_signals()
 RTOL = 1e-9

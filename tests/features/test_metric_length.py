@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from leakdiag.features import DegenerateWindowWarning, metric_length_ratio, metric_length_ratio_at
-from tests.features import reference as ref
-from tests.features.signals import make_signals
+from . import reference as ref
+from .signals import make_signals
 
 SIGNALS = make_signals()
 # (window, overlap, l, k)

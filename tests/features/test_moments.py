@@ -8,8 +8,8 @@ import pytest
 from scipy import stats
 
 from leakdiag.features import DegenerateWindowWarning, moments, moments_at
-from tests.features import reference as ref
-from tests.features.signals import make_signals
+from . import reference as ref
+from .signals import make_signals
 
 SIGNALS = make_signals()
 
