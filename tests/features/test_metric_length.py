@@ -138,3 +138,11 @@ def test_input_kinds(kind):
     else:
         x = np.asfortranarray(np.column_stack([base, np.zeros_like(base)]).astype(float))
     np.testing.assert_allclose(metric_length_ratio(x, "3:1", 8, 50).values, expected, rtol=1e-14)
+
+
+def test_all_starts_then_slice_equals_overlap_call():
+    x = SIGNALS["level_steps"]
+    every = metric_length_ratio_at(x, "83:3", np.arange(len(x) - 500 + 1), 500)
+    for overlap in (5, 50, 99):
+        fs = metric_length_ratio(x, "83:3", window=500, overlap=overlap)
+        np.testing.assert_array_equal(every[:: fs.params["step"]], fs.values)

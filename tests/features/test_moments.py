@@ -94,3 +94,12 @@ def test_errors_and_inputs():
     df = moments(s, window=5, overlap=0)
     assert df.attrs["channels"] == ("p1",)
     assert df["mean"].tolist() == [2.0, 7.0]
+
+
+def test_all_starts_then_slice_equals_overlap_call():
+    x = SIGNALS["large_offset"]
+    every = moments_at(x, np.arange(len(x) - 400 + 1), 400)
+    for overlap in (5, 50, 99):
+        df = moments(x, window=400, overlap=overlap)
+        got = df[["mean", "variance", "skewness", "kurtosis"]].to_numpy()
+        np.testing.assert_array_equal(every[:: df.attrs["step"]], got)
