@@ -215,6 +215,7 @@ def test_zero_variance_gives_nan_and_one_counted_warning():
                       r"their values are NaN$") as rec:
         fs = autocorrelation(x, lag=1, window=10, overlap=0)
     assert len(rec) == 1
+    assert rec[0].filename == __file__  # points at the caller, not at leakdiag internals
     assert np.isnan(fs.values[:4]).all() and np.isfinite(fs.values[4:]).all()
 
 
