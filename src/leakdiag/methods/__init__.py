@@ -9,7 +9,9 @@
 * :mod:`~leakdiag.methods.ekf`: extended Kalman filter on the VCA model with a leak-coefficient
   state (An & Sepehri 2005).
 * :mod:`~leakdiag.methods.detectors`: the four as detectors with ``fit`` / ``score`` /
-  ``predict``.
+  ``predict``; :mod:`~leakdiag.methods.registry`: their benchmark factories;
+  :mod:`~leakdiag.methods.compare`: the comparison suite and compute-time measurement
+  (``docs/methods.md``).
 
 Sub-modules are imported on demand (PyWavelets, PyEMD and Numba kernels load only when used).
 """
@@ -19,10 +21,11 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-__all__ = ["wavelet", "fft_band", "emd_hilbert", "ekf", "detectors", "registry", "WaveletDetector",
+__all__ = ["wavelet", "fft_band", "emd_hilbert", "ekf", "detectors", "registry", "compare",
+           "WaveletDetector",
            "FFTBandDetector", "EMDHilbertDetector", "EKFDetector"]
 
-_SUBMODULES = {"wavelet", "fft_band", "emd_hilbert", "ekf", "detectors", "registry"}
+_SUBMODULES = {"wavelet", "fft_band", "emd_hilbert", "ekf", "detectors", "registry", "compare"}
 
 
 def __getattr__(name: str) -> Any:
