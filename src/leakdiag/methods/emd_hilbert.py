@@ -166,9 +166,9 @@ def emd_hilbert_feature(recording, params: EMDHilbertParams = EMDHilbertParams()
     With :math:`a(t) = |c_1(t) + j\\,\\mathcal{H}\\{c_1\\}(t)|` the instantaneous amplitude of the
     first IMF :math:`c_1`, the value of window :math:`W` is
     :math:`\\sqrt{\\frac{1}{N}\\sum_{i \\in W} a[i]^2}` (summed in mean square over channels).
-    Assumptions where the paper is not specific: PyEMD's default sifting criteria and cubic
-    splines but a fixed count of 10 sifting iterations, the block/margin processing (the paper treats short records whole), chamber 1
-    pressure, 1 s windows with 50 % overlap.
+    Assumptions where the paper is not specific: PyEMD's cubic splines with a fixed count of 10
+    sifting iterations instead of its default stopping criteria, the block/margin processing
+    (the paper treats short records whole), chamber 1 pressure, 1 s windows with 50 % overlap.
 
     References
     ----------
