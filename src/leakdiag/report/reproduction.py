@@ -168,6 +168,11 @@ def _summary(rep, r: Report) -> None:
              + ")."]
     items.append(f"Trend of |% change| along the varied parameter agrees in {agree_tr} of "
                  f"{n_tr} sweep tables.")
+    for s, g in t.groupby("system", sort=False):
+        items.append(f"Magnitude ({s}): median |% change| {np.nanmedian(g['pct_change']):.3g} % "
+                     f"in ours against {np.nanmedian(g['thesis_pct_change']):.3g} % in the "
+                     f"thesis (rows with a measure: {int(g['pct_change'].notna().sum())} of "
+                     f"{len(g)}).")
     p = rep.preferred
     if len(p):
         items.append(f"The explicit selection rule (maximum |% change|, at least 3 RMS chunks per "
@@ -185,8 +190,20 @@ def _summary(rep, r: Report) -> None:
     bad = t[~t["direction_agrees"].astype(bool)]
     if len(bad):
         worst = bad.groupby(["system", "method", "signals"]).size().sort_values(ascending=False)
-        r.bullets([f"{s} {m} {sig}: direction disagrees in {k} row(s)"
-                   for (s, m, sig), k in worst.items()])
+        items = []
+        for (s, m, sig), k in worst.items():
+            g = t[(t.system == s) & (t.method == m) & (t.signals == sig)]
+            ours = np.sign(g["pct_change_signed"].to_numpy(dtype=float))
+            th = np.sign(g["thesis_mean_rms_after"] - g["thesis_mean_rms_before"]).to_numpy()
+            items.append(
+                f"{s} {m} {sig}: direction disagrees in {k} of {len(g)} row(s); in the thesis "
+                f"the feature rises in {int((th > 0).sum())} and falls in {int((th < 0).sum())} "
+                f"rows, in ours it rises in {int((ours > 0).sum())} and falls in "
+                f"{int((ours < 0).sum())}; our |% change| spans "
+                f"{np.nanmin(g['pct_change']):.3g}-{np.nanmax(g['pct_change']):.3g} % against "
+                f"the thesis's {g['thesis_pct_change'].min():.3g}-"
+                f"{g['thesis_pct_change'].max():.3g} %.")
+        r.bullets(items)
     r.paragraph(
         "Why the simulator and the rig can disagree: (1) the simulators are models of Ch. 2-3 "
         "with parameters the thesis does not give (load spring, friction, sensor noise, "
