@@ -151,3 +151,9 @@ def test_conditions_validation():
         EHAConditions(amplitude_variation=1.5)
     with pytest.raises(ValueError, match="variation_time_constant_s=0.0"):
         EHAConditions(variation_time_constant_s=0.0)
+
+
+def test_infeasible_leak_is_refused_before_simulating():
+    # 0.3 V moves the pump at 120 rpm: mean flow 0.374 L/min, so 1.2 L/min cannot leak
+    with pytest.raises(ValueError, match=r"leak_lpm=1.2 exceeds 75% of the mean pump flow .*0.374"):
+        simulate_eha(leak_lpm=1.2, amplitude=0.3)

@@ -18,12 +18,15 @@ from leakdiag._version import __version__
 from leakdiag.io.recording import Recording
 from leakdiag.sim.eha_drive import LOADS, MODES, EHAConditions, build_inputs
 from leakdiag.sim.eha_model import IN_KLEAK, IN_U, IN_XREF, N_STATES, S_P1, S_P2, S_PA, S_PB, S_X
-from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha_params import P_KFREE, EHAParams
 from leakdiag.sim.eha_solver import DEFAULT_RTOL, integrate_fast
-from leakdiag.sim.leak import LeakSchedule, calibrate_leak_coefficient, m3s_to_lpm
+from leakdiag.sim.leak import (
+    LeakCalibrationError, LeakSchedule, calibrate_leak_coefficient, m3s_to_lpm,
+)
 from leakdiag.sim.sensors import SensorParams, measure_position, measure_pressure
 
-__all__ = ["simulate_eha", "EHA_SENSORS", "initial_state", "DEFAULT_REFERENCE_AMPLITUDE_M"]
+__all__ = ["simulate_eha", "EHA_SENSORS", "initial_state", "available_pump_flow_lpm",
+           "DEFAULT_REFERENCE_AMPLITUDE_M", "MAX_LEAK_FRACTION"]
 
 #: EHA sensor chain (Sec. 3.2): 3000 psi pressure sensors read by the 14-bit Quanser Q8 A/D;
 #: the position encoder's resolution is not given, the VCA rig's 0.03 mm is assumed.
@@ -34,6 +37,44 @@ DEFAULT_AMPLITUDE_V = 3.0
 DEFAULT_REFERENCE_AMPLITUDE_M = 0.04
 #: Input frequency of Sec. 4.6, rad/s.
 DEFAULT_FREQUENCY_RAD_S = 4.0
+#: Largest target leak as a fraction of the mean pump flow available to the experiment: the
+#: pump is a flow source, so the mean leak can never reach its mean flow, and close to it the
+#: coefficient (and the stiffness) would grow without bound.
+MAX_LEAK_FRACTION = 0.75
+
+
+def available_pump_flow_lpm(params: EHAParams, mode: str = "open-loop",
+                            amplitude: float = DEFAULT_AMPLITUDE_V) -> float:
+    """Mean geometric pump flow |Q_1| available to an experiment, L/min.
+
+    Parameters
+    ----------
+    params : EHAParams
+        Rig parameters.
+    mode : {"open-loop", "closed-loop"}, default "open-loop"
+        Open loop: the pump follows ``amplitude sin(w t)`` V. Closed loop: the position loop
+        may use the full speed range.
+    amplitude : float, default 3.0
+        Open-loop command amplitude, V.
+
+    Returns
+    -------
+    float
+        ``(2/pi) (q_b/2pi) w_peak`` in L/min, with ``w_peak`` the speed at the command peak
+        (open loop, saturations applied) or the speed limit (closed loop).
+
+    Examples
+    --------
+    >>> round(available_pump_flow_lpm(EHAParams()), 3)   # 3 sin 4t: 1200 rpm peak
+    3.743
+    """
+    if mode == "open-loop":
+        u = min(amplitude, params.command_limit_v)
+        w_peak = min(u * params.speed_command_gain_rad_per_s_per_v,
+                     params.max_pump_speed_rad_per_s)
+    else:
+        w_peak = params.max_pump_speed_rad_per_s
+    return (2.0 / math.pi) * params.pump_flow_per_rad_m3 * w_peak * 60_000.0
 
 
 def initial_state(params: EHAParams) -> np.ndarray:
@@ -153,7 +194,8 @@ def simulate_eha(
     Raises
     ------
     ValueError
-        If an argument is out of range (the message names it), e.g. an onset outside the run.
+        If an argument is out of range (the message names it), e.g. an onset outside the run,
+        or a target leak above 75 % of :func:`available_pump_flow_lpm`.
     TypeError
         If ``params`` is not an :class:`EHAParams`.
     leakdiag.sim.leak.LeakCalibrationError
@@ -203,6 +245,13 @@ def simulate_eha(
     has_leak = leak_lpm is not None and leak_lpm != 0
     if has_leak:
         leak_lpm = check_positive(leak_lpm, "leak_lpm")
+        q_avail = available_pump_flow_lpm(params, mode, amplitude)
+        if leak_coefficient is None and leak_lpm > MAX_LEAK_FRACTION * q_avail:
+            raise ValueError(
+                f"leak_lpm={leak_lpm} exceeds {MAX_LEAK_FRACTION:.0%} of the mean pump flow "
+                f"available in this experiment ({q_avail:.3g} L/min, mode={mode!r}, "
+                f"amplitude={amplitude}); the pump is a flow source, a larger mean leak is not "
+                "physical")
         onset = float(onset)
         if not (0.0 <= onset < (n - 1) / fs):
             raise ValueError(f"onset={onset} s must lie in [0, duration={duration}) s")
@@ -240,7 +289,14 @@ def simulate_eha(
         k_leak = check_positive(leak_coefficient, "leak_coefficient")
         sol, q_leak = run(k_leak)
     else:
+        k_max = prm[P_KFREE]  # a leak path as wide as the 7 mm line
+
         def simulate_fn(k: float) -> float:
+            if k > k_max:
+                raise LeakCalibrationError(
+                    f"leak calibration to {leak_lpm} L/min needs a coefficient above {k_max:.3g} "
+                    "m^3/(s Pa^0.5), a leak path wider than the lines; history so far: "
+                    f"{[(c, mean_leak_lpm(r[1])) for c, r in runs.items()]}")
             runs[k] = run(k)
             return mean_leak_lpm(runs[k][1])
 
