@@ -65,8 +65,9 @@ def _run_dask(run_case, configs, scheduler, n_workers, desc, progress):
     from dask.distributed import Client, LocalCluster, as_completed
 
     if scheduler == LOCAL:
+        # Port 0 everywhere: never collide with another cluster on the shared machine.
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+                               scheduler_port=0, dashboard_address=":0")
         client = Client(cluster)
     else:
         cluster = None
