@@ -27,10 +27,11 @@ def test_sweep_cli_ofat_and_grid(tmp_path, capsys):
         assert (out / f).stat().st_size > 500
     code = main(["sweep", str(path), "-m", "autocorrelation", "-c", "p1", "--lags", "1,3",
                  "--windows", "60,120", "--overlaps", "0,50", "--onset", "30", "--chunk", "5",
-                 "--mode", "grid", "--out", str(out / "g"), "--no-figures"])
+                 "--mode", "grid", "--out", str(out / "g")])
     assert code == 0
     g = pd.read_csv(out / "g" / "sweep.csv")
     assert len(g) == 8
     best = g.loc[g["pct_change"].idxmax()]
     assert f"lag {int(best.lag)}, window {int(best.window)}" in capsys.readouterr().out
     np.testing.assert_allclose(g["pct_change"], g.pct_change_signed.abs())
+    assert (out / "g" / "grid_heatmap.png").stat().st_size > 500

@@ -149,6 +149,12 @@ def sweep(file, method, channels, lags, windows, overlaps, mode, onset, chunk, m
         written = ["sweep.csv", "sweep.parquet"]
         if not no_figures:
             written += [p.name for p in _figures(rec, table, m, channels, onset, o, groups)]
+            if mode == "grid" and len(win_values) > 1 and len(ov_values) > 1:
+                from leakdiag.report.figures import save_figure
+                from leakdiag.report.study_plots import plot_grid_heatmap
+
+                save_figure(plot_grid_heatmap(table, chosen["lag"]), o / "grid_heatmap.png")
+                written.append("grid_heatmap.png")
         click.echo(f"wrote {o}/: {', '.join(written)}")
 
 
