@@ -21,8 +21,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from leakdiag.sim.eha_flows import check_valve_flow, line_orifice_flow, orifice_flow
 from leakdiag.sim.eha_params import (
-    P_ACV, P_AREA, P_BETA, P_BM, P_CE, P_CEXT, P_CINT, P_CLOSED, P_CM, P_CSTOP, P_FPR, P_FV,
+    P_AREA, P_BETA, P_BM, P_CE, P_CEXT, P_CINT, P_CLOSED, P_CM, P_CSTOP, P_FPR, P_FV,
     P_JM, P_KCV, P_KFREE, P_KI, P_KP, P_KRESTR, P_KSTOP, P_KW, P_KX, P_LC, P_M, P_PACC,
     P_PCV, P_PTR, P_QB, P_RC, P_STROKE, P_UMAX, P_V0, P_VLINE, P_VMAX, P_VTH, P_WMAX,
 )
@@ -31,9 +32,6 @@ __all__ = [
     "eha_rhs",
     "eha_command",
     "eha_leak_flow",
-    "orifice_flow",
-    "line_orifice_flow",
-    "check_valve_flow",
     "N_STATES",
     "N_INPUTS",
     "STATE_NAMES",
@@ -46,125 +44,6 @@ IN_U, IN_XREF, IN_BETA_SCALE, IN_FV_SCALE, IN_SPRING, IN_KLEAK = range(6)
 N_INPUTS = 6
 TWO_PI = 2.0 * np.pi
 MIN_VOLUME_FRACTION = 0.05  # chamber volume floor (fraction of V) if an end stop is overrun
-
-
-@numba.njit(cache=True)
-def orifice_flow(coefficient, dp, transition_pa):
-    """Turbulent orifice flow with a laminar core, ``k dp / (dp^2 + p_t^2)^(1/4)``.
-
-    Parameters
-    ----------
-    coefficient : float
-        ``C_d sqrt(2/rho) A``, m^3/(s sqrt(Pa)).
-    dp : float
-        Pressure drop across the orifice, Pa (flow is positive for ``dp > 0``).
-    transition_pa : float
-        Laminar-turbulent transition pressure :math:`p_t`, Pa.
-
-    Returns
-    -------
-    float
-        Flow in m^3/s.
-
-    Notes
-    -----
-    For :math:`|dp| \\gg p_t` this is the orifice law of Eqs. 3-9 to 3-12 and 2-4,
-    :math:`k\\,\\mathrm{sgn}(dp)\\sqrt{|dp|}`; near zero it is linear with slope
-    :math:`k/\\sqrt{p_t}`, which removes the infinite conductance of the square root at
-    :math:`dp = 0` (a smooth regularisation, documented in ``docs/models.md``).
-
-    Examples
-    --------
-    >>> round(orifice_flow(1e-6, 1e8, 1e4) / (1e-6 * 1e4), 6)   # sqrt(1e8) = 1e4
-    1.0
-    >>> orifice_flow(1e-6, 0.0, 1e4)
-    0.0
-    """
-    return coefficient * dp / np.sqrt(np.sqrt(dp * dp + transition_pa * transition_pa))
-
-
-@numba.njit(cache=True)
-def _smoothstep(r):
-    """C1 switch: 0 for ``r <= 0``, ``3r^2 - 2r^3`` on ``(0, 1)``, 1 for ``r >= 1``."""
-    if r <= 0.0:
-        return 0.0
-    if r >= 1.0:
-        return 1.0
-    return r * r * (3.0 - 2.0 * r)
-
-
-@numba.njit(cache=True)
-def line_orifice_flow(k_free, k_restricted, dp, transition_pa):
-    """Flow through a line orifice with a free and a restricted direction (Eqs. 3-9 to 3-12).
-
-    Parameters
-    ----------
-    k_free, k_restricted : float
-        ``C_d sqrt(2/rho) A_line`` and ``C_d sqrt(2/rho) k A_line``, m^3/(s sqrt(Pa)).
-    dp : float
-        Pressure drop in the free direction, Pa.
-    transition_pa : float
-        Transition pressure :math:`p_t`, Pa.
-
-    Returns
-    -------
-    float
-        Flow in m^3/s, positive in the free direction.
-
-    Notes
-    -----
-    The coefficient moves from restricted to free by a C1 smoothstep over
-    :math:`-p_t < dp < p_t` instead of jumping at ``dp = 0``, so that the right-hand side is
-    smooth enough for second-order convergence; outside that band the laws are exactly
-    Eqs. 3-9 to 3-12 (with the laminar core of :func:`orifice_flow`).
-
-    Examples
-    --------
-    >>> round(line_orifice_flow(1.0, 0.1, 1e6, 1e3) / 1e3, 4)
-    1.0
-    >>> round(line_orifice_flow(1.0, 0.1, -1e6, 1e3) / 1e3, 4)
-    -0.1
-    """
-    blend = _smoothstep(0.5 * (dp + transition_pa) / transition_pa)
-    k = k_restricted + (k_free - k_restricted) * blend
-    return orifice_flow(k, dp, transition_pa)
-
-
-@numba.njit(cache=True)
-def check_valve_flow(coefficient, dp, opening_pa, transition_pa):
-    """Flow through an accumulator check valve, closed for ``dp <= 0``.
-
-    Parameters
-    ----------
-    coefficient : float
-        ``C_d sqrt(2/rho) A_cv`` of the fully open valve, m^3/(s sqrt(Pa)).
-    dp : float
-        Accumulator pressure minus line pressure, Pa.
-    opening_pa : float
-        Pressure difference over which the poppet goes from closed to fully open, Pa.
-    transition_pa : float
-        Laminar transition pressure of :func:`orifice_flow`, Pa.
-
-    Returns
-    -------
-    float
-        Flow into the line, m^3/s; exactly 0 for ``dp <= 0``, never negative.
-
-    Notes
-    -----
-    The open area grows with a C1 smoothstep from 0 at ``dp = 0`` to the full area at
-    ``dp = opening_pa``; the flow is monotone in ``dp`` and has no backward leakage.
-
-    Examples
-    --------
-    >>> check_valve_flow(1e-6, -1e6, 2e4, 1e3)
-    0.0
-    >>> round(check_valve_flow(1e-6, 1e6, 2e4, 1e3) * 1e3, 4)
-    1.0
-    """
-    if dp <= 0.0:
-        return 0.0
-    return _smoothstep(dp / opening_pa) * orifice_flow(coefficient, dp, transition_pa)
 
 
 @numba.njit(cache=True)
@@ -321,161 +200,6 @@ def _rhs_into(t, y, inputs, p, out):
     out[S_I] = dcur
     out[S_W] = dw
     out[S_Z] = dz
-
-
-@numba.njit(cache=True)
-def _dorifice(coefficient, dp, transition_pa):
-    """d orifice_flow / d dp."""
-    r2 = dp * dp + transition_pa * transition_pa
-    return coefficient * (0.5 * dp * dp + transition_pa * transition_pa) / (r2 * np.sqrt(np.sqrt(r2)))
-
-
-@numba.njit(cache=True)
-def _dsmoothstep(r):
-    if r <= 0.0 or r >= 1.0:
-        return 0.0
-    return 6.0 * r * (1.0 - r)
-
-
-@numba.njit(cache=True)
-def _dline_orifice(k_free, k_restricted, dp, transition_pa):
-    """d line_orifice_flow / d dp."""
-    r = 0.5 * (dp + transition_pa) / transition_pa
-    k = k_restricted + (k_free - k_restricted) * _smoothstep(r)
-    dk = (k_free - k_restricted) * _dsmoothstep(r) * 0.5 / transition_pa
-    return _dorifice(k, dp, transition_pa) + dk * orifice_flow(1.0, dp, transition_pa)
-
-
-@numba.njit(cache=True)
-def _dcheck_valve(coefficient, dp, opening_pa, transition_pa):
-    """d check_valve_flow / d dp."""
-    if dp <= 0.0:
-        return 0.0
-    r = dp / opening_pa
-    return (_dsmoothstep(r) / opening_pa * orifice_flow(coefficient, dp, transition_pa)
-            + _smoothstep(r) * _dorifice(coefficient, dp, transition_pa))
-
-
-@numba.njit(cache=True)
-def _jacobian_into(t, y, inputs, p, jac):
-    """Write the analytic Jacobian d f / d y of :func:`_rhs_into` into ``jac`` (9 x 9)."""
-    for r in range(N_STATES):
-        for c in range(N_STATES):
-            jac[r, c] = 0.0
-    x = y[S_X]
-    v = y[S_V]
-    p1 = y[S_P1]
-    p2 = y[S_P2]
-    pa = y[S_PA]
-    pb = y[S_PB]
-    w = y[S_W]
-    z = y[S_Z]
-    area = p[P_AREA]
-    beta = p[P_BETA] * inputs[IN_BETA_SCALE]
-    ptr = p[P_PTR]
-
-    # drive: derivatives of the motor voltage and of z' through the saturations
-    closed = p[P_CLOSED] != 0.0
-    if closed:
-        u = p[P_KX] * (inputs[IN_XREF] - x)
-        du_dx = -p[P_KX]
-    else:
-        u = inputs[IN_U]
-        du_dx = 0.0
-    if u > p[P_UMAX] or u < -p[P_UMAX]:
-        u = p[P_UMAX] if u > 0.0 else -p[P_UMAX]
-        du_dx = 0.0
-    wd = p[P_KW] * u
-    dwd_dx = p[P_KW] * du_dx
-    if wd > p[P_WMAX] or wd < -p[P_WMAX]:
-        wd = p[P_WMAX] if wd > 0.0 else -p[P_WMAX]
-        dwd_dx = 0.0
-    err = wd - w
-    volt = p[P_KP] * err + p[P_KI] * z
-    dv_dw = -p[P_KP]
-    dv_dz = p[P_KI]
-    dv_dx = p[P_KP] * dwd_dx
-    integrate = True
-    if volt > p[P_VMAX] or volt < -p[P_VMAX]:
-        dv_dw = 0.0
-        dv_dz = 0.0
-        dv_dx = 0.0
-        if (volt > 0.0 and err > 0.0) or (volt < 0.0 and err < 0.0):
-            integrate = False
-    lc = p[P_LC]
-    jac[S_I, S_I] = -p[P_RC] / lc
-    jac[S_I, S_W] = (dv_dw - p[P_CE]) / lc
-    jac[S_I, S_Z] = dv_dz / lc
-    jac[S_I, S_X] = dv_dx / lc
-    if integrate:
-        jac[S_Z, S_W] = -1.0
-        jac[S_Z, S_X] = dwd_dx
-    qrad = p[P_QB] / TWO_PI
-    jm = p[P_JM]
-    jac[S_W, S_I] = p[P_CM] / jm
-    jac[S_W, S_W] = -p[P_BM] / jm
-    jac[S_W, S_PA] = -qrad / jm
-    jac[S_W, S_PB] = qrad / jm
-
-    # flows and their slopes
-    dqa = _dline_orifice(p[P_KFREE], p[P_KRESTR], pa - p1, ptr)
-    dqb = _dline_orifice(p[P_KFREE], p[P_KRESTR], p2 - pb, ptr)
-    kl = inputs[IN_KLEAK]
-    dql = _dorifice(kl, p1 - p2, ptr) if kl != 0.0 else 0.0
-    pacc = p[P_PACC]
-    dcva = _dcheck_valve(p[P_KCV], pacc - pa, p[P_PCV], ptr)
-    dcvb = _dcheck_valve(p[P_KCV], pacc - pb, p[P_PCV], ptr)
-    cint = p[P_CINT]
-    cext = p[P_CEXT]
-
-    # chambers
-    v0 = p[P_V0]
-    vmin = MIN_VOLUME_FRACTION * v0
-    va = v0 + area * x
-    vb = v0 - area * x
-    ga = beta / va if va > vmin else beta / vmin
-    gb = beta / vb if vb > vmin else beta / vmin
-    q_a = line_orifice_flow(p[P_KFREE], p[P_KRESTR], pa - p1, ptr)
-    q_b = line_orifice_flow(p[P_KFREE], p[P_KRESTR], p2 - pb, ptr)
-    q_l = eha_leak_flow(y, inputs, p)
-    jac[S_P1, S_P1] = ga * (-dqa - dql)
-    jac[S_P1, S_P2] = ga * dql
-    jac[S_P1, S_PA] = ga * dqa
-    jac[S_P1, S_V] = -ga * area
-    if va > vmin:
-        jac[S_P1, S_X] = -ga / va * area * (q_a - area * v - q_l)
-    jac[S_P2, S_P2] = gb * (-dqb - dql)
-    jac[S_P2, S_P1] = gb * dql
-    jac[S_P2, S_PB] = gb * dqb
-    jac[S_P2, S_V] = gb * area
-    if vb > vmin:
-        jac[S_P2, S_X] = gb / vb * area * (-q_b + area * v + q_l)
-
-    # lines
-    gl = beta / p[P_VLINE]
-    jac[S_PA, S_W] = gl * qrad
-    jac[S_PA, S_PA] = gl * (-dqa - cint - cext - dcva)
-    jac[S_PA, S_P1] = gl * dqa
-    jac[S_PA, S_PB] = gl * cint
-    jac[S_PB, S_W] = -gl * qrad
-    jac[S_PB, S_PB] = gl * (-dqb - cint - cext - dcvb)
-    jac[S_PB, S_P2] = gl * dqb
-    jac[S_PB, S_PA] = gl * cint
-
-    # piston
-    m = p[P_M]
-    th = np.tanh(v / p[P_VTH])
-    dfdv = -p[P_FPR] * (1.0 - th * th) / p[P_VTH] - p[P_FV] * inputs[IN_FV_SCALE]
-    dfdx = -inputs[IN_SPRING]
-    half = 0.5 * p[P_STROKE]
-    if x > half or x < -half:
-        dfdx -= p[P_KSTOP]
-        dfdv -= p[P_CSTOP]
-    jac[S_X, S_V] = 1.0
-    jac[S_V, S_P1] = area / m
-    jac[S_V, S_P2] = -area / m
-    jac[S_V, S_V] = dfdv / m
-    jac[S_V, S_X] = dfdx / m
 
 
 @numba.njit(cache=True)

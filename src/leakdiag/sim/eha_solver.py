@@ -19,8 +19,9 @@ import numba
 import numpy as np
 
 from leakdiag._validation import as_2d_float, check_int, check_positive
+from leakdiag.sim.eha_jacobian import _jacobian_into
 from leakdiag.sim.eha_model import (
-    N_INPUTS, N_STATES, S_I, S_P1, S_PA, S_PB, S_P2, S_V, S_W, S_X, S_Z, _jacobian_into, _rhs_into,
+    N_INPUTS, N_STATES, S_I, S_P1, S_PA, S_PB, S_P2, S_V, S_W, S_X, S_Z, _rhs_into,
 )
 
 __all__ = ["integrate_fast", "integrate_reference", "Solution", "DEFAULT_RTOL",
