@@ -15,10 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from leakdiag._validation import check_positive
-from leakdiag.detect.cusum import cusum_alarm_count
+from leakdiag.detect.cusum import cusum, cusum_alarm_count
 
 __all__ = ["AlarmThreshold", "calibrate_threshold", "MIN_ALARMS_FOR_FIT"]
 
+#: Healthy runs needed for the run-maxima (Gumbel) threshold (leakdiag choice).
+MIN_RUNS_FOR_MAXIMA = 5
 #: Grid points need this many healthy alarms to enter the log-linear fit (leakdiag choice).
 MIN_ALARMS_FOR_FIT = 3
 #: Threshold grid in healthy standard deviations (leakdiag choice; CUSUM levels beyond 200 std
@@ -41,8 +43,12 @@ class AlarmThreshold:
         achieved rate on held-out healthy runs).
     healthy_hours : float
         Healthy time used.
+    gumbel_loc, gumbel_scale : float
+        Run-maxima model ``P(max over T hours <= h) = exp(-T exp(-(h - loc) / scale))``
+        (NaN when not fitted).
     method : str
-        ``"empirical"`` (target observed directly), ``"extrapolated"`` (log-linear tail) or
+        ``"run-maxima"`` (Gumbel fit to the per-run CUSUM maxima), ``"empirical"`` (target
+        observed directly), ``"extrapolated"`` (log-linear tail) or
         ``"extrapolated-capped"`` (the extrapolation passed the top of the grid, 200 std, and
         was capped there: too little healthy data for the target).
     log_rate_intercept, log_rate_slope : float
@@ -60,6 +66,8 @@ class AlarmThreshold:
     log_rate_slope: float
     grid: np.ndarray
     rate_per_hour: np.ndarray
+    gumbel_loc: float = float("nan")
+    gumbel_scale: float = float("nan")
 
     def rate_at(self, h: float) -> float:
         """Estimated false-alarm rate per hour at level ``h``.
@@ -75,6 +83,8 @@ class AlarmThreshold:
             Measured rate where it was observed with at least ``MIN_ALARMS_FOR_FIT`` alarms,
             else the log-linear extrapolation (or the one-alarm bound ``1 / healthy_hours``).
         """
+        if self.method == "run-maxima":
+            return float(np.exp(-(h - self.gumbel_loc) / self.gumbel_scale))
         counts = self.rate_per_hour * self.healthy_hours
         ok = counts >= MIN_ALARMS_FOR_FIT
         if ok.any() and h <= self.grid[ok].max():
@@ -113,8 +123,12 @@ def calibrate_threshold(z_series, durations_s, target_per_hour: float, drift: fl
     Notes
     -----
     ``rate(h) = N(h) / T``. The smallest grid ``h`` with ``rate(h) <= target`` is used if the
-    healthy time holds at least ``MIN_ALARMS_FOR_FIT / target`` hours; otherwise
-    ``h = (log(target) - a) / b`` from the least-squares fit of ``log rate = a + b h``.
+    healthy time holds at least ``MIN_ALARMS_FOR_FIT / target`` hours. Otherwise, with at least
+    ``MIN_RUNS_FOR_MAXIMA`` healthy runs, the per-run CUSUM maxima ``M_i`` over ``T_i`` hours
+    are fitted by maximum likelihood to ``P(M <= h) = exp(-T exp(-(h - loc) / scale))``
+    (Gumbel; run-to-run differences of the operating point enter through the maxima) and
+    ``h = loc - scale log(target)``. With fewer runs, ``h = (log(target) - a) / b`` from the
+    least-squares fit of ``log rate = a + b h``.
 
     Examples
     --------
@@ -136,9 +150,16 @@ def calibrate_threshold(z_series, durations_s, target_per_hour: float, drift: fl
     a = b = float("nan")
     if ok.sum() >= 2:
         b, a = np.polyfit(grid[ok], np.log(rate[ok]), 1)
+    loc = scale = float("nan")
     if target * hours >= MIN_ALARMS_FOR_FIT and (rate <= target).any():
         h = float(grid[np.argmax(rate <= target)])
         method = "empirical"
+    elif len(zs) >= MIN_RUNS_FOR_MAXIMA:
+        maxima = [float(np.max(np.maximum(*cusum(z, drift, direction)))) if len(z) else 0.0
+                  for z in zs]
+        loc, scale = _fit_run_maxima(np.array(maxima), np.asarray(durations_s) / 3600.0)
+        h = float(loc - scale * np.log(target))
+        method = "run-maxima"
     elif np.isfinite(b) and b < 0:
         h = float((np.log(target) - a) / b)
         h = max(h, float(grid[ok].max()))
@@ -155,4 +176,23 @@ def calibrate_threshold(z_series, durations_s, target_per_hour: float, drift: fl
     fitted = sum(cusum_alarm_count(z, h, drift, direction) for z in zs) / hours
     return AlarmThreshold(threshold=h, target_per_hour=target, fitted_per_hour=float(fitted),
                           healthy_hours=hours, method=method, log_rate_intercept=float(a),
-                          log_rate_slope=float(b), grid=grid, rate_per_hour=rate)
+                          log_rate_slope=float(b), grid=grid, rate_per_hour=rate,
+                          gumbel_loc=float(loc), gumbel_scale=float(scale))
+
+
+def _fit_run_maxima(maxima: np.ndarray, hours: np.ndarray) -> tuple[float, float]:
+    """Maximum-likelihood Gumbel fit with exceedance rate ``exp(-(h - loc) / scale)`` per hour."""
+    from scipy.optimize import minimize
+
+    def nll(theta):
+        loc, log_scale = theta
+        sc = np.exp(log_scale)
+        e = (maxima - loc) / sc
+        return -float(np.sum(np.log(hours) - log_scale - e - hours * np.exp(-e)))
+
+    sd = float(np.std(maxima)) or 1.0
+    sc0 = sd * np.sqrt(6.0) / np.pi
+    loc0 = float(np.mean(maxima)) - 0.5772 * sc0 - sc0 * float(np.mean(np.log(hours)))
+    res = minimize(nll, [loc0, np.log(sc0)], method="Nelder-Mead",
+                   options={"xatol": 1e-6, "fatol": 1e-9, "maxiter": 4000})
+    return float(res.x[0]), float(np.exp(res.x[1]))
