@@ -50,6 +50,20 @@ def _by_condition(runs, rated):
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
 
 
+def _summary_by_condition(by_cond, rated, target):
+    import pandas as pd
+
+    from leakdiag.bench.scoring import minimum_detectable
+
+    parts = []
+    for (load, noise), g in by_cond.groupby(["load", "noise_level"], sort=False):
+        r = minimum_detectable(g, rated, target)
+        r.insert(2, "load", load)
+        r.insert(3, "noise_level", noise)
+        parts.append(r)
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+
+
 def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
                   excitations=None, false_alarm_per_run: float = 0.01, onset_method: str = "binseg",
                   scheduler: str = "serial", n_workers: int | None = None,
@@ -132,10 +146,12 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
     results = summarise(sr.runs[sr.runs.role != "error"], sr.rated_flow_lpm)
     summary = minimum_detectable(results, sr.rated_flow_lpm, false_alarm_per_run)
     by_cond = _by_condition(sr.runs, sr.rated_flow_lpm)
+    summary_cond = _summary_by_condition(by_cond, sr.rated_flow_lpm, false_alarm_per_run)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = build_report(sr, results, summary, by_cond, command).write(out)
+    paths = build_report(sr, results, summary, by_cond, command, summary_cond).write(out)
     for name, df in (("results", results), ("summary", summary),
+                     ("summary_by_condition", summary_cond),
                      ("results_by_condition", by_cond), ("runs", sr.runs),
                      ("simulations", sr.simulations)):
         paths[name] = out / f"{name}.csv"
