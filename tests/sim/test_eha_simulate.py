@@ -157,3 +157,14 @@ def test_infeasible_leak_is_refused_before_simulating():
     # 0.3 V moves the pump at 120 rpm: mean flow 0.374 L/min, so 1.2 L/min cannot leak
     with pytest.raises(ValueError, match=r"leak_lpm=1.2 exceeds 75% of the mean pump flow .*0.374"):
         simulate_eha(leak_lpm=1.2, amplitude=0.3)
+
+
+def test_closed_loop_keeps_stroke_and_raises_pressure_swings_with_leak():
+    rec = simulate_eha(mode="closed-loop", leak_lpm=1.63, sensors=False, **SHORT)
+    fs = int(rec.sample_rate)
+    two_periods = int(round(np.pi * fs))  # 2 periods of the 4 rad/s reference
+    before, after = slice(2 * fs, 2 * fs + two_periods), slice(8 * fs, 8 * fs + two_periods)
+    # the position loop runs the pump faster to make up for the leak: same stroke ...
+    assert np.std(rec["x"][after]) == pytest.approx(np.std(rec["x"][before]), rel=0.03)
+    # ... hence larger chamber-pressure swings (open loop: smaller, see docs/models.md)
+    assert np.std(rec["p1"][after]) > 1.1 * np.std(rec["p1"][before])

@@ -21,7 +21,7 @@ import numpy as np
 from leakdiag._validation import as_2d_float, check_int, check_positive
 from leakdiag.sim.eha_jacobian import _jacobian_into
 from leakdiag.sim.eha_model import (
-    N_INPUTS, N_STATES, S_I, S_P1, S_PA, S_PB, S_P2, S_V, S_W, S_X, S_Z, _rhs_into,
+    N_INPUTS, N_STATES, S_P1, S_P2, S_PA, S_PB, _rhs_into,
 )
 
 __all__ = ["integrate_fast", "integrate_reference", "Solution", "DEFAULT_RTOL",
@@ -32,8 +32,7 @@ DEFAULT_RTOL = 3e-4
 DEFAULT_MAX_STEP_S = 1e-3
 DEFAULT_JACOBIAN_EVERY = 1
 GAMMA = 1.0 + 1.0 / np.sqrt(2.0)  # ROS2 (Verwer et al., 1999)
-SQRT_EPS = 1.4901161193847656e-08
-# Typical magnitude per state: error tolerance unit and finite-difference increment floor.
+# Typical magnitude per state: the unit of the error tolerance.
 # The motor current gets 100 A (peak currents are ~1 A): its fast ripple does not reach the
 # recorded channels and would otherwise dictate the step (docs/models.md, step-size study).
 _STATE_SCALE = np.array([1e-2, 1e-1, 1e6, 1e6, 1e6, 1e6, 100.0, 100.0, 1.0])
@@ -88,20 +87,6 @@ def _lu_solve(a, piv, b):
 
 
 @numba.njit(cache=True)
-def _jacobian_fd(t, y, inp, params, f0, scale, fd, jac):
-    """Forward-difference Jacobian of the rhs at ``(t, y)``; ``f0`` is ``f(t, y)``."""
-    n = y.shape[0]
-    for m in range(n):
-        ym = y[m]
-        d = SQRT_EPS * max(abs(ym), scale[m])
-        y[m] = ym + d
-        _rhs_into(t, y, inp, params, fd)
-        y[m] = ym
-        for r in range(n):
-            jac[r, m] = (fd[r] - f0[r]) / d
-
-
-@numba.njit(cache=True)
 def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, out, stats):
     """Adaptive ROS2 between output samples; writes states at the samples into ``out``.
 
@@ -115,7 +100,6 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
         out[0, m] = y[m]
     f0 = np.empty(n)
     f1 = np.empty(n)
-    fd = np.empty(n)
     k1 = np.empty(n)
     k2 = np.empty(n)
     ys = np.empty(n)
@@ -355,8 +339,3 @@ def integrate_reference(y0, inputs, params, sample_rate: float, t0: float = 0.0,
     if not sol.success:
         raise RuntimeError(f"reference solver {method} failed: {sol.message}")
     return np.ascontiguousarray(sol.y.T)
-
-
-# keep the state indices importable from here for the tests and the benchmark
-STATE_INDEX = {"x": S_X, "v": S_V, "p1": S_P1, "p2": S_P2, "pa": S_PA, "pb": S_PB,
-               "current": S_I, "motor_speed": S_W, "speed_error_integral": S_Z}
