@@ -30,8 +30,12 @@ __all__ = ["reproduce"]
 def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, no_progress,
               save_results):
     """Reproduce the thesis's case studies, tables, sensitivity and stationarity analysis."""
+    import time
+
     from leakdiag.studies.protocol import FULL, QUICK
     from leakdiag.studies.reproduce import reproduce as run
+
+    t0 = time.perf_counter()
     from leakdiag.studies.reproduce import write_outputs
 
     systems = ("vca", "eha") if system == "all" else (system,)
@@ -51,3 +55,4 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, no_progr
                f"{rep.timing['n_cases']} experiments ({rep.timing['cache_hits']} from cache) in "
                f"{rep.timing['wall_s']:.0f} s")
     click.echo("wrote " + ", ".join(str(p) for k, p in paths.items() if k != "figures"))
+    click.echo(f"total {time.perf_counter() - t0:.0f} s (report included)")
