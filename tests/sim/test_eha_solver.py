@@ -7,7 +7,7 @@ from leakdiag.sim.eha import initial_state
 from leakdiag.sim.eha_drive import build_inputs
 from leakdiag.sim.eha_params import EHAParams
 from leakdiag.sim.eha_solver import (
-    DEFAULT_RTOL, _lu_factor, _lu_solve, integrate_fast, integrate_reference,
+    CLOSED_LOOP_RTOL, DEFAULT_RTOL, _lu_factor, _lu_solve, integrate_fast, integrate_reference,
 )
 from leakdiag.sim.leak import LeakSchedule
 
@@ -38,6 +38,17 @@ def test_fast_matches_scipy_radau_within_half_percent(case, reference):
     fast = integrate_fast(*case, sample_rate=FS).states
     for name, i in CHANNELS.items():
         assert rel_rms(fast[:, i], reference[:, i]) < 0.005, name
+
+
+def test_closed_loop_spring_matches_scipy_radau_at_its_tolerance():
+    t = np.arange(1500) / FS
+    inputs = build_inputs(t, PRM, "closed-loop", "spring", amplitude=0.04,
+                          leak_coefficient=8e-8, leak_schedule=LeakSchedule("step", 0.75))
+    args = (initial_state(PRM), inputs, PRM.to_array(closed_loop=True))
+    ref = integrate_reference(*args, sample_rate=FS, rtol=1e-7)
+    fast = integrate_fast(*args, sample_rate=FS, rtol=CLOSED_LOOP_RTOL).states
+    for name, i in CHANNELS.items():
+        assert rel_rms(fast[:, i], ref[:, i]) < 0.005, name
 
 
 def test_quarter_tolerance_halves_step_and_agrees(case, reference):
