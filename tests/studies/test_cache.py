@@ -94,3 +94,10 @@ def test_damaged_entry_is_a_miss(tmp_path):
 def test_unknown_system():
     with pytest.raises(ValueError, match="unknown system 'abc'"):
         C.cached_simulation("abc", seed=1)
+
+
+def test_code_change_misses(tmp_path, monkeypatch):
+    a = run(tmp_path)
+    monkeypatch.setattr(C, "code_fingerprint", lambda fn: "edited")
+    b = run(tmp_path)
+    assert b.meta["cache_hit"] is False and b.meta["cache_key"] != a.meta["cache_key"]

@@ -1,6 +1,8 @@
 """On-disk cache of simulated recordings, keyed by a hash of everything that shapes them.
 
-A simulation is identified by ``(system, every keyword argument, seed, leakdiag version)``. The
+A simulation is identified by ``(system, every keyword argument, seed, leakdiag version)`` plus a
+fingerprint of the simulator package's source files (so an edited simulator never reads stale
+entries within one version). The
 key is the SHA-256 of a canonical JSON rendering of that tuple, so a changed parameter misses
 and an unchanged one hits. Entries are a Parquet file of the channels plus a JSON sidecar
 (sample rate, start time, units, metadata, the key's inputs), written atomically so that several
@@ -33,6 +35,7 @@ __all__ = [
     "resolve_cache_dir",
     "canonical",
     "cache_key",
+    "code_fingerprint",
     "cached_simulation",
     "clear_cache",
 ]
@@ -166,6 +169,40 @@ def _resolve_simulator(system: str) -> Callable[..., Recording]:
     return fn
 
 
+def code_fingerprint(fn: Callable) -> str:
+    """SHA-256 (16 hex digits) of the source files of the package holding ``fn``.
+
+    Part of the cache key, so that a change to the simulator's code between releases (same
+    version number) never serves a stale recording.
+
+    Parameters
+    ----------
+    fn : callable
+        The simulator.
+
+    Returns
+    -------
+    str
+        ``""`` when the source cannot be located (e.g. a builtin).
+
+    Examples
+    --------
+    >>> len(code_fingerprint(resolve_cache_dir))
+    16
+    """
+    import sys
+
+    mod = sys.modules.get(getattr(fn, "__module__", ""), None)
+    path = getattr(mod, "__file__", None)
+    if not path:
+        return ""
+    h = hashlib.sha256()
+    for f in sorted(Path(path).parent.glob("*.py")):
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()[:16]
+
+
 def _json_default(obj):
     try:
         return canonical(obj)
@@ -261,7 +298,7 @@ def cached_simulation(system: str, *, cache_dir: str | os.PathLike | None = None
     """
     fn = simulator if simulator is not None else _resolve_simulator(system)
     name = f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', repr(fn))}"
-    inputs = {"simulator": name, **kwargs}
+    inputs = {"simulator": name, "code": code_fingerprint(fn), **kwargs}
     key = cache_key(system, inputs)
     folder = resolve_cache_dir(cache_dir)
     if not refresh:
