@@ -167,6 +167,8 @@ class EHAParams:
 
     Raises
     ------
+    TypeError
+        If a field is not a number.
     ValueError
         If a field is not finite, is negative, or a field that must be positive is zero;
         the message names the field and its value.
