@@ -335,6 +335,16 @@ def build_report(rep, command: str = "", figures: bool = True) -> Report:
                f"{rep.config.name})")
     _summary(rep, r)
     r.heading("Method and decisions")
+    r.paragraph(
+        "How to read the tables: each thesis method turns a signal into one number per window "
+        "(e.g. the lag-1 autocorrelation of chamber pressure P1 over 200 samples). The thesis's "
+        "measure (Sec. 5.2) takes the RMS of those numbers over consecutive chunks, averages the "
+        "chunk RMS before and after the leak onset, and reports the relative change in percent "
+        "(Eq. 5-3). A negative signed change means the feature falls after the leak (e.g. the "
+        "pressure becomes less correlated); the thesis prints only the magnitude, so its "
+        "direction is read from its before/after columns. Each table below shows our simulator's "
+        "values and the thesis's rig values at the same settings, then states whether the "
+        "direction, and the trend along the varied setting, agree.")
     r.bullets([
         f"Measure: Sec. 5.2 with RMS chunks of {rep.config.chunk} feature values; a chunk "
         "holding a window that spans the onset is left out (leakdiag.detect.rms_change).",
