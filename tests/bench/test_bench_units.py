@@ -115,3 +115,17 @@ def test_seeds_do_not_depend_on_selected_excitations():
     only = build_suite({"vca": replace(SUITES["vca"], excitations=("operating",))})
     assert [c.seed for c in full] == [c.seed for c in only]
     assert [c.nuisance for c in full] == [c.nuisance for c in only]
+
+
+def test_summarise_scores_leak_size_estimates_of_detected_runs():
+    runs = pd.DataFrame({
+        "method": "m", "system": "vca", "role": ["test_healthy"] + ["test_leak"] * 3,
+        "leak_lpm": [0.0, 0.2, 0.2, 0.2], "score_max": [1.0, 5.0, 6.0, 7.0],
+        "alarm": [False, True, True, False], "alarm_time_s": [None, 12.0, 13.0, None],
+        "onset_true_s": [None, 10.0, 10.0, 10.0], "onset_est_s": [None, 10.0, 10.0, None],
+        "duration_s": 100.0, "leak_lpm_est": [None, 0.15, 0.3, 0.2],
+        "leak_lpm_low": [None, 0.1, 0.25, 0.1], "leak_lpm_high": [None, 0.25, 0.35, 0.3]})
+    r = summarise(runs).iloc[0]
+    # the undetected run's estimate is not used; one of two intervals holds 0.2
+    assert r.n_size_estimates == 2 and r.leak_lpm_est_median == pytest.approx(0.225)
+    assert r.leak_interval_coverage == 0.5

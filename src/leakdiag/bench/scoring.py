@@ -148,10 +148,30 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None):
                 "detection_delay_median_s": _q(delay, 0.5),
                 "leak_pct_rated": (100.0 * q / rated[system]) if system in rated else float("nan"),
                 "false_alarms_per_hour": far_h, "n_test_healthy": len(healthy),
-                "excitation": excitation,
+                "excitation": excitation, **_size_scores(lk, det, q),
             })
     return pd.DataFrame(rows, columns=RESULT_COLUMNS + ["leak_pct_rated", "false_alarms_per_hour",
-                                                        "n_test_healthy", "excitation"])
+                                                        "n_test_healthy", "excitation",
+                                                        *_SIZE_COLUMNS])
+
+
+#: Leak-size estimation columns of the results (detected runs with a calibration).
+_SIZE_COLUMNS = ("leak_lpm_est_median", "leak_interval_coverage", "n_size_estimates")
+
+
+def _size_scores(lk, det, q) -> dict:
+    """Median size estimate and interval coverage of the true size over detected runs."""
+    import pandas as pd
+
+    if "leak_lpm_est" not in lk:
+        return {c: float("nan") for c in _SIZE_COLUMNS[:2]} | {"n_size_estimates": 0}
+    est = pd.to_numeric(lk.leak_lpm_est, errors="coerce").to_numpy()[det]
+    lo = pd.to_numeric(lk.leak_lpm_low, errors="coerce").to_numpy()[det]
+    hi = pd.to_numeric(lk.leak_lpm_high, errors="coerce").to_numpy()[det]
+    ok = np.isfinite(est)
+    cover = ((lo[ok] <= q) & (q <= hi[ok])).mean() if ok.any() else float("nan")
+    return {"leak_lpm_est_median": _q(est[ok], 0.5), "leak_interval_coverage": float(cover),
+            "n_size_estimates": int(ok.sum())}
 
 
 def minimum_detectable(results, rated_flow_lpm: dict[str, float] | None = None,
