@@ -57,9 +57,12 @@ def test_alarm_validation(bad, match):
 
 
 def test_false_alarm_rate_on_held_out_healthy_data(fitted):
-    # 20 h of held-out white noise: the achieved rate should be near the 1/h target.
-    # Poisson tolerance: for 20 expected alarms, [5, 45] is far beyond 3 sigma of sampling error,
-    # but still catches an order-of-magnitude miscalibration of the extrapolated threshold.
+    # 1 h of healthy data in 6 runs cannot show the 1/h target directly: the threshold comes
+    # from the Gumbel fit to the 6 per-run CUSUM maxima. On 20 h of held-out white noise the
+    # achieved rate should be near the target. Tolerance: for 20 expected alarms, [5, 45] is far
+    # beyond 3 sigma of Poisson error (6 maxima make the fitted quantile itself uncertain), but
+    # still catches an order-of-magnitude miscalibration.
+    assert fitted.alarm_threshold_.method == "run-maxima"
     rng = np.random.default_rng(1234)
     n_windows = int(20 * 3600 * RATE / WINDOW)
     z = rng.standard_normal(n_windows) * SIGMA / fitted.std_ + (0 - fitted.mean_) / fitted.std_

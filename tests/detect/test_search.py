@@ -57,12 +57,12 @@ def test_best_split_gain_equals_brute_force(z):
 @pytest.mark.parametrize("method", ["pelt", "binseg"])
 def test_change_points_planted_step(method):
     rng = np.random.default_rng(3)
-    z = rng.standard_normal(400)
-    z[250:] += 1.5
-    healthy_pen = max(best_split_gain(rng.standard_normal(400)) for _ in range(20))
+    z = rng.standard_normal(300)
+    z[180:] += 1.5
+    healthy_pen = max(best_split_gain(rng.standard_normal(300)) for _ in range(20))
     cps = change_points(z, healthy_pen, method)
-    assert len(cps) == 1 and abs(cps[0] - 250) <= 5
-    assert change_points(rng.standard_normal(400), 3 * healthy_pen, method) == []
+    assert len(cps) == 1 and abs(cps[0] - 180) <= 5
+    assert change_points(rng.standard_normal(300), 3 * healthy_pen, method) == []
 
 
 def test_cusum_onset_and_penalty_validation():
