@@ -92,6 +92,9 @@ def analyze(file, column_map, cols, sample_rate, resample, method, system, chann
 
     cmap = _column_map(column_map, cols)
     rec = lio.read_recording(file, column_map=cmap, sample_rate=sample_rate, resample=resample)
+    if rec.meta.get("source") != str(file):  # messages name the file being analysed
+        rec.meta["origin"] = rec.meta.get("source")
+        rec.meta["source"] = str(file)
     system = system or str(rec.meta.get("system", "vca")).lower()
     specs = _specs(method, channels, lag, lag_ratio, window, overlap, system)
     result = analyze_recording(rec, specs, onset=onset, chunk=chunk)
@@ -103,8 +106,9 @@ def analyze(file, column_map, cols, sample_rate, resample, method, system, chann
     click.echo(head)
     click.echo(format_verdict(result.table))
     if out:
-        _write_outputs(result, Path(out))
-        click.echo(f"wrote {out}/verdict.csv, features.parquet, features.png")
+        outp = Path(out)
+        _write_outputs(result, outp)
+        click.echo(f"wrote {outp / 'verdict.csv'}, features.parquet, features.png")
 
 
 def _column_map(column_map, cols):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import sys
+import warnings
 
 import click
 
@@ -49,6 +50,11 @@ def cli() -> None:
     """leakdiag: internal leakage diagnosis of hydraulic actuators (VCA and EHA)."""
 
 
+def _format_warning(message, category, filename, lineno, line=None) -> str:
+    """One-line warnings for terminal users (no source line of leakdiag's code)."""
+    return f"leakdiag: warning: {message}\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; bad input (ValueError) becomes a one-line error and exit code 2.
 
@@ -62,6 +68,7 @@ def main(argv: list[str] | None = None) -> int:
     int
         Exit code.
     """
+    warnings.formatwarning = _format_warning
     try:
         cli.main(args=argv, prog_name="leakdiag", standalone_mode=False)
     except click.exceptions.Abort:
