@@ -129,3 +129,12 @@ def test_summarise_scores_leak_size_estimates_of_detected_runs():
     # the undetected run's estimate is not used; one of two intervals holds 0.2
     assert r.n_size_estimates == 2 and r.leak_lpm_est_median == pytest.approx(0.225)
     assert r.leak_interval_coverage == 0.5
+
+
+def test_cli_lists_methods_and_requires_out(capsys):
+    from leakdiag.cli.main import main
+
+    assert main(["benchmark", "--list-methods"]) == 0
+    assert "ccf-ux" in capsys.readouterr().out.split()
+    assert main(["benchmark", "--quick"]) == 2
+    assert "--out DIR is required" in capsys.readouterr().err

@@ -10,7 +10,7 @@ __all__ = ["benchmark"]
 
 
 @click.command("benchmark")
-@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
+@click.option("--out", "out_dir", default=None, type=click.Path(file_okay=False),
               help="Output folder (index.html, results.csv, summary.csv, ...).")
 @click.option("--quick", is_flag=True, help="Small CI suite: short runs, few seeds, large leaks.")
 @click.option("--methods", default=None,
@@ -38,6 +38,8 @@ def benchmark(out_dir, quick, methods, systems, excitations, far, onset_method, 
     if list_methods:
         click.echo("\n".join(sorted(METHODS)))
         return
+    if out_dir is None:
+        raise click.UsageError("--out DIR is required")
     split = lambda s: [v.strip() for v in s.split(",") if v.strip()] if s else None  # noqa: E731
     res = run_benchmark(out_dir, quick=quick, methods=split(methods), systems=split(systems),
                         excitations=split(excitations),
