@@ -16,6 +16,9 @@ import numpy as np
 from leakdiag._validation import check_positive
 from leakdiag._version import __version__
 from leakdiag.io.recording import Recording
+from leakdiag.sim._checks import (
+    check_choice, check_leak_kind, check_onset, check_params_type, check_seed, n_samples,
+)
 from leakdiag.sim.eha_drive import LOADS, MODES, EHAConditions, build_inputs
 from leakdiag.sim.eha_model import IN_KLEAK, IN_U, IN_XREF, N_STATES, S_P1, S_P2, S_PA, S_PB, S_X
 from leakdiag.sim.eha_params import P_KFREE, EHAParams
@@ -221,20 +224,12 @@ def simulate_eha(
     """
     duration = check_positive(duration, "duration")
     fs = check_positive(sample_rate, "sample_rate")
-    if mode not in MODES:
-        raise ValueError(f"mode={mode!r} must be one of {list(MODES)}")
-    if load not in LOADS:
-        raise ValueError(f"load={load!r} must be one of {list(LOADS)}")
-    if leak_kind not in ("step", "ramp"):
-        raise ValueError(f"leak_kind={leak_kind!r} must be 'step' or 'ramp'")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed={seed!r} must be a non-negative integer")
-    params = EHAParams() if params is None else params
-    if not isinstance(params, EHAParams):
-        raise TypeError(f"params must be an EHAParams, got {type(params).__name__}")
-    conditions = EHAConditions() if conditions is None else conditions
-    if not isinstance(conditions, EHAConditions):
-        raise TypeError(f"conditions must be an EHAConditions, got {type(conditions).__name__}")
+    check_choice(mode, "mode", MODES)
+    check_choice(load, "load", LOADS)
+    check_leak_kind(leak_kind)
+    check_seed(seed)
+    params = check_params_type(params, EHAParams)
+    conditions = check_params_type(conditions, EHAConditions, "conditions")
     sensor_params = EHA_SENSORS if sensor_params is None else sensor_params
     if amplitude is None:
         amplitude = DEFAULT_AMPLITUDE_V if mode == "open-loop" else DEFAULT_REFERENCE_AMPLITUDE_M
@@ -243,9 +238,7 @@ def simulate_eha(
         rtol = DEFAULT_RTOL if mode == "open-loop" else CLOSED_LOOP_RTOL
     rtol = check_positive(rtol, "rtol")
     frequency_rad_s = check_positive(frequency_rad_s, "frequency_rad_s")
-    n = int(round(duration * fs))
-    if n < 2:
-        raise ValueError(f"duration={duration} s at sample_rate={fs} Hz gives fewer than 2 samples")
+    n = n_samples(duration, fs)
     has_leak = leak_lpm is not None and leak_lpm != 0
     if has_leak:
         leak_lpm = check_positive(leak_lpm, "leak_lpm")
@@ -256,9 +249,7 @@ def simulate_eha(
                 f"available in this experiment ({q_avail:.3g} L/min, mode={mode!r}, "
                 f"amplitude={amplitude}); the pump is a flow source, a larger mean leak is not "
                 "physical")
-        onset = float(onset)
-        if not (0.0 <= onset < (n - 1) / fs):
-            raise ValueError(f"onset={onset} s must lie in [0, duration={duration}) s")
+        onset = check_onset(onset, n, fs, duration)
         sched = LeakSchedule(leak_kind, onset, ramp_duration)
     else:
         sched = LeakSchedule("none")

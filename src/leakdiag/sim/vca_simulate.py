@@ -10,6 +10,9 @@ import numpy as np
 from leakdiag._validation import check_positive
 from leakdiag._version import __version__
 from leakdiag.io.recording import Recording
+from leakdiag.sim._checks import (
+    check_choice, check_leak_kind, check_onset, check_params_type, check_seed, n_samples,
+)
 from leakdiag.sim.leak import (
     LeakCalibrationError,
     LeakSchedule,
@@ -223,22 +226,14 @@ def simulate_vca(
     duration = check_positive(duration, "duration")
     fs = check_positive(sample_rate, "sample_rate")
     max_step = check_positive(max_step, "max_step")
-    if leak_model not in LEAK_MODELS:
-        raise ValueError(f"leak_model={leak_model!r} must be one of {list(LEAK_MODELS)}")
-    if load not in LOADS:
-        raise ValueError(f"load={load!r} must be one of {list(LOADS)}")
-    if leak_kind not in ("step", "ramp"):
-        raise ValueError(f"leak_kind={leak_kind!r} must be 'step' or 'ramp'")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed={seed!r} must be a non-negative integer")
-    params = VCAParams() if params is None else params
-    if not isinstance(params, VCAParams):
-        raise TypeError(f"params must be a VCAParams, got {type(params).__name__}")
+    check_choice(leak_model, "leak_model", LEAK_MODELS)
+    check_choice(load, "load", LOADS)
+    check_leak_kind(leak_kind)
+    check_seed(seed)
+    params = check_params_type(params, VCAParams)
     conditions = OperatingConditions() if conditions is None else conditions
     sensor_params = SensorParams() if sensor_params is None else sensor_params
-    n = int(round(duration * fs))
-    if n < 2:
-        raise ValueError(f"duration={duration} s at sample_rate={fs} Hz gives fewer than 2 samples")
+    n = n_samples(duration, fs)
     n_sub = max(1, math.ceil(1.0 / (fs * max_step) - 1e-9))
     has_leak = leak_lpm is not None and leak_lpm != 0
     if has_leak:
@@ -246,9 +241,7 @@ def simulate_vca(
         if leak_lpm >= params.rated_flow_lpm:
             raise ValueError(f"leak_lpm={leak_lpm} must be below the rated flow "
                              f"{params.rated_flow_lpm:.1f} L/min")
-        onset = float(onset)
-        if not (0.0 <= onset < (n - 1) / fs):
-            raise ValueError(f"onset={onset} s must lie in [0, duration={duration}) s")
+        onset = check_onset(onset, n, fs, duration)
         sched = LeakSchedule(leak_kind, onset, ramp_duration)
     else:
         sched = LeakSchedule("none")

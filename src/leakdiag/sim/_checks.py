@@ -1,0 +1,201 @@
+"""Argument checks shared by the experiment entry points :func:`~leakdiag.sim.simulate_vca` and
+:func:`~leakdiag.sim.simulate_eha`.
+
+Each check raises with the message the entry points have always raised, naming the value.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["check_choice", "check_leak_kind", "check_seed", "check_params_type",
+           "n_samples", "check_onset"]
+
+
+def check_choice(value, name: str, choices) -> None:
+    """Check that ``value`` is one of ``choices``.
+
+    Parameters
+    ----------
+    value : object
+        The argument.
+    name : str
+        Its name, used in the message.
+    choices : sequence
+        Allowed values.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not in ``choices``.
+
+    Examples
+    --------
+    >>> check_choice("spring", "load", ("none", "spring"))
+    >>> check_choice("mass", "load", ("none", "spring"))
+    Traceback (most recent call last):
+    ...
+    ValueError: load='mass' must be one of ['none', 'spring']
+    """
+    if value not in choices:
+        raise ValueError(f"{name}={value!r} must be one of {list(choices)}")
+
+
+def check_leak_kind(leak_kind) -> None:
+    """Check that ``leak_kind`` is ``"step"`` or ``"ramp"``.
+
+    Parameters
+    ----------
+    leak_kind : str
+        How the leak is switched on.
+
+    Raises
+    ------
+    ValueError
+        Otherwise.
+
+    Examples
+    --------
+    >>> check_leak_kind("ramp")
+    >>> check_leak_kind("pulse")
+    Traceback (most recent call last):
+    ...
+    ValueError: leak_kind='pulse' must be 'step' or 'ramp'
+    """
+    if leak_kind not in ("step", "ramp"):
+        raise ValueError(f"leak_kind={leak_kind!r} must be 'step' or 'ramp'")
+
+
+def check_seed(seed) -> None:
+    """Check that ``seed`` is a non-negative integer (``bool`` is refused).
+
+    Parameters
+    ----------
+    seed : int
+        Random seed of the experiment.
+
+    Raises
+    ------
+    ValueError
+        If ``seed`` is not a non-negative ``int`` or NumPy integer.
+
+    Examples
+    --------
+    >>> check_seed(0)
+    >>> check_seed(-1)
+    Traceback (most recent call last):
+    ...
+    ValueError: seed=-1 must be a non-negative integer
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed={seed!r} must be a non-negative integer")
+
+
+def check_params_type(value, cls: type, name: str = "params"):
+    """Return ``cls()`` for ``None``, else ``value`` if it is a ``cls``.
+
+    Parameters
+    ----------
+    value : cls or None
+        The argument; ``None`` selects the default ``cls()``.
+    cls : type
+        Expected (frozen dataclass) type, constructible without arguments.
+    name : str, default "params"
+        Argument name, used in the message.
+
+    Returns
+    -------
+    cls
+        ``value`` or ``cls()``.
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is neither ``None`` nor a ``cls``.
+
+    Examples
+    --------
+    >>> from leakdiag.sim.vca_params import VCAParams
+    >>> check_params_type(None, VCAParams) == VCAParams()
+    True
+    >>> check_params_type(1.0, VCAParams)
+    Traceback (most recent call last):
+    ...
+    TypeError: params must be a VCAParams, got float
+    """
+    value = cls() if value is None else value
+    if not isinstance(value, cls):
+        article = "an" if cls.__name__[:1].upper() in "AEIOU" else "a"
+        raise TypeError(f"{name} must be {article} {cls.__name__}, got {type(value).__name__}")
+    return value
+
+
+def n_samples(duration: float, sample_rate: float) -> int:
+    """Number of samples of a run, ``round(duration * sample_rate)``, at least 2.
+
+    Parameters
+    ----------
+    duration : float
+        Run length, s (already checked positive).
+    sample_rate : float
+        Output rate, Hz (already checked positive).
+
+    Returns
+    -------
+    int
+        Sample count.
+
+    Raises
+    ------
+    ValueError
+        If the run has fewer than 2 samples.
+
+    Examples
+    --------
+    >>> n_samples(2.0, 1000.0)
+    2000
+    """
+    n = int(round(duration * sample_rate))
+    if n < 2:
+        raise ValueError(f"duration={duration} s at sample_rate={sample_rate} Hz gives fewer "
+                         "than 2 samples")
+    return n
+
+
+def check_onset(onset, n: int, sample_rate: float, duration: float) -> float:
+    """Check that the leak onset lies in the run, ``0 <= onset < (n - 1) / sample_rate``.
+
+    Parameters
+    ----------
+    onset : float
+        Leak onset, s.
+    n : int
+        Samples in the run.
+    sample_rate : float
+        Output rate, Hz.
+    duration : float
+        Run length, s (for the message).
+
+    Returns
+    -------
+    float
+        ``float(onset)``.
+
+    Raises
+    ------
+    ValueError
+        If the onset lies outside the run.
+
+    Examples
+    --------
+    >>> check_onset(1, 2000, 1000.0, 2.0)
+    1.0
+    >>> check_onset(2.0, 2000, 1000.0, 2.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: onset=2.0 s must lie in [0, duration=2.0) s
+    """
+    onset = float(onset)
+    if not (0.0 <= onset < (n - 1) / sample_rate):
+        raise ValueError(f"onset={onset} s must lie in [0, duration={duration}) s")
+    return onset
