@@ -133,7 +133,11 @@ def check_length(n_samples: int, window: int) -> None:
 
 
 def check_starts(starts, n_samples: int, window: int) -> np.ndarray:
-    """Window start indices as int64, each with ``0 <= start <= n_samples - window``."""
+    """Window start indices as int64, each with ``0 <= start <= n_samples - window``.
+
+    Raises first, as :func:`check_length`, if the signal is shorter than one window.
+    """
+    check_length(n_samples, window)
     arr = np.asarray(starts)
     if arr.ndim != 1:
         raise ValueError(f"starts must be one-dimensional, got shape {arr.shape}")
@@ -160,6 +164,16 @@ class WindowPlan:
     window: int
     overlap: float
     step: int
+
+    def settings(self, channels: tuple[str, ...], sample_rate, start_time) -> dict:
+        """The windowing entries of a feature's ``params``, in the order every feature uses.
+
+        ``window``, ``overlap``, ``step``, ``channels``, ``sample_rate`` and ``start_time``
+        (the last two as ``float``).
+        """
+        return {"window": self.window, "overlap": self.overlap, "step": self.step,
+                "channels": channels, "sample_rate": float(sample_rate),
+                "start_time": float(start_time)}
 
 
 def plan_windows(n_samples: int, window: int, overlap, sample_rate, start_time) -> WindowPlan:

@@ -125,9 +125,7 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
     values = _auto_values(x_arr, lag, plan.starts, window, assume_sorted=True)
-    params = {"lag": lag, "window": window, "overlap": plan.overlap, "step": plan.step,
-              "channels": _args.channel_names(x, "x"), "sample_rate": float(sample_rate),
-              "start_time": float(start_time)}
+    params = {"lag": lag, **plan.settings(_args.channel_names(x, "x"), sample_rate, start_time)}
     return FeatureSeries(plan.time, values, "autocorrelation", params)
 
 
@@ -200,9 +198,8 @@ def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
     values = _cross_values(y_arr, x_arr, lag, plan.starts, window, assume_sorted=True)
-    params = {"lag": lag, "window": window, "overlap": plan.overlap, "step": plan.step,
-              "channels": _args.channel_names(y, "y") + _args.channel_names(x, "x"),
-              "sample_rate": float(sample_rate), "start_time": float(start_time)}
+    channels = _args.channel_names(y, "y") + _args.channel_names(x, "x")
+    params = {"lag": lag, **plan.settings(channels, sample_rate, start_time)}
     return FeatureSeries(plan.time, values, "cross_correlation", params)
 
 
@@ -250,7 +247,6 @@ def autocorrelation_at(x, lag: int, starts, window: int) -> np.ndarray:
     x_arr = _args.signal_1d(x, "x")
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
-    _args.check_length(len(x_arr), window)
     starts = _args.check_starts(starts, len(x_arr), window)
     return _auto_values(x_arr, lag, starts, window)
 
@@ -292,6 +288,5 @@ def cross_correlation_at(y, x, lag: int, starts, window: int) -> np.ndarray:
     y_arr, x_arr = _check_pair(y, x)
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
-    _args.check_length(len(x_arr), window)
     starts = _args.check_starts(starts, len(x_arr), window)
     return _cross_values(y_arr, x_arr, lag, starts, window)

@@ -169,10 +169,9 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
     l_step, k_step = _args.parse_lag_ratio(lag_ratio, window)
     plan = _args.plan_windows(len(x2), window, overlap, sample_rate, start_time)
     values = _ratio_values(x2, l_step, k_step, plan.starts, window, assume_sorted=True)
-    params = {"lag_ratio": f"{l_step}:{k_step}", "l": l_step, "k": k_step, "window": window,
-              "overlap": plan.overlap, "step": plan.step,
-              "channels": _args.channel_names(x, "x", x2.shape[1]),
-              "sample_rate": float(sample_rate), "start_time": float(start_time)}
+    channels = _args.channel_names(x, "x", x2.shape[1])
+    params = {"lag_ratio": f"{l_step}:{k_step}", "l": l_step, "k": k_step,
+              **plan.settings(channels, sample_rate, start_time)}
     return FeatureSeries(plan.time, values, "metric_length_ratio", params)
 
 
@@ -219,6 +218,5 @@ def metric_length_ratio_at(x, lag_ratio, starts, window: int) -> np.ndarray:
     x2 = _args.signal_2d(x, "x")
     window = _args.check_window(window)
     l_step, k_step = _args.parse_lag_ratio(lag_ratio, window)
-    _args.check_length(len(x2), window)
     starts = _args.check_starts(starts, len(x2), window)
     return _ratio_values(x2, l_step, k_step, starts, window)

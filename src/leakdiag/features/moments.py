@@ -192,9 +192,7 @@ def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.
     mean, variance, skew, kurt = _moment_columns(x_arr, plan.starts, window, assume_sorted=True)
     df = pd.DataFrame({"time": plan.time, "mean": mean, "variance": variance, "skewness": skew,
                        "kurtosis": kurt})
-    df.attrs.update({"window": window, "overlap": plan.overlap, "step": plan.step,
-                     "channels": _args.channel_names(x, "x"), "sample_rate": float(sample_rate),
-                     "start_time": float(start_time)})
+    df.attrs.update(plan.settings(_args.channel_names(x, "x"), sample_rate, start_time))
     return df
 
 
@@ -232,6 +230,5 @@ def moments_at(x, starts, window: int) -> np.ndarray:
     """
     x_arr = _args.signal_1d(x, "x")
     window = _args.check_window(window)
-    _args.check_length(len(x_arr), window)
     starts = _args.check_starts(starts, len(x_arr), window)
     return np.column_stack(_moment_columns(x_arr, starts, window))
