@@ -9,9 +9,10 @@ from __future__ import annotations
 import numpy as np
 
 from leakdiag._validation import as_1d_float, check_int
-from leakdiag.features.windowing import window_starts
+from leakdiag.features.series import FeatureSeries
+from leakdiag.features.windowing import window_starts, window_times
 
-__all__ = ["windowed_rms", "windowed_mean"]
+__all__ = ["windowed_rms", "windowed_mean", "check_channels", "channel_rms_feature"]
 
 
 def _window_sums(x: np.ndarray, window: int, overlap: float) -> tuple[np.ndarray, np.ndarray]:
@@ -92,3 +93,76 @@ def windowed_mean(x, window: int, overlap: float) -> np.ndarray:
     offset = float(np.mean(x)) if len(x) else 0.0
     _, sums = _window_sums(x - offset, window, overlap)
     return sums / window + offset
+
+
+def check_channels(channels) -> tuple[str, ...]:
+    """Pressure channel names of a method's parameters as a non-empty tuple.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        Channel names (a bare string is refused: it would be read letter by letter).
+
+    Returns
+    -------
+    tuple of str
+        ``tuple(channels)``.
+
+    Raises
+    ------
+    ValueError
+        If ``channels`` is a string or empty.
+
+    Examples
+    --------
+    >>> check_channels(["p1", "p2"])
+    ('p1', 'p2')
+    """
+    if isinstance(channels, str) or len(channels) == 0:
+        raise ValueError(f"channels={channels!r} must be a non-empty tuple of names")
+    return tuple(channels)
+
+
+def channel_rms_feature(recording, channels, window: int, overlap: float, rms_of, name: str,
+                        params: dict) -> FeatureSeries:
+    """Root of the per-window mean squares summed over channels, as a feature series.
+
+    Parameters
+    ----------
+    recording : leakdiag.io.Recording
+        Holds ``channels`` (the caller has checked them).
+    channels : tuple of str
+        Channels, summed in this order.
+    window : int
+        Window size N in samples.
+    overlap : float
+        Overlap in percent.
+    rms_of : callable
+        ``rms_of(signal) -> ndarray``: the windowed RMS of one channel on the Sec. 4.4 grid.
+    name : str
+        Feature name.
+    params : dict
+        The feature's ``params``.
+
+    Returns
+    -------
+    FeatureSeries
+        :math:`\\sqrt{\\sum_c \\mathrm{rms}_c^2}` per window, timestamped at each window's
+        last sample.
+
+    Examples
+    --------
+    >>> from leakdiag.io.recording import Recording
+    >>> rec = Recording({"p1": [3.0, -3.0, 3.0, -3.0], "p2": [4.0, 4.0, 4.0, 4.0]},
+    ...                 sample_rate=1.0)
+    >>> rms = lambda x: windowed_rms(x, 2, 0.0)
+    >>> channel_rms_feature(rec, ("p1", "p2"), 2, 0.0, rms, "demo", {}).values.tolist()
+    [5.0, 5.0]
+    """
+    ms = None
+    for ch in channels:
+        r = rms_of(recording[ch])
+        ms = r**2 if ms is None else ms + r**2
+    starts = window_starts(recording.n_samples, window, overlap)
+    times = window_times(starts, window, recording.sample_rate, recording.start_time)
+    return FeatureSeries(times, np.sqrt(ms), name, params)

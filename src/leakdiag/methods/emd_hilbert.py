@@ -13,8 +13,7 @@ import numpy as np
 
 from leakdiag._validation import as_1d_float, check_int, check_overlap
 from leakdiag.features.series import FeatureSeries
-from leakdiag.features.windowing import window_starts, window_times
-from leakdiag.methods._windowed import windowed_rms
+from leakdiag.methods._windowed import channel_rms_feature, check_channels, windowed_rms
 
 __all__ = ["EMDHilbertParams", "first_imf_amplitude", "emd_hilbert_feature"]
 
@@ -129,9 +128,7 @@ class EMDHilbertParams:
     sifting_iterations: int | None = DEFAULT_SIFTING_ITERATIONS
 
     def __post_init__(self) -> None:
-        if isinstance(self.channels, str) or len(self.channels) == 0:
-            raise ValueError(f"channels={self.channels!r} must be a non-empty tuple of names")
-        object.__setattr__(self, "channels", tuple(self.channels))
+        object.__setattr__(self, "channels", check_channels(self.channels))
         check_int(self.window, "window", 2)
         check_overlap(self.overlap)
         check_int(self.block, "block", 2)
@@ -188,17 +185,15 @@ def emd_hilbert_feature(recording, params: EMDHilbertParams = EMDHilbertParams()
     [2.0, 2.0, 2.0, 2.0]
     """
     recording.require(*params.channels)
-    ms = None
-    for ch in params.channels:
-        amp = first_imf_amplitude(recording[ch], params.block, params.margin,
-                                  params.sifting_iterations)
-        r = windowed_rms(amp, params.window, params.overlap)
-        ms = r**2 if ms is None else ms + r**2
-    starts = window_starts(recording.n_samples, params.window, params.overlap)
-    times = window_times(starts, params.window, recording.sample_rate, recording.start_time)
-    return FeatureSeries(times, np.sqrt(ms), "emd_hilbert",
-                         {"channels": params.channels, "window": params.window,
-                          "overlap": params.overlap, "block": params.block,
-                          "margin": params.margin,
-                          "sifting_iterations": params.sifting_iterations,
-                          "sample_rate": recording.sample_rate})
+
+    def rms_of(p):
+        amp = first_imf_amplitude(p, params.block, params.margin, params.sifting_iterations)
+        return windowed_rms(amp, params.window, params.overlap)
+
+    return channel_rms_feature(recording, params.channels, params.window, params.overlap,
+                               rms_of, "emd_hilbert",
+                               {"channels": params.channels, "window": params.window,
+                                "overlap": params.overlap, "block": params.block,
+                                "margin": params.margin,
+                                "sifting_iterations": params.sifting_iterations,
+                                "sample_rate": recording.sample_rate})

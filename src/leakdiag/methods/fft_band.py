@@ -13,8 +13,9 @@ import numpy as np
 
 from leakdiag._validation import as_1d_float, check_int, check_overlap, check_positive
 from leakdiag.features.series import FeatureSeries
-from leakdiag.features.windowing import window_starts, window_times
+from leakdiag.features.windowing import window_starts
 from leakdiag.methods._physics import DEFAULT_NATURAL_FREQUENCY_HZ
+from leakdiag.methods._windowed import channel_rms_feature, check_channels
 
 __all__ = ["FFTBandParams", "fft_band_rms", "fft_band_feature"]
 
@@ -125,9 +126,7 @@ class FFTBandParams:
     overlap: float = 50.0
 
     def __post_init__(self) -> None:
-        if isinstance(self.channels, str) or len(self.channels) == 0:
-            raise ValueError(f"channels={self.channels!r} must be a non-empty tuple of names")
-        object.__setattr__(self, "channels", tuple(self.channels))
+        object.__setattr__(self, "channels", check_channels(self.channels))
         check_positive(self.natural_frequency_hz, "natural_frequency_hz")
         if self.band_hz is not None:
             low, high = (float(b) for b in self.band_hz)
@@ -192,12 +191,8 @@ def fft_band_feature(recording, params: FFTBandParams = FFTBandParams()) -> Feat
     recording.require(*params.channels)
     fs_hz = recording.sample_rate
     band = params.resolved_band_hz
-    ms = None
-    for ch in params.channels:
-        r = fft_band_rms(recording[ch], fs_hz, params.window, params.overlap, band)
-        ms = r**2 if ms is None else ms + r**2
-    starts = window_starts(recording.n_samples, params.window, params.overlap)
-    times = window_times(starts, params.window, fs_hz, recording.start_time)
-    return FeatureSeries(times, np.sqrt(ms), "fft_band",
-                         {"channels": params.channels, "band_hz": band, "window": params.window,
-                          "overlap": params.overlap, "sample_rate": fs_hz})
+    return channel_rms_feature(
+        recording, params.channels, params.window, params.overlap,
+        lambda p: fft_band_rms(p, fs_hz, params.window, params.overlap, band), "fft_band",
+        {"channels": params.channels, "band_hz": band, "window": params.window,
+         "overlap": params.overlap, "sample_rate": fs_hz})

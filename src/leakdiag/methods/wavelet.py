@@ -14,9 +14,8 @@ import numpy as np
 
 from leakdiag._validation import as_1d_float, check_int, check_overlap, check_positive
 from leakdiag.features.series import FeatureSeries
-from leakdiag.features.windowing import window_starts, window_times
 from leakdiag.methods._physics import DEFAULT_NATURAL_FREQUENCY_HZ
-from leakdiag.methods._windowed import windowed_rms
+from leakdiag.methods._windowed import channel_rms_feature, check_channels, windowed_rms
 
 __all__ = ["WaveletParams", "wavelet_level_for_frequency", "wavelet_detail",
            "wavelet_detail_rms", "wavelet_feature"]
@@ -177,9 +176,7 @@ class WaveletParams:
     overlap: float = 50.0
 
     def __post_init__(self) -> None:
-        if isinstance(self.channels, str) or len(self.channels) == 0:
-            raise ValueError(f"channels={self.channels!r} must be a non-empty tuple of names")
-        object.__setattr__(self, "channels", tuple(self.channels))
+        object.__setattr__(self, "channels", check_channels(self.channels))
         if self.level is not None:
             check_int(self.level, "level", 1)
         check_positive(self.natural_frequency_hz, "natural_frequency_hz")
@@ -244,13 +241,9 @@ def wavelet_feature(recording, params: WaveletParams = WaveletParams()) -> Featu
     recording.require(*params.channels)
     fs_hz = recording.sample_rate
     level = params.resolved_level(fs_hz)
-    ms = None
-    for ch in params.channels:
-        r = wavelet_detail_rms(recording[ch], params.window, params.overlap, params.wavelet, level)
-        ms = r**2 if ms is None else ms + r**2
-    starts = window_starts(recording.n_samples, params.window, params.overlap)
-    times = window_times(starts, params.window, fs_hz, recording.start_time)
-    return FeatureSeries(times, np.sqrt(ms), "wavelet",
-                         {"channels": params.channels, "wavelet": params.wavelet, "level": level,
-                          "window": params.window, "overlap": params.overlap,
-                          "sample_rate": fs_hz})
+    return channel_rms_feature(
+        recording, params.channels, params.window, params.overlap,
+        lambda p: wavelet_detail_rms(p, params.window, params.overlap, params.wavelet, level),
+        "wavelet",
+        {"channels": params.channels, "wavelet": params.wavelet, "level": level,
+         "window": params.window, "overlap": params.overlap, "sample_rate": fs_hz})
