@@ -65,7 +65,8 @@ def _summary_by_condition(by_cond, rated, target):
 
 
 def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
-                  excitations=None, false_alarm_per_run: float = 0.01, onset_method: str = "binseg",
+                  excitations=None, max_test_runs: int | None = None,
+                  false_alarm_per_run: float = 0.01, onset_method: str = "binseg",
                   scheduler: str = "serial", n_workers: int | None = None,
                   cache_dir: str | None = None, progress: bool = True,
                   command: str = "leakdiag benchmark") -> BenchmarkResult:
@@ -86,6 +87,10 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
     excitations : sequence of str, optional
         Restrict every rig's excitation conditions (default: all of the suite's); the seeds of
         the selected runs do not change.
+    max_test_runs : int, optional
+        Reduced suite: at most this many held-out healthy runs and leaking runs per size in
+        every group (the first ones of the full suite, same seeds); fitting and calibration
+        runs are unchanged. Default: the full suite.
     false_alarm_per_run : float, default 0.01
         Target false-alarm probability per healthy run.
     onset_method : {"binseg", "pelt", "cusum"}, default "binseg"
@@ -139,6 +144,14 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
                 raise ValueError(f"unknown excitation {e!r}; known: {list(EXCITATIONS)}")
         suites = {k: _replace(v, excitations=tuple(e for e in v.excitations if e in excitations))
                   for k, v in suites.items()}
+    if max_test_runs is not None:
+        from dataclasses import replace as _replace
+
+        if int(max_test_runs) < 1:
+            raise ValueError(f"max_test_runs={max_test_runs!r} must be >= 1")
+        m = int(max_test_runs)
+        suites = {k: _replace(v, n_test_healthy=min(v.n_test_healthy, m),
+                              n_test_leak=min(v.n_test_leak, m)) for k, v in suites.items()}
     alarm = Alarm(onset_method=onset_method)
     sr = run_suite(suites, methods, false_alarm_per_run=false_alarm_per_run, alarm=alarm,
                    scheduler=scheduler, n_workers=n_workers, cache_dir=cache_dir,
@@ -157,6 +170,7 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
         paths[name] = out / f"{name}.csv"
         df.to_csv(paths[name], index=False)
     settings = {**sr.settings, "alarm": asdict(sr.settings["alarm"]), "quick": quick,
+                "max_test_runs": max_test_runs,
                 "command": command, "suites": {k: _jsonable(asdict(v)) for k, v in suites.items()},
                 "rated_flow_lpm": sr.rated_flow_lpm}
     paths["settings"] = out / "settings.json"

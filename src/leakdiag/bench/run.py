@@ -12,6 +12,7 @@ Two stages, each a list of pure ``run_case(config)`` calls for
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -116,18 +117,22 @@ def simulator_kwargs(case) -> dict:
         from leakdiag.sim.eha import EHA_SENSORS
         from leakdiag.sim.eha_drive import EHAConditions
 
-        if case.excitation != "operating":
-            raise ValueError(f"simulate_eha takes no other input than its sine; excitation="
-                             f"{case.excitation!r} is not available for the EHA")
         spring = case.load == "spring"
+        # the structured test input is repeated exactly (no amplitude/frequency variation)
+        var = EHA_INPUT_VARIATION if case.excitation == "operating" else 0.0
         cond = EHAConditions(
             temperature_rise_k=nz["temperature_rise_k"],
             spring_change_time_s=nz["spring_change_time_s"] if spring else None,
             spring_change_factor=nz["spring_change_factor"] if spring else 1.0,
-            amplitude_variation=EHA_INPUT_VARIATION, frequency_variation=EHA_INPUT_VARIATION)
-        return {"duration": case.duration_s, "leak_lpm": leak, "onset": onset, "load": case.load,
-                "seed": case.seed, "conditions": cond,
-                "sensor_params": _replace(EHA_SENSORS, pressure_noise_std_pa=case.noise_std_pa)}
+            amplitude_variation=var, frequency_variation=var)
+        kw = {"duration": case.duration_s, "leak_lpm": leak, "onset": onset, "load": case.load,
+              "seed": case.seed, "conditions": cond,
+              "sensor_params": _replace(EHA_SENSORS, pressure_noise_std_pa=case.noise_std_pa)}
+        if case.excitation == "structured":  # issue 6: periodic +-3 V steps, open loop
+            from leakdiag.sim.excitation import structured_excitation
+
+            kw["input_signal"] = structured_excitation("eha")
+        return kw
     raise ValueError(f"no simulator mapping for system={case.system!r}")
 
 
@@ -199,7 +204,9 @@ def evaluate_group(config: EvalConfig) -> list[dict]:
         One row per ``test_healthy`` / ``test_leak`` run: the case fields, ``score_max``,
         ``alarm``, ``alarm_time_s``, ``onset_true_s``, ``onset_est_s``, ``onset_method``,
         ``leak_lpm_est``, ``leak_lpm_low``, ``leak_lpm_high``, ``threshold``,
-        ``threshold_method``, ``confidence``; or a single row with ``error`` if the method
+        ``threshold_method``, ``confidence``, ``cpu_s_per_hour`` (CPU seconds of
+        ``predict`` -- features, score, alarm search, onset and size -- per hour of signal,
+        ``time.process_time``; loading the recording is not counted); or a single row with ``error`` if the method
         cannot be fitted on this group.
     """
     from leakdiag.bench.registry import make_detector
@@ -227,7 +234,10 @@ def evaluate_group(config: EvalConfig) -> list[dict]:
     for c in cases:
         if c.role not in ("test_healthy", "test_leak"):
             continue
-        v = det.predict(_recording(c, config.cache_dir))
+        rec = _recording(c, config.cache_dir)
+        cpu0 = time.process_time()  # features, score, alarm search, onset and size
+        v = det.predict(rec)
+        cpu_s = time.process_time() - cpu0
         d = v.as_dict()
         rows.append({**base, "role": c.role, "leak_lpm": c.leak_lpm, "seed": c.seed,
                      "duration_s": c.duration_s, "onset_true_s": c.onset_s,
@@ -235,7 +245,8 @@ def evaluate_group(config: EvalConfig) -> list[dict]:
                      "onset_est_s": v.onset_s, "onset_method": v.onset_method,
                      "leak_lpm_est": d["leak_lpm"], "leak_lpm_low": d["leak_lpm_low"],
                      "leak_lpm_high": d["leak_lpm_high"], "confidence": v.confidence,
-                     "threshold": v.threshold, "threshold_method": det.alarm_threshold_.method})
+                     "threshold": v.threshold, "threshold_method": det.alarm_threshold_.method,
+                     "cpu_s_per_hour": cpu_s * 3600.0 / c.duration_s})
     return rows
 
 

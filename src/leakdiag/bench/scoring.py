@@ -106,7 +106,10 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None):
     Returns
     -------
     pandas.DataFrame
-        :data:`RESULT_COLUMNS` then ``leak_pct_rated, false_alarms_per_hour, n_test_healthy``.
+        :data:`RESULT_COLUMNS` then ``leak_pct_rated, false_alarms_per_hour, n_test_healthy,
+        excitation``, the size-estimate scores and ``cpu_s_per_hour`` (median over the
+        method's held-out runs of the rig and excitation of CPU seconds per hour of signal;
+        NaN if the runs carry no timing).
 
     Examples
     --------
@@ -133,6 +136,7 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None):
         hours = float(healthy.duration_s.mean()) / 3600.0 if len(healthy) else float("nan")
         far_h = -np.log1p(-min(far, 1 - 1e-12)) / hours if len(healthy) else float("nan")
         leak = g[g.role == "test_leak"]
+        cpu_h = _cpu_per_hour(g)
         for q, lk in leak.groupby("leak_lpm", sort=True):
             alarm_t = pd.to_numeric(lk.alarm_time_s, errors="coerce")
             onset = pd.to_numeric(lk.onset_true_s, errors="coerce")
@@ -149,10 +153,20 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None):
                 "leak_pct_rated": (100.0 * q / rated[system]) if system in rated else float("nan"),
                 "false_alarms_per_hour": far_h, "n_test_healthy": len(healthy),
                 "excitation": excitation, **_size_scores(lk, det, q),
+                "cpu_s_per_hour": cpu_h,
             })
     return pd.DataFrame(rows, columns=RESULT_COLUMNS + ["leak_pct_rated", "false_alarms_per_hour",
                                                         "n_test_healthy", "excitation",
-                                                        *_SIZE_COLUMNS])
+                                                        *_SIZE_COLUMNS, "cpu_s_per_hour"])
+
+
+def _cpu_per_hour(g) -> float:
+    """Median CPU seconds per hour of signal over a method's held-out runs (NaN if unmeasured)."""
+    import pandas as pd
+
+    if "cpu_s_per_hour" not in g:
+        return float("nan")
+    return _q(pd.to_numeric(g.cpu_s_per_hour, errors="coerce").dropna().to_numpy(), 0.5)
 
 
 #: Leak-size estimation columns of the results (detected runs with a calibration).
@@ -190,7 +204,10 @@ def minimum_detectable(results, rated_flow_lpm: dict[str, float] | None = None,
     Returns
     -------
     pandas.DataFrame
-        :data:`SUMMARY_COLUMNS`.
+        :data:`SUMMARY_COLUMNS` then ``excitation``, ``auc_max_leak`` (AUC at the largest
+        leak size), ``onset_error_median_s`` and ``detection_delay_median_s`` (medians over
+        the leak sizes of the per-size medians) and ``cpu_s_per_hour``: the one comparison
+        table of issue 6.
 
     Examples
     --------
@@ -217,5 +234,20 @@ def minimum_detectable(results, rated_flow_lpm: dict[str, float] | None = None,
                      "min_detectable_pct_rated": 100.0 * mdl / rf,
                      "rated_flow_lpm": rf, "false_alarm_rate": float(g.false_alarm_rate.iloc[0]),
                      "false_alarm_target": false_alarm_target,
-                     "n_test_healthy": int(g.n_test_healthy.iloc[0]), "excitation": excitation})
-    return pd.DataFrame(rows, columns=SUMMARY_COLUMNS + ["excitation"])
+                     "n_test_healthy": int(g.n_test_healthy.iloc[0]), "excitation": excitation,
+                     "auc_max_leak": float(g.auc.iloc[-1]) if "auc" in g else float("nan"),
+                     "onset_error_median_s": _median_col(g, "onset_error_median_s"),
+                     "detection_delay_median_s": _median_col(g, "detection_delay_median_s"),
+                     "cpu_s_per_hour": _median_col(g, "cpu_s_per_hour")})
+    return pd.DataFrame(rows, columns=SUMMARY_COLUMNS + [
+        "excitation", "auc_max_leak", "onset_error_median_s", "detection_delay_median_s",
+        "cpu_s_per_hour"])
+
+
+def _median_col(g, col: str) -> float:
+    """Median of a results column over leak sizes (NaN if absent or empty)."""
+    import pandas as pd
+
+    if col not in g:
+        return float("nan")
+    return _q(pd.to_numeric(g[col], errors="coerce").dropna().to_numpy(), 0.5)

@@ -24,8 +24,9 @@ __all__ = ["SUITE_VERSION", "SystemSuite", "Nuisance", "BenchCase", "SUITES", "Q
            "build_suite", "ROLES", "EXCITATIONS"]
 
 #: Version of the suite (seeds, sizes, nuisance ranges). Bump on any change.
-SUITE_VERSION = "3"  # 2: structured-excitation groups (issue 6); 3: seeds independent of the
-#: selected excitations, 20 held-out healthy and 8 leaking runs per size and group
+SUITE_VERSION = "4"  # 2: structured-excitation groups (issue 6); 3: seeds independent of the
+#: selected excitations, 20 held-out healthy and 8 leaking runs per size and group; 4: EHA
+#: structured-excitation groups (simulate_eha input_signal)
 #: Run roles, see the module docstring.
 ROLES = ("fit", "cal", "test_healthy", "test_leak")
 #: Excitation conditions; "operating" is the thesis's (pseudo-random steps for the VCA, a sine
@@ -200,7 +201,7 @@ SUITES: dict[str, SystemSuite] = {
         system="eha", leak_lpm=(0.1, 0.2, 0.5, 1.0, 1.63), loads=("none", "spring"),
         noise_levels={"low": 10e3, "high": 40e3}, duration_s=120.0, onset_range_s=(50.0, 70.0),
         n_fit=10, n_cal=2, n_test_healthy=20, n_test_leak=8, base_seed=2_000_000,
-        excitations=("operating",)),  # simulate_eha has no input hook for a structured test
+        excitations=EXCITATIONS),
 }
 
 #: The ``--quick`` suite (CI): one group per rig, short runs, few seeds, the largest leaks.

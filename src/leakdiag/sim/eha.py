@@ -116,6 +116,31 @@ def _initial_leak_coefficient(leak_lpm: float, params: EHAParams, load: str) -> 
     return (leak_lpm / 60_000.0) / math.sqrt(dp)
 
 
+def _input_samples(input_signal, t: np.ndarray, conditions: EHAConditions,
+                   rng: np.random.Generator) -> np.ndarray:
+    """The ``input_signal`` of :func:`simulate_eha` at the sample times, checked."""
+    if conditions.amplitude_variation or conditions.frequency_variation:
+        raise ValueError("input_signal cannot be combined with the amplitude/frequency "
+                         "variations of conditions (they modulate the sine input only)")
+    if hasattr(input_signal, "samples"):
+        drive = np.asarray(input_signal.samples(t, rng), dtype=np.float64)
+    else:
+        drive = np.asarray(input_signal, dtype=np.float64)
+    if drive.shape != t.shape:
+        raise ValueError(f"input_signal has shape {drive.shape}; expected {t.shape} "
+                         "(one value per output sample)")
+    if not np.all(np.isfinite(drive)):
+        raise ValueError("input_signal has non-finite values")
+    return np.ascontiguousarray(drive)
+
+
+def _describe(input_signal) -> str:
+    """Metadata text of an input signal: its repr, or the length of an array."""
+    if hasattr(input_signal, "samples"):
+        return repr(input_signal)
+    return f"array of {len(input_signal)} samples"
+
+
 def simulate_eha(
     duration: float = 180.0,
     leak_lpm: float | None = 1.2,
@@ -136,6 +161,7 @@ def simulate_eha(
     sensor_params: SensorParams | None = None,
     rtol: float | None = None,
     calibration_rtol: float = 0.02,
+    input_signal=None,
 ) -> Recording:
     """Simulate an EHA experiment (thesis Ch. 3 model, Sec. 4.6 procedure).
 
@@ -182,6 +208,13 @@ def simulate_eha(
         (about 0.2 % and 0.07 % RMS error on the pressures, see ``docs/models.md``).
     calibration_rtol : float, default 0.02
         Relative tolerance of the leak calibration.
+    input_signal : object with ``samples(time, rng)`` or array_like, optional
+        Replaces the sine: the motor command in V (open loop) or the position reference in m
+        (closed loop) at every output sample, e.g.
+        :func:`leakdiag.sim.excitation.structured_excitation` ``("eha")``, or an array of
+        ``duration * sample_rate`` values. ``amplitude`` and ``frequency_rad_s`` are then
+        unused except that the leak-size limit takes ``amplitude`` as the largest ``|input|``.
+        Cannot be combined with amplitude/frequency variations in ``conditions``.
 
     Returns
     -------
@@ -199,7 +232,8 @@ def simulate_eha(
     ------
     ValueError
         If an argument is out of range (the message names it), e.g. an onset outside the run,
-        or a target leak above 75 % of :func:`available_pump_flow_lpm`.
+        or a target leak above 75 % of :func:`available_pump_flow_lpm`, or an
+        ``input_signal`` of the wrong length, not finite, or combined with input variations.
     TypeError
         If ``params`` is not an :class:`EHAParams`.
     leakdiag.sim.leak.LeakCalibrationError
@@ -239,6 +273,12 @@ def simulate_eha(
     rtol = check_positive(rtol, "rtol")
     frequency_rad_s = check_positive(frequency_rad_s, "frequency_rad_s")
     n = n_samples(duration, fs)
+    t = np.arange(n) / fs
+    cond_ss, noise_ss = np.random.SeedSequence(int(seed)).spawn(2)
+    drive = None
+    if input_signal is not None:
+        drive = _input_samples(input_signal, t, conditions, np.random.default_rng(cond_ss))
+        amplitude = max(float(np.max(np.abs(drive))), 1e-12)
     has_leak = leak_lpm is not None and leak_lpm != 0
     if has_leak:
         leak_lpm = check_positive(leak_lpm, "leak_lpm")
@@ -254,10 +294,10 @@ def simulate_eha(
     else:
         sched = LeakSchedule("none")
 
-    cond_ss, noise_ss = np.random.SeedSequence(int(seed)).spawn(2)
-    t = np.arange(n) / fs
     base = build_inputs(t, params, mode, load, amplitude, frequency_rad_s, conditions,
                         rng=np.random.default_rng(cond_ss))
+    if drive is not None:
+        base[:, IN_U if mode == "open-loop" else IN_XREF] = drive
     multiplier = sched.multipliers(t)
     prm = params.to_array(closed_loop=(mode == "closed-loop"))
     y0 = initial_state(params)
@@ -337,6 +377,7 @@ def simulate_eha(
         "rated_flow_lpm": params.rated_pump_flow_lpm,
         "amplitude": float(amplitude),
         "frequency_rad_s": float(frequency_rad_s),
+        "input_signal": None if input_signal is None else _describe(input_signal),
         "conditions": conditions.to_dict(),
         "sensors": sensor_params.to_dict() if sensors else None,
         "rtol": float(rtol),

@@ -27,6 +27,9 @@ EXCITATION_KINDS = ("steps", "chirp")
 VCA_STEP_AMPLITUDE_M = 10e-3  # choice: mid-range of the thesis's 2-18 mm steps (Sec. 4.5)
 EHA_STEP_AMPLITUDE_V = 3.0  # choice: the amplitude of the thesis's 3 sin 4t input (Sec. 4.6)
 STEP_PERIOD_S = 1.0  # choice: one period per default 1000-sample window at 1 kHz
+#: choice: EHA steps start low for a quarter period, so that the open-loop stroke (the integral
+#: of the pump flow) swings about mid-stroke, +-39 mm like 3 sin 4t, instead of 0 to +78 mm.
+EHA_STEP_START_S = 0.25 * STEP_PERIOD_S
 CHIRP_F0_HZ = 0.5  # choice: slow start of the sweep ...
 CHIRP_F1_HZ = 5.0  # ... to 5 Hz, inside the closed-loop bandwidth of the simulated VCA
 
@@ -188,7 +191,9 @@ def structured_excitation(system: str = "vca", kind: str = "steps"):
         for the open-loop EHA.
     kind : {"steps", "chirp"}, default "steps"
         Periodic steps (1 s period, +-10 mm or +-3 V) or a repeated 0.5-5 Hz chirp (4 s sweeps,
-        5 mm or 3 V).
+        5 mm or 3 V). The EHA steps are -3 V for the first quarter period, then alternate
+        every half period (+3 V from 0.25 s to 0.75 s, ...): the open-loop EHA integrates its
+        command, so this keeps the piston swinging about mid-stroke (``docs/methods.md``).
 
     Returns
     -------
@@ -205,13 +210,17 @@ def structured_excitation(system: str = "vca", kind: str = "steps"):
     PeriodicSteps(amplitude=0.01, period_s=1.0, offset=0.0, duty=0.5, start_s=0.0)
     >>> structured_excitation("eha", "chirp").amplitude
     3.0
+    >>> structured_excitation("eha").samples(np.array([0.0, 0.25, 0.5, 0.75, 1.0])).tolist()
+    [-3.0, 3.0, 3.0, -3.0, -3.0]
     """
     if system not in ("vca", "eha"):
         raise ValueError(f"system={system!r} must be 'vca' or 'eha'")
     if kind not in EXCITATION_KINDS:
         raise ValueError(f"kind={kind!r} must be one of {EXCITATION_KINDS}")
     if kind == "steps":
-        amp = VCA_STEP_AMPLITUDE_M if system == "vca" else EHA_STEP_AMPLITUDE_V
-        return PeriodicSteps(amplitude=amp, period_s=STEP_PERIOD_S)
+        if system == "vca":
+            return PeriodicSteps(amplitude=VCA_STEP_AMPLITUDE_M, period_s=STEP_PERIOD_S)
+        return PeriodicSteps(amplitude=EHA_STEP_AMPLITUDE_V, period_s=STEP_PERIOD_S,
+                             start_s=EHA_STEP_START_S)
     amp = 5e-3 if system == "vca" else EHA_STEP_AMPLITUDE_V
     return RepeatedChirp(amplitude=amp)
