@@ -138,3 +138,27 @@ def test_cli_lists_methods_and_requires_out(capsys):
     assert "ccf-ux" in capsys.readouterr().out.split()
     assert main(["benchmark", "--quick"]) == 2
     assert "--out DIR is required" in capsys.readouterr().err
+
+
+def test_eha_structured_runs_use_the_step_input_without_input_variation():
+    from leakdiag.sim.excitation import structured_excitation
+
+    cases = [c for c in build_suite(SUITES, ("eha",)) if c.role == "fit"]
+    assert {c.excitation for c in cases} == {"operating", "structured"}
+    st_kw = simulator_kwargs(next(c for c in cases if c.excitation == "structured"))
+    op_kw = simulator_kwargs(next(c for c in cases if c.excitation == "operating"))
+    assert st_kw["input_signal"] == structured_excitation("eha")
+    assert st_kw["conditions"].amplitude_variation == 0.0
+    assert "input_signal" not in op_kw and op_kw["conditions"].amplitude_variation == 0.05
+
+
+def test_summarise_reports_median_cpu_per_hour_of_all_held_out_runs():
+    runs = pd.DataFrame({
+        "method": "m", "system": "vca", "role": ["test_healthy"] * 2 + ["test_leak"] * 3,
+        "leak_lpm": [0.0, 0.0, 0.2, 0.2, 0.5], "score_max": [1, 2, 5, 6, 7],
+        "alarm": False, "alarm_time_s": None, "onset_true_s": [None, None, 10.0, 10.0, 10.0],
+        "onset_est_s": None, "duration_s": 100.0, "cpu_s_per_hour": [1.0, 9.0, 2.0, 3.0, 4.0]})
+    res = summarise(runs)
+    assert res.cpu_s_per_hour.tolist() == [3.0, 3.0]  # median of 1, 9, 2, 3, 4
+    summ = minimum_detectable(res)
+    assert summ.cpu_s_per_hour.iloc[0] == 3.0 and summ.auc_max_leak.iloc[0] == 1.0
