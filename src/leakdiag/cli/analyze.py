@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import click
@@ -97,7 +98,12 @@ def analyze(file, column_map, cols, sample_rate, resample, method, system, chann
         rec.meta["source"] = str(file)
     system = system or str(rec.meta.get("system", "vca")).lower()
     specs = _specs(method, channels, lag, lag_ratio, window, overlap, system)
-    result = analyze_recording(rec, specs, onset=onset, chunk=chunk)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = analyze_recording(rec, specs, onset=onset, chunk=chunk)
+    _fail_if_nothing_computed(file, result.table)
+    for w in caught:  # re-issued only when there is a result to qualify
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     head = f"{file}: {rec.n_samples} samples at {rec.sample_rate:g} Hz ({rec.duration:g} s)"
     if result.onset is not None:
         head += f", leak onset {result.onset:g} s"
@@ -109,6 +115,17 @@ def analyze(file, column_map, cols, sample_rate, resample, method, system, chann
         outp = Path(out)
         _write_outputs(result, outp)
         click.echo(f"wrote {outp / 'verdict.csv'}, features.parquet, features.png")
+
+
+def _fail_if_nothing_computed(file, table) -> None:
+    """Raise when every window of every method is NaN (e.g. constant channels): no verdict exists."""
+    n_win = table["n_windows"].fillna(0).astype(int)
+    n_nan = table["n_nan_windows"].fillna(0).astype(int)
+    if len(table) and bool((n_win > 0).all() and (n_nan == n_win).all()):
+        labels = "; ".join(f"{m} {c} (lag {s}, N={w})" for m, c, s, w in
+                           zip(table["method"], table["channels"], table["setting"], table["window"]))
+        raise ValueError(f"{file}: every window is NaN for {labels}: the channel(s) have zero "
+                         "variance (constant signal?), so there is nothing to analyse")
 
 
 def _column_map(column_map, cols):

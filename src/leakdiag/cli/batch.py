@@ -24,7 +24,8 @@ def batch(inputs, config_path, out, scheduler, workers, serial, retry_errors, no
     """Run the job in --config on every recording matching INPUTS (quote globs: 'data/**/*.parquet').
 
     One row per recording and analysis/detector goes to --out; a bad file becomes a row with its
-    error; a re-run skips finished recordings.
+    error; a re-run skips finished recordings. Exit code 1 when any recording of the job is an
+    error row or gives no usable feature value (shorter than a window, constant channel).
     """
     from leakdiag.batch import load_config, read_results, run_batch
     from leakdiag.batch.runner import LOCAL
@@ -41,6 +42,18 @@ def batch(inputs, config_path, out, scheduler, workers, serial, retry_errors, no
     n_rows = int((df["job_digest"] == cfg.digest).sum())
     click.echo(f"{s.n_inputs} recording(s): {s.n_run} run, {s.n_skipped} already done, "
                f"{s.n_errors} error(s) in this run; {n_rows} row(s) for job {cfg.digest} in {out}")
-    bad = df[(df["status"] == "error") & (df["job_digest"] == cfg.digest)]
+    mine = df[df["job_digest"] == cfg.digest]
+    bad = mine[mine["status"] == "error"]
     for _, r in bad.iterrows():
         click.echo(f"  error: {r['recording']}: {r['error']}", err=True)
+    ok = mine[(mine["status"] == "ok") & (mine["kind"] == "analysis")]
+    n_win = ok["n_windows"].fillna(0).astype(int)
+    n_deg = ok["n_degenerate"].fillna(0).astype(int)
+    empty = ok[(n_win == 0) | (n_deg == n_win)]
+    for _, r in empty.iterrows():
+        why = (f"{int(r['n_samples'])} samples is shorter than one window (window={r['window']})"
+               if int(r["n_windows"]) == 0 else
+               f"all {int(r['n_windows'])} windows degenerate (zero variance: constant channel?)")
+        click.echo(f"  unusable: {r['recording']}: {r['name']}: {why}", err=True)
+    if len(bad) or len(empty):  # scripts must see that not every recording was analysed
+        raise click.exceptions.Exit(1)

@@ -83,6 +83,9 @@ def verdict_table(file, healthy, *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"), sy
 def detect(file, healthy, methods, system, column_map, sample_rate, false_alarms_per_hour,
            onset_method, burn_in_s):
     """Judge FILE against healthy recordings: leak or not, onset, alarm time, confidence."""
+    import numpy as np
+    import pandas as pd
+
     tab = verdict_table(file, healthy, methods=[m.strip() for m in methods.split(",") if m.strip()],
                         system=system, column_map=column_map, sample_rate=sample_rate,
                         false_alarms_per_hour=false_alarms_per_hour, onset_method=onset_method,
@@ -90,3 +93,9 @@ def detect(file, healthy, methods, system, column_map, sample_rate, false_alarms
     cols = [c for c in ("method", "leak", "onset_s", "alarm_time_s", "confidence", "score_max",
                         "threshold", "threshold_method", "error") if c in tab]
     click.echo(tab[cols].to_string(index=False))
+    scores = tab["score_max"] if "score_max" in tab else pd.Series(float("nan"), index=tab.index)
+    if not np.isfinite(scores.to_numpy(dtype=float)).any():  # no method could judge FILE
+        where = ("the healthy recording(s)" if "error" in tab and tab["error"].notna().all()
+                 else f"{file} (zero variance: constant channel?)")
+        raise ValueError(f"{file}: no method gave a finite score; the features are undefined on "
+                         f"{where}")

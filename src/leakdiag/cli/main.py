@@ -56,7 +56,7 @@ def _format_warning(message, category, filename, lineno, line=None) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI; bad input (ValueError) becomes a one-line error and exit code 2.
+    """Run the CLI; bad input becomes a one-line error on stderr and exit code 2.
 
     Parameters
     ----------
@@ -66,22 +66,37 @@ def main(argv: list[str] | None = None) -> int:
     Returns
     -------
     int
-        Exit code.
+        Exit code: 0 on success, 2 for bad input (``ValueError``, ``TypeError``, ``KeyError``,
+        ``OSError`` or a leakdiag ``RuntimeError`` such as a leak that cannot be calibrated),
+        click's own code for usage errors, 1 when aborted or when a command exits with 1
+        (``leakdiag batch`` with error rows).
+
+    Examples
+    --------
+    >>> main(["--version"])  # doctest: +ELLIPSIS
+    leakdiag, version ...
+    0
     """
     warnings.formatwarning = _format_warning
     try:
-        cli.main(args=argv, prog_name="leakdiag", standalone_mode=False)
+        code = cli.main(args=argv, prog_name="leakdiag", standalone_mode=False)
     except click.exceptions.Abort:
         click.echo("Aborted.", err=True)
         return 1
     except click.ClickException as exc:
         exc.show()
         return exc.exit_code
-    except (ValueError, TypeError, KeyError, FileNotFoundError) as exc:
+    except (ValueError, TypeError, KeyError, OSError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         click.echo(f"leakdiag: error: {msg}", err=True)
         return 2
-    return 0
+    except RuntimeError as exc:
+        if not type(exc).__module__.startswith("leakdiag."):
+            raise  # a bug, not bad input: keep the traceback
+        click.echo(f"leakdiag: error: {exc}", err=True)  # e.g. sim.leak.LeakCalibrationError
+        return 2
+    # click returns the code of a ``click.exceptions.Exit`` (e.g. batch with error rows)
+    return code if isinstance(code, int) and not isinstance(code, bool) else 0
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -183,7 +183,10 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
     t0 = time.perf_counter()
     try:
         for chunk_ in paced(source, speed):
-            evs = mon.push(chunk_)
+            try:
+                evs = mon.push(chunk_)
+            except ValueError as exc:  # e.g. a NaN sample: name the input
+                raise ValueError(f"{source.source}: {exc}") from None
             if out is not None and evs:
                 out.write("".join(e.to_json() + "\n" for e in evs))
                 out.flush()
@@ -205,3 +208,10 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
     say(f"{source.source}: {n} samples at {source.sample_rate:g} Hz, {n_win} windows "
         f"({spec.label}), {n_alarm} alarm(s), {mon.features[0].n_degenerate} degenerate, "
         f"in {dt:.3g} s")
+    n_bad = mon.features[0].n_degenerate
+    if n_win == 0:
+        raise ValueError(f"{source.source}: {n} samples is shorter than one window "
+                         f"(window={spec.window}): no feature value was computed")
+    if n_bad == n_win:
+        raise ValueError(f"{source.source}: all {n_win} windows of {spec.label} are degenerate "
+                         "(zero variance: constant channel?); no feature value was computed")

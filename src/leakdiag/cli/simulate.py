@@ -110,13 +110,13 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
         fn = ld.sim.simulate_vca
         kwargs["leak_model"] = leak_model
         if params_file is not None:
-            kwargs["params"] = ld.sim.VCAParams.from_toml(params_file)
+            kwargs["params"] = _params_from_toml(ld.sim.VCAParams, params_file)
     else:
         fn = getattr(ld.sim, "simulate_eha", None)
         if fn is None:
             raise click.ClickException("the EHA simulator is not available in this version")
         if params_file is not None:
-            kwargs["params"] = ld.sim.EHAParams.from_toml(params_file)
+            kwargs["params"] = _params_from_toml(ld.sim.EHAParams, params_file)
         accepted = inspect.signature(fn).parameters
         ignored = [k for k in ("leak_kind",) if k in kwargs and k not in accepted]
         kwargs = {k: v for k, v in kwargs.items() if k in accepted}
@@ -150,3 +150,13 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     if plot:
         fig = plot_simulation(rec, Path(out).with_suffix(".png"))
         click.echo(f"wrote {fig}")
+
+
+def _params_from_toml(cls, path):
+    """``cls.from_toml(path)``; a TOML syntax error names the file."""
+    import tomllib
+
+    try:
+        return cls.from_toml(path)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: invalid TOML: {exc}") from None

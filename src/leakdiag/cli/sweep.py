@@ -107,34 +107,22 @@ def sweep(file, method, channels, lags, windows, overlaps, mode, onset, chunk, m
     """Sweep lag, window and overlap on FILE; print the table of the Sec. 5.2 measure."""
     import leakdiag.io as lio
     from leakdiag.features.methods import normalize_method
-    from leakdiag.studies.grid import grid
-    from leakdiag.studies.select import SelectionRule, preferred_setting
-    from leakdiag.studies.sweep import ofat_sweep, parse_values
+    from leakdiag.studies.select import SelectionRule
+    from leakdiag.studies.sweep import parse_values
 
     m = normalize_method(method)
     lag_values = parse_values(lags, str if m == "metric-length" else int)
     win_values = parse_values(windows, int)
     ov_values = parse_values(overlaps, float)
     rec = lio.read_recording(file, sample_rate=sample_rate)
+    _check_input(file, rec, m, channels, win_values)
     rule = SelectionRule(min_chunks_per_side=min_chunks, tolerance_pct=tolerance)
     onset = onset if onset is not None else rec.onset
-    if mode == "ofat":
-        res = ofat_sweep(rec, m, channels, lag_values, win_values, ov_values, rule=rule,
-                         onset=onset, chunk=chunk)
-        table = res.table()
-        chosen = res.chosen
-        groups = [(k, res.tables[k]) for k in ("lag", "window", "overlap")]
-    else:
-        table = grid(rec, m, channels, lag_values, win_values, ov_values, onset=onset,
-                     chunk=chunk)
-        best = preferred_setting(table, rule)
-        chosen = {"lag": best["lag_ratio"] if isinstance(best["lag_ratio"], str)
-                  else int(best["lag"]), "window": int(best["window"]),
-                  "overlap": float(best["overlap"])}
-        groups = [("lag", table[(table.window == chosen["window"])
-                                & (table.overlap == chosen["overlap"])]),
-                  ("window", _at_lag(table, chosen["lag"]).query("overlap == @chosen['overlap']")),
-                  ("overlap", _at_lag(table, chosen["lag"]).query("window == @chosen['window']"))]
+    try:
+        table, chosen, groups = _run(rec, m, channels, lag_values, win_values, ov_values, rule,
+                                     onset, chunk, mode)
+    except ValueError as exc:
+        raise ValueError(f"{file}: {exc}") from None
     click.echo(f"{file}: {rec.n_samples} samples at {rec.sample_rate:g} Hz, onset {onset:g} s, "
                f"{m} {channels or ''}, {len(table)} settings ({mode})")
     click.echo(format_table(table))
@@ -156,6 +144,49 @@ def sweep(file, method, channels, lags, windows, overlaps, mode, onset, chunk, m
                 save_figure(plot_grid_heatmap(table, chosen["lag"]), o / "grid_heatmap.png")
                 written.append("grid_heatmap.png")
         click.echo(f"wrote {o}/: {', '.join(written)}")
+
+
+def _run(rec, m, channels, lag_values, win_values, ov_values, rule, onset, chunk, mode):
+    from leakdiag.studies.grid import grid
+    from leakdiag.studies.select import preferred_setting
+    from leakdiag.studies.sweep import ofat_sweep
+
+    if mode == "ofat":
+        res = ofat_sweep(rec, m, channels, lag_values, win_values, ov_values, rule=rule,
+                         onset=onset, chunk=chunk)
+        table = res.table()
+        chosen = res.chosen
+        groups = [(k, res.tables[k]) for k in ("lag", "window", "overlap")]
+    else:
+        table = grid(rec, m, channels, lag_values, win_values, ov_values, onset=onset,
+                     chunk=chunk)
+        best = preferred_setting(table, rule)
+        chosen = {"lag": best["lag_ratio"] if isinstance(best["lag_ratio"], str)
+                  else int(best["lag"]), "window": int(best["window"]),
+                  "overlap": float(best["overlap"])}
+        groups = [("lag", table[(table.window == chosen["window"])
+                                & (table.overlap == chosen["overlap"])]),
+                  ("window", _at_lag(table, chosen["lag"]).query("overlap == @chosen['overlap']")),
+                  ("overlap", _at_lag(table, chosen["lag"]).query("window == @chosen['window']"))]
+    return table, chosen, groups
+
+
+def _check_input(file, rec, method, channels, windows) -> None:
+    """One clear error naming FILE for inputs no setting can use (too short, constant channel)."""
+    import numpy as np
+
+    from leakdiag.features.methods import MethodSpec
+
+    if rec.n_samples < min(windows):
+        raise ValueError(f"{file}: {rec.n_samples} samples is shorter than the smallest window "
+                         f"({min(windows)}); pass shorter --windows or a longer recording")
+    lag = {"lag_ratio": "83:3"} if method == "metric-length" else {"lag": 1}
+    chans = tuple(c.strip() for c in channels.split(",")) if channels else ()
+    for ch in MethodSpec(method, chans, window=min(windows), **lag).channels:
+        x = rec[ch]
+        if x.size and np.all(x == x[0]):
+            raise ValueError(f"{file}: channel {ch!r} is constant ({x[0]:g} throughout): zero "
+                             f"variance, so its {method} is undefined in every window")
 
 
 def _at_lag(table, lag):

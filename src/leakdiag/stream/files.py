@@ -82,9 +82,15 @@ def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> C
     return ChunkSource(gen(), fs, t0, chans, n, path, meta)
 
 
-def _csv_frames(frames, chans: list[str]):
-    for df in frames:
-        yield {c: np.ascontiguousarray(df[c].to_numpy(), dtype=np.float64) for c in chans}
+def _csv_frames(path: str, chunk_samples: int, chans: list[str]):
+    """Chunks of a CSV; the reader is opened on first use and closed when the generator is closed
+    (also when the consumer stops early on an error), so no file handle leaks."""
+    import pandas as pd
+
+    with pd.read_csv(path, chunksize=chunk_samples, usecols=chans, comment="#",
+                     dtype=np.float64) as frames:
+        for df in frames:
+            yield {c: np.ascontiguousarray(df[c].to_numpy(), dtype=np.float64) for c in chans}
 
 
 def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
@@ -94,9 +100,7 @@ def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time) -> Ch
     chans = _select(list(head.columns), channels, path)
     t_head = head[TIME_COLUMN].to_numpy(np.float64) if TIME_COLUMN in head else None
     fs, t0 = _rate_start(t_head, sample_rate, start_time, {}, path)
-    frames = pd.read_csv(path, chunksize=chunk_samples, usecols=chans, comment="#",
-                         dtype=np.float64)
-    return ChunkSource(_csv_frames(frames, chans), fs, t0, chans, None, path, {})
+    return ChunkSource(_csv_frames(path, chunk_samples, chans), fs, t0, chans, None, path, {})
 
 
 def open_chunks(path: str | os.PathLike, channels: Sequence[str] | None = None,

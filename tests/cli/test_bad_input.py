@@ -1,0 +1,241 @@
+"""Bad input at the command line: exit code 2 (1 for batch) and ONE clear line on stderr, no traceback.
+
+Each case writes a small CSV that is wrong in exactly one way and checks that the message names the
+file and the problem (channel, row, window, unit).
+"""
+
+import numpy as np
+import pytest
+
+from leakdiag.cli.main import main
+
+N = 2000
+RATE_HZ = 1000.0
+
+
+def _write(path, time_s, cols):
+    names = ["time", *cols]
+    data = np.column_stack([time_s, *cols.values()])
+    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+    return path
+
+
+def _cols(n=N, seed=0):
+    rng = np.random.default_rng(seed)
+    return {"p1": 1e6 + rng.normal(0, 1e3, n), "p2": 1e6 + rng.normal(0, 1e3, n),
+            "x": rng.normal(0, 1e-3, n), "u": rng.normal(0, 1, n)}
+
+
+@pytest.fixture
+def files(tmp_path):
+    t = np.arange(N) / RATE_HZ
+    good = _write(tmp_path / "good.csv", t, _cols())
+    c = _cols()
+    c["p1"][500] = np.nan
+    nan = _write(tmp_path / "nan.csv", t, c)
+    t_bad = t.copy()
+    t_bad[1000:] += 0.5e-3
+    nonuni = _write(tmp_path / "nonuni.csv", t_bad, _cols())
+    c = _cols()
+    del c["p1"]
+    missing = _write(tmp_path / "missing.csv", t, c)
+    short = _write(tmp_path / "short.csv", t[:50], _cols(50))
+    const = _write(tmp_path / "const.csv", t, {"p1": np.full(N, 1e6), "p2": np.full(N, 1e6),
+                                                "x": np.zeros(N), "u": np.zeros(N)})
+    (tmp_path / "adir").mkdir()
+    return {"good": good, "nan": nan, "nonuni": nonuni, "missing": missing, "short": short,
+            "const": const, "nope": tmp_path / "nope.csv", "adir": tmp_path / "adir"}
+
+
+def _one_error_line(capsys, code, *needles, expect_code=2):
+    out = capsys.readouterr()
+    assert code == expect_code, out
+    lines = [ln for ln in out.err.splitlines() if ln.strip()]
+    assert "Traceback" not in out.err
+    errors = [ln for ln in lines if "error" in ln.lower()]
+    assert len(errors) == 1, out.err
+    for needle in needles:
+        assert needle in errors[0], errors[0]
+    return errors[0]
+
+
+# ---- analyze ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("case,needles", [
+    ("nan", ["nan.csv", "channel 'p1'", "1 non-finite", "row 500"]),
+    ("nonuni", ["nonuni.csv", "not uniformly sampled", "row 1000", "--resample"]),
+    ("missing", ["missing.csv", "missing channel(s) ['p1']", "available"]),
+    ("short", ["short.csv", "50 samples", "shorter than one window", "window=200"]),
+    ("const", ["const.csv", "every window is NaN", "autocorrelation p1", "zero variance"]),
+    ("nope", ["nope.csv", "file not found"]),
+])
+def test_analyze_bad_file(files, capsys, case, needles):
+    code = main(["analyze", str(files[case]), "-c", "p1"])
+    _one_error_line(capsys, code, *needles)
+
+
+def test_analyze_directory(files, capsys):
+    code = main(["analyze", str(files["adir"])])
+    _one_error_line(capsys, code, "adir", "is a directory")
+
+
+def test_analyze_unknown_unit(files, capsys):
+    code = main(["analyze", str(files["good"]), "--col", "p1=p1:furlong"])
+    _one_error_line(capsys, code, "p1=p1:furlong", "unknown unit 'furlong'", "psi")
+
+
+def test_analyze_zero_variance_in_one_method_only_warns(files, capsys):
+    """Constant u,x but live p1: the analysis runs, the dead method is counted, exit 0."""
+    t = np.arange(N) / RATE_HZ
+    c = _cols()
+    c["u"][:] = 0.0
+    path = _write(files["good"].parent / "dead_u.csv", t, c)
+    # 'all' runs four methods; only cross-correlation u,x sees the constant u
+    with pytest.warns(match=r"dead_u.csv: cross-correlation u,x .* have zero variance"):
+        code = main(["analyze", str(path), "-m", "all"])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    row = [ln for ln in out.out.splitlines() if "u,x" in ln][0]
+    assert row.split()[-2:] == ["21", "21"]  # 21 windows, all 21 NaN (N=100, 5%: step 95)
+
+
+# ---- sweep -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("case,needles", [
+    ("nan", ["nan.csv", "row 500"]),
+    ("nonuni", ["nonuni.csv", "not uniformly sampled"]),
+    ("missing", ["missing.csv", "no channel 'p1'", "available"]),
+    ("short", ["short.csv", "50 samples", "smallest window (100)"]),
+    ("const", ["const.csv", "channel 'p1' is constant", "zero variance"]),
+    ("nope", ["nope.csv", "file not found"]),
+])
+def test_sweep_bad_file(files, capsys, case, needles):
+    code = main(["sweep", str(files[case]), "-c", "p1", "--onset", "1", "--no-figures"])
+    _one_error_line(capsys, code, *needles)
+
+
+def test_sweep_without_onset_names_file(files, capsys):
+    code = main(["sweep", str(files["good"]), "-c", "p1", "--no-figures"])
+    _one_error_line(capsys, code, "good.csv", "no leak onset")
+
+
+# ---- monitor ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("case,needles", [
+    ("nan", ["nan.csv", "channel 'p1'", "sample 500"]),
+    ("nonuni", ["nonuni.csv", "not uniformly sampled"]),
+    ("missing", ["missing.csv", "['p1']"]),
+    ("short", ["short.csv", "50 samples", "shorter than one window", "window=200"]),
+    ("const", ["const.csv", "all 10 windows", "degenerate"]),
+    ("nope", ["nope.csv", "no such file"]),
+    ("adir", ["adir", "is a directory"]),
+])
+def test_monitor_bad_file(files, capsys, case, needles):
+    code = main(["monitor", "-i", str(files[case]), "-c", "p1", "-q"])
+    _one_error_line(capsys, code, *needles)
+
+
+def test_monitor_nan_in_later_chunk_names_file_and_sample(files, capsys):
+    code = main(["monitor", "-i", str(files["nan"]), "-c", "p1", "-q", "--chunk", "128"])
+    _one_error_line(capsys, code, "nan.csv", "sample 500")
+
+
+# ---- detect ----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("case,needles", [
+    ("nan", ["nan.csv", "row 500"]),
+    ("missing", ["missing.csv", "['p1']"]),
+    ("short", ["short.csv", "shorter than one window"]),
+])
+def test_detect_bad_file(files, capsys, case, needles):
+    code = main(["detect", str(files[case]), "--healthy", str(files["good"]), "--burn-in", "0",
+                 "--methods", "acf-p1"])
+    _one_error_line(capsys, code, *needles)
+
+
+def test_detect_constant_healthy_file(files, capsys):
+    code = main(["detect", str(files["good"]), "--healthy", str(files["const"]), "--burn-in", "0",
+                 "--methods", "acf-p1"])
+    _one_error_line(capsys, code, "good.csv", "no method gave a finite score", "healthy")
+
+
+def test_detect_nonexistent_file(files, capsys):
+    code = main(["detect", str(files["nope"]), "--healthy", str(files["good"])])
+    _one_error_line(capsys, code, "nope.csv", "does not exist")
+
+
+# ---- batch -----------------------------------------------------------------------------------
+
+JOB = ('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\nlag = 1\nwindow = 200\n'
+       'overlap = 5\n')
+
+
+@pytest.mark.parametrize("case,needles", [
+    ("nan", ["error: nan.csv", "not finite at sample 500"]),
+    ("missing", ["error: missing.csv", "['p1']"]),
+    ("short", ["unusable: short.csv", "50 samples is shorter than one window (window=200)"]),
+    ("const", ["unusable: const.csv", "all 10 windows degenerate"]),
+])
+def test_batch_bad_file_exits_1_with_its_row(files, tmp_path, capsys, case, needles):
+    job = tmp_path / "job.toml"
+    job.write_text(JOB)
+    code = main(["batch", str(files[case]), str(files["good"]), "--config", str(job), "--out",
+                 str(tmp_path / "res"), "--serial", "--no-progress"])
+    out = capsys.readouterr()
+    assert code == 1, out
+    assert "Traceback" not in out.err
+    bad = [ln for ln in out.err.splitlines() if ln.strip()]
+    assert len(bad) == 1 and all(n in bad[0] for n in needles), out.err
+    assert "2 recording(s): 2 run" in out.out
+
+
+def test_batch_good_file_exits_0(files, tmp_path, capsys):
+    job = tmp_path / "job.toml"
+    job.write_text(JOB)
+    code = main(["batch", str(files["good"]), "--config", str(job), "--out", str(tmp_path / "r"),
+                 "--serial", "--no-progress"])
+    assert code == 0, capsys.readouterr()
+
+
+def test_batch_invalid_toml(files, tmp_path, capsys):
+    job = tmp_path / "bad.toml"
+    job.write_text("x = [\n")
+    code = main(["batch", str(files["good"]), "--config", str(job), "--out", str(tmp_path / "r"),
+                 "--serial"])
+    _one_error_line(capsys, code, "bad.toml", "invalid TOML")
+
+
+# ---- simulate --------------------------------------------------------------------------------
+
+def test_simulate_uncalibratable_leak_is_one_line(tmp_path, capsys):
+    """0.1 L/min over a 1 s leak phase needs a coefficient the integrator refuses: no traceback."""
+    code = main(["simulate", "vca", "--duration", "2", "--onset", "1", "--out",
+                 str(tmp_path / "s.parquet")])
+    line = _one_error_line(capsys, code, "leak coefficient", "RK4 steps per sample")
+    assert line.startswith("leakdiag: error:")
+
+
+def test_simulate_invalid_params_toml_names_file(tmp_path, capsys):
+    bad = tmp_path / "p.toml"
+    bad.write_text("x = [\n")
+    code = main(["simulate", "vca", "--duration", "2", "--onset", "1", "--params", str(bad),
+                 "--out", str(tmp_path / "s.parquet")])
+    _one_error_line(capsys, code, "p.toml", "invalid TOML")
+
+
+def test_simulate_unknown_params_field(tmp_path, capsys):
+    bad = tmp_path / "p.toml"
+    bad.write_text("bogus_field = 3\n")
+    code = main(["simulate", "vca", "--duration", "2", "--onset", "1", "--params", str(bad),
+                 "--out", str(tmp_path / "s.parquet")])
+    _one_error_line(capsys, code, "p.toml", "unknown VCA parameter(s) ['bogus_field']")
+
+
+@pytest.mark.parametrize("args,needles", [
+    (["--duration", "-5"], ["duration=-5.0", "> 0"]),
+    (["--duration", "10", "--onset", "20"], ["onset=20.0", "[0, duration=10.0)"]),
+    (["--sample-rate", "0"], ["sample_rate=0.0"]),
+])
+def test_simulate_bad_numbers(tmp_path, capsys, args, needles):
+    code = main(["simulate", "vca", *args, "--out", str(tmp_path / "s.parquet")])
+    _one_error_line(capsys, code, *needles)
