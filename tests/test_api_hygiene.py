@@ -1,8 +1,10 @@
 """API hygiene: every module imports, ``__all__`` is right, public functions have numpydoc docstrings."""
 
+import ast
 import importlib
 import inspect
 import pkgutil
+import textwrap
 
 import pytest
 
@@ -45,6 +47,114 @@ def test_public_function_has_numpydoc_docstring(qualname, func):
               if p.name not in ("self", "cls") and p.kind not in (p.VAR_KEYWORD,)]
     if params and not getattr(func, "__click_params__", None):
         assert "Parameters\n----------" in doc, f"{qualname} docstring lacks a Parameters section"
+
+
+def _body(func) -> ast.AST:
+    """The function's own AST (nested functions, lambdas and classes are not its body)."""
+    return ast.parse(textwrap.dedent(inspect.getsource(func))).body[0]
+
+
+def _own_nodes(fn: ast.AST):
+    stack = list(ast.iter_child_nodes(fn))
+    while stack:
+        node = stack.pop()
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda, ast.ClassDef)):
+            continue
+        yield node
+        stack.extend(ast.iter_child_nodes(node))
+
+
+def returns_value(func) -> bool:
+    """True if the source has a ``return <value>`` (not bare, not ``return None``)."""
+    return any(isinstance(n, ast.Return) and n.value is not None
+               and not (isinstance(n.value, ast.Constant) and n.value.value is None)
+               for n in _own_nodes(_body(func)))
+
+
+def raises_directly(func) -> bool:
+    """True if the source has its own ``raise SomeError(...)`` (not a bare re-raise)."""
+    return any(isinstance(n, ast.Raise) and n.exc is not None for n in _own_nodes(_body(func)))
+
+
+def test_source_inspection_helpers():
+    def plain(x):
+        if x:
+            return None
+        return
+
+    def value(x):
+        def inner():
+            return 1
+        return x + 1
+
+    def nested_only(x):
+        def inner():
+            raise ValueError("x")
+        return inner
+
+    def reraise():
+        try:
+            pass
+        except ValueError:
+            raise
+
+    assert not returns_value(plain) and returns_value(value) and returns_value(nested_only)
+    assert not raises_directly(nested_only) and not raises_directly(reraise)
+    assert raises_directly(inner_raiser)
+
+
+def inner_raiser(x):
+    if x < 0:
+        raise ValueError(f"{x=} must be >= 0")
+
+
+def _public_methods():
+    """Public methods of the public classes (``__all__``) defined in leakdiag."""
+    for name in MODULES:
+        mod = importlib.import_module(name)
+        for n in getattr(mod, "__all__", []):
+            cls = getattr(mod, n)
+            if not (inspect.isclass(cls) and cls.__module__ == name):
+                continue
+            for mname, meth in vars(cls).items():
+                if not mname.startswith("_") and inspect.isfunction(meth):
+                    yield f"{name}.{n}.{mname}", meth
+
+
+#: Public methods outside this reviewer's reach (detect/, bench/ are being finished by their
+#: owner) that return a value without a Returns section; listed so the guard holds elsewhere.
+#: Remove an entry once its docstring is fixed (the test then fails if it regresses).
+KNOWN_MISSING_RETURNS = {
+    "leakdiag.bench.suite.BenchCase.to_dict",
+    "leakdiag.detect.base.Verdict.as_dict",
+    "leakdiag.detect.measure.RMSChange.as_dict",
+}
+#: Same for Raises.
+KNOWN_MISSING_RAISES = {
+    "leakdiag.bench.run.per_run_target_per_hour",
+}
+
+
+@pytest.mark.parametrize("qualname,func", list(_public_functions()) + list(_public_methods()),
+                         ids=lambda v: v if isinstance(v, str) else "")
+def test_returns_and_raises_sections(qualname, func):
+    """A public function or method that returns a value documents it; one that raises says what."""
+    doc = inspect.getdoc(func) or ""
+    if returns_value(func) and qualname not in KNOWN_MISSING_RETURNS:
+        assert "Returns\n-------" in doc or "Yields\n------" in doc, \
+            f"{qualname} returns a value but its docstring lacks a Returns section"
+    if raises_directly(func) and qualname not in KNOWN_MISSING_RAISES:
+        assert "Raises\n------" in doc, \
+            f"{qualname} raises but its docstring lacks a Raises section"
+
+
+def test_known_gaps_are_still_gaps():
+    """An allow-list entry whose docstring has been fixed must be removed from the list."""
+    everything = dict(_public_functions()) | dict(_public_methods())
+    for q in KNOWN_MISSING_RETURNS:
+        assert q in everything and "Returns\n-------" not in (inspect.getdoc(everything[q]) or ""), q
+    for q in KNOWN_MISSING_RAISES:
+        assert q in everything and "Raises\n------" not in (inspect.getdoc(everything[q]) or ""), q
 
 
 def test_import_leakdiag_is_light():

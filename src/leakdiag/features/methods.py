@@ -195,7 +195,14 @@ class MethodSpec:
         return f"{self.method} {','.join(self.channels)}{s} N={self.window} {self.overlap:g}%"
 
     def as_dict(self) -> dict:
-        """Settings as plain columns (for tables)."""
+        """Settings as plain columns (for tables).
+
+        Returns
+        -------
+        dict
+            ``method``, ``channels`` (comma-joined), ``lag`` (None for metric length),
+            ``lag_ratio`` (``"l:k"`` or None), ``window`` (samples), ``overlap`` (%).
+        """
         return {"method": self.method, "channels": ",".join(self.channels),
                 "lag": self.lag, "lag_ratio": None if self.lag_ratio is None else self.setting,
                 "window": self.window, "overlap": self.overlap}

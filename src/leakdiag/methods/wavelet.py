@@ -184,7 +184,19 @@ class WaveletParams:
         check_overlap(self.overlap)
 
     def resolved_level(self, sample_rate: float) -> int:
-        """The detail level used at ``sample_rate`` (Hz)."""
+        """The detail level used at ``sample_rate`` (Hz).
+
+        Parameters
+        ----------
+        sample_rate : float
+            Sample rate in Hz.
+
+        Returns
+        -------
+        int
+            ``level`` if set, else the level whose band holds ``natural_frequency_hz``
+            (:func:`wavelet_level_for_frequency`).
+        """
         if self.level is not None:
             return int(self.level)
         return wavelet_level_for_frequency(self.natural_frequency_hz, sample_rate)

@@ -87,7 +87,20 @@ class PseudoRandomSteps:
             )
 
     def samples(self, time: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """Reference position (m) at each time (s), see class notes."""
+        """Reference position (m) at each time (s), see class notes.
+
+        Parameters
+        ----------
+        time : numpy.ndarray
+            Sample times in s, 1-D.
+        rng : numpy.random.Generator
+            Draws the hold times and levels.
+
+        Returns
+        -------
+        numpy.ndarray
+            Reference position in m, same shape as ``time``.
+        """
         t = as_1d_float(time, "time")
         out = np.empty_like(t)
         if t.size == 0:
@@ -128,7 +141,20 @@ class SineReference:
     offset_m: float = 0.0
 
     def samples(self, time: np.ndarray, rng: np.random.Generator | None) -> np.ndarray:
-        """Reference position (m) at each time (s); ``rng`` is unused."""
+        """Reference position (m) at each time (s); ``rng`` is unused.
+
+        Parameters
+        ----------
+        time : numpy.ndarray
+            Sample times in s, 1-D.
+        rng : numpy.random.Generator or None
+            Unused (deterministic reference).
+
+        Returns
+        -------
+        numpy.ndarray
+            Reference position in m, same shape as ``time``.
+        """
         t = as_1d_float(time, "time")
         return self.offset_m + self.amplitude_m * np.sin(2 * np.pi * self.frequency_hz * t)
 
@@ -162,7 +188,20 @@ class ChirpReference:
     duration_s: float = 100.0
 
     def samples(self, time: np.ndarray, rng: np.random.Generator | None) -> np.ndarray:
-        """Reference position (m) at each time (s); ``rng`` is unused."""
+        """Reference position (m) at each time (s); ``rng`` is unused.
+
+        Parameters
+        ----------
+        time : numpy.ndarray
+            Sample times in s, 1-D.
+        rng : numpy.random.Generator or None
+            Unused (deterministic reference).
+
+        Returns
+        -------
+        numpy.ndarray
+            Reference position in m, same shape as ``time``.
+        """
         t = as_1d_float(time, "time")
         T = check_positive(self.duration_s, "duration_s")
         k = (self.f1_hz - self.f0_hz) / T
@@ -190,7 +229,25 @@ class SampledReference:
     values_m: np.ndarray
 
     def samples(self, time: np.ndarray, rng: np.random.Generator | None) -> np.ndarray:
-        """The stored samples, held or truncated to ``len(time)``; ``rng`` is unused."""
+        """The stored samples, held or truncated to ``len(time)``; ``rng`` is unused.
+
+        Parameters
+        ----------
+        time : numpy.ndarray
+            Sample times in s, 1-D (only its length is used).
+        rng : numpy.random.Generator or None
+            Unused.
+
+        Returns
+        -------
+        numpy.ndarray
+            Reference position in m, ``len(time)`` values.
+
+        Raises
+        ------
+        ValueError
+            If the stored reference is empty or not finite.
+        """
         t = as_1d_float(time, "time")
         v = as_1d_float(self.values_m, "reference")
         if v.size == 0:

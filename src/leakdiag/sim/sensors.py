@@ -86,7 +86,13 @@ class SensorParams:
         return self.pressure_full_scale_pa / 2.0**self.pressure_adc_bits
 
     def to_dict(self) -> dict:
-        """Field name -> value (for recording metadata)."""
+        """Field name -> value (for recording metadata).
+
+        Returns
+        -------
+        dict
+            One entry per field, SI units as in the field names.
+        """
         return asdict(self)
 
 

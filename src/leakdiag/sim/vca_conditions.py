@@ -82,7 +82,13 @@ class OperatingConditions:
                 and (self.spring_change_time_s is None or self.spring_change_factor == 1.0))
 
     def to_dict(self) -> dict:
-        """Field name -> value."""
+        """Field name -> value.
+
+        Returns
+        -------
+        dict
+            One entry per field, units as in the field names.
+        """
         return asdict(self)
 
     def to_array(self, duration: float) -> np.ndarray:

@@ -64,12 +64,24 @@ class FixedGainController:
                 raise ValueError(f"{name}={v!r} must be a finite number >= 0")
 
     def to_array(self) -> np.ndarray:
-        """``[K_p, K_i, K_dp]`` as float64."""
+        """``[K_p, K_i, K_dp]`` as float64.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(3,)``: position gain V/m, integral gain V/(m s), pressure gain V/Pa.
+        """
         return np.array([self.position_gain_v_per_m, self.integral_gain_v_per_m_s,
                          self.pressure_gain_v_per_pa], dtype=np.float64)
 
     def to_dict(self) -> dict[str, float]:
-        """Field name -> value."""
+        """Field name -> value.
+
+        Returns
+        -------
+        dict
+            One entry per gain, units as in the field names.
+        """
         return asdict(self)
 
 

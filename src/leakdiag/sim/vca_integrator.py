@@ -125,6 +125,12 @@ def rk4_advance(state, t0, dt, n_steps, u, leak_coefficient, schedule, cond, par
     params : numpy.ndarray
         :meth:`VCAParams.to_array`.
 
+    Raises
+    ------
+    ValueError
+        If ``state`` is not a C-contiguous float64 array of shape ``(6,)`` (it is updated in
+        place, so it cannot be converted silently).
+
     Examples
     --------
     >>> from leakdiag.sim.vca_params import VCAParams
@@ -137,7 +143,9 @@ def rk4_advance(state, t0, dt, n_steps, u, leak_coefficient, schedule, cond, par
     [0.0, 0.0, 8600000.0, 8600000.0, 0.0, 0.0]
     """
     if state.dtype != np.float64 or not state.flags.c_contiguous or state.shape != (6,):
-        raise ValueError("state must be a C-contiguous float64 array of shape (6,)")
+        raise ValueError(f"state (dtype={state.dtype}, shape={state.shape}, C-contiguous="
+                         f"{state.flags.c_contiguous}) must be a C-contiguous float64 array of "
+                         "shape (6,)")
     work = [np.empty(6) for _ in range(6)]
     _rk4_steps(state, float(t0), float(dt), int(n_steps), float(u), float(leak_coefficient),
                schedule, cond, params, params[5] + abs(cond[0]), *work)

@@ -205,7 +205,13 @@ class VCAParams:
 
     # ------------------------------------------------------------------ conversion
     def to_dict(self) -> dict[str, float]:
-        """Field name -> value (SI), e.g. for recording metadata or TOML."""
+        """Field name -> value (SI), e.g. for recording metadata or TOML.
+
+        Returns
+        -------
+        dict
+            One entry per Table 2-1 field, SI units as in the field names.
+        """
         return asdict(self)
 
     def to_array(self, leak_model: str = "turbulent", load: str = "none") -> np.ndarray:

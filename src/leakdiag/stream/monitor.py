@@ -197,6 +197,12 @@ class Monitor:
         list of tuple
             Per spec ``(time, values, scores, alarms)``; ``scores``/``alarms`` are None
             without a scorer.
+
+        Raises
+        ------
+        ValueError
+            If a chunk is not finite or its channels differ in length (from the streaming
+            feature), or a scorer's ``score_windows`` returns a shape other than the values'.
         """
         out = []
         for feat, scorer in zip(self.features, self.scorers):
