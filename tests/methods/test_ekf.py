@@ -45,8 +45,16 @@ def test_residual_feature_is_normalised():
                      "p1": 8.6e6 + 1e4 * rng.standard_normal(n),
                      "p2": 8.6e6 + 1e4 * rng.standard_normal(n)}, 1000.0)
     fs = ekf_feature(rec, EKFParams(feature="residual", overlap=0))
-    # innovations of pure measurement noise: sqrt(NIS / 3) near (slightly below) 1
-    assert np.all((fs.values > 0.5) & (fs.values < 1.2))
+    # innovations of pure measurement noise matching R on p1, p2 and none on x (x is exactly 0):
+    # E[NIS] <= 2 of the 3 components, so sqrt(NIS / 3) sits just below sqrt(2/3) = 0.816
+    assert fs.values.shape == (2,)
+    assert np.all((fs.values > 0.7) & (fs.values < np.sqrt(2 / 3)))
+    # at rest the filter is linear in the measurement noise: twice the noise, twice the residual
+    rec2 = Recording({"u": np.zeros(n), "x": np.zeros(n),
+                      "p1": 8.6e6 + 2 * (rec["p1"] - 8.6e6), "p2": 8.6e6 + 2 * (rec["p2"] - 8.6e6)},
+                     1000.0)
+    fs2 = ekf_feature(rec2, EKFParams(feature="residual", overlap=0))
+    np.testing.assert_allclose(fs2.values, 2 * fs.values, rtol=0.02)
 
 
 def test_errors():
