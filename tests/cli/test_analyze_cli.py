@@ -47,9 +47,14 @@ def test_analyze_all_uses_thesis_settings(run_file, capsys):
     both = path.parent / "full.parquet"
     ld.io.write_recording(rec, both)
     assert main(["analyze", str(both), "--method", "all", "--onset", "6", "--chunk", "4"]) == 0
-    text = capsys.readouterr().out
-    for token in ("autocorrelation", "u,x", "83:3", "metric-length"):
-        assert token in text
+    rows = [ln.split() for ln in capsys.readouterr().out.splitlines()[2:]]
+    # the thesis's preferred VCA settings (case study 2), and window counts from
+    # n_windows = (n - N) // (N - round(N * overlap / 100)) + 1 with n = 12000
+    got = [(r[0], r[1], r[2], int(r[3]), r[4], int(r[5])) for r in rows]
+    assert got == [("autocorrelation", "p1", "1", 200, "5%", 63),
+                   ("cross-correlation", "p1,p2", "1", 100, "5%", 126),
+                   ("cross-correlation", "u,x", "1", 100, "5%", 126),
+                   ("metric-length", "p1", "83:3", 500, "5%", 25)]
 
 
 def test_analyze_missing_channel_is_one_clear_error(run_file, capsys):
@@ -71,8 +76,18 @@ def test_analyze_column_flags(tmp_path, capsys):
     df = pd.DataFrame({"t_s": np.arange(n) / 1000.0, "PA_psi": 1000 + rng.standard_normal(n)})
     path = tmp_path / "rig.csv"
     df.to_csv(path, index=False)
+    out = tmp_path / "out"
     code = main(["analyze", str(path), "--col", "p1=PA_psi:psi", "--col", "time=t_s:s",
-                 "--window", "100"])
+                 "--window", "100", "-m", "moments", "-c", "p1", "--out", str(out)])
     err = capsys.readouterr()
     assert code == 0, err.err
     assert "3000 samples at 1000 Hz" in err.out
+    feats = pd.read_parquet(out / "features.parquet")
+    means = feats[feats["method"] == "moments:mean"]
+    # window 100, overlap 5%: step 95, windows start at 0, 95, ..., 2850 -> 31 windows,
+    # timestamped at the last sample (t_s column) of each
+    starts = np.arange(31) * 95
+    np.testing.assert_allclose(means["time"], (starts + 99) / 1000.0, rtol=0, atol=1e-12)
+    # the psi column was converted to Pa: 1 psi = 6894.757293168 Pa (exact, NIST)
+    want = [df["PA_psi"].to_numpy()[s:s + 100].mean() * 6894.757293168 for s in starts]
+    np.testing.assert_allclose(means["value"], want, rtol=1e-12)
