@@ -94,7 +94,7 @@ def test_from_toml_and_dict(tmp_path):
 
 def test_frozen_and_replace():
     p = EHAParams()
-    with pytest.raises(dataclasses.FrozenInstanceError):
+    with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign to field 'mass_kg'"):
         p.mass_kg = 1.0  # type: ignore[misc]
     q = dataclasses.replace(p, accumulator_pressure_pa=2e6)
     assert q.accumulator_pressure_pa == 2e6 and np.isfinite(q.to_array()).all()

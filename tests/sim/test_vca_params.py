@@ -98,6 +98,6 @@ def test_from_toml_errors(tmp_path):
 
 def test_frozen_and_dict_roundtrip():
     p = VCAParams()
-    with pytest.raises(dataclasses.FrozenInstanceError):
+    with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign to field 'mass_kg'"):
         p.mass_kg = 1.0
     assert VCAParams(**p.to_dict()) == p
