@@ -61,7 +61,7 @@ def test_none_unit_is_si_for_standard_channel_and_unknown_otherwise():
 
 
 def test_counts_gain_on_custom_channel_needs_si_unit():
-    with pytest.raises(ValueError, match="si_unit"):
+    with pytest.raises(ValueError, match="channel 'angle': counts with a gain .* with si_unit"):
         to_si([1.0], "counts", gain=2.0, channel="angle")
     values, unit = to_si([1.0], "counts", gain=2.0, channel="angle", si_unit="rad")
     assert (values.tolist(), unit) == ([2.0], "rad")

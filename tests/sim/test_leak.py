@@ -112,5 +112,5 @@ def test_calibration_validation(args, match):
 
 
 def test_calibration_nonfinite_flow():
-    with pytest.raises(LeakCalibrationError, match="nan"):
+    with pytest.raises(LeakCalibrationError, match=r"simulate_fn\(1\) returned mean leak nan L/min; it must be finite"):
         calibrate_leak_coefficient(lambda k: math.nan, 0.1, 1.0)
