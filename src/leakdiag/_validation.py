@@ -132,8 +132,8 @@ def check_int(value, name: str, low: int | None = None, high: int | None = None)
             raise TypeError(f"{name}={value!r} must be an integer")
     value = int(value)
     if low is not None and value < low:
-        bound = f"[{low}, {high})" if high is not None else f">= {low}"
-        raise ValueError(f"{name}={value} must be in {bound}")
+        bound = f"be in [{low}, {high})" if high is not None else f"be >= {low}"
+        raise ValueError(f"{name}={value} must {bound}")
     if high is not None and value >= high:
         raise ValueError(f"{name}={value} must be in [{low if low is not None else '-inf'}, {high})")
     return value

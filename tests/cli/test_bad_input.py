@@ -239,3 +239,24 @@ def test_simulate_unknown_params_field(tmp_path, capsys):
 def test_simulate_bad_numbers(tmp_path, capsys, args, needles):
     code = main(["simulate", "vca", *args, "--out", str(tmp_path / "s.parquet")])
     _one_error_line(capsys, code, *needles)
+
+
+# ---- options ---------------------------------------------------------------------------------
+
+def test_monitor_garbage_detector_file(files, tmp_path, capsys):
+    det = tmp_path / "det.pkl"
+    det.write_bytes(b"garbage\n")
+    code = main(["monitor", "-i", str(files["good"]), "--detector", str(det), "-q"])
+    _one_error_line(capsys, code, "--detector", "det.pkl", "cannot load as a pickled detector")
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["-w", "0"], "window=0 must be >= 2"),
+    (["-o", "100"], "overlap=100.0 must be in [0, 100) percent"),
+    (["--lag", "500"], "lag=500 must be in [1, 200)"),
+    (["-m", "metric-length", "--lag-ratio", "83-3"], "lag_ratio='83-3' must be written 'l:k'"),
+    (["--sample-rate", "-5"], "sample_rate=-5.0 must be a finite number > 0"),
+])
+def test_analyze_bad_option_values(files, capsys, args, needle):
+    code = main(["analyze", str(files["good"]), *args])
+    _one_error_line(capsys, code, needle)

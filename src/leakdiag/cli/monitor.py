@@ -78,8 +78,10 @@ def load_detector(path: str):
     try:
         with open(path, "rb") as f:
             return pickle.load(f)
-    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ImportError) as exc:
-        raise click.BadParameter(f"--detector {path}: cannot load: {exc}") from None
+    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ImportError, ValueError,
+            TypeError, IndexError, KeyError) as exc:  # garbage bytes raise any of these
+        raise click.BadParameter(f"--detector {path}: cannot load as a pickled detector: "
+                                 f"{type(exc).__name__}: {exc}") from None
 
 
 def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: int,
