@@ -279,6 +279,18 @@ def compute_feature(recording, spec: MethodSpec):
     ------
     RecordingError
         If a channel is missing or the recording is shorter than one window.
+
+    Examples
+    --------
+    An alternating signal: in each window of 4 samples the 3 lag-1 products are -1 and the
+    sum of squares is 4, so Eq. 4.1 gives -3/4; windows end at samples 3 and 7 (1 kHz).
+
+    >>> from leakdiag.io.recording import Recording
+    >>> rec = Recording({"p1": np.tile([1.0, -1.0], 4)}, 1000.0)
+    >>> fs = compute_feature(rec, MethodSpec("autocorrelation", ("p1",), lag=1, window=4,
+    ...                                      overlap=0))
+    >>> fs.values.tolist(), fs.time.tolist()
+    ([-0.75, -0.75], [0.003, 0.007])
     """
     from leakdiag.io.recording import RecordingError
 
