@@ -1,5 +1,6 @@
 """``leakdiag benchmark --quick`` end to end, with sanity checks on its numbers."""
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -56,3 +57,17 @@ def test_onset_found_near_planted_onset(quick):
     assert len(det) >= 9
     err = (det.onset_est_s - det.onset_true_s).abs()
     assert err.median() < 3.0  # runs are 30 s, onsets 14-16 s
+
+
+def test_cpu_time_per_hour_of_signal_is_measured(quick):
+    res = pd.read_csv(quick / "results.csv")
+    runs = pd.read_csv(quick / "runs.csv")
+    assert (res.cpu_s_per_hour > 0).all()
+    test = runs[runs.role.isin(["test_healthy", "test_leak"])]
+    med = test.groupby(["method", "system"]).cpu_s_per_hour.median()
+    got = res.groupby(["method", "system"]).cpu_s_per_hour.first()
+    assert np.allclose(got.loc[med.index], med)
+    # the thesis features run far faster than real time (3600 CPU s per hour of signal)
+    assert (res[res.method.isin(THESIS)].cpu_s_per_hour < 360).all()
+    assert "cpu_s_per_hour" in pd.read_csv(quick / "summary.csv").columns
+    assert "cpu_s_per_hour" in (quick / "index.html").read_text()

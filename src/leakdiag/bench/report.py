@@ -131,6 +131,12 @@ def build_report(suite_run, results, summary, by_condition, command: str,
         "load and noise level are the ones to read for a given machine.",
         f"Onset estimate: {a.onset_method} change points on the standardised feature (penalty "
         "from the healthy runs), falling back to the CUSUM's excursion start.",
+        "cpu_s_per_hour: CPU seconds (time.process_time) of scoring one held-out run -- "
+        "features, score, alarm search, onset and size -- per hour of signal, median over the "
+        "method's held-out runs; loading the recording is not counted. Measured on the "
+        "benchmark's workers, so it includes their contention on a shared machine.",
+        "Comparison table (minimum detectable leak): auc_max_leak is the AUC at the largest "
+        "leak size; onset error and delay are medians over leak sizes of the per-size medians.",
     ])
     rep.heading("Minimum detectable leak")
     rep.table(summary, "Minimum detectable leak per method and rig (NaN: not reached)")
