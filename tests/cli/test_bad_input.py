@@ -156,7 +156,22 @@ def test_detect_bad_file(files, capsys, case, needles):
 def test_detect_constant_healthy_file(files, capsys):
     code = main(["detect", str(files["good"]), "--healthy", str(files["const"]), "--burn-in", "0",
                  "--methods", "acf-p1"])
-    _one_error_line(capsys, code, "good.csv", "no method gave a finite score", "healthy")
+    _one_error_line(capsys, code, "good.csv", "no method gave a finite score",
+                    "only 0 finite feature values", "healthy")
+
+
+def test_detect_constant_file_is_not_called_healthy(files, capsys):
+    """A dead (constant) sensor must not read 'no leak': each method says why, exit 2."""
+    code = main(["detect", str(files["const"]), "--healthy", str(files["good"]), "--burn-in", "0",
+                 "--methods", "acf-p1,ccf-p1p2"])
+    out = capsys.readouterr()
+    assert code == 2
+    assert "Traceback" not in out.err and "False" not in out.out
+    assert out.out.count("channel 'p1' is constant (1e+06)") == 2
+    assert out.err.strip().splitlines() == [
+        f"leakdiag: error: {files['const']}: no method gave a finite score; first reason: "
+        f"{files['const']}: channel 'p1' is constant (1e+06): zero variance, acf-p1 cannot "
+        "judge it"]
 
 
 def test_detect_nonexistent_file(files, capsys):

@@ -37,8 +37,10 @@ def verdict_table(file, healthy, *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"), sy
     -------
     pandas.DataFrame
         One row per method: :meth:`Verdict.as_dict` plus ``method``, ``threshold_method`` and
-        ``n_healthy`` (or ``error`` when the method cannot be fitted on the healthy files).
+        ``n_healthy`` (or ``error`` when the method cannot be fitted on the healthy files, or
+        when a channel it reads is constant in ``file``).
     """
+    import numpy as np
     import pandas as pd
 
     from leakdiag.bench.registry import make_detector
@@ -55,6 +57,12 @@ def verdict_table(file, healthy, *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"), sy
     rows = []
     for m in methods:
         det = make_detector(m, system, alarm)
+        dead = [c for c in getattr(det, "channels", ()) if c in rec.channels
+                and rec[c].size and np.all(rec[c] == rec[c][0])]
+        if dead:  # the detector's CUSUM skips NaN windows: a dead sensor would read "no leak"
+            rows.append({"method": m, "error": f"{file}: channel {dead[0]!r} is constant "
+                         f"({rec[dead[0]][0]:g}): zero variance, {m} cannot judge it"})
+            continue
         try:
             det.fit(train)
         except ValueError as exc:
@@ -95,7 +103,6 @@ def detect(file, healthy, methods, system, column_map, sample_rate, false_alarms
     click.echo(tab[cols].to_string(index=False))
     scores = tab["score_max"] if "score_max" in tab else pd.Series(float("nan"), index=tab.index)
     if not np.isfinite(scores.to_numpy(dtype=float)).any():  # no method could judge FILE
-        where = ("the healthy recording(s)" if "error" in tab and tab["error"].notna().all()
-                 else f"{file} (zero variance: constant channel?)")
-        raise ValueError(f"{file}: no method gave a finite score; the features are undefined on "
-                         f"{where}")
+        why = (tab["error"].dropna().iloc[0] if "error" in tab and tab["error"].notna().any()
+               else "every feature value is NaN (zero variance: constant channel?)")
+        raise ValueError(f"{file}: no method gave a finite score; first reason: {why}")
