@@ -275,3 +275,17 @@ def test_monitor_garbage_detector_file(files, tmp_path, capsys):
 def test_analyze_bad_option_values(files, capsys, args, needle):
     code = main(["analyze", str(files["good"]), *args])
     _one_error_line(capsys, code, needle)
+
+
+def test_sweep_chunk_zero(files, capsys):
+    code = main(["sweep", str(files["good"]), "-c", "p1", "--onset", "1", "--chunk", "0",
+                 "--no-figures"])
+    _one_error_line(capsys, code, "good.csv", "chunk=0 must be >= 1")
+
+
+def test_reproduce_chunk_zero_is_a_usage_error(tmp_path, capsys):
+    """It used to run every case and write a report of empty measures with exit code 0."""
+    code = main(["reproduce", "vca", "--quick", "--chunk", "0", "--scheduler", "serial",
+                 "--out", str(tmp_path / "rep")])
+    _one_error_line(capsys, code, "'--chunk'", "0 is not in the range x>=1")
+    assert not (tmp_path / "rep").exists()

@@ -91,3 +91,17 @@ def test_errors():
         parse_lag("autocorrelation", "83:3")
     with pytest.raises(RecordingError, match=r"missing channel\(s\) \['u'\]"):
         grid(toy(), "autocorrelation", "u", [1], [4], [0])
+
+
+def test_bad_chunk_is_an_error_not_a_nan_row():
+    """chunk=0 used to divide by zero in grid and give silent NaN rows in measure_row."""
+    from leakdiag.features.series import FeatureSeries
+    from leakdiag.studies.grid import grid, measure_row
+
+    rng = np.random.default_rng(0)
+    rec = Recording({"p1": rng.normal(size=2000)}, 100.0, meta={"onset": 10.0})
+    with pytest.raises(ValueError, match="chunk=0 must be >= 1"):
+        grid(rec, "autocorrelation", "p1", [1], [100], [0], chunk=0)
+    fs = FeatureSeries(np.arange(20.0), np.ones(20), "ac", {})
+    with pytest.raises(ValueError, match="chunk=0 must be >= 1"):
+        measure_row(fs, 10.0, 0, "autocorrelation", ("p1",), 1, 100, 0.0)

@@ -22,7 +22,7 @@ __all__ = ["reproduce"]
 @click.option("--workers", type=int, default=None, help="Workers of the local cluster.")
 @click.option("--cache-dir", type=click.Path(file_okay=False), default=None,
               help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")
-@click.option("--chunk", type=int, default=10, show_default=True,
+@click.option("--chunk", type=click.IntRange(min=1), default=10, show_default=True,
               help="Feature values per RMS chunk (Sec. 5.2; not stated in the thesis).")
 @click.option("--no-progress", is_flag=True, help="Hide progress bars.")
 @click.option("--save-results", type=click.Path(dir_okay=False), default=None,

@@ -17,6 +17,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
+from leakdiag._validation import check_int
 from leakdiag.detect.measure import rms_change
 from leakdiag.features.series import FeatureSeries
 from leakdiag.features.windowing import window_starts, window_step, window_times
@@ -146,7 +147,13 @@ def measure_row(fs: FeatureSeries, onset: float, chunk: int, method: str, channe
     dict
         Keys :data:`SETTING_COLUMNS` + :data:`MEASURE_COLUMNS`; measure values are NaN when
         there is no whole chunk on one side of the onset.
+
+    Raises
+    ------
+    ValueError
+        If ``chunk < 1`` (checked first: the NaN row is for too few chunks, not a bad chunk).
     """
+    check_int(chunk, "chunk", 1)
     row = _setting_row(method, channels, lag, window, overlap)
     try:
         res = rms_change(fs, onset, chunk=chunk)
@@ -247,7 +254,9 @@ def grid(recording, method: str, channels: Sequence[str] | str | None,
     Raises
     ------
     ValueError
-        If there is no onset, or a lag does not fit the method.
+        If there is no onset, a lag does not fit the method, or ``chunk < 1``.
+    TypeError
+        If ``chunk`` is not an integer.
 
     Notes
     -----
@@ -267,6 +276,7 @@ def grid(recording, method: str, channels: Sequence[str] | str | None,
     >>> bool((t.pct_change_signed < -40).all()), t.n_windows.tolist()
     (True, [40, 79])
     """
+    check_int(chunk, "chunk", 1)  # the chunk sides divide by it
     m, chans, lag_values, onset = _prepare(recording, method, channels, lags, onset)
     fn = _at_function(m)
     windows = [int(w) for w in windows]
