@@ -126,8 +126,6 @@ def _public_methods():
 #: Remove an entry once its docstring is fixed (the test then fails if it regresses).
 KNOWN_MISSING_RETURNS = {
     "leakdiag.bench.suite.BenchCase.to_dict",
-    "leakdiag.detect.base.Verdict.as_dict",
-    "leakdiag.detect.measure.RMSChange.as_dict",
 }
 #: Same for Raises.
 KNOWN_MISSING_RAISES = {

@@ -156,7 +156,13 @@ class Verdict:
     detector: str
 
     def as_dict(self) -> dict[str, Any]:
-        """Fields as a flat dict (interval split in two columns)."""
+        """Fields as a flat dict (interval split in two columns).
+
+        Returns
+        -------
+        dict
+            One key per field; ``leak_lpm_interval`` becomes ``leak_lpm_low``/``leak_lpm_high``.
+        """
         lo, hi = self.leak_lpm_interval if self.leak_lpm_interval else (None, None)
         return {"leak": self.leak, "onset_s": self.onset_s, "alarm_time_s": self.alarm_time_s,
                 "confidence": self.confidence, "leak_lpm": self.leak_lpm,

@@ -64,7 +64,13 @@ class RMSChange:
     chunk_side: np.ndarray = field(repr=False)
 
     def as_dict(self) -> dict:
-        """Scalar fields as a plain dict (for tables)."""
+        """Scalar fields as a plain dict (for tables).
+
+        Returns
+        -------
+        dict
+            Means, % changes, chunk and window counts, chunk length and onset.
+        """
         return {k: getattr(self, k) for k in (
             "mean_rms_before", "mean_rms_after", "pct_change", "pct_change_signed",
             "n_chunks_before", "n_chunks_after", "n_chunks_straddling", "n_chunks_empty",
