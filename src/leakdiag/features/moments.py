@@ -191,7 +191,7 @@ def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
     mean, variance, skew, kurt = _moment_columns(x_arr, plan.starts, window, assume_sorted=True)
     df = pd.DataFrame({"time": plan.time, "mean": mean, "variance": variance, "skewness": skew,
-                       "kurtosis": kurt})
+                       "kurtosis": kurt}, copy=False)  # fresh arrays: no 5-column copy
     df.attrs.update(plan.settings(_args.channel_names(x, "x"), sample_rate, start_time))
     return df
 
