@@ -47,7 +47,7 @@ def block_of(starts, w, m_len):  # pragma: no cover - compiled
     return b0, w_end
 
 
-@numba.njit(cache=True, error_model="numpy")  # no zero-division checks: NaN rule is explicit
+@numba.njit(cache=True)
 def autocorrelation_sorted(x, lag, window, starts):  # pragma: no cover - compiled
     """Eq. 4.1 for sorted valid starts: ``(values, n_zero_variance)``.
 
@@ -85,8 +85,7 @@ def autocorrelation_sorted(x, lag, window, starts):  # pragma: no cover - compil
     cv0 = 0.0
     cu1 = 0.0
     cv1 = 0.0
-    k = 0
-    while k < n_win:
+    for k in range(n_win):
         s = starts[k]
         # ---- plain sums, blocks of N
         if e0 < 0 or s >= e0:
@@ -105,6 +104,19 @@ def autocorrelation_sorted(x, lag, window, starts):  # pragma: no cover - compil
                 g0c[j - b0] = tc
             f0a[0] = 0.0
             f0c[0] = 0.0
+        i0 = s - b0
+        if fl0 < i0:
+            if fl0 == 0:
+                c01 = x[e0]
+            ta = f0a[fl0]
+            tc = f0c[fl0]
+            for t in range(fl0, i0):
+                d = x[e0 + t] - c01
+                ta += d
+                tc += d * d
+                f0a[t + 1] = ta
+                f0c[t + 1] = tc
+            fl0 = i0
         # ---- lagged pairs, blocks of N - lag
         if e1 < 0 or s >= e1:
             b1 = (s // m1) * m1
@@ -129,26 +141,7 @@ def autocorrelation_sorted(x, lag, window, starts):  # pragma: no cover - compil
             f1a[0] = 0.0
             f1b[0] = 0.0
             f1c[0] = 0.0
-        # ---- segment: the run of starts k .. k_end-1 in both current blocks
-        lim = min(e0, e1)
-        k_end = k + 1
-        while k_end < n_win and starts[k_end] < lim:
-            k_end += 1
-        s_last = starts[k_end - 1]
-        i0 = s_last - b0
-        if fl0 < i0:
-            if fl0 == 0:
-                c01 = x[e0]
-            ta = f0a[fl0]
-            tc = f0c[fl0]
-            for t in range(fl0, i0):
-                d = x[e0 + t] - c01
-                ta += d
-                tc += d * d
-                f0a[t + 1] = ta
-                f0c[t + 1] = tc
-            fl0 = i0
-        i1 = s_last - b1
+        i1 = s - b1
         if fl1 < i1:
             if fl1 == 0:
                 cu1 = x[e1]
@@ -166,39 +159,30 @@ def autocorrelation_sorted(x, lag, window, starts):  # pragma: no cover - compil
                 f1b[t + 1] = tb
                 f1c[t + 1] = tc
             fl1 = i1
-        # ---- each window of the segment: mean (ref c00 + off o), variance sum, value
+        # ---- window mean (ref c00 + off o) and variance sum
+        fi = float(i0)
         dc = c01 - c00
-        cu0r = cu0 - c00
-        cv0r = cv0 - c00
-        cu1r = cu1 - c00
-        cv1r = cv1 - c00
-        for q in range(k, k_end):
-            s = starts[q]
-            i0 = s - b0
-            i1 = s - b1
-            fi = float(i0)
-            a0 = g0a[i0]
-            a1 = f0a[i0]
-            o = (a0 + a1 + fi * dc) * inv0
-            d1 = dc - o
-            ss = (g0c[i0] - 2.0 * o * a0 + (fm0 - fi) * o * o
-                  + f0c[i0] + 2.0 * d1 * a1 + fi * d1 * d1)
+        a0 = g0a[i0]
+        a1 = f0a[i0]
+        o = (a0 + a1 + fi * dc) * inv0
+        d1 = dc - o
+        ss = g0c[i0] - 2.0 * o * a0 + (fm0 - fi) * o * o + f0c[i0] + 2.0 * d1 * a1 + fi * d1 * d1
+        if ss > 0.0:
             fj = float(i1)
-            du0 = cu0r - o
-            dv0 = cv0r - o
-            du1 = cu1r - o
-            dv1 = cv1r - o
+            du0 = (cu0 - c00) - o
+            dv0 = (cv0 - c00) - o
+            du1 = (cu1 - c00) - o
+            dv1 = (cv1 - c00) - o
             num = (g1c[i1] + dv0 * g1a[i1] + du0 * g1b[i1] + (fm1 - fj) * du0 * dv0
                    + f1c[i1] + dv1 * f1a[i1] + du1 * f1b[i1] + fj * du1 * dv1)
-            # branch-free so the loop vectorises; degenerate windows (ss <= 0) give NaN
-            ok = ss > 0.0
-            out[q] = num / ss if ok else np.nan
-            n_bad += 0 if ok else 1
-        k = k_end
+            out[k] = num / ss
+        else:
+            out[k] = np.nan
+            n_bad += 1
     return out, n_bad
 
 
-@numba.njit(cache=True, error_model="numpy")  # no zero-division checks: NaN rule is explicit
+@numba.njit(cache=True)
 def cross_correlation_sorted(y, x, lag, window, starts):  # pragma: no cover - compiled
     """Eq. 4.2 for sorted valid starts, ``y_j`` with ``x_{j+lag}``: ``(values, n_degenerate)``.
 
@@ -243,8 +227,7 @@ def cross_correlation_sorted(y, x, lag, window, starts):  # pragma: no cover - c
     cv0 = 0.0
     cu1 = 0.0
     cv1 = 0.0
-    k = 0
-    while k < n_win:
+    for k in range(n_win):
         s = starts[k]
         # ---- plain sums of y and x, blocks of N
         if e0 < 0 or s >= e0:
@@ -274,6 +257,27 @@ def cross_correlation_sorted(y, x, lag, window, starts):  # pragma: no cover - c
             fyc[0] = 0.0
             fxa[0] = 0.0
             fxc[0] = 0.0
+        i0 = s - b0
+        if fl0 < i0:
+            if fl0 == 0:
+                cy1 = y[e0]
+                cx1 = x[e0]
+            tya = fya[fl0]
+            tyc = fyc[fl0]
+            txa = fxa[fl0]
+            txc = fxc[fl0]
+            for t in range(fl0, i0):
+                dy = y[e0 + t] - cy1
+                dx = x[e0 + t] - cx1
+                tya += dy
+                tyc += dy * dy
+                txa += dx
+                txc += dx * dx
+                fya[t + 1] = tya
+                fyc[t + 1] = tyc
+                fxa[t + 1] = txa
+                fxc[t + 1] = txc
+            fl0 = i0
         # ---- lagged pairs (y_j, x_{j+lag}), blocks of N - lag
         if e1 < 0 or s >= e1:
             b1 = (s // m1) * m1
@@ -298,34 +302,7 @@ def cross_correlation_sorted(y, x, lag, window, starts):  # pragma: no cover - c
             f1a[0] = 0.0
             f1b[0] = 0.0
             f1c[0] = 0.0
-        # ---- segment: the run of starts k .. k_end-1 in both current blocks
-        lim = min(e0, e1)
-        k_end = k + 1
-        while k_end < n_win and starts[k_end] < lim:
-            k_end += 1
-        s_last = starts[k_end - 1]
-        i0 = s_last - b0
-        if fl0 < i0:
-            if fl0 == 0:
-                cy1 = y[e0]
-                cx1 = x[e0]
-            tya = fya[fl0]
-            tyc = fyc[fl0]
-            txa = fxa[fl0]
-            txc = fxc[fl0]
-            for t in range(fl0, i0):
-                dy = y[e0 + t] - cy1
-                dx = x[e0 + t] - cx1
-                tya += dy
-                tyc += dy * dy
-                txa += dx
-                txc += dx * dx
-                fya[t + 1] = tya
-                fyc[t + 1] = tyc
-                fxa[t + 1] = txa
-                fxc[t + 1] = txc
-            fl0 = i0
-        i1 = s_last - b1
+        i1 = s - b1
         if fl1 < i1:
             if fl1 == 0:
                 cu1 = y[e1]
@@ -343,40 +320,32 @@ def cross_correlation_sorted(y, x, lag, window, starts):  # pragma: no cover - c
                 f1b[t + 1] = tb
                 f1c[t + 1] = tc
             fl1 = i1
-        # ---- each window of the segment: means (c*0 + o*), squared deviations, value
+        # ---- window means (c*0 + o*) and sums of squared deviations
+        fi = float(i0)
         dcy = cy1 - cy0
+        ay0 = gya[i0]
+        ay1 = fya[i0]
+        oy = (ay0 + ay1 + fi * dcy) * inv0
+        dy1 = dcy - oy
+        ssy = (gyc[i0] - 2.0 * oy * ay0 + (fm0 - fi) * oy * oy
+               + fyc[i0] + 2.0 * dy1 * ay1 + fi * dy1 * dy1)
         dcx = cx1 - cx0
-        cu0r = cu0 - cy0
-        cv0r = cv0 - cx0
-        cu1r = cu1 - cy0
-        cv1r = cv1 - cx0
-        for q in range(k, k_end):
-            s = starts[q]
-            i0 = s - b0
-            i1 = s - b1
-            fi = float(i0)
-            ay0 = gya[i0]
-            ay1 = fya[i0]
-            oy = (ay0 + ay1 + fi * dcy) * inv0
-            dy1 = dcy - oy
-            ssy = (gyc[i0] - 2.0 * oy * ay0 + (fm0 - fi) * oy * oy
-                   + fyc[i0] + 2.0 * dy1 * ay1 + fi * dy1 * dy1)
-            ax0 = gxa[i0]
-            ax1 = fxa[i0]
-            ox = (ax0 + ax1 + fi * dcx) * inv0
-            dx1 = dcx - ox
-            ssx = (gxc[i0] - 2.0 * ox * ax0 + (fm0 - fi) * ox * ox
-                   + fxc[i0] + 2.0 * dx1 * ax1 + fi * dx1 * dx1)
+        ax0 = gxa[i0]
+        ax1 = fxa[i0]
+        ox = (ax0 + ax1 + fi * dcx) * inv0
+        dx1 = dcx - ox
+        ssx = (gxc[i0] - 2.0 * ox * ax0 + (fm0 - fi) * ox * ox
+               + fxc[i0] + 2.0 * dx1 * ax1 + fi * dx1 * dx1)
+        if ssx > 0.0 and ssy > 0.0:
             fj = float(i1)
-            du0 = cu0r - oy
-            dv0 = cv0r - ox
-            du1 = cu1r - oy
-            dv1 = cv1r - ox
+            du0 = (cu0 - cy0) - oy
+            dv0 = (cv0 - cx0) - ox
+            du1 = (cu1 - cy0) - oy
+            dv1 = (cv1 - cx0) - ox
             num = (g1c[i1] + dv0 * g1a[i1] + du0 * g1b[i1] + (fm1 - fj) * du0 * dv0
                    + f1c[i1] + dv1 * f1a[i1] + du1 * f1b[i1] + fj * du1 * dv1)
-            # branch-free so the loop vectorises; degenerate windows give NaN
-            ok = ssx > 0.0 and ssy > 0.0
-            out[q] = num / (np.sqrt(ssx) * np.sqrt(ssy)) if ok else np.nan
-            n_bad += 0 if ok else 1
-        k = k_end
+            out[k] = num / (np.sqrt(ssx) * np.sqrt(ssy))
+        else:
+            out[k] = np.nan
+            n_bad += 1
     return out, n_bad
