@@ -180,6 +180,11 @@ def per_run_target_per_hour(per_run: float, duration_s: float, burn_in_s: float)
     float
         ``-log(1 - per_run) / T`` with ``T = (duration_s - burn_in_s) / 3600`` hours.
 
+    Raises
+    ------
+    ValueError
+        If ``per_run`` is not in (0, 1).
+
     Examples
     --------
     >>> round(per_run_target_per_hour(0.01, 3605.0, 5.0), 6)

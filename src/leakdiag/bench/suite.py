@@ -183,7 +183,13 @@ class BenchCase:
         return (self.system, self.load, self.noise_level, self.excitation)
 
     def to_dict(self) -> dict:
-        """Flat dict of the case (nuisance values prefixed ``nuisance_``)."""
+        """Flat dict of the case (nuisance values prefixed ``nuisance_``).
+
+        Returns
+        -------
+        dict
+            The case's fields, with the nuisance draws flattened into ``nuisance_*`` keys.
+        """
         d = asdict(self)
         nz = d.pop("nuisance")
         d.update({f"nuisance_{k}": v for k, v in nz.items()})
