@@ -17,7 +17,8 @@ from leakdiag._validation import as_1d_float, check_positive
 from leakdiag.features.methods import MethodSpec
 from leakdiag.features.series import FeatureSeries
 from leakdiag.features.windowing import window_step
-from leakdiag.stream import kernels
+from leakdiag.features._blocksums import autocorrelation_sorted, cross_correlation_sorted
+from leakdiag.features.metric_length import _metric_sorted
 
 __all__ = ["StreamingFeature", "STREAM_METHODS"]
 
@@ -159,9 +160,7 @@ class StreamingFeature:
                 work[i, :n_old] = self._buf[i, :n_old]
                 work[i, n_old:] = col
         n_win = 0 if total < self.spec.window else (total - self.spec.window) // self._step + 1
-        values = np.empty(n_win)
-        if n_win:
-            self._compute(work, n_win, values)
+        values = self._compute(work[:, :total], n_win) if n_win else np.empty(0)
         consumed = n_win * self._step
         tail = total - consumed
         self._buf[:, :tail] = work[:, consumed:total]
@@ -175,13 +174,15 @@ class StreamingFeature:
         times = self.start_time + (starts + (self.spec.window - 1)) / self.sample_rate
         return FeatureSeries(times, values, self.spec.method, dict(self._params))
 
-    def _compute(self, work: np.ndarray, n_win: int, out: np.ndarray) -> None:
+    def _compute(self, work: np.ndarray, n_win: int) -> np.ndarray:
+        """The batch kernels of :mod:`leakdiag.features` on the buffer (first sample = a start)."""
         spec = self.spec
+        starts = np.arange(n_win, dtype=np.int64) * self._step
         if spec.method == "autocorrelation":
-            kernels._autocorrelation_windows(work[0], n_win, self._step, spec.window, spec.lag, out)
+            values, _ = autocorrelation_sorted(work[0], spec.lag, spec.window, starts)
         elif spec.method == "cross-correlation":
-            kernels._cross_correlation_windows(work[0], work[1], n_win, self._step, spec.window,
-                                               spec.lag, out)
+            values, _ = cross_correlation_sorted(work[0], work[1], spec.lag, spec.window, starts)
         else:
             ell, k = spec.lag_ratio
-            kernels._metric_length_ratio_windows(work, n_win, self._step, spec.window, ell, k, out)
+            values, _ = _metric_sorted(np.ascontiguousarray(work.T), ell, k, spec.window, starts)
+        return values
