@@ -166,12 +166,14 @@ def test_at_equals_regular_windows(x, data):
     np.testing.assert_allclose(got_cc, want_cc, rtol=1e-9, atol=1e-9)
 
 
-def test_all_starts_then_slice_equals_overlap_call():
+def test_all_starts_then_slice_agrees_with_overlap_call():
+    # Tails and heads grow window by window, so the summation order depends on the step: the
+    # two paths agree to rounding (about 1e-15 relative), not bit for bit.
     x = SIGNALS["large_offset"]
     every = autocorrelation_at(x, 5, np.arange(len(x) - 200 + 1), 200)
     for overlap in (5, 50, 99):
         fs = autocorrelation(x, lag=5, window=200, overlap=overlap)
-        np.testing.assert_array_equal(every[:: fs.params["step"]], fs.values)
+        np.testing.assert_allclose(every[:: fs.params["step"]], fs.values, rtol=1e-12, atol=1e-13)
 
 
 # ------------------------------------------------------------------ robustness

@@ -157,13 +157,36 @@ def check_starts(starts, n_samples: int, window: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class WindowPlan:
-    """The regular windows of Sec. 4.4 for one signal (starts, timestamps and settings)."""
+    """The regular windows of Sec. 4.4 for one signal: ``s_k = k * step``, ``k < n_windows``.
 
-    starts: np.ndarray
-    time: np.ndarray
+    The kernels take ``step`` and ``n_windows`` and write the window times themselves (one
+    allocation for values and times); :attr:`starts` and :attr:`time` build the arrays on
+    demand, with the values of :func:`~leakdiag.features.window_starts` and
+    :func:`~leakdiag.features.window_times`.
+    """
+
     window: int
     overlap: float
     step: int
+    n_windows: int
+    sample_rate: float
+    start_time: float
+
+    @property
+    def starts(self) -> np.ndarray:
+        """Window start indices (int64), ``k * step``."""
+        starts = np.arange(self.n_windows, dtype=np.int64)
+        starts *= self.step
+        return starts
+
+    @property
+    def time(self) -> np.ndarray:
+        """Window times in s (time of each window's last sample)."""
+        time = self.starts.astype(np.float64)
+        time += self.window - 1
+        time /= self.sample_rate
+        time += self.start_time
+        return time
 
     def settings(self, channels: tuple[str, ...], sample_rate, start_time) -> dict:
         """The windowing entries of a feature's ``params``, in the order every feature uses.
@@ -187,11 +210,5 @@ def plan_windows(n_samples: int, window: int, overlap, sample_rate, start_time) 
         raise ValueError(f"start_time={start_time!r} must be finite (seconds)")
     check_length(n_samples, window)
     step = window_step(window, overlap)
-    # same values as windowing.window_starts / window_times, without their temporaries
-    starts = np.arange(n_windows(n_samples, window, overlap), dtype=np.int64)
-    starts *= step
-    time = starts.astype(np.float64)
-    time += window - 1
-    time /= sample_rate
-    time += start_time
-    return WindowPlan(starts, time, window, overlap, step)
+    return WindowPlan(window, overlap, step, n_windows(n_samples, window, overlap),
+                      float(sample_rate), start_time)

@@ -2,30 +2,42 @@
 
 Method (see ``docs/features.md``, "Numerical method")
 -----------------------------------------------------
-Let a window hold ``M`` pair terms ``j = s .. s+M-1`` (``M = N`` for plain sums, ``M = N - lag``
-for lagged products). Pair indices are cut into blocks of ``M``. A window then covers the *tail*
-of block ``b = s // M`` and the *head* of block ``b + 1`` (one of them possibly empty). For the
-tail we keep suffix sums anchored at the block's last pair; for the head, prefix sums anchored at
-the next block's first pair. Both anchors are samples **inside** the window, so every stored sum
-is of deviations bounded by the window's own range: no global offset, no long running sum, no
-cancellation between a level far from the data and its small variation (8.6 MPa +- kPa, level
-steps). Each piece is then shifted exactly to the window mean,
+Let a window hold ``M`` terms ``j = s .. s+M-1`` (``M = N`` for plain sums, ``M = N - lag``
+for lagged products). Term indices are cut into blocks of ``M`` (block ends at multiples of
+``M``). A window then covers the *tail* ``[s, e)`` of the block holding ``s`` (``e`` its end)
+and the *head* ``[e, s + M)`` of the next block (possibly empty). Both pieces are summed as
+deviations from one **anchor inside the window**: the block's last term ``e - 1`` (for plain
+sums the sample ``x[e-1]``, for lagged products the pair ``(x[e-1], x[e-1+lag])``). Every stored
+sum therefore holds only samples of the window itself, as deviations bounded by the window's own
+range: no global offset, no long running sum, no cancellation between a level far from the data
+and its small variation (8.6 MPa +- kPa, level steps). The sums are shifted exactly to the window
+mean at the end,
 
-    sum (u - mu)(v - mv) = C + dv * A + du * B + n * du * dv,   du = cu - mu, dv = cv - mv,
+    sum (u - mu)(v - mv) = C + dv * A + du * B + M * du * dv,   du = cu - mu, dv = cv - mv,
 
-with ``A = sum (u - cu)``, ``B = sum (v - cv)``, ``C = sum (u - cu)(v - cv)``. The mean itself is
-kept as ``ref + off`` (a window sample plus a small offset) so that ``du`` is formed from
-differences of window samples only. Suffix sums are filled once per block down to the first
-requested start, prefix sums lazily up to the longest requested head, so the cost is O(n + m)
-for ``m`` sorted starts, flat in the window size and the step.
+with ``A = sum (u - cu)``, ``B = sum (v - cv)``, ``C = sum (u - cu)(v - cv)``, and
+``sum (x - mu)^2 = C - A^2 / N`` with ``A, C`` about the anchor: as the anchor is a sample of the
+window, ``(anchor - mu)^2 <= sum (x - mu)^2``, so this loses at most a factor ``N + 1`` in
+relative precision (about 1e-13 at N = 500).
 
-Kernels require ``starts`` sorted ascending (the wrappers sort) and valid (``s + N <= n``).
+Passes. Windows are processed in chunks of ``CHUNK`` windows. A backward pass over the chunk's
+windows grows the tails (``tail_k = tail_{k+1} + sum over [s_k, s_{k+1})`` while both starts
+share a block, restarted at each block end); a forward pass grows the heads the same way
+(``head_k = head_{k-1} + sum over [s_{k-1} + M, s_k + M)``). Each pass adds the few samples
+between consecutive starts into short local sums first, so the running sums see one addition
+per window; plain and lagged-pair sums share one loop whenever their ranges coincide. The
+per-window values are written to small column arrays, and a last branch-free loop over them
+(SIMD-vectorised by LLVM, ``error_model="numpy"``) forms the feature. Cost O(n + m) for ``m``
+sorted starts, flat in the window size and the step.
 
-The correlation kernels advance the mean/variance blocks (``N`` samples) and the lagged-product
-blocks (``N - lag`` pairs) together, one window at a time, and write each window's value
-directly: no per-window intermediate arrays (on the team's VM a fresh 1.6 MB array costs about
-0.4 ms of page faults). Their block bookkeeping is written out inline on purpose: Numba helper
-calls taking arrays pay reference counting per call, which made a factored version 10x slower.
+Regular windows (``s_k = k * step``, the features' own windows) pass ``step > 0`` and no start
+array; the ``*_regular`` entry points also write the window times and return values and times
+as two rows of one allocation (each fresh megabyte-sized array costs about 0.4 ms of page faults
+on the team's VM, more than the whole kernel at 5 % overlap). Arbitrary starts pass ``step = 0``
+and a sorted ``starts`` array (the wrappers sort).
+
+The block bookkeeping is written out inline in each kernel on purpose: Numba helper calls taking
+arrays pay reference counting per call, which made a factored version 10x slower.
 """
 
 from __future__ import annotations
@@ -33,319 +45,558 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["block_of", "autocorrelation_sorted", "cross_correlation_sorted"]
+__all__ = [
+    "CHUNK",
+    "NO_STARTS",
+    "autocorrelation_sorted",
+    "autocorrelation_regular",
+    "cross_correlation_sorted",
+    "cross_correlation_regular",
+    "fill_times",
+]
+
+CHUNK = 4096  # windows per chunk: the per-window columns stay in L2 (16 x 32 KiB at most)
+
+NO_STARTS = np.empty(0, dtype=np.int64)  # the `starts` argument of a regular-window call
 
 
 @numba.njit(cache=True)
-def block_of(starts, w, m_len):  # pragma: no cover - compiled
-    """Block start ``b0`` holding ``starts[w]`` and the end ``w_end`` of the run of starts in it."""
-    b0 = (starts[w] // m_len) * m_len
-    w_end = w + 1
-    n_win = starts.shape[0]
-    while w_end < n_win and starts[w_end] < b0 + m_len:
-        w_end += 1
-    return b0, w_end
+def fill_times(times, step, window, sample_rate, start_time):  # pragma: no cover - compiled
+    """Write the window times ``(k * step + window - 1) / sample_rate + start_time`` in place.
+
+    Same operations in the same order as :func:`leakdiag.features.window_times`, so the values
+    are bit-identical.
+    """
+    last = float(window - 1)
+    for k in range(times.shape[0]):
+        times[k] = (float(k * step) + last) / sample_rate + start_time
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _auto_eval(ga, gc, gu, gv, guv, du0, dv0, ha, hc, hu, hv, huv, fn, fm, out, o0, cnt):  # pragma: no cover - compiled
+    """Eq. 4.1 from the tail/head sums of ``cnt`` windows, written to ``out[o0:o0+cnt]``."""
+    inv = 1.0 / fn
+    bad = 0
+    for t in range(cnt):
+        a = ga[t] + ha[t]
+        o = a * inv
+        ss = (gc[t] + hc[t]) - a * o
+        du = du0[t] - o
+        dv = dv0[t] - o
+        num = (guv[t] + huv[t]) + dv * (gu[t] + hu[t]) + du * (gv[t] + hv[t]) + fm * du * dv
+        ok = ss > 0.0
+        out[o0 + t] = num / ss if ok else np.nan
+        bad += 0 if ok else 1
+    return bad
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _auto_core(x, lag, window, starts, step, out):  # pragma: no cover - compiled
+    """Eq. 4.1 for windows ``s_k = k * step`` (``step > 0``) or ``starts`` (sorted, ``step = 0``).
+
+    Plain sums (anchor ``ct = x[e0 - 1]``, blocks of ``N``) and lagged pairs (anchor
+    ``(ut, vt) = (x[e1 - 1], x[e1 - 1 + lag])``, blocks of ``N - lag``). Returns the number of
+    zero-variance windows.
+    """
+    nn = window
+    mm = window - lag
+    n_win = out.shape[0]
+    kc = max(1, min(CHUNK, n_win))
+    ga = np.empty(kc)
+    gc = np.empty(kc)
+    gu = np.empty(kc)
+    gv = np.empty(kc)
+    guv = np.empty(kc)
+    du0 = np.empty(kc)
+    dv0 = np.empty(kc)
+    ha = np.empty(kc)
+    hc = np.empty(kc)
+    hu = np.empty(kc)
+    hv = np.empty(kc)
+    huv = np.empty(kc)
+    n_bad = 0
+    for k0 in range(0, n_win, kc):
+        k1 = min(k0 + kc, n_win)
+        # ---- tails, backward over the chunk
+        e0 = -1
+        p0 = 0
+        ct = 0.0
+        a0 = 0.0
+        c0 = 0.0
+        e1 = -1
+        p1 = 0
+        ut = 0.0
+        vt = 0.0
+        au = 0.0
+        av = 0.0
+        auv = 0.0
+        for k in range(k1 - 1, k0 - 1, -1):
+            s = k * step if step > 0 else starts[k]
+            if e0 < 0 or s < e0 - nn:
+                e0 = (s // nn + 1) * nn
+                p0 = e0
+                ct = x[e0 - 1]
+                a0 = 0.0
+                c0 = 0.0
+            if e1 < 0 or s < e1 - mm:
+                e1 = (s // mm + 1) * mm
+                p1 = e1
+                ut = x[e1 - 1]
+                vt = x[e1 - 1 + lag]
+                au = 0.0
+                av = 0.0
+                auv = 0.0
+            if p0 == p1:
+                la = 0.0
+                lc = 0.0
+                lu = 0.0
+                lv = 0.0
+                luv = 0.0
+                j = s
+                while j < p0:
+                    xj = x[j]
+                    d = xj - ct
+                    la += d
+                    lc += d * d
+                    du = xj - ut
+                    dv = x[j + lag] - vt
+                    lu += du
+                    lv += dv
+                    luv += du * dv
+                    j += 1
+                a0 += la
+                c0 += lc
+                au += lu
+                av += lv
+                auv += luv
+            else:
+                la = 0.0
+                lc = 0.0
+                j = s
+                while j < p0:
+                    d = x[j] - ct
+                    la += d
+                    lc += d * d
+                    j += 1
+                a0 += la
+                c0 += lc
+                lu = 0.0
+                lv = 0.0
+                luv = 0.0
+                j = s
+                while j < p1:
+                    du = x[j] - ut
+                    dv = x[j + lag] - vt
+                    lu += du
+                    lv += dv
+                    luv += du * dv
+                    j += 1
+                au += lu
+                av += lv
+                auv += luv
+            p0 = s
+            p1 = s
+            t = k - k0
+            ga[t] = a0
+            gc[t] = c0
+            gu[t] = au
+            gv[t] = av
+            guv[t] = auv
+            du0[t] = ut - ct
+            dv0[t] = vt - ct
+        # ---- heads, forward: plain [e0, s + N) about x[e0 - 1]; pairs [e1, s + M) about
+        #      (x[e1 - 1], x[e1 - 1 + lag]): the same anchors as the window's tails
+        e0 = -1
+        q0 = 0
+        a0 = 0.0
+        c0 = 0.0
+        e1 = -1
+        q1 = 0
+        au = 0.0
+        av = 0.0
+        auv = 0.0
+        for k in range(k0, k1):
+            s = k * step if step > 0 else starts[k]
+            if e0 < 0 or s >= e0:
+                e0 = (s // nn + 1) * nn
+                q0 = e0
+                ct = x[e0 - 1]
+                a0 = 0.0
+                c0 = 0.0
+            if e1 < 0 or s >= e1:
+                e1 = (s // mm + 1) * mm
+                q1 = e1
+                ut = x[e1 - 1]
+                vt = x[e1 - 1 + lag]
+                au = 0.0
+                av = 0.0
+                auv = 0.0
+            r0 = s + nn - q0
+            r1 = s + mm - q1
+            if r0 == r1:
+                la = 0.0
+                lc = 0.0
+                lu = 0.0
+                lv = 0.0
+                luv = 0.0
+                i = 0
+                while i < r0:
+                    d = x[q0 + i] - ct
+                    la += d
+                    lc += d * d
+                    j = q1 + i
+                    du = x[j] - ut
+                    dv = x[j + lag] - vt
+                    lu += du
+                    lv += dv
+                    luv += du * dv
+                    i += 1
+                a0 += la
+                c0 += lc
+                au += lu
+                av += lv
+                auv += luv
+            else:
+                la = 0.0
+                lc = 0.0
+                j = q0
+                while j < q0 + r0:
+                    d = x[j] - ct
+                    la += d
+                    lc += d * d
+                    j += 1
+                a0 += la
+                c0 += lc
+                lu = 0.0
+                lv = 0.0
+                luv = 0.0
+                j = q1
+                while j < q1 + r1:
+                    du = x[j] - ut
+                    dv = x[j + lag] - vt
+                    lu += du
+                    lv += dv
+                    luv += du * dv
+                    j += 1
+                au += lu
+                av += lv
+                auv += luv
+            q0 += r0
+            q1 += r1
+            t = k - k0
+            ha[t] = a0
+            hc[t] = c0
+            hu[t] = au
+            hv[t] = av
+            huv[t] = auv
+        n_bad += _auto_eval(ga, gc, gu, gv, guv, du0, dv0, ha, hc, hu, hv, huv,
+                            float(nn), float(mm), out, k0, k1 - k0)
+    return n_bad
 
 
 @numba.njit(cache=True)
 def autocorrelation_sorted(x, lag, window, starts):  # pragma: no cover - compiled
-    """Eq. 4.1 for sorted valid starts: ``(values, n_zero_variance)``.
-
-    Structure 0: plain sums in blocks of ``N`` (suffix anchor ``c00 = x[e0-1]``, prefix anchor
-    ``c01 = x[e0]``, ``fl0`` prefix entries filled). Structure 1: pairs ``(x_j, x_{j+lag})`` in
-    blocks of ``N - lag`` (anchors ``cu0, cv0`` and ``cu1, cv1``).
-    """
-    m0 = window
-    m1 = window - lag
-    fm0 = float(m0)
-    fm1 = float(m1)
-    inv0 = 1.0 / fm0
-    g0a = np.empty(m0)
-    g0c = np.empty(m0)
-    f0a = np.empty(m0)
-    f0c = np.empty(m0)
-    g1a = np.empty(m1)
-    g1b = np.empty(m1)
-    g1c = np.empty(m1)
-    f1a = np.empty(m1)
-    f1b = np.empty(m1)
-    f1c = np.empty(m1)
-    n_win = starts.shape[0]
-    out = np.empty(n_win)
-    n_bad = 0
-    b0 = 0
-    e0 = -1
-    fl0 = 0
-    c00 = 0.0
-    c01 = 0.0
-    b1 = 0
-    e1 = -1
-    fl1 = 0
-    cu0 = 0.0
-    cv0 = 0.0
-    cu1 = 0.0
-    cv1 = 0.0
-    for k in range(n_win):
-        s = starts[k]
-        # ---- plain sums, blocks of N
-        if e0 < 0 or s >= e0:
-            b0 = (s // m0) * m0
-            e0 = b0 + m0
-            fl0 = 0
-            c00 = x[e0 - 1]
-            c01 = c00
-            ta = 0.0
-            tc = 0.0
-            for j in range(e0 - 1, s - 1, -1):
-                d = x[j] - c00
-                ta += d
-                tc += d * d
-                g0a[j - b0] = ta
-                g0c[j - b0] = tc
-            f0a[0] = 0.0
-            f0c[0] = 0.0
-        i0 = s - b0
-        if fl0 < i0:
-            if fl0 == 0:
-                c01 = x[e0]
-            ta = f0a[fl0]
-            tc = f0c[fl0]
-            for t in range(fl0, i0):
-                d = x[e0 + t] - c01
-                ta += d
-                tc += d * d
-                f0a[t + 1] = ta
-                f0c[t + 1] = tc
-            fl0 = i0
-        # ---- lagged pairs, blocks of N - lag
-        if e1 < 0 or s >= e1:
-            b1 = (s // m1) * m1
-            e1 = b1 + m1
-            fl1 = 0
-            cu0 = x[e1 - 1]
-            cv0 = x[e1 - 1 + lag]
-            cu1 = cu0
-            cv1 = cv0
-            ta = 0.0
-            tb = 0.0
-            tc = 0.0
-            for j in range(e1 - 1, s - 1, -1):
-                du = x[j] - cu0
-                dv = x[j + lag] - cv0
-                ta += du
-                tb += dv
-                tc += du * dv
-                g1a[j - b1] = ta
-                g1b[j - b1] = tb
-                g1c[j - b1] = tc
-            f1a[0] = 0.0
-            f1b[0] = 0.0
-            f1c[0] = 0.0
-        i1 = s - b1
-        if fl1 < i1:
-            if fl1 == 0:
-                cu1 = x[e1]
-                cv1 = x[e1 + lag]
-            ta = f1a[fl1]
-            tb = f1b[fl1]
-            tc = f1c[fl1]
-            for t in range(fl1, i1):
-                du = x[e1 + t] - cu1
-                dv = x[e1 + t + lag] - cv1
-                ta += du
-                tb += dv
-                tc += du * dv
-                f1a[t + 1] = ta
-                f1b[t + 1] = tb
-                f1c[t + 1] = tc
-            fl1 = i1
-        # ---- window mean (ref c00 + off o) and variance sum
-        fi = float(i0)
-        dc = c01 - c00
-        a0 = g0a[i0]
-        a1 = f0a[i0]
-        o = (a0 + a1 + fi * dc) * inv0
-        d1 = dc - o
-        ss = g0c[i0] - 2.0 * o * a0 + (fm0 - fi) * o * o + f0c[i0] + 2.0 * d1 * a1 + fi * d1 * d1
-        if ss > 0.0:
-            fj = float(i1)
-            du0 = (cu0 - c00) - o
-            dv0 = (cv0 - c00) - o
-            du1 = (cu1 - c00) - o
-            dv1 = (cv1 - c00) - o
-            num = (g1c[i1] + dv0 * g1a[i1] + du0 * g1b[i1] + (fm1 - fj) * du0 * dv0
-                   + f1c[i1] + dv1 * f1a[i1] + du1 * f1b[i1] + fj * du1 * dv1)
-            out[k] = num / ss
-        else:
-            out[k] = np.nan
-            n_bad += 1
+    """Eq. 4.1 for sorted valid starts: ``(values, n_zero_variance)``."""
+    out = np.empty(starts.shape[0])
+    n_bad = _auto_core(x, lag, window, starts, 0, out)
     return out, n_bad
 
 
 @numba.njit(cache=True)
-def cross_correlation_sorted(y, x, lag, window, starts):  # pragma: no cover - compiled
-    """Eq. 4.2 for sorted valid starts, ``y_j`` with ``x_{j+lag}``: ``(values, n_degenerate)``.
+def autocorrelation_regular(x, lag, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
+    """Eq. 4.1 for the windows ``s_k = k * step``: ``(values, times, n_zero_variance)``."""
+    buf = np.empty((2, n_win))
+    n_bad = _auto_core(x, lag, window, NO_STARTS, step, buf[0])
+    fill_times(buf[1], step, window, sample_rate, start_time)
+    return buf[0], buf[1], n_bad
 
-    As :func:`autocorrelation_sorted` with two plain-sum structures (``y``: anchors ``cy0, cy1``;
-    ``x``: ``cx0, cx1``; both in blocks of ``N``, so they share ``b0, e0, fl0``) and the pair
-    structure ``(y_j, x_{j+lag})``. The value is ``num / (sqrt(ss_x) sqrt(ss_y))``: the ``1/N`` of
-    Eq. 4.2 cancels against the population variances.
+
+@numba.njit(cache=True, error_model="numpy")
+def _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0, hay, hcy, hax, hcx, hu, hv, huv,
+                fn, fm, out, o0, cnt):  # pragma: no cover - compiled
+    """Eq. 4.2 from the tail/head sums of ``cnt`` windows, written to ``out[o0:o0+cnt]``."""
+    inv = 1.0 / fn
+    bad = 0
+    for t in range(cnt):
+        ay = gay[t] + hay[t]
+        ax = gax[t] + hax[t]
+        oy = ay * inv
+        ox = ax * inv
+        ssy = (gcy[t] + hcy[t]) - ay * oy
+        ssx = (gcx[t] + hcx[t]) - ax * ox
+        du = du0[t] - oy
+        dv = dv0[t] - ox
+        num = (guv[t] + huv[t]) + dv * (gu[t] + hu[t]) + du * (gv[t] + hv[t]) + fm * du * dv
+        ok = (ssy > 0.0) & (ssx > 0.0)
+        out[o0 + t] = num / (np.sqrt(ssx) * np.sqrt(ssy)) if ok else np.nan
+        bad += 0 if ok else 1
+    return bad
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - compiled
+    """Eq. 4.2, ``y_j`` with ``x_{j+lag}``, for regular or sorted starts (as :func:`_auto_core`).
+
+    Two plain-sum structures (``y`` about ``y[e0 - 1]``, ``x`` about ``x[e0 - 1]``, blocks of
+    ``N``) and the pair structure ``(y_j, x_{j+lag})`` about ``(y[e1 - 1], x[e1 - 1 + lag])``.
+    The value is ``num / (sqrt(ss_x) sqrt(ss_y))``: the ``1/N`` of Eq. 4.2 cancels against the
+    population variances. Returns the number of windows where ``x`` or ``y`` has zero variance.
     """
-    m0 = window
-    m1 = window - lag
-    fm0 = float(m0)
-    fm1 = float(m1)
-    inv0 = 1.0 / fm0
-    gya = np.empty(m0)
-    gyc = np.empty(m0)
-    fya = np.empty(m0)
-    fyc = np.empty(m0)
-    gxa = np.empty(m0)
-    gxc = np.empty(m0)
-    fxa = np.empty(m0)
-    fxc = np.empty(m0)
-    g1a = np.empty(m1)
-    g1b = np.empty(m1)
-    g1c = np.empty(m1)
-    f1a = np.empty(m1)
-    f1b = np.empty(m1)
-    f1c = np.empty(m1)
-    n_win = starts.shape[0]
-    out = np.empty(n_win)
+    nn = window
+    mm = window - lag
+    n_win = out.shape[0]
+    kc = max(1, min(CHUNK, n_win))
+    gay = np.empty(kc)
+    gcy = np.empty(kc)
+    gax = np.empty(kc)
+    gcx = np.empty(kc)
+    gu = np.empty(kc)
+    gv = np.empty(kc)
+    guv = np.empty(kc)
+    du0 = np.empty(kc)
+    dv0 = np.empty(kc)
+    hay = np.empty(kc)
+    hcy = np.empty(kc)
+    hax = np.empty(kc)
+    hcx = np.empty(kc)
+    hu = np.empty(kc)
+    hv = np.empty(kc)
+    huv = np.empty(kc)
     n_bad = 0
-    b0 = 0
-    e0 = -1
-    fl0 = 0
-    cy0 = 0.0
-    cy1 = 0.0
-    cx0 = 0.0
-    cx1 = 0.0
-    b1 = 0
-    e1 = -1
-    fl1 = 0
-    cu0 = 0.0
-    cv0 = 0.0
-    cu1 = 0.0
-    cv1 = 0.0
-    for k in range(n_win):
-        s = starts[k]
-        # ---- plain sums of y and x, blocks of N
-        if e0 < 0 or s >= e0:
-            b0 = (s // m0) * m0
-            e0 = b0 + m0
-            fl0 = 0
-            cy0 = y[e0 - 1]
-            cx0 = x[e0 - 1]
-            cy1 = cy0
-            cx1 = cx0
-            tya = 0.0
-            tyc = 0.0
-            txa = 0.0
-            txc = 0.0
-            for j in range(e0 - 1, s - 1, -1):
-                dy = y[j] - cy0
-                dx = x[j] - cx0
-                tya += dy
-                tyc += dy * dy
-                txa += dx
-                txc += dx * dx
-                gya[j - b0] = tya
-                gyc[j - b0] = tyc
-                gxa[j - b0] = txa
-                gxc[j - b0] = txc
-            fya[0] = 0.0
-            fyc[0] = 0.0
-            fxa[0] = 0.0
-            fxc[0] = 0.0
-        i0 = s - b0
-        if fl0 < i0:
-            if fl0 == 0:
-                cy1 = y[e0]
-                cx1 = x[e0]
-            tya = fya[fl0]
-            tyc = fyc[fl0]
-            txa = fxa[fl0]
-            txc = fxc[fl0]
-            for t in range(fl0, i0):
-                dy = y[e0 + t] - cy1
-                dx = x[e0 + t] - cx1
-                tya += dy
-                tyc += dy * dy
-                txa += dx
-                txc += dx * dx
-                fya[t + 1] = tya
-                fyc[t + 1] = tyc
-                fxa[t + 1] = txa
-                fxc[t + 1] = txc
-            fl0 = i0
-        # ---- lagged pairs (y_j, x_{j+lag}), blocks of N - lag
-        if e1 < 0 or s >= e1:
-            b1 = (s // m1) * m1
-            e1 = b1 + m1
-            fl1 = 0
-            cu0 = y[e1 - 1]
-            cv0 = x[e1 - 1 + lag]
-            cu1 = cu0
-            cv1 = cv0
-            ta = 0.0
-            tb = 0.0
-            tc = 0.0
-            for j in range(e1 - 1, s - 1, -1):
-                du = y[j] - cu0
-                dv = x[j + lag] - cv0
-                ta += du
-                tb += dv
-                tc += du * dv
-                g1a[j - b1] = ta
-                g1b[j - b1] = tb
-                g1c[j - b1] = tc
-            f1a[0] = 0.0
-            f1b[0] = 0.0
-            f1c[0] = 0.0
-        i1 = s - b1
-        if fl1 < i1:
-            if fl1 == 0:
-                cu1 = y[e1]
-                cv1 = x[e1 + lag]
-            ta = f1a[fl1]
-            tb = f1b[fl1]
-            tc = f1c[fl1]
-            for t in range(fl1, i1):
-                du = y[e1 + t] - cu1
-                dv = x[e1 + t + lag] - cv1
-                ta += du
-                tb += dv
-                tc += du * dv
-                f1a[t + 1] = ta
-                f1b[t + 1] = tb
-                f1c[t + 1] = tc
-            fl1 = i1
-        # ---- window means (c*0 + o*) and sums of squared deviations
-        fi = float(i0)
-        dcy = cy1 - cy0
-        ay0 = gya[i0]
-        ay1 = fya[i0]
-        oy = (ay0 + ay1 + fi * dcy) * inv0
-        dy1 = dcy - oy
-        ssy = (gyc[i0] - 2.0 * oy * ay0 + (fm0 - fi) * oy * oy
-               + fyc[i0] + 2.0 * dy1 * ay1 + fi * dy1 * dy1)
-        dcx = cx1 - cx0
-        ax0 = gxa[i0]
-        ax1 = fxa[i0]
-        ox = (ax0 + ax1 + fi * dcx) * inv0
-        dx1 = dcx - ox
-        ssx = (gxc[i0] - 2.0 * ox * ax0 + (fm0 - fi) * ox * ox
-               + fxc[i0] + 2.0 * dx1 * ax1 + fi * dx1 * dx1)
-        if ssx > 0.0 and ssy > 0.0:
-            fj = float(i1)
-            du0 = (cu0 - cy0) - oy
-            dv0 = (cv0 - cx0) - ox
-            du1 = (cu1 - cy0) - oy
-            dv1 = (cv1 - cx0) - ox
-            num = (g1c[i1] + dv0 * g1a[i1] + du0 * g1b[i1] + (fm1 - fj) * du0 * dv0
-                   + f1c[i1] + dv1 * f1a[i1] + du1 * f1b[i1] + fj * du1 * dv1)
-            out[k] = num / (np.sqrt(ssx) * np.sqrt(ssy))
-        else:
-            out[k] = np.nan
-            n_bad += 1
+    for k0 in range(0, n_win, kc):
+        k1 = min(k0 + kc, n_win)
+        # ---- tails, backward
+        e0 = -1
+        p0 = 0
+        cty = 0.0
+        ctx = 0.0
+        ay = 0.0
+        cy = 0.0
+        ax = 0.0
+        cx = 0.0
+        e1 = -1
+        p1 = 0
+        ut = 0.0
+        vt = 0.0
+        au = 0.0
+        av = 0.0
+        auv = 0.0
+        for k in range(k1 - 1, k0 - 1, -1):
+            s = k * step if step > 0 else starts[k]
+            if e0 < 0 or s < e0 - nn:
+                e0 = (s // nn + 1) * nn
+                p0 = e0
+                cty = y[e0 - 1]
+                ctx = x[e0 - 1]
+                ay = 0.0
+                cy = 0.0
+                ax = 0.0
+                cx = 0.0
+            if e1 < 0 or s < e1 - mm:
+                e1 = (s // mm + 1) * mm
+                p1 = e1
+                ut = y[e1 - 1]
+                vt = x[e1 - 1 + lag]
+                au = 0.0
+                av = 0.0
+                auv = 0.0
+            if p0 == p1:
+                lay = 0.0
+                lcy = 0.0
+                lax = 0.0
+                lcx = 0.0
+                lu = 0.0
+                lv = 0.0
+                luv = 0.0
+                j = s
+                while j < p0:
+                    yj = y[j]
+                    d = yj - cty
+                    lay += d
+                    lcy += d * d
+                    d = x[j] - ctx
+                    lax += d
+                    lcx += d * d
+                    du = yj - ut
+                    dv = x[j + lag] - vt
+                    lu += du
+                    lv += dv
+                    luv += du * dv
+                    j += 1
+                ay += lay
+                cy += lcy
+                ax += lax
+                cx += lcx
+                au += lu
+                av += lv
+                auv += luv
+            else:
+                lay = 0.0
+                lcy = 0.0
+                lax = 0.0
+                lcx = 0.0
+                j = s
+                while j < p0:
+                    d = y[j] - cty
+                    lay += d
+                    lcy += d * d
+                    d = x[j] - ctx
+                    lax += d
+                    lcx += d * d
+                    j += 1
+                ay += lay
+                cy += lcy
+                ax += lax
+                cx += lcx
+                lu = 0.0
+                lv = 0.0
+                luv = 0.0
+                j = s
+                while j < p1:
+                    du = y[j] - ut
+                    dv = x[j + lag] - vt
+                    lu += du
+                    lv += dv
+                    luv += du * dv
+                    j += 1
+                au += lu
+                av += lv
+                auv += luv
+            p0 = s
+            p1 = s
+            t = k - k0
+            gay[t] = ay
+            gcy[t] = cy
+            gax[t] = ax
+            gcx[t] = cx
+            gu[t] = au
+            gv[t] = av
+            guv[t] = auv
+            du0[t] = ut - cty
+            dv0[t] = vt - ctx
+        # ---- heads, forward (same anchors as the window's tails)
+        e0 = -1
+        q0 = 0
+        ay = 0.0
+        cy = 0.0
+        ax = 0.0
+        cx = 0.0
+        e1 = -1
+        q1 = 0
+        au = 0.0
+        av = 0.0
+        auv = 0.0
+        for k in range(k0, k1):
+            s = k * step if step > 0 else starts[k]
+            if e0 < 0 or s >= e0:
+                e0 = (s // nn + 1) * nn
+                q0 = e0
+                cty = y[e0 - 1]
+                ctx = x[e0 - 1]
+                ay = 0.0
+                cy = 0.0
+                ax = 0.0
+                cx = 0.0
+            if e1 < 0 or s >= e1:
+                e1 = (s // mm + 1) * mm
+                q1 = e1
+                ut = y[e1 - 1]
+                vt = x[e1 - 1 + lag]
+                au = 0.0
+                av = 0.0
+                auv = 0.0
+            r0 = s + nn - q0
+            r1 = s + mm - q1
+            if r0 == r1:
+                lay = 0.0
+                lcy = 0.0
+                lax = 0.0
+                lcx = 0.0
+                lu = 0.0
+                lv = 0.0
+                luv = 0.0
+                i = 0
+                while i < r0:
+                    j = q0 + i
+                    d = y[j] - cty
+                    lay += d
+                    lcy += d * d
+                    d = x[j] - ctx
+                    lax += d
+                    lcx += d * d
+                    j = q1 + i
+                    du = y[j] - ut
+                    dv = x[j + lag] - vt
+                    lu += du
+                    lv += dv
+                    luv += du * dv
+                    i += 1
+                ay += lay
+                cy += lcy
+                ax += lax
+                cx += lcx
+                au += lu
+                av += lv
+                auv += luv
+            else:
+                lay = 0.0
+                lcy = 0.0
+                lax = 0.0
+                lcx = 0.0
+                j = q0
+                while j < q0 + r0:
+                    d = y[j] - cty
+                    lay += d
+                    lcy += d * d
+                    d = x[j] - ctx
+                    lax += d
+                    lcx += d * d
+                    j += 1
+                ay += lay
+                cy += lcy
+                ax += lax
+                cx += lcx
+                lu = 0.0
+                lv = 0.0
+                luv = 0.0
+                j = q1
+                while j < q1 + r1:
+                    du = y[j] - ut
+                    dv = x[j + lag] - vt
+                    lu += du
+                    lv += dv
+                    luv += du * dv
+                    j += 1
+                au += lu
+                av += lv
+                auv += luv
+            q0 += r0
+            q1 += r1
+            t = k - k0
+            hay[t] = ay
+            hcy[t] = cy
+            hax[t] = ax
+            hcx[t] = cx
+            hu[t] = au
+            hv[t] = av
+            huv[t] = auv
+        n_bad += _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0,
+                             hay, hcy, hax, hcx, hu, hv, huv, float(nn), float(mm), out, k0, k1 - k0)
+    return n_bad
+
+
+@numba.njit(cache=True)
+def cross_correlation_sorted(y, x, lag, window, starts):  # pragma: no cover - compiled
+    """Eq. 4.2 for sorted valid starts: ``(values, n_degenerate)``."""
+    out = np.empty(starts.shape[0])
+    n_bad = _cross_core(y, x, lag, window, starts, 0, out)
     return out, n_bad
+
+
+@numba.njit(cache=True)
+def cross_correlation_regular(y, x, lag, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
+    """Eq. 4.2 for the windows ``s_k = k * step``: ``(values, times, n_degenerate)``."""
+    buf = np.empty((2, n_win))
+    n_bad = _cross_core(y, x, lag, window, NO_STARTS, step, buf[0])
+    fill_times(buf[1], step, window, sample_rate, start_time)
+    return buf[0], buf[1], n_bad

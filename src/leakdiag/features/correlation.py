@@ -5,15 +5,20 @@ from __future__ import annotations
 import numpy as np
 
 from leakdiag.features import _args
-from leakdiag.features._blocksums import autocorrelation_sorted, cross_correlation_sorted
+from leakdiag.features._blocksums import (
+    autocorrelation_regular,
+    autocorrelation_sorted,
+    cross_correlation_regular,
+    cross_correlation_sorted,
+)
 from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["autocorrelation", "cross_correlation", "autocorrelation_at", "cross_correlation_at"]
 
 
-def _sorted(starts: np.ndarray, assume_sorted: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
-    if assume_sorted or starts.size < 2 or bool(np.all(starts[1:] >= starts[:-1])):
+def _sorted(starts: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    if starts.size < 2 or bool(np.all(starts[1:] >= starts[:-1])):
         return starts, None
     order = np.argsort(starts, kind="stable")
     return np.ascontiguousarray(starts[order]), order
@@ -27,17 +32,16 @@ def _unsort(values: np.ndarray, order: np.ndarray | None) -> np.ndarray:
     return out
 
 
-def _auto_values(x: np.ndarray, lag: int, starts: np.ndarray, window: int,
-                 assume_sorted: bool = False) -> np.ndarray:
-    starts, order = _sorted(starts, assume_sorted)
+def _auto_values(x: np.ndarray, lag: int, starts: np.ndarray, window: int) -> np.ndarray:
+    starts, order = _sorted(starts)
     values, n_bad = autocorrelation_sorted(x, lag, window, starts)
     warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return _unsort(values, order)
 
 
 def _cross_values(y: np.ndarray, x: np.ndarray, lag: int, starts: np.ndarray,
-                  window: int, assume_sorted: bool = False) -> np.ndarray:
-    starts, order = _sorted(starts, assume_sorted)
+                  window: int) -> np.ndarray:
+    starts, order = _sorted(starts)
     values, n_bad = cross_correlation_sorted(y, x, lag, window, starts)
     warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return _unsort(values, order)
@@ -124,9 +128,11 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
-    values = _auto_values(x_arr, lag, plan.starts, window, assume_sorted=True)
+    values, time, n_bad = autocorrelation_regular(x_arr, lag, window, plan.step, plan.n_windows,
+                                                  plan.sample_rate, plan.start_time)
+    warn_degenerate(n_bad, len(values), "zero variance")
     params = {"lag": lag, **plan.settings(_args.channel_names(x, "x"), sample_rate, start_time)}
-    return FeatureSeries(plan.time, values, "autocorrelation", params)
+    return FeatureSeries(time, values, "autocorrelation", params)
 
 
 def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.0,
@@ -197,10 +203,13 @@ def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
-    values = _cross_values(y_arr, x_arr, lag, plan.starts, window, assume_sorted=True)
+    values, time, n_bad = cross_correlation_regular(y_arr, x_arr, lag, window, plan.step,
+                                                    plan.n_windows, plan.sample_rate,
+                                                    plan.start_time)
+    warn_degenerate(n_bad, len(values), "zero variance")
     channels = _args.channel_names(y, "y") + _args.channel_names(x, "x")
     params = {"lag": lag, **plan.settings(channels, sample_rate, start_time)}
-    return FeatureSeries(plan.time, values, "cross_correlation", params)
+    return FeatureSeries(time, values, "cross_correlation", params)
 
 
 def autocorrelation_at(x, lag: int, starts, window: int) -> np.ndarray:

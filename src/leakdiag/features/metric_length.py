@@ -8,89 +8,137 @@ import numba
 import numpy as np
 
 from leakdiag.features import _args
+from leakdiag.features._blocksums import CHUNK, NO_STARTS, fill_times
 from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["metric_length_ratio", "metric_length_ratio_at"]
 
 
-@numba.njit(cache=True)
-def _metric_sorted(x, l_step, k_step, window, starts):  # pragma: no cover - compiled
-    """Eq. 4.3 for sorted valid starts: ``(values, n_zero_denominator)``.
+@numba.njit(cache=True, error_model="numpy")
+def _metric_eval(gk, gl, hk, hl, out, o0, cnt):  # pragma: no cover - compiled
+    """Eq. 4.3 from the tail/head sums of ``cnt`` windows, written to ``out[o0:o0+cnt]``."""
+    bad = 0
+    for t in range(cnt):
+        den = gl[t] + hl[t]
+        ok = den > 0.0
+        out[o0 + t] = (gk[t] + hk[t]) / den if ok else np.nan
+        bad += 0 if ok else 1
+    return bad
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _metric_core(x, l_step, k_step, window, starts, step, out):  # pragma: no cover - compiled
+    """Eq. 4.3 for windows ``s_k = k * step`` (``step > 0``) or sorted ``starts`` (``step = 0``).
 
     Sums over ``j = s .. s+N-l-1`` of ``||x_{j+k} - x_j||`` and ``||x_{j+l} - x_j||`` (Euclidean
-    norm over the channels of ``x``, shape ``(n, c)``, Eq. 4.4). Same block layout as
-    :mod:`leakdiag.features._blocksums` (blocks of ``M = N - l`` terms, suffix sums for the
-    block holding ``s``, lazily extended prefix sums for the next one, ``f[0] = 0``), so each
-    window sum adds two partial sums of at most ``M`` non-negative terms: relative error of a
-    few ulps times ``M``, independent of the signal length. The terms are computed on the fly
-    (an inner function, which Numba inlines), never stored for the whole signal.
+    norm over the channels of ``x``, shape ``(n, c)``, Eq. 4.4), each split into the tail of the
+    block of ``M = N - l`` terms holding ``s`` and the head of the next block, grown window by
+    window as in :mod:`leakdiag.features._blocksums` (backward for tails, forward for heads).
+    The terms are non-negative, so no anchor is needed: a window sum adds two partial sums of at
+    most ``M`` terms of the window itself (relative error a few ulps times ``M``). The terms are
+    computed on the fly (an inner function, which Numba inlines), never stored for the signal.
+    Returns the number of windows with a zero denominator.
     """
     n_ch = x.shape[1]
 
-    def step_length(j, step):
+    def step_length(j, lag):
         if n_ch == 1:
-            return abs(x[j + step, 0] - x[j, 0])
+            return abs(x[j + lag, 0] - x[j, 0])
         acc = 0.0
         for c in range(n_ch):
-            d = x[j + step, c] - x[j, c]
+            d = x[j + lag, c] - x[j, c]
             acc += d * d
         return math.sqrt(acc)
 
-    m_len = window - l_step
-    gk = np.empty(m_len)
-    gl = np.empty(m_len)
-    fk = np.empty(m_len)
-    fl = np.empty(m_len)
-    n_win = starts.shape[0]
-    out = np.empty(n_win)
+    mm = window - l_step
+    n_win = out.shape[0]
+    kc = max(1, min(CHUNK, n_win))
+    gk = np.empty(kc)
+    gl = np.empty(kc)
+    hk = np.empty(kc)
+    hl = np.empty(kc)
     n_bad = 0
-    b0 = 0
-    e = -1
-    f_len = 0
-    for w in range(n_win):
-        s = starts[w]
-        if e < 0 or s >= e:
-            b0 = (s // m_len) * m_len
-            e = b0 + m_len
-            f_len = 0
-            tk = 0.0
-            tl = 0.0
-            for j in range(e - 1, s - 1, -1):
-                tk += step_length(j, k_step)
-                tl += step_length(j, l_step)
-                gk[j - b0] = tk
-                gl[j - b0] = tl
-            fk[0] = 0.0
-            fl[0] = 0.0
-        i = s - b0
-        if f_len < i:
-            tk = fk[f_len]
-            tl = fl[f_len]
-            for t in range(f_len, i):
-                tk += step_length(e + t, k_step)
-                tl += step_length(e + t, l_step)
-                fk[t + 1] = tk
-                fl[t + 1] = tl
-            f_len = i
-        den = gl[i] + fl[i]
-        if den > 0.0:
-            out[w] = (gk[i] + fk[i]) / den
-        else:
-            out[w] = np.nan
-            n_bad += 1
+    for k0 in range(0, n_win, kc):
+        k1 = min(k0 + kc, n_win)
+        e = -1
+        p = 0
+        ak = 0.0
+        al = 0.0
+        for w in range(k1 - 1, k0 - 1, -1):
+            s = w * step if step > 0 else starts[w]
+            if e < 0 or s < e - mm:
+                e = (s // mm + 1) * mm
+                p = e
+                ak = 0.0
+                al = 0.0
+            lk = 0.0
+            ll = 0.0
+            j = s
+            while j < p:
+                lk += step_length(j, k_step)
+                ll += step_length(j, l_step)
+                j += 1
+            ak += lk
+            al += ll
+            p = s
+            gk[w - k0] = ak
+            gl[w - k0] = al
+        e = -1
+        q = 0
+        ak = 0.0
+        al = 0.0
+        for w in range(k0, k1):
+            s = w * step if step > 0 else starts[w]
+            if e < 0 or s >= e:
+                e = (s // mm + 1) * mm
+                q = e
+                ak = 0.0
+                al = 0.0
+            lk = 0.0
+            ll = 0.0
+            j = q
+            while j < s + mm:
+                lk += step_length(j, k_step)
+                ll += step_length(j, l_step)
+                j += 1
+            ak += lk
+            al += ll
+            q = s + mm
+            hk[w - k0] = ak
+            hl[w - k0] = al
+        n_bad += _metric_eval(gk, gl, hk, hl, out, k0, k1 - k0)
+    return n_bad
+
+
+@numba.njit(cache=True)
+def _metric_sorted(x, l_step, k_step, window, starts):  # pragma: no cover - compiled
+    """Eq. 4.3 for sorted valid starts: ``(values, n_zero_denominator)``."""
+    out = np.empty(starts.shape[0])
+    n_bad = _metric_core(x, l_step, k_step, window, starts, 0, out)
     return out, n_bad
 
 
+@numba.njit(cache=True)
+def _metric_regular(x, l_step, k_step, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
+    """Eq. 4.3 for the windows ``s_k = k * step``: ``(values, times, n_zero_denominator)``."""
+    buf = np.empty((2, n_win))
+    n_bad = _metric_core(x, l_step, k_step, window, NO_STARTS, step, buf[0])
+    fill_times(buf[1], step, window, sample_rate, start_time)
+    return buf[0], buf[1], n_bad
+
+
+_DEGENERATE = "zero metric length at step l (Eq. 4.3 denominator)"
+
+
 def _ratio_values(x2: np.ndarray, l_step: int, k_step: int, starts: np.ndarray,
-                  window: int, assume_sorted: bool = False) -> np.ndarray:
+                  window: int) -> np.ndarray:
     order = None
-    if not assume_sorted and starts.size > 1 and not bool(np.all(starts[1:] >= starts[:-1])):
+    if starts.size > 1 and not bool(np.all(starts[1:] >= starts[:-1])):
         order = np.argsort(starts, kind="stable")
         starts = np.ascontiguousarray(starts[order])
     values, n_bad = _metric_sorted(x2, l_step, k_step, window, starts)
-    warn_degenerate(n_bad, len(values), "zero metric length at step l (Eq. 4.3 denominator)",
-                    stacklevel=4)
+    warn_degenerate(n_bad, len(values), _DEGENERATE, stacklevel=4)
     if order is not None:
         out = np.empty_like(values)
         out[order] = values
@@ -168,11 +216,13 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
     window = _args.check_window(window)
     l_step, k_step = _args.parse_lag_ratio(lag_ratio, window)
     plan = _args.plan_windows(len(x2), window, overlap, sample_rate, start_time)
-    values = _ratio_values(x2, l_step, k_step, plan.starts, window, assume_sorted=True)
+    values, time, n_bad = _metric_regular(x2, l_step, k_step, window, plan.step, plan.n_windows,
+                                          plan.sample_rate, plan.start_time)
+    warn_degenerate(n_bad, len(values), _DEGENERATE)
     channels = _args.channel_names(x, "x", x2.shape[1])
     params = {"lag_ratio": f"{l_step}:{k_step}", "l": l_step, "k": k_step,
               **plan.settings(channels, sample_rate, start_time)}
-    return FeatureSeries(plan.time, values, "metric_length_ratio", params)
+    return FeatureSeries(time, values, "metric_length_ratio", params)
 
 
 def metric_length_ratio_at(x, lag_ratio, starts, window: int) -> np.ndarray:

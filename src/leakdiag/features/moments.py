@@ -6,7 +6,7 @@ import numba
 import numpy as np
 
 from leakdiag.features import _args
-from leakdiag.features._blocksums import block_of
+from leakdiag.features._blocksums import NO_STARTS, CHUNK, fill_times
 from leakdiag.features._degenerate import warn_degenerate
 
 __all__ = ["moments", "moments_at", "MOMENT_COLUMNS"]
@@ -25,103 +25,165 @@ def _shift(s1, s2, s3, s4, n, d):  # pragma: no cover - compiled
     return m2, m3, m4
 
 
-@numba.njit(cache=True)
-def _moment_sums(x, window, starts):  # pragma: no cover - compiled
-    """Per window: mean, variance (Eq. 4.12), skewness and kurtosis; and the NaN count.
+@numba.njit(cache=True, error_model="numpy")
+def _moment_eval(g1, g2, g3, g4, anchor, h1, h2, h3, h4, fn, out, o0, cnt):  # pragma: no cover - compiled
+    """Eq. 4.11-4.14 from the tail/head power sums of ``cnt`` windows into ``out[:, o0:o0+cnt]``."""
+    inv = 1.0 / fn
+    bad = 0
+    for t in range(cnt):
+        s1 = g1[t] + h1[t]
+        off = s1 * inv
+        c2, c3, c4 = _shift(s1, g2[t] + h2[t], g3[t] + h3[t], g4[t] + h4[t], fn, -off)
+        out[0, o0 + t] = anchor[t] + off
+        ok = c2 > 0.0
+        s2 = c2 / (fn - 1.0)  # sample variance s^2 (Eq. 4.13-4.14)
+        out[1, o0 + t] = c2 * inv if ok else 0.0  # Eq. 4.12, population variance
+        out[2, o0 + t] = c3 / ((fn - 1.0) * s2 * np.sqrt(s2)) if ok else np.nan
+        out[3, o0 + t] = c4 / ((fn - 1.0) * s2 * s2) if ok else np.nan
+        bad += 0 if ok else 1
+    return bad
 
-    Anchored block sums as in :mod:`leakdiag.features._blocksums` (blocks of N
-    samples; suffix sums anchored at the block's last sample, prefix sums at the next block's
-    first, ``f[0] = 0``), shifted exactly to the window mean by the binomial expansion.
-    ``starts`` must be sorted.
+
+@numba.njit(cache=True, error_model="numpy")
+def _moment_core(x, window, starts, step, out):  # pragma: no cover - compiled
+    """Mean, variance (Eq. 4.12), skewness and kurtosis per window into the rows of ``out``.
+
+    Windows ``s_k = k * step`` (``step > 0``) or the sorted ``starts`` (``step = 0``). The
+    anchored block sums of :mod:`leakdiag.features._blocksums` (blocks of N samples; tail and
+    head of each window summed about the block's last sample ``x[e - 1]``, a sample of the
+    window), shifted exactly to the window mean by the binomial expansion. Returns the number
+    of constant windows.
     """
-    m_len = window
-    fm = float(m_len)
-    inv_m = 1.0 / fm
-    g = np.empty((m_len, 4))
-    f = np.empty((m_len, 4))
-    n_win = starts.shape[0]
-    mean = np.empty(n_win)
-    var = np.empty(n_win)
-    skew = np.empty(n_win)
-    kurt = np.empty(n_win)
+    nn = window
+    n_win = out.shape[1]
+    kc = max(1, min(CHUNK, n_win))
+    g1 = np.empty(kc)
+    g2 = np.empty(kc)
+    g3 = np.empty(kc)
+    g4 = np.empty(kc)
+    anchor = np.empty(kc)
+    h1 = np.empty(kc)
+    h2 = np.empty(kc)
+    h3 = np.empty(kc)
+    h4 = np.empty(kc)
     n_bad = 0
-    w = 0
-    while w < n_win:
-        b0, w_end = block_of(starts, w, m_len)
-        e = b0 + m_len
-        a0 = x[e - 1]
-        t1 = 0.0
-        t2 = 0.0
-        t3 = 0.0
-        t4 = 0.0
-        for j in range(e - 1, starts[w] - 1, -1):
-            d = x[j] - a0
-            dd = d * d
-            t1 += d
-            t2 += dd
-            t3 += dd * d
-            t4 += dd * dd
-            i = j - b0
-            g[i, 0] = t1
-            g[i, 1] = t2
-            g[i, 2] = t3
-            g[i, 3] = t4
-        need = starts[w_end - 1] - b0
-        a1 = x[e] if need > 0 else a0
-        t1 = 0.0
-        t2 = 0.0
-        t3 = 0.0
-        t4 = 0.0
-        f[0, 0] = 0.0
-        f[0, 1] = 0.0
-        f[0, 2] = 0.0
-        f[0, 3] = 0.0
-        for i in range(need):
-            d = x[e + i] - a1
-            dd = d * d
-            t1 += d
-            t2 += dd
-            t3 += dd * d
-            t4 += dd * dd
-            f[i + 1, 0] = t1
-            f[i + 1, 1] = t2
-            f[i + 1, 2] = t3
-            f[i + 1, 3] = t4
-        da = a1 - a0
-        for k in range(w, w_end):
-            i = starts[k] - b0
-            fi = float(i)
-            off = (g[i, 0] + f[i, 0] + fi * da) * inv_m
-            p2, p3, p4 = _shift(g[i, 0], g[i, 1], g[i, 2], g[i, 3], fm - fi, -off)
-            q2, q3, q4 = _shift(f[i, 0], f[i, 1], f[i, 2], f[i, 3], fi, da - off)
-            mean[k] = a0 + off
-            c2 = p2 + q2
-            if c2 > 0.0:
-                s2 = c2 / (fm - 1.0)  # sample variance s^2 (Eq. 4.13-4.14)
-                var[k] = c2 / fm  # Eq. 4.12, population variance
-                skew[k] = (p3 + q3) / ((fm - 1.0) * s2 * np.sqrt(s2))
-                kurt[k] = (p4 + q4) / ((fm - 1.0) * s2 * s2)
-            else:
-                var[k] = 0.0
-                skew[k] = np.nan
-                kurt[k] = np.nan
-                n_bad += 1
-        w = w_end
-    return mean, var, skew, kurt, n_bad
+    for k0 in range(0, n_win, kc):
+        k1 = min(k0 + kc, n_win)
+        # ---- tails [s, e), backward
+        e = -1
+        p = 0
+        ct = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        a3 = 0.0
+        a4 = 0.0
+        for k in range(k1 - 1, k0 - 1, -1):
+            s = k * step if step > 0 else starts[k]
+            if e < 0 or s < e - nn:
+                e = (s // nn + 1) * nn
+                p = e
+                ct = x[e - 1]
+                a1 = 0.0
+                a2 = 0.0
+                a3 = 0.0
+                a4 = 0.0
+            l1 = 0.0
+            l2 = 0.0
+            l3 = 0.0
+            l4 = 0.0
+            j = s
+            while j < p:
+                d = x[j] - ct
+                dd = d * d
+                l1 += d
+                l2 += dd
+                l3 += dd * d
+                l4 += dd * dd
+                j += 1
+            a1 += l1
+            a2 += l2
+            a3 += l3
+            a4 += l4
+            p = s
+            t = k - k0
+            g1[t] = a1
+            g2[t] = a2
+            g3[t] = a3
+            g4[t] = a4
+            anchor[t] = ct
+        # ---- heads [e, s + N) about the same anchor x[e - 1], forward
+        e = -1
+        q = 0
+        a1 = 0.0
+        a2 = 0.0
+        a3 = 0.0
+        a4 = 0.0
+        for k in range(k0, k1):
+            s = k * step if step > 0 else starts[k]
+            if e < 0 or s >= e:
+                e = (s // nn + 1) * nn
+                q = e
+                ct = x[e - 1]
+                a1 = 0.0
+                a2 = 0.0
+                a3 = 0.0
+                a4 = 0.0
+            l1 = 0.0
+            l2 = 0.0
+            l3 = 0.0
+            l4 = 0.0
+            j = q
+            while j < s + nn:
+                d = x[j] - ct
+                dd = d * d
+                l1 += d
+                l2 += dd
+                l3 += dd * d
+                l4 += dd * dd
+                j += 1
+            a1 += l1
+            a2 += l2
+            a3 += l3
+            a4 += l4
+            q = s + nn
+            t = k - k0
+            h1[t] = a1
+            h2[t] = a2
+            h3[t] = a3
+            h4[t] = a4
+        n_bad += _moment_eval(g1, g2, g3, g4, anchor, h1, h2, h3, h4, float(nn), out, k0, k1 - k0)
+    return n_bad
 
 
-def _moment_columns(x: np.ndarray, starts: np.ndarray, window: int,
-                    assume_sorted: bool = False) -> tuple[np.ndarray, ...]:
+@numba.njit(cache=True)
+def _moments_regular(x, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
+    """Rows ``time, mean, variance, skewness, kurtosis`` of one ``(5, n_win)`` array; NaN count."""
+    buf = np.empty((5, n_win))
+    n_bad = _moment_core(x, window, NO_STARTS, step, buf[1:])
+    fill_times(buf[0], step, window, sample_rate, start_time)
+    return buf, n_bad
+
+
+@numba.njit(cache=True)
+def _moments_sorted(x, window, starts):  # pragma: no cover - compiled
+    """Shape ``(4, len(starts))``: mean, variance, skewness, kurtosis for sorted starts; NaN count."""
+    out = np.empty((4, starts.shape[0]))
+    n_bad = _moment_core(x, window, starts, 0, out)
+    return out, n_bad
+
+
+def _moment_rows(x: np.ndarray, starts: np.ndarray, window: int) -> np.ndarray:
     order = None
-    if not assume_sorted and starts.size > 1 and not bool(np.all(starts[1:] >= starts[:-1])):
+    if starts.size > 1 and not bool(np.all(starts[1:] >= starts[:-1])):
         order = np.argsort(starts, kind="stable")
         starts = np.ascontiguousarray(starts[order])
-    *columns, n_bad = _moment_sums(x, window, starts)
+    rows, n_bad = _moments_sorted(x, window, starts)
     warn_degenerate(n_bad, len(starts), "zero variance (skewness and kurtosis)", stacklevel=4)
     if order is not None:
-        for col in columns:
-            col[order] = col.copy()
-    return tuple(columns)
+        out = np.empty_like(rows)
+        out[:, order] = rows
+        rows = out
+    return rows
 
 
 def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.0,
@@ -189,9 +251,11 @@ def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.
     x_arr = _args.signal_1d(x, "x")
     window = _args.check_window(window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
-    mean, variance, skew, kurt = _moment_columns(x_arr, plan.starts, window, assume_sorted=True)
-    df = pd.DataFrame({"time": plan.time, "mean": mean, "variance": variance, "skewness": skew,
-                       "kurtosis": kurt}, copy=False)  # fresh arrays: no 5-column copy
+    buf, n_bad = _moments_regular(x_arr, window, plan.step, plan.n_windows, plan.sample_rate,
+                                  plan.start_time)
+    warn_degenerate(n_bad, plan.n_windows, "zero variance (skewness and kurtosis)")
+    # one (5, m) block, handed to pandas without a copy (a fresh copy costs page faults)
+    df = pd.DataFrame(buf.T, columns=list(MOMENT_COLUMNS), copy=False)
     df.attrs.update(plan.settings(_args.channel_names(x, "x"), sample_rate, start_time))
     return df
 
@@ -231,4 +295,4 @@ def moments_at(x, starts, window: int) -> np.ndarray:
     x_arr = _args.signal_1d(x, "x")
     window = _args.check_window(window)
     starts = _args.check_starts(starts, len(x_arr), window)
-    return np.column_stack(_moment_columns(x_arr, starts, window))
+    return np.ascontiguousarray(_moment_rows(x_arr, starts, window).T)
