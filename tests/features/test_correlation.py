@@ -20,6 +20,10 @@ from leakdiag.features import (
     cross_correlation,
     cross_correlation_at,
 )
+from leakdiag.features._blocksums import _auto_core, _cross_core
+from leakdiag.features._chunks import NO_STARTS
+from leakdiag.features._smalllag import LAG_DIRECT, auto_small_core, cross_small_core
+
 from . import reference as ref
 from .signals import SETTINGS, make_signals
 
@@ -164,6 +168,30 @@ def test_at_equals_regular_windows(x, data):
                                                          x[s : s + window], lag) for s in starts])
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(got_cc, want_cc, rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("kind", ["large_offset", "level_steps", "constant_plus_noise"])
+@pytest.mark.parametrize("lag", [1, 2, 5, LAG_DIRECT])
+@pytest.mark.parametrize("window,step", [(200, 2), (37, 1), (120, 7), (50, 50)])
+def test_short_lag_kernels_agree_with_general_kernels(kind, lag, window, step):
+    # lag <= LAG_DIRECT runs the one-structure kernels of _smalllag; the two-structure kernels of
+    # _blocksums compute the same windows another way (different anchors and sums)
+    x = SIGNALS[kind]
+    y = x[::-1].copy()
+    n_win = (len(x) - window) // step + 1
+    auto_small, auto_general = np.empty(n_win), np.empty(n_win)
+    cross_small, cross_general = np.empty(n_win), np.empty(n_win)
+    bad = [auto_small_core(x, lag, window, NO_STARTS, step, auto_small),
+           _auto_core(x, lag, window, NO_STARTS, step, auto_general),
+           cross_small_core(y, x, lag, window, NO_STARTS, step, cross_small),
+           _cross_core(y, x, lag, window, NO_STARTS, step, cross_general)]
+    assert bad[0] == bad[1] and bad[2] == bad[3]
+    np.testing.assert_allclose(auto_small, auto_general, rtol=1e-11, atol=1e-13)
+    np.testing.assert_allclose(cross_small, cross_general, rtol=1e-11, atol=1e-13)
+    want = ref.autocorrelation_ref(x[: (n_win - 1) * step + window], lag, window,
+                                   100.0 * (1 - step / window))
+    if len(want) == n_win:  # the overlap maps back to this step
+        np.testing.assert_allclose(auto_small, want, rtol=1e-9, atol=1e-11)
 
 
 def test_all_starts_then_slice_agrees_with_overlap_call():

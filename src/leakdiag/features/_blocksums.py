@@ -45,32 +45,15 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from leakdiag.features._chunks import CHUNK, NO_STARTS, fill_times
+from leakdiag.features._smalllag import LAG_DIRECT, auto_small_core, cross_small_core
+
 __all__ = [
-    "CHUNK",
-    "NO_STARTS",
     "autocorrelation_sorted",
     "autocorrelation_regular",
     "cross_correlation_sorted",
     "cross_correlation_regular",
-    "fill_times",
 ]
-
-CHUNK = 4096  # windows per chunk: the per-window columns stay in L2 (16 x 32 KiB at most)
-
-NO_STARTS = np.empty(0, dtype=np.int64)  # the `starts` argument of a regular-window call
-
-
-@numba.njit(cache=True)
-def fill_times(times, step, window, sample_rate, start_time):  # pragma: no cover - compiled
-    """Write the window times ``(k * step + window - 1) / sample_rate + start_time`` in place.
-
-    Same operations in the same order as :func:`leakdiag.features.window_times`, so the values
-    are bit-identical.
-    """
-    last = float(window - 1)
-    for k in range(times.shape[0]):
-        times[k] = (float(k * step) + last) / sample_rate + start_time
-
 
 @numba.njit(cache=True, error_model="numpy")
 def _auto_eval(ga, gc, gu, gv, guv, du0, dv0, ha, hc, hu, hv, huv, fn, fm, out, o0, cnt):  # pragma: no cover - compiled
@@ -298,7 +281,10 @@ def _auto_core(x, lag, window, starts, step, out):  # pragma: no cover - compile
 def autocorrelation_sorted(x, lag, window, starts):  # pragma: no cover - compiled
     """Eq. 4.1 for sorted valid starts: ``(values, n_zero_variance)``."""
     out = np.empty(starts.shape[0])
-    n_bad = _auto_core(x, lag, window, starts, 0, out)
+    if lag <= LAG_DIRECT:
+        n_bad = auto_small_core(x, lag, window, starts, 0, out)
+    else:
+        n_bad = _auto_core(x, lag, window, starts, 0, out)
     return out, n_bad
 
 
@@ -306,7 +292,10 @@ def autocorrelation_sorted(x, lag, window, starts):  # pragma: no cover - compil
 def autocorrelation_regular(x, lag, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
     """Eq. 4.1 for the windows ``s_k = k * step``: ``(values, times, n_zero_variance)``."""
     buf = np.empty((2, n_win))
-    n_bad = _auto_core(x, lag, window, NO_STARTS, step, buf[0])
+    if lag <= LAG_DIRECT:
+        n_bad = auto_small_core(x, lag, window, NO_STARTS, step, buf[0])
+    else:
+        n_bad = _auto_core(x, lag, window, NO_STARTS, step, buf[0])
     fill_times(buf[1], step, window, sample_rate, start_time)
     return buf[0], buf[1], n_bad
 
@@ -589,7 +578,10 @@ def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - com
 def cross_correlation_sorted(y, x, lag, window, starts):  # pragma: no cover - compiled
     """Eq. 4.2 for sorted valid starts: ``(values, n_degenerate)``."""
     out = np.empty(starts.shape[0])
-    n_bad = _cross_core(y, x, lag, window, starts, 0, out)
+    if lag <= LAG_DIRECT:
+        n_bad = cross_small_core(y, x, lag, window, starts, 0, out)
+    else:
+        n_bad = _cross_core(y, x, lag, window, starts, 0, out)
     return out, n_bad
 
 
@@ -597,6 +589,9 @@ def cross_correlation_sorted(y, x, lag, window, starts):  # pragma: no cover - c
 def cross_correlation_regular(y, x, lag, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
     """Eq. 4.2 for the windows ``s_k = k * step``: ``(values, times, n_degenerate)``."""
     buf = np.empty((2, n_win))
-    n_bad = _cross_core(y, x, lag, window, NO_STARTS, step, buf[0])
+    if lag <= LAG_DIRECT:
+        n_bad = cross_small_core(y, x, lag, window, NO_STARTS, step, buf[0])
+    else:
+        n_bad = _cross_core(y, x, lag, window, NO_STARTS, step, buf[0])
     fill_times(buf[1], step, window, sample_rate, start_time)
     return buf[0], buf[1], n_bad

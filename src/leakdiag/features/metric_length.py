@@ -8,7 +8,7 @@ import numba
 import numpy as np
 
 from leakdiag.features import _args
-from leakdiag.features._blocksums import CHUNK, NO_STARTS, fill_times
+from leakdiag.features._chunks import CHUNK, NO_STARTS, fill_times
 from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
 

@@ -6,7 +6,7 @@ import numba
 import numpy as np
 
 from leakdiag.features import _args
-from leakdiag.features._blocksums import NO_STARTS, CHUNK, fill_times
+from leakdiag.features._chunks import CHUNK, NO_STARTS, fill_times
 from leakdiag.features._degenerate import warn_degenerate
 
 __all__ = ["moments", "moments_at", "MOMENT_COLUMNS"]
