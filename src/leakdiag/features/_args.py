@@ -24,6 +24,8 @@ __all__ = [
     "parse_lag_ratio",
     "check_length",
     "check_starts",
+    "sort_starts",
+    "unsort",
     "plan_windows",
 ]
 
@@ -155,14 +157,29 @@ def check_starts(starts, n_samples: int, window: int) -> np.ndarray:
     return arr
 
 
+def sort_starts(starts: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """Starts in ascending order for the kernels, and the permutation (``None`` if already sorted)."""
+    if starts.size < 2 or bool(np.all(starts[1:] >= starts[:-1])):
+        return starts, None
+    order = np.argsort(starts, kind="stable")
+    return np.ascontiguousarray(starts[order]), order
+
+
+def unsort(values: np.ndarray, order: np.ndarray | None) -> np.ndarray:
+    """Put per-window results (windows on the last axis) back in the caller's start order."""
+    if order is None:
+        return values
+    out = np.empty_like(values)
+    out[..., order] = values
+    return out
+
+
 @dataclass(frozen=True)
 class WindowPlan:
     """The regular windows of Sec. 4.4 for one signal: ``s_k = k * step``, ``k < n_windows``.
 
-    The kernels take ``step`` and ``n_windows`` and write the window times themselves (one
-    allocation for values and times); :attr:`starts` and :attr:`time` build the arrays on
-    demand, with the values of :func:`~leakdiag.features.window_starts` and
-    :func:`~leakdiag.features.window_times`.
+    The kernels take ``step`` and ``n_windows`` and write the window times themselves, with the
+    values of :func:`~leakdiag.features.window_times` (one allocation for values and times).
     """
 
     window: int
@@ -171,22 +188,6 @@ class WindowPlan:
     n_windows: int
     sample_rate: float
     start_time: float
-
-    @property
-    def starts(self) -> np.ndarray:
-        """Window start indices (int64), ``k * step``."""
-        starts = np.arange(self.n_windows, dtype=np.int64)
-        starts *= self.step
-        return starts
-
-    @property
-    def time(self) -> np.ndarray:
-        """Window times in s (time of each window's last sample)."""
-        time = self.starts.astype(np.float64)
-        time += self.window - 1
-        time /= self.sample_rate
-        time += self.start_time
-        return time
 
     def settings(self, channels: tuple[str, ...], sample_rate, start_time) -> dict:
         """The windowing entries of a feature's ``params``, in the order every feature uses.

@@ -17,34 +17,19 @@ from leakdiag.features.series import FeatureSeries
 __all__ = ["autocorrelation", "cross_correlation", "autocorrelation_at", "cross_correlation_at"]
 
 
-def _sorted(starts: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-    if starts.size < 2 or bool(np.all(starts[1:] >= starts[:-1])):
-        return starts, None
-    order = np.argsort(starts, kind="stable")
-    return np.ascontiguousarray(starts[order]), order
-
-
-def _unsort(values: np.ndarray, order: np.ndarray | None) -> np.ndarray:
-    if order is None:
-        return values
-    out = np.empty_like(values)
-    out[order] = values
-    return out
-
-
 def _auto_values(x: np.ndarray, lag: int, starts: np.ndarray, window: int) -> np.ndarray:
-    starts, order = _sorted(starts)
+    starts, order = _args.sort_starts(starts)
     values, n_bad = autocorrelation_sorted(x, lag, window, starts)
     warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
-    return _unsort(values, order)
+    return _args.unsort(values, order)
 
 
 def _cross_values(y: np.ndarray, x: np.ndarray, lag: int, starts: np.ndarray,
                   window: int) -> np.ndarray:
-    starts, order = _sorted(starts)
+    starts, order = _args.sort_starts(starts)
     values, n_bad = cross_correlation_sorted(y, x, lag, window, starts)
     warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
-    return _unsort(values, order)
+    return _args.unsort(values, order)
 
 
 def _check_pair(y, x) -> tuple[np.ndarray, np.ndarray]:

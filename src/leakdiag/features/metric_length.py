@@ -133,17 +133,10 @@ _DEGENERATE = "zero metric length at step l (Eq. 4.3 denominator)"
 
 def _ratio_values(x2: np.ndarray, l_step: int, k_step: int, starts: np.ndarray,
                   window: int) -> np.ndarray:
-    order = None
-    if starts.size > 1 and not bool(np.all(starts[1:] >= starts[:-1])):
-        order = np.argsort(starts, kind="stable")
-        starts = np.ascontiguousarray(starts[order])
+    starts, order = _args.sort_starts(starts)
     values, n_bad = _metric_sorted(x2, l_step, k_step, window, starts)
     warn_degenerate(n_bad, len(values), _DEGENERATE, stacklevel=4)
-    if order is not None:
-        out = np.empty_like(values)
-        out[order] = values
-        values = out
-    return values
+    return _args.unsort(values, order)
 
 
 def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float = 5.0,

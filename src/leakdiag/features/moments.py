@@ -173,17 +173,10 @@ def _moments_sorted(x, window, starts):  # pragma: no cover - compiled
 
 
 def _moment_rows(x: np.ndarray, starts: np.ndarray, window: int) -> np.ndarray:
-    order = None
-    if starts.size > 1 and not bool(np.all(starts[1:] >= starts[:-1])):
-        order = np.argsort(starts, kind="stable")
-        starts = np.ascontiguousarray(starts[order])
+    starts, order = _args.sort_starts(starts)
     rows, n_bad = _moments_sorted(x, window, starts)
     warn_degenerate(n_bad, len(starts), "zero variance (skewness and kurtosis)", stacklevel=4)
-    if order is not None:
-        out = np.empty_like(rows)
-        out[:, order] = rows
-        rows = out
-    return rows
+    return _args.unsort(rows, order)
 
 
 def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.0,
