@@ -34,7 +34,9 @@ Regular windows (``s_k = k * step``, the features' own windows) pass ``step > 0`
 array; the ``*_regular`` entry points also write the window times and return values and times
 as two rows of one allocation (each fresh megabyte-sized array costs about 0.4 ms of page faults
 on the team's VM, more than the whole kernel at 5 % overlap). Arbitrary starts pass ``step = 0``
-and a sorted ``starts`` array (the wrappers sort).
+and a sorted ``starts`` array (the wrappers sort). For ``lag <= LAG_DIRECT`` the entry points
+call the one-structure kernels of :mod:`leakdiag.features._smalllag` instead (fewer running sums;
+same anchors-in-the-window accuracy).
 
 The block bookkeeping is written out inline in each kernel on purpose: Numba helper calls taking
 arrays pay reference counting per call, which made a factored version 10x slower.
@@ -54,6 +56,7 @@ __all__ = [
     "cross_correlation_sorted",
     "cross_correlation_regular",
 ]
+
 
 @numba.njit(cache=True, error_model="numpy")
 def _auto_eval(ga, gc, gu, gv, guv, du0, dv0, ha, hc, hu, hv, huv, fn, fm, out, o0, cnt):  # pragma: no cover - compiled
