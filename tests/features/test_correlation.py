@@ -194,14 +194,19 @@ def test_short_lag_kernels_agree_with_general_kernels(kind, lag, window, step):
         np.testing.assert_allclose(auto_small, want, rtol=1e-9, atol=1e-11)
 
 
-def test_all_starts_then_slice_agrees_with_overlap_call():
-    # Tails and heads grow window by window, so the summation order depends on the step: the
-    # two paths agree to rounding (about 1e-15 relative), not bit for bit.
+def test_all_starts_then_slice_equals_overlap_call():
+    # tails are summed from the block end down and heads from the block start up, one sample at
+    # a time, so the order of the additions does not depend on the step: bit for bit
     x = SIGNALS["large_offset"]
-    every = autocorrelation_at(x, 5, np.arange(len(x) - 200 + 1), 200)
-    for overlap in (5, 50, 99):
-        fs = autocorrelation(x, lag=5, window=200, overlap=overlap)
-        np.testing.assert_allclose(every[:: fs.params["step"]], fs.values, rtol=1e-12, atol=1e-13)
+    y = SIGNALS["level_steps"]
+    for lag in (5, 40):  # the short-lag kernels and the general ones
+        every = autocorrelation_at(x, lag, np.arange(len(x) - 200 + 1), 200)
+        every_cc = cross_correlation_at(y, x, lag, np.arange(len(x) - 200 + 1), 200)
+        for overlap in (5, 50, 99):
+            fs = autocorrelation(x, lag=lag, window=200, overlap=overlap)
+            np.testing.assert_array_equal(every[:: fs.params["step"]], fs.values)
+            fs = cross_correlation(y, x, lag=lag, window=200, overlap=overlap)
+            np.testing.assert_array_equal(every_cc[:: fs.params["step"]], fs.values)
 
 
 # ------------------------------------------------------------------ robustness

@@ -23,9 +23,10 @@ relative precision (about 1e-13 at N = 500).
 Passes. Windows are processed in chunks of ``CHUNK`` windows. A backward pass over the chunk's
 windows grows the tails (``tail_k = tail_{k+1} + sum over [s_k, s_{k+1})`` while both starts
 share a block, restarted at each block end); a forward pass grows the heads the same way
-(``head_k = head_{k-1} + sum over [s_{k-1} + M, s_k + M)``). Each pass adds the few samples
-between consecutive starts into short local sums first, so the running sums see one addition
-per window; plain and lagged-pair sums share one loop whenever their ranges coincide. The
+(``head_k = head_{k-1} + sum over [s_{k-1} + M, s_k + M)``). Samples are added one at a time,
+tails from the block end down and heads from the block start up, so the order of the additions
+(and every bit of the result) is the same for any step and any chunking; plain and lagged-pair
+sums share one loop whenever their ranges coincide. The
 per-window values are written to small column arrays, and a last branch-free loop over them
 (SIMD-vectorised by LLVM, ``error_model="numpy"``) forms the feature. Cost O(n + m) for ``m``
 sorted starts, flat in the window size and the step.
@@ -76,7 +77,7 @@ def _auto_eval(ga, gc, gu, gv, guv, du0, dv0, ha, hc, hu, hv, huv, fn, fm, out, 
     return bad
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _auto_core(x, lag, window, starts, step, out):  # pragma: no cover - compiled
     """Eq. 4.1 for windows ``s_k = k * step`` (``step > 0``) or ``starts`` (sorted, ``step = 0``).
 
@@ -133,53 +134,33 @@ def _auto_core(x, lag, window, starts, step, out):  # pragma: no cover - compile
                 av = 0.0
                 auv = 0.0
             if p0 == p1:
-                la = 0.0
-                lc = 0.0
-                lu = 0.0
-                lv = 0.0
-                luv = 0.0
-                j = s
-                while j < p0:
+                j = p0 - 1
+                while j >= s:  # from the block end down: the same order for any step
                     xj = x[j]
                     d = xj - ct
-                    la += d
-                    lc += d * d
+                    a0 += d
+                    c0 += d * d
                     du = xj - ut
                     dv = x[j + lag] - vt
-                    lu += du
-                    lv += dv
-                    luv += du * dv
-                    j += 1
-                a0 += la
-                c0 += lc
-                au += lu
-                av += lv
-                auv += luv
+                    au += du
+                    av += dv
+                    auv += du * dv
+                    j -= 1
             else:
-                la = 0.0
-                lc = 0.0
-                j = s
-                while j < p0:
+                j = p0 - 1
+                while j >= s:  # from the block end down: the same order for any step
                     d = x[j] - ct
-                    la += d
-                    lc += d * d
-                    j += 1
-                a0 += la
-                c0 += lc
-                lu = 0.0
-                lv = 0.0
-                luv = 0.0
-                j = s
-                while j < p1:
+                    a0 += d
+                    c0 += d * d
+                    j -= 1
+                j = p1 - 1
+                while j >= s:  # from the block end down: the same order for any step
                     du = x[j] - ut
                     dv = x[j + lag] - vt
-                    lu += du
-                    lv += dv
-                    luv += du * dv
-                    j += 1
-                au += lu
-                av += lv
-                auv += luv
+                    au += du
+                    av += dv
+                    auv += du * dv
+                    j -= 1
             p0 = s
             p1 = s
             t = k - k0
@@ -220,53 +201,33 @@ def _auto_core(x, lag, window, starts, step, out):  # pragma: no cover - compile
             r0 = s + nn - q0
             r1 = s + mm - q1
             if r0 == r1:
-                la = 0.0
-                lc = 0.0
-                lu = 0.0
-                lv = 0.0
-                luv = 0.0
                 i = 0
                 while i < r0:
                     d = x[q0 + i] - ct
-                    la += d
-                    lc += d * d
+                    a0 += d
+                    c0 += d * d
                     j = q1 + i
                     du = x[j] - ut
                     dv = x[j + lag] - vt
-                    lu += du
-                    lv += dv
-                    luv += du * dv
+                    au += du
+                    av += dv
+                    auv += du * dv
                     i += 1
-                a0 += la
-                c0 += lc
-                au += lu
-                av += lv
-                auv += luv
             else:
-                la = 0.0
-                lc = 0.0
                 j = q0
                 while j < q0 + r0:
                     d = x[j] - ct
-                    la += d
-                    lc += d * d
+                    a0 += d
+                    c0 += d * d
                     j += 1
-                a0 += la
-                c0 += lc
-                lu = 0.0
-                lv = 0.0
-                luv = 0.0
                 j = q1
                 while j < q1 + r1:
                     du = x[j] - ut
                     dv = x[j + lag] - vt
-                    lu += du
-                    lv += dv
-                    luv += du * dv
+                    au += du
+                    av += dv
+                    auv += du * dv
                     j += 1
-                au += lu
-                av += lv
-                auv += luv
             q0 += r0
             q1 += r1
             t = k - k0
@@ -325,7 +286,7 @@ def _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0, hay, hcy, hax, hcx, h
     return bad
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - compiled
     """Eq. 4.2, ``y_j`` with ``x_{j+lag}``, for regular or sorted starts (as :func:`_auto_core`).
 
@@ -393,67 +354,39 @@ def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - com
                 av = 0.0
                 auv = 0.0
             if p0 == p1:
-                lay = 0.0
-                lcy = 0.0
-                lax = 0.0
-                lcx = 0.0
-                lu = 0.0
-                lv = 0.0
-                luv = 0.0
-                j = s
-                while j < p0:
+                j = p0 - 1
+                while j >= s:  # from the block end down: the same order for any step
                     yj = y[j]
                     d = yj - cty
-                    lay += d
-                    lcy += d * d
+                    ay += d
+                    cy += d * d
                     d = x[j] - ctx
-                    lax += d
-                    lcx += d * d
+                    ax += d
+                    cx += d * d
                     du = yj - ut
                     dv = x[j + lag] - vt
-                    lu += du
-                    lv += dv
-                    luv += du * dv
-                    j += 1
-                ay += lay
-                cy += lcy
-                ax += lax
-                cx += lcx
-                au += lu
-                av += lv
-                auv += luv
+                    au += du
+                    av += dv
+                    auv += du * dv
+                    j -= 1
             else:
-                lay = 0.0
-                lcy = 0.0
-                lax = 0.0
-                lcx = 0.0
-                j = s
-                while j < p0:
+                j = p0 - 1
+                while j >= s:  # from the block end down: the same order for any step
                     d = y[j] - cty
-                    lay += d
-                    lcy += d * d
+                    ay += d
+                    cy += d * d
                     d = x[j] - ctx
-                    lax += d
-                    lcx += d * d
-                    j += 1
-                ay += lay
-                cy += lcy
-                ax += lax
-                cx += lcx
-                lu = 0.0
-                lv = 0.0
-                luv = 0.0
-                j = s
-                while j < p1:
+                    ax += d
+                    cx += d * d
+                    j -= 1
+                j = p1 - 1
+                while j >= s:  # from the block end down: the same order for any step
                     du = y[j] - ut
                     dv = x[j + lag] - vt
-                    lu += du
-                    lv += dv
-                    luv += du * dv
-                    j += 1
-                au += lu
-                av += lv
-                auv += luv
+                    au += du
+                    av += dv
+                    auv += du * dv
+                    j -= 1
             p0 = s
             p1 = s
             t = k - k0
@@ -500,68 +433,40 @@ def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - com
             r0 = s + nn - q0
             r1 = s + mm - q1
             if r0 == r1:
-                lay = 0.0
-                lcy = 0.0
-                lax = 0.0
-                lcx = 0.0
-                lu = 0.0
-                lv = 0.0
-                luv = 0.0
                 i = 0
                 while i < r0:
                     j = q0 + i
                     d = y[j] - cty
-                    lay += d
-                    lcy += d * d
+                    ay += d
+                    cy += d * d
                     d = x[j] - ctx
-                    lax += d
-                    lcx += d * d
+                    ax += d
+                    cx += d * d
                     j = q1 + i
                     du = y[j] - ut
                     dv = x[j + lag] - vt
-                    lu += du
-                    lv += dv
-                    luv += du * dv
+                    au += du
+                    av += dv
+                    auv += du * dv
                     i += 1
-                ay += lay
-                cy += lcy
-                ax += lax
-                cx += lcx
-                au += lu
-                av += lv
-                auv += luv
             else:
-                lay = 0.0
-                lcy = 0.0
-                lax = 0.0
-                lcx = 0.0
                 j = q0
                 while j < q0 + r0:
                     d = y[j] - cty
-                    lay += d
-                    lcy += d * d
+                    ay += d
+                    cy += d * d
                     d = x[j] - ctx
-                    lax += d
-                    lcx += d * d
+                    ax += d
+                    cx += d * d
                     j += 1
-                ay += lay
-                cy += lcy
-                ax += lax
-                cx += lcx
-                lu = 0.0
-                lv = 0.0
-                luv = 0.0
                 j = q1
                 while j < q1 + r1:
                     du = y[j] - ut
                     dv = x[j + lag] - vt
-                    lu += du
-                    lv += dv
-                    luv += du * dv
+                    au += du
+                    av += dv
+                    auv += du * dv
                     j += 1
-                au += lu
-                av += lv
-                auv += luv
             q0 += r0
             q1 += r1
             t = k - k0

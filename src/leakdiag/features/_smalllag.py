@@ -56,7 +56,7 @@ def _auto_small_eval(gu, g2, gp, hu, h2, hp, uta, vta, f1, l1, l2, fn, fm, out, 
     return bad
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def auto_small_core(x, lag, window, starts, step, out):  # pragma: no cover - compiled
     """Eq. 4.1 for ``lag <= LAG_DIRECT``, windows ``k * step`` (``step > 0``) or sorted ``starts``.
 
@@ -97,19 +97,13 @@ def auto_small_core(x, lag, window, starts, step, out):  # pragma: no cover - co
                 au = 0.0
                 a2 = 0.0
                 ap = 0.0
-            lu = 0.0
-            l2s = 0.0
-            lp = 0.0
-            j = s
-            while j < p:
+            j = p - 1
+            while j >= s:  # from the block end down: the same order for any step
                 du = x[j] - ut
-                lu += du
-                l2s += du * du
-                lp += du * (x[j + lag] - vt)
-                j += 1
-            au += lu
-            a2 += l2s
-            ap += lp
+                au += du
+                a2 += du * du
+                ap += du * (x[j + lag] - vt)
+                j -= 1
             p = s
             t = k - k0
             gu[t] = au
@@ -153,19 +147,13 @@ def auto_small_core(x, lag, window, starts, step, out):  # pragma: no cover - co
                 au = 0.0
                 a2 = 0.0
                 ap = 0.0
-            lu = 0.0
-            l2s = 0.0
-            lp = 0.0
             j = q
             while j < s + mm:
                 du = x[j] - ut
-                lu += du
-                l2s += du * du
-                lp += du * (x[j + lag] - vt)
+                au += du
+                a2 += du * du
+                ap += du * (x[j + lag] - vt)
                 j += 1
-            au += lu
-            a2 += l2s
-            ap += lp
             q = s + mm
             t = k - k0
             hu[t] = au
@@ -198,7 +186,7 @@ def _cross_small_eval(gy1, gy2, gx1, gx2, gp, hy1, hy2, hx1, hx2, hp, ly1, ly2, 
     return bad
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def cross_small_core(y, x, lag, window, starts, step, out):  # pragma: no cover - compiled
     """Eq. 4.2 (``y_j`` with ``x_{j+lag}``) for ``lag <= LAG_DIRECT``, regular or sorted starts.
 
@@ -246,26 +234,16 @@ def cross_small_core(y, x, lag, window, starts, step, out):  # pragma: no cover 
                 ax1 = 0.0
                 ax2 = 0.0
                 ap = 0.0
-            ly1s = 0.0
-            ly2s = 0.0
-            lx1s = 0.0
-            lx2s = 0.0
-            lp = 0.0
-            j = s
-            while j < p:
+            j = p - 1
+            while j >= s:  # from the block end down: the same order for any step
                 a = y[j] - uy
                 b = x[j + lag] - vx
-                ly1s += a
-                ly2s += a * a
-                lx1s += b
-                lx2s += b * b
-                lp += a * b
-                j += 1
-            ay1 += ly1s
-            ay2 += ly2s
-            ax1 += lx1s
-            ax2 += lx2s
-            ap += lp
+                ay1 += a
+                ay2 += a * a
+                ax1 += b
+                ax2 += b * b
+                ap += a * b
+                j -= 1
             p = s
             t = k - k0
             gy1[t] = ay1
@@ -319,26 +297,16 @@ def cross_small_core(y, x, lag, window, starts, step, out):  # pragma: no cover 
                 ax1 = 0.0
                 ax2 = 0.0
                 ap = 0.0
-            ly1s = 0.0
-            ly2s = 0.0
-            lx1s = 0.0
-            lx2s = 0.0
-            lp = 0.0
             j = q
             while j < s + mm:
                 a = y[j] - uy
                 b = x[j + lag] - vx
-                ly1s += a
-                ly2s += a * a
-                lx1s += b
-                lx2s += b * b
-                lp += a * b
+                ay1 += a
+                ay2 += a * a
+                ax1 += b
+                ax2 += b * b
+                ap += a * b
                 j += 1
-            ay1 += ly1s
-            ay2 += ly2s
-            ax1 += lx1s
-            ax2 += lx2s
-            ap += lp
             q = s + mm
             t = k - k0
             hy1[t] = ay1

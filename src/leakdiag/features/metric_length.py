@@ -72,15 +72,11 @@ def _metric_core(x, l_step, k_step, window, starts, step, out):  # pragma: no co
                 p = e
                 ak = 0.0
                 al = 0.0
-            lk = 0.0
-            ll = 0.0
-            j = s
-            while j < p:
-                lk += step_length(j, k_step)
-                ll += step_length(j, l_step)
-                j += 1
-            ak += lk
-            al += ll
+            j = p - 1
+            while j >= s:  # from the block end down: the same order for any step
+                ak += step_length(j, k_step)
+                al += step_length(j, l_step)
+                j -= 1
             p = s
             gk[w - k0] = ak
             gl[w - k0] = al
@@ -95,15 +91,11 @@ def _metric_core(x, l_step, k_step, window, starts, step, out):  # pragma: no co
                 q = e
                 ak = 0.0
                 al = 0.0
-            lk = 0.0
-            ll = 0.0
             j = q
             while j < s + mm:
-                lk += step_length(j, k_step)
-                ll += step_length(j, l_step)
+                ak += step_length(j, k_step)
+                al += step_length(j, l_step)
                 j += 1
-            ak += lk
-            al += ll
             q = s + mm
             hk[w - k0] = ak
             hl[w - k0] = al
