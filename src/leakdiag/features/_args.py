@@ -24,6 +24,7 @@ __all__ = [
     "parse_lag_ratio",
     "check_length",
     "check_starts",
+    "finish_finite_check",
     "sort_starts",
     "unsort",
     "plan_windows",
@@ -44,18 +45,41 @@ def _check_finite_fast(arr: np.ndarray, name: str) -> None:
         check_finite(arr, name)
 
 
-def signal_1d(x, name: str = "x") -> np.ndarray:
-    """Coerce a 1-D signal to a writeable C-contiguous float64 array and check it is finite."""
+def signal_1d(x, name: str = "x", finite: bool = True) -> np.ndarray:
+    """Coerce a 1-D signal to a writeable C-contiguous float64 array and check it is finite.
+
+    ``finite=False`` leaves the check to :func:`finish_finite_check` after the kernel.
+    """
     arr = _writeable(as_1d_float(x, name))
-    _check_finite_fast(arr, name)
+    if finite:
+        _check_finite_fast(arr, name)
     return arr
 
 
-def signal_2d(x, name: str = "x") -> np.ndarray:
-    """Coerce a ``(samples, channels)`` signal (1-D becomes one channel) and check it is finite."""
+def signal_2d(x, name: str = "x", finite: bool = True) -> np.ndarray:
+    """Coerce a ``(samples, channels)`` signal (1-D becomes one channel) and check it is finite.
+
+    ``finite=False`` leaves the check to :func:`finish_finite_check` after the kernel.
+    """
     arr = _writeable(as_2d_float(x, name))
-    _check_finite_fast(arr, name)
+    if finite:
+        _check_finite_fast(arr, name)
     return arr
+
+
+def finish_finite_check(arr: np.ndarray, name: str, n_nonfinite: int, plan: "WindowPlan") -> None:
+    """Raise as :func:`~leakdiag._validation.check_finite` if ``arr`` holds NaN or inf.
+
+    For the regular windows a kernel has already read every sample in
+    ``[0, (n_windows - 1) * step + window)`` and counted the windows whose sums were not finite
+    (``n_nonfinite``); a NaN or inf anywhere in that range makes its window's sums NaN or inf.
+    So only the few samples after the last window are left to look at, and the full scan, which
+    names the first bad sample, runs only when something was found. This saves one pass over the
+    signal (about 0.2 ms per 400,000 samples) on the common, clean path.
+    """
+    covered = (plan.n_windows - 1) * plan.step + plan.window
+    if n_nonfinite or not bool(np.isfinite(arr[covered:]).all()):
+        check_finite(arr, name)
 
 
 def channel_names(x, default: str, n_channels: int = 1) -> tuple[str, ...]:

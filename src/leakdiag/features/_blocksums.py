@@ -64,6 +64,7 @@ def _auto_eval(ga, gc, gu, gv, guv, du0, dv0, ha, hc, hu, hv, huv, fn, fm, out, 
     """Eq. 4.1 from the tail/head sums of ``cnt`` windows, written to ``out[o0:o0+cnt]``."""
     inv = 1.0 / fn
     bad = 0
+    nf = 0  # windows whose sums are not finite: NaN or inf in the input
     for t in range(cnt):
         a = ga[t] + ha[t]
         o = a * inv
@@ -74,7 +75,8 @@ def _auto_eval(ga, gc, gu, gv, guv, du0, dv0, ha, hc, hu, hv, huv, fn, fm, out, 
         ok = ss > 0.0
         out[o0 + t] = num / ss if ok else np.nan
         bad += 0 if ok else 1
-    return bad
+        nf += 0 if ss - ss == 0.0 else 1
+    return bad, nf
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -82,8 +84,8 @@ def _auto_core(x, lag, window, starts, step, out):  # pragma: no cover - compile
     """Eq. 4.1 for windows ``s_k = k * step`` (``step > 0``) or ``starts`` (sorted, ``step = 0``).
 
     Plain sums (anchor ``ct = x[e0 - 1]``, blocks of ``N``) and lagged pairs (anchor
-    ``(ut, vt) = (x[e1 - 1], x[e1 - 1 + lag])``, blocks of ``N - lag``). Returns the number of
-    zero-variance windows.
+    ``(ut, vt) = (x[e1 - 1], x[e1 - 1 + lag])``, blocks of ``N - lag``). Returns the numbers of
+    zero-variance windows and of windows whose sums are not finite (NaN/inf input).
     """
     nn = window
     mm = window - lag
@@ -102,6 +104,7 @@ def _auto_core(x, lag, window, starts, step, out):  # pragma: no cover - compile
     hv = np.empty(kc)
     huv = np.empty(kc)
     n_bad = 0
+    n_nonfinite = 0
     for k0 in range(0, n_win, kc):
         k1 = min(k0 + kc, n_win)
         # ---- tails, backward over the chunk
@@ -236,9 +239,11 @@ def _auto_core(x, lag, window, starts, step, out):  # pragma: no cover - compile
             hu[t] = au
             hv[t] = av
             huv[t] = auv
-        n_bad += _auto_eval(ga, gc, gu, gv, guv, du0, dv0, ha, hc, hu, hv, huv,
-                            float(nn), float(mm), out, k0, k1 - k0)
-    return n_bad
+        b, f = _auto_eval(ga, gc, gu, gv, guv, du0, dv0, ha, hc, hu, hv, huv,
+                         float(nn), float(mm), out, k0, k1 - k0)
+        n_bad += b
+        n_nonfinite += f
+    return n_bad, n_nonfinite
 
 
 @numba.njit(cache=True)
@@ -246,22 +251,23 @@ def autocorrelation_sorted(x, lag, window, starts):  # pragma: no cover - compil
     """Eq. 4.1 for sorted valid starts: ``(values, n_zero_variance)``."""
     out = np.empty(starts.shape[0])
     if lag <= LAG_DIRECT:
-        n_bad = auto_small_core(x, lag, window, starts, 0, out)
+        n_bad, _ = auto_small_core(x, lag, window, starts, 0, out)
     else:
-        n_bad = _auto_core(x, lag, window, starts, 0, out)
+        n_bad, _ = _auto_core(x, lag, window, starts, 0, out)
     return out, n_bad
 
 
 @numba.njit(cache=True)
 def autocorrelation_regular(x, lag, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
-    """Eq. 4.1 for the windows ``s_k = k * step``: ``(values, times, n_zero_variance)``."""
+    """Eq. 4.1 for the windows ``s_k = k * step``: ``(values, times, n_zero_variance,
+    n_nonfinite)``, the last counting windows whose sums are not finite (NaN/inf input)."""
     buf = np.empty((2, n_win))
     if lag <= LAG_DIRECT:
-        n_bad = auto_small_core(x, lag, window, NO_STARTS, step, buf[0])
+        n_bad, n_nonfinite = auto_small_core(x, lag, window, NO_STARTS, step, buf[0])
     else:
-        n_bad = _auto_core(x, lag, window, NO_STARTS, step, buf[0])
+        n_bad, n_nonfinite = _auto_core(x, lag, window, NO_STARTS, step, buf[0])
     fill_times(buf[1], step, window, sample_rate, start_time)
-    return buf[0], buf[1], n_bad
+    return buf[0], buf[1], n_bad, n_nonfinite
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -270,6 +276,7 @@ def _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0, hay, hcy, hax, hcx, h
     """Eq. 4.2 from the tail/head sums of ``cnt`` windows, written to ``out[o0:o0+cnt]``."""
     inv = 1.0 / fn
     bad = 0
+    nf = 0  # windows whose sums are not finite: NaN or inf in the input
     for t in range(cnt):
         ay = gay[t] + hay[t]
         ax = gax[t] + hax[t]
@@ -283,7 +290,8 @@ def _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0, hay, hcy, hax, hcx, h
         ok = (ssy > 0.0) & (ssx > 0.0)
         out[o0 + t] = num / (np.sqrt(ssx) * np.sqrt(ssy)) if ok else np.nan
         bad += 0 if ok else 1
-    return bad
+        nf += 0 if (ssx - ssx == 0.0) & (ssy - ssy == 0.0) else 1
+    return bad, nf
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -293,7 +301,8 @@ def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - com
     Two plain-sum structures (``y`` about ``y[e0 - 1]``, ``x`` about ``x[e0 - 1]``, blocks of
     ``N``) and the pair structure ``(y_j, x_{j+lag})`` about ``(y[e1 - 1], x[e1 - 1 + lag])``.
     The value is ``num / (sqrt(ss_x) sqrt(ss_y))``: the ``1/N`` of Eq. 4.2 cancels against the
-    population variances. Returns the number of windows where ``x`` or ``y`` has zero variance.
+    population variances. Returns the numbers of windows where ``x`` or ``y`` has zero
+    variance and of windows whose sums are not finite (NaN/inf input).
     """
     nn = window
     mm = window - lag
@@ -316,6 +325,7 @@ def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - com
     hv = np.empty(kc)
     huv = np.empty(kc)
     n_bad = 0
+    n_nonfinite = 0
     for k0 in range(0, n_win, kc):
         k1 = min(k0 + kc, n_win)
         # ---- tails, backward
@@ -477,9 +487,11 @@ def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - com
             hu[t] = au
             hv[t] = av
             huv[t] = auv
-        n_bad += _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0,
-                             hay, hcy, hax, hcx, hu, hv, huv, float(nn), float(mm), out, k0, k1 - k0)
-    return n_bad
+        b, f = _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0,
+                          hay, hcy, hax, hcx, hu, hv, huv, float(nn), float(mm), out, k0, k1 - k0)
+        n_bad += b
+        n_nonfinite += f
+    return n_bad, n_nonfinite
 
 
 @numba.njit(cache=True)
@@ -487,19 +499,20 @@ def cross_correlation_sorted(y, x, lag, window, starts):  # pragma: no cover - c
     """Eq. 4.2 for sorted valid starts: ``(values, n_degenerate)``."""
     out = np.empty(starts.shape[0])
     if lag <= LAG_DIRECT:
-        n_bad = cross_small_core(y, x, lag, window, starts, 0, out)
+        n_bad, _ = cross_small_core(y, x, lag, window, starts, 0, out)
     else:
-        n_bad = _cross_core(y, x, lag, window, starts, 0, out)
+        n_bad, _ = _cross_core(y, x, lag, window, starts, 0, out)
     return out, n_bad
 
 
 @numba.njit(cache=True)
 def cross_correlation_regular(y, x, lag, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
-    """Eq. 4.2 for the windows ``s_k = k * step``: ``(values, times, n_degenerate)``."""
+    """Eq. 4.2 for the windows ``s_k = k * step``: ``(values, times, n_degenerate,
+    n_nonfinite)``, the last counting windows whose sums are not finite (NaN/inf input)."""
     buf = np.empty((2, n_win))
     if lag <= LAG_DIRECT:
-        n_bad = cross_small_core(y, x, lag, window, NO_STARTS, step, buf[0])
+        n_bad, n_nonfinite = cross_small_core(y, x, lag, window, NO_STARTS, step, buf[0])
     else:
-        n_bad = _cross_core(y, x, lag, window, NO_STARTS, step, buf[0])
+        n_bad, n_nonfinite = _cross_core(y, x, lag, window, NO_STARTS, step, buf[0])
     fill_times(buf[1], step, window, sample_rate, start_time)
-    return buf[0], buf[1], n_bad
+    return buf[0], buf[1], n_bad, n_nonfinite

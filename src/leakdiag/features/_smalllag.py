@@ -41,6 +41,7 @@ def _auto_small_eval(gu, g2, gp, hu, h2, hp, uta, vta, f1, l1, l2, fn, fm, out, 
     """Eq. 4.1 from the pair-block sums and edge sums of ``cnt`` windows into ``out[o0:]``."""
     inv = 1.0 / fn
     bad = 0
+    nf = 0  # windows whose sums are not finite: NaN or inf in the input
     for t in range(cnt):
         u1 = gu[t] + hu[t]
         a = u1 + l1[t]
@@ -53,14 +54,16 @@ def _auto_small_eval(gu, g2, gp, hu, h2, hp, uta, vta, f1, l1, l2, fn, fm, out, 
         ok = ss > 0.0
         out[o0 + t] = num / ss if ok else np.nan
         bad += 0 if ok else 1
-    return bad
+        nf += 0 if ss - ss == 0.0 else 1
+    return bad, nf
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def auto_small_core(x, lag, window, starts, step, out):  # pragma: no cover - compiled
     """Eq. 4.1 for ``lag <= LAG_DIRECT``, windows ``k * step`` (``step > 0``) or sorted ``starts``.
 
-    Returns the number of zero-variance windows (their values are NaN).
+    Returns the numbers of zero-variance windows (their values are NaN) and of windows whose
+    sums are not finite (NaN/inf input).
     """
     mm = window - lag
     n_win = out.shape[0]
@@ -77,6 +80,7 @@ def auto_small_core(x, lag, window, starts, step, out):  # pragma: no cover - co
     l1 = np.empty(kc)
     l2 = np.empty(kc)
     n_bad = 0
+    n_nonfinite = 0
     for k0 in range(0, n_win, kc):
         k1 = min(k0 + kc, n_win)
         # ---- tails [s, e), backward
@@ -159,9 +163,11 @@ def auto_small_core(x, lag, window, starts, step, out):  # pragma: no cover - co
             hu[t] = au
             h2[t] = a2
             hp[t] = ap
-        n_bad += _auto_small_eval(gu, g2, gp, hu, h2, hp, uta, vta, f1, l1, l2,
-                                  float(window), float(mm), out, k0, k1 - k0)
-    return n_bad
+        b, f = _auto_small_eval(gu, g2, gp, hu, h2, hp, uta, vta, f1, l1, l2,
+                               float(window), float(mm), out, k0, k1 - k0)
+        n_bad += b
+        n_nonfinite += f
+    return n_bad, n_nonfinite
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -170,6 +176,7 @@ def _cross_small_eval(gy1, gy2, gx1, gx2, gp, hy1, hy2, hx1, hx2, hp, ly1, ly2, 
     """Eq. 4.2 from the pair-block sums and edge sums of ``cnt`` windows into ``out[o0:]``."""
     inv = 1.0 / fn
     bad = 0
+    nf = 0  # windows whose sums are not finite: NaN or inf in the input
     for t in range(cnt):
         y1 = gy1[t] + hy1[t]
         x1 = gx1[t] + hx1[t]
@@ -183,14 +190,16 @@ def _cross_small_eval(gy1, gy2, gx1, gx2, gp, hy1, hy2, hx1, hx2, hp, ly1, ly2, 
         ok = (ssy > 0.0) & (ssx > 0.0)
         out[o0 + t] = num / (np.sqrt(ssx) * np.sqrt(ssy)) if ok else np.nan
         bad += 0 if ok else 1
-    return bad
+        nf += 0 if (ssx - ssx == 0.0) & (ssy - ssy == 0.0) else 1
+    return bad, nf
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def cross_small_core(y, x, lag, window, starts, step, out):  # pragma: no cover - compiled
     """Eq. 4.2 (``y_j`` with ``x_{j+lag}``) for ``lag <= LAG_DIRECT``, regular or sorted starts.
 
-    Returns the number of windows where ``x`` or ``y`` has zero variance.
+    Returns the numbers of windows where ``x`` or ``y`` has zero variance and of windows
+    whose sums are not finite (NaN/inf input).
     """
     mm = window - lag
     n_win = out.shape[0]
@@ -210,6 +219,7 @@ def cross_small_core(y, x, lag, window, starts, step, out):  # pragma: no cover 
     fx1 = np.empty(kc)
     fx2 = np.empty(kc)
     n_bad = 0
+    n_nonfinite = 0
     for k0 in range(0, n_win, kc):
         k1 = min(k0 + kc, n_win)
         # ---- tails [s, e), backward
@@ -314,6 +324,8 @@ def cross_small_core(y, x, lag, window, starts, step, out):  # pragma: no cover 
             hx1[t] = ax1
             hx2[t] = ax2
             hp[t] = ap
-        n_bad += _cross_small_eval(gy1, gy2, gx1, gx2, gp, hy1, hy2, hx1, hx2, hp,
-                                   ly1, ly2, fx1, fx2, float(window), float(mm), out, k0, k1 - k0)
-    return n_bad
+        b, f = _cross_small_eval(gy1, gy2, gx1, gx2, gp, hy1, hy2, hx1, hx2, hp,
+                                ly1, ly2, fx1, fx2, float(window), float(mm), out, k0, k1 - k0)
+        n_bad += b
+        n_nonfinite += f
+    return n_bad, n_nonfinite

@@ -32,9 +32,9 @@ def _cross_values(y: np.ndarray, x: np.ndarray, lag: int, starts: np.ndarray,
     return _args.unsort(values, order)
 
 
-def _check_pair(y, x) -> tuple[np.ndarray, np.ndarray]:
-    y_arr = _args.signal_1d(y, "y")
-    x_arr = _args.signal_1d(x, "x")
+def _check_pair(y, x, finite: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    y_arr = _args.signal_1d(y, "y", finite)
+    x_arr = _args.signal_1d(x, "x", finite)
     if len(y_arr) != len(x_arr):
         raise ValueError(
             f"y and x must have the same length, got len(y)={len(y_arr)} and len(x)={len(x_arr)}"
@@ -109,12 +109,13 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
     >>> len(fs), fs.params["step"], round(float(fs.values[0]), 3)
     (19, 100, 0.953)
     """
-    x_arr = _args.signal_1d(x, "x")
+    x_arr = _args.signal_1d(x, "x", finite=False)  # checked with the kernel's help below
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
-    values, time, n_bad = autocorrelation_regular(x_arr, lag, window, plan.step, plan.n_windows,
-                                                  plan.sample_rate, plan.start_time)
+    values, time, n_bad, n_nonfinite = autocorrelation_regular(
+        x_arr, lag, window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
+    _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
     warn_degenerate(n_bad, len(values), "zero variance")
     params = {"lag": lag, **plan.settings(_args.channel_names(x, "x"), sample_rate, start_time)}
     return FeatureSeries(time, values, "autocorrelation", params)
@@ -184,13 +185,14 @@ def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.
     >>> cross_correlation(y, x, lag=1, window=4).values.tolist()  # (1/4)(-1.25)/1.25
     [-0.25]
     """
-    y_arr, x_arr = _check_pair(y, x)
+    y_arr, x_arr = _check_pair(y, x, finite=False)  # checked with the kernel's help below
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
-    values, time, n_bad = cross_correlation_regular(y_arr, x_arr, lag, window, plan.step,
-                                                    plan.n_windows, plan.sample_rate,
-                                                    plan.start_time)
+    values, time, n_bad, n_nonfinite = cross_correlation_regular(
+        y_arr, x_arr, lag, window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
+    _args.finish_finite_check(y_arr, "y", n_nonfinite, plan)
+    _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
     warn_degenerate(n_bad, len(values), "zero variance")
     channels = _args.channel_names(y, "y") + _args.channel_names(x, "x")
     params = {"lag": lag, **plan.settings(channels, sample_rate, start_time)}

@@ -19,12 +19,14 @@ __all__ = ["metric_length_ratio", "metric_length_ratio_at"]
 def _metric_eval(gk, gl, hk, hl, out, o0, cnt):  # pragma: no cover - compiled
     """Eq. 4.3 from the tail/head sums of ``cnt`` windows, written to ``out[o0:o0+cnt]``."""
     bad = 0
+    nf = 0  # windows whose sums are not finite: NaN or inf in the input
     for t in range(cnt):
         den = gl[t] + hl[t]
         ok = den > 0.0
         out[o0 + t] = (gk[t] + hk[t]) / den if ok else np.nan
         bad += 0 if ok else 1
-    return bad
+        nf += 0 if den - den == 0.0 else 1
+    return bad, nf
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -38,7 +40,8 @@ def _metric_core(x, l_step, k_step, window, starts, step, out):  # pragma: no co
     The terms are non-negative, so no anchor is needed: a window sum adds two partial sums of at
     most ``M`` terms of the window itself (relative error a few ulps times ``M``). The terms are
     computed on the fly (an inner function, which Numba inlines), never stored for the signal.
-    Returns the number of windows with a zero denominator.
+    Returns the numbers of windows with a zero denominator and of windows whose sums are not
+    finite (NaN/inf input).
     """
     n_ch = x.shape[1]
 
@@ -59,6 +62,7 @@ def _metric_core(x, l_step, k_step, window, starts, step, out):  # pragma: no co
     hk = np.empty(kc)
     hl = np.empty(kc)
     n_bad = 0
+    n_nonfinite = 0
     for k0 in range(0, n_win, kc):
         k1 = min(k0 + kc, n_win)
         e = -1
@@ -99,25 +103,28 @@ def _metric_core(x, l_step, k_step, window, starts, step, out):  # pragma: no co
             q = s + mm
             hk[w - k0] = ak
             hl[w - k0] = al
-        n_bad += _metric_eval(gk, gl, hk, hl, out, k0, k1 - k0)
-    return n_bad
+        b, f = _metric_eval(gk, gl, hk, hl, out, k0, k1 - k0)
+        n_bad += b
+        n_nonfinite += f
+    return n_bad, n_nonfinite
 
 
 @numba.njit(cache=True)
 def _metric_sorted(x, l_step, k_step, window, starts):  # pragma: no cover - compiled
     """Eq. 4.3 for sorted valid starts: ``(values, n_zero_denominator)``."""
     out = np.empty(starts.shape[0])
-    n_bad = _metric_core(x, l_step, k_step, window, starts, 0, out)
+    n_bad, _ = _metric_core(x, l_step, k_step, window, starts, 0, out)
     return out, n_bad
 
 
 @numba.njit(cache=True)
 def _metric_regular(x, l_step, k_step, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
-    """Eq. 4.3 for the windows ``s_k = k * step``: ``(values, times, n_zero_denominator)``."""
+    """Eq. 4.3 for the windows ``s_k = k * step``: ``(values, times, n_zero_denominator,
+    n_nonfinite)``, the last counting windows whose sums are not finite (NaN/inf input)."""
     buf = np.empty((2, n_win))
-    n_bad = _metric_core(x, l_step, k_step, window, NO_STARTS, step, buf[0])
+    n_bad, n_nonfinite = _metric_core(x, l_step, k_step, window, NO_STARTS, step, buf[0])
     fill_times(buf[1], step, window, sample_rate, start_time)
-    return buf[0], buf[1], n_bad
+    return buf[0], buf[1], n_bad, n_nonfinite
 
 
 _DEGENERATE = "zero metric length at step l (Eq. 4.3 denominator)"
@@ -197,12 +204,13 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
     >>> fs.params["lag_ratio"], fs.params["step"]
     ('83:3', 250)
     """
-    x2 = _args.signal_2d(x, "x")
+    x2 = _args.signal_2d(x, "x", finite=False)  # checked with the kernel's help below
     window = _args.check_window(window)
     l_step, k_step = _args.parse_lag_ratio(lag_ratio, window)
     plan = _args.plan_windows(len(x2), window, overlap, sample_rate, start_time)
-    values, time, n_bad = _metric_regular(x2, l_step, k_step, window, plan.step, plan.n_windows,
-                                          plan.sample_rate, plan.start_time)
+    values, time, n_bad, n_nonfinite = _metric_regular(
+        x2, l_step, k_step, window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
+    _args.finish_finite_check(x2, "x", n_nonfinite, plan)
     warn_degenerate(n_bad, len(values), _DEGENERATE)
     channels = _args.channel_names(x, "x", x2.shape[1])
     params = {"lag_ratio": f"{l_step}:{k_step}", "l": l_step, "k": k_step,

@@ -30,6 +30,7 @@ def _moment_eval(g1, g2, g3, g4, anchor, h1, h2, h3, h4, fn, out, o0, cnt):  # p
     """Eq. 4.11-4.14 from the tail/head power sums of ``cnt`` windows into ``out[:, o0:o0+cnt]``."""
     inv = 1.0 / fn
     bad = 0
+    nf = 0  # windows whose sums are not finite: NaN or inf in the input
     for t in range(cnt):
         s1 = g1[t] + h1[t]
         off = s1 * inv
@@ -41,7 +42,8 @@ def _moment_eval(g1, g2, g3, g4, anchor, h1, h2, h3, h4, fn, out, o0, cnt):  # p
         out[2, o0 + t] = c3 / ((fn - 1.0) * s2 * np.sqrt(s2)) if ok else np.nan
         out[3, o0 + t] = c4 / ((fn - 1.0) * s2 * s2) if ok else np.nan
         bad += 0 if ok else 1
-    return bad
+        nf += 0 if c2 - c2 == 0.0 else 1
+    return bad, nf
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -51,8 +53,8 @@ def _moment_core(x, window, starts, step, out):  # pragma: no cover - compiled
     Windows ``s_k = k * step`` (``step > 0``) or the sorted ``starts`` (``step = 0``). The
     anchored block sums of :mod:`leakdiag.features._blocksums` (blocks of N samples; tail and
     head of each window summed about the block's last sample ``x[e - 1]``, a sample of the
-    window), shifted exactly to the window mean by the binomial expansion. Returns the number
-    of constant windows.
+    window), shifted exactly to the window mean by the binomial expansion. Returns the numbers
+    of constant windows and of windows whose sums are not finite (NaN/inf input).
     """
     nn = window
     n_win = out.shape[1]
@@ -67,6 +69,7 @@ def _moment_core(x, window, starts, step, out):  # pragma: no cover - compiled
     h3 = np.empty(kc)
     h4 = np.empty(kc)
     n_bad = 0
+    n_nonfinite = 0
     for k0 in range(0, n_win, kc):
         k1 = min(k0 + kc, n_win)
         # ---- tails [s, e), backward
@@ -135,24 +138,27 @@ def _moment_core(x, window, starts, step, out):  # pragma: no cover - compiled
             h2[t] = a2
             h3[t] = a3
             h4[t] = a4
-        n_bad += _moment_eval(g1, g2, g3, g4, anchor, h1, h2, h3, h4, float(nn), out, k0, k1 - k0)
-    return n_bad
+        b, f = _moment_eval(g1, g2, g3, g4, anchor, h1, h2, h3, h4, float(nn), out, k0, k1 - k0)
+        n_bad += b
+        n_nonfinite += f
+    return n_bad, n_nonfinite
 
 
 @numba.njit(cache=True)
 def _moments_regular(x, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
-    """Rows ``time, mean, variance, skewness, kurtosis`` of one ``(5, n_win)`` array; NaN count."""
+    """Rows ``time, mean, variance, skewness, kurtosis`` of one ``(5, n_win)`` array, the count
+    of constant windows and the count of windows whose sums are not finite."""
     buf = np.empty((5, n_win))
-    n_bad = _moment_core(x, window, NO_STARTS, step, buf[1:])
+    n_bad, n_nonfinite = _moment_core(x, window, NO_STARTS, step, buf[1:])
     fill_times(buf[0], step, window, sample_rate, start_time)
-    return buf, n_bad
+    return buf, n_bad, n_nonfinite
 
 
 @numba.njit(cache=True)
 def _moments_sorted(x, window, starts):  # pragma: no cover - compiled
     """Shape ``(4, len(starts))``: mean, variance, skewness, kurtosis for sorted starts; NaN count."""
     out = np.empty((4, starts.shape[0]))
-    n_bad = _moment_core(x, window, starts, 0, out)
+    n_bad, _ = _moment_core(x, window, starts, 0, out)
     return out, n_bad
 
 
@@ -225,11 +231,12 @@ def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.
     """
     import pandas as pd
 
-    x_arr = _args.signal_1d(x, "x")
+    x_arr = _args.signal_1d(x, "x", finite=False)  # checked with the kernel's help below
     window = _args.check_window(window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
-    buf, n_bad = _moments_regular(x_arr, window, plan.step, plan.n_windows, plan.sample_rate,
-                                  plan.start_time)
+    buf, n_bad, n_nonfinite = _moments_regular(x_arr, window, plan.step, plan.n_windows,
+                                               plan.sample_rate, plan.start_time)
+    _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
     warn_degenerate(n_bad, plan.n_windows, "zero variance (skewness and kurtosis)")
     # one (5, m) block, handed to pandas without a copy (a fresh copy costs page faults)
     df = pd.DataFrame(buf.T, columns=list(MOMENT_COLUMNS), copy=False)
