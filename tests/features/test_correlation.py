@@ -189,10 +189,13 @@ def test_short_lag_kernels_agree_with_general_kernels(kind, lag, window, step):
     assert bad[0] == bad[1] and bad[2] == bad[3]
     np.testing.assert_allclose(auto_small, auto_general, rtol=1e-11, atol=1e-13)
     np.testing.assert_allclose(cross_small, cross_general, rtol=1e-11, atol=1e-13)
-    want = ref.autocorrelation_ref(x[: (n_win - 1) * step + window], lag, window,
-                                   100.0 * (1 - step / window))
-    if len(want) == n_win:  # the overlap maps back to this step
-        np.testing.assert_allclose(auto_small, want, rtol=1e-9, atol=1e-11)
+    overlap = 100.0 * (1 - step / window)  # maps back to this step for every case here
+    used = (n_win - 1) * step + window
+    want = ref.autocorrelation_ref(x[:used], lag, window, overlap)
+    want_cc = ref.cross_correlation_ref(y[:used], x[:used], lag, window, overlap)
+    assert len(want) == len(want_cc) == n_win
+    np.testing.assert_allclose(auto_small, want, rtol=1e-9, atol=1e-11)
+    np.testing.assert_allclose(cross_small, want_cc, rtol=1e-9, atol=1e-11)
 
 
 def test_all_starts_then_slice_equals_overlap_call():

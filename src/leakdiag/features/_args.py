@@ -213,15 +213,15 @@ class WindowPlan:
     sample_rate: float
     start_time: float
 
-    def settings(self, channels: tuple[str, ...], sample_rate, start_time) -> dict:
+    def settings(self, channels: tuple[str, ...]) -> dict:
         """The windowing entries of a feature's ``params``, in the order every feature uses.
 
         ``window``, ``overlap``, ``step``, ``channels``, ``sample_rate`` and ``start_time``
-        (the last two as ``float``).
+        (the last two as checked ``float``).
         """
         return {"window": self.window, "overlap": self.overlap, "step": self.step,
-                "channels": channels, "sample_rate": float(sample_rate),
-                "start_time": float(start_time)}
+                "channels": channels, "sample_rate": self.sample_rate,
+                "start_time": self.start_time}
 
 
 def plan_windows(n_samples: int, window: int, overlap, sample_rate, start_time) -> WindowPlan:

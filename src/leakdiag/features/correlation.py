@@ -117,7 +117,7 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
         x_arr, lag, window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
     warn_degenerate(n_bad, len(values), "zero variance")
-    params = {"lag": lag, **plan.settings(_args.channel_names(x, "x"), sample_rate, start_time)}
+    params = {"lag": lag, **plan.settings(_args.channel_names(x, "x"))}
     return FeatureSeries(time, values, "autocorrelation", params)
 
 
@@ -195,7 +195,7 @@ def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
     warn_degenerate(n_bad, len(values), "zero variance")
     channels = _args.channel_names(y, "y") + _args.channel_names(x, "x")
-    params = {"lag": lag, **plan.settings(channels, sample_rate, start_time)}
+    params = {"lag": lag, **plan.settings(channels)}
     return FeatureSeries(time, values, "cross_correlation", params)
 
 

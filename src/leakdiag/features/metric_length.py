@@ -214,7 +214,7 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
     warn_degenerate(n_bad, len(values), _DEGENERATE)
     channels = _args.channel_names(x, "x", x2.shape[1])
     params = {"lag_ratio": f"{l_step}:{k_step}", "l": l_step, "k": k_step,
-              **plan.settings(channels, sample_rate, start_time)}
+              **plan.settings(channels)}
     return FeatureSeries(time, values, "metric_length_ratio", params)
 
 

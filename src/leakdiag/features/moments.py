@@ -240,7 +240,7 @@ def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.
     warn_degenerate(n_bad, plan.n_windows, "zero variance (skewness and kurtosis)")
     # one (5, m) block, handed to pandas without a copy (a fresh copy costs page faults)
     df = pd.DataFrame(buf.T, columns=list(MOMENT_COLUMNS), copy=False)
-    df.attrs.update(plan.settings(_args.channel_names(x, "x"), sample_rate, start_time))
+    df.attrs.update(plan.settings(_args.channel_names(x, "x")))
     return df
 
 
