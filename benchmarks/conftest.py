@@ -1,8 +1,9 @@
 """The ratio table of ``make bench``: a ``record_ratio`` fixture and the end-of-session summary.
 
 Any benchmark can call ``record_ratio(name, fast_seconds, reference_seconds, extra="...",
-n_samples=..., goal_ratio=..., goal_samples_per_s=...)``; ``best_time`` (fixture, or import from
-``benchmarks.harness``) times a callable. All records are printed in one table at the end.
+n_samples=..., goal_ratio=..., goal_samples_per_s=..., fast_median_seconds=...)``;
+``best_time`` (fixture, or import from ``benchmarks.harness``) times a callable. All records are
+printed in one table at the end.
 """
 
 from __future__ import annotations
@@ -24,9 +25,10 @@ def record_ratio(request):
     records = request.config.stash[_RECORDS]
 
     def _record(name, fast_seconds, reference_seconds, extra="", n_samples=None,
-                goal_ratio=None, goal_samples_per_s=None):
+                goal_ratio=None, goal_samples_per_s=None, fast_median_seconds=None):
+        median = None if fast_median_seconds is None else float(fast_median_seconds)
         rec = RatioRecord(name, float(fast_seconds), float(reference_seconds), n_samples, extra,
-                          goal_ratio, goal_samples_per_s)
+                          goal_ratio, goal_samples_per_s, median)
         records.append(rec)
         return rec
 
