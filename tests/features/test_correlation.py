@@ -125,6 +125,27 @@ def test_cross_correlation_order_is_y_then_lagged_x():
     assert np.all(np.abs(low) < 0.3)
 
 
+@pytest.mark.parametrize("lag", [1, 20])  # short-lag and general kernels
+@pytest.mark.parametrize("scale", [1e100, 1e-100, 1e150, 1e-150])
+def test_cross_correlation_is_scale_invariant_where_the_variance_product_leaves_float_range(
+        lag, scale):
+    # ss_x * ss_y over- or underflows at these scales (e.g. 1e100: ss ~ 1e202 each), so the
+    # one-square-root denominator sqrt(ss_x ss_y) would give 0 or inf; the kernels must notice
+    # and redo those windows with sqrt(ss_x) sqrt(ss_y).
+    rng = np.random.default_rng(3)
+    y = rng.normal(size=3000)
+    x = np.roll(y, 2) + 0.3 * rng.normal(size=3000)
+    base = cross_correlation(y, x, lag=lag, window=100, overlap=50).values
+    np.testing.assert_allclose(base, ref.cross_correlation_ref(y, x, lag, 100, 50),
+                               rtol=1e-12, atol=1e-14)
+    got = cross_correlation(y * scale, x * scale, lag=lag, window=100, overlap=50).values
+    np.testing.assert_allclose(got, base, rtol=1e-12, atol=1e-14)
+    starts = np.arange(0, 2901, 37)
+    at = cross_correlation_at(y * scale, x * scale, lag, starts, 100)
+    np.testing.assert_allclose(at, cross_correlation_at(y, x, lag, starts, 100),
+                               rtol=1e-12, atol=1e-14)
+
+
 # ------------------------------------------------------------------ properties
 # millesimal values: no subnormals (their squares underflow to 0, a different degenerate case)
 finite = st.integers(-10**6, 10**6).map(lambda i: i / 1000.0)

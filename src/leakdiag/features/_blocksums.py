@@ -48,7 +48,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.features._chunks import CHUNK, NO_STARTS, fill_times
+from leakdiag.features._chunks import (CHUNK, NO_STARTS, PRODUCT_MAX, PRODUCT_MIN,
+                                       fill_times)
 from leakdiag.features._smalllag import LAG_DIRECT, auto_small_core, cross_small_core
 
 __all__ = [
@@ -272,11 +273,15 @@ def autocorrelation_regular(x, lag, window, step, n_win, sample_rate, start_time
 
 @numba.njit(cache=True, error_model="numpy")
 def _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0, hay, hcy, hax, hcx, hu, hv, huv,
-                fn, fm, out, o0, cnt):  # pragma: no cover - compiled
-    """Eq. 4.2 from the tail/head sums of ``cnt`` windows, written to ``out[o0:o0+cnt]``."""
+                fn, fm, out, o0, cnt, split):  # pragma: no cover - compiled
+    """Eq. 4.2 from the tail/head sums of ``cnt`` windows, written to ``out[o0:o0+cnt]``.
+
+    Denominator and returned counts as in :func:`leakdiag.features._smalllag._cross_small_eval`.
+    """
     inv = 1.0 / fn
     bad = 0
     nf = 0  # windows whose sums are not finite: NaN or inf in the input
+    nr = 0  # windows where ss_x * ss_y over- or underflows: redo them with split square roots
     for t in range(cnt):
         ay = gay[t] + hay[t]
         ax = gax[t] + hax[t]
@@ -288,10 +293,13 @@ def _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0, hay, hcy, hax, hcx, h
         dv = dv0[t] - ox
         num = (guv[t] + huv[t]) + dv * (gu[t] + hu[t]) + du * (gv[t] + hv[t]) + fm * du * dv
         ok = (ssy > 0.0) & (ssx > 0.0)
-        out[o0 + t] = num / (np.sqrt(ssx) * np.sqrt(ssy)) if ok else np.nan
+        pr = ssx * ssy
+        den = np.sqrt(ssx) * np.sqrt(ssy) if split else np.sqrt(pr)
+        out[o0 + t] = num / den if ok else np.nan
         bad += 0 if ok else 1
         nf += 0 if (ssx - ssx == 0.0) & (ssy - ssy == 0.0) else 1
-    return bad, nf
+        nr += 0 if (pr > PRODUCT_MIN) & (pr < PRODUCT_MAX) | ~ok else 1
+    return bad, nf, nr
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -487,8 +495,11 @@ def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - com
             hu[t] = au
             hv[t] = av
             huv[t] = auv
-        b, f = _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0,
-                          hay, hcy, hax, hcx, hu, hv, huv, float(nn), float(mm), out, k0, k1 - k0)
+        b, f, r = _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0, hay, hcy, hax, hcx,
+                             hu, hv, huv, float(nn), float(mm), out, k0, k1 - k0, False)
+        if r > 0:
+            _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0, hay, hcy, hax, hcx,
+                        hu, hv, huv, float(nn), float(mm), out, k0, k1 - k0, True)
         n_bad += b
         n_nonfinite += f
     return n_bad, n_nonfinite

@@ -29,7 +29,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.features._chunks import CHUNK
+from leakdiag.features._chunks import CHUNK, PRODUCT_MAX, PRODUCT_MIN
 
 __all__ = ["LAG_DIRECT", "auto_small_core", "cross_small_core"]
 
@@ -172,11 +172,18 @@ def auto_small_core(x, lag, window, starts, step, out):  # pragma: no cover - co
 
 @numba.njit(cache=True, error_model="numpy")
 def _cross_small_eval(gy1, gy2, gx1, gx2, gp, hy1, hy2, hx1, hx2, hp, ly1, ly2, fx1, fx2,
-                      fn, fm, out, o0, cnt):  # pragma: no cover - compiled
-    """Eq. 4.2 from the pair-block sums and edge sums of ``cnt`` windows into ``out[o0:]``."""
+                      fn, fm, out, o0, cnt, split):  # pragma: no cover - compiled
+    """Eq. 4.2 from the pair-block sums and edge sums of ``cnt`` windows into ``out[o0:]``.
+
+    The denominator is ``sqrt(ss_x ss_y)`` (one square root), or ``sqrt(ss_x) sqrt(ss_y)`` with
+    ``split``. Returns the numbers of zero-variance windows, of windows with non-finite sums and
+    of windows whose ``ss_x ss_y`` leaves ``[PRODUCT_MIN, PRODUCT_MAX]`` (the caller then redoes
+    the chunk with ``split``; see :mod:`leakdiag.features._chunks`).
+    """
     inv = 1.0 / fn
     bad = 0
     nf = 0  # windows whose sums are not finite: NaN or inf in the input
+    nr = 0  # windows where ss_x * ss_y over- or underflows: redo them with split square roots
     for t in range(cnt):
         y1 = gy1[t] + hy1[t]
         x1 = gx1[t] + hx1[t]
@@ -188,10 +195,13 @@ def _cross_small_eval(gy1, gy2, gx1, gx2, gp, hy1, hy2, hx1, hx2, hp, ly1, ly2, 
         ssx = (gx2[t] + hx2[t] + fx2[t]) - ax * ox
         num = (gp[t] + hp[t]) - ox * y1 - oy * x1 + fm * oy * ox
         ok = (ssy > 0.0) & (ssx > 0.0)
-        out[o0 + t] = num / (np.sqrt(ssx) * np.sqrt(ssy)) if ok else np.nan
+        pr = ssx * ssy
+        den = np.sqrt(ssx) * np.sqrt(ssy) if split else np.sqrt(pr)
+        out[o0 + t] = num / den if ok else np.nan
         bad += 0 if ok else 1
         nf += 0 if (ssx - ssx == 0.0) & (ssy - ssy == 0.0) else 1
-    return bad, nf
+        nr += 0 if (pr > PRODUCT_MIN) & (pr < PRODUCT_MAX) | ~ok else 1
+    return bad, nf, nr
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
@@ -324,8 +334,11 @@ def cross_small_core(y, x, lag, window, starts, step, out):  # pragma: no cover 
             hx1[t] = ax1
             hx2[t] = ax2
             hp[t] = ap
-        b, f = _cross_small_eval(gy1, gy2, gx1, gx2, gp, hy1, hy2, hx1, hx2, hp,
-                                ly1, ly2, fx1, fx2, float(window), float(mm), out, k0, k1 - k0)
+        b, f, r = _cross_small_eval(gy1, gy2, gx1, gx2, gp, hy1, hy2, hx1, hx2, hp, ly1, ly2,
+                                   fx1, fx2, float(window), float(mm), out, k0, k1 - k0, False)
+        if r > 0:
+            _cross_small_eval(gy1, gy2, gx1, gx2, gp, hy1, hy2, hx1, hx2, hp, ly1, ly2,
+                              fx1, fx2, float(window), float(mm), out, k0, k1 - k0, True)
         n_bad += b
         n_nonfinite += f
     return n_bad, n_nonfinite
