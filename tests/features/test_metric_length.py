@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from leakdiag.features import DegenerateWindowWarning, metric_length_ratio, metric_length_ratio_at
+from leakdiag.features._stepsums import STEP_MAX
 from . import reference as ref
 from .signals import make_signals
 
@@ -141,10 +142,14 @@ def test_input_kinds(kind):
 
 
 def test_all_starts_then_slice_equals_overlap_call():
-    # tails are summed from the block end down and heads from the block start up, one sample at
-    # a time, so the order of the additions does not depend on the step: bit for bit
+    # bit for bit from the per-term kernel (steps 1 and > STEP_MAX); the step-increment kernel
+    # (steps 2 .. STEP_MAX) adds step terms first: the same to rounding
     x = SIGNALS["level_steps"]
     every = metric_length_ratio_at(x, "83:3", np.arange(len(x) - 500 + 1), 500)
-    for overlap in (5, 50, 99):
+    for overlap in (5, 50, 99, 99.8):  # steps 475, 250, 5, 1
         fs = metric_length_ratio(x, "83:3", window=500, overlap=overlap)
-        np.testing.assert_array_equal(every[:: fs.params["step"]], fs.values)
+        step = fs.params["step"]
+        if 2 <= step <= STEP_MAX:
+            np.testing.assert_allclose(fs.values, every[::step], rtol=1e-13)
+        else:
+            np.testing.assert_array_equal(every[::step], fs.values)

@@ -29,7 +29,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.features._chunks import CHUNK, PRODUCT_MAX, PRODUCT_MIN
+from leakdiag.features._chunks import CHUNK
+from leakdiag.features._values import auto_value, cross_value
 
 __all__ = ["LAG_DIRECT", "auto_small_core", "cross_small_core"]
 
@@ -43,18 +44,11 @@ def _auto_small_eval(gu, g2, gp, hu, h2, hp, uta, vta, f1, l1, l2, fn, fm, out, 
     bad = 0
     nf = 0  # windows whose sums are not finite: NaN or inf in the input
     for t in range(cnt):
-        u1 = gu[t] + hu[t]
-        a = u1 + l1[t]
-        o = a * inv
-        ss = (g2[t] + h2[t] + l2[t]) - a * o
-        dvt = vta[t] - uta[t]
-        v1 = u1 - f1[t] + l1[t] - fm * dvt
-        dv = dvt - o
-        num = (gp[t] + hp[t]) + dv * u1 - o * v1 - fm * o * dv
-        ok = ss > 0.0
-        out[o0 + t] = num / ss if ok else np.nan
-        bad += 0 if ok else 1
-        nf += 0 if ss - ss == 0.0 else 1
+        v, b, f = auto_value(gu[t] + hu[t], g2[t] + h2[t], gp[t] + hp[t], f1[t], l1[t], l2[t],
+                             vta[t] - uta[t], inv, fm)
+        out[o0 + t] = v
+        bad += b
+        nf += f
     return bad, nf
 
 
@@ -173,34 +167,20 @@ def auto_small_core(x, lag, window, starts, step, out):  # pragma: no cover - co
 @numba.njit(cache=True, error_model="numpy")
 def _cross_small_eval(gy1, gy2, gx1, gx2, gp, hy1, hy2, hx1, hx2, hp, ly1, ly2, fx1, fx2,
                       fn, fm, out, o0, cnt, split):  # pragma: no cover - compiled
-    """Eq. 4.2 from the pair-block sums and edge sums of ``cnt`` windows into ``out[o0:]``.
-
-    The denominator is ``sqrt(ss_x ss_y)`` (one square root), or ``sqrt(ss_x) sqrt(ss_y)`` with
-    ``split``. Returns the numbers of zero-variance windows, of windows with non-finite sums and
-    of windows whose ``ss_x ss_y`` leaves ``[PRODUCT_MIN, PRODUCT_MAX]`` (the caller then redoes
-    the chunk with ``split``; see :mod:`leakdiag.features._chunks`).
-    """
+    """Eq. 4.2 (:func:`cross_value`) from the pair-block and edge sums of ``cnt`` windows into
+    ``out[o0:]``; returns the zero-variance, non-finite and out-of-range counts."""
     inv = 1.0 / fn
     bad = 0
     nf = 0  # windows whose sums are not finite: NaN or inf in the input
     nr = 0  # windows where ss_x * ss_y over- or underflows: redo them with split square roots
     for t in range(cnt):
-        y1 = gy1[t] + hy1[t]
-        x1 = gx1[t] + hx1[t]
-        ay = y1 + ly1[t]
-        ax = x1 + fx1[t]
-        oy = ay * inv
-        ox = ax * inv
-        ssy = (gy2[t] + hy2[t] + ly2[t]) - ay * oy
-        ssx = (gx2[t] + hx2[t] + fx2[t]) - ax * ox
-        num = (gp[t] + hp[t]) - ox * y1 - oy * x1 + fm * oy * ox
-        ok = (ssy > 0.0) & (ssx > 0.0)
-        pr = ssx * ssy
-        den = np.sqrt(ssx) * np.sqrt(ssy) if split else np.sqrt(pr)
-        out[o0 + t] = num / den if ok else np.nan
-        bad += 0 if ok else 1
-        nf += 0 if (ssx - ssx == 0.0) & (ssy - ssy == 0.0) else 1
-        nr += 0 if (pr > PRODUCT_MIN) & (pr < PRODUCT_MAX) | ~ok else 1
+        v, b, f, r = cross_value(gy1[t] + hy1[t], gx1[t] + hx1[t], gy2[t] + hy2[t],
+                                 gx2[t] + hx2[t], gp[t] + hp[t], ly1[t], ly2[t], fx1[t], fx2[t],
+                                 inv, fm, split)
+        out[o0 + t] = v
+        bad += b
+        nf += f
+        nr += r
     return bad, nf, nr
 
 

@@ -10,6 +10,7 @@ import numpy as np
 from leakdiag.features import _args
 from leakdiag.features._chunks import CHUNK, NO_STARTS, fill_times
 from leakdiag.features._degenerate import warn_degenerate
+from leakdiag.features._stepsums import STEP_MAX, metric_steps
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["metric_length_ratio", "metric_length_ratio_at"]
@@ -122,7 +123,11 @@ def _metric_regular(x, l_step, k_step, window, step, n_win, sample_rate, start_t
     """Eq. 4.3 for the windows ``s_k = k * step``: ``(values, times, n_zero_denominator,
     n_nonfinite)``, the last counting windows whose sums are not finite (NaN/inf input)."""
     buf = np.empty((2, n_win))
-    n_bad, n_nonfinite = _metric_core(x, l_step, k_step, window, NO_STARTS, step, buf[0])
+    if x.shape[1] == 1 and 2 <= step <= STEP_MAX:
+        n_bad, n_nonfinite = metric_steps(x.reshape(x.shape[0]), l_step, k_step, window, step,
+                                          buf[0])
+    else:
+        n_bad, n_nonfinite = _metric_core(x, l_step, k_step, window, NO_STARTS, step, buf[0])
     fill_times(buf[1], step, window, sample_rate, start_time)
     return buf[0], buf[1], n_bad, n_nonfinite
 

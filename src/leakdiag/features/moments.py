@@ -8,21 +8,13 @@ import numpy as np
 from leakdiag.features import _args
 from leakdiag.features._chunks import CHUNK, NO_STARTS, fill_times
 from leakdiag.features._degenerate import warn_degenerate
+from leakdiag.features._stepsums import STEP_MAX, moments_steps
+from leakdiag.features._values import moment_values
 
 __all__ = ["moments", "moments_at", "MOMENT_COLUMNS"]
 
 #: Columns of the :func:`moments` DataFrame.
 MOMENT_COLUMNS = ("time", "mean", "variance", "skewness", "kurtosis")
-
-
-@numba.njit(cache=True)
-def _shift(s1, s2, s3, s4, n, d):  # pragma: no cover - compiled
-    """Given sums of ``(x - c)^p`` (p = 1..4) over ``n`` samples, sums of ``(x - c + d)^p``."""
-    d2 = d * d
-    m2 = s2 + 2.0 * d * s1 + n * d2
-    m3 = s3 + 3.0 * d * s2 + 3.0 * d2 * s1 + n * d2 * d
-    m4 = s4 + 4.0 * d * s3 + 6.0 * d2 * s2 + 4.0 * d2 * d * s1 + n * d2 * d2
-    return m2, m3, m4
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -32,17 +24,14 @@ def _moment_eval(g1, g2, g3, g4, anchor, h1, h2, h3, h4, fn, out, o0, cnt):  # p
     bad = 0
     nf = 0  # windows whose sums are not finite: NaN or inf in the input
     for t in range(cnt):
-        s1 = g1[t] + h1[t]
-        off = s1 * inv
-        c2, c3, c4 = _shift(s1, g2[t] + h2[t], g3[t] + h3[t], g4[t] + h4[t], fn, -off)
-        out[0, o0 + t] = anchor[t] + off
-        ok = c2 > 0.0
-        s2 = c2 / (fn - 1.0)  # sample variance s^2 (Eq. 4.13-4.14)
-        out[1, o0 + t] = c2 * inv if ok else 0.0  # Eq. 4.12, population variance
-        out[2, o0 + t] = c3 / ((fn - 1.0) * s2 * np.sqrt(s2)) if ok else np.nan
-        out[3, o0 + t] = c4 / ((fn - 1.0) * s2 * s2) if ok else np.nan
-        bad += 0 if ok else 1
-        nf += 0 if c2 - c2 == 0.0 else 1
+        m, v, sk, ku, b, f = moment_values(g1[t] + h1[t], g2[t] + h2[t], g3[t] + h3[t],
+                                           g4[t] + h4[t], anchor[t], fn, inv)
+        out[0, o0 + t] = m
+        out[1, o0 + t] = v
+        out[2, o0 + t] = sk
+        out[3, o0 + t] = ku
+        bad += b
+        nf += f
     return bad, nf
 
 
@@ -149,7 +138,10 @@ def _moments_regular(x, window, step, n_win, sample_rate, start_time):  # pragma
     """Rows ``time, mean, variance, skewness, kurtosis`` of one ``(5, n_win)`` array, the count
     of constant windows and the count of windows whose sums are not finite."""
     buf = np.empty((5, n_win))
-    n_bad, n_nonfinite = _moment_core(x, window, NO_STARTS, step, buf[1:])
+    if 2 <= step <= STEP_MAX:
+        n_bad, n_nonfinite = moments_steps(x, window, step, buf[1:])
+    else:
+        n_bad, n_nonfinite = _moment_core(x, window, NO_STARTS, step, buf[1:])
     fill_times(buf[0], step, window, sample_rate, start_time)
     return buf, n_bad, n_nonfinite
 
