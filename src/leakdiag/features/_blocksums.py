@@ -49,7 +49,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.features._chunks import (CHUNK, NO_STARTS, PRODUCT_MAX, PRODUCT_MIN,
+from leakdiag.features._chunks import (CHUNK, NO_STARTS, PRODUCT_MAX, PRODUCT_MIN, UINT,
                                        fill_times)
 from leakdiag.features._smalllag import LAG_DIRECT, auto_small_core, cross_small_core
 from leakdiag.features._stepsums import STEP_MAX, auto_small_steps, cross_small_steps
@@ -142,12 +142,12 @@ def _auto_core(x, lag, window, starts, step, out):  # pragma: no cover - compile
             if p0 == p1:
                 j = p0 - 1
                 while j >= s:  # from the block end down: the same order for any step
-                    xj = x[j]
+                    xj = x[UINT(j)]
                     d = xj - ct
                     a0 += d
                     c0 += d * d
                     du = xj - ut
-                    dv = x[j + lag] - vt
+                    dv = x[UINT(j + lag)] - vt
                     au += du
                     av += dv
                     auv += du * dv
@@ -155,14 +155,14 @@ def _auto_core(x, lag, window, starts, step, out):  # pragma: no cover - compile
             else:
                 j = p0 - 1
                 while j >= s:  # from the block end down: the same order for any step
-                    d = x[j] - ct
+                    d = x[UINT(j)] - ct
                     a0 += d
                     c0 += d * d
                     j -= 1
                 j = p1 - 1
                 while j >= s:  # from the block end down: the same order for any step
-                    du = x[j] - ut
-                    dv = x[j + lag] - vt
+                    du = x[UINT(j)] - ut
+                    dv = x[UINT(j + lag)] - vt
                     au += du
                     av += dv
                     auv += du * dv
@@ -209,12 +209,12 @@ def _auto_core(x, lag, window, starts, step, out):  # pragma: no cover - compile
             if r0 == r1:
                 i = 0
                 while i < r0:
-                    d = x[q0 + i] - ct
+                    d = x[UINT(q0 + i)] - ct
                     a0 += d
                     c0 += d * d
                     j = q1 + i
-                    du = x[j] - ut
-                    dv = x[j + lag] - vt
+                    du = x[UINT(j)] - ut
+                    dv = x[UINT(j + lag)] - vt
                     au += du
                     av += dv
                     auv += du * dv
@@ -222,14 +222,14 @@ def _auto_core(x, lag, window, starts, step, out):  # pragma: no cover - compile
             else:
                 j = q0
                 while j < q0 + r0:
-                    d = x[j] - ct
+                    d = x[UINT(j)] - ct
                     a0 += d
                     c0 += d * d
                     j += 1
                 j = q1
                 while j < q1 + r1:
-                    du = x[j] - ut
-                    dv = x[j + lag] - vt
+                    du = x[UINT(j)] - ut
+                    dv = x[UINT(j + lag)] - vt
                     au += du
                     av += dv
                     auv += du * dv
@@ -378,15 +378,15 @@ def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - com
             if p0 == p1:
                 j = p0 - 1
                 while j >= s:  # from the block end down: the same order for any step
-                    yj = y[j]
+                    yj = y[UINT(j)]
                     d = yj - cty
                     ay += d
                     cy += d * d
-                    d = x[j] - ctx
+                    d = x[UINT(j)] - ctx
                     ax += d
                     cx += d * d
                     du = yj - ut
-                    dv = x[j + lag] - vt
+                    dv = x[UINT(j + lag)] - vt
                     au += du
                     av += dv
                     auv += du * dv
@@ -394,17 +394,17 @@ def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - com
             else:
                 j = p0 - 1
                 while j >= s:  # from the block end down: the same order for any step
-                    d = y[j] - cty
+                    d = y[UINT(j)] - cty
                     ay += d
                     cy += d * d
-                    d = x[j] - ctx
+                    d = x[UINT(j)] - ctx
                     ax += d
                     cx += d * d
                     j -= 1
                 j = p1 - 1
                 while j >= s:  # from the block end down: the same order for any step
-                    du = y[j] - ut
-                    dv = x[j + lag] - vt
+                    du = y[UINT(j)] - ut
+                    dv = x[UINT(j + lag)] - vt
                     au += du
                     av += dv
                     auv += du * dv
@@ -458,15 +458,15 @@ def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - com
                 i = 0
                 while i < r0:
                     j = q0 + i
-                    d = y[j] - cty
+                    d = y[UINT(j)] - cty
                     ay += d
                     cy += d * d
-                    d = x[j] - ctx
+                    d = x[UINT(j)] - ctx
                     ax += d
                     cx += d * d
                     j = q1 + i
-                    du = y[j] - ut
-                    dv = x[j + lag] - vt
+                    du = y[UINT(j)] - ut
+                    dv = x[UINT(j + lag)] - vt
                     au += du
                     av += dv
                     auv += du * dv
@@ -474,17 +474,17 @@ def _cross_core(y, x, lag, window, starts, step, out):  # pragma: no cover - com
             else:
                 j = q0
                 while j < q0 + r0:
-                    d = y[j] - cty
+                    d = y[UINT(j)] - cty
                     ay += d
                     cy += d * d
-                    d = x[j] - ctx
+                    d = x[UINT(j)] - ctx
                     ax += d
                     cx += d * d
                     j += 1
                 j = q1
                 while j < q1 + r1:
-                    du = y[j] - ut
-                    dv = x[j + lag] - vt
+                    du = y[UINT(j)] - ut
+                    dv = x[UINT(j + lag)] - vt
                     au += du
                     av += dv
                     auv += du * dv

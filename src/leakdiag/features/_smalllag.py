@@ -29,7 +29,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.features._chunks import CHUNK
+from leakdiag.features._chunks import CHUNK, UINT
 from leakdiag.features._values import auto_value, cross_value
 
 __all__ = ["LAG_DIRECT", "auto_small_core", "cross_small_core"]
@@ -97,10 +97,10 @@ def auto_small_core(x, lag, window, starts, step, out):  # pragma: no cover - co
                 ap = 0.0
             j = p - 1
             while j >= s:  # from the block end down: the same order for any step
-                du = x[j] - ut
+                du = x[UINT(j)] - ut
                 au += du
                 a2 += du * du
-                ap += du * (x[j + lag] - vt)
+                ap += du * (x[UINT(j + lag)] - vt)
                 j -= 1
             p = s
             t = k - k0
@@ -111,8 +111,8 @@ def auto_small_core(x, lag, window, starts, step, out):  # pragma: no cover - co
             vta[t] = vt
             # edges: x - ut over the first lag samples (f1) and the last lag samples (l1, l2)
             if lag == 1:
-                f1[t] = x[s] - ut
-                d = x[s + mm] - ut
+                f1[t] = x[UINT(s)] - ut
+                d = x[UINT(s + mm)] - ut
                 l1[t] = d
                 l2[t] = d * d
             else:
@@ -121,8 +121,8 @@ def auto_small_core(x, lag, window, starts, step, out):  # pragma: no cover - co
                 l2e = 0.0
                 i = 0
                 while i < lag:
-                    fs += x[s + i] - ut
-                    d = x[s + mm + i] - ut
+                    fs += x[UINT(s + i)] - ut
+                    d = x[UINT(s + mm + i)] - ut
                     ls += d
                     l2e += d * d
                     i += 1
@@ -147,10 +147,10 @@ def auto_small_core(x, lag, window, starts, step, out):  # pragma: no cover - co
                 ap = 0.0
             j = q
             while j < s + mm:
-                du = x[j] - ut
+                du = x[UINT(j)] - ut
                 au += du
                 a2 += du * du
-                ap += du * (x[j + lag] - vt)
+                ap += du * (x[UINT(j + lag)] - vt)
                 j += 1
             q = s + mm
             t = k - k0
@@ -236,8 +236,8 @@ def cross_small_core(y, x, lag, window, starts, step, out):  # pragma: no cover 
                 ap = 0.0
             j = p - 1
             while j >= s:  # from the block end down: the same order for any step
-                a = y[j] - uy
-                b = x[j + lag] - vx
+                a = y[UINT(j)] - uy
+                b = x[UINT(j + lag)] - vx
                 ay1 += a
                 ay2 += a * a
                 ax1 += b
@@ -253,10 +253,10 @@ def cross_small_core(y, x, lag, window, starts, step, out):  # pragma: no cover 
             gp[t] = ap
             # edges: y - uy over y's last lag samples, x - vx over x's first lag samples
             if lag == 1:
-                d = y[s + mm] - uy
+                d = y[UINT(s + mm)] - uy
                 ly1[t] = d
                 ly2[t] = d * d
-                d = x[s] - vx
+                d = x[UINT(s)] - vx
                 fx1[t] = d
                 fx2[t] = d * d
             else:
@@ -266,10 +266,10 @@ def cross_small_core(y, x, lag, window, starts, step, out):  # pragma: no cover 
                 sx2 = 0.0
                 i = 0
                 while i < lag:
-                    d = y[s + mm + i] - uy
+                    d = y[UINT(s + mm + i)] - uy
                     sy1 += d
                     sy2 += d * d
-                    d = x[s + i] - vx
+                    d = x[UINT(s + i)] - vx
                     sx1 += d
                     sx2 += d * d
                     i += 1
@@ -299,8 +299,8 @@ def cross_small_core(y, x, lag, window, starts, step, out):  # pragma: no cover 
                 ap = 0.0
             j = q
             while j < s + mm:
-                a = y[j] - uy
-                b = x[j + lag] - vx
+                a = y[UINT(j)] - uy
+                b = x[UINT(j + lag)] - vx
                 ay1 += a
                 ay2 += a * a
                 ax1 += b

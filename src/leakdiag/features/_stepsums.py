@@ -35,15 +35,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from leakdiag.features._chunks import UINT
 from leakdiag.features._values import auto_value, cross_value, moment_values
 
 __all__ = ["STEP_MAX", "auto_small_steps", "cross_small_steps", "moments_steps",
            "metric_steps"]
 
 STEP_MAX = 8  # longest step with its own compiled increment loop (constant stride)
-
-
-UINT = np.uint64  # unsigned index: no negative-index wraparound in the vectorised loops
 
 
 # ---------------------------------------------------------------- lag edge sums

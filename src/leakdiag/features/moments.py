@@ -6,7 +6,7 @@ import numba
 import numpy as np
 
 from leakdiag.features import _args
-from leakdiag.features._chunks import CHUNK, NO_STARTS, fill_times
+from leakdiag.features._chunks import CHUNK, NO_STARTS, UINT, fill_times
 from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features._stepsums import STEP_MAX, moments_steps
 from leakdiag.features._values import moment_values
@@ -81,7 +81,7 @@ def _moment_core(x, window, starts, step, out):  # pragma: no cover - compiled
                 a4 = 0.0
             j = p - 1
             while j >= s:  # from the block end down: the same order for any step
-                d = x[j] - ct
+                d = x[UINT(j)] - ct
                 dd = d * d
                 a1 += d
                 a2 += dd
@@ -114,7 +114,7 @@ def _moment_core(x, window, starts, step, out):  # pragma: no cover - compiled
                 a4 = 0.0
             j = q
             while j < s + nn:
-                d = x[j] - ct
+                d = x[UINT(j)] - ct
                 dd = d * d
                 a1 += d
                 a2 += dd
