@@ -72,6 +72,10 @@ def test_autocorrelation_exact_on_extreme_level_steps(offset, step, noise):
         got = autocorrelation_at(x, lag, starts, 120)
         exact = [_exact_ac(x[s : s + 120], lag) for s in starts]
         np.testing.assert_allclose(got, exact, rtol=0, atol=1e-14)
+    # and the step-increment kernel (regular windows, step 3 at 97.5 % overlap)
+    got = autocorrelation(x, 3, 120, 97.5).values
+    exact = [_exact_ac(x[s : s + 120], 3) for s in range(0, n - 120 + 1, 3)]
+    np.testing.assert_allclose(got, exact, rtol=0, atol=1e-14)
 
 
 def test_reference_vs_exact():

@@ -1,9 +1,7 @@
 """The step-increment kernels (regular windows, steps 2 .. STEP_MAX) against the per-term
-kernels, the per-window reference and exact arithmetic."""
+kernels and the per-window reference (exact arithmetic: test_correlation.py)."""
 
 from __future__ import annotations
-
-from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -99,26 +97,6 @@ def test_features_at_short_steps_match_the_reference(name, step):
                                ref.metric_length_ratio_ref(x, 83, 3, 200, ov), rtol=1e-12)
     got = moments(x, 200, ov)[["mean", "variance", "skewness", "kurtosis"]].to_numpy()
     np.testing.assert_allclose(got, ref.moments_ref(x, 200, ov), rtol=1e-9, atol=1e-9)
-
-
-def _exact_ac(w, lag):
-    w = [Fraction(float(v)) for v in w]
-    m = sum(w) / len(w)
-    d = [v - m for v in w]
-    return float(sum(d[j] * d[j + lag] for j in range(len(d) - lag)) / sum(v * v for v in d))
-
-
-@pytest.mark.parametrize("offset,level,noise", [(8.6e6, 1e5, 1.0), (0.0, 1e3, 1e-4)])
-def test_step_kernel_exact_on_extreme_level_steps(offset, level, noise):
-    # as the per-term kernels (test_correlation.py): level/noise ratios of 1e7, within 1e-14 of
-    # exact arithmetic; here through the step-3 kernel (window 120, overlap 97.5 %)
-    rng = np.random.default_rng(3)
-    n = 900
-    x = offset + level * np.repeat(rng.integers(0, 5, n // 60), 60) + noise * rng.normal(size=n)
-    assert window_step(120, 97.5) == 3
-    got = autocorrelation(x, 3, 120, 97.5).values
-    exact = [_exact_ac(x[s : s + 120], 3) for s in range(0, n - 120 + 1, 3)]
-    np.testing.assert_allclose(got, exact, rtol=0, atol=1e-14)
 
 
 def test_zero_variance_windows_are_counted_as_by_the_per_term_kernels():
