@@ -11,8 +11,10 @@ block of ``M`` terms:
    starts, for every window of the block, about the block's anchor. This loop has no
    dependency between windows, and with ``step`` a compile-time constant (one copy of the loop
    per step ``2 .. STEP_MAX``, chosen at run time) LLVM vectorises it with interleaved loads.
-   Indices are unsigned (``np.uint64``), so Numba adds no negative-index wraparound, which
-   would block the vectorisation.
+   Two more conditions keep it vectorising: unsigned indices (``UINT``; Numba's negative-index
+   wraparound on signed ones blocks it), and few arrays per loop (each is a run-time overlap
+   check, and past about eight LLVM gives up): hence heads added into the tail arrays in place,
+   the lag edges in loops of their own, and for lag 1 the edge squares computed, not stored.
 2. **Scans.** Tails ``[s, e)`` are the suffix sums of the increments down from the block end,
    heads ``[e, s + M)`` the prefix sums up from the block end (the partial first head and last
    tail are summed term by term); one add per window and quantity.
@@ -22,12 +24,14 @@ accuracy argument is the one of the per-term kernels. The order of the additions
 terms are added together first), so the values differ from the per-term kernels and from
 ``every[::step]`` of the ``*_at`` functions in the last bits (tested to 1e-12). The per-window
 formula is the per-term kernels' own (the inline functions ``auto_value``, ``cross_value``,
-``moment_values``), evaluated per block. Cost: about 0.6x the per-term kernels' at step 2
-(interleaved A/B in ``docs/features.md``).
+``moment_values``), evaluated per block. Cost at N = 200, step 2: 0.4x (metric length) to
+0.75x (cross-correlation) the per-term kernels' (interleaved A/B in ``docs/features.md``).
 
 The block loop is written out in each kernel, as in the other kernel modules: the quantities
 differ per feature, and Numba helper calls that take arrays pay reference counting (the helpers
-here are inlined).
+here are inlined). The step dispatchers (``_*_incs``, ``_edges``) are written out too: one
+generic dispatcher taking the loop as a function argument needs ``*args``, which Numba's
+inliner does not take, and without inlining the step is no longer a constant (3x slower).
 """
 
 from __future__ import annotations
@@ -224,7 +228,7 @@ def auto_small_steps(x, lag, window, step, out):  # pragma: no cover - compiled
 def _cross_incs_h(y, x, j0, lag, uy, vx, h, cnt, inc):  # pragma: no cover - compiled
     """``inc[5 t .. 5 t + 4]`` for ``t < cnt``: sums over ``i < h`` of ``a = y_j - uy``, ``a^2``,
     ``b = x_{j+lag} - vx``, ``b^2`` and ``a b``, ``j = j0 + t h + i`` (one interleaved output
-    array: five separate ones need more run-time overlap checks than LLVM vectorises with)."""
+    array: one run-time overlap check instead of five)."""
     for t in range(cnt):
         sa = 0.0
         saa = 0.0
