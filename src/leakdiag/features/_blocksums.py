@@ -37,8 +37,9 @@ as two rows of one allocation (each fresh megabyte-sized array costs about 0.4 m
 on the team's VM, more than the whole kernel at 5 % overlap). Arbitrary starts pass ``step = 0``
 and a sorted ``starts`` array (the wrappers sort). For ``lag <= LAG_DIRECT`` the entry points
 call the one-structure kernels of :mod:`leakdiag.features._smalllag` instead (fewer running sums;
-same anchors-in-the-window accuracy), and regular windows with ``2 <= step <= STEP_MAX`` the
-step-increment kernels of :mod:`leakdiag.features._stepsums`.
+same anchors-in-the-window accuracy). Regular windows with ``2 <= step <= STEP_MAX`` go to the
+step-increment kernels of :mod:`leakdiag.features._stepsums` instead (chosen by the Python
+wrappers, so that those large kernels compile only when such a step is used).
 
 The block bookkeeping is written out inline in each kernel on purpose: Numba helper calls taking
 arrays pay reference counting per call, which made a factored version 10x slower.
@@ -52,7 +53,6 @@ import numpy as np
 from leakdiag.features._chunks import (CHUNK, NO_STARTS, PRODUCT_MAX, PRODUCT_MIN, UINT,
                                        fill_times)
 from leakdiag.features._smalllag import LAG_DIRECT, auto_small_core, cross_small_core
-from leakdiag.features._stepsums import STEP_MAX, auto_small_steps, cross_small_steps
 
 __all__ = [
     "autocorrelation_sorted",
@@ -265,9 +265,7 @@ def autocorrelation_regular(x, lag, window, step, n_win, sample_rate, start_time
     """Eq. 4.1 for the windows ``s_k = k * step``: ``(values, times, n_zero_variance,
     n_nonfinite)``, the last counting windows whose sums are not finite (NaN/inf input)."""
     buf = np.empty((2, n_win))
-    if lag <= LAG_DIRECT and 2 <= step <= STEP_MAX:
-        n_bad, n_nonfinite = auto_small_steps(x, lag, window, step, buf[0])
-    elif lag <= LAG_DIRECT:
+    if lag <= LAG_DIRECT:
         n_bad, n_nonfinite = auto_small_core(x, lag, window, NO_STARTS, step, buf[0])
     else:
         n_bad, n_nonfinite = _auto_core(x, lag, window, NO_STARTS, step, buf[0])
@@ -525,9 +523,7 @@ def cross_correlation_regular(y, x, lag, window, step, n_win, sample_rate, start
     """Eq. 4.2 for the windows ``s_k = k * step``: ``(values, times, n_degenerate,
     n_nonfinite)``, the last counting windows whose sums are not finite (NaN/inf input)."""
     buf = np.empty((2, n_win))
-    if lag <= LAG_DIRECT and 2 <= step <= STEP_MAX:
-        n_bad, n_nonfinite = cross_small_steps(y, x, lag, window, step, buf[0])
-    elif lag <= LAG_DIRECT:
+    if lag <= LAG_DIRECT:
         n_bad, n_nonfinite = cross_small_core(y, x, lag, window, NO_STARTS, step, buf[0])
     else:
         n_bad, n_nonfinite = _cross_core(y, x, lag, window, NO_STARTS, step, buf[0])

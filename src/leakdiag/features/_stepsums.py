@@ -39,26 +39,65 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.features._chunks import UINT
+from leakdiag.features._chunks import UINT, fill_times
+from leakdiag.features._smalllag import LAG_DIRECT
 from leakdiag.features._values import auto_value, cross_value, moment_values
 
-__all__ = ["STEP_MAX", "auto_small_steps", "cross_small_steps", "moments_steps",
-           "metric_steps"]
+__all__ = ["STEP_MAX", "use_step_kernels", "auto_small_steps", "cross_small_steps",
+           "moments_steps", "metric_steps", "autocorrelation_steps_regular",
+           "cross_correlation_steps_regular", "moments_steps_regular", "metric_steps_regular"]
 
 STEP_MAX = 8  # longest step with its own compiled increment loop (constant stride)
 
 
+def use_step_kernels(step: int, lag: int = 0) -> bool:
+    """Whether the regular windows of ``step`` (and, for Eq. 4.1/4.2, ``lag``) go to these kernels.
+
+    The wrappers decide in Python, so that these kernels, whose eight copies of each loop take
+    about 15 s to compile once (then cached on disk), compile only when such a step is used.
+
+    Examples
+    --------
+    >>> [use_step_kernels(2, lag=1), use_step_kernels(1), use_step_kernels(190)]
+    [True, False, False]
+    >>> use_step_kernels(2, lag=40)  # long lags: the general kernels
+    False
+    """
+    return 2 <= step <= STEP_MAX and lag <= LAG_DIRECT
+
+
 # ---------------------------------------------------------------- lag edge sums
 @numba.njit(inline="always", error_model="numpy", fastmath={"contract"})
-def _edges_h(z, j0, c, lag, h, cnt, s1, s2):  # pragma: no cover - compiled
+def _edge1_h(z, j0, c, h, cnt, s1, s2):  # pragma: no cover - compiled
+    """``s1[t] = z[j0 + t h] - c`` and ``s2[t] = s1[t]^2`` for ``t < cnt`` (lag 1)."""
+    for t in range(cnt):
+        d = z[UINT(j0 + t * h)] - c
+        s1[t] = d
+        s2[t] = d * d
+
+
+@numba.njit(inline="always", error_model="numpy", fastmath={"contract"})
+def _edges(z, j0, c, lag, h, cnt, s1, s2):  # pragma: no cover - compiled
     """``s1[t], s2[t]`` for ``t < cnt``: sums of ``z_j - c`` and its square over the ``lag``
-    samples ``j = j0 + t h + i``, ``i < lag`` (a loop of its own for ``lag = 1``: an inner loop
-    of run-time length keeps LLVM from vectorising)."""
+    samples ``j = j0 + t h + i``, ``i < lag``. For lag 1 (the thesis's setting) a loop per
+    compile-time step; longer lags loop over ``i`` inside, which LLVM does not vectorise anyway."""
     if lag == 1:
-        for t in range(cnt):
-            d = z[UINT(j0 + t * h)] - c
-            s1[t] = d
-            s2[t] = d * d
+        if h == 2:
+            _edge1_h(z, j0, c, 2, cnt, s1, s2)
+        elif h == 3:
+            _edge1_h(z, j0, c, 3, cnt, s1, s2)
+        elif h == 4:
+            _edge1_h(z, j0, c, 4, cnt, s1, s2)
+        elif h == 5:
+            _edge1_h(z, j0, c, 5, cnt, s1, s2)
+        elif h == 6:
+            _edge1_h(z, j0, c, 6, cnt, s1, s2)
+        elif h == 7:
+            _edge1_h(z, j0, c, 7, cnt, s1, s2)
+        elif h == 8:
+            _edge1_h(z, j0, c, 8, cnt, s1, s2)
+        else:
+            _edge1_h(z, j0, c, h, cnt, s1, s2)
     else:
         for t in range(cnt):
             a1 = 0.0
@@ -69,27 +108,6 @@ def _edges_h(z, j0, c, lag, h, cnt, s1, s2):  # pragma: no cover - compiled
                 a2 += d * d
             s1[t] = a1
             s2[t] = a2
-
-
-@numba.njit(inline="always", error_model="numpy", fastmath={"contract"})
-def _edges(z, j0, c, lag, h, cnt, s1, s2):  # pragma: no cover - compiled
-    """:func:`_edges_h` with the step a compile-time constant for ``h <= STEP_MAX``."""
-    if h == 2:
-        _edges_h(z, j0, c, lag, 2, cnt, s1, s2)
-    elif h == 3:
-        _edges_h(z, j0, c, lag, 3, cnt, s1, s2)
-    elif h == 4:
-        _edges_h(z, j0, c, lag, 4, cnt, s1, s2)
-    elif h == 5:
-        _edges_h(z, j0, c, lag, 5, cnt, s1, s2)
-    elif h == 6:
-        _edges_h(z, j0, c, lag, 6, cnt, s1, s2)
-    elif h == 7:
-        _edges_h(z, j0, c, lag, 7, cnt, s1, s2)
-    elif h == 8:
-        _edges_h(z, j0, c, lag, 8, cnt, s1, s2)
-    else:
-        _edges_h(z, j0, c, lag, h, cnt, s1, s2)
 
 
 # ---------------------------------------------------------------- Eq. 4.1, lag <= LAG_DIRECT
@@ -653,3 +671,43 @@ def metric_steps(x, l_step, k_step, window, step, out):  # pragma: no cover - co
             n_nonfinite += 0 if den - den == 0.0 else 1
         k += cnt
     return n_bad, n_nonfinite
+
+
+# ---------------------------------------------------------------- entry points (values and times)
+@numba.njit(cache=True)
+def autocorrelation_steps_regular(x, lag, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
+    """As :func:`leakdiag.features._blocksums.autocorrelation_regular`, computed by
+    :func:`auto_small_steps`."""
+    buf = np.empty((2, n_win))
+    n_bad, n_nonfinite = auto_small_steps(x, lag, window, step, buf[0])
+    fill_times(buf[1], step, window, sample_rate, start_time)
+    return buf[0], buf[1], n_bad, n_nonfinite
+
+
+@numba.njit(cache=True)
+def cross_correlation_steps_regular(y, x, lag, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
+    """As :func:`leakdiag.features._blocksums.cross_correlation_regular`, computed by
+    :func:`cross_small_steps`."""
+    buf = np.empty((2, n_win))
+    n_bad, n_nonfinite = cross_small_steps(y, x, lag, window, step, buf[0])
+    fill_times(buf[1], step, window, sample_rate, start_time)
+    return buf[0], buf[1], n_bad, n_nonfinite
+
+
+@numba.njit(cache=True)
+def moments_steps_regular(x, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
+    """As :func:`leakdiag.features.moments._moments_regular`, by :func:`moments_steps`."""
+    buf = np.empty((5, n_win))
+    n_bad, n_nonfinite = moments_steps(x, window, step, buf[1:])
+    fill_times(buf[0], step, window, sample_rate, start_time)
+    return buf, n_bad, n_nonfinite
+
+
+@numba.njit(cache=True)
+def metric_steps_regular(x, l_step, k_step, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
+    """As :func:`leakdiag.features.metric_length._metric_regular` for one channel ``x`` (shape
+    ``(n,)``), by :func:`metric_steps`."""
+    buf = np.empty((2, n_win))
+    n_bad, n_nonfinite = metric_steps(x, l_step, k_step, window, step, buf[0])
+    fill_times(buf[1], step, window, sample_rate, start_time)
+    return buf[0], buf[1], n_bad, n_nonfinite

@@ -12,6 +12,11 @@ from leakdiag.features._blocksums import (
     cross_correlation_sorted,
 )
 from leakdiag.features._degenerate import warn_degenerate
+from leakdiag.features._stepsums import (
+    autocorrelation_steps_regular,
+    cross_correlation_steps_regular,
+    use_step_kernels,
+)
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["autocorrelation", "cross_correlation", "autocorrelation_at", "cross_correlation_at"]
@@ -113,7 +118,9 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
-    values, time, n_bad, n_nonfinite = autocorrelation_regular(
+    regular = (autocorrelation_steps_regular if use_step_kernels(plan.step, lag)
+               else autocorrelation_regular)
+    values, time, n_bad, n_nonfinite = regular(
         x_arr, lag, window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
     warn_degenerate(n_bad, len(values), "zero variance")
@@ -189,7 +196,9 @@ def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
-    values, time, n_bad, n_nonfinite = cross_correlation_regular(
+    regular = (cross_correlation_steps_regular if use_step_kernels(plan.step, lag)
+               else cross_correlation_regular)
+    values, time, n_bad, n_nonfinite = regular(
         y_arr, x_arr, lag, window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
     _args.finish_finite_check(y_arr, "y", n_nonfinite, plan)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)

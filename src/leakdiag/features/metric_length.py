@@ -10,7 +10,7 @@ import numpy as np
 from leakdiag.features import _args
 from leakdiag.features._chunks import CHUNK, NO_STARTS, fill_times
 from leakdiag.features._degenerate import warn_degenerate
-from leakdiag.features._stepsums import STEP_MAX, metric_steps
+from leakdiag.features._stepsums import metric_steps_regular, use_step_kernels
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["metric_length_ratio", "metric_length_ratio_at"]
@@ -123,11 +123,7 @@ def _metric_regular(x, l_step, k_step, window, step, n_win, sample_rate, start_t
     """Eq. 4.3 for the windows ``s_k = k * step``: ``(values, times, n_zero_denominator,
     n_nonfinite)``, the last counting windows whose sums are not finite (NaN/inf input)."""
     buf = np.empty((2, n_win))
-    if x.shape[1] == 1 and 2 <= step <= STEP_MAX:
-        n_bad, n_nonfinite = metric_steps(x.reshape(x.shape[0]), l_step, k_step, window, step,
-                                          buf[0])
-    else:
-        n_bad, n_nonfinite = _metric_core(x, l_step, k_step, window, NO_STARTS, step, buf[0])
+    n_bad, n_nonfinite = _metric_core(x, l_step, k_step, window, NO_STARTS, step, buf[0])
     fill_times(buf[1], step, window, sample_rate, start_time)
     return buf[0], buf[1], n_bad, n_nonfinite
 
@@ -213,8 +209,14 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
     window = _args.check_window(window)
     l_step, k_step = _args.parse_lag_ratio(lag_ratio, window)
     plan = _args.plan_windows(len(x2), window, overlap, sample_rate, start_time)
-    values, time, n_bad, n_nonfinite = _metric_regular(
-        x2, l_step, k_step, window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
+    if x2.shape[1] == 1 and use_step_kernels(plan.step):
+        values, time, n_bad, n_nonfinite = metric_steps_regular(
+            x2.reshape(-1), l_step, k_step, window, plan.step, plan.n_windows, plan.sample_rate,
+            plan.start_time)
+    else:
+        values, time, n_bad, n_nonfinite = _metric_regular(
+            x2, l_step, k_step, window, plan.step, plan.n_windows, plan.sample_rate,
+            plan.start_time)
     _args.finish_finite_check(x2, "x", n_nonfinite, plan)
     warn_degenerate(n_bad, len(values), _DEGENERATE)
     channels = _args.channel_names(x, "x", x2.shape[1])

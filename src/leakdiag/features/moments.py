@@ -8,7 +8,7 @@ import numpy as np
 from leakdiag.features import _args
 from leakdiag.features._chunks import CHUNK, NO_STARTS, UINT, fill_times
 from leakdiag.features._degenerate import warn_degenerate
-from leakdiag.features._stepsums import STEP_MAX, moments_steps
+from leakdiag.features._stepsums import moments_steps_regular, use_step_kernels
 from leakdiag.features._values import moment_values
 
 __all__ = ["moments", "moments_at", "MOMENT_COLUMNS"]
@@ -138,10 +138,7 @@ def _moments_regular(x, window, step, n_win, sample_rate, start_time):  # pragma
     """Rows ``time, mean, variance, skewness, kurtosis`` of one ``(5, n_win)`` array, the count
     of constant windows and the count of windows whose sums are not finite."""
     buf = np.empty((5, n_win))
-    if 2 <= step <= STEP_MAX:
-        n_bad, n_nonfinite = moments_steps(x, window, step, buf[1:])
-    else:
-        n_bad, n_nonfinite = _moment_core(x, window, NO_STARTS, step, buf[1:])
+    n_bad, n_nonfinite = _moment_core(x, window, NO_STARTS, step, buf[1:])
     fill_times(buf[0], step, window, sample_rate, start_time)
     return buf, n_bad, n_nonfinite
 
@@ -226,8 +223,9 @@ def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.
     x_arr = _args.signal_1d(x, "x", finite=False)  # checked with the kernel's help below
     window = _args.check_window(window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
-    buf, n_bad, n_nonfinite = _moments_regular(x_arr, window, plan.step, plan.n_windows,
-                                               plan.sample_rate, plan.start_time)
+    regular = moments_steps_regular if use_step_kernels(plan.step) else _moments_regular
+    buf, n_bad, n_nonfinite = regular(x_arr, window, plan.step, plan.n_windows,
+                                      plan.sample_rate, plan.start_time)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
     warn_degenerate(n_bad, plan.n_windows, "zero variance (skewness and kurtosis)")
     # one (5, m) block, handed to pandas without a copy (a fresh copy costs page faults)
