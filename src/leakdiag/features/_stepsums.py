@@ -24,8 +24,10 @@ accuracy argument is the one of the per-term kernels. The order of the additions
 terms are added together first), so the values differ from the per-term kernels and from
 ``every[::step]`` of the ``*_at`` functions in the last bits (tested to 1e-12). The per-window
 formula is the per-term kernels' own (the inline functions ``auto_value``, ``cross_value``,
-``moment_values``), evaluated per block. Cost at N = 200, step 2: 0.4x (metric length) to
-0.75x (cross-correlation) the per-term kernels' (interleaved A/B in ``docs/features.md``).
+``moment_values``), evaluated per block. Cost at N = 200 against the per-term kernels
+(interleaved A/B in ``docs/features.md``): 0.4x (metric length, step 2), 0.6x
+(autocorrelation, step 2), 0.7-0.75x (cross-correlation at steps 4-5, moments at step 4); the
+cross-correlation at step 2 is as fast either way.
 
 The block loop is written out in each kernel, as in the other kernel modules: the quantities
 differ per feature, and Numba helper calls that take arrays pay reference counting (the helpers
