@@ -107,6 +107,8 @@ def test_all_starts_then_slice_equals_overlap_call():
         got = df[["mean", "variance", "skewness", "kurtosis"]].to_numpy()
         step = df.attrs["step"]
         if 2 <= step <= STEP_MAX:
-            np.testing.assert_allclose(got, every[::step], rtol=1e-9, atol=1e-9)
+            want = every[::step]
+            np.testing.assert_allclose(got[:, :2], want[:, :2], rtol=1e-12)  # mean, variance
+            np.testing.assert_allclose(got[:, 2:], want[:, 2:], rtol=1e-9, atol=1e-11)
         else:
             np.testing.assert_array_equal(every[::step], got)
