@@ -161,3 +161,46 @@ def test_antialias_filter_minus_3db_at_cutoff_and_dc_gain_1():
                          sample_rate=1000.0)
     amp = np.sqrt(2) * np.std(m[2000:])
     assert amp == pytest.approx(1e6 / np.sqrt(2), rel=2e-3)
+
+
+def test_thesis_chains_quantum_from_the_voltage_chain():
+    from leakdiag.sim.sensors import THESIS_EHA_SENSORS, THESIS_VCA_SENSORS
+    fs_pa = 3000 * PSI_PA
+    # DAS16F, 12 bit over the transducer's 0-5 V: full scale / 2**12
+    assert THESIS_VCA_SENSORS.pressure_quantum_pa == pytest.approx(fs_pa / 4096, rel=1e-15)
+    # Q8: 14 bit over +-10 V with a 0-5 V transducer: (20 V / 5 V) * full scale / 2**14
+    assert THESIS_EHA_SENSORS.pressure_quantum_pa == pytest.approx(4 * fs_pa / 2**14, rel=1e-15)
+    assert SensorParams(pressure_adc_bits=14).pressure_quantum_pa == fs_pa / 2**14
+    # 10-90 % rise of 1 ms -> ln(9) / (2 pi 1 ms) = 349.7 Hz
+    assert THESIS_VCA_SENSORS.transducer_bandwidth_hz == pytest.approx(349.69, abs=0.01)
+    with pytest.raises(ValueError, match="adc_input_span_v=2.0 must cover"):
+        SensorParams(adc_input_span_v=2.0)
+
+
+def test_transducer_filter_step_response_and_pole():
+    from leakdiag.sim.sensors import pressure_chain, transducer_ba
+    b, a = transducer_ba(100.0, 1000.0)
+    pole = np.exp(-2 * np.pi * 100.0 / 1000.0)
+    assert a[1] == pytest.approx(-pole) and b[0] == pytest.approx(1 - pole)
+    s = SensorParams(pressure_noise_std_pa=0.0, pressure_adc_bits=32,
+                     transducer_bandwidth_hz=100.0)
+    p = np.r_[0.0, np.full(9, 1e6)]
+    m = pressure_chain(p, np.zeros(10), s, sample_rate=1000.0)
+    k = np.arange(9)
+    # first-order lag: 1 - pole**(k + 1) of the step after the first sample
+    assert m[1:] == pytest.approx(1e6 * (1 - pole ** (k + 1)), abs=s.pressure_quantum_pa)
+    with pytest.raises(ValueError, match="sample_rate is required when the sensor chain filters"):
+        pressure_chain(p, np.zeros(10), s)
+
+
+def test_pressure_chain_defaults_equal_the_in_loop_adc():
+    from leakdiag.sim.sensors import pressure_chain
+    s = SensorParams()
+    rng = np.random.default_rng(7)
+    p = rng.uniform(-1e5, 2.2e7, 3000)
+    e = s.pressure_noise_std_pa * rng.standard_normal(3000)
+    ref = [adc_reading(pi, ei, s.pressure_full_scale_pa, s.pressure_quantum_pa)
+           for pi, ei in zip(p, e)]
+    assert np.array_equal(pressure_chain(p, e, s), np.array(ref))
+    with pytest.raises(ValueError, match="noise has 2 samples, pressure 3000"):
+        pressure_chain(p, e[:2], s)

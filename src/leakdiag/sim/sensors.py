@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass
 
 import numba
 import numpy as np
-from scipy.signal import butter, sosfilt, sosfilt_zi
+from scipy.signal import butter, lfilter, lfilter_zi, sosfilt, sosfilt_zi
 
 from leakdiag._validation import check_int, check_positive
 
@@ -19,6 +19,10 @@ __all__ = [
     "PSI_PA",
     "SensorParams",
     "antialias_sos",
+    "transducer_ba",
+    "pressure_chain",
+    "THESIS_VCA_SENSORS",
+    "THESIS_EHA_SENSORS",
     "quantize",
     "adc_reading",
     "measure_pressure",
@@ -36,6 +40,19 @@ DAS16F_BITS = 12
 ENCODER_RESOLUTION_M = 0.03e-3
 #: Order of the anti-alias low-pass (Butterworth) when ``antialias_cutoff_hz`` is set.
 ANTIALIAS_ORDER = 2
+#: Transducer output span, 0-5 V (Sec. 2.2: "an output supply of 0-5 VDC").
+TRANSDUCER_OUTPUT_SPAN_V = 5.0
+#: Quanser Q8 analog inputs: 14 bit (Sec. 3.2) over +-10 V (Quanser Q8 terminal board
+#: specification; the thesis gives the resolution, not the range).
+Q8_BITS = 14
+Q8_INPUT_SPAN_V = 20.0
+#: Response time (10-90 %) of an amplified strain-gauge pressure transducer with a 0-5 V
+#: output, the kind named in Sec. 2.2: "< 1 ms" is the usual data-sheet figure for this class
+#: (e.g. Omega PX309, Honeywell/Sensotec TJE). The thesis does not state it.
+TRANSDUCER_RESPONSE_TIME_S = 1e-3
+#: First-order -3 dB bandwidth of that transducer: a 10-90 % rise of ``ln(9) tau`` gives
+#: ``f_c = ln(9) / (2 pi t_r)`` = 350 Hz.
+TRANSDUCER_BANDWIDTH_HZ = float(np.log(9.0) / (2.0 * np.pi * TRANSDUCER_RESPONSE_TIME_S))
 
 
 @dataclass(frozen=True)
@@ -62,8 +79,22 @@ class SensorParams:
         Span (gain) factor of the P1 / P2 transducer, > 0, applied before quantisation:
         reading ``= gain * p + offset + noise`` before the anti-alias filter and converter.
     antialias_cutoff_hz : float or None, default None
-        -3 dB cutoff of the acquisition's anti-alias low-pass in Hz; ``None`` = no filter
-        (the default, which leaves every reading bit-identical to the chain without it).
+        -3 dB cutoff of the acquisition's anti-alias low-pass in Hz (Butterworth of order
+        ``antialias_order``); ``None`` = no filter (the default, which leaves every reading
+        bit-identical to the chain without it).
+    antialias_order : int, default 2
+        Order of that filter.
+    transducer_bandwidth_hz : float or None, default None
+        -3 dB bandwidth of the transducer and its conditioning amplifier, modelled as a
+        first-order low-pass acting on the pressure (before the electrical noise); ``None`` =
+        ideal (infinitely fast). :data:`TRANSDUCER_BANDWIDTH_HZ` is the value of the kind of
+        part named in Sec. 2.2.
+    transducer_output_span_v : float, default 5
+        Output span of the transducer over its range (Sec. 2.2: 0-5 V).
+    adc_input_span_v : float, default 5
+        Span of the converter's input range (e.g. 20 V for +-10 V). The pressure quantum is
+        ``full_scale * adc_input_span_v / transducer_output_span_v / 2**bits``: a 0-5 V
+        transducer on a +-10 V, 14-bit converter uses 2**12 of its codes.
 
     Raises
     ------
@@ -87,6 +118,10 @@ class SensorParams:
     p1_gain: float = 1.0
     p2_gain: float = 1.0
     antialias_cutoff_hz: float | None = None
+    antialias_order: int = ANTIALIAS_ORDER
+    transducer_bandwidth_hz: float | None = None
+    transducer_output_span_v: float = TRANSDUCER_OUTPUT_SPAN_V
+    adc_input_span_v: float = TRANSDUCER_OUTPUT_SPAN_V
 
     def __post_init__(self) -> None:
         check_positive(self.pressure_full_scale_pa, "pressure_full_scale_pa")
@@ -106,6 +141,14 @@ class SensorParams:
         check_positive(self.p2_gain, "p2_gain")
         if self.antialias_cutoff_hz is not None:
             check_positive(self.antialias_cutoff_hz, "antialias_cutoff_hz")
+        check_int(self.antialias_order, "antialias_order", 1, 12)
+        if self.transducer_bandwidth_hz is not None:
+            check_positive(self.transducer_bandwidth_hz, "transducer_bandwidth_hz")
+        check_positive(self.transducer_output_span_v, "transducer_output_span_v")
+        check_positive(self.adc_input_span_v, "adc_input_span_v")
+        if self.adc_input_span_v < self.transducer_output_span_v:
+            raise ValueError(f"adc_input_span_v={self.adc_input_span_v!r} must cover "
+                             f"transducer_output_span_v={self.transducer_output_span_v!r}")
 
     def transducer_error(self, channel: str) -> tuple[float, float]:
         """Gain and offset of one pressure channel.
@@ -146,8 +189,16 @@ class SensorParams:
 
     @property
     def pressure_quantum_pa(self) -> float:
-        """ADC step in Pa, ``full_scale / 2**bits``."""
-        return self.pressure_full_scale_pa / 2.0**self.pressure_adc_bits
+        """ADC step in Pa: ``full_scale * (adc span / transducer span) / 2**bits``."""
+        ratio = float(self.adc_input_span_v) / float(self.transducer_output_span_v)
+        if ratio == 1.0:
+            return self.pressure_full_scale_pa / 2.0**self.pressure_adc_bits
+        return self.pressure_full_scale_pa * ratio / 2.0**self.pressure_adc_bits
+
+    @property
+    def filters_pressure(self) -> bool:
+        """True if the chain has a transducer bandwidth or an anti-alias filter."""
+        return self.transducer_bandwidth_hz is not None or self.antialias_cutoff_hz is not None
 
     def to_dict(self) -> dict:
         """Field name -> value (for recording metadata).
@@ -258,13 +309,112 @@ def antialias_sos(cutoff_hz: float, sample_rate: float, order: int = ANTIALIAS_O
     return butter(check_int(order, "order", 1, 12), fc, btype="low", output="sos", fs=fs)
 
 
+def transducer_ba(bandwidth_hz: float, sample_rate: float) -> tuple[np.ndarray, np.ndarray]:
+    r"""Digital first-order low-pass of the transducer (matched pole, unit DC gain).
+
+    The continuous :math:`H(s) = 1 / (1 + s / \omega_c)` sampled by pole matching:
+    :math:`y_k = a\,y_{k-1} + (1 - a)\,x_k`, :math:`a = e^{-\omega_c / f_s}`.
+
+    Parameters
+    ----------
+    bandwidth_hz : float
+        -3 dB frequency of the continuous filter, Hz.
+    sample_rate : float
+        Sampling rate, Hz.
+
+    Returns
+    -------
+    b, a : numpy.ndarray
+        Coefficients for :func:`scipy.signal.lfilter`.
+
+    Examples
+    --------
+    >>> b, a = transducer_ba(350.0, 1000.0)
+    >>> round(float(b[0] / (a[0] + a[1])), 12)  # DC gain
+    1.0
+    """
+    fs = check_positive(sample_rate, "sample_rate")
+    wc = 2.0 * np.pi * check_positive(bandwidth_hz, "bandwidth_hz")
+    pole = float(np.exp(-wc / fs))
+    return np.array([1.0 - pole]), np.array([1.0, -pole])
+
+
+def _filter_from_rest(b, a, x: np.ndarray) -> np.ndarray:
+    """``lfilter`` started in the steady state of the first sample (no start-up transient)."""
+    if x.size == 0:
+        return x
+    return lfilter(b, a, x, zi=lfilter_zi(b, a) * x[0])[0]
+
+
+def pressure_chain(pressure, noise, sensors: SensorParams, *, channel: str | None = None,
+                   sample_rate: float | None = None) -> np.ndarray:
+    """Pressure channel through the sensor chain, with a given noise sequence.
+
+    In order: the channel's transducer error ``gain * p + offset``; the transducer's
+    bandwidth (first-order, :func:`transducer_ba`); the electrical noise (``noise``, Pa
+    referred); the acquisition's anti-alias filter (:func:`antialias_sos`); rounding to the
+    ADC quantum; clipping to ``[0, full_scale - quantum]``. Filters are causal and start in
+    the steady state of the first sample.
+
+    Parameters
+    ----------
+    pressure : array_like, 1-D
+        True gauge pressure in Pa.
+    noise : array_like, 1-D
+        Noise in Pa, same length (already scaled by ``pressure_noise_std_pa``).
+    sensors : SensorParams
+        Sensor chain.
+    channel : {"p1", "p2"}, optional
+        Which transducer's gain and offset apply; required if any is not ideal.
+    sample_rate : float, optional
+        Sampling rate in Hz; required if a filter is on.
+
+    Returns
+    -------
+    numpy.ndarray
+        Measured pressure in Pa.
+
+    Raises
+    ------
+    ValueError
+        If a transducer error is set without ``channel``, a filter without ``sample_rate``,
+        or the lengths differ.
+
+    Examples
+    --------
+    >>> s = SensorParams()
+    >>> q = s.pressure_quantum_pa
+    >>> pressure_chain([1e6], [0.4 * q], s).tolist() == [round(1e6 / q + 0.4) * q]
+    True
+    """
+    p = np.array(pressure, dtype=np.float64).reshape(-1)
+    e = np.ascontiguousarray(noise, dtype=np.float64).reshape(-1)
+    if e.shape != p.shape:
+        raise ValueError(f"noise has {e.size} samples, pressure {p.size}")
+    if channel is not None or sensors.has_transducer_error:
+        if channel is None:
+            raise ValueError("channel must be 'p1' or 'p2' when the sensors have a transducer "
+                             "offset or gain error")
+        gain, offset = sensors.transducer_error(channel)
+        if gain != 1.0 or offset != 0.0:
+            p = gain * p + offset
+    if sensors.filters_pressure and sample_rate is None:
+        raise ValueError("sample_rate is required when the sensor chain filters "
+                         f"(transducer_bandwidth_hz={sensors.transducer_bandwidth_hz!r}, "
+                         f"antialias_cutoff_hz={sensors.antialias_cutoff_hz!r})")
+    if sensors.transducer_bandwidth_hz is not None:
+        p = _filter_from_rest(*transducer_ba(sensors.transducer_bandwidth_hz, sample_rate), p)
+    noisy = p + e
+    if sensors.antialias_cutoff_hz is not None and noisy.size:
+        sos = antialias_sos(sensors.antialias_cutoff_hz, sample_rate, sensors.antialias_order)
+        noisy = sosfilt(sos, noisy, zi=sosfilt_zi(sos) * noisy[0])[0]
+    q = sensors.pressure_quantum_pa
+    return np.clip(np.round(noisy / q) * q, 0.0, sensors.pressure_full_scale_pa - q)
+
+
 def measure_pressure(pressure, sensors: SensorParams, rng: np.random.Generator, *,
                      channel: str | None = None, sample_rate: float | None = None) -> np.ndarray:
-    """Pressure channel as recorded: transducer error, noise, anti-alias filter, ADC, clipping.
-
-    The chain, in order: ``gain * p + offset`` (the channel's transducer error), additive
-    white noise, the anti-alias low-pass (if ``antialias_cutoff_hz`` is set; causal, started
-    at rest from the first value), rounding to the ADC quantum, clipping to the range.
+    """Pressure channel as recorded: white noise from ``rng``, then :func:`pressure_chain`.
 
     Parameters
     ----------
@@ -273,11 +423,11 @@ def measure_pressure(pressure, sensors: SensorParams, rng: np.random.Generator, 
     sensors : SensorParams
         Sensor chain.
     rng : numpy.random.Generator
-        Source of the noise.
+        Source of the noise (``pressure_noise_std_pa`` times standard normal draws).
     channel : {"p1", "p2"}, optional
         Which transducer's gain and offset apply; required if any is not ideal.
     sample_rate : float, optional
-        Sampling rate in Hz; required if the anti-alias filter is on.
+        Sampling rate in Hz; required if a filter of the chain is on.
 
     Returns
     -------
@@ -287,8 +437,7 @@ def measure_pressure(pressure, sensors: SensorParams, rng: np.random.Generator, 
     Raises
     ------
     ValueError
-        If a transducer error is set without ``channel``, or the filter without
-        ``sample_rate``.
+        As :func:`pressure_chain`.
 
     Examples
     --------
@@ -298,24 +447,9 @@ def measure_pressure(pressure, sensors: SensorParams, rng: np.random.Generator, 
     True
     """
     p = np.ascontiguousarray(pressure, dtype=np.float64)
-    q = sensors.pressure_quantum_pa
-    if channel is not None or sensors.has_transducer_error:
-        if channel is None:
-            raise ValueError("channel must be 'p1' or 'p2' when the sensors have a transducer "
-                             "offset or gain error")
-        gain, offset = sensors.transducer_error(channel)
-        if gain != 1.0 or offset != 0.0:
-            p = gain * p + offset
-    noisy = p + sensors.pressure_noise_std_pa * rng.standard_normal(p.shape)
-    if sensors.antialias_cutoff_hz is not None:
-        if sample_rate is None:
-            raise ValueError("sample_rate is required when antialias_cutoff_hz="
-                             f"{sensors.antialias_cutoff_hz!r} is set")
-        if noisy.size:
-            sos = antialias_sos(sensors.antialias_cutoff_hz, sample_rate)
-            zi = sosfilt_zi(sos) * noisy.reshape(-1)[0]
-            noisy = sosfilt(sos, noisy.reshape(-1), zi=zi)[0].reshape(noisy.shape)
-    return np.clip(np.round(noisy / q) * q, 0.0, sensors.pressure_full_scale_pa - q)
+    noise = sensors.pressure_noise_std_pa * rng.standard_normal(p.shape)
+    return pressure_chain(p.reshape(-1), noise.reshape(-1), sensors, channel=channel,
+                          sample_rate=sample_rate).reshape(p.shape)
 
 
 def measure_position(position, sensors: SensorParams) -> np.ndarray:
@@ -341,3 +475,15 @@ def measure_position(position, sensors: SensorParams) -> np.ndarray:
     x = np.ascontiguousarray(position, dtype=np.float64)
     q = sensors.position_resolution_m
     return np.round(x / q) * q
+
+
+#: The VCA rig's chain as the thesis describes it (Sec. 2.2): 0-3000 psig transducers with a
+#: 0-5 V output and the bandwidth of that kind of part, digitised by the DAS16F (12 bit, its
+#: 0-5 V unipolar range assumed, so the transducer fills the range); no anti-alias filter is
+#: named for the DAS16F (see docs/models.md, "Sensor chain").
+THESIS_VCA_SENSORS = SensorParams(transducer_bandwidth_hz=TRANSDUCER_BANDWIDTH_HZ)
+#: The EHA rig's chain (Sec. 3.2): 3000 psi transducers (0-5 V, as in Sec. 2.2) on the Quanser
+#: Q8's 14-bit simultaneous-sampling inputs over +-10 V: the 5 V span uses 2**12 codes.
+THESIS_EHA_SENSORS = SensorParams(pressure_adc_bits=Q8_BITS, control_dac_bits=Q8_BITS,
+                                  adc_input_span_v=Q8_INPUT_SPAN_V,
+                                  transducer_bandwidth_hz=TRANSDUCER_BANDWIDTH_HZ)
