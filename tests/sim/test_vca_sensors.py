@@ -204,3 +204,24 @@ def test_pressure_chain_defaults_equal_the_in_loop_adc():
     assert np.array_equal(pressure_chain(p, e, s), np.array(ref))
     with pytest.raises(ValueError, match="noise has 2 samples, pressure 3000"):
         pressure_chain(p, e[:2], s)
+
+
+def test_simulators_record_pressures_through_the_chain():
+    from leakdiag.sim import simulate_eha, simulate_vca
+    from leakdiag.sim.sensors import THESIS_EHA_SENSORS, pressure_chain
+    s = SensorParams(transducer_bandwidth_hz=200.0, p1_offset_pa=3e3, p2_gain=1.01)
+    a = simulate_vca(duration=2.0, leak_lpm=None, seed=3, sensor_params=s)
+    b = simulate_vca(duration=2.0, leak_lpm=None, seed=3, sensor_params=SensorParams())
+    # same loop (position and command identical), pressures differ only by the chain
+    assert np.array_equal(a["x"], b["x"]) and np.array_equal(a["u"], b["u"])
+    assert 2e3 < np.mean(a["p1"] - b["p1"]) < 4e3  # the 3 kPa offset, within noise
+    # an offset of exactly 10 quanta moves every (unclipped) reading by exactly 10 codes
+    q = SensorParams().pressure_quantum_pa
+    c = simulate_vca(duration=2.0, leak_lpm=None, seed=3,
+                     sensor_params=SensorParams(p1_offset_pa=10 * q))
+    assert np.abs(c["p1"] - b["p1"] - 10 * q).max() < 1e-6  # Pa: float rounding only
+    assert np.array_equal(c["p2"], b["p2"])
+    e = simulate_eha(duration=2.0, leak_lpm=None, seed=3, sensor_params=THESIS_EHA_SENSORS)
+    steps = np.unique(np.round(np.diff(np.unique(e["p1"])) / THESIS_EHA_SENSORS
+                               .pressure_quantum_pa, 6))
+    assert steps.min() == 1.0  # readings sit on the 2**12-code grid of the Q8 chain

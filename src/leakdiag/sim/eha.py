@@ -352,7 +352,9 @@ def simulate_eha(
     if sensors:
         rng = np.random.default_rng(noise_ss)
         for name in ("p1", "p2", "pa", "pb"):
-            chans[name] = measure_pressure(chans[name], sensor_params, rng)
+            chans[name] = measure_pressure(chans[name], sensor_params, rng,
+                                           channel=name if name in ("p1", "p2") else None,
+                                           sample_rate=fs)
         chans["x"] = measure_position(chans["x"], sensor_params)
         dac = 2.0 * params.command_limit_v / 2.0**sensor_params.control_dac_bits
         chans["u"] = np.round(u / dac) * dac  # D/A of the command, as sensors.quantize

@@ -21,7 +21,7 @@ from leakdiag.sim.leak import (
     m3s_to_lpm,
 )
 from leakdiag.sim.reference import as_reference
-from leakdiag.sim.sensors import SensorParams
+from leakdiag.sim.sensors import SensorParams, pressure_chain
 from leakdiag.sim.vca_conditions import OperatingConditions
 from leakdiag.sim.vca_control import FixedGainController
 from leakdiag.sim.vca_integrator import ClosedLoopResult, integrate_closed_loop, rk4_advance
@@ -311,6 +311,13 @@ def simulate_vca(
 
     if sensors:
         x_out, p1_out, p2_out = result.measured[:, 0], result.measured[:, 1], result.measured[:, 2]
+        if sensor_params.filters_pressure or sensor_params.has_transducer_error:
+            # Recorded pressures through the whole chain (sensors.pressure_chain) with the same
+            # noise; the controller's in-loop readings stay unfiltered (position loop only).
+            p1_out = pressure_chain(result.state[:, 2], noise[0], sensor_params, channel="p1",
+                                    sample_rate=fs)
+            p2_out = pressure_chain(result.state[:, 3], noise[1], sensor_params, channel="p2",
+                                    sample_rate=fs)
     else:
         x_out, p1_out, p2_out = result.state[:, 0], result.state[:, 2], result.state[:, 3]
     meta = {
