@@ -24,26 +24,39 @@ __all__ = ["reproduce"]
               help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")
 @click.option("--chunk", type=click.IntRange(min=1), default=10, show_default=True,
               help="Feature values per RMS chunk (Sec. 5.2; not stated in the thesis).")
+@click.option("--protocol", type=click.Choice(["thesis", "v1"]), default="thesis",
+              show_default=True,
+              help="thesis: case studies as Sec. 5.1 states them (VCA 1-2 without load, stated "
+                   "step amplitudes, the rigs' sensor chains); v1: the earlier setup (spring "
+                   "load, 2-20 mm, default sensors), for side-by-side comparison.")
+@click.option("--previous", type=click.Path(dir_okay=False, exists=True), default=None,
+              help="tables.csv of an earlier run: the report adds a per-table comparison.")
 @click.option("--no-progress", is_flag=True, help="Hide progress bars.")
 @click.option("--save-results", type=click.Path(dir_okay=False), default=None,
               help="Also pickle the computed results (to rebuild the report of this run).")
-def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, no_progress,
-              save_results):
+def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol, previous,
+              no_progress, save_results):
     """Reproduce the thesis's case studies, tables, sensitivity and stationarity analysis."""
     import time
 
-    from leakdiag.studies.protocol import FULL, QUICK
+    from leakdiag.studies.protocol import protocol_config
     from leakdiag.studies.reproduce import reproduce as run
 
     t0 = time.perf_counter()
     from leakdiag.studies.reproduce import write_outputs
 
     systems = ("vca", "eha") if system == "all" else (system,)
-    cfg = dataclasses.replace(QUICK if quick else FULL, cache_dir=cache_dir, chunk=chunk)
+    cfg = dataclasses.replace(protocol_config(protocol, quick), cache_dir=cache_dir, chunk=chunk)
+    if previous:
+        import pandas as pd
+
+        previous = pd.read_csv(previous)  # read first: a bad file fails before the long run
     rep = run(systems, cfg, scheduler=scheduler, n_workers=workers, progress=not no_progress)
+    rep.previous = previous
     command = "leakdiag " + " ".join(shlex.quote(a) for a in sys.argv[1:]) \
         if sys.argv and sys.argv[0].endswith("leakdiag") else f"leakdiag reproduce {system}" + (
-            " --quick" if quick else "")
+            " --quick" if quick else "") + (f" --protocol {protocol}" if protocol != "thesis"
+                                             else "")
     if save_results:
         import pickle
 

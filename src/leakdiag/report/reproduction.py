@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from leakdiag.report.html import Report
+from leakdiag.studies.reproduce import compare_runs, per_table_agreement
 
 __all__ = ["build_report", "direction_word", "trend_word"]
 
@@ -183,10 +184,11 @@ def _summary(rep, r: Report) -> None:
                      f"{int((p.thesis_values_rule.astype(str) == p.thesis_choice.astype(str)).sum())}"
                      f" of {len(p)} (the thesis often chose for visual reasons).")
     r.bullets(items)
-    r.table(t.groupby(["system", "table", "method", "signals", "varied"], sort=False).agg(
-        rows=("direction_agrees", "size"), direction_agrees=("direction_agrees", "sum"),
-        trend_ours=("trend_ours", "first"), trend_thesis=("trend_thesis", "first"),
-        trend_agrees=("trend_agrees", "first")).reset_index(), "Agreement per table")
+    r.table(per_table_agreement(t), "Agreement per table: direction (rows agreeing), trend "
+            "(sweep tables), median |% change| ours and thesis's, and the median over the "
+            "table's rows of ours / thesis's")
+    if getattr(rep, "previous", None) is not None:
+        _changes_section(rep, r)
     r.heading("Main disagreements", 3)
     bad = t[~t["direction_agrees"].astype(bool)]
     if len(bad):
@@ -217,6 +219,20 @@ def _summary(rep, r: Report) -> None:
         "printed % change that does not match their own RMS columns. (4) Each thesis table is "
         "one experiment on one rig; ours is one seeded simulation. No model was tuned to the "
         "printed numbers.")
+
+
+def _changes_section(rep, r: Report) -> None:
+    """Per table, this run beside the previous one (numbers only; the why is in the README)."""
+    c = compare_runs(rep.tables, rep.previous)
+    r.heading("What changed against the previous run", 3)
+    old, new = rep.previous, rep.tables
+    r.paragraph(
+        f"Direction agrees in {int(old.direction_agrees.astype(bool).sum())} of {len(old)} rows "
+        f"before and {int(new.direction_agrees.astype(bool).sum())} of {len(new)} now; median "
+        f"ratio of our |% change| to the thesis's "
+        f"{np.nanmedian(old.pct_change / old.thesis_pct_change):.3g} before, "
+        f"{np.nanmedian(new.pct_change / new.thesis_pct_change):.3g} now.")
+    r.table(c, "Per table: previous run (_old) and this run (_new)")
 
 
 def _sweep_section(rep, r: Report, figures: bool) -> None:

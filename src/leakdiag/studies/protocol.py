@@ -11,6 +11,11 @@ each run by the pure :func:`run_case` (serially or on Dask, see :mod:`leakdiag.s
   preferred method of the thesis measured;
 * ``"stationarity"``: the Sec. 4.7 analysis of the case-study-1 experiment.
 
+Two named protocols (:data:`PROTOCOLS`): ``"thesis"`` (the default) runs the case studies as
+the Sec. 5.1 and Sec. 6 lists state them (VCA case studies 1-2 without load, step amplitudes
+8-20, 5-17 and 2-20 mm, the sensor chains of Secs. 2.2 and 3.2); ``"v1"`` keeps the setup of the
+first reproductions (spring load, 2-20 mm, default sensors) so that effects can be compared.
+
 Simulations go through :func:`~leakdiag.studies.cache.cached_simulation`.
 """
 
@@ -21,8 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["ProtocolConfig", "QUICK", "FULL", "build_cases", "run_case", "simulate_case",
-           "SENSITIVITY_METHODS"]
+__all__ = ["ProtocolConfig", "QUICK", "FULL", "THESIS", "V1", "PROTOCOLS", "protocol_config",
+           "build_cases", "run_case", "simulate_case", "SENSITIVITY_METHODS"]
 
 VCA_DURATION_S = 400.0  # Sec. 4.5: 400 s experiments, leak at about 200 s
 VCA_ONSET_S = 200.0  # Sec. 4.5
@@ -33,6 +38,12 @@ EHA_CASE_LEAKS_LPM = {1: 1.2, 2: 0.98}  # Sec. 6 case studies 1 and 2
 VCA_SENSITIVITY_LPM = (0.047, 0.1, 0.2, 0.3, 0.4, 0.5)  # Sec. 5.1 case study 3: 0.047-0.5
 EHA_SENSITIVITY_LPM = (0.77, 0.98, 1.2, 1.4, 1.63)  # Sec. 6 case study 3: 0.77-1.63
 VCA_SENSITIVITY_DURATIONS_S = (300.0, 400.0, 600.0)  # Sec. 5.1: tests of 300, 400 and 600 s
+#: Step amplitudes of the pseudorandom reference per VCA case study, mm (Sec. 5.1 list: case
+#: study 1 "amplitude: 8 mm to 20 mm", case study 2 "5 mm to 17 mm", case study 3 "2 mm to
+#: 20 mm").
+VCA_REFERENCE_MM = ((1, 8.0, 20.0), (2, 5.0, 17.0), (3, 2.0, 20.0))
+#: Load of VCA case studies 1 and 2: Sec. 5.1 list, "under a no-load condition" (both).
+VCA_CASE_LOAD = "none"
 STATIONARITY_WINDOW = 400  # Sec. 4.7.1: window 400
 STATIONARITY_OVERLAP = 50.0  # Sec. 4.7.1: 50 % overlap
 
@@ -57,14 +68,15 @@ class ProtocolConfig:
     Parameters
     ----------
     name : str
-        ``"full"`` or ``"quick"`` (or any label).
+        ``"thesis"``, ``"v1"`` or their ``-quick`` versions (or any label).
     vca_duration_s, vca_onset_s : float
         Case-study 1 and 2 VCA experiment length and leak onset, s.
     eha_duration_s, eha_onset_s : float
         Same for the EHA.
     vca_load, eha_load : str
-        Load of the case-study 1-2 experiments: VCA ``"spring"`` (Sec. 4.5), EHA ``"none"``
-        (Sec. 6, "no-load condition").
+        Load of the case-study 1-2 experiments: VCA ``"none"`` (Sec. 5.1: case studies 1 and 2
+        "under a no-load condition"; protocol ``v1`` used ``"spring"`` after Sec. 4.5), EHA
+        ``"none"`` (Sec. 6, "no-load condition").
     table_seed : int
         Seed of the case-study 1-2 experiments.
     vca_sensitivity_lpm, eha_sensitivity_lpm : tuple of float
@@ -81,19 +93,27 @@ class ProtocolConfig:
         RMS chunk length in feature values (Sec. 5.2; not stated in the thesis).
     cache_dir : str or None
         Simulation cache folder (None: default, see :func:`leakdiag.studies.cache.resolve_cache_dir`).
+    vca_reference_mm : tuple of (case_study, min_mm, max_mm) or None
+        Step amplitudes of the VCA reference per case study (:data:`VCA_REFERENCE_MM`, Sec.
+        5.1); ``None``: the simulator's default reference (2-20 mm, protocol ``v1``).
+    sensor_chain : {"thesis", "default"}
+        ``"thesis"``: the chains of Secs. 2.2 and 3.2
+        (:data:`~leakdiag.sim.sensors.THESIS_VCA_SENSORS`,
+        :data:`~leakdiag.sim.sensors.THESIS_EHA_SENSORS`); ``"default"``: the simulators'
+        defaults (protocol ``v1``).
 
     Examples
     --------
-    >>> QUICK.vca_duration_s, FULL.vca_duration_s
-    (60.0, 400.0)
+    >>> QUICK.vca_duration_s, FULL.vca_duration_s, FULL.vca_load, V1.vca_load
+    (60.0, 400.0, 'none', 'spring')
     """
 
-    name: str = "full"
+    name: str = "thesis"
     vca_duration_s: float = VCA_DURATION_S
     vca_onset_s: float = VCA_ONSET_S
     eha_duration_s: float = EHA_DURATION_S
     eha_onset_s: float = EHA_ONSET_S
-    vca_load: str = "spring"
+    vca_load: str = VCA_CASE_LOAD
     eha_load: str = "none"
     table_seed: int = 0
     vca_sensitivity_lpm: tuple = VCA_SENSITIVITY_LPM
@@ -105,6 +125,17 @@ class ProtocolConfig:
     chunk: int = 10
     cache_dir: str | None = None
     extra: dict = field(default_factory=dict)
+    vca_reference_mm: tuple | None = VCA_REFERENCE_MM
+    sensor_chain: str = "thesis"
+
+    def __post_init__(self) -> None:
+        if self.sensor_chain not in ("thesis", "default"):
+            raise ValueError(f"sensor_chain={self.sensor_chain!r} must be 'thesis' or 'default'")
+        if self.vca_reference_mm is not None:
+            for item in self.vca_reference_mm:
+                cs, lo, hi = item
+                if not 0 <= lo < hi:
+                    raise ValueError(f"vca_reference_mm entry {item!r}: need 0 <= min < max")
 
     def as_dict(self) -> dict:
         """All fields as plain data.
@@ -116,14 +147,73 @@ class ProtocolConfig:
         return dataclasses.asdict(self)
 
 
-#: The thesis protocol at full length.
-FULL = ProtocolConfig()
+#: The case studies as the thesis states them (Sec. 5.1 and Sec. 6 lists): VCA case studies 1
+#: and 2 without load, their stated step amplitudes, the sensor chains of Secs. 2.2 and 3.2.
+THESIS = ProtocolConfig()
+#: The protocol of the first reproductions (before issue 14): VCA case studies 1-2 under the
+#: spring load, the simulator's 2-20 mm reference everywhere, the simulators' default sensors.
+V1 = ProtocolConfig(name="v1", vca_load="spring", vca_reference_mm=None, sensor_chain="default")
+#: Protocols by name (``leakdiag reproduce --protocol``).
+PROTOCOLS = {"thesis": THESIS, "v1": V1}
+#: The default protocol at full length (the thesis's).
+FULL = THESIS
+
+
+def _quick(cfg: ProtocolConfig) -> ProtocolConfig:
+    """The short CI version of a protocol (same setup, shorter runs, fewer cases)."""
+    return dataclasses.replace(
+        cfg, name=f"{cfg.name}-quick", vca_duration_s=60.0, vca_onset_s=30.0,
+        eha_duration_s=40.0, eha_onset_s=20.0, vca_sensitivity_lpm=(0.047, 0.5),
+        eha_sensitivity_lpm=(0.77, 1.63), vca_sensitivity_durations_s=(60.0,),
+        eha_sensitivity_duration_s=40.0, sensitivity_seeds=(1,))
+
+
 #: A short version for CI: 60 s VCA (leak at 30 s), 40 s EHA (leak at 20 s), one seed, two
 #: leak sizes per system, one VCA duration.
-QUICK = ProtocolConfig(name="quick", vca_duration_s=60.0, vca_onset_s=30.0, eha_duration_s=40.0,
-                       eha_onset_s=20.0, vca_sensitivity_lpm=(0.047, 0.5),
-                       eha_sensitivity_lpm=(0.77, 1.63), vca_sensitivity_durations_s=(60.0,),
-                       eha_sensitivity_duration_s=40.0, sensitivity_seeds=(1,))
+QUICK = _quick(THESIS)
+
+
+def protocol_config(name: str = "thesis", quick: bool = False) -> ProtocolConfig:
+    """A named protocol, optionally in its short version.
+
+    Parameters
+    ----------
+    name : {"thesis", "v1"}
+        Protocol (:data:`PROTOCOLS`).
+    quick : bool, default False
+        Short CI version.
+
+    Returns
+    -------
+    ProtocolConfig
+
+    Raises
+    ------
+    ValueError
+        For an unknown name.
+
+    Examples
+    --------
+    >>> protocol_config("v1", quick=True).name
+    'v1-quick'
+    """
+    if name not in PROTOCOLS:
+        raise ValueError(f"protocol={name!r} must be one of {sorted(PROTOCOLS)}")
+    cfg = PROTOCOLS[name]
+    return _quick(cfg) if quick else cfg
+
+
+def _vca_extras(cfg: ProtocolConfig, case_study: int) -> dict:
+    """Simulator arguments beyond the v1 ones: the reference and the sensor chain."""
+    out = {}
+    if cfg.vca_reference_mm is not None:
+        ref = {int(cs): (float(lo), float(hi)) for cs, lo, hi in cfg.vca_reference_mm}
+        if case_study in ref:
+            lo, hi = ref[case_study]
+            out["reference"] = {"min_amplitude_m": lo * 1e-3, "max_amplitude_m": hi * 1e-3}
+    if cfg.sensor_chain == "thesis":
+        out["sensor_chain"] = "thesis"
+    return out
 
 
 def build_cases(cfg: ProtocolConfig, systems=("vca", "eha")) -> list[dict]:
@@ -161,20 +251,26 @@ def build_cases(cfg: ProtocolConfig, systems=("vca", "eha")) -> list[dict]:
         load = cfg.vca_load if vca else cfg.eha_load
         leaks = VCA_CASE_LEAKS_LPM if vca else EHA_CASE_LEAKS_LPM
         base = {"system": system, "chunk": cfg.chunk, "cache_dir": cfg.cache_dir}
+        def extras(cs):
+            if vca:
+                return _vca_extras(cfg, cs)
+            return {"sensor_chain": "thesis"} if cfg.sensor_chain == "thesis" else {}
+
         for cs, leak in leaks.items():
             sim = {"duration": dur, "leak_lpm": leak, "onset": onset, "load": load,
-                   "seed": cfg.table_seed}
+                   "seed": cfg.table_seed, **extras(cs)}
             cases.append({**base, "kind": "tables", "case_study": cs, "sim": sim})
         cases.append({**base, "kind": "stationarity", "case_study": 1,
                       "sim": {"duration": dur, "leak_lpm": leaks[1], "onset": onset,
-                              "load": load, "seed": cfg.table_seed}})
+                              "load": load, "seed": cfg.table_seed, **extras(1)}})
         durations = cfg.vca_sensitivity_durations_s if vca else (cfg.eha_sensitivity_duration_s,)
         for leak in (cfg.vca_sensitivity_lpm if vca else cfg.eha_sensitivity_lpm):
             for load3 in cfg.loads:
                 for d in durations:
                     for seed in cfg.sensitivity_seeds:
                         sim = {"duration": float(d), "leak_lpm": float(leak),
-                               "onset": float(d) / 2, "load": load3, "seed": int(seed)}
+                               "onset": float(d) / 2, "load": load3, "seed": int(seed),
+                               **extras(3)}
                         cases.append({**base, "kind": "sensitivity", "case_study": 3,
                                       "sim": sim})
     return cases
@@ -191,10 +287,26 @@ def simulate_case(case: dict):
     Returns
     -------
     Recording
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``sensor_chain`` in the case's simulator arguments.
     """
+    from leakdiag.sim.reference import PseudoRandomSteps
+    from leakdiag.sim.sensors import THESIS_EHA_SENSORS, THESIS_VCA_SENSORS
     from leakdiag.studies.cache import cached_simulation
 
-    return cached_simulation(case["system"], cache_dir=case.get("cache_dir"), **case["sim"])
+    sim = dict(case["sim"])
+    if "reference" in sim:
+        sim["reference"] = PseudoRandomSteps(**sim["reference"])
+    chain = sim.pop("sensor_chain", "default")
+    if chain == "thesis":
+        sim["sensor_params"] = THESIS_VCA_SENSORS if case["system"] == "vca" \
+            else THESIS_EHA_SENSORS
+    elif chain != "default":
+        raise ValueError(f"sensor_chain={chain!r} must be 'thesis' or 'default'")
+    return cached_simulation(case["system"], cache_dir=case.get("cache_dir"), **sim)
 
 
 def _spec(method, channels, lag, window, overlap):

@@ -20,7 +20,8 @@ import numpy as np
 from leakdiag.studies.protocol import FULL, QUICK, ProtocolConfig, build_cases, run_case
 
 __all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings",
-           "sensitivity_summary", "write_outputs", "CONTRACT_COLUMNS"]
+           "sensitivity_summary", "write_outputs", "CONTRACT_COLUMNS", "per_table_agreement",
+           "compare_runs"]
 
 #: Columns of ``tables.csv`` written by :func:`write_outputs` (the outside contract).
 CONTRACT_COLUMNS = [
@@ -58,6 +59,8 @@ class Reproduction:
         System -> ``{"moments": {channel: DataFrame}, "tests": DataFrame}``.
     timing : dict
         Wall time, number of cases, cache hits.
+    previous : pandas.DataFrame or None
+        ``tables.csv`` of an earlier run to compare with (:func:`compare_runs`), if given.
     """
 
     config: ProtocolConfig
@@ -69,6 +72,7 @@ class Reproduction:
     sensitivity: Any
     stationarity: dict
     timing: dict = field(default_factory=dict)
+    previous: Any = None
 
 
 def assemble_tables(thesis, rows: list[dict]):
@@ -237,6 +241,85 @@ def sensitivity_summary(sens, thesis_ranges=None):
                     "thesis_max_pct": np.nan if m is None else float(m.sensitivity_max_pct),
                     "thesis_source": "" if m is None else m.source})
     return pd.DataFrame(out)
+
+
+def per_table_agreement(tables):
+    """Per thesis table: direction and trend agreement and our |% change| against the thesis's.
+
+    Parameters
+    ----------
+    tables : pandas.DataFrame
+        :data:`CONTRACT_COLUMNS` rows (``tables.csv`` of a run).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per table: ``system``, ``table``, ``method``, ``signals``, ``varied``,
+        ``rows``, ``direction_agrees`` (count), ``trend_agrees`` (sweep tables; NA for signal
+        tables), ``median_pct_ours``, ``median_pct_thesis`` (printed |% change|) and
+        ``ratio_ours_to_thesis``, the median over the table's rows of our |% change| divided
+        by the thesis's.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> t = pd.DataFrame({"system": "VCA", "table": "5-1", "method": "autocorrelation",
+    ...                   "signals": "P1", "varied": "lag", "direction_agrees": [True, False],
+    ...                   "trend_agrees": [True, True], "pct_change": [5.0, 2.0],
+    ...                   "thesis_pct_change": [50.0, 10.0]})
+    >>> float(per_table_agreement(t).ratio_ours_to_thesis.iloc[0])
+    0.15
+    """
+    import pandas as pd
+
+    t = tables.copy()
+    t["_ratio"] = t["pct_change"].astype(float) / t["thesis_pct_change"].astype(float)
+    out = t.groupby(["system", "table", "method", "signals", "varied"], sort=False).agg(
+        rows=("direction_agrees", "size"),
+        direction_agrees=("direction_agrees", lambda v: int(pd.Series(v).astype(bool).sum())),
+        trend_agrees=("trend_agrees", "first"),
+        median_pct_ours=("pct_change", "median"),
+        median_pct_thesis=("thesis_pct_change", "median"),
+        ratio_ours_to_thesis=("_ratio", "median")).reset_index()
+    out["trend_agrees"] = out["trend_agrees"].astype("boolean")
+    out.loc[out.varied == "signal", "trend_agrees"] = pd.NA
+    return out
+
+
+def compare_runs(new, old):
+    """Per table, this run's agreement beside an earlier run's (the "what changed" table).
+
+    Parameters
+    ----------
+    new, old : pandas.DataFrame
+        ``tables.csv`` of this run and of the earlier one.
+
+    Returns
+    -------
+    pandas.DataFrame
+        :func:`per_table_agreement` of both, joined on the table (this run's tables, in its
+        order; NaN where the earlier run lacks a table): columns suffixed ``_old``
+        and ``_new``, plus ``rows``, ``system``, ``method``, ``signals``, ``varied``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> t = pd.DataFrame({"system": "EHA", "table": "6-1", "method": "autocorrelation",
+    ...                   "signals": "P1", "varied": "lag", "direction_agrees": [True],
+    ...                   "trend_agrees": [pd.NA], "pct_change": [4.0],
+    ...                   "thesis_pct_change": [2.0]})
+    >>> compare_runs(t, t.assign(pct_change=1.0))[["ratio_ours_to_thesis_old",
+    ...                                           "ratio_ours_to_thesis_new"]].values.tolist()
+    [[0.5, 2.0]]
+    """
+    a = per_table_agreement(old)
+    b = per_table_agreement(new)
+    keys = ["system", "table", "method", "signals", "varied"]
+    cols = ["direction_agrees", "trend_agrees", "median_pct_ours", "ratio_ours_to_thesis"]
+    m = a[keys + ["rows"] + cols].merge(b[keys + cols + ["median_pct_thesis"]], on=keys,
+                                        how="right", suffixes=("_old", "_new"))
+    return m[keys + ["rows", "median_pct_thesis"] + [f"{c}_{s}" for c in cols
+                                                     for s in ("old", "new")]]
 
 
 def reproduce(systems=("vca", "eha"), config: ProtocolConfig | None = None, *, quick=False,

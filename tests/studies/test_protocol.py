@@ -1,0 +1,81 @@
+"""The named protocols: the case studies as the thesis states them (Sec. 5.1, Sec. 6)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from leakdiag.sim.sensors import THESIS_EHA_SENSORS, THESIS_VCA_SENSORS
+from leakdiag.studies.protocol import (
+    FULL,
+    QUICK,
+    THESIS,
+    V1,
+    build_cases,
+    protocol_config,
+    simulate_case,
+)
+
+
+def test_thesis_protocol_states_the_case_studies_of_sec_5_1():
+    assert FULL is THESIS and THESIS.vca_load == "none"  # "under a no-load condition"
+    cases = build_cases(THESIS, ["vca"])
+    tables = {c["case_study"]: c["sim"] for c in cases if c["kind"] == "tables"}
+    assert tables[1]["reference"] == {"min_amplitude_m": 8e-3, "max_amplitude_m": 20e-3}
+    assert tables[2]["reference"] == {"min_amplitude_m": 5e-3, "max_amplitude_m": 17e-3}
+    assert tables[1]["load"] == tables[2]["load"] == "none"
+    assert (tables[1]["duration"], tables[1]["onset"]) == (400.0, 200.0)
+    assert (tables[1]["leak_lpm"], tables[2]["leak_lpm"]) == (0.10, 0.047)
+    sens = [c["sim"] for c in cases if c["kind"] == "sensitivity"]
+    assert {s["duration"] for s in sens} == {300.0, 400.0, 600.0}
+    assert all(s["onset"] == s["duration"] / 2 for s in sens)  # "at about half"
+    assert {s["load"] for s in sens} == {"spring", "none"}  # "under load and no-load"
+    assert all(s["reference"] == {"min_amplitude_m": 2e-3, "max_amplitude_m": 20e-3}
+               for s in sens)
+    assert all(c["sim"]["sensor_chain"] == "thesis" for c in cases)
+
+
+def test_v1_protocol_keeps_the_old_cases_bit_for_bit():
+    cases = build_cases(V1, ["vca", "eha"])
+    first = [c["sim"] for c in cases if c["kind"] == "tables"][0]
+    assert first == {"duration": 400.0, "leak_lpm": 0.10, "onset": 200.0, "load": "spring",
+                     "seed": 0}  # no reference, no sensor chain: the old cache keys
+    assert protocol_config("v1") is V1 and protocol_config("thesis", quick=True) == QUICK
+    with pytest.raises(ValueError, match="protocol='x' must be one of"):
+        protocol_config("x")
+    with pytest.raises(ValueError, match="sensor_chain='y' must be"):
+        dataclasses.replace(THESIS, sensor_chain="y")
+
+
+def test_simulate_case_applies_reference_and_chain(tmp_path):
+    case = build_cases(dataclasses.replace(QUICK, cache_dir=str(tmp_path)), ["vca"])[0]
+    case["sim"] = {**case["sim"], "duration": 6.0, "onset": 3.0, "leak_lpm": None}
+    rec = simulate_case(case)
+    ref = np.abs(rec["x_ref"])
+    assert ref.min() >= 8e-3 - 1e-12 and ref.max() <= 20e-3 + 1e-12  # case study 1: 8-20 mm
+    assert rec.meta["sensors"] == THESIS_VCA_SENSORS.to_dict() and rec.meta["load"] == "none"
+    eha = [c for c in build_cases(QUICK, ["eha"]) if c["kind"] == "tables"][0]
+    assert eha["sim"]["sensor_chain"] == "thesis" and THESIS_EHA_SENSORS.adc_input_span_v == 20
+
+
+def test_cli_protocol_option(tmp_path, monkeypatch):
+    import importlib
+
+    rep_mod = importlib.import_module("leakdiag.studies.reproduce")
+    from leakdiag.cli.main import cli
+
+    seen = {}
+
+    def fake_run(systems, cfg, **kw):
+        seen["cfg"] = cfg
+        raise ValueError("stop here")
+
+    monkeypatch.setattr(rep_mod, "reproduce", fake_run)
+    res = CliRunner().invoke(cli, ["reproduce", "vca", "--protocol", "v1", "--quick"])
+    assert isinstance(res.exception, ValueError) and seen["cfg"].name == "v1-quick"
+    assert seen["cfg"].vca_load == "spring" and seen["cfg"].sensor_chain == "default"
+    CliRunner().invoke(cli, ["reproduce", "vca"])
+    assert seen["cfg"].name == "thesis" and seen["cfg"].vca_duration_s == 400.0
+    res = CliRunner().invoke(cli, ["reproduce", "vca", "--protocol", "v2"])
+    assert res.exit_code == 2 and "'v2' is not one of 'thesis', 'v1'" in res.output
