@@ -225,3 +225,32 @@ def test_simulators_record_pressures_through_the_chain():
     steps = np.unique(np.round(np.diff(np.unique(e["p1"])) / THESIS_EHA_SENSORS
                                .pressure_quantum_pa, 6))
     assert steps.min() == 1.0  # readings sit on the 2**12-code grid of the Q8 chain
+
+
+def test_position_only_controller_loop_shape():
+    """QFT structure's feedback path (position only): margins of the linearised loop."""
+    from leakdiag.sim.vca_control import loop_margins, position_only_controller
+    from leakdiag.sim.vca_params import VCAParams
+    c = position_only_controller(6.0)
+    assert c.integral_gain_v_per_m_s == 0 and c.pressure_gain_v_per_pa == 0
+    m = loop_margins(c.position_gain_v_per_m)
+    assert m["gain_margin_db"] == pytest.approx(6.0, abs=0.01)
+    wh = VCAParams().hydraulic_natural_frequency_rad_s
+    assert 0.9 * wh < m["phase_crossover_rad_s"] < wh  # phase -180 just below omega_h
+    # far below the resonance the loop is K k_v K_q / (A s): crossover at K * 0.114 m/s/V
+    assert m["crossover_rad_s"] == pytest.approx(c.position_gain_v_per_m * 0.11397, rel=0.03)
+    assert m["phase_margin_deg"] > 80
+
+
+def test_position_only_controller_tracks_a_step_without_steady_error():
+    from leakdiag.sim import SampledReference, simulate_vca
+    from leakdiag.sim.vca_control import position_only_controller
+    x_ref = np.r_[np.zeros(100), np.full(1900, 10e-3)]
+    rec = simulate_vca(duration=2.0, leak_lpm=None, seed=1, sensors=False,
+                       reference=SampledReference(x_ref), controller=position_only_controller())
+    # type-1 loop (the actuator integrates): no steady error on a step; friction leaves a
+    # dead band of a few micrometres at most
+    assert abs(rec["x"][-1] - 10e-3) < 0.05e-3
+    k = position_only_controller().position_gain_v_per_m
+    t63 = (np.argmax(rec["x"] > 0.632 * 10e-3) - 100) / 1000.0
+    assert t63 == pytest.approx(1.0 / (k * 0.11397), rel=0.25)  # first-order loop, tau = 1/wc

@@ -16,7 +16,11 @@ from dataclasses import asdict, dataclass
 import numba
 import numpy as np
 
-__all__ = ["FixedGainController", "control_law"]
+from leakdiag._validation import check_positive
+from leakdiag.sim.vca_params import VCAParams
+
+__all__ = ["FixedGainController", "control_law", "linearized_position_plant",
+           "position_only_controller", "loop_margins"]
 
 
 @dataclass(frozen=True)
@@ -123,3 +127,133 @@ def control_law(error, integral, load_pressure, dt, gains, u_max):
     if u < -u_max:
         return -u_max, integral
     return u, new_int
+
+
+def linearized_position_plant(omega_rad_s, params: VCAParams | None = None,
+                              sample_period_s: float = 1e-3) -> np.ndarray:
+    r"""Frequency response :math:`X(j\omega)/U(j\omega)` of Eq. 2-1 linearised at the centre.
+
+    Valve (second order, Table 2-1) -> spool -> flow gain :math:`K_q = K_v w \sqrt{P_s/2}`
+    (Eq. 2-2 at :math:`P_1 = P_2 = P_s/2`, critically lapped: no flow-pressure coefficient at
+    null) -> the actuator of Eq. 2-6 with its natural frequency and viscous damping, times the
+    half-sample delay of the zero-order hold:
+
+    .. math::
+
+        P(s) = \frac{k_v \omega_v^2}{s^2 + 2\xi\omega_v s + \omega_v^2}
+        \frac{K_q}{A} \frac{\omega_h^2}{s (s^2 + 2\zeta_h\omega_h s + \omega_h^2)}
+        e^{-s T/2}
+
+    Seal friction, the spring and a leak are left out: friction and leak add damping, so the
+    leak-free, friction-free plant is the least damped member of the plant set (the worst
+    case for a gain margin).
+
+    Parameters
+    ----------
+    omega_rad_s : array_like
+        Angular frequencies, rad/s (> 0).
+    params : VCAParams, optional
+        Table 2-1 by default.
+    sample_period_s : float, default 1e-3
+        Control period :math:`T` (zero-order hold).
+
+    Returns
+    -------
+    numpy.ndarray of complex
+        :math:`P(j\omega)` in m/V.
+
+    Examples
+    --------
+    >>> round(float(abs(linearized_position_plant([1.0])[0])), 3)  # velocity gain k_v K_q / A
+    0.114
+    """
+    p = VCAParams() if params is None else params
+    w = np.asarray(omega_rad_s, dtype=np.float64)
+    s = 1j * w
+    kq = p.valve_flow_gain_m1_5_per_kg0_5 * p.orifice_area_gradient_m * math.sqrt(
+        (p.supply_pressure_pa - p.tank_pressure_pa) / 2.0)
+    wv = 2.0 * math.pi * p.valve_natural_frequency_hz
+    xi = p.valve_damping_ratio
+    wh = p.hydraulic_natural_frequency_rad_s
+    zh = (p.viscous_damping_n_s_per_m * p.chamber_volume_m3 * wh
+          / (4.0 * p.bulk_modulus_pa * p.piston_area_m2**2))
+    valve = p.spool_gain_m_per_v * wv**2 / (s**2 + 2.0 * xi * wv * s + wv**2)
+    actuator = kq / p.piston_area_m2 * wh**2 / (s * (s**2 + 2.0 * zh * wh * s + wh**2))
+    return valve * actuator * np.exp(-s * sample_period_s / 2.0)
+
+
+def loop_margins(gain_v_per_m: float, params: VCAParams | None = None,
+                 sample_period_s: float = 1e-3) -> dict[str, float]:
+    """Gain and phase margin of the loop ``K P(s)`` (:func:`linearized_position_plant`).
+
+    Parameters
+    ----------
+    gain_v_per_m : float
+        Proportional position gain :math:`K`, V/m.
+    params : VCAParams, optional
+        Table 2-1 by default.
+    sample_period_s : float, default 1e-3
+        Control period.
+
+    Returns
+    -------
+    dict
+        ``crossover_rad_s`` (``|K P| = 1``), ``phase_margin_deg``, ``phase_crossover_rad_s``
+        (phase -180 deg), ``gain_margin_db``.
+
+    Examples
+    --------
+    >>> m = loop_margins(100.0)
+    >>> round(m["crossover_rad_s"], 1), m["phase_margin_deg"] > 80
+    (11.4, True)
+    """
+    k = check_positive(gain_v_per_m, "gain_v_per_m")
+    w = np.logspace(-1, 4.5, 400_000)
+    resp = linearized_position_plant(w, params, sample_period_s)
+    phase = np.unwrap(np.angle(resp))
+    i180 = int(np.argmax(phase < -np.pi))
+    ic = int(np.argmax(k * np.abs(resp) < 1.0))
+    return {"crossover_rad_s": float(w[ic]),
+            "phase_margin_deg": float(180.0 + np.degrees(phase[ic])),
+            "phase_crossover_rad_s": float(w[i180]),
+            "gain_margin_db": float(-20.0 * np.log10(k * np.abs(resp[i180])))}
+
+
+def position_only_controller(gain_margin_db: float = 6.0, params: VCAParams | None = None,
+                             sample_period_s: float = 1e-3) -> FixedGainController:
+    """Position-only feedback of a QFT tracking loop's structure, with a stated gain margin.
+
+    The rig's QFT controller (Karpenko and Sepehri, 2005) feeds back the encoder position
+    only; its coefficients are not public (docs/models.md). This is the simplest member of
+    that structure: proportional position feedback, no integral, no pressure feedback
+    (``FixedGainController(K, 0, 0)``), with ``K`` chosen so that the least-damped plant of
+    the set (no leak, no friction, :func:`linearized_position_plant`) keeps
+    ``gain_margin_db`` at its phase crossover (just below the hydraulic resonance, Eq. 2-6).
+    6 dB is the usual floor of a robust design. Nothing is fitted to a thesis number.
+
+    Parameters
+    ----------
+    gain_margin_db : float, default 6
+        Gain margin of the leak-free loop, dB (> 0).
+    params : VCAParams, optional
+        Table 2-1 by default.
+    sample_period_s : float, default 1e-3
+        Control period.
+
+    Returns
+    -------
+    FixedGainController
+        ``position_gain_v_per_m = K``, the other gains 0.
+
+    Examples
+    --------
+    >>> round(position_only_controller().position_gain_v_per_m)
+    135
+    """
+    gm = check_positive(gain_margin_db, "gain_margin_db")
+    w = np.logspace(1, 4.5, 400_000)
+    resp = linearized_position_plant(w, params, sample_period_s)
+    i180 = int(np.argmax(np.unwrap(np.angle(resp)) < -np.pi))
+    k = 10.0 ** (-gm / 20.0) / float(np.abs(resp[i180]))
+    return FixedGainController(position_gain_v_per_m=k, integral_gain_v_per_m_s=0.0,
+                               pressure_gain_v_per_pa=0.0)
