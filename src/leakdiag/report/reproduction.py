@@ -230,8 +230,8 @@ def _changes_section(rep, r: Report) -> None:
         f"Direction agrees in {int(old.direction_agrees.astype(bool).sum())} of {len(old)} rows "
         f"before and {int(new.direction_agrees.astype(bool).sum())} of {len(new)} now; median "
         f"ratio of our |% change| to the thesis's "
-        f"{np.nanmedian(old.pct_change / old.thesis_pct_change):.3g} before, "
-        f"{np.nanmedian(new.pct_change / new.thesis_pct_change):.3g} now.")
+        f"{np.nanmedian(old['pct_change'] / old['thesis_pct_change']):.3g} before, "
+        f"{np.nanmedian(new['pct_change'] / new['thesis_pct_change']):.3g} now.")
     r.table(c, "Per table: previous run (_old) and this run (_new)")
 
 

@@ -255,8 +255,9 @@ def per_table_agreement(tables):
     -------
     pandas.DataFrame
         One row per table: ``system``, ``table``, ``method``, ``signals``, ``varied``,
-        ``rows``, ``direction_agrees`` (count), ``trend_agrees`` (sweep tables; NA for signal
-        tables), ``median_pct_ours``, ``median_pct_thesis`` (printed |% change|) and
+        ``rows``, ``direction_agrees`` (count), ``trend_ours``, ``trend_thesis`` (sign of the
+        Spearman trend of |% change| along the varied setting), ``trend_agrees`` (sweep
+        tables; NA for signal tables), ``median_pct_ours``, ``median_pct_thesis`` (printed |% change|) and
         ``ratio_ours_to_thesis``, the median over the table's rows of our |% change| divided
         by the thesis's.
 
@@ -265,6 +266,7 @@ def per_table_agreement(tables):
     >>> import pandas as pd
     >>> t = pd.DataFrame({"system": "VCA", "table": "5-1", "method": "autocorrelation",
     ...                   "signals": "P1", "varied": "lag", "direction_agrees": [True, False],
+    ...                   "trend_ours": 1, "trend_thesis": 1,
     ...                   "trend_agrees": [True, True], "pct_change": [5.0, 2.0],
     ...                   "thesis_pct_change": [50.0, 10.0]})
     >>> float(per_table_agreement(t).ratio_ours_to_thesis.iloc[0])
@@ -277,6 +279,7 @@ def per_table_agreement(tables):
     out = t.groupby(["system", "table", "method", "signals", "varied"], sort=False).agg(
         rows=("direction_agrees", "size"),
         direction_agrees=("direction_agrees", lambda v: int(pd.Series(v).astype(bool).sum())),
+        trend_ours=("trend_ours", "first"), trend_thesis=("trend_thesis", "first"),
         trend_agrees=("trend_agrees", "first"),
         median_pct_ours=("pct_change", "median"),
         median_pct_thesis=("thesis_pct_change", "median"),
@@ -306,6 +309,7 @@ def compare_runs(new, old):
     >>> import pandas as pd
     >>> t = pd.DataFrame({"system": "EHA", "table": "6-1", "method": "autocorrelation",
     ...                   "signals": "P1", "varied": "lag", "direction_agrees": [True],
+    ...                   "trend_ours": 1, "trend_thesis": 1,
     ...                   "trend_agrees": [pd.NA], "pct_change": [4.0],
     ...                   "thesis_pct_change": [2.0]})
     >>> compare_runs(t, t.assign(pct_change=1.0))[["ratio_ours_to_thesis_old",
