@@ -79,3 +79,28 @@ def test_cli_protocol_option(tmp_path, monkeypatch):
     assert seen["cfg"].name == "thesis" and seen["cfg"].vca_duration_s == 400.0
     res = CliRunner().invoke(cli, ["reproduce", "vca", "--protocol", "v2"])
     assert res.exit_code == 2 and "'v2' is not one of 'thesis', 'v1'" in res.output
+
+
+def test_report_compares_with_a_previous_run():
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    from leakdiag.report.html import Report
+    from leakdiag.report.reproduction import _changes_section
+    from leakdiag.studies.thesis import load_tables
+
+    th = load_tables()
+    t = th[th.table.isin(["5-1", "6-9"])]
+    new = pd.DataFrame({"system": t.system, "table": t.table, "method": t.method,
+                        "signals": t.signals, "varied": t.varied,
+                        "direction_agrees": True, "trend_ours": 1, "trend_thesis": 1,
+                        "trend_agrees": True, "pct_change": t.pct_change_reported / 2,
+                        "thesis_pct_change": t.pct_change_reported})
+    old = new.assign(pct_change=new["thesis_pct_change"] / 10, direction_agrees=False)
+    r = Report("x")
+    _changes_section(SimpleNamespace(tables=new, previous=old), r)
+    md = r.to_markdown()
+    assert f"Direction agrees in 0 of {len(new)} rows before and {len(new)} of {len(new)} now" \
+        in md
+    assert "0.1 before, 0.5 now" in md
