@@ -96,7 +96,7 @@ def test_analyze_zero_variance_in_one_method_only_warns(files, capsys):
     out = capsys.readouterr()
     assert code == 0, out.err
     row = [ln for ln in out.out.splitlines() if "u,x" in ln][0]
-    assert row.split()[-2:] == ["21", "21"]  # 21 windows, all 21 NaN (N=100, 5%: step 95)
+    assert row.split()[-4:-2] == ["21", "21"]  # 21 windows, all 21 NaN (N=100, 5%: step 95)
 
 
 # ---- sweep -----------------------------------------------------------------------------------
@@ -267,7 +267,7 @@ def test_monitor_garbage_detector_file(files, tmp_path, capsys):
 
 @pytest.mark.parametrize("args,needle", [
     (["-w", "0"], "window=0 must be >= 2"),
-    (["-o", "100"], "overlap=100.0 must be in [0, 100) percent"),
+    (["--overlap", "100"], "overlap=100.0 must be in [0, 100) percent"),
     (["--lag", "500"], "lag=500 must be in [1, 200)"),
     (["-m", "metric-length", "--lag-ratio", "83-3"], "lag_ratio='83-3' must be written 'l:k'"),
     (["--sample-rate", "-5"], "sample_rate=-5.0 must be a finite number > 0"),

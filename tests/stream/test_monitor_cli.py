@@ -62,7 +62,7 @@ def test_monitor_stdin_cross_correlation():
                                      enumerate(zip(y.tolist(), x.tolist())))
     r = CliRunner().invoke(cli, ["monitor", "-i", "-", "-m", "cross-correlation", "-c", "p1,p2",
                                  "--batch-lines", "7",
-                                 "--lag", "2", "-w", "50", "-o", "10", "--events", "-", "-q"],
+                                 "--lag", "2", "-w", "50", "--overlap", "10", "--events", "-", "-q"],
                            input=lines)
     assert r.exit_code == 0, r.output
     events = [json.loads(line) for line in r.stdout.splitlines()]
