@@ -149,12 +149,14 @@ def test_monitor_nan_in_later_chunk_names_file_and_sample(files, capsys):
 ])
 def test_detect_bad_file(files, capsys, case, needles):
     code = main(["detect", str(files[case]), "--healthy", str(files["good"]), "--burn-in", "0",
+                 "--system", "vca",
                  "--methods", "acf-p1"])
     _one_error_line(capsys, code, *needles)
 
 
 def test_detect_constant_healthy_file(files, capsys):
     code = main(["detect", str(files["good"]), "--healthy", str(files["const"]), "--burn-in", "0",
+                 "--system", "vca",
                  "--methods", "acf-p1"])
     _one_error_line(capsys, code, "good.csv", "no method gave a finite score",
                     "only 0 finite feature values", "healthy")
@@ -163,7 +165,8 @@ def test_detect_constant_healthy_file(files, capsys):
 def test_detect_constant_file_is_not_called_healthy(files, capsys):
     """A dead (constant) sensor must not read 'no leak': each method says why, exit 2."""
     code = main(["detect", str(files["const"]), "--healthy", str(files["good"]), "--burn-in", "0",
-                 "--methods", "acf-p1,ccf-p1p2"])
+                 "--system", "vca",
+                 "--methods", "acf-p1,ccf-p1p2", "--no-progress"])
     out = capsys.readouterr()
     assert code == 2
     assert "Traceback" not in out.err and "False" not in out.out

@@ -15,6 +15,8 @@ import click
 __all__ = ["recording_options", "column_map_from", "read_with", "read_healthy",
            "false_alarm_option", "healthy_option", "no_progress_option", "TIME_UNIT_CHOICES"]
 
+#: Below this rate (Hz) a time column is probably not in seconds (ms, sample counter): warned.
+LOW_RATE_HZ = 20.0
 #: Time units of a time column (as :class:`leakdiag.io.ColumnMap` accepts them).
 TIME_UNIT_CHOICES = ["s", "ms", "us", "samples"]
 
@@ -147,6 +149,11 @@ def read_with(path, cmap, sample_rate=None, resample=None):
     if rec.meta.get("source") != str(path):
         rec.meta["origin"] = rec.meta.get("source")
         rec.meta["source"] = str(path)
+    if rec.sample_rate < LOW_RATE_HZ and sample_rate is None:
+        warnings.warn(f"{path}: sample rate {rec.sample_rate:g} Hz from the time column is low "
+                      "for actuator pressures; if the time column is in milliseconds or a "
+                      "sample counter, give --time-unit ms (or samples with --sample-rate)",
+                      UserWarning, stacklevel=2)
     return rec
 
 
@@ -197,8 +204,8 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None):
     for p, r in zip(paths, recs):
         if abs(r.sample_rate - ref.sample_rate) > 1e-9 * ref.sample_rate:
             raise ValueError(f"--healthy {p}: sample rate {r.sample_rate:g} Hz differs from "
-                             f"{name}'s {ref.sample_rate:g} Hz; resample one of them (--resample) "
-                             "or use recordings of the same acquisition")
+                             f"{name}'s {ref.sample_rate:g} Hz: references must be recorded at the "
+                             "same rate (--map, --col and --time-unit apply to every file)")
         sys_r, sys_s = r.meta.get("system"), ref.meta.get("system")
         if sys_r and sys_s and str(sys_r).lower() != str(sys_s).lower():
             raise ValueError(f"--healthy {p}: system {sys_r!r} differs from {name}'s {sys_s!r}: "
