@@ -198,7 +198,7 @@ def test_batch_bad_file_exits_1_with_its_row(files, tmp_path, capsys, case, need
     job = tmp_path / "job.toml"
     job.write_text(JOB)
     code = main(["batch", str(files[case]), str(files["good"]), "--config", str(job), "--out",
-                 str(tmp_path / "res"), "--serial", "--no-progress"])
+                 str(tmp_path / "res"), "--scheduler", "serial", "--no-progress"])
     out = capsys.readouterr()
     assert code == 1, out
     assert "Traceback" not in out.err
@@ -211,7 +211,7 @@ def test_batch_good_file_exits_0(files, tmp_path, capsys):
     job = tmp_path / "job.toml"
     job.write_text(JOB)
     code = main(["batch", str(files["good"]), "--config", str(job), "--out", str(tmp_path / "r"),
-                 "--serial", "--no-progress"])
+                 "--scheduler", "serial", "--no-progress"])
     assert code == 0, capsys.readouterr()
 
 
@@ -219,7 +219,7 @@ def test_batch_invalid_toml(files, tmp_path, capsys):
     job = tmp_path / "bad.toml"
     job.write_text("x = [\n")
     code = main(["batch", str(files["good"]), "--config", str(job), "--out", str(tmp_path / "r"),
-                 "--serial"])
+                 "--scheduler", "serial"])
     _one_error_line(capsys, code, "bad.toml", "invalid TOML")
 
 
@@ -265,7 +265,7 @@ def test_monitor_garbage_detector_file(files, tmp_path, capsys):
     det = tmp_path / "det.pkl"
     det.write_bytes(b"garbage\n")
     code = main(["monitor", "-i", str(files["good"]), "--detector", str(det), "-q"])
-    _one_error_line(capsys, code, "--detector", "det.pkl", "cannot load as a pickled detector")
+    _one_error_line(capsys, code, "--detector", "det.pkl", "cannot load as a detector file")
 
 
 @pytest.mark.parametrize("args,needle", [
