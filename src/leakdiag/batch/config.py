@@ -33,7 +33,7 @@ from leakdiag._validation import check_int
 from leakdiag.features.methods import MethodSpec
 from leakdiag.stream.feature import STREAM_METHODS
 
-__all__ = ["BatchConfig", "DetectorRef", "load_config", "config_from_dict",
+__all__ = ["BatchConfig", "DetectorRef", "load_config", "config_from_dict", "detector_ref",
            "DEFAULT_CHUNK_SAMPLES", "DEFAULT_RMS_CHUNK"]
 
 #: Samples per read chunk: 1 Mi samples = 8 MB per float64 channel.
@@ -167,17 +167,39 @@ def _expand(entry: Mapping[str, Any], i: int) -> list[MethodSpec]:
     return specs
 
 
+def detector_ref(path: str | os.PathLike, name: str | None = None) -> DetectorRef:
+    """A :class:`DetectorRef` for a detector file (digest of its bytes).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Detector file (``leakdiag fit -o ...``).
+    name : str, optional
+        Name in the results (default: the file name without suffix).
+
+    Returns
+    -------
+    DetectorRef
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    """
+    path = os.path.abspath(os.fspath(path))
+    with open(path, "rb") as f:
+        digest = hashlib.sha256(f.read()).hexdigest()
+    return DetectorRef(name or os.path.splitext(os.path.basename(path))[0], path, digest)
+
+
 def _detector(entry: Mapping[str, Any], i: int, base_dir: str) -> DetectorRef:
     if "path" not in entry:
         raise ValueError(f"[[detector]] #{i + 1}: needs a path to a detector file (leakdiag fit)")
     path = os.path.abspath(os.path.join(base_dir, entry["path"]))
     try:
-        with open(path, "rb") as f:
-            digest = hashlib.sha256(f.read()).hexdigest()
+        return detector_ref(path, None if "name" not in entry else str(entry["name"]))
     except OSError as exc:
         raise ValueError(f"[[detector]] #{i + 1}: cannot read {path}: {exc}") from None
-    name = str(entry.get("name", os.path.splitext(os.path.basename(path))[0]))
-    return DetectorRef(name, path, digest)
 
 
 def config_from_dict(d: Mapping[str, Any], base_dir: str = ".") -> BatchConfig:

@@ -32,10 +32,10 @@ def format_verdict(table) -> str:
     if show["mean_rms_before"].notna().any():
         show["mean_rms_before"] = show["mean_rms_before"].map(lambda v: f"{v:.5g}")
         show["mean_rms_after"] = show["mean_rms_after"].map(lambda v: f"{v:.5g}")
-        show["% change"] = show["pct_change"].map(lambda v: f"{v:.2f}")
-        show["signed"] = show["pct_change_signed"].map(lambda v: f"{v:+.2f}")
+        show["% change"] = show["pct_change"].map(lambda v: f"{v:.2f}" if v == v else "-")
+        show["signed"] = show["pct_change_signed"].map(lambda v: f"{v:+.2f}" if v == v else "-")
         show["chunks b/a/x"] = [
-            f"{int(b)}/{int(a)}/{int(x)}" for b, a, x in
+            f"{int(b)}/{int(a)}/{int(x)}" if b == b else "-" for b, a, x in
             zip(show["n_chunks_before"], show["n_chunks_after"], show["n_chunks_straddling"])]
         cols += ["mean_rms_before", "mean_rms_after", "% change", "signed", "chunks b/a/x"]
     if show["n_nan_windows"].fillna(0).astype(int).any():

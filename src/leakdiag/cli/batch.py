@@ -14,6 +14,9 @@ __all__ = ["batch"]
               type=click.Path(exists=True, dir_okay=False),
               help="Job TOML: analyses, detectors (from leakdiag fit), column_map "
                    "(docs/operations.md).")
+@click.option("--detector", "detectors", multiple=True, type=click.Path(exists=True, dir_okay=False),
+              help="Detector file from leakdiag fit, run on every recording (repeatable; adds "
+                   "to the job's [[detector]] entries).")
 @click.option("--out", "-o", required=True, type=click.Path(),
               help="Results folder, a Parquet dataset (e.g. results.parquet); resumable.")
 @click.option("--scheduler", default="local", show_default=True, metavar="serial|local|ADDRESS",
@@ -23,7 +26,7 @@ __all__ = ["batch"]
               help="Worker processes of the local cluster.")
 @click.option("--retry-errors", is_flag=True, help="Re-run recordings whose result is an error.")
 @click.option("--no-progress", is_flag=True, help="Hide the progress bar.")
-def batch(inputs, config_path, out, scheduler, workers, retry_errors, no_progress):
+def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors, no_progress):
     """Run the job in --config on every recording matching INPUTS (quote globs: 'data/**/*.parquet').
 
     One row per recording and analysis/detector goes to --out; a bad file becomes a row with its
@@ -37,6 +40,13 @@ def batch(inputs, config_path, out, scheduler, workers, retry_errors, no_progres
     if workers < 1:
         raise click.BadParameter(f"{workers} must be >= 1", param_hint="--workers")
     cfg = load_config(config_path)
+    if detectors:
+        import dataclasses
+
+        from leakdiag.batch.config import detector_ref
+
+        cfg = dataclasses.replace(cfg, detectors=cfg.detectors + tuple(
+            detector_ref(d, name=None) for d in detectors))
     sched = None if scheduler == "serial" else scheduler
     if sched == "local":
         sched = LOCAL

@@ -180,11 +180,23 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
                    "n_windows": len(fs),
                    "n_nan_windows": int(np.count_nonzero(~np.isfinite(fs.values)))}
             res = None
+            no_measure = None
             if onset is not None:
-                res = rms_change(fs, onset=onset, chunk=chunk)
-                row.update({k: v for k, v in res.as_dict().items()
-                            if k in VERDICT_COLUMNS and k not in ("n_windows", "n_nan_windows")})
-            row.update(_decide(res, fs, spec, ref_chunks, false_alarm_rate, chunk).as_dict())
+                try:
+                    res = rms_change(fs, onset=onset, chunk=chunk)
+                except ValueError as exc:  # too short for this method: say so, keep the others
+                    if len(specs) == 1:
+                        raise
+                    no_measure = str(exc).replace("rms_change", "the Sec. 5.2 measure")
+                else:
+                    row.update({k: v for k, v in res.as_dict().items() if k in VERDICT_COLUMNS
+                                and k not in ("n_windows", "n_nan_windows")})
+            if no_measure is None:
+                row.update(_decide(res, fs, spec, ref_chunks, false_alarm_rate, chunk).as_dict())
+            else:
+                row.update(Decision("inconclusive", "before-after", "", float("nan"),
+                                    false_alarm_rate, 0, 0, float("nan"),
+                                    no_measure).as_dict())
             rows.append(row)
             series.append(fs)
             results.append(res)
