@@ -17,7 +17,7 @@ from click.testing import CliRunner
 from _batch_helpers import SlowScorer, make_recording
 from leakdiag.batch import (BatchConfig, config_from_dict, load_config, read_results, run_batch,
                             run_case)
-from leakdiag.batch.store import result_key
+from leakdiag.batch.store import content_hash, result_key
 from leakdiag.cli.main import cli
 from leakdiag.detect.measure import rms_change
 from leakdiag.features.series import FeatureSeries
@@ -145,8 +145,18 @@ def test_resume_skips_finished_and_recomputes_changed(recordings):
     os.utime(paths[0], ns=(time.time_ns(), time.time_ns() + 10**9))
     s3 = run_batch([pattern], cfg, out, progress=False, retry_errors=True)
     assert (s3.n_skipped, s3.n_run) == (2, 2)
-    assert len(read_results(out)) == len(df) + 3  # the old rows of the edited file remain too
+    # issue 15: one current row set per recording: the edited file's rows replace its old ones
+    new = read_results(out)
+    assert len(new) == len(df)
+    mine = new[new["path"] == os.path.abspath(paths[0])]
+    assert len(mine) == 3 and mine["recording_sha256"].nunique() == 1
+    assert mine["recording_sha256"].iloc[0] == content_hash(paths[0])
     assert (out / f"{result_key(paths[0], cfg.digest)}.parquet").exists()
+    # touching a file without changing its content does not re-run it (content hash, not mtime)
+    os.utime(paths[1], ns=(time.time_ns(), time.time_ns() + 2 * 10**9))
+    s4 = run_batch([pattern], cfg, out, progress=False)
+    assert (s4.n_skipped, s4.n_run) == (4, 0)
+
 
 
 def test_killed_run_loses_no_finished_result(recordings, tmp_path):
@@ -160,8 +170,9 @@ def test_killed_run_loses_no_finished_result(recordings, tmp_path):
     out = tmp_path / "res.parquet"
     args = [sys.executable, "-m", "leakdiag.cli.main", "batch",
             str(tmp / "recordings" / "**" / "*.parquet"), "--config", str(job), "--out", str(out),
-            "--serial", "--no-progress"]
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parent)}
+            "--scheduler", "serial", "--no-progress"]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(Path(__file__).parent), *filter(None, [os.environ.get("PYTHONPATH")])])}
     proc = subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 60
     while time.time() < deadline and len(list(out.glob("*.parquet"))) < 2:
@@ -185,13 +196,14 @@ def test_cli_serial(recordings):
                    'window = 200\noverlap = 5\n')
     out = tmp / "results.parquet"
     r = CliRunner().invoke(cli, ["batch", str(tmp / "recordings" / "**" / "*.parquet"),
-                                 "--config", str(job), "--out", str(out), "--serial",
+                                 "--config", str(job), "--out", str(out), "--scheduler", "serial",
                                  "--no-progress"])
     assert r.exit_code == 1, r.output  # a bad recording: rows are written, the exit code says so
-    assert "4 recording(s): 4 run, 0 already done, 1 error(s) in this run; 4 row(s)" in r.output
-    assert "error: broken.parquet: RecordingError" in r.output
+    assert ("4 recording(s): 4 run, 0 already done, 1 error(s) in this run; 4 current row(s)"
+            in r.output)
+    assert "broken.parquet: unreadable as Parquet" in r.output
     r = CliRunner().invoke(cli, ["batch", str(tmp / "nothing" / "*.parquet"), "--config", str(job),
-                                 "--out", str(out), "--serial"])
+                                 "--out", str(out), "--scheduler", "serial"])
     assert r.exit_code != 0 and "no recording matches" in r.output
 
 
@@ -201,3 +213,68 @@ def test_measure_note_when_no_chunk_before_onset(recordings):
     (row,) = run_case(str(paths[0]), config_from_dict(job))
     assert row["status"] == "ok" and row["onset_s"] == 0.1
     assert row["error"].startswith("Sec. 5.2 measure:") and "pct_change" not in row
+
+
+# ------------------------------------------------------------------ issue 15
+def _cli_batch(tmp, job, out, *extra):
+    return CliRunner().invoke(cli, ["batch", str(tmp / "recordings" / "**" / "*.parquet"),
+                                    "--config", str(job), "-o", str(out), "--scheduler", "serial",
+                                    "--no-progress", *extra])
+
+
+def test_repaired_file_with_retry_errors_replaces_its_error_row_and_exit_code_is_0(recordings):
+    tmp, _ = recordings
+    job = tmp / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    out = tmp / "res.parquet"
+    assert _cli_batch(tmp, job, out).exit_code == 1  # broken.parquet is an error row
+    write_parquet(make_recording(5), tmp / "recordings" / "rig0" / "broken.parquet")  # repaired
+    r = _cli_batch(tmp, job, out, "--retry-errors")
+    assert r.exit_code == 0, r.output
+    df = read_results(out)
+    assert len(df) == 4 and set(df["status"]) == {"ok"} and df["path"].is_unique
+    assert "4 current row(s)" in r.output
+
+
+def test_job_with_fitted_detector_file_and_column_map(tmp_path):
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
+    rec_dir = tmp_path / "recordings"
+    rec_dir.mkdir()
+    h = [str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, seed=s,
+                                          reference_seed=40 + s), tmp_path / f"h{s}.parquet"))
+         for s in (1, 2)]
+    leak = simulate_vca(duration=30.0, leak_lpm=0.5, onset=15.0, seed=3, reference_seed=43)
+    df = leak.to_pandas()[["time", "p1", "p2"]]
+    df["P_A"], df["P_B"] = df.pop("p1") / 6894.757293168, df.pop("p2") / 6894.757293168  # psi
+    df.to_csv(rec_dir / "leak.csv", index=False)
+    (tmp_path / "map.toml").write_text('[channels]\np1 = {column = "P_A", unit = "psi"}\n'
+                                       'p2 = {column = "P_B", unit = "psi"}\n')
+    r = CliRunner().invoke(cli, ["fit", "--healthy", h[0], "--healthy", h[1], "-m", "ccf-p1p2",
+                                 "-o", str(tmp_path / "det.joblib")])
+    assert r.exit_code == 0, r.output
+    job = tmp_path / "job.toml"
+    job.write_text('[job]\ncolumn_map = "map.toml"\n[[detector]]\nname = "ccf"\n'
+                   'path = "det.joblib"\n')
+    r = CliRunner().invoke(cli, ["batch", str(rec_dir / "*.csv"), "--config", str(job), "-o",
+                                 str(tmp_path / "res"), "--scheduler", "serial", "--no-progress"])
+    assert r.exit_code == 0, r.output
+    (row,) = read_results(tmp_path / "res").to_dict("records")
+    assert row["status"] == "ok" and row["alarm"] and row["alarm_time_s"] >= 15.0
+
+
+def test_empty_and_text_csv_rows_name_file_channel_row(tmp_path):
+    rec_dir = tmp_path / "recordings"
+    rec_dir.mkdir()
+    (rec_dir / "empty.csv").write_text("")
+    rows = [f"{k / 1000},{np.sin(k)}" for k in range(3000)]
+    rows[2500] = "2.5,abc"
+    (rec_dir / "text.csv").write_text("time,p1\n" + "\n".join(rows) + "\n")
+    cfg = config_from_dict({"job": {"chunk_samples": 1000},
+                            "analysis": [{"method": "autocorrelation", "channels": ["p1"]}]})
+    (e,) = run_case(str(rec_dir / "empty.csv"), cfg)
+    assert e["error"] == f"{rec_dir / 'empty.csv'}: empty file: no header line and no data"
+    (t,) = run_case(str(rec_dir / "text.csv"), cfg)
+    assert t["error"] == (f"{rec_dir / 'text.csv'}: channel 'p1' holds text, not numbers: "
+                          "row 2500 is 'abc'")

@@ -47,7 +47,7 @@ def test_analyze_all_uses_thesis_settings(run_file, capsys):
     both = path.parent / "full.parquet"
     ld.io.write_recording(rec, both)
     assert main(["analyze", str(both), "--method", "all", "--onset", "6", "--chunk", "4"]) == 0
-    rows = [ln.split() for ln in capsys.readouterr().out.splitlines()[2:]]
+    rows = [ln.split() for ln in capsys.readouterr().out.splitlines()[2:6]]
     # the thesis's preferred VCA settings (case study 2), and window counts from
     # n_windows = (n - N) // (N - round(N * overlap / 100)) + 1 with n = 12000
     got = [(r[0], r[1], r[2], int(r[3]), r[4], int(r[5])) for r in rows]
@@ -91,3 +91,89 @@ def test_analyze_column_flags(tmp_path, capsys):
     # the psi column was converted to Pa: 1 psi = 6894.757293168 Pa (exact, NIST)
     want = [df["PA_psi"].to_numpy()[s:s + 100].mean() * 6894.757293168 for s in starts]
     np.testing.assert_allclose(means["value"], want, rtol=1e-12)
+
+
+# ---------------------------------------------------------------- decisions (issue 15)
+@pytest.fixture(scope="module")
+def healthy_files(tmp_path_factory):
+    """Two healthy copies of run_file's process (smoothed noise all along, no change)."""
+    d = tmp_path_factory.mktemp("h")
+    paths = []
+    for seed in (11, 12):
+        rng = np.random.default_rng(seed)
+        p1 = np.convolve(rng.standard_normal(12_000), np.ones(5) / 5, mode="same")
+        rec = ld.Recording({"p1": 1e6 + 1e3 * p1, "p2": 1e6 - 1e3 * p1}, 1000.0)
+        paths.append(d / f"healthy{seed}.csv")
+        rec.to_pandas().to_csv(paths[-1], index=False)
+    return paths
+
+
+def test_analyze_decides_leak_and_writes_decision_columns(run_file, tmp_path, capsys):
+    path, _ = run_file
+    assert main(["analyze", str(path), "--onset", "6", "--chunk", "2", "-o",
+                 str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert "Decision: LEAK" in out and "autocorrelation p1: LEAK" in out
+    v = pd.read_csv(tmp_path / "o" / "verdict.csv")
+    assert v.loc[0, "decision"] == "leak" and v.loc[0, "basis"] == "before-after"
+    assert v.loc[0, "p_value"] < 1e-4 and v.loc[0, "false_alarm_rate"] == 0.01
+    assert v.loc[0, "test"] == "Mann-Whitney U, one-sided (feature falls)"
+
+
+def test_analyze_healthy_run_reads_no_leak(healthy_files, capsys):
+    assert main(["analyze", str(healthy_files[0]), "--onset", "6", "--chunk", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "Decision: NO LEAK" in out
+    # the same change with 3 and 2 chunks cannot reach 1 %: inconclusive, said so
+    run_file_too_few = main(["analyze", str(healthy_files[0]), "--onset", "6"])
+    out = capsys.readouterr().out
+    assert run_file_too_few == 0 and "too few chunks (3 reference, 2 tested)" in out
+    assert "Decision: INCONCLUSIVE" in out
+
+
+def test_analyze_with_healthy_references(run_file, healthy_files, capsys):
+    path, _ = run_file
+    args = ["analyze", str(path), "--healthy", str(healthy_files[0]),
+            "--healthy", str(healthy_files[1]), "--onset", "6", "--chunk", "2"]
+    assert main(args) == 0  # the chunks after the onset against every healthy chunk
+    out = capsys.readouterr().out
+    assert "against healthy references" in out and "Decision: LEAK" in out
+    # no onset: the whole file is judged against the references
+    assert main(["analyze", str(healthy_files[0]), "--healthy", str(healthy_files[1])]) == 0
+    assert "Decision: NO LEAK" in capsys.readouterr().out
+
+
+def test_analyze_healthy_reference_with_other_sample_rate_is_refused(run_file, healthy_files,
+                                                                     tmp_path, capsys):
+    path, _ = run_file
+    df = pd.read_csv(healthy_files[0])
+    df["time"] = df["time"] * 2.0  # 500 Hz
+    slow = tmp_path / "slow.csv"
+    df.to_csv(slow, index=False)
+    assert main(["analyze", str(path), "--healthy", str(slow)]) == 2
+    err = capsys.readouterr().err
+    assert "--healthy" in err and "sample rate 500 Hz differs" in err and "1000 Hz" in err
+
+
+def test_analyze_all_skips_methods_without_their_channels(run_file, capsys):
+    path, _ = run_file  # p1 and p2 only: no u, x
+    assert main(["analyze", str(path), "--method", "all", "--onset", "6", "--chunk", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "cross-correlation u,x: skipped (no channel u, x in the recording)" in out
+    assert "autocorrelation p1: LEAK" in out
+
+
+@pytest.mark.parametrize("opt", [["--lag", "2"], ["--window", "300"], ["--overlap", "10"],
+                                 ["--lag-ratio", "40:2"], ["-c", "p2"]])
+def test_analyze_all_refuses_settings_it_does_not_use(run_file, capsys, opt):
+    path, _ = run_file
+    assert main(["analyze", str(path), "--method", "all", *opt]) == 2
+    assert f"does not use {opt[0] if opt[0] != '-c' else '--channels'}" in capsys.readouterr().err
+
+
+def test_analyze_refuses_lag_for_metric_length_only(run_file, capsys):
+    path, _ = run_file
+    assert main(["analyze", str(path), "-m", "metric-length", "--lag", "3"]) == 2
+    assert "metric-length takes --lag-ratio" in capsys.readouterr().err
+    assert main(["analyze", str(path), "-m", "autocorrelation", "--lag-ratio", "3:1"]) == 2
+    assert "--lag-ratio applies to --method metric-length only" in capsys.readouterr().err

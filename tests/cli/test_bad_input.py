@@ -96,7 +96,7 @@ def test_analyze_zero_variance_in_one_method_only_warns(files, capsys):
     out = capsys.readouterr()
     assert code == 0, out.err
     row = [ln for ln in out.out.splitlines() if "u,x" in ln][0]
-    assert row.split()[-2:] == ["21", "21"]  # 21 windows, all 21 NaN (N=100, 5%: step 95)
+    assert row.split()[-4:-2] == ["21", "21"]  # 21 windows, all 21 NaN (N=100, 5%: step 95)
 
 
 # ---- sweep -----------------------------------------------------------------------------------
@@ -149,12 +149,14 @@ def test_monitor_nan_in_later_chunk_names_file_and_sample(files, capsys):
 ])
 def test_detect_bad_file(files, capsys, case, needles):
     code = main(["detect", str(files[case]), "--healthy", str(files["good"]), "--burn-in", "0",
+                 "--system", "vca",
                  "--methods", "acf-p1"])
     _one_error_line(capsys, code, *needles)
 
 
 def test_detect_constant_healthy_file(files, capsys):
     code = main(["detect", str(files["good"]), "--healthy", str(files["const"]), "--burn-in", "0",
+                 "--system", "vca",
                  "--methods", "acf-p1"])
     _one_error_line(capsys, code, "good.csv", "no method gave a finite score",
                     "only 0 finite feature values", "healthy")
@@ -163,7 +165,8 @@ def test_detect_constant_healthy_file(files, capsys):
 def test_detect_constant_file_is_not_called_healthy(files, capsys):
     """A dead (constant) sensor must not read 'no leak': each method says why, exit 2."""
     code = main(["detect", str(files["const"]), "--healthy", str(files["good"]), "--burn-in", "0",
-                 "--methods", "acf-p1,ccf-p1p2"])
+                 "--system", "vca",
+                 "--methods", "acf-p1,ccf-p1p2", "--no-progress"])
     out = capsys.readouterr()
     assert code == 2
     assert "Traceback" not in out.err and "False" not in out.out
@@ -195,7 +198,7 @@ def test_batch_bad_file_exits_1_with_its_row(files, tmp_path, capsys, case, need
     job = tmp_path / "job.toml"
     job.write_text(JOB)
     code = main(["batch", str(files[case]), str(files["good"]), "--config", str(job), "--out",
-                 str(tmp_path / "res"), "--serial", "--no-progress"])
+                 str(tmp_path / "res"), "--scheduler", "serial", "--no-progress"])
     out = capsys.readouterr()
     assert code == 1, out
     assert "Traceback" not in out.err
@@ -208,7 +211,7 @@ def test_batch_good_file_exits_0(files, tmp_path, capsys):
     job = tmp_path / "job.toml"
     job.write_text(JOB)
     code = main(["batch", str(files["good"]), "--config", str(job), "--out", str(tmp_path / "r"),
-                 "--serial", "--no-progress"])
+                 "--scheduler", "serial", "--no-progress"])
     assert code == 0, capsys.readouterr()
 
 
@@ -216,7 +219,7 @@ def test_batch_invalid_toml(files, tmp_path, capsys):
     job = tmp_path / "bad.toml"
     job.write_text("x = [\n")
     code = main(["batch", str(files["good"]), "--config", str(job), "--out", str(tmp_path / "r"),
-                 "--serial"])
+                 "--scheduler", "serial"])
     _one_error_line(capsys, code, "bad.toml", "invalid TOML")
 
 
@@ -262,12 +265,12 @@ def test_monitor_garbage_detector_file(files, tmp_path, capsys):
     det = tmp_path / "det.pkl"
     det.write_bytes(b"garbage\n")
     code = main(["monitor", "-i", str(files["good"]), "--detector", str(det), "-q"])
-    _one_error_line(capsys, code, "--detector", "det.pkl", "cannot load as a pickled detector")
+    _one_error_line(capsys, code, "--detector", "det.pkl", "cannot load as a detector file")
 
 
 @pytest.mark.parametrize("args,needle", [
     (["-w", "0"], "window=0 must be >= 2"),
-    (["-o", "100"], "overlap=100.0 must be in [0, 100) percent"),
+    (["--overlap", "100"], "overlap=100.0 must be in [0, 100) percent"),
     (["--lag", "500"], "lag=500 must be in [1, 200)"),
     (["-m", "metric-length", "--lag-ratio", "83-3"], "lag_ratio='83-3' must be written 'l:k'"),
     (["--sample-rate", "-5"], "sample_rate=-5.0 must be a finite number > 0"),

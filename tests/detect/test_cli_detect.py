@@ -36,5 +36,111 @@ def test_cli_prints_verdict_and_rejects_unknown_method(files, capsys):
     assert main(args) == 0
     out = capsys.readouterr().out
     assert "ccf-p1p2" in out and "True" in out
+    assert "Decision: LEAK -- alarm from ccf-p1p2" in out
     assert main(args[:2] + ["--methods", "nope"] + args[4:]) == 2
     assert "unknown method 'nope'" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------ issue 15
+def _h(healthy):
+    return [a for h in healthy for a in ("--healthy", h)]
+
+
+def test_fit_then_detect_with_the_detector_file(files, tmp_path, capsys):
+    healthy, leak = files
+    det = tmp_path / "det.joblib"
+    assert main(["fit", *_h(healthy), "--method", "ccf-p1p2", "-o", str(det)]) == 0
+    out = capsys.readouterr().out
+    assert "ccf-p1p2 for the VCA at 1000 Hz, channels p1,p2" in out
+    assert main(["detect", leak, "--detector", str(det)]) == 0
+    out = capsys.readouterr().out
+    assert "Decision: LEAK" in out
+    # the saved detector gives the same verdict as fitting at the same rate in the same run
+    from leakdiag.cli.fit import fit_detector
+    from leakdiag.io import read_recording
+    from leakdiag.stream.detector_file import load_detector_file
+
+    loaded, meta = load_detector_file(det)
+    fresh = fit_detector("ccf-p1p2", "vca", [read_recording(h) for h in healthy])
+    rec = read_recording(leak)
+    assert loaded.predict(rec).score_max == fresh.predict(rec).score_max
+    assert (meta.system, meta.sample_rate_hz, meta.channels, meta.units) == (
+        "vca", 1000.0, ("p1", "p2"), {"p1": "Pa", "p2": "Pa"})
+
+
+def test_detect_refuses_file_at_another_sample_rate_than_the_detector(files, tmp_path, capsys):
+    healthy, leak = files
+    import pandas as pd
+
+    det = tmp_path / "det.joblib"
+    assert main(["fit", *_h(healthy), "--method", "acf-p1", "-o", str(det)]) == 0
+    df = pd.read_parquet(leak)
+    df["time"] = df["time"] * 2.0
+    slow = tmp_path / "slow.csv"
+    df.to_csv(slow, index=False)
+    capsys.readouterr()
+    assert main(["detect", str(slow), "--detector", str(det)]) == 2
+    assert "slow.csv: sample rate 500 Hz, but" in capsys.readouterr().err
+    # and against healthy files at 1000 Hz
+    assert main(["detect", str(slow), *_h(healthy)]) == 2
+    assert "sample rate 1000 Hz differs from" in capsys.readouterr().err
+
+
+def test_detect_refuses_healthy_files_of_another_system(files, tmp_path, capsys):
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_eha
+
+    healthy, leak = files
+    eha = simulate_eha(duration=2.0, leak_lpm=None, seed=1)
+    p = str(write_recording(eha.resample(1000.0) if eha.sample_rate != 1000.0 else eha,
+                            tmp_path / "eha.parquet"))
+    assert main(["detect", leak, "--healthy", p]) == 2
+    assert "system 'eha' differs from" in capsys.readouterr().err
+
+
+def test_detect_time_in_milliseconds_warns_and_time_unit_fixes_it(files, tmp_path, capsys):
+    import pandas as pd
+
+    healthy, leak = files
+    df = pd.read_parquet(leak)
+    df["time"] = df["time"] * 1000.0
+    ms = tmp_path / "ms.csv"
+    df.to_csv(ms, index=False)
+    with pytest.warns(UserWarning, match="ms.csv: sample rate 1 Hz .* --time-unit ms"):
+        assert main(["detect", str(ms), *_h(healthy), "--methods", "acf-p1"]) == 2
+    assert "sample rate 1000 Hz differs from" in capsys.readouterr().err
+    hms = []
+    for i, h in enumerate(healthy):  # --time-unit applies to every file: healthy ones in ms too
+        d = pd.read_parquet(h)
+        d["time"] = d["time"] * 1000.0
+        hms.append(str(tmp_path / f"h{i}.csv"))
+        d.to_csv(hms[-1], index=False)
+    assert main(["detect", str(ms), *_h(hms), "--methods", "acf-p1",
+                 "--time-unit", "ms", "--system", "vca"]) == 0
+    assert "Decision: LEAK" in capsys.readouterr().out
+
+
+def test_detect_needs_a_system_when_no_file_says(files, tmp_path, capsys):
+    import pandas as pd
+
+    healthy, leak = files
+    paths = []
+    for i, f in enumerate([leak, *healthy[:2]]):
+        p = tmp_path / f"plain{i}.csv"
+        pd.read_parquet(f).to_csv(p, index=False)  # CSV: no metadata, no system
+        paths.append(str(p))
+    assert main(["detect", paths[0], *_h(paths[1:]), "--methods", "acf-p1"]) == 2
+    assert "give --system vca or --system eha" in capsys.readouterr().err
+
+
+def test_detect_warns_when_a_healthy_file_says_it_leaks(files, capsys):
+    healthy, leak = files
+    with pytest.warns(UserWarning, match=r"--healthy .*leak.parquet: its metadata says it leaks"):
+        main(["detect", healthy[0], "--healthy", leak, "--healthy", healthy[1],
+              "--methods", "acf-p1"])
+
+
+def test_detect_without_references_is_a_usage_error(files, capsys):
+    _, leak = files
+    assert main(["detect", leak]) == 2
+    assert "give --healthy FILE (repeatable) or --detector FILE" in capsys.readouterr().err

@@ -91,3 +91,46 @@ def test_all_nan_chunk_counted_as_empty_not_straddling():
     assert res.chunk_side.tolist() == [-1, 2, 1, 1]
     assert (res.n_chunks_empty, res.n_chunks_straddling, res.n_nan_windows) == (1, 0, 5)
     assert res.pct_change_signed == pytest.approx(100.0)
+
+
+# ---------------------------------------------------------------- decisions (issue 15, sec. 1)
+from leakdiag.detect.measure import decide_change  # noqa: E402
+
+
+def test_decision_exact_mann_whitney_hand_values():
+    # every tested chunk below every reference chunk: U = 0, exact one-sided p = 1 / C(6, 3)
+    ref, low = [1.0, 2.0, 3.0], [0.1, 0.2, 0.3]
+    d = decide_change(ref, low, false_alarm_rate=0.1, direction="down")
+    assert d.decision == "leak" and d.p_value == pytest.approx(1 / 20)
+    assert (d.n_reference, d.n_test, d.basis) == (3, 3, "before-after")
+    # the same data cannot reach 1 %: the smallest p-value 0.05 is above alpha
+    d = decide_change(ref, low, false_alarm_rate=0.01, direction="down")
+    assert d.decision == "inconclusive" and "smallest p-value the test can give, 0.05" in d.reason
+    # two-sided doubles the smallest p-value: 0.1 is not below 0.1
+    assert decide_change(ref, low, false_alarm_rate=0.1).decision == "inconclusive"
+
+
+def test_decision_opposite_direction_is_inconclusive_and_noise_is_no_leak():
+    rng = np.random.default_rng(0)
+    ref = rng.normal(1.0, 0.05, 40)
+    assert decide_change(ref, rng.normal(1.5, 0.05, 40), direction="down").decision == "inconclusive"
+    assert decide_change(ref, rng.normal(1.5, 0.05, 40), direction="up").decision == "leak"
+    d = decide_change(ref, rng.normal(1.0, 0.05, 40), direction="down")
+    assert d.decision == "no-leak" and d.p_value > 0.01
+
+
+def test_decision_false_alarm_rate_holds_on_exchangeable_noise():
+    # 2000 healthy "runs" of iid chunks: the share reading "leak" is at most alpha (one-sided 5 %)
+    rng = np.random.default_rng(1)
+    hits = sum(decide_change(rng.standard_normal(30), rng.standard_normal(30),
+                             false_alarm_rate=0.05, direction="down").decision == "leak"
+               for _ in range(2000))
+    # binomial(2000, 0.05): mean 100, sd 9.7; 135 is 3.6 sd above
+    assert 60 < hits < 135
+
+
+def test_decision_rejects_bad_alpha_and_direction():
+    with pytest.raises(ValueError, match=r"false_alarm_rate=0.0 must be in \(0, 0.5\]"):
+        decide_change([1.0], [2.0], false_alarm_rate=0.0)
+    with pytest.raises(ValueError, match="direction='sideways'"):
+        decide_change([1.0], [2.0], direction="sideways")

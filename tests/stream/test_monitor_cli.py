@@ -62,7 +62,7 @@ def test_monitor_stdin_cross_correlation():
                                      enumerate(zip(y.tolist(), x.tolist())))
     r = CliRunner().invoke(cli, ["monitor", "-i", "-", "-m", "cross-correlation", "-c", "p1,p2",
                                  "--batch-lines", "7",
-                                 "--lag", "2", "-w", "50", "-o", "10", "--events", "-", "-q"],
+                                 "--lag", "2", "-w", "50", "--overlap", "10", "--events", "-", "-q"],
                            input=lines)
     assert r.exit_code == 0, r.output
     events = [json.loads(line) for line in r.stdout.splitlines()]
@@ -84,8 +84,9 @@ def test_monitor_with_pickled_scorer_prints_alarm(run_file, tmp_path):
     det = tmp_path / "det.pkl"
     det.write_bytes(pickle.dumps(Threshold()))
     ev_path = tmp_path / "ev.jsonl"
-    r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-c", "p1", "--detector", str(det),
-                                 "--events", str(ev_path)])
+    with pytest.warns(UserWarning, match="bare pickled detector without a metadata record"):
+        r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-c", "p1", "--detector",
+                                     str(det), "--events", str(ev_path)])
     assert r.exit_code == 0, r.output
     events = _events(ev_path)
     expected = (1 - ac_ref(rec["p1"], 1, 200, 5)) >= 0.5
@@ -122,3 +123,77 @@ def test_monitor_follow_and_text_fallback(run_file, tmp_path):
     assert r.exit_code == 0, r.output
     assert [e["value"] for e in _events(ev2)] == pytest.approx([e["value"] for e in _events(ev)],
                                                                rel=1e-9)
+
+
+# ------------------------------------------------------------------ issue 15
+def test_monitor_without_detector_says_no_alarm_was_possible(run_file):
+    path, _ = run_file
+    r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-c", "p1"])
+    assert r.exit_code == 0, r.output
+    assert "no alarm possible (features only: give --detector FILE from leakdiag fit)" in r.output
+    assert "0 alarm(s)" not in r.output
+
+
+def test_monitor_sample_rate_conflicting_with_the_file_is_refused(run_file, tmp_path):
+    path, rec = run_file
+    r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-c", "p1", "--sample-rate", "500"])
+    assert r.exit_code != 0
+    assert "500 Hz was given, but the file's header says 1000 Hz" in str(r.exception)
+    csv = tmp_path / "run.csv"
+    rec.to_pandas().to_csv(csv, index=False)
+    r = CliRunner().invoke(cli, ["monitor", "-i", str(csv), "-c", "p1", "--sample-rate", "500"])
+    assert "500 Hz was given, but the file's time column says 1000 Hz" in str(r.exception)
+
+
+def test_monitor_stdin_time_going_backwards_is_an_error():
+    lines = ["time,p1"] + [f"{k / 1000:.3f},{np.sin(k)}" for k in range(300)]
+    lines[200] = f"{0.150:.3f},{0.0}"  # line 201 of the stream (1: header) goes back in time
+    r = CliRunner().invoke(cli, ["monitor", "-i", "-", "-c", "p1", "-w", "50", "-q"],
+                           input="\n".join(lines) + "\n")
+    assert r.exit_code != 0
+    assert "<stdin>: line 201: time 0.15 s after 0.198 s is time goes backwards" in str(r.exception)
+
+
+def test_monitor_empty_and_text_csv_name_file_channel_row(tmp_path):
+    from leakdiag.cli.main import main
+
+    empty = tmp_path / "empty.csv"
+    empty.write_text("")
+    text = tmp_path / "text.csv"
+    rows = [f"{k / 1000},{np.sin(k)}" for k in range(5000)]
+    rows[4500] = "4.5,abc"
+    text.write_text("time,p1\n" + "\n".join(rows) + "\n")
+    import contextlib
+    import io
+
+    for f, needle in [(empty, "empty.csv: empty file"),
+                      (text, "text.csv: channel 'p1' holds text, not numbers: row 4500 is 'abc'")]:
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err):
+            code = main(["monitor", "-i", str(f), "-c", "p1", "-q", "--chunk", "1000"])
+        assert code == 2 and needle in err.getvalue(), err.getvalue()
+
+
+def test_monitor_with_a_fitted_detector_file(tmp_path):
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
+    h = [str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, seed=s, reference_seed=40 + s),
+                             tmp_path / f"h{s}.parquet")) for s in (1, 2)]
+    leak = str(write_recording(simulate_vca(duration=30.0, leak_lpm=0.5, onset=15.0, seed=3,
+                                            reference_seed=43), tmp_path / "leak.parquet"))
+    det = tmp_path / "det.joblib"
+    r = CliRunner().invoke(cli, ["fit", "--healthy", h[0], "--healthy", h[1], "-m", "ccf-p1p2",
+                                 "-o", str(det)])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(cli, ["monitor", "-i", leak, "--detector", str(det)])
+    assert r.exit_code == 0, r.output
+    alarm = [ln for ln in r.output.splitlines() if ln.startswith("ALARM")]
+    assert alarm and float(alarm[0].split("t=")[1].split()[0]) >= 15.0
+    assert "1 alarm(s)" in r.output
+    # a whole-recording detector cannot be streamed: said so
+    comb = tmp_path / "comb.joblib"
+    assert CliRunner().invoke(cli, ["fit", "--healthy", h[0], "-m", "combined", "-o",
+                                    str(comb)]).exit_code == 0
+    r = CliRunner().invoke(cli, ["monitor", "-i", leak, "--detector", str(comb)])
+    assert r.exit_code != 0 and "cannot run window by window" in r.output

@@ -105,8 +105,44 @@ def test_csv_lines_errors():
     with pytest.raises(RecordingError, match="empty input"):
         csv_lines(io.StringIO(""))
     src = csv_lines(io.StringIO("p1,p2\n1,2\n3\n"), sample_rate=5.0)
-    with pytest.raises(RecordingError, match="CSV line has 1 fields, header has 2: .3."):
+    with pytest.raises(RecordingError, match="<stdin>: line 3: 1 fields, header has 2: .3."):
         list(src)
+
+
+@pytest.mark.parametrize("last,needle", [
+    (0.068, "line 72: time 0.068 s after 0.069 s is time goes backwards"),
+    (0.075, "line 72: time 0.075 s after 0.069 s is a gap"),
+    (0.0701, "line 72: time 0.0701 s after 0.069 s is jitter"),
+])
+def test_csv_lines_checks_the_time_axis_like_file_mode(last, needle):
+    # issue 15: stdin used to accept time going backwards, gaps and jitter (here after the
+    # 64 head lines that set the rate; line 1 is the header)
+    times = [round(0.001 * k, 6) for k in range(70)] + [last]
+    text = "time,p1\n" + "".join(f"{t},{i}\n" for i, t in enumerate(times))
+    src = csv_lines(io.StringIO(text))
+    assert src.sample_rate == 1000.0  # from the first uniform lines
+    with pytest.raises(RecordingError, match=needle):
+        list(src)
+
+
+def test_csv_lines_rate_from_many_lines_not_the_first_interval():
+    # a jittered first interval (1101 Hz) used to set the rate; now the head is checked
+    times = [0.0, 0.000908] + [0.001 * k for k in range(2, 10)]
+    text = "time,p1\n" + "".join(f"{t},{i}\n" for i, t in enumerate(times))
+    with pytest.raises(RecordingError, match="not uniformly sampled"):
+        csv_lines(io.StringIO(text))
+
+
+def test_csv_lines_names_line_and_channel_of_text():
+    src = csv_lines(io.StringIO("time,p1\n0,1\n0.001,abc\n"))
+    with pytest.raises(RecordingError, match=r"<stdin>: line 3, channel 'p1': 'abc' is not a number"):
+        list(src)
+
+
+def test_csv_lines_sample_rate_conflicting_with_time_column_is_refused():
+    with pytest.raises(RecordingError, match="500 Hz was given, but the file's time column says "
+                                             "1000 Hz"):
+        csv_lines(io.StringIO("time,p1\n0,1\n0.001,2\n0.002,3\n"), sample_rate=500.0)
 
 
 def test_tail_follows_a_growing_file(tmp_path):

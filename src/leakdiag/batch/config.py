@@ -6,6 +6,7 @@ Read from TOML (schema in ``docs/operations.md``)::
     chunk_samples = 1048576   # samples per read chunk (memory bound)
     rms_chunk = 10            # feature values per RMS chunk (Sec. 5.2)
     # onset_s = 30.0          # leak onset for the Sec. 5.2 measure; default: each file's meta
+    # column_map = "map.toml" # your own files: column map (docs/io.md), relative to this TOML
 
     [[analysis]]
     method = "autocorrelation"
@@ -16,7 +17,7 @@ Read from TOML (schema in ``docs/operations.md``)::
 
     [[detector]]
     name = "ac-p1"
-    path = "detector.pkl"     # pickled fitted detector, relative to the TOML file
+    path = "det.joblib"       # detector file from leakdiag fit, relative to the TOML file
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from leakdiag._validation import check_int
 from leakdiag.features.methods import MethodSpec
 from leakdiag.stream.feature import STREAM_METHODS
 
-__all__ = ["BatchConfig", "DetectorRef", "load_config", "config_from_dict",
+__all__ = ["BatchConfig", "DetectorRef", "load_config", "config_from_dict", "detector_ref",
            "DEFAULT_CHUNK_SAMPLES", "DEFAULT_RMS_CHUNK"]
 
 #: Samples per read chunk: 1 Mi samples = 8 MB per float64 channel.
@@ -46,16 +47,16 @@ _SWEEPABLE = ("lag", "lag_ratio", "window", "overlap")
 
 @dataclass(frozen=True)
 class DetectorRef:
-    """A pickled fitted detector to run on every recording.
+    """A fitted detector file (``leakdiag fit``) to run on every recording.
 
     Parameters
     ----------
     name : str
         Name in the results table.
     path : str
-        Absolute path of the pickle.
+        Absolute path of the detector file.
     sha256 : str
-        Digest of the pickle, so that a re-fitted detector invalidates finished results.
+        Digest of the file, so that a re-fitted detector invalidates finished results.
     """
 
     name: str
@@ -79,6 +80,10 @@ class BatchConfig:
         Feature values per RMS chunk (Sec. 5.2).
     onset_s : float or None
         Leak onset for the Sec. 5.2 measure; None uses each recording's ``meta['onset']``.
+    column_map : str or None
+        Absolute path of a column map TOML for every recording (files are then read whole).
+    column_map_sha256 : str or None
+        Its digest (a changed map invalidates finished results).
 
     Raises
     ------
@@ -97,6 +102,8 @@ class BatchConfig:
     chunk_samples: int = DEFAULT_CHUNK_SAMPLES
     rms_chunk: int = DEFAULT_RMS_CHUNK
     onset_s: float | None = None
+    column_map: str | None = None
+    column_map_sha256: str | None = None
 
     def __post_init__(self) -> None:
         if not self.analyses and not self.detectors:
@@ -118,7 +125,8 @@ class BatchConfig:
                 "detectors": [{"name": d.name, "path": d.path, "sha256": d.sha256}
                               for d in self.detectors],
                 "chunk_samples": self.chunk_samples, "rms_chunk": self.rms_chunk,
-                "onset_s": self.onset_s}
+                "onset_s": self.onset_s, "column_map": self.column_map,
+                "column_map_sha256": self.column_map_sha256}
 
     def to_json(self) -> str:
         """Canonical JSON text of :meth:`to_dict` (sorted keys).
@@ -159,17 +167,39 @@ def _expand(entry: Mapping[str, Any], i: int) -> list[MethodSpec]:
     return specs
 
 
+def detector_ref(path: str | os.PathLike, name: str | None = None) -> DetectorRef:
+    """A :class:`DetectorRef` for a detector file (digest of its bytes).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Detector file (``leakdiag fit -o ...``).
+    name : str, optional
+        Name in the results (default: the file name without suffix).
+
+    Returns
+    -------
+    DetectorRef
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    """
+    path = os.path.abspath(os.fspath(path))
+    with open(path, "rb") as f:
+        digest = hashlib.sha256(f.read()).hexdigest()
+    return DetectorRef(name or os.path.splitext(os.path.basename(path))[0], path, digest)
+
+
 def _detector(entry: Mapping[str, Any], i: int, base_dir: str) -> DetectorRef:
     if "path" not in entry:
-        raise ValueError(f"[[detector]] #{i + 1}: needs a path to a pickled fitted detector")
+        raise ValueError(f"[[detector]] #{i + 1}: needs a path to a detector file (leakdiag fit)")
     path = os.path.abspath(os.path.join(base_dir, entry["path"]))
     try:
-        with open(path, "rb") as f:
-            digest = hashlib.sha256(f.read()).hexdigest()
+        return detector_ref(path, None if "name" not in entry else str(entry["name"]))
     except OSError as exc:
         raise ValueError(f"[[detector]] #{i + 1}: cannot read {path}: {exc}") from None
-    name = str(entry.get("name", os.path.splitext(os.path.basename(path))[0]))
-    return DetectorRef(name, path, digest)
 
 
 def config_from_dict(d: Mapping[str, Any], base_dir: str = ".") -> BatchConfig:
@@ -195,15 +225,23 @@ def config_from_dict(d: Mapping[str, Any], base_dir: str = ".") -> BatchConfig:
     if unknown:
         raise ValueError(f"unknown table(s) {sorted(unknown)}; allowed: job, analysis, detector")
     job = dict(d.get("job", {}))
-    bad = set(job) - {"chunk_samples", "rms_chunk", "onset_s"}
+    bad = set(job) - {"chunk_samples", "rms_chunk", "onset_s", "column_map"}
     if bad:
         raise ValueError(f"[job]: unknown key(s) {sorted(bad)}")
     specs = [s for i, e in enumerate(d.get("analysis", [])) for s in _expand(e, i)]
     dets = [_detector(e, i, base_dir) for i, e in enumerate(d.get("detector", []))]
     onset = job.get("onset_s")
+    cmap = cmap_sha = None
+    if job.get("column_map") is not None:
+        cmap = os.path.abspath(os.path.join(base_dir, str(job["column_map"])))
+        try:
+            with open(cmap, "rb") as f:
+                cmap_sha = hashlib.sha256(f.read()).hexdigest()
+        except OSError as exc:
+            raise ValueError(f"[job] column_map: cannot read {cmap}: {exc}") from None
     return BatchConfig(tuple(specs), tuple(dets), job.get("chunk_samples", DEFAULT_CHUNK_SAMPLES),
                        job.get("rms_chunk", DEFAULT_RMS_CHUNK),
-                       None if onset is None else float(onset))
+                       None if onset is None else float(onset), cmap, cmap_sha)
 
 
 def load_config(path: str | os.PathLike) -> BatchConfig:

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import glob
 import os
-import pickle
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
@@ -20,7 +20,8 @@ import numpy as np
 
 from leakdiag._version import __version__
 from leakdiag.batch.config import BatchConfig
-from leakdiag.batch.store import finished_keys, read_results, result_key, write_rows
+from leakdiag.batch.store import (content_hash, finished_state, read_results, result_key,
+                                  write_rows)
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["run_case", "run_batch", "expand_inputs", "BatchSummary", "LOCAL"]
@@ -60,14 +61,16 @@ def expand_inputs(patterns: Iterable[str]) -> list[str]:
     return sorted(out)
 
 
-def _source(path: str, channels: list[str], chunk_samples: int):
+def _source(path: str, channels: list[str], chunk_samples: int, column_map=None):
     from leakdiag.stream import open_chunks, recording_chunks
 
-    if os.path.splitext(path)[1].lower() in _CHUNKED_SUFFIXES:
+    if column_map is None and os.path.splitext(path)[1].lower() in _CHUNKED_SUFFIXES:
         return open_chunks(path, channels, chunk_samples)
     import leakdiag.io as lio
 
-    return recording_chunks(lio.read_recording(path), chunk_samples, channels)
+    rec = lio.read_recording(path, column_map)
+    rec.meta["source"] = path
+    return recording_chunks(rec, chunk_samples, channels)
 
 
 def _summary(values: np.ndarray) -> dict:
@@ -117,6 +120,7 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
     onset is known (``config.onset_s`` or the file's ``meta['onset']``).
     """
     from leakdiag.stream.detector import as_scorer
+    from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
     from leakdiag.stream.feature import StreamingFeature
 
     t0 = time.perf_counter()
@@ -126,12 +130,20 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
     try:
         dets = []
         for ref in config.detectors:
-            with open(ref.path, "rb") as f:
-                dets.append((ref.name, pickle.load(f)))
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # a bare pickle: nothing to check, still usable
+                det, meta = load_detector_file(ref.path)
+            if not callable(getattr(det, "spec", None)):
+                raise ValueError(f"detector {ref.name} ({ref.path}) judges whole recordings and "
+                                 "cannot be streamed; use a single-feature detector")
+            dets.append((ref.name, det, meta, ref.path))
         items = [("analysis", s.label, s, None) for s in config.analyses]
-        items += [("detector", name, d.spec(), d) for name, d in dets]
+        items += [("detector", name, d.spec(), d) for name, d, _, _ in dets]
         channels = sorted({c for _, _, s, _ in items for c in s.channels})
-        src = _source(path, channels, config.chunk_samples)
+        src = _source(path, channels, config.chunk_samples, config.column_map)
+        for name, _, meta, dpath in dets:
+            check_detector_fits(meta, sample_rate=src.sample_rate, channels=src.channels,
+                                system=src.meta.get("system"), source=path, path=dpath)
         feats = [StreamingFeature(s, src.sample_rate, src.start_time) for _, _, s, _ in items]
         scorers = [None if d is None else as_scorer(d, s, src.sample_rate, src.start_time)
                    for _, _, s, d in items]
@@ -163,7 +175,12 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                 row["alarm_time_s"] = float(t[np.argmax(alarms)]) if np.any(alarms) else None
             rows.append(row)
     except Exception as exc:  # noqa: BLE001 - a bad file must become a row, not stop the run
-        rows = [{**base, "status": "error", "error": f"{type(exc).__name__}: {exc}"}]
+        msg = str(exc)  # leakdiag's messages name the file, channel and row; others get the file
+        if isinstance(exc, ValueError) and (path in msg or os.path.basename(path) in msg):
+            err = msg
+        else:
+            err = f"{path}: {type(exc).__name__}: {msg}"
+        rows = [{**base, "status": "error", "error": err}]
     elapsed = time.perf_counter() - t0
     for r in rows:
         r["elapsed_s"] = elapsed
@@ -196,13 +213,17 @@ class BatchSummary:
 
 
 def _todo(paths, config, out_dir, retry_errors):
-    done = finished_keys(out_dir)
+    """Recordings to (re)compute: new, edited since their result (content hash), or errors with
+    ``retry_errors``; their keys and content hashes."""
+    done = finished_state(out_dir)
     keys = {p: result_key(p, config.digest) for p in paths}
-    if retry_errors and done:
-        df = read_results(out_dir)
-        bad = set(df.loc[df["status"] == "error", "path"])
-        done -= {keys[p] for p in bad if p in keys}
-    return [p for p in paths if keys[p] not in done], keys
+    shas = {p: content_hash(p) for p in paths}
+    todo = []
+    for p in paths:
+        state = done.get(keys[p])
+        if state is None or state[0] != shas[p] or (retry_errors and state[1]):
+            todo.append(p)
+    return todo, keys, shas
 
 
 def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.PathLike, *,
@@ -242,12 +263,15 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
     from tqdm.auto import tqdm
 
     paths = expand_inputs(inputs)
-    todo, keys = _todo(paths, config, out_dir, retry_errors)
+    todo, keys, shas = _todo(paths, config, out_dir, retry_errors)
     n_err = 0
-    bar = tqdm(total=len(todo), unit="rec", desc="batch", disable=not progress)
+    bar = tqdm(total=len(todo), unit="rec", desc="batch", disable=not progress, leave=True,
+               dynamic_ncols=True, mininterval=0.5)
 
     def finish(path, rows):
         nonlocal n_err
+        for r in rows:
+            r["recording_sha256"] = shas[path]
         write_rows(rows, out_dir, keys[path])
         n_err += any(r["status"] == "error" for r in rows)
         bar.update(1)

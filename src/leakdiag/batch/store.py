@@ -2,8 +2,10 @@
 
 Each finished recording is written to ``<out>/<key>.parquet`` through a temporary file and an
 atomic rename, so a killed run leaves only complete files; a re-run skips every key present.
-The key hashes the recording's absolute path, size and modification time and the job digest, so
-an edited recording or a changed job is computed again. ``pandas.read_parquet(out)`` or
+The key hashes the recording's absolute path and the job digest, so each recording has exactly one
+current result file per job; the rows record the SHA-256 of the recording's content
+(``recording_sha256``), so an edited recording is computed again and its new rows *replace* the
+old ones (issue 15: one current row set per recording, never an old and a new one side by side). ``pandas.read_parquet(out)`` or
 :func:`read_results` reads the whole table.
 """
 
@@ -13,7 +15,8 @@ import hashlib
 import os
 from pathlib import Path
 
-__all__ = ["RESULT_COLUMNS", "result_key", "finished_keys", "write_rows", "read_results"]
+__all__ = ["RESULT_COLUMNS", "result_key", "finished_keys", "finished_state", "write_rows",
+           "read_results", "content_hash"]
 
 #: Result columns and their Arrow types (a fixed schema so that all files concatenate).
 RESULT_COLUMNS: dict[str, str] = {
@@ -27,7 +30,7 @@ RESULT_COLUMNS: dict[str, str] = {
     "pct_change": "float64", "pct_change_signed": "float64",
     "score_max": "float64", "alarm": "bool", "alarm_time_s": "float64",
     "elapsed_s": "float64", "job_digest": "string", "job_config": "string",
-    "leakdiag_version": "string",
+    "leakdiag_version": "string", "recording_sha256": "string",
 }
 
 
@@ -40,7 +43,7 @@ def _schema():
 
 
 def result_key(path: str | os.PathLike, job_digest: str) -> str:
-    """File key of one recording's results under one job.
+    """File key of one recording's results under one job (stable when the file is edited).
 
     Parameters
     ----------
@@ -60,12 +63,64 @@ def result_key(path: str | os.PathLike, job_digest: str) -> str:
     32
     """
     p = os.path.abspath(os.fspath(path))
+    return hashlib.sha256(f"{p}|{job_digest}".encode()).hexdigest()[:32]
+
+
+def content_hash(path: str | os.PathLike) -> str:
+    """SHA-256 of a file's bytes, read in 1 MiB blocks ("missing" if it cannot be read).
+
+    Parameters
+    ----------
+    path : str or path-like
+        File.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> content_hash("/nonexistent")
+    'missing'
+    """
+    h = hashlib.sha256()
     try:
-        st = os.stat(p)
-        stamp = f"{st.st_size}:{st.st_mtime_ns}"
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
     except OSError:
-        stamp = "missing"
-    return hashlib.sha256(f"{p}|{stamp}|{job_digest}".encode()).hexdigest()[:32]
+        return "missing"
+    return h.hexdigest()
+
+
+def finished_state(out_dir: str | os.PathLike) -> dict[str, tuple[str | None, bool]]:
+    """Per finished key: the recording's content hash and whether its rows are an error.
+
+    Parameters
+    ----------
+    out_dir : str or path-like
+        Results folder (may not exist yet).
+
+    Returns
+    -------
+    dict
+        ``key -> (recording_sha256 or None, is_error)``.
+    """
+    import pyarrow.parquet as pq
+
+    out = {}
+    d = Path(out_dir)
+    if not d.is_dir():
+        return out
+    for p in d.glob("*.parquet"):
+        if p.name.startswith((".", "_")):
+            continue
+        names = set(pq.read_schema(p).names)
+        cols = [c for c in ("recording_sha256", "status") if c in names]
+        t = pq.read_table(p, columns=cols).to_pydict()
+        sha = (t.get("recording_sha256") or [None])[0]
+        out[p.stem] = (sha, "error" in (t.get("status") or []))
+    return out
 
 
 def finished_keys(out_dir: str | os.PathLike) -> set[str]:
@@ -134,7 +189,13 @@ def read_results(out_dir: str | os.PathLike):
     import pyarrow.parquet as pq
 
     files = sorted(p for p in Path(out_dir).glob("*.parquet") if not p.name.startswith((".", "_")))
-    tables = [pq.read_table(p, schema=_schema()) for p in files]
+    tables = []
+    for p in files:
+        t = pq.read_table(p)
+        for name in _schema().names:  # files of older versions lack new columns
+            if name not in t.column_names:
+                t = t.append_column(name, pa.nulls(len(t), _schema().field(name).type))
+        tables.append(t.select(_schema().names).cast(_schema()))
     table = pa.concat_tables(tables) if tables else _schema().empty_table()
     df = table.to_pandas()
     order = ["path", "kind", "name", "method", "channels", "lag", "lag_ratio", "window", "overlap"]

@@ -7,7 +7,9 @@ from pathlib import Path
 
 import click
 
-__all__ = ["analyze", "format_verdict"]
+from leakdiag.cli._options import false_alarm_option, healthy_option, recording_options
+
+__all__ = ["analyze", "format_verdict", "decision_words"]
 
 _METHOD_CHOICES = ["autocorrelation", "cross-correlation", "metric-length", "moments", "all"]
 
@@ -25,21 +27,26 @@ def format_verdict(table) -> str:
     str
         Fixed-width text.
     """
-    show = table.copy()
+    show = table[table["skipped"].isna()].copy() if "skipped" in table else table.copy()
     cols = ["method", "channels", "setting", "window", "overlap", "n_windows"]
     if show["mean_rms_before"].notna().any():
         show["mean_rms_before"] = show["mean_rms_before"].map(lambda v: f"{v:.5g}")
         show["mean_rms_after"] = show["mean_rms_after"].map(lambda v: f"{v:.5g}")
-        show["% change"] = show["pct_change"].map(lambda v: f"{v:.2f}")
-        show["signed"] = show["pct_change_signed"].map(lambda v: f"{v:+.2f}")
+        show["% change"] = show["pct_change"].map(lambda v: f"{v:.2f}" if v == v else "-")
+        show["signed"] = show["pct_change_signed"].map(lambda v: f"{v:+.2f}" if v == v else "-")
         show["chunks b/a/x"] = [
-            f"{int(b)}/{int(a)}/{int(x)}" for b, a, x in
+            f"{int(b)}/{int(a)}/{int(x)}" if b == b else "-" for b, a, x in
             zip(show["n_chunks_before"], show["n_chunks_after"], show["n_chunks_straddling"])]
         cols += ["mean_rms_before", "mean_rms_after", "% change", "signed", "chunks b/a/x"]
     if show["n_nan_windows"].fillna(0).astype(int).any():
         show["NaN windows"] = show["n_nan_windows"].fillna(0).astype(int)
         cols.append("NaN windows")
+    if "decision" in show and show["decision"].notna().any():
+        show["decision"] = show["decision"].fillna("")
+        show["p"] = show["p_value"].map(lambda v: f"{v:.2g}" if v == v else "-")
+        cols += ["decision", "p"]
     show["overlap"] = show["overlap"].map(lambda v: f"{v:g}%")
+    show["n_windows"] = show["n_windows"].astype(int)
     return show[cols].to_string(index=False)
 
 
@@ -47,7 +54,21 @@ def _specs(method, channels, lag, lag_ratio, window, overlap, system):
     from leakdiag.features.methods import MethodSpec, thesis_defaults
 
     if "all" in method:
+        given = [name for name, v in (("--channels", channels), ("--lag", lag),
+                                      ("--lag-ratio", lag_ratio), ("--window", window),
+                                      ("--overlap", overlap)) if v is not None]
+        if given:
+            raise click.UsageError(
+                f"--method all runs each thesis method at the thesis's preferred settings for "
+                f"the {system.upper()} and does not use {', '.join(given)}; drop "
+                f"{'it' if len(given) == 1 else 'them'} or name the methods (--method "
+                "autocorrelation ...)")
         return list(thesis_defaults(system))
+    if lag is not None and not {"autocorrelation", "cross-correlation"} & set(method):
+        raise click.UsageError("--lag applies to autocorrelation and cross-correlation only; "
+                               "metric-length takes --lag-ratio")
+    if lag_ratio is not None and "metric-length" not in method:
+        raise click.UsageError("--lag-ratio applies to --method metric-length only")
     specs = []
     for m in method:
         kw = {}
@@ -56,51 +77,91 @@ def _specs(method, channels, lag, lag_ratio, window, overlap, system):
         if m == "metric-length":
             kw["lag_ratio"] = lag_ratio or "83:3"
         specs.append(MethodSpec(m, tuple(channels.split(",")) if channels else (),
-                                window=window, overlap=overlap, **kw))
+                                window=200 if window is None else window,
+                                overlap=5.0 if overlap is None else overlap, **kw))
     return specs
 
 
-@click.command()
+def decision_words(table, false_alarm_rate: float) -> str:
+    """The decisions of a verdict table in words: one line per method and an overall line.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Verdict table with decision columns (:data:`leakdiag.detect.analysis.DECISION_COLUMNS`).
+    false_alarm_rate : float
+        Overall false-alarm rate per run (split over the methods, Bonferroni).
+
+    Returns
+    -------
+    str
+    """
+    from leakdiag.detect.analysis import overall_decision
+
+    words = {"leak": "LEAK", "no-leak": "NO LEAK", "inconclusive": "INCONCLUSIVE"}
+    lines = []
+    for r in table.to_dict("records"):
+        label = f"{r['method']} {r['channels']}".strip()
+        if isinstance(r.get("skipped"), str):
+            lines.append(f"  {label}: skipped ({r['skipped']})")
+            continue
+        pct = (f"{r['pct_change_signed']:+.1f} %, " if r.get("pct_change_signed") == r.get(
+            "pct_change_signed") and r.get("pct_change_signed") is not None else "")
+        basis = {"before-after": "before vs after the onset", "healthy": "against healthy "
+                 "references", "none": "no reference"}.get(r["basis"], r["basis"])
+        lines.append(f"  {label}: {words[r['decision']]} ({pct}{basis}; {r['reason']})")
+    dec, why = overall_decision(table, false_alarm_rate)
+    lines.append(f"Decision: {words[dec]} -- {why}.")
+    return "\n".join(lines)
+
+
+@click.command(epilog="Example: leakdiag analyze run.parquet --method all --onset 200 -o analysis/")
 @click.argument("file", type=click.Path(dir_okay=False))
-@click.option("--map", "column_map", type=click.Path(exists=True, dir_okay=False),
-              help="TOML column map: which column is which channel, its unit or scale.")
-@click.option("--col", "cols", multiple=True, metavar="CH=COLUMN[:UNIT[*GAIN]]",
-              help="Column mapping on the command line, e.g. --col p1=PG_1:psi (repeatable).")
-@click.option("--sample-rate", type=float, help="Sample rate in Hz when the file has no time column.")
+@recording_options
 @click.option("--resample", type=float, metavar="HZ",
               help="Interpolate a non-uniform time axis onto a uniform grid at this rate.")
 @click.option("--method", "-m", multiple=True, type=click.Choice(_METHOD_CHOICES),
               default=["autocorrelation"], show_default=True,
-              help="Method(s); 'all' runs the four thesis methods at the thesis's preferred settings.")
+              help="Method(s); 'all' runs the four thesis methods at the thesis's preferred "
+                   "settings and skips those whose channels the file lacks.")
 @click.option("--system", type=click.Choice(["vca", "eha"]), default=None,
               help="Whose preferred settings 'all' uses (default: the recording's meta, else vca).")
 @click.option("--channels", "-c", default=None, help="Channels, e.g. p1 | p1,p2 | u,x.")
 @click.option("--lag", type=int, default=None, help="Lag tau in samples (correlations; default 1).")
-@click.option("--lag-ratio", default=None, help="Metric-length lag ratio l:k, e.g. 83:3.")
-@click.option("--window", "-w", type=int, default=200, show_default=True, help="Window N (samples).")
-@click.option("--overlap", "-o", type=float, default=5.0, show_default=True, help="Overlap (%).")
+@click.option("--lag-ratio", default=None, help="Metric-length lag ratio l:k (default 83:3).")
+@click.option("--window", "-w", type=int, default=None, help="Window N (samples; default 200).")
+@click.option("--overlap", type=float, default=None, help="Overlap (%; default 5).")
 @click.option("--onset", type=float, default=None,
               help="Leak onset (s) for the before/after measure; default: the file's metadata.")
 @click.option("--chunk", type=int, default=10, show_default=True,
               help="Feature values per RMS chunk (Sec. 5.2).")
-@click.option("--out", type=click.Path(file_okay=False), default=None,
+@healthy_option
+@false_alarm_option()
+@click.option("--out", "-o", type=click.Path(file_okay=False), default=None,
               help="Folder for verdict.csv, features.parquet and features.png.")
-def analyze(file, column_map, cols, sample_rate, resample, method, system, channels, lag, lag_ratio,
-            window, overlap, onset, chunk, out):
-    """Analyse FILE with the thesis's windowed features and print the verdict table."""
-    import leakdiag.io as lio
+def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, system, channels,
+            lag, lag_ratio, window, overlap, onset, chunk, healthy, false_alarm_rate, out):
+    """Analyse FILE with the thesis's windowed features: % change and a leak decision.
+
+    Per method: the thesis's Sec. 5.2 measure (mean chunk RMS before/after the onset, % change)
+    and a decision LEAK / NO LEAK / INCONCLUSIVE from a Mann-Whitney test of the chunk RMS
+    values after the onset against those before it, or against --healthy recordings
+    (docs/measure.md, "Decisions").
+    """
+    from leakdiag.cli._options import column_map_from, read_healthy, read_with
     from leakdiag.detect.analysis import analyze_recording
 
-    cmap = _column_map(column_map, cols)
-    rec = lio.read_recording(file, column_map=cmap, sample_rate=sample_rate, resample=resample)
-    if rec.meta.get("source") != str(file):  # messages name the file being analysed
-        rec.meta["origin"] = rec.meta.get("source")
-        rec.meta["source"] = str(file)
+    cmap = column_map_from(column_map, cols, time_unit)
+    rec = read_with(file, cmap, sample_rate, resample)
     system = system or str(rec.meta.get("system", "vca")).lower()
     specs = _specs(method, channels, lag, lag_ratio, window, overlap, system)
+    needed = sorted({c for s in specs for c in s.channels if c in rec.channels})
+    refs = read_healthy(healthy, rec, cmap, sample_rate, needed) if healthy else None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = analyze_recording(rec, specs, onset=onset, chunk=chunk)
+        result = analyze_recording(rec, specs, onset=onset, chunk=chunk, healthy=refs,
+                                   false_alarm_rate=false_alarm_rate,
+                                   skip_missing="all" in method)
     _fail_if_nothing_computed(file, result.table)
     for w in caught:  # re-issued only when there is a result to qualify
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
@@ -111,6 +172,7 @@ def analyze(file, column_map, cols, sample_rate, resample, method, system, chann
         head += "; no onset given (use --onset) so no before/after measure"
     click.echo(head)
     click.echo(format_verdict(result.table))
+    click.echo(decision_words(result.table, false_alarm_rate))
     if out:
         outp = Path(out)
         _write_outputs(result, outp)
@@ -126,14 +188,6 @@ def _fail_if_nothing_computed(file, table) -> None:
                            zip(table["method"], table["channels"], table["setting"], table["window"]))
         raise ValueError(f"{file}: every window is NaN for {labels}: the channel(s) have zero "
                          "variance (constant signal?), so there is nothing to analyse")
-
-
-def _column_map(column_map, cols):
-    if not cols:
-        return column_map
-    import leakdiag.io as lio
-
-    return lio.build_column_map(list(cols), base=column_map)
 
 
 def _write_outputs(result, out: Path) -> None:

@@ -7,42 +7,62 @@ import click
 __all__ = ["batch"]
 
 
-@click.command()
+@click.command(epilog="Example: leakdiag batch 'recordings/**/*.parquet' --config job.toml "
+                      "-o results.parquet --scheduler serial")
 @click.argument("inputs", nargs=-1, required=True)
 @click.option("--config", "config_path", required=True,
-              type=click.Path(exists=True, dir_okay=False), help="Job TOML (docs/operations.md).")
-@click.option("--out", required=True, type=click.Path(),
+              type=click.Path(exists=True, dir_okay=False),
+              help="Job TOML: analyses, detectors (from leakdiag fit), column_map "
+                   "(docs/operations.md).")
+@click.option("--detector", "detectors", multiple=True, type=click.Path(exists=True, dir_okay=False),
+              help="Detector file from leakdiag fit, run on every recording (repeatable; adds "
+                   "to the job's [[detector]] entries).")
+@click.option("--out", "-o", required=True, type=click.Path(),
               help="Results folder, a Parquet dataset (e.g. results.parquet); resumable.")
-@click.option("--scheduler", default=None,
-              help="Address of an existing Dask scheduler (default: a local cluster).")
+@click.option("--scheduler", default="local", show_default=True, metavar="serial|local|ADDRESS",
+              help="serial: in this process; local: a Dask cluster on this machine; or the "
+                   "address of a Dask scheduler (tcp://host:8786).")
 @click.option("--workers", type=int, default=2, show_default=True,
               help="Worker processes of the local cluster.")
-@click.option("--serial", is_flag=True, help="Run in this process, without Dask.")
 @click.option("--retry-errors", is_flag=True, help="Re-run recordings whose result is an error.")
 @click.option("--no-progress", is_flag=True, help="Hide the progress bar.")
-def batch(inputs, config_path, out, scheduler, workers, serial, retry_errors, no_progress):
+def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors, no_progress):
     """Run the job in --config on every recording matching INPUTS (quote globs: 'data/**/*.parquet').
 
     One row per recording and analysis/detector goes to --out; a bad file becomes a row with its
-    error; a re-run skips finished recordings. Exit code 1 when any recording of the job is an
-    error row or gives no usable feature value (shorter than a window, constant channel).
+    error; a re-run skips recordings whose content is unchanged and replaces the rows of edited
+    ones. Exit code 1 when any matched recording's current result is an error or gives no usable
+    feature value (shorter than a window, constant channel).
     """
     from leakdiag.batch import load_config, read_results, run_batch
-    from leakdiag.batch.runner import LOCAL
+    from leakdiag.batch.runner import LOCAL, expand_inputs
 
     if workers < 1:
-        raise click.BadParameter(f"--workers={workers} must be >= 1")
+        raise click.BadParameter(f"{workers} must be >= 1", param_hint="--workers")
     cfg = load_config(config_path)
-    sched = None if serial else (scheduler or LOCAL)
+    if detectors:
+        import dataclasses
+
+        from leakdiag.batch.config import detector_ref
+
+        cfg = dataclasses.replace(cfg, detectors=cfg.detectors + tuple(
+            detector_ref(d, name=None) for d in detectors))
+    sched = None if scheduler == "serial" else scheduler
+    if sched == "local":
+        sched = LOCAL
     s = run_batch(list(inputs), cfg, out, scheduler=sched, n_workers=workers,
                   progress=not no_progress, retry_errors=retry_errors)
     if s.n_inputs == 0:
         raise click.UsageError(f"no recording matches {' '.join(inputs)}")
+    import os
+
     df = read_results(out)
-    n_rows = int((df["job_digest"] == cfg.digest).sum())
+    matched = {os.path.abspath(p) for p in expand_inputs(list(inputs))}
+    mine = df[(df["job_digest"] == cfg.digest) & df["path"].isin(matched)]
+    n_rows = len(mine)
     click.echo(f"{s.n_inputs} recording(s): {s.n_run} run, {s.n_skipped} already done, "
-               f"{s.n_errors} error(s) in this run; {n_rows} row(s) for job {cfg.digest} in {out}")
-    mine = df[df["job_digest"] == cfg.digest]
+               f"{s.n_errors} error(s) in this run; {n_rows} current row(s) for job {cfg.digest} "
+               f"in {out}")
     bad = mine[mine["status"] == "error"]
     for _, r in bad.iterrows():
         click.echo(f"  error: {r['recording']}: {r['error']}", err=True)

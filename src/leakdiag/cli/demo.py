@@ -9,20 +9,21 @@ import click
 __all__ = ["demo"]
 
 
-@click.command()
-@click.option("--system", type=click.Choice(["vca", "eha"]), default="vca", show_default=True)
-@click.option("--seed", type=int, default=1, show_default=True)
-@click.option("--out", type=click.Path(file_okay=False), default="demo-output", show_default=True,
+@click.command(epilog="Example: leakdiag demo --system eha -o demo-eha/")
+@click.option("--system", type=click.Choice(["vca", "eha"]), default="vca", show_default=True,
+              help="Which rig to simulate.")
+@click.option("--seed", type=int, default=1, show_default=True, help="Noise and reference seed.")
+@click.option("--out", "-o", type=click.Path(file_okay=False), default="demo-output", show_default=True,
               help="Folder for the simulated run, verdict table, features and figure.")
 def demo(system, seed, out):
     """Simulate thesis case study 1 and analyse it with the four thesis methods.
 
     VCA: a 0.10 L/min internal leak from 200 s of a 400 s run; EHA: 1.2 L/min from 90 s of
     180 s. Each method runs at the thesis's preferred settings and the Sec. 5.2 verdict (mean RMS
-    before and after the leak, % change) is printed.
+    before and after the leak, % change) is printed, then the decision in words.
     """
     import leakdiag as ld
-    from leakdiag.cli.analyze import _write_outputs, format_verdict
+    from leakdiag.cli.analyze import _write_outputs, decision_words, format_verdict
     from leakdiag.detect.analysis import analyze_recording
     from leakdiag.features.methods import thesis_defaults
 
@@ -45,3 +46,6 @@ def demo(system, seed, out):
     click.echo(format_verdict(result.table))
     _write_outputs(result, outp)
     click.echo(f"\nwrote {outp}/run.parquet, verdict.csv, features.parquet, features.png")
+    click.echo("\nDoes it leak? (Mann-Whitney test of the chunk RMS values after vs before the "
+               "onset, 1 % false alarms per run; docs/measure.md, 'Decisions')")
+    click.echo(decision_words(result.table, 0.01))

@@ -1,16 +1,41 @@
-"""``leakdiag detect``: fit detectors on healthy recordings and give a verdict on a file."""
+"""``leakdiag detect``: judge a file with detectors fitted on healthy recordings (or saved by fit)."""
 
 from __future__ import annotations
 
 import click
 
-__all__ = ["detect", "verdict_table"]
+from leakdiag.cli._options import recording_options
+
+__all__ = ["detect", "verdict_table", "overall_verdict"]
+
+_DEFAULT_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 
 
-def verdict_table(file, healthy, *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"), system="vca",
-                  column_map=None, sample_rate=None, false_alarms_per_hour=1.0,
-                  onset_method="binseg", burn_in_s=5.0):
-    """Fit each method on the healthy files and judge ``file``.
+def _row(m, det, rec, n_healthy):
+    v = det.predict(rec)
+    basis = getattr(det, "threshold_basis_", None)
+    return {"method": m, **v.as_dict(), "threshold_method": det.alarm_threshold_.method,
+            "threshold_basis": basis if basis is None else str(basis), "n_healthy": n_healthy,
+            "false_alarms_per_hour": float(det._alarm().false_alarms_per_hour)}
+
+
+def _dead_channel(det, rec, file, m):
+    import numpy as np
+
+    from leakdiag.cli.fit import detector_channels
+
+    dead = [c for c in detector_channels(det, rec) if c in rec.channels
+            and rec[c].size and np.all(rec[c] == rec[c][0])]
+    if dead:  # the detector's CUSUM skips NaN windows: a dead sensor would read "no leak"
+        return {"method": m, "error": f"{file}: channel {dead[0]!r} is constant "
+                f"({rec[dead[0]][0]:g}): zero variance, {m} cannot judge it"}
+    return None
+
+
+def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"), system=None,
+                  column_map=None, sample_rate=None, false_alarm_rate=0.01,
+                  onset_method="binseg", burn_in_s=5.0, detectors=(), progress=None):
+    """Fit each method on the healthy files (or load saved detectors) and judge ``file``.
 
     Parameters
     ----------
@@ -19,90 +44,191 @@ def verdict_table(file, healthy, *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"), sy
     healthy : sequence of path-like
         Healthy recordings of the same machine and operating conditions.
     methods : sequence of str
-        Benchmark registry names (:data:`leakdiag.bench.registry.METHODS`).
-    system : {"vca", "eha"}, default "vca"
-        Selects the thesis's preferred feature settings.
+        Benchmark registry names (:data:`leakdiag.bench.registry.METHODS`), fitted on
+        ``healthy``.
+    system : {"vca", "eha"}, optional
+        Selects the thesis's preferred feature settings; default: the files' metadata (an
+        error when they do not say).
     column_map : optional
-        Column map for :func:`leakdiag.io.read_recording` (TOML path or dict).
+        Column map for :func:`leakdiag.io.read_recording` (TOML path or ColumnMap).
     sample_rate : float, optional
         Sample rate in Hz when the files have no time column in seconds.
-    false_alarms_per_hour : float, default 1.0
-        Alarm target on healthy operation.
+    false_alarm_rate : float, default 0.01
+        Overall chance of a false "leak" for this run; split equally over the fitted methods
+        (each fitted at ``false_alarm_rate / m`` per run, converted to a CUSUM rate per hour
+        with the file's duration).
     onset_method : {"binseg", "pelt", "cusum"}, default "binseg"
         Onset estimator.
     burn_in_s : float, default 5.0
         Leading seconds ignored in every recording.
+    detectors : sequence of path-like
+        Detector files written by ``leakdiag fit`` (judged as saved, at their own rate).
+    progress : callable, optional
+        Called with a message before each method (long methods such as the EKF).
 
     Returns
     -------
     pandas.DataFrame
-        One row per method: :meth:`Verdict.as_dict` plus ``method``, ``threshold_method`` and
-        ``n_healthy`` (or ``error`` when the method cannot be fitted on the healthy files, or
-        when a channel it reads is constant in ``file``).
+        One row per method: :meth:`Verdict.as_dict` plus ``method``, ``threshold_method``,
+        ``threshold_basis``, ``n_healthy`` and ``false_alarms_per_hour`` (or ``error`` when the
+        method cannot be fitted on the healthy files, or a channel it reads is constant).
+    """
+    import pandas as pd
+
+    from leakdiag.cli._options import read_healthy, read_with
+    from leakdiag.cli.fit import fit_detector, system_of
+    from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
+
+    say = progress or (lambda msg: None)
+    rec = read_with(file, column_map, sample_rate)
+    rows = []
+    for path in detectors:
+        det, meta = load_detector_file(path)
+        check_detector_fits(meta, sample_rate=rec.sample_rate, channels=rec.channels,
+                            units=rec.units, system=rec.meta.get("system"), source=str(file),
+                            path=str(path))
+        m = meta.method if meta else str(path)
+        say(f"judging with {path} ({m})...")
+        rows.append(_dead_channel(det, rec, file, m)
+                    or _row(m, det, rec, meta.n_healthy if meta else None))
+    if healthy:
+        train = read_healthy(healthy, rec, column_map, sample_rate)
+        system = system_of([rec, *train], system, [str(file), *map(str, healthy)])
+        hours = rec.duration / 3600.0
+        per_hour = false_alarm_rate / max(len(methods), 1) / hours
+        for i, m in enumerate(methods):
+            say(f"method {i + 1}/{len(methods)}: fitting {m} on {len(train)} healthy file(s)...")
+            try:
+                det = fit_detector(m, system, train, false_alarms_per_hour=per_hour,
+                                   burn_in_s=burn_in_s, onset_method=onset_method)
+            except ValueError as exc:
+                if str(exc).startswith("unknown method"):
+                    raise
+                rows.append({"method": m, "error": str(exc)})
+                continue
+            rows.append(_dead_channel(det, rec, file, m) or _row(m, det, rec, len(train)))
+    tab = pd.DataFrame(rows)
+    tab.attrs["duration_s"] = float(rec.duration)
+    return tab
+
+
+def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
+    """One decision over the methods of a :func:`verdict_table` (union of alarms).
+
+    Parameters
+    ----------
+    tab : pandas.DataFrame
+        Output of :func:`verdict_table`.
+    duration_s : float
+        Duration of the judged file (s), for the per-run false-alarm rate.
+
+    Returns
+    -------
+    decision : str
+        ``"leak"`` when any method alarms, ``"no-leak"`` when every method judged and none
+        alarmed, ``"inconclusive"`` when none alarmed but some method could not judge.
+    reason : str
+        The methods behind it and the overall false-alarm rate for this run (the sum of the
+        methods' rates per run, an upper bound for the union).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> t = pd.DataFrame({"method": ["a", "b"], "leak": [False, True],
+    ...                   "false_alarms_per_hour": [0.5, 0.5]})
+    >>> overall_verdict(t, 3600.0)[0]
+    'leak'
+    """
+    import pandas as pd
+
+    ok = tab[tab["leak"].notna()] if "leak" in tab else tab.iloc[:0]
+    failed = tab[tab["leak"].isna()] if "leak" in tab else tab
+    rate = (pd.to_numeric(ok["false_alarms_per_hour"]).sum() * duration_s / 3600.0
+            if len(ok) else float("nan"))
+    fa = f"false-alarm rate for this run at most {rate:.3g} (sum over {len(ok)} method(s))"
+    alarmed = ok[ok["leak"].astype(bool)]
+    if len(alarmed):
+        return "leak", f"alarm from {', '.join(alarmed['method'])}; {fa}"
+    if len(failed):
+        return "inconclusive", (f"no alarm, but {', '.join(failed['method'])} could not judge "
+                                f"the file; {fa}")
+    return "no-leak", f"no method alarmed; {fa}"
+
+
+@click.command("detect", epilog="Example: leakdiag detect suspect.parquet --detector det.joblib\n\n"
+               "         leakdiag detect suspect.parquet --healthy h1.parquet --healthy h2.parquet")
+@click.argument("file", type=click.Path(exists=True, dir_okay=False))
+@click.option("--healthy", multiple=True, type=click.Path(exists=True, dir_okay=False),
+              help="Healthy recording to fit --methods on (repeat the option for several).")
+@click.option("--detector", "detectors", multiple=True,
+              type=click.Path(exists=True, dir_okay=False),
+              help="Detector file written by leakdiag fit (repeatable); no --healthy needed.")
+@click.option("--methods", default=None,
+              help=f"Comma-separated methods fitted on --healthy (leakdiag benchmark "
+                   f"--list-methods; default {_DEFAULT_METHODS}).")
+@click.option("--system", default=None, type=click.Choice(["vca", "eha"]),
+              help="Rig whose thesis settings the features use (default: the files' metadata).")
+@recording_options
+@click.option("--false-alarm-rate", type=float, default=0.01, show_default=True,
+              help="Chance of a false 'leak' for this run, split over the --methods fitted on "
+                   "--healthy (a --detector keeps its own rate per hour).")
+@click.option("--onset-method", default="binseg", show_default=True,
+              type=click.Choice(["binseg", "pelt", "cusum"]), help="Onset estimator.")
+@click.option("--burn-in", "burn_in_s", default=5.0, show_default=True, type=float,
+              help="Seconds ignored at the start of every recording.")
+@click.option("--no-progress", is_flag=True, help="Do not print a line per method.")
+def detect(file, healthy, detectors, methods, system, column_map, cols, sample_rate, time_unit,
+           false_alarm_rate, onset_method, burn_in_s, no_progress):
+    """Judge FILE: leak or not, onset, alarm time, leak size, and one overall decision.
+
+    Each method is a detector fitted on --healthy recordings (or loaded with --detector); the
+    overall decision is LEAK when any method alarms (docs/measure.md, "Decisions").
     """
     import numpy as np
     import pandas as pd
 
-    from leakdiag.bench.registry import make_detector
-    from leakdiag.detect.base import Alarm
-    from leakdiag.io import read_recording
+    from leakdiag.cli._options import column_map_from
 
-    def read(p):
-        return read_recording(p, column_map, sample_rate=sample_rate)
-
-    rec = read(file)
-    train = [read(p) for p in healthy]
-    alarm = Alarm(false_alarms_per_hour=false_alarms_per_hour, onset_method=onset_method,
-                  burn_in_s=burn_in_s)
-    rows = []
-    for m in methods:
-        det = make_detector(m, system, alarm)
-        dead = [c for c in getattr(det, "channels", ()) if c in rec.channels
-                and rec[c].size and np.all(rec[c] == rec[c][0])]
-        if dead:  # the detector's CUSUM skips NaN windows: a dead sensor would read "no leak"
-            rows.append({"method": m, "error": f"{file}: channel {dead[0]!r} is constant "
-                         f"({rec[dead[0]][0]:g}): zero variance, {m} cannot judge it"})
-            continue
-        try:
-            det.fit(train)
-        except ValueError as exc:
-            rows.append({"method": m, "error": str(exc)})
-            continue
-        rows.append({"method": m, **det.predict(rec).as_dict(),
-                     "threshold_method": det.alarm_threshold_.method, "n_healthy": len(train)})
-    return pd.DataFrame(rows)
-
-
-@click.command("detect")
-@click.argument("file", type=click.Path(exists=True, dir_okay=False))
-@click.option("--healthy", multiple=True, required=True, type=click.Path(exists=True, dir_okay=False),
-              help="Healthy recording (repeat the option for several).")
-@click.option("--methods", default="acf-p1,ccf-p1p2,mlr-p1", show_default=True,
-              help="Comma-separated methods (leakdiag benchmark --list-methods).")
-@click.option("--system", default="vca", show_default=True, type=click.Choice(["vca", "eha"]),
-              help="Rig whose thesis settings the features use.")
-@click.option("--map", "column_map", default=None, help="Column map (TOML) for the reader.")
-@click.option("--sample-rate", default=None, type=float, help="Sample rate (Hz) if not in the file.")
-@click.option("--false-alarms-per-hour", default=1.0, show_default=True, type=float)
-@click.option("--onset", "onset_method", default="binseg", show_default=True,
-              type=click.Choice(["binseg", "pelt", "cusum"]))
-@click.option("--burn-in", "burn_in_s", default=5.0, show_default=True, type=float,
-              help="Seconds ignored at the start of every recording.")
-def detect(file, healthy, methods, system, column_map, sample_rate, false_alarms_per_hour,
-           onset_method, burn_in_s):
-    """Judge FILE against healthy recordings: leak or not, onset, alarm time, confidence."""
-    import numpy as np
-    import pandas as pd
-
-    tab = verdict_table(file, healthy, methods=[m.strip() for m in methods.split(",") if m.strip()],
-                        system=system, column_map=column_map, sample_rate=sample_rate,
-                        false_alarms_per_hour=false_alarms_per_hour, onset_method=onset_method,
-                        burn_in_s=burn_in_s)
-    cols = [c for c in ("method", "leak", "onset_s", "alarm_time_s", "confidence", "score_max",
-                        "threshold", "threshold_method", "error") if c in tab]
-    click.echo(tab[cols].to_string(index=False))
+    if not healthy and not detectors:
+        raise click.UsageError("give --healthy FILE (repeatable) or --detector FILE "
+                               "(from leakdiag fit)")
+    if methods is not None and not healthy:
+        raise click.UsageError("--methods are fitted on --healthy files; a --detector file "
+                               "already holds its method")
+    if not 0.0 < false_alarm_rate < 1.0:
+        raise click.BadParameter(f"{false_alarm_rate} must be in (0, 1)",
+                                 param_hint="--false-alarm-rate")
+    names = [m.strip() for m in (methods or _DEFAULT_METHODS).split(",") if m.strip()]
+    say = None if no_progress else (lambda msg: click.echo(msg, err=True))
+    cmap = column_map_from(column_map, cols, time_unit)
+    tab = verdict_table(file, healthy, methods=names, system=system, column_map=cmap,
+                        sample_rate=sample_rate, false_alarm_rate=false_alarm_rate,
+                        onset_method=onset_method, burn_in_s=burn_in_s, detectors=detectors,
+                        progress=say)
+    cols_ = [c for c in ("method", "leak", "onset_s", "alarm_time_s", "confidence", "leak_lpm",
+                         "score_max", "threshold", "threshold_method", "error") if c in tab]
+    shown = tab[cols_].astype(object)
+    click.echo(shown.where(shown.notna(), "-").to_string(index=False))
     scores = tab["score_max"] if "score_max" in tab else pd.Series(float("nan"), index=tab.index)
     if not np.isfinite(scores.to_numpy(dtype=float)).any():  # no method could judge FILE
         why = (tab["error"].dropna().iloc[0] if "error" in tab and tab["error"].notna().any()
                else "every feature value is NaN (zero variance: constant channel?)")
         raise ValueError(f"{file}: no method gave a finite score; first reason: {why}")
+    if "threshold_basis" in tab:
+        for r in tab[tab["threshold_basis"].notna()].to_dict("records"):
+            click.echo(f"  {r['method']} threshold: {r['threshold_basis']}")
+    dec, why = overall_verdict(tab, tab.attrs["duration_s"])
+    words = {"leak": "LEAK", "no-leak": "NO LEAK", "inconclusive": "INCONCLUSIVE"}
+    click.echo(f"Decision: {words[dec]} -- {why}.")
+    if dec == "leak":
+        sized = tab[tab["leak"].fillna(False).astype(bool)]
+        first = sized.sort_values("alarm_time_s").iloc[0]
+        click.echo(f"  onset {first['onset_s']:.4g} s, first alarm {first['alarm_time_s']:.4g} s "
+                   f"({first['method']})")
+        for r in sized.to_dict("records"):
+            if r.get("leak_lpm") is not None and r["leak_lpm"] == r["leak_lpm"]:
+                click.echo(f"  leak size ({r['method']}): {r['leak_lpm']:.3g} L/min, interval "
+                           f"{r['leak_lpm_low']:.3g}-{r['leak_lpm_high']:.3g} L/min")
+        if "leak_lpm" not in sized or sized["leak_lpm"].isna().all():
+            click.echo("  leak size: not estimated (no detector here is calibrated on known "
+                       "leaks)")

@@ -26,6 +26,7 @@ COMMANDS: dict[str, str] = {
     "batch": "leakdiag.cli.batch:batch",
     "benchmark": "leakdiag.cli.benchmark:benchmark",
     "detect": "leakdiag.cli.detect:detect",
+    "fit": "leakdiag.cli.fit:fit",
     "sweep": "leakdiag.cli.sweep:sweep",
     "sensitivity": "leakdiag.cli.sensitivity:sensitivity",
     "reproduce": "leakdiag.cli.reproduce:reproduce",

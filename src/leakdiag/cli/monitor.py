@@ -7,11 +7,12 @@ alarm); alarms are printed as they are raised and cleared.
 from __future__ import annotations
 
 import os
-import pickle
 import sys
 import time
 
 import click
+
+from leakdiag.cli._options import recording_options
 
 __all__ = ["monitor", "build_source", "load_detector", "parse_replay"]
 
@@ -58,34 +59,35 @@ def parse_replay(replay: str) -> float | None:
 
 
 def load_detector(path: str):
-    """Load a pickled fitted detector (or any :class:`~leakdiag.stream.WindowScorer`).
+    """Load a detector file written by ``leakdiag fit`` (or a bare pickled detector/scorer).
 
     Parameters
     ----------
     path : str
-        Pickle file; only load files you trust (pickle runs code).
+        Detector file; only load files you trust (joblib files are pickles and run code).
 
     Returns
     -------
-    object
-        The unpickled detector.
+    detector : object
+        The fitted detector.
+    meta : DetectorMeta or None
+        Its metadata record (None for a bare pickle).
 
     Raises
     ------
     click.BadParameter
-        If the file cannot be unpickled.
+        If the file cannot be loaded.
     """
+    from leakdiag.stream.detector_file import load_detector_file
+
     try:
-        with open(path, "rb") as f:
-            return pickle.load(f)
-    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ImportError, ValueError,
-            TypeError, IndexError, KeyError) as exc:  # garbage bytes raise any of these
-        raise click.BadParameter(f"--detector {path}: cannot load as a pickled detector: "
-                                 f"{type(exc).__name__}: {exc}") from None
+        return load_detector_file(path)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--detector") from None
 
 
 def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: int,
-                 idle_timeout: float | None, batch_lines: int = 1):
+                 idle_timeout: float | None, batch_lines: int = 1, column_map=None):
     """The chunk source for ``--input``: stdin, a followed CSV, a chunked file or a recording.
 
     Parameters
@@ -104,6 +106,9 @@ def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: in
         Stop following after this many seconds without new data.
     batch_lines : int, default 1
         CSV lines per chunk for stdin and ``--follow`` (1: lowest latency).
+    column_map : optional
+        Column map (``--map``/``--col``): the file is then read whole with
+        :func:`leakdiag.io.read_recording` and replayed.
 
     Returns
     -------
@@ -111,16 +116,19 @@ def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: in
     """
     from leakdiag.stream import csv_lines, open_chunks, recording_chunks, tail_csv
 
+    if column_map is not None and (input_path == "-" or follow):
+        raise click.UsageError("--map/--col/--time-unit apply to files; stdin and --follow "
+                               "take CSV with a header naming the channels (time, p1, ...)")
     if input_path == "-":
         return csv_lines(sys.stdin, channels, sample_rate, batch_lines)
     if follow:
         return tail_csv(input_path, channels, sample_rate, idle_timeout_s=idle_timeout,
                         batch_lines=batch_lines)
-    if os.path.splitext(input_path)[1].lower() in _CHUNKED_SUFFIXES:
+    if column_map is None and os.path.splitext(input_path)[1].lower() in _CHUNKED_SUFFIXES:
         return open_chunks(input_path, channels, chunk, sample_rate)
     import leakdiag.io as lio
 
-    rec = lio.read_recording(input_path, sample_rate=sample_rate)
+    rec = lio.read_recording(input_path, column_map, sample_rate=sample_rate)
     return recording_chunks(rec, chunk, channels)
 
 
@@ -139,7 +147,8 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector):
     return MethodSpec(method, chans, window=window, overlap=overlap, **kw)
 
 
-@click.command()
+@click.command(epilog="Example: leakdiag monitor --input run.parquet --detector det.joblib "
+                      "--events events.jsonl")
 @click.option("--input", "-i", "input_path", required=True,
               help="Recording file (Parquet, HDF5, CSV, ...) or '-' for CSV lines on stdin.")
 @click.option("--replay", default="fast", show_default=True,
@@ -153,10 +162,11 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector):
 @click.option("--lag", type=int, default=None, help="Lag in samples (correlations; default 1).")
 @click.option("--lag-ratio", default=None, help="Metric-length lag ratio l:k (default 83:3).")
 @click.option("--window", "-w", type=int, default=200, show_default=True, help="Window N (samples).")
-@click.option("--overlap", "-o", type=float, default=5.0, show_default=True, help="Overlap (%).")
+@click.option("--overlap", type=float, default=5.0, show_default=True, help="Overlap (%).")
 @click.option("--detector", "detector_path", type=click.Path(exists=True, dir_okay=False),
-              help="Pickled fitted detector (its feature settings are used unless --method).")
-@click.option("--sample-rate", type=float, default=None, help="Sample rate (Hz) without a time column.")
+              help="Detector file from leakdiag fit (its feature settings are used unless "
+                   "--method); its threshold holds its false-alarm rate per hour of monitoring.")
+@recording_options
 @click.option("--chunk", type=int, default=65536, show_default=True, help="Samples per file chunk.")
 @click.option("--batch-lines", type=int, default=1, show_default=True,
               help="CSV lines per chunk for stdin/--follow (more: faster, later events).")
@@ -164,14 +174,31 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector):
               help="Write one JSON line per window to this file ('-' for stdout).")
 @click.option("--quiet", "-q", is_flag=True, help="Do not print alarms and the summary.")
 def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag_ratio, window,
-            overlap, detector_path, sample_rate, chunk, batch_lines, events, quiet):
-    """Monitor a stream: feature value per window, detector score and alarm, as soon as known."""
-    from leakdiag.stream import Monitor, paced
+            overlap, detector_path, column_map, cols, sample_rate, time_unit, chunk, batch_lines,
+            events, quiet):
+    """Monitor a stream: feature value per window, detector score and alarm, as soon as known.
 
-    detector = load_detector(detector_path) if detector_path else None
+    Without --detector only the feature is computed: no alarm is possible.
+    """
+    from leakdiag.cli._options import column_map_from
+    from leakdiag.stream import Monitor, paced
+    from leakdiag.stream.detector_file import check_detector_fits
+
+    detector, meta = load_detector(detector_path) if detector_path else (None, None)
+    if detector is not None and not callable(getattr(detector, "score_windows", None)) and \
+            not callable(getattr(detector, "spec", None)):
+        name = meta.method if meta else type(detector).__name__
+        raise click.BadParameter(f"{detector_path}: {name} judges whole recordings and cannot "
+                                 "run window by window; use leakdiag detect FILE --detector "
+                                 f"{detector_path}, or fit a single-feature detector (acf-p1, "
+                                 "ccf-p1p2, ccf-ux, mlr-p1)", param_hint="--detector")
     spec = _spec(method, channels, lag, lag_ratio, window, overlap, detector)
+    cmap = column_map_from(column_map, cols, time_unit)
     source = build_source(input_path, list(spec.channels), follow, sample_rate, chunk, idle_timeout,
-                          batch_lines)
+                          batch_lines, cmap)
+    check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
+                        system=source.meta.get("system"), source=source.source,
+                        path=str(detector_path))
     mon = Monitor(spec, source.sample_rate, source.start_time, scorers=detector)
     speed = None if input_path == "-" or follow else parse_replay(replay)
     out = None
@@ -188,7 +215,9 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
             try:
                 evs = mon.push(chunk_)
             except ValueError as exc:  # e.g. a NaN sample: name the input
-                raise ValueError(f"{source.source}: {exc}") from None
+                msg = str(exc)
+                raise ValueError(msg if msg.startswith(source.source) else
+                                 f"{source.source}: {msg}") from None
             if out is not None and evs:
                 out.write("".join(e.to_json() + "\n" for e in evs))
                 out.flush()
@@ -207,9 +236,10 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
             out.close()
     dt = time.perf_counter() - t0
     n = mon.n_samples_seen
+    alarms = (f"{n_alarm} alarm(s)" if detector is not None else
+              "no alarm possible (features only: give --detector FILE from leakdiag fit)")
     say(f"{source.source}: {n} samples at {source.sample_rate:g} Hz, {n_win} windows "
-        f"({spec.label}), {n_alarm} alarm(s), {mon.features[0].n_degenerate} degenerate, "
-        f"in {dt:.3g} s")
+        f"({spec.label}), {alarms}, {mon.features[0].n_degenerate} degenerate, in {dt:.3g} s")
     n_bad = mon.features[0].n_degenerate
     if n_win == 0:
         raise ValueError(f"{source.source}: {n} samples is shorter than one window "

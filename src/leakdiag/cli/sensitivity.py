@@ -22,7 +22,7 @@ __all__ = ["sensitivity"]
 @click.option("--workers", type=int, default=None, help="Workers of the local cluster.")
 @click.option("--cache-dir", type=click.Path(file_okay=False), default=None,
               help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")
-@click.option("--out", type=click.Path(file_okay=False), default=None,
+@click.option("--out", "-o", type=click.Path(file_okay=False), default=None,
               help="Folder for sensitivity.csv, sensitivity_summary.csv and figures.")
 def sensitivity(system, quick, leaks, seeds, durations, loads, scheduler, workers, cache_dir, out):
     """Run case study 3 on the simulator(s) and print the range of % change per method."""

@@ -86,7 +86,7 @@ def plot_simulation(rec, path):
 @click.option("--no-sensors", is_flag=True, help="Record true, noise-free states.")
 @click.option("--params", "params_file", type=click.Path(exists=True, dir_okay=False),
               default=None, help="TOML file overriding Table 2-1 parameters (VCA).")
-@click.option("--out", type=click.Path(dir_okay=False), default="run.parquet", show_default=True,
+@click.option("--out", "-o", type=click.Path(dir_okay=False), default="run.parquet", show_default=True,
               help="Output recording (.parquet, .csv, .h5).")
 @click.option("--plot", is_flag=True, help="Also save a figure next to --out (.png).")
 def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_duration, load,

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import click
 
+from leakdiag.cli._options import recording_options
+
 __all__ = ["sweep", "format_table"]
 
 
@@ -43,6 +45,7 @@ def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> l
     from leakdiag.report.study_plots import plot_pct_vs_parameter, plot_stacked
     from leakdiag.studies.grid import _spec, parse_lag, quiet_degenerate
 
+    source = rec.meta.get("source", "recording")
     written = []
     for varied, g in varied_groups:
         if len(g) == 0:
@@ -72,15 +75,19 @@ def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> l
         save_figure(plot_stacked(panels[0], onset=onset, titles=panels[1], rms=panels[2]), p)
         written.append(p)
         p = out / f"pct_vs_{varied}.png"
-        save_figure(plot_pct_vs_parameter(xs, g["pct_change"].to_numpy(), xlabel=varied,
+        unit = {"lag": "lag (samples)" if method != "metric-length" else "lag ratio l:k",
+                "window": "window N (samples)", "overlap": "overlap (%)"}[varied]
+        save_figure(plot_pct_vs_parameter(xs, g["pct_change"].to_numpy(), xlabel=unit,
                                           title=f"{method} {channels}: % change against {varied}",
-                                          xticklabels=labels), p)
+                                          xticklabels=labels, label=Path(str(source)).name), p)
         written.append(p)
     return written
 
 
-@click.command()
+@click.command(epilog="Example: leakdiag sweep run.parquet -m autocorrelation -c p1 --lags 1,2,4 "
+                      "--windows 100:400:100 --onset 200 -o sweep/")
 @click.argument("file", type=click.Path(dir_okay=False))
+@recording_options
 @click.option("--method", "-m", default="autocorrelation", show_default=True,
               help="autocorrelation | cross-correlation | metric-length (thesis spellings too).")
 @click.option("--channels", "-c", default=None, help="Channels, e.g. p1 | p1,p2 | u,x.")
@@ -98,14 +105,12 @@ def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> l
               help="Selection rule: whole RMS chunks needed on each side of the onset.")
 @click.option("--tolerance", type=float, default=0.0, show_default=True,
               help="Selection rule: % points within the best that count as ties.")
-@click.option("--sample-rate", type=float, help="Sample rate in Hz when the file has no time column.")
-@click.option("--out", type=click.Path(file_okay=False), default=None,
+@click.option("--out", "-o", type=click.Path(file_okay=False), default=None,
               help="Folder for sweep.csv, sweep.parquet and the figures.")
 @click.option("--no-figures", is_flag=True, help="Skip the figures.")
-def sweep(file, method, channels, lags, windows, overlaps, mode, onset, chunk, min_chunks,
-          tolerance, sample_rate, out, no_figures):
+def sweep(file, column_map, cols, sample_rate, time_unit, method, channels, lags, windows,
+          overlaps, mode, onset, chunk, min_chunks, tolerance, out, no_figures):
     """Sweep lag, window and overlap on FILE; print the table of the Sec. 5.2 measure."""
-    import leakdiag.io as lio
     from leakdiag.features.methods import normalize_method
     from leakdiag.studies.select import SelectionRule
     from leakdiag.studies.sweep import parse_values
@@ -114,7 +119,9 @@ def sweep(file, method, channels, lags, windows, overlaps, mode, onset, chunk, m
     lag_values = parse_values(lags, str if m == "metric-length" else int)
     win_values = parse_values(windows, int)
     ov_values = parse_values(overlaps, float)
-    rec = lio.read_recording(file, sample_rate=sample_rate)
+    from leakdiag.cli._options import column_map_from, read_with
+
+    rec = read_with(file, column_map_from(column_map, cols, time_unit), sample_rate)
     _check_input(file, rec, m, channels, win_values)
     rule = SelectionRule(min_chunks_per_side=min_chunks, tolerance_pct=tolerance)
     onset = onset if onset is not None else rec.onset

@@ -6,18 +6,25 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from leakdiag.detect.measure import rms_change
+from leakdiag.detect.measure import (EXPECTED_DIRECTION, Decision, chunk_rms, decide_change,
+                                     rms_change)
 from leakdiag.features.methods import MethodSpec, compute_feature
 from leakdiag.features.series import FeatureSeries
 
-__all__ = ["Analysis", "analyze_recording", "VERDICT_COLUMNS"]
+__all__ = ["Analysis", "analyze_recording", "VERDICT_COLUMNS", "DECISION_COLUMNS",
+           "overall_decision"]
 
 #: Columns of the verdict table, in order.
 VERDICT_COLUMNS = [
     "method", "channels", "setting", "window", "overlap", "n_windows", "mean_rms_before",
     "mean_rms_after", "pct_change", "pct_change_signed", "n_chunks_before", "n_chunks_after",
     "n_chunks_straddling", "n_chunks_empty", "n_nan_windows",
+    "decision", "basis", "test", "p_value", "false_alarm_rate", "n_reference", "n_test",
+    "chunk_autocorr", "reason", "skipped",
 ]
+#: The decision columns of the verdict table (see :class:`~leakdiag.detect.measure.Decision`).
+DECISION_COLUMNS = ["decision", "basis", "test", "p_value", "false_alarm_rate", "n_reference",
+                    "n_test", "chunk_autocorr", "reason"]
 
 
 @dataclass
@@ -70,8 +77,43 @@ def _moment_series(df, spec: MethodSpec) -> list[FeatureSeries]:
     return out
 
 
-def analyze_recording(recording, specs, onset: float | None = None, chunk: int = 10) -> Analysis:
+def _healthy_chunks(healthy, spec: MethodSpec, chunk: int) -> dict[str, np.ndarray]:
+    """Pooled chunk RMS values of each feature series of ``spec`` over the healthy recordings."""
+    pooled: dict[str, list] = {}
+    for rec in healthy:
+        out = compute_feature(rec, spec)
+        for fs in (_moment_series(out, spec) if spec.method == "moments" else [out]):
+            pooled.setdefault(fs.name, []).append(chunk_rms(fs.values, chunk)[0])
+    return {k: np.concatenate(v) for k, v in pooled.items()}
+
+
+def _decide(res, fs, spec, ref_chunks, false_alarm_rate, chunk) -> Decision:
+    direction = EXPECTED_DIRECTION.get(spec.method, "both")
+    if ref_chunks is not None:
+        ref = ref_chunks.get(fs.name, np.empty(0))
+        if res is not None:
+            tested = res.chunk_rms[res.chunk_side == 1]
+        else:
+            tested = chunk_rms(fs.values, chunk)[0]
+        return decide_change(ref, tested, false_alarm_rate=false_alarm_rate, direction=direction,
+                             basis="healthy")
+    if res is None:
+        return Decision("inconclusive", "none", "", float("nan"), false_alarm_rate, 0, 0,
+                        float("nan"), "no onset and no healthy reference: give --onset or "
+                        "--healthy")
+    return decide_change(res.chunk_rms[res.chunk_side == -1], res.chunk_rms[res.chunk_side == 1],
+                         false_alarm_rate=false_alarm_rate, direction=direction)
+
+
+def analyze_recording(recording, specs, onset: float | None = None, chunk: int = 10,
+                      healthy=None, false_alarm_rate: float = 0.01,
+                      skip_missing: bool = False) -> Analysis:
     """Compute each method's feature series and, with an onset, the Sec. 5.2 measure.
+
+    Each row also gets a decision (leak / no-leak / inconclusive) from
+    :func:`~leakdiag.detect.measure.decide_change`: the chunk RMS values after the onset tested
+    against those before it, or, with ``healthy``, against the pooled chunk RMS values of the
+    healthy recordings (then the whole recording is tested when there is no onset).
 
     Parameters
     ----------
@@ -83,6 +125,13 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
         Leak onset in seconds; default ``recording.meta['onset']`` if present.
     chunk : int, default 10
         Chunk length (feature values) of the Sec. 5.2 RMS.
+    healthy : sequence of Recording, optional
+        Healthy reference recordings of the same machine (same sample rate and channels).
+    false_alarm_rate : float, default 0.01
+        Per feature and per run: the chance a healthy run reads "leak".
+    skip_missing : bool, default False
+        Skip a method whose channels the recording lacks (row with ``skipped`` = the reason)
+        instead of raising.
 
     Returns
     -------
@@ -92,9 +141,19 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
     Raises
     ------
     RecordingError
-        Missing channel or a recording shorter than one window.
+        Missing channel (unless ``skip_missing``) or a recording shorter than one window.
     ValueError
         If the onset leaves no whole chunk on one side.
+
+    Examples
+    --------
+    >>> from leakdiag.io import Recording
+    >>> rng = np.random.default_rng(0)
+    >>> p1 = rng.standard_normal(20000)
+    >>> spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=0)
+    >>> a = analyze_recording(Recording({"p1": p1}, 100.0), spec, onset=100.0)
+    >>> a.table.loc[0, "decision"]
+    'no-leak'
     """
     import pandas as pd
 
@@ -104,8 +163,15 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
         onset = recording.onset
     rows, series, results = [], [], []
     for spec in specs:
+        missing = [c for c in spec.channels if c not in recording.channels]
+        if missing and skip_missing:
+            rows.append({"method": spec.method, "channels": ",".join(spec.channels),
+                         "setting": spec.setting, "window": spec.window, "overlap": spec.overlap,
+                         "skipped": f"no channel {', '.join(missing)} in the recording"})
+            continue
         out = compute_feature(recording, spec)
         fss = _moment_series(out, spec) if spec.method == "moments" else [out]
+        ref_chunks = _healthy_chunks(healthy, spec, chunk) if healthy else None
         for fs in fss:
             fs.params["sample_rate"] = recording.sample_rate
             method = spec.method if spec.method != "moments" else f"moments:{fs.name}"
@@ -114,12 +180,79 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
                    "n_windows": len(fs),
                    "n_nan_windows": int(np.count_nonzero(~np.isfinite(fs.values)))}
             res = None
+            no_measure = None
             if onset is not None:
-                res = rms_change(fs, onset=onset, chunk=chunk)
-                row.update({k: v for k, v in res.as_dict().items()
-                            if k in VERDICT_COLUMNS and k != "n_windows"})
+                try:
+                    res = rms_change(fs, onset=onset, chunk=chunk)
+                except ValueError as exc:  # too short for this method: say so, keep the others
+                    if len(specs) == 1:
+                        raise
+                    no_measure = str(exc).replace("rms_change", "the Sec. 5.2 measure")
+                else:
+                    row.update({k: v for k, v in res.as_dict().items() if k in VERDICT_COLUMNS
+                                and k not in ("n_windows", "n_nan_windows")})
+            if no_measure is None:
+                row.update(_decide(res, fs, spec, ref_chunks, false_alarm_rate, chunk).as_dict())
+            else:
+                row.update(Decision("inconclusive", "before-after", "", float("nan"),
+                                    false_alarm_rate, 0, 0, float("nan"),
+                                    no_measure).as_dict())
             rows.append(row)
             series.append(fs)
             results.append(res)
     table = pd.DataFrame(rows).reindex(columns=VERDICT_COLUMNS)
     return Analysis(table=table, series=series, results=results, onset=onset)
+
+
+def overall_decision(table, false_alarm_rate: float = 0.01) -> tuple[str, str]:
+    """One decision over the rows of a verdict table (Bonferroni union).
+
+    The overall answer is ``leak`` when any row's p-value is below ``false_alarm_rate / m``
+    (``m`` the rows with a decision), so that the chance of a false "leak" over all rows of a
+    healthy run stays below ``false_alarm_rate``; ``no-leak`` when every row is ``no-leak``
+    at that level; ``inconclusive`` otherwise.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Verdict table with ``decision`` and ``p_value`` columns.
+    false_alarm_rate : float, default 0.01
+        Overall false-alarm rate per run.
+
+    Returns
+    -------
+    decision : str
+        ``"leak"``, ``"no-leak"`` or ``"inconclusive"``.
+    reason : str
+        Which rows carried it and the per-row level.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> t = pd.DataFrame({"method": ["a", "b"], "decision": ["leak", "no-leak"],
+    ...                   "p_value": [1e-6, 0.4]})
+    >>> overall_decision(t)[0]
+    'leak'
+    """
+    judged = table[table["decision"].notna()] if "decision" in table else table.iloc[:0]
+    m = len(judged)
+    if m == 0:
+        return "inconclusive", "no method could judge the recording"
+    level = false_alarm_rate / m
+    p = judged["p_value"].to_numpy(dtype=float)
+    hit = judged[np.isfinite(p) & (p < level)]
+    hit = hit[hit["decision"] != "inconclusive"]
+    split = (f"{m} method(s), each at {level:.3g} so that the overall false-alarm rate per run is "
+             f"{false_alarm_rate:g}")
+    if len(hit):
+        names = ", ".join(f"{r['method']} {r.get('channels', '')}".strip()
+                          for r in hit.to_dict("records"))
+        return "leak", f"{names} (p < {level:.3g}); {split}"
+    if (judged["decision"] == "inconclusive").any():
+        names = ", ".join(f"{r['method']} {r.get('channels', '')}".strip()
+                          for r in judged[judged["decision"] == "inconclusive"].to_dict("records"))
+        return "inconclusive", f"inconclusive: {names}; {split}"
+    alone = judged[judged["decision"] == "leak"]
+    note = (f" ({', '.join(alone['method'])} below {false_alarm_rate:g} alone, not below the "
+            "split level)" if len(alone) else "")
+    return "no-leak", f"no method below {level:.3g}{note}; {split}"

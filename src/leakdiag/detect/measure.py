@@ -9,7 +9,16 @@ import numpy as np
 from leakdiag._validation import check_int
 from leakdiag.features.series import FeatureSeries
 
-__all__ = ["RMSChange", "rms_change", "pct_change", "chunk_rms"]
+__all__ = ["RMSChange", "rms_change", "pct_change", "chunk_rms", "Decision", "decide_change",
+           "EXPECTED_DIRECTION", "DECISIONS"]
+
+#: Direction in which a leak moves each thesis feature: the thesis sees the auto- and
+#: cross-correlations fall and the metric-length ratio rise after a leak (Ch. 5, Tables 5-1 to
+#: 5-12); the moments have no stated direction. See docs/measure.md, "Decisions".
+EXPECTED_DIRECTION: dict[str, str] = {"autocorrelation": "down", "cross-correlation": "down",
+                                      "metric-length": "up"}
+#: The three decision words, as written in ``verdict.csv``.
+DECISIONS = ("leak", "no-leak", "inconclusive")
 
 
 @dataclass(frozen=True)
@@ -227,3 +236,147 @@ def rms_change(fs: FeatureSeries, onset: float, chunk: int = 10) -> RMSChange:
         n_nan_windows=n_nan, chunk=chunk, onset=onset, chunk_time=t_chunk, chunk_rms=rms,
         chunk_side=side,
     )
+
+
+@dataclass(frozen=True)
+class Decision:
+    """A leak decision on one feature with its basis (see :func:`decide_change`).
+
+    Attributes
+    ----------
+    decision : {"leak", "no-leak", "inconclusive"}
+        The answer.
+    basis : str
+        ``"before-after"`` (chunks of the same recording before the onset are the reference) or
+        ``"healthy"`` (chunks of healthy reference recordings).
+    test : str
+        The test, e.g. ``"Mann-Whitney U, one-sided (feature falls)"``.
+    p_value : float
+        p-value in the leak's expected direction (two-sided without one); NaN when not tested.
+    false_alarm_rate : float
+        Significance level alpha: the probability of "leak" on one healthy run, per feature.
+    n_reference, n_test : int
+        Chunk RMS values in the reference and in the tested (after-onset) part.
+    chunk_autocorr : float
+        Lag-1 autocorrelation of the reference chunk RMS values (the test assumes ~0).
+    reason : str
+        Why, in words.
+    """
+
+    decision: str
+    basis: str
+    test: str
+    p_value: float
+    false_alarm_rate: float
+    n_reference: int
+    n_test: int
+    chunk_autocorr: float
+    reason: str
+
+    def as_dict(self) -> dict:
+        """Fields as a plain dict (for tables).
+
+        Returns
+        -------
+        dict
+        """
+        return {k: getattr(self, k) for k in (
+            "decision", "basis", "test", "p_value", "false_alarm_rate", "n_reference", "n_test",
+            "chunk_autocorr", "reason")}
+
+
+def _lag1(x: np.ndarray) -> float:
+    x = x - x.mean()
+    den = float(x @ x)
+    return float(x[1:] @ x[:-1]) / den if len(x) > 2 and den > 0 else float("nan")
+
+
+def decide_change(reference, test, *, false_alarm_rate: float = 0.01, direction: str = "both",
+                  basis: str = "before-after") -> Decision:
+    """LEAK / NO LEAK / INCONCLUSIVE from chunk RMS values: a Mann-Whitney U test.
+
+    Parameters
+    ----------
+    reference : array_like
+        Chunk RMS values of the healthy state (before the onset, or healthy recordings).
+    test : array_like
+        Chunk RMS values under suspicion (after the onset). NaN values are left out.
+    false_alarm_rate : float, default 0.01
+        Significance level alpha in (0, 0.5]: the chance that a healthy run reads "leak".
+    direction : {"both", "down", "up"}, default "both"
+        How a leak moves the feature (:data:`EXPECTED_DIRECTION`); ``"both"`` tests two-sided.
+    basis : str, default "before-after"
+        Recorded in the result (what ``reference`` is).
+
+    Returns
+    -------
+    Decision
+
+    Raises
+    ------
+    ValueError
+        For an alpha outside (0, 0.5] or an unknown direction.
+
+    Notes
+    -----
+    ``leak`` when the one-sided test in the expected direction gives ``p < alpha`` (two-sided for
+    ``"both"``). ``inconclusive`` when the chunk counts cannot reach alpha at all (the smallest
+    exact p-value, ``1 / C(n_ref + n_test, n_test)``, doubled two-sided, is above alpha), or when
+    the feature moved significantly (``p < alpha``) the *opposite* way to a leak's. Otherwise
+    ``no-leak``. The test treats chunks as independent and exchangeable under no leak; the
+    lag-1 autocorrelation of the reference chunks is reported to check it (docs/measure.md).
+
+    Examples
+    --------
+    >>> before = np.linspace(1.0, 1.2, 20)
+    >>> decide_change(before, before - 0.5, direction="down").decision
+    'leak'
+    >>> decide_change(before, before + 0.5, direction="down").decision
+    'inconclusive'
+    >>> decide_change(before[:2], before[:2] - 0.5, direction="down").decision
+    'inconclusive'
+    """
+    from math import comb
+
+    from scipy.stats import mannwhitneyu
+
+    alpha = float(false_alarm_rate)
+    if not 0.0 < alpha <= 0.5:
+        raise ValueError(f"false_alarm_rate={false_alarm_rate!r} must be in (0, 0.5]")
+    if direction not in ("both", "down", "up"):
+        raise ValueError(f"direction={direction!r} must be one of 'both', 'down', 'up'")
+    ref = np.asarray(reference, dtype=np.float64)
+    tst = np.asarray(test, dtype=np.float64)
+    ref, tst = ref[np.isfinite(ref)], tst[np.isfinite(tst)]
+    n1, n2 = len(ref), len(tst)
+    sides = 1 if direction != "both" else 2
+    name = {"down": "one-sided (feature falls)", "up": "one-sided (feature rises)",
+            "both": "two-sided"}[direction]
+    test_name = f"Mann-Whitney U, {name}"
+    rho = _lag1(ref)
+    min_p = sides / comb(n1 + n2, n2) if n1 and n2 else 1.0
+    if min_p >= alpha:
+        return Decision("inconclusive", basis, test_name, float("nan"), alpha, n1, n2, rho,
+                        f"too few chunks ({n1} reference, {n2} tested): the smallest p-value the "
+                        f"test can give, {min_p:.3g}, is not below the false-alarm rate {alpha:g}")
+    if direction == "both":
+        p = float(mannwhitneyu(tst, ref, alternative="two-sided").pvalue)
+        if p < alpha:
+            return Decision("leak", basis, test_name, p, alpha, n1, n2, rho,
+                            f"the feature changed: p={p:.3g} < {alpha:g}")
+        return Decision("no-leak", basis, test_name, p, alpha, n1, n2, rho,
+                        f"no significant change: p={p:.3g} >= {alpha:g}")
+    leak_alt, other_alt = ("less", "greater") if direction == "down" else ("greater", "less")
+    p = float(mannwhitneyu(tst, ref, alternative=leak_alt).pvalue)
+    if p < alpha:
+        return Decision("leak", basis, test_name, p, alpha, n1, n2, rho,
+                        f"the feature {'fell' if direction == 'down' else 'rose'} as a leak makes "
+                        f"it: p={p:.3g} < {alpha:g}")
+    p_other = float(mannwhitneyu(tst, ref, alternative=other_alt).pvalue)
+    if p_other < alpha:
+        return Decision("inconclusive", basis, test_name, p, alpha, n1, n2, rho,
+                        f"the feature {'rose' if direction == 'down' else 'fell'} significantly "
+                        f"(p={p_other:.3g}), the opposite of a leak's signature: something else "
+                        "changed")
+    return Decision("no-leak", basis, test_name, p, alpha, n1, n2, rho,
+                    f"no significant change in a leak's direction: p={p:.3g} >= {alpha:g}")

@@ -26,7 +26,8 @@ def _plt():
 
 
 def plot_pct_vs_parameter(x, ours, thesis=None, xlabel: str = "parameter",
-                          title: str = "", xticklabels=None):
+                          title: str = "", xticklabels=None,
+                          label: str = "leakdiag (simulator)"):
     """|% change| against the varied parameter: ours, and the thesis's if given.
 
     Parameters
@@ -43,6 +44,8 @@ def plot_pct_vs_parameter(x, ours, thesis=None, xlabel: str = "parameter",
         Title.
     xticklabels : sequence of str, optional
         Tick labels at ``x`` (e.g. ``"83:3"``).
+    label : str, default "leakdiag (simulator)"
+        Legend entry of ``ours`` (e.g. the user's file name).
 
     Returns
     -------
@@ -50,7 +53,7 @@ def plot_pct_vs_parameter(x, ours, thesis=None, xlabel: str = "parameter",
     """
     plt = _plt()
     fig, ax = plt.subplots(figsize=(5.2, 3.2))
-    ax.plot(x, ours, "o-", color="tab:blue", label="leakdiag (simulator)")
+    ax.plot(x, ours, "o-", color="tab:blue", label=label)
     if thesis is not None:
         ax.plot(x, thesis, "s--", color="tab:gray", label="thesis (test rig)")
     if xticklabels is not None:

@@ -77,11 +77,22 @@ def _json_dict(blob) -> dict:
 
 def _rate_start(t_head: np.ndarray | None, sample_rate: float | None, start_time: float | None,
                 header: dict, source: str) -> tuple[float, float]:
-    """Sample rate and start time: explicit argument, else the file header, else the time column."""
+    """Sample rate and start time: explicit argument, else the file header, else the time column.
+
+    An explicit rate that contradicts the header or the time column is refused (as
+    :func:`leakdiag.io.read_recording` does), never silently preferred.
+    """
+    own = header.get("sample_rate")
+    what = "header"
+    if own is None and t_head is not None and len(t_head) >= 2:
+        own, what = infer_sample_rate(t_head, source=source), "time column"
+    if sample_rate is not None and own is not None and \
+            abs(float(sample_rate) - float(own)) > 1e-6 * float(own):
+        raise RecordingError(f"{source}: a sample rate of {float(sample_rate):g} Hz was given, but "
+                             f"the file's {what} says {float(own):g} Hz; leave the sample rate "
+                             "out (it is known) or fix the file")
     if sample_rate is None:
-        sample_rate = header.get("sample_rate")
-    if sample_rate is None and t_head is not None and len(t_head) >= 2:
-        sample_rate = infer_sample_rate(t_head, source=source)
+        sample_rate = own
     if sample_rate is None:
         raise RecordingError(f"{source}: no 'time' column and no sample rate; pass sample_rate")
     if start_time is None:

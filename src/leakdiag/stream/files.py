@@ -82,23 +82,51 @@ def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> C
     return ChunkSource(gen(), fs, t0, chans, n, path, meta)
 
 
+def _numeric(df, chans: list[str], path: str, row0: int) -> dict:
+    """Channels of a CSV chunk as float64; text names the file, channel and row."""
+    import pandas as pd
+
+    out = {}
+    for c in chans:
+        col = df[c]
+        if not pd.api.types.is_numeric_dtype(col.dtype):
+            num = pd.to_numeric(col, errors="coerce")
+            bad = np.flatnonzero(num.isna().to_numpy() & col.notna().to_numpy())
+            if len(bad):
+                i = int(bad[0])
+                raise RecordingError(f"{path}: channel {c!r} holds text, not numbers: row "
+                                     f"{row0 + i} is {str(col.iloc[i])[:40]!r}")
+            col = num
+        out[c] = np.ascontiguousarray(col.to_numpy(dtype=np.float64), dtype=np.float64)
+    return out
+
+
 def _csv_frames(path: str, chunk_samples: int, chans: list[str]):
     """Chunks of a CSV; the reader is opened on first use and closed when the generator is closed
     (also when the consumer stops early on an error), so no file handle leaks."""
     import pandas as pd
 
-    with pd.read_csv(path, chunksize=chunk_samples, usecols=chans, comment="#",
-                     dtype=np.float64) as frames:
+    row0 = 0
+    with pd.read_csv(path, chunksize=chunk_samples, usecols=chans, comment="#") as frames:
         for df in frames:
-            yield {c: np.ascontiguousarray(df[c].to_numpy(), dtype=np.float64) for c in chans}
+            yield _numeric(df, chans, path, row0)
+            row0 += len(df)
 
 
 def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
     import pandas as pd
 
-    head = pd.read_csv(path, nrows=4096, comment="#")
+    try:
+        head = pd.read_csv(path, nrows=4096, comment="#")
+    except pd.errors.EmptyDataError:
+        raise RecordingError(f"{path}: empty file: no header line and no data") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise RecordingError(f"{path}: unreadable as CSV: {exc}") from None
+    if head.empty:
+        raise RecordingError(f"{path}: header only, no data rows")
     chans = _select(list(head.columns), channels, path)
-    t_head = head[TIME_COLUMN].to_numpy(np.float64) if TIME_COLUMN in head else None
+    t_head = (_numeric(head, [TIME_COLUMN], path, 0)[TIME_COLUMN] if TIME_COLUMN in head
+              else None)
     fs, t0 = _rate_start(t_head, sample_rate, start_time, {}, path)
     return ChunkSource(_csv_frames(path, chunk_samples, chans), fs, t0, chans, None, path, {})
 

@@ -13,22 +13,67 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from leakdiag._validation import check_int, check_positive
+from leakdiag.io.checks import UNIFORM_TIME_RTOL
 from leakdiag.io.recording import RecordingError
 from leakdiag.stream.chunks import TIME_COLUMN, ChunkSource, _rate_start, _select
 
 __all__ = ["csv_lines", "tail_csv", "paced", "stdin_source"]
 
-def _parse_lines(lines: list[str], header: list[str], cols: list[int], chans: list[str]) -> dict:
+#: Data lines read before the first chunk of a stream with a time column, to infer and check
+#: the sample rate over more than one interval.
+HEAD_LINES = 64
+
+
+class _TimeAxis:
+    """Checks each streamed time value against the uniform grid, as file mode checks the column."""
+
+    def __init__(self, fs: float, source: str, rtol: float = UNIFORM_TIME_RTOL):
+        self.dt = 1.0 / fs
+        self.fs = fs
+        self.source = source
+        self.rtol = rtol
+        self.prev: float | None = None
+
+    def check(self, t: float, lineno: int) -> None:
+        if not np.isfinite(t):
+            raise RecordingError(f"{self.source}: line {lineno}: time {t!r} is not finite")
+        if self.prev is not None:
+            step = t - self.prev
+            if abs(step - self.dt) > self.rtol * self.dt:
+                what = ("time goes backwards" if step < 0 else "a repeated time" if step == 0
+                        else "a gap" if step > 1.5 * self.dt else "jitter")
+                raise RecordingError(
+                    f"{self.source}: line {lineno}: time {t!r} s after {self.prev!r} s is {what}: "
+                    f"interval {step:.6g} s, expected {self.dt:.6g} s ({self.fs:g} Hz from the "
+                    f"first lines, tolerance {self.rtol:g} relative); the stream must be "
+                    "uniformly sampled")
+        self.prev = t
+
+
+def _parse_lines(lines: list[tuple[int, str]], header: list[str], cols: list[int],
+                 chans: list[str], source: str = "<stdin>", axis: _TimeAxis | None = None,
+                 i_time: int | None = None) -> dict:
     rows = []
-    for line in lines:
+    for lineno, line in lines:
         fields = line.split(",")
         if len(fields) != len(header):
-            raise RecordingError(f"CSV line has {len(fields)} fields, header has {len(header)}: "
-                                 f"{line.strip()[:80]!r}")
-        try:
-            rows.append([float(fields[i]) for i in cols])
-        except ValueError as exc:
-            raise RecordingError(f"CSV line {line.strip()[:80]!r}: {exc}") from None
+            raise RecordingError(f"{source}: line {lineno}: {len(fields)} fields, header has "
+                                 f"{len(header)}: {line.strip()[:80]!r}")
+        row = []
+        for i, c in zip(cols, chans):
+            try:
+                row.append(float(fields[i]))
+            except ValueError:
+                raise RecordingError(f"{source}: line {lineno}, channel {c!r}: "
+                                     f"{fields[i].strip()[:40]!r} is not a number") from None
+        if axis is not None and i_time is not None:
+            try:
+                t = float(fields[i_time])
+            except ValueError:
+                raise RecordingError(f"{source}: line {lineno}, column 'time': "
+                                     f"{fields[i_time].strip()[:40]!r} is not a number") from None
+            axis.check(t, lineno)
+        rows.append(row)
     arr = np.array(rows, dtype=np.float64).reshape(len(rows), len(cols))
     return {c: np.ascontiguousarray(arr[:, i]) for i, c in enumerate(chans)}
 
@@ -67,37 +112,56 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
     (2.0, [[1.0], [2.0], [4.0]])
     """
     batch_lines = check_int(batch_lines, "batch_lines", 1)
+    source = getattr(stream, "source_name", "<stdin>")
     header_line = stream.readline()
     if not header_line.strip():
-        raise RecordingError("<stdin>: empty input; expected a CSV header line")
+        raise RecordingError(f"{source}: empty input; expected a CSV header line")
     header = [h.strip() for h in header_line.split(",")]
-    chans = _select(header, channels, "<stdin>")
+    chans = _select(header, channels, source)
     cols = [header.index(c) for c in chans]
-    pending: list[str] = []
-    if sample_rate is None or TIME_COLUMN in header:
-        while len(pending) < 2:
+    i_time = header.index(TIME_COLUMN) if TIME_COLUMN in header else None
+    lineno = 1
+    pending: list[tuple[int, str]] = []
+    if sample_rate is None or i_time is not None:
+        while len(pending) < HEAD_LINES:
             line = stream.readline()
             if not line:
                 break
+            lineno += 1
             if line.strip() and not line.startswith("#"):
-                pending.append(line)
+                pending.append((lineno, line))
     t_head = None
-    if TIME_COLUMN in header and len(pending) >= 1:
-        t_head = np.array([float(p.split(",")[header.index(TIME_COLUMN)]) for p in pending])
-    fs, t0 = _rate_start(t_head, sample_rate, None, {}, "<stdin>")
+    if i_time is not None and len(pending) >= 1:
+        t_head = []
+        for n, p in pending:
+            fields = p.split(",")
+            try:
+                t_head.append(float(fields[i_time]))
+            except (ValueError, IndexError):
+                raise RecordingError(f"{source}: line {n}, column 'time': not a number: "
+                                     f"{p.strip()[:80]!r}") from None
+        t_head = np.array(t_head)
+    fs, t0 = _rate_start(t_head, sample_rate, None, {}, source)
+    axis = _TimeAxis(fs, source) if i_time is not None else None
 
     def gen():
-        buf: list[str] = []
-        for line in itertools.chain(pending, iter(stream.readline, "")):
-            if line.strip() and not line.startswith("#"):
-                buf.append(line)
+        buf: list[tuple[int, str]] = []
+        for item in itertools.chain(pending, _numbered(stream)):
+            buf.append(item)
             if len(buf) >= batch_lines:
-                yield _parse_lines(buf, header, cols, chans)
+                yield _parse_lines(buf, header, cols, chans, source, axis, i_time)
                 buf = []
         if buf:
-            yield _parse_lines(buf, header, cols, chans)
+            yield _parse_lines(buf, header, cols, chans, source, axis, i_time)
 
-    return ChunkSource(gen(), fs, t0, chans, None, "<stdin>", {})
+    def _numbered(st):
+        nonlocal lineno
+        for line in iter(st.readline, ""):
+            lineno += 1
+            if line.strip() and not line.startswith("#"):
+                yield lineno, line
+
+    return ChunkSource(gen(), fs, t0, chans, None, source, {})
 
 
 def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
@@ -145,6 +209,8 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
             idle += poll_s
 
     class _Lines:
+        source_name = path
+
         def readline(self) -> str:
             return wait_line()
 

@@ -1,0 +1,224 @@
+"""Options shared by the commands that read recordings, defined once.
+
+``@recording_options`` adds ``--map``, ``--col``, ``--sample-rate`` and ``--time-unit``;
+:func:`column_map_from` turns them into what :func:`leakdiag.io.read_recording` takes, and
+:func:`read_healthy` reads healthy reference recordings and checks that they agree with the
+suspect recording (sample rate, system, channels, units).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import click
+
+__all__ = ["recording_options", "column_map_from", "read_with", "read_healthy",
+           "false_alarm_option", "healthy_option", "no_progress_option", "TIME_UNIT_CHOICES"]
+
+#: Below this rate (Hz) a time column is probably not in seconds (ms, sample counter): warned.
+LOW_RATE_HZ = 20.0
+#: Time units of a time column (as :class:`leakdiag.io.ColumnMap` accepts them).
+TIME_UNIT_CHOICES = ["s", "ms", "us", "samples"]
+
+
+def recording_options(f):
+    """Decorator: ``--map``, ``--col``, ``--sample-rate``, ``--time-unit`` (one definition).
+
+    Parameters
+    ----------
+    f : callable
+        The click command function; it receives ``column_map``, ``cols``, ``sample_rate`` and
+        ``time_unit``.
+
+    Returns
+    -------
+    callable
+    """
+    opts = [
+        click.option("--map", "column_map", type=click.Path(exists=True, dir_okay=False),
+                     help="TOML column map: which column is which channel, its unit and gain "
+                          "(docs/io.md)."),
+        click.option("--col", "cols", multiple=True, metavar="CH=COLUMN[:UNIT[*GAIN]]",
+                     help="Column mapping, e.g. --col p1=PG_1:psi (repeatable; adds to --map)."),
+        click.option("--sample-rate", type=float, default=None,
+                     help="Sample rate (Hz) when the file has no time column; refused if it "
+                          "contradicts the file's time column or header."),
+        click.option("--time-unit", type=click.Choice(TIME_UNIT_CHOICES), default=None,
+                     help="Unit of the file's time column (default s)."),
+    ]
+    for opt in reversed(opts):
+        f = opt(f)
+    return f
+
+
+def healthy_option(f):
+    """Decorator: repeatable ``--healthy FILE``.
+
+    Parameters
+    ----------
+    f : callable
+        The click command function (receives ``healthy``, a tuple of paths).
+
+    Returns
+    -------
+    callable
+    """
+    return click.option("--healthy", multiple=True, type=click.Path(exists=True, dir_okay=False),
+                        help="Healthy reference recording of the same machine (repeatable).")(f)
+
+
+def false_alarm_option(default: float = 0.01, per: str = "run"):
+    """Decorator factory: ``--false-alarm-rate`` (the one name for the false-alarm target).
+
+    Parameters
+    ----------
+    default : float, default 0.01
+        Default rate.
+    per : str, default "run"
+        What the rate is per (stated in the help).
+
+    Returns
+    -------
+    callable
+    """
+    return click.option("--false-alarm-rate", type=float, default=default, show_default=True,
+                        help=f"Chance of a false 'leak' per {per} on healthy operation.")
+
+
+def no_progress_option(f):
+    """Decorator: ``--no-progress``.
+
+    Parameters
+    ----------
+    f : callable
+        The click command function (receives ``no_progress``).
+
+    Returns
+    -------
+    callable
+    """
+    return click.option("--no-progress", is_flag=True, help="Hide progress messages and bars.")(f)
+
+
+def column_map_from(column_map, cols, time_unit=None):
+    """The column map for :func:`leakdiag.io.read_recording` from ``--map``/``--col``/``--time-unit``.
+
+    Parameters
+    ----------
+    column_map : str or None
+        ``--map`` path.
+    cols : sequence of str
+        ``--col`` specs.
+    time_unit : str or None
+        ``--time-unit``.
+
+    Returns
+    -------
+    ColumnMap, str or None
+        None when no option was given (files written by leakdiag restore exactly).
+    """
+    if not cols and time_unit is None:
+        return column_map
+    import leakdiag.io as lio
+
+    return lio.build_column_map(list(cols), base=column_map, time_unit=time_unit)
+
+
+def read_with(path, cmap, sample_rate=None, resample=None):
+    """Read ``path`` and make messages name it.
+
+    Parameters
+    ----------
+    path : str
+        File.
+    cmap : optional
+        Column map (from :func:`column_map_from`).
+    sample_rate, resample : float, optional
+        As in :func:`leakdiag.io.read_recording`.
+
+    Returns
+    -------
+    Recording
+    """
+    import leakdiag.io as lio
+
+    if resample is None:
+        rec = lio.read_recording(path, column_map=cmap, sample_rate=sample_rate)
+    else:
+        rec = lio.read_recording(path, column_map=cmap, sample_rate=sample_rate, resample=resample)
+    if rec.meta.get("source") != str(path):
+        rec.meta["origin"] = rec.meta.get("source")
+        rec.meta["source"] = str(path)
+    if rec.sample_rate < LOW_RATE_HZ and sample_rate is None:
+        warnings.warn(f"{path}: sample rate {rec.sample_rate:g} Hz from the time column is low "
+                      "for actuator pressures; if the time column is in milliseconds or a "
+                      "sample counter, give --time-unit ms (or samples with --sample-rate)",
+                      UserWarning, stacklevel=2)
+    return rec
+
+
+def _leaks(meta) -> bool:
+    v = meta.get("leak_lpm")
+    try:
+        return v is not None and float(v) > 0
+    except (TypeError, ValueError):
+        return False
+
+
+def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None):
+    """Read healthy reference recordings and check they agree with the suspect recording.
+
+    Parameters
+    ----------
+    paths : sequence of str
+        Healthy files.
+    suspect : Recording or None
+        The recording under judgement (None: only the healthy files are checked among
+        themselves).
+    cmap : optional
+        Column map.
+    sample_rate : float, optional
+        ``--sample-rate``.
+    channels : sequence of str, optional
+        Channels the methods need (checked in every file).
+
+    Returns
+    -------
+    list of Recording
+
+    Raises
+    ------
+    ValueError
+        When a healthy file's sample rate, system, units or channels differ from the suspect's.
+
+    Warns
+    -----
+    UserWarning
+        When a healthy file's metadata records a leak (``leak_lpm`` > 0).
+    """
+    recs = [read_with(p, cmap, sample_rate) for p in paths]
+    ref = suspect if suspect is not None else (recs[0] if recs else None)
+    if ref is None:
+        return recs
+    name = ref.meta.get("source", "<recording>")
+    for p, r in zip(paths, recs):
+        if abs(r.sample_rate - ref.sample_rate) > 1e-9 * ref.sample_rate:
+            raise ValueError(f"--healthy {p}: sample rate {r.sample_rate:g} Hz differs from "
+                             f"{name}'s {ref.sample_rate:g} Hz: references must be recorded at the "
+                             "same rate (--map, --col and --time-unit apply to every file)")
+        sys_r, sys_s = r.meta.get("system"), ref.meta.get("system")
+        if sys_r and sys_s and str(sys_r).lower() != str(sys_s).lower():
+            raise ValueError(f"--healthy {p}: system {sys_r!r} differs from {name}'s {sys_s!r}: "
+                             "healthy references must come from the same kind of machine")
+        for c in (channels if channels is not None else ref.channels):
+            if c in ref.channels and c not in r.channels:
+                raise ValueError(f"--healthy {p}: no channel {c!r}, which {name} has")
+            if c in ref.channels and c in r.channels and \
+                    r.units.get(c) != ref.units.get(c):
+                raise ValueError(f"--healthy {p}: channel {c!r} is in {r.units.get(c)!r}, "
+                                 f"{name} in {ref.units.get(c)!r}")
+        if _leaks(r.meta):
+            warnings.warn(f"--healthy {p}: its metadata says it leaks "
+                          f"(leak_lpm={r.meta.get('leak_lpm')}); is it really healthy?",
+                          UserWarning, stacklevel=2)
+    return recs

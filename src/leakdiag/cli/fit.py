@@ -1,0 +1,199 @@
+"""``leakdiag fit``: fit a detector on healthy recordings and save it (joblib + metadata record)."""
+
+from __future__ import annotations
+
+import click
+
+from leakdiag.cli._options import recording_options
+
+__all__ = ["fit", "fit_detector", "detector_channels", "system_of"]
+
+#: Channels a detector without a ``channels`` attribute may read (e.g. the EKF).
+_ALL_CHANNELS = ("p1", "p2", "x", "u")
+
+
+def detector_channels(det, recording=None) -> tuple[str, ...]:
+    """Channels a detector reads.
+
+    Parameters
+    ----------
+    det : Detector
+        A (fitted or not) detector.
+    recording : Recording, optional
+        Used for detectors that read every standard channel (e.g. the EKF).
+
+    Returns
+    -------
+    tuple of str
+
+    Examples
+    --------
+    >>> from leakdiag.bench.registry import make_detector
+    >>> from leakdiag.detect.base import Alarm
+    >>> detector_channels(make_detector("combined", "vca", Alarm()))
+    ('p1', 'p2', 'u', 'x')
+    """
+    chans = getattr(det, "channels", None)
+    if chans:
+        return tuple(chans)
+    parts = getattr(det, "detectors", None)
+    if parts:
+        out: list[str] = []
+        for p in parts:
+            out += [c for c in detector_channels(p) if c not in out]
+        return tuple(out)
+    if recording is not None:
+        return tuple(c for c in _ALL_CHANNELS if c in recording.channels)
+    return _ALL_CHANNELS
+
+
+def system_of(recordings, given: str | None, names) -> str:
+    """The system (vca/eha) from ``--system`` or the recordings' metadata, never a silent guess.
+
+    Parameters
+    ----------
+    recordings : sequence of Recording
+        Recordings whose ``meta['system']`` is read.
+    given : str or None
+        ``--system``.
+    names : sequence of str
+        File names for messages.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ValueError
+        When the files disagree with each other or with ``--system``, or nothing says which.
+
+    Examples
+    --------
+    >>> from leakdiag.io import Recording
+    >>> import numpy as np
+    >>> system_of([Recording({"p1": np.zeros(3)}, 1.0, meta={"system": "EHA"})], None, ["a"])
+    'eha'
+    """
+    found = {}
+    for r, n in zip(recordings, names):
+        s = r.meta.get("system")
+        if s:
+            found[n] = str(s).lower()
+    kinds = set(found.values())
+    if len(kinds) > 1:
+        raise ValueError("the files come from different systems: "
+                         + ", ".join(f"{n}: {s}" for n, s in found.items()))
+    if given is not None:
+        if kinds and given not in kinds:
+            n, s = next(iter(found.items()))
+            raise ValueError(f"--system {given}, but {n}'s metadata says {s!r}")
+        return given
+    if kinds:
+        return kinds.pop()
+    raise ValueError(f"{', '.join(names)}: the metadata does not say which system recorded "
+                     "them; give --system vca or --system eha (it selects the thesis's settings)")
+
+
+def fit_detector(method: str, system: str, healthy, *, false_alarms_per_hour: float = 1.0,
+                 burn_in_s: float = 5.0, onset_method: str = "binseg"):
+    """Build the registry's detector ``method`` for ``system`` and fit it on ``healthy``.
+
+    Parameters
+    ----------
+    method : str
+        Key of :data:`leakdiag.bench.registry.METHODS`.
+    system : {"vca", "eha"}
+        Rig.
+    healthy : sequence of Recording
+        Healthy recordings.
+    false_alarms_per_hour : float, default 1.0
+        CUSUM false-alarm target on healthy operation.
+    burn_in_s : float, default 5.0
+        Leading seconds ignored in every recording.
+    onset_method : {"binseg", "pelt", "cusum"}, default "binseg"
+        Onset estimator.
+
+    Returns
+    -------
+    Detector
+        Fitted.
+    """
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm
+
+    alarm = Alarm(false_alarms_per_hour=false_alarms_per_hour, onset_method=onset_method,
+                  burn_in_s=burn_in_s)
+    det = make_detector(method, system, alarm)
+    return det.fit(list(healthy))
+
+
+def _method_names():
+    from leakdiag.bench.registry import METHODS
+
+    return sorted(METHODS)
+
+
+class _LazyChoice(click.Choice):
+    """A Choice over the registry's methods, read when the command runs (helpers add methods)."""
+
+    def __init__(self):
+        super().__init__([])
+
+    def convert(self, value, param, ctx):
+        self.choices = _method_names()
+        return super().convert(value, param, ctx)
+
+    def get_metavar(self, param, *args, **kwargs):
+        return "METHOD"
+
+
+@click.command("fit", epilog="Example: leakdiag fit --healthy h1.parquet --healthy h2.parquet "
+                             "--method ccf-p1p2 -o det.joblib")
+@click.option("--healthy", multiple=True, required=True,
+              type=click.Path(exists=True, dir_okay=False),
+              help="Healthy recording of the machine (repeat for several; more gives a "
+                   "threshold that holds better).")
+@click.option("--method", "-m", required=True, type=_LazyChoice(),
+              help="Detector (leakdiag benchmark --list-methods): acf-p1, ccf-p1p2, mlr-p1, "
+                   "combined, wavelet-p1, fft-p1, emd-p1, ekf, ...")
+@click.option("--system", type=click.Choice(["vca", "eha"]), default=None,
+              help="Rig (default: the files' metadata; required when they do not say).")
+@recording_options
+@click.option("--false-alarm-rate", type=float, default=1.0, show_default=True,
+              help="False alarms per hour of healthy operation the detector's threshold is set "
+                   "for (continuous monitoring).")
+@click.option("--burn-in", "burn_in_s", type=float, default=5.0, show_default=True,
+              help="Seconds ignored at the start of every recording.")
+@click.option("--out", "-o", required=True, type=click.Path(dir_okay=False),
+              help="Detector file to write (joblib), e.g. det.joblib.")
+def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, false_alarm_rate,
+        burn_in_s, out):
+    """Fit a detector on healthy recordings and save it for detect, monitor and batch.
+
+    The file holds the fitted detector and a record of what it was fitted on (leakdiag version,
+    method, system, sample rate, channels, units); detect, monitor and batch refuse recordings
+    that disagree with it.
+    """
+    from leakdiag.cli._options import column_map_from, read_healthy
+    from leakdiag.stream.detector_file import DetectorMeta, save_detector
+
+    cmap = column_map_from(column_map, cols, time_unit)
+    recs = read_healthy(healthy, None, cmap, sample_rate)
+    system = system_of(recs, system, healthy)
+    click.echo(f"fitting {method} ({system.upper()}) on {len(recs)} healthy recording(s)...",
+               err=True)
+    det = fit_detector(method, system, recs, false_alarms_per_hour=false_alarm_rate,
+                       burn_in_s=burn_in_s)
+    chans = detector_channels(det, recs[0])
+    meta = DetectorMeta(method=method, system=system, sample_rate_hz=float(recs[0].sample_rate),
+                        channels=chans, units={c: recs[0].units.get(c) for c in chans
+                                               if recs[0].units.get(c)},
+                        false_alarms_per_hour=float(false_alarm_rate), n_healthy=len(recs),
+                        healthy_files=tuple(str(h) for h in healthy))
+    save_detector(det, meta, out)
+    basis = getattr(det, "threshold_basis_", None)
+    click.echo(f"wrote {out}: {method} for the {system.upper()} at {meta.sample_rate_hz:g} Hz, "
+               f"channels {','.join(chans)}, threshold {float(det.threshold_):.4g} "
+               f"for {false_alarm_rate:g} false alarm(s) per hour"
+               + (f" ({basis})" if basis else ""))
