@@ -42,8 +42,9 @@ ENCODER_RESOLUTION_M = 0.03e-3
 ANTIALIAS_ORDER = 2
 #: Transducer output span, 0-5 V (Sec. 2.2: "an output supply of 0-5 VDC").
 TRANSDUCER_OUTPUT_SPAN_V = 5.0
-#: Quanser Q8 analog inputs: 14 bit (Sec. 3.2) over +-10 V (Quanser Q8 terminal board
-#: specification; the thesis gives the resolution, not the range).
+#: Quanser Q8 analog inputs: 14 bit (Sec. 3.2) over +-10 V (the thesis gives the resolution,
+#: not the range; +-10 V is the range Quanser documents for its Q8 family, the Q8-USB's
+#: default; see docs/models.md, "Sensor chain").
 Q8_BITS = 14
 Q8_INPUT_SPAN_V = 20.0
 #: Response time (10-90 %) of an amplified strain-gauge pressure transducer with a 0-5 V
