@@ -125,6 +125,9 @@ def sweep(file, column_map, cols, sample_rate, time_unit, method, channels, lags
     _check_input(file, rec, m, channels, win_values)
     rule = SelectionRule(min_chunks_per_side=min_chunks, tolerance_pct=tolerance)
     onset = onset if onset is not None else rec.onset
+    if onset is None:
+        raise click.UsageError(f"{file}: the file's metadata has no leak onset: give --onset "
+                               "SECONDS (the sweep compares the feature before and after it)")
     try:
         table, chosen, groups = _run(rec, m, channels, lag_values, win_values, ov_values, rule,
                                      onset, chunk, mode)
