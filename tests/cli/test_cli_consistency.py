@@ -66,3 +66,19 @@ def test_batch_serial_flag_is_gone_for_scheduler_serial():
 def test_recording_options_everywhere(name):
     opts = {o for p in _command(name).params for o in getattr(p, "opts", [])}
     assert {"--map", "--col", "--sample-rate", "--time-unit"} <= opts
+
+
+def test_first_run_says_the_kernels_compile_once(tmp_path, monkeypatch, capsys):
+    from leakdiag.cli.main import main
+
+    import leakdiag.cli.main as m
+
+    monkeypatch.setattr(m, "_stderr_is_terminal", lambda: True)
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "empty-cache"))
+    main(["analyze", str(tmp_path / "nope.csv")])
+    assert "first run: compiling the feature kernels" in capsys.readouterr().err
+    (tmp_path / "empty-cache" / "x").mkdir(parents=True)
+    (tmp_path / "empty-cache" / "x" / "k.nbi").write_bytes(b"")
+    main(["analyze", str(tmp_path / "nope.csv")])
+    assert "first run" not in capsys.readouterr().err
+    main(["analyze", "--help"])
