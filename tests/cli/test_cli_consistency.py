@@ -82,3 +82,21 @@ def test_first_run_says_the_kernels_compile_once(tmp_path, monkeypatch, capsys):
     main(["analyze", str(tmp_path / "nope.csv")])
     assert "first run" not in capsys.readouterr().err
     main(["analyze", "--help"])
+
+
+def test_monitor_error_advises_no_option_monitor_lacks(tmp_path, capsys):
+    import numpy as np
+
+    from leakdiag.cli.main import main
+
+    t = np.arange(3000) / 1000.0
+    t[1000:] += 0.0004  # one irregular interval
+    path = tmp_path / "nonuni.csv"
+    path.write_text("time,p1\n" + "".join(f"{a},{np.sin(a * 50)}\n" for a in t))
+    assert main(["monitor", "-i", str(path), "-c", "p1", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "not uniformly sampled" in err and "leakdiag analyze --resample" in err
+    assert "(--resample RATE_HZ)" not in err
+    # detect has --resample, so it may advise it
+    opts = {o for p in _command("detect").params for o in getattr(p, "opts", [])}
+    assert "--resample" in opts

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from leakdiag.cli._options import recording_options
+from leakdiag.cli._options import recording_options, resample_option
 
 __all__ = ["detect", "verdict_table", "overall_verdict"]
 
@@ -34,7 +34,8 @@ def _dead_channel(det, rec, file, m):
 
 def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"), system=None,
                   column_map=None, sample_rate=None, false_alarm_rate=0.01,
-                  onset_method="binseg", burn_in_s=5.0, detectors=(), progress=None):
+                  onset_method="binseg", burn_in_s=5.0, detectors=(), progress=None,
+                  resample=None):
     """Fit each method on the healthy files (or load saved detectors) and judge ``file``.
 
     Parameters
@@ -65,6 +66,8 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
         Detector files written by ``leakdiag fit`` (judged as saved, at their own rate).
     progress : callable, optional
         Called with a message before each method (long methods such as the EKF).
+    resample : float, optional
+        Rate (Hz) onto which every file's time axis is interpolated.
 
     Returns
     -------
@@ -80,7 +83,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
 
     say = progress or (lambda msg: None)
-    rec = read_with(file, column_map, sample_rate)
+    rec = read_with(file, column_map, sample_rate, resample)
     rows = []
     for path in detectors:
         det, meta = load_detector_file(path)
@@ -92,7 +95,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
         rows.append(_dead_channel(det, rec, file, m)
                     or _row(m, det, rec, meta.n_healthy if meta else None))
     if healthy:
-        train = read_healthy(healthy, rec, column_map, sample_rate)
+        train = read_healthy(healthy, rec, column_map, sample_rate, resample=resample)
         system = system_of([rec, *train], system, [str(file), *map(str, healthy)])
         hours = rec.duration / 3600.0
         per_hour = false_alarm_rate / max(len(methods), 1) / hours
@@ -169,6 +172,7 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
 @click.option("--system", default=None, type=click.Choice(["vca", "eha"]),
               help="Rig whose thesis settings the features use (default: the files' metadata).")
 @recording_options
+@resample_option
 @click.option("--false-alarm-rate", type=float, default=0.01, show_default=True,
               help="Chance of a false 'leak' for this run, split over the --methods fitted on "
                    "--healthy (a --detector keeps its own rate per hour).")
@@ -178,7 +182,7 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
               help="Seconds ignored at the start of every recording.")
 @click.option("--no-progress", is_flag=True, help="Do not print a line per method.")
 def detect(file, healthy, detectors, methods, system, column_map, cols, sample_rate, time_unit,
-           false_alarm_rate, onset_method, burn_in_s, no_progress):
+           resample, false_alarm_rate, onset_method, burn_in_s, no_progress):
     """Judge FILE: leak or not, onset, alarm time, leak size, and one overall decision.
 
     Each method is a detector fitted on --healthy recordings (or loaded with --detector); the
@@ -204,7 +208,7 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     tab = verdict_table(file, healthy, methods=names, system=system, column_map=cmap,
                         sample_rate=sample_rate, false_alarm_rate=false_alarm_rate,
                         onset_method=onset_method, burn_in_s=burn_in_s, detectors=detectors,
-                        progress=say)
+                        progress=say, resample=resample)
     cols_ = [c for c in ("method", "leak", "onset_s", "alarm_time_s", "confidence", "leak_lpm",
                          "score_max", "threshold", "threshold_method", "error") if c in tab]
     shown = tab[cols_].astype(object)

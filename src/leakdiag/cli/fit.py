@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from leakdiag.cli._options import recording_options
+from leakdiag.cli._options import recording_options, resample_option
 
 __all__ = ["fit", "fit_detector", "detector_channels", "system_of"]
 
@@ -160,6 +160,7 @@ class _LazyChoice(click.Choice):
 @click.option("--system", type=click.Choice(["vca", "eha"]), default=None,
               help="Rig (default: the files' metadata; required when they do not say).")
 @recording_options
+@resample_option
 @click.option("--false-alarm-rate", type=float, default=1.0, show_default=True,
               help="False alarms per hour of healthy operation the detector's threshold is set "
                    "for (continuous monitoring).")
@@ -167,8 +168,8 @@ class _LazyChoice(click.Choice):
               help="Seconds ignored at the start of every recording.")
 @click.option("--out", "-o", required=True, type=click.Path(dir_okay=False),
               help="Detector file to write (joblib), e.g. det.joblib.")
-def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, false_alarm_rate,
-        burn_in_s, out):
+def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resample,
+        false_alarm_rate, burn_in_s, out):
     """Fit a detector on healthy recordings and save it for detect, monitor and batch.
 
     The file holds the fitted detector and a record of what it was fitted on (leakdiag version,
@@ -179,7 +180,7 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, false
     from leakdiag.stream.detector_file import DetectorMeta, save_detector
 
     cmap = column_map_from(column_map, cols, time_unit)
-    recs = read_healthy(healthy, None, cmap, sample_rate)
+    recs = read_healthy(healthy, None, cmap, sample_rate, resample=resample)
     system = system_of(recs, system, healthy)
     click.echo(f"fitting {method} ({system.upper()}) on {len(recs)} healthy recording(s)...",
                err=True)
