@@ -113,6 +113,11 @@ def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: in
     Returns
     -------
     ChunkSource
+
+    Raises
+    ------
+    click.UsageError
+        For a column map with stdin or ``--follow`` (those take CSV with channel names).
     """
     from leakdiag.stream import csv_lines, open_chunks, recording_chunks, tail_csv
 
