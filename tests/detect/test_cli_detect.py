@@ -144,3 +144,32 @@ def test_detect_without_references_is_a_usage_error(files, capsys):
     _, leak = files
     assert main(["detect", leak]) == 2
     assert "give --healthy FILE (repeatable) or --detector FILE" in capsys.readouterr().err
+
+
+def test_fit_with_calibration_gives_the_leak_size_with_interval(files, tmp_path, capsys):
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
+    healthy, leak = files
+    cal = []
+    for i, q in enumerate((0.1, 0.3, 0.8)):
+        rec = simulate_vca(duration=30.0, leak_lpm=q, onset=15.0, seed=60 + i, reference_seed=160 + i)
+        cal += ["--calibrate", str(write_recording(rec, tmp_path / f"cal{i}.parquet"))]
+    det = tmp_path / "det.joblib"
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *cal, "-o", str(det)]) == 0
+    assert "leak size calibrated on 3 recording(s)" in capsys.readouterr().out
+    assert main(["detect", leak, "--detector", str(det)]) == 0
+    out = capsys.readouterr().out
+    line = [ln for ln in out.splitlines() if "leak size (ccf-p1p2)" in ln][0]
+    est = float(line.split(": ")[1].split(" L/min")[0])
+    lo, hi = (float(v) for v in line.split("interval ")[1].split(" L/min")[0].split("-"))
+    assert lo <= est <= hi and est > 0  # the point estimate lies in its interval
+    # without calibration detect says the size is not estimated
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", "-o", str(det)]) == 0
+    assert main(["detect", leak, "--detector", str(det)]) == 0
+    assert "leak size: not estimated" in capsys.readouterr().out
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *cal[:2], "-o", str(det)]) == 2
+    assert "at least 3 recordings with known leaks" in capsys.readouterr().err
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *cal[:4], "--calibrate", healthy[0],
+                 "-o", str(det)]) == 2
+    assert "healthy0.parquet: its metadata does not give the leak onset" in capsys.readouterr().err

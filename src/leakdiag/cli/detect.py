@@ -231,8 +231,11 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
                    f"({first['method']})")
         for r in sized.to_dict("records"):
             if r.get("leak_lpm") is not None and r["leak_lpm"] == r["leak_lpm"]:
-                click.echo(f"  leak size ({r['method']}): {r['leak_lpm']:.3g} L/min, interval "
-                           f"{r['leak_lpm_low']:.3g}-{r['leak_lpm_high']:.3g} L/min")
+                where = ("" if r.get("leak_lpm_in_range") in (True, None)
+                         else " (feature shift outside the calibrated range: extrapolated)")
+                click.echo(f"  leak size ({r['method']}): {r['leak_lpm']:.3g} L/min, prediction "
+                           f"interval {r['leak_lpm_low']:.3g}-{r['leak_lpm_high']:.3g} L/min"
+                           + where)
         if "leak_lpm" not in sized or sized["leak_lpm"].isna().all():
             click.echo("  leak size: not estimated (no detector here is calibrated on known "
                        "leaks)")

@@ -166,10 +166,14 @@ class _LazyChoice(click.Choice):
                    "for (continuous monitoring).")
 @click.option("--burn-in", "burn_in_s", type=float, default=5.0, show_default=True,
               help="Seconds ignored at the start of every recording.")
+@click.option("--calibrate", "calibration", multiple=True,
+              type=click.Path(exists=True, dir_okay=False),
+              help="Recording with a known leak (metadata onset and leak_lpm, e.g. simulated), "
+                   "repeatable, at least 3: detect then gives the leak size with an interval.")
 @click.option("--out", "-o", required=True, type=click.Path(dir_okay=False),
               help="Detector file to write (joblib), e.g. det.joblib.")
 def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resample,
-        false_alarm_rate, burn_in_s, out):
+        false_alarm_rate, burn_in_s, calibration, out):
     """Fit a detector on healthy recordings and save it for detect, monitor and batch.
 
     The file holds the fitted detector and a record of what it was fitted on (leakdiag version,
@@ -186,6 +190,22 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
                err=True)
     det = fit_detector(method, system, recs, false_alarms_per_hour=false_alarm_rate,
                        burn_in_s=burn_in_s)
+    if calibration:
+        from leakdiag.cli._options import read_with
+
+        cal = [read_with(p, cmap, sample_rate, resample) for p in calibration]
+        if len(cal) < 3:
+            raise click.BadParameter(f"got {len(cal)} file(s); a leak-size calibration needs at "
+                                     "least 3 recordings with known leaks (0 allowed)",
+                                     param_hint="--calibrate")
+        for p, r in zip(calibration, cal):
+            if r.onset is None or r.meta.get("leak_lpm") is None:
+                raise click.BadParameter(f"{p}: its metadata does not give the leak onset and "
+                                         "size (leak_lpm), so it cannot calibrate the leak size; "
+                                         "use recordings with known leaks, e.g. from leakdiag "
+                                         "simulate --leak Q --onset T", param_hint="--calibrate")
+        click.echo(f"calibrating the leak size on {len(cal)} recording(s)...", err=True)
+        det.calibrate(cal, validity={"system": system, "files": [str(p) for p in calibration]})
     chans = detector_channels(det, recs[0])
     meta = DetectorMeta(method=method, system=system, sample_rate_hz=float(recs[0].sample_rate),
                         channels=chans, units={c: recs[0].units.get(c) for c in chans
@@ -197,4 +217,6 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
     click.echo(f"wrote {out}: {method} for the {system.upper()} at {meta.sample_rate_hz:g} Hz, "
                f"channels {','.join(chans)}, threshold {float(det.threshold_):.4g} "
                f"for {false_alarm_rate:g} false alarm(s) per hour"
-               + (f" ({basis})" if basis else ""))
+               + (f" ({basis})" if basis else "")
+               + (f"; leak size calibrated on {len(calibration)} recording(s)" if calibration
+                  else ""))
