@@ -177,3 +177,14 @@ def test_analyze_refuses_lag_for_metric_length_only(run_file, capsys):
     assert "metric-length takes --lag-ratio" in capsys.readouterr().err
     assert main(["analyze", str(path), "-m", "autocorrelation", "--lag-ratio", "3:1"]) == 2
     assert "--lag-ratio applies to --method metric-length only" in capsys.readouterr().err
+
+
+@pytest.mark.filterwarnings("ignore:.*have zero variance")  # u,x windows while the piston rests
+def test_demo_ends_with_the_decision_in_words(tmp_path, capsys):
+    assert main(["demo", "-o", str(tmp_path / "demo")]) == 0
+    out = capsys.readouterr().out.rstrip().splitlines()
+    assert out[-1].startswith("Decision: LEAK -- ")  # thesis case study 1: 0.1 L/min leak
+    assert any(ln.startswith("Does it leak?") for ln in out)
+    v = pd.read_csv(tmp_path / "demo" / "verdict.csv")
+    # the pressure features see the 0.1 L/min leak (docs/measure.md, "Decisions")
+    assert set(v.loc[v["channels"] != "u,x", "decision"]) == {"leak"}
