@@ -100,3 +100,31 @@ def test_monitor_error_advises_no_option_monitor_lacks(tmp_path, capsys):
     # detect has --resample, so it may advise it
     opts = {o for p in _command("detect").params for o in getattr(p, "opts", [])}
     assert "--resample" in opts
+
+
+def test_sweep_figures_are_readable_and_name_the_users_file(tmp_path, capsys):
+    import matplotlib.image as mpimg
+    import numpy as np
+
+    import leakdiag as ld
+    from leakdiag.cli.main import main
+
+    rng = np.random.default_rng(3)
+    p1 = np.convolve(rng.standard_normal(12_000), np.ones(5) / 5, mode="same")
+    p1[6000:] = rng.standard_normal(6000)
+    path = tmp_path / "myrig.csv"
+    ld.Recording({"p1": 1e6 + 1e3 * p1}, 1000.0).to_pandas().to_csv(path, index=False)
+    assert main(["sweep", str(path), "-c", "p1", "--lags", "1,2", "--windows", "100,200",
+                 "--overlaps", "5", "--onset", "6", "--chunk", "2", "-o", str(tmp_path / "sw")]) == 0
+    img = mpimg.imread(tmp_path / "sw" / "pct_vs_window.png")
+    assert img.shape[1] >= 900  # pixels wide
+    from leakdiag.report.study_plots import plot_pct_vs_parameter
+
+    fig = plot_pct_vs_parameter([100, 200], [10.0, 20.0], xlabel="window N (samples)",
+                                label="myrig.csv")
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "window N (samples)" and ax.get_ylabel() == "% change of mean RMS"
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["myrig.csv"]
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
