@@ -173,3 +173,22 @@ def test_fit_with_calibration_gives_the_leak_size_with_interval(files, tmp_path,
     assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *cal[:4], "--calibrate", healthy[0],
                  "-o", str(det)]) == 2
     assert "healthy0.parquet: its metadata does not give the leak onset" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("method", ["combined", "wavelet-p1", "fft-p1", "mlr-p1"])
+def test_fit_saves_any_registry_detector_and_detect_reads_it(files, tmp_path, capsys, method):
+    from leakdiag.cli.fit import fit_detector
+    from leakdiag.io import read_recording
+    from leakdiag.stream.detector_file import load_detector_file
+
+    healthy, leak = files
+    det = tmp_path / f"{method}.joblib"
+    assert main(["fit", *_h(healthy), "-m", method, "-o", str(det)]) == 0
+    loaded, meta = load_detector_file(det)
+    assert meta.method == method and meta.n_healthy == 3
+    fresh = fit_detector(method, "vca", [read_recording(h) for h in healthy])
+    rec = read_recording(leak)
+    assert loaded.predict(rec).score_max == pytest.approx(fresh.predict(rec).score_max, rel=1e-12)
+    capsys.readouterr()
+    assert main(["detect", leak, "--detector", str(det), "--no-progress"]) == 0
+    assert "Decision: " in capsys.readouterr().out
