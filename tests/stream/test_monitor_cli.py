@@ -197,3 +197,13 @@ def test_monitor_with_a_fitted_detector_file(tmp_path):
                                     str(comb)]).exit_code == 0
     r = CliRunner().invoke(cli, ["monitor", "-i", leak, "--detector", str(comb)])
     assert r.exit_code != 0 and "cannot run window by window" in r.output
+
+
+def test_monitor_follow_checks_the_time_axis_like_file_mode(tmp_path):
+    path = tmp_path / "live.csv"
+    times = [k / 1000 for k in range(100)] + [0.2]  # a 101 ms gap after 64+ good lines
+    path.write_text("time,p1\n" + "".join(f"{t},{np.sin(i)}\n" for i, t in enumerate(times)))
+    r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "--follow", "--idle-timeout", "0.2",
+                                 "-c", "p1", "-w", "20", "-q"])
+    assert r.exit_code != 0
+    assert f"{path}: line 102: time 0.2 s after 0.099 s is a gap" in str(r.exception)
