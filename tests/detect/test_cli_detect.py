@@ -176,10 +176,10 @@ def test_fit_with_calibration_gives_the_leak_size_with_interval(files, tmp_path,
     assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, "-o", str(det)]) == 0
     assert main(["detect", leak, "--detector", str(det)]) == 0
     assert "leak size: not estimated" in capsys.readouterr().out
-    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *cal[:2], "-o", str(det)]) == 2
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, *cal[:2], "-o", str(det)]) == 2
     assert "at least 3 recordings with known leaks" in capsys.readouterr().err
-    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *cal[:4], "--calibrate", healthy[0],
-                 "-o", str(det)]) == 2
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, *cal[:4], "--calibrate",
+                 healthy[0], "-o", str(det)]) == 2
     assert "healthy0.parquet: its metadata does not give the leak onset" in capsys.readouterr().err
 
 

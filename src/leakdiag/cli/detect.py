@@ -19,23 +19,33 @@ def _row(m, det, rec, n_healthy):
             "false_alarms_per_hour": float(det._alarm().false_alarms_per_hour)}
 
 
-def _dead_channel(det, rec, file, m):
+def _cannot_judge(det, rec, file, m):
+    """Why ``det`` cannot judge ``rec`` (missing or constant channel, shorter than one window),
+    checked before fitting so that the answer names the suspect file; None if it can."""
     import numpy as np
 
     from leakdiag.cli.fit import detector_channels
 
-    dead = [c for c in detector_channels(det, rec) if c in rec.channels
-            and rec[c].size and np.all(rec[c] == rec[c][0])]
+    chans = detector_channels(det, rec)
+    missing = [c for c in chans if c not in rec.channels]
+    if missing:
+        return {"method": m, "error": f"{file}: missing channel(s) {missing}, which {m} reads; "
+                f"available: {sorted(rec.channels)}"}
+    dead = [c for c in chans if rec[c].size and np.all(rec[c] == rec[c][0])]
     if dead:  # the detector's CUSUM skips NaN windows: a dead sensor would read "no leak"
         return {"method": m, "error": f"{file}: channel {dead[0]!r} is constant "
                 f"({rec[dead[0]][0]:g}): zero variance, {m} cannot judge it"}
+    spec = det.spec() if callable(getattr(det, "spec", None)) else None
+    if spec is not None and rec.n_samples < spec.window:
+        return {"method": m, "error": f"{file}: {rec.n_samples} samples is shorter than one "
+                f"window (window={spec.window}) of {m}"}
     return None
 
 
 def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"), system=None,
                   column_map=None, sample_rate=None, false_alarm_rate=0.01,
                   onset_method="binseg", burn_in_s=5.0, detectors=(), progress=None,
-                  resample=None):
+                  resample=None, false_alarms_per_hour=None):
     """Fit each method on the healthy files (or load saved detectors) and judge ``file``.
 
     Parameters
@@ -68,6 +78,9 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
         Called with a message before each method (long methods such as the EKF).
     resample : float, optional
         Rate (Hz) onto which every file's time axis is interpolated.
+    false_alarms_per_hour : float, optional
+        Per-hour CUSUM target for each fitted method, instead of the per-run split of
+        ``false_alarm_rate``.
 
     Returns
     -------
@@ -78,8 +91,10 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     """
     import pandas as pd
 
+    from leakdiag.bench.registry import make_detector
     from leakdiag.cli._options import read_healthy, read_with
-    from leakdiag.cli.fit import fit_detector, system_of
+    from leakdiag.cli.fit import system_of
+    from leakdiag.detect.base import Alarm
     from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
 
     say = progress or (lambda msg: None)
@@ -92,24 +107,29 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
                             path=str(path))
         m = meta.method if meta else str(path)
         say(f"judging with {path} ({m})...")
-        rows.append(_dead_channel(det, rec, file, m)
+        rows.append(_cannot_judge(det, rec, file, m)
                     or _row(m, det, rec, meta.n_healthy if meta else None))
     if healthy:
         train = read_healthy(healthy, rec, column_map, sample_rate, resample=resample)
         system = system_of([rec, *train], system, [str(file), *map(str, healthy)])
         hours = rec.duration / 3600.0
-        per_hour = false_alarm_rate / max(len(methods), 1) / hours
+        per_hour = (false_alarms_per_hour if false_alarms_per_hour is not None
+                    else false_alarm_rate / max(len(methods), 1) / hours)
+        alarm = Alarm(false_alarms_per_hour=per_hour, onset_method=onset_method,
+                      burn_in_s=burn_in_s)
         for i, m in enumerate(methods):
+            det = make_detector(m, system, alarm)  # unknown names raise here
+            why = _cannot_judge(det, rec, file, m)
+            if why is not None:
+                rows.append(why)
+                continue
             say(f"method {i + 1}/{len(methods)}: fitting {m} on {len(train)} healthy file(s)...")
             try:
-                det = fit_detector(m, system, train, false_alarms_per_hour=per_hour,
-                                   burn_in_s=burn_in_s, onset_method=onset_method)
+                det.fit(train)
             except ValueError as exc:
-                if str(exc).startswith("unknown method"):
-                    raise
                 rows.append({"method": m, "error": str(exc)})
                 continue
-            rows.append(_dead_channel(det, rec, file, m) or _row(m, det, rec, len(train)))
+            rows.append(_row(m, det, rec, len(train)))
     tab = pd.DataFrame(rows)
     tab.attrs["duration_s"] = float(rec.duration)
     return tab
