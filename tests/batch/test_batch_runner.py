@@ -252,6 +252,7 @@ def test_job_with_fitted_detector_file_and_column_map(tmp_path):
     (tmp_path / "map.toml").write_text('[channels]\np1 = {column = "P_A", unit = "psi"}\n'
                                        'p2 = {column = "P_B", unit = "psi"}\n')
     r = CliRunner().invoke(cli, ["fit", "--healthy", h[0], "--healthy", h[1], "-m", "ccf-p1p2",
+                                 "--false-alarm-rate", "100",
                                  "-o", str(tmp_path / "det.joblib")])
     assert r.exit_code == 0, r.output
     job = tmp_path / "job.toml"

@@ -1,5 +1,7 @@
 """`leakdiag analyze` end to end on files: table numbers, outputs, errors with exit code 2."""
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -177,3 +179,29 @@ def test_analyze_refuses_lag_for_metric_length_only(run_file, capsys):
     assert "metric-length takes --lag-ratio" in capsys.readouterr().err
     assert main(["analyze", str(path), "-m", "autocorrelation", "--lag-ratio", "3:1"]) == 2
     assert "--lag-ratio applies to --method metric-length only" in capsys.readouterr().err
+
+
+@pytest.mark.filterwarnings("ignore:.*have zero variance")  # u,x windows while the piston rests
+def test_demo_ends_with_the_decision_in_words(tmp_path, capsys):
+    assert main(["demo", "-o", str(tmp_path / "demo")]) == 0
+    out = capsys.readouterr().out.rstrip().splitlines()
+    assert out[-1].startswith("Decision: LEAK -- ")  # thesis case study 1: 0.1 L/min leak
+    assert any(ln.startswith("Does it leak?") for ln in out)
+    v = pd.read_csv(tmp_path / "demo" / "verdict.csv")
+    # the pressure features see the 0.1 L/min leak (docs/measure.md, "Decisions")
+    assert set(v.loc[v["channels"] != "u,x", "decision"]) == {"leak"}
+
+
+def test_nan_window_count_in_table_equals_the_warning(tmp_path, capsys):
+    # the last 600 samples are constant: the last windows are NaN and fall in the trailing
+    # partial chunk; the table used to count only NaN values inside whole chunks
+    rng = np.random.default_rng(5)
+    p1 = rng.standard_normal(12_000)
+    p1[-600:] = 0.0
+    path = tmp_path / "tail.csv"
+    ld.Recording({"p1": p1}, 1000.0).to_pandas().to_csv(path, index=False)
+    with pytest.warns(match=r"tail.csv: autocorrelation p1 .*: (\d+) of 63 windows") as rec:
+        assert main(["analyze", str(path), "--onset", "6", "--chunk", "2"]) == 0
+    n_warned = int(re.search(r": (\d+) of 63 windows", str(rec[0].message)).group(1))
+    row = [ln for ln in capsys.readouterr().out.splitlines() if ln.lstrip().startswith("auto")][0]
+    assert n_warned == 3 and row.split()[-3] == "3"  # NaN windows column, before decision and p

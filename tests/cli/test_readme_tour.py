@@ -61,3 +61,15 @@ def test_readme_tour_runs_as_written(tmp_path, monkeypatch, capsys):
     assert len(res) == 2 * 4 and set(res["status"]) == {"ok"}  # 2 recordings x (3 analyses + 1 det)
     alarms = res[res["kind"] == "detector"].set_index("recording")["alarm"]
     assert alarms.sum() >= 1
+
+
+@pytest.mark.filterwarnings("ignore:.*have zero variance")
+def test_readme_python_block_runs(tmp_path, monkeypatch, capsys):
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    code = re.search(r"### Python\n\n```python\n(.*?)```", text, re.S).group(1)
+    shutil.copytree(ROOT / "docs" / "examples", tmp_path / "docs" / "examples")
+    monkeypatch.chdir(tmp_path)
+    ns: dict = {}
+    exec(compile(code, "README.md (Python)", "exec"), ns)  # noqa: S102 - our own README
+    assert set(ns["a"].table["decision"]) <= {"leak", "no-leak", "inconclusive"}
+    assert ns["rec2"].units["p1"] == "Pa" and ns["rec2"].sample_rate == 500.0

@@ -30,7 +30,7 @@ def test_verdict_table_flags_leak_after_onset(files):
 
 def test_cli_prints_verdict_and_rejects_unknown_method(files, capsys):
     healthy, leak = files
-    args = ["detect", leak, "--methods", "ccf-p1p2"]
+    args = ["detect", leak, "--methods", "ccf-p1p2", *RATE_RUN]
     for h in healthy:
         args += ["--healthy", h]
     assert main(args) == 0
@@ -42,6 +42,13 @@ def test_cli_prints_verdict_and_rejects_unknown_method(files, capsys):
 
 
 # ------------------------------------------------------------------ issue 15
+#: Rates that 3 healthy 30-s runs can support even with a distribution-free (conformal) threshold,
+#: whose best promise with n healthy runs is 1/(n + 1) per run (docs/detect.md): per hour for fit,
+#: per run for detect --healthy.
+RATE_H = ["--false-alarm-rate", "40"]
+RATE_RUN = ["--false-alarm-rate", "0.5"]
+
+
 def _h(healthy):
     return [a for h in healthy for a in ("--healthy", h)]
 
@@ -49,7 +56,7 @@ def _h(healthy):
 def test_fit_then_detect_with_the_detector_file(files, tmp_path, capsys):
     healthy, leak = files
     det = tmp_path / "det.joblib"
-    assert main(["fit", *_h(healthy), "--method", "ccf-p1p2", "-o", str(det)]) == 0
+    assert main(["fit", *_h(healthy), "--method", "ccf-p1p2", *RATE_H, "-o", str(det)]) == 0
     out = capsys.readouterr().out
     assert "ccf-p1p2 for the VCA at 1000 Hz, channels p1,p2" in out
     assert main(["detect", leak, "--detector", str(det)]) == 0
@@ -61,7 +68,8 @@ def test_fit_then_detect_with_the_detector_file(files, tmp_path, capsys):
     from leakdiag.stream.detector_file import load_detector_file
 
     loaded, meta = load_detector_file(det)
-    fresh = fit_detector("ccf-p1p2", "vca", [read_recording(h) for h in healthy])
+    fresh = fit_detector("ccf-p1p2", "vca", [read_recording(h) for h in healthy],
+                         false_alarms_per_hour=40.0)
     rec = read_recording(leak)
     assert loaded.predict(rec).score_max == fresh.predict(rec).score_max
     assert (meta.system, meta.sample_rate_hz, meta.channels, meta.units) == (
@@ -73,7 +81,7 @@ def test_detect_refuses_file_at_another_sample_rate_than_the_detector(files, tmp
     import pandas as pd
 
     det = tmp_path / "det.joblib"
-    assert main(["fit", *_h(healthy), "--method", "acf-p1", "-o", str(det)]) == 0
+    assert main(["fit", *_h(healthy), "--method", "acf-p1", *RATE_H, "-o", str(det)]) == 0
     df = pd.read_parquet(leak)
     df["time"] = df["time"] * 2.0
     slow = tmp_path / "slow.csv"
@@ -115,7 +123,7 @@ def test_detect_time_in_milliseconds_warns_and_time_unit_fixes_it(files, tmp_pat
         d["time"] = d["time"] * 1000.0
         hms.append(str(tmp_path / f"h{i}.csv"))
         d.to_csv(hms[-1], index=False)
-    assert main(["detect", str(ms), *_h(hms), "--methods", "acf-p1",
+    assert main(["detect", str(ms), *_h(hms), "--methods", "acf-p1", *RATE_RUN,
                  "--time-unit", "ms", "--system", "vca"]) == 0
     assert "Decision: LEAK" in capsys.readouterr().out
 
@@ -144,3 +152,52 @@ def test_detect_without_references_is_a_usage_error(files, capsys):
     _, leak = files
     assert main(["detect", leak]) == 2
     assert "give --healthy FILE (repeatable) or --detector FILE" in capsys.readouterr().err
+
+
+def test_fit_with_calibration_gives_the_leak_size_with_interval(files, tmp_path, capsys):
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
+    healthy, leak = files
+    cal = []
+    for i, q in enumerate((0.1, 0.3, 0.8)):
+        rec = simulate_vca(duration=30.0, leak_lpm=q, onset=15.0, seed=60 + i, reference_seed=160 + i)
+        cal += ["--calibrate", str(write_recording(rec, tmp_path / f"cal{i}.parquet"))]
+    det = tmp_path / "det.joblib"
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, *cal, "-o", str(det)]) == 0
+    assert "leak size calibrated on 3 recording(s)" in capsys.readouterr().out
+    assert main(["detect", leak, "--detector", str(det)]) == 0
+    out = capsys.readouterr().out
+    line = [ln for ln in out.splitlines() if "leak size (ccf-p1p2)" in ln][0]
+    est = float(line.split(": ")[1].split(" L/min")[0])
+    lo, hi = (float(v) for v in line.split("interval ")[1].split(" L/min")[0].split("-"))
+    assert lo <= est <= hi and est > 0  # the point estimate lies in its interval
+    # without calibration detect says the size is not estimated
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, "-o", str(det)]) == 0
+    assert main(["detect", leak, "--detector", str(det)]) == 0
+    assert "leak size: not estimated" in capsys.readouterr().out
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, *cal[:2], "-o", str(det)]) == 2
+    assert "at least 3 recordings with known leaks" in capsys.readouterr().err
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, *cal[:4], "--calibrate",
+                 healthy[0], "-o", str(det)]) == 2
+    assert "healthy0.parquet: its metadata does not give the leak onset" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("method", ["combined", "wavelet-p1", "fft-p1", "mlr-p1"])
+def test_fit_saves_any_registry_detector_and_detect_reads_it(files, tmp_path, capsys, method):
+    from leakdiag.cli.fit import fit_detector
+    from leakdiag.io import read_recording
+    from leakdiag.stream.detector_file import load_detector_file
+
+    healthy, leak = files
+    det = tmp_path / f"{method}.joblib"
+    assert main(["fit", *_h(healthy), "-m", method, *RATE_H, "-o", str(det)]) == 0
+    loaded, meta = load_detector_file(det)
+    assert meta.method == method and meta.n_healthy == 3
+    fresh = fit_detector(method, "vca", [read_recording(h) for h in healthy],
+                         false_alarms_per_hour=40.0)
+    rec = read_recording(leak)
+    assert loaded.predict(rec).score_max == pytest.approx(fresh.predict(rec).score_max, rel=1e-12)
+    capsys.readouterr()
+    assert main(["detect", leak, "--detector", str(det), "--no-progress"]) == 0
+    assert "Decision: " in capsys.readouterr().out

@@ -141,7 +141,7 @@ def test_transducer_error_validation():
 def test_antialias_filter_minus_3db_at_cutoff_and_dc_gain_1():
     from scipy.signal import sosfreqz
 
-    from leakdiag.sim.sensors import antialias_sos
+    from leakdiag.sim.sensor_chain import antialias_sos
     sos = antialias_sos(150.0, 1000.0)
     _, h = sosfreqz(sos, worN=[0.0, 150.0], fs=1000.0)
     assert abs(h[0]) == pytest.approx(1.0, abs=1e-12)
@@ -178,7 +178,7 @@ def test_thesis_chains_quantum_from_the_voltage_chain():
 
 
 def test_transducer_filter_step_response_and_pole():
-    from leakdiag.sim.sensors import pressure_chain, transducer_ba
+    from leakdiag.sim.sensor_chain import pressure_chain, transducer_ba
     b, a = transducer_ba(100.0, 1000.0)
     pole = np.exp(-2 * np.pi * 100.0 / 1000.0)
     assert a[1] == pytest.approx(-pole) and b[0] == pytest.approx(1 - pole)
@@ -194,7 +194,7 @@ def test_transducer_filter_step_response_and_pole():
 
 
 def test_pressure_chain_defaults_equal_the_in_loop_adc():
-    from leakdiag.sim.sensors import pressure_chain
+    from leakdiag.sim.sensor_chain import pressure_chain
     s = SensorParams()
     rng = np.random.default_rng(7)
     p = rng.uniform(-1e5, 2.2e7, 3000)
@@ -208,7 +208,8 @@ def test_pressure_chain_defaults_equal_the_in_loop_adc():
 
 def test_simulators_record_pressures_through_the_chain():
     from leakdiag.sim import simulate_eha, simulate_vca
-    from leakdiag.sim.sensors import THESIS_EHA_SENSORS, pressure_chain
+    from leakdiag.sim.sensor_chain import pressure_chain
+    from leakdiag.sim.sensors import THESIS_EHA_SENSORS
     s = SensorParams(transducer_bandwidth_hz=200.0, p1_offset_pa=3e3, p2_gain=1.01)
     a = simulate_vca(duration=2.0, leak_lpm=None, seed=3, sensor_params=s)
     b = simulate_vca(duration=2.0, leak_lpm=None, seed=3, sensor_params=SensorParams())

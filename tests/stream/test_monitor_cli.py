@@ -184,6 +184,7 @@ def test_monitor_with_a_fitted_detector_file(tmp_path):
                                             reference_seed=43), tmp_path / "leak.parquet"))
     det = tmp_path / "det.joblib"
     r = CliRunner().invoke(cli, ["fit", "--healthy", h[0], "--healthy", h[1], "-m", "ccf-p1p2",
+                                 "--false-alarm-rate", "100",
                                  "-o", str(det)])
     assert r.exit_code == 0, r.output
     r = CliRunner().invoke(cli, ["monitor", "-i", leak, "--detector", str(det)])
@@ -193,7 +194,18 @@ def test_monitor_with_a_fitted_detector_file(tmp_path):
     assert "1 alarm(s)" in r.output
     # a whole-recording detector cannot be streamed: said so
     comb = tmp_path / "comb.joblib"
-    assert CliRunner().invoke(cli, ["fit", "--healthy", h[0], "-m", "combined", "-o",
+    assert CliRunner().invoke(cli, ["fit", "--healthy", h[0], "-m", "combined",
+                                    "--false-alarm-rate", "150", "-o",
                                     str(comb)]).exit_code == 0
     r = CliRunner().invoke(cli, ["monitor", "-i", leak, "--detector", str(comb)])
     assert r.exit_code != 0 and "cannot run window by window" in r.output
+
+
+def test_monitor_follow_checks_the_time_axis_like_file_mode(tmp_path):
+    path = tmp_path / "live.csv"
+    times = [k / 1000 for k in range(100)] + [0.2]  # a 101 ms gap after 64+ good lines
+    path.write_text("time,p1\n" + "".join(f"{t},{np.sin(i)}\n" for i, t in enumerate(times)))
+    r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "--follow", "--idle-timeout", "0.2",
+                                 "-c", "p1", "-w", "20", "-q"])
+    assert r.exit_code != 0
+    assert f"{path}: line 102: time 0.2 s after 0.099 s is a gap" in str(r.exception)

@@ -113,6 +113,12 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
         :data:`leakdiag.batch.store.RESULT_COLUMNS`), or a single row with ``status="error"``
         and the message if anything fails. Never raises for a bad file.
 
+    Raises
+    ------
+    ValueError
+        Only internally: a detector that cannot be streamed or that disagrees with the recording
+        raises inside, and the error becomes the recording's error row.
+
     Notes
     -----
     Pure: the rows depend only on the file and the configuration (plus ``elapsed_s``), so serial

@@ -12,7 +12,7 @@ import warnings
 
 import click
 
-__all__ = ["recording_options", "column_map_from", "read_with", "read_healthy",
+__all__ = ["recording_options", "resample_option", "column_map_from", "read_with", "read_healthy",
            "false_alarm_option", "healthy_option", "no_progress_option", "TIME_UNIT_CHOICES"]
 
 #: Below this rate (Hz) a time column is probably not in seconds (ms, sample counter): warned.
@@ -49,6 +49,23 @@ def recording_options(f):
     for opt in reversed(opts):
         f = opt(f)
     return f
+
+
+def resample_option(f):
+    """Decorator: ``--resample HZ`` (interpolate a non-uniform time axis onto a uniform grid).
+
+    Parameters
+    ----------
+    f : callable
+        The click command function (receives ``resample``).
+
+    Returns
+    -------
+    callable
+    """
+    return click.option("--resample", type=float, metavar="HZ", default=None,
+                        help="Interpolate a non-uniform time axis onto a uniform grid at this "
+                             "rate (Hz).")(f)
 
 
 def healthy_option(f):
@@ -165,7 +182,7 @@ def _leaks(meta) -> bool:
         return False
 
 
-def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None):
+def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample=None):
     """Read healthy reference recordings and check they agree with the suspect recording.
 
     Parameters
@@ -181,6 +198,8 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None):
         ``--sample-rate``.
     channels : sequence of str, optional
         Channels the methods need (checked in every file).
+    resample : float, optional
+        ``--resample`` (Hz).
 
     Returns
     -------
@@ -196,7 +215,7 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None):
     UserWarning
         When a healthy file's metadata records a leak (``leak_lpm`` > 0).
     """
-    recs = [read_with(p, cmap, sample_rate) for p in paths]
+    recs = [read_with(p, cmap, sample_rate, resample) for p in paths]
     ref = suspect if suspect is not None else (recs[0] if recs else None)
     if ref is None:
         return recs

@@ -7,6 +7,13 @@ import click
 __all__ = ["batch"]
 
 
+def _stderr_is_terminal() -> bool:
+    """A redrawn bar belongs on a terminal; in a log it repeats itself on every update."""
+    import sys
+
+    return bool(getattr(sys.stderr, "isatty", lambda: False)())
+
+
 @click.command(epilog="Example: leakdiag batch 'recordings/**/*.parquet' --config job.toml "
                       "-o results.parquet --scheduler serial")
 @click.argument("inputs", nargs=-1, required=True)
@@ -25,7 +32,8 @@ __all__ = ["batch"]
 @click.option("--workers", type=int, default=2, show_default=True,
               help="Worker processes of the local cluster.")
 @click.option("--retry-errors", is_flag=True, help="Re-run recordings whose result is an error.")
-@click.option("--no-progress", is_flag=True, help="Hide the progress bar.")
+@click.option("--no-progress", is_flag=True,
+              help="Hide the progress bar (shown only at a terminal: logs get the summary line).")
 def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors, no_progress):
     """Run the job in --config on every recording matching INPUTS (quote globs: 'data/**/*.parquet').
 
@@ -51,7 +59,7 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     if sched == "local":
         sched = LOCAL
     s = run_batch(list(inputs), cfg, out, scheduler=sched, n_workers=workers,
-                  progress=not no_progress, retry_errors=retry_errors)
+                  progress=not no_progress and _stderr_is_terminal(), retry_errors=retry_errors)
     if s.n_inputs == 0:
         raise click.UsageError(f"no recording matches {' '.join(inputs)}")
     import os

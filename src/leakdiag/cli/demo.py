@@ -47,5 +47,6 @@ def demo(system, seed, out):
     _write_outputs(result, outp)
     click.echo(f"\nwrote {outp}/run.parquet, verdict.csv, features.parquet, features.png")
     click.echo("\nDoes it leak? (Mann-Whitney test of the chunk RMS values after vs before the "
-               "onset, 1 % false alarms per run; docs/measure.md, 'Decisions')")
+               "onset; each method at 1 % false alarms per run, the overall decision with 1 % "
+               "split over the methods; docs/measure.md, 'Decisions')")
     click.echo(decision_words(result.table, 0.01))

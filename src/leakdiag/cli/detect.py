@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from leakdiag.cli._options import recording_options
+from leakdiag.cli._options import recording_options, resample_option
 
 __all__ = ["detect", "verdict_table", "overall_verdict"]
 
@@ -19,22 +19,33 @@ def _row(m, det, rec, n_healthy):
             "false_alarms_per_hour": float(det._alarm().false_alarms_per_hour)}
 
 
-def _dead_channel(det, rec, file, m):
+def _cannot_judge(det, rec, file, m):
+    """Why ``det`` cannot judge ``rec`` (missing or constant channel, shorter than one window),
+    checked before fitting so that the answer names the suspect file; None if it can."""
     import numpy as np
 
     from leakdiag.cli.fit import detector_channels
 
-    dead = [c for c in detector_channels(det, rec) if c in rec.channels
-            and rec[c].size and np.all(rec[c] == rec[c][0])]
+    chans = detector_channels(det, rec)
+    missing = [c for c in chans if c not in rec.channels]
+    if missing:
+        return {"method": m, "error": f"{file}: missing channel(s) {missing}, which {m} reads; "
+                f"available: {sorted(rec.channels)}"}
+    dead = [c for c in chans if rec[c].size and np.all(rec[c] == rec[c][0])]
     if dead:  # the detector's CUSUM skips NaN windows: a dead sensor would read "no leak"
         return {"method": m, "error": f"{file}: channel {dead[0]!r} is constant "
                 f"({rec[dead[0]][0]:g}): zero variance, {m} cannot judge it"}
+    spec = det.spec() if callable(getattr(det, "spec", None)) else None
+    if spec is not None and rec.n_samples < spec.window:
+        return {"method": m, "error": f"{file}: {rec.n_samples} samples is shorter than one "
+                f"window (window={spec.window}) of {m}"}
     return None
 
 
 def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"), system=None,
                   column_map=None, sample_rate=None, false_alarm_rate=0.01,
-                  onset_method="binseg", burn_in_s=5.0, detectors=(), progress=None):
+                  onset_method="binseg", burn_in_s=5.0, detectors=(), progress=None,
+                  resample=None, false_alarms_per_hour=None):
     """Fit each method on the healthy files (or load saved detectors) and judge ``file``.
 
     Parameters
@@ -65,6 +76,11 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
         Detector files written by ``leakdiag fit`` (judged as saved, at their own rate).
     progress : callable, optional
         Called with a message before each method (long methods such as the EKF).
+    resample : float, optional
+        Rate (Hz) onto which every file's time axis is interpolated.
+    false_alarms_per_hour : float, optional
+        Per-hour CUSUM target for each fitted method, instead of the per-run split of
+        ``false_alarm_rate``.
 
     Returns
     -------
@@ -75,12 +91,14 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     """
     import pandas as pd
 
+    from leakdiag.bench.registry import make_detector
     from leakdiag.cli._options import read_healthy, read_with
-    from leakdiag.cli.fit import fit_detector, system_of
+    from leakdiag.cli.fit import system_of
+    from leakdiag.detect.base import Alarm
     from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
 
     say = progress or (lambda msg: None)
-    rec = read_with(file, column_map, sample_rate)
+    rec = read_with(file, column_map, sample_rate, resample)
     rows = []
     for path in detectors:
         det, meta = load_detector_file(path)
@@ -89,24 +107,29 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
                             path=str(path))
         m = meta.method if meta else str(path)
         say(f"judging with {path} ({m})...")
-        rows.append(_dead_channel(det, rec, file, m)
+        rows.append(_cannot_judge(det, rec, file, m)
                     or _row(m, det, rec, meta.n_healthy if meta else None))
     if healthy:
-        train = read_healthy(healthy, rec, column_map, sample_rate)
+        train = read_healthy(healthy, rec, column_map, sample_rate, resample=resample)
         system = system_of([rec, *train], system, [str(file), *map(str, healthy)])
         hours = rec.duration / 3600.0
-        per_hour = false_alarm_rate / max(len(methods), 1) / hours
+        per_hour = (false_alarms_per_hour if false_alarms_per_hour is not None
+                    else false_alarm_rate / max(len(methods), 1) / hours)
+        alarm = Alarm(false_alarms_per_hour=per_hour, onset_method=onset_method,
+                      burn_in_s=burn_in_s)
         for i, m in enumerate(methods):
+            det = make_detector(m, system, alarm)  # unknown names raise here
+            why = _cannot_judge(det, rec, file, m)
+            if why is not None:
+                rows.append(why)
+                continue
             say(f"method {i + 1}/{len(methods)}: fitting {m} on {len(train)} healthy file(s)...")
             try:
-                det = fit_detector(m, system, train, false_alarms_per_hour=per_hour,
-                                   burn_in_s=burn_in_s, onset_method=onset_method)
+                det.fit(train)
             except ValueError as exc:
-                if str(exc).startswith("unknown method"):
-                    raise
                 rows.append({"method": m, "error": str(exc)})
                 continue
-            rows.append(_dead_channel(det, rec, file, m) or _row(m, det, rec, len(train)))
+            rows.append(_row(m, det, rec, len(train)))
     tab = pd.DataFrame(rows)
     tab.attrs["duration_s"] = float(rec.duration)
     return tab
@@ -169,6 +192,7 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
 @click.option("--system", default=None, type=click.Choice(["vca", "eha"]),
               help="Rig whose thesis settings the features use (default: the files' metadata).")
 @recording_options
+@resample_option
 @click.option("--false-alarm-rate", type=float, default=0.01, show_default=True,
               help="Chance of a false 'leak' for this run, split over the --methods fitted on "
                    "--healthy (a --detector keeps its own rate per hour).")
@@ -178,7 +202,7 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
               help="Seconds ignored at the start of every recording.")
 @click.option("--no-progress", is_flag=True, help="Do not print a line per method.")
 def detect(file, healthy, detectors, methods, system, column_map, cols, sample_rate, time_unit,
-           false_alarm_rate, onset_method, burn_in_s, no_progress):
+           resample, false_alarm_rate, onset_method, burn_in_s, no_progress):
     """Judge FILE: leak or not, onset, alarm time, leak size, and one overall decision.
 
     Each method is a detector fitted on --healthy recordings (or loaded with --detector); the
@@ -204,7 +228,7 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     tab = verdict_table(file, healthy, methods=names, system=system, column_map=cmap,
                         sample_rate=sample_rate, false_alarm_rate=false_alarm_rate,
                         onset_method=onset_method, burn_in_s=burn_in_s, detectors=detectors,
-                        progress=say)
+                        progress=say, resample=resample)
     cols_ = [c for c in ("method", "leak", "onset_s", "alarm_time_s", "confidence", "leak_lpm",
                          "score_max", "threshold", "threshold_method", "error") if c in tab]
     shown = tab[cols_].astype(object)
@@ -227,8 +251,11 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
                    f"({first['method']})")
         for r in sized.to_dict("records"):
             if r.get("leak_lpm") is not None and r["leak_lpm"] == r["leak_lpm"]:
-                click.echo(f"  leak size ({r['method']}): {r['leak_lpm']:.3g} L/min, interval "
-                           f"{r['leak_lpm_low']:.3g}-{r['leak_lpm_high']:.3g} L/min")
+                where = ("" if r.get("leak_lpm_in_range") in (True, None)
+                         else " (feature shift outside the calibrated range: extrapolated)")
+                click.echo(f"  leak size ({r['method']}): {r['leak_lpm']:.3g} L/min, prediction "
+                           f"interval {r['leak_lpm_low']:.3g}-{r['leak_lpm_high']:.3g} L/min"
+                           + where)
         if "leak_lpm" not in sized or sized["leak_lpm"].isna().all():
             click.echo("  leak size: not estimated (no detector here is calibrated on known "
                        "leaks)")

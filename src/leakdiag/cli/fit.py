@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from leakdiag.cli._options import recording_options
+from leakdiag.cli._options import recording_options, resample_option
 
 __all__ = ["fit", "fit_detector", "detector_channels", "system_of"]
 
@@ -160,15 +160,20 @@ class _LazyChoice(click.Choice):
 @click.option("--system", type=click.Choice(["vca", "eha"]), default=None,
               help="Rig (default: the files' metadata; required when they do not say).")
 @recording_options
+@resample_option
 @click.option("--false-alarm-rate", type=float, default=1.0, show_default=True,
               help="False alarms per hour of healthy operation the detector's threshold is set "
                    "for (continuous monitoring).")
 @click.option("--burn-in", "burn_in_s", type=float, default=5.0, show_default=True,
               help="Seconds ignored at the start of every recording.")
+@click.option("--calibrate", "calibration", multiple=True,
+              type=click.Path(exists=True, dir_okay=False),
+              help="Recording with a known leak (metadata onset and leak_lpm, e.g. simulated), "
+                   "repeatable, at least 3: detect then gives the leak size with an interval.")
 @click.option("--out", "-o", required=True, type=click.Path(dir_okay=False),
               help="Detector file to write (joblib), e.g. det.joblib.")
-def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, false_alarm_rate,
-        burn_in_s, out):
+def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resample,
+        false_alarm_rate, burn_in_s, calibration, out):
     """Fit a detector on healthy recordings and save it for detect, monitor and batch.
 
     The file holds the fitted detector and a record of what it was fitted on (leakdiag version,
@@ -179,12 +184,28 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, false
     from leakdiag.stream.detector_file import DetectorMeta, save_detector
 
     cmap = column_map_from(column_map, cols, time_unit)
-    recs = read_healthy(healthy, None, cmap, sample_rate)
+    recs = read_healthy(healthy, None, cmap, sample_rate, resample=resample)
     system = system_of(recs, system, healthy)
     click.echo(f"fitting {method} ({system.upper()}) on {len(recs)} healthy recording(s)...",
                err=True)
     det = fit_detector(method, system, recs, false_alarms_per_hour=false_alarm_rate,
                        burn_in_s=burn_in_s)
+    if calibration:
+        from leakdiag.cli._options import read_with
+
+        cal = [read_with(p, cmap, sample_rate, resample) for p in calibration]
+        if len(cal) < 3:
+            raise click.BadParameter(f"got {len(cal)} file(s); a leak-size calibration needs at "
+                                     "least 3 recordings with known leaks (0 allowed)",
+                                     param_hint="--calibrate")
+        for p, r in zip(calibration, cal):
+            if r.onset is None or r.meta.get("leak_lpm") is None:
+                raise click.BadParameter(f"{p}: its metadata does not give the leak onset and "
+                                         "size (leak_lpm), so it cannot calibrate the leak size; "
+                                         "use recordings with known leaks, e.g. from leakdiag "
+                                         "simulate --leak Q --onset T", param_hint="--calibrate")
+        click.echo(f"calibrating the leak size on {len(cal)} recording(s)...", err=True)
+        det.calibrate(cal, validity={"system": system, "files": [str(p) for p in calibration]})
     chans = detector_channels(det, recs[0])
     meta = DetectorMeta(method=method, system=system, sample_rate_hz=float(recs[0].sample_rate),
                         channels=chans, units={c: recs[0].units.get(c) for c in chans
@@ -196,4 +217,6 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, false
     click.echo(f"wrote {out}: {method} for the {system.upper()} at {meta.sample_rate_hz:g} Hz, "
                f"channels {','.join(chans)}, threshold {float(det.threshold_):.4g} "
                f"for {false_alarm_rate:g} false alarm(s) per hour"
-               + (f" ({basis})" if basis else ""))
+               + (f" ({basis})" if basis else "")
+               + (f"; leak size calibrated on {len(calibration)} recording(s)" if calibration
+                  else ""))

@@ -33,6 +33,29 @@ COMMANDS: dict[str, str] = {
 }
 
 
+_ARGV: list[str] | None = None  # arguments of the current main() call (for the notice below)
+#: Commands that run the Numba feature kernels (a first run compiles them, ~15 s, then cached).
+_KERNEL_COMMANDS = {"analyze", "demo", "detect", "fit", "monitor", "sweep", "batch", "reproduce",
+                    "sensitivity", "benchmark"}
+
+
+def _kernels_cached() -> bool:
+    """True when Numba's on-disk cache of the feature kernels exists (next to the sources, or in
+    ``NUMBA_CACHE_DIR``)."""
+    import os
+    from pathlib import Path
+
+    root = os.environ.get("NUMBA_CACHE_DIR")
+    here = Path(__file__).resolve().parents[1] / "features"
+    places = [Path(root)] if root else [here / "__pycache__"]
+    return any(next(p.rglob("*.nbi"), None) is not None for p in places if p.is_dir())
+
+
+def _stderr_is_terminal() -> bool:
+    """The compilation notice is for people at a terminal, not for logs and scripts."""
+    return bool(getattr(sys.stderr, "isatty", lambda: False)())
+
+
 class _LazyGroup(click.Group):
     def list_commands(self, ctx):
         return sorted(COMMANDS)
@@ -41,6 +64,11 @@ class _LazyGroup(click.Group):
         target = COMMANDS.get(cmd_name)
         if target is None:
             return None
+        args = _ARGV or []
+        if cmd_name in _KERNEL_COMMANDS and not {"-h", "--help"} & set(args) \
+                and _stderr_is_terminal() and not _kernels_cached():
+            click.echo("leakdiag: first run: compiling the feature kernels (about 15 s, once; "
+                       "cached afterwards)...", err=True)
         mod, attr = target.split(":")
         return getattr(importlib.import_module(mod), attr)
 
@@ -78,7 +106,9 @@ def main(argv: list[str] | None = None) -> int:
     leakdiag, version ...
     0
     """
+    global _ARGV
     warnings.formatwarning = _format_warning
+    _ARGV = list(sys.argv[1:] if argv is None else argv)
     try:
         code = cli.main(args=argv, prog_name="leakdiag", standalone_mode=False)
     except click.exceptions.Abort:

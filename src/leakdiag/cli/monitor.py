@@ -113,6 +113,11 @@ def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: in
     Returns
     -------
     ChunkSource
+
+    Raises
+    ------
+    click.UsageError
+        For a column map with stdin or ``--follow`` (those take CSV with channel names).
     """
     from leakdiag.stream import csv_lines, open_chunks, recording_chunks, tail_csv
 
@@ -194,8 +199,14 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
                                  "ccf-p1p2, ccf-ux, mlr-p1)", param_hint="--detector")
     spec = _spec(method, channels, lag, lag_ratio, window, overlap, detector)
     cmap = column_map_from(column_map, cols, time_unit)
-    source = build_source(input_path, list(spec.channels), follow, sample_rate, chunk, idle_timeout,
-                          batch_lines, cmap)
+    try:
+        source = build_source(input_path, list(spec.channels), follow, sample_rate, chunk,
+                              idle_timeout, batch_lines, cmap)
+    except ValueError as exc:  # advise only what monitor has: it streams, it cannot resample
+        raise ValueError(str(exc).replace(
+            "resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess",
+            "monitor needs a uniform time axis: resample the file first (e.g. leakdiag analyze "
+            "--resample RATE_HZ reads it)")) from None
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
                         system=source.meta.get("system"), source=source.source,
                         path=str(detector_path))

@@ -10,7 +10,7 @@ import click
 __all__ = ["sensitivity"]
 
 
-@click.command()
+@click.command(epilog="Example: leakdiag sensitivity vca --quick --scheduler serial -o sens/")
 @click.argument("system", type=click.Choice(["vca", "eha", "all"]))
 @click.option("--quick", is_flag=True, help="Short experiments, two leak sizes, one seed.")
 @click.option("--leaks", default=None, help="Leak sizes in L/min, e.g. 0.047,0.1,0.5.")
@@ -18,13 +18,17 @@ __all__ = ["sensitivity"]
 @click.option("--durations", default=None, help="Experiment lengths in s (VCA), e.g. 300,400,600.")
 @click.option("--loads", default=None, help="Loads: spring,none.")
 @click.option("--scheduler", default="local", show_default=True,
-              help="serial | local (Dask LocalCluster) | tcp://HOST:PORT of a Dask scheduler.")
+              metavar="serial|local|ADDRESS",
+              help="serial: in this process; local: a Dask cluster on this machine; or the "
+                   "address of a Dask scheduler (tcp://host:8786).")
 @click.option("--workers", type=int, default=None, help="Workers of the local cluster.")
 @click.option("--cache-dir", type=click.Path(file_okay=False), default=None,
               help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")
+@click.option("--no-progress", is_flag=True, help="Hide the progress bar.")
 @click.option("--out", "-o", type=click.Path(file_okay=False), default=None,
               help="Folder for sensitivity.csv, sensitivity_summary.csv and figures.")
-def sensitivity(system, quick, leaks, seeds, durations, loads, scheduler, workers, cache_dir, out):
+def sensitivity(system, quick, leaks, seeds, durations, loads, scheduler, workers, cache_dir,
+                no_progress, out):
     """Run case study 3 on the simulator(s) and print the range of % change per method."""
     from leakdiag.report.figures import save_figure
     from leakdiag.report.study_plots import plot_sensitivity
@@ -45,7 +49,8 @@ def sensitivity(system, quick, leaks, seeds, durations, loads, scheduler, worker
     if loads:
         changes["loads"] = tuple(parse_values(loads, str))
     cfg = dataclasses.replace(cfg, **changes)
-    rows, summary = run_sensitivity(systems, cfg, scheduler=scheduler, n_workers=workers)
+    rows, summary = run_sensitivity(systems, cfg, scheduler=scheduler, n_workers=workers,
+                                    progress=not no_progress)
     click.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
     if out:
         o = Path(out)

@@ -67,7 +67,8 @@ def plot_simulation(rec, path):
     return path
 
 
-@click.command()
+@click.command(epilog="Example: leakdiag simulate vca --duration 400 --onset 200 --leak 0.1 "
+                      "--seed 1 -o run.parquet --plot")
 @click.argument("system", type=click.Choice(["vca", "eha"]))
 @click.option("--duration", type=float, default=None,
               help="Run length in s [default: 400 for vca, the EHA simulator's default for eha].")
@@ -78,23 +79,26 @@ def plot_simulation(rec, path):
 @click.option("--leak-model", type=click.Choice(["turbulent", "laminar"]), default="turbulent",
               show_default=True, help="Eq. 2-4 or Eq. 2-5 (VCA only).")
 @click.option("--leak-kind", type=click.Choice(["step", "ramp"]), default="step",
-              show_default=True)
+              show_default=True, help="Leak switched on at the onset, or ramped up over "
+                                      "--ramp-duration.")
 @click.option("--ramp-duration", type=float, default=None, help="Ramp length in s (ramp leaks).")
-@click.option("--load", type=click.Choice(["spring", "none"]), default="none", show_default=True)
-@click.option("--seed", type=int, default=1, show_default=True)
-@click.option("--sample-rate", type=float, default=1000.0, show_default=True, help="Hz.")
+@click.option("--load", type=click.Choice(["spring", "none"]), default="none", show_default=True,
+              help="Load on the piston: a spring (Table 2-1 stiffness) or none.")
+@click.option("--seed", type=int, default=1, show_default=True,
+              help="Seed of the sensor noise and the reference sequence.")
+@click.option("--sample-rate", type=float, default=1000.0, show_default=True,
+              help="Sample rate of the recording (Hz).")
 @click.option("--no-sensors", is_flag=True, help="Record true, noise-free states.")
 @click.option("--params", "params_file", type=click.Path(exists=True, dir_okay=False),
               default=None, help="TOML file overriding Table 2-1 parameters (VCA).")
 @click.option("--out", "-o", type=click.Path(dir_okay=False), default="run.parquet", show_default=True,
               help="Output recording (.parquet, .csv, .h5).")
 @click.option("--plot", is_flag=True, help="Also save a figure next to --out (.png).")
+@click.option("--no-progress", is_flag=True, help="Hide the progress bar.")
 def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_duration, load,
-             seed, sample_rate, no_sensors, params_file, out, plot):
+             seed, sample_rate, no_sensors, params_file, out, plot, no_progress):
     """Simulate a VCA or EHA experiment with a leak and write the recording.
 
-    Example: leakdiag simulate vca --duration 400 --onset 200 --leak 0.1 --load spring
-    --seed 1 --out run.parquet --plot
     """
     from tqdm import tqdm
 
@@ -126,7 +130,8 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     bar = None
     if "progress" in inspect.signature(fn).parameters:
         total = int(round(kwargs.get("duration", 400.0) * sample_rate))
-        bar = tqdm(total=total, unit="sample", desc=f"{system} run 1", leave=False)
+        bar = tqdm(total=total, unit="sample", desc=f"{system} run 1", leave=False,
+                   disable=no_progress)
         runs = [1]
 
         def progress(n_done):

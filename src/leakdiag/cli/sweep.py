@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from leakdiag.cli._options import recording_options
+from leakdiag.cli._options import recording_options, resample_option
 
 __all__ = ["sweep", "format_table"]
 
@@ -88,6 +88,7 @@ def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> l
                       "--windows 100:400:100 --onset 200 -o sweep/")
 @click.argument("file", type=click.Path(dir_okay=False))
 @recording_options
+@resample_option
 @click.option("--method", "-m", default="autocorrelation", show_default=True,
               help="autocorrelation | cross-correlation | metric-length (thesis spellings too).")
 @click.option("--channels", "-c", default=None, help="Channels, e.g. p1 | p1,p2 | u,x.")
@@ -108,8 +109,8 @@ def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> l
 @click.option("--out", "-o", type=click.Path(file_okay=False), default=None,
               help="Folder for sweep.csv, sweep.parquet and the figures.")
 @click.option("--no-figures", is_flag=True, help="Skip the figures.")
-def sweep(file, column_map, cols, sample_rate, time_unit, method, channels, lags, windows,
-          overlaps, mode, onset, chunk, min_chunks, tolerance, out, no_figures):
+def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, channels, lags,
+          windows, overlaps, mode, onset, chunk, min_chunks, tolerance, out, no_figures):
     """Sweep lag, window and overlap on FILE; print the table of the Sec. 5.2 measure."""
     from leakdiag.features.methods import normalize_method
     from leakdiag.studies.select import SelectionRule
@@ -121,10 +122,13 @@ def sweep(file, column_map, cols, sample_rate, time_unit, method, channels, lags
     ov_values = parse_values(overlaps, float)
     from leakdiag.cli._options import column_map_from, read_with
 
-    rec = read_with(file, column_map_from(column_map, cols, time_unit), sample_rate)
+    rec = read_with(file, column_map_from(column_map, cols, time_unit), sample_rate, resample)
     _check_input(file, rec, m, channels, win_values)
     rule = SelectionRule(min_chunks_per_side=min_chunks, tolerance_pct=tolerance)
     onset = onset if onset is not None else rec.onset
+    if onset is None:
+        raise click.UsageError(f"{file}: the file's metadata has no leak onset: give --onset "
+                               "SECONDS (the sweep compares the feature before and after it)")
     try:
         table, chosen, groups = _run(rec, m, channels, lag_values, win_values, ov_values, rule,
                                      onset, chunk, mode)

@@ -187,7 +187,7 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
                 except ValueError as exc:  # too short for this method: say so, keep the others
                     if len(specs) == 1:
                         raise
-                    no_measure = str(exc).replace("rms_change", "the Sec. 5.2 measure")
+                    no_measure = str(exc)
                 else:
                     row.update({k: v for k, v in res.as_dict().items() if k in VERDICT_COLUMNS
                                 and k not in ("n_windows", "n_nan_windows")})

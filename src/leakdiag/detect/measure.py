@@ -219,9 +219,9 @@ def rms_change(fs: FeatureSeries, onset: float, chunk: int = 10) -> RMSChange:
     nb, na = int((side == -1).sum()), int((side == 1).sum())
     if nb == 0 or na == 0:
         raise ValueError(
-            f"rms_change needs at least one whole chunk on each side of onset={onset} s: "
-            f"got {nb} before and {na} after ({m} windows, chunk={chunk}); "
-            f"use a smaller chunk or check the onset"
+            f"the Sec. 5.2 measure needs at least one whole chunk on each side of the onset "
+            f"({onset:g} s): got {nb} before and {na} after ({m} windows, chunks of {chunk}); "
+            f"use a smaller chunk (--chunk) or check the onset (--onset)"
         )
     before = float(rms[side == -1].mean())
     after = float(rms[side == 1].mean())

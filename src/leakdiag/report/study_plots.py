@@ -52,7 +52,7 @@ def plot_pct_vs_parameter(x, ours, thesis=None, xlabel: str = "parameter",
     matplotlib.figure.Figure
     """
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(5.2, 3.2))
+    fig, ax = plt.subplots(figsize=(6.4, 3.8))  # >= 900 px at 150 dpi: readable
     ax.plot(x, ours, "o-", color="tab:blue", label=label)
     if thesis is not None:
         ax.plot(x, thesis, "s--", color="tab:gray", label="thesis (test rig)")
@@ -91,7 +91,7 @@ def plot_sensitivity(sens, system: str, thesis_ranges=None):
     n = len(groups)
     ncol = 2 if n > 1 else 1
     nrow = int(np.ceil(n / ncol))
-    fig, axes = plt.subplots(nrow, ncol, figsize=(5 * ncol, 2.8 * nrow), squeeze=False)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(max(6.4, 5 * ncol), 2.8 * nrow), squeeze=False)
     markers = {"spring": "o", "none": "^"}
     for a, ((method, chans), g) in zip(axes.ravel(), groups):
         for load, gl in g.groupby("load"):

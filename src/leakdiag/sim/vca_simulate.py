@@ -21,7 +21,8 @@ from leakdiag.sim.leak import (
     m3s_to_lpm,
 )
 from leakdiag.sim.reference import as_reference
-from leakdiag.sim.sensors import SensorParams, pressure_chain
+from leakdiag.sim.sensor_chain import pressure_chain
+from leakdiag.sim.sensors import SensorParams
 from leakdiag.sim.vca_conditions import OperatingConditions
 from leakdiag.sim.vca_control import FixedGainController
 from leakdiag.sim.vca_integrator import ClosedLoopResult, integrate_closed_loop, rk4_advance

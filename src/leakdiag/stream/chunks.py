@@ -94,7 +94,8 @@ def _rate_start(t_head: np.ndarray | None, sample_rate: float | None, start_time
     if sample_rate is None:
         sample_rate = own
     if sample_rate is None:
-        raise RecordingError(f"{source}: no 'time' column and no sample rate; pass sample_rate")
+        raise RecordingError(f"{source}: no 'time' column and no sample rate in the file: give "
+                             "the sample rate (--sample-rate, or sample_rate_hz in a column map)")
     if start_time is None:
         start_time = header.get("start_time")
     if start_time is None:

@@ -1,0 +1,130 @@
+"""One consistent command line (issue 15, sec. 4): help on every option, an example at the end of
+every --help, -o meaning --out, --onset in seconds, --scheduler serial|local|ADDRESS."""
+
+import importlib
+
+import click
+import pytest
+from click.testing import CliRunner
+
+from leakdiag.cli.main import COMMANDS, cli
+
+#: Commands owned by other helpers at the time of writing (benchmark: alarms, reproduce: thesis).
+OTHERS = {"benchmark", "reproduce"}
+MINE = sorted(set(COMMANDS) - OTHERS)
+
+
+def _command(name) -> click.Command:
+    mod, attr = COMMANDS[name].split(":")
+    return getattr(importlib.import_module(mod), attr)
+
+
+@pytest.mark.parametrize("name", MINE)
+def test_every_option_has_help(name):
+    cmd = _command(name)
+    missing = [p.opts[0] for p in cmd.params if isinstance(p, click.Option) and not p.help]
+    assert missing == []
+
+
+@pytest.mark.parametrize("name", MINE)
+def test_help_ends_with_an_example(name):
+    r = CliRunner().invoke(cli, [name, "--help"])
+    assert r.exit_code == 0
+    last = r.output.strip().splitlines()[-1].strip()
+    assert last.startswith("leakdiag ") or "Example: leakdiag " in r.output.strip().split(
+        "\n\n")[-1], r.output[-400:]
+
+
+@pytest.mark.parametrize("name", MINE)
+def test_dash_o_means_out(name):
+    cmd = _command(name)
+    for p in cmd.params:
+        if isinstance(p, click.Option) and "-o" in p.opts:
+            assert "--out" in p.opts, (name, p.opts)
+
+
+@pytest.mark.parametrize("name", MINE)
+def test_onset_is_seconds(name):
+    for p in _command(name).params:
+        if isinstance(p, click.Option) and "--onset" in p.opts:
+            assert p.type is click.FLOAT or isinstance(p.type, click.types.FloatParamType)
+            assert "(s)" in p.help or " s " in p.help or "seconds" in p.help.lower()
+
+
+@pytest.mark.parametrize("name", ["batch", "sensitivity"])
+def test_scheduler_serial_local_address(name):
+    opt = [p for p in _command(name).params if "--scheduler" in getattr(p, "opts", [])][0]
+    assert "serial" in opt.help and "local" in opt.help and "address" in opt.help
+
+
+def test_batch_serial_flag_is_gone_for_scheduler_serial():
+    r = CliRunner().invoke(cli, ["batch", "x", "--config", __file__, "-o", "y", "--serial"])
+    assert r.exit_code == 2 and "No such option '--serial'" in r.output
+
+
+@pytest.mark.parametrize("name", ["analyze", "detect", "fit", "monitor", "sweep"])
+def test_recording_options_everywhere(name):
+    opts = {o for p in _command(name).params for o in getattr(p, "opts", [])}
+    assert {"--map", "--col", "--sample-rate", "--time-unit"} <= opts
+
+
+def test_first_run_says_the_kernels_compile_once(tmp_path, monkeypatch, capsys):
+    from leakdiag.cli.main import main
+
+    import leakdiag.cli.main as m
+
+    monkeypatch.setattr(m, "_stderr_is_terminal", lambda: True)
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "empty-cache"))
+    main(["analyze", str(tmp_path / "nope.csv")])
+    assert "first run: compiling the feature kernels" in capsys.readouterr().err
+    (tmp_path / "empty-cache" / "x").mkdir(parents=True)
+    (tmp_path / "empty-cache" / "x" / "k.nbi").write_bytes(b"")
+    main(["analyze", str(tmp_path / "nope.csv")])
+    assert "first run" not in capsys.readouterr().err
+    main(["analyze", "--help"])
+
+
+def test_monitor_error_advises_no_option_monitor_lacks(tmp_path, capsys):
+    import numpy as np
+
+    from leakdiag.cli.main import main
+
+    t = np.arange(3000) / 1000.0
+    t[1000:] += 0.0004  # one irregular interval
+    path = tmp_path / "nonuni.csv"
+    path.write_text("time,p1\n" + "".join(f"{a},{np.sin(a * 50)}\n" for a in t))
+    assert main(["monitor", "-i", str(path), "-c", "p1", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "not uniformly sampled" in err and "leakdiag analyze --resample" in err
+    assert "(--resample RATE_HZ)" not in err
+    # detect has --resample, so it may advise it
+    opts = {o for p in _command("detect").params for o in getattr(p, "opts", [])}
+    assert "--resample" in opts
+
+
+def test_sweep_figures_are_readable_and_name_the_users_file(tmp_path, capsys):
+    import matplotlib.image as mpimg
+    import numpy as np
+
+    import leakdiag as ld
+    from leakdiag.cli.main import main
+
+    rng = np.random.default_rng(3)
+    p1 = np.convolve(rng.standard_normal(12_000), np.ones(5) / 5, mode="same")
+    p1[6000:] = rng.standard_normal(6000)
+    path = tmp_path / "myrig.csv"
+    ld.Recording({"p1": 1e6 + 1e3 * p1}, 1000.0).to_pandas().to_csv(path, index=False)
+    assert main(["sweep", str(path), "-c", "p1", "--lags", "1,2", "--windows", "100,200",
+                 "--overlaps", "5", "--onset", "6", "--chunk", "2", "-o", str(tmp_path / "sw")]) == 0
+    img = mpimg.imread(tmp_path / "sw" / "pct_vs_window.png")
+    assert img.shape[1] >= 900  # pixels wide
+    from leakdiag.report.study_plots import plot_pct_vs_parameter
+
+    fig = plot_pct_vs_parameter([100, 200], [10.0, 20.0], xlabel="window N (samples)",
+                                label="myrig.csv")
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "window N (samples)" and ax.get_ylabel() == "% change of mean RMS"
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["myrig.csv"]
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
