@@ -66,8 +66,11 @@ def test_threshold_is_the_conformal_order_statistic(fitted):
     assert (b.n, b.k, b.segment_s) == (6, 1, 600.0)
     assert b.bound_per_segment == pytest.approx(1 / 7) and b.bound_per_hour == pytest.approx(6 / 7)
     assert fitted.threshold_ == fitted.healthy_maxima_.max()
-    # the maxima are those of the CUSUM of each healthy run, recomputed by hand
-    z = (synthetic(600.0, 3)["p1"].reshape(-1, WINDOW).mean(axis=1) - fitted.mean_) / fitted.std_
+    # the maxima are those of the CUSUM of each healthy run standardised with the mean and std
+    # of the OTHER runs (leave one run out: out-of-sample maxima), recomputed by hand
+    wm = [synthetic(600.0, s)["p1"].reshape(-1, WINDOW).mean(axis=1) for s in range(6)]
+    others = np.concatenate([w for i, w in enumerate(wm) if i != 3])
+    z = (wm[3] - others.mean()) / others.std(ddof=1)
     assert fitted.healthy_maxima_[3] == pytest.approx(np.maximum(*cusum(z, 0.5, "both")).max())
 
 

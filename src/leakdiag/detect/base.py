@@ -324,8 +324,12 @@ class Detector(BaseEstimator):
         seg = float(a.segment_s) if a.segment_s is not None else float(min(spans))
         if not seg > 0:
             raise ValueError(f"fit: a healthy recording is not longer than burn_in_s={a.burn_in_s}")
+        # out-of-sample maxima: run i standardised with the mean and std of the other runs
+        # (leave one run out), so that the maxima are those of runs the standardisation never
+        # saw, as in monitoring (docs/detect.md, "False alarms")
+        loo = _leave_one_out_z([s[1] for s in series]) if len(series) > 1 else zs
         maxima = np.concatenate([segment_maxima(z, s[0], seg, s[2], span, a.drift, a.direction)
-                                 for z, s, span in zip(zs, series, spans)])
+                                 for z, s, span in zip(loo, series, spans)])
         ref = reference_maxima if reference_maxima is not None else self._reference_maxima()
         if ref is not None:
             ref.check_compatible(seg, a.drift, a.direction, a.burn_in_s)
@@ -504,6 +508,26 @@ class Detector(BaseEstimator):
             flows.append(float(rec.meta["leak_lpm"]))
         self.calibration_ = fit_leak_calibration(shifts, flows, level, validity)
         return self
+
+
+def _leave_one_out_z(values: list) -> list:
+    """Each run standardised with the mean and std (ddof 1) of all the other runs' windows."""
+    fin = [v[np.isfinite(v)] for v in values]
+    n = np.array([len(f) for f in fin], dtype=np.float64)
+    s1 = np.array([f.sum() for f in fin])
+    s2 = np.array([(f * f).sum() for f in fin])
+    out = []
+    for i, v in enumerate(values):
+        m = n.sum() - n[i]
+        if m < 2:
+            raise ValueError("fit: leaving one healthy run out leaves fewer than 2 finite "
+                             "feature values; give more or longer healthy runs")
+        mean = (s1.sum() - s1[i]) / m
+        var = max((s2.sum() - s2[i] - m * mean * mean) / (m - 1), 0.0)
+        if not var > 0:
+            raise ValueError("fit: the healthy feature has zero variance without one run")
+        out.append((v - mean) / np.sqrt(var))
+    return out
 
 
 def _shift(tr: _Trace, onset: float) -> float:
