@@ -45,17 +45,19 @@ def spool_positions(u, phi, gamma, kv, offset, drift_per_s, dt, out):
 
 
 @numba.njit(cache=True)
-def vca_window_sums(xv, p1, p2, x, starts, window, area, volume, ps, pt, gw, ptr_valve,
+def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw, ptr_valve,
                     ptr_leak, laminar, out):
     """Per-window integrals of the VCA flow balance (Eqs. 2-1, 2-2, 2-4/2-5).
 
-    ``out[w]`` = ``[S1, S2, dX, C1, C2, PHI, T, F, PHIABS]`` (time integrals in sample units,
+    ``out[w]`` = ``[S1, S2, dX, C1, C2, PHI, T, F, PHIABS, QA, QB]`` (time integrals in sample units,
     the wrapper multiplies by ``dt``):
     ``S1 = int Q1 dt`` and ``S2 = int Q2 dt`` (valve flows of Eq. 2-2 with flow-gain factor 1,
     ``gw = K_v w``), ``dX = x_end - x_start``, ``C1 = int V1 dP1``, ``C2 = int V2 dP2``,
     ``PHI = int phi(P1 - P2) dt`` (leak-law pressure term), ``T`` window duration and
     ``F = int |Q1 + Q2| / 2 dt`` (flow through the valve, for the error model) and
-    ``PHIABS = int |phi(P1 - P2)| dt`` (for the mean leak flow).
+    ``PHIABS = int |phi(dps)| dt`` (for the mean leak flow; ``dps`` is a smoothed ``P1 - P2``
+    so that pressure noise does not inflate it) and ``QA``, ``QB`` the valve flow
+    ``(Q1 + Q2) / 2`` at the window's first and last sample (for the end-point error model).
     """
     n_win = starts.shape[0]
     for w in range(n_win):
@@ -66,6 +68,7 @@ def vca_window_sums(xv, p1, p2, x, starts, window, area, volume, ps, pt, gw, ptr
         c2 = 0.0
         phs = 0.0
         pha = 0.0
+        pap = 0.0
         fabs = 0.0
         q1p = 0.0
         q2p = 0.0
@@ -82,13 +85,19 @@ def vca_window_sums(xv, p1, p2, x, starts, window, area, volume, ps, pt, gw, ptr
             dp = p1[k] - p2[k]
             if laminar:
                 ph = dp
+                pa_ = dps[k]
             else:
                 ph = _sqrt_reg(dp, ptr_leak)
+                pa_ = _sqrt_reg(dps[k], ptr_leak)
+            if j == 0:
+                out[w, 9] = 0.5 * (q1 + q2)
+            if j == window - 1:
+                out[w, 10] = 0.5 * (q1 + q2)
             if j > 0:
                 s1 += 0.5 * (q1 + q1p)
                 s2 += 0.5 * (q2 + q2p)
                 phs += 0.5 * (ph + php)
-                pha += 0.5 * (abs(ph) + abs(php))
+                pha += 0.5 * (abs(pa_) + abs(pap))
                 fabs += 0.25 * (abs(q1 + q2) + abs(q1p + q2p))
                 v1a = volume + area * x[k - 1]
                 v1b = volume + area * x[k]
@@ -99,6 +108,7 @@ def vca_window_sums(xv, p1, p2, x, starts, window, area, volume, ps, pt, gw, ptr
             q1p = q1
             q2p = q2
             php = ph
+            pap = pa_
         out[w, 0] = s1
         out[w, 1] = s2
         out[w, 2] = x[i0 + window - 1] - x[i0]

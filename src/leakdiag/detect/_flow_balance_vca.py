@@ -39,7 +39,11 @@ __all__ = ["VCAValveModel", "VCA_CHANNELS", "vca_raw_sums", "vca_terms", "identi
 #: Channels the VCA flow balance needs.
 VCA_CHANNELS = ("p1", "p2", "x", "u")
 #: Columns of the raw window sums (see ``vca_window_sums``).
-_S1, _S2, _DX, _C1, _C2, _PHI, _T, _F, _PHIABS = range(9)
+_S1, _S2, _DX, _C1, _C2, _PHI, _T, _F, _PHIABS, _QA, _QB = range(11)
+#: Moving average applied to P1 - P2 for the mean |phi| only (s; leakdiag choice: 5 ms cuts
+#: white pressure noise 2.2x; without load the mean |phi| is then -1 % / +14 % off at 10 / 40 kPa
+#: noise on the simulator, under the spring load < 0.2 %; docs/detect.md).
+DP_SMOOTHING_S = 0.005
 
 
 @dataclass(frozen=True)
@@ -142,17 +146,22 @@ def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: f
     Returns
     -------
     numpy.ndarray
-        Shape ``(n_windows, 9)``.
+        Shape ``(n_windows, 11)``.
     """
+    from scipy.ndimage import uniform_filter1d
+
     p1, p2, x, u = arrays
     dt = 1.0 / sample_rate
+    dps = np.ascontiguousarray(uniform_filter1d(p1 - p2, max(1, int(round(DP_SMOOTHING_S
+                                                                          * sample_rate))),
+                                                mode="nearest"))
     phi, gam = _zoh(params, valve_natural_frequency_hz, dt)
     xv = np.empty_like(u)
     spool_positions(u, phi, gam, params.spool_gain_m_per_v, float(null_offset_v), 0.0, dt, xv)
     starts = window_starts(len(u), window)
-    out = np.empty((len(starts), 9))
+    out = np.empty((len(starts), 11))
     gw = params.valve_flow_gain_m1_5_per_kg0_5 * params.orifice_area_gradient_m
-    vca_window_sums(xv, p1, p2, x, starts, window + 1, params.piston_area_m2,
+    vca_window_sums(xv, p1, p2, x, dps, starts, window + 1, params.piston_area_m2,
                     params.chamber_volume_m3, float(supply_pressure_pa), params.tank_pressure_pa,
                     gw, params.valve_transition_pressure_pa, params.leak_transition_pressure_pa,
                     bool(laminar), out)
@@ -178,7 +187,9 @@ def vca_terms(raw: np.ndarray, params: VCAParams, model: VCAValveModel) -> dict[
         ``residual`` (m^3: valve volume minus piston and compressibility volumes minus the
         baseline leak volume; the leak volume plus errors), ``balance`` (m^3, leak-free sum
         equation), ``phi`` (integral of the leak-law pressure term), ``phi_abs``, ``flow``
-        (m^3 through the valve), ``duration`` (s).
+        (m^3 through the valve), ``duration`` (s), ``edge_flow2`` (sum of the squared valve
+        flows at the two end samples, m^6/s^2) and ``compressibility`` (m^3, the
+        compressibility volume of the difference equation).
     """
     g = model.flow_gain_factor
     beta = model.bulk_modulus_pa
@@ -187,7 +198,10 @@ def vca_terms(raw: np.ndarray, params: VCAParams, model: VCAValveModel) -> dict[
          - model.baseline_leak_coefficient * raw[:, _PHI])
     s = g * (raw[:, _S1] - raw[:, _S2]) - (raw[:, _C1] + raw[:, _C2]) / beta
     return {"residual": r, "balance": s, "phi": raw[:, _PHI].copy(),
-            "phi_abs": raw[:, _PHIABS].copy(), "flow": g * raw[:, _F], "duration": raw[:, _T].copy()}
+            "phi_abs": raw[:, _PHIABS].copy(), "flow": g * raw[:, _F],
+            "duration": raw[:, _T].copy(),
+            "edge_flow2": g * g * (raw[:, _QA] ** 2 + raw[:, _QB] ** 2),
+            "compressibility": (raw[:, _C1] - raw[:, _C2]) / (2.0 * beta)}
 
 
 def _robust_std(v: np.ndarray) -> float:

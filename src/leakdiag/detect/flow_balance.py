@@ -119,9 +119,12 @@ class FlowBalanceDetector(Detector):
     ----------
     model_ : VCAValveModel or EHAPumpModel
         Identified machine model; ``model_std_`` its standard errors (dict).
-    noise_floor_m3_, flow_error_fraction_ : float
-        Healthy error model of a window residual, ``s^2 = floor^2 + (fraction F)^2`` with
-        ``F`` the volume through the valve/pump in the window.
+    error_model_ : numpy.ndarray
+        Healthy error model of a window residual, ``s^2 = c0 + c1 F^2 + c2 (Q_a^2 + Q_b^2) +
+        c3 C^2`` with ``F`` the volume through the valve/pump in the window, ``Q_a, Q_b`` the
+        flows at its end samples (timing errors of the valve model act there) and ``C`` its
+        compressibility volume (bulk-modulus errors); ``noise_floor_m3_ = sqrt(c0)`` and
+        ``flow_error_fraction_ = sqrt(c1)``.
     dispersion_ : float
         Factor (>= 1) by which healthy span estimates scatter more than the error model says;
         multiplies every standard error.
@@ -236,8 +239,13 @@ class FlowBalanceDetector(Detector):
         sk = min(self._skip(rec), n_win)
         return {k: np.asarray(v)[sk:] for k, v in terms.items()}
 
+    @staticmethod
+    def _error_regressors(terms: dict) -> np.ndarray:
+        return np.column_stack([np.ones_like(terms["flow"]), terms["flow"] ** 2,
+                                terms["edge_flow2"], terms["compressibility"] ** 2])
+
     def _sigma(self, terms: dict) -> np.ndarray:
-        s2 = self.noise_floor_m3_ ** 2 + (self.flow_error_fraction_ * terms["flow"]) ** 2
+        s2 = self._error_regressors(terms) @ self.error_model_
         return np.sqrt(s2) * self.dispersion_
 
     def _ab(self, terms: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -286,14 +294,20 @@ class FlowBalanceDetector(Detector):
             [self._skip(r) for r in recs], self.fit_bandwidth, self.fit_bulk_modulus)
         terms = [self._terms(r) for r in recs]
         e = np.concatenate([t["residual"] for t in terms])
-        f = np.concatenate([t["flow"] for t in terms])
         if len(e) < 10:
             raise ValueError(f"fit: only {len(e)} windows of {self.window_s} s after the burn-in "
                              f"in {len(recs)} healthy recording(s); give at least 10")
-        # error model s^2 = floor^2 + (fraction F)^2, least squares on e^2 (non-negative)
-        coef, _ = nnls(np.column_stack([np.ones_like(f), f * f]), e * e)
-        floor2 = coef[0] if coef[0] > 0 else float(np.median(e * e))
-        self.noise_floor_m3_ = float(np.sqrt(max(floor2, 1e-30)))
+        # error model s^2 = c0 + c1 F^2 + c2 (Q_start^2 + Q_end^2) + c3 C^2: non-negative least
+        # squares of e^2 on the regressors (each column scaled to unit RMS for conditioning)
+        x = np.concatenate([self._error_regressors(t) for t in terms])
+        col = np.sqrt(np.mean(x * x, axis=0))
+        col[col == 0] = 1.0
+        coef, _ = nnls(x / col, e * e)
+        coef = coef / col
+        if not coef[0] > 0:
+            coef[0] = float(np.median(e * e))  # the floor must be positive: no zero-variance window
+        self.error_model_ = coef
+        self.noise_floor_m3_ = float(np.sqrt(coef[0]))
         self.flow_error_fraction_ = float(np.sqrt(coef[1]))
         self.dispersion_ = 1.0
         self.dispersion_ = self._dispersion(terms)
