@@ -101,3 +101,63 @@ def test_reference_validation():
         PseudoRandomSteps(min_amplitude_m=2e-3, max_amplitude_m=1e-3)
     with pytest.raises(ValueError, match="reference holds 1 non-finite"):
         SampledReference(np.array([np.nan])).samples(np.zeros(2), None)
+
+
+def test_transducer_error_defaults_are_ideal_and_bit_identical():
+    s = SensorParams()
+    assert (s.p1_offset_pa, s.p2_offset_pa, s.p1_gain, s.p2_gain) == (0.0, 0.0, 1.0, 1.0)
+    assert s.antialias_cutoff_hz is None and not s.has_transducer_error
+    p = np.linspace(-1e5, 2.2e7, 5001)
+    a = measure_pressure(p, s, np.random.default_rng(4))
+    b = measure_pressure(p, s, np.random.default_rng(4), channel="p2", sample_rate=1000.0)
+    assert np.array_equal(a, b)  # defaults: the channel and rate change nothing
+
+
+def test_transducer_gain_and_offset_applied_before_quantisation():
+    s = SensorParams(pressure_noise_std_pa=0.0, p1_gain=1.02, p1_offset_pa=7.4e3,
+                     p2_gain=0.99, p2_offset_pa=-3e3)
+    q = s.pressure_quantum_pa
+    p = np.array([1e6, 8.6e6])
+    m1 = measure_pressure(p, s, np.random.default_rng(0), channel="p1")
+    m2 = measure_pressure(p, s, np.random.default_rng(0), channel="p2")
+    assert m1.tolist() == (np.round((1.02 * p + 7.4e3) / q) * q).tolist()
+    assert m2.tolist() == (np.round((0.99 * p - 3e3) / q) * q).tolist()
+    assert s.transducer_error("p1") == (1.02, 7.4e3)
+    with pytest.raises(ValueError, match="channel must be 'p1' or 'p2'"):
+        measure_pressure(p, s, np.random.default_rng(0))
+    with pytest.raises(ValueError, match="channel='x' must be 'p1' or 'p2'"):
+        s.transducer_error("x")
+
+
+def test_transducer_error_validation():
+    with pytest.raises(ValueError, match="p1_gain=0 must be a finite number > 0"):
+        SensorParams(p1_gain=0)
+    with pytest.raises(ValueError, match="p2_offset_pa=nan must be a finite number"):
+        SensorParams(p2_offset_pa=float("nan"))
+    with pytest.raises(ValueError, match="antialias_cutoff_hz=-5 must be a finite number > 0"):
+        SensorParams(antialias_cutoff_hz=-5)
+
+
+def test_antialias_filter_minus_3db_at_cutoff_and_dc_gain_1():
+    from scipy.signal import sosfreqz
+
+    from leakdiag.sim.sensors import antialias_sos
+    sos = antialias_sos(150.0, 1000.0)
+    _, h = sosfreqz(sos, worN=[0.0, 150.0], fs=1000.0)
+    assert abs(h[0]) == pytest.approx(1.0, abs=1e-12)
+    assert 20 * np.log10(abs(h[1])) == pytest.approx(-3.0103, abs=1e-3)
+    with pytest.raises(ValueError, match="below the Nyquist frequency 500 Hz"):
+        antialias_sos(500.0, 1000.0)
+    s = SensorParams(pressure_noise_std_pa=0.0, antialias_cutoff_hz=150.0)
+    with pytest.raises(ValueError, match="sample_rate is required"):
+        measure_pressure([1e6], s, np.random.default_rng(0))
+    # a constant passes unchanged (the filter starts at rest on the first value)
+    m = measure_pressure(np.full(100, 8.6e6), s, np.random.default_rng(0), sample_rate=1000.0)
+    assert np.all(m == np.round(8.6e6 / s.pressure_quantum_pa) * s.pressure_quantum_pa)
+    # a 150 Hz sine leaves with amplitude 1/sqrt(2) in the steady state
+    t = np.arange(4000) / 1000.0
+    sf = SensorParams(pressure_noise_std_pa=0.0, antialias_cutoff_hz=150.0, pressure_adc_bits=32)
+    m = measure_pressure(8e6 + 1e6 * np.sin(2 * np.pi * 150 * t), sf, np.random.default_rng(0),
+                         sample_rate=1000.0)
+    amp = np.sqrt(2) * np.std(m[2000:])
+    assert amp == pytest.approx(1e6 / np.sqrt(2), rel=2e-3)
