@@ -118,3 +118,64 @@ def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw
         out[w, 6] = float(window - 1)
         out[w, 7] = fabs
         out[w, 8] = pha
+
+
+@numba.njit(cache=True)
+def eha_window_sums(p1, p2, x, w, pa, pb, dps, starts, window, area, volume, ptr_leak, laminar,
+                    out):
+    """Per-window integrals of the EHA pump-side flow balance (Eqs. 3-6, 3-16 to 3-19, 2-4/2-5).
+
+    ``out[w]`` = ``[TH, dX, CA, CB, dPA, dPB, L, PHI, T, FW, PHIABS, WA, WB]`` (time integrals in
+    sample units): ``TH = int omega dt`` (shaft angle), ``dX``, ``CA = int V_A dP_1``,
+    ``CB = int V_B dP_2`` (chamber volumes follow the piston), ``dPA``, ``dPB`` line pressure
+    changes, ``L = int (P_a - P_b) dt`` (laminar pump leakage), ``PHI = int phi(P1 - P2) dt``,
+    ``T`` duration, ``FW = int |omega| dt``, ``PHIABS = int |phi(dps)| dt`` and the speeds at
+    the window's first and last samples.
+    """
+    n_win = starts.shape[0]
+    for iw in range(n_win):
+        i0 = starts[iw]
+        th = 0.0
+        ca = 0.0
+        cb = 0.0
+        lk = 0.0
+        phs = 0.0
+        pha = 0.0
+        fw = 0.0
+        php = 0.0
+        pap = 0.0
+        for j in range(window):
+            k = i0 + j
+            dp = p1[k] - p2[k]
+            if laminar:
+                ph = dp
+                pa_ = dps[k]
+            else:
+                ph = _sqrt_reg(dp, ptr_leak)
+                pa_ = _sqrt_reg(dps[k], ptr_leak)
+            if j > 0:
+                th += 0.5 * (w[k] + w[k - 1])
+                fw += 0.5 * (abs(w[k]) + abs(w[k - 1]))
+                lk += 0.5 * ((pa[k] - pb[k]) + (pa[k - 1] - pb[k - 1]))
+                phs += 0.5 * (ph + php)
+                pha += 0.5 * (abs(pa_) + abs(pap))
+                va = volume + area * 0.5 * (x[k] + x[k - 1])
+                vb = volume - area * 0.5 * (x[k] + x[k - 1])
+                ca += va * (p1[k] - p1[k - 1])
+                cb += vb * (p2[k] - p2[k - 1])
+            php = ph
+            pap = pa_
+        i1 = i0 + window - 1
+        out[iw, 0] = th
+        out[iw, 1] = x[i1] - x[i0]
+        out[iw, 2] = ca
+        out[iw, 3] = cb
+        out[iw, 4] = pa[i1] - pa[i0]
+        out[iw, 5] = pb[i1] - pb[i0]
+        out[iw, 6] = lk
+        out[iw, 7] = phs
+        out[iw, 8] = float(window - 1)
+        out[iw, 9] = fw
+        out[iw, 10] = pha
+        out[iw, 11] = w[i0]
+        out[iw, 12] = w[i1]
