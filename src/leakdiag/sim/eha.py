@@ -9,6 +9,7 @@ come from :mod:`leakdiag.sim.leak` and the sensor chain from :mod:`leakdiag.sim.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -28,6 +29,7 @@ from leakdiag.sim.eha_solver import CLOSED_LOOP_RTOL, DEFAULT_RTOL, integrate_fa
 from leakdiag.sim.leak import (
     LeakCalibrationError, LeakSchedule, calibrate_leak_coefficient, m3s_to_lpm,
 )
+from leakdiag.sim.machine import EHAMachine, resolve_machine
 from leakdiag.sim.sensors import SensorParams, measure_position, measure_pressure
 
 __all__ = ["simulate_eha", "EHA_SENSORS", "initial_state", "available_pump_flow_lpm",
@@ -224,6 +226,7 @@ def simulate_eha(
     rtol: float | None = None,
     calibration_rtol: float = 0.02,
     input_signal=None,
+    machine: EHAMachine | int | None = None,
 ) -> Recording:
     """Simulate an EHA experiment (thesis Ch. 3 model, Sec. 4.6 procedure).
 
@@ -277,6 +280,12 @@ def simulate_eha(
         ``duration * sample_rate`` values. ``amplitude`` and ``frequency_rad_s`` are then
         unused except that the leak-size limit takes ``amplitude`` as the largest ``|input|``.
         Cannot be combined with amplitude/frequency variations in ``conditions``.
+    machine : None, int or EHAMachine, default None
+        The unit: None is the nominal Table 3-1 rig; an int draws that unit with
+        :func:`~leakdiag.sim.machine.draw_machine` (its own random stream, independent of
+        ``seed``); an :class:`~leakdiag.sim.machine.EHAMachine` is used as given. Its
+        deviations apply on top of ``params`` and ``sensor_params``; its transducer errors
+        apply to ``p1`` and ``p2`` (the line pressures ``pa``, ``pb`` keep ideal transducers).
 
     Returns
     -------
@@ -290,8 +299,9 @@ def simulate_eha(
         (target), ``leak_lpm_achieved``, ``leak_pct_of_rated_flow``, ``leak_coefficient``,
         ``leak_kind``, ``ramp_duration``, ``seed``, ``params`` (dict), ``rated_flow_lpm``,
         ``amplitude``, ``frequency_rad_s``, ``conditions``, ``sensors``,
-        ``motor_encoder_counts_per_rev`` (None without sensors), ``rtol``, ``solver_steps``,
-        ``calibration_runs``, ``leakdiag_version``, ``source``.
+        ``motor_encoder_counts_per_rev`` (None without sensors), ``machine``
+        (:meth:`EHAMachine.to_dict`), ``rtol``, ``solver_steps``, ``calibration_runs``,
+        ``leakdiag_version``, ``source``.
 
     Raises
     ------
@@ -330,6 +340,14 @@ def simulate_eha(
     params = check_params_type(params, EHAParams)
     conditions = check_params_type(conditions, EHAConditions, "conditions")
     sensor_params = EHA_SENSORS if sensor_params is None else sensor_params
+    machine = resolve_machine(machine, "eha")
+    params = machine.apply_params(params)
+    sensor_params = machine.apply_sensors(sensor_params)
+    if (sensors and sensor_params.antialias_cutoff_hz is not None
+            and not sensor_params.antialias_cutoff_hz < fs / 2):
+        raise ValueError(f"antialias_cutoff_hz={sensor_params.antialias_cutoff_hz:.4g} "
+                         "(sensor_params or machine) must be below the Nyquist frequency of "
+                         f"sample_rate={fs:g} Hz")
     if amplitude is None:
         amplitude = DEFAULT_AMPLITUDE_V if mode == "open-loop" else DEFAULT_REFERENCE_AMPLITUDE_M
     amplitude = check_positive(amplitude, "amplitude")
@@ -417,8 +435,14 @@ def simulate_eha(
              "speed": states[:, S_W]}
     if sensors:
         rng = np.random.default_rng(noise_ss)
+        line_sensors = dataclasses.replace(sensor_params, p1_offset_pa=0.0, p2_offset_pa=0.0,
+                                           p1_gain=1.0, p2_gain=1.0)
         for name in ("p1", "p2", "pa", "pb"):
-            chans[name] = measure_pressure(chans[name], sensor_params, rng)
+            if name in ("p1", "p2"):
+                chans[name] = measure_pressure(chans[name], sensor_params, rng, channel=name,
+                                               sample_rate=fs)
+            else:
+                chans[name] = measure_pressure(chans[name], line_sensors, rng, sample_rate=fs)
         chans["x"] = measure_position(chans["x"], sensor_params)
         dac = 2.0 * params.command_limit_v / 2.0**sensor_params.control_dac_bits
         chans["u"] = np.round(u / dac) * dac  # D/A of the command, as sensors.quantize
@@ -448,6 +472,7 @@ def simulate_eha(
         "conditions": conditions.to_dict(),
         "sensors": sensor_params.to_dict() if sensors else None,
         "motor_encoder_counts_per_rev": MOTOR_ENCODER_COUNTS_PER_REV if sensors else None,
+        "machine": machine.to_dict(),
         "rtol": float(rtol),
         "solver_steps": sol.n_accepted,
         "calibration_runs": calibration_runs,
