@@ -174,7 +174,13 @@ def fit_method(config: FitConfig) -> dict:
 
 
 def _basis(det) -> dict:
-    b = det.threshold_basis_.as_dict()
+    """The threshold basis of a fitted detector (a detector with its own fit: what it records)."""
+    basis = getattr(det, "threshold_basis_", None)
+    if basis is None:
+        other = getattr(det, "alarm_threshold_", None)
+        return {"threshold_method": getattr(other, "method", type(other).__name__),
+                "threshold": float(getattr(det, "threshold_", float("nan")))}
+    b = basis.as_dict()
     b["threshold_method"] = b.pop("method")
     return b
 
@@ -221,7 +227,13 @@ def score_chunk(config: ChunkConfig) -> int:
         sim_cpu = time.process_time() - cpu0
         for m, det in todo:
             cpu0 = time.process_time()
-            v = det.predict(rec)
+            try:
+                v = det.predict(rec)
+            except (ValueError, ArithmeticError) as exc:  # recorded, never dropped
+                rows.append({"method": m, "system": c.system, "load": c.load,
+                             "excitation": c.excitation, "role": "error", "seed": c.seed,
+                             "leak_lpm": c.leak_lpm, "error": f"{type(exc).__name__}: {exc}"})
+                continue
             cpu = time.process_time() - cpu0
             rows.append({"method": m, "system": c.system, "load": c.load,
                          "excitation": c.excitation, "role": c.role, "leak_lpm": c.leak_lpm,
