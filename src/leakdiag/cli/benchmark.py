@@ -91,11 +91,14 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
         return
     from leakdiag.bench.benchmark import run_benchmark
 
-    res = run_benchmark(out_dir, quick=quick, methods=split(methods), systems=split(systems),
-                        excitations=split(excitations), max_test_runs=max_test_runs,
-                        false_alarm_per_run=far if far is not None else 0.01,
-                        onset_method=onset_method, scheduler=scheduler, n_workers=n_workers,
-                        cache_dir=cache_dir, progress=not no_progress, command=command)
+    try:
+        res = run_benchmark(out_dir, quick=quick, methods=split(methods), systems=split(systems),
+                            excitations=split(excitations), max_test_runs=max_test_runs,
+                            false_alarm_per_run=far if far is not None else 0.01,
+                            onset_method=onset_method, scheduler=scheduler, n_workers=n_workers,
+                            cache_dir=cache_dir, progress=not no_progress, command=command)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
     cols = ["method", "system", "excitation", "min_detectable_lpm", "min_detectable_pct_rated",
             "false_alarm_rate", "cpu_s_per_hour"]
     click.echo(res.summary[cols].to_string(index=False))
