@@ -28,8 +28,8 @@ from typing import Any
 
 from leakdiag.bench.run import SimConfig, _recording, simulate_case, simulator_kwargs
 
-__all__ = ["LazyRecordings", "FitConfig", "ChunkConfig", "fit_method", "score_chunk",
-           "run_v5", "REDUCED_BUDGET", "v5_alarm"]
+__all__ = ["LazyRecordings", "FitConfig", "ChunkConfig", "fit_method", "fit_shared",
+           "score_chunk", "run_v5", "REDUCED_BUDGET", "v5_alarm", "shares_fit"]
 
 #: Reduced budget of the slow literature methods (calibration runs, held-out healthy runs,
 #: leaking runs per size, per group): EMD ~12 and the EKF ~50 CPU s per hour of signal would
@@ -173,6 +173,11 @@ def fit_method(config: FitConfig) -> dict:
     return {**base, "error": None, "cpu_s": cpu, **_basis(det)}
 
 
+def _fit_task(task) -> list[dict]:
+    kind, cfg = task
+    return fit_shared(cfg) if kind == "shared" else [fit_method(cfg)]
+
+
 def _basis(det) -> dict:
     """The threshold basis of a fitted detector (a detector with its own fit: what it records)."""
     basis = getattr(det, "threshold_basis_", None)
@@ -183,6 +188,94 @@ def _basis(det) -> dict:
     b = basis.as_dict()
     b["threshold_method"] = b.pop("method")
     return b
+
+
+def shares_fit(det) -> bool:
+    """Whether a detector uses the base class's fit unchanged (its fit can share reads).
+
+    Parameters
+    ----------
+    det : Detector
+        Unfitted detector.
+
+    Returns
+    -------
+    bool
+        False for detectors with their own ``fit`` or ``_fit_features`` (read the runs
+        themselves).
+    """
+    from leakdiag.detect.base import Detector
+
+    cls = type(det)
+    return (isinstance(det, Detector) and cls.fit is Detector.fit
+            and cls._fit_features is Detector._fit_features)
+
+
+def fit_shared(configs: tuple) -> list[dict]:
+    """Fit several methods of one group, reading each calibration run once for all of them.
+
+    Parameters
+    ----------
+    configs : tuple of FitConfig
+        Methods of one group whose detectors :func:`shares_fit`; each with its own runs (a
+        prefix of the group's calibration runs).
+
+    Returns
+    -------
+    list of dict
+        One :func:`fit_method`-like row per method.
+    """
+    import joblib
+
+    from leakdiag.bench.registry import make_detector
+
+    todo, rows = [], []
+    for cfg in configs:
+        if Path(cfg.path).is_file():
+            rows.append(fit_method(cfg))
+        else:
+            todo.append((cfg, make_detector(cfg.method, cfg.cases[0].system, cfg.alarm)))
+    if not todo:
+        return rows
+    longest = max(todo, key=lambda x: len(x[0].cases))[0].cases
+    parts = {cfg.method: [] for cfg, _ in todo}
+    errors: dict[str, str] = {}
+    cpu = {cfg.method: 0.0 for cfg, _ in todo}
+    lazy = LazyRecordings(longest, todo[0][0].cache_dir)
+    for i in range(len(longest)):
+        rec = lazy[i]
+        for cfg, det in todo:
+            if i >= len(cfg.cases) or cfg.method in errors:
+                continue
+            c0 = time.process_time()
+            try:
+                parts[cfg.method].append(det._fit_part(rec))
+            except (ValueError, NotImplementedError) as exc:
+                errors[cfg.method] = f"{type(exc).__name__}: {exc}"
+            cpu[cfg.method] += time.process_time() - c0
+    for cfg, det in todo:
+        c0 = cfg.cases[0]
+        base = {"method": cfg.method, "system": c0.system, "load": c0.load,
+                "excitation": c0.excitation}
+        path = Path(cfg.path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        err = errors.get(cfg.method)
+        if err is None:
+            t0 = time.process_time()
+            try:
+                det._fit_from_parts(parts[cfg.method])
+            except ValueError as exc:
+                err = f"{type(exc).__name__}: {exc}"
+            cpu[cfg.method] += time.process_time() - t0
+        if err is not None:
+            joblib.dump({"error": err, "cpu_s": cpu[cfg.method]}, path)
+            rows.append({**base, "error": err, "cpu_s": cpu[cfg.method]})
+            continue
+        tmp = path.with_suffix(".tmp")
+        joblib.dump(det, tmp)
+        tmp.replace(path)
+        rows.append({**base, "error": None, "cpu_s": cpu[cfg.method], **_basis(det)})
+    return rows
 
 
 def _simulate(case):
@@ -321,8 +414,21 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
             k = _key([V5_VERSION, fp, [c.seed for c in chunk], [f[1] for f in fits],
                       [f[2] for f in fits], simulator_has_machines(key[0])])
             chunk_cfgs.append(ChunkConfig(chunk, tuple(fits), str(work / "shards" / f"{k}.parquet")))
+    # methods using the base class's fit share one read of each calibration run per group;
+    # the others (own fit, feature-level state) read the runs themselves
+    from leakdiag.bench.registry import make_detector
+
+    shared: dict[tuple, list] = {}
+    alone = []
+    for cfg in fit_cfgs:
+        c0 = cfg.cases[0]
+        if shares_fit(make_detector(cfg.method, c0.system, cfg.alarm)):
+            shared.setdefault((c0.system, c0.load, c0.excitation), []).append(cfg)
+        else:
+            alone.append(cfg)
     t0 = time.time()
-    fit_res = run_cases(fit_method, fit_cfgs, scheduler=scheduler, n_workers=n_workers,
+    tasks = [("alone", c) for c in alone] + [("shared", tuple(v)) for v in shared.values()]
+    fit_res = run_cases(_fit_task, tasks, scheduler=scheduler, n_workers=n_workers,
                         desc="fit", progress=progress)
     t_fit = time.time() - t0
     t0 = time.time()
@@ -331,7 +437,7 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
     t_score = time.time() - t0
     shards = [pd.read_parquet(c.path) for c in chunk_cfgs if Path(c.path).is_file()]
     runs = pd.concat([s for s in shards if len(s)], ignore_index=True) if shards else pd.DataFrame()
-    fits = pd.DataFrame([r.result for r in fit_res])
+    fits = pd.DataFrame([row for r in fit_res for row in r.result])
     settings = {"suite_version": V5_VERSION, "methods": list(methods),
                 "false_alarm_per_run": false_alarm_per_run, "onset_method": onset_method,
                 "reduced_budget": {m: list(v) for m, v in REDUCED_BUDGET.items() if m in methods},

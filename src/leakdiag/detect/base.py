@@ -305,11 +305,23 @@ class Detector(BaseEstimator):
         recs = _as_recordings(recordings)
         a = self._alarm()
         self._fit_features(recs)
-        series, spans = [], []
-        for r in recs:
-            t, start, v, fs = self._series(r)
-            series.append((t, v, r.start_time + a.burn_in_s, fs.name))
-            spans.append(max(0.0, r.duration - a.burn_in_s))
+        parts = [self._fit_part(r) for r in recs]
+        return self._fit_from_parts(parts, reference_maxima)
+
+    def _fit_part(self, recording) -> tuple:
+        """What :meth:`fit` needs from one healthy recording (lets a caller read it only once
+        for several detectors): ``(time, values, t0, feature name, monitored span)``."""
+        a = self._alarm()
+        t, _, v, fs = self._series(recording)
+        return (t, v, recording.start_time + a.burn_in_s, fs.name,
+                max(0.0, recording.duration - a.burn_in_s))
+
+    def _fit_from_parts(self, parts: list, reference_maxima=None) -> "Detector":
+        """The rest of :meth:`fit`, from :meth:`_fit_part` of every healthy recording."""
+        a = self._alarm()
+        series = [p[:4] for p in parts]
+        spans = [p[4] for p in parts]
+        recs = parts
         values = np.concatenate([s[1] for s in series])
         values = values[np.isfinite(values)]
         if len(values) < 2:
