@@ -250,3 +250,13 @@ def test_v5_alarm_maps_per_run_target_exactly():
     a = v5_alarm(0.01, 60.0)
     assert a.segment_s == 55.0
     assert a.false_alarms_per_hour * a.segment_s / 3600.0 == pytest.approx(0.01, rel=1e-14)
+
+
+def test_v5_shared_fit_only_for_detectors_with_the_base_fit():
+    from leakdiag.bench.v5_run import shares_fit
+
+    a = Alarm()
+    assert shares_fit(make_detector("acf-p1", "vca", a)) and shares_fit(make_detector("ekf", "vca", a))
+    assert not shares_fit(make_detector("combined", "vca", a))  # covariance pass of its own
+    if "flow-balance" in METHODS:
+        assert not shares_fit(make_detector("flow-balance", "vca", a))  # its own fit
