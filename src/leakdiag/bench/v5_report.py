@@ -18,7 +18,8 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
                      n_test_leak: int | None = None, onset_method: str = "binseg",
                      scheduler: str = "serial", n_workers: int | None = None,
                      cache_dir: str | None = None, work_dir: str | None = None,
-                     progress: bool = True, command: str = "leakdiag benchmark --suite v5"):
+                     progress: bool = True, command: str = "leakdiag benchmark --suite v5",
+                     unit_fit: int = 0):
     """Run benchmark v5 and write its report.
 
     Parameters
@@ -43,6 +44,8 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
         Resumable state (fits, shards); default ``<cache>/bench-v5``.
     command : str
         Command line recorded in the report.
+    unit_fit : int, default 0
+        Per-unit mode with this many own healthy runs per unit (0: fleet mode).
 
     Returns
     -------
@@ -93,7 +96,8 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     t0 = time.time()
     runs, fits, settings = run_v5(suites, methods, work, false_alarm_per_run=far,
                                   onset_method=onset_method, scheduler=scheduler,
-                                  n_workers=n_workers, cache_dir=cache_dir, progress=progress)
+                                  n_workers=n_workers, cache_dir=cache_dir, progress=progress,
+                                  unit_fit=int(unit_fit))
     settings.update(command=command, quick=quick, wall_total_s=time.time() - t0,
                     suites={k: _jsonable(asdict(v)) for k, v in suites.items()},
                     scheduler=scheduler, n_workers=n_workers)
@@ -214,9 +218,14 @@ def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings) -> d
                          ["rig", "load", "input", "method", "n healthy", "FA", "FA low",
                           "FA high", "MDL 5 s", "MDL 10 s", "rate low at MDL 10 s",
                           "MDL 30 s", "onset error median (s)", "goal met"]), ""]
+    if settings.get("unit_fit"):
+        md += [f"Per-unit mode: every unit fitted on {settings['unit_fit']} own healthy runs, "
+               "threshold from the reference maxima of the training units (table below: "
+               "reference maxima per method and group).", ""]
     if fits is not None and len(fits):
         cols = [c for c in ("system", "load", "method", "n", "k", "threshold",
-                            "bound_per_segment", "conditional_upper_95", "error") if c in fits]
+                            "bound_per_segment", "conditional_upper_95", "n_reference",
+                            "n_units", "error") if c in fits]
         md += ["## Thresholds (conformal basis per method and group)", "",
                _md_table(fits, cols, cols), ""]
     md += [f"![{f}]({f})" for f in figs]

@@ -350,7 +350,7 @@ def score_chunk(config: ChunkConfig) -> int:
 
 def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_method: str = "binseg",
            scheduler: str = "serial", n_workers: int | None = None, cache_dir: str | None = None,
-           progress: bool = True) -> tuple[Any, Any, dict]:
+           progress: bool = True, unit_fit: int = 0) -> tuple[Any, Any, dict]:
     """All three stages; returns ``(runs, fits, settings)``.
 
     Parameters
@@ -367,6 +367,10 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
         Onset estimator.
     scheduler, n_workers, cache_dir, progress
         As :func:`leakdiag.bench.run.run_suite`.
+    unit_fit : int, default 0
+        0: fleet mode (each method fitted once on the group's training units). N > 0: per-unit
+        mode (:mod:`leakdiag.bench.v5_unit`): each unit fitted on N own healthy runs, threshold
+        from reference maxima of the training units.
 
     Returns
     -------
@@ -390,10 +394,18 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
     for c in cases:
         groups.setdefault((c.system, c.load, c.excitation), []).append(c)
     cal_all = [c for c in cases if c.role == "cal"]
+    if unit_fit:
+        from leakdiag.bench.v5_unit import own_cases
+
+        cal_all = cal_all + [o for c in cal_all
+                             for o in own_cases(c, unit_fit, suites[c.system].nuisance)]
     t0 = time.time()
     run_cases(simulate_case, [SimConfig(c, cache_dir) for c in cal_all], scheduler=scheduler,
               n_workers=n_workers, desc="simulate calibration runs", progress=progress)
     t_sim = time.time() - t0
+    if unit_fit:
+        return _run_units(suites, methods, work, groups, fp, unit_fit, false_alarm_per_run,
+                          onset_method, scheduler, n_workers, cache_dir, progress, t_sim)
     fit_cfgs, chunk_cfgs = [], []
     for key, group in groups.items():
         s = suites[key[0]]
@@ -445,4 +457,56 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
                 "code_fingerprint": fp, "wall_s": {"simulate_calibration": t_sim, "fit": t_fit,
                                                    "score": t_score},
                 "n_fit_tasks": len(fit_cfgs), "n_chunks": len(chunk_cfgs)}
+    return runs, fits, settings
+
+
+def _run_units(suites, methods, work, groups, fp, n_own, far, onset_method, scheduler, n_workers,
+               cache_dir, progress, t_sim):
+    """Per-unit mode of :func:`run_v5` (stages 2 and 3 of :mod:`leakdiag.bench.v5_unit`)."""
+    import pandas as pd
+
+    from leakdiag.bench.run import simulator_has_machines
+    from leakdiag.bench.v5_suite import V5_VERSION
+    from leakdiag.bench.v5_unit import (UnitChunkConfig, UnitRefConfig, reference_group,
+                                        score_chunk_unit)
+    from leakdiag.studies.executor import run_cases
+
+    ref_cfgs, chunk_cfgs = [], []
+    for key, group in groups.items():
+        s = suites[key[0]]
+        alarm = v5_alarm(far, s.duration_s, onset_method)
+        cal = tuple(c for c in group if c.role == "cal")
+        n_units = tuple(REDUCED_BUDGET[m][0] if m in REDUCED_BUDGET else len(cal)
+                        for m in methods)
+        caps = tuple(REDUCED_BUDGET[m][1:] if m in REDUCED_BUDGET else None for m in methods)
+        k = _key([V5_VERSION, fp, "unit", n_own, list(methods), n_units, asdict(alarm),
+                  [c.seed for c in cal], simulator_has_machines(key[0])])
+        ref_path = str(work / "refs" / f"{k}.joblib")
+        ref_cfgs.append(UnitRefConfig(cal, tuple(methods), n_units, alarm, n_own, s.nuisance,
+                                      cache_dir, ref_path))
+        test = [c for c in group if c.role != "cal"]
+        for i in range(0, len(test), s.chunk):
+            chunk = tuple(test[i: i + s.chunk])
+            kc = _key([k, [c.seed for c in chunk], caps])
+            chunk_cfgs.append(UnitChunkConfig(chunk, tuple(methods), caps, alarm, n_own,
+                                              s.nuisance, ref_path,
+                                              str(work / "unit-shards" / f"{kc}.parquet")))
+    t0 = time.time()
+    ref_res = run_cases(reference_group, ref_cfgs, scheduler=scheduler, n_workers=n_workers,
+                        desc="reference maxima", progress=progress)
+    t_fit = time.time() - t0
+    t0 = time.time()
+    run_cases(score_chunk_unit, chunk_cfgs, scheduler=scheduler, n_workers=n_workers,
+              desc="score held-out units", progress=progress)
+    t_score = time.time() - t0
+    shards = [pd.read_parquet(c.path) for c in chunk_cfgs if Path(c.path).is_file()]
+    runs = pd.concat([x for x in shards if len(x)], ignore_index=True) if shards else pd.DataFrame()
+    fits = pd.DataFrame([row for r in ref_res for row in r.result])
+    settings = {"suite_version": V5_VERSION, "methods": list(methods), "unit_fit": n_own,
+                "false_alarm_per_run": far, "onset_method": onset_method,
+                "reduced_budget": {m: list(v) for m, v in REDUCED_BUDGET.items() if m in methods},
+                "virtual_machines": {s: simulator_has_machines(s) for s in suites},
+                "code_fingerprint": fp, "wall_s": {"simulate_calibration": t_sim, "fit": t_fit,
+                                                   "score": t_score},
+                "n_fit_tasks": len(ref_cfgs), "n_chunks": len(chunk_cfgs)}
     return runs, fits, settings

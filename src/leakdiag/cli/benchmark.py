@@ -38,6 +38,9 @@ def _command_line() -> str:
               help="v5: held-out healthy runs per group.")
 @click.option("--n-leak", "n_test_leak", default=None, type=click.IntRange(min=1),
               help="v5: leaking runs per size and group.")
+@click.option("--unit-fit", default=0, show_default=True, type=click.IntRange(min=0),
+              help="v5: fit every unit on N of its own healthy runs, threshold from the training "
+                   "units' reference maxima (0: one fit on the training units for all).")
 @click.option("--max-test-runs", default=None, type=click.IntRange(min=1),
               help="v4 only: at most N held-out healthy and leaking runs per size per group.")
 @click.option("--false-alarm-rate", "far", default=None, type=click.FloatRange(0, 1, min_open=True,
@@ -56,7 +59,7 @@ def _command_line() -> str:
 @click.option("--list-methods", is_flag=True, help="Print the registered methods and exit.")
 @click.option("--no-progress", is_flag=True, help="No progress bars.")
 def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal, n_test_healthy,
-              n_test_leak, max_test_runs, far, onset_method, scheduler, n_workers, cache_dir,
+              n_test_leak, unit_fit, max_test_runs, far, onset_method, scheduler, n_workers, cache_dir,
               work_dir, list_methods, no_progress):
     """Run the detection benchmark and write its report to --out."""
     from leakdiag.bench.registry import METHODS
@@ -80,7 +83,8 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
                                    n_test_healthy=n_test_healthy, n_test_leak=n_test_leak,
                                    onset_method=onset_method, scheduler=scheduler,
                                    n_workers=n_workers, cache_dir=cache_dir, work_dir=work_dir,
-                                   progress=not no_progress, command=command)
+                                   progress=not no_progress, command=command,
+                                   unit_fit=unit_fit)
         except ValueError as exc:
             raise click.UsageError(str(exc)) from None
         if res["summary"] is not None:
