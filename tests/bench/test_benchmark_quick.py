@@ -72,3 +72,19 @@ def test_large_vca_leak_found_within_ten_seconds_near_its_onset(quick):
     row = det[(det.system == "vca") & (det.method == "ccf-p1p2")].iloc[0]
     assert row.leak_lpm == 0.5 and row.detection_rate_10s >= 0.75
     assert row.onset_error_median_s < 3.0
+
+
+def test_per_unit_mode_pools_reference_maxima(tmp_path):
+    from leakdiag.bench.v5_report import run_benchmark_v5
+
+    res = run_benchmark_v5(tmp_path / "out", quick=True, systems=["vca"],
+                           methods=["acf-p1", "combined"], unit_fit=2,
+                           cache_dir=str(tmp_path / "cache"), progress=False)
+    fits, runs = res["fits"], res["runs"]
+    # 20 training units, each fitted on its 2 own runs: 20 out-of-sample reference maxima
+    assert (fits.n_reference == 20).all() and fits.error.isna().all()
+    ok = runs[runs.role != "error"]
+    assert set(ok.method) == {"acf-p1", "combined"} and len(ok) == 2 * (20 + 4)
+    # each held-out unit: 2 own (leave-one-run-out) maxima + 20 reference, k = floor(0.05 * 23)
+    assert (ok.threshold_n == 22).all() and (ok.threshold_k == 1).all()
+    assert res["settings"]["unit_fit"] == 2
