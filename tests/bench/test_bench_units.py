@@ -162,3 +162,101 @@ def test_summarise_reports_median_cpu_per_hour_of_all_held_out_runs():
     assert res.cpu_s_per_hour.tolist() == [3.0, 3.0]  # median of 1, 9, 2, 3, 4
     summ = minimum_detectable(res)
     assert summ.cpu_s_per_hour.iloc[0] == 3.0 and summ.auc_max_leak.iloc[0] == 1.0
+
+
+# ---------------------------------------------------------------- benchmark v5
+def test_v5_suite_meets_the_issue_sizes_and_separates_units():
+    from leakdiag.bench.v5_suite import V5_SUITES, build_v5_suite
+
+    for system, lo, hi in (("vca", 0.002, 0.5), ("eha", 0.02, 1.63)):
+        s = V5_SUITES[system]
+        assert s.leak_lpm[0] == lo and s.leak_lpm[-1] == hi
+        ratios = np.diff(np.log10(s.leak_lpm))
+        assert (ratios > 0.2).all() and (ratios < 0.45).all()  # log-spaced (1-2-5 series)
+        assert s.n_cal >= 300 and s.n_test_healthy >= 1000 and s.n_test_leak >= 50
+        assert s.loads == ("none", "spring")
+    cases = build_v5_suite(V5_SUITES)
+    assert len({c.seed for c in cases}) == len(cases)
+    train = {(c.system, c.nuisance["machine"]) for c in cases if c.role == "cal"}
+    test = {(c.system, c.nuisance["machine"]) for c in cases if c.role != "cal"}
+    assert not train & test  # test units never seen in fitting
+    n_vca = 2 * (300 + 1000 + 8 * 50)
+    assert sum(c.system == "vca" for c in cases) == n_vca
+    leak = [c for c in cases if c.role == "test_leak"]
+    assert all(20.0 <= c.onset_s <= 28.0 and c.duration_s - c.onset_s >= 30.0 for c in leak)
+
+
+def _leak_runs(times, onset=20.0, size=0.1, load="none"):
+    return pd.DataFrame({"method": "m", "system": "vca", "load": load, "excitation": "operating",
+                         "role": "test_leak", "leak_lpm": size, "onset_true_s": onset,
+                         "alarm": [t is not None for t in times], "alarm_time_s": times,
+                         "onset_est_s": [None if t is None else onset + 1.0 for t in times]})
+
+
+def test_v5_early_alarm_is_a_false_alarm_not_a_detection():
+    from leakdiag.bench.v5_scoring import detection_table
+
+    # onset 20 s: alarms at 19.9 (early), 20.0, 25, 29.99 (within 10 s), 35 (within 30 s only)
+    det = detection_table(_leak_runs([19.9, 20.0, 25.0, 29.99, 35.0, None])).iloc[0]
+    assert det.early_alarms == 1 and det.early_alarm_rate == pytest.approx(1 / 6)
+    assert det.detected_5s == 2 and det.detected_10s == 3 and det.detected_30s == 4
+    assert det.onset_error_median_s == pytest.approx(1.0)
+    assert det.delay_median_s == pytest.approx(5.0)
+    from leakdiag.detect.rates import clopper_pearson
+    assert (det.det_low_10s, det.det_high_10s) == pytest.approx(clopper_pearson(3, 6))
+
+
+def test_v5_minimum_detectable_per_load_every_larger_size_too():
+    from leakdiag.bench.v5_scoring import detection_table, minimum_detectable_v5
+
+    def runs(load, rates):
+        parts = []
+        for q, r in rates.items():
+            hits = int(round(10 * r))
+            parts.append(_leak_runs([21.0] * hits + [None] * (10 - hits), size=q, load=load))
+        return pd.concat(parts)
+
+    # no load: 0.01 at 90 % but 0.02 at 80 % -> MDL 0.05; spring: 0.02 and above -> 0.02
+    r = pd.concat([runs("none", {0.01: 0.9, 0.02: 0.8, 0.05: 0.9, 0.1: 1.0}),
+                   runs("spring", {0.01: 0.5, 0.02: 0.9, 0.05: 1.0, 0.1: 1.0})])
+    mdl = minimum_detectable_v5(detection_table(r)).set_index("load")
+    assert mdl.loc["none", "min_detectable_lpm"] == 0.05
+    assert mdl.loc["spring", "min_detectable_lpm"] == 0.02  # never pooled with "none"
+    assert mdl.loc["none", "mdl_det_low"] == pytest.approx(clopper_pearson_low(9, 10))
+    none_never = runs("none", {0.01: 1.0, 0.1: 0.8})
+    assert np.isnan(minimum_detectable_v5(detection_table(none_never)).min_detectable_lpm[0])
+
+
+def clopper_pearson_low(k, n):
+    from leakdiag.detect.rates import clopper_pearson
+
+    return clopper_pearson(k, n)[0]
+
+
+def test_v5_false_alarm_table_counts_healthy_runs_with_interval():
+    from leakdiag.bench.v5_scoring import false_alarm_table
+
+    runs = pd.DataFrame({"method": "m", "system": "eha", "load": "spring",
+                         "excitation": "operating", "role": ["test_healthy"] * 300 + ["test_leak"],
+                         "alarm": [True] * 3 + [False] * 297 + [True]})
+    r = false_alarm_table(runs).iloc[0]
+    assert (r.n_healthy, r.false_alarms) == (300, 3) and r.false_alarm_rate == 0.01
+    assert r.far_high == pytest.approx(0.02894, abs=1e-4)  # 95 % CP upper bound of 3/300
+
+
+def test_v5_alarm_maps_per_run_target_exactly():
+    from leakdiag.bench.v5_run import v5_alarm
+
+    a = v5_alarm(0.01, 60.0)
+    assert a.segment_s == 55.0
+    assert a.false_alarms_per_hour * a.segment_s / 3600.0 == pytest.approx(0.01, rel=1e-14)
+
+
+def test_v5_shared_fit_only_for_detectors_with_the_base_fit():
+    from leakdiag.bench.v5_run import shares_fit
+
+    a = Alarm()
+    assert shares_fit(make_detector("acf-p1", "vca", a)) and shares_fit(make_detector("ekf", "vca", a))
+    assert not shares_fit(make_detector("combined", "vca", a))  # covariance pass of its own
+    if "flow-balance" in METHODS:
+        assert not shares_fit(make_detector("flow-balance", "vca", a))  # its own fit

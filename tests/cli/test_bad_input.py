@@ -148,9 +148,10 @@ def test_monitor_nan_in_later_chunk_names_file_and_sample(files, capsys):
     ("short", ["short.csv", "shorter than one window"]),
 ])
 def test_detect_bad_file(files, capsys, case, needles):
+    # one 2-s healthy file supports a false-alarm probability of 1/2 per 2 s at best (conformal
+    # threshold): ask for that (1000/h), so that the healthy fit succeeds and the bad file is judged
     code = main(["detect", str(files[case]), "--healthy", str(files["good"]), "--burn-in", "0",
-                 "--system", "vca",
-                 "--methods", "acf-p1"])
+                 "--system", "vca", "--methods", "acf-p1", "--false-alarm-rate", "0.5"])
     _one_error_line(capsys, code, *needles)
 
 

@@ -1,5 +1,7 @@
 """Detector protocol: sklearn conventions, threshold calibration, planted onsets, verdicts."""
 
+import math
+
 import numpy as np
 import pytest
 from sklearn.base import clone
@@ -56,18 +58,81 @@ def test_alarm_validation(bad, match):
         Alarm(**bad)
 
 
-def test_false_alarm_rate_on_held_out_healthy_data(fitted):
-    # 1 h of healthy data in 6 runs cannot show the 1/h target directly: the threshold comes
-    # from the Gumbel fit to the 6 per-run CUSUM maxima. On 20 h of held-out white noise the
-    # achieved rate should be near the target. Tolerance: for 20 expected alarms, [5, 45] is far
-    # beyond 3 sigma of Poisson error (6 maxima make the fitted quantile itself uncertain), but
-    # still catches an order-of-magnitude miscalibration.
-    assert fitted.alarm_threshold_.method == "run-maxima"
-    rng = np.random.default_rng(1234)
-    n_windows = int(20 * 3600 * RATE / WINDOW)
-    z = rng.standard_normal(n_windows) * SIGMA / fitted.std_ + (0 - fitted.mean_) / fitted.std_
-    alarms = cusum_alarm_count(z, fitted.threshold_, 0.5, "both")
-    assert 5 <= alarms <= 45
+def test_threshold_is_the_conformal_order_statistic(fitted):
+    # 6 runs of 600 s, 1 alarm/h -> alpha = 1/6 per 600-s segment, k = floor(7/6) = 1: the
+    # threshold is the largest healthy CUSUM maximum, bound 1/7 per segment (6/7 per hour)
+    b = fitted.threshold_basis_
+    assert b.method == "conformal" and fitted.alarm_threshold_ is b
+    assert (b.n, b.k, b.segment_s) == (6, 1, 600.0)
+    assert b.bound_per_segment == pytest.approx(1 / 7) and b.bound_per_hour == pytest.approx(6 / 7)
+    assert fitted.threshold_ == fitted.healthy_maxima_.max()
+    # the maxima are those of the CUSUM of each healthy run standardised with the mean and std
+    # of the OTHER runs (leave one run out: out-of-sample maxima), recomputed by hand
+    wm = [synthetic(600.0, s)["p1"].reshape(-1, WINDOW).mean(axis=1) for s in range(6)]
+    others = np.concatenate([w for i, w in enumerate(wm) if i != 3])
+    z = (wm[3] - others.mean()) / others.std(ddof=1)
+    assert fitted.healthy_maxima_[3] == pytest.approx(np.maximum(*cusum(z, 0.5, "both")).max())
+
+
+def test_false_alarm_rate_on_held_out_healthy_runs_inside_interval():
+    from scipy.stats import beta
+
+    from leakdiag.detect.rates import clopper_pearson
+
+    # 99 healthy runs of 60 s, 5 % per run (3 per hour): k = 5, bound 5/100. The achieved rate
+    # on 1500 fresh runs must be compatible with this calibration's Beta(5, 95) rate: its
+    # Clopper-Pearson interval overlaps [2.5 %, 97.5 %] quantiles of that distribution.
+    alarm = Alarm(false_alarms_per_hour=3.0, burn_in_s=0.0)
+    det = WindowMeanDetector(alarm=alarm).fit([synthetic(60.0, 1000 + s) for s in range(99)])
+    b = det.threshold_basis_
+    assert (b.n, b.k) == (99, 5) and b.bound_per_segment == pytest.approx(0.05)
+    alarms = sum(det.predict(synthetic(60.0, 5000 + s)).leak for s in range(1500))
+    lo, hi = clopper_pearson(alarms, 1500)
+    assert lo <= beta.ppf(0.975, 5, 95) and hi >= beta.ppf(0.025, 5, 95)
+    assert lo <= b.conditional_upper_95
+
+
+def test_too_little_healthy_data_is_refused_or_flagged():
+    from leakdiag.detect.threshold import (InsufficientHealthyDataError,
+                                           InsufficientHealthyDataWarning)
+
+    healthy = [synthetic(600.0, s) for s in range(6)]
+    # 0.1 alarm/h over 600 s segments = 1/60 per segment: needs 59 maxima, 6 given
+    with pytest.raises(InsufficientHealthyDataError, match="needs at least 59 maxima"):
+        WindowMeanDetector(alarm=Alarm(false_alarms_per_hour=0.1, burn_in_s=0.0)).fit(healthy)
+    with pytest.warns(InsufficientHealthyDataWarning):
+        det = WindowMeanDetector(alarm=Alarm(false_alarms_per_hour=0.1, burn_in_s=0.0,
+                                             on_insufficient="warn")).fit(healthy)
+    assert not det.threshold_basis_.supported
+    assert det.threshold_basis_.method == "conformal-unsupported"
+    # shorter segments give more maxima: 60 s segments -> 60 maxima, 1/600 per segment still
+    # needs 599
+    with pytest.raises(InsufficientHealthyDataError, match="599"):
+        WindowMeanDetector(alarm=Alarm(false_alarms_per_hour=0.1, burn_in_s=0.0,
+                                       segment_s=60.0)).fit(healthy)
+
+
+def test_reference_maxima_from_other_units_are_pooled():
+    from leakdiag.detect.threshold import ReferenceMaxima
+
+    alarm = Alarm(false_alarms_per_hour=0.5, burn_in_s=0.0, segment_s=60.0)
+    # 30 "reference units": each fitted on its own run, maxima out of sample on 4 others
+    maxima = []
+    for u in range(30):
+        d = WindowMeanDetector(alarm=Alarm(false_alarms_per_hour=30.0, burn_in_s=0.0,
+                                           segment_s=60.0)).fit([synthetic(600.0, 7000 + u)])
+        maxima.append(d.segment_maxima([synthetic(60.0, 8000 + 10 * u + j) for j in range(4)]))
+    ref = ReferenceMaxima(np.concatenate(maxima), 60.0, 0.5, "both", 0.0, "test units", 30)
+    own = [synthetic(600.0, 9000)]  # 10 own maxima: alone they support 1/11 per segment at best
+    with pytest.raises(ValueError, match="needs at least"):
+        WindowMeanDetector(alarm=alarm).fit(own)
+    det = WindowMeanDetector(alarm=alarm).fit(own, reference_maxima=ref)
+    b = det.threshold_basis_
+    assert (b.n_own, b.n_reference, b.n) == (10, 120, 130)
+    assert b.k == math.floor(0.5 / 60 * 131) == 1
+    with pytest.raises(ValueError, match="burn_in_s"):
+        WindowMeanDetector(alarm=Alarm(false_alarms_per_hour=0.5, burn_in_s=1.0, segment_s=60.0)
+                           ).fit(own, reference_maxima=ref)
 
 
 def test_planted_step_found_by_all_onset_methods(fitted):
@@ -79,15 +144,17 @@ def test_planted_step_found_by_all_onset_methods(fitted):
         assert isinstance(v, Verdict) and v.leak
         assert abs(v.onset_s - 150.0) <= 1.5, (method, v.onset_s)  # within 3 windows
         assert 150.0 <= v.alarm_time_s <= 155.0  # the CUSUM needs a few windows after the onset
-        assert v.confidence > 0.99
+        assert v.confidence == pytest.approx(1 / 7)  # p-value floor 1/(n+1), n = 6
         assert v.shift == pytest.approx(0.5 / fitted.std_, rel=0.2)
 
 
 def test_healthy_recording_gives_no_leak_and_low_confidence(fitted):
     v = fitted.predict(synthetic(300.0, 77))
     assert not v.leak and v.onset_s is None and v.alarm_time_s is None
-    assert v.score_max < v.threshold
-    assert 0.0 <= v.confidence < 0.9
+    assert v.score_max <= v.threshold
+    # p-value: (1 + #{healthy maxima >= score}) / 7, at least 2/7 without an alarm
+    ge = int((fitted.healthy_maxima_ >= v.score_max).sum())
+    assert v.confidence == pytest.approx((1 + ge) / 7) and v.confidence >= 2 / 7
 
 
 def test_score_is_cusum_of_standardised_feature(fitted):

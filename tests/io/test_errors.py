@@ -68,8 +68,8 @@ def test_missing_column_lists_available(tmp_path):
 def test_no_standard_column_without_map(tmp_path):
     path = _write(tmp_path, "t,PA,PB\n0,1,2\n1,2,3\n")
     with pytest.raises(RecordingError, match=r"no column is named like a channel \(p1, p2, x, u, "
-                                             r"x_ref, leak_flow\); available columns: \['t', 'PA', "
-                                             r"'PB'\]; give a column map"):
+                                             r"x_ref, leak_flow, speed\); available columns: "
+                                             r"\['t', 'PA', 'PB'\]; give a column map"):
         read_recording(path)
 
 

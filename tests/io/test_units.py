@@ -131,3 +131,15 @@ def test_to_si_accepts_array_likes(make):
     values, unit = to_si(arr, "kPa", channel="p1")
     assert unit == "Pa" and values.dtype == np.float64
     np.testing.assert_array_equal(values, np.asarray(arr, dtype=np.float64) * 1e3)
+
+
+def test_speed_channel_in_rad_per_s_and_rpm():
+    # 1200 rpm = 1200 * 2 pi / 60 = 40 pi rad/s (the EHA pump peak at 3 V, Sec. 4.6)
+    values, unit = to_si([1200.0, -60.0], "rpm", channel="speed")
+    assert unit == "rad/s"
+    np.testing.assert_allclose(values, [40 * np.pi, -2 * np.pi], rtol=1e-15)
+    assert to_si([3.0], "rad/s", channel="speed") == (pytest.approx([3.0]), "rad/s")
+    assert to_si([3.0], None, channel="speed")[1] == "rad/s"
+    with pytest.raises(ValueError, match="unit 'rad' measures angle, but the channel is a "
+                                         "angular_speed .*rad/s, rpm"):
+        to_si([1.0], "rad", channel="speed")

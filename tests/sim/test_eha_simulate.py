@@ -76,8 +76,9 @@ def test_sensors_quantise_and_true_states_without():
 
 def test_recording_contract():
     rec = ld.sim.simulate_eha(duration=3.0, onset=1.5, leak_coefficient=8e-8, seed=1)
-    assert rec.channel_names == ["p1", "p2", "x", "u", "leak_flow", "pa", "pb"]
+    assert rec.channel_names == ["p1", "p2", "x", "u", "leak_flow", "pa", "pb", "speed"]
     assert rec.units["pa"] == rec.units["p1"] == "Pa" and rec.units["leak_flow"] == "m^3/s"
+    assert rec.units["speed"] == "rad/s"
     assert rec.sample_rate == 1000.0 and rec.n_samples == 3000
     m = rec.meta
     for key in ("leak_lpm", "leak_lpm_achieved", "onset", "seed", "params", "leakdiag_version"):
@@ -171,3 +172,52 @@ def test_closed_loop_keeps_stroke_and_raises_pressure_swings_with_leak():
     assert np.std(rec["x"][after]) == pytest.approx(np.std(rec["x"][before]), rel=0.03)
     # ... hence larger chamber-pressure swings (open loop: smaller, see docs/models.md)
     assert np.std(rec["p1"][after]) > 1.1 * np.std(rec["p1"][before])
+
+
+# ------------------------------------------------------------------ motor speed channel
+QRAD = EHAParams().pump_displacement_m3_per_rev / (2 * np.pi)  # pump flow per rad, Eq. 3-6
+
+
+def test_speed_channel_is_the_motor_state_and_drives_the_piston_at_steady_state():
+    # 1 V held: the PI speed loop (Eq. 3-1, integral action) settles at K_w u = 41.888 rad/s
+    # (4000 rpm / 10 V); the pump flow q_b w / 2 pi (Eq. 3-6) moves the piston at
+    # 3.27e-5 / 633e-6 = 51.6 mm/s (pump leakage c_int dP ~ 1e-13 m^3/s: negligible)
+    fs, n = 1000.0, 2000
+    rec = simulate_eha(duration=2.0, leak_lpm=None, sensors=False,
+                       input_signal=np.full(n, 1.0))
+    w = rec["speed"]
+    steady = slice(1000, 2000)
+    np.testing.assert_allclose(w[steady], 4000 * 2 * np.pi / 60 / 10, rtol=1e-4)
+    v = np.gradient(rec["x"], 1 / fs)
+    np.testing.assert_allclose(EHAParams().piston_area_m2 * v[steady], QRAD * w[steady],
+                               rtol=2e-3)
+    assert w[0] == 0.0  # starts at rest
+
+
+def test_pump_volume_equals_piston_volume_over_a_half_cycle():
+    # open loop 3 sin 4t, no leak: between two reversals of the piston the pump's volume
+    # q_b/2pi * integral(w) fills the piston's swept volume A * dx (continuity, Eqs. 3-6,
+    # 3-16..3-19; compressibility returns to the same pressures a cycle later)
+    rec = simulate_eha(duration=6.0, leak_lpm=None, sensors=False)
+    x, w, fs = rec["x"], rec["speed"], rec.sample_rate
+    i0, i1 = int(np.argmax(x[3000:4000])) + 3000, int(np.argmin(x[3000:4000])) + 3000
+    lo, hi = sorted((i0, i1))
+    pump = QRAD * np.trapezoid(w[lo:hi + 1], dx=1 / fs)
+    piston = EHAParams().piston_area_m2 * (x[hi] - x[lo])
+    assert pump == pytest.approx(piston, rel=5e-3)
+
+
+def test_measured_speed_is_the_encoder_count_difference():
+    true = simulate_eha(leak_lpm=None, sensors=False, duration=2.0)
+    meas = simulate_eha(leak_lpm=None, sensors=True, duration=2.0)
+    quantum = 2 * np.pi / 20_000 * 1000.0  # 20,000 counts/rev (Sec. 3.2) at 1 kHz: 0.314 rad/s
+    steps = meas["speed"] / quantum
+    np.testing.assert_allclose(steps, np.round(steps), atol=1e-9)
+    # the summed measured speed is the counted angle: within one count of the true angle
+    theta_true = np.trapezoid(true["speed"], dx=1e-3)
+    assert abs(meas["speed"].sum() / 1000.0 - theta_true) <= 2 * np.pi / 20_000
+    # backward difference: it follows the speed half a sample late, within one quantum
+    mid = 0.5 * (true["speed"][1:] + true["speed"][:-1])
+    assert np.max(np.abs(meas["speed"][1:] - mid)) <= quantum + 1e-9
+    assert meas.meta["motor_encoder_counts_per_rev"] == 20_000
+    assert true.meta["motor_encoder_counts_per_rev"] is None

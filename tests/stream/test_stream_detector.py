@@ -47,7 +47,11 @@ def test_fitted_feature_detector_streams_like_batch():
     from leakdiag.detect.methods import FeatureDetector
 
     healthy = [Recording({"p1": _ar(60000, 0.9, s)}, 1000.0) for s in range(3)]
-    det = FeatureDetector("autocorrelation", ("p1",), lag=1, window=200, overlap=5).fit(healthy)
+    from leakdiag.detect.base import Alarm
+
+    # 3 healthy runs of 55 s monitored: 20/h (0.31 per run) is the smallest target they support
+    det = FeatureDetector("autocorrelation", ("p1",), lag=1, window=200, overlap=5,
+                          alarm=Alarm(false_alarms_per_hour=20.0)).fit(healthy)
     rec = Recording({"p1": np.r_[_ar(30000, 0.9, 10), _ar(30000, 0.5, 11)]}, 1000.0,
                     start_time=2.0)
     batch = det.score(rec)

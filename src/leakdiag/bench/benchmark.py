@@ -156,6 +156,9 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
     sr = run_suite(suites, methods, false_alarm_per_run=false_alarm_per_run, alarm=alarm,
                    scheduler=scheduler, n_workers=n_workers, cache_dir=cache_dir,
                    progress=progress)
+    if len(sr.runs) == 0 or (sr.runs.role == "error").all():
+        first = sr.runs.error.iloc[0] if len(sr.runs) else "no runs"
+        raise ValueError(f"no method could be fitted on any group; first reason: {first}")
     results = summarise(sr.runs[sr.runs.role != "error"], sr.rated_flow_lpm)
     summary = minimum_detectable(results, sr.rated_flow_lpm, false_alarm_per_run)
     by_cond = _by_condition(sr.runs, sr.rated_flow_lpm)

@@ -26,6 +26,8 @@ METHODS: dict[str, str] = {
     "fft-p1": "leakdiag.methods.registry:fft_p1",
     "emd-p1": "leakdiag.methods.registry:emd_p1",
     "ekf": "leakdiag.methods.registry:ekf",
+    # physics-based (issue 12)
+    "flow-balance": "leakdiag.bench.registry:_flow_balance",
 }
 
 #: Methods run when ``--methods`` is not given.
@@ -119,3 +121,10 @@ def _combined(system, alarm):
              _mlr_p1(system, None)]
     # the Mahalanobis distance only grows with a change
     return CombinedDetector(parts, alarm=replace(alarm, direction="up"))
+
+
+def _flow_balance(system, alarm):
+    from leakdiag.detect.flow_balance import FlowBalanceDetector
+
+    rate = alarm.false_alarms_per_hour if alarm is not None else 1.0
+    return FlowBalanceDetector(system=system, false_alarms_per_hour=rate)

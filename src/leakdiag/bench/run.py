@@ -11,13 +11,42 @@ Two stages, each a list of pure ``run_case(config)`` calls for
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 __all__ = ["SimConfig", "EvalConfig", "simulate_case", "evaluate_group", "simulator_kwargs",
-           "per_run_target_per_hour", "run_suite"]
+           "per_run_target_per_hour", "run_suite", "simulator_has_machines"]
+
+
+@functools.lru_cache(maxsize=None)
+def simulator_has_machines(system: str) -> bool:
+    """Whether ``leakdiag.sim.simulate_<system>`` takes ``machine=`` (virtual machines).
+
+    Parameters
+    ----------
+    system : {"vca", "eha"}
+        Rig.
+
+    Returns
+    -------
+    bool
+        False until the simulator has virtual machines; suite runs then record their machine
+        ids but simulate the nominal unit.
+
+    Examples
+    --------
+    >>> isinstance(simulator_has_machines("vca"), bool)
+    True
+    """
+    import inspect
+
+    import leakdiag.sim as sim
+
+    fn = getattr(sim, f"simulate_{system}", None)
+    return fn is not None and "machine" in inspect.signature(fn).parameters
 
 
 #: EHA stand-in for "another reference sequence": slow random variation (standard deviation,
@@ -110,6 +139,8 @@ def simulator_kwargs(case) -> dict:
             from leakdiag.sim.excitation import structured_excitation
 
             kw["reference"] = structured_excitation("vca")
+        if "machine" in nz and simulator_has_machines("vca"):
+            kw["machine"] = int(nz["machine"])
         return kw
     if case.system == "eha":
         from dataclasses import replace as _replace
@@ -132,6 +163,8 @@ def simulator_kwargs(case) -> dict:
             from leakdiag.sim.excitation import structured_excitation
 
             kw["input_signal"] = structured_excitation("eha")
+        if "machine" in nz and simulator_has_machines("eha"):
+            kw["machine"] = int(nz["machine"])
         return kw
     raise ValueError(f"no simulator mapping for system={case.system!r}")
 

@@ -1,28 +1,52 @@
-"""``leakdiag benchmark``: the detection benchmark (suite, scores, HTML report)."""
+"""``leakdiag benchmark``: the detection benchmark (suite v5 by default; v4 on request)."""
 
 from __future__ import annotations
-
-import sys
 
 import click
 
 __all__ = ["benchmark"]
 
 
+def _command_line() -> str:
+    """The command as given (options that differ from their defaults), for the report."""
+    ctx = click.get_current_context()
+    parts = ["leakdiag", ctx.info_name or "benchmark"]
+    for p in ctx.command.params:
+        v = ctx.params.get(p.name)
+        if v is None or v is False or v == p.default:
+            continue
+        flag = max(p.opts, key=len)
+        parts += [flag] if v is True else [flag, str(v)]
+    return " ".join(parts)
+
+
 @click.command("benchmark")
-@click.option("--out", "out_dir", default=None, type=click.Path(file_okay=False),
-              help="Output folder (index.html, results.csv, summary.csv, ...).")
+@click.option("-o", "--out", "out_dir", default=None, type=click.Path(file_okay=False),
+              help="Output folder of the report.")
+@click.option("--suite", default="v5", show_default=True, type=click.Choice(["v5", "v4"]),
+              help="v5: training and test units disjoint, >= 300 calibration, 1000 held-out "
+                   "healthy and 50 leaking runs per size per load; v4: the former suite.")
 @click.option("--quick", is_flag=True, help="Small CI suite: short runs, few seeds, large leaks.")
-@click.option("--methods", default=None,
-              help="Comma-separated method names (default: all thesis methods + combined).")
+@click.option("--methods", default=None, help="Comma-separated method names (default: all).")
 @click.option("--systems", default=None, help="Comma-separated rigs (vca, eha).")
+@click.option("--loads", default=None, help="v5: comma-separated loads (none, spring).")
 @click.option("--excitations", default=None,
               help="Comma-separated excitation conditions (operating, structured).")
+@click.option("--n-cal", default=None, type=click.IntRange(min=1),
+              help="v5: calibration runs per group (mid-size variants; same seeds).")
+@click.option("--n-healthy", "n_test_healthy", default=None, type=click.IntRange(min=1),
+              help="v5: held-out healthy runs per group.")
+@click.option("--n-leak", "n_test_leak", default=None, type=click.IntRange(min=1),
+              help="v5: leaking runs per size and group.")
+@click.option("--unit-fit", default=0, show_default=True, type=click.IntRange(min=0),
+              help="v5: fit every unit on N of its own healthy runs, threshold from the training "
+                   "units' reference maxima (0: one fit on the training units for all).")
 @click.option("--max-test-runs", default=None, type=click.IntRange(min=1),
-              help="Reduced suite: at most N held-out healthy runs and N leaking runs per size "
-                   "in every group (same seeds as the full suite).")
-@click.option("--false-alarm-rate", "far", default=0.01, show_default=True, type=float,
-              help="Target false-alarm probability per healthy run.")
+              help="v4 only: at most N held-out healthy and leaking runs per size per group.")
+@click.option("--false-alarm-rate", "far", default=None, type=click.FloatRange(0, 1, min_open=True,
+                                                                               max_open=True),
+              help="Target false-alarm probability per healthy run (default 0.01; v5 --quick "
+                   "0.05).")
 @click.option("--onset", "onset_method", default="binseg", show_default=True,
               type=click.Choice(["binseg", "pelt", "cusum"]), help="Onset estimator.")
 @click.option("--scheduler", default="serial", show_default=True,
@@ -30,12 +54,14 @@ __all__ = ["benchmark"]
 @click.option("--workers", "n_workers", default=None, type=int, help="Dask workers.")
 @click.option("--cache-dir", default=None, type=click.Path(file_okay=False),
               help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")
+@click.option("--work-dir", default=None, type=click.Path(file_okay=False),
+              help="v5: resumable state (fits, result shards); default <cache>/bench-v5.")
 @click.option("--list-methods", is_flag=True, help="Print the registered methods and exit.")
 @click.option("--no-progress", is_flag=True, help="No progress bars.")
-def benchmark(out_dir, quick, methods, systems, excitations, max_test_runs, far, onset_method, scheduler,
-              n_workers, cache_dir, list_methods, no_progress):
+def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal, n_test_healthy,
+              n_test_leak, unit_fit, max_test_runs, far, onset_method, scheduler, n_workers, cache_dir,
+              work_dir, list_methods, no_progress):
     """Run the detection benchmark and write its report to --out."""
-    from leakdiag.bench.benchmark import run_benchmark
     from leakdiag.bench.registry import METHODS
 
     if list_methods:
@@ -44,11 +70,39 @@ def benchmark(out_dir, quick, methods, systems, excitations, max_test_runs, far,
     if out_dir is None:
         raise click.UsageError("--out DIR is required")
     split = lambda s: [v.strip() for v in s.split(",") if v.strip()] if s else None  # noqa: E731
-    res = run_benchmark(out_dir, quick=quick, methods=split(methods), systems=split(systems),
-                        excitations=split(excitations), max_test_runs=max_test_runs,
-                        false_alarm_per_run=far, onset_method=onset_method, scheduler=scheduler,
-                        n_workers=n_workers, cache_dir=cache_dir, progress=not no_progress,
-                        command="leakdiag " + " ".join(sys.argv[1:]))
+    command = _command_line()
+    if suite == "v5":
+        from leakdiag.bench.v5_report import run_benchmark_v5
+
+        if max_test_runs is not None:
+            raise click.UsageError("--max-test-runs is for --suite v4; use --n-healthy/--n-leak")
+        try:
+            res = run_benchmark_v5(out_dir, quick=quick, methods=split(methods),
+                                   systems=split(systems), excitations=split(excitations),
+                                   loads=split(loads), false_alarm_per_run=far, n_cal=n_cal,
+                                   n_test_healthy=n_test_healthy, n_test_leak=n_test_leak,
+                                   onset_method=onset_method, scheduler=scheduler,
+                                   n_workers=n_workers, cache_dir=cache_dir, work_dir=work_dir,
+                                   progress=not no_progress, command=command,
+                                   unit_fit=unit_fit)
+        except ValueError as exc:
+            raise click.UsageError(str(exc)) from None
+        if res["summary"] is not None:
+            cols = ["method", "system", "load", "false_alarm_rate", "far_high",
+                    "min_detectable_lpm_10s", "onset_error_median_s", "goal_met"]
+            click.echo(res["summary"][cols].to_string(index=False))
+        click.echo(f"report: {res['paths']['report']}")
+        return
+    from leakdiag.bench.benchmark import run_benchmark
+
+    try:
+        res = run_benchmark(out_dir, quick=quick, methods=split(methods), systems=split(systems),
+                            excitations=split(excitations), max_test_runs=max_test_runs,
+                            false_alarm_per_run=far if far is not None else 0.01,
+                            onset_method=onset_method, scheduler=scheduler, n_workers=n_workers,
+                            cache_dir=cache_dir, progress=not no_progress, command=command)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
     cols = ["method", "system", "excitation", "min_detectable_lpm", "min_detectable_pct_rated",
             "false_alarm_rate", "cpu_s_per_hour"]
     click.echo(res.summary[cols].to_string(index=False))

@@ -4,11 +4,13 @@ from leakdiag.detect.analysis import Analysis, analyze_recording
 from leakdiag.detect.measure import RMSChange, chunk_rms, pct_change, rms_change
 
 __all__ = ["Analysis", "analyze_recording", "RMSChange", "rms_change", "pct_change", "chunk_rms",
-           "Alarm", "Detector", "Verdict", "FeatureDetector", "CombinedDetector", "thesis_detector"]
+           "Alarm", "Detector", "Verdict", "FeatureDetector", "CombinedDetector", "thesis_detector",
+           "FlowBalanceDetector", "FlowBalanceVerdict"]
 
 #: Detector names loaded on first use (scikit-learn is slow to import).
 _LAZY = {"Alarm": "base", "Detector": "base", "Verdict": "base", "FeatureDetector": "methods",
-         "CombinedDetector": "methods", "thesis_detector": "methods"}
+         "CombinedDetector": "methods", "thesis_detector": "methods",
+         "FlowBalanceDetector": "flow_balance", "FlowBalanceVerdict": "flow_balance"}
 
 
 def __getattr__(name):

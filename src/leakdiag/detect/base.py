@@ -31,10 +31,11 @@ Life cycle::
 
 Fitting (:meth:`Detector.fit`), for healthy runs only: the feature's healthy mean ``mean_`` and
 standard deviation ``std_`` (pooled over windows after ``burn_in_s``); the standardised series
-``z = (f - mean_) / std_``; the CUSUM level ``threshold_`` for ``alarm.false_alarms_per_hour``
-(:func:`leakdiag.detect.threshold.calibrate_threshold`); the change-point penalty ``penalty_`` =
-``alarm.penalty_factor`` x the largest single-split L2 gain on the healthy ``z`` series, so that
-the offline search finds no change on the healthy runs it was fitted on.
+``z = (f - mean_) / std_``; the CUSUM level ``threshold_`` from a conformal order statistic of the
+healthy segment maxima (:func:`leakdiag.detect.threshold.conformal_threshold`), recorded with its
+guarantee in ``threshold_basis_``; the change-point penalty ``penalty_`` = ``alarm.penalty_factor``
+x the largest single-split L2 gain on the healthy ``z`` series, so that the offline search finds
+no change on the healthy runs it was fitted on.
 """
 
 from __future__ import annotations
@@ -42,13 +43,17 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+import math
+from collections.abc import Sequence
+
 import numpy as np
 from sklearn.base import BaseEstimator
 
 from leakdiag._validation import check_int, check_positive
 from leakdiag.detect.cusum import DIRECTIONS, cusum
 from leakdiag.detect.onset import ONSET_METHODS, best_split_gain, change_points, cusum_onset
-from leakdiag.detect.threshold import AlarmThreshold, calibrate_threshold
+from leakdiag.detect.threshold import (SEGMENT_TOLERANCE, ReferenceMaxima, ThresholdBasis,
+                                       conformal_threshold, segment_maxima)
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["Alarm", "Verdict", "Detector"]
@@ -61,7 +66,9 @@ class Alarm:
     Parameters
     ----------
     false_alarms_per_hour : float, default 1.0
-        Target false alarms per hour of healthy operation; sets the CUSUM threshold.
+        Target false alarms per hour of healthy operation; sets the CUSUM threshold through the
+        per-segment probability ``false_alarms_per_hour * segment / 3600`` (docs/detect.md,
+        "False alarms").
     drift : float, default 0.5
         CUSUM allowance k in healthy standard deviations.
     direction : {"both", "up", "down"}, default "both"
@@ -75,6 +82,13 @@ class Alarm:
         Change-point penalty as a multiple of the largest healthy single-split gain.
     min_size : int, default 5
         Minimum segment length (windows) for the change-point search.
+    segment_s : float or None, default None
+        Duration (s) of the healthy segments whose CUSUM maxima set the threshold; None: the
+        shortest healthy recording's monitored span (one segment per run for equal runs).
+    on_insufficient : {"raise", "warn"}, default "raise"
+        When the healthy maxima cannot support the target (``k < 1``): raise
+        :class:`~leakdiag.detect.threshold.InsufficientHealthyDataError`, or fit at the largest
+        healthy maximum with an unsupported basis and a warning.
 
     Raises
     ------
@@ -94,6 +108,8 @@ class Alarm:
     burn_in_s: float = 5.0
     penalty_factor: float = 1.0
     min_size: int = 5
+    segment_s: float | None = None
+    on_insufficient: str = "raise"
 
     def __post_init__(self) -> None:
         check_positive(self.false_alarms_per_hour, "false_alarms_per_hour")
@@ -107,6 +123,10 @@ class Alarm:
             raise ValueError(f"direction={self.direction!r} must be one of {sorted(DIRECTIONS)}")
         if self.onset_method not in ONSET_METHODS:
             raise ValueError(f"onset_method={self.onset_method!r} must be one of {ONSET_METHODS}")
+        if self.segment_s is not None:
+            check_positive(self.segment_s, "segment_s")
+        if self.on_insufficient not in ("raise", "warn"):
+            raise ValueError(f"on_insufficient={self.on_insufficient!r} must be 'raise' or 'warn'")
 
 
 @dataclass(frozen=True)
@@ -116,14 +136,17 @@ class Verdict:
     Attributes
     ----------
     leak : bool
-        True if the CUSUM reached ``threshold``.
+        True if the CUSUM exceeded ``threshold``.
     onset_s : float or None
         Estimated leak onset (s), None without an alarm.
     alarm_time_s : float or None
         Time of the first alarm (s): when an online monitor would have raised it.
     confidence : float
-        ``exp(-rate(score_max) * T)`` in [0, 1]: one minus the probability that healthy operation
-        of the same duration ``T`` reaches ``score_max`` (rate from the healthy calibration).
+        Conformal p-value of ``score_max`` against the healthy maxima,
+        ``min(1, m (1 + #{healthy maxima >= score_max}) / (n + 1))`` with ``m`` the segments
+        the recording spans: the probability that healthy operation scores at least this high.
+        Small = strong evidence of a leak; a LEAK verdict has it <= the basis's bound (times
+        ``m``); it never falls below ``1 / (n + 1)``, the resolution of the healthy reference.
     leak_lpm : float or None
         Leak flow estimate in L/min when the detector has a calibration and raised an alarm.
     leak_lpm_interval : tuple of float or None
@@ -183,11 +206,12 @@ class _Trace:
     params: dict = field(default_factory=dict)
 
 
-def _as_recordings(recordings) -> list:
+def _as_recordings(recordings) -> Sequence:
+    """A sequence of recordings; a lazy sequence (loading on access) is kept as it is."""
     if hasattr(recordings, "channels"):
         return [recordings]
-    recs = list(recordings)
-    if not recs:
+    recs = recordings if isinstance(recordings, Sequence) else list(recordings)
+    if len(recs) == 0:
         raise ValueError("fit needs at least one healthy recording, got none")
     return recs
 
@@ -238,33 +262,67 @@ class Detector(BaseEstimator):
         return _Trace(t, start, z, s_up, s_down, fs.name, dict(fs.params))
 
     # -------------------------------------------------------------- public API
-    def fit(self, recordings, y=None) -> "Detector":
+    def _reference_maxima(self) -> ReferenceMaxima | None:
+        """Reference calibration shipped with the detector (default: none).
+
+        A detector class may override this to return :class:`ReferenceMaxima` made on many
+        virtual machines; :meth:`fit` pools them with the unit's own maxima.
+        """
+        return None
+
+    def fit(self, recordings, y=None, reference_maxima: ReferenceMaxima | None = None
+            ) -> "Detector":
         """Learn the healthy feature distribution, the alarm threshold and the penalty.
 
         Parameters
         ----------
-        recordings : list of Recording
-            Healthy runs (no leak). A single Recording is accepted.
+        recordings : sequence of Recording
+            Healthy runs (no leak). A single Recording is accepted; a lazy sequence (loading
+            each recording on access) is read once per pass.
         y : ignored
             Present for scikit-learn compatibility.
+        reference_maxima : ReferenceMaxima, optional
+            Healthy maxima from other units, pooled with this unit's own (default: the
+            detector's shipped reference, :meth:`_reference_maxima`, if any).
 
         Returns
         -------
         Detector
-            ``self``, with ``mean_``, ``std_``, ``threshold_`` (float), ``alarm_threshold_``
-            (:class:`~leakdiag.detect.threshold.AlarmThreshold`), ``penalty_``, ``n_healthy_``,
-            ``healthy_hours_`` and ``feature_name_``.
+            ``self``, with ``mean_``, ``std_``, ``threshold_`` (float), ``threshold_basis_``
+            (:class:`~leakdiag.detect.threshold.ThresholdBasis`; ``alarm_threshold_`` is the same
+            object), ``healthy_maxima_``, ``penalty_``, ``n_healthy_``, ``healthy_hours_`` and
+            ``feature_name_``.
 
         Raises
         ------
+        InsufficientHealthyDataError
+            If the healthy maxima cannot support the target rate (``Alarm.on_insufficient``
+            "raise"); the message says how much healthy data is needed.
         ValueError
-            No usable windows, zero healthy variance, or too little healthy data.
+            No usable windows, zero healthy variance, recordings shorter than ``segment_s``,
+            or reference maxima made with other alarm settings.
         """
         recs = _as_recordings(recordings)
         a = self._alarm()
         self._fit_features(recs)
-        series = [self._series(r) for r in recs]
-        values = np.concatenate([s[2] for s in series])
+        parts = [self._fit_part(r) for r in recs]
+        return self._fit_from_parts(parts, reference_maxima)
+
+    def _fit_part(self, recording) -> tuple:
+        """What :meth:`fit` needs from one healthy recording (lets a caller read it only once
+        for several detectors): ``(time, values, t0, feature name, monitored span)``."""
+        a = self._alarm()
+        t, _, v, fs = self._series(recording)
+        return (t, v, recording.start_time + a.burn_in_s, fs.name,
+                max(0.0, recording.duration - a.burn_in_s))
+
+    def _fit_from_parts(self, parts: list, reference_maxima=None) -> "Detector":
+        """The rest of :meth:`fit`, from :meth:`_fit_part` of every healthy recording."""
+        a = self._alarm()
+        series = [p[:4] for p in parts]
+        spans = [p[4] for p in parts]
+        recs = parts
+        values = np.concatenate([s[1] for s in series])
         values = values[np.isfinite(values)]
         if len(values) < 2:
             raise ValueError(f"fit: only {len(values)} finite feature values after "
@@ -274,17 +332,60 @@ class Detector(BaseEstimator):
             raise ValueError(f"fit: the healthy feature has zero variance (all {mean!r}); "
                              "it cannot separate leaking from healthy runs")
         self.mean_, self.std_ = mean, std
-        zs = [(s[2] - mean) / std for s in series]
-        durations = [max(0.0, r.duration - a.burn_in_s) for r in recs]
-        self.alarm_threshold_: AlarmThreshold = calibrate_threshold(
-            zs, durations, a.false_alarms_per_hour, a.drift, a.direction)
-        self.threshold_ = self.alarm_threshold_.threshold
+        zs = [(s[1] - mean) / std for s in series]
+        seg = float(a.segment_s) if a.segment_s is not None else float(min(spans))
+        if not seg > 0:
+            raise ValueError(f"fit: a healthy recording is not longer than burn_in_s={a.burn_in_s}")
+        # out-of-sample maxima: run i standardised with the mean and std of the other runs
+        # (leave one run out), so that the maxima are those of runs the standardisation never
+        # saw, as in monitoring (docs/detect.md, "False alarms")
+        loo = _leave_one_out_z([s[1] for s in series]) if len(series) > 1 else zs
+        maxima = np.concatenate([segment_maxima(z, s[0], seg, s[2], span, a.drift, a.direction)
+                                 for z, s, span in zip(loo, series, spans)])
+        ref = reference_maxima if reference_maxima is not None else self._reference_maxima()
+        if ref is not None:
+            ref.check_compatible(seg, a.drift, a.direction, a.burn_in_s)
+        alpha = a.false_alarms_per_hour * seg / 3600.0
+        if alpha >= 1.0:
+            raise ValueError(f"false_alarms_per_hour={a.false_alarms_per_hour} is one or more "
+                             f"alarms per {seg:g} s segment: choose a smaller target or segment_s")
+        self.threshold_basis_: ThresholdBasis = conformal_threshold(
+            maxima, alpha, segment_s=seg, reference=ref, on_insufficient=a.on_insufficient)
+        self.alarm_threshold_ = self.threshold_basis_
+        self.threshold_ = self.threshold_basis_.threshold
+        self.healthy_maxima_ = maxima
         gains = [best_split_gain(z[np.isfinite(z)], a.min_size) for z in zs]
         self.penalty_ = a.penalty_factor * max(max(gains), 1.0)
         self.n_healthy_ = len(recs)
-        self.healthy_hours_ = float(sum(durations)) / 3600.0
-        self.feature_name_ = series[0][3].name
+        self.healthy_hours_ = float(sum(spans)) / 3600.0
+        self.feature_name_ = series[0][3]
         return self
+
+    def segment_maxima(self, recordings) -> np.ndarray:
+        """Healthy segment maxima of recordings under this fitted detector (out-of-sample).
+
+        Use it on healthy runs **not** given to :meth:`fit` to build a
+        :class:`~leakdiag.detect.threshold.ReferenceMaxima` for other units.
+
+        Parameters
+        ----------
+        recordings : sequence of Recording
+            Healthy recordings of the unit this detector was fitted on.
+
+        Returns
+        -------
+        numpy.ndarray
+            CUSUM maxima of every complete ``threshold_basis_.segment_s`` segment.
+        """
+        self._check_fitted()
+        a = self._alarm()
+        seg = self.threshold_basis_.segment_s
+        out = []
+        for r in _as_recordings(recordings):
+            tr = self._trace(r)
+            out.append(segment_maxima(tr.z, tr.time, seg, r.start_time + a.burn_in_s,
+                                      r.duration - a.burn_in_s, a.drift, a.direction))
+        return np.concatenate(out) if out else np.zeros(0)
 
     def standardize(self, recording) -> FeatureSeries:
         """The feature standardised with the healthy mean and std, after the burn-in.
@@ -313,7 +414,7 @@ class Detector(BaseEstimator):
         Returns
         -------
         FeatureSeries
-            One value per window after the burn-in; an alarm is raised where it reaches
+            One value per window after the burn-in; an alarm is raised where it exceeds
             ``threshold_``.
         """
         tr = self._trace(recording)
@@ -358,14 +459,16 @@ class Detector(BaseEstimator):
         h = self.threshold_
         stat = np.maximum(tr.s_up, tr.s_down)
         smax = float(stat.max()) if len(stat) else 0.0
-        hours = float(tr.time[-1] - tr.start[0]) / 3600.0 if len(stat) else 0.0
-        confidence = float(np.exp(-self.alarm_threshold_.rate_at(smax) * hours))
-        above = np.flatnonzero(stat >= h)
+        basis = self.threshold_basis_
+        span = recording.duration - a.burn_in_s
+        n_seg = max(1, math.ceil(span / basis.segment_s - SEGMENT_TOLERANCE))
+        confidence = basis.p_value(smax, n_seg)
+        above = np.flatnonzero(stat > h)
         if len(above) == 0:
             return Verdict(False, None, None, confidence, None, None, None, smax, h, None,
                            a.onset_method, tr.name)
         i_alarm = int(above[0])
-        branch = tr.s_up if tr.s_up[i_alarm] >= h else tr.s_down
+        branch = tr.s_up if tr.s_up[i_alarm] > h else tr.s_down
         j = cusum_onset(branch, i_alarm)
         method = "cusum"
         if a.onset_method != "cusum":
@@ -417,6 +520,26 @@ class Detector(BaseEstimator):
             flows.append(float(rec.meta["leak_lpm"]))
         self.calibration_ = fit_leak_calibration(shifts, flows, level, validity)
         return self
+
+
+def _leave_one_out_z(values: list) -> list:
+    """Each run standardised with the mean and std (ddof 1) of all the other runs' windows."""
+    fin = [v[np.isfinite(v)] for v in values]
+    n = np.array([len(f) for f in fin], dtype=np.float64)
+    s1 = np.array([f.sum() for f in fin])
+    s2 = np.array([(f * f).sum() for f in fin])
+    out = []
+    for i, v in enumerate(values):
+        m = n.sum() - n[i]
+        if m < 2:
+            raise ValueError("fit: leaving one healthy run out leaves fewer than 2 finite "
+                             "feature values; give more or longer healthy runs")
+        mean = (s1.sum() - s1[i]) / m
+        var = max((s2.sum() - s2[i] - m * mean * mean) / (m - 1), 0.0)
+        if not var > 0:
+            raise ValueError("fit: the healthy feature has zero variance without one run")
+        out.append((v - mean) / np.sqrt(var))
+    return out
 
 
 def _shift(tr: _Trace, onset: float) -> float:

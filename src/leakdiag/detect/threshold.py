@@ -1,198 +1,359 @@
-"""Alarm threshold for a target false-alarm rate per hour, estimated from healthy feature series.
+"""Alarm thresholds with a stated guarantee: conformal order statistics of healthy maxima.
 
-The CUSUM of :mod:`leakdiag.detect.cusum` restarts after every alarm. On the healthy series the
-number of alarms ``N(h)`` is counted for a grid of thresholds ``h``; the false-alarm rate is
-``N(h) / T`` with ``T`` the healthy time in hours. When ``T`` is too short to observe the target
-rate directly, ``log rate(h)`` is extrapolated linearly in ``h`` (the CUSUM's run length grows
-exponentially with ``h``; Siegmund's approximation) from the grid points with at least
-``MIN_ALARMS_FOR_FIT`` alarms. The method used is recorded, never hidden.
+The healthy runs are cut into segments of a fixed duration ``segment_s`` (default: the shortest
+healthy run's monitored span, i.e. one segment per run when the runs have equal length). In
+each segment the largest CUSUM value is recorded (the CUSUM runs through the whole recording,
+as in monitoring). With ``n`` such healthy maxima and a target false-alarm probability
+``alpha`` per segment, the threshold is the ``k``-th largest maximum with
+``k = floor(alpha (n + 1))``: if a new healthy segment is exchangeable with the ``n`` healthy
+ones, the probability that its maximum exceeds the threshold is at most ``k / (n + 1) <= alpha``
+(split-conformal argument; Vovk et al. 2005, Angelopoulos & Bates 2023). When ``k < 1`` the data
+cannot support ``alpha``: :class:`InsufficientHealthyDataError` (or, on request, a recorded
+unsupported basis and an :class:`InsufficientHealthyDataWarning`). Nothing is extrapolated.
+
+A per-hour target ``lambda`` maps to ``alpha = lambda * segment_s / 3600``: the expected number
+of segments with an alarm per hour of healthy operation is then at most ``lambda``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from leakdiag._validation import check_positive
-from leakdiag.detect.cusum import cusum, cusum_alarm_count
+from leakdiag.detect.cusum import cusum
+from leakdiag.detect.rates import clopper_pearson
 
-__all__ = ["AlarmThreshold", "calibrate_threshold", "MIN_ALARMS_FOR_FIT"]
+__all__ = ["ThresholdBasis", "ReferenceMaxima", "InsufficientHealthyDataError",
+           "InsufficientHealthyDataWarning", "conformal_threshold", "segment_maxima",
+           "clopper_pearson", "SEGMENT_TOLERANCE"]
 
-#: Healthy runs needed for the run-maxima (Gumbel) threshold (leakdiag choice).
-MIN_RUNS_FOR_MAXIMA = 5
-#: Grid points need this many healthy alarms to enter the log-linear fit (leakdiag choice).
-MIN_ALARMS_FOR_FIT = 3
-#: Threshold grid in healthy standard deviations (leakdiag choice; CUSUM levels beyond 200 std
-#: are never needed for features standardised on healthy data).
-THRESHOLD_GRID = np.concatenate([np.arange(0.25, 10.0, 0.25), np.arange(10.0, 200.0, 1.0)])
+#: Relative tolerance when counting complete segments in a run (a run of 59.99 s holds one
+#: 60 s segment): sample-grid rounding must not drop a segment (leakdiag choice).
+SEGMENT_TOLERANCE = 1e-3
+#: Rank tolerance: ``alpha (n + 1)`` within this of an integer counts as that integer
+#: (a per-run target converted to per hour and back must not lose one rank to rounding).
+_RANK_TOL = 1e-9
+
+
+class InsufficientHealthyDataError(ValueError):
+    """The healthy maxima given cannot support the requested false-alarm rate (``k < 1``)."""
+
+
+class InsufficientHealthyDataWarning(UserWarning):
+    """Issued when a detector is fitted with an unsupported threshold basis on request."""
 
 
 @dataclass(frozen=True)
-class AlarmThreshold:
-    """Result of :func:`calibrate_threshold`.
+class ReferenceMaxima:
+    """Healthy segment maxima from other units (e.g. many virtual machines), to pool.
 
-    Attributes
+    Parameters
     ----------
-    threshold : float
-        CUSUM alarm level h (healthy std units).
-    target_per_hour : float
-        Requested false-alarm rate (alarms per hour of healthy operation).
-    fitted_per_hour : float
-        Rate on the healthy series it was fitted on, at ``threshold`` (often 0: measure the
-        achieved rate on held-out healthy runs).
-    healthy_hours : float
-        Healthy time used.
-    gumbel_loc, gumbel_scale : float
-        Run-maxima model ``P(max over T hours <= h) = exp(-T exp(-(h - loc) / scale))``
-        (NaN when not fitted).
-    method : str
-        ``"run-maxima"`` (Gumbel fit to the per-run CUSUM maxima), ``"empirical"`` (target
-        observed directly), ``"extrapolated"`` (log-linear tail) or
-        ``"extrapolated-capped"`` (the extrapolation passed the top of the grid, 200 std, and
-        was capped there: too little healthy data for the target).
-    log_rate_intercept, log_rate_slope : float
-        ``log(rate per hour) = a + b h`` fitted on the tail (NaN when not fitted).
-    grid, rate_per_hour : numpy.ndarray
-        Threshold grid and measured rate at each grid point.
+    maxima : array_like
+        CUSUM maxima of healthy segments, each computed on a unit standardised by **its own**
+        fit and on segments **not** used in that fit (out-of-sample), in healthy std units.
+    segment_s : float
+        Segment duration (s) the maxima were taken over.
+    drift : float
+        CUSUM allowance used.
+    direction : str
+        CUSUM direction used.
+    burn_in_s : float
+        Burn-in used.
+    source : str, default ""
+        Where they come from (e.g. ``"benchmark v5, 300 VCA machines, spring load"``).
+    n_units : int, default 0
+        Number of distinct units the maxima come from (0: unknown).
+
+    Notes
+    -----
+    Pooling rule (docs/detect.md, "False alarms"): pooled maxima must be exchangeable with the
+    unit's future healthy segments -- same detector settings, same alarm settings (checked by
+    :meth:`check_compatible`), same rig type, load and excitation, and units drawn from a
+    population the monitored unit belongs to. Only the first two can be checked by code.
+
+    Examples
+    --------
+    >>> ref = ReferenceMaxima([1.0, 2.0, 3.0], segment_s=60.0, drift=0.5, direction="both",
+    ...                       burn_in_s=5.0)
+    >>> ref.maxima.tolist()
+    [1.0, 2.0, 3.0]
     """
 
-    threshold: float
-    target_per_hour: float
-    fitted_per_hour: float
-    healthy_hours: float
-    method: str
-    log_rate_intercept: float
-    log_rate_slope: float
-    grid: np.ndarray
-    rate_per_hour: np.ndarray
-    gumbel_loc: float = float("nan")
-    gumbel_scale: float = float("nan")
+    maxima: np.ndarray
+    segment_s: float
+    drift: float
+    direction: str
+    burn_in_s: float
+    source: str = ""
+    n_units: int = 0
 
-    def rate_at(self, h: float) -> float:
-        """Estimated false-alarm rate per hour at level ``h``.
+    def __post_init__(self) -> None:
+        m = np.asarray(self.maxima, dtype=np.float64).ravel()
+        if not np.all(np.isfinite(m)):
+            raise ValueError("reference maxima must all be finite")
+        object.__setattr__(self, "maxima", m)
+        check_positive(self.segment_s, "segment_s")
+
+    def check_compatible(self, segment_s: float, drift: float, direction: str,
+                         burn_in_s: float) -> None:
+        """Raise if these maxima were not computed with the given alarm settings.
 
         Parameters
         ----------
-        h : float
-            CUSUM level.
+        segment_s, drift, direction, burn_in_s
+            The settings of the detector being fitted.
+
+        Raises
+        ------
+        ValueError
+            Naming the first setting that differs.
+        """
+        if abs(self.segment_s - segment_s) > SEGMENT_TOLERANCE * segment_s:
+            raise ValueError(f"reference maxima were taken over segment_s={self.segment_s} s, "
+                             f"the detector uses segment_s={segment_s} s: they cannot be pooled")
+        for name, mine, theirs in (("drift", drift, self.drift), ("burn_in_s", burn_in_s,
+                                                                  self.burn_in_s)):
+            if not math.isclose(mine, theirs, rel_tol=1e-9, abs_tol=1e-12):
+                raise ValueError(f"reference maxima used {name}={theirs}, the detector "
+                                 f"{name}={mine}: they cannot be pooled")
+        if direction != self.direction:
+            raise ValueError(f"reference maxima used direction={self.direction!r}, the "
+                             f"detector direction={direction!r}: they cannot be pooled")
+
+
+@dataclass(frozen=True)
+class ThresholdBasis:
+    """How an alarm threshold was set, and what it guarantees (``Detector.threshold_basis_``).
+
+    Attributes
+    ----------
+    method : str
+        ``"conformal"`` (supported) or ``"conformal-unsupported"`` (``k < 1``: fitted on request
+        at the largest healthy maximum, the target is **not** guaranteed).
+    threshold : float
+        Alarm level h (healthy std units); an alarm is raised when the CUSUM exceeds it.
+    n : int
+        Healthy maxima used (own + reference).
+    n_own, n_reference : int
+        Maxima from the unit's own healthy recordings and from :class:`ReferenceMaxima`.
+    k : int
+        Rank: the threshold is the k-th largest maximum (0 when unsupported).
+    segment_s : float
+        Segment duration (s).
+    target_per_segment : float
+        Requested false-alarm probability per segment, ``target_per_hour * segment_s / 3600``.
+    bound_per_segment : float
+        Guaranteed bound ``k / (n + 1)`` (``1 / (n + 1)`` achieved level when unsupported).
+    target_per_hour, bound_per_hour : float
+        The same per hour of healthy operation (expected segments with an alarm per hour).
+    conditional_upper_95 : float
+        95 % upper bound of the rate **conditional on this calibration** (beta quantile
+        ``Beta(k, n + 1 - k)``): the achieved rate of this very threshold exceeds it with
+        probability 5 %.
+    supported : bool
+        ``k >= 1``.
+    min_n_for_target : int
+        Smallest ``n`` that supports the target: ``ceil(1 / alpha) - 1``.
+    reference_source : str
+        ``ReferenceMaxima.source`` ("" without reference).
+    maxima : numpy.ndarray
+        The pooled maxima, sorted in decreasing order (for p-values).
+
+    Examples
+    --------
+    >>> b = conformal_threshold([3.0, 1.0, 2.0, 5.0, 4.0], 0.4, segment_s=60.0)
+    >>> b.k, b.threshold, round(b.bound_per_segment, 4)
+    (2, 4.0, 0.3333)
+    """
+
+    method: str
+    threshold: float
+    n: int
+    n_own: int
+    n_reference: int
+    k: int
+    segment_s: float
+    target_per_segment: float
+    bound_per_segment: float
+    target_per_hour: float
+    bound_per_hour: float
+    conditional_upper_95: float
+    supported: bool
+    min_n_for_target: int
+    reference_source: str = ""
+    maxima: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+
+    def p_value(self, score: float, n_segments: int = 1) -> float:
+        """Conformal p-value of a maximum ``score`` observed over ``n_segments`` segments.
+
+        Parameters
+        ----------
+        score : float
+            Largest CUSUM value of the recording judged.
+        n_segments : int, default 1
+            Segments the recording spans (a union bound multiplies by it).
 
         Returns
         -------
         float
-            Measured rate where it was observed with at least ``MIN_ALARMS_FOR_FIT`` alarms,
-            else the log-linear extrapolation (or the one-alarm bound ``1 / healthy_hours``).
+            ``min(1, n_segments * (1 + #{maxima >= score}) / (n + 1))``: the probability, under
+            exchangeability, that healthy data scores at least this high; never below
+            ``1 / (n + 1)`` (the resolution of the healthy reference).
         """
-        if self.method == "run-maxima":
-            return float(np.exp(-(h - self.gumbel_loc) / self.gumbel_scale))
-        counts = self.rate_per_hour * self.healthy_hours
-        ok = counts >= MIN_ALARMS_FOR_FIT
-        if ok.any() and h <= self.grid[ok].max():
-            return float(np.interp(h, self.grid, self.rate_per_hour))
-        if np.isfinite(self.log_rate_slope):
-            return float(np.exp(self.log_rate_intercept + self.log_rate_slope * h))
-        return 1.0 / self.healthy_hours
+        ge = int(np.count_nonzero(self.maxima >= score))
+        return float(min(1.0, max(1, int(n_segments)) * (1 + ge) / (self.n + 1)))
+
+    def as_dict(self) -> dict:
+        """Flat dict of the basis (without the maxima), for printing and tables.
+
+        Returns
+        -------
+        dict
+            Every attribute except ``maxima``.
+        """
+        return {k: getattr(self, k) for k in (
+            "method", "threshold", "n", "n_own", "n_reference", "k", "segment_s",
+            "target_per_segment", "bound_per_segment", "target_per_hour", "bound_per_hour",
+            "conditional_upper_95", "supported", "min_n_for_target", "reference_source")}
 
 
-def calibrate_threshold(z_series, durations_s, target_per_hour: float, drift: float = 0.5,
-                        direction: str = "both") -> AlarmThreshold:
-    """CUSUM threshold giving ``target_per_hour`` false alarms per hour on healthy data.
+def segment_maxima(z, time, segment_s: float, t0: float, span_s: float, drift: float = 0.5,
+                   direction: str = "both") -> np.ndarray:
+    """Largest CUSUM value in each complete segment of one standardised series.
 
     Parameters
     ----------
-    z_series : list of array_like
-        Standardised healthy feature series, one per healthy run.
-    durations_s : list of float
-        Duration covered by each series in seconds.
-    target_per_hour : float
-        Target false alarms per hour of healthy operation (> 0).
+    z : array_like
+        Standardised feature, shape ``(m,)`` (NaN skipped by the CUSUM).
+    time : array_like
+        Window timestamps (s), shape ``(m,)``.
+    segment_s : float
+        Segment duration (s).
+    t0 : float
+        Start of the monitored span (s): recording start + burn-in.
+    span_s : float
+        Monitored duration (s); ``floor(span_s / segment_s + SEGMENT_TOLERANCE)`` complete
+        segments are used, the remainder is left out.
     drift : float, default 0.5
-        CUSUM allowance k.
+        CUSUM allowance.
     direction : {"both", "up", "down"}, default "both"
         CUSUM direction.
 
     Returns
     -------
-    AlarmThreshold
+    numpy.ndarray
+        One maximum per complete segment (0 for a segment without a window).
+
+    Examples
+    --------
+    >>> segment_maxima([2.0, 2.0, -3.0, 0.0], [1.0, 2.0, 3.0, 4.0], 2.0, 0.5, 4.0).tolist()
+    [3.0, 2.5]
+    """
+    z = np.asarray(z, dtype=np.float64)
+    time = np.asarray(time, dtype=np.float64)
+    check_positive(segment_s, "segment_s")
+    n_seg = int(math.floor(span_s / segment_s + SEGMENT_TOLERANCE))
+    if n_seg < 1 or len(z) == 0:
+        return np.zeros(0)
+    up, dn = cusum(z, drift, direction)
+    stat = np.maximum(up, dn)
+    idx = np.floor((time - t0) / segment_s).astype(np.int64)
+    idx = np.clip(idx, 0, None)
+    keep = idx < n_seg
+    out = np.zeros(n_seg)
+    np.maximum.at(out, idx[keep], stat[keep])
+    return out
+
+
+def conformal_threshold(maxima, target_per_segment: float, *, segment_s: float,
+                        reference: ReferenceMaxima | None = None,
+                        on_insufficient: str = "raise") -> ThresholdBasis:
+    """Threshold = k-th largest healthy maximum, ``k = floor(alpha (n + 1))``.
+
+    Parameters
+    ----------
+    maxima : array_like
+        The unit's own healthy segment maxima.
+    target_per_segment : float
+        Target false-alarm probability per segment ``alpha``, in (0, 1).
+    segment_s : float
+        Segment duration (s), recorded and used for the per-hour figures.
+    reference : ReferenceMaxima, optional
+        Maxima from other units, pooled with ``maxima`` (compatibility is the caller's check).
+    on_insufficient : {"raise", "warn"}, default "raise"
+        What to do when ``k < 1``: raise :class:`InsufficientHealthyDataError`, or return an
+        unsupported basis at the largest maximum with an
+        :class:`InsufficientHealthyDataWarning`.
+
+    Returns
+    -------
+    ThresholdBasis
 
     Raises
     ------
+    InsufficientHealthyDataError
+        If ``k < 1`` and ``on_insufficient="raise"``; the message names the number of maxima
+        needed.
     ValueError
-        If there is no healthy data, or too few healthy alarms on the grid to fit the tail.
+        For a target outside (0, 1) or no maxima at all.
 
     Notes
     -----
-    ``rate(h) = N(h) / T``. The smallest grid ``h`` with ``rate(h) <= target`` is used if the
-    healthy time holds at least ``MIN_ALARMS_FOR_FIT / target`` hours. Otherwise, with at least
-    ``MIN_RUNS_FOR_MAXIMA`` healthy runs, the per-run CUSUM maxima ``M_i`` over ``T_i`` hours
-    are fitted by maximum likelihood to ``P(M <= h) = exp(-T exp(-(h - loc) / scale))``
-    (Gumbel; run-to-run differences of the operating point enter through the maxima) and
-    ``h = loc - scale log(target)``. With fewer runs, ``h = (log(target) - a) / b`` from the
-    least-squares fit of ``log rate = a + b h``.
+    With healthy maxima ``M_(1) >= ... >= M_(n)`` and a new healthy maximum ``M`` exchangeable
+    with them, the rank of ``M`` among the ``n + 1`` is uniform, so
+
+    .. math:: P(M > M_{(k)}) \\le k / (n + 1) \\le \\alpha .
+
+    The bound holds on average over calibrations; the rate of one calibration is
+    ``Beta(k, n + 1 - k)``-distributed, whose 95 % quantile is recorded.
 
     Examples
     --------
     >>> rng = np.random.default_rng(0)
-    >>> thr = calibrate_threshold([rng.standard_normal(20000)], [3600.0], 1.0)
-    >>> thr.method, thr.threshold > 3
-    ('extrapolated', True)
+    >>> b = conformal_threshold(rng.exponential(size=299), 0.01, segment_s=60.0)
+    >>> b.k, round(b.bound_per_segment, 4)
+    (3, 0.01)
     """
-    target = check_positive(target_per_hour, "target_per_hour")
-    zs = [np.asarray(z, dtype=np.float64) for z in z_series]
-    hours = float(np.sum(durations_s)) / 3600.0
-    if not zs or hours <= 0:
-        raise ValueError("calibrate_threshold needs at least one healthy series of positive duration")
-    grid = THRESHOLD_GRID
-    counts = np.array([sum(cusum_alarm_count(z, h, drift, direction) for z in zs) for h in grid],
-                      dtype=np.float64)
-    rate = counts / hours
-    ok = counts >= MIN_ALARMS_FOR_FIT
-    a = b = float("nan")
-    if ok.sum() >= 2:
-        b, a = np.polyfit(grid[ok], np.log(rate[ok]), 1)
-    loc = scale = float("nan")
-    if target * hours >= MIN_ALARMS_FOR_FIT and (rate <= target).any():
-        h = float(grid[np.argmax(rate <= target)])
-        method = "empirical"
-    elif len(zs) >= MIN_RUNS_FOR_MAXIMA:
-        maxima = [float(np.max(np.maximum(*cusum(z, drift, direction)))) if len(z) else 0.0
-                  for z in zs]
-        loc, scale = _fit_run_maxima(np.array(maxima), np.asarray(durations_s) / 3600.0)
-        h = float(loc - scale * np.log(target))
-        method = "run-maxima"
-    elif np.isfinite(b) and b < 0:
-        h = float((np.log(target) - a) / b)
-        h = max(h, float(grid[ok].max()))
-        method = "extrapolated"
-        if h > grid[-1]:
-            # a nearly flat tail (few alarm levels) extrapolates absurdly far: cap and say so
-            h, method = float(grid[-1]), "extrapolated-capped"
-    else:
-        raise ValueError(
-            f"cannot set a threshold for target_per_hour={target}: only {hours:.3g} h of healthy "
-            f"data and {int(ok.sum())} threshold levels with >= {MIN_ALARMS_FOR_FIT} alarms; "
-            f"give more or longer healthy recordings"
-        )
-    fitted = sum(cusum_alarm_count(z, h, drift, direction) for z in zs) / hours
-    return AlarmThreshold(threshold=h, target_per_hour=target, fitted_per_hour=float(fitted),
-                          healthy_hours=hours, method=method, log_rate_intercept=float(a),
-                          log_rate_slope=float(b), grid=grid, rate_per_hour=rate,
-                          gumbel_loc=float(loc), gumbel_scale=float(scale))
+    from scipy.stats import beta
 
-
-def _fit_run_maxima(maxima: np.ndarray, hours: np.ndarray) -> tuple[float, float]:
-    """Maximum-likelihood Gumbel fit with exceedance rate ``exp(-(h - loc) / scale)`` per hour."""
-    from scipy.optimize import minimize
-
-    def nll(theta):
-        loc, log_scale = theta
-        sc = np.exp(log_scale)
-        e = (maxima - loc) / sc
-        return -float(np.sum(np.log(hours) - log_scale - e - hours * np.exp(-e)))
-
-    sd = float(np.std(maxima)) or 1.0
-    sc0 = sd * np.sqrt(6.0) / np.pi
-    loc0 = float(np.mean(maxima)) - 0.5772 * sc0 - sc0 * float(np.mean(np.log(hours)))
-    res = minimize(nll, [loc0, np.log(sc0)], method="Nelder-Mead",
-                   options={"xatol": 1e-6, "fatol": 1e-9, "maxiter": 4000})
-    return float(res.x[0]), float(np.exp(res.x[1]))
+    alpha = float(target_per_segment)
+    if not 0.0 < alpha < 1.0:
+        raise ValueError(f"target_per_segment={alpha!r} must be in (0, 1)")
+    if on_insufficient not in ("raise", "warn"):
+        raise ValueError(f"on_insufficient={on_insufficient!r} must be 'raise' or 'warn'")
+    own = np.asarray(maxima, dtype=np.float64).ravel()
+    ref = reference.maxima if reference is not None else np.zeros(0)
+    pooled = np.sort(np.concatenate([own, ref]))[::-1]
+    n = len(pooled)
+    if n == 0:
+        raise InsufficientHealthyDataError("no healthy segment maxima: give healthy recordings "
+                                           f"at least segment_s={segment_s} s long")
+    k = int(math.floor(alpha * (n + 1) + _RANK_TOL))
+    k = min(k, n)
+    seg_h = segment_s / 3600.0
+    need = int(math.ceil(1.0 / alpha - _RANK_TOL)) - 1
+    src = reference.source if reference is not None else ""
+    if k < 1:
+        msg = (f"{n} healthy maxima of {segment_s:g} s segments ({len(own)} own, {len(ref)} "
+               f"reference) support false-alarm probabilities down to 1/(n+1) = {1 / (n + 1):.3g} "
+               f"per segment; {alpha:.3g} per segment ({alpha / seg_h:.3g} per hour) needs at "
+               f"least {need} maxima, i.e. about {need * segment_s / 3600:.3g} h of healthy data. "
+               "Give more healthy recordings, reference maxima from other units, or a larger "
+               "target")
+        if on_insufficient == "raise":
+            raise InsufficientHealthyDataError(msg)
+        warnings.warn(msg + " -- fitted anyway at the largest healthy maximum (unsupported "
+                      "basis recorded).", InsufficientHealthyDataWarning, stacklevel=3)
+        return ThresholdBasis("conformal-unsupported", float(pooled[0]), n, len(own), len(ref),
+                              0, float(segment_s), alpha, 1.0 / (n + 1), alpha / seg_h,
+                              1.0 / (n + 1) / seg_h, float(beta.ppf(0.95, 1, n)), False, need,
+                              src, pooled)
+    bound = k / (n + 1)
+    return ThresholdBasis("conformal", float(pooled[k - 1]), n, len(own), len(ref), k,
+                          float(segment_s), alpha, bound, alpha / seg_h, bound / seg_h,
+                          float(beta.ppf(0.95, k, n + 1 - k)), True, need, src, pooled)

@@ -20,6 +20,7 @@ STANDARD_CHANNELS: dict[str, str] = {
     "u": "V",  # control signal
     "x_ref": "m",  # reference position (closed loop)
     "leak_flow": "m^3/s",  # true internal leakage flow (simulations)
+    "speed": "rad/s",  # motor/pump shaft speed (pump-driven EHA)
 }
 
 

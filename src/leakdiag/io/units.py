@@ -1,7 +1,7 @@
 """Units of recorded channels and their conversion to SI.
 
 Every channel of a :class:`~leakdiag.io.recording.Recording` is stored in SI units (Pa, m, V,
-m^3/s, s) or, when no scale is known, as raw ADC ``counts``. Readers convert with
+m^3/s, s, rad/s) or, when no scale is known, as raw ADC ``counts``. Readers convert with
 :func:`to_si`; the table below is the only place unit factors live.
 """
 
@@ -31,6 +31,7 @@ QUANTITY_SI_UNIT: dict[str, str] = {
     "flow": "m^3/s",
     "time": "s",
     "angle": "rad",
+    "angular_speed": "rad/s",
 }
 
 #: Quantity measured by each standard channel (see ``STANDARD_CHANNELS`` in recording.py).
@@ -41,6 +42,7 @@ CHANNEL_QUANTITY: dict[str, str] = {
     "u": "voltage",
     "x_ref": "position",
     "leak_flow": "flow",
+    "speed": "angular_speed",  # motor/pump shaft speed (EHA)
     "time": "time",
 }
 
@@ -76,6 +78,9 @@ UNITS: dict[str, tuple[str, float]] = {
     # angle (shaft angle of rotary actuators)
     "rad": ("angle", 1.0),
     "deg": ("angle", np.pi / 180.0),
+    # angular speed (motor/pump shaft of pump-driven actuators)
+    "rad/s": ("angular_speed", 1.0),
+    "rpm": ("angular_speed", 2.0 * np.pi / 60.0),  # 1 rev = 2 pi rad, 1 min = 60 s (exact)
 }
 
 
@@ -112,8 +117,8 @@ def unit_quantity(unit: str) -> str:
     Returns
     -------
     str
-        ``"pressure"``, ``"position"``, ``"voltage"``, ``"flow"``, ``"time"``, ``"angle"`` or
-        ``"counts"``.
+        ``"pressure"``, ``"position"``, ``"voltage"``, ``"flow"``, ``"time"``, ``"angle"``,
+        ``"angular_speed"`` or ``"counts"``.
 
     Raises
     ------

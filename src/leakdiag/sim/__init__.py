@@ -68,3 +68,8 @@ from leakdiag.sim.eha_model import eha_rhs  # noqa: E402
 from leakdiag.sim.eha_params import EHAParams  # noqa: E402
 
 __all__ += ["EHAConditions", "EHAParams", "eha_rhs", "simulate_eha"]
+
+# --- virtual machines: per-unit tolerances of both rigs -------------------------------------
+from leakdiag.sim.machine import EHAMachine, VCAMachine, draw_machine  # noqa: E402
+
+__all__ += ["EHAMachine", "VCAMachine", "draw_machine"]

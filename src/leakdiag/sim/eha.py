@@ -9,6 +9,7 @@ come from :mod:`leakdiag.sim.leak` and the sensor chain from :mod:`leakdiag.sim.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -20,20 +21,27 @@ from leakdiag.sim._checks import (
     check_choice, check_leak_kind, check_onset, check_params_type, check_seed, n_samples,
 )
 from leakdiag.sim.eha_drive import LOADS, MODES, EHAConditions, build_inputs
-from leakdiag.sim.eha_model import IN_KLEAK, IN_U, IN_XREF, N_STATES, S_P1, S_P2, S_PA, S_PB, S_X
+from leakdiag.sim.eha_model import (
+    IN_KLEAK, IN_U, IN_XREF, N_STATES, S_P1, S_P2, S_PA, S_PB, S_W, S_X,
+)
 from leakdiag.sim.eha_params import P_KFREE, EHAParams
 from leakdiag.sim.eha_solver import CLOSED_LOOP_RTOL, DEFAULT_RTOL, integrate_fast
 from leakdiag.sim.leak import (
     LeakCalibrationError, LeakSchedule, calibrate_leak_coefficient, m3s_to_lpm,
 )
+from leakdiag.sim.machine import EHAMachine, resolve_machine
 from leakdiag.sim.sensors import SensorParams, measure_position, measure_pressure
 
 __all__ = ["simulate_eha", "EHA_SENSORS", "initial_state", "available_pump_flow_lpm",
+           "measure_motor_speed", "MOTOR_ENCODER_COUNTS_PER_REV",
            "DEFAULT_REFERENCE_AMPLITUDE_M", "MAX_LEAK_FRACTION"]
 
 #: EHA sensor chain (Sec. 3.2): 3000 psi pressure sensors read by the 14-bit Quanser Q8 A/D;
 #: the position encoder's resolution is not given, the VCA rig's 0.03 mm is assumed.
 EHA_SENSORS = SensorParams(pressure_adc_bits=14, control_dac_bits=14)
+#: Motor shaft encoder of the M-4650 servo motor read through the SSt-6000 drive: "20,000 quad
+#: counts per revolution of the rotor" (Sec. 3.2). The speed channel is derived from it.
+MOTOR_ENCODER_COUNTS_PER_REV = 20_000
 #: Input amplitude of Sec. 4.6, V.
 DEFAULT_AMPLITUDE_V = 3.0
 #: Closed-loop reference amplitude, m: the open-loop stroke of 3 sin 4t is about +-39 mm.
@@ -78,6 +86,62 @@ def available_pump_flow_lpm(params: EHAParams, mode: str = "open-loop",
     else:
         w_peak = params.max_pump_speed_rad_per_s
     return (2.0 / math.pi) * params.pump_flow_per_rad_m3 * w_peak * 60_000.0
+
+
+def measure_motor_speed(speed, sample_rate: float,
+                        counts_per_rev: int = MOTOR_ENCODER_COUNTS_PER_REV) -> np.ndarray:
+    """Motor speed as recorded: shaft-encoder counts differenced over one sample period.
+
+    Parameters
+    ----------
+    speed : array_like
+        True shaft speed in rad/s at the sample times, starting from the zero count at
+        ``speed[0]``'s sample.
+    sample_rate : float
+        Sample rate in Hz.
+    counts_per_rev : int, default 20000
+        Encoder quadrature counts per revolution (Sec. 3.2: 20,000).
+
+    Returns
+    -------
+    numpy.ndarray
+        Measured speed in rad/s, same shape: ``(c_k - c_{k-1}) (2 pi / counts_per_rev) f_s``,
+        0 at the first sample.
+
+    Notes
+    -----
+    An incremental encoder counts, it has no noise (as the piston encoder of
+    :func:`~leakdiag.sim.sensors.measure_position`). The shaft angle is the trapezoidal
+    integral of the sampled speed, :math:`\\theta_k = \\theta_{k-1} + (\\omega_k +
+    \\omega_{k-1})/2f_s`, the count :math:`c_k = \\mathrm{round}(\\theta_k/\\Delta)` with
+    :math:`\\Delta = 2\\pi/N`, and the speed the backward difference of the counts (the
+    "M method" of a DAQ without a speed input). Its quantum is :math:`\\Delta f_s`: 0.314 rad/s
+    (3 rpm) at 1 kHz with 20,000 counts/rev, 0.025 % of the 1257 rad/s (1200 rpm) peak of
+    ``3 sin 4t``; it lags the true speed by half a sample. The sum of the measured speeds
+    over a span equals the counted angle, within one count of the true angle.
+
+    Examples
+    --------
+    100 rad/s turns the shaft 0.1 rad = 318.3 counts per 1 ms sample; the counted steps are
+    318 or 319 (99.90 or 100.22 rad/s) and their sum is the count at 0.4 rad, round(1273.2):
+
+    >>> w = measure_motor_speed(np.full(5, 100.0), 1000.0, 20_000)
+    >>> w.round(4).tolist()
+    [0.0, 99.9026, 100.2168, 99.9026, 99.9026]
+    >>> round(w.sum() / 1000.0 / (2 * np.pi / 20_000))
+    1273
+    """
+    w = np.ascontiguousarray(speed, dtype=np.float64)
+    fs = check_positive(sample_rate, "sample_rate")
+    quantum = 2.0 * math.pi / check_positive(counts_per_rev, "counts_per_rev")
+    theta = np.empty_like(w)
+    if w.size:
+        theta[0] = 0.0
+        np.cumsum(0.5 * (w[1:] + w[:-1]) / fs, out=theta[1:])
+    counts = np.round(theta / quantum)
+    out = np.zeros_like(w)
+    out[1:] = np.diff(counts) * quantum * fs
+    return out
 
 
 def initial_state(params: EHAParams) -> np.ndarray:
@@ -162,6 +226,7 @@ def simulate_eha(
     rtol: float | None = None,
     calibration_rtol: float = 0.02,
     input_signal=None,
+    machine: EHAMachine | int | None = None,
 ) -> Recording:
     """Simulate an EHA experiment (thesis Ch. 3 model, Sec. 4.6 procedure).
 
@@ -215,18 +280,28 @@ def simulate_eha(
         ``duration * sample_rate`` values. ``amplitude`` and ``frequency_rad_s`` are then
         unused except that the leak-size limit takes ``amplitude`` as the largest ``|input|``.
         Cannot be combined with amplitude/frequency variations in ``conditions``.
+    machine : None, int or EHAMachine, default None
+        The unit: None is the nominal Table 3-1 rig; an int draws that unit with
+        :func:`~leakdiag.sim.machine.draw_machine` (its own random stream, independent of
+        ``seed``); an :class:`~leakdiag.sim.machine.EHAMachine` is used as given. Its
+        deviations apply on top of ``params`` and ``sensor_params``; its transducer errors
+        apply to ``p1`` and ``p2`` (the line pressures ``pa``, ``pb`` keep ideal transducers).
 
     Returns
     -------
     Recording
         Channels ``p1``, ``p2`` (chamber pressures, Pa; thesis :math:`P_A, P_B`), ``x`` (m,
         0 at mid-stroke), ``u`` (V), ``leak_flow`` (m^3/s, true, chamber 1 to 2), ``pa``, ``pb``
-        (pump-side line pressures, Pa; thesis :math:`P_1, P_2`) and, closed loop, ``x_ref``
-        (m). ``meta``: ``system="eha"``, ``mode``, ``load``, ``onset`` (None without leak),
-        ``leak_lpm`` (target), ``leak_lpm_achieved``, ``leak_pct_of_rated_flow``,
-        ``leak_coefficient``, ``leak_kind``, ``ramp_duration``, ``seed``, ``params`` (dict),
-        ``rated_flow_lpm``, ``amplitude``, ``frequency_rad_s``, ``conditions``, ``sensors``,
-        ``rtol``, ``solver_steps``, ``calibration_runs``, ``leakdiag_version``, ``source``.
+        (pump-side line pressures, Pa; thesis :math:`P_1, P_2`), ``speed`` (motor and pump
+        shaft speed :math:`\\omega`, rad/s; with sensors from the 20,000 counts/rev motor
+        encoder, see :func:`measure_motor_speed`) and, closed loop, ``x_ref`` (m). ``meta``:
+        ``system="eha"``, ``mode``, ``load``, ``onset`` (None without leak), ``leak_lpm``
+        (target), ``leak_lpm_achieved``, ``leak_pct_of_rated_flow``, ``leak_coefficient``,
+        ``leak_kind``, ``ramp_duration``, ``seed``, ``params`` (dict), ``rated_flow_lpm``,
+        ``amplitude``, ``frequency_rad_s``, ``conditions``, ``sensors``,
+        ``motor_encoder_counts_per_rev`` (None without sensors), ``machine``
+        (:meth:`EHAMachine.to_dict`), ``rtol``, ``solver_steps``, ``calibration_runs``,
+        ``leakdiag_version``, ``source``.
 
     Raises
     ------
@@ -252,7 +327,7 @@ def simulate_eha(
     --------
     >>> rec = simulate_eha(duration=2.0, leak_lpm=None, seed=3)
     >>> rec.channel_names
-    ['p1', 'p2', 'x', 'u', 'leak_flow', 'pa', 'pb']
+    ['p1', 'p2', 'x', 'u', 'leak_flow', 'pa', 'pb', 'speed']
     >>> rec.meta["system"], rec.meta["leak_lpm_achieved"], rec.n_samples
     ('eha', 0.0, 2000)
     """
@@ -265,6 +340,14 @@ def simulate_eha(
     params = check_params_type(params, EHAParams)
     conditions = check_params_type(conditions, EHAConditions, "conditions")
     sensor_params = EHA_SENSORS if sensor_params is None else sensor_params
+    machine = resolve_machine(machine, "eha")
+    params = machine.apply_params(params)
+    sensor_params = machine.apply_sensors(sensor_params)
+    if (sensors and sensor_params.antialias_cutoff_hz is not None
+            and not sensor_params.antialias_cutoff_hz < fs / 2):
+        raise ValueError(f"antialias_cutoff_hz={sensor_params.antialias_cutoff_hz:.4g} "
+                         "(sensor_params or machine) must be below the Nyquist frequency of "
+                         f"sample_rate={fs:g} Hz")
     if amplitude is None:
         amplitude = DEFAULT_AMPLITUDE_V if mode == "open-loop" else DEFAULT_REFERENCE_AMPLITUDE_M
     amplitude = check_positive(amplitude, "amplitude")
@@ -348,16 +431,22 @@ def simulate_eha(
         u = base[:, IN_U].copy()
     u = np.clip(u, -params.command_limit_v, params.command_limit_v)
     chans = {"p1": states[:, S_P1], "p2": states[:, S_P2], "x": states[:, S_X], "u": u,
-             "leak_flow": q_leak, "pa": states[:, S_PA], "pb": states[:, S_PB]}
+             "leak_flow": q_leak, "pa": states[:, S_PA], "pb": states[:, S_PB],
+             "speed": states[:, S_W]}
     if sensors:
         rng = np.random.default_rng(noise_ss)
+        line_sensors = dataclasses.replace(sensor_params, p1_offset_pa=0.0, p2_offset_pa=0.0,
+                                           p1_gain=1.0, p2_gain=1.0)
         for name in ("p1", "p2", "pa", "pb"):
-            chans[name] = measure_pressure(chans[name], sensor_params, rng,
-                                           channel=name if name in ("p1", "p2") else None,
-                                           sample_rate=fs)
+            if name in ("p1", "p2"):
+                chans[name] = measure_pressure(chans[name], sensor_params, rng, channel=name,
+                                               sample_rate=fs)
+            else:
+                chans[name] = measure_pressure(chans[name], line_sensors, rng, sample_rate=fs)
         chans["x"] = measure_position(chans["x"], sensor_params)
         dac = 2.0 * params.command_limit_v / 2.0**sensor_params.control_dac_bits
         chans["u"] = np.round(u / dac) * dac  # D/A of the command, as sensors.quantize
+        chans["speed"] = measure_motor_speed(chans["speed"], fs)
     if mode == "closed-loop":
         chans["x_ref"] = base[:, IN_XREF]
     achieved = mean_leak_lpm(q_leak)
@@ -382,10 +471,12 @@ def simulate_eha(
         "input_signal": None if input_signal is None else _describe(input_signal),
         "conditions": conditions.to_dict(),
         "sensors": sensor_params.to_dict() if sensors else None,
+        "motor_encoder_counts_per_rev": MOTOR_ENCODER_COUNTS_PER_REV if sensors else None,
+        "machine": machine.to_dict(),
         "rtol": float(rtol),
         "solver_steps": sol.n_accepted,
         "calibration_runs": calibration_runs,
         "leakdiag_version": __version__,
     }
-    units = {"pa": "Pa", "pb": "Pa"}
+    units = {"pa": "Pa", "pb": "Pa", "speed": "rad/s"}
     return Recording({k: np.array(v) for k, v in chans.items()}, fs, 0.0, units, meta)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
+from scipy.signal import sosfilt_zi
 
 from leakdiag._validation import as_1d_float, check_int, check_positive
 from leakdiag.sim.leak import leak_multiplier
@@ -20,7 +21,82 @@ from leakdiag.sim.vca_conditions import fill_inputs
 from leakdiag.sim.vca_control import control_law
 from leakdiag.sim.vca_model import _rhs_into, vca_leak_flow
 
-__all__ = ["ClosedLoopResult", "integrate_closed_loop", "rk4_advance"]
+__all__ = ["ClosedLoopResult", "integrate_closed_loop", "rk4_advance", "valve_null_v",
+           "sos_step"]
+
+
+@numba.njit(cache=True)
+def valve_null_v(t, prm, cond):
+    """Null offset of the valve at time ``t``: ``u_0 + s_T dT(t)`` in V (Numba-compiled).
+
+    Parameters
+    ----------
+    t : float
+        Time in s.
+    prm : numpy.ndarray
+        :meth:`VCAParams.to_array` (entries ``u_null`` and ``u_null_per_k``).
+    cond : numpy.ndarray
+        :meth:`OperatingConditions.to_array`: the temperature rise is linear from 0 at t = 0
+        to ``temperature_rise_k`` at the end of the run.
+
+    Returns
+    -------
+    float
+        Offset added to the command at the valve input, V.
+
+    Examples
+    --------
+    >>> from leakdiag.sim.vca_params import VCAParams
+    >>> from leakdiag.sim.vca_conditions import OperatingConditions
+    >>> prm = VCAParams(valve_null_offset_v=0.05, valve_null_shift_v_per_k=-0.002).to_array()
+    >>> round(valve_null_v(50.0, prm, OperatingConditions(temperature_rise_k=8.0).to_array(100.0)),
+    ...       12)                                # 0.05 - 0.002 * 4 K
+    0.042
+    """
+    u0 = prm[21]
+    if prm[22] != 0.0 and cond[2] != 0.0:
+        frac = t / cond[3]
+        if frac > 1.0:
+            frac = 1.0
+        u0 += prm[22] * cond[2] * frac
+    return u0
+
+
+@numba.njit(cache=True)
+def sos_step(x, sos, zi):
+    """One sample through cascaded second-order sections (transposed direct form II).
+
+    The same recursion as :func:`scipy.signal.sosfilt`, one sample at a time, so that a closed
+    loop can filter inside its sample loop (Numba-compiled).
+
+    Parameters
+    ----------
+    x : float
+        Input sample.
+    sos : numpy.ndarray
+        Sections, shape ``(n_sections, 6)``, ``[b0, b1, b2, 1, a1, a2]``.
+    zi : numpy.ndarray
+        Filter state, shape ``(n_sections, 2)``; updated in place.
+
+    Returns
+    -------
+    float
+        Output sample.
+
+    Examples
+    --------
+    >>> sos = np.array([[0.5, 0.5, 0.0, 1.0, 0.0, 0.0]])   # two-tap moving average
+    >>> zi = np.zeros((1, 2))
+    >>> [sos_step(v, sos, zi) for v in (2.0, 4.0, 4.0)]
+    [1.0, 3.0, 4.0]
+    """
+    y = x
+    for i in range(sos.shape[0]):
+        xi = y
+        y = sos[i, 0] * xi + zi[i, 0]
+        zi[i, 0] = sos[i, 1] * xi - sos[i, 4] * y + zi[i, 1]
+        zi[i, 1] = sos[i, 2] * xi - sos[i, 5] * y
+    return y
 
 
 @numba.njit(cache=True)
@@ -62,9 +138,14 @@ def _rk4_steps(s, t0, h, n_steps, u, k_leak, sched, cond, prm, ps_max,
 
 @numba.njit(cache=True)
 def _closed_loop_kernel(s, integ, i0, i1, prm, gains, u_max, x_ref, sched, k_arr, cond, n_sub,
-                        dt_out, noise1, noise2, sens, use_sensors, out_state, out_meas, out_u,
-                        out_q):
-    # samples [i0, i1); s (state) and integ[0] (controller integral) are carried in place
+                        dt_out, noise1, noise2, sens, use_sensors, sos, zi_unit, zi1, zi2,
+                        out_state, out_meas, out_u, out_q):
+    # samples [i0, i1); s (state), integ[0] (controller integral) and the anti-alias filter
+    # states zi1, zi2 are carried in place. sens = [encoder quantum, full scale, ADC quantum,
+    # DAC quantum, p1 gain, p1 offset, p2 gain, p2 offset]; sos has 0 rows without a filter.
+    transducer = sens[4] != 1.0 or sens[5] != 0.0 or sens[6] != 1.0 or sens[7] != 0.0
+    use_filter = sos.shape[0] > 0
+    has_null = prm[21] != 0.0 or prm[22] != 0.0
     k1 = np.empty(6)
     k2 = np.empty(6)
     k3 = np.empty(6)
@@ -82,8 +163,26 @@ def _closed_loop_kernel(s, integ, i0, i1, prm, gains, u_max, x_ref, sched, k_arr
         out_q[k] = vca_leak_flow(s[2], s[3], k_leak * leak_multiplier(t, sched), prm)
         if use_sensors:
             xm = quantize(s[0], sens[0])
-            p1m = adc_reading(s[2], noise1[k], sens[1], sens[2])
-            p2m = adc_reading(s[3], noise2[k], sens[1], sens[2])
+            if transducer:
+                r1 = sens[4] * s[2] + sens[5]
+                r2 = sens[6] * s[3] + sens[7]
+            else:
+                r1 = s[2]
+                r2 = s[3]
+            if use_filter:
+                # anti-alias low-pass of (reading + noise), started at rest on the first value
+                a1 = r1 + noise1[k]
+                a2 = r2 + noise2[k]
+                if k == 0:
+                    for i in range(zi_unit.shape[0]):
+                        for j in range(2):
+                            zi1[i, j] = zi_unit[i, j] * a1
+                            zi2[i, j] = zi_unit[i, j] * a2
+                p1m = adc_reading(sos_step(a1, sos, zi1), 0.0, sens[1], sens[2])
+                p2m = adc_reading(sos_step(a2, sos, zi2), 0.0, sens[1], sens[2])
+            else:
+                p1m = adc_reading(r1, noise1[k], sens[1], sens[2])
+                p2m = adc_reading(r2, noise2[k], sens[1], sens[2])
         else:
             xm = s[0]
             p1m = s[2]
@@ -95,6 +194,8 @@ def _closed_loop_kernel(s, integ, i0, i1, prm, gains, u_max, x_ref, sched, k_arr
         if use_sensors:
             u = quantize(u, sens[3])
         out_u[k] = u
+        if has_null:
+            u += valve_null_v(t, prm, cond)  # the spool sees command + null offset
         _rk4_steps(s, t, h, n_sub, u, k_leak, sched, cond, prm, ps_max, k1, k2, k3, k4, tmp, inp)
     integ[0] = integral
 
@@ -175,7 +276,7 @@ class ClosedLoopResult:
 
 def integrate_closed_loop(x_ref, sample_rate, n_sub, params, gains, u_max, leak_coefficient,
                           schedule, cond, state0, noise1=None, noise2=None, sensors=None,
-                          chunk=None, callback=None):
+                          chunk=None, callback=None, antialias_sos=None):
     """Simulate the closed loop on explicit arrays (the fast path of ``simulate_vca``).
 
     Parameters
@@ -205,8 +306,15 @@ def integrate_closed_loop(x_ref, sample_rate, n_sub, params, gains, u_max, leak_
     noise1, noise2 : array_like, optional
         Pressure noise (Pa) per sample for the two transducers; required with ``sensors``.
     sensors : numpy.ndarray, optional
-        ``[encoder_quantum_m, pressure_full_scale_pa, pressure_quantum_pa, dac_quantum_v]``;
-        None means ideal sensors (the controller sees the true state).
+        ``[encoder_quantum_m, pressure_full_scale_pa, pressure_quantum_pa, dac_quantum_v]``,
+        optionally followed by ``[p1_gain, p1_offset_pa, p2_gain, p2_offset_pa]`` (transducer
+        errors: reading ``gain * p + offset``); None means ideal sensors (the controller sees
+        the true state).
+    antialias_sos : numpy.ndarray, optional
+        Second-order sections of an anti-alias low-pass applied to each pressure reading (plus
+        noise) before the ADC, e.g. :func:`leakdiag.sim.sensors.antialias_sos`; it starts at
+        rest on the first reading, as :func:`leakdiag.sim.sensors.measure_pressure` does.
+        Only with ``sensors``.
     chunk : int, optional
         Integrate in chunks of this many samples (results are identical bit for bit).
     callback : callable, optional
@@ -248,9 +356,25 @@ def integrate_closed_loop(x_ref, sample_rate, n_sub, params, gains, u_max, leak_
             raise ValueError(f"noise1/noise2 must have len(x_ref)={n} samples, "
                              f"got {n1.size} and {n2.size}")
         sens = as_1d_float(sensors, "sensors")
+        if sens.size == 4:
+            sens = np.concatenate([sens, [1.0, 0.0, 1.0, 0.0]])
+        elif sens.size != 8:
+            raise ValueError(f"sensors must have 4 or 8 entries, got {sens.size}")
     else:
         n1 = n2 = np.zeros(1)
-        sens = np.ones(4)
+        sens = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 0.0])
+    if antialias_sos is not None:
+        if not use:
+            raise ValueError("antialias_sos needs sensors (it filters the measured pressures)")
+        sos = np.ascontiguousarray(antialias_sos, dtype=np.float64)
+        if sos.ndim != 2 or sos.shape[1] != 6 or sos.shape[0] < 1:
+            raise ValueError(f"antialias_sos must have shape (n_sections, 6), got {sos.shape}")
+        zi_unit = np.ascontiguousarray(sosfilt_zi(sos))
+    else:
+        sos = np.zeros((0, 6))
+        zi_unit = np.zeros((0, 2))
+    zi1 = np.zeros_like(zi_unit)
+    zi2 = np.zeros_like(zi_unit)
     out_state = np.empty((n, 6))
     out_meas = np.empty((n, 3))
     out_u = np.empty(n)
@@ -269,8 +393,8 @@ def integrate_closed_loop(x_ref, sample_rate, n_sub, params, gains, u_max, leak_
     for i0 in range(0, n, max(step, 1)):
         i1 = min(n, i0 + step)
         _closed_loop_kernel(s, integ, i0, i1, prm, gains, float(u_max), xr, sched,
-                            k_arr, cond, n_sub, 1.0 / fs, n1, n2, sens, use,
-                            out_state, out_meas, out_u, out_q)
+                            k_arr, cond, n_sub, 1.0 / fs, n1, n2, sens, use, sos, zi_unit,
+                            zi1, zi2, out_state, out_meas, out_u, out_q)
         if callback is not None:
             callback(i1 - i0)
     return ClosedLoopResult(out_state, out_meas, out_u, out_q)

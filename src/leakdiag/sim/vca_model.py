@@ -123,6 +123,11 @@ def _rhs_into(t, s, inp, prm, out):
         v1 = _MIN_VOLUME_M3
     if v2 < _MIN_VOLUME_M3:
         v2 = _MIN_VOLUME_M3
+    # Spool-clearance leakage of the four metering lands (laminar; 0 for the ideal valve).
+    c_vl = prm[23]
+    if c_vl > 0.0:
+        q1 += c_vl * (ps - p1) - c_vl * (p1 - pt)
+        q2 -= c_vl * (ps - p2) - c_vl * (p2 - pt)
     dp1 = beta / v1 * (q1 - ql - area * v)
     dp2 = beta / v2 * (-q2 + ql + area * v)
     # Pressures bounded between tank and supply (cavitation / relief), not in Eq. 2-1.
@@ -173,7 +178,11 @@ def vca_rhs(t, state, inputs, params):
         \\dot v_v = -\\omega_v^2 x_v - 2\\xi\\omega_v v_v + k_v\\omega_v^2 u
 
     with :math:`Q_1, Q_2` from Eq. 2-2 and :math:`Q_l` from Eq. 2-4 or 2-5. A pressure at its
-    bound (tank or supply) does not move further outwards.
+    bound (tank or supply) does not move further outwards. A valve with spool-clearance
+    leakage :math:`c_v` (``valve_leakage_m3_per_s_pa``, 0 in Table 2-1) adds
+    :math:`c_v(P_s - P_i) - c_v(P_i - P_r)` to the flow into chamber :math:`i`. ``inputs[0]``
+    is the signal the valve sees: the controller's command plus the valve's null offset, which
+    :func:`~leakdiag.sim.vca_integrator.integrate_closed_loop` adds (``valve_null_v``).
 
     Examples
     --------

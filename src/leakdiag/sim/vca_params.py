@@ -37,6 +37,11 @@ VALVE_TRANSITION_PRESSURE_PA = 1e5  # choice: laminar regularisation of Eq. 2-2 
 LEAK_TRANSITION_PRESSURE_PA = 1e4  # choice: laminar regularisation of Eq. 2-4 below 0.1 bar
 COULOMB_FRICTION_N = 200.0  # choice: seal friction of a 38 mm double-rod cylinder (100-300 N)
 COULOMB_VELOCITY_M_PER_S = 2e-3  # choice: tanh smoothing velocity of the Coulomb friction
+# Per-unit imperfections of a real valve (docs/models.md, "Virtual machines"); 0 = the ideal
+# critically lapped valve of Eq. 2-2, which is what Table 2-1 describes.
+VALVE_NULL_OFFSET_V = 0.0  # null bias: valve input that gives zero spool displacement
+VALVE_NULL_SHIFT_V_PER_K = 0.0  # null shift per kelvin of fluid temperature rise
+VALVE_LEAKAGE_M3_PER_S_PA = 0.0  # laminar spool-clearance conductance of each metering land
 
 #: Leak laws: Eq. 2-4 (turbulent) and Eq. 2-5 (laminar).
 LEAK_MODELS: dict[str, int] = {"turbulent": 0, "laminar": 1}
@@ -50,7 +55,8 @@ P_INDEX: dict[str, int] = {
         [
             "area", "mass", "damping", "volume", "beta", "ps", "pt", "kv_flow", "w", "kv_spool",
             "omega_v", "zeta_v", "half_stroke", "k_end", "c_end", "k_spring", "f_coulomb",
-            "v_coulomb", "leak_model", "ptr_valve", "ptr_leak",
+            "v_coulomb", "leak_model", "ptr_valve", "ptr_leak", "u_null", "u_null_per_k",
+            "c_valve_leak",
         ]
     )
 }
@@ -104,6 +110,16 @@ class VCAParams:
         Pressure drop below which the orifice law turns laminar (regularisation, see Notes).
     leak_transition_pressure_pa : float, default 1e4
         The same for the turbulent leak law, Eq. 2-4.
+    valve_null_offset_v : float, default 0.0
+        Null bias :math:`u_0`: the spool sees :math:`u + u_0 + s_T \\Delta T(t)` (any sign;
+        0 = the ideal valve of Table 2-1).
+    valve_null_shift_v_per_k : float, default 0.0
+        Null shift :math:`s_T` per kelvin of the fluid temperature rise :math:`\\Delta T(t)` of
+        :class:`~leakdiag.sim.vca_conditions.OperatingConditions` (any sign).
+    valve_leakage_m3_per_s_pa : float, default 0.0
+        Laminar conductance :math:`c_v` of the radial clearance at each of the four metering
+        lands: chamber 1 gains :math:`c_v(P_s - P_1) - c_v(P_1 - P_r)`, chamber 2 likewise; the
+        null leakage from supply to tank is :math:`c_v (P_s - P_r)`.
 
     Raises
     ------
@@ -151,14 +167,21 @@ class VCAParams:
     end_stop_damping_n_s_per_m: float = END_STOP_DAMPING_N_S_PER_M
     valve_transition_pressure_pa: float = VALVE_TRANSITION_PRESSURE_PA
     leak_transition_pressure_pa: float = LEAK_TRANSITION_PRESSURE_PA
+    valve_null_offset_v: float = VALVE_NULL_OFFSET_V
+    valve_null_shift_v_per_k: float = VALVE_NULL_SHIFT_V_PER_K
+    valve_leakage_m3_per_s_pa: float = VALVE_LEAKAGE_M3_PER_S_PA
 
     def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise TypeError(f"{f.name}={v!r} must be a number")
-            if f.name in ("coulomb_friction_n", "tank_pressure_pa", "viscous_damping_n_s_per_m",
-                          "spring_stiffness_n_per_m", "end_stop_damping_n_s_per_m"):
+            if f.name in ("valve_null_offset_v", "valve_null_shift_v_per_k"):
+                if not math.isfinite(v):
+                    raise ValueError(f"{f.name}={v!r} must be a finite number")
+            elif f.name in ("coulomb_friction_n", "tank_pressure_pa", "viscous_damping_n_s_per_m",
+                            "spring_stiffness_n_per_m", "end_stop_damping_n_s_per_m",
+                            "valve_leakage_m3_per_s_pa"):
                 if not math.isfinite(v) or v < 0:
                     raise ValueError(f"{f.name}={v!r} must be a finite number >= 0")
             else:
@@ -252,6 +275,9 @@ class VCAParams:
             "leak_model": float(LEAK_MODELS[leak_model]),
             "ptr_valve": self.valve_transition_pressure_pa,
             "ptr_leak": self.leak_transition_pressure_pa,
+            "u_null": self.valve_null_offset_v,
+            "u_null_per_k": self.valve_null_shift_v_per_k,
+            "c_valve_leak": self.valve_leakage_m3_per_s_pa,
         }
         arr = np.empty(len(P_INDEX))
         for k, i in P_INDEX.items():

@@ -20,12 +20,15 @@ from leakdiag.sim.leak import (
     lpm_to_m3s,
     m3s_to_lpm,
 )
+from leakdiag.sim.machine import VCAMachine, resolve_machine
 from leakdiag.sim.reference import as_reference
 from leakdiag.sim.sensor_chain import pressure_chain
-from leakdiag.sim.sensors import SensorParams
+from leakdiag.sim.sensors import SensorParams, antialias_sos
 from leakdiag.sim.vca_conditions import OperatingConditions
 from leakdiag.sim.vca_control import FixedGainController
-from leakdiag.sim.vca_integrator import ClosedLoopResult, integrate_closed_loop, rk4_advance
+from leakdiag.sim.vca_integrator import (
+    ClosedLoopResult, integrate_closed_loop, rk4_advance, sos_step, valve_null_v,
+)
 from leakdiag.sim.vca_model import vca_leak_flow
 from leakdiag.sim.vca_params import LEAK_MODELS, LOADS, VCAParams
 
@@ -84,12 +87,26 @@ def _leak_stable_substeps(k_leak: float, leak_model: str, params: VCAParams, fs:
     return max(1, math.ceil(lam / fs))
 
 
+def _antialias(cutoff_hz: float, fs: float) -> np.ndarray:
+    """Anti-alias sections, with an error that names the sample rate and the machine."""
+    if not cutoff_hz < fs / 2:
+        raise ValueError(f"antialias_cutoff_hz={cutoff_hz:.4g} (sensor_params or machine) must "
+                         f"be below the Nyquist frequency of sample_rate={fs:g} Hz")
+    return antialias_sos(cutoff_hz, fs)
+
+
 def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sched, cond, s0,
                            noise1, noise2, sensors: SensorParams | None) -> ClosedLoopResult:
     """Slow path: a user controller ``u = controller(t, x_ref, x_m, p1_m, p2_m)`` in Python."""
     from leakdiag.sim.sensors import adc_reading, quantize
 
     n = x_ref.size
+    sos = zi1 = zi2 = None
+    if sensors is not None and sensors.antialias_cutoff_hz is not None:
+        from scipy.signal import sosfilt_zi
+
+        sos = _antialias(sensors.antialias_cutoff_hz, fs)
+        zi_unit = sosfilt_zi(sos)
     out_state = np.empty((n, 6))
     out_meas = np.empty((n, 3))
     out_u = np.empty(n)
@@ -104,8 +121,18 @@ def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sch
         if sensors is not None:
             fsc, q = sensors.pressure_full_scale_pa, sensors.pressure_quantum_pa
             xm = quantize(s[0], sensors.position_resolution_m)
-            p1m = adc_reading(s[2], noise1[k], fsc, q)
-            p2m = adc_reading(s[3], noise2[k], fsc, q)
+            g1, o1 = sensors.transducer_error("p1")
+            g2, o2 = sensors.transducer_error("p2")
+            r1, r2 = g1 * s[2] + o1, g2 * s[3] + o2
+            if sos is not None:
+                a1, a2 = r1 + noise1[k], r2 + noise2[k]
+                if k == 0:
+                    zi1, zi2 = zi_unit * a1, zi_unit * a2
+                p1m = adc_reading(sos_step(a1, sos, zi1), 0.0, fsc, q)
+                p2m = adc_reading(sos_step(a2, sos, zi2), 0.0, fsc, q)
+            else:
+                p1m = adc_reading(r1, noise1[k], fsc, q)
+                p2m = adc_reading(r2, noise2[k], fsc, q)
         else:
             xm, p1m, p2m = s[0], s[2], s[3]
         out_meas[k] = (xm, p1m, p2m)
@@ -116,7 +143,7 @@ def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sch
         if sensors is not None:  # 12-bit DAC, as in the compiled path
             u = float(quantize(u, 2 * u_max / 2.0**sensors.control_dac_bits))
         out_u[k] = u
-        rk4_advance(s, t, h, n_sub, u, k_leak, sched_arr, cond, prm)
+        rk4_advance(s, t, h, n_sub, u + valve_null_v(t, prm, cond), k_leak, sched_arr, cond, prm)
     return ClosedLoopResult(out_state, out_meas, out_u, out_q)
 
 
@@ -142,6 +169,7 @@ def simulate_vca(
     max_step: float = DEFAULT_MAX_STEP_S,
     calibration_rtol: float = 0.02,
     progress: Callable[[int], None] | None = None,
+    machine: VCAMachine | int | None = None,
 ) -> Recording:
     """Simulate a closed-loop valve-controlled actuator experiment (thesis Ch. 2, Sec. 4.5).
 
@@ -190,6 +218,11 @@ def simulate_vca(
         Relative tolerance of the leak calibration.
     progress : callable, optional
         ``progress(n_samples_done)`` called every 10 s of simulated time.
+    machine : None, int or VCAMachine, default None
+        The unit: None is the nominal Table 2-1 rig; an int draws that unit with
+        :func:`~leakdiag.sim.machine.draw_machine` (its own random stream, independent of
+        ``seed``); a :class:`~leakdiag.sim.machine.VCAMachine` is used as given. Its
+        deviations apply on top of ``params`` and ``sensor_params``.
 
     Returns
     -------
@@ -197,8 +230,9 @@ def simulate_vca(
         Channels ``p1``, ``p2`` (Pa), ``x`` (m), ``u`` (V), ``leak_flow`` (m^3/s, true), ``x_ref``
         (m). ``meta``: ``system="vca"``, ``onset`` (None without leak), ``leak_lpm`` (target),
         ``leak_lpm_achieved``, ``leak_coefficient``, ``leak_model``, ``leak_kind``, ``load``,
-        ``seed``, ``params`` (dict), ``controller``, ``sensors``, ``conditions``, ``rk4_step_s``,
-        ``calibration_runs``, ``rated_flow_lpm``, ``leakdiag_version``, ``source``.
+        ``seed``, ``params`` (dict, the unit's), ``controller``, ``sensors``, ``conditions``,
+        ``rk4_step_s``, ``calibration_runs``, ``rated_flow_lpm``, ``machine``
+        (:meth:`VCAMachine.to_dict`), ``leakdiag_version``, ``source``.
 
     Raises
     ------
@@ -234,6 +268,9 @@ def simulate_vca(
     params = check_params_type(params, VCAParams)
     conditions = OperatingConditions() if conditions is None else conditions
     sensor_params = SensorParams() if sensor_params is None else sensor_params
+    machine = resolve_machine(machine, "vca")
+    params = machine.apply_params(params)
+    sensor_params = machine.apply_sensors(sensor_params)
     n = n_samples(duration, fs)
     n_sub = max(1, math.ceil(1.0 / (fs * max_step) - 1e-9))
     has_leak = leak_lpm is not None and leak_lpm != 0
@@ -254,12 +291,16 @@ def simulate_vca(
     x_ref = np.ascontiguousarray(as_reference(reference).samples(t, ref_rng), dtype=np.float64)
     noise = np.random.default_rng(noise_ss).standard_normal((2, n))
     noise *= sensor_params.pressure_noise_std_pa
-    sens_arr = None
+    sens_arr = sos = None
     if sensors:
         sens_arr = np.array([sensor_params.position_resolution_m,
                              sensor_params.pressure_full_scale_pa,
                              sensor_params.pressure_quantum_pa,
-                             2 * params.control_limit_v / 2.0**sensor_params.control_dac_bits])
+                             2 * params.control_limit_v / 2.0**sensor_params.control_dac_bits,
+                             *sensor_params.transducer_error("p1"),
+                             *sensor_params.transducer_error("p2")])
+        if sensor_params.antialias_cutoff_hz is not None:
+            sos = _antialias(sensor_params.antialias_cutoff_hz, fs)
 
     prm = params.to_array(leak_model, load)
     cond = conditions.to_array(duration)
@@ -279,7 +320,8 @@ def simulate_vca(
         if isinstance(ctrl, FixedGainController):
             return integrate_closed_loop(x_ref, fs, n_sub_k, prm, ctrl.to_array(),
                                          params.control_limit_v, k_leak, sched.to_array(), cond,
-                                         s0, noise[0], noise[1], sens_arr, chunk, progress)
+                                         s0, noise[0], noise[1], sens_arr, chunk, progress,
+                                         antialias_sos=sos)
         if not callable(ctrl):
             raise TypeError("controller must be a FixedGainController or a callable")
         return _python_controller_run(ctrl, x_ref, fs, n_sub_k, prm, params.control_limit_v,
@@ -312,9 +354,11 @@ def simulate_vca(
 
     if sensors:
         x_out, p1_out, p2_out = result.measured[:, 0], result.measured[:, 1], result.measured[:, 2]
-        if sensor_params.filters_pressure or sensor_params.has_transducer_error:
-            # Recorded pressures through the whole chain (sensors.pressure_chain) with the same
-            # noise; the controller's in-loop readings stay unfiltered (position loop only).
+        if sensor_params.transducer_bandwidth_hz is not None:
+            # The closed loop reads the pressures through the transducer errors, the anti-alias
+            # filter and the converter (machine.py); the transducer's own bandwidth is applied to
+            # the recorded pressures only: the whole chain (sensor_chain.pressure_chain) with the
+            # same noise.
             p1_out = pressure_chain(result.state[:, 2], noise[0], sensor_params, channel="p1",
                                     sample_rate=fs)
             p2_out = pressure_chain(result.state[:, 3], noise[1], sensor_params, channel="p2",
@@ -343,6 +387,7 @@ def simulate_vca(
                                                                    fs))),
         "calibration_runs": calibration_runs,
         "rated_flow_lpm": params.rated_flow_lpm,
+        "machine": machine.to_dict(),
         "leakdiag_version": __version__,
     }
     channels = {"p1": p1_out, "p2": p2_out, "x": x_out, "u": result.u,

@@ -1,0 +1,237 @@
+"""``run_benchmark_v5``: benchmark v5 from suite to report (Markdown + CSV + figures)."""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, replace
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["run_benchmark_v5", "write_v5_report"]
+
+
+def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None,
+                     excitations=None, loads=None, false_alarm_per_run: float | None = None,
+                     n_cal: int | None = None, n_test_healthy: int | None = None,
+                     n_test_leak: int | None = None, onset_method: str = "binseg",
+                     scheduler: str = "serial", n_workers: int | None = None,
+                     cache_dir: str | None = None, work_dir: str | None = None,
+                     progress: bool = True, command: str = "leakdiag benchmark --suite v5",
+                     unit_fit: int = 0):
+    """Run benchmark v5 and write its report.
+
+    Parameters
+    ----------
+    out_dir : path-like
+        Report folder: ``report.md``, ``summary.csv``, ``false_alarms.csv``, ``detection.csv``,
+        ``fits.csv``, ``runs.csv.gz``, ``settings.json``, ``figures/``.
+    quick : bool, default False
+        The small CI suite (:data:`~leakdiag.bench.v5_suite.V5_QUICK_SUITES`).
+    methods : sequence of str, optional
+        Registry names (default: every registered method; the quick suite: the thesis methods
+        and the combined detector).
+    systems, excitations, loads : sequence of str, optional
+        Restrict the suite.
+    false_alarm_per_run : float, optional
+        Target per healthy run (default 1 %, quick 5 %).
+    n_cal, n_test_healthy, n_test_leak : int, optional
+        Mid-size variants: override the suite's run counts (same seeds for the runs kept).
+    onset_method, scheduler, n_workers, cache_dir, progress
+        As :func:`leakdiag.bench.benchmark.run_benchmark`.
+    work_dir : str, optional
+        Resumable state (fits, shards); default ``<cache>/bench-v5``.
+    command : str
+        Command line recorded in the report.
+    unit_fit : int, default 0
+        Per-unit mode with this many own healthy runs per unit (0: fleet mode).
+
+    Returns
+    -------
+    dict
+        ``summary``, ``detection``, ``false_alarms``, ``fits``, ``runs`` (DataFrames), ``paths``,
+        ``settings``.
+
+    Raises
+    ------
+    ValueError
+        Unknown method, system, load or excitation.
+    """
+    from leakdiag.bench.registry import METHODS, thesis_methods
+    from leakdiag.bench.v5_run import run_v5
+    from leakdiag.bench.v5_scoring import summary_v5
+    from leakdiag.bench.v5_suite import (V5_DEFAULT_FAR, V5_QUICK_FAR, V5_QUICK_SUITES,
+                                         V5_SUITES)
+    from leakdiag.studies.cache import resolve_cache_dir
+
+    base = V5_QUICK_SUITES if quick else V5_SUITES
+    if methods is None:
+        methods = [*thesis_methods(), "combined"] if quick else list(METHODS)
+    for m in methods:
+        if m not in METHODS:
+            raise ValueError(f"unknown method {m!r}; known: {sorted(METHODS)}")
+    systems = list(systems or base)
+    for s in systems:
+        if s not in base:
+            raise ValueError(f"unknown system {s!r}; the suite has {sorted(base)}")
+    suites = {}
+    for s in systems:
+        v = base[s]
+        if loads is not None:
+            bad = [x for x in loads if x not in V5_SUITES[s].loads]
+            if bad:
+                raise ValueError(f"unknown load {bad[0]!r}; known: {list(V5_SUITES[s].loads)}")
+            v = replace(v, loads=tuple(x for x in v.loads if x in loads) or tuple(loads))
+        if excitations is not None:
+            v = replace(v, excitations=tuple(excitations))
+        for name, val in (("n_cal", n_cal), ("n_test_healthy", n_test_healthy),
+                          ("n_test_leak", n_test_leak)):
+            if val is not None:
+                v = replace(v, **{name: int(val)})
+        suites[s] = v
+    far = false_alarm_per_run if false_alarm_per_run is not None else (
+        V5_QUICK_FAR if quick else V5_DEFAULT_FAR)
+    work = Path(work_dir) if work_dir else resolve_cache_dir(cache_dir) / "bench-v5"
+    t0 = time.time()
+    runs, fits, settings = run_v5(suites, methods, work, false_alarm_per_run=far,
+                                  onset_method=onset_method, scheduler=scheduler,
+                                  n_workers=n_workers, cache_dir=cache_dir, progress=progress,
+                                  unit_fit=int(unit_fit))
+    settings.update(command=command, quick=quick, wall_total_s=time.time() - t0,
+                    suites={k: _jsonable(asdict(v)) for k, v in suites.items()},
+                    scheduler=scheduler, n_workers=n_workers)
+    summary, det = summary_v5(runs) if len(runs) else (None, None)
+    from leakdiag.bench.v5_scoring import false_alarm_table
+
+    far_tab = false_alarm_table(runs) if len(runs) else None
+    out = Path(out_dir)
+    paths = write_v5_report(out, runs, fits, summary, det, far_tab, settings)
+    return {"summary": summary, "detection": det, "false_alarms": far_tab, "fits": fits,
+            "runs": runs, "paths": paths, "settings": settings}
+
+
+def _jsonable(d):
+    return json.loads(json.dumps(d, default=lambda o: list(o) if isinstance(o, tuple) else str(o)))
+
+
+def _fmt(x, digits=3):
+    if x is None or (isinstance(x, float) and not np.isfinite(x)):
+        return "--"
+    if isinstance(x, (bool, np.bool_)):
+        return "yes" if x else "no"
+    if isinstance(x, (int, np.integer)):
+        return str(int(x))
+    return f"{float(x):.{digits}g}"
+
+
+def _md_table(df, cols, headers) -> str:
+    lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+    for _, r in df.iterrows():
+        lines.append("| " + " | ".join(_fmt(r[c]) if not isinstance(r[c], str) else r[c]
+                                       for c in cols) + " |")
+    return "\n".join(lines)
+
+
+def _figures(det, out: Path) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    names = []
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    for (system, load, exc), g in det.groupby(["system", "load", "excitation"], sort=False):
+        fig, ax = plt.subplots(figsize=(7.0, 4.2))
+        for m, gm in g.groupby("method", sort=False):
+            gm = gm.sort_values("leak_lpm")
+            y = gm["detection_rate_10s"].to_numpy()
+            err = np.vstack([y - gm["det_low_10s"].to_numpy(), gm["det_high_10s"].to_numpy() - y])
+            ax.errorbar(gm.leak_lpm, y, yerr=err, marker="o", ms=3, capsize=2, label=m)
+        ax.axhline(0.9, color="0.5", lw=0.8, ls=":")
+        ax.set_xscale("log")
+        ax.set_xlabel("leak (L/min)")
+        ax.set_ylabel("detected within 10 s of the onset")
+        ax.set_ylim(-0.03, 1.03)
+        ax.set_title(f"{system.upper()}, load {load}, {exc} input (95 % Clopper-Pearson bars)")
+        ax.legend(fontsize=7, ncol=2)
+        fig.tight_layout()
+        name = f"figures/detection_{system}_{load}_{exc}.png"
+        fig.savefig(out / name, dpi=110)
+        plt.close(fig)
+        names.append(name)
+    return names
+
+
+def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings) -> dict:
+    """Write the v5 report files (see :func:`run_benchmark_v5`).
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        Report folder.
+    runs, fits, summary, det, far_tab : pandas.DataFrame or None
+        Tables of :func:`run_benchmark_v5`.
+    settings : dict
+        Settings (command, timing, suites).
+
+    Returns
+    -------
+    dict
+        Name -> written path.
+    """
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    for name, df in (("summary", summary), ("detection", det), ("false_alarms", far_tab),
+                     ("fits", fits)):
+        if df is not None:
+            paths[name] = out / f"{name}.csv"
+            df.to_csv(paths[name], index=False)
+    if runs is not None and len(runs):
+        paths["runs"] = out / "runs.csv.gz"
+        runs.to_csv(paths["runs"], index=False)
+    paths["settings"] = out / "settings.json"
+    paths["settings"].write_text(json.dumps(settings, indent=2, sort_keys=True, default=str),
+                                 encoding="utf-8")
+    figs = _figures(det, out) if det is not None and len(det) else []
+    w = settings.get("wall_s", {})
+    md = [f"# Benchmark v5 (suite {settings['suite_version']})", "",
+          f"Command: `{settings['command']}`", "",
+          f"Wall time: {settings['wall_total_s']:.0f} s (simulate calibration runs "
+          f"{w.get('simulate_calibration', 0):.0f} s, fit {w.get('fit', 0):.0f} s, score "
+          f"{w.get('score', 0):.0f} s; scheduler {settings['scheduler']}, workers "
+          f"{settings['n_workers']}). Target: {100 * settings['false_alarm_per_run']:g} % false "
+          "alarms per healthy run (conformal threshold, one segment per run).", "",
+          f"Virtual machines in the simulator: {settings['virtual_machines']} (False: machine "
+          "ids recorded, the nominal unit simulated). Reduced budget (calibration, healthy, "
+          f"leaking per size): {settings['reduced_budget'] or 'none'}.", ""]
+    if summary is not None:
+        md += ["## Summary (per rig, load, excitation; loads never pooled)", "",
+               "MDL: minimum detectable leak (L/min), >= 90 % detected within the deadline at "
+               "that size and every larger one; `--` not reached. FA: false alarms per held-out "
+               "healthy run with its 95 % Clopper-Pearson interval.", "",
+               _md_table(summary, ["system", "load", "excitation", "method", "n_healthy",
+                                   "false_alarm_rate", "far_low", "far_high",
+                                   "min_detectable_lpm_5s", "min_detectable_lpm_10s",
+                                   "mdl_det_low_10s", "min_detectable_lpm_30s",
+                                   "onset_error_median_s", "goal_met"],
+                         ["rig", "load", "input", "method", "n healthy", "FA", "FA low",
+                          "FA high", "MDL 5 s", "MDL 10 s", "rate low at MDL 10 s",
+                          "MDL 30 s", "onset error median (s)", "goal met"]), ""]
+    if settings.get("unit_fit"):
+        md += [f"Per-unit mode: every unit fitted on {settings['unit_fit']} own healthy runs, "
+               "threshold from the reference maxima of the training units (table below: "
+               "reference maxima per method and group).", ""]
+    if fits is not None and len(fits):
+        cols = [c for c in ("system", "load", "method", "n", "k", "threshold",
+                            "bound_per_segment", "conditional_upper_95", "n_reference",
+                            "n_units", "error") if c in fits]
+        md += ["## Thresholds (conformal basis per method and group)", "",
+               _md_table(fits, cols, cols), ""]
+    md += [f"![{f}]({f})" for f in figs]
+    md += ["", "Files: summary.csv, detection.csv (per size: detection within 5/10/30 s, early "
+           "alarms, each with its interval), false_alarms.csv, fits.csv, runs.csv.gz, "
+           "settings.json."]
+    paths["report"] = out / "report.md"
+    paths["report"].write_text("\n".join(md) + "\n", encoding="utf-8")
+    return paths

@@ -1,0 +1,215 @@
+"""Scores of benchmark v5, with a 95 % Clopper-Pearson interval beside every rate.
+
+* false-alarm rate: fraction of held-out healthy runs (test machines) with an alarm;
+* detection within ``d`` s: an alarm at a time in ``[onset, onset + d]``; an alarm **before the
+  onset is a false alarm** (counted in ``early_alarm_rate``), never a detection;
+* minimum detectable leak per (method, rig, load, excitation) -- loads never pooled: the
+  smallest size with detection rate >= 90 % within the deadline such that every larger size of
+  the suite also reaches 90 % (NaN when none);
+* onset error: ``|onset estimate - true onset|`` of runs detected within 10 s.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from leakdiag.detect.rates import clopper_pearson
+
+__all__ = ["false_alarm_table", "detection_table", "minimum_detectable_v5", "summary_v5",
+           "GOALS", "REQUIRED_RATE"]
+
+#: Detection rate that defines the minimum detectable leak.
+REQUIRED_RATE = 0.9
+#: Goals of issue 13 (L/min per rig; rates per run; seconds).
+GOALS = {"mdl_lpm": {"vca": 0.02, "eha": 0.1}, "far": 0.01, "far_upper": 0.02,
+         "onset_error_s": 5.0, "deadline_s": 10.0}
+_GROUP = ["method", "system", "load", "excitation"]
+
+
+def _rate(k: int, n: int) -> dict:
+    lo, hi = clopper_pearson(k, n)
+    return {"rate": k / n if n else float("nan"), "low": lo, "high": hi}
+
+
+def false_alarm_table(runs):
+    """False alarms of held-out healthy runs per method, rig, load and excitation.
+
+    Parameters
+    ----------
+    runs : pandas.DataFrame
+        Per-run table (``role``, ``alarm`` and the group columns).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``n_healthy, false_alarms, false_alarm_rate, far_low, far_high``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> runs = pd.DataFrame({"method": "m", "system": "vca", "load": "none",
+    ...     "excitation": "operating", "role": "test_healthy", "alarm": [True] + [False] * 9})
+    >>> r = false_alarm_table(runs).iloc[0]
+    >>> int(r.false_alarms), float(r.false_alarm_rate), round(float(r.far_high), 4)
+    (1, 0.1, 0.445)
+    """
+    import pandas as pd
+
+    rows = []
+    h = runs[runs.role == "test_healthy"]
+    for key, g in h.groupby(_GROUP, sort=False):
+        k, n = int(g.alarm.astype(bool).sum()), len(g)
+        r = _rate(k, n)
+        rows.append({**dict(zip(_GROUP, key)), "n_healthy": n, "false_alarms": k,
+                     "false_alarm_rate": r["rate"], "far_low": r["low"], "far_high": r["high"]})
+    return pd.DataFrame(rows, columns=_GROUP + ["n_healthy", "false_alarms", "false_alarm_rate",
+                                                "far_low", "far_high"])
+
+
+def detection_table(runs, deadlines=(5.0, 10.0, 30.0)):
+    """Detection within each deadline, early alarms and onset error per leak size.
+
+    Parameters
+    ----------
+    runs : pandas.DataFrame
+        Per-run table with ``leak_lpm, onset_true_s, alarm, alarm_time_s, onset_est_s``.
+    deadlines : sequence of float
+        Seconds after the true onset.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Per group and size: ``n_leak``, ``early_alarms``, ``early_alarm_rate`` (+ interval),
+        for each deadline ``d``: ``detected_<d>s``, ``detection_rate_<d>s``, ``det_low_<d>s``,
+        ``det_high_<d>s``; ``onset_error_median_s`` and ``delay_median_s`` (runs detected
+        within 10 s).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> runs = pd.DataFrame({"method": "m", "system": "vca", "load": "none",
+    ...     "excitation": "operating", "role": "test_leak", "leak_lpm": 0.1,
+    ...     "onset_true_s": 20.0, "alarm": [True, True, True, False],
+    ...     "alarm_time_s": [15.0, 24.0, 45.0, None], "onset_est_s": [14.0, 21.0, 30.0, None]})
+    >>> r = detection_table(runs).iloc[0]
+    >>> int(r.early_alarms), float(r["detection_rate_10s"]), float(r["detection_rate_30s"])
+    (1, 0.25, 0.5)
+    >>> float(r.onset_error_median_s)
+    1.0
+    """
+    import pandas as pd
+
+    lk = runs[runs.role == "test_leak"]
+    rows = []
+    for key, g in lk.groupby(_GROUP + ["leak_lpm"], sort=True):
+        onset = pd.to_numeric(g.onset_true_s, errors="coerce").to_numpy()
+        t = pd.to_numeric(g.alarm_time_s, errors="coerce").to_numpy()
+        est = pd.to_numeric(g.onset_est_s, errors="coerce").to_numpy()
+        alarm = g.alarm.astype(bool).to_numpy()
+        n = len(g)
+        early = alarm & (t < onset)
+        row = {**dict(zip(_GROUP + ["leak_lpm"], key)), "n_leak": n,
+               "early_alarms": int(early.sum())}
+        r = _rate(int(early.sum()), n)
+        row.update(early_alarm_rate=r["rate"], early_low=r["low"], early_high=r["high"])
+        for d in deadlines:
+            det = alarm & (t >= onset) & (t <= onset + d)
+            r = _rate(int(det.sum()), n)
+            tag = f"{d:g}s"
+            row.update({f"detected_{tag}": int(det.sum()), f"detection_rate_{tag}": r["rate"],
+                        f"det_low_{tag}": r["low"], f"det_high_{tag}": r["high"]})
+        det10 = alarm & (t >= onset) & (t <= onset + 10.0)
+        err = np.abs(est - onset)[det10]
+        row["onset_error_median_s"] = float(np.median(err)) if err.size else float("nan")
+        dl = (t - onset)[det10]
+        row["delay_median_s"] = float(np.median(dl)) if dl.size else float("nan")
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def minimum_detectable_v5(det, deadline: float = 10.0):
+    """Minimum detectable leak per method, rig, load and excitation ("every larger size too").
+
+    Parameters
+    ----------
+    det : pandas.DataFrame
+        Output of :func:`detection_table`.
+    deadline : float, default 10.0
+        Deadline whose detection rate is used.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``min_detectable_lpm`` (NaN: not reached), ``mdl_detection_rate`` and its interval
+        ``mdl_det_low``, ``mdl_det_high`` at that size, ``largest_size_rate``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> det = pd.DataFrame({"method": "m", "system": "vca", "load": "none",
+    ...     "excitation": "operating", "leak_lpm": [0.01, 0.02, 0.05, 0.1],
+    ...     "detection_rate_10s": [0.95, 0.5, 0.92, 1.0], "det_low_10s": 0.0,
+    ...     "det_high_10s": 1.0})
+    >>> float(minimum_detectable_v5(det).min_detectable_lpm.iloc[0])
+    0.05
+    """
+    import pandas as pd
+
+    tag = f"{deadline:g}s"
+    rows = []
+    for key, g in det.groupby(_GROUP, sort=False):
+        g = g.sort_values("leak_lpm")
+        ok = (g[f"detection_rate_{tag}"] >= REQUIRED_RATE).to_numpy()
+        tail = np.flip(np.logical_and.accumulate(np.flip(ok)))
+        i = int(np.argmax(tail)) if tail.any() else None
+        rows.append({**dict(zip(_GROUP, key)), "deadline_s": deadline,
+                     "min_detectable_lpm": float(g.leak_lpm.iloc[i]) if i is not None else np.nan,
+                     "mdl_detection_rate": float(g[f"detection_rate_{tag}"].iloc[i])
+                     if i is not None else np.nan,
+                     "mdl_det_low": float(g[f"det_low_{tag}"].iloc[i]) if i is not None else np.nan,
+                     "mdl_det_high": float(g[f"det_high_{tag}"].iloc[i]) if i is not None else np.nan,
+                     "largest_size_rate": float(g[f"detection_rate_{tag}"].iloc[-1])})
+    return pd.DataFrame(rows)
+
+
+def summary_v5(runs, deadlines=(5.0, 10.0, 30.0)):
+    """The comparison table: per method, rig, load, excitation -- false alarms with interval,
+    minimum detectable leak at each deadline, onset error and goal flags.
+
+    Parameters
+    ----------
+    runs : pandas.DataFrame
+        Per-run table.
+    deadlines : sequence of float
+        Deadlines (s).
+
+    Returns
+    -------
+    summary, detection : pandas.DataFrame
+        The summary and :func:`detection_table`.
+    """
+    far = false_alarm_table(runs)
+    det = detection_table(runs, deadlines)
+    out = far
+    for d in deadlines:
+        m = minimum_detectable_v5(det, d)
+        tag = f"{d:g}s"
+        m = m.rename(columns={c: f"{c}_{tag}" for c in m.columns if c not in _GROUP})
+        out = out.merge(m.drop(columns=[f"deadline_s_{tag}"]), on=_GROUP, how="left")
+    # onset error of runs detected within 10 s, at sizes >= the 10-s minimum detectable leak
+    errs = []
+    for _, r in out.iterrows():
+        g = det[(det.method == r.method) & (det.system == r.system) & (det.load == r.load)
+                & (det.excitation == r.excitation)]
+        mdl = r["min_detectable_lpm_10s"]
+        sel = g[g.leak_lpm >= mdl] if np.isfinite(mdl) else g.iloc[0:0]
+        errs.append(float(np.nanmedian(sel.onset_error_median_s)) if len(sel)
+                    and np.isfinite(sel.onset_error_median_s).any() else np.nan)
+    out["onset_error_median_s"] = errs
+    goal = out.system.map(GOALS["mdl_lpm"])
+    out["goal_mdl_lpm"] = goal
+    out["goal_met"] = ((out["min_detectable_lpm_10s"] <= goal)
+                       & (out.false_alarm_rate <= GOALS["far"])
+                       & (out.far_high <= GOALS["far_upper"])
+                       & (out.onset_error_median_s <= GOALS["onset_error_s"]))
+    return out, det

@@ -1,0 +1,151 @@
+"""Benchmark v5 suite: every run on its own virtual machine; training and test units disjoint.
+
+Per rig, load and excitation (a *group*): ``n_cal`` healthy calibration runs on training
+machines, ``n_test_healthy`` held-out healthy runs and ``n_test_leak`` leaking runs per size on
+test machines. Every run is its own unit (machine id), so calibration and test runs are i.i.d.
+draws of (unit, operating conditions, noise): the exchangeability the conformal threshold needs
+holds by construction, and no test unit was seen in fitting. Noise is drawn per run (unit) from
+``noise_range_pa``; loads are never pooled.
+
+Machine ids: training ``1 + i`` (block per group), test ``10_000_000 + seed``; the simulator's
+``machine=`` argument receives them when it has one (``leakdiag.sim``'s virtual machines).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from leakdiag.bench.suite import EXCITATIONS, BenchCase, Nuisance
+
+__all__ = ["V5_VERSION", "V5Suite", "V5_SUITES", "V5_QUICK_SUITES", "build_v5_suite",
+           "V5_DEFAULT_FAR", "V5_QUICK_FAR", "DEADLINES_S"]
+
+#: Version of the v5 suite (seeds, sizes, ranges). Bump on any change.
+V5_VERSION = "5.0"
+#: Default per-run false-alarm target of the full suite and of ``--quick`` (20 calibration runs
+#: support 1/21 at best, so the quick suite asks for 5 %).
+V5_DEFAULT_FAR = 0.01
+V5_QUICK_FAR = 0.05
+#: Detection deadlines after the true onset (s): 10 s is the goal's, 5 and 30 s are reported.
+DEADLINES_S = (5.0, 10.0, 30.0)
+#: Seed offsets of the roles (disjoint blocks; leakdiag choice).
+_ROLE_OFFSET = {"cal": 0, "test_healthy": 2_000_000, "test_leak": 4_000_000}
+#: First machine id of test units (training units are numbered from 1).
+TEST_MACHINE_BASE = 10_000_000
+
+
+@dataclass(frozen=True)
+class V5Suite:
+    """Suite settings of one rig (benchmark v5).
+
+    Parameters
+    ----------
+    system : {"vca", "eha"}
+        Rig.
+    leak_lpm : tuple of float
+        Leak sizes (L/min), log-spaced (1-2-5 series).
+    loads : tuple of str
+        Loads (one group each, never pooled).
+    excitations : tuple of str
+        Excitations (one group each).
+    duration_s : float
+        Run duration (s).
+    onset_range_s : tuple of float
+        Uniform range of the leak onset (s).
+    n_cal, n_test_healthy, n_test_leak : int
+        Calibration runs (training machines), held-out healthy runs and leaking runs per size
+        (test machines), per group.
+    noise_range_pa : tuple of float
+        Uniform range of the unit's pressure-sensor noise standard deviation (Pa).
+    base_seed : int
+        First seed of the rig's block.
+    nuisance : Nuisance
+        Operating-condition ranges (noise factor unused: the noise is drawn from
+        ``noise_range_pa``).
+    chunk : int
+        Test runs per scoring task (one Parquet shard each).
+    """
+
+    system: str
+    leak_lpm: tuple[float, ...]
+    loads: tuple[str, ...]
+    excitations: tuple[str, ...]
+    duration_s: float
+    onset_range_s: tuple[float, float]
+    n_cal: int
+    n_test_healthy: int
+    n_test_leak: int
+    noise_range_pa: tuple[float, float]
+    base_seed: int
+    nuisance: Nuisance = field(default_factory=Nuisance)
+    chunk: int = 25
+
+
+#: The full v5 suite (60-s runs: onset U[20, 28] s leaves >= 32 s for the 30-s deadline and
+#: >= 15 s of monitored healthy operation before it, after the 5-s burn-in).
+V5_SUITES: dict[str, V5Suite] = {
+    "vca": V5Suite("vca", (0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5), ("none", "spring"),
+                   ("operating",), 60.0, (20.0, 28.0), 300, 1000, 50, (10e3, 40e3), 50_000_000),
+    "eha": V5Suite("eha", (0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 1.63), ("none", "spring"),
+                   ("operating",), 60.0, (20.0, 28.0), 300, 1000, 50, (10e3, 40e3), 60_000_000),
+}
+
+#: ``--quick``: one load, 30-s runs, 20 calibration and 20 healthy runs, the largest leak.
+V5_QUICK_SUITES: dict[str, V5Suite] = {
+    "vca": V5Suite("vca", (0.5,), ("none",), ("operating",), 30.0, (12.0, 15.0), 20, 20, 4,
+                   (10e3, 10e3), 70_000_000, chunk=12),
+    "eha": V5Suite("eha", (1.63,), ("none",), ("operating",), 30.0, (12.0, 15.0), 20, 20, 4,
+                   (10e3, 10e3), 80_000_000, chunk=12),
+}
+
+
+def build_v5_suite(suites: dict[str, V5Suite]) -> list[BenchCase]:
+    """All runs of the v5 suite, in a fixed order.
+
+    Parameters
+    ----------
+    suites : dict
+        Rig -> :class:`V5Suite`.
+
+    Returns
+    -------
+    list of BenchCase
+        ``noise_level`` is ``"unit"`` (drawn per run); ``nuisance`` holds the drawn conditions
+        plus ``machine`` (unit id) and ``index`` (run number within its role and size).
+
+    Notes
+    -----
+    Seed of run ``i`` of role ``r``, load ``l``, excitation ``e``, size ``j``:
+    ``base_seed + offset[r] + 500_000 l + 100_000 e + 10_000 j + i`` (offsets cal 0,
+    test_healthy 2 000 000, test_leak 4 000 000). Training machines are ``1 + i +
+    10_000 (2 l + e)``, test machines ``10_000_000 + seed``.
+
+    Examples
+    --------
+    >>> cases = build_v5_suite(V5_QUICK_SUITES)
+    >>> len(cases), cases[0].nuisance["machine"], cases[-1].role
+    (88, 1, 'test_leak')
+    """
+    out: list[BenchCase] = []
+    for name, s in suites.items():
+        for li, load in enumerate(s.loads):
+            for exc in s.excitations:
+                e = EXCITATIONS.index(exc)
+                plan = [("cal", 0, 0.0, s.n_cal), ("test_healthy", 0, 0.0, s.n_test_healthy)]
+                plan += [("test_leak", j, q, s.n_test_leak) for j, q in enumerate(s.leak_lpm)]
+                for role, j, q, n in plan:
+                    for i in range(n):
+                        seed = (s.base_seed + _ROLE_OFFSET[role] + 500_000 * li + 100_000 * e
+                                + 10_000 * j + i)
+                        rng = np.random.default_rng(seed)
+                        onset = float(rng.uniform(*s.onset_range_s)) if q > 0 else None
+                        nz = s.nuisance.draw(rng, s.duration_s)
+                        noise = float(rng.uniform(*s.noise_range_pa))
+                        machine = (1 + i + 10_000 * (2 * li + e) if role == "cal"
+                                   else TEST_MACHINE_BASE + seed)
+                        nz.update(machine=int(machine), index=i)
+                        out.append(BenchCase(name, role, load, "unit", exc, float(q), onset,
+                                             seed, s.duration_s, noise, nz))
+    return out

@@ -1,0 +1,255 @@
+"""Benchmark v5, per-unit mode (``--unit-fit N``): each unit fitted on N of its own healthy runs.
+
+Deployment-like: a monitored unit gives a few healthy recordings of its own; the detector is
+fitted on them (standardisation, identification) and its threshold comes from **reference
+maxima** of training units fitted the same way (``Detector.fit(own, reference_maxima=...)``,
+pooling rule in ``docs/detect.md``):
+
+* reference (:func:`reference_group`): for every training unit, the detector is fitted on its N
+  own healthy runs, and the CUSUM maximum of its calibration run -- a run that fit never saw --
+  is one reference maximum (``Detector.segment_maxima``);
+* scoring (:func:`score_chunk_unit`): for every held-out run, N own healthy runs of the same
+  unit (same machine and sensor noise, other seeds) are simulated, each method is fitted on
+  them with the reference maxima pooled, and the held-out run is judged.
+
+Detectors with their own ``fit`` (flow balance) take no reference maxima: they are fitted on the
+N own runs alone and keep their own threshold rule.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from leakdiag.bench.run import _recording
+from leakdiag.bench.v5_run import _simulate
+
+__all__ = ["own_cases", "UnitRefConfig", "UnitChunkConfig", "reference_group",
+           "score_chunk_unit", "takes_reference"]
+
+
+def own_cases(case, n: int, nuisance) -> list:
+    """The ``n`` own healthy runs of a run's unit (same machine and sensor noise).
+
+    Parameters
+    ----------
+    case : BenchCase
+        A run of the suite.
+    n : int
+        Own runs.
+    nuisance : Nuisance
+        Operating-condition ranges (drawn afresh for each own run).
+
+    Returns
+    -------
+    list of BenchCase
+        Role ``"own"``, seeds ``10 * seed + k + 1`` (disjoint from the suite's seeds), no leak.
+
+    Examples
+    --------
+    >>> from leakdiag.bench.v5_suite import V5_QUICK_SUITES, build_v5_suite
+    >>> c = build_v5_suite(V5_QUICK_SUITES)[0]
+    >>> [o.seed for o in own_cases(c, 2, V5_QUICK_SUITES["vca"].nuisance)]
+    [700000001, 700000002]
+    """
+    out = []
+    for k in range(n):
+        seed = 10 * case.seed + k + 1
+        nz = nuisance.draw(np.random.default_rng(seed), case.duration_s)
+        nz.update(machine=case.nuisance["machine"], index=k)
+        out.append(replace(case, role="own", leak_lpm=0.0, onset_s=None, seed=seed,
+                           nuisance=nz))
+    return out
+
+
+@dataclass(frozen=True)
+class UnitRefConfig:
+    """Reference maxima of every method of one group from its training units."""
+
+    cases: tuple  # calibration runs (one per training unit)
+    methods: tuple
+    n_units: tuple  # per method: training units used (reduced budget)
+    alarm: object
+    n_own: int
+    nuisance: object
+    cache_dir: str | None
+    path: str
+
+
+@dataclass(frozen=True)
+class UnitChunkConfig:
+    """A chunk of held-out runs judged per unit."""
+
+    cases: tuple
+    methods: tuple
+    caps: tuple  # per method: (n_test_healthy, n_test_leak) or None
+    alarm: object
+    n_own: int
+    nuisance: object
+    ref_path: str
+    path: str
+
+
+def takes_reference(det) -> bool:
+    """Whether a detector uses the base class's ``fit`` (which pools reference maxima).
+
+    Parameters
+    ----------
+    det : Detector
+        Unfitted detector.
+
+    Returns
+    -------
+    bool
+        False for detectors with their own ``fit`` (e.g. flow balance).
+    """
+    from leakdiag.detect.base import Detector
+
+    return isinstance(det, Detector) and type(det).fit is Detector.fit
+
+
+def _fit_own(det, own, ref):
+    """Fit on own runs (+ reference maxima); an own-only unsupported threshold is expected."""
+    from leakdiag.detect.threshold import InsufficientHealthyDataWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InsufficientHealthyDataWarning)
+        return det.fit(own, reference_maxima=ref) if ref is not None else det.fit(own)
+
+
+def reference_group(config: UnitRefConfig) -> list[dict]:
+    """Reference maxima of each method from the group's training units (or read them back).
+
+    Parameters
+    ----------
+    config : UnitRefConfig
+        Training units, methods, alarm, own runs per unit, output path.
+
+    Returns
+    -------
+    list of dict
+        Per method: ``n_reference`` maxima, ``n_units``, ``error`` (first failure) and CPU s.
+    """
+    import joblib
+
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.threshold import ReferenceMaxima
+
+    path = Path(config.path)
+    if path.is_file():
+        return joblib.load(path)["rows"]
+    c0 = config.cases[0]
+    build = replace(config.alarm, on_insufficient="warn")  # the own-only threshold is not used here
+    maxima = {m: [] for m in config.methods}
+    errors: dict[str, str] = {}
+    cpu = dict.fromkeys(config.methods, 0.0)
+    used: dict = {}
+    for i, u in enumerate(config.cases):
+        own = [_recording(o, config.cache_dir) for o in own_cases(u, config.n_own,
+                                                                   config.nuisance)]
+        run = _recording(u, config.cache_dir)
+        for m, n_units in zip(config.methods, config.n_units):
+            if m in errors or i >= n_units:
+                continue
+            det = make_detector(m, c0.system, build)
+            if not takes_reference(det):
+                continue  # own fit and threshold rule: fitted per unit at scoring time
+            used[m] = det._alarm()  # the method's own settings (e.g. combined: direction up)
+            t0 = time.process_time()
+            try:
+                _fit_own(det, own, None)
+                maxima[m].append(det.segment_maxima([run]))
+            except (ValueError, NotImplementedError) as exc:
+                errors[m] = f"{type(exc).__name__}: {exc}"
+            cpu[m] += time.process_time() - t0
+    refs, rows = {}, []
+    for m in config.methods:
+        got = np.concatenate(maxima[m]) if maxima[m] else np.zeros(0)
+        if m not in errors and got.size:
+            b = used[m]
+            refs[m] = ReferenceMaxima(got, b.segment_s, b.drift, b.direction, b.burn_in_s,
+                                      f"benchmark v5 training units, {c0.system} {c0.load} "
+                                      f"{c0.excitation}, {config.n_own} own runs each",
+                                      len(config.cases))
+        rows.append({"method": m, "system": c0.system, "load": c0.load,
+                     "excitation": c0.excitation, "n_reference": int(got.size),
+                     "n_units": len(maxima[m]), "error": errors.get(m), "cpu_s": cpu[m]})
+    path.parent.mkdir(parents=True, exist_ok=True)
+    joblib.dump({"refs": refs, "rows": rows}, path)
+    return rows
+
+
+def score_chunk_unit(config: UnitChunkConfig) -> int:
+    """Judge held-out runs, each method fitted on the run's unit's own healthy runs.
+
+    Parameters
+    ----------
+    config : UnitChunkConfig
+        Runs, methods, reference maxima path, shard path.
+
+    Returns
+    -------
+    int
+        Rows written (read back when the shard exists).
+    """
+    import joblib
+    import pandas as pd
+
+    from leakdiag.bench.registry import make_detector
+
+    path = Path(config.path)
+    if path.is_file():
+        return len(pd.read_parquet(path, columns=["method"]))
+    refs = joblib.load(config.ref_path)["refs"]
+    rows = []
+    for c in config.cases:
+        idx = c.nuisance["index"]
+        todo = [m for m, caps in zip(config.methods, config.caps)
+                if caps is None or idx < (caps[0] if c.role == "test_healthy" else caps[1])]
+        if not todo:
+            continue
+        t0 = time.process_time()
+        own = [_simulate(o) for o in own_cases(c, config.n_own, config.nuisance)]
+        rec = _simulate(c)
+        sim_cpu = time.process_time() - t0
+        base = {"system": c.system, "load": c.load, "excitation": c.excitation,
+                "leak_lpm": c.leak_lpm, "seed": c.seed}
+        for m in todo:
+            det = make_detector(m, c.system, config.alarm)
+            ref = None
+            if takes_reference(det):
+                ref = refs.get(m)
+                if ref is None:
+                    continue  # no reference could be built (its error is in fits.csv)
+            t0 = time.process_time()
+            try:
+                _fit_own(det, own, ref)
+                v = det.predict(rec)
+            except (ValueError, ArithmeticError, NotImplementedError) as exc:
+                rows.append({**base, "method": m, "role": "error",
+                             "error": f"{type(exc).__name__}: {exc}"})
+                continue
+            basis = getattr(det, "threshold_basis_", None)
+            rows.append({**base, "method": m, "role": c.role, "machine": c.nuisance["machine"],
+                         "duration_s": c.duration_s, "onset_true_s": c.onset_s,
+                         "leak_lpm_achieved": rec.meta.get("leak_lpm_achieved"),
+                         "noise_std_pa": c.noise_std_pa, "score_max": v.score_max,
+                         "alarm": bool(v.leak), "alarm_time_s": v.alarm_time_s,
+                         "onset_est_s": v.onset_s, "confidence": v.confidence,
+                         "threshold": v.threshold,
+                         "threshold_k": getattr(basis, "k", np.nan),
+                         "threshold_n": getattr(basis, "n", np.nan),
+                         "cpu_s": time.process_time() - t0, "sim_cpu_s": sim_cpu})
+    df = pd.DataFrame(rows)
+    for col in ("onset_true_s", "alarm_time_s", "onset_est_s", "leak_lpm_achieved"):
+        if col in df:
+            df[col] = pd.to_numeric(df[col], errors="coerce")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    df.to_parquet(tmp, index=False)
+    tmp.replace(path)
+    return len(df)

@@ -1,0 +1,225 @@
+"""EHA flow balance: the pump as flow meter (Eqs. 3-6, 3-16 to 3-19) and its identification.
+
+Adding each pump-side line to its chamber (Eq. 3-16 + 3-18, Eq. 3-17 + 3-19, with the leak
+:math:`Q_l` from chamber A to B and the pump's own leakage) and subtracting the two sides,
+
+.. math::
+
+    Q_l = \\frac{q_b}{2\\pi}\\omega - C_p (P_a - P_b) - A\\dot x
+          - \\frac{V_{line}(\\dot P_a - \\dot P_b) + V_A \\dot P_1 - V_B \\dot P_2}{2\\beta},
+
+where :math:`C_p` lumps the pump's cross-port leakage and its case-drain leakage made up by the
+accumulator check valves (both laminar in the line pressure difference). The line orifices of
+Eqs. 3-9 to 3-12 and the piston's mechanics drop out. Integrated over a window the pump term is
+the shaft angle counted by the motor encoder, so that only the window end points carry noise.
+Every coefficient is linear: :func:`identify` is ordinary least squares on healthy windows.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+
+from leakdiag.detect._flow_balance_kernel import eha_window_sums
+from leakdiag.sim.eha_params import EHAParams
+
+__all__ = ["EHAPumpModel", "CHANNELS", "terms", "identify"]
+
+#: Channels the EHA flow balance needs: chamber and line pressures, position, motor speed.
+CHANNELS = ("p1", "p2", "x", "speed", "pa", "pb")
+_TH, _DX, _CA, _CB, _DPA, _DPB, _L, _PHI, _T, _FW, _PHIABS, _WA, _WB = range(13)
+#: Moving average of P1 - P2 for the mean |phi| (s), as for the VCA.
+DP_SMOOTHING_S = 0.005
+
+
+@dataclass(frozen=True)
+class EHAPumpModel:
+    """Pump and fluid parameters the EHA flow balance uses for one machine.
+
+    Parameters
+    ----------
+    displacement_factor : float
+        Multiplier of the nominal pump displacement :math:`q_b` (Table 3-1).
+    pump_leakage_m3_per_s_pa : float
+        Lumped laminar pump leakage :math:`C_p` (cross-port plus case drain).
+    bulk_modulus_pa : float
+        Effective bulk modulus (Pa).
+    baseline_leak_coefficient : float
+        Leak-law coefficient seen on the healthy recordings (subtracted before testing).
+    """
+
+    displacement_factor: float
+    pump_leakage_m3_per_s_pa: float
+    bulk_modulus_pa: float
+    baseline_leak_coefficient: float = 0.0
+
+    def to_dict(self) -> dict:
+        """Field name -> value.
+
+        Returns
+        -------
+        dict
+        """
+        return asdict(self)
+
+
+def default_params() -> EHAParams:
+    """Table 3-1 plus the documented decisions (design values)."""
+    return EHAParams()
+
+
+def check_params(p) -> EHAParams:
+    """``p`` if it is an :class:`EHAParams`, else TypeError."""
+    if not isinstance(p, EHAParams):
+        raise TypeError(f"params={p!r} must be an EHAParams for system='eha'")
+    return p
+
+
+def leak_transition_pa(p: EHAParams) -> float:
+    """Laminar core of the turbulent leak law (Pa)."""
+    return p.laminar_transition_pa
+
+
+def raw_sums(rec, nominal: EHAParams, window: int, laminar: bool) -> np.ndarray:
+    """Raw window sums (see ``eha_window_sums``), time integrals in s."""
+    arr = [np.ascontiguousarray(rec[c], dtype=np.float64) for c in CHANNELS]
+    p1, p2, x, w, pa, pb = arr
+    fs = rec.sample_rate
+    dps = np.ascontiguousarray(uniform_filter1d(p1 - p2, max(1, int(round(DP_SMOOTHING_S * fs))),
+                                                mode="nearest"))
+    n_win = (len(p1) - 1) // window
+    starts = np.arange(n_win, dtype=np.int64) * window
+    out = np.empty((n_win, 13))
+    eha_window_sums(p1, p2, x, w, pa, pb, dps, starts, window + 1, nominal.piston_area_m2,
+                    nominal.chamber_volume_m3, nominal.laminar_transition_pa, bool(laminar), out)
+    out[:, [_TH, _L, _PHI, _T, _FW, _PHIABS]] /= fs
+    return out
+
+
+def _pump_flow_per_rad(nominal: EHAParams) -> float:
+    return nominal.pump_displacement_m3_per_rev / (2.0 * math.pi)
+
+
+def _compressibility(raw: np.ndarray, nominal: EHAParams) -> np.ndarray:
+    """``V_line (dPa - dPb) + int V_A dP1 - int V_B dP2`` (m^3 Pa), divided by 2 beta later."""
+    return nominal.line_volume_m3 * (raw[:, _DPA] - raw[:, _DPB]) + raw[:, _CA] - raw[:, _CB]
+
+
+def _terms_from_raw(raw: np.ndarray, nominal: EHAParams, model: EHAPumpModel) -> dict:
+    qr = _pump_flow_per_rad(nominal) * model.displacement_factor
+    comp = _compressibility(raw, nominal) / (2.0 * model.bulk_modulus_pa)
+    r = (qr * raw[:, _TH] - model.pump_leakage_m3_per_s_pa * raw[:, _L]
+         - nominal.piston_area_m2 * raw[:, _DX] - comp
+         - model.baseline_leak_coefficient * raw[:, _PHI])
+    return {"residual": r, "phi": raw[:, _PHI].copy(), "phi_abs": raw[:, _PHIABS].copy(),
+            "flow": qr * raw[:, _FW], "duration": raw[:, _T].copy(),
+            "edge_flow2": qr * qr * (raw[:, _WA] ** 2 + raw[:, _WB] ** 2),
+            "compressibility": comp}
+
+
+def terms(rec, nominal: EHAParams, model: EHAPumpModel, window: int, laminar: bool) -> dict:
+    """Window terms of one recording with a given model.
+
+    Parameters
+    ----------
+    rec : Recording
+        EHA recording with :data:`CHANNELS`.
+    nominal : EHAParams
+        Design values (area, volumes, displacement).
+    model : EHAPumpModel
+        Identified pump model.
+    window : int
+        Window length in sample intervals.
+    laminar : bool
+        Leak law Eq. 2-5 (True) or Eq. 2-4.
+
+    Returns
+    -------
+    dict of numpy.ndarray
+        ``residual`` (m^3), ``phi``, ``phi_abs``, ``flow`` (m^3 through the pump),
+        ``duration`` (s), ``edge_flow2``, ``compressibility`` (m^3).
+    """
+    return _terms_from_raw(raw_sums(rec, nominal, window, laminar), nominal, model)
+
+
+def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, fit_bulk_modulus):
+    """Identify the displacement factor and the pump leakage by least squares.
+
+    Healthy windows satisfy ``A dX + comp/(2 beta) = d q TH - C_p L`` (linear in ``d, C_p``
+    and, with ``fit_bulk_modulus``, in ``1/beta``). The baseline leak is fitted afterwards on
+    the residual (second stage): fitted jointly, a turbulent baseline is confounded with ``d``
+    (the no-load pressure difference follows the velocity) and a laminar one is ``C_p``.
+
+    Parameters
+    ----------
+    recs : list of Recording
+        Healthy recordings.
+    nominal : EHAParams
+        Design values.
+    windows : list of int
+        Window length (sample intervals) per recording.
+    laminar : bool
+        Leak law of the baseline term.
+    skips : list of int
+        Burn-in windows per recording.
+    fit_bandwidth : bool
+        Not used by the EHA (no valve); accepted for a common interface.
+    fit_bulk_modulus : bool
+        Also identify the bulk modulus.
+
+    Returns
+    -------
+    model : EHAPumpModel
+    std : dict
+        Standard errors of the identified fields.
+    """
+    raws = [raw_sums(r, nominal, w, laminar)[sk:] for r, w, sk in zip(recs, windows, skips)]
+    raw = np.concatenate(raws)
+    qr = _pump_flow_per_rad(nominal)
+    comp = _compressibility(raw, nominal)
+    y = nominal.piston_area_m2 * raw[:, _DX]
+    # no baseline leak term: under the EHA's velocity-proportional load pressure a turbulent
+    # baseline is confounded with the displacement, and a laminar one is the pump leakage
+    cols = [qr * raw[:, _TH], -raw[:, _L]]
+    names = ["displacement_factor", "pump_leakage_m3_per_s_pa"]
+    if fit_bulk_modulus:
+        cols.append(-comp / 2.0)
+        names.append("inverse_bulk_modulus")
+    else:
+        y = y + comp / (2.0 * nominal.bulk_modulus_pa)
+    x = np.column_stack(cols)
+    scale = np.sqrt(np.mean(x * x, axis=0))
+    scale[scale == 0] = 1.0
+    coef, *_ = np.linalg.lstsq(x / scale, y, rcond=None)
+    res = y - (x / scale) @ coef
+    dof = max(1, len(y) - len(coef))
+    cov = np.linalg.pinv((x / scale).T @ (x / scale)) * float(res @ res) / dof
+    coef = coef / scale
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None)) / scale
+    vals = dict(zip(names, coef))
+    std = dict(zip(names, (float(s) for s in se)))
+    beta = nominal.bulk_modulus_pa
+    if fit_bulk_modulus:
+        inv = float(vals.pop("inverse_bulk_modulus"))
+        if not inv > 0:
+            raise ValueError(f"fit: identified 1/beta={inv!r} is not positive; the healthy data "
+                             "do not determine the bulk modulus (use fit_bulk_modulus=False)")
+        beta = 1.0 / inv
+        std["bulk_modulus_pa"] = float(std.pop("inverse_bulk_modulus")) * beta * beta
+    model = EHAPumpModel(float(vals["displacement_factor"]),
+                         float(vals["pump_leakage_m3_per_s_pa"]), float(beta), 0.0)
+    # second stage: the leak-law term left in the healthy residual (model approximations such
+    # as the quasi-steady accumulator make-up flow) becomes the baseline, d and C_p unchanged
+    r = _terms_from_raw(raw, nominal, model)["residual"]
+    phi = raw[:, _PHI]
+    pp = float(phi @ phi)
+    if pp > 0:
+        k0 = float(phi @ r) / pp
+        e = r - k0 * phi
+        std["baseline_leak_coefficient"] = float(np.sqrt(float(e @ e) / max(1, len(e) - 1) / pp))
+        model = EHAPumpModel(model.displacement_factor, model.pump_leakage_m3_per_s_pa,
+                             model.bulk_modulus_pa, k0)
+    return model, std

@@ -1,0 +1,181 @@
+"""Numba kernels of the flow-balance detector (see :mod:`leakdiag.detect.flow_balance`).
+
+The kernels only compute; the wrappers in ``_flow_balance_vca`` / ``_flow_balance_eha``
+validate, coerce to C-contiguous float64 and call them. Every integral is the trapezoidal rule
+over the samples of a window, so that the window sums of adjacent windows add up exactly.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+__all__: list[str] = []
+
+
+@numba.njit(cache=True)
+def _sqrt_reg(dp, ptr):
+    # sgn(dp) sqrt(|dp|) with a laminar core below ~ptr (the simulator's regularisation of
+    # Eq. 2-2 / 2-4, docs/models.md): dp / (dp^2 + ptr^2)^(1/4); ptr = 0 gives Eq. 2-2 exactly
+    if ptr == 0.0:
+        return np.sign(dp) * np.sqrt(abs(dp))
+    return dp / np.sqrt(np.sqrt(dp * dp + ptr * ptr))
+
+
+@numba.njit(cache=True)
+def spool_positions(u, phi, gamma, kv, offset, drift_per_s, dt, out):
+    """Spool position per sample from the held control signal (Table 2-1 valve, exact ZOH).
+
+    ``z_{k+1} = Phi z_k + Gamma (u_k + offset + drift t_k)``, ``z = [x_v, v_v]``; the spool
+    starts at its steady state for the first sample. ``Gamma`` includes ``k_v``.
+    """
+    n = u.shape[0]
+    if n == 0:
+        return
+    u0 = u[0] + offset
+    xv = kv * u0
+    vv = 0.0
+    for k in range(n):
+        out[k] = xv
+        uk = u[k] + offset + drift_per_s * (k * dt)
+        nxv = phi[0, 0] * xv + phi[0, 1] * vv + gamma[0] * uk
+        nvv = phi[1, 0] * xv + phi[1, 1] * vv + gamma[1] * uk
+        xv = nxv
+        vv = nvv
+
+
+@numba.njit(cache=True)
+def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw, ptr_valve,
+                    ptr_leak, laminar, out):
+    """Per-window integrals of the VCA flow balance (Eqs. 2-1, 2-2, 2-4/2-5).
+
+    ``out[w]`` = ``[S1, S2, dX, C1, C2, PHI, T, F, PHIABS, QA, QB]`` (time integrals in sample units,
+    the wrapper multiplies by ``dt``):
+    ``S1 = int Q1 dt`` and ``S2 = int Q2 dt`` (valve flows of Eq. 2-2 with flow-gain factor 1,
+    ``gw = K_v w``), ``dX = x_end - x_start``, ``C1 = int V1 dP1``, ``C2 = int V2 dP2``,
+    ``PHI = int phi(P1 - P2) dt`` (leak-law pressure term), ``T`` window duration and
+    ``F = int |Q1 + Q2| / 2 dt`` (flow through the valve, for the error model) and
+    ``PHIABS = int |phi(dps)| dt`` (for the mean leak flow; ``dps`` is a smoothed ``P1 - P2``
+    so that pressure noise does not inflate it) and ``QA``, ``QB`` the valve flow
+    ``(Q1 + Q2) / 2`` at the window's first and last sample (for the end-point error model).
+    """
+    n_win = starts.shape[0]
+    for w in range(n_win):
+        i0 = starts[w]
+        s1 = 0.0
+        s2 = 0.0
+        c1 = 0.0
+        c2 = 0.0
+        phs = 0.0
+        pha = 0.0
+        pap = 0.0
+        fabs = 0.0
+        q1p = 0.0
+        q2p = 0.0
+        php = 0.0
+        for j in range(window):
+            k = i0 + j
+            g = gw * xv[k]
+            if xv[k] >= 0.0:
+                q1 = g * _sqrt_reg(ps - p1[k], ptr_valve)
+                q2 = g * _sqrt_reg(p2[k] - pt, ptr_valve)
+            else:
+                q1 = g * _sqrt_reg(p1[k] - pt, ptr_valve)
+                q2 = g * _sqrt_reg(ps - p2[k], ptr_valve)
+            dp = p1[k] - p2[k]
+            if laminar:
+                ph = dp
+                pa_ = dps[k]
+            else:
+                ph = _sqrt_reg(dp, ptr_leak)
+                pa_ = _sqrt_reg(dps[k], ptr_leak)
+            if j == 0:
+                out[w, 9] = 0.5 * (q1 + q2)
+            if j == window - 1:
+                out[w, 10] = 0.5 * (q1 + q2)
+            if j > 0:
+                s1 += 0.5 * (q1 + q1p)
+                s2 += 0.5 * (q2 + q2p)
+                phs += 0.5 * (ph + php)
+                pha += 0.5 * (abs(pa_) + abs(pap))
+                fabs += 0.25 * (abs(q1 + q2) + abs(q1p + q2p))
+                v1a = volume + area * x[k - 1]
+                v1b = volume + area * x[k]
+                v2a = volume - area * x[k - 1]
+                v2b = volume - area * x[k]
+                c1 += 0.5 * (v1a + v1b) * (p1[k] - p1[k - 1])
+                c2 += 0.5 * (v2a + v2b) * (p2[k] - p2[k - 1])
+            q1p = q1
+            q2p = q2
+            php = ph
+            pap = pa_
+        out[w, 0] = s1
+        out[w, 1] = s2
+        out[w, 2] = x[i0 + window - 1] - x[i0]
+        out[w, 3] = c1
+        out[w, 4] = c2
+        out[w, 5] = phs
+        out[w, 6] = float(window - 1)
+        out[w, 7] = fabs
+        out[w, 8] = pha
+
+
+@numba.njit(cache=True)
+def eha_window_sums(p1, p2, x, w, pa, pb, dps, starts, window, area, volume, ptr_leak, laminar,
+                    out):
+    """Per-window integrals of the EHA pump-side flow balance (Eqs. 3-6, 3-16 to 3-19, 2-4/2-5).
+
+    ``out[w]`` = ``[TH, dX, CA, CB, dPA, dPB, L, PHI, T, FW, PHIABS, WA, WB]`` (time integrals in
+    sample units): ``TH = int omega dt`` (shaft angle), ``dX``, ``CA = int V_A dP_1``,
+    ``CB = int V_B dP_2`` (chamber volumes follow the piston), ``dPA``, ``dPB`` line pressure
+    changes, ``L = int (P_a - P_b) dt`` (laminar pump leakage), ``PHI = int phi(P1 - P2) dt``,
+    ``T`` duration, ``FW = int |omega| dt``, ``PHIABS = int |phi(dps)| dt`` and the speeds at
+    the window's first and last samples.
+    """
+    n_win = starts.shape[0]
+    for iw in range(n_win):
+        i0 = starts[iw]
+        th = 0.0
+        ca = 0.0
+        cb = 0.0
+        lk = 0.0
+        phs = 0.0
+        pha = 0.0
+        fw = 0.0
+        php = 0.0
+        pap = 0.0
+        for j in range(window):
+            k = i0 + j
+            dp = p1[k] - p2[k]
+            if laminar:
+                ph = dp
+                pa_ = dps[k]
+            else:
+                ph = _sqrt_reg(dp, ptr_leak)
+                pa_ = _sqrt_reg(dps[k], ptr_leak)
+            if j > 0:
+                th += 0.5 * (w[k] + w[k - 1])
+                fw += 0.5 * (abs(w[k]) + abs(w[k - 1]))
+                lk += 0.5 * ((pa[k] - pb[k]) + (pa[k - 1] - pb[k - 1]))
+                phs += 0.5 * (ph + php)
+                pha += 0.5 * (abs(pa_) + abs(pap))
+                va = volume + area * 0.5 * (x[k] + x[k - 1])
+                vb = volume - area * 0.5 * (x[k] + x[k - 1])
+                ca += va * (p1[k] - p1[k - 1])
+                cb += vb * (p2[k] - p2[k - 1])
+            php = ph
+            pap = pa_
+        i1 = i0 + window - 1
+        out[iw, 0] = th
+        out[iw, 1] = x[i1] - x[i0]
+        out[iw, 2] = ca
+        out[iw, 3] = cb
+        out[iw, 4] = pa[i1] - pa[i0]
+        out[iw, 5] = pb[i1] - pb[i0]
+        out[iw, 6] = lk
+        out[iw, 7] = phs
+        out[iw, 8] = float(window - 1)
+        out[iw, 9] = fw
+        out[iw, 10] = pha
+        out[iw, 11] = w[i0]
+        out[iw, 12] = w[i1]

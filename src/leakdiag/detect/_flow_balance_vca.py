@@ -1,0 +1,352 @@
+"""VCA flow balance: window terms of Eq. 2-1 and the per-machine valve identification.
+
+Adding and subtracting the two chamber continuity equations of Eq. 2-1,
+
+.. math::
+
+    \\dot P_1 V_1/\\beta = Q_1 - Q_l - A\\dot x, \\qquad
+    \\dot P_2 V_2/\\beta = -Q_2 + Q_l + A\\dot x,
+
+gives a leak-free equation (the *sum*) and the leak equation (the *difference*),
+
+.. math::
+
+    Q_1 - Q_2 = \\frac{V_1 \\dot P_1 + V_2 \\dot P_2}{\\beta}, \\qquad
+    Q_l = \\frac{Q_1 + Q_2}{2} - A\\dot x - \\frac{V_1\\dot P_1 - V_2 \\dot P_2}{2\\beta}.
+
+Neither contains the piston's mechanics (mass, damping, friction, spring, end stops). Integrated
+over a window, :math:`A\\dot x` becomes :math:`A\\,\\Delta x` and :math:`V_i\\dot P_i` the
+Stieltjes sums :math:`\\int V_i\\,dP_i`, so that position and pressure noise enter at the
+window's end points (and, weakly, through :math:`A\\,\\int P\\,dx`). The valve flows come from
+Eq. 2-2 with the spool position obtained from the recorded ``u`` through the second-order valve
+of Table 2-1, discretised exactly for a control held between samples.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from scipy.linalg import expm
+from scipy.optimize import least_squares
+
+from leakdiag.detect._flow_balance_kernel import spool_positions, vca_window_sums
+from leakdiag.sim.vca_params import VCAParams
+
+__all__ = ["VCAValveModel", "VCA_CHANNELS", "vca_raw_sums", "vca_terms", "identify_vca"]
+
+#: Channels the VCA flow balance needs.
+VCA_CHANNELS = ("p1", "p2", "x", "u")
+#: Columns of the raw window sums (see ``vca_window_sums``).
+_S1, _S2, _DX, _C1, _C2, _PHI, _T, _F, _PHIABS, _QA, _QB = range(11)
+#: Moving average applied to P1 - P2 for the mean |phi| only (s; leakdiag choice: 5 ms cuts
+#: white pressure noise 2.2x; without load the mean |phi| is then -1 % / +14 % off at 10 / 40 kPa
+#: noise on the simulator, under the spring load < 0.2 %; docs/detect.md).
+DP_SMOOTHING_S = 0.005
+
+
+@dataclass(frozen=True)
+class VCAValveModel:
+    """Valve and fluid parameters the flow balance uses for one machine.
+
+    Parameters
+    ----------
+    flow_gain_factor : float
+        Multiplier of the nominal :math:`K_v w` of Table 2-1 (1 = nominal).
+    null_offset_v : float
+        Control-signal offset the valve adds (V): the spool follows ``u + null_offset_v``.
+    supply_pressure_pa : float
+        Supply pressure :math:`P_s` (Pa).
+    valve_natural_frequency_hz : float
+        Valve natural frequency (Hz).
+    bulk_modulus_pa : float
+        Effective bulk modulus :math:`\\beta` (Pa).
+    baseline_leak_coefficient : float
+        Leak-law coefficient seen on the healthy recordings (valve clearance flows between the
+        ports look like a laminar cross-port leak); subtracted before testing.
+    """
+
+    flow_gain_factor: float
+    null_offset_v: float
+    supply_pressure_pa: float
+    valve_natural_frequency_hz: float
+    bulk_modulus_pa: float
+    baseline_leak_coefficient: float = 0.0
+
+    @classmethod
+    def nominal(cls, params: VCAParams) -> "VCAValveModel":
+        """The design values of ``params`` (no identification).
+
+        Parameters
+        ----------
+        params : VCAParams
+            Nominal parameters (Table 2-1).
+
+        Returns
+        -------
+        VCAValveModel
+        """
+        return cls(1.0, 0.0, params.supply_pressure_pa, params.valve_natural_frequency_hz,
+                   params.bulk_modulus_pa, 0.0)
+
+    def to_dict(self) -> dict:
+        """Field name -> value.
+
+        Returns
+        -------
+        dict
+        """
+        return asdict(self)
+
+
+def _zoh(params: VCAParams, freq_hz: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact discretisation of the valve of Eq. 2-1 (second order, Table 2-1) for a held u."""
+    wv = 2.0 * math.pi * freq_hz
+    z = params.valve_damping_ratio
+    m = np.zeros((3, 3))
+    m[0, 1] = 1.0
+    m[1, 0] = -wv * wv
+    m[1, 1] = -2.0 * z * wv
+    m[1, 2] = params.spool_gain_m_per_v * wv * wv
+    e = expm(m * dt)
+    return np.ascontiguousarray(e[:2, :2]), np.ascontiguousarray(e[:2, 2])
+
+
+def _arrays(recording) -> tuple:
+    return tuple(np.ascontiguousarray(recording[c], dtype=np.float64) for c in VCA_CHANNELS)
+
+
+def window_starts(n_samples: int, window: int) -> np.ndarray:
+    """Start indices of contiguous windows of ``window`` intervals sharing their end samples."""
+    n_win = (n_samples - 1) // window
+    return np.arange(n_win, dtype=np.int64) * window
+
+
+def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: float,
+                 supply_pressure_pa: float, valve_natural_frequency_hz: float, window: int,
+                 laminar: bool) -> np.ndarray:
+    """Raw window sums (columns ``S1 S2 dX C1 C2 PHI T F PHIABS``, time integrals in s).
+
+    Parameters
+    ----------
+    arrays : tuple of numpy.ndarray
+        ``(p1, p2, x, u)`` C-contiguous float64.
+    sample_rate : float
+        Hz.
+    params : VCAParams
+        Nominal parameters (area, volume, spool gain, orifice constants).
+    null_offset_v, supply_pressure_pa, valve_natural_frequency_hz : float
+        Valve model.
+    window : int
+        Window length in sample intervals.
+    laminar : bool
+        Leak law: Eq. 2-5 (True) or Eq. 2-4.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n_windows, 11)``.
+    """
+    from scipy.ndimage import uniform_filter1d
+
+    p1, p2, x, u = arrays
+    dt = 1.0 / sample_rate
+    dps = np.ascontiguousarray(uniform_filter1d(p1 - p2, max(1, int(round(DP_SMOOTHING_S
+                                                                          * sample_rate))),
+                                                mode="nearest"))
+    phi, gam = _zoh(params, valve_natural_frequency_hz, dt)
+    xv = np.empty_like(u)
+    spool_positions(u, phi, gam, params.spool_gain_m_per_v, float(null_offset_v), 0.0, dt, xv)
+    starts = window_starts(len(u), window)
+    out = np.empty((len(starts), 11))
+    gw = params.valve_flow_gain_m1_5_per_kg0_5 * params.orifice_area_gradient_m
+    vca_window_sums(xv, p1, p2, x, dps, starts, window + 1, params.piston_area_m2,
+                    params.chamber_volume_m3, float(supply_pressure_pa), params.tank_pressure_pa,
+                    gw, params.valve_transition_pressure_pa, params.leak_transition_pressure_pa,
+                    bool(laminar), out)
+    out[:, [_S1, _S2, _PHI, _T, _F, _PHIABS]] *= dt
+    return out
+
+
+def vca_terms(raw: np.ndarray, params: VCAParams, model: VCAValveModel) -> dict[str, np.ndarray]:
+    """Window terms of the difference (leak) and sum (leak-free) equations, SI.
+
+    Parameters
+    ----------
+    raw : numpy.ndarray
+        :func:`vca_raw_sums` output.
+    params : VCAParams
+        Nominal parameters (piston area).
+    model : VCAValveModel
+        Identified valve model (gain, bulk modulus, baseline leak).
+
+    Returns
+    -------
+    dict of numpy.ndarray
+        ``residual`` (m^3: valve volume minus piston and compressibility volumes minus the
+        baseline leak volume; the leak volume plus errors), ``balance`` (m^3, leak-free sum
+        equation), ``phi`` (integral of the leak-law pressure term), ``phi_abs``, ``flow``
+        (m^3 through the valve), ``duration`` (s), ``edge_flow2`` (sum of the squared valve
+        flows at the two end samples, m^6/s^2) and ``compressibility`` (m^3, the
+        compressibility volume of the difference equation).
+    """
+    g = model.flow_gain_factor
+    beta = model.bulk_modulus_pa
+    r = (0.5 * g * (raw[:, _S1] + raw[:, _S2]) - params.piston_area_m2 * raw[:, _DX]
+         - (raw[:, _C1] - raw[:, _C2]) / (2.0 * beta)
+         - model.baseline_leak_coefficient * raw[:, _PHI])
+    s = g * (raw[:, _S1] - raw[:, _S2]) - (raw[:, _C1] + raw[:, _C2]) / beta
+    return {"residual": r, "balance": s, "phi": raw[:, _PHI].copy(),
+            "phi_abs": raw[:, _PHIABS].copy(), "flow": g * raw[:, _F],
+            "duration": raw[:, _T].copy(),
+            "edge_flow2": g * g * (raw[:, _QA] ** 2 + raw[:, _QB] ** 2),
+            "compressibility": (raw[:, _C1] - raw[:, _C2]) / (2.0 * beta)}
+
+
+def _robust_std(v: np.ndarray) -> float:
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return 1.0
+    mad = 1.4826 * float(np.median(np.abs(v - np.median(v))))
+    return mad if mad > 0 else (float(np.std(v)) or 1.0)
+
+
+def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int, laminar: bool,
+                 skip: list[int], fit_bandwidth: bool, fit_bulk_modulus: bool):
+    """Identify the valve model of one machine from its healthy recordings.
+
+    Nonlinear least squares (``scipy.optimize.least_squares``) of the window residuals of both
+    equations over all healthy windows: flow-gain factor, null offset, supply pressure, a
+    baseline leak coefficient and optionally the valve natural frequency and bulk modulus.
+    Residuals are weighted by robust scales of each equation found in a first pass.
+
+    Parameters
+    ----------
+    recordings_arrays : list of tuple
+        ``(p1, p2, x, u)`` per recording.
+    sample_rates : list of float
+        Hz per recording.
+    params : VCAParams
+        Nominal (design) parameters: the starting point.
+    window : int
+        Window length in sample intervals.
+    laminar : bool
+        Leak law of the baseline term.
+    skip : list of int
+        Windows left out at the start of each recording (burn-in).
+    fit_bandwidth, fit_bulk_modulus : bool
+        Also identify the valve natural frequency / the bulk modulus.
+
+    Returns
+    -------
+    model : VCAValveModel
+    std : dict
+        Standard error of each identified field (from the Jacobian, residual scale included).
+    """
+    names = ["flow_gain_factor", "null_offset_v", "supply_pressure_pa",
+             "baseline_leak_coefficient"]
+    scales = [1e-2, 1e-2, 1e5, 1e-12 if laminar else 1e-9]
+    if fit_bandwidth:
+        names.append("valve_natural_frequency_hz")
+        scales.append(5.0)
+    if fit_bulk_modulus:
+        names.append("bulk_modulus_pa")
+        scales.append(2e7)
+    base = VCAValveModel.nominal(params)
+    scales = np.asarray(scales)
+
+    def model_of(theta) -> VCAValveModel:
+        vals = base.to_dict()
+        for nm, th, sc in zip(names, theta, scales):
+            vals[nm] = getattr(base, nm) + th * sc
+        return VCAValveModel(**vals)
+
+    cache: dict = {}
+
+    def raws(m: VCAValveModel):
+        key = (m.null_offset_v, m.supply_pressure_pa, m.valve_natural_frequency_hz)
+        if key not in cache:
+            cache.clear()
+            cache[key] = [vca_raw_sums(a, fs, params, *key, window, laminar)[sk:]
+                          for a, fs, sk in zip(recordings_arrays, sample_rates, skip)]
+        return cache[key]
+
+    weights = [1.0, 1.0]
+
+    def fun(theta):
+        m = model_of(theta)
+        out = []
+        for raw in raws(m):
+            t = vca_terms(raw, params, m)
+            out.append(t["residual"] / weights[0])
+            out.append(t["balance"] / weights[1])
+        return np.concatenate(out)
+
+    theta0 = np.zeros(len(names))
+    # first pass: scales of each equation at the nominal model
+    t0 = [vca_terms(raw, params, base) for raw in raws(base)]
+    weights[0] = _robust_std(np.concatenate([t["residual"] for t in t0]))
+    weights[1] = _robust_std(np.concatenate([t["balance"] for t in t0]))
+    res = least_squares(fun, theta0, diff_step=1e-3, x_scale=1.0, method="trf")
+    m1 = model_of(res.x)
+    t1 = [vca_terms(raw, params, m1) for raw in raws(m1)]
+    weights[0] = _robust_std(np.concatenate([t["residual"] for t in t1]))
+    weights[1] = _robust_std(np.concatenate([t["balance"] for t in t1]))
+    res = least_squares(fun, res.x, diff_step=1e-3, x_scale=1.0, method="trf")
+    model = model_of(res.x)
+    dof = max(1, res.fun.size - len(names))
+    s2 = float(res.fun @ res.fun) / dof
+    try:
+        cov = np.linalg.inv(res.jac.T @ res.jac) * s2
+        se = np.sqrt(np.clip(np.diag(cov), 0.0, None)) * scales
+    except np.linalg.LinAlgError:
+        se = np.full(len(names), np.nan)
+    return model, dict(zip(names, (float(v) for v in se)))
+
+
+# ---------------------------------------------------------------- backend interface
+CHANNELS = VCA_CHANNELS
+#: Identification window when the valve bandwidth or bulk modulus is identified (s): short
+#: enough that the valve and compressibility dynamics are visible (leakdiag choice).
+DYNAMIC_ID_WINDOW_S = 0.02
+
+
+def default_params() -> VCAParams:
+    """Table 2-1 (design values)."""
+    return VCAParams()
+
+
+def check_params(p) -> VCAParams:
+    """``p`` if it is a :class:`VCAParams`, else TypeError."""
+    if not isinstance(p, VCAParams):
+        raise TypeError(f"params={p!r} must be a VCAParams for system='vca'")
+    return p
+
+
+def leak_transition_pa(p: VCAParams) -> float:
+    """Laminar core of the turbulent leak law (Pa)."""
+    return p.leak_transition_pressure_pa
+
+
+def terms(rec, nominal: VCAParams, model: VCAValveModel, window: int, laminar: bool) -> dict:
+    """Window terms of one recording with a given model (see :func:`vca_terms`)."""
+    raw = vca_raw_sums(_arrays(rec), rec.sample_rate, nominal, model.null_offset_v,
+                       model.supply_pressure_pa, model.valve_natural_frequency_hz, window,
+                       laminar)
+    return vca_terms(raw, nominal, model)
+
+
+def identify(recs, nominal: VCAParams, windows, laminar, skips, fit_bandwidth, fit_bulk_modulus):
+    """Identify the valve model on healthy recordings (see :func:`identify_vca`)."""
+    arrays = [_arrays(r) for r in recs]
+    rates = [r.sample_rate for r in recs]
+    if fit_bandwidth or fit_bulk_modulus:
+        w_id = [max(2, int(round(DYNAMIC_ID_WINDOW_S * fs))) for fs in rates]
+        skips = [int(math.ceil(sk * w / wi)) for sk, w, wi in zip(skips, windows, w_id)]
+        windows = w_id
+    if len(set(windows)) != 1:
+        raise ValueError("fit: healthy recordings have different sample rates "
+                         f"{sorted(set(rates))}; resample them to one rate")
+    return identify_vca(arrays, rates, nominal, windows[0], laminar, skips, fit_bandwidth,
+                        fit_bulk_modulus)

@@ -1,0 +1,137 @@
+"""FlowBalanceDetector (VCA): physics identities, identification, planted leaks, refusals."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import leakdiag as ld
+from leakdiag.detect import FlowBalanceDetector
+from leakdiag.detect._flow_balance_search import glr_alarm_count, glr_scan
+from leakdiag.detect._flow_balance_vca import VCAValveModel, terms
+from leakdiag.io.recording import Recording, RecordingError
+from leakdiag.sim.vca_params import VCAParams
+
+P = VCAParams()
+#: An off-nominal unit: flow gain +5 %, supply +0.3 MPa (the detector assumes Table 2-1).
+UNIT = dataclasses.replace(P, valve_flow_gain_m1_5_per_kg0_5=P.valve_flow_gain_m1_5_per_kg0_5 * 1.05,
+                           supply_pressure_pa=P.supply_pressure_pa + 0.3e6)
+OFFSET_V = 0.01  # planted null offset: the recorded u is 10 mV below what the spool sees
+
+
+def _with_offset(rec, offset_v=OFFSET_V):
+    ch = dict(rec.channels)
+    ch["u"] = ch["u"] - offset_v
+    return Recording(ch, rec.sample_rate, rec.start_time, dict(rec.units), dict(rec.meta))
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    healthy = [_with_offset(ld.sim.simulate_vca(duration=40, leak_lpm=0.0, load="spring",
+                                                params=UNIT, seed=s)) for s in range(4)]
+    return FlowBalanceDetector(system="vca", false_alarms_per_hour=1.0).fit(healthy)
+
+
+@pytest.mark.parametrize("load", ["spring", "none"])
+def test_zero_residual_on_noise_free_leak_free_run(load):
+    rec = ld.sim.simulate_vca(duration=8, leak_lpm=0.0, load=load, seed=2, sensors=False)
+    t = terms(rec, P, VCAValveModel.nominal(P), 1000, laminar=False)
+    r, flow = t["residual"][2:], t["flow"][2:]  # after the valve start-up (burn-in)
+    assert flow.max() > 1e-6  # the piston moved: a real test
+    # trapezoidal integration error only: below 1e-4 of the volume through the valve (1 mL
+    # through the valve: at most 0.1 uL), 1e-12 m^3 (1 nL) when the valve is at rest
+    assert np.all(np.abs(r) <= 1e-4 * flow + 1e-12)
+
+
+def test_residual_equals_leak_volume_on_noise_free_leaking_run():
+    rec = ld.sim.simulate_vca(duration=8, leak_lpm=0.05, onset=1.0, load="spring", seed=2,
+                              sensors=False)
+    k = rec.meta["leak_coefficient"]
+    t = terms(rec, P, VCAValveModel.nominal(P), 1000, laminar=False)
+    leak_volume = k * t["phi"][2:]
+    assert np.abs(leak_volume).min() > 1e-7
+    np.testing.assert_allclose(t["residual"][2:], leak_volume, rtol=2e-3,
+                               atol=1e-4 * t["flow"][2:].max())
+
+
+def test_identification_recovers_gain_offset_and_supply(fitted):
+    m, se = fitted.model_, fitted.model_std_
+    assert m.flow_gain_factor == pytest.approx(1.05, abs=3e-3)
+    assert m.null_offset_v == pytest.approx(OFFSET_V, abs=5e-4)
+    assert m.supply_pressure_pa == pytest.approx(UNIT.supply_pressure_pa, abs=5e4)
+    assert set(se) >= {"flow_gain_factor", "null_offset_v", "supply_pressure_pa"}
+    assert all(np.isfinite(v) and v > 0 for v in se.values())
+
+
+def test_planted_leak_found_with_onset_and_coefficient_in_interval(fitted):
+    rec = _with_offset(ld.sim.simulate_vca(duration=60, leak_lpm=0.02, onset=30, load="spring",
+                                           params=UNIT, seed=11))
+    v = fitted.predict(rec)
+    assert v.leak and 30.0 <= v.alarm_time_s <= 40.0
+    assert abs(v.onset_s - 30.0) <= 3.0
+    k_true = rec.meta["leak_coefficient"]
+    assert abs(v.leak_coefficient - k_true) <= 3.0 * v.leak_coefficient_se
+    lo, hi = v.leak_lpm_interval
+    assert lo <= rec.meta["leak_lpm_achieved"] <= hi
+    # flow at the reference pressure difference follows Eq. 2-4
+    assert v.leak_lpm_at_reference == pytest.approx(v.leak_coefficient * 1e3 * 60_000, rel=1e-3)
+
+
+def test_healthy_run_no_alarm_and_standardised_scale(fitted):
+    rec = _with_offset(ld.sim.simulate_vca(duration=60, leak_lpm=0.0, load="spring", params=UNIT,
+                                           seed=21))
+    v = fitted.predict(rec)
+    assert not v.leak and v.leak_lpm is None and v.score_max < fitted.threshold_
+    z = fitted.standardize(rec).values
+    assert 0.4 < np.std(z) < 1.6  # standard normal by construction of the error model
+
+
+@pytest.mark.parametrize("where", ["fit", "predict"])
+def test_missing_channel_is_named(fitted, where):
+    rec = ld.sim.simulate_vca(duration=5, leak_lpm=0.0, seed=1)
+    ch = {k: v for k, v in rec.channels.items() if k != "u"}
+    bad = Recording(ch, rec.sample_rate, 0.0, {}, {"source": "rig.csv", "system": "vca"})
+    call = FlowBalanceDetector().fit if where == "fit" else fitted.predict
+    with pytest.raises(RecordingError, match=r"rig\.csv.*needs channel\(s\) \['u'\]"):
+        call(bad) if where == "predict" else call([bad])
+
+
+def test_refuses_non_finite_other_system_and_unfitted(fitted):
+    rec = ld.sim.simulate_vca(duration=5, leak_lpm=0.0, seed=1)
+    ch = dict(rec.channels)
+    ch["p1"] = ch["p1"].copy()
+    ch["p1"][123] = np.nan
+    with pytest.raises(RecordingError, match="'p1' is not finite at row 123"):
+        fitted.predict(Recording(ch, rec.sample_rate, 0.0, {}, dict(rec.meta)))
+    with pytest.raises(ValueError, match="system='vca'"):
+        FlowBalanceDetector(system="eha").fit([rec])
+    with pytest.raises(ValueError, match="not fitted"):
+        FlowBalanceDetector().predict(rec)
+    with pytest.raises(ValueError, match="leak_law='cubic'"):
+        FlowBalanceDetector(leak_law="cubic").fit([rec])
+
+
+def test_glr_scan_equals_brute_force():
+    rng = np.random.default_rng(3)
+    a, b = rng.standard_normal(40), rng.uniform(0.1, 2.0, 40)
+    g, start = glr_scan(a, b, 7)
+    for i in range(40):
+        zs = [(a[j:i + 1].sum() / np.sqrt(b[j:i + 1].sum()), j) for j in range(max(0, i - 6), i + 1)]
+        best, bj = max(zs)
+        assert g[i] == pytest.approx(max(best, 0.0))
+        if best > 0:
+            assert start[i] == bj
+
+
+def test_alarm_count_counts_upcrossings():
+    assert glr_alarm_count(np.array([5.0, 1.0, 4.0, 4.5, 0.0, 3.0]), 4.0) == 2
+    assert glr_alarm_count(np.array([]), 1.0) == 0
+
+
+def test_registry_and_verdict_dict():
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm
+
+    det = make_detector("flow-balance", "eha", Alarm(false_alarms_per_hour=0.5))
+    assert det.system == "eha" and det.false_alarms_per_hour == 0.5
+    assert isinstance(ld.detect.FlowBalanceDetector(), FlowBalanceDetector)
