@@ -17,6 +17,7 @@ integrator.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Callable
@@ -37,6 +38,7 @@ __all__ = [
     "LeakCalibrationError",
     "calibrate_leak_coefficient",
     "check_calibrated",
+    "calibrate_with_pilot",
     "too_short_to_calibrate",
     "LEAK_REFERENCE_DP_PA",
     "MIN_CALIBRATION_WINDOW_S",
@@ -253,6 +255,9 @@ class CalibrationResult:
         Number of simulator runs used.
     history : tuple of (float, float)
         ``(coefficient, achieved_lpm)`` of every run, in order.
+    n_pilot_evaluations : int
+        Runs of a cheaper pilot model before the first full run
+        (:func:`calibrate_with_pilot`), not counted in ``n_evaluations``.
     """
 
     coefficient: float
@@ -260,6 +265,7 @@ class CalibrationResult:
     target_lpm: float
     n_evaluations: int
     history: tuple[tuple[float, float], ...] = field(default=())
+    n_pilot_evaluations: int = 0
 
     @property
     def relative_error(self) -> float:
@@ -427,3 +433,66 @@ def too_short_to_calibrate(leak_lpm: float, window_s: float, cause: Exception,
         "few reference steps in it. Make the run longer or the onset earlier, or give "
         "leak_coefficient= instead of leak_lpm. "
         f"(Calibration stopped: {cause}{'; tried ' + tried if tried else ''})")
+
+
+def calibrate_with_pilot(
+    simulate_fn: Callable[[float], float],
+    pilot_fn: Callable[[float], float],
+    target_lpm: float,
+    initial_coefficient: float,
+    rtol: float = 0.02,
+    pilot_rtol: float | None = None,
+    max_evaluations: int = 12,
+) -> CalibrationResult:
+    """Calibrate on a cheap pilot model first, then confirm (and if needed refine) on the full one.
+
+    Parameters
+    ----------
+    simulate_fn : callable
+        The delivered experiment: ``simulate_fn(k) -> mean |Q_leak| after the onset``, L/min.
+    pilot_fn : callable
+        A cheaper approximation of it (e.g. the same run with a coarser integration step); it
+        only has to be close, the tolerance is checked on ``simulate_fn``.
+    target_lpm : float
+        Target mean leak, L/min.
+    initial_coefficient : float
+        First guess, > 0.
+    rtol : float, default 0.02
+        Tolerance on the full run.
+    pilot_rtol : float, optional
+        Tolerance of the pilot search; default ``rtol / 4``.
+    max_evaluations : int, default 12
+        Limit for each of the two searches.
+
+    Returns
+    -------
+    CalibrationResult
+        The full run's coefficient and mean; ``n_evaluations`` counts full runs,
+        ``n_pilot_evaluations`` pilot runs; ``history`` lists the full runs.
+
+    Raises
+    ------
+    LeakCalibrationError
+        As :func:`calibrate_leak_coefficient`.
+
+    Notes
+    -----
+    The pilot search is :func:`calibrate_leak_coefficient` on ``pilot_fn`` to ``pilot_rtol``;
+    the full search starts from its coefficient, so when the pilot's bias is well inside
+    ``rtol - pilot_rtol`` one full run suffices. The last full run is the accepted one.
+
+    Examples
+    --------
+    >>> full = lambda k: 3.0 * k ** 0.8
+    >>> pilot = lambda k: 1.004 * full(k)          # a 0.4 % biased cheap model
+    >>> res = calibrate_with_pilot(full, pilot, 0.1, initial_coefficient=1.0)
+    >>> res.n_evaluations, abs(res.achieved_lpm / 0.1 - 1) <= 0.02
+    (1, True)
+    """
+    rtol = check_positive(rtol, "rtol")
+    pilot_rtol = rtol / 4 if pilot_rtol is None else check_positive(pilot_rtol, "pilot_rtol")
+    pilot = calibrate_leak_coefficient(pilot_fn, target_lpm, initial_coefficient,
+                                       rtol=pilot_rtol, max_evaluations=max_evaluations)
+    full = calibrate_leak_coefficient(simulate_fn, target_lpm, pilot.coefficient, rtol=rtol,
+                                      max_evaluations=max_evaluations)
+    return dataclasses.replace(full, n_pilot_evaluations=pilot.n_evaluations)

@@ -121,12 +121,17 @@ class _OnsetRestarts:
         self._in_buffer = n_sub
         return self.result
 
-    def run(self, k_leak: float, n_sub: int) -> ClosedLoopResult:
-        """The whole run with coefficient ``k_leak`` (only the part after the onset is new)."""
+    def run(self, k_leak: float, n_sub: int, n_sub_after: int | None = None) -> ClosedLoopResult:
+        """The whole run with coefficient ``k_leak`` (only the part after the onset is new).
+
+        ``n_sub_after`` (default ``n_sub``) integrates the part after the onset with another
+        step count: a coarser pilot of the calibration.
+        """
         self.before_onset(n_sub)
         carry = self._pre[n_sub][0].copy()
-        self.loop.advance(carry, self.loop.n, n_sub, self.loop.coefficients(k_leak),
-                          self.result, self.chunk, self.progress)
+        self.loop.advance(carry, self.loop.n, n_sub if n_sub_after is None else n_sub_after,
+                          self.loop.coefficients(k_leak), self.result, self.chunk,
+                          self.progress)
         return self.result
 
     def _arrays(self):
@@ -313,7 +318,8 @@ def simulate_vca(
         ``leak_lpm_at_reference_dp`` (the leak law with the full coefficient at that pressure
         difference, L/min), ``leak_model``, ``leak_kind``, ``load``,
         ``seed``, ``params`` (dict, the unit's), ``controller``, ``sensors``, ``conditions``,
-        ``rk4_step_s``, ``calibration_runs``, ``rated_flow_lpm``, ``machine``
+        ``rk4_step_s``, ``calibration_runs``, ``calibration_pilot_runs``, ``rated_flow_lpm``,
+        ``machine``
         (:meth:`VCAMachine.to_dict`), ``leakdiag_version``, ``source``.
 
     Raises
@@ -334,8 +340,10 @@ def simulate_vca(
     calibration integrates the leak-free part before the onset once, takes its first guess of
     the coefficient from the healthy pressures there, and reruns only the part after the onset
     (same seed, bit-identical to a full run) until the mean is within ``calibration_rtol``;
-    the delivered run is checked against the target. ``calibration_runs`` counts those
-    post-onset runs. A Python ``controller`` reruns whole experiments.
+    the delivered run is checked against the target. ``calibration_runs`` counts the
+    post-onset runs (``calibration_pilot_runs`` is 0: a coarser-step pilot was tried and
+    rejected, without load it is biased by up to 40 %, docs/models.md). A Python
+    ``controller`` reruns whole experiments.
 
     Examples
     --------
@@ -430,7 +438,7 @@ def simulate_vca(
     def mean_leak_lpm(res: ClosedLoopResult) -> float:
         return m3s_to_lpm(float(np.mean(np.abs(res.leak_flow[i_on:])))) if i_on < n else 0.0
 
-    calibration_runs = 0
+    calibration_runs = pilot_runs = 0
     if not has_leak:
         k_leak = 0.0
         result = run(0.0)
@@ -467,6 +475,7 @@ def simulate_vca(
         except LeakCalibrationError as exc:
             raise _too_short(exc, leak_lpm, (n - i_on) / fs, history) from exc
         k_leak, calibration_runs = cal.coefficient, cal.n_evaluations
+        pilot_runs = cal.n_pilot_evaluations
         result = segments.result if fixed else runs[k_leak]
         check_calibrated(mean_leak_lpm(result), leak_lpm, calibration_rtol)
 
@@ -498,6 +507,7 @@ def simulate_vca(
         "rk4_step_s": 1.0 / (fs * max(n_sub, _leak_stable_substeps(k_leak, leak_model, params,
                                                                    fs))),
         "calibration_runs": calibration_runs,
+        "calibration_pilot_runs": pilot_runs,
         "rated_flow_lpm": params.rated_flow_lpm,
         "machine": machine.to_dict(),
         "leakdiag_version": __version__,
