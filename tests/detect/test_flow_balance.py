@@ -8,7 +8,15 @@ import pytest
 import leakdiag as ld
 from leakdiag.detect import FlowBalanceDetector
 from leakdiag.detect._flow_balance_search import glr_alarm_count, glr_scan
-from leakdiag.detect._flow_balance_vca import VCAValveModel, terms
+from leakdiag.detect._flow_balance_vca import VCAValveModel, vca_raw_sums, vca_terms
+
+
+def terms(rec, params, model, window, laminar):
+    """The balance with a fixed model (no per-recording null-drift estimate)."""
+    arrays = tuple(np.ascontiguousarray(rec[c]) for c in ("p1", "p2", "x", "u"))
+    raw = vca_raw_sums(arrays, rec.sample_rate, params, model.null_offset_v,
+                       model.supply_pressure_pa, model.valve_natural_frequency_hz, window, laminar)
+    return vca_terms(raw, params, model)
 from leakdiag.io.recording import Recording, RecordingError
 from leakdiag.sim.vca_params import VCAParams
 

@@ -39,7 +39,9 @@ __all__ = ["VCAValveModel", "VCA_CHANNELS", "vca_raw_sums", "vca_terms", "identi
 #: Channels the VCA flow balance needs.
 VCA_CHANNELS = ("p1", "p2", "x", "u")
 #: Columns of the raw window sums (see ``vca_window_sums``).
-_S1, _S2, _DX, _C1, _C2, _PHI, _T, _F, _PHIABS, _QA, _QB = range(11)
+_S1, _S2, _DX, _C1, _C2, _PHI, _T, _F, _PHIABS, _QA, _QB, _DP, _SP = range(13)
+#: Null-offset step used for the offset sensitivity psi = d residual / d offset (V).
+_PSI_STEP_V = 1e-3
 #: Moving average applied to P1 - P2 for the mean |phi| only (s; leakdiag choice: 5 ms cuts
 #: white pressure noise 2.2x; without load the mean |phi| is then -1 % / +14 % off at 10 / 40 kPa
 #: noise on the simulator, under the spring load < 0.2 %; docs/detect.md).
@@ -62,9 +64,12 @@ class VCAValveModel:
         Valve natural frequency (Hz).
     bulk_modulus_pa : float
         Effective bulk modulus :math:`\\beta` (Pa).
+    valve_leakage_m3_per_s_pa : float
+        Spool-clearance leakage :math:`c_v` of the valve: :math:`c_v(P_s - P_i) - c_v(P_i - P_r)`
+        into chamber ``i``; in the difference equation it is a laminar cross-port flow
+        :math:`-c_v(P_1 - P_2)`, in the sum equation :math:`2c_v(P_s + P_r - P_1 - P_2)`.
     baseline_leak_coefficient : float
-        Leak-law coefficient seen on the healthy recordings (valve clearance flows between the
-        ports look like a laminar cross-port leak); subtracted before testing.
+        Leak-law coefficient seen on the healthy recordings; subtracted before testing.
     """
 
     flow_gain_factor: float
@@ -72,6 +77,7 @@ class VCAValveModel:
     supply_pressure_pa: float
     valve_natural_frequency_hz: float
     bulk_modulus_pa: float
+    valve_leakage_m3_per_s_pa: float = 0.0
     baseline_leak_coefficient: float = 0.0
 
     @classmethod
@@ -88,7 +94,7 @@ class VCAValveModel:
         VCAValveModel
         """
         return cls(1.0, 0.0, params.supply_pressure_pa, params.valve_natural_frequency_hz,
-                   params.bulk_modulus_pa, 0.0)
+                   params.bulk_modulus_pa, 0.0, 0.0)
 
     def to_dict(self) -> dict:
         """Field name -> value.
@@ -125,7 +131,7 @@ def window_starts(n_samples: int, window: int) -> np.ndarray:
 
 def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: float,
                  supply_pressure_pa: float, valve_natural_frequency_hz: float, window: int,
-                 laminar: bool) -> np.ndarray:
+                 laminar: bool, null_drift_v_per_s: float = 0.0) -> np.ndarray:
     """Raw window sums (columns ``S1 S2 dX C1 C2 PHI T F PHIABS``, time integrals in s).
 
     Parameters
@@ -142,11 +148,13 @@ def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: f
         Window length in sample intervals.
     laminar : bool
         Leak law: Eq. 2-5 (True) or Eq. 2-4.
+    null_drift_v_per_s : float, default 0.0
+        Null offset drift (V/s from the first sample).
 
     Returns
     -------
     numpy.ndarray
-        Shape ``(n_windows, 11)``.
+        Shape ``(n_windows, 13)``.
     """
     from scipy.ndimage import uniform_filter1d
 
@@ -157,15 +165,16 @@ def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: f
                                                 mode="nearest"))
     phi, gam = _zoh(params, valve_natural_frequency_hz, dt)
     xv = np.empty_like(u)
-    spool_positions(u, phi, gam, params.spool_gain_m_per_v, float(null_offset_v), 0.0, dt, xv)
+    spool_positions(u, phi, gam, params.spool_gain_m_per_v, float(null_offset_v),
+                    float(null_drift_v_per_s), dt, xv)
     starts = window_starts(len(u), window)
-    out = np.empty((len(starts), 11))
+    out = np.empty((len(starts), 13))
     gw = params.valve_flow_gain_m1_5_per_kg0_5 * params.orifice_area_gradient_m
     vca_window_sums(xv, p1, p2, x, dps, starts, window + 1, params.piston_area_m2,
                     params.chamber_volume_m3, float(supply_pressure_pa), params.tank_pressure_pa,
                     gw, params.valve_transition_pressure_pa, params.leak_transition_pressure_pa,
                     bool(laminar), out)
-    out[:, [_S1, _S2, _PHI, _T, _F, _PHIABS]] *= dt
+    out[:, [_S1, _S2, _PHI, _T, _F, _PHIABS, _DP, _SP]] *= dt
     return out
 
 
@@ -193,15 +202,74 @@ def vca_terms(raw: np.ndarray, params: VCAParams, model: VCAValveModel) -> dict[
     """
     g = model.flow_gain_factor
     beta = model.bulk_modulus_pa
+    cv = model.valve_leakage_m3_per_s_pa
     r = (0.5 * g * (raw[:, _S1] + raw[:, _S2]) - params.piston_area_m2 * raw[:, _DX]
-         - (raw[:, _C1] - raw[:, _C2]) / (2.0 * beta)
+         - (raw[:, _C1] - raw[:, _C2]) / (2.0 * beta) - cv * raw[:, _DP]
          - model.baseline_leak_coefficient * raw[:, _PHI])
-    s = g * (raw[:, _S1] - raw[:, _S2]) - (raw[:, _C1] + raw[:, _C2]) / beta
+    s = (g * (raw[:, _S1] - raw[:, _S2]) - (raw[:, _C1] + raw[:, _C2]) / beta
+         + 2.0 * cv * ((model.supply_pressure_pa + params.tank_pressure_pa) * raw[:, _T]
+                       - raw[:, _SP]))
     return {"residual": r, "balance": s, "phi": raw[:, _PHI].copy(),
             "phi_abs": raw[:, _PHIABS].copy(), "flow": g * raw[:, _F],
             "duration": raw[:, _T].copy(),
             "edge_flow2": g * g * (raw[:, _QA] ** 2 + raw[:, _QB] ** 2),
             "compressibility": (raw[:, _C1] - raw[:, _C2]) / (2.0 * beta)}
+
+
+def offset_sensitivity(arrays, sample_rate: float, params: VCAParams, model: VCAValveModel,
+                       window: int, laminar: bool, drift: tuple = (0.0, 0.0)) -> np.ndarray:
+    """``psi_w``: change of each window residual per volt of null offset (m^3/V).
+
+    Parameters
+    ----------
+    arrays : tuple of numpy.ndarray
+        ``(p1, p2, x, u)``.
+    sample_rate : float
+        Hz.
+    params : VCAParams
+        Nominal parameters.
+    model : VCAValveModel
+        Valve model at which the derivative is taken (central difference of 1 mV).
+    window : int
+        Window length in sample intervals.
+    laminar : bool
+        Leak law.
+    drift : tuple of float, default (0, 0)
+        Extra null offset (V) and its drift (V/s) of this recording.
+
+    Returns
+    -------
+    numpy.ndarray
+        One value per window.
+    """
+    res = []
+    for d in (-_PSI_STEP_V, _PSI_STEP_V):
+        raw = vca_raw_sums(arrays, sample_rate, params, model.null_offset_v + drift[0] + d,
+                           model.supply_pressure_pa, model.valve_natural_frequency_hz, window,
+                           laminar, drift[1])
+        res.append(vca_terms(raw, params, model)["residual"])
+    return (res[1] - res[0]) / (2.0 * _PSI_STEP_V)
+
+
+def drift_profiled(residual: np.ndarray, psi: np.ndarray, duration: np.ndarray) -> np.ndarray:
+    """Residual minus its least-squares fit on ``psi (t - mean t)`` (a null drift, linear in t).
+
+    Parameters
+    ----------
+    residual, psi, duration : numpy.ndarray
+        Per window: residual (m^3), offset sensitivity (m^3/V), duration (s).
+
+    Returns
+    -------
+    numpy.ndarray
+        The residual with a linear-in-time null drift of this recording removed.
+    """
+    t = np.cumsum(duration) - 0.5 * duration
+    reg = psi * (t - t.mean())
+    rr = float(reg @ reg)
+    if rr <= 0:
+        return residual
+    return residual - reg * (float(reg @ residual) / rr)
 
 
 def _robust_std(v: np.ndarray) -> float:
@@ -217,9 +285,11 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
     """Identify the valve model of one machine from its healthy recordings.
 
     Nonlinear least squares (``scipy.optimize.least_squares``) of the window residuals of both
-    equations over all healthy windows: flow-gain factor, null offset, supply pressure, a
-    baseline leak coefficient and optionally the valve natural frequency and bulk modulus.
-    Residuals are weighted by robust scales of each equation found in a first pass.
+    equations over all healthy windows: flow-gain factor, null offset, supply pressure,
+    spool-clearance leakage, a baseline leak coefficient and optionally the valve natural
+    frequency and bulk modulus. A null drift linear in time is profiled out of each recording's
+    leak-equation residuals (variable projection on ``psi (t - mean t)``): the slow drift
+    allowance. Residuals are weighted by robust scales of each equation found in a first pass.
 
     Parameters
     ----------
@@ -245,8 +315,8 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
         Standard error of each identified field (from the Jacobian, residual scale included).
     """
     names = ["flow_gain_factor", "null_offset_v", "supply_pressure_pa",
-             "baseline_leak_coefficient"]
-    scales = [1e-2, 1e-2, 1e5, 1e-12 if laminar else 1e-9]
+             "valve_leakage_m3_per_s_pa", "baseline_leak_coefficient"]
+    scales = [1e-2, 1e-2, 1e5, 1e-13, 1e-12 if laminar else 1e-9]
     if fit_bandwidth:
         names.append("valve_natural_frequency_hz")
         scales.append(5.0)
@@ -274,12 +344,16 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
 
     weights = [1.0, 1.0]
 
+    psis = []
+    for a, fs, sk in zip(recordings_arrays, sample_rates, skip):
+        psis.append(offset_sensitivity(a, fs, params, base, window, laminar)[sk:])
+
     def fun(theta):
         m = model_of(theta)
         out = []
-        for raw in raws(m):
+        for raw, psi in zip(raws(m), psis):
             t = vca_terms(raw, params, m)
-            out.append(t["residual"] / weights[0])
+            out.append(drift_profiled(t["residual"], psi, raw[:, _T]) / weights[0])
             out.append(t["balance"] / weights[1])
         return np.concatenate(out)
 
@@ -307,6 +381,9 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
 
 # ---------------------------------------------------------------- backend interface
 CHANNELS = VCA_CHANNELS
+#: Gauss-Newton steps of each recording's null drift before the test (leakdiag choice: the null
+#: moves the valve flows nonlinearly near the null, where the metering edge changes).
+DRIFT_ITERATIONS = 2
 #: Identification window when the valve bandwidth or bulk modulus is identified (s): short
 #: enough that the valve and compressibility dynamics are visible (leakdiag choice).
 DYNAMIC_ID_WINDOW_S = 0.02
@@ -331,10 +408,28 @@ def leak_transition_pa(p: VCAParams) -> float:
 
 def terms(rec, nominal: VCAParams, model: VCAValveModel, window: int, laminar: bool) -> dict:
     """Window terms of one recording with a given model (see :func:`vca_terms`)."""
-    raw = vca_raw_sums(_arrays(rec), rec.sample_rate, nominal, model.null_offset_v,
-                       model.supply_pressure_pa, model.valve_natural_frequency_hz, window,
-                       laminar)
-    return vca_terms(raw, nominal, model)
+    arrays = _arrays(rec)
+    fs = rec.sample_rate
+    drift = np.zeros(2)  # this recording's extra null offset (V) and drift (V/s)
+    for _ in range(DRIFT_ITERATIONS + 1):
+        raw = vca_raw_sums(arrays, fs, nominal, model.null_offset_v + drift[0],
+                           model.supply_pressure_pa, model.valve_natural_frequency_hz, window,
+                           laminar, drift[1])
+        out = vca_terms(raw, nominal, model)
+        psi = offset_sensitivity(arrays, fs, nominal, model, window, laminar, tuple(drift))
+        if _ == DRIFT_ITERATIONS:
+            break
+        # Gauss-Newton step of the null drift on all windows (burn-in included: the step only
+        # linearises; the test profiles the drift again on the windows it uses)
+        t0 = np.arange(len(psi)) * window / fs  # window start, s
+        x = np.column_stack([psi, psi * t0])
+        sk = min(len(psi) - 1, max(1, int(round(1.0 * fs / window))))
+        step, *_ = np.linalg.lstsq(x[sk:], out["residual"][sk:], rcond=None)
+        if not np.all(np.isfinite(step)):
+            break
+        drift = drift - step
+    out["nuisance"] = psi
+    return out
 
 
 def identify(recs, nominal: VCAParams, windows, laminar, skips, fit_bandwidth, fit_bulk_modulus):

@@ -19,7 +19,7 @@ from scipy.stats import norm
 
 from leakdiag._validation import check_positive
 from leakdiag.detect._flow_balance_search import (
-    GLRThreshold, calibrate_glr, glr_alarm_count, glr_scan,
+    GLRThreshold, calibrate_glr, glr_alarm_count, glr_profile,
 )
 from leakdiag.detect.base import Detector, Verdict
 from leakdiag.features.series import FeatureSeries
@@ -236,6 +236,11 @@ class FlowBalanceDetector(Detector):
         start = rec.start_time + np.arange(n_win) * w / rec.sample_rate
         terms["start"] = start
         terms["end"] = start + w / rec.sample_rate
+        # nuisance regressors: null offset and its linear drift (VCA), none (EHA)
+        psi = terms.pop("nuisance", None)
+        mid = 0.5 * (terms["start"] + terms["end"])
+        terms["nuisance"] = (np.zeros((n_win, 0)) if psi is None
+                             else np.column_stack([psi, psi * (mid - mid.mean())]))
         sk = min(self._skip(rec), n_win)
         return {k: np.asarray(v)[sk:] for k, v in terms.items()}
 
@@ -251,6 +256,24 @@ class FlowBalanceDetector(Detector):
     def _ab(self, terms: dict) -> tuple[np.ndarray, np.ndarray]:
         s = self._sigma(terms)
         return terms["phi"] * terms["residual"] / s**2, (terms["phi"] / s) ** 2
+
+    #: Windows before the first test when nuisance regressors are profiled (leakdiag choice).
+    _MIN_HISTORY = 5
+
+    def _glr(self, terms: dict, residual=None):
+        s = self._sigma(terms)
+        r = terms["residual"] if residual is None else residual
+        return glr_profile(terms["phi"], r, 1.0 / s**2, terms["nuisance"], self._max_span(),
+                           self._MIN_HISTORY)
+
+    @staticmethod
+    def _profiled(terms: dict) -> np.ndarray:
+        """Residual with its least-squares fit on the nuisance regressors removed."""
+        nu = terms["nuisance"]
+        if nu.shape[1] == 0 or len(nu) <= nu.shape[1]:
+            return terms["residual"]
+        coef, *_ = np.linalg.lstsq(nu, terms["residual"], rcond=None)
+        return terms["residual"] - nu @ coef
 
     def _max_span(self) -> int:
         return max(1, int(round(self.max_span_s / self.window_s)))
@@ -293,7 +316,7 @@ class FlowBalanceDetector(Detector):
             recs, nominal, [self._window(r) for r in recs], self.leak_law == "laminar",
             [self._skip(r) for r in recs], self.fit_bandwidth, self.fit_bulk_modulus)
         terms = [self._terms(r) for r in recs]
-        e = np.concatenate([t["residual"] for t in terms])
+        e = np.concatenate([self._profiled(t) for t in terms])
         if len(e) < 10:
             raise ValueError(f"fit: only {len(e)} windows of {self.window_s} s after the burn-in "
                              f"in {len(recs)} healthy recording(s); give at least 10")
@@ -311,13 +334,14 @@ class FlowBalanceDetector(Detector):
         self.flow_error_fraction_ = float(np.sqrt(coef[1]))
         self.dispersion_ = 1.0
         self.dispersion_ = self._dispersion(terms)
-        c_runs = [t["phi"] / self._sigma(t) for t in terms]
-        h, grid, rate, hours = calibrate_glr(c_runs, self.window_s, self._max_span(),
-                                             float(self.false_alarms_per_hour))
+        runs = [(t["phi"], self._sigma(t), t["nuisance"]) for t in terms]
+        h, grid, rate, hours = calibrate_glr(runs, self.window_s, self._max_span(),
+                                             float(self.false_alarms_per_hour),
+                                             self._MIN_HISTORY)
         self.healthy_hours_ = float(sum(len(t["residual"]) for t in terms) * self.window_s / 3600)
         healthy_alarms = 0
         for t in terms:
-            g, _ = glr_scan(*self._ab(t), self._max_span())
+            g, _ = self._glr(t)
             healthy_alarms += glr_alarm_count(g, h)
         self.alarm_threshold_ = GLRThreshold(h, float(self.false_alarms_per_hour),
                                              "pivotal-null-monte-carlo", hours,
@@ -333,7 +357,7 @@ class FlowBalanceDetector(Detector):
         for span in _DISPERSION_SPANS:
             zs = []
             for t in terms:
-                a, b = self._ab(t)
+                a, b = self._ab({**t, "residual": self._profiled(t)})
                 m = len(a) // span
                 if m == 0:
                     continue
@@ -356,7 +380,7 @@ class FlowBalanceDetector(Detector):
         self._check_recording(rec, where)
         t = self._terms(rec)
         a, b = self._ab(t)
-        g, arg = glr_scan(a, b, self._max_span())
+        g, arg = self._glr(t)
         return t, a, b, g, arg
 
     def score(self, recording) -> FeatureSeries:
@@ -453,9 +477,7 @@ class FlowBalanceDetector(Detector):
                                       leak_lpm_interval=None, shift=None, **common)
         i = int(above[0])
         j = int(arg[i])
-        sb = float(b[j:].sum())
-        k = float(a[j:].sum()) / sb
-        se = 1.0 / math.sqrt(sb)
+        k, se = self._estimate(t, j)
         dur = float(t["duration"][j:].sum())
         mean_phi = float(t["phi_abs"][j:].sum()) / dur
         zq = float(norm.ppf(0.5 + self.interval_level / 2))
@@ -468,6 +490,18 @@ class FlowBalanceDetector(Detector):
             leak_lpm=float(lpm), leak_lpm_interval=(float(interval[0]), float(interval[1])),
             shift=float(k / se), leak_coefficient=k, leak_coefficient_se=se,
             leak_lpm_at_reference=float(at_ref), **common)
+
+    def _estimate(self, t: dict, j: int) -> tuple[float, float]:
+        """Leak coefficient (and its standard error) from window ``j`` on, nuisance profiled
+        over the whole recording (weighted least squares)."""
+        s = self._sigma(t)
+        ind = np.zeros(len(s))
+        ind[j:] = 1.0
+        x = np.column_stack([t["phi"] * ind, t["nuisance"]]) / s[:, None]
+        y = t["residual"] / s
+        cov = np.linalg.pinv(x.T @ x)
+        coef = cov @ (x.T @ y)
+        return float(coef[0]), float(math.sqrt(max(cov[0, 0], 0.0)))
 
     def shift(self, recording, onset_s: float) -> float:
         """Standardised leak-coefficient estimate on the windows starting at or after ``onset_s``.
@@ -482,12 +516,14 @@ class FlowBalanceDetector(Detector):
         Returns
         -------
         float
-            ``sum a / sqrt(sum b)``; NaN if no window starts after ``onset_s``.
+            ``k / se(k)`` with the nuisance profiled; NaN if no window starts after ``onset_s``.
         """
-        t, a, b, _, _ = self._scan(recording, "shift")
-        after = t["start"] >= onset_s
-        sb = float(b[after].sum())
-        return float(a[after].sum()) / math.sqrt(sb) if sb > 0 else float("nan")
+        t, _, _, _, _ = self._scan(recording, "shift")
+        after = np.flatnonzero(t["start"] >= onset_s)
+        if len(after) == 0:
+            return float("nan")
+        k, se = self._estimate(t, int(after[0]))
+        return k / se if se > 0 else float("nan")
 
     def calibrate(self, recordings, level: float = 0.9, validity=None) -> "FlowBalanceDetector":
         """No-op: the flow balance sizes a leak from physics, not from leaking examples.
