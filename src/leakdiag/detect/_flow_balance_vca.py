@@ -284,12 +284,14 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
                  skip: list[int], fit_bandwidth: bool, fit_bulk_modulus: bool):
     """Identify the valve model of one machine from its healthy recordings.
 
-    Nonlinear least squares (``scipy.optimize.least_squares``) of the window residuals of both
-    equations over all healthy windows: flow-gain factor, null offset, supply pressure,
-    spool-clearance leakage, a baseline leak coefficient and optionally the valve natural
-    frequency and bulk modulus. A null drift linear in time is profiled out of each recording's
-    leak-equation residuals (variable projection on ``psi (t - mean t)``): the slow drift
-    allowance. Residuals are weighted by robust scales of each equation found in a first pass.
+    Separable nonlinear least squares (variable projection) of the window residuals of both
+    equations over all healthy windows. The null offset, the supply pressure and optionally the
+    valve natural frequency enter nonlinearly (``scipy.optimize.least_squares`` over them);
+    the flow-gain factor, the spool-clearance leakage, the baseline leak coefficient and
+    optionally the inverse bulk modulus enter linearly and are solved exactly at every step. A
+    null drift linear in time is profiled out of each recording's leak-equation residuals
+    (projection on ``psi (t - mean t)``): the slow drift allowance. Each equation is weighted by
+    a robust scale of its residuals (two passes).
 
     Parameters
     ----------
@@ -312,71 +314,120 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
     -------
     model : VCAValveModel
     std : dict
-        Standard error of each identified field (from the Jacobian, residual scale included).
+        Standard error of each identified field (Jacobian and linear-solve covariances with
+        the residual scale; windows are treated as independent, so they are optimistic).
     """
-    names = ["flow_gain_factor", "null_offset_v", "supply_pressure_pa",
-             "valve_leakage_m3_per_s_pa", "baseline_leak_coefficient"]
-    scales = [1e-2, 1e-2, 1e5, 1e-13, 1e-12 if laminar else 1e-9]
+    nl_names = ["null_offset_v", "supply_pressure_pa"]
+    nl_scales = [1e-2, 1e5]
     if fit_bandwidth:
-        names.append("valve_natural_frequency_hz")
-        scales.append(5.0)
+        nl_names.append("valve_natural_frequency_hz")
+        nl_scales.append(5.0)
+    nl_scales = np.asarray(nl_scales)
+    lin_names = ["flow_gain_factor", "valve_leakage_m3_per_s_pa", "baseline_leak_coefficient"]
     if fit_bulk_modulus:
-        names.append("bulk_modulus_pa")
-        scales.append(2e7)
+        lin_names.append("inverse_bulk_modulus")
     base = VCAValveModel.nominal(params)
-    scales = np.asarray(scales)
+    beta0 = params.bulk_modulus_pa
+    pt = params.tank_pressure_pa
 
-    def model_of(theta) -> VCAValveModel:
-        vals = base.to_dict()
-        for nm, th, sc in zip(names, theta, scales):
-            vals[nm] = getattr(base, nm) + th * sc
-        return VCAValveModel(**vals)
+    def nl_values(theta) -> dict:
+        return {nm: getattr(base, nm) + th * sc for nm, th, sc in zip(nl_names, theta, nl_scales)}
 
-    cache: dict = {}
+    projectors = []
+    for a, fs, sk in zip(recordings_arrays, sample_rates, skip):
+        psi = offset_sensitivity(a, fs, params, base, window, laminar)[sk:]
+        raw0 = vca_raw_sums(a, fs, params, 0.0, base.supply_pressure_pa,
+                            base.valve_natural_frequency_hz, window, laminar)[sk:]
+        t = np.cumsum(raw0[:, _T]) - 0.5 * raw0[:, _T]
+        reg = psi * (t - t.mean())
+        rr = float(reg @ reg)
+        projectors.append((reg, rr))
 
-    def raws(m: VCAValveModel):
-        key = (m.null_offset_v, m.supply_pressure_pa, m.valve_natural_frequency_hz)
-        if key not in cache:
-            cache.clear()
-            cache[key] = [vca_raw_sums(a, fs, params, *key, window, laminar)[sk:]
-                          for a, fs, sk in zip(recordings_arrays, sample_rates, skip)]
-        return cache[key]
+    def design(theta):
+        """Stacked (X, y) of both equations, drift-profiled, unweighted."""
+        v = nl_values(theta)
+        xr, yr, xs, ys = [], [], [], []
+        for a, fs, sk, (reg, rr) in zip(recordings_arrays, sample_rates, skip, projectors):
+            raw = vca_raw_sums(a, fs, params, v.get("null_offset_v", base.null_offset_v),
+                               v.get("supply_pressure_pa", base.supply_pressure_pa),
+                               v.get("valve_natural_frequency_hz",
+                                     base.valve_natural_frequency_hz), window, laminar)[sk:]
+            ps = v.get("supply_pressure_pa", base.supply_pressure_pa)
+            c_diff = raw[:, _C1] - raw[:, _C2]
+            c_sum = raw[:, _C1] + raw[:, _C2]
+            cols_r = [0.5 * (raw[:, _S1] + raw[:, _S2]), -raw[:, _DP], -raw[:, _PHI]]
+            cols_s = [raw[:, _S1] - raw[:, _S2], 2.0 * ((ps + pt) * raw[:, _T] - raw[:, _SP]),
+                      np.zeros(len(raw))]
+            y_r = params.piston_area_m2 * raw[:, _DX]
+            y_s = np.zeros(len(raw))
+            if fit_bulk_modulus:
+                cols_r.append(-0.5 * c_diff)
+                cols_s.append(-c_sum)
+            else:
+                y_r = y_r + c_diff / (2.0 * beta0)
+                y_s = y_s + c_sum / beta0
+            x_r = np.column_stack(cols_r)
+            if rr > 0:  # profile the linear null drift out of the leak equation
+                x_r = x_r - np.outer(reg, reg @ x_r / rr)
+                y_r = y_r - reg * (float(reg @ y_r) / rr)
+            xr.append(x_r)
+            yr.append(y_r)
+            xs.append(np.column_stack(cols_s))
+            ys.append(y_s)
+        return np.concatenate(xr), np.concatenate(yr), np.concatenate(xs), np.concatenate(ys)
 
     weights = [1.0, 1.0]
+    last: dict = {}
 
-    psis = []
-    for a, fs, sk in zip(recordings_arrays, sample_rates, skip):
-        psis.append(offset_sensitivity(a, fs, params, base, window, laminar)[sk:])
+    def solve(theta):
+        x_r, y_r, x_s, y_s = design(theta)
+        x = np.vstack([x_r / weights[0], x_s / weights[1]])
+        y = np.concatenate([y_r / weights[0], y_s / weights[1]])
+        col = np.sqrt(np.mean(x * x, axis=0))
+        col[col == 0] = 1.0
+        coef, *_ = np.linalg.lstsq(x / col, y, rcond=None)
+        coef = coef / col
+        last.update(x=x, y=y, coef=coef, n_r=len(y_r))
+        return x @ coef - y
 
-    def fun(theta):
-        m = model_of(theta)
-        out = []
-        for raw, psi in zip(raws(m), psis):
-            t = vca_terms(raw, params, m)
-            out.append(drift_profiled(t["residual"], psi, raw[:, _T]) / weights[0])
-            out.append(t["balance"] / weights[1])
-        return np.concatenate(out)
-
-    theta0 = np.zeros(len(names))
-    # first pass: scales of each equation at the nominal model
-    t0 = [vca_terms(raw, params, base) for raw in raws(base)]
-    weights[0] = _robust_std(np.concatenate([t["residual"] for t in t0]))
-    weights[1] = _robust_std(np.concatenate([t["balance"] for t in t0]))
-    res = least_squares(fun, theta0, diff_step=1e-3, x_scale=1.0, method="trf")
-    m1 = model_of(res.x)
-    t1 = [vca_terms(raw, params, m1) for raw in raws(m1)]
-    weights[0] = _robust_std(np.concatenate([t["residual"] for t in t1]))
-    weights[1] = _robust_std(np.concatenate([t["balance"] for t in t1]))
-    res = least_squares(fun, res.x, diff_step=1e-3, x_scale=1.0, method="trf")
-    model = model_of(res.x)
-    dof = max(1, res.fun.size - len(names))
-    s2 = float(res.fun @ res.fun) / dof
+    theta0 = np.zeros(len(nl_names))
+    res0 = solve(theta0)
+    n_r = last["n_r"]
+    weights[0] = _robust_std(res0[:n_r])
+    weights[1] = _robust_std(res0[n_r:])
+    res = least_squares(solve, theta0, diff_step=1e-3, method="trf")
+    r1 = solve(res.x) * 1.0
+    weights[0] *= _robust_std(r1[:n_r])
+    weights[1] *= _robust_std(r1[n_r:])
+    res = least_squares(solve, res.x, diff_step=1e-3, method="trf")
+    fun = solve(res.x)
+    coef, x = last["coef"], last["x"]
+    dof = max(1, fun.size - len(nl_names) - len(lin_names))
+    s2 = float(fun @ fun) / dof
+    std = {}
     try:
-        cov = np.linalg.inv(res.jac.T @ res.jac) * s2
-        se = np.sqrt(np.clip(np.diag(cov), 0.0, None)) * scales
+        cov_nl = np.linalg.inv(res.jac.T @ res.jac) * s2
+        for nm, c, sc in zip(nl_names, np.diag(cov_nl), nl_scales):
+            std[nm] = float(np.sqrt(max(c, 0.0)) * sc)
     except np.linalg.LinAlgError:
-        se = np.full(len(names), np.nan)
-    return model, dict(zip(names, (float(v) for v in se)))
+        std.update({nm: float("nan") for nm in nl_names})
+    col = np.sqrt(np.mean(x * x, axis=0))
+    col[col == 0] = 1.0
+    cov_lin = np.linalg.pinv((x / col).T @ (x / col)) * s2 / np.outer(col, col)
+    for nm, c in zip(lin_names, np.diag(cov_lin)):
+        std[nm] = float(np.sqrt(max(c, 0.0)))
+    vals = base.to_dict()
+    vals.update(nl_values(res.x))
+    lin = dict(zip(lin_names, (float(c) for c in coef)))
+    if fit_bulk_modulus:
+        inv = lin.pop("inverse_bulk_modulus")
+        if not inv > 0:
+            raise ValueError(f"fit: identified 1/beta={inv!r} is not positive; the healthy data "
+                             "do not determine the bulk modulus (use fit_bulk_modulus=False)")
+        vals["bulk_modulus_pa"] = 1.0 / inv
+        std["bulk_modulus_pa"] = std.pop("inverse_bulk_modulus") / inv**2
+    vals.update(lin)
+    return VCAValveModel(**{k: float(v) for k, v in vals.items()}), std
 
 
 # ---------------------------------------------------------------- backend interface
