@@ -196,9 +196,9 @@ class GLRThreshold:
     target_per_hour : float
         Requested false alarms per hour of healthy operation.
     method : str
-        ``"pivotal-null-monte-carlo"``: alarm episodes (upcrossings of the level) counted on ``simulated_hours`` of windows drawn
-        from the fitted healthy error model (standard normal standardised estimates with the
-        healthy recordings' ``phi / s`` pattern).
+        ``"healthy-residual-bootstrap"``: alarm episodes (upcrossings of the level) counted
+        on ``simulated_hours`` of runs with the healthy recordings' ``(phi, s, nuisance)``
+        patterns and standardised residuals resampled from the healthy ones (random sign).
     simulated_hours : float
         Length of the Monte-Carlo null.
     healthy_hours : float
@@ -246,11 +246,14 @@ class GLRThreshold:
 
 def calibrate_glr(runs: list[tuple], window_s: float, max_span: int, target_per_hour: float,
                   min_history: int = 1, seed: int = 0, min_alarms: int = 40,
-                  max_hours: float = 1000.0) -> tuple[float, np.ndarray, np.ndarray, float]:
+                  max_hours: float = 1000.0,
+                  pool: np.ndarray | None = None) -> tuple[float, np.ndarray, np.ndarray, float]:
     """Monte-Carlo null of the GLR: level with ``target_per_hour`` alarm episodes per hour.
 
     Each replicate takes one healthy recording's pattern ``(phi, s, nuisance)``, draws
-    residuals ``s * N(0, 1)`` and runs :func:`glr_profile` on it, as :meth:`predict` does.
+    residuals ``s * z`` and runs :func:`glr_profile` on it, as :meth:`predict` does; ``z`` is
+    standard normal, or resampled with a random sign from ``pool`` (the healthy standardised
+    residuals: their heavier-than-normal tails then enter the null).
 
     Parameters
     ----------
@@ -270,6 +273,8 @@ def calibrate_glr(runs: list[tuple], window_s: float, max_span: int, target_per_
         Null hours are chosen for about ``3 min_alarms`` alarms at the target rate.
     max_hours : float, default 1000
         Longest null simulated.
+    pool : numpy.ndarray, optional
+        Healthy standardised residuals to resample (bootstrap) instead of N(0, 1).
 
     Returns
     -------
@@ -290,7 +295,11 @@ def calibrate_glr(runs: list[tuple], window_s: float, max_span: int, target_per_
     hours = 0.0
     while hours < hours_needed:
         phi, s, nu = runs[int(rng.integers(len(runs)))]
-        e = s * rng.standard_normal(len(phi))
+        if pool is None:
+            e = s * rng.standard_normal(len(phi))
+        else:
+            e = s * pool[rng.integers(len(pool), size=len(phi))] * rng.choice((-1.0, 1.0),
+                                                                               size=len(phi))
         g, _ = glr_profile(phi, e, 1.0 / s**2, nu, max_span, min_history)
         above = g[None, :] >= grid[:, None]
         counts += above[:, 0] + np.count_nonzero(above[:, 1:] & ~above[:, :-1], axis=1)

@@ -335,16 +335,17 @@ class FlowBalanceDetector(Detector):
         self.dispersion_ = 1.0
         self.dispersion_ = self._dispersion(terms)
         runs = [(t["phi"], self._sigma(t), t["nuisance"]) for t in terms]
+        pool = np.concatenate([self._profiled(t) / self._sigma(t) for t in terms])
         h, grid, rate, hours = calibrate_glr(runs, self.window_s, self._max_span(),
                                              float(self.false_alarms_per_hour),
-                                             self._MIN_HISTORY)
+                                             self._MIN_HISTORY, pool=pool)
         self.healthy_hours_ = float(sum(len(t["residual"]) for t in terms) * self.window_s / 3600)
         healthy_alarms = 0
         for t in terms:
             g, _ = self._glr(t)
             healthy_alarms += glr_alarm_count(g, h)
         self.alarm_threshold_ = GLRThreshold(h, float(self.false_alarms_per_hour),
-                                             "pivotal-null-monte-carlo", hours,
+                                             "healthy-residual-bootstrap", hours,
                                              self.healthy_hours_, healthy_alarms, grid, rate)
         self.threshold_ = h
         self.n_healthy_ = len(recs)
