@@ -206,7 +206,11 @@ class GLRThreshold:
     healthy_alarms : int
         Alarms at ``threshold`` on the healthy recordings themselves (a check, expected ~0).
     grid, rate_per_hour : numpy.ndarray
-        Levels and their Monte-Carlo false-alarm rates.
+        Levels and their Monte-Carlo false-alarm rates (before ``scale``).
+    scale : float
+        Factor (>= 1) applied to the Monte-Carlo levels: the median GLR maximum of the healthy
+        recordings over the median of the simulated ones, when the real healthy runs scatter
+        more than the null model (serial dependence, tails the bootstrap misses).
     """
 
     threshold: float
@@ -217,6 +221,7 @@ class GLRThreshold:
     healthy_alarms: int
     grid: np.ndarray
     rate_per_hour: np.ndarray
+    scale: float = 1.0
 
     def rate_at(self, h: float) -> float:
         """False-alarm rate per hour at level ``h`` (log-linear interpolation of the null).
@@ -232,6 +237,7 @@ class GLRThreshold:
             Alarms per hour; beyond the last level with alarms, the log-linear tail of the
             last two levels with alarms.
         """
+        h = h / self.scale
         ok = self.rate_per_hour > 0
         g, r = self.grid[ok], np.log(self.rate_per_hour[ok])
         if len(g) == 0:
@@ -247,7 +253,7 @@ class GLRThreshold:
 def calibrate_glr(runs: list[tuple], window_s: float, max_span: int, target_per_hour: float,
                   min_history: int = 1, seed: int = 0, min_alarms: int = 40,
                   max_hours: float = 1000.0,
-                  pool: np.ndarray | None = None) -> tuple[float, np.ndarray, np.ndarray, float]:
+                  pool: np.ndarray | None = None):
     """Monte-Carlo null of the GLR: level with ``target_per_hour`` alarm episodes per hour.
 
     Each replicate takes one healthy recording's pattern ``(phi, s, nuisance)``, draws
@@ -283,6 +289,8 @@ def calibrate_glr(runs: list[tuple], window_s: float, max_span: int, target_per_
         Levels and null rates per hour.
     hours : float
         Simulated null hours.
+    maxima : numpy.ndarray
+        Per-replicate GLR maxima (one replicate = one healthy recording's length).
     """
     rng = np.random.default_rng(seed)
     runs = [r for r in runs if len(r[0])]
@@ -292,6 +300,7 @@ def calibrate_glr(runs: list[tuple], window_s: float, max_span: int, target_per_
     hours_needed = min(max_hours, max(20.0, 3.0 * min_alarms / target_per_hour))
     grid = np.arange(2.0, 8.01, 0.05)
     counts = np.zeros(len(grid))
+    maxima = []
     hours = 0.0
     while hours < hours_needed:
         phi, s, nu = runs[int(rng.integers(len(runs)))]
@@ -301,6 +310,7 @@ def calibrate_glr(runs: list[tuple], window_s: float, max_span: int, target_per_
             e = s * pool[rng.integers(len(pool), size=len(phi))] * rng.choice((-1.0, 1.0),
                                                                                size=len(phi))
         g, _ = glr_profile(phi, e, 1.0 / s**2, nu, max_span, min_history)
+        maxima.append(float(g.max()) if len(g) else 0.0)
         above = g[None, :] >= grid[:, None]
         counts += above[:, 0] + np.count_nonzero(above[:, 1:] & ~above[:, :-1], axis=1)
         hours += len(phi) * window_s / 3600.0
@@ -316,4 +326,4 @@ def calibrate_glr(runs: list[tuple], window_s: float, max_span: int, target_per_
         h = (np.log(target_per_hour) - ic) / sl
     else:
         raise ValueError("calibrate_glr: too few null alarms to set a threshold")
-    return float(h), grid, rate, float(hours)
+    return float(h), grid, rate, float(hours), np.asarray(maxima)

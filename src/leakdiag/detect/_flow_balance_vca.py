@@ -39,7 +39,9 @@ __all__ = ["VCAValveModel", "VCA_CHANNELS", "vca_raw_sums", "vca_terms", "identi
 #: Channels the VCA flow balance needs.
 VCA_CHANNELS = ("p1", "p2", "x", "u")
 #: Columns of the raw window sums (see ``vca_window_sums``).
-_S1, _S2, _DX, _C1, _C2, _PHI, _T, _F, _PHIABS, _QA, _QB, _DP, _SP = range(13)
+_S1, _S2, _DX, _C1, _C2, _PHI, _T, _F, _PHIABS, _QA, _QB, _DP, _SP, _EDIFF, _ESUM = range(15)
+#: Half-width of the central difference for the pressure rate at the window ends (samples).
+_RATE_HALF_WIDTH = 3
 #: Null-offset step used for the offset sensitivity psi = d residual / d offset (V).
 _PSI_STEP_V = 1e-3
 #: Moving average applied to P1 - P2 for the mean |phi| only (s; leakdiag choice: 5 ms cuts
@@ -64,6 +66,9 @@ class VCAValveModel:
         Valve natural frequency (Hz).
     bulk_modulus_pa : float
         Effective bulk modulus :math:`\\beta` (Pa).
+    pressure_delay_s : float
+        Delay of the recorded pressures behind the true ones (anti-alias filter, transducer):
+        it moves the compressibility integrals' end points by ``delay * V dP/dt``.
     valve_leakage_m3_per_s_pa : float
         Spool-clearance leakage :math:`c_v` of the valve: :math:`c_v(P_s - P_i) - c_v(P_i - P_r)`
         into chamber ``i``; in the difference equation it is a laminar cross-port flow
@@ -79,6 +84,7 @@ class VCAValveModel:
     bulk_modulus_pa: float
     valve_leakage_m3_per_s_pa: float = 0.0
     baseline_leak_coefficient: float = 0.0
+    pressure_delay_s: float = 0.0
 
     @classmethod
     def nominal(cls, params: VCAParams) -> "VCAValveModel":
@@ -94,7 +100,7 @@ class VCAValveModel:
         VCAValveModel
         """
         return cls(1.0, 0.0, params.supply_pressure_pa, params.valve_natural_frequency_hz,
-                   params.bulk_modulus_pa, 0.0, 0.0)
+                   params.bulk_modulus_pa, 0.0, 0.0, 0.0)
 
     def to_dict(self) -> dict:
         """Field name -> value.
@@ -154,7 +160,7 @@ def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: f
     Returns
     -------
     numpy.ndarray
-        Shape ``(n_windows, 13)``.
+        Shape ``(n_windows, 15)``.
     """
     from scipy.ndimage import uniform_filter1d
 
@@ -168,13 +174,29 @@ def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: f
     spool_positions(u, phi, gam, params.spool_gain_m_per_v, float(null_offset_v),
                     float(null_drift_v_per_s), dt, xv)
     starts = window_starts(len(u), window)
-    out = np.empty((len(starts), 13))
+    out = np.empty((len(starts), 15))
     gw = params.valve_flow_gain_m1_5_per_kg0_5 * params.orifice_area_gradient_m
     vca_window_sums(xv, p1, p2, x, dps, starts, window + 1, params.piston_area_m2,
                     params.chamber_volume_m3, float(supply_pressure_pa), params.tank_pressure_pa,
                     gw, params.valve_transition_pressure_pa, params.leak_transition_pressure_pa,
                     bool(laminar), out)
     out[:, [_S1, _S2, _PHI, _T, _F, _PHIABS, _DP, _SP]] *= dt
+    # V_i dP_i/dt at the window ends (central difference over +-3 samples): a pressure delay
+    # shifts the compressibility integrals by delay * [V dP/dt] between the ends
+    h = _RATE_HALF_WIDTH
+    n = len(p1)
+    ends = np.concatenate([starts, starts[-1:] + window]) if len(starts) else starts
+    lo = np.clip(ends - h, 0, n - 1)
+    hi = np.clip(ends + h, 0, n - 1)
+    span = np.maximum(hi - lo, 1) * dt
+    r1 = (p1[hi] - p1[lo]) / span
+    r2 = (p2[hi] - p2[lo]) / span
+    v1 = params.chamber_volume_m3 + params.piston_area_m2 * x[ends]
+    v2 = params.chamber_volume_m3 - params.piston_area_m2 * x[ends]
+    ed = v1 * r1 - v2 * r2
+    es = v1 * r1 + v2 * r2
+    out[:, _EDIFF] = np.diff(ed)
+    out[:, _ESUM] = np.diff(es)
     return out
 
 
@@ -203,10 +225,11 @@ def vca_terms(raw: np.ndarray, params: VCAParams, model: VCAValveModel) -> dict[
     g = model.flow_gain_factor
     beta = model.bulk_modulus_pa
     cv = model.valve_leakage_m3_per_s_pa
+    tau = model.pressure_delay_s
     r = (0.5 * g * (raw[:, _S1] + raw[:, _S2]) - params.piston_area_m2 * raw[:, _DX]
-         - (raw[:, _C1] - raw[:, _C2]) / (2.0 * beta) - cv * raw[:, _DP]
-         - model.baseline_leak_coefficient * raw[:, _PHI])
-    s = (g * (raw[:, _S1] - raw[:, _S2]) - (raw[:, _C1] + raw[:, _C2]) / beta
+         - (raw[:, _C1] - raw[:, _C2] + tau * raw[:, _EDIFF]) / (2.0 * beta)
+         - cv * raw[:, _DP] - model.baseline_leak_coefficient * raw[:, _PHI])
+    s = (g * (raw[:, _S1] - raw[:, _S2]) - (raw[:, _C1] + raw[:, _C2] + tau * raw[:, _ESUM]) / beta
          + 2.0 * cv * ((model.supply_pressure_pa + params.tank_pressure_pa) * raw[:, _T]
                        - raw[:, _SP]))
     return {"residual": r, "balance": s, "phi": raw[:, _PHI].copy(),
@@ -287,8 +310,8 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
     Separable nonlinear least squares (variable projection) of the window residuals of both
     equations over all healthy windows. The null offset, the supply pressure and optionally the
     valve natural frequency enter nonlinearly (``scipy.optimize.least_squares`` over them);
-    the flow-gain factor, the spool-clearance leakage, the baseline leak coefficient and
-    optionally the inverse bulk modulus enter linearly and are solved exactly at every step. A
+    the flow-gain factor, the spool-clearance leakage, the baseline leak coefficient, the
+    pressure delay and optionally the inverse bulk modulus enter linearly and are solved exactly at every step. A
     null drift linear in time is profiled out of each recording's leak-equation residuals
     (projection on ``psi (t - mean t)``): the slow drift allowance. Each equation is weighted by
     a robust scale of its residuals (two passes).
@@ -323,7 +346,8 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
         nl_names.append("valve_natural_frequency_hz")
         nl_scales.append(5.0)
     nl_scales = np.asarray(nl_scales)
-    lin_names = ["flow_gain_factor", "valve_leakage_m3_per_s_pa", "baseline_leak_coefficient"]
+    lin_names = ["flow_gain_factor", "valve_leakage_m3_per_s_pa", "baseline_leak_coefficient",
+                 "pressure_delay_s"]
     if fit_bulk_modulus:
         lin_names.append("inverse_bulk_modulus")
     base = VCAValveModel.nominal(params)
@@ -355,9 +379,10 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
             ps = v.get("supply_pressure_pa", base.supply_pressure_pa)
             c_diff = raw[:, _C1] - raw[:, _C2]
             c_sum = raw[:, _C1] + raw[:, _C2]
-            cols_r = [0.5 * (raw[:, _S1] + raw[:, _S2]), -raw[:, _DP], -raw[:, _PHI]]
+            cols_r = [0.5 * (raw[:, _S1] + raw[:, _S2]), -raw[:, _DP], -raw[:, _PHI],
+                      -raw[:, _EDIFF] / (2.0 * beta0)]
             cols_s = [raw[:, _S1] - raw[:, _S2], 2.0 * ((ps + pt) * raw[:, _T] - raw[:, _SP]),
-                      np.zeros(len(raw))]
+                      np.zeros(len(raw)), -raw[:, _ESUM] / beta0]
             y_r = params.piston_area_m2 * raw[:, _DX]
             y_s = np.zeros(len(raw))
             if fit_bulk_modulus:

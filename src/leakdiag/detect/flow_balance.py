@@ -128,6 +128,9 @@ class FlowBalanceDetector(Detector):
     dispersion_ : float
         Factor (>= 1) by which healthy span estimates scatter more than the error model says;
         multiplies every standard error.
+    healthy_maxima_, cross_fit_maxima_ : numpy.ndarray
+        GLR maxima of the healthy runs in-sample and out-of-fold (two-fold cross-fitting, with
+        at least 4 runs); the latter set ``alarm_threshold_.scale``.
     threshold_ : float
         GLR alarm level (z scale); ``alarm_threshold_`` (:class:`GLRThreshold`) says how.
     n_healthy_, healthy_hours_ : int, float
@@ -279,6 +282,23 @@ class FlowBalanceDetector(Detector):
         return max(1, int(round(self.max_span_s / self.window_s)))
 
     # ------------------------------------------------------------------ fit
+    def _cross_fit_maxima(self, recs: list) -> np.ndarray:
+        """GLR maxima of each half of the healthy runs under a model fitted on the other half."""
+        from sklearn.base import clone
+
+        if len(recs) < 4:
+            return np.array([])
+        halves = (recs[0::2], recs[1::2])
+        out = []
+        for a, b in (halves, halves[::-1]):
+            other = clone(self)
+            other._fit(a, _no_cross=True)
+            for r in b:
+                t = other._terms(r)
+                g, _ = other._glr(t)
+                out.append(float(g.max()) if len(g) else 0.0)
+        return np.asarray(out)
+
     def fit(self, recordings, y=None) -> "FlowBalanceDetector":
         """Identify the machine on healthy recordings and set the alarm level.
 
@@ -304,6 +324,9 @@ class FlowBalanceDetector(Detector):
             For a bad setting, no recordings, a recording of another system, or too little
             healthy data.
         """
+        return self._fit(recordings)
+
+    def _fit(self, recordings, _no_cross: bool = False) -> "FlowBalanceDetector":
         self._validate()
         recs = [recordings] if hasattr(recordings, "channels") else list(recordings)
         if not recs:
@@ -336,17 +359,25 @@ class FlowBalanceDetector(Detector):
         self.dispersion_ = self._dispersion(terms)
         runs = [(t["phi"], self._sigma(t), t["nuisance"]) for t in terms]
         pool = np.concatenate([self._profiled(t) / self._sigma(t) for t in terms])
-        h, grid, rate, hours = calibrate_glr(runs, self.window_s, self._max_span(),
-                                             float(self.false_alarms_per_hour),
-                                             self._MIN_HISTORY, pool=pool)
+        h, grid, rate, hours, null_max = calibrate_glr(
+            runs, self.window_s, self._max_span(), float(self.false_alarms_per_hour),
+            self._MIN_HISTORY, pool=pool)
         self.healthy_hours_ = float(sum(len(t["residual"]) for t in terms) * self.window_s / 3600)
-        healthy_alarms = 0
-        for t in terms:
-            g, _ = self._glr(t)
-            healthy_alarms += glr_alarm_count(g, h)
+        gs = [self._glr(t)[0] for t in terms]
+        self.healthy_maxima_ = np.array([float(g.max()) if len(g) else 0.0 for g in gs])
+        # scale check on data the model was not fitted on: two-fold cross-fitting (identify on
+        # one half of the healthy runs, GLR maxima on the other); against the simulated maxima
+        # (medians, robust with few runs); the level is raised, never lowered
+        self.cross_fit_maxima_ = self._cross_fit_maxima(recs) if not _no_cross else np.array([])
+        ref = (self.cross_fit_maxima_ if len(self.cross_fit_maxima_) >= 2
+               else self.healthy_maxima_)
+        scale = max(1.0, float(np.median(ref)) / float(np.median(null_max)))
+        h = h * scale
+        healthy_alarms = sum(glr_alarm_count(g, h) for g in gs)
         self.alarm_threshold_ = GLRThreshold(h, float(self.false_alarms_per_hour),
                                              "healthy-residual-bootstrap", hours,
-                                             self.healthy_hours_, healthy_alarms, grid, rate)
+                                             self.healthy_hours_, healthy_alarms, grid, rate,
+                                             scale)
         self.threshold_ = h
         self.n_healthy_ = len(recs)
         self.feature_name_ = "flow_balance"
