@@ -117,7 +117,6 @@ def _terms_from_raw(raw: np.ndarray, nominal: EHAParams, model: EHAPumpModel) ->
     return {"residual": r, "phi": raw[:, _PHI].copy(), "phi_abs": raw[:, _PHIABS].copy(),
             "flow": qr * raw[:, _FW], "duration": raw[:, _T].copy(),
             "edge_flow2": qr * qr * (raw[:, _WA] ** 2 + raw[:, _WB] ** 2),
-            "edge_rate2": np.zeros(len(raw)),
             "compressibility": comp}
 
 

@@ -39,12 +39,9 @@ __all__ = ["VCAValveModel", "VCA_CHANNELS", "vca_raw_sums", "vca_terms", "identi
 #: Channels the VCA flow balance needs.
 VCA_CHANNELS = ("p1", "p2", "x", "u")
 #: Columns of the raw window sums (see ``vca_window_sums``).
-(_S1, _S2, _DX, _C1, _C2, _PHI, _T, _F, _PHIABS, _QA, _QB, _DP, _SP, _EDIFF, _ESUM,
- _ERATE2) = range(16)
-#: Forward difference (samples) for the pressure rate at the window ends: a delayed pressure
-#: reading at t is the true pressure at t - delay, so the end-point correction needs the rate
-#: just *after* t (a central difference straddles a step of the command that starts at t).
-_RATE_FORWARD = 2
+_S1, _S2, _DX, _C1, _C2, _PHI, _T, _F, _PHIABS, _QA, _QB, _DP, _SP, _EDIFF, _ESUM = range(15)
+#: Half-width of the central difference for the pressure rate at the window ends (samples).
+_RATE_HALF_WIDTH = 3
 #: Null-offset step used for the offset sensitivity psi = d residual / d offset (V).
 _PSI_STEP_V = 1e-3
 #: Moving average applied to P1 - P2 for the mean |phi| only (s; leakdiag choice: 5 ms cuts
@@ -163,7 +160,7 @@ def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: f
     Returns
     -------
     numpy.ndarray
-        Shape ``(n_windows, 16)``.
+        Shape ``(n_windows, 15)``.
     """
     from scipy.ndimage import uniform_filter1d
 
@@ -177,19 +174,20 @@ def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: f
     spool_positions(u, phi, gam, params.spool_gain_m_per_v, float(null_offset_v),
                     float(null_drift_v_per_s), dt, xv)
     starts = window_starts(len(u), window)
-    out = np.empty((len(starts), 16))
+    out = np.empty((len(starts), 15))
     gw = params.valve_flow_gain_m1_5_per_kg0_5 * params.orifice_area_gradient_m
     vca_window_sums(xv, p1, p2, x, dps, starts, window + 1, params.piston_area_m2,
                     params.chamber_volume_m3, float(supply_pressure_pa), params.tank_pressure_pa,
                     gw, params.valve_transition_pressure_pa, params.leak_transition_pressure_pa,
                     bool(laminar), out)
     out[:, [_S1, _S2, _PHI, _T, _F, _PHIABS, _DP, _SP]] *= dt
-    # V_i dP_i/dt at the window ends (forward difference over 2 samples): a pressure delay
+    # V_i dP_i/dt at the window ends (central difference over +-3 samples): a pressure delay
     # shifts the compressibility integrals by delay * [V dP/dt] between the ends
+    h = _RATE_HALF_WIDTH
     n = len(p1)
     ends = np.concatenate([starts, starts[-1:] + window]) if len(starts) else starts
-    lo = np.clip(ends, 0, n - 1)
-    hi = np.clip(ends + _RATE_FORWARD, 0, n - 1)
+    lo = np.clip(ends - h, 0, n - 1)
+    hi = np.clip(ends + h, 0, n - 1)
     span = np.maximum(hi - lo, 1) * dt
     r1 = (p1[hi] - p1[lo]) / span
     r2 = (p2[hi] - p2[lo]) / span
@@ -199,7 +197,6 @@ def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: f
     es = v1 * r1 + v2 * r2
     out[:, _EDIFF] = np.diff(ed)
     out[:, _ESUM] = np.diff(es)
-    out[:, _ERATE2] = ed[:-1] ** 2 + ed[1:] ** 2
     return out
 
 
@@ -222,9 +219,7 @@ def vca_terms(raw: np.ndarray, params: VCAParams, model: VCAValveModel) -> dict[
         baseline leak volume; the leak volume plus errors), ``balance`` (m^3, leak-free sum
         equation), ``phi`` (integral of the leak-law pressure term), ``phi_abs``, ``flow``
         (m^3 through the valve), ``duration`` (s), ``edge_flow2`` (sum of the squared valve
-        flows at the two end samples, m^6/s^2), ``edge_rate2`` (sum of the squared
-        compressibility flows ``(V1 dP1/dt - V2 dP2/dt) / 2 beta`` at the two ends, m^6/s^2:
-        where an unidentified pressure delay acts) and ``compressibility`` (m^3, the
+        flows at the two end samples, m^6/s^2) and ``compressibility`` (m^3, the
         compressibility volume of the difference equation).
     """
     g = model.flow_gain_factor
@@ -241,7 +236,6 @@ def vca_terms(raw: np.ndarray, params: VCAParams, model: VCAValveModel) -> dict[
             "phi_abs": raw[:, _PHIABS].copy(), "flow": g * raw[:, _F],
             "duration": raw[:, _T].copy(),
             "edge_flow2": g * g * (raw[:, _QA] ** 2 + raw[:, _QB] ** 2),
-            "edge_rate2": raw[:, _ERATE2] / (2.0 * beta) ** 2,
             "compressibility": (raw[:, _C1] - raw[:, _C2]) / (2.0 * beta)}
 
 

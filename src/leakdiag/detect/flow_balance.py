@@ -121,7 +121,7 @@ class FlowBalanceDetector(Detector):
         Identified machine model; ``model_std_`` its standard errors (dict).
     error_model_ : numpy.ndarray
         Healthy error model of a window residual, ``s^2 = c0 + c1 F^2 + c2 (Q_a^2 + Q_b^2) +
-        c3 C^2 + c4 (R_a^2 + R_b^2)`` (``R``: compressibility flow at the ends) with ``F`` the volume through the valve/pump in the window, ``Q_a, Q_b`` the
+        c3 C^2`` with ``F`` the volume through the valve/pump in the window, ``Q_a, Q_b`` the
         flows at its end samples (timing errors of the valve model act there) and ``C`` its
         compressibility volume (bulk-modulus errors); ``noise_floor_m3_ = sqrt(c0)`` and
         ``flow_error_fraction_ = sqrt(c1)``.
@@ -250,8 +250,7 @@ class FlowBalanceDetector(Detector):
     @staticmethod
     def _error_regressors(terms: dict) -> np.ndarray:
         return np.column_stack([np.ones_like(terms["flow"]), terms["flow"] ** 2,
-                                terms["edge_flow2"], terms["compressibility"] ** 2,
-                                terms["edge_rate2"]])
+                                terms["edge_flow2"], terms["compressibility"] ** 2])
 
     def _sigma(self, terms: dict) -> np.ndarray:
         s2 = self._error_regressors(terms) @ self.error_model_
@@ -344,8 +343,7 @@ class FlowBalanceDetector(Detector):
         if len(e) < 10:
             raise ValueError(f"fit: only {len(e)} windows of {self.window_s} s after the burn-in "
                              f"in {len(recs)} healthy recording(s); give at least 10")
-        # error model s^2 = c0 + c1 F^2 + c2 (Q_start^2 + Q_end^2) + c3 C^2 + c4 (R_a^2 + R_b^2):
-        # non-negative least
+        # error model s^2 = c0 + c1 F^2 + c2 (Q_start^2 + Q_end^2) + c3 C^2: non-negative least
         # squares of e^2 on the regressors (each column scaled to unit RMS for conditioning)
         x = np.concatenate([self._error_regressors(t) for t in terms])
         col = np.sqrt(np.mean(x * x, axis=0))
