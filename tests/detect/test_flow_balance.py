@@ -8,7 +8,15 @@ import pytest
 import leakdiag as ld
 from leakdiag.detect import FlowBalanceDetector
 from leakdiag.detect._flow_balance_search import glr_alarm_count, glr_scan
-from leakdiag.detect._flow_balance_vca import VCAValveModel, terms
+from leakdiag.detect._flow_balance_vca import VCAValveModel, vca_raw_sums, vca_terms
+
+
+def terms(rec, params, model, window, laminar):
+    """The balance with a fixed model (no per-recording null-drift estimate)."""
+    arrays = tuple(np.ascontiguousarray(rec[c]) for c in ("p1", "p2", "x", "u"))
+    raw = vca_raw_sums(arrays, rec.sample_rate, params, model.null_offset_v,
+                       model.supply_pressure_pa, model.valve_natural_frequency_hz, window, laminar)
+    return vca_terms(raw, params, model)
 from leakdiag.io.recording import Recording, RecordingError
 from leakdiag.sim.vca_params import VCAParams
 
@@ -135,3 +143,35 @@ def test_registry_and_verdict_dict():
     det = make_detector("flow-balance", "eha", Alarm(false_alarms_per_hour=0.5))
     assert det.system == "eha" and det.false_alarms_per_hour == 0.5
     assert isinstance(ld.detect.FlowBalanceDetector(), FlowBalanceDetector)
+
+
+@pytest.fixture(scope="module")
+def machine17():
+    healthy = [ld.sim.simulate_vca(duration=30, leak_lpm=0.0, load="spring", machine=17, seed=s)
+               for s in range(3)]
+    return healthy[0].meta["machine"], FlowBalanceDetector(system="vca").fit(healthy)
+
+
+def test_identification_recovers_a_drawn_virtual_machine(machine17):
+    # unit 17: flow gain -0.7 %, null offset +84.8 mV, spool-clearance leakage, transducer and
+    # anti-alias errors (leakdiag.sim.machine); the detector starts from Table 2-1
+    drawn, det = machine17
+    m = det.model_
+    assert m.flow_gain_factor == pytest.approx(drawn["valve_flow_gain_factor"], abs=5e-3)
+    assert m.null_offset_v == pytest.approx(drawn["valve_null_offset_v"], abs=1e-3)
+    assert m.valve_leakage_m3_per_s_pa == pytest.approx(drawn["valve_leakage_m3_per_s_pa"],
+                                                        rel=0.35)
+
+
+def test_null_drift_with_temperature_is_not_a_leak(machine17):
+    # the unit's null moves 5 mV/K; 8 K over the run moves it by 40 mV (0.17 L/min of valve
+    # flow at the null): the per-recording drift estimate must absorb it
+    det = machine17[1]
+    warm = ld.sim.OperatingConditions(temperature_rise_k=8.0)
+    rec = ld.sim.simulate_vca(duration=60, leak_lpm=0.0, load="spring", machine=17, seed=40,
+                              conditions=warm)
+    assert not det.predict(rec).leak
+    leak = ld.sim.simulate_vca(duration=60, leak_lpm=0.01, onset=30, load="spring", machine=17,
+                               seed=41, conditions=warm)
+    v = det.predict(leak)
+    assert v.leak and 30.0 <= v.alarm_time_s <= 40.0

@@ -70,3 +70,46 @@ def test_errors():
         EKFParams(feature="x")
     with pytest.raises(ValueError, match="load='heavy' must be one of"):
         EKFParams(load="heavy")
+
+
+@pytest.fixture(scope="module")
+def noisy_spring_run():
+    from leakdiag.sim.sensors import SensorParams
+    from leakdiag.sim.vca_simulate import simulate_vca
+
+    return simulate_vca(12.0, 0.0, load="spring", seed=5,
+                        sensor_params=SensorParams(pressure_noise_std_pa=40e3))
+
+
+def test_measurement_noise_estimated_from_the_data(noisy_spring_run):
+    from leakdiag.methods.ekf import estimate_pressure_noise
+
+    # 40 kPa white noise + 5.05 kPa ADC quantum (uniform: 1.46 kPa) -> 40.03 kPa
+    for ch in ("p1", "p2"):
+        assert estimate_pressure_noise(noisy_spring_run[ch]) == pytest.approx(40e3, rel=0.05)
+    res = run_vca_ekf(noisy_spring_run, EKFParams(load="spring", pressure_noise_std_pa=None))
+    assert res.pressure_noise_std_pa[0] == pytest.approx(40e3, rel=0.05)
+    # with the right R the normalised innovations are about unit size (NIS ~ chi2(3), mean 3)
+    assert 1.5 < np.nanmean(res.nis[2000:]) < 6.0
+    assert estimate_pressure_noise(np.full(100, 8.6e6)) == 1e3  # floor on a flat signal
+
+
+def test_load_force_state_absorbs_an_unmodelled_spring(noisy_spring_run):
+    # the filter assumes no load; the 50 kN/m spring force goes to the disturbance state
+    res = run_vca_ekf(noisy_spring_run, EKFParams(load="none", pressure_noise_std_pa=None))
+    t = res.time
+    spring = -50e3 * noisy_spring_run["x"]
+    f_d = res.load_force_disturbance_n
+    late = t > 3
+    assert np.corrcoef(f_d[late], spring[late])[0, 1] > 0.9
+    # ... not into the leak coefficient, which is left unclipped and scatters around 0
+    k = res.leak_coefficient[late]
+    assert k.min() < 0.0  # no projection onto k >= 0 hides a bias
+    assert abs(np.mean(k)) < 3.0 * np.sqrt(np.mean(res.leak_coefficient_var[late]))
+
+
+def test_coefficient_feature_is_standardised(noisy_spring_run):
+    fs = ekf_feature(noisy_spring_run, EKFParams(load="spring", pressure_noise_std_pa=None,
+                                                 feature="coefficient", overlap=0))
+    assert fs.name == "ekf_coefficient" and len(fs.values) == 12
+    assert np.all(np.abs(fs.values[3:]) < 5.0)

@@ -49,7 +49,8 @@ def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw
                     ptr_leak, laminar, out):
     """Per-window integrals of the VCA flow balance (Eqs. 2-1, 2-2, 2-4/2-5).
 
-    ``out[w]`` = ``[S1, S2, dX, C1, C2, PHI, T, F, PHIABS, QA, QB]`` (time integrals in sample units,
+    ``out[w]`` = ``[S1, S2, dX, C1, C2, PHI, T, F, PHIABS, QA, QB, DP, SP]`` (time integrals in
+    sample units,
     the wrapper multiplies by ``dt``):
     ``S1 = int Q1 dt`` and ``S2 = int Q2 dt`` (valve flows of Eq. 2-2 with flow-gain factor 1,
     ``gw = K_v w``), ``dX = x_end - x_start``, ``C1 = int V1 dP1``, ``C2 = int V2 dP2``,
@@ -57,7 +58,8 @@ def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw
     ``F = int |Q1 + Q2| / 2 dt`` (flow through the valve, for the error model) and
     ``PHIABS = int |phi(dps)| dt`` (for the mean leak flow; ``dps`` is a smoothed ``P1 - P2``
     so that pressure noise does not inflate it) and ``QA``, ``QB`` the valve flow
-    ``(Q1 + Q2) / 2`` at the window's first and last sample (for the end-point error model).
+    ``(Q1 + Q2) / 2`` at the window's first and last sample (for the end-point error model),
+    ``DP = int (P1 - P2) dt`` and ``SP = int (P1 + P2) dt`` (spool-clearance leakage).
     """
     n_win = starts.shape[0]
     for w in range(n_win):
@@ -70,6 +72,8 @@ def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw
         pha = 0.0
         pap = 0.0
         fabs = 0.0
+        sdp = 0.0
+        ssp = 0.0
         q1p = 0.0
         q2p = 0.0
         php = 0.0
@@ -98,6 +102,8 @@ def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw
                 s2 += 0.5 * (q2 + q2p)
                 phs += 0.5 * (ph + php)
                 pha += 0.5 * (abs(pa_) + abs(pap))
+                sdp += 0.5 * (p1[k] - p2[k] + p1[k - 1] - p2[k - 1])
+                ssp += 0.5 * (p1[k] + p2[k] + p1[k - 1] + p2[k - 1])
                 fabs += 0.25 * (abs(q1 + q2) + abs(q1p + q2p))
                 v1a = volume + area * x[k - 1]
                 v1b = volume + area * x[k]
@@ -118,6 +124,8 @@ def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw
         out[w, 6] = float(window - 1)
         out[w, 7] = fabs
         out[w, 8] = pha
+        out[w, 11] = sdp
+        out[w, 12] = ssp
 
 
 @numba.njit(cache=True)

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-__all__ = ["GLRThreshold", "glr_scan", "glr_alarm_count", "calibrate_glr"]
+__all__ = ["GLRThreshold", "glr_scan", "glr_profile", "glr_alarm_count", "calibrate_glr"]
 
 
 @numba.njit(cache=True)
@@ -72,6 +72,99 @@ def glr_scan(a: np.ndarray, b: np.ndarray, max_span: int) -> tuple[np.ndarray, n
     return g, arg
 
 
+@numba.njit(cache=True)
+def _glr_profile(phi, r, w, nu, max_span, min_history, g, arg):
+    # one-sided GLR for k with nuisance columns nu (p = 0..3) fitted on all windows <= i
+    n = phi.shape[0]
+    p = nu.shape[1]
+    ann = np.zeros((p, p))
+    bn = np.zeros(p)
+    akn = np.zeros(p)
+    tmp = np.zeros(p)
+    for i in range(n):
+        for c in range(p):
+            bn[c] += w[i] * nu[i, c] * r[i]
+            for d in range(p):
+                ann[c, d] += w[i] * nu[i, c] * nu[i, d]
+        g[i] = 0.0
+        arg[i] = i
+        if i + 1 < min_history:
+            continue
+        if p > 0:
+            scale = 0.0
+            for c in range(p):
+                scale = max(scale, ann[c, c])
+            if scale <= 0.0 or np.linalg.det(ann / scale) < 1e-10:
+                continue
+            ainv = np.linalg.inv(ann)
+            for c in range(p):
+                tmp[c] = 0.0
+                for d in range(p):
+                    tmp[c] += ainv[c, d] * bn[d]
+        else:
+            ainv = np.zeros((0, 0))
+        akk = 0.0
+        bk = 0.0
+        for c in range(p):
+            akn[c] = 0.0
+        best = 0.0
+        bj = i
+        for j in range(i, max(-1, i - max_span), -1):
+            akk += w[j] * phi[j] * phi[j]
+            bk += w[j] * phi[j] * r[j]
+            for c in range(p):
+                akn[c] += w[j] * phi[j] * nu[j, c]
+            sch = akk
+            num = bk
+            for c in range(p):
+                num -= akn[c] * tmp[c]
+                for d in range(p):
+                    sch -= akn[c] * ainv[c, d] * akn[d]
+            if sch > 1e-12 * akk and num > 0.0:
+                z = num / np.sqrt(sch)
+                if z > best:
+                    best = z
+                    bj = j
+        g[i] = best
+        arg[i] = bj
+
+
+def glr_profile(phi, r, w, nuisance, max_span: int, min_history: int = 1):
+    """One-sided GLR for the leak coefficient with nuisance regressors profiled out.
+
+    For each window ``i`` and span ``j..i`` the weighted least-squares fit of the residuals of
+    windows ``0..i`` on ``[phi 1(w >= j), nuisance]`` gives the standardised leak coefficient
+    :math:`Z_{j:i} = \\hat k / \\mathrm{se}(\\hat k)` (Schur complement of the nuisance block);
+    :math:`G_i = \\max_j \\max(0, Z_{j:i})`.
+
+    Parameters
+    ----------
+    phi, r, w : numpy.ndarray
+        Per window: leak-law term, residual, weight ``1/s^2``.
+    nuisance : numpy.ndarray
+        Shape ``(n, p)``, ``p`` in 0..3 (e.g. null offset and its linear drift).
+    max_span : int
+        Longest span in windows.
+    min_history : int, default 1
+        Windows needed before the first test (nuisance determined).
+
+    Returns
+    -------
+    g : numpy.ndarray
+        :math:`G_i`.
+    start : numpy.ndarray
+        First window of the maximising span.
+    """
+    phi = np.ascontiguousarray(phi, dtype=np.float64)
+    r = np.ascontiguousarray(r, dtype=np.float64)
+    w = np.ascontiguousarray(w, dtype=np.float64)
+    nu = np.ascontiguousarray(np.asarray(nuisance, dtype=np.float64).reshape(len(phi), -1))
+    g = np.zeros(len(phi))
+    arg = np.zeros(len(phi), dtype=np.int64)
+    _glr_profile(phi, r, w, nu, int(max_span), int(min_history), g, arg)
+    return g, arg
+
+
 def glr_alarm_count(g: np.ndarray, h: float) -> int:
     """Alarm episodes at level ``h``: upcrossings of ``g`` (the first window counts if above).
 
@@ -103,9 +196,9 @@ class GLRThreshold:
     target_per_hour : float
         Requested false alarms per hour of healthy operation.
     method : str
-        ``"pivotal-null-monte-carlo"``: alarm episodes (upcrossings of the level) counted on ``simulated_hours`` of windows drawn
-        from the fitted healthy error model (standard normal standardised estimates with the
-        healthy recordings' ``phi / s`` pattern).
+        ``"healthy-residual-bootstrap"``: alarm episodes (upcrossings of the level) counted
+        on ``simulated_hours`` of runs with the healthy recordings' ``(phi, s, nuisance)``
+        patterns and standardised residuals resampled from the healthy ones (random sign).
     simulated_hours : float
         Length of the Monte-Carlo null.
     healthy_hours : float
@@ -113,7 +206,11 @@ class GLRThreshold:
     healthy_alarms : int
         Alarms at ``threshold`` on the healthy recordings themselves (a check, expected ~0).
     grid, rate_per_hour : numpy.ndarray
-        Levels and their Monte-Carlo false-alarm rates.
+        Levels and their Monte-Carlo false-alarm rates (before ``scale``).
+    scale : float
+        Factor (>= 1) applied to the Monte-Carlo levels: the median GLR maximum of the healthy
+        recordings over the median of the simulated ones, when the real healthy runs scatter
+        more than the null model (serial dependence, tails the bootstrap misses).
     """
 
     threshold: float
@@ -124,6 +221,7 @@ class GLRThreshold:
     healthy_alarms: int
     grid: np.ndarray
     rate_per_hour: np.ndarray
+    scale: float = 1.0
 
     def rate_at(self, h: float) -> float:
         """False-alarm rate per hour at level ``h`` (log-linear interpolation of the null).
@@ -139,6 +237,7 @@ class GLRThreshold:
             Alarms per hour; beyond the last level with alarms, the log-linear tail of the
             last two levels with alarms.
         """
+        h = h / self.scale
         ok = self.rate_per_hour > 0
         g, r = self.grid[ok], np.log(self.rate_per_hour[ok])
         if len(g) == 0:
@@ -151,28 +250,37 @@ class GLRThreshold:
         return float(np.exp(r[-1]))
 
 
-def calibrate_glr(c_runs: list[np.ndarray], window_s: float, max_span: int,
-                  target_per_hour: float, seed: int = 0, min_alarms: int = 40,
-                  max_hours: float = 2000.0) -> tuple[float, np.ndarray, np.ndarray, float]:
-    """Monte-Carlo null of the GLR: level with ``target_per_hour`` alarms per hour.
+def calibrate_glr(runs: list[tuple], window_s: float, max_span: int, target_per_hour: float,
+                  min_history: int = 1, seed: int = 0, min_alarms: int = 40,
+                  max_hours: float = 1000.0,
+                  pool: np.ndarray | None = None):
+    """Monte-Carlo null of the GLR: level with ``target_per_hour`` alarm episodes per hour.
+
+    Each replicate takes one healthy recording's pattern ``(phi, s, nuisance)``, draws
+    residuals ``s * z`` and runs :func:`glr_profile` on it, as :meth:`predict` does; ``z`` is
+    standard normal, or resampled with a random sign from ``pool`` (the healthy standardised
+    residuals: their heavier-than-normal tails then enter the null).
 
     Parameters
     ----------
-    c_runs : list of numpy.ndarray
-        ``phi_w / s_w`` of the healthy windows, one array per healthy recording.
+    runs : list of tuple
+        ``(phi, s, nuisance)`` per healthy recording.
     window_s : float
         Window length in s.
     max_span : int
         Longest span in windows.
     target_per_hour : float
         Target rate.
+    min_history : int, default 1
+        As in :func:`glr_profile`.
     seed : int, default 0
         Seed of the null simulation (fixed: the fit is reproducible).
     min_alarms : int, default 40
-        The null is extended until the level has at least this many alarms (about 16 %
-        relative standard error of the rate) or ``max_hours`` is reached.
-    max_hours : float, default 2000
+        Null hours are chosen for about ``3 min_alarms`` alarms at the target rate.
+    max_hours : float, default 1000
         Longest null simulated.
+    pool : numpy.ndarray, optional
+        Healthy standardised residuals to resample (bootstrap) instead of N(0, 1).
 
     Returns
     -------
@@ -181,45 +289,41 @@ def calibrate_glr(c_runs: list[np.ndarray], window_s: float, max_span: int,
         Levels and null rates per hour.
     hours : float
         Simulated null hours.
+    maxima : numpy.ndarray
+        Per-replicate GLR maxima (one replicate = one healthy recording's length).
     """
     rng = np.random.default_rng(seed)
-    pool = np.concatenate([c for c in c_runs if len(c)])
-    if pool.size == 0 or not np.any(pool != 0):
+    runs = [r for r in runs if len(r[0])]
+    if not runs or not any(np.any(r[0] != 0) for r in runs):
         raise ValueError("calibrate_glr: the healthy recordings have no window with a leak-law "
                          "pressure term (phi = 0 everywhere); nothing can be tested")
-    per_hour = int(round(3600.0 / window_s))
     hours_needed = min(max_hours, max(20.0, 3.0 * min_alarms / target_per_hour))
-    n = int(hours_needed * per_hour)
-    # resample the healthy pattern in blocks (keeps the runs' phi/s sequences), sign random
-    blocks = []
-    total = 0
-    while total < n:
-        run = c_runs[int(rng.integers(len(c_runs)))]
-        if len(run) == 0:
-            continue
-        off = int(rng.integers(len(run)))
-        blocks.append(np.roll(run, -off))
-        total += len(run)
-    c = np.concatenate(blocks)[:n]
-    a = c * rng.standard_normal(n)
-    b = c * c
-    hours = n / per_hour
-    grid = np.arange(2.0, 8.01, 0.1)
-    g, _ = glr_scan(a, b, max_span)
-    rate = np.array([glr_alarm_count(g, h) / hours for h in grid])
-    below = np.flatnonzero(rate <= target_per_hour)
-    if len(below) and rate[below[0]] * hours >= 3:
-        i = below[0]
-        # interpolate log-rate between grid[i-1] and grid[i]
-        if i > 0 and rate[i] > 0:
-            r0, r1 = np.log(rate[i - 1]), np.log(rate[i])
-            h = grid[i - 1] + (np.log(target_per_hour) - r0) / (r1 - r0) * (grid[i] - grid[i - 1])
+    grid = np.arange(0.5, 10.01, 0.05)  # z scale; EHA nulls peak near 1.5
+    counts = np.zeros(len(grid))
+    maxima = []
+    hours = 0.0
+    while hours < hours_needed:
+        phi, s, nu = runs[int(rng.integers(len(runs)))]
+        if pool is None:
+            e = s * rng.standard_normal(len(phi))
         else:
-            h = grid[i]
-    else:
-        ok = np.flatnonzero(rate * hours >= 3)
-        if len(ok) < 2:
-            raise ValueError("calibrate_glr: too few null alarms to set a threshold")
+            e = s * pool[rng.integers(len(pool), size=len(phi))] * rng.choice((-1.0, 1.0),
+                                                                               size=len(phi))
+        g, _ = glr_profile(phi, e, 1.0 / s**2, nu, max_span, min_history)
+        maxima.append(float(g.max()) if len(g) else 0.0)
+        above = g[None, :] >= grid[:, None]
+        counts += above[:, 0] + np.count_nonzero(above[:, 1:] & ~above[:, :-1], axis=1)
+        hours += len(phi) * window_s / 3600.0
+    rate = counts / hours
+    ok = np.flatnonzero(counts >= 3)
+    below = np.flatnonzero(rate <= target_per_hour)
+    if len(below) and counts[below[0]] >= 3 and below[0] > 0:
+        i = below[0]
+        r0, r1 = np.log(rate[i - 1]), np.log(rate[i])
+        h = grid[i - 1] + (np.log(target_per_hour) - r0) / (r1 - r0) * (grid[i] - grid[i - 1])
+    elif len(ok) >= 2:
         sl, ic = np.polyfit(grid[ok[-5:]], np.log(rate[ok[-5:]]), 1)
         h = (np.log(target_per_hour) - ic) / sl
-    return float(h), grid, rate, float(hours)
+    else:
+        raise ValueError("calibrate_glr: too few null alarms to set a threshold")
+    return float(h), grid, rate, float(hours), np.asarray(maxima)

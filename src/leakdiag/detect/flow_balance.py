@@ -19,7 +19,7 @@ from scipy.stats import norm
 
 from leakdiag._validation import check_positive
 from leakdiag.detect._flow_balance_search import (
-    GLRThreshold, calibrate_glr, glr_alarm_count, glr_scan,
+    GLRThreshold, calibrate_glr, glr_alarm_count, glr_profile,
 )
 from leakdiag.detect.base import Detector, Verdict
 from leakdiag.features.series import FeatureSeries
@@ -128,6 +128,9 @@ class FlowBalanceDetector(Detector):
     dispersion_ : float
         Factor (>= 1) by which healthy span estimates scatter more than the error model says;
         multiplies every standard error.
+    healthy_maxima_, cross_fit_maxima_ : numpy.ndarray
+        GLR maxima of the healthy runs in-sample and out-of-fold (two-fold cross-fitting, with
+        at least 4 runs); the latter set ``alarm_threshold_.scale``.
     threshold_ : float
         GLR alarm level (z scale); ``alarm_threshold_`` (:class:`GLRThreshold`) says how.
     n_healthy_, healthy_hours_ : int, float
@@ -236,6 +239,11 @@ class FlowBalanceDetector(Detector):
         start = rec.start_time + np.arange(n_win) * w / rec.sample_rate
         terms["start"] = start
         terms["end"] = start + w / rec.sample_rate
+        # nuisance regressors: null offset and its linear drift (VCA), none (EHA)
+        psi = terms.pop("nuisance", None)
+        mid = 0.5 * (terms["start"] + terms["end"])
+        terms["nuisance"] = (np.zeros((n_win, 0)) if psi is None
+                             else np.column_stack([psi, psi * (mid - mid.mean())]))
         sk = min(self._skip(rec), n_win)
         return {k: np.asarray(v)[sk:] for k, v in terms.items()}
 
@@ -252,10 +260,45 @@ class FlowBalanceDetector(Detector):
         s = self._sigma(terms)
         return terms["phi"] * terms["residual"] / s**2, (terms["phi"] / s) ** 2
 
+    #: Windows before the first test when nuisance regressors are profiled (leakdiag choice).
+    _MIN_HISTORY = 5
+
+    def _glr(self, terms: dict, residual=None):
+        s = self._sigma(terms)
+        r = terms["residual"] if residual is None else residual
+        return glr_profile(terms["phi"], r, 1.0 / s**2, terms["nuisance"], self._max_span(),
+                           self._MIN_HISTORY)
+
+    @staticmethod
+    def _profiled(terms: dict) -> np.ndarray:
+        """Residual with its least-squares fit on the nuisance regressors removed."""
+        nu = terms["nuisance"]
+        if nu.shape[1] == 0 or len(nu) <= nu.shape[1]:
+            return terms["residual"]
+        coef, *_ = np.linalg.lstsq(nu, terms["residual"], rcond=None)
+        return terms["residual"] - nu @ coef
+
     def _max_span(self) -> int:
         return max(1, int(round(self.max_span_s / self.window_s)))
 
     # ------------------------------------------------------------------ fit
+    def _cross_fit_maxima(self, recs: list) -> np.ndarray:
+        """GLR maxima of each half of the healthy runs under a model fitted on the other half."""
+        from sklearn.base import clone
+
+        if len(recs) < 4:
+            return np.array([])
+        halves = (recs[0::2], recs[1::2])
+        out = []
+        for a, b in (halves, halves[::-1]):
+            other = clone(self)
+            other._fit(a, _no_cross=True)
+            for r in b:
+                t = other._terms(r)
+                g, _ = other._glr(t)
+                out.append(float(g.max()) if len(g) else 0.0)
+        return np.asarray(out)
+
     def fit(self, recordings, y=None) -> "FlowBalanceDetector":
         """Identify the machine on healthy recordings and set the alarm level.
 
@@ -281,6 +324,9 @@ class FlowBalanceDetector(Detector):
             For a bad setting, no recordings, a recording of another system, or too little
             healthy data.
         """
+        return self._fit(recordings)
+
+    def _fit(self, recordings, _no_cross: bool = False) -> "FlowBalanceDetector":
         self._validate()
         recs = [recordings] if hasattr(recordings, "channels") else list(recordings)
         if not recs:
@@ -293,7 +339,7 @@ class FlowBalanceDetector(Detector):
             recs, nominal, [self._window(r) for r in recs], self.leak_law == "laminar",
             [self._skip(r) for r in recs], self.fit_bandwidth, self.fit_bulk_modulus)
         terms = [self._terms(r) for r in recs]
-        e = np.concatenate([t["residual"] for t in terms])
+        e = np.concatenate([self._profiled(t) for t in terms])
         if len(e) < 10:
             raise ValueError(f"fit: only {len(e)} windows of {self.window_s} s after the burn-in "
                              f"in {len(recs)} healthy recording(s); give at least 10")
@@ -311,17 +357,27 @@ class FlowBalanceDetector(Detector):
         self.flow_error_fraction_ = float(np.sqrt(coef[1]))
         self.dispersion_ = 1.0
         self.dispersion_ = self._dispersion(terms)
-        c_runs = [t["phi"] / self._sigma(t) for t in terms]
-        h, grid, rate, hours = calibrate_glr(c_runs, self.window_s, self._max_span(),
-                                             float(self.false_alarms_per_hour))
+        runs = [(t["phi"], self._sigma(t), t["nuisance"]) for t in terms]
+        pool = np.concatenate([self._profiled(t) / self._sigma(t) for t in terms])
+        h, grid, rate, hours, null_max = calibrate_glr(
+            runs, self.window_s, self._max_span(), float(self.false_alarms_per_hour),
+            self._MIN_HISTORY, pool=pool)
         self.healthy_hours_ = float(sum(len(t["residual"]) for t in terms) * self.window_s / 3600)
-        healthy_alarms = 0
-        for t in terms:
-            g, _ = glr_scan(*self._ab(t), self._max_span())
-            healthy_alarms += glr_alarm_count(g, h)
+        gs = [self._glr(t)[0] for t in terms]
+        self.healthy_maxima_ = np.array([float(g.max()) if len(g) else 0.0 for g in gs])
+        # scale check on data the model was not fitted on: two-fold cross-fitting (identify on
+        # one half of the healthy runs, GLR maxima on the other); against the simulated maxima
+        # (medians, robust with few runs); the level is raised, never lowered
+        self.cross_fit_maxima_ = self._cross_fit_maxima(recs) if not _no_cross else np.array([])
+        ref = (self.cross_fit_maxima_ if len(self.cross_fit_maxima_) >= 2
+               else self.healthy_maxima_)
+        scale = max(1.0, float(np.median(ref)) / float(np.median(null_max)))
+        h = h * scale
+        healthy_alarms = sum(glr_alarm_count(g, h) for g in gs)
         self.alarm_threshold_ = GLRThreshold(h, float(self.false_alarms_per_hour),
-                                             "pivotal-null-monte-carlo", hours,
-                                             self.healthy_hours_, healthy_alarms, grid, rate)
+                                             "healthy-residual-bootstrap", hours,
+                                             self.healthy_hours_, healthy_alarms, grid, rate,
+                                             scale)
         self.threshold_ = h
         self.n_healthy_ = len(recs)
         self.feature_name_ = "flow_balance"
@@ -333,7 +389,7 @@ class FlowBalanceDetector(Detector):
         for span in _DISPERSION_SPANS:
             zs = []
             for t in terms:
-                a, b = self._ab(t)
+                a, b = self._ab({**t, "residual": self._profiled(t)})
                 m = len(a) // span
                 if m == 0:
                     continue
@@ -356,7 +412,7 @@ class FlowBalanceDetector(Detector):
         self._check_recording(rec, where)
         t = self._terms(rec)
         a, b = self._ab(t)
-        g, arg = glr_scan(a, b, self._max_span())
+        g, arg = self._glr(t)
         return t, a, b, g, arg
 
     def score(self, recording) -> FeatureSeries:
@@ -453,9 +509,7 @@ class FlowBalanceDetector(Detector):
                                       leak_lpm_interval=None, shift=None, **common)
         i = int(above[0])
         j = int(arg[i])
-        sb = float(b[j:].sum())
-        k = float(a[j:].sum()) / sb
-        se = 1.0 / math.sqrt(sb)
+        k, se = self._estimate(t, j)
         dur = float(t["duration"][j:].sum())
         mean_phi = float(t["phi_abs"][j:].sum()) / dur
         zq = float(norm.ppf(0.5 + self.interval_level / 2))
@@ -468,6 +522,18 @@ class FlowBalanceDetector(Detector):
             leak_lpm=float(lpm), leak_lpm_interval=(float(interval[0]), float(interval[1])),
             shift=float(k / se), leak_coefficient=k, leak_coefficient_se=se,
             leak_lpm_at_reference=float(at_ref), **common)
+
+    def _estimate(self, t: dict, j: int) -> tuple[float, float]:
+        """Leak coefficient (and its standard error) from window ``j`` on, nuisance profiled
+        over the whole recording (weighted least squares)."""
+        s = self._sigma(t)
+        ind = np.zeros(len(s))
+        ind[j:] = 1.0
+        x = np.column_stack([t["phi"] * ind, t["nuisance"]]) / s[:, None]
+        y = t["residual"] / s
+        cov = np.linalg.pinv(x.T @ x)
+        coef = cov @ (x.T @ y)
+        return float(coef[0]), float(math.sqrt(max(cov[0, 0], 0.0)))
 
     def shift(self, recording, onset_s: float) -> float:
         """Standardised leak-coefficient estimate on the windows starting at or after ``onset_s``.
@@ -482,12 +548,14 @@ class FlowBalanceDetector(Detector):
         Returns
         -------
         float
-            ``sum a / sqrt(sum b)``; NaN if no window starts after ``onset_s``.
+            ``k / se(k)`` with the nuisance profiled; NaN if no window starts after ``onset_s``.
         """
-        t, a, b, _, _ = self._scan(recording, "shift")
-        after = t["start"] >= onset_s
-        sb = float(b[after].sum())
-        return float(a[after].sum()) / math.sqrt(sb) if sb > 0 else float("nan")
+        t, _, _, _, _ = self._scan(recording, "shift")
+        after = np.flatnonzero(t["start"] >= onset_s)
+        if len(after) == 0:
+            return float("nan")
+        k, se = self._estimate(t, int(after[0]))
+        return k / se if se > 0 else float("nan")
 
     def calibrate(self, recordings, level: float = 0.9, validity=None) -> "FlowBalanceDetector":
         """No-op: the flow balance sizes a leak from physics, not from leaking examples.

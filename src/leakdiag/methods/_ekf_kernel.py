@@ -14,22 +14,25 @@ from leakdiag.sim.vca_model import vca_leak_flow, vca_rhs
 
 __all__: list[str] = []
 
-N_STATE = 7  # x, v, p1, p2, xv, vv, k_l
+N_STATE = 8  # x, v, p1, p2, xv, vv, k_l, f_d (load-force disturbance)
 MEAS_IDX = (0, 2, 3)  # measured states: x, p1, p2
 
 
 @numba.njit(cache=True)
 def _f_scaled(z, u, scale, prm, inputs, out):
-    """Scaled derivative of the augmented state (k_l is a random walk: derivative 0)."""
+    """Scaled derivative of the augmented state (k_l and f_d are random walks: derivative 0;
+    f_d is an unmodelled force on the piston, N: load, spring or friction model error)."""
     phys = np.empty(6)
     for i in range(6):
         phys[i] = z[i] * scale[i]
     inputs[0] = u
     inputs[1] = z[6] * scale[6]
     d = vca_rhs(0.0, phys, inputs, prm)
+    d[1] += z[7] * scale[7] / prm[1]
     for i in range(6):
         out[i] = d[i] / scale[i]
     out[6] = 0.0
+    out[7] = 0.0
 
 
 @numba.njit(cache=True)
@@ -118,8 +121,9 @@ def _inv3(s, out):
 
 
 @numba.njit(cache=True)
-def ekf_vca_kernel(y, u, dt, n_sub, prm, scale, z0, p0, qd, r, states, innov, nis, leak):
-    """Run the EKF over all samples; write states (physical units), innovations, NIS, leak flow.
+def ekf_vca_kernel(y, u, dt, n_sub, prm, scale, z0, p0, qd, r, states, innov, nis, leak, kvar):
+    """Run the EKF over all samples; write states (physical units), innovations, NIS, leak flow
+    and the variance of the leak coefficient.
 
     ``y`` is ``(n, 3)`` scaled measurements of (x, p1, p2); ``u`` the control signal, held
     constant over each sample interval (zero-order hold of the previous sample). Returns the
@@ -202,11 +206,11 @@ def ekf_vca_kernel(y, u, dt, n_sub, prm, scale, z0, p0, qd, r, states, innov, ni
         else:
             n_skipped += 1
             nis[k] = np.nan
-        if z[6] < 0.0:  # a leak coefficient cannot be negative: project onto k_l >= 0
-            z[6] = 0.0
+        # no projection onto k_l >= 0: a negative estimate shows model bias and is kept
         for a_ in range(3):
             innov[k, a_] = e[a_] * scale[meas[a_]]
         for i in range(ns):
             states[k, i] = z[i] * scale[i]
         leak[k] = vca_leak_flow(states[k, 2], states[k, 3], states[k, 6], prm)
+        kvar[k] = p[6, 6] * scale[6] * scale[6]
     return n_skipped

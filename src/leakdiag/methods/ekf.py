@@ -20,13 +20,19 @@ from leakdiag.methods._windowed import windowed_mean
 from leakdiag.sim.leak import LPM_PER_M3S
 from leakdiag.sim.vca_params import VCAParams
 
-__all__ = ["EKFParams", "EKFResult", "run_vca_ekf", "ekf_feature", "EKF_FEATURES"]
+__all__ = ["EKFParams", "EKFResult", "run_vca_ekf", "ekf_feature", "EKF_FEATURES",
+           "estimate_pressure_noise"]
 
-#: Features the EKF detector can score: mean estimated leak flow, or innovation RMS.
-EKF_FEATURES = ("leak_flow", "residual")
+#: Features the EKF detector can score: mean estimated leak flow, innovation RMS, or the
+#: standardised leak coefficient (windowed mean of k_l over the root of its mean variance).
+EKF_FEATURES = ("leak_flow", "residual", "coefficient")
 
-# State scaling (choice): 1 mm, 1 cm/s, 1 bar, 10 um spool, 1 cm/s spool, 1e-9 m^3/(s sqrt(Pa)).
-_SCALE = np.array([1e-3, 1e-2, 1e5, 1e5, 1e-5, 1e-2, 1e-9])
+# State scaling (choice): 1 mm, 1 cm/s, 1 bar, 10 um spool, 1 cm/s spool, 1e-9 m^3/(s sqrt(Pa)),
+# 100 N of load-force disturbance.
+_SCALE = np.array([1e-3, 1e-2, 1e5, 1e5, 1e-5, 1e-2, 1e-9, 1e2])
+#: Floor of a pressure noise estimated from the data (Pa): a noise-free (simulated) recording
+#: would otherwise get R = 0 and an overconfident filter (leakdiag choice).
+NOISE_FLOOR_PA = 1e3
 
 
 @dataclass(frozen=True)
@@ -41,14 +47,18 @@ class EKFParams:
         Load the filter assumes (as in :meth:`VCAParams.to_array`).
     leak_model : {"turbulent", "laminar"}, default "turbulent"
         Leak law of the coefficient state (Eq. 2-4 or 2-5).
-    pressure_noise_std_pa : float, default 10e3
-        Measurement noise of each pressure (the simulator's default sensor noise).
+    pressure_noise_std_pa : float or None, default 10e3
+        Measurement noise of each pressure; None estimates it from the recording
+        (:func:`estimate_pressure_noise`, per channel, floored at 1 kPa).
     position_noise_std_m : float, default 1e-5
         Measurement noise of the position (0.03 mm encoder quantum / sqrt(12) ~ 9 um).
     pressure_process_std_pa : float, default 2e3
         Process noise of each pressure per sample (model error, supply ripple).
     velocity_process_std_m_per_s : float, default 1e-4
         Process noise of the velocity per sample (unmodelled forces).
+    force_disturbance_walk_n : float, default 200.0
+        Random-walk intensity of the load-force disturbance state, N per square-root second
+        (an unmodelled spring, load or friction change goes there instead of into k_l).
     leak_coefficient_walk : float, default 2e-10
         Random-walk intensity of :math:`k_l`, in coefficient units per square-root second:
         in one second the coefficient may drift by about this much (0.2e-9 is about
@@ -59,9 +69,11 @@ class EKFParams:
         Window size N in samples for the windowed features.
     overlap : float, default 50
         Overlap in percent.
-    feature : {"leak_flow", "residual"}, default "leak_flow"
+    feature : {"leak_flow", "residual", "coefficient"}, default "leak_flow"
         ``"leak_flow"``: windowed mean of the estimated leak flow, L/min. ``"residual"``:
         windowed RMS of the normalised innovations (dimensionless, 1 when the model fits).
+        ``"coefficient"``: windowed mean of :math:`\\hat k_l` over the square root of its
+        windowed mean variance (dimensionless).
 
     Raises
     ------
@@ -72,11 +84,12 @@ class EKFParams:
     model: VCAParams = field(default_factory=VCAParams)
     load: str = "none"
     leak_model: str = "turbulent"
-    pressure_noise_std_pa: float = 10e3
+    pressure_noise_std_pa: float | None = 10e3
     position_noise_std_m: float = 1e-5
     pressure_process_std_pa: float = 2e3
     velocity_process_std_m_per_s: float = 1e-4
     leak_coefficient_walk: float = 2e-10
+    force_disturbance_walk_n: float = 200.0
     substeps: int = 4
     window: int = 1000
     overlap: float = 50.0
@@ -86,9 +99,12 @@ class EKFParams:
         if not isinstance(self.model, VCAParams):
             raise TypeError(f"model={self.model!r} must be a VCAParams")
         self.model.to_array(self.leak_model, self.load)  # validates both names
-        for name in ("pressure_noise_std_pa", "position_noise_std_m", "pressure_process_std_pa",
-                     "velocity_process_std_m_per_s", "leak_coefficient_walk"):
+        for name in ("position_noise_std_m", "pressure_process_std_pa",
+                     "velocity_process_std_m_per_s", "leak_coefficient_walk",
+                     "force_disturbance_walk_n"):
             check_positive(getattr(self, name), name)
+        if self.pressure_noise_std_pa is not None:
+            check_positive(self.pressure_noise_std_pa, "pressure_noise_std_pa")
         check_int(self.substeps, "substeps", 1)
         check_int(self.window, "window", 2)
         check_overlap(self.overlap)
@@ -105,8 +121,8 @@ class EKFResult:
     time : numpy.ndarray
         Sample times, s, shape ``(n,)``.
     states : numpy.ndarray
-        Filtered ``[x, v, p1, p2, xv, vv, k_l]`` (m, m/s, Pa, Pa, m, m/s, coefficient units),
-        shape ``(n, 7)``.
+        Filtered ``[x, v, p1, p2, xv, vv, k_l, f_d]`` (m, m/s, Pa, Pa, m, m/s, coefficient
+        units, N), shape ``(n, 8)``.
     innovations : numpy.ndarray
         Measurement minus prediction of ``x`` (m), ``p1``, ``p2`` (Pa), shape ``(n, 3)``.
     nis : numpy.ndarray
@@ -116,6 +132,10 @@ class EKFResult:
     n_skipped : int
         Samples whose innovation covariance was singular: update skipped, ``nis`` is NaN there
         (0 with positive measurement noise).
+    leak_coefficient_var : numpy.ndarray or None
+        Filter variance of :math:`\\hat k_l` per sample.
+    pressure_noise_std_pa : tuple of float or None
+        Measurement noise used for ``p1`` and ``p2`` (given or estimated).
     """
 
     time: np.ndarray
@@ -124,11 +144,48 @@ class EKFResult:
     nis: np.ndarray
     leak_flow_lpm: np.ndarray
     n_skipped: int = 0
+    leak_coefficient_var: np.ndarray | None = None
+    pressure_noise_std_pa: tuple | None = None
 
     @property
     def leak_coefficient(self) -> np.ndarray:
         """Estimated leak coefficient :math:`\\hat k_l` per sample."""
         return self.states[:, 6]
+
+    @property
+    def load_force_disturbance_n(self) -> np.ndarray:
+        """Estimated load-force disturbance per sample, N."""
+        return self.states[:, 7]
+
+
+def estimate_pressure_noise(p, floor_pa: float = NOISE_FLOOR_PA) -> float:
+    """White measurement noise of a pressure channel from its second differences (robust).
+
+    Parameters
+    ----------
+    p : array_like
+        Pressure samples, Pa.
+    floor_pa : float, default 1e3
+        Smallest value returned.
+
+    Returns
+    -------
+    float
+        :math:`1.4826\\,\\mathrm{MAD}(\\Delta^2 p) / \\sqrt 6` (white noise of std
+        :math:`\\sigma` gives second differences of variance :math:`6\\sigma^2`), at least
+        ``floor_pa``.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> round(estimate_pressure_noise(5e6 + 2e4 * rng.standard_normal(100_000)) / 2e4, 2)
+    1.0
+    """
+    d2 = np.diff(np.asarray(p, dtype=np.float64), 2)
+    if d2.size == 0:
+        return float(floor_pa)
+    mad = float(np.median(np.abs(d2 - np.median(d2))))
+    return float(max(float(floor_pa), 1.4826 * mad / np.sqrt(6.0)))
 
 
 def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
@@ -157,10 +214,12 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
     Notes
     -----
     Model (Eqs. 2-1, 2-2, 2-4, through ``leakdiag.sim.vca_model.vca_rhs``) augmented with
-    :math:`\\dot k_l = w(t)`, white noise. Prediction over one sample with RK4 substeps and the
+    :math:`\\dot k_l = w(t)` and a load-force disturbance :math:`f_d` on the piston
+    (:math:`m\\dot v \\mathrel{+}= f_d`, :math:`\\dot f_d = w_f(t)`), white noises.
+    Prediction over one sample with RK4 substeps and the
     covariance propagated with :math:`F = (I + A + A^2/2)^{n}`, :math:`A = J\\,\\Delta t/n`,
     :math:`J` the finite-difference Jacobian at the prior estimate; update with the Joseph
-    form; :math:`\\hat k_l` is projected onto :math:`k_l \\ge 0` after each update.
+    form. :math:`\\hat k_l` is not clipped: a negative estimate is model bias made visible.
 
     Assumptions where An & Sepehri (2005) are not specific to this rig: the measured signals
     (x, P1, P2, as in Sec. 2.2), the noise levels above, the random-walk leak state (their
@@ -205,8 +264,8 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
                                               recording["p1"] / _SCALE[2],
                                               recording["p2"] / _SCALE[3]]))
     z0 = np.array([y[0, 0], 0.0, y[0, 1], y[0, 2],
-                   params.model.spool_gain_m_per_v * u[0] / _SCALE[4], 0.0, 0.0])
-    p0 = np.diag([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]) ** 2
+                   params.model.spool_gain_m_per_v * u[0] / _SCALE[4], 0.0, 0.0, 0.0])
+    p0 = np.diag([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 10.0]) ** 2
     qd = np.array([
         (1e-7 / _SCALE[0]) ** 2,
         (params.velocity_process_std_m_per_s / _SCALE[1]) ** 2,
@@ -215,17 +274,23 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
         (1e-8 / _SCALE[4]) ** 2,
         (1e-4 / _SCALE[5]) ** 2,
         (params.leak_coefficient_walk / _SCALE[6]) ** 2 * dt,
+        (params.force_disturbance_walk_n / _SCALE[7]) ** 2 * dt,
     ])
+    if params.pressure_noise_std_pa is None:
+        sig = (estimate_pressure_noise(recording["p1"]), estimate_pressure_noise(recording["p2"]))
+    else:
+        sig = (float(params.pressure_noise_std_pa),) * 2
     r = np.array([(params.position_noise_std_m / _SCALE[0]) ** 2,
-                  (params.pressure_noise_std_pa / _SCALE[2]) ** 2,
-                  (params.pressure_noise_std_pa / _SCALE[3]) ** 2])
-    states = np.empty((n, 7))
+                  (sig[0] / _SCALE[2]) ** 2, (sig[1] / _SCALE[3]) ** 2])
+    states = np.empty((n, 8))
     innov = np.empty((n, 3))
     nis = np.empty(n)
     leak = np.empty(n)
+    kvar = np.empty(n)
     skipped = ekf_vca_kernel(y, u, dt, params.substeps, prm, _SCALE, z0, p0, qd, r, states,
-                             innov, nis, leak)
-    return EKFResult(recording.time, states, innov, nis, leak * LPM_PER_M3S, int(skipped))
+                             innov, nis, leak, kvar)
+    return EKFResult(recording.time, states, innov, nis, leak * LPM_PER_M3S, int(skipped), kvar,
+                     sig)
 
 
 def ekf_feature(recording, params: EKFParams = EKFParams()) -> FeatureSeries:
@@ -241,8 +306,10 @@ def ekf_feature(recording, params: EKFParams = EKFParams()) -> FeatureSeries:
     Returns
     -------
     FeatureSeries
-        ``name="ekf_leak_flow"`` (L/min, windowed mean of the estimated leak flow magnitude)
-        or ``name="ekf_residual"`` (windowed RMS of :math:`\\sqrt{NIS/3}`, dimensionless).
+        ``name="ekf_leak_flow"`` (L/min, windowed mean of the estimated leak flow magnitude),
+        ``name="ekf_residual"`` (windowed RMS of :math:`\\sqrt{NIS/3}`, dimensionless) or
+        ``name="ekf_coefficient"`` (windowed mean of :math:`\\hat k_l` over the root of its
+        windowed mean filter variance).
 
     Raises
     ------
@@ -266,6 +333,10 @@ def ekf_feature(recording, params: EKFParams = EKFParams()) -> FeatureSeries:
     res = run_vca_ekf(recording, params)
     if params.feature == "leak_flow":
         values = windowed_mean(np.abs(res.leak_flow_lpm), params.window, params.overlap)
+    elif params.feature == "coefficient":
+        k = windowed_mean(res.leak_coefficient, params.window, params.overlap)
+        var = windowed_mean(res.leak_coefficient_var, params.window, params.overlap)
+        values = k / np.sqrt(var)
     else:
         values = np.sqrt(windowed_mean(res.nis / 3.0, params.window, params.overlap))
     starts = window_starts(recording.n_samples, params.window, params.overlap)

@@ -129,13 +129,17 @@ def ekf(system, alarm):
     Returns
     -------
     EKFDetector
-        Leak-flow feature, load taken from the recording's metadata (``load="auto"``).
+        Standardised leak-coefficient feature (``k_l`` over the root of its filter variance),
+        pressure noise estimated from each recording, load taken from the recording's metadata
+        (``load="auto"``); the filter carries a load-force disturbance state.
 
     Examples
     --------
-    >>> ekf("vca", None).load
-    'auto'
+    >>> d = ekf("vca", None)
+    >>> d.load, d.feature, d.pressure_noise_std_pa
+    ('auto', 'coefficient', None)
     """
     from leakdiag.methods.detectors import EKFDetector
 
-    return EKFDetector(feature="leak_flow", load="auto", alarm=alarm)
+    return EKFDetector(feature="coefficient", load="auto", pressure_noise_std_pa=None,
+                       alarm=alarm)

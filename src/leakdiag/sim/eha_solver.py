@@ -90,10 +90,14 @@ def _lu_solve(a, piv, b):
 
 
 @numba.njit(cache=True)
-def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, out, stats):
+def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, out, stats,
+                 carry, jac):
     """Adaptive ROS2 between output samples; writes states at the samples into ``out``.
 
     ``stats`` receives [accepted steps, rejected steps, Jacobian evaluations, min step].
+    ``carry`` = [next step (<= 0: start afresh), steps since the Jacobian, orifice regime,
+    index of the first sample] is read at the start and holds the controller's state at the
+    end, with ``jac`` (the last Jacobian), so that a run can continue bit for bit.
     """
     n_out = inputs.shape[0]
     n = y0.shape[0]
@@ -106,21 +110,25 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
     k1 = np.empty(n)
     k2 = np.empty(n)
     ys = np.empty(n)
-    jac = np.empty((n, n))
     w = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
     in0 = np.empty(n_in)
     in1 = np.empty(n_in)
     h = min(h_max, dt_out) * 0.1
+    since_jac = jac_every  # force a Jacobian on the first step
+    last_regime = -1
+    if carry[0] > 0.0:  # continue a previous run
+        h = carry[0]
+        since_jac = int(carry[1])
+        last_regime = int(carry[2])
+    j0 = carry[3]
     h_min = 1e-10 * dt_out
     n_acc = 0
     n_rej = 0
     n_jac = 0
-    since_jac = jac_every  # force a Jacobian on the first step
-    last_regime = -1
     smallest = h_max
     for j in range(n_out - 1):
-        tj = t0 + j * dt_out
+        tj = t0 + (j0 + j) * dt_out
         t_end = tj + dt_out
         t = tj
         while t_end - t > 1e-12 * dt_out:
@@ -188,6 +196,10 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
     stats[1] = n_rej
     stats[2] = n_jac
     stats[3] = smallest
+    carry[0] = h
+    carry[1] = since_jac
+    carry[2] = last_regime
+    carry[3] = j0 + n_out - 1
 
 
 @dataclass(frozen=True)
@@ -202,6 +214,9 @@ class Solution:
         Accepted and rejected steps, Jacobian evaluations.
     min_step_s : float
         Smallest accepted step, s.
+    resume : tuple or None
+        The step controller's state after the last sample (pass it with the last state to
+        ``integrate_fast(..., resume=...)`` to continue the run bit for bit).
     """
 
     states: np.ndarray
@@ -209,11 +224,12 @@ class Solution:
     n_rejected: int
     n_jacobians: int
     min_step_s: float
+    resume: tuple | None = None
 
 
 def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
                    rtol: float = DEFAULT_RTOL, max_step: float | None = None,
-                   jacobian_every: int = DEFAULT_JACOBIAN_EVERY) -> Solution:
+                   jacobian_every: int = DEFAULT_JACOBIAN_EVERY, resume=None) -> Solution:
     """Integrate the EHA with the adaptive ROS2 kernel; states at the output samples.
 
     Parameters
@@ -236,6 +252,11 @@ def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
     jacobian_every : int, default DEFAULT_JACOBIAN_EVERY
         Re-evaluate the analytic Jacobian every this many accepted steps (and after every
         rejected step and orifice reversal). ROS2 stays second order with an outdated Jacobian.
+    resume : tuple, optional
+        ``Solution.resume`` of a run whose last state is ``y0`` and whose last input row is
+        ``inputs[0]``: continue it (same step, Jacobian and sample clock) instead of starting
+        afresh, so that integrating ``[0, m]`` then ``[m, n]`` equals ``[0, n]`` bit for bit.
+        ``t0`` and ``sample_rate`` must be those of that run.
 
     Returns
     -------
@@ -290,9 +311,18 @@ def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
         raise ValueError("y0 and inputs must be finite")
     out = np.empty((inputs.shape[0], N_STATES))
     stats = np.zeros(4)
+    if resume is None:
+        carry = np.array([0.0, 0.0, -1.0, 0.0])
+        jac = np.zeros((N_STATES, N_STATES))
+    else:
+        carry = np.array(resume[0], dtype=np.float64)
+        jac = np.array(resume[1], dtype=np.float64)
+        if carry.shape != (4,) or jac.shape != (N_STATES, N_STATES):
+            raise ValueError("resume must be the Solution.resume of an earlier run")
     _ros2_kernel(y0, inputs, float(t0), 1.0 / fs, params, _STATE_SCALE, rtol, h_max,
-                 jac_every, out, stats)
-    return Solution(out, int(stats[0]), int(stats[1]), int(stats[2]), float(stats[3]))
+                 jac_every, out, stats, carry, jac)
+    return Solution(out, int(stats[0]), int(stats[1]), int(stats[2]), float(stats[3]),
+                    (carry, jac))
 
 
 def integrate_reference(y0, inputs, params, sample_rate: float, t0: float = 0.0,

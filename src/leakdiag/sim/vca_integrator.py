@@ -341,60 +341,112 @@ def integrate_closed_loop(x_ref, sample_rate, n_sub, params, gains, u_max, leak_
     >>> bool(abs(res.state[-1, 0] - 5e-3) < 1e-4)  # settles on the 5 mm reference
     True
     """
-    xr = as_1d_float(x_ref, "x_ref")
-    n = xr.size
-    fs = check_positive(sample_rate, "sample_rate")
     n_sub = check_int(n_sub, "n_sub", 1)
-    s0 = as_1d_float(state0, "state0")
-    if s0.size != 6:
-        raise ValueError(f"state0 must have 6 entries, got {s0.size}")
-    use = sensors is not None
-    if use:
-        n1 = as_1d_float(noise1, "noise1")
-        n2 = as_1d_float(noise2, "noise2")
-        if n1.size != n or n2.size != n:
-            raise ValueError(f"noise1/noise2 must have len(x_ref)={n} samples, "
-                             f"got {n1.size} and {n2.size}")
-        sens = as_1d_float(sensors, "sensors")
-        if sens.size == 4:
-            sens = np.concatenate([sens, [1.0, 0.0, 1.0, 0.0]])
-        elif sens.size != 8:
-            raise ValueError(f"sensors must have 4 or 8 entries, got {sens.size}")
-    else:
-        n1 = n2 = np.zeros(1)
-        sens = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 0.0])
-    if antialias_sos is not None:
-        if not use:
-            raise ValueError("antialias_sos needs sensors (it filters the measured pressures)")
-        sos = np.ascontiguousarray(antialias_sos, dtype=np.float64)
-        if sos.ndim != 2 or sos.shape[1] != 6 or sos.shape[0] < 1:
-            raise ValueError(f"antialias_sos must have shape (n_sections, 6), got {sos.shape}")
-        zi_unit = np.ascontiguousarray(sosfilt_zi(sos))
-    else:
-        sos = np.zeros((0, 6))
-        zi_unit = np.zeros((0, 2))
-    zi1 = np.zeros_like(zi_unit)
-    zi2 = np.zeros_like(zi_unit)
-    out_state = np.empty((n, 6))
-    out_meas = np.empty((n, 3))
-    out_u = np.empty(n)
-    out_q = np.empty(n)
-    s = s0.copy()
-    integ = np.zeros(1)
-    prm = np.ascontiguousarray(params, dtype=np.float64)
-    gains = np.ascontiguousarray(gains, dtype=np.float64)
-    sched = np.ascontiguousarray(schedule, dtype=np.float64)
-    cond = np.ascontiguousarray(cond, dtype=np.float64)
-    k_arr = np.atleast_1d(np.ascontiguousarray(leak_coefficient, dtype=np.float64))
-    if k_arr.ndim != 1 or k_arr.size not in (1, n):
-        raise ValueError(f"leak_coefficient must be a number or have len(x_ref)={n} samples, "
-                         f"got shape {k_arr.shape}")
-    step = n if chunk is None else check_int(chunk, "chunk", 1)
-    for i0 in range(0, n, max(step, 1)):
-        i1 = min(n, i0 + step)
-        _closed_loop_kernel(s, integ, i0, i1, prm, gains, float(u_max), xr, sched,
-                            k_arr, cond, n_sub, 1.0 / fs, n1, n2, sens, use, sos, zi_unit,
-                            zi1, zi2, out_state, out_meas, out_u, out_q)
-        if callback is not None:
-            callback(i1 - i0)
-    return ClosedLoopResult(out_state, out_meas, out_u, out_q)
+    loop = _SegmentedLoop(x_ref, sample_rate, params, gains, u_max, schedule, cond, state0,
+                          noise1, noise2, sensors, antialias_sos)
+    k_arr = loop.coefficients(leak_coefficient)
+    out = loop.empty_result()
+    loop.advance(loop.start(), loop.n, n_sub, k_arr, out, chunk, callback)
+    return out
+
+
+@dataclass
+class _Carry:
+    """What a closed-loop run carries from one sample to the next (copied for restarts)."""
+
+    state: np.ndarray
+    integral: np.ndarray
+    zi1: np.ndarray
+    zi2: np.ndarray
+    index: int
+
+    def copy(self) -> "_Carry":
+        return _Carry(self.state.copy(), self.integral.copy(), self.zi1.copy(), self.zi2.copy(),
+                      self.index)
+
+
+class _SegmentedLoop:
+    """A validated closed-loop problem that can be integrated piecewise and restarted.
+
+    ``advance(carry, stop, ...)`` integrates samples ``[carry.index, stop)`` and updates the
+    carry in place; integrating ``[0, m)`` then ``[m, n)`` equals ``[0, n)`` bit for bit, so a
+    leak calibration can restart the part after the onset from a copy of the carry at the
+    onset (:func:`leakdiag.sim.vca_simulate.simulate_vca`).
+    """
+
+    def __init__(self, x_ref, sample_rate, params, gains, u_max, schedule, cond, state0,
+                 noise1=None, noise2=None, sensors=None, antialias_sos=None):
+        xr = as_1d_float(x_ref, "x_ref")
+        n = xr.size
+        fs = check_positive(sample_rate, "sample_rate")
+        s0 = as_1d_float(state0, "state0")
+        if s0.size != 6:
+            raise ValueError(f"state0 must have 6 entries, got {s0.size}")
+        use = sensors is not None
+        if use:
+            n1 = as_1d_float(noise1, "noise1")
+            n2 = as_1d_float(noise2, "noise2")
+            if n1.size != n or n2.size != n:
+                raise ValueError(f"noise1/noise2 must have len(x_ref)={n} samples, "
+                                 f"got {n1.size} and {n2.size}")
+            sens = as_1d_float(sensors, "sensors")
+            if sens.size == 4:
+                sens = np.concatenate([sens, [1.0, 0.0, 1.0, 0.0]])
+            elif sens.size != 8:
+                raise ValueError(f"sensors must have 4 or 8 entries, got {sens.size}")
+        else:
+            n1 = n2 = np.zeros(1)
+            sens = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 0.0])
+        if antialias_sos is not None:
+            if not use:
+                raise ValueError("antialias_sos needs sensors (it filters the measured "
+                                 "pressures)")
+            sos = np.ascontiguousarray(antialias_sos, dtype=np.float64)
+            if sos.ndim != 2 or sos.shape[1] != 6 or sos.shape[0] < 1:
+                raise ValueError(f"antialias_sos must have shape (n_sections, 6), got "
+                                 f"{sos.shape}")
+            zi_unit = np.ascontiguousarray(sosfilt_zi(sos))
+        else:
+            sos = np.zeros((0, 6))
+            zi_unit = np.zeros((0, 2))
+        self.n, self.fs, self.x_ref, self.s0 = n, fs, xr, s0
+        self.noise1, self.noise2, self.sens, self.use = n1, n2, sens, use
+        self.sos, self.zi_unit = sos, zi_unit
+        self.prm = np.ascontiguousarray(params, dtype=np.float64)
+        self.gains = np.ascontiguousarray(gains, dtype=np.float64)
+        self.sched = np.ascontiguousarray(schedule, dtype=np.float64)
+        self.cond = np.ascontiguousarray(cond, dtype=np.float64)
+        self.u_max = float(u_max)
+
+    def coefficients(self, leak_coefficient) -> np.ndarray:
+        """Leak coefficient as the kernel's array: one value, or one per sample."""
+        k_arr = np.atleast_1d(np.ascontiguousarray(leak_coefficient, dtype=np.float64))
+        if k_arr.ndim != 1 or k_arr.size not in (1, self.n):
+            raise ValueError(f"leak_coefficient must be a number or have len(x_ref)={self.n} "
+                             f"samples, got shape {k_arr.shape}")
+        return k_arr
+
+    def start(self) -> _Carry:
+        """Carry at sample 0: the initial state, zero integral, filter not yet started."""
+        return _Carry(self.s0.copy(), np.zeros(1), np.zeros_like(self.zi_unit),
+                      np.zeros_like(self.zi_unit), 0)
+
+    def empty_result(self) -> ClosedLoopResult:
+        """Output arrays for the whole run (filled by :meth:`advance`)."""
+        n = self.n
+        return ClosedLoopResult(np.empty((n, 6)), np.empty((n, 3)), np.empty(n), np.empty(n))
+
+    def advance(self, carry: _Carry, stop: int, n_sub: int, k_arr: np.ndarray,
+                out: ClosedLoopResult, chunk=None, callback=None) -> None:
+        """Integrate samples ``[carry.index, stop)`` into ``out``; update ``carry``."""
+        step = (stop - carry.index) if chunk is None else check_int(chunk, "chunk", 1)
+        for i0 in range(carry.index, stop, max(step, 1)):
+            i1 = min(stop, i0 + step)
+            _closed_loop_kernel(carry.state, carry.integral, i0, i1, self.prm, self.gains,
+                                self.u_max, self.x_ref, self.sched, k_arr, self.cond, n_sub,
+                                1.0 / self.fs, self.noise1, self.noise2, self.sens, self.use,
+                                self.sos, self.zi_unit, carry.zi1, carry.zi2, out.state,
+                                out.measured, out.u, out.leak_flow)
+            if callback is not None:
+                callback(i1 - i0)
+        carry.index = stop

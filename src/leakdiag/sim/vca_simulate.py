@@ -14,11 +14,15 @@ from leakdiag.sim._checks import (
     check_choice, check_leak_kind, check_onset, check_params_type, check_seed, n_samples,
 )
 from leakdiag.sim.leak import (
+    LEAK_REFERENCE_DP_PA,
+    MIN_CALIBRATION_WINDOW_S,
     LeakCalibrationError,
     LeakSchedule,
     calibrate_leak_coefficient,
+    check_calibrated,
     lpm_to_m3s,
     m3s_to_lpm,
+    too_short_to_calibrate,
 )
 from leakdiag.sim.machine import VCAMachine, resolve_machine
 from leakdiag.sim.reference import as_reference
@@ -27,7 +31,7 @@ from leakdiag.sim.sensors import SensorParams, antialias_sos
 from leakdiag.sim.vca_conditions import OperatingConditions
 from leakdiag.sim.vca_control import FixedGainController
 from leakdiag.sim.vca_integrator import (
-    ClosedLoopResult, integrate_closed_loop, rk4_advance, sos_step, valve_null_v,
+    ClosedLoopResult, _SegmentedLoop, rk4_advance, sos_step, valve_null_v,
 )
 from leakdiag.sim.vca_model import vca_leak_flow
 from leakdiag.sim.vca_params import LEAK_MODELS, LOADS, VCAParams
@@ -85,6 +89,88 @@ def _leak_stable_substeps(k_leak: float, leak_model: str, params: VCAParams, fs:
         params.leak_transition_pressure_pa)
     lam = 4.0 * params.bulk_modulus_pa * slope / params.chamber_volume_m3
     return max(1, math.ceil(lam / fs))
+
+
+class _OnsetRestarts:
+    """Leak calibration that integrates the leak-free part before the onset once.
+
+    Samples ``[0, split)`` do not depend on the leak coefficient (the schedule is 0 there,
+    ``split`` = onset sample - 1 so that no RK4 stage reaches the onset), so they are
+    integrated once per RK4 step count and every trial coefficient restarts from a copy of the
+    carry at ``split``. The stitched run equals a full run with that coefficient bit for bit.
+    The output buffer is shared: after each :meth:`run` it holds that run (the calibration
+    accepts its last run).
+    """
+
+    def __init__(self, loop: _SegmentedLoop, split: int, chunk: int, progress):
+        self.loop, self.split, self.chunk, self.progress = loop, split, chunk, progress
+        self.result = loop.empty_result()
+        self._pre: dict[int, tuple] = {}
+        self._in_buffer: int | None = None
+
+    def before_onset(self, n_sub: int) -> ClosedLoopResult:
+        """Integrate (or reuse) the part before the onset with ``n_sub`` steps per sample."""
+        if n_sub not in self._pre:
+            carry = self.loop.start()
+            self.loop.advance(carry, self.split, n_sub, self.loop.coefficients(0.0),
+                              self.result, self.chunk, self.progress)
+            cut = slice(0, self.split)
+            self._pre[n_sub] = (carry, [a[cut].copy() for a in self._arrays()])
+        elif self._in_buffer != n_sub:
+            for dst, src in zip(self._arrays(), self._pre[n_sub][1]):
+                dst[:self.split] = src
+        self._in_buffer = n_sub
+        return self.result
+
+    def run(self, k_leak: float, n_sub: int, n_sub_after: int | None = None) -> ClosedLoopResult:
+        """The whole run with coefficient ``k_leak`` (only the part after the onset is new).
+
+        ``n_sub_after`` (default ``n_sub``) integrates the part after the onset with another
+        step count: a coarser pilot of the calibration.
+        """
+        self.before_onset(n_sub)
+        carry = self._pre[n_sub][0].copy()
+        self.loop.advance(carry, self.loop.n, n_sub if n_sub_after is None else n_sub_after,
+                          self.loop.coefficients(k_leak), self.result, self.chunk,
+                          self.progress)
+        return self.result
+
+    def _arrays(self):
+        r = self.result
+        return (r.state, r.measured, r.u, r.leak_flow)
+
+
+def _coefficient_from_healthy(pre: ClosedLoopResult, i_on: int, n: int, fs: float,
+                              leak_lpm: float, leak_model: str, params: VCAParams,
+                              sched: LeakSchedule) -> float | None:
+    """First guess of k_l from the leak-free run before the onset (None if under 2 s).
+
+    The mean leak after the onset would be ``k_l mean(s(t)) mean|g(P_1 - P_2)|`` if the
+    pressures did not react to the leak; the healthy pressures before the onset (from 1 s on,
+    past the start-up transient) stand in for those after it.
+    """
+    i0 = int(round(fs))
+    i1 = max(i_on - 1, 0)
+    if i1 - i0 < int(round(fs)):
+        return None
+    dp = pre.state[i0:i1, 2] - pre.state[i0:i1, 3]
+    if leak_model == "laminar":
+        g = np.mean(np.abs(dp))
+    else:
+        ptr = params.leak_transition_pressure_pa
+        g = np.mean(np.abs(dp) / np.sqrt(np.sqrt(dp * dp + ptr * ptr)))
+    mult = float(np.mean(sched.multipliers(np.arange(i_on, n) / fs)))
+    if not (g > 0 and mult > 0 and math.isfinite(g)):
+        return None
+    return lpm_to_m3s(leak_lpm) / (mult * float(g))
+
+
+def _too_short(exc: LeakCalibrationError, leak_lpm: float, window_s: float,
+               history) -> LeakCalibrationError:
+    """The calibration error, reworded when the run after the onset is too short."""
+    if window_s < MIN_CALIBRATION_WINDOW_S:
+        return too_short_to_calibrate(leak_lpm, window_s, exc, history)
+    return exc
 
 
 def _antialias(cutoff_hz: float, fs: float) -> np.ndarray:
@@ -229,9 +315,12 @@ def simulate_vca(
     Recording
         Channels ``p1``, ``p2`` (Pa), ``x`` (m), ``u`` (V), ``leak_flow`` (m^3/s, true), ``x_ref``
         (m). ``meta``: ``system="vca"``, ``onset`` (None without leak), ``leak_lpm`` (target),
-        ``leak_lpm_achieved``, ``leak_coefficient``, ``leak_model``, ``leak_kind``, ``load``,
+        ``leak_lpm_achieved``, ``leak_coefficient``, ``leak_reference_dp_pa`` (1 MPa),
+        ``leak_lpm_at_reference_dp`` (the leak law with the full coefficient at that pressure
+        difference, L/min), ``leak_model``, ``leak_kind``, ``load``,
         ``seed``, ``params`` (dict, the unit's), ``controller``, ``sensors``, ``conditions``,
-        ``rk4_step_s``, ``calibration_runs``, ``rated_flow_lpm``, ``machine``
+        ``rk4_step_s``, ``calibration_runs``, ``calibration_pilot_runs``, ``rated_flow_lpm``,
+        ``machine``
         (:meth:`VCAMachine.to_dict`), ``leakdiag_version``, ``source``.
 
     Raises
@@ -240,15 +329,22 @@ def simulate_vca(
         If an argument is out of range (the message names it), e.g. an onset outside the run.
     leakdiag.sim.leak.LeakCalibrationError
         If the leak cannot be calibrated to the target, or a coefficient would need more than
-        :data:`MAX_SUBSTEPS` RK4 steps per sample to stay stable.
+        :data:`MAX_SUBSTEPS` RK4 steps per sample to stay stable; when the run after the
+        onset is shorter than :data:`~leakdiag.sim.leak.MIN_CALIBRATION_WINDOW_S` the message
+        says the run is too short to calibrate.
 
     Notes
     -----
     Model: Eqs. 2-1 to 2-5 (see :func:`~leakdiag.sim.vca_model.vca_rhs`). Integration: fixed-step
     RK4, control held between samples. The achieved leak is the mean of :math:`|Q_l|` over the
-    samples at or after the onset (Sec. 4.5, "the mean of the leak after 200 seconds"); the
-    calibration runs the *same* experiment (same seed) 2-4 times, so a calibrated run costs 2-4
-    simulations.
+    samples at or after the onset (Sec. 4.5, "the mean of the leak after 200 seconds"). The
+    calibration integrates the leak-free part before the onset once, takes its first guess of
+    the coefficient from the healthy pressures there, and reruns only the part after the onset
+    (same seed, bit-identical to a full run) until the mean is within ``calibration_rtol``;
+    the delivered run is checked against the target. ``calibration_runs`` counts the
+    post-onset runs (``calibration_pilot_runs`` is 0: a coarser-step pilot was tried and
+    rejected, without load it is biased by up to 40 %, docs/models.md). A Python
+    ``controller`` reruns whole experiments.
 
     Examples
     --------
@@ -309,7 +405,15 @@ def simulate_vca(
     ctrl = FixedGainController() if controller is None else controller
     chunk = max(1, int(round(_CHUNK_S * fs)))
 
-    def run(k_leak: float) -> ClosedLoopResult:
+    fixed = isinstance(ctrl, FixedGainController)
+    if not fixed and not callable(ctrl):
+        raise TypeError("controller must be a FixedGainController or a callable")
+    loop = None
+    if fixed:
+        loop = _SegmentedLoop(x_ref, fs, prm, ctrl.to_array(), params.control_limit_v,
+                              sched.to_array(), cond, s0, noise[0], noise[1], sens_arr, sos)
+
+    def substeps(k_leak: float) -> int:
         n_sub_k = max(n_sub, _leak_stable_substeps(k_leak, leak_model, params, fs))
         if n_sub_k > MAX_SUBSTEPS:
             raise LeakCalibrationError(
@@ -317,13 +421,15 @@ def simulate_vca(
                 f"sample (> {MAX_SUBSTEPS}); such a leak short-circuits the actuator (rated flow "
                 f"{params.rated_flow_lpm:.1f} L/min)"
             )
-        if isinstance(ctrl, FixedGainController):
-            return integrate_closed_loop(x_ref, fs, n_sub_k, prm, ctrl.to_array(),
-                                         params.control_limit_v, k_leak, sched.to_array(), cond,
-                                         s0, noise[0], noise[1], sens_arr, chunk, progress,
-                                         antialias_sos=sos)
-        if not callable(ctrl):
-            raise TypeError("controller must be a FixedGainController or a callable")
+        return n_sub_k
+
+    def run(k_leak: float) -> ClosedLoopResult:
+        n_sub_k = substeps(k_leak)
+        if fixed:
+            out = loop.empty_result()
+            loop.advance(loop.start(), n, n_sub_k, loop.coefficients(k_leak), out, chunk,
+                         progress)
+            return out
         return _python_controller_run(ctrl, x_ref, fs, n_sub_k, prm, params.control_limit_v,
                                       k_leak, sched, cond, s0, noise[0], noise[1],
                                       sensor_params if sensors else None)
@@ -333,8 +439,7 @@ def simulate_vca(
     def mean_leak_lpm(res: ClosedLoopResult) -> float:
         return m3s_to_lpm(float(np.mean(np.abs(res.leak_flow[i_on:])))) if i_on < n else 0.0
 
-    runs: dict[float, ClosedLoopResult] = {}
-    calibration_runs = 0
+    calibration_runs = pilot_runs = 0
     if not has_leak:
         k_leak = 0.0
         result = run(0.0)
@@ -342,15 +447,38 @@ def simulate_vca(
         k_leak = check_positive(leak_coefficient, "leak_coefficient")
         result = run(k_leak)
     else:
-        def simulate_fn(k: float) -> float:
-            runs[k] = run(k)
-            return mean_leak_lpm(runs[k])
+        history: list[tuple[float, float]] = []
+        if fixed:
+            segments = _OnsetRestarts(loop, max(i_on - 1, 0), chunk, progress)
 
-        cal = calibrate_leak_coefficient(
-            simulate_fn, leak_lpm, initial_leak_coefficient(leak_lpm, leak_model, load),
-            rtol=calibration_rtol,
-        )
-        k_leak, result, calibration_runs = cal.coefficient, runs[cal.coefficient], cal.n_evaluations
+            def simulate_fn(k: float) -> float:
+                q = mean_leak_lpm(segments.run(k, substeps(k)))
+                history.append((k, q))
+                return q
+
+            pre = segments.before_onset(n_sub)
+            k0 = _coefficient_from_healthy(pre, i_on, n, fs, leak_lpm, leak_model, params,
+                                           sched)
+        else:
+            runs: dict[float, ClosedLoopResult] = {}
+
+            def simulate_fn(k: float) -> float:
+                runs[k] = run(k)
+                q = mean_leak_lpm(runs[k])
+                history.append((k, q))
+                return q
+
+            k0 = None
+        if k0 is None:
+            k0 = initial_leak_coefficient(leak_lpm, leak_model, load)
+        try:
+            cal = calibrate_leak_coefficient(simulate_fn, leak_lpm, k0, rtol=calibration_rtol)
+        except LeakCalibrationError as exc:
+            raise _too_short(exc, leak_lpm, (n - i_on) / fs, history) from exc
+        k_leak, calibration_runs = cal.coefficient, cal.n_evaluations
+        pilot_runs = cal.n_pilot_evaluations
+        result = segments.result if fixed else runs[k_leak]
+        check_calibrated(mean_leak_lpm(result), leak_lpm, calibration_rtol)
 
     if sensors:
         x_out, p1_out, p2_out = result.measured[:, 0], result.measured[:, 1], result.measured[:, 2]
@@ -372,6 +500,9 @@ def simulate_vca(
         "leak_lpm": float(leak_lpm) if has_leak else 0.0,
         "leak_lpm_achieved": mean_leak_lpm(result),
         "leak_coefficient": float(k_leak),
+        "leak_reference_dp_pa": LEAK_REFERENCE_DP_PA,
+        "leak_lpm_at_reference_dp": m3s_to_lpm(vca_leak_flow(LEAK_REFERENCE_DP_PA, 0.0,
+                                                             float(k_leak), prm)),
         "leak_model": leak_model,
         "leak_kind": sched.kind,
         "ramp_duration": float(ramp_duration) if sched.kind == "ramp" else None,
@@ -386,6 +517,7 @@ def simulate_vca(
         "rk4_step_s": 1.0 / (fs * max(n_sub, _leak_stable_substeps(k_leak, leak_model, params,
                                                                    fs))),
         "calibration_runs": calibration_runs,
+        "calibration_pilot_runs": pilot_runs,
         "rated_flow_lpm": params.rated_flow_lpm,
         "machine": machine.to_dict(),
         "leakdiag_version": __version__,
