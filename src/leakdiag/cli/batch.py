@@ -20,7 +20,9 @@ __all__ = ["batch"]
 @click.option("--serial", is_flag=True, help="Run in this process, without Dask.")
 @click.option("--retry-errors", is_flag=True, help="Re-run recordings whose result is an error.")
 @click.option("--no-progress", is_flag=True, help="Hide the progress bar.")
-def batch(inputs, config_path, out, scheduler, workers, serial, retry_errors, no_progress):
+@click.option("--store", default=None, help="Also write the job's rows to this event store "
+              "(SQLite file or SQLAlchemy URL; actuator = recording file stem).")
+def batch(inputs, config_path, out, scheduler, workers, serial, retry_errors, no_progress, store):
     """Run the job in --config on every recording matching INPUTS (quote globs: 'data/**/*.parquet').
 
     One row per recording and analysis/detector goes to --out; a bad file becomes a row with its
@@ -43,6 +45,13 @@ def batch(inputs, config_path, out, scheduler, workers, serial, retry_errors, no
     click.echo(f"{s.n_inputs} recording(s): {s.n_run} run, {s.n_skipped} already done, "
                f"{s.n_errors} error(s) in this run; {n_rows} row(s) for job {cfg.digest} in {out}")
     mine = df[df["job_digest"] == cfg.digest]
+    if store:
+        from leakdiag.store import EventStore
+        from leakdiag.store.writers import record_batch
+
+        st = EventStore(store)
+        click.echo(f"{record_batch(st, df, cfg.digest)} run(s) written to {st.url}")
+        st.close()
     bad = mine[mine["status"] == "error"]
     for _, r in bad.iterrows():
         click.echo(f"  error: {r['recording']}: {r['error']}", err=True)

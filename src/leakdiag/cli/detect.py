@@ -88,8 +88,11 @@ def verdict_table(file, healthy, *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"), sy
               type=click.Choice(["binseg", "pelt", "cusum"]))
 @click.option("--burn-in", "burn_in_s", default=5.0, show_default=True, type=float,
               help="Seconds ignored at the start of every recording.")
+@click.option("--store", default=None, help="Also write the verdicts to this event store "
+              "(SQLite file or SQLAlchemy URL).")
+@click.option("--actuator", default=None, help="Actuator name in the store (default: FILE stem).")
 def detect(file, healthy, methods, system, column_map, sample_rate, false_alarms_per_hour,
-           onset_method, burn_in_s):
+           onset_method, burn_in_s, store, actuator):
     """Judge FILE against healthy recordings: leak or not, onset, alarm time, confidence."""
     import numpy as np
     import pandas as pd
@@ -101,6 +104,16 @@ def detect(file, healthy, methods, system, column_map, sample_rate, false_alarms
     cols = [c for c in ("method", "leak", "onset_s", "alarm_time_s", "confidence", "score_max",
                         "threshold", "threshold_method", "error") if c in tab]
     click.echo(tab[cols].to_string(index=False))
+    if store:
+        import os
+
+        from leakdiag.store import EventStore
+        from leakdiag.store.writers import record_verdicts
+
+        st = EventStore(store)
+        name = actuator or os.path.splitext(os.path.basename(file))[0]
+        click.echo(f"{record_verdicts(st, name, file, tab)} alarm(s) for {name} written to {st.url}")
+        st.close()
     scores = tab["score_max"] if "score_max" in tab else pd.Series(float("nan"), index=tab.index)
     if not np.isfinite(scores.to_numpy(dtype=float)).any():  # no method could judge FILE
         why = (tab["error"].dropna().iloc[0] if "error" in tab and tab["error"].notna().any()

@@ -26,6 +26,7 @@ COMMANDS: dict[str, str] = {
     "batch": "leakdiag.cli.batch:batch",
     "benchmark": "leakdiag.cli.benchmark:benchmark",
     "detect": "leakdiag.cli.detect:detect",
+    "dashboard": "leakdiag.cli.dashboard:dashboard",
     "sweep": "leakdiag.cli.sweep:sweep",
     "sensitivity": "leakdiag.cli.sensitivity:sensitivity",
     "reproduce": "leakdiag.cli.reproduce:reproduce",

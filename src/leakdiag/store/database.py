@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import os
 import time
+import uuid
 from dataclasses import asdict
 from datetime import datetime, timezone
 from typing import Any, Callable
@@ -174,7 +175,8 @@ class EventStore:
     # -- writing --------------------------------------------------------------------------
     def start_run(self, actuator: str, *, command: str, source: str, feature: str,
                   sample_rate_hz: float | None = None, threshold: float | None = None,
-                  system: str | None = None, config: dict | None = None) -> int:
+                  system: str | None = None, config: dict | None = None,
+                  invocation: str | None = None) -> int:
         """Register a run (one pass over one input) of an actuator; creates the actuator.
 
         Parameters
@@ -195,6 +197,9 @@ class EventStore:
             ``vca`` or ``eha``.
         config : dict, optional
             Settings stored as JSON.
+        invocation : str, optional
+            Id shared by the runs of one command invocation (e.g. ``detect`` with several
+            methods); default: a new id. The fleet state looks at the latest invocation.
 
         Returns
         -------
@@ -212,7 +217,8 @@ class EventStore:
         def fn(conn):
             aid = self._actuator_id(conn, str(actuator), system)
             return int(conn.execute(insert(S.runs).values(
-                actuator_id=aid, command=command, source=str(source), feature=feature,
+                actuator_id=aid, command=command, invocation=invocation or uuid.uuid4().hex,
+                source=str(source), feature=feature,
                 sample_rate_hz=sample_rate_hz, threshold=threshold, started_at=_now(),
                 status="running", n_chunks=0, n_windows=0,
                 config=None if config is None else json.dumps(config, default=str),
@@ -307,8 +313,9 @@ class EventStore:
     def fleet(self):
         """One row per actuator: state, last alarm, leak estimate, last seen.
 
-        The state is ``ALARM`` when the actuator's latest run has an alarm that was not cleared,
-        else ``OK`` (``NO DATA`` before its first chunk).
+        The state is ``ALARM`` when a run of the actuator's latest invocation has an alarm that
+        was not cleared, else ``OK`` (``NO DATA`` while its latest runs are running and have
+        neither a chunk nor an alarm).
 
         Returns
         -------
@@ -329,10 +336,12 @@ class EventStore:
             last = r.iloc[-1] if len(r) else None
             mine = al[al["actuator_id"] == a.id].sort_values("id")
             la = mine.iloc[-1] if len(mine) else None
-            in_last = mine[mine["run_id"] == last["id"]] if last is not None else mine.iloc[:0]
-            if last is None or (int(last["n_chunks"]) == 0 and not len(in_last)):
+            inv = r[r["invocation"] == last["invocation"]] if last is not None else r
+            in_last = mine[mine["run_id"].isin(inv["id"])]
+            if last is None or (int(inv["n_chunks"].sum()) == 0 and not len(in_last)
+                                and (inv["status"] == "running").all()):
                 state = "NO DATA"
-            elif len(in_last) and pd.isna(in_last.iloc[-1]["cleared_time_s"]):
+            elif in_last["cleared_time_s"].isna().any():
                 state = "ALARM"
             else:
                 state = "OK"

@@ -40,6 +40,7 @@ runs = Table(
     Column("id", Integer, primary_key=True),
     Column("actuator_id", Integer, ForeignKey("actuators.id"), nullable=False, index=True),
     Column("command", String(20), nullable=False),
+    Column("invocation", String(40), nullable=False),
     Column("source", Text, nullable=False),
     Column("feature", String(200), nullable=False),
     Column("sample_rate_hz", Float),

@@ -1,0 +1,297 @@
+"""Live state of monitored actuators, updated by the monitor and read by the web page.
+
+The monitor calls :meth:`LiveBoard.update` once per chunk with the arrays it already has; the
+update only appends to bounded buffers under a lock (no JSON, no I/O), so the detector is never
+slowed by the page. The web server reads :meth:`LiveBoard.snapshot` at a few Hz and sends it on.
+
+State of an actuator (decisions, see ``docs/operations.md``):
+
+* ``WAITING`` before the first window, then ``OK`` or ``ALARM`` as the detector says; without a
+  detector ``NO DETECTOR``.
+* **Alarm time**: time of the first window in alarm (as :class:`leakdiag.detect.base.Verdict`).
+* **Onset estimate**: the start of the CUSUM excursion that raised the alarm (the ``cusum``
+  onset of :func:`leakdiag.detect.onset.cusum_onset`, taken online: the first window after the
+  branch was last 0), at the middle of that window as in ``Detector.predict``. The offline
+  ``leakdiag detect`` may refine it with change points; the live page does not.
+* **Leak size**: with a calibrated detector (``calibration_``), ``calibration_.estimate(shift)``
+  with ``shift`` the mean standardised feature of the windows that start at or after the onset
+  minus that of the windows that end before it (as ``Detector.shift``); it is updated with every
+  chunk after the alarm.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections import deque
+from typing import Any
+
+import numpy as np
+
+__all__ = ["ActuatorLive", "LiveBoard"]
+
+#: Points of each trace kept for the page.
+MAX_POINTS = 3000
+#: Recent events kept for the page.
+MAX_EVENTS = 50
+#: Standardised feature values kept for the leak-size "before" mean.
+MAX_HISTORY = 1_000_000
+
+
+def _num(v) -> float | None:
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+class ActuatorLive:
+    """Bounded live state of one actuator (see the module docstring).
+
+    Parameters
+    ----------
+    name : str
+        Actuator name.
+    feature : str
+        Feature label.
+    scorer : object, optional
+        The monitor's scorer (``threshold_``; a
+        :class:`~leakdiag.stream.detector.DetectorScorer` also gives ``branches_``, ``mean_``,
+        ``std_`` and the detector's ``calibration_``).
+    window_s : float, default 0.0
+        Window span ``(N - 1) / sample_rate`` in s (window start = time - window_s).
+    """
+
+    def __init__(self, name: str, feature: str, scorer: Any = None, window_s: float = 0.0):
+        self.name, self.feature, self.scorer = name, feature, scorer
+        self.window_s = float(window_s)
+        self.threshold = _num(getattr(scorer, "threshold_", None))
+        det = getattr(scorer, "detector", None)
+        self.calibration = getattr(det, "calibration_", None)
+        self.mean, self.std = getattr(scorer, "mean_", None), getattr(scorer, "std_", None)
+        self.time: deque = deque(maxlen=MAX_POINTS)
+        self.value: deque = deque(maxlen=MAX_POINTS)
+        self.score: deque = deque(maxlen=MAX_POINTS)
+        self.events: deque = deque(maxlen=MAX_EVENTS)
+        self.n_events_total = 0
+        self.n_windows = 0
+        self.alarm_on = False
+        self.alarm_time_s = self.onset_s = None
+        self.leak: tuple | None = None
+        self._exc_start = [None, None]  # (time, start) of the first window of each excursion
+        self._zt: deque = deque(maxlen=MAX_HISTORY)  # (time, z) of scored windows
+        self._after = [0.0, 0]
+        self.received_wall = None
+        self.done = False
+
+    def _z(self, v: np.ndarray, s: np.ndarray) -> np.ndarray:
+        if self.mean is None or not self.std:
+            return np.full(len(v), np.nan)
+        z = (v - float(self.mean)) / float(self.std)
+        return np.where(np.isfinite(s), z, np.nan)
+
+    def update(self, t: np.ndarray, v: np.ndarray, s: np.ndarray | None,
+               a: np.ndarray | None, received_wall: float) -> None:
+        """Take the windows one chunk completed.
+
+        Parameters
+        ----------
+        t, v : numpy.ndarray
+            Window times (s) and feature values.
+        s, a : numpy.ndarray or None
+            Detector scores and alarms (None without a detector).
+        received_wall : float
+            Wall-clock time (``time.time()``) at which the chunk arrived.
+        """
+        self.received_wall = received_wall
+        if not len(t):
+            return
+        self.n_windows += len(t)
+        self.time.extend(t.tolist())
+        self.value.extend([_num(x) for x in v])
+        if s is None:
+            return
+        self.score.extend([_num(x) for x in s])
+        branches = getattr(self.scorer, "branches_", None)
+        if branches is None or len(branches[0]) != len(s):
+            branches = (s, s)
+        z = self._z(v, s)
+        for i in range(len(t)):
+            ti = float(t[i])
+            if np.isfinite(z[i]):
+                self._zt.append((ti, float(z[i])))
+                if self.alarm_on and ti - self.window_s >= (self.onset_s or 0.0):
+                    self._after[0] += float(z[i])
+                    self._after[1] += 1
+            for b in (0, 1):
+                bv = branches[b][i]
+                if np.isfinite(bv) and bv <= 0.0:
+                    self._exc_start[b] = None
+                elif np.isfinite(bv) and self._exc_start[b] is None:
+                    self._exc_start[b] = (ti, ti - self.window_s)
+            if bool(a[i]) and not self.alarm_on:
+                self._raise(i, ti, s, branches)
+            elif self.alarm_on and not bool(a[i]) and np.isfinite(s[i]):
+                self.alarm_on = False
+                self.events.append({"time_s": ti, "kind": "cleared", "score": _num(s[i])})
+                self.n_events_total += 1
+        if self.alarm_on and self.calibration is not None:
+            self._estimate()
+
+    def _raise(self, i: int, ti: float, s: np.ndarray, branches) -> None:
+        self.alarm_on = True
+        self.leak = None
+        thr = self.threshold if self.threshold is not None else float(s[i])
+        b = 0 if branches[0][i] >= thr else 1
+        start = self._exc_start[b] or (ti, ti - self.window_s)
+        self.alarm_time_s = ti
+        self.onset_s = (start[0] + start[1]) / 2.0
+        zt = np.array(self._zt, dtype=np.float64).reshape(-1, 2)
+        after = zt[zt[:, 0] - self.window_s >= self.onset_s, 1]
+        self._after = [float(after.sum()), int(len(after))]
+        self.events.append({"time_s": ti, "kind": "alarm", "score": _num(s[i]),
+                            "onset_s": self.onset_s})
+        self.n_events_total += 1
+
+    def _estimate(self) -> None:
+        if not self._after[1]:
+            return
+        zt = np.array(self._zt, dtype=np.float64).reshape(-1, 2) if self.leak is None \
+            else None
+        if zt is not None:
+            before = zt[zt[:, 0] < self.onset_s, 1]
+            self._before = float(before.mean()) if len(before) else float("nan")
+        shift = self._after[0] / self._after[1] - self._before
+        if np.isfinite(shift):
+            lpm, (lo, hi), inside = self.calibration.estimate(shift)
+            self.leak = (float(lpm), float(lo), float(hi), bool(inside), float(shift))
+
+    def snapshot(self) -> dict:
+        """The state as a JSON-ready dict (lists of numbers, None for NaN).
+
+        Returns
+        -------
+        dict
+        """
+        if self.threshold is None and self.scorer is None:
+            state = "NO DETECTOR" if self.n_windows else "WAITING"
+        elif not self.n_windows:
+            state = "WAITING"
+        else:
+            state = "ALARM" if self.alarm_on else "OK"
+        leak = self.leak
+        return {
+            "actuator": self.name, "feature": self.feature, "threshold": self.threshold,
+            "state": state, "alarm_time_s": self.alarm_time_s, "onset_s": self.onset_s,
+            "leak_lpm": leak[0] if leak else None, "leak_lpm_low": leak[1] if leak else None,
+            "leak_lpm_high": leak[2] if leak else None,
+            "leak_in_range": leak[3] if leak else None,
+            "calibrated": self.calibration is not None,
+            "n_windows": self.n_windows, "last_time_s": self.time[-1] if self.time else None,
+            "received_wall": self.received_wall, "done": self.done,
+            "time": list(self.time), "value": list(self.value), "score": list(self.score),
+            "events": list(self.events)[::-1],
+        }
+
+
+class LiveBoard:
+    """Thread-safe live states of several actuators with a change counter.
+
+    Examples
+    --------
+    >>> board = LiveBoard()
+    >>> board.add("rig1", "autocorrelation p1 1 N=4 0%")
+    >>> board.update("rig1", np.array([0.3]), np.array([0.5]), None, None)
+    >>> snap = board.snapshot("rig1")
+    >>> snap["state"], snap["time"], snap["value"]
+    ('NO DETECTOR', [0.3], [0.5])
+    """
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._live: dict[str, ActuatorLive] = {}
+        self.version = 0
+
+    def add(self, name: str, feature: str, scorer: Any = None, window_s: float = 0.0) -> None:
+        """Register an actuator (replacing an earlier one of that name).
+
+        Parameters
+        ----------
+        name : str
+            Actuator name.
+        feature : str
+            Feature label.
+        scorer : object, optional
+            The monitor's scorer for this feature.
+        window_s : float, default 0.0
+            Window span in s.
+        """
+        with self._lock:
+            self._live[name] = ActuatorLive(name, feature, scorer, window_s)
+            self.version += 1
+
+    def names(self) -> list[str]:
+        """Registered actuators, sorted.
+
+        Returns
+        -------
+        list of str
+        """
+        with self._lock:
+            return sorted(self._live)
+
+    def update(self, name: str, t, v, s=None, a=None, received_wall: float | None = None) -> None:
+        """Append one chunk's windows to an actuator (cheap: called by the monitor).
+
+        Parameters
+        ----------
+        name : str
+            Registered actuator.
+        t, v : array_like
+            Window times (s) and feature values.
+        s, a : array_like, optional
+            Scores and alarms.
+        received_wall : float, optional
+            Wall-clock arrival time of the chunk (default: now).
+        """
+        t = np.asarray(t, dtype=np.float64)
+        v = np.asarray(v, dtype=np.float64)
+        s = None if s is None else np.asarray(s, dtype=np.float64)
+        a = None if a is None else np.asarray(a, dtype=bool)
+        with self._lock:
+            self._live[name].update(t, v, s, a, time.time() if received_wall is None
+                                    else received_wall)
+            self.version += 1
+
+    def finish(self, name: str) -> None:
+        """Mark an actuator's stream as ended.
+
+        Parameters
+        ----------
+        name : str
+            Registered actuator.
+        """
+        with self._lock:
+            self._live[name].done = True
+            self.version += 1
+
+    def snapshot(self, name: str) -> dict | None:
+        """JSON-ready state of one actuator, None if unknown.
+
+        Parameters
+        ----------
+        name : str
+            Actuator name.
+
+        Returns
+        -------
+        dict or None
+        """
+        with self._lock:
+            live = self._live.get(name)
+            if live is None:
+                return None
+            snap = live.snapshot()
+            snap["version"] = self.version
+            return snap
