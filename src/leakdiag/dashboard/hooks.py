@@ -129,23 +129,22 @@ class MonitorHooks:
         evs = list(live.events)  # oldest first; the deque is bounded, so count from the end
         fresh = evs[len(evs) - min(len(evs), live.n_events_total - self._n_events):]
         self._n_events = live.n_events_total
-        pending_clear = None
         for e in fresh:
-            if e["kind"] == "alarm":
+            if e["kind"] == "alarm" and not e["again"]:
                 new.append(AlarmRecord(e["time_s"], e["score"], live.threshold, e["onset_s"],
                                        detector=live.feature))
-            elif e["kind"] == "cleared":
-                if new:
-                    new[-1] = AlarmRecord(**{**new[-1].__dict__, "cleared_time_s": e["time_s"]})
-                elif self._alarm_id is not None:
-                    pending_clear = e["time_s"]
-        if pending_clear is not None:
-            updates[self._alarm_id] = {"cleared_time_s": pending_clear}
+                continue
+            if new:  # the episode's alarm row is written with this chunk
+                new[-1] = AlarmRecord(**{**new[-1].__dict__, "cleared_time_s":
+                                         e["time_s"] if e["kind"] == "cleared" else None})
+            elif self._alarm_id is not None:
+                updates.setdefault(self._alarm_id, {})["cleared_time_s"] = \
+                    e["time_s"] if e["kind"] == "cleared" else None
         leak = (live.leak[0], live.leak[1], live.leak[2]) if live.leak else None
-        if new and live.alarm_on and leak:
+        if new and leak:
             new[-1] = AlarmRecord(**{**new[-1].__dict__, "leak_lpm": leak[0],
                                      "leak_lpm_low": leak[1], "leak_lpm_high": leak[2]})
-        elif self._alarm_id is not None and live.alarm_on and leak != self._sent_leak and leak:
+        elif self._alarm_id is not None and leak and leak != self._sent_leak:
             updates.setdefault(self._alarm_id, {}).update(
                 leak_lpm=leak[0], leak_lpm_low=leak[1], leak_lpm_high=leak[2])
         _, ids = self.store.add_chunk(self.run_id, summarize_windows(t, v, s, a), new, updates)

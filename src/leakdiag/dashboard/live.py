@@ -9,6 +9,9 @@ State of an actuator (decisions, see ``docs/operations.md``):
 * ``WAITING`` before the first window, then ``OK`` or ``ALARM`` as the detector says; without a
   detector ``NO DETECTOR``.
 * **Alarm time**: time of the first window in alarm (as :class:`leakdiag.detect.base.Verdict`).
+  A CUSUM near its threshold may dip below it and cross again; while its excursion has not
+  returned to 0 this is the same alarm *episode*: the state goes OK and ALARM again (and the
+  events list it), but the alarm time, onset and the stored alarm row stay those of the episode.
 * **Onset estimate**: the start of the CUSUM excursion that raised the alarm (the ``cusum``
   onset of :func:`leakdiag.detect.onset.cusum_onset`, taken online: the first window after the
   branch was last 0), at the middle of that window as in ``Detector.predict``. The offline
@@ -80,6 +83,9 @@ class ActuatorLive:
         self.alarm_time_s = self.onset_s = None
         self.leak: tuple | None = None
         self._exc_start = [None, None]  # (time, start) of the first window of each excursion
+        self._episode_key = None  # (branch, excursion start) of the current alarm episode
+        self.episode = 0
+        self._before = float("nan")
         self._zt: deque = deque(maxlen=MAX_HISTORY)  # (time, z) of scored windows
         self._after = [0.0, 0]
         self.received_wall = None
@@ -121,7 +127,7 @@ class ActuatorLive:
             ti = float(t[i])
             if np.isfinite(z[i]):
                 self._zt.append((ti, float(z[i])))
-                if self.alarm_on and ti - self.window_s >= (self.onset_s or 0.0):
+                if self.onset_s is not None and ti - self.window_s >= self.onset_s:
                     self._after[0] += float(z[i])
                     self._after[1] += 1
             for b in (0, 1):
@@ -134,34 +140,38 @@ class ActuatorLive:
                 self._raise(i, ti, s, branches)
             elif self.alarm_on and not bool(a[i]) and np.isfinite(s[i]):
                 self.alarm_on = False
-                self.events.append({"time_s": ti, "kind": "cleared", "score": _num(s[i])})
+                self.events.append({"time_s": ti, "kind": "cleared", "score": _num(s[i]),
+                                    "episode": self.episode})
                 self.n_events_total += 1
-        if self.alarm_on and self.calibration is not None:
+        if self.onset_s is not None and self.calibration is not None:
             self._estimate()
 
     def _raise(self, i: int, ti: float, s: np.ndarray, branches) -> None:
+        """Alarm: a new episode, or the same one again if its CUSUM excursion never ended."""
         self.alarm_on = True
-        self.leak = None
         thr = self.threshold if self.threshold is not None else float(s[i])
         b = 0 if branches[0][i] >= thr else 1
         start = self._exc_start[b] or (ti, ti - self.window_s)
-        self.alarm_time_s = ti
-        self.onset_s = (start[0] + start[1]) / 2.0
-        zt = np.array(self._zt, dtype=np.float64).reshape(-1, 2)
-        after = zt[zt[:, 0] - self.window_s >= self.onset_s, 1]
-        self._after = [float(after.sum()), int(len(after))]
+        same = self._episode_key == (b, start)
+        if not same:
+            self.episode += 1
+            self._episode_key = (b, start)
+            self.alarm_time_s = ti
+            self.onset_s = (start[0] + start[1]) / 2.0
+            self.leak = None
+            zt = np.array(self._zt, dtype=np.float64).reshape(-1, 2)
+            after = zt[zt[:, 0] - self.window_s >= self.onset_s, 1]
+            self._after = [float(after.sum()), int(len(after))]
+            before = zt[zt[:, 0] < self.onset_s, 1]
+            self._before = float(before.mean()) if len(before) else float("nan")
         self.events.append({"time_s": ti, "kind": "alarm", "score": _num(s[i]),
-                            "onset_s": self.onset_s})
+                            "onset_s": self.onset_s, "episode": self.episode,
+                            "again": same})
         self.n_events_total += 1
 
     def _estimate(self) -> None:
         if not self._after[1]:
             return
-        zt = np.array(self._zt, dtype=np.float64).reshape(-1, 2) if self.leak is None \
-            else None
-        if zt is not None:
-            before = zt[zt[:, 0] < self.onset_s, 1]
-            self._before = float(before.mean()) if len(before) else float("nan")
         shift = self._after[0] / self._after[1] - self._before
         if np.isfinite(shift):
             lpm, (lo, hi), inside = self.calibration.estimate(shift)

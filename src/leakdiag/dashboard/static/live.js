@@ -55,7 +55,7 @@ function render(s) {
   for (const e of s.events) {
     const li = document.createElement("li");
     li.className = e.kind;
-    li.textContent = e.kind.toUpperCase() + " at t=" + fmt(e.time_s, " s") + ", score " +
+    li.textContent = e.kind.toUpperCase() + (e.again ? " again" : "") + " at t=" + fmt(e.time_s, " s") + ", score " +
       fmt(e.score, "") + (e.onset_s !== undefined && e.onset_s !== null ? ", onset " + fmt(e.onset_s, " s") : "");
     ul.appendChild(li);
   }
