@@ -68,7 +68,9 @@ def plotly_js_path() -> Path:
 
 
 def _clean(v: Any) -> Any:
-    if v is None:
+    import pandas as pd
+
+    if v is None or (not isinstance(v, (list, tuple, dict, str)) and pd.isna(v)):
         return None
     if hasattr(v, "isoformat"):
         return v.isoformat()

@@ -110,6 +110,9 @@ class EventStore:
     def __init__(self, target: str | os.PathLike, create: bool = True):
         self.url = store_url(target)
         self.is_sqlite = self.url.startswith("sqlite")
+        path = self.url.split(":///", 1)[1] if self.is_sqlite and ":///" in self.url else ""
+        if not create and path and path != ":memory:" and not os.path.exists(path):
+            raise StoreError(f"{path}: no such event store file")
         try:
             self.engine: Engine = create_engine(self.url)
         except Exception as exc:  # bad URL, missing driver
