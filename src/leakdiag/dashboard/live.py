@@ -38,7 +38,8 @@ __all__ = ["ActuatorLive", "LiveBoard"]
 MAX_POINTS = 3000
 #: Recent events kept for the page.
 MAX_EVENTS = 50
-#: Standardised feature values kept for the leak-size "before" mean.
+#: Standardised feature values kept for the leak-size "before" mean (about 2 days at 5 windows/s;
+#: older blocks are dropped, so on longer streams "before" covers the last MAX_HISTORY windows).
 MAX_HISTORY = 1_000_000
 
 
@@ -86,7 +87,9 @@ class ActuatorLive:
         self._episode_key = None  # (branch, excursion start) of the current alarm episode
         self.episode = 0
         self._before = float("nan")
-        self._zt: deque = deque(maxlen=MAX_HISTORY)  # (time, z) of scored windows
+        self._hist_t: deque = deque()  # blocks of (time, z) of scored windows, bounded
+        self._hist_z: deque = deque()
+        self._n_hist = 0
         self._after = [0.0, 0]
         self.received_wall = None
         self.done = False
@@ -115,43 +118,71 @@ class ActuatorLive:
             return
         self.n_windows += len(t)
         self.time.extend(t.tolist())
-        self.value.extend([_num(x) for x in v])
+        self.value.extend(v.tolist())
         if s is None:
             return
-        self.score.extend([_num(x) for x in s])
+        self.score.extend(s.tolist())
         branches = getattr(self.scorer, "branches_", None)
         if branches is None or len(branches[0]) != len(s):
             branches = (s, s)
         z = self._z(v, s)
-        for i in range(len(t)):
+        fin = np.isfinite(z)
+        self._hist_t.append(t[fin])
+        self._hist_z.append(z[fin])
+        self._n_hist += int(fin.sum())
+        while self._n_hist - len(self._hist_t[0]) >= MAX_HISTORY:  # bounded memory
+            self._n_hist -= len(self._hist_t.popleft())
+            self._hist_z.popleft()
+        onset_before = self.onset_s
+        new_episode = False
+        prev = self.alarm_on
+        score_fin = np.isfinite(s)
+        # only the windows where the alarm changes need a look of their own
+        for i in np.flatnonzero(a != np.concatenate(([prev], a[:-1]))):
             ti = float(t[i])
-            if np.isfinite(z[i]):
-                self._zt.append((ti, float(z[i])))
-                if self.onset_s is not None and ti - self.window_s >= self.onset_s:
-                    self._after[0] += float(z[i])
-                    self._after[1] += 1
-            for b in (0, 1):
-                bv = branches[b][i]
-                if np.isfinite(bv) and bv <= 0.0:
-                    self._exc_start[b] = None
-                elif np.isfinite(bv) and self._exc_start[b] is None:
-                    self._exc_start[b] = (ti, ti - self.window_s)
-            if bool(a[i]) and not self.alarm_on:
-                self._raise(i, ti, s, branches)
-            elif self.alarm_on and not bool(a[i]) and np.isfinite(s[i]):
+            if a[i]:
+                new_episode |= self._raise(i, ti, t, s, branches)
+            elif score_fin[i]:
                 self.alarm_on = False
                 self.events.append({"time_s": ti, "kind": "cleared", "score": _num(s[i]),
                                     "episode": self.episode})
                 self.n_events_total += 1
+        for b in (0, 1):
+            self._exc_start[b] = self._start_at(b, len(t) - 1, t, branches)
+        if new_episode:
+            self._recount()
+        elif onset_before is not None:
+            after = fin & (t - self.window_s >= self.onset_s)
+            self._after[0] += float(z[after].sum())
+            self._after[1] += int(after.sum())
         if self.onset_s is not None and self.calibration is not None:
             self._estimate()
 
-    def _raise(self, i: int, ti: float, s: np.ndarray, branches) -> None:
+    def _start_at(self, b: int, i: int, t: np.ndarray, branches) -> tuple | None:
+        """(time, start) of the first window of branch ``b``'s excursion at window ``i``."""
+        bb = np.asarray(branches[b][:i + 1], dtype=np.float64)
+        fin = np.isfinite(bb)
+        zeros = np.flatnonzero(fin & (bb <= 0.0))
+        if len(zeros):
+            nxt = np.flatnonzero(fin[zeros[-1] + 1:])
+            if not len(nxt):
+                return None
+            k = int(zeros[-1] + 1 + nxt[0])
+        elif self._exc_start[b] is not None:
+            return self._exc_start[b]
+        else:
+            first = np.flatnonzero(fin)
+            if not len(first):
+                return None
+            k = int(first[0])
+        return (float(t[k]), float(t[k]) - self.window_s)
+
+    def _raise(self, i: int, ti: float, t: np.ndarray, s: np.ndarray, branches) -> bool:
         """Alarm: a new episode, or the same one again if its CUSUM excursion never ended."""
         self.alarm_on = True
         thr = self.threshold if self.threshold is not None else float(s[i])
         b = 0 if branches[0][i] >= thr else 1
-        start = self._exc_start[b] or (ti, ti - self.window_s)
+        start = self._start_at(b, i, t, branches) or (ti, ti - self.window_s)
         same = self._episode_key == (b, start)
         if not same:
             self.episode += 1
@@ -159,15 +190,20 @@ class ActuatorLive:
             self.alarm_time_s = ti
             self.onset_s = (start[0] + start[1]) / 2.0
             self.leak = None
-            zt = np.array(self._zt, dtype=np.float64).reshape(-1, 2)
-            after = zt[zt[:, 0] - self.window_s >= self.onset_s, 1]
-            self._after = [float(after.sum()), int(len(after))]
-            before = zt[zt[:, 0] < self.onset_s, 1]
-            self._before = float(before.mean()) if len(before) else float("nan")
         self.events.append({"time_s": ti, "kind": "alarm", "score": _num(s[i]),
                             "onset_s": self.onset_s, "episode": self.episode,
                             "again": same})
         self.n_events_total += 1
+        return not same
+
+    def _recount(self) -> None:
+        """Before/after sums of the standardised feature around a new onset, from the history."""
+        ht = np.concatenate(self._hist_t) if self._hist_t else np.empty(0)
+        hz = np.concatenate(self._hist_z) if self._hist_z else np.empty(0)
+        after = ht - self.window_s >= self.onset_s
+        self._after = [float(hz[after].sum()), int(after.sum())]
+        before = hz[ht < self.onset_s]
+        self._before = float(before.mean()) if len(before) else float("nan")
 
     def _estimate(self) -> None:
         if not self._after[1]:
@@ -200,7 +236,8 @@ class ActuatorLive:
             "calibrated": self.calibration is not None,
             "n_windows": self.n_windows, "last_time_s": self.time[-1] if self.time else None,
             "received_wall": self.received_wall, "done": self.done,
-            "time": list(self.time), "value": list(self.value), "score": list(self.score),
+            "time": list(self.time), "value": [_num(x) for x in self.value],
+            "score": [_num(x) for x in self.score],
             "events": list(self.events)[::-1],
         }
 
