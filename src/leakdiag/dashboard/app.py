@@ -201,14 +201,14 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                     if r["leak_lpm_low"] is not None:
                         leak += f' [{r["leak_lpm_low"]:.3g}, {r["leak_lpm_high"]:.3g}]'
                 last = "–" if r["last_alarm_at"] is None else (
-                    f'{r["last_alarm_at"][:19]} (t={r["last_alarm_time_s"]:.6g} s)')
+                    f'{r["last_alarm_at"][:19].replace("T", " ")} (t={r["last_alarm_time_s"]:.6g} s)')
                 onset = "–" if r["onset_s"] is None else f'{r["onset_s"]:.6g} s'
                 rows.append(
                     f'<tr data-actuator="{html.escape(n)}"><td><a href="/history/{quote(n)}{tq}">'
                     f'{html.escape(n)}</a></td><td class="state {html.escape(r["state"])}">'
                     f'{html.escape(r["state"])}</td><td>{html.escape(last)}</td>'
                     f'<td>{html.escape(onset)}</td><td>{html.escape(leak)}</td>'
-                    f'<td>{html.escape(str(r["last_seen_at"])[:19])}</td>'
+                    f'<td>{html.escape(str(r["last_seen_at"])[:19].replace("T", " "))}</td>'
                     f'<td>{html.escape(str(r["feature"]))}</td></tr>')
             head = ("<tr><th>Actuator</th><th>State</th><th>Last alarm (UTC)</th><th>Onset</th>"
                     "<th>Leak estimate</th><th>Last seen (UTC)</th><th>Feature</th></tr>")

@@ -20,7 +20,8 @@ fetch(cfg.api).then((r) => r.json()).then((h) => {
      fillcolor: "rgba(31,119,180,0.2)", name: "min-max per chunk"},
     {x: s.recorded_at, y: s.value_mean, mode: "lines+markers", name: "mean per chunk",
      line: {color: "#1f77b4"}}],
-    {title: {text: "feature per chunk (UTC)"}, shapes: shapes, margin: {t: 40, r: 20, b: 40, l: 60}},
+    {title: {text: "feature per chunk (UTC)"}, shapes: shapes, margin: {t: 40, r: 20, b: 40, l: 60},
+     legend: {orientation: "h", x: 0, y: 1.12}},
     {displaylogo: false});
   Plotly.newPlot("score-plot", [{x: s.recorded_at, y: s.score_max, mode: "lines+markers",
     name: "max score per chunk", line: {color: "#ff7f0e"}}],

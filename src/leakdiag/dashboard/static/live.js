@@ -59,7 +59,9 @@ function render(s) {
       fmt(e.score, "") + (e.onset_s !== undefined && e.onset_s !== null ? ", onset " + fmt(e.onset_s, " s") : "");
     ul.appendChild(li);
   }
-  if (s.received_wall !== null) {
+  if (s.done) {
+    document.getElementById("latency").textContent = "– (input ended)";
+  } else if (s.received_wall !== null) {
     const lat = Date.now() / 1000 - s.received_wall;
     window.leakdiagLatencies.push(lat);
     document.getElementById("latency").textContent = (lat * 1000).toFixed(0) + " ms";
