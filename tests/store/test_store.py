@@ -107,8 +107,12 @@ def test_foreign_database_refused(tmp_path):
     con.close()
     with pytest.raises(StoreError, match=r"not a leakdiag event store.*\['things'\]"):
         EventStore(db)
-    with pytest.raises(StoreError, match="empty database"):
+    with pytest.raises(StoreError, match="new.db: no such event store file"):
         EventStore(tmp_path / "new.db", create=False)
+    assert not (tmp_path / "new.db").exists()
+    (tmp_path / "empty.db").write_bytes(b"")
+    with pytest.raises(StoreError, match="empty database"):
+        EventStore(tmp_path / "empty.db", create=False)
 
 
 def test_store_url():
