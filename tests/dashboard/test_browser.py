@@ -43,7 +43,7 @@ def _url_from(p, prefix, stream, timeout_s=90.0):
 
 def _stop(p):
     if p.poll() is None:
-        p.send_signal(signal.SIGINT)
+        p.send_signal(signal.SIGTERM)  # a clean stop (SIGINT may be ignored in background jobs)
         try:
             p.wait(timeout=20)
         except subprocess.TimeoutExpired:

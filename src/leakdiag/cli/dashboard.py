@@ -98,12 +98,12 @@ def open_monitor_hooks(live: dict, spec, monitor, source, say):
 def dashboard(store, bind_, allow_remote, token):
     """Serve the fleet overview of an event store: state, last alarm, leak estimate, history.
 
-    Read-only: GET pages and JSON only. Stop with Ctrl-C.
+    Read-only: GET pages and JSON only. Stop with Ctrl-C or SIGTERM.
     """
     import threading
 
     from leakdiag.dashboard.app import make_app
-    from leakdiag.dashboard.server import DashboardServer, parse_bind
+    from leakdiag.dashboard.server import DashboardServer, parse_bind, stop_on_sigterm
     from leakdiag.store import EventStore
 
     try:
@@ -114,6 +114,7 @@ def dashboard(store, bind_, allow_remote, token):
     stop = threading.Event()
     srv = DashboardServer(make_app(None, st, bind.token, stop=stop), bind, stop).start()
     click.echo(f"leakdiag dashboard: {st.url} on {srv.url} (Ctrl-C stops)", err=True)
+    stop_on_sigterm()
     try:
         while srv.thread.is_alive():
             srv.thread.join(0.5)

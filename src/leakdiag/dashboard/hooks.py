@@ -78,11 +78,12 @@ class MonitorHooks:
                         "window": spec.window, "overlap": spec.overlap})
         if bind is not None:
             from leakdiag.dashboard.app import make_app
-            from leakdiag.dashboard.server import DashboardServer
+            from leakdiag.dashboard.server import DashboardServer, stop_on_sigterm
 
             stop = threading.Event()
             app = make_app(self.board, self.store, bind.token, refresh_hz, stop)
             self.server = DashboardServer(app, bind, stop).start()
+            stop_on_sigterm()  # `kill PID` stops a served monitor like Ctrl-C
             say(f"dashboard: {self.server.page_url('live/' + quote(actuator))}")
 
     def wrap(self, chunks: Iterable) -> Iterator:
@@ -160,7 +161,8 @@ class MonitorHooks:
         ok : bool
             Whether the monitor finished without error.
         linger_s : float, default 0.0
-            Seconds to keep the page up after the input ended (``inf``: until Ctrl-C).
+            Seconds to keep the page up after the input ended (``inf``: until Ctrl-C or
+            SIGTERM).
         say : callable, optional
             Prints a message for the user.
         """

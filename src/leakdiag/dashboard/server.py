@@ -8,7 +8,7 @@ import threading
 import time
 from dataclasses import dataclass
 
-__all__ = ["Bind", "parse_bind", "DashboardServer", "LOCALHOST"]
+__all__ = ["Bind", "parse_bind", "DashboardServer", "LOCALHOST", "stop_on_sigterm"]
 
 LOCALHOST = "127.0.0.1"
 
@@ -91,6 +91,22 @@ def parse_bind(text: str, allow_remote: bool = False, token: str | None = None) 
             raise ValueError(f"--dashboard {text} binds an address other machines can reach; "
                              "add --allow-remote and a --token")
     return b
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
+def stop_on_sigterm() -> None:
+    """Make SIGTERM stop a serving command like Ctrl-C (clean shutdown), from the main thread.
+
+    A process started in the background has SIGINT ignored, so ``kill PID`` (SIGTERM) is the
+    way to stop it; this turns that into the same clean stop as Ctrl-C.
+    """
+    import signal
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _interrupt)
 
 
 class DashboardServer:
