@@ -34,7 +34,9 @@ def _stderr_is_terminal() -> bool:
 @click.option("--retry-errors", is_flag=True, help="Re-run recordings whose result is an error.")
 @click.option("--no-progress", is_flag=True,
               help="Hide the progress bar (shown only at a terminal: logs get the summary line).")
-def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors, no_progress):
+@click.option("--store", default=None, help="Also write the job's rows to this event store "
+              "(SQLite file or SQLAlchemy URL; actuator = recording file stem).")
+def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors, no_progress, store):
     """Run the job in --config on every recording matching INPUTS (quote globs: 'data/**/*.parquet').
 
     One row per recording and analysis/detector goes to --out; a bad file becomes a row with its
@@ -71,6 +73,13 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     click.echo(f"{s.n_inputs} recording(s): {s.n_run} run, {s.n_skipped} already done, "
                f"{s.n_errors} error(s) in this run; {n_rows} current row(s) for job {cfg.digest} "
                f"in {out}")
+    if store:
+        from leakdiag.store import EventStore
+        from leakdiag.store.writers import record_batch
+
+        st = EventStore(store)
+        click.echo(f"{record_batch(st, mine, cfg.digest)} run(s) written to {st.url}")
+        st.close()
     bad = mine[mine["status"] == "error"]
     for _, r in bad.iterrows():
         click.echo(f"  error: {r['recording']}: {r['error']}", err=True)

@@ -201,8 +201,11 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
 @click.option("--burn-in", "burn_in_s", default=5.0, show_default=True, type=float,
               help="Seconds ignored at the start of every recording.")
 @click.option("--no-progress", is_flag=True, help="Do not print a line per method.")
+@click.option("--store", default=None, help="Also write the verdicts to this event store "
+              "(SQLite file or SQLAlchemy URL).")
+@click.option("--actuator", default=None, help="Actuator name in the store (default: FILE stem).")
 def detect(file, healthy, detectors, methods, system, column_map, cols, sample_rate, time_unit,
-           resample, false_alarm_rate, onset_method, burn_in_s, no_progress):
+           resample, false_alarm_rate, onset_method, burn_in_s, no_progress, store, actuator):
     """Judge FILE: leak or not, onset, alarm time, leak size, and one overall decision.
 
     Each method is a detector fitted on --healthy recordings (or loaded with --detector); the
@@ -233,6 +236,16 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
                          "score_max", "threshold", "threshold_method", "error") if c in tab]
     shown = tab[cols_].astype(object)
     click.echo(shown.where(shown.notna(), "-").to_string(index=False))
+    if store:
+        import os
+
+        from leakdiag.store import EventStore
+        from leakdiag.store.writers import record_verdicts
+
+        st = EventStore(store)
+        name = actuator or os.path.splitext(os.path.basename(file))[0]
+        click.echo(f"{record_verdicts(st, name, file, tab)} alarm(s) for {name} written to {st.url}")
+        st.close()
     scores = tab["score_max"] if "score_max" in tab else pd.Series(float("nan"), index=tab.index)
     if not np.isfinite(scores.to_numpy(dtype=float)).any():  # no method could judge FILE
         why = (tab["error"].dropna().iloc[0] if "error" in tab and tab["error"].notna().any()

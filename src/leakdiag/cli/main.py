@@ -27,6 +27,7 @@ COMMANDS: dict[str, str] = {
     "benchmark": "leakdiag.cli.benchmark:benchmark",
     "detect": "leakdiag.cli.detect:detect",
     "fit": "leakdiag.cli.fit:fit",
+    "dashboard": "leakdiag.cli.dashboard:dashboard",
     "sweep": "leakdiag.cli.sweep:sweep",
     "sensitivity": "leakdiag.cli.sensitivity:sensitivity",
     "reproduce": "leakdiag.cli.reproduce:reproduce",

@@ -13,6 +13,7 @@ import time
 import click
 
 from leakdiag.cli._options import recording_options
+from leakdiag.cli.dashboard import live_options, open_monitor_hooks
 
 __all__ = ["monitor", "build_source", "load_detector", "parse_replay"]
 
@@ -178,9 +179,10 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector):
 @click.option("--events", type=click.Path(dir_okay=False), default=None,
               help="Write one JSON line per window to this file ('-' for stdout).")
 @click.option("--quiet", "-q", is_flag=True, help="Do not print alarms and the summary.")
+@live_options
 def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag_ratio, window,
             overlap, detector_path, column_map, cols, sample_rate, time_unit, chunk, batch_lines,
-            events, quiet):
+            events, quiet, **live):
     """Monitor a stream: feature value per window, detector score and alarm, as soon as known.
 
     Without --detector only the feature is computed: no alarm is possible.
@@ -220,15 +222,18 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
     say = (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=out is sys.stdout))
     n_win = n_alarm = 0
     alarm_on = False
+    hooks = open_monitor_hooks(live, spec, mon, source, say)  # --store / --dashboard
     t0 = time.perf_counter()
     try:
-        for chunk_ in paced(source, speed):
+        for chunk_ in (hooks.wrap(paced(source, speed)) if hooks else paced(source, speed)):
             try:
                 evs = mon.push(chunk_)
             except ValueError as exc:  # e.g. a NaN sample: name the input
                 msg = str(exc)
                 raise ValueError(msg if msg.startswith(source.source) else
                                  f"{source.source}: {msg}") from None
+            if hooks:
+                hooks.push(evs)
             if out is not None and evs:
                 out.write("".join(e.to_json() + "\n" for e in evs))
                 out.flush()
@@ -245,6 +250,8 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
     finally:
         if out is not None and out is not sys.stdout:
             out.close()
+        if hooks:
+            hooks.close(sys.exc_info()[0] is None, live["linger"], say)
     dt = time.perf_counter() - t0
     n = mon.n_samples_seen
     alarms = (f"{n_alarm} alarm(s)" if detector is not None else

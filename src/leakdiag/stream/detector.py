@@ -88,6 +88,7 @@ class DetectorScorer:
             Scores in healthy standard deviations, shape of ``values``.
         """
         out = np.full(len(values), np.nan)
+        s_up, s_down = np.full(len(values), np.nan), np.full(len(values), np.nan)
         up, down = self.direction in ("up", "both"), self.direction in ("down", "both")
         for i, (v, t) in enumerate(zip(values, time)):
             if t - self._span < self._burn_in_end:
@@ -99,6 +100,8 @@ class DetectorScorer:
                 if down:
                     self._s_down = max(0.0, self._s_down - z - self.drift)
             out[i] = max(self._s_up, self._s_down)
+            s_up[i], s_down[i] = self._s_up, self._s_down
+        self.branches_ = (s_up, s_down)  # S+ and S- of the last block (live onset estimates)
         return out
 
     def alarm_windows(self, scores: np.ndarray) -> np.ndarray:

@@ -1,0 +1,319 @@
+"""The web application (Starlette): live pages, fleet overview, history; read-only.
+
+Routes (all ``GET``; any other method gets 405):
+
+* ``/`` fleet overview: the store's actuators (state, last alarm, leak estimate, last seen,
+  link to the history) and the actuators monitored live by this process.
+* ``/live/{name}`` live page; its data come from ``/stream/{name}`` (server-sent events, at most
+  ``refresh_hz`` per second, only when something changed) or ``/api/live/{name}`` (one JSON).
+* ``/history/{name}`` feature summaries over all runs, alarms marked (data: ``/api/history``).
+* ``/api/fleet`` the overview as JSON; ``/static/...`` the page scripts and Plotly's
+  ``plotly.min.js`` served from the installed ``plotly`` package (no CDN, works offline).
+
+With a token every request must carry it (``?token=`` or ``Authorization: Bearer``). Names in
+the URL are only looked up, never executed; pages put data into the DOM as text.
+"""
+
+from __future__ import annotations
+
+import hmac
+import html
+import importlib.util
+import json
+import math
+import threading
+from pathlib import Path
+from typing import Any
+from urllib.parse import quote
+
+import anyio
+from sse_starlette import EventSourceResponse
+from starlette.applications import Starlette
+from starlette.middleware import Middleware
+from starlette.datastructures import MutableHeaders
+from starlette.requests import Request
+from starlette.responses import (FileResponse, HTMLResponse, JSONResponse, PlainTextResponse,
+                                 Response)
+from starlette.routing import Route
+
+from leakdiag.dashboard.live import LiveBoard
+
+__all__ = ["make_app", "plotly_js_path"]
+
+STATIC = Path(__file__).with_name("static")
+#: Content security policy: scripts and data only from this server.
+CSP = ("default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
+       "img-src 'self' data:; connect-src 'self'; frame-ancestors 'none'")
+
+
+def plotly_js_path() -> Path:
+    """Path of ``plotly.min.js`` inside the installed ``plotly`` Python package.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    FileNotFoundError
+        If plotly is not installed or does not ship the file.
+    """
+    spec = importlib.util.find_spec("plotly")
+    if spec is None or not spec.submodule_search_locations:
+        raise FileNotFoundError("the dashboard needs the 'plotly' package (pip install plotly)")
+    p = Path(list(spec.submodule_search_locations)[0]) / "package_data" / "plotly.min.js"
+    if not p.is_file():
+        raise FileNotFoundError(f"plotly.min.js not found at {p}")
+    return p
+
+
+def _clean(v: Any) -> Any:
+    import pandas as pd
+
+    if v is None or (not isinstance(v, (list, tuple, dict, str)) and pd.isna(v)):
+        return None
+    if hasattr(v, "isoformat"):
+        return v.isoformat()
+    if isinstance(v, float):
+        return v if math.isfinite(v) else None
+    if hasattr(v, "item"):
+        return _clean(v.item())
+    return v
+
+
+def _page(title: str, body: str, scripts: list[str], tok: str, refresh: int | None = None) -> str:
+    meta = f'<meta http-equiv="refresh" content="{refresh}">' if refresh else ""
+    src = "".join(f'<script src="/static/{s}{tok}"></script>' for s in scripts)
+    return (f'<!doctype html><html lang="en"><head><meta charset="utf-8">{meta}'
+            f'<title>{html.escape(title)}</title>'
+            f'<link rel="stylesheet" href="/static/dashboard.css{tok}"></head>'
+            f'<body>{body}{src}</body></html>')
+
+
+def _cfg(d: dict) -> str:
+    text = json.dumps(d).replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+    return f'<script type="application/json" id="cfg">{text}</script>'
+
+
+class _Guard:
+    """ASGI middleware: token check (when set) and security headers on every response."""
+
+    def __init__(self, app, token: str | None):
+        self.app, self.token = app, token
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        if self.token is not None:
+            request = Request(scope)
+            given = request.query_params.get("token", "")
+            auth = request.headers.get("authorization", "")
+            if auth.lower().startswith("bearer "):
+                given = auth[7:]
+            if not hmac.compare_digest(given.encode(), self.token.encode()):
+                await PlainTextResponse("403: a valid token is required",
+                                        status_code=403)(scope, receive, send)
+                return
+
+        async def send_headers(message):
+            if message["type"] == "http.response.start":
+                h = MutableHeaders(scope=message)
+                h["Content-Security-Policy"] = CSP
+                h["X-Content-Type-Options"] = "nosniff"
+                h["Cache-Control"] = "no-store"
+            await send(message)
+
+        await self.app(scope, receive, send_headers)
+
+
+def make_app(board: LiveBoard | None = None, store: Any = None, token: str | None = None,
+             refresh_hz: float = 5.0, stop: threading.Event | None = None) -> Starlette:
+    """Build the read-only web application.
+
+    Parameters
+    ----------
+    board : LiveBoard, optional
+        Live states (``leakdiag monitor --dashboard``).
+    store : leakdiag.store.EventStore, optional
+        Event store for the fleet overview and histories.
+    token : str, optional
+        Required in every request when given.
+    refresh_hz : float, default 5.0
+        Largest rate of live updates sent per page.
+    stop : threading.Event, optional
+        Set to end the open live streams (server shutdown).
+
+    Returns
+    -------
+    starlette.applications.Starlette
+
+    Raises
+    ------
+    ValueError
+        If ``refresh_hz`` is not positive, or there is neither a board nor a store.
+    """
+    if not refresh_hz > 0:
+        raise ValueError(f"refresh_hz={refresh_hz!r} must be > 0")
+    if board is None and store is None:
+        raise ValueError("the dashboard needs a live board or a store")
+    stop = stop or threading.Event()
+    period = 1.0 / refresh_hz
+    cache: dict[str, tuple[int, str]] = {}
+
+    def tok_q(request: Request) -> str:
+        t = request.query_params.get("token")
+        return f"?token={quote(t)}" if token is not None and t else ""
+
+    def live_json(name: str) -> tuple[int, str] | None:
+        if board is None:
+            return None
+        ver = board.version
+        hit = cache.get(name)
+        if hit and hit[0] == ver:
+            return hit
+        snap = board.snapshot(name)
+        if snap is None:
+            return None
+        hit = (snap["version"], json.dumps(snap, allow_nan=False))
+        cache[name] = hit
+        return hit
+
+    async def index(request: Request):
+        tq = tok_q(request)
+        parts = ["<h1>leakdiag fleet</h1>"]
+        if board is not None:
+            names = board.names()
+            items = "".join(
+                f'<li><a href="/live/{quote(n)}{tq}">{html.escape(n)}</a> '
+                f'<span class="state" data-actuator="{html.escape(n)}">'
+                f'{html.escape(board.snapshot(n)["state"])}</span></li>' for n in names)
+            parts.append(f'<h2>Live</h2><ul id="live-list">{items or "<li>none</li>"}</ul>')
+        if store is not None:
+            fl = await anyio.to_thread.run_sync(store.fleet)
+            rows = []
+            for r in fl.to_dict("records"):
+                r = {k: _clean(v) for k, v in r.items()}
+                n = r["name"]
+                leak = "–"
+                if r["leak_lpm"] is not None:
+                    leak = f'{r["leak_lpm"]:.3g} L/min'
+                    if r["leak_lpm_low"] is not None:
+                        leak += f' [{r["leak_lpm_low"]:.3g}, {r["leak_lpm_high"]:.3g}]'
+                last = "–" if r["last_alarm_at"] is None else (
+                    f'{r["last_alarm_at"][:19].replace("T", " ")} (t={r["last_alarm_time_s"]:.6g} s)')
+                onset = "–" if r["onset_s"] is None else f'{r["onset_s"]:.6g} s'
+                rows.append(
+                    f'<tr data-actuator="{html.escape(n)}"><td><a href="/history/{quote(n)}{tq}">'
+                    f'{html.escape(n)}</a></td><td class="state {html.escape(r["state"])}">'
+                    f'{html.escape(r["state"])}</td><td>{html.escape(last)}</td>'
+                    f'<td>{html.escape(onset)}</td><td>{html.escape(leak)}</td>'
+                    f'<td>{html.escape(str(r["last_seen_at"])[:19].replace("T", " "))}</td>'
+                    f'<td>{html.escape(str(r["feature"]))}</td></tr>')
+            head = ("<tr><th>Actuator</th><th>State</th><th>Last alarm (UTC)</th><th>Onset</th>"
+                    "<th>Leak estimate</th><th>Last seen (UTC)</th><th>Feature</th></tr>")
+            parts.append(f'<h2>Event store</h2><table id="fleet">{head}{"".join(rows)}</table>'
+                         f'<p class="note">{len(rows)} actuator(s); refreshed every 10 s.</p>')
+        return HTMLResponse(_page("leakdiag fleet", "".join(parts), [], tq, refresh=10))
+
+    async def live_page(request: Request):
+        name = request.path_params["name"]
+        if board is None or board.snapshot(name) is None:
+            return PlainTextResponse(f"404: no live actuator named {name!r}", status_code=404)
+        tq = tok_q(request)
+        body = (_cfg({"name": name, "stream": f"/stream/{quote(name)}{tq}"}) +
+                '<h1>leakdiag live: <span id="name"></span></h1>'
+                '<div id="status"><div id="state" class="state WAITING">WAITING</div>'
+                '<dl><dt>Feature</dt><dd id="feature">–</dd>'
+                '<dt>Alarm time</dt><dd id="alarm-time">–</dd>'
+                '<dt>Onset estimate</dt><dd id="onset">–</dd>'
+                '<dt>Leak size</dt><dd id="leak">–</dd>'
+                '<dt>Last window</dt><dd id="last-time">–</dd>'
+                '<dt>Page delay</dt><dd id="latency">–</dd></dl></div>'
+                '<div id="feature-plot" class="plot"></div><div id="score-plot" class="plot"></div>'
+                '<h2>Recent events</h2><ul id="events"></ul>'
+                f'<p><a href="/{tq}">fleet</a></p>')
+        return HTMLResponse(_page(f"leakdiag live {name}", body, ["plotly.min.js", "live.js"], tq))
+
+    async def live_api(request: Request):
+        hit = live_json(request.path_params["name"])
+        if hit is None:
+            return PlainTextResponse("404: no such live actuator", status_code=404)
+        return HTMLResponse(hit[1], media_type="application/json")
+
+    async def live_stream(request: Request):
+        name = request.path_params["name"]
+        if live_json(name) is None:
+            return PlainTextResponse("404: no such live actuator", status_code=404)
+
+        async def events():
+            sent = -1
+            while not stop.is_set():
+                hit = live_json(name)
+                if hit is not None and hit[0] != sent:
+                    sent = hit[0]
+                    yield {"data": hit[1]}
+                await anyio.sleep(period)
+
+        return EventSourceResponse(events(), ping=15)
+
+    async def history_page(request: Request):
+        name = request.path_params["name"]
+        if store is None:
+            return PlainTextResponse("404: no event store", status_code=404)
+        tq = tok_q(request)
+        body = (_cfg({"name": name, "api": f"/api/history/{quote(name)}{tq}"}) +
+                '<h1>leakdiag history: <span id="name"></span></h1>'
+                '<div id="summary-plot" class="plot"></div><div id="score-plot" class="plot"></div>'
+                '<h2>Alarms</h2><table id="alarms"><tr><th>Raised (UTC)</th><th>Alarm time</th>'
+                '<th>Onset</th><th>Leak estimate</th><th>Cleared</th><th>Source</th></tr></table>'
+                f'<p><a href="/{tq}">fleet</a></p>')
+        return HTMLResponse(_page(f"leakdiag history {name}", body,
+                                  ["plotly.min.js", "history.js"], tq))
+
+    async def history_api(request: Request):
+        from leakdiag.store import StoreError
+
+        if store is None:
+            return PlainTextResponse("404: no event store", status_code=404)
+        try:
+            summ, al = await anyio.to_thread.run_sync(store.history, request.path_params["name"])
+        except StoreError as exc:
+            return PlainTextResponse(f"404: {exc}", status_code=404)
+        cols = ["recorded_at", "t_start_s", "t_end_s", "value_mean", "value_min", "value_max",
+                "score_max", "alarm", "source"]
+        out = {"summaries": {c: [_clean(v) for v in summ[c].tolist()] for c in cols},
+               "alarms": [{k: _clean(v) for k, v in r.items()} for r in al.to_dict("records")]}
+        return JSONResponse(out)
+
+    async def fleet_api(request: Request):
+        if store is None:
+            return JSONResponse([])
+        fl = await anyio.to_thread.run_sync(store.fleet)
+        return JSONResponse([{k: _clean(v) for k, v in r.items()} for r in fl.to_dict("records")])
+
+    files = {"live.js": STATIC / "live.js", "history.js": STATIC / "history.js",
+             "dashboard.css": STATIC / "dashboard.css"}
+
+    async def static(request: Request):
+        fname = request.path_params["fname"]
+        if fname == "plotly.min.js":
+            return FileResponse(plotly_js_path(), media_type="text/javascript")
+        if fname not in files:
+            return PlainTextResponse("404", status_code=404)
+        media = "text/css" if fname.endswith(".css") else "text/javascript"
+        return FileResponse(files[fname], media_type=media)
+
+    async def favicon(request: Request):
+        return Response(status_code=204)
+
+    routes = [Route("/", index, methods=["GET"]),
+              Route("/favicon.ico", favicon, methods=["GET"]),
+              Route("/live/{name}", live_page, methods=["GET"]),
+              Route("/api/live/{name}", live_api, methods=["GET"]),
+              Route("/stream/{name}", live_stream, methods=["GET"]),
+              Route("/history/{name}", history_page, methods=["GET"]),
+              Route("/api/history/{name}", history_api, methods=["GET"]),
+              Route("/api/fleet", fleet_api, methods=["GET"]),
+              Route("/static/{fname}", static, methods=["GET"])]
+    return Starlette(routes=routes, middleware=[Middleware(_Guard, token=token)])

@@ -1,0 +1,73 @@
+// leakdiag live page: renders the snapshots sent by /stream/<name> (server-sent events).
+// Everything received is data: it is written with textContent or handed to Plotly, never run.
+"use strict";
+const cfg = JSON.parse(document.getElementById("cfg").textContent);
+document.getElementById("name").textContent = cfg.name;
+const FEATURE_COLOR = "#1f77b4", SCORE_COLOR = "#ff7f0e";
+window.leakdiagLatencies = [];
+
+function fmt(v, unit) {
+  return (v === null || v === undefined) ? "–" : (Number(v).toPrecision(6).replace(/\.?0+$/, "") + unit);
+}
+
+function alarmShapes(s) {
+  if (s.alarm_time_s === null) return [];
+  const out = [{type: "line", xref: "x", yref: "paper", x0: s.alarm_time_s, x1: s.alarm_time_s,
+                y0: 0, y1: 1, line: {color: "#d62728", width: 2}}];
+  if (s.onset_s !== null) out.push({type: "line", xref: "x", yref: "paper", x0: s.onset_s,
+    x1: s.onset_s, y0: 0, y1: 1, line: {color: "#d62728", width: 1, dash: "dot"}});
+  return out;
+}
+
+function render(s) {
+  const st = document.getElementById("state");
+  st.textContent = s.state;
+  st.className = "state " + s.state;
+  document.getElementById("feature").textContent = s.feature;
+  document.getElementById("alarm-time").textContent = fmt(s.alarm_time_s, " s");
+  document.getElementById("onset").textContent = fmt(s.onset_s, " s");
+  let leak = s.calibrated ? "–" : "no calibration";
+  if (s.leak_lpm !== null) {
+    leak = fmt(s.leak_lpm, " L/min") + " [" + fmt(s.leak_lpm_low, "") + ", " +
+           fmt(s.leak_lpm_high, "") + "]" + (s.leak_in_range ? "" : " (extrapolated)");
+  }
+  document.getElementById("leak").textContent = leak;
+  document.getElementById("last-time").textContent = fmt(s.last_time_s, " s") + (s.done ? " (input ended)" : "");
+  const shapes = alarmShapes(s);
+  Plotly.react("feature-plot", [{x: s.time, y: s.value, mode: "lines", name: "feature",
+    line: {color: FEATURE_COLOR, width: 2}}],
+    {title: {text: s.feature}, margin: {t: 40, r: 20, b: 40, l: 60}, shapes: shapes,
+     xaxis: {title: {text: "time (s)"}}, yaxis: {title: {text: "feature"}}},
+    {staticPlot: false, displaylogo: false});
+  const traces = [{x: s.time, y: s.score, mode: "lines", name: "CUSUM score",
+                   line: {color: SCORE_COLOR, width: 2}}];
+  if (s.threshold !== null && s.time.length) {
+    traces.push({x: [s.time[0], s.time[s.time.length - 1]], y: [s.threshold, s.threshold],
+                 mode: "lines", name: "threshold", line: {color: "#000", dash: "dash"}});
+  }
+  Plotly.react("score-plot", traces,
+    {title: {text: "detector score"}, margin: {t: 40, r: 20, b: 40, l: 60}, shapes: shapes,
+     legend: {orientation: "h", x: 0, y: 1.12},
+     xaxis: {title: {text: "time (s)"}}, yaxis: {title: {text: "score (healthy std)"}}},
+    {displaylogo: false});
+  const ul = document.getElementById("events");
+  ul.replaceChildren();
+  for (const e of s.events) {
+    const li = document.createElement("li");
+    li.className = e.kind;
+    li.textContent = e.kind.toUpperCase() + (e.again ? " again" : "") + " at t=" + fmt(e.time_s, " s") + ", score " +
+      fmt(e.score, "") + (e.onset_s !== undefined && e.onset_s !== null ? ", onset " + fmt(e.onset_s, " s") : "");
+    ul.appendChild(li);
+  }
+  if (s.done) {
+    document.getElementById("latency").textContent = "– (input ended)";
+  } else if (s.received_wall !== null) {
+    const lat = Date.now() / 1000 - s.received_wall;
+    window.leakdiagLatencies.push(lat);
+    document.getElementById("latency").textContent = (lat * 1000).toFixed(0) + " ms";
+  }
+  document.body.dataset.version = String(s.version);
+}
+
+const source = new EventSource(cfg.stream);
+source.onmessage = (m) => render(JSON.parse(m.data));

@@ -1,0 +1,442 @@
+"""The event store: actuators, runs, alarms and chunk summaries in a SQL database.
+
+:class:`EventStore` opens any SQLAlchemy URL; a plain path means an SQLite file. For SQLite the
+store sets WAL journaling (readers do not block the writer), ``synchronous=FULL`` (a committed
+chunk survives a crash of the process or of the machine), a busy timeout, and opens every write
+transaction with ``BEGIN IMMEDIATE`` so that two writing processes queue for the lock instead of
+failing half-way; a write that still meets a locked database is retried. Each chunk is one
+transaction, so a killed writer loses at most the chunk it was writing.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+import uuid
+from dataclasses import asdict
+from datetime import datetime, timezone
+from typing import Any, Callable
+
+from sqlalchemy import create_engine, event, func, insert, select, update
+from sqlalchemy.engine import Engine
+from sqlalchemy.exc import OperationalError
+
+from leakdiag._version import __version__
+from leakdiag.store import schema as S
+from leakdiag.store.summary import AlarmRecord, ChunkSummary
+
+__all__ = ["EventStore", "StoreError", "store_url"]
+
+#: Seconds SQLite waits for a lock held by another process before a write attempt fails.
+BUSY_TIMEOUT_S = 30.0
+#: Attempts of a write transaction that meets a locked database (after the busy timeout).
+WRITE_ATTEMPTS = 5
+
+
+class StoreError(RuntimeError):
+    """The store cannot be used: wrong schema version, unreachable database, unknown actuator."""
+
+
+def store_url(target: str | os.PathLike) -> str:
+    """SQLAlchemy URL of ``--store``: a URL as given, a file path as an SQLite URL.
+
+    Parameters
+    ----------
+    target : str or path-like
+        ``events.db``, ``sqlite:///events.db``, ``postgresql+psycopg://user@host/db``...
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ValueError
+        If ``target`` is empty.
+
+    Examples
+    --------
+    >>> store_url("postgresql+psycopg://u@h/leaks")
+    'postgresql+psycopg://u@h/leaks'
+    >>> store_url("/data/events.db")
+    'sqlite:////data/events.db'
+    """
+    t = os.fspath(target)
+    if not t.strip():
+        raise ValueError("--store needs a file path or a database URL, got ''")
+    if "://" in t:
+        return t
+    return f"sqlite:///{os.path.abspath(t)}"
+
+
+def _now() -> datetime:
+    return datetime.now(timezone.utc)
+
+
+def _locked(exc: OperationalError) -> bool:
+    msg = str(exc.orig).lower()
+    return "locked" in msg or "busy" in msg
+
+
+class EventStore:
+    """Read and write the event store.
+
+    Parameters
+    ----------
+    target : str or path-like
+        SQLite file or SQLAlchemy URL (see :func:`store_url`).
+    create : bool, default True
+        Create the tables if the database is empty.
+
+    Raises
+    ------
+    StoreError
+        If the database holds another schema version, or cannot be opened.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> d = tempfile.mkdtemp()
+    >>> st = EventStore(os.path.join(d, "events.db"))
+    >>> run = st.start_run("rig1", command="monitor", source="x.parquet", feature="ac p1")
+    >>> st.add_chunk(run, ChunkSummary(0.2, 0.4, 2, 0, 0.5, 0.4, 0.6, 0.6))
+    (0, [])
+    >>> st.fleet()["name"].tolist()
+    ['rig1']
+    >>> st.close()
+    """
+
+    def __init__(self, target: str | os.PathLike, create: bool = True):
+        self.url = store_url(target)
+        self.is_sqlite = self.url.startswith("sqlite")
+        path = self.url.split(":///", 1)[1] if self.is_sqlite and ":///" in self.url else ""
+        if not create and path and path != ":memory:" and not os.path.exists(path):
+            raise StoreError(f"{path}: no such event store file")
+        try:
+            self.engine: Engine = create_engine(self.url)
+        except Exception as exc:  # bad URL, missing driver
+            raise StoreError(f"--store {self.url}: cannot open: {type(exc).__name__}: {exc}") \
+                from None
+        self._read_engine: Engine = self.engine
+        if self.is_sqlite:
+            event.listen(self.engine, "connect", _sqlite_connect)
+            event.listen(self.engine, "begin", _sqlite_begin)
+            self._read_engine = create_engine(self.url)  # readers: deferred BEGIN, no write lock
+            event.listen(self._read_engine, "connect", _sqlite_connect)
+            event.listen(self._read_engine, "begin", _sqlite_begin_read)
+        try:
+            self._write(lambda c: self._check_schema(c, create))
+        except OperationalError as exc:
+            raise StoreError(f"{self.url}: cannot open the event store: {exc.orig}") from None
+
+    # -- internals ------------------------------------------------------------------------
+    def _check_schema(self, conn, create: bool) -> None:
+        from sqlalchemy import inspect
+
+        have = set(inspect(conn).get_table_names())
+        if "schema_version" in have:
+            rows = conn.execute(select(S.schema_version.c.version)).scalars().all()
+            if rows and rows != [S.SCHEMA_VERSION]:
+                raise StoreError(
+                    f"{self.url}: event store has schema version {rows}, this leakdiag "
+                    f"({__version__}) reads version {S.SCHEMA_VERSION}; use a new store file or "
+                    "the leakdiag version that wrote it")
+        elif have and not create:
+            raise StoreError(f"{self.url}: not a leakdiag event store (no schema_version table)")
+        elif have:
+            raise StoreError(f"{self.url}: not a leakdiag event store: it has tables "
+                             f"{sorted(have)} but no schema_version table")
+        if not create and not have:
+            raise StoreError(f"{self.url}: empty database, no event store in it")
+        S.metadata.create_all(conn)
+        if not conn.execute(select(S.schema_version.c.version)).first():
+            conn.execute(insert(S.schema_version).values(version=S.SCHEMA_VERSION,
+                                                          created_at=_now()))
+
+    def _write(self, fn: Callable[[Any], Any]) -> Any:
+        for attempt in range(WRITE_ATTEMPTS):
+            try:
+                with self.engine.begin() as conn:
+                    return fn(conn)
+            except OperationalError as exc:
+                if not _locked(exc) or attempt == WRITE_ATTEMPTS - 1:
+                    raise
+                time.sleep(0.05 * 2 ** attempt)
+        raise AssertionError("unreachable")  # pragma: no cover
+
+    def _actuator_id(self, conn, name: str, system: str | None) -> int:
+        now = _now()
+        row = conn.execute(select(S.actuators.c.id).where(S.actuators.c.name == name)).first()
+        if row:
+            conn.execute(update(S.actuators).where(S.actuators.c.id == row[0])
+                         .values(last_seen_at=now))
+            return int(row[0])
+        return int(conn.execute(insert(S.actuators).values(
+            name=name, system=system, first_seen_at=now, last_seen_at=now)).inserted_primary_key[0])
+
+    # -- writing --------------------------------------------------------------------------
+    def start_run(self, actuator: str, *, command: str, source: str, feature: str,
+                  sample_rate_hz: float | None = None, threshold: float | None = None,
+                  system: str | None = None, config: dict | None = None,
+                  invocation: str | None = None) -> int:
+        """Register a run (one pass over one input) of an actuator; creates the actuator.
+
+        Parameters
+        ----------
+        actuator : str
+            Actuator name (unique in the store).
+        command : str
+            ``monitor``, ``batch`` or ``detect``.
+        source : str
+            Input file or ``<stdin>``.
+        feature : str
+            Feature or method label.
+        sample_rate_hz : float, optional
+            Sample rate in Hz.
+        threshold : float, optional
+            Detector alarm threshold.
+        system : str, optional
+            ``vca`` or ``eha``.
+        config : dict, optional
+            Settings stored as JSON.
+        invocation : str, optional
+            Id shared by the runs of one command invocation (e.g. ``detect`` with several
+            methods); default: a new id. The fleet state looks at the latest invocation.
+
+        Returns
+        -------
+        int
+            Run id.
+
+        Raises
+        ------
+        ValueError
+            If ``actuator`` is empty.
+        """
+        if not str(actuator).strip():
+            raise ValueError("actuator name must not be empty")
+
+        def fn(conn):
+            aid = self._actuator_id(conn, str(actuator), system)
+            return int(conn.execute(insert(S.runs).values(
+                actuator_id=aid, command=command, invocation=invocation or uuid.uuid4().hex,
+                source=str(source), feature=feature,
+                sample_rate_hz=sample_rate_hz, threshold=threshold, started_at=_now(),
+                status="running", n_chunks=0, n_windows=0,
+                config=None if config is None else json.dumps(config, default=str),
+                leakdiag_version=__version__)).inserted_primary_key[0])
+
+        return self._write(fn)
+
+    def add_chunk(self, run_id: int, summary: ChunkSummary | None,
+                  new_alarms: tuple[AlarmRecord, ...] | list[AlarmRecord] = (),
+                  alarm_updates: dict[int, dict] | None = None) -> tuple[int | None, list[int]]:
+        """Write one chunk in one transaction: its summary, new alarms, changed alarms.
+
+        Parameters
+        ----------
+        run_id : int
+            From :meth:`start_run`.
+        summary : ChunkSummary or None
+            The chunk's windows (None: only alarms).
+        new_alarms : sequence of AlarmRecord
+            Alarms raised in the chunk.
+        alarm_updates : dict of int to dict, optional
+            Alarm id -> columns to change (e.g. ``cleared_time_s``, ``leak_lpm``).
+
+        Returns
+        -------
+        seq : int or None
+            Chunk number in the run (None without a summary).
+        alarm_ids : list of int
+            Ids of the new alarms.
+        """
+        def fn(conn):
+            run = conn.execute(select(S.runs.c.actuator_id, S.runs.c.n_chunks)
+                               .where(S.runs.c.id == run_id)).first()
+            if run is None:
+                raise StoreError(f"{self.url}: no run with id {run_id}")
+            now = _now()
+            seq = None
+            if summary is not None:
+                seq = int(run.n_chunks)
+                conn.execute(insert(S.chunk_summaries).values(
+                    run_id=run_id, seq=seq, recorded_at=now, **asdict(summary)))
+                conn.execute(update(S.runs).where(S.runs.c.id == run_id).values(
+                    n_chunks=S.runs.c.n_chunks + 1,
+                    n_windows=S.runs.c.n_windows + summary.n_windows))
+            ids = [int(conn.execute(insert(S.alarms).values(
+                run_id=run_id, raised_at=now, **asdict(a))).inserted_primary_key[0])
+                for a in new_alarms]
+            for aid, cols in (alarm_updates or {}).items():
+                conn.execute(update(S.alarms).where(S.alarms.c.id == aid).values(**cols))
+            conn.execute(update(S.actuators).where(S.actuators.c.id == run.actuator_id)
+                         .values(last_seen_at=now))
+            return seq, ids
+
+        return self._write(fn)
+
+    def end_run(self, run_id: int, status: str = "finished") -> None:
+        """Mark a run as ended (``finished`` or ``failed``).
+
+        Parameters
+        ----------
+        run_id : int
+            From :meth:`start_run`.
+        status : str, default "finished"
+            Final status.
+        """
+        self._write(lambda c: c.execute(update(S.runs).where(S.runs.c.id == run_id)
+                                        .values(ended_at=_now(), status=status)))
+
+    def close(self) -> None:
+        """Release the database connections."""
+        self.engine.dispose()
+        self._read_engine.dispose()
+
+    # -- reading --------------------------------------------------------------------------
+    def _frame(self, stmt):
+        import pandas as pd
+
+        with self._read_engine.connect() as conn:
+            res = conn.execute(stmt)
+            return pd.DataFrame(res.fetchall(), columns=list(res.keys()))
+
+    def actuator_names(self) -> list[str]:
+        """Names of every actuator in the store, sorted.
+
+        Returns
+        -------
+        list of str
+        """
+        with self._read_engine.connect() as conn:
+            return sorted(conn.execute(select(S.actuators.c.name)).scalars().all())
+
+    def fleet(self):
+        """One row per actuator: state, last alarm, leak estimate, last seen.
+
+        The state is ``ALARM`` when a run of the actuator's latest invocation has an alarm that
+        was not cleared, else ``OK`` (``NO DATA`` while its latest runs are running and have
+        neither a chunk nor an alarm).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``name``, ``system``, ``state``, ``last_seen_at``, ``n_runs``,
+            ``last_alarm_at``, ``last_alarm_time_s``, ``onset_s``, ``leak_lpm``,
+            ``leak_lpm_low``, ``leak_lpm_high``, ``feature``, ``source``.
+        """
+        import pandas as pd
+
+        act = self._frame(select(S.actuators))
+        runs = self._frame(select(S.runs))
+        al = self._frame(select(S.alarms, S.runs.c.actuator_id).join(
+            S.runs, S.runs.c.id == S.alarms.c.run_id))
+        rows = []
+        for a in act.itertuples():
+            r = runs[runs["actuator_id"] == a.id].sort_values("id")
+            last = r.iloc[-1] if len(r) else None
+            mine = al[al["actuator_id"] == a.id].sort_values("id")
+            la = mine.iloc[-1] if len(mine) else None
+            inv = r[r["invocation"] == last["invocation"]] if last is not None else r
+            in_last = mine[mine["run_id"].isin(inv["id"])]
+            if last is None or (int(inv["n_chunks"].sum()) == 0 and not len(in_last)
+                                and (inv["status"] == "running").all()):
+                state = "NO DATA"
+            elif in_last["cleared_time_s"].isna().any():
+                state = "ALARM"
+            else:
+                state = "OK"
+
+            def g(k):
+                return None if la is None or pd.isna(la[k]) else la[k]
+
+            rows.append({"name": a.name, "system": a.system, "state": state,
+                         "last_seen_at": a.last_seen_at, "n_runs": len(r),
+                         "last_alarm_at": g("raised_at"), "last_alarm_time_s": g("alarm_time_s"),
+                         "onset_s": g("onset_s"), "leak_lpm": g("leak_lpm"),
+                         "leak_lpm_low": g("leak_lpm_low"), "leak_lpm_high": g("leak_lpm_high"),
+                         "feature": None if last is None else last["feature"],
+                         "source": None if last is None else last["source"]})
+        cols = ["name", "system", "state", "last_seen_at", "n_runs", "last_alarm_at",
+                "last_alarm_time_s", "onset_s", "leak_lpm", "leak_lpm_low", "leak_lpm_high",
+                "feature", "source"]
+        return pd.DataFrame(rows, columns=cols).sort_values("name", kind="stable") \
+            .reset_index(drop=True)
+
+    def history(self, actuator: str):
+        """Chunk summaries and alarms of one actuator over all its runs.
+
+        Parameters
+        ----------
+        actuator : str
+            Actuator name.
+
+        Returns
+        -------
+        summaries : pandas.DataFrame
+            One row per chunk (columns of ``chunk_summaries`` plus ``feature`` and ``source``),
+            by time of recording.
+        alarms : pandas.DataFrame
+            One row per alarm (columns of ``alarms`` plus ``feature``, ``source``).
+
+        Raises
+        ------
+        StoreError
+            If the actuator is not in the store.
+        """
+        with self._read_engine.connect() as conn:
+            aid = conn.execute(select(S.actuators.c.id)
+                               .where(S.actuators.c.name == actuator)).scalar()
+        if aid is None:
+            raise StoreError(f"{self.url}: no actuator named {actuator!r}")
+        extra = (S.runs.c.feature, S.runs.c.source)
+        summ = self._frame(select(S.chunk_summaries, *extra)
+                           .join(S.runs, S.runs.c.id == S.chunk_summaries.c.run_id)
+                           .where(S.runs.c.actuator_id == aid)
+                           .order_by(S.chunk_summaries.c.recorded_at, S.chunk_summaries.c.id))
+        al = self._frame(select(S.alarms, *extra).join(S.runs, S.runs.c.id == S.alarms.c.run_id)
+                         .where(S.runs.c.actuator_id == aid).order_by(S.alarms.c.id))
+        return summ, al
+
+    def count(self, table: str) -> int:
+        """Rows in one of the store's tables.
+
+        Parameters
+        ----------
+        table : str
+            Table name (``actuators``, ``runs``, ``chunk_summaries``, ``alarms``).
+
+        Returns
+        -------
+        int
+
+        Raises
+        ------
+        ValueError
+            For an unknown table.
+        """
+        t = S.metadata.tables.get(table)
+        if t is None:
+            raise ValueError(f"table={table!r} must be one of {sorted(S.metadata.tables)}")
+        with self._read_engine.connect() as conn:
+            return int(conn.execute(select(func.count()).select_from(t)).scalar())
+
+
+def _sqlite_connect(dbapi_conn, _record) -> None:
+    dbapi_conn.isolation_level = None  # transactions are begun by _sqlite_begin
+    cur = dbapi_conn.cursor()
+    cur.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT_S * 1000)}")
+    cur.execute("PRAGMA journal_mode = WAL")
+    cur.execute("PRAGMA synchronous = FULL")
+    cur.execute("PRAGMA foreign_keys = ON")
+    cur.close()
+
+
+def _sqlite_begin(conn) -> None:
+    conn.exec_driver_sql("BEGIN IMMEDIATE")
+
+
+def _sqlite_begin_read(conn) -> None:
+    conn.exec_driver_sql("BEGIN")

@@ -1,0 +1,91 @@
+"""Tables of the event store (SQLAlchemy Core) and its schema version.
+
+Five tables: ``schema_version`` (one row), ``actuators`` (one per monitored actuator, by name),
+``runs`` (one per ``monitor``/``batch``/``detect`` pass over one input), ``chunk_summaries``
+(one per chunk of the stream that completed at least one window: the feature and detector score
+summarised over that chunk) and ``alarms`` (raised, and cleared when the detector clears them).
+Times in the stream are seconds (``*_s``); wall-clock times are UTC (``*_at``).
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import (Boolean, Column, DateTime, Float, ForeignKey, Index, Integer, MetaData,
+                        String, Table, Text)
+
+__all__ = ["SCHEMA_VERSION", "metadata", "schema_version", "actuators", "runs", "chunk_summaries",
+           "alarms"]
+
+#: Version of the table layout below; a store written with another version is refused.
+SCHEMA_VERSION = 1
+
+metadata = MetaData()
+
+schema_version = Table(
+    "schema_version", metadata,
+    Column("version", Integer, primary_key=True, autoincrement=False),
+    Column("created_at", DateTime(timezone=True), nullable=False),
+)
+
+actuators = Table(
+    "actuators", metadata,
+    Column("id", Integer, primary_key=True),
+    Column("name", String(200), nullable=False, unique=True),
+    Column("system", String(20)),
+    Column("first_seen_at", DateTime(timezone=True), nullable=False),
+    Column("last_seen_at", DateTime(timezone=True), nullable=False),
+)
+
+runs = Table(
+    "runs", metadata,
+    Column("id", Integer, primary_key=True),
+    Column("actuator_id", Integer, ForeignKey("actuators.id"), nullable=False, index=True),
+    Column("command", String(20), nullable=False),
+    Column("invocation", String(40), nullable=False),
+    Column("source", Text, nullable=False),
+    Column("feature", String(200), nullable=False),
+    Column("sample_rate_hz", Float),
+    Column("threshold", Float),
+    Column("started_at", DateTime(timezone=True), nullable=False),
+    Column("ended_at", DateTime(timezone=True)),
+    Column("status", String(20), nullable=False),
+    Column("n_chunks", Integer, nullable=False, default=0),
+    Column("n_windows", Integer, nullable=False, default=0),
+    Column("config", Text),
+    Column("leakdiag_version", String(40)),
+)
+
+chunk_summaries = Table(
+    "chunk_summaries", metadata,
+    Column("id", Integer, primary_key=True),
+    Column("run_id", Integer, ForeignKey("runs.id"), nullable=False),
+    Column("seq", Integer, nullable=False),
+    Column("recorded_at", DateTime(timezone=True), nullable=False),
+    Column("t_start_s", Float, nullable=False),
+    Column("t_end_s", Float, nullable=False),
+    Column("n_windows", Integer, nullable=False),
+    Column("n_degenerate", Integer, nullable=False),
+    Column("value_mean", Float),
+    Column("value_min", Float),
+    Column("value_max", Float),
+    Column("value_last", Float),
+    Column("score_max", Float),
+    Column("score_last", Float),
+    Column("alarm", Boolean),
+    Index("ix_chunk_summaries_run_seq", "run_id", "seq", unique=True),
+)
+
+alarms = Table(
+    "alarms", metadata,
+    Column("id", Integer, primary_key=True),
+    Column("run_id", Integer, ForeignKey("runs.id"), nullable=False, index=True),
+    Column("raised_at", DateTime(timezone=True), nullable=False),
+    Column("alarm_time_s", Float, nullable=False),
+    Column("cleared_time_s", Float),
+    Column("onset_s", Float),
+    Column("score", Float),
+    Column("threshold", Float),
+    Column("leak_lpm", Float),
+    Column("leak_lpm_low", Float),
+    Column("leak_lpm_high", Float),
+    Column("detector", String(200)),
+)

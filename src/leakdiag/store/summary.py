@@ -1,0 +1,136 @@
+"""What the store keeps of a chunk: :class:`ChunkSummary` and :class:`AlarmRecord`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["ChunkSummary", "AlarmRecord", "summarize_windows"]
+
+
+def _f(v) -> float | None:
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+@dataclass(frozen=True)
+class ChunkSummary:
+    """The windows one chunk of a stream completed, summarised.
+
+    Attributes
+    ----------
+    t_start_s, t_end_s : float
+        Time (s) of the first and last completed window (time of each window's last sample).
+    n_windows : int
+        Windows completed in the chunk.
+    n_degenerate : int
+        Of these, windows whose feature is NaN (zero variance).
+    value_mean, value_min, value_max, value_last : float or None
+        Feature over the finite windows (None if there is none).
+    score_max, score_last : float or None
+        Detector score (None without a detector or when every score is NaN, e.g. burn-in).
+    alarm : bool or None
+        Whether any window of the chunk is in alarm (None without a detector).
+    """
+
+    t_start_s: float
+    t_end_s: float
+    n_windows: int
+    n_degenerate: int
+    value_mean: float | None
+    value_min: float | None
+    value_max: float | None
+    value_last: float | None
+    score_max: float | None = None
+    score_last: float | None = None
+    alarm: bool | None = None
+
+
+@dataclass(frozen=True)
+class AlarmRecord:
+    """An alarm as stored: when it was raised (stream time), its onset and leak estimates.
+
+    Attributes
+    ----------
+    alarm_time_s : float
+        Time (s) of the first window in alarm.
+    score, threshold : float or None
+        Detector score at the alarm and its threshold.
+    onset_s : float or None
+        Estimated leak onset (s).
+    leak_lpm, leak_lpm_low, leak_lpm_high : float or None
+        Leak flow estimate and its prediction interval (L/min), when the detector is calibrated.
+    cleared_time_s : float or None
+        Time (s) of the first window out of alarm again.
+    detector : str or None
+        Feature or method name.
+    """
+
+    alarm_time_s: float
+    score: float | None = None
+    threshold: float | None = None
+    onset_s: float | None = None
+    leak_lpm: float | None = None
+    leak_lpm_low: float | None = None
+    leak_lpm_high: float | None = None
+    cleared_time_s: float | None = None
+    detector: str | None = None
+
+
+def summarize_windows(time, values, scores=None, alarms=None) -> ChunkSummary | None:
+    """Summarise the windows of one chunk.
+
+    Parameters
+    ----------
+    time : array_like
+        Window times (s), in order.
+    values : array_like
+        Feature values (NaN for degenerate windows).
+    scores : array_like, optional
+        Detector scores (NaN within the burn-in).
+    alarms : array_like of bool, optional
+        Detector alarms.
+
+    Returns
+    -------
+    ChunkSummary or None
+        None when the chunk completed no window.
+
+    Raises
+    ------
+    ValueError
+        If the arrays differ in length.
+
+    Examples
+    --------
+    >>> s = summarize_windows([1.0, 2.0, 3.0], [0.5, float("nan"), 0.1], [0.0, 1.0, 4.0],
+    ...                       [False, False, True])
+    >>> s.n_windows, s.n_degenerate, s.value_mean, s.value_last, s.score_max, s.alarm
+    (3, 1, 0.3, 0.1, 4.0, True)
+    """
+    t = np.asarray(time, dtype=np.float64)
+    v = np.asarray(values, dtype=np.float64)
+    if v.shape != t.shape:
+        raise ValueError(f"values has shape {v.shape}, time has {t.shape}")
+    if len(t) == 0:
+        return None
+    fin = v[np.isfinite(v)]
+    s_max = s_last = a_any = None
+    if scores is not None:
+        s = np.asarray(scores, dtype=np.float64)
+        if s.shape != t.shape:
+            raise ValueError(f"scores has shape {s.shape}, time has {t.shape}")
+        sf = s[np.isfinite(s)]
+        s_max = _f(sf.max()) if len(sf) else None
+        s_last = _f(s[-1])
+    if alarms is not None:
+        a = np.asarray(alarms, dtype=bool)
+        if a.shape != t.shape:
+            raise ValueError(f"alarms has shape {a.shape}, time has {t.shape}")
+        a_any = bool(a.any())
+    return ChunkSummary(
+        float(t[0]), float(t[-1]), int(len(t)), int(len(v) - len(fin)),
+        _f(fin.mean()) if len(fin) else None, _f(fin.min()) if len(fin) else None,
+        _f(fin.max()) if len(fin) else None, _f(v[-1]), s_max, s_last, a_any)

@@ -1,0 +1,111 @@
+"""Write the results of ``leakdiag batch`` and ``leakdiag detect`` to the event store."""
+
+from __future__ import annotations
+
+import math
+import uuid
+from pathlib import Path
+
+from leakdiag.store.database import EventStore
+from leakdiag.store.summary import AlarmRecord, ChunkSummary
+
+__all__ = ["record_batch", "record_verdicts"]
+
+
+def _num(v) -> float | None:
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def record_batch(store: EventStore, results, job_digest: str) -> int:
+    """Store the rows of one batch job: a run per recording and row, one summary per row.
+
+    The actuator is the recording's file stem. Analysis rows become a summary of the whole
+    recording (``t_start_s`` 0, ``t_end_s`` its duration, the row's value statistics); detector
+    rows also carry the score maximum, and an alarm at ``alarm_time_s`` when one was raised.
+    Error rows become a run with status ``failed``.
+
+    Parameters
+    ----------
+    store : EventStore
+        Open store.
+    results : pandas.DataFrame
+        :func:`leakdiag.batch.read_results` (all jobs; only ``job_digest`` rows are written).
+    job_digest : str
+        The job's digest.
+
+    Returns
+    -------
+    int
+        Runs written.
+    """
+    rows = results[results["job_digest"] == job_digest]
+    inv = uuid.uuid4().hex
+    n = 0
+    for r in rows.to_dict("records"):
+        actuator = Path(str(r["path"])).stem
+        feature = str(r["name"]) if r.get("name") is not None and r["name"] == r["name"] \
+            else "batch"
+        run = store.start_run(actuator, command="batch", source=str(r["path"]), feature=feature,
+                              sample_rate_hz=_num(r.get("sample_rate")), invocation=inv,
+                              config={"job_digest": job_digest, "kind": r.get("kind")})
+        n += 1
+        if r["status"] != "ok":
+            store.end_run(run, "failed")
+            continue
+        n_win = int(r["n_windows"]) if _num(r.get("n_windows")) is not None else 0
+        summ = None
+        if n_win:
+            summ = ChunkSummary(0.0, _num(r.get("duration_s")) or 0.0, n_win,
+                                int(_num(r.get("n_degenerate")) or 0), _num(r.get("value_mean")),
+                                _num(r.get("value_min")), _num(r.get("value_max")), None,
+                                _num(r.get("score_max")), None,
+                                None if r.get("kind") != "detector" else bool(r.get("alarm")))
+        alarms = []
+        if r.get("kind") == "detector" and bool(r.get("alarm")) \
+                and _num(r.get("alarm_time_s")) is not None:
+            alarms.append(AlarmRecord(_num(r["alarm_time_s"]), detector=feature))
+        if summ is not None or alarms:
+            store.add_chunk(run, summ, alarms)
+        store.end_run(run)
+    return n
+
+
+def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
+    """Store the verdicts of ``leakdiag detect``: one run per method, an alarm per leak found.
+
+    Parameters
+    ----------
+    store : EventStore
+        Open store.
+    actuator : str
+        Actuator name.
+    file : str
+        The judged recording.
+    table : pandas.DataFrame
+        :func:`leakdiag.cli.detect.verdict_table`.
+
+    Returns
+    -------
+    int
+        Alarms written.
+    """
+    inv = uuid.uuid4().hex
+    n = 0
+    for r in table.to_dict("records"):
+        err = r.get("error")
+        failed = isinstance(err, str) and bool(err)
+        run = store.start_run(actuator, command="detect", source=str(file), feature=str(r["method"]),
+                              threshold=_num(r.get("threshold")), invocation=inv,
+                              config={"method": r["method"]})
+        if not failed and bool(r.get("leak")) and _num(r.get("alarm_time_s")) is not None:
+            store.add_chunk(run, None, [AlarmRecord(
+                _num(r["alarm_time_s"]), _num(r.get("score_max")), _num(r.get("threshold")),
+                _num(r.get("onset_s")), _num(r.get("leak_lpm")), _num(r.get("leak_lpm_low")),
+                _num(r.get("leak_lpm_high")), detector=str(r["method"]))])
+            n += 1
+        store.end_run(run, "failed" if failed else "finished")
+    return n

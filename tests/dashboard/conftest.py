@@ -1,0 +1,89 @@
+"""Fixtures of the dashboard tests: a leaking VCA recording, a calibrated detector, a browser."""
+
+import os
+import pickle
+import shutil
+import tempfile
+from pathlib import Path
+
+import pytest
+
+CHROMIUM = os.environ.get("LEAKDIAG_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
+CHROMEDRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
+CHROME_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                "--window-size=1200,1000"]
+
+
+def browser_missing() -> str | None:
+    """Why the browser tests cannot run here, or None."""
+    if not (os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)):
+        return ("no chromium/chromedriver on this machine (Debian: apt-get install chromium "
+                "chromium-driver; .ci/run does it)")
+    try:
+        import selenium  # noqa: F401
+    except ImportError:
+        return "selenium is not installed (pip install -e '.[dev]')"
+    return None
+
+
+def pytest_terminal_summary(terminalreporter):
+    why = browser_missing()
+    if why:
+        terminalreporter.write_line(f"tests/dashboard: headless-browser tests skipped: {why}")
+
+
+@pytest.fixture(scope="session")
+def leak_case(tmp_path_factory):
+    """A 60 s VCA recording with a 0.2 L/min leak from 30 s and a calibrated detector.
+
+    Returns a dict with the recording path, the pickled detector path, the detector and its
+    offline verdict on the recording (cusum onset, so the live page can be compared exactly).
+    """
+    from leakdiag.detect.base import Alarm
+    from leakdiag.detect.methods import thesis_detector
+    from leakdiag.io import read_recording, write_recording
+    from leakdiag.sim import simulate_vca
+
+    d = tmp_path_factory.mktemp("leakcase")
+    rec_path = d / "rig7.parquet"
+    write_recording(simulate_vca(duration=60.0, leak_lpm=0.2, onset=30.0, seed=1), rec_path)
+    healthy = [simulate_vca(duration=120.0, leak_lpm=None, seed=s) for s in (10, 11)]
+    det = thesis_detector("vca", "autocorrelation",
+                          alarm=Alarm(onset_method="cusum", burn_in_s=5.0)).fit(healthy)
+    det.calibrate([simulate_vca(duration=60.0, leak_lpm=q, onset=30.0, seed=20 + i)
+                   for i, q in enumerate((0.05, 0.1, 0.2, 0.3))])
+    det_path = d / "det.pkl"
+    det_path.write_bytes(pickle.dumps(det))
+    rec = read_recording(rec_path)
+    return {"recording": rec_path, "detector_path": det_path, "detector": det,
+            "verdict": det.predict(rec), "rec": rec, "dir": d}
+
+
+@pytest.fixture
+def browser():
+    """A headless Debian Chromium driven by selenium (skips with the reason when missing)."""
+    why = browser_missing()
+    if why:
+        pytest.skip(why)
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    os.environ.setdefault("SE_OFFLINE", "true")  # never let selenium download a driver
+    profile = tempfile.mkdtemp(prefix="leakdiag-chromium-")
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for a in CHROME_FLAGS + [f"--user-data-dir={profile}"]:
+        opts.add_argument(a)
+    drv = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
+    try:
+        yield drv
+    finally:
+        drv.quit()
+        shutil.rmtree(profile, ignore_errors=True)
+
+
+def src_env():
+    """Environment for a child ``leakdiag`` process that imports this tree."""
+    src = str(Path(__file__).resolve().parents[2] / "src")
+    return {**os.environ, "PYTHONPATH": src + os.pathsep + os.environ.get("PYTHONPATH", "")}

@@ -1,0 +1,179 @@
+"""The web app: read-only routes, escaping, token, bind safety, offline Plotly, SSE stream."""
+
+import json
+import threading
+import urllib.error
+import urllib.parse
+import urllib.request
+
+import numpy as np
+import pytest
+
+from leakdiag.dashboard import Bind, DashboardServer, LiveBoard, parse_bind
+from leakdiag.dashboard.app import make_app, plotly_js_path
+from leakdiag.store import AlarmRecord, ChunkSummary, EventStore
+
+EVIL = "<script>alert(1)</script>"
+
+
+class _Resp:
+    def __init__(self, status, headers, content):
+        self.status_code, self.headers, self.content = status, headers, content
+        self.text = content.decode("utf-8", "replace")
+
+    def json(self):
+        return json.loads(self.content)
+
+
+class Client:
+    """The app on a real uvicorn server at 127.0.0.1:<free port>, queried with urllib."""
+
+    def __init__(self, app):
+        self.srv = DashboardServer(app, Bind("127.0.0.1", 0)).start()
+
+    def request(self, method, path, headers=None):
+        url = f"http://127.0.0.1:{self.srv.port}{path}"
+        req = urllib.request.Request(url, method=method, headers=headers or {})
+        try:
+            with urllib.request.urlopen(req, timeout=30) as r:
+                return _Resp(r.status, r.headers, r.read())
+        except urllib.error.HTTPError as e:
+            return _Resp(e.code, e.headers, e.read())
+
+    def get(self, path, headers=None):
+        return self.request("GET", path, headers)
+
+    def post(self, path):
+        return self.request("POST", path)
+
+    def delete(self, path):
+        return self.request("DELETE", path)
+
+
+@pytest.fixture
+def client():
+    made = []
+
+    def make(app):
+        made.append(Client(app))
+        return made[-1]
+
+    yield make
+    for c in made:
+        c.srv.stop()
+
+
+@pytest.fixture
+def store(tmp_path):
+    st = EventStore(tmp_path / "e.db")
+    r = st.start_run("rig-a", command="monitor", source="a.parquet", feature="ac p1")
+    st.add_chunk(r, ChunkSummary(0.2, 9.8, 50, 0, 0.4, 0.1, 0.9, 0.3, 1.0, 1.0, False))
+    r = st.start_run("rig-b", command="monitor", source="b.parquet", feature="ac p1")
+    st.add_chunk(r, ChunkSummary(0.2, 9.8, 50, 0, 0.1, -0.1, 0.3, 0.0, 30.0, 30.0, True),
+                 [AlarmRecord(6.5, 21.0, 20.0, onset_s=4.25, leak_lpm=0.2, leak_lpm_low=0.1,
+                              leak_lpm_high=0.3)])
+    st.start_run(EVIL, command="monitor", source="x", feature="f")
+    yield st
+    st.close()
+
+
+def test_fleet_page_lists_actuators_and_escapes(store, client):
+    c = client(make_app(store=store))
+    r = c.get("/")
+    assert r.status_code == 200
+    body = r.text
+    assert body.count("<tr data-actuator=") == 3
+    assert 'href="/history/rig-b"' in body and "0.2 L/min [0.1, 0.3]" in body
+    assert "t=6.5 s" in body and "4.25 s" in body
+    assert EVIL not in body and "&lt;script&gt;alert(1)&lt;/script&gt;" in body
+    assert r.headers["content-security-policy"].startswith("default-src 'self'")
+    fleet = c.get("/api/fleet").json()
+    assert [(f["name"], f["state"]) for f in fleet] == [
+        (EVIL, "NO DATA"), ("rig-a", "OK"), ("rig-b", "ALARM")]
+
+
+def test_history_api_and_404(store, client):
+    c = client(make_app(store=store))
+    h = c.get("/api/history/rig-b").json()
+    assert h["summaries"]["value_mean"] == [0.1] and h["summaries"]["score_max"] == [30.0]
+    assert h["alarms"][0]["onset_s"] == 4.25 and h["alarms"][0]["leak_lpm_high"] == 0.3
+    assert c.get("/history/rig-b").status_code == 200
+    assert c.get("/api/history/nope").status_code == 404
+    assert c.get("/live/rig-b").status_code == 404  # no live board in `leakdiag dashboard`
+    page = c.get("/history/" + urllib.parse.quote(EVIL))
+    assert EVIL not in page.text
+
+
+def test_only_get(store, client):
+    c = client(make_app(store=store))
+    for path in ("/", "/api/fleet", "/history/rig-a"):
+        assert c.post(path).status_code == 405
+        assert c.delete(path).status_code == 405
+
+
+def test_token_required(store, client):
+    c = client(make_app(store=store, token="s3cret"))
+    assert c.get("/").status_code == 403
+    assert c.get("/?token=wrong").status_code == 403
+    assert c.get("/static/live.js").status_code == 403
+    r = c.get("/?token=s3cret")
+    assert r.status_code == 200 and 'href="/history/rig-a?token=s3cret"' in r.text
+    assert c.get("/api/fleet", headers={"Authorization": "Bearer s3cret"}).status_code == 200
+
+
+def test_plotly_served_from_the_package(store, client):
+    c = client(make_app(store=store))
+    r = c.get("/static/plotly.min.js")
+    assert r.status_code == 200 and r.content == plotly_js_path().read_bytes()
+    assert len(r.content) > 1_000_000  # the full bundle, no CDN
+    page = c.get("/history/rig-a").text
+    assert 'src="/static/plotly.min.js"' in page and "http" not in page.split("<body>")[1]
+    assert c.get("/static/app.py").status_code == 404
+
+
+@pytest.mark.parametrize("text,host,port", [("8050", "127.0.0.1", 8050),
+                                            ("localhost:0", "localhost", 0),
+                                            ("[::1]:9000", "::1", 9000)])
+def test_parse_bind_loopback(text, host, port):
+    b = parse_bind(text)
+    assert (b.host, b.port, b.token, b.is_loopback) == (host, port, None, True)
+
+
+def test_parse_bind_remote_needs_flag_and_token():
+    with pytest.raises(ValueError, match="--allow-remote and a --token"):
+        parse_bind("0.0.0.0:8050")
+    with pytest.raises(ValueError, match="--allow-remote and a --token"):
+        parse_bind("0.0.0.0:8050", allow_remote=True)
+    with pytest.raises(ValueError, match="--allow-remote and a --token"):
+        parse_bind("192.168.1.5:8050", token="t")
+    b = parse_bind("0.0.0.0:8050", allow_remote=True, token="auto")
+    assert not b.is_loopback and len(b.token) >= 20
+    with pytest.raises(ValueError, match="PORT in 0..65535"):
+        parse_bind("host:http")
+
+
+def test_live_api_and_sse_stream_on_a_real_server():
+    board = LiveBoard()
+    board.add("rig1", "feat")
+    stop = threading.Event()
+    srv = DashboardServer(make_app(board, refresh_hz=20.0, stop=stop),
+                          Bind("127.0.0.1", 0), stop).start()
+    try:
+        assert srv.port > 0
+        board.update("rig1", np.array([0.5, 1.0]), np.array([0.25, np.nan]), received_wall=7.0)
+        with urllib.request.urlopen(srv.page_url("api/live/rig1")) as r:
+            snap = json.load(r)
+        assert snap["time"] == [0.5, 1.0] and snap["value"] == [0.25, None]
+        assert snap["received_wall"] == 7.0 and snap["state"] == "NO DETECTOR"
+        with urllib.request.urlopen(srv.page_url("stream/rig1"), timeout=10) as r:
+            assert r.headers["content-type"].startswith("text/event-stream")
+            line = b""
+            while not line.startswith(b"data:"):
+                line = r.readline()
+            first = json.loads(line[5:])
+            assert first["version"] == snap["version"] and first["n_windows"] == 2
+        with pytest.raises(urllib.error.HTTPError, match="404"):
+            urllib.request.urlopen(srv.page_url("stream/nope"))
+    finally:
+        srv.stop()
+    assert not srv.thread.is_alive()

@@ -1,0 +1,84 @@
+"""``--store`` of monitor, detect and batch, and the safety checks of ``--dashboard``/``--bind``,
+through the CLI entry point."""
+
+import sqlite3
+
+import pytest
+from click.testing import CliRunner
+
+from leakdiag.cli.main import main
+from leakdiag.store import EventStore
+
+
+def _run(args):
+    """Run ``leakdiag ARGS`` through the entry point: exit code, stdout, stderr."""
+    with CliRunner().isolation() as (out, err, _):
+        code = main(args)
+        return code, out.getvalue().decode(), err.getvalue().decode()
+
+
+def test_monitor_store_matches_the_offline_verdict(leak_case, tmp_path):
+    db = tmp_path / "ev.db"
+    v = leak_case["verdict"]
+    code, out, err = _run(["monitor", "-i", str(leak_case["recording"]), "--detector",
+                           str(leak_case["detector_path"]), "--chunk", "2000", "--store", str(db)])
+    assert code == 0, err
+    con = sqlite3.connect(db)
+    (n_chunks, n_win, status, act), = con.execute(
+        "select r.n_chunks, r.n_windows, r.status, a.name from runs r join actuators a "
+        "on a.id = r.actuator_id").fetchall()
+    spec = leak_case["detector"].spec()
+    n_expected = (60_000 - spec.window) // (spec.window - round(spec.window * 0.05)) + 1
+    assert (n_win, status, act) == (n_expected, "finished", "rig7")
+    assert con.execute("select sum(n_windows), count(*) from chunk_summaries").fetchone() == \
+        (n_expected, n_chunks)
+    (t_alarm, onset, lpm, lo, hi, cleared), = con.execute(
+        "select alarm_time_s, onset_s, leak_lpm, leak_lpm_low, leak_lpm_high, cleared_time_s "
+        "from alarms").fetchall()
+    assert t_alarm == v.alarm_time_s and onset == pytest.approx(v.onset_s, abs=1e-12)
+    assert lpm == pytest.approx(v.leak_lpm, rel=1e-9)
+    assert (lo, hi) == pytest.approx(v.leak_lpm_interval, rel=1e-9)
+    assert cleared is None  # still in alarm at the end of the recording
+    fl = EventStore(db).fleet()
+    assert fl.loc[0, "state"] == "ALARM" and fl.loc[0, "name"] == "rig7"
+
+
+def test_detect_and_batch_store(leak_case, tmp_path):
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
+    healthy = tmp_path / "healthy.parquet"
+    write_recording(simulate_vca(duration=120.0, leak_lpm=None, seed=31), healthy)
+    db = tmp_path / "ev.db"
+    code, out, err = _run(["detect", str(leak_case["recording"]), "--healthy", str(healthy),
+                           "--methods", "acf-p1", "--store", str(db), "--actuator", "rig7"])
+    assert code == 0, err
+    assert "1 alarm(s) for rig7 written" in out
+    st = EventStore(db)
+    _, al = st.history("rig7")
+    assert len(al) == 1 and al.loc[0, "detector"] == "acf-p1" and al.loc[0, "onset_s"] > 0
+    job = tmp_path / "job.toml"
+    job.write_text(f'[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n'
+                   f'[[detector]]\nname = "det"\npath = "{leak_case["detector_path"]}"\n')
+    code, out, err = _run(["batch", str(leak_case["recording"]), str(healthy), "--config",
+                           str(job), "--out", str(tmp_path / "res"), "--serial", "--no-progress",
+                           "--store", str(db)])
+    assert code == 0, err
+    assert "4 run(s) written" in out
+    fl = st.fleet().set_index("name")
+    assert fl.loc["rig7", "state"] == "ALARM" and fl.loc["healthy", "state"] == "OK"
+    assert fl.loc["rig7", "last_alarm_time_s"] == leak_case["verdict"].alarm_time_s
+    summ, _ = st.history("healthy")
+    assert summ["n_windows"].tolist() == [631, 631]
+
+
+def test_remote_bind_refused_and_missing_store(leak_case, tmp_path):
+    code, out, err = _run(["monitor", "-i", str(leak_case["recording"]), "--dashboard",
+                           "0.0.0.0:0"])
+    assert code == 2 and "add --allow-remote and a --token" in err
+    code, out, err = _run(["dashboard", "--store", str(tmp_path / "none.db"), "--bind",
+                           "0.0.0.0:0", "--token", "x"])
+    assert code == 2 and "--bind 0.0.0.0:0 binds an address other machines" in err
+    code, out, err = _run(["dashboard", "--store", str(tmp_path / "none.db")])
+    assert code == 2 and "none.db: no such event store file" in err
+    assert not (tmp_path / "none.db").exists()

@@ -1,0 +1,78 @@
+"""Live state: hand-computed CUSUM states, and equality with the offline Detector.predict."""
+
+import numpy as np
+import pytest
+
+from leakdiag.dashboard.live import MAX_POINTS, ActuatorLive, LiveBoard
+from leakdiag.stream import DetectorScorer, Monitor, recording_chunks
+
+
+class _Det:
+    """Hand detector: z = value, drift 0.5, threshold 2 (no burn-in)."""
+
+    mean_, std_, threshold_ = 0.0, 1.0, 2.0
+
+    class alarm:
+        drift, direction, burn_in_s = 0.5, "up", 0.0
+
+
+def test_states_alarm_onset_and_clearing_by_hand():
+    sc = DetectorScorer(_Det(), window=2, sample_rate=1.0)
+    board = LiveBoard()
+    board.add("a", "feat", sc, window_s=1.0)
+    assert board.snapshot("a")["state"] == "WAITING"
+    # S+ by hand: z-0.5 accumulated: 0, 0, 0.5, 1.5, 3.0 (alarm at t=5), then back to 0
+    t = np.array([1.0, 2.0, 3.0, 4.0, 5.0])
+    v = np.array([0.0, 0.2, 1.0, 1.5, 2.0])
+    s = sc.score_windows(v, t)
+    np.testing.assert_allclose(s, [0.0, 0.0, 0.5, 1.5, 3.0])
+    board.update("a", t[:2], v[:2], s[:2], s[:2] >= 2.0, received_wall=1.0)
+    assert board.snapshot("a")["state"] == "OK"
+    sc.branches_ = tuple(b[2:] for b in sc.branches_)  # as if scored chunk by chunk
+    board.update("a", t[2:], v[2:], s[2:], s[2:] >= 2.0, received_wall=2.0)
+    snap = board.snapshot("a")
+    assert snap["state"] == "ALARM" and snap["alarm_time_s"] == 5.0
+    # excursion starts at the window ending at t=3 (start t=2): onset = middle = 2.5
+    assert snap["onset_s"] == 2.5
+    assert snap["events"][0]["kind"] == "alarm" and snap["received_wall"] == 2.0
+    s2 = sc.score_windows(np.array([-5.0]), np.array([6.0]))
+    board.update("a", np.array([6.0]), np.array([-5.0]), s2, s2 >= 2.0)
+    snap = board.snapshot("a")
+    assert snap["state"] == "OK" and snap["events"][0] == {"time_s": 6.0, "kind": "cleared",
+                                                           "score": 0.0, "episode": 1}
+    assert snap["time"] == [1.0, 2.0, 3.0, 4.0, 5.0, 6.0] and snap["threshold"] == 2.0
+
+
+def test_buffers_are_bounded_and_nan_is_null():
+    live = ActuatorLive("x", "f")
+    n = MAX_POINTS + 10
+    live.update(np.arange(n, dtype=float), np.full(n, np.nan), None, None, 0.0)
+    snap = live.snapshot()
+    assert len(snap["time"]) == MAX_POINTS and snap["time"][0] == 10.0
+    assert snap["value"][0] is None and snap["state"] == "NO DETECTOR"
+    assert snap["n_windows"] == n
+
+
+@pytest.mark.parametrize("chunk", [1000, 4567])
+def test_live_equals_offline_verdict(leak_case, chunk):
+    """Alarm time, onset, leak size and interval on the page equal Detector.predict."""
+    det, rec, v = leak_case["detector"], leak_case["rec"], leak_case["verdict"]
+    assert v.leak and v.onset_method == "cusum" and v.leak_lpm is not None
+    spec = det.spec()
+    mon = Monitor(spec, rec.sample_rate, 0.0, scorers=det)
+    board = LiveBoard()
+    board.add("rig7", spec.label, mon.scorers[0], (spec.window - 1) / rec.sample_rate)
+    for c in recording_chunks(rec, chunk, list(spec.channels)):
+        (t, val, s, a), = mon.push_arrays(c)
+        board.update("rig7", t, val, s, a)
+    snap = board.snapshot("rig7")
+    assert snap["state"] == "ALARM"
+    assert snap["alarm_time_s"] == v.alarm_time_s
+    assert snap["onset_s"] == pytest.approx(v.onset_s, abs=1e-12)
+    assert snap["leak_lpm"] == pytest.approx(v.leak_lpm, rel=1e-9)
+    assert (snap["leak_lpm_low"], snap["leak_lpm_high"]) == pytest.approx(v.leak_lpm_interval,
+                                                                          rel=1e-9)
+    assert snap["leak_in_range"] == v.leak_lpm_in_range
+    # this CUSUM dips below its threshold and crosses again: one episode, one onset
+    kinds = [(e["kind"], e["episode"]) for e in snap["events"][::-1]]
+    assert kinds[0] == ("alarm", 1) and {ep for _, ep in kinds} == {1}

@@ -1,0 +1,186 @@
+"""Event store: schema, round trip, fleet state, concurrent writers, killed writer, versions."""
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from leakdiag.store import (SCHEMA_VERSION, AlarmRecord, ChunkSummary, EventStore, StoreError,
+                            store_url, summarize_windows)
+
+WRITER = Path(__file__).with_name("_writer.py")
+SRC = str(Path(__file__).resolve().parents[2] / "src")
+
+
+def _env():
+    return {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
+
+
+def _summary(i, alarm=None):
+    return ChunkSummary(float(i), float(i) + 0.5, 3, 1, 0.1 * i, -1.0, 1.0, 0.5, 2.0 * i, 1.5,
+                        alarm)
+
+
+def test_schema_tables_and_version(tmp_path):
+    db = tmp_path / "e.db"
+    EventStore(db).close()
+    con = sqlite3.connect(db)
+    tables = {r[0] for r in con.execute("select name from sqlite_master where type='table'")}
+    assert tables == {"schema_version", "actuators", "runs", "chunk_summaries", "alarms"}
+    assert con.execute("select version from schema_version").fetchall() == [(SCHEMA_VERSION,)]
+    assert con.execute("pragma journal_mode").fetchone()[0] == "wal"
+    cols = [r[1] for r in con.execute("pragma table_info(chunk_summaries)")]
+    assert cols[:5] == ["id", "run_id", "seq", "recorded_at", "t_start_s"]
+    con.close()
+
+
+def test_round_trip(tmp_path):
+    st = EventStore(tmp_path / "e.db")
+    run = st.start_run("rig1", command="monitor", source="a.parquet", feature="ac p1",
+                       sample_rate_hz=1000.0, threshold=12.5, system="vca", config={"window": 200})
+    assert st.add_chunk(run, _summary(0)) == (0, [])
+    seq, ids = st.add_chunk(run, _summary(1, True), [AlarmRecord(1.4, 13.0, 12.5, onset_s=0.9,
+                                                                 leak_lpm=0.1, leak_lpm_low=0.05,
+                                                                 leak_lpm_high=0.15)])
+    assert seq == 1 and len(ids) == 1
+    st.add_chunk(run, _summary(2, False), alarm_updates={ids[0]: {"cleared_time_s": 2.3}})
+    st.end_run(run)
+    st.close()
+    st = EventStore(tmp_path / "e.db", create=False)
+    summ, al = st.history("rig1")
+    assert summ["seq"].tolist() == [0, 1, 2]
+    assert summ["t_start_s"].tolist() == [0.0, 1.0, 2.0]
+    assert summ["value_mean"].tolist() == pytest.approx([0.0, 0.1, 0.2], abs=0)
+    assert summ["score_max"].tolist() == [0.0, 2.0, 4.0]
+    assert summ["alarm"].tolist()[1:] == [True, False]
+    assert summ["feature"].unique().tolist() == ["ac p1"]
+    a = al.iloc[0]
+    assert (a.alarm_time_s, a.onset_s, a.leak_lpm, a.leak_lpm_low, a.leak_lpm_high,
+            a.cleared_time_s) == (1.4, 0.9, 0.1, 0.05, 0.15, 2.3)
+    assert st.count("runs") == 1 and st.count("chunk_summaries") == 3
+    fl = st.fleet()
+    assert fl.loc[0, "state"] == "OK" and fl.loc[0, "leak_lpm"] == 0.1
+    with pytest.raises(StoreError, match="no actuator named 'nope'"):
+        st.history("nope")
+
+
+def test_fleet_state_alarm_ok_nodata(tmp_path):
+    st = EventStore(tmp_path / "e.db")
+    r1 = st.start_run("b-rig", command="monitor", source="b", feature="f")
+    st.add_chunk(r1, _summary(0, True), [AlarmRecord(0.5, 20.0, 12.0)])
+    r2 = st.start_run("a-rig", command="monitor", source="a", feature="f")
+    st.add_chunk(r2, _summary(0, False))
+    st.start_run("c-rig", command="monitor", source="c", feature="f")
+    fl = st.fleet()
+    assert fl["name"].tolist() == ["a-rig", "b-rig", "c-rig"]
+    assert fl["state"].tolist() == ["OK", "ALARM", "NO DATA"]
+    assert fl.loc[1, "last_alarm_time_s"] == 0.5
+    # a new run without alarm on b-rig: OK again, its last alarm is still listed
+    r3 = st.start_run("b-rig", command="monitor", source="b2", feature="f")
+    st.add_chunk(r3, _summary(0, False))
+    fl = st.fleet()
+    assert fl.loc[1, "state"] == "OK" and fl.loc[1, "last_alarm_time_s"] == 0.5
+    assert fl.loc[1, "n_runs"] == 2
+
+
+def test_schema_version_mismatch(tmp_path):
+    db = tmp_path / "e.db"
+    EventStore(db).close()
+    con = sqlite3.connect(db)
+    con.execute("update schema_version set version = 99")
+    con.commit()
+    con.close()
+    with pytest.raises(StoreError, match=r"schema version \[99\].*reads version 1"):
+        EventStore(db)
+
+
+def test_foreign_database_refused(tmp_path):
+    db = tmp_path / "other.db"
+    con = sqlite3.connect(db)
+    con.execute("create table things (x int)")
+    con.commit()
+    con.close()
+    with pytest.raises(StoreError, match=r"not a leakdiag event store.*\['things'\]"):
+        EventStore(db)
+    with pytest.raises(StoreError, match="new.db: no such event store file"):
+        EventStore(tmp_path / "new.db", create=False)
+    assert not (tmp_path / "new.db").exists()
+    (tmp_path / "empty.db").write_bytes(b"")
+    with pytest.raises(StoreError, match="empty database"):
+        EventStore(tmp_path / "empty.db", create=False)
+
+
+def test_store_url():
+    assert store_url("sqlite:///x.db") == "sqlite:///x.db"
+    assert store_url("rel.db") == "sqlite:///" + os.path.abspath("rel.db")
+    with pytest.raises(ValueError, match="--store needs"):
+        store_url(" ")
+    with pytest.raises(StoreError, match="cannot open"):
+        EventStore("nosuchdialect://x/y")
+
+
+def test_summarize_windows_hand_values():
+    s = summarize_windows([0.2, 0.4, 0.6, 0.8], [1.0, 3.0, np.nan, 2.0],
+                          [np.nan, np.nan, 1.0, 5.0], [False, False, False, True])
+    assert (s.t_start_s, s.t_end_s, s.n_windows, s.n_degenerate) == (0.2, 0.8, 4, 1)
+    assert (s.value_mean, s.value_min, s.value_max, s.value_last) == (2.0, 1.0, 3.0, 2.0)
+    assert (s.score_max, s.score_last, s.alarm) == (5.0, 5.0, True)
+    assert summarize_windows([], []) is None
+    with pytest.raises(ValueError, match="scores has shape"):
+        summarize_windows([1.0], [1.0], [1.0, 2.0])
+
+
+def test_two_processes_write_the_same_file(tmp_path):
+    db = str(tmp_path / "e.db")
+    EventStore(db).close()
+    n = 150
+    procs = [subprocess.Popen([sys.executable, str(WRITER), db, name, str(n)], env=_env(),
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for name in ("w1", "w2")]
+    for p in procs:
+        out, err = p.communicate(timeout=240)
+        assert p.returncode == 0, err
+        assert out.split() == [str(i) for i in range(n)]
+    st = EventStore(db)
+    assert st.count("chunk_summaries") == 2 * n
+    for name in ("w1", "w2"):
+        summ, _ = st.history(name)
+        assert summ["seq"].tolist() == list(range(n))
+        assert summ["value_mean"].tolist() == [float(i) for i in range(n)]
+    con = sqlite3.connect(db)
+    assert con.execute("pragma integrity_check").fetchone()[0] == "ok"
+    assert con.execute("select n_chunks, status from runs order by id").fetchall() == \
+        [(n, "finished"), (n, "finished")]
+
+
+def test_killed_writer_leaves_a_consistent_file(tmp_path):
+    db = str(tmp_path / "e.db")
+    with subprocess.Popen([sys.executable, str(WRITER), db, "victim", "-1"], env=_env(),
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as p:
+        try:
+            for _ in range(40):  # wait for 40 committed chunks, then kill -9 mid-stream
+                line = p.stdout.readline()
+                assert line, p.stderr.read()
+            os.kill(p.pid, signal.SIGKILL)
+            p.wait(timeout=30)
+        finally:
+            if p.poll() is None:
+                p.kill()
+    assert p.returncode == -signal.SIGKILL
+    con = sqlite3.connect(db)
+    assert con.execute("pragma integrity_check").fetchone()[0] == "ok"
+    (n_chunks, status), = con.execute("select n_chunks, status from runs").fetchall()
+    n_rows = con.execute("select count(*) from chunk_summaries").fetchone()[0]
+    seqs = [r[0] for r in con.execute("select seq from chunk_summaries order by seq")]
+    con.close()
+    # every committed chunk is there, the run's counter agrees with the rows: no half chunk
+    assert n_chunks == n_rows >= 40 and seqs == list(range(n_rows)) and status == "running"
+    st = EventStore(db)  # the store is still writable after the crash
+    run = st.start_run("victim", command="monitor", source="again", feature="ac p1")
+    assert st.add_chunk(run, _summary(0)) == (0, [])
+    assert st.count("chunk_summaries") == n_rows + 1
