@@ -11,7 +11,8 @@ from leakdiag.sim import machine as mach
 from leakdiag.sim.eha_params import EHAParams
 from leakdiag.sim.leak import LeakSchedule
 from leakdiag.sim.machine import EHAMachine, VCAMachine, draw_machine, resolve_machine
-from leakdiag.sim.sensors import SensorParams, antialias_sos, measure_pressure
+from leakdiag.sim.sensor_chain import antialias_sos
+from leakdiag.sim.sensors import SensorParams, measure_pressure
 from leakdiag.sim.vca_conditions import OperatingConditions
 from leakdiag.sim.vca_control import FixedGainController
 from leakdiag.sim.vca_integrator import integrate_closed_loop

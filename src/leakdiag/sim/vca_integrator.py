@@ -312,7 +312,7 @@ def integrate_closed_loop(x_ref, sample_rate, n_sub, params, gains, u_max, leak_
         the true state).
     antialias_sos : numpy.ndarray, optional
         Second-order sections of an anti-alias low-pass applied to each pressure reading (plus
-        noise) before the ADC, e.g. :func:`leakdiag.sim.sensors.antialias_sos`; it starts at
+        noise) before the ADC, e.g. :func:`leakdiag.sim.sensor_chain.antialias_sos`; it starts at
         rest on the first reading, as :func:`leakdiag.sim.sensors.measure_pressure` does.
         Only with ``sensors``.
     chunk : int, optional

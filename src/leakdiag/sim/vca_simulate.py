@@ -26,8 +26,8 @@ from leakdiag.sim.leak import (
 )
 from leakdiag.sim.machine import VCAMachine, resolve_machine
 from leakdiag.sim.reference import as_reference
-from leakdiag.sim.sensor_chain import pressure_chain
-from leakdiag.sim.sensors import SensorParams, antialias_sos
+from leakdiag.sim.sensor_chain import antialias_sos, pressure_chain
+from leakdiag.sim.sensors import SensorParams
 from leakdiag.sim.vca_conditions import OperatingConditions
 from leakdiag.sim.vca_control import FixedGainController
 from leakdiag.sim.vca_integrator import (
