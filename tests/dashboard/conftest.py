@@ -1,7 +1,6 @@
 """Fixtures of the dashboard tests: a leaking VCA recording, a calibrated detector, a browser."""
 
 import os
-import pickle
 import shutil
 import tempfile
 from pathlib import Path
@@ -37,24 +36,29 @@ def pytest_terminal_summary(terminalreporter):
 def leak_case(tmp_path_factory):
     """A 60 s VCA recording with a 0.2 L/min leak from 30 s and a calibrated detector.
 
-    Returns a dict with the recording path, the pickled detector path, the detector and its
+    Returns a dict with the recording path, the detector file (leakdiag fit format), the detector and its
     offline verdict on the recording (cusum onset, so the live page can be compared exactly).
     """
     from leakdiag.detect.base import Alarm
     from leakdiag.detect.methods import thesis_detector
     from leakdiag.io import read_recording, write_recording
     from leakdiag.sim import simulate_vca
+    from leakdiag.stream.detector_file import DetectorMeta, save_detector
 
     d = tmp_path_factory.mktemp("leakcase")
     rec_path = d / "rig7.parquet"
     write_recording(simulate_vca(duration=60.0, leak_lpm=0.2, onset=30.0, seed=1), rec_path)
     healthy = [simulate_vca(duration=120.0, leak_lpm=None, seed=s) for s in (10, 11)]
     det = thesis_detector("vca", "autocorrelation",
-                          alarm=Alarm(onset_method="cusum", burn_in_s=5.0)).fit(healthy)
+                          alarm=Alarm(onset_method="cusum", burn_in_s=5.0,
+                                      # 2 healthy 115-s maxima support 1/3 per segment at best
+                                      # (conformal threshold): 12 per hour is 0.38 per segment
+                                      false_alarms_per_hour=12.0)).fit(healthy)
     det.calibrate([simulate_vca(duration=60.0, leak_lpm=q, onset=30.0, seed=20 + i)
                    for i, q in enumerate((0.05, 0.1, 0.2, 0.3))])
-    det_path = d / "det.pkl"
-    det_path.write_bytes(pickle.dumps(det))
+    det_path = d / "det.joblib"
+    save_detector(det, DetectorMeta("acf-p1", "vca", 1000.0, ("p1",), {"p1": "Pa"},
+                                    false_alarms_per_hour=12.0, n_healthy=2), det_path)
     rec = read_recording(rec_path)
     return {"recording": rec_path, "detector_path": det_path, "detector": det,
             "verdict": det.predict(rec), "rec": rec, "dir": d}

@@ -88,7 +88,7 @@ def open_monitor_hooks(live: dict, spec, monitor, source, say):
                         live.get("refresh_hz", 5.0), say)
 
 
-@click.command("dashboard")
+@click.command("dashboard", epilog="Example: leakdiag dashboard --store events.db --bind 8050")
 @click.option("--store", "store", required=True, help="Event store: SQLite file or SQLAlchemy URL.")
 @click.option("--bind", "bind_", default="127.0.0.1:8050", show_default=True,
               metavar="[HOST:]PORT", help="Address to serve on.")
