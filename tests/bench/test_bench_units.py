@@ -260,3 +260,37 @@ def test_v5_shared_fit_only_for_detectors_with_the_base_fit():
     assert not shares_fit(make_detector("combined", "vca", a))  # covariance pass of its own
     if "flow-balance" in METHODS:
         assert not shares_fit(make_detector("flow-balance", "vca", a))  # its own fit
+
+
+def test_rate_figure_gives_twelve_methods_distinct_colours_and_markers():
+    """Issue 15: more than ten methods stay distinguishable (colour and marker) in one figure."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    from leakdiag.bench.report import _rate_figure
+
+    rows = [{"system": "vca", "method": f"m{i}", "leak_lpm": q, "detection_rate": 0.1 * i}
+            for i in range(12) for q in (0.1, 0.5)]
+    fig = _rate_figure(pd.DataFrame(rows), "vca", {})
+    lines = fig.axes[0].get_lines()[:12]
+    styles = {(tuple(ln.get_color()), ln.get_marker()) for ln in lines}
+    colours = {tuple(ln.get_color()) for ln in lines}
+    plt.close(fig)
+    assert len(styles) == 12 and len(colours) == 12
+
+
+def test_minimum_detectable_table_says_not_reached():
+    import numpy as np
+    import pandas as pd
+
+    from leakdiag.bench.report import not_reached
+
+    t = pd.DataFrame({"method": ["a", "b"], "min_detectable_lpm": [0.2, np.nan],
+                      "min_detectable_pct_rated": [0.5, np.nan]})
+    shown = not_reached(t)
+    assert list(shown.min_detectable_lpm) == [0.2, "not reached"]
+    assert list(shown.min_detectable_pct_rated) == [0.5, "not reached"]
+    assert np.isnan(t.min_detectable_lpm[1])  # the data itself is untouched

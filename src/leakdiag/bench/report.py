@@ -5,7 +5,74 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["build_report"]
+__all__ = ["build_report", "method_style", "not_reached"]
+
+
+#: Markers cycled beside the colours, so that methods stay distinct beyond ten (issue 15).
+_MARKERS = ("o", "s", "^", "v", "D", "P", "X", "<", ">", "*", "h", "p")
+
+
+def method_style(i: int) -> dict:
+    """Colour and marker of the ``i``-th method in a figure: distinct for up to 240 methods.
+
+    Colours come from matplotlib's 20-colour ``tab20`` map (``i mod 20``), markers from a
+    12-marker cycle at ``(i mod 20 + i div 20) mod 12``: for one colour the marker takes 12
+    different values over the next 12 colour cycles, so the first 240 pairs are all different.
+
+    Parameters
+    ----------
+    i : int
+        Index of the method (0-based), >= 0.
+
+    Returns
+    -------
+    dict
+        ``color`` (RGBA tuple) and ``marker`` (matplotlib marker), for ``ax.plot(**style)``.
+
+    Examples
+    --------
+    >>> a, b = method_style(0), method_style(10)
+    >>> a["color"] != b["color"] and a["marker"] != b["marker"]
+    True
+    >>> len({(method_style(i)["color"], method_style(i)["marker"]) for i in range(240)})
+    240
+    """
+    from matplotlib import colormaps
+
+    if i < 0:
+        raise ValueError(f"i={i!r} must be >= 0")
+    color = tuple(colormaps["tab20"](i % 20))
+    marker = _MARKERS[(i % 20 + i // 20) % len(_MARKERS)]
+    return {"color": color, "marker": marker}
+
+
+def not_reached(summary, columns=("min_detectable_lpm", "min_detectable_pct_rated")):
+    """A display copy of a minimum-detectable-leak table with NaN written as ``not reached``.
+
+    Parameters
+    ----------
+    summary : pandas.DataFrame
+        Table with minimum-detectable-leak columns (NaN where no size was detected).
+    columns : tuple of str
+        Columns to rewrite (those absent are ignored).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Copy with those columns as objects: the number, or the text ``not reached``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> not_reached(pd.DataFrame({"min_detectable_lpm": [0.2, float("nan")]})).iloc[1, 0]
+    'not reached'
+    """
+    out = summary.copy()
+    for c in columns:
+        if c in out:
+            col = out[c].astype(object)
+            out[c] = col.where(col.notna(), "not reached")
+    return out
 
 
 def _roc_figure(runs, system):
@@ -44,8 +111,8 @@ def _rate_figure(results, system, rated):
 
     sub = results[results.system == system]
     fig, ax = plt.subplots(figsize=(6.5, 4.0))
-    for m, g in sub.groupby("method", sort=False):
-        ax.plot(g.leak_lpm, g.detection_rate, marker="o", label=m)
+    for i, (m, g) in enumerate(sub.groupby("method", sort=False)):
+        ax.plot(g.leak_lpm, g.detection_rate, label=m, **method_style(i))
     ax.axhline(0.9, color="0.5", lw=0.8, ls=":")
     ax.set_xscale("log")
     ax.set_xlabel("leak (L/min)")
@@ -139,9 +206,9 @@ def build_report(suite_run, results, summary, by_condition, command: str,
         "leak size; onset error and delay are medians over leak sizes of the per-size medians.",
     ])
     rep.heading("Minimum detectable leak")
-    rep.table(summary, "Minimum detectable leak per method and rig (NaN: not reached)")
+    rep.table(not_reached(summary), "Minimum detectable leak per method and rig")
     if summary_by_condition is not None and len(summary_by_condition):
-        rep.table(summary_by_condition, "Minimum detectable leak per load and noise level "
+        rep.table(not_reached(summary_by_condition), "Minimum detectable leak per load and noise level "
                   "(each group's detector fitted on that group's healthy runs)")
     rep.heading("Results per leak size")
     rep.table(results, "One row per method, rig and leak size")

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from leakdiag.bench.report import method_style
+
 __all__ = ["run_benchmark_v5", "write_v5_report"]
 
 
@@ -143,11 +145,11 @@ def _figures(det, out: Path) -> list[str]:
     (out / "figures").mkdir(parents=True, exist_ok=True)
     for (system, load, exc), g in det.groupby(["system", "load", "excitation"], sort=False):
         fig, ax = plt.subplots(figsize=(7.0, 4.2))
-        for m, gm in g.groupby("method", sort=False):
+        for j, (m, gm) in enumerate(g.groupby("method", sort=False)):
             gm = gm.sort_values("leak_lpm")
             y = gm["detection_rate_10s"].to_numpy()
             err = np.vstack([y - gm["det_low_10s"].to_numpy(), gm["det_high_10s"].to_numpy() - y])
-            ax.errorbar(gm.leak_lpm, y, yerr=err, marker="o", ms=3, capsize=2, label=m)
+            ax.errorbar(gm.leak_lpm, y, yerr=err, ms=3, capsize=2, label=m, **method_style(j))
         ax.axhline(0.9, color="0.5", lw=0.8, ls=":")
         ax.set_xscale("log")
         ax.set_xlabel("leak (L/min)")

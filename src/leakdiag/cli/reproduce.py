@@ -62,6 +62,9 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol
 
         with open(save_results, "wb") as fh:
             pickle.dump((rep, command), fh)
+    if not no_progress:  # the figures and pages take tens of seconds after the bar's 100 %
+        click.echo(f"writing the report (tables, figures, HTML and Markdown) to {out} ...",
+                   err=True)
     paths = write_outputs(rep, out, command=command)
     t = rep.tables
     click.echo(f"{len(t)} table rows; direction agrees in {int(t.direction_agrees.sum())}; "
