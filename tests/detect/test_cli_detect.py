@@ -203,3 +203,12 @@ def test_fit_saves_any_registry_detector_and_detect_reads_it(files, tmp_path, ca
     capsys.readouterr()
     assert main(["detect", leak, "--detector", str(det), "--no-progress"]) == 0
     assert "Decision: " in capsys.readouterr().out
+
+
+def test_detect_prints_the_conformal_p_value_by_its_name(files, capsys):
+    """Issue 15: 'confidence' 0.75 on a no-leak row read as the opposite of what it is."""
+    healthy, leak = files
+    args = ["detect", leak, "--methods", "ccf-p1p2", *RATE_RUN, *_h(healthy)]
+    assert main(args) == 0
+    header = capsys.readouterr().out.splitlines()[0].split()
+    assert "p_value" in header and "confidence" not in header

@@ -29,6 +29,11 @@ def method_style(i: int) -> dict:
     dict
         ``color`` (RGBA tuple) and ``marker`` (matplotlib marker), for ``ax.plot(**style)``.
 
+    Raises
+    ------
+    ValueError
+        If ``i`` is negative.
+
     Examples
     --------
     >>> a, b = method_style(0), method_style(10)

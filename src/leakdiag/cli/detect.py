@@ -234,7 +234,8 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
                         progress=say, resample=resample)
     cols_ = [c for c in ("method", "leak", "onset_s", "alarm_time_s", "confidence", "leak_lpm",
                          "score_max", "threshold", "threshold_method", "error") if c in tab]
-    shown = tab[cols_].astype(object)
+    # Verdict.confidence is a conformal p-value (small = evidence of a leak): print it by that name
+    shown = tab[cols_].astype(object).rename(columns={"confidence": "p_value"})
     click.echo(shown.where(shown.notna(), "-").to_string(index=False))
     if store:
         import os
