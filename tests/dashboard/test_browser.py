@@ -91,7 +91,11 @@ def test_live_page_turns_to_alarm_at_the_right_time(browser, leak_case, tmp_path
         assert browser.find_element("id", "alarm-time").text == _fmt(v.alarm_time_s)
         assert browser.find_element("id", "onset").text == _fmt(v.onset_s)
         assert "L/min [" in browser.find_element("id", "leak").text
-        first_event = browser.find_elements("css selector", "#events li")[-1].text
+        # read in one script: the page re-renders the list with every snapshot (a WebElement
+        # taken first can go stale before its text is read)
+        first_event = browser.execute_script(
+            "const l = document.querySelectorAll('#events li');"
+            "return l.length ? l[l.length - 1].innerText : '';")
         assert first_event.startswith(f"ALARM at t={_fmt(v.alarm_time_s)}")
         t_end = time.monotonic() + 120  # replay to the end: the final estimate equals predict
         while "input ended" not in browser.find_element("id", "last-time").text:

@@ -101,8 +101,8 @@ class ActuatorLive:
         return np.where(np.isfinite(s), z, np.nan)
 
     def update(self, t: np.ndarray, v: np.ndarray, s: np.ndarray | None,
-               a: np.ndarray | None, received_wall: float) -> None:
-        """Take the windows one chunk completed.
+               a: np.ndarray | None, received_wall: float, branches: tuple | None = None) -> None:
+        """Take the windows of one or more consecutive chunks.
 
         Parameters
         ----------
@@ -111,18 +111,22 @@ class ActuatorLive:
         s, a : numpy.ndarray or None
             Detector scores and alarms (None without a detector).
         received_wall : float
-            Wall-clock time (``time.time()``) at which the chunk arrived.
+            Wall-clock time (``time.time()``) at which the last of these chunks arrived.
+        branches : tuple of numpy.ndarray, optional
+            CUSUM branches (S+, S-) of these windows; default: the scorer's ``branches_``
+            (those of its last block), else the score itself.
         """
         self.received_wall = received_wall
         if not len(t):
             return
         self.n_windows += len(t)
-        self.time.extend(t.tolist())
-        self.value.extend(v.tolist())
+        self.time.extend(t[-MAX_POINTS:].tolist())  # the deques keep the last MAX_POINTS
+        self.value.extend(v[-MAX_POINTS:].tolist())
         if s is None:
             return
-        self.score.extend(s.tolist())
-        branches = getattr(self.scorer, "branches_", None)
+        self.score.extend(s[-MAX_POINTS:].tolist())
+        if branches is None:
+            branches = getattr(self.scorer, "branches_", None)
         if branches is None or len(branches[0]) != len(s):
             branches = (s, s)
         z = self._z(v, s)
@@ -288,8 +292,9 @@ class LiveBoard:
         with self._lock:
             return sorted(self._live)
 
-    def update(self, name: str, t, v, s=None, a=None, received_wall: float | None = None) -> None:
-        """Append one chunk's windows to an actuator (cheap: called by the monitor).
+    def update(self, name: str, t, v, s=None, a=None, received_wall: float | None = None,
+               branches: tuple | None = None) -> None:
+        """Append the windows of one or more consecutive chunks to an actuator.
 
         Parameters
         ----------
@@ -300,7 +305,9 @@ class LiveBoard:
         s, a : array_like, optional
             Scores and alarms.
         received_wall : float, optional
-            Wall-clock arrival time of the chunk (default: now).
+            Wall-clock arrival time of the (last) chunk (default: now).
+        branches : tuple of array_like, optional
+            CUSUM branches (S+, S-) of these windows (default: the scorer's last ones).
         """
         t = np.asarray(t, dtype=np.float64)
         v = np.asarray(v, dtype=np.float64)
@@ -308,7 +315,7 @@ class LiveBoard:
         a = None if a is None else np.asarray(a, dtype=bool)
         with self._lock:
             self._live[name].update(t, v, s, a, time.time() if received_wall is None
-                                    else received_wall)
+                                    else received_wall, branches)
             self.version += 1
 
     def finish(self, name: str) -> None:

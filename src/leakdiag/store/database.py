@@ -252,20 +252,58 @@ class EventStore:
         alarm_ids : list of int
             Ids of the new alarms.
         """
+        seqs, ids = self.add_chunks(run_id, [] if summary is None else [summary], new_alarms,
+                                    alarm_updates)
+        return (seqs[0] if seqs else None), ids
+
+    def add_chunks(self, run_id: int, summaries: list[ChunkSummary] | tuple[ChunkSummary, ...],
+                   new_alarms: tuple[AlarmRecord, ...] | list[AlarmRecord] = (),
+                   alarm_updates: dict[int, dict] | None = None) -> tuple[list[int], list[int]]:
+        """Write consecutive chunks in one transaction: their summaries, new and changed alarms.
+
+        A group commit: all the rows are committed together or not at all, and the run's
+        ``n_chunks`` and ``n_windows`` move with them. The summaries are inserted with one
+        ``executemany``, so many small chunks cost about one commit.
+
+        Parameters
+        ----------
+        run_id : int
+            From :meth:`start_run`.
+        summaries : sequence of ChunkSummary
+            The chunks' windows, in stream order (may be empty: only alarms).
+        new_alarms : sequence of AlarmRecord
+            Alarms raised in these chunks.
+        alarm_updates : dict of int to dict, optional
+            Alarm id -> columns to change (e.g. ``cleared_time_s``, ``leak_lpm``).
+
+        Returns
+        -------
+        seqs : list of int
+            Chunk numbers in the run, one per summary.
+        alarm_ids : list of int
+            Ids of the new alarms.
+
+        Raises
+        ------
+        StoreError
+            If the run is not in the store.
+        """
+        summaries = list(summaries)
+
         def fn(conn):
             run = conn.execute(select(S.runs.c.actuator_id, S.runs.c.n_chunks)
                                .where(S.runs.c.id == run_id)).first()
             if run is None:
                 raise StoreError(f"{self.url}: no run with id {run_id}")
             now = _now()
-            seq = None
-            if summary is not None:
-                seq = int(run.n_chunks)
-                conn.execute(insert(S.chunk_summaries).values(
-                    run_id=run_id, seq=seq, recorded_at=now, **asdict(summary)))
+            seq0 = int(run.n_chunks)
+            if summaries:
+                conn.execute(insert(S.chunk_summaries), [
+                    {**sm.__dict__, "run_id": run_id, "seq": seq0 + i, "recorded_at": now}
+                    for i, sm in enumerate(summaries)])
                 conn.execute(update(S.runs).where(S.runs.c.id == run_id).values(
-                    n_chunks=S.runs.c.n_chunks + 1,
-                    n_windows=S.runs.c.n_windows + summary.n_windows))
+                    n_chunks=S.runs.c.n_chunks + len(summaries),
+                    n_windows=S.runs.c.n_windows + sum(sm.n_windows for sm in summaries)))
             ids = [int(conn.execute(insert(S.alarms).values(
                 run_id=run_id, raised_at=now, **asdict(a))).inserted_primary_key[0])
                 for a in new_alarms]
@@ -273,7 +311,7 @@ class EventStore:
                 conn.execute(update(S.alarms).where(S.alarms.c.id == aid).values(**cols))
             conn.execute(update(S.actuators).where(S.actuators.c.id == run.actuator_id)
                          .values(last_seen_at=now))
-            return seq, ids
+            return list(range(seq0, seq0 + len(summaries))), ids
 
         return self._write(fn)
 

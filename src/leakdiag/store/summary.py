@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ChunkSummary", "AlarmRecord", "summarize_windows"]
+__all__ = ["ChunkSummary", "AlarmRecord", "summarize_windows", "summarize_chunks"]
 
 
 def _f(v) -> float | None:
@@ -134,3 +134,84 @@ def summarize_windows(time, values, scores=None, alarms=None) -> ChunkSummary | 
         float(t[0]), float(t[-1]), int(len(t)), int(len(v) - len(fin)),
         _f(fin.mean()) if len(fin) else None, _f(fin.min()) if len(fin) else None,
         _f(fin.max()) if len(fin) else None, _f(v[-1]), s_max, s_last, a_any)
+
+
+def _nan_none(x: list) -> list:
+    return [v if math.isfinite(v) else None for v in x]
+
+
+def summarize_chunks(time, values, scores=None, alarms=None, counts=()) -> list[ChunkSummary]:
+    """Summarise several consecutive chunks at once (as :func:`summarize_windows` on each).
+
+    The windows of all chunks come concatenated; ``counts`` says how many belong to each chunk.
+    The statistics are computed with ``numpy.ufunc.reduceat`` over the chunk boundaries, so the
+    cost does not grow with the number of chunks as a Python loop over them would (the event
+    store's writer takes every chunk a fast replay produced in one pass).
+
+    Parameters
+    ----------
+    time : array_like
+        Window times (s), in order.
+    values : array_like
+        Feature values (NaN for degenerate windows).
+    scores : array_like, optional
+        Detector scores (NaN within the burn-in).
+    alarms : array_like of bool, optional
+        Detector alarms.
+    counts : sequence of int
+        Windows per chunk, summing to ``len(time)``; chunks with 0 windows give no summary.
+
+    Returns
+    -------
+    list of ChunkSummary
+        One per chunk with at least one window, equal to :func:`summarize_windows` on its
+        windows (the mean summed in another order: equal to about 1e-15 relative).
+
+    Raises
+    ------
+    ValueError
+        If the arrays differ in length, or ``counts`` is negative or does not sum to their length.
+
+    Examples
+    --------
+    >>> out = summarize_chunks([1.0, 2.0, 3.0], [0.5, float("nan"), 0.1], [0.0, 1.0, 4.0],
+    ...                        [False, False, True], counts=[2, 0, 1])
+    >>> [(s.t_start_s, s.n_windows, s.n_degenerate, s.value_mean, s.alarm) for s in out]
+    [(1.0, 2, 1, 0.5, False), (3.0, 1, 0, 0.1, True)]
+    """
+    t = np.asarray(time, dtype=np.float64)
+    v = np.asarray(values, dtype=np.float64)
+    c = np.asarray(counts, dtype=np.int64).reshape(-1)
+    if v.shape != t.shape:
+        raise ValueError(f"values has shape {v.shape}, time has {t.shape}")
+    if (c < 0).any() or int(c.sum()) != len(t):
+        raise ValueError(f"counts must be >= 0 and sum to {len(t)} windows, got sum {int(c.sum())}")
+    c = c[c > 0]
+    if not len(c):
+        return []
+    ends = np.cumsum(c)
+    starts = ends - c
+    fin = np.isfinite(v)
+    n_fin = np.add.reduceat(fin.astype(np.int64), starts)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.add.reduceat(np.where(fin, v, 0.0), starts) / n_fin
+    vmin = np.minimum.reduceat(np.where(fin, v, np.inf), starts)
+    vmax = np.maximum.reduceat(np.where(fin, v, -np.inf), starts)
+    none = [None] * len(c)
+    s_max = s_last = a_any = none
+    if scores is not None:
+        s = np.asarray(scores, dtype=np.float64)
+        if s.shape != t.shape:
+            raise ValueError(f"scores has shape {s.shape}, time has {t.shape}")
+        s_max = _nan_none(np.maximum.reduceat(np.where(np.isfinite(s), s, -np.inf),
+                                              starts).tolist())
+        s_last = _nan_none(s[ends - 1].tolist())
+    if alarms is not None:
+        a = np.asarray(alarms, dtype=bool)
+        if a.shape != t.shape:
+            raise ValueError(f"alarms has shape {a.shape}, time has {t.shape}")
+        a_any = np.logical_or.reduceat(a, starts).tolist()
+    return [ChunkSummary(*row) for row in zip(
+        t[starts].tolist(), t[ends - 1].tolist(), c.tolist(), (c - n_fin).tolist(),
+        _nan_none(mean.tolist()), _nan_none(vmin.tolist()), _nan_none(vmax.tolist()),
+        _nan_none(v[ends - 1].tolist()), s_max, s_last, a_any)]
