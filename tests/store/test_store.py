@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from leakdiag.store import (SCHEMA_VERSION, AlarmRecord, ChunkSummary, EventStore, StoreError,
-                            store_url, summarize_windows)
+                            store_url, summarize_chunks, summarize_windows)
 
 WRITER = Path(__file__).with_name("_writer.py")
 SRC = str(Path(__file__).resolve().parents[2] / "src")
@@ -184,3 +184,65 @@ def test_killed_writer_leaves_a_consistent_file(tmp_path):
     run = st.start_run("victim", command="monitor", source="again", feature="ac p1")
     assert st.add_chunk(run, _summary(0)) == (0, [])
     assert st.count("chunk_summaries") == n_rows + 1
+
+
+def test_summarize_chunks_equals_summarize_windows_per_chunk():
+    rng = np.random.default_rng(3)
+    counts = [3, 0, 1, 5, 2, 0, 4]
+    n = sum(counts)
+    t = np.arange(n) * 0.19 + 0.199
+    v = rng.normal(size=n)
+    v[[1, 4, 5]] = np.nan  # degenerate windows, one chunk of only NaN values below
+    v[9:11] = np.nan
+    s = np.abs(rng.normal(size=n)) * 3
+    s[:2] = np.nan  # burn-in
+    a = s >= 2.0
+    ref, i = [], 0
+    for c in counts:
+        if c:
+            ref.append(summarize_windows(t[i:i + c], v[i:i + c], s[i:i + c], a[i:i + c]))
+        i += c
+    got = summarize_chunks(t, v, s, a, counts)
+    assert len(got) == len(ref) == 5
+    for g, r in zip(got, ref):
+        for k, want in r.__dict__.items():  # the mean is summed in another order
+            have = getattr(g, k)
+            assert have == want if want is None or k != "value_mean" else \
+                have == pytest.approx(want, rel=1e-14), (k, have, want)
+    assert got[3] == ref[3] and got[3].value_mean is None and got[3].value_last is None
+    assert [g.n_windows for g in summarize_chunks(t, v, counts=counts)] == [3, 1, 5, 2, 4]
+    assert summarize_chunks(t, v, counts=counts)[0].score_max is None
+    assert summarize_chunks([], [], counts=[0, 0]) == []
+    with pytest.raises(ValueError, match="sum to 15 windows, got sum 14"):
+        summarize_chunks(t, v, counts=[14])
+    with pytest.raises(ValueError, match="must be >= 0"):
+        summarize_chunks(t, v, counts=[16, -1])
+
+
+def test_add_chunks_is_one_group_equal_to_single_chunks(tmp_path):
+    one, group = EventStore(tmp_path / "one.db"), EventStore(tmp_path / "group.db")
+    r1 = one.start_run("rig1", command="monitor", source="a", feature="f")
+    r2 = group.start_run("rig1", command="monitor", source="a", feature="f")
+    sums = [_summary(i, i >= 3) for i in range(6)]
+    for sm in sums[:3]:
+        one.add_chunk(r1, sm)
+    _, (aid,) = one.add_chunk(r1, sums[3], [AlarmRecord(3.2, 7.0, 6.0, onset_s=2.5)])
+    for sm in sums[4:]:
+        one.add_chunk(r1, sm)
+    assert group.add_chunks(r2, sums[:1]) == ([0], [])
+    seqs, ids = group.add_chunks(r2, sums[1:], [AlarmRecord(3.2, 7.0, 6.0, onset_s=2.5)])
+    assert seqs == [1, 2, 3, 4, 5] and len(ids) == 1
+    assert group.add_chunks(r2, [], alarm_updates={ids[0]: {"cleared_time_s": 9.0}}) == ([], [])
+    one.add_chunk(r1, None, alarm_updates={aid: {"cleared_time_s": 9.0}})
+    cols = ["seq", "t_start_s", "t_end_s", "n_windows", "n_degenerate", "value_mean",
+            "value_min", "value_max", "value_last", "score_max", "score_last", "alarm"]
+    (s1, a1), (s2, a2) = one.history("rig1"), group.history("rig1")
+    assert s1[cols].equals(s2[cols]) and len(s2) == 6
+    assert a1[["alarm_time_s", "onset_s", "cleared_time_s"]].equals(
+        a2[["alarm_time_s", "onset_s", "cleared_time_s"]])
+    con = sqlite3.connect(tmp_path / "group.db")
+    assert con.execute("select n_chunks, n_windows from runs").fetchall() == [(6, 18)]
+    with pytest.raises(StoreError, match="no run with id 99"):
+        group.add_chunks(99, sums)
+    assert con.execute("select count(*) from chunk_summaries").fetchone() == (6,)  # rolled back
+    con.close()

@@ -30,10 +30,21 @@ __all__ = ["MonitorHooks"]
 
 #: Seconds the worker pauses after each take, so that the chunks of a fast replay gather into one
 #: board update and one store transaction. Small against the page's 1 s latency goal (issue 17).
-UPDATE_PERIOD_S = 0.05
+UPDATE_PERIOD_S = 0.1
 #: Windows the monitor may run ahead of the worker before :meth:`MonitorHooks.push` waits
 #: (bounds the memory of the queue: about 200 bytes per window).
 MAX_PENDING_WINDOWS = 100_000
+
+
+def _arrays(events: list) -> tuple:
+    """(time, values, scores, alarms) of a list of WindowEvent (scores, alarms None without)."""
+    n = len(events)
+    t = np.fromiter((e.time for e in events), np.float64, n)
+    v = np.fromiter((e.value for e in events), np.float64, n)
+    if events[0].score is None:
+        return t, v, None, None
+    return (t, v, np.fromiter((e.score for e in events), np.float64, n),
+            np.fromiter((e.alarm for e in events), bool, n))
 
 
 class MonitorHooks:
@@ -71,6 +82,7 @@ class MonitorHooks:
                  say: Callable[[str], None] = print):
         self.actuator = actuator
         self.scorer = monitor.scorers[0]
+        self.monitor = monitor
         self.board = LiveBoard()
         self.board.add(actuator, spec.label, self.scorer, (spec.window - 1) / sample_rate)
         self.live = self.board._live[actuator]
@@ -146,11 +158,16 @@ class MonitorHooks:
             raise self._error
         if not events:
             return
+        arrays = self.monitor.last_arrays[0] if self.monitor.last_arrays else None
+        if arrays is None or len(arrays[0]) != len(events) or arrays[0][-1] != events[-1].time:
+            arrays = _arrays(events)  # not the monitor's last push: take them from the events
+        # a chunk is kept as four arrays (no event objects: they would burden the garbage
+        # collector of the monitor's thread while they wait)
         br = getattr(self.scorer, "branches_", None)  # a new tuple per scored block
         with self._cond:
             while self._n_pending >= MAX_PENDING_WINDOWS and self._error is None:
                 self._cond.wait()
-            self._pending.append((events, br, self._recv))
+            self._pending.append((arrays, br, self._recv))
             self._n_pending += len(events)
             self._n_pushed += 1
             self._cond.notify()
@@ -181,15 +198,12 @@ class MonitorHooks:
                 self._cond.notify_all()
 
     def _apply(self, batch: list) -> None:
-        evs = [e for chunk_events, _, _ in batch for e in chunk_events]
-        n = len(evs)
-        t = np.fromiter((e.time for e in evs), np.float64, n)
-        v = np.fromiter((e.value for e in evs), np.float64, n)
+        t, v = (np.concatenate([c[k] for c, _, _ in batch]) for k in (0, 1))
+        n = len(t)
         s = a = br = None
-        if evs[0].score is not None:
-            s = np.fromiter((e.score for e in evs), np.float64, n)
-            a = np.fromiter((e.alarm for e in evs), bool, n)
-            if all(b is not None and len(b[0]) == len(c) for c, b, _ in batch):
+        if batch[0][0][2] is not None:
+            s, a = (np.concatenate([c[k] for c, _, _ in batch]) for k in (2, 3))
+            if all(b is not None and len(b[0]) == len(c[0]) for c, b, _ in batch):
                 br = tuple(np.concatenate([b[k] for _, b, _ in batch]) for k in (0, 1))
         recv = batch[-1][2]
         # split where an alarm is raised: each episode's leak estimate is taken before the next
@@ -209,7 +223,7 @@ class MonitorHooks:
         if self.store is not None:
             from leakdiag.store import summarize_chunks
 
-            summaries = summarize_chunks(t, v, s, a, [len(c) for c, _, _ in batch])
+            summaries = summarize_chunks(t, v, s, a, [len(c[0]) for c, _, _ in batch])
             _, ids = self.store.add_chunks(self.run_id, summaries, new, updates)
             if ids:
                 self._alarm_id = ids[-1]

@@ -177,6 +177,9 @@ class Monitor:
             for s, sp in zip(scorers, specs)]
         self.features = [StreamingFeature(s, sample_rate, start_time) for s in specs]
         self.channels = sorted({c for s in specs for c in s.channels})
+        #: The arrays of the last push, per spec ``(time, values, scores, alarms)``: what a
+        #: consumer of the events (the dashboard, the store) can keep without the event objects.
+        self.last_arrays: list = []
 
     @property
     def n_samples_seen(self) -> int:
@@ -216,6 +219,7 @@ class Monitor:
                     )
                 alarms = _alarms(scorer, scores)
             out.append((fs.time, fs.values, scores, alarms))
+        self.last_arrays = out
         return out
 
     def push(self, chunk) -> list[WindowEvent]:
