@@ -128,7 +128,11 @@ class EventStore:
         try:
             self._write(lambda c: self._check_schema(c, create))
         except OperationalError as exc:
+            self.close()
             raise StoreError(f"{self.url}: cannot open the event store: {exc.orig}") from None
+        except BaseException:
+            self.close()  # no pooled connection left open behind a refused store
+            raise
 
     # -- internals ------------------------------------------------------------------------
     def _check_schema(self, conn, create: bool) -> None:

@@ -1,0 +1,106 @@
+"""The event store on a real PostgreSQL server: schema, round trip, group writes, two writer
+processes, a schema-version mismatch (see conftest.py for where the server comes from)."""
+
+import subprocess
+import sys
+
+import pytest
+from sqlalchemy import create_engine, inspect, text
+
+from leakdiag.store import SCHEMA_VERSION, AlarmRecord, EventStore, StoreError
+
+from tests.store.test_store import WRITER, _env, _summary
+
+
+def test_schema_and_round_trip(pg_url):
+    st = EventStore(pg_url)
+    eng = create_engine(pg_url)
+    assert set(inspect(eng).get_table_names()) == {"schema_version", "actuators", "runs",
+                                                   "chunk_summaries", "alarms"}
+    with eng.connect() as c:
+        assert c.execute(text("select version from schema_version")).all() == \
+            [(SCHEMA_VERSION,)]
+    run = st.start_run("rig1", command="monitor", source="a.parquet", feature="ac p1",
+                       sample_rate_hz=1000.0, threshold=12.5, system="vca")
+    assert st.add_chunk(run, _summary(0)) == (0, [])
+    seqs, ids = st.add_chunks(run, [_summary(1, True), _summary(2, True)],
+                              [AlarmRecord(1.4, 13.0, 12.5, onset_s=0.9, leak_lpm=0.1,
+                                           leak_lpm_low=0.05, leak_lpm_high=0.15)])
+    assert seqs == [1, 2] and len(ids) == 1
+    st.add_chunks(run, [_summary(3, False)], alarm_updates={ids[0]: {"cleared_time_s": 3.3}})
+    st.end_run(run)
+    summ, al = st.history("rig1")
+    assert summ["seq"].tolist() == [0, 1, 2, 3]
+    assert summ["value_mean"].tolist() == pytest.approx([0.0, 0.1, 0.2, 0.3], abs=1e-15)
+    assert summ["alarm"].tolist()[1:] == [True, True, False] and summ["alarm"].isna()[0]
+    assert summ["recorded_at"].dt.tz is not None  # stored with its time zone (UTC)
+    a = al.iloc[0]
+    assert (a.alarm_time_s, a.onset_s, a.leak_lpm, a.cleared_time_s) == (1.4, 0.9, 0.1, 3.3)
+    with eng.connect() as c:
+        assert c.execute(text("select n_chunks, n_windows, status from runs")).all() == \
+            [(4, 12, "finished")]
+    assert st.fleet().loc[0, "state"] == "OK"
+    st.close()
+    eng.dispose()
+
+
+def test_two_processes_write_the_same_database(pg_url):
+    EventStore(pg_url).close()
+    n = 60
+    procs = [subprocess.Popen([sys.executable, str(WRITER), pg_url, name, str(n)], env=_env(),
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for name in ("w1", "w2")]
+    for p in procs:
+        out, err = p.communicate(timeout=240)
+        assert p.returncode == 0, err
+        assert out.split() == [str(i) for i in range(n)]
+    st = EventStore(pg_url)
+    assert st.count("chunk_summaries") == 2 * n
+    for name in ("w1", "w2"):
+        summ, _ = st.history(name)
+        assert summ["seq"].tolist() == list(range(n))
+        assert summ["value_mean"].tolist() == [float(i) for i in range(n)]
+    st.close()
+
+
+def test_schema_version_mismatch(pg_url):
+    EventStore(pg_url).close()
+    eng = create_engine(pg_url)
+    with eng.begin() as c:
+        c.execute(text("update schema_version set version = 99"))
+    eng.dispose()
+    with pytest.raises(StoreError, match=r"schema version \[99\].*reads version 1"):
+        EventStore(pg_url)
+
+
+def test_monitor_store_on_postgres(healthy_rec, pg_url):
+    """The monitor's worker writes groups of chunks through the non-SQLite insert path."""
+    from leakdiag.dashboard.hooks import MonitorHooks
+    from leakdiag.features.methods import MethodSpec
+    from leakdiag.stream import Monitor, recording_chunks
+
+    spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=5)
+    rec = healthy_rec
+    mon = Monitor(spec, rec.sample_rate)
+    hooks = MonitorHooks("rig9", spec, mon, "x.parquet", rec.sample_rate, store=pg_url,
+                         say=lambda m: None)
+    n_chunks = 0
+    for c in recording_chunks(rec, 1000, ["p1"]):
+        evs = mon.push(c)
+        hooks.push(evs)
+        n_chunks += bool(evs)
+    hooks.close(True)
+    st = EventStore(pg_url)
+    summ, _ = st.history("rig9")
+    assert len(summ) == n_chunks and summ["seq"].tolist() == list(range(n_chunks))
+    assert int(summ["n_windows"].sum()) == mon.features[0].n_windows
+    assert summ["score_max"].isna().all() and summ["alarm"].isna().all()  # no detector
+    st.close()
+
+
+@pytest.fixture
+def healthy_rec():
+    from leakdiag.sim import simulate_vca
+
+    return simulate_vca(duration=20.0, leak_lpm=None, seed=4)
+
