@@ -4,17 +4,39 @@
   end of the page's render of the snapshot that contains it, measured in the page
   (``Date.now()`` against the chunk's ``received_wall``); goal <= 1 s. Real-time replay at
   1 kHz in 50-sample chunks, a headless Chromium on the live page.
-* the monitor's throughput (replay as fast as possible) without hooks, with the live board and
-  server, with the page open in Chromium, and with the event store.
+* the monitor's throughput (replay as fast as possible, 3.6 M samples in 1,000- and
+  65,536-sample chunks): the monitor alone against ``--dashboard`` with a client process reading
+  the event stream, ``--store`` (SQLite), both, and ``--dashboard`` with the page open in
+  Chromium. The cases run interleaved in one process (ABBA order), ``REPEATS`` times each, and
+  their medians are compared: the loop's wall time (the monitor's throughput), the CPU time of
+  the monitor's thread, and the wall time until the hooks have written everything (flush).
 
-Skipped when Debian's chromium/chromedriver are missing (the throughput without a page still
-runs).
+The latency and page-open cases are skipped when Debian's chromium/chromedriver are missing.
+
+Measured on the shared 2-core development machine at load 8-12 (docs/operations.md has the
+table). Throughput in % of the monitor alone, "loop wall / monitor-thread CPU", medians; before =
+the hooks at 152754d (board update and one store transaction per chunk in the monitor's
+thread, 4 runs), after = the worker thread (6 runs):
+
+==============================================  ===========  ===========  ===========  ===========
+case                                            1000 before  1000 after   65536 before 65536 after
+==============================================  ===========  ===========  ===========  ===========
+monitor alone, samples/s                        3.9e6        4.3e6        1.6e7        1.8e7
+--dashboard, a client reading the event stream  50 / 56      83 / 108     52 / 74      91 / 101
+--store (SQLite)                                2 / 3        64 / 86      19 / 24      80 / 95
+--store and --dashboard with a client           2 / 3        62 / 92      18 / 25      82 / 106
+--dashboard, the page open in Chromium          15 / 64      31 / 94      18 / 74      42 / 100
+==============================================  ===========  ===========  ===========  ===========
+
+Latency sample -> page (after, load 11): median 188 ms, 95th percentile 322 ms, max 367 ms.
 """
 
+import gc
 import os
 import shutil
+import subprocess
+import sys
 import tempfile
-import threading
 import time
 
 import numpy as np
@@ -29,6 +51,8 @@ from leakdiag.stream import Monitor, paced, recording_chunks
 LATENCY_GOAL_S = 1.0
 SPEC = MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=5)
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
+#: Repeats of each throughput case (interleaved; the medians are compared).
+REPEATS = int(os.environ.get("LEAKDIAG_BENCH_REPEATS", "6"))
 
 
 class _Scorer:
@@ -69,40 +93,61 @@ def _say(capsys, msg):
         print(f"\n[dashboard bench] {msg}")
 
 
-def _run(rec, hooks_kw=None, page=False, chunk=1000, speed=None, on_start=None):
+def _sse_client(url):
+    """A page stand-in in another process: reads the server-sent events and drops them."""
+    code = ("import sys, urllib.request\n"
+            "r = urllib.request.urlopen(sys.argv[1])\n"
+            "while r.read(65536):\n    pass\n")
+    return subprocess.Popen([sys.executable, "-c", code, url], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+
+
+def _run(rec, hooks_kw=None, page=None, chunk=1000, speed=None):
+    """Replay ``rec``; ``page``: None, "sse" (a client process) or "chromium" (the live page).
+
+    Returns (loop wall s, monitor-thread CPU s, wall s including the hooks' close, latencies).
+    """
     src = recording_chunks(rec, chunk, ["p1"])
     mon = Monitor(SPEC, rec.sample_rate, 0.0, scorers=_Scorer())
     hooks = None if hooks_kw is None else MonitorHooks("bench", SPEC, mon, "synthetic",
                                                       rec.sample_rate, say=lambda m: None,
                                                       **hooks_kw)
-    drv = prof = None
-    if page:
+    drv = prof = client = None
+    if page == "chromium":
         drv, prof = _browser()
         drv.get(hooks.server.page_url("live/bench"))
         time.sleep(1.0)  # page loaded and streaming
-    if on_start:
-        on_start(hooks)
+    elif page == "sse":
+        client = _sse_client(hooks.server.page_url("stream/bench"))
+        time.sleep(1.0)
     it = paced(src, speed)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.thread_time()
     for c in (hooks.wrap(it) if hooks else it):
         evs = mon.push(c)
         if hooks:
             hooks.push(evs)
-    dt = time.perf_counter() - t0
+    dt, cpu = time.perf_counter() - t0, time.thread_time() - c0
     lat = None
-    if page:
+    if hooks and hasattr(hooks, "flush"):  # (the hooks before 49d6169 wrote in push)
+        hooks.flush()
+    dt_all = time.perf_counter() - t0
+    if drv is not None:
         time.sleep(1.0)
         lat = drv.execute_script("return window.leakdiagLatencies")
         drv.quit()
         shutil.rmtree(prof, ignore_errors=True)
+    if client is not None:
+        client.kill()
+        client.wait()
     if hooks:
         hooks.close(True)
-    return dt, lat
+    return dt, cpu, dt_all, lat
 
 
 def test_bench_latency_sample_to_page(capsys):
     rec = _recording(30.0)
-    _, lat = _run(rec, {"bind": Bind("127.0.0.1", 0)}, page=True, chunk=50, speed=1.0)
+    _, _, _, lat = _run(rec, {"bind": Bind("127.0.0.1", 0)}, page="chromium", chunk=50,
+                        speed=1.0)
     lat = np.array(lat[3:])  # the first renders include the page's start-up
     _say(capsys, f"latency sample -> page render, real-time replay 1 kHz, 50-sample chunks, "
          f"{len(lat)} renders: median {np.median(lat) * 1e3:.0f} ms, 95th percentile "
@@ -111,26 +156,38 @@ def test_bench_latency_sample_to_page(capsys):
          f"{'met' if lat.max() <= LATENCY_GOAL_S else 'NOT met'} at the max)")
 
 
-def test_bench_throughput_with_and_without_page(capsys, tmp_path):
+@pytest.mark.parametrize("chunk", [1000, 65536])
+def test_bench_throughput_with_and_without_page(capsys, tmp_path, chunk):
+    """Each case against the monitor alone, in the same process, interleaved (ABBA order)."""
     rec = _recording(3600.0, seed=1)  # 3.6 M samples: one hour at 1 kHz
     n = len(rec["p1"])
     _run(_recording(5.0))  # compile / warm caches
-    srv = {"bind": Bind("127.0.0.1", 0)}
-    cases = [("monitor alone", None, False, 1000),
-             ("live board + server, no page", srv, False, 1000)]
+    gc.collect()
+    gc.freeze()  # as `leakdiag monitor` does once its hooks are set up
     have_browser = os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)
+    srv = {"bind": Bind("127.0.0.1", 0)}
+    cases = [("monitor alone", None, None),
+             ("--dashboard, a client reading the event stream", srv, "sse"),
+             ("--store (SQLite)", "store", None),
+             ("--store and --dashboard with a client", "both", "sse")]
     if have_browser:
-        cases.append(("live board + server, page open in Chromium", srv, True, 1000))
-    cases += [("event store (SQLite, one commit per chunk)", {"store": str(tmp_path / "a.db")},
-               False, 1000),
-              ("monitor alone", None, False, 65536),
-              ("event store (SQLite, one commit per chunk)", {"store": str(tmp_path / "b.db")},
-               False, 65536)]
-    base = {}
-    for name, kw, page, chunk in cases:
-        best = min(_run(rec, kw, page, chunk=chunk)[0] for _ in range(1 if page else 3))
-        base.setdefault(chunk, best)
-        _say(capsys, f"throughput, {chunk}-sample chunks, {name}: {n / best:.3g} samples/s "
-             f"({best:.2f} s for {n} samples; {base[chunk] / best:.0%} of the monitor alone)")
+        cases.append(("--dashboard, the page open in Chromium", srv, "chromium"))
+    reps = REPEATS
+    res: dict = {name: [] for name, _, _ in cases}
+    for r in range(reps):
+        for k, (name, kw, page) in enumerate(cases if r % 2 == 0 else cases[::-1]):
+            if kw == "store":
+                kw = {"store": str(tmp_path / f"s{r}-{k}.db")}
+            elif kw == "both":
+                kw = {"store": str(tmp_path / f"b{r}-{k}.db"), **srv}
+            res[name].append(_run(rec, kw, page, chunk=chunk)[:3])
+    base = np.median(np.array(res["monitor alone"]), axis=0)
+    for name, _, _ in cases:
+        m = np.median(np.array(res[name]), axis=0)
+        _say(capsys, f"throughput, {chunk}-sample chunks, {name}: {n / m[0]:.3g} samples/s "
+             f"(median of {reps}: loop {m[0]:.3f} s, {base[0] / m[0]:.0%} of the monitor alone; "
+             f"monitor-thread CPU {m[1]:.3f} s, {base[1] / m[1]:.0%}; with the hooks' final "
+             f"flush {m[2]:.3f} s, {base[2] / m[2]:.0%})")
+    gc.unfreeze()
     if not have_browser:
         _say(capsys, "page-open case skipped: no chromium")

@@ -1,8 +1,9 @@
-"""Live state of monitored actuators, updated by the monitor and read by the web page.
+"""Live state of monitored actuators, updated off the monitor's path and read by the web page.
 
-The monitor calls :meth:`LiveBoard.update` once per chunk with the arrays it already has; the
-update only appends to bounded buffers under a lock (no JSON, no I/O), so the detector is never
-slowed by the page. The web server reads :meth:`LiveBoard.snapshot` at a few Hz and sends it on.
+:class:`~leakdiag.dashboard.hooks.MonitorHooks` calls :meth:`LiveBoard.update` from its worker
+thread with the windows of every chunk queued since its last take (any split of the windows
+into calls gives the same state); the update appends to bounded buffers under a lock (no JSON,
+no I/O). The web server reads :meth:`LiveBoard.snapshot` at a few Hz and sends it on.
 
 State of an actuator (decisions, see ``docs/operations.md``):
 
