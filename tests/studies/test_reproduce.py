@@ -64,6 +64,12 @@ def test_html_and_markdown_complete(quick_run):
         assert section in page
     agree = pd.read_csv(out / "tables.csv").direction_agrees.sum()
     assert f"agrees with the thesis in {agree} of" in md
+    # the code the numbers come from, so that a committed report can be checked against today's
+    from leakdiag.studies.cache import code_fingerprint
+    from leakdiag.studies.reproduce import code_fingerprints
+    fp = code_fingerprints()
+    assert fp["sim"] == code_fingerprint(sim.simulate_eha) != fp["features"]
+    assert f"Code: simulators `{fp['sim']}`, features `{fp['features']}`" in md
 
 
 def test_second_run_is_all_cache_hits(quick_run, tmp_path):

@@ -150,6 +150,15 @@ def _onset(rep, system) -> float:
     return rep.config.vca_onset_s if s == "vca" else rep.config.eha_onset_s
 
 
+def _code_sentence(code) -> str:
+    """The code fingerprints of the run, or nothing for a run that did not record them."""
+    if not code:
+        return ""
+    return (f" Code: simulators `{code.get('sim', '?')}`, features `{code.get('features', '?')}` "
+            "(`leakdiag.studies.reproduce.code_fingerprints()`; other values today mean that the "
+            "code has changed since this run, so its numbers may differ: rerun it).")
+
+
 def _summary(rep, r: Report) -> None:
     t = rep.tables
     r.heading("Summary")
@@ -162,7 +171,8 @@ def _summary(rep, r: Report) -> None:
         f"{rep.timing.get('cache_hits', 0)} read from the cache; simulations and measures took "
         f"{rep.timing.get('wall_s', float('nan')):.0f} s of wall time). Every number below was "
         f"computed in "
-        f"this run, on leakdiag's simulators; the thesis's numbers come from physical test rigs.")
+        f"this run, on leakdiag's simulators; the thesis's numbers come from physical test rigs."
+        + _code_sentence(rep.timing.get("code")))
     by_sys = t.groupby("system")["direction_agrees"].agg(["sum", "count"])
     items = [f"Feature direction after the leak (rise or fall) agrees with the thesis in "
              f"{agree} of {n} table rows ("

@@ -21,7 +21,7 @@ from leakdiag.studies.protocol import FULL, QUICK, ProtocolConfig, build_cases, 
 
 __all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings",
            "sensitivity_summary", "write_outputs", "CONTRACT_COLUMNS", "per_table_agreement",
-           "compare_runs"]
+           "compare_runs", "code_fingerprints"]
 
 #: Columns of ``tables.csv`` written by :func:`write_outputs` (the outside contract).
 CONTRACT_COLUMNS = [
@@ -58,7 +58,7 @@ class Reproduction:
     stationarity : dict
         System -> ``{"moments": {channel: DataFrame}, "tests": DataFrame}``.
     timing : dict
-        Wall time, number of cases, cache hits.
+        Wall time, number of cases, cache hits, ``code`` (:func:`code_fingerprints` at the run).
     previous : pandas.DataFrame or None
         ``tables.csv`` of an earlier run to compare with (:func:`compare_runs`), if given.
     """
@@ -326,6 +326,30 @@ def compare_runs(new, old):
                                                      for s in ("old", "new")]]
 
 
+def code_fingerprints() -> dict[str, str]:
+    """Fingerprints of the code a reproduction's numbers come from.
+
+    The simulators' package (the fingerprint that is part of every cache key, see
+    :func:`leakdiag.studies.cache.code_fingerprint`) and the features' package. A committed
+    report whose values differ from today's was made by other code: rerun it.
+
+    Returns
+    -------
+    dict
+        ``{"sim": 16 hex digits, "features": 16 hex digits}``.
+
+    Examples
+    --------
+    >>> sorted(code_fingerprints()), len(code_fingerprints()["sim"])
+    (['features', 'sim'], 16)
+    """
+    from leakdiag.features.methods import compute_feature
+    from leakdiag.sim import simulate_vca
+    from leakdiag.studies.cache import code_fingerprint
+
+    return {"sim": code_fingerprint(simulate_vca), "features": code_fingerprint(compute_feature)}
+
+
 def reproduce(systems=("vca", "eha"), config: ProtocolConfig | None = None, *, quick=False,
               scheduler: str | None = "local", n_workers: int | None = None,
               progress: bool = True) -> Reproduction:
@@ -380,7 +404,7 @@ def reproduce(systems=("vca", "eha"), config: ProtocolConfig | None = None, *, q
     tables = assemble_tables(thesis, rows)
     timing = {"wall_s": time.perf_counter() - t0, "n_cases": len(cases),
               "cache_hits": sum(bool(cr.result.get("cache_hit")) for cr in results),
-              "case_s": float(sum(cr.elapsed_s for cr in results))}
+              "case_s": float(sum(cr.elapsed_s for cr in results)), "code": code_fingerprints()}
     return Reproduction(cfg, systems, tables, series, preferred_settings(tables), ofat,
                         pd.DataFrame(sens), stat, timing)
 
