@@ -36,6 +36,24 @@ def test_thesis_protocol_states_the_case_studies_of_sec_5_1():
     assert all(c["sim"]["sensor_chain"] == "thesis" for c in cases)
 
 
+def test_thesis_protocol_states_the_eha_case_studies_of_sec_6():
+    cases = build_cases(THESIS, ["eha"])
+    tables = {c["case_study"]: c["sim"] for c in cases if c["kind"] == "tables"}
+    # Sec. 6 list: "under a no-load condition", leak after 90 s of a 180 s run, 1.2 / 0.98 L/min
+    assert {cs: (t["load"], t["duration"], t["onset"], t["leak_lpm"])
+            for cs, t in tables.items()} == {1: ("none", 180.0, 90.0, 1.2),
+                                             2: ("none", 180.0, 90.0, 0.98)}
+    sens = [c["sim"] for c in cases if c["kind"] == "sensitivity"]
+    # case study 3: 0.77-1.63 L/min "under load and no-load conditions", 180 s, leak at half
+    assert {s["leak_lpm"] for s in sens} >= {0.77, 1.63}
+    assert min(s["leak_lpm"] for s in sens) == 0.77 and max(s["leak_lpm"] for s in sens) == 1.63
+    assert {s["load"] for s in sens} == {"spring", "none"}
+    assert all((s["duration"], s["onset"]) == (180.0, 90.0) for s in sens)
+    assert all("reference" not in s for s in sens)  # open loop: the simulator's 3 sin 4t
+    assert all(c["sim"]["sensor_chain"] == "thesis" for c in cases)
+    assert len(build_cases(THESIS)) == 98  # the committed run's count (docs/reproduction)
+
+
 def test_v1_protocol_keeps_the_old_cases_bit_for_bit():
     cases = build_cases(V1, ["vca", "eha"])
     first = [c["sim"] for c in cases if c["kind"] == "tables"][0]
