@@ -175,3 +175,17 @@ def test_null_drift_with_temperature_is_not_a_leak(machine17):
                                seed=41, conditions=warm)
     v = det.predict(leak)
     assert v.leak and 30.0 <= v.alarm_time_s <= 40.0
+
+
+def test_glr_rate_tail_never_rises_beyond_the_grid():
+    from leakdiag.detect._flow_balance_search import GLRThreshold
+
+    grid = np.array([1.0, 2.0, 3.0])
+    # the last Monte-Carlo level has more episodes than the one before (possible: one episode
+    # above 2 can hold several above 3): the tail is held flat, not extrapolated upwards
+    th = GLRThreshold(3.0, 0.3, "healthy-residual-bootstrap", 100.0, 1.0, 0, grid,
+                      np.array([1.0, 0.1, 0.2]))
+    assert th.rate_at(800.0) == pytest.approx(0.2)
+    falling = GLRThreshold(3.0, 0.3, "healthy-residual-bootstrap", 100.0, 1.0, 0, grid,
+                           np.array([1.0, 0.1, 0.01]))
+    assert falling.rate_at(4.0) == pytest.approx(0.001)

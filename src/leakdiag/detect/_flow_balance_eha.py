@@ -120,7 +120,8 @@ def _terms_from_raw(raw: np.ndarray, nominal: EHAParams, model: EHAPumpModel) ->
             "compressibility": comp}
 
 
-def terms(rec, nominal: EHAParams, model: EHAPumpModel, window: int, laminar: bool) -> dict:
+def terms(rec, nominal: EHAParams, model: EHAPumpModel, window: int, laminar: bool,
+          quiet: bool = False) -> dict:
     """Window terms of one recording with a given model.
 
     Parameters
@@ -135,6 +136,9 @@ def terms(rec, nominal: EHAParams, model: EHAPumpModel, window: int, laminar: bo
         Window length in sample intervals.
     laminar : bool
         Leak law Eq. 2-5 (True) or Eq. 2-4.
+    quiet : bool, default False
+        Not used by the EHA (fixed windows: the pump flow is measured, no valve model whose
+        timing errors act at the boundaries); accepted for a common interface.
 
     Returns
     -------
@@ -145,7 +149,8 @@ def terms(rec, nominal: EHAParams, model: EHAPumpModel, window: int, laminar: bo
     return _terms_from_raw(raw_sums(rec, nominal, window, laminar), nominal, model)
 
 
-def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, fit_bulk_modulus):
+def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, fit_bulk_modulus,
+             quiet: bool = False, fit_valve_timing: bool = False):
     """Identify the displacement factor and the pump leakage by least squares.
 
     Healthy windows satisfy ``A dX + comp/(2 beta) = d q TH - C_p L`` (linear in ``d, C_p``
@@ -169,6 +174,8 @@ def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, f
         Not used by the EHA (no valve); accepted for a common interface.
     fit_bulk_modulus : bool
         Also identify the bulk modulus.
+    quiet, fit_valve_timing : bool, default False
+        Not used by the EHA (see :func:`terms`; no valve).
 
     Returns
     -------

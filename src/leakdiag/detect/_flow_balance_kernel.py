@@ -45,13 +45,12 @@ def spool_positions(u, phi, gamma, kv, offset, drift_per_s, dt, out):
 
 
 @numba.njit(cache=True)
-def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw, ptr_valve,
+def vca_window_sums(xv, p1, p2, x, dps, bounds, area, volume, ps, pt, gw, ptr_valve,
                     ptr_leak, laminar, out):
     """Per-window integrals of the VCA flow balance (Eqs. 2-1, 2-2, 2-4/2-5).
 
-    ``out[w]`` = ``[S1, S2, dX, C1, C2, PHI, T, F, PHIABS, QA, QB, DP, SP]`` (time integrals in
-    sample units,
-    the wrapper multiplies by ``dt``):
+    ``out[w]`` = ``[S1, S2, dX, C1, C2, PHI, T, F, PHIABS, QA, QB, DP, SP, -, -, TR1, TR2]``
+    (time integrals in sample units, the wrapper multiplies by ``dt``):
     ``S1 = int Q1 dt`` and ``S2 = int Q2 dt`` (valve flows of Eq. 2-2 with flow-gain factor 1,
     ``gw = K_v w``), ``dX = x_end - x_start``, ``C1 = int V1 dP1``, ``C2 = int V2 dP2``,
     ``PHI = int phi(P1 - P2) dt`` (leak-law pressure term), ``T`` window duration and
@@ -59,11 +58,17 @@ def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw
     ``PHIABS = int |phi(dps)| dt`` (for the mean leak flow; ``dps`` is a smoothed ``P1 - P2``
     so that pressure noise does not inflate it) and ``QA``, ``QB`` the valve flow
     ``(Q1 + Q2) / 2`` at the window's first and last sample (for the end-point error model),
-    ``DP = int (P1 - P2) dt`` and ``SP = int (P1 + P2) dt`` (spool-clearance leakage).
+    ``DP = int (P1 - P2) dt`` and ``SP = int (P1 + P2) dt`` (spool-clearance leakage);
+    columns 13, 14 are left to the caller; ``TR_i = int G_i(P) dx_v`` with ``Q_i = x_v G_i(P)``
+    (Stieltjes sums over the spool increments): a valve that leads its model by ``delta`` (e.g.
+    a higher bandwidth) delivers ``delta * TR_i`` more volume, to first order. Window ``w`` runs
+    from sample ``bounds[w]`` to ``bounds[w + 1]`` inclusive: adjacent windows share their end sample, so that their sums add
+    up to the sums over their union.
     """
-    n_win = starts.shape[0]
+    n_win = bounds.shape[0] - 1
     for w in range(n_win):
-        i0 = starts[w]
+        i0 = bounds[w]
+        window = bounds[w + 1] - i0 + 1
         s1 = 0.0
         s2 = 0.0
         c1 = 0.0
@@ -77,15 +82,21 @@ def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw
         q1p = 0.0
         q2p = 0.0
         php = 0.0
+        g1p = 0.0
+        g2p = 0.0
+        tr1 = 0.0
+        tr2 = 0.0
         for j in range(window):
             k = i0 + j
-            g = gw * xv[k]
+            # flow per unit spool opening: Q_i = x_v G_i(P)
             if xv[k] >= 0.0:
-                q1 = g * _sqrt_reg(ps - p1[k], ptr_valve)
-                q2 = g * _sqrt_reg(p2[k] - pt, ptr_valve)
+                g1 = gw * _sqrt_reg(ps - p1[k], ptr_valve)
+                g2 = gw * _sqrt_reg(p2[k] - pt, ptr_valve)
             else:
-                q1 = g * _sqrt_reg(p1[k] - pt, ptr_valve)
-                q2 = g * _sqrt_reg(ps - p2[k], ptr_valve)
+                g1 = gw * _sqrt_reg(p1[k] - pt, ptr_valve)
+                g2 = gw * _sqrt_reg(ps - p2[k], ptr_valve)
+            q1 = xv[k] * g1
+            q2 = xv[k] * g2
             dp = p1[k] - p2[k]
             if laminar:
                 ph = dp
@@ -98,6 +109,9 @@ def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw
             if j == window - 1:
                 out[w, 10] = 0.5 * (q1 + q2)
             if j > 0:
+                dxv = xv[k] - xv[k - 1]
+                tr1 += 0.5 * (g1 + g1p) * dxv
+                tr2 += 0.5 * (g2 + g2p) * dxv
                 s1 += 0.5 * (q1 + q1p)
                 s2 += 0.5 * (q2 + q2p)
                 phs += 0.5 * (ph + php)
@@ -113,8 +127,12 @@ def vca_window_sums(xv, p1, p2, x, dps, starts, window, area, volume, ps, pt, gw
                 c2 += 0.5 * (v2a + v2b) * (p2[k] - p2[k - 1])
             q1p = q1
             q2p = q2
+            g1p = g1
+            g2p = g2
             php = ph
             pap = pa_
+        out[w, 15] = tr1
+        out[w, 16] = tr2
         out[w, 0] = s1
         out[w, 1] = s2
         out[w, 2] = x[i0 + window - 1] - x[i0]

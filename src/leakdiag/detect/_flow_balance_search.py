@@ -245,7 +245,10 @@ class GLRThreshold:
         if h <= g[-1]:
             return float(np.exp(np.interp(h, g, r)))
         if len(g) >= 2:
-            slope = (r[-1] - r[-2]) / (g[-1] - g[-2])
+            # episode counts need not fall with the level (one episode above a level can hold
+            # several above a higher one): a rising Monte-Carlo tail is held flat, not
+            # extrapolated upwards (which overflowed for large statistics)
+            slope = min(0.0, (r[-1] - r[-2]) / (g[-1] - g[-2]))
             return float(np.exp(r[-1] + slope * (h - g[-1])))
         return float(np.exp(r[-1]))
 

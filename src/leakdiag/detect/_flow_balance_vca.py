@@ -31,6 +31,7 @@ import numpy as np
 from scipy.linalg import expm
 from scipy.optimize import least_squares
 
+from leakdiag.detect._flow_balance_bounds import fixed_bounds, quiet_bounds
 from leakdiag.detect._flow_balance_kernel import spool_positions, vca_window_sums
 from leakdiag.sim.vca_params import VCAParams
 
@@ -39,7 +40,8 @@ __all__ = ["VCAValveModel", "VCA_CHANNELS", "vca_raw_sums", "vca_terms", "identi
 #: Channels the VCA flow balance needs.
 VCA_CHANNELS = ("p1", "p2", "x", "u")
 #: Columns of the raw window sums (see ``vca_window_sums``).
-_S1, _S2, _DX, _C1, _C2, _PHI, _T, _F, _PHIABS, _QA, _QB, _DP, _SP, _EDIFF, _ESUM = range(15)
+(_S1, _S2, _DX, _C1, _C2, _PHI, _T, _F, _PHIABS, _QA, _QB, _DP, _SP, _EDIFF, _ESUM, _TR1,
+ _TR2) = range(17)
 #: Half-width of the central difference for the pressure rate at the window ends (samples).
 _RATE_HALF_WIDTH = 3
 #: Null-offset step used for the offset sensitivity psi = d residual / d offset (V).
@@ -75,6 +77,11 @@ class VCAValveModel:
         :math:`-c_v(P_1 - P_2)`, in the sum equation :math:`2c_v(P_s + P_r - P_1 - P_2)`.
     baseline_leak_coefficient : float
         Leak-law coefficient seen on the healthy recordings; subtracted before testing.
+    valve_lead_s : float
+        Time by which the unit's valve leads the modelled one (s; a valve faster than Table 2-1
+        leads: for a second-order valve the low-frequency lag is ``2 zeta / omega``, so 175 Hz
+        instead of 150 Hz at zeta = 0.7 is 0.21 ms). To first order it adds
+        ``valve_lead_s * int G_i(P) dx_v`` to the volume through port ``i`` (``Q_i = x_v G_i``).
     """
 
     flow_gain_factor: float
@@ -85,6 +92,7 @@ class VCAValveModel:
     valve_leakage_m3_per_s_pa: float = 0.0
     baseline_leak_coefficient: float = 0.0
     pressure_delay_s: float = 0.0
+    valve_lead_s: float = 0.0
 
     @classmethod
     def nominal(cls, params: VCAParams) -> "VCAValveModel":
@@ -100,7 +108,7 @@ class VCAValveModel:
         VCAValveModel
         """
         return cls(1.0, 0.0, params.supply_pressure_pa, params.valve_natural_frequency_hz,
-                   params.bulk_modulus_pa, 0.0, 0.0, 0.0)
+                   params.bulk_modulus_pa, 0.0, 0.0, 0.0, 0.0)
 
     def to_dict(self) -> dict:
         """Field name -> value.
@@ -129,10 +137,43 @@ def _arrays(recording) -> tuple:
     return tuple(np.ascontiguousarray(recording[c], dtype=np.float64) for c in VCA_CHANNELS)
 
 
-def window_starts(n_samples: int, window: int) -> np.ndarray:
-    """Start indices of contiguous windows of ``window`` intervals sharing their end samples."""
-    n_win = (n_samples - 1) // window
-    return np.arange(n_win, dtype=np.int64) * window
+def _as_bounds(window, n_samples: int) -> np.ndarray:
+    """``window`` as boundaries: an int gives fixed windows, an array is taken as boundaries."""
+    if np.ndim(window) == 0:
+        return fixed_bounds(n_samples, int(window))
+    return np.ascontiguousarray(window, dtype=np.int64)
+
+
+def recording_bounds(arrays, sample_rate: float, params: VCAParams, window: int,
+                     quiet: bool) -> np.ndarray:
+    """Window boundaries of one recording: fixed, or moved to where the valve is quiet.
+
+    Parameters
+    ----------
+    arrays : tuple of numpy.ndarray
+        ``(p1, p2, x, u)``; only ``u`` is used.
+    sample_rate : float
+        Sampling rate of ``u`` (Hz).
+    params : VCAParams
+        Nominal valve (Table 2-1): the spool follows ``u`` through it (offset 0).
+    window : int
+        Nominal window length in sample intervals.
+    quiet : bool
+        Move the boundaries (:func:`~leakdiag.detect._flow_balance_bounds.quiet_bounds`).
+
+    Returns
+    -------
+    numpy.ndarray
+        int64 boundaries (window ``w`` spans samples ``bounds[w]..bounds[w + 1]``).
+    """
+    u = arrays[3]
+    if not quiet:
+        return fixed_bounds(len(u), window)
+    dt = 1.0 / sample_rate
+    phi, gam = _zoh(params, params.valve_natural_frequency_hz, dt)
+    xv = np.empty_like(u)
+    spool_positions(u, phi, gam, params.spool_gain_m_per_v, 0.0, 0.0, dt, xv)
+    return quiet_bounds(xv, window, sample_rate)
 
 
 def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: float,
@@ -150,8 +191,9 @@ def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: f
         Nominal parameters (area, volume, spool gain, orifice constants).
     null_offset_v, supply_pressure_pa, valve_natural_frequency_hz : float
         Valve model.
-    window : int
-        Window length in sample intervals.
+    window : int or numpy.ndarray
+        Window length in sample intervals, or the window boundaries
+        (:func:`recording_bounds`).
     laminar : bool
         Leak law: Eq. 2-5 (True) or Eq. 2-4.
     null_drift_v_per_s : float, default 0.0
@@ -160,7 +202,7 @@ def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: f
     Returns
     -------
     numpy.ndarray
-        Shape ``(n_windows, 15)``.
+        Shape ``(n_windows, 17)``.
     """
     from scipy.ndimage import uniform_filter1d
 
@@ -173,10 +215,10 @@ def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: f
     xv = np.empty_like(u)
     spool_positions(u, phi, gam, params.spool_gain_m_per_v, float(null_offset_v),
                     float(null_drift_v_per_s), dt, xv)
-    starts = window_starts(len(u), window)
-    out = np.empty((len(starts), 15))
+    bounds = _as_bounds(window, len(u))
+    out = np.empty((max(0, len(bounds) - 1), 17))
     gw = params.valve_flow_gain_m1_5_per_kg0_5 * params.orifice_area_gradient_m
-    vca_window_sums(xv, p1, p2, x, dps, starts, window + 1, params.piston_area_m2,
+    vca_window_sums(xv, p1, p2, x, dps, bounds, params.piston_area_m2,
                     params.chamber_volume_m3, float(supply_pressure_pa), params.tank_pressure_pa,
                     gw, params.valve_transition_pressure_pa, params.leak_transition_pressure_pa,
                     bool(laminar), out)
@@ -185,7 +227,7 @@ def vca_raw_sums(arrays, sample_rate: float, params: VCAParams, null_offset_v: f
     # shifts the compressibility integrals by delay * [V dP/dt] between the ends
     h = _RATE_HALF_WIDTH
     n = len(p1)
-    ends = np.concatenate([starts, starts[-1:] + window]) if len(starts) else starts
+    ends = bounds if len(bounds) > 1 else bounds[:0]
     lo = np.clip(ends - h, 0, n - 1)
     hi = np.clip(ends + h, 0, n - 1)
     span = np.maximum(hi - lo, 1) * dt
@@ -226,10 +268,13 @@ def vca_terms(raw: np.ndarray, params: VCAParams, model: VCAValveModel) -> dict[
     beta = model.bulk_modulus_pa
     cv = model.valve_leakage_m3_per_s_pa
     tau = model.pressure_delay_s
-    r = (0.5 * g * (raw[:, _S1] + raw[:, _S2]) - params.piston_area_m2 * raw[:, _DX]
+    lead = model.valve_lead_s
+    r = (0.5 * g * (raw[:, _S1] + raw[:, _S2] + lead * (raw[:, _TR1] + raw[:, _TR2]))
+         - params.piston_area_m2 * raw[:, _DX]
          - (raw[:, _C1] - raw[:, _C2] + tau * raw[:, _EDIFF]) / (2.0 * beta)
          - cv * raw[:, _DP] - model.baseline_leak_coefficient * raw[:, _PHI])
-    s = (g * (raw[:, _S1] - raw[:, _S2]) - (raw[:, _C1] + raw[:, _C2] + tau * raw[:, _ESUM]) / beta
+    s = (g * (raw[:, _S1] - raw[:, _S2] + lead * (raw[:, _TR1] - raw[:, _TR2]))
+         - (raw[:, _C1] + raw[:, _C2] + tau * raw[:, _ESUM]) / beta
          + 2.0 * cv * ((model.supply_pressure_pa + params.tank_pressure_pa) * raw[:, _T]
                        - raw[:, _SP]))
     return {"residual": r, "balance": s, "phi": raw[:, _PHI].copy(),
@@ -253,8 +298,8 @@ def offset_sensitivity(arrays, sample_rate: float, params: VCAParams, model: VCA
         Nominal parameters.
     model : VCAValveModel
         Valve model at which the derivative is taken (central difference of 1 mV).
-    window : int
-        Window length in sample intervals.
+    window : int or numpy.ndarray
+        Window length in sample intervals, or window boundaries.
     laminar : bool
         Leak law.
     drift : tuple of float, default (0, 0)
@@ -303,8 +348,9 @@ def _robust_std(v: np.ndarray) -> float:
     return mad if mad > 0 else (float(np.std(v)) or 1.0)
 
 
-def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int, laminar: bool,
-                 skip: list[int], fit_bandwidth: bool, fit_bulk_modulus: bool):
+def identify_vca(recordings_arrays, sample_rates, params: VCAParams, windows: list,
+                 laminar: bool, skip: list[int], fit_bandwidth: bool, fit_bulk_modulus: bool,
+                 fit_valve_timing: bool = False):
     """Identify the valve model of one machine from its healthy recordings.
 
     Separable nonlinear least squares (variable projection) of the window residuals of both
@@ -324,14 +370,17 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
         Hz per recording.
     params : VCAParams
         Nominal (design) parameters: the starting point.
-    window : int
-        Window length in sample intervals.
+    windows : list of int or numpy.ndarray
+        Per recording: window length in sample intervals, or window boundaries.
     laminar : bool
         Leak law of the baseline term.
     skip : list of int
         Windows left out at the start of each recording (burn-in).
     fit_bandwidth, fit_bulk_modulus : bool
         Also identify the valve natural frequency / the bulk modulus.
+    fit_valve_timing : bool, default False
+        Also identify the valve's timing error ``valve_lead_s`` (linear: column
+        ``int G_i dx_v``, the first-order sensitivity of the valve volume to a lead).
 
     Returns
     -------
@@ -350,6 +399,8 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
                  "pressure_delay_s"]
     if fit_bulk_modulus:
         lin_names.append("inverse_bulk_modulus")
+    if fit_valve_timing:
+        lin_names.append("valve_lead_volume")  # flow gain factor times valve_lead_s
     base = VCAValveModel.nominal(params)
     beta0 = params.bulk_modulus_pa
     pt = params.tank_pressure_pa
@@ -358,7 +409,7 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
         return {nm: getattr(base, nm) + th * sc for nm, th, sc in zip(nl_names, theta, nl_scales)}
 
     projectors = []
-    for a, fs, sk in zip(recordings_arrays, sample_rates, skip):
+    for a, fs, sk, window in zip(recordings_arrays, sample_rates, skip, windows):
         psi = offset_sensitivity(a, fs, params, base, window, laminar)[sk:]
         raw0 = vca_raw_sums(a, fs, params, 0.0, base.supply_pressure_pa,
                             base.valve_natural_frequency_hz, window, laminar)[sk:]
@@ -371,7 +422,8 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
         """Stacked (X, y) of both equations, drift-profiled, unweighted."""
         v = nl_values(theta)
         xr, yr, xs, ys = [], [], [], []
-        for a, fs, sk, (reg, rr) in zip(recordings_arrays, sample_rates, skip, projectors):
+        for a, fs, sk, window, (reg, rr) in zip(recordings_arrays, sample_rates, skip, windows,
+                                                projectors):
             raw = vca_raw_sums(a, fs, params, v.get("null_offset_v", base.null_offset_v),
                                v.get("supply_pressure_pa", base.supply_pressure_pa),
                                v.get("valve_natural_frequency_hz",
@@ -391,6 +443,9 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
             else:
                 y_r = y_r + c_diff / (2.0 * beta0)
                 y_s = y_s + c_sum / beta0
+            if fit_valve_timing:
+                cols_r.append(0.5 * (raw[:, _TR1] + raw[:, _TR2]))
+                cols_s.append(raw[:, _TR1] - raw[:, _TR2])
             x_r = np.column_stack(cols_r)
             if rr > 0:  # profile the linear null drift out of the leak equation
                 x_r = x_r - np.outer(reg, reg @ x_r / rr)
@@ -451,6 +506,10 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, window: int
                              "do not determine the bulk modulus (use fit_bulk_modulus=False)")
         vals["bulk_modulus_pa"] = 1.0 / inv
         std["bulk_modulus_pa"] = std.pop("inverse_bulk_modulus") / inv**2
+    if fit_valve_timing:
+        g = lin["flow_gain_factor"]
+        vals["valve_lead_s"] = lin.pop("valve_lead_volume") / g
+        std["valve_lead_s"] = std.pop("valve_lead_volume") / abs(g)
     vals.update(lin)
     return VCAValveModel(**{k: float(v) for k, v in vals.items()}), std
 
@@ -482,22 +541,28 @@ def leak_transition_pa(p: VCAParams) -> float:
     return p.leak_transition_pressure_pa
 
 
-def terms(rec, nominal: VCAParams, model: VCAValveModel, window: int, laminar: bool) -> dict:
-    """Window terms of one recording with a given model (see :func:`vca_terms`)."""
+def terms(rec, nominal: VCAParams, model: VCAValveModel, window: int, laminar: bool,
+          quiet: bool = True) -> dict:
+    """Window terms of one recording with a given model (see :func:`vca_terms`).
+
+    ``quiet``: window boundaries moved to where the valve is at rest (:func:`recording_bounds`);
+    the boundaries are returned as ``bounds``.
+    """
     arrays = _arrays(rec)
     fs = rec.sample_rate
+    bounds = recording_bounds(arrays, fs, nominal, window, quiet)
     drift = np.zeros(2)  # this recording's extra null offset (V) and drift (V/s)
     for _ in range(DRIFT_ITERATIONS + 1):
         raw = vca_raw_sums(arrays, fs, nominal, model.null_offset_v + drift[0],
-                           model.supply_pressure_pa, model.valve_natural_frequency_hz, window,
+                           model.supply_pressure_pa, model.valve_natural_frequency_hz, bounds,
                            laminar, drift[1])
         out = vca_terms(raw, nominal, model)
-        psi = offset_sensitivity(arrays, fs, nominal, model, window, laminar, tuple(drift))
+        psi = offset_sensitivity(arrays, fs, nominal, model, bounds, laminar, tuple(drift))
         if _ == DRIFT_ITERATIONS:
             break
         # Gauss-Newton step of the null drift on all windows (burn-in included: the step only
         # linearises; the test profiles the drift again on the windows it uses)
-        t0 = np.arange(len(psi)) * window / fs  # window start, s
+        t0 = bounds[:-1] / fs  # window start, s
         x = np.column_stack([psi, psi * t0])
         sk = min(len(psi) - 1, max(1, int(round(1.0 * fs / window))))
         step, *_ = np.linalg.lstsq(x[sk:], out["residual"][sk:], rcond=None)
@@ -505,19 +570,29 @@ def terms(rec, nominal: VCAParams, model: VCAValveModel, window: int, laminar: b
             break
         drift = drift - step
     out["nuisance"] = psi
+    out["bounds"] = bounds
     return out
 
 
-def identify(recs, nominal: VCAParams, windows, laminar, skips, fit_bandwidth, fit_bulk_modulus):
-    """Identify the valve model on healthy recordings (see :func:`identify_vca`)."""
+def identify(recs, nominal: VCAParams, windows, laminar, skips, fit_bandwidth, fit_bulk_modulus,
+             quiet: bool = True, fit_valve_timing: bool = False):
+    """Identify the valve model on healthy recordings (see :func:`identify_vca`).
+
+    ``quiet``: the same window boundaries as :func:`terms` (not for the 20 ms windows of the
+    bandwidth / bulk-modulus identification, which must see the transients);
+    ``fit_valve_timing``: identify ``valve_lead_s`` (not with ``fit_bandwidth``, which models
+    the same error nonlinearly).
+    """
     arrays = [_arrays(r) for r in recs]
     rates = [r.sample_rate for r in recs]
     if fit_bandwidth or fit_bulk_modulus:
         w_id = [max(2, int(round(DYNAMIC_ID_WINDOW_S * fs))) for fs in rates]
         skips = [int(math.ceil(sk * w / wi)) for sk, w, wi in zip(skips, windows, w_id)]
         windows = w_id
+        quiet = False
     if len(set(windows)) != 1:
         raise ValueError("fit: healthy recordings have different sample rates "
                          f"{sorted(set(rates))}; resample them to one rate")
-    return identify_vca(arrays, rates, nominal, windows[0], laminar, skips, fit_bandwidth,
-                        fit_bulk_modulus)
+    bounds = [recording_bounds(a, fs, nominal, w, quiet) for a, fs, w in zip(arrays, rates, windows)]
+    return identify_vca(arrays, rates, nominal, bounds, laminar, skips, fit_bandwidth,
+                        fit_bulk_modulus, fit_valve_timing and not fit_bandwidth)
