@@ -262,6 +262,18 @@ def test_v5_shared_fit_only_for_detectors_with_the_base_fit():
         assert not shares_fit(make_detector("flow-balance", "vca", a))  # its own fit
 
 
+def test_v5_per_unit_reference_maxima_for_every_fit_that_pools_them():
+    from leakdiag.bench.v5_unit import takes_reference
+
+    a = Alarm(segment_s=55.0, burn_in_s=5.0, false_alarms_per_hour=0.01 * 3600 / 55.0)
+    assert takes_reference(make_detector("acf-p1", "vca", a))
+    assert takes_reference(make_detector("combined", "vca", a))
+    fb = make_detector("flow-balance", "vca", a)
+    assert takes_reference(fb)  # GLR maxima pooled since its fit takes reference_maxima
+    # the suite's target and burn-in reach the flow balance (its segment = monitored span)
+    assert fb.burn_in_s == 5.0 and fb.false_alarms_per_hour == pytest.approx(36 / 55)
+
+
 def test_rate_figure_gives_twelve_methods_distinct_colours_and_markers():
     """Issue 15: more than ten methods stay distinguishable (colour and marker) in one figure."""
     import matplotlib

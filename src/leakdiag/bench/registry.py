@@ -126,5 +126,8 @@ def _combined(system, alarm):
 def _flow_balance(system, alarm):
     from leakdiag.detect.flow_balance import FlowBalanceDetector
 
-    rate = alarm.false_alarms_per_hour if alarm is not None else 1.0
-    return FlowBalanceDetector(system=system, false_alarms_per_hour=rate)
+    if alarm is None:
+        return FlowBalanceDetector(system=system)
+    # the suite's false-alarm target and burn-in (its segments are the monitored span)
+    return FlowBalanceDetector(system=system, false_alarms_per_hour=alarm.false_alarms_per_hour,
+                               burn_in_s=alarm.burn_in_s)

@@ -12,8 +12,8 @@ pooling rule in ``docs/detect.md``):
   unit (same machine and sensor noise, other seeds) are simulated, each method is fitted on
   them with the reference maxima pooled, and the held-out run is judged.
 
-Detectors with their own ``fit`` (flow balance) take no reference maxima: they are fitted on the
-N own runs alone and keep their own threshold rule.
+Detectors with their own ``fit`` take reference maxima when that ``fit`` has a
+``reference_maxima`` parameter (flow balance: GLR segment maxima, ``reference_settings``).
 """
 
 from __future__ import annotations
@@ -95,7 +95,7 @@ class UnitChunkConfig:
 
 
 def takes_reference(det) -> bool:
-    """Whether a detector uses the base class's ``fit`` (which pools reference maxima).
+    """Whether a detector's ``fit`` pools reference maxima (has a ``reference_maxima`` parameter).
 
     Parameters
     ----------
@@ -105,11 +105,15 @@ def takes_reference(det) -> bool:
     Returns
     -------
     bool
-        False for detectors with their own ``fit`` (e.g. flow balance).
+        True for the base class's ``fit`` and for own fits that take ``reference_maxima``
+        (flow balance); False otherwise.
     """
+    import inspect
+
     from leakdiag.detect.base import Detector
 
-    return isinstance(det, Detector) and type(det).fit is Detector.fit
+    return (isinstance(det, Detector)
+            and "reference_maxima" in inspect.signature(type(det).fit).parameters)
 
 
 def _fit_own(det, own, ref):
@@ -158,10 +162,11 @@ def reference_group(config: UnitRefConfig) -> list[dict]:
             det = make_detector(m, c0.system, build)
             if not takes_reference(det):
                 continue  # own fit and threshold rule: fitted per unit at scoring time
-            used[m] = det._alarm()  # the method's own settings (e.g. combined: direction up)
             t0 = time.process_time()
             try:
                 _fit_own(det, own, None)
+                # the method's own settings (e.g. combined: direction up; GLR: its segment)
+                used[m] = det.reference_settings()
                 maxima[m].append(det.segment_maxima([run]))
             except (ValueError, NotImplementedError) as exc:
                 errors[m] = f"{type(exc).__name__}: {exc}"
@@ -171,7 +176,8 @@ def reference_group(config: UnitRefConfig) -> list[dict]:
         got = np.concatenate(maxima[m]) if maxima[m] else np.zeros(0)
         if m not in errors and got.size:
             b = used[m]
-            refs[m] = ReferenceMaxima(got, b.segment_s, b.drift, b.direction, b.burn_in_s,
+            refs[m] = ReferenceMaxima(got, b["segment_s"], b["drift"], b["direction"],
+                                      b["burn_in_s"],
                                       f"benchmark v5 training units, {c0.system} {c0.load} "
                                       f"{c0.excitation}, {config.n_own} own runs each",
                                       len(config.cases))

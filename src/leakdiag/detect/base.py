@@ -239,6 +239,19 @@ class Detector(BaseEstimator):
             raise TypeError(f"alarm={a!r} must be an Alarm or None")
         return a
 
+    def reference_settings(self) -> dict:
+        """Settings that :class:`~leakdiag.detect.threshold.ReferenceMaxima` made with this
+        detector must carry to be pooled (``segment_s``, ``drift``, ``direction``, ``burn_in_s``).
+
+        Returns
+        -------
+        dict
+            From the detector's :class:`Alarm`.
+        """
+        a = self._alarm()
+        return {"segment_s": a.segment_s, "drift": a.drift, "direction": a.direction,
+                "burn_in_s": a.burn_in_s}
+
     def _check_fitted(self) -> None:
         if not hasattr(self, "threshold_"):
             raise ValueError(f"{type(self).__name__} is not fitted; call fit(healthy_recordings) first")

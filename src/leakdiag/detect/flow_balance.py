@@ -22,10 +22,15 @@ from leakdiag.detect._flow_balance_search import (
     GLRThreshold, calibrate_glr, glr_alarm_count, glr_profile,
 )
 from leakdiag.detect.base import Detector, Verdict
+from leakdiag.detect.threshold import (
+    InsufficientHealthyDataError, ReferenceMaxima, ThresholdBasis,
+    conformal_threshold,
+)
 from leakdiag.features.series import FeatureSeries
 from leakdiag.io.recording import RecordingError
 
-__all__ = ["FlowBalanceDetector", "FlowBalanceVerdict", "LEAK_LAWS", "SYSTEMS"]
+__all__ = ["FlowBalanceDetector", "FlowBalanceVerdict", "LEAK_LAWS", "SYSTEMS",
+           "glr_segment_maxima"]
 
 #: Leak laws the regression can assume: Eq. 2-4 (turbulent) or Eq. 2-5 (laminar).
 LEAK_LAWS = ("turbulent", "laminar")
@@ -74,6 +79,42 @@ class FlowBalanceVerdict(Verdict):
                   "leak_lpm_at_reference": self.leak_lpm_at_reference,
                   "reference_dp_pa": self.reference_dp_pa, "leak_law": self.leak_law})
         return d
+
+
+def glr_segment_maxima(g, per_segment: int) -> np.ndarray:
+    """Largest GLR value in each complete segment of ``per_segment`` consecutive windows.
+
+    Segments are counted in windows, not seconds: window boundaries may move a little (quiet
+    boundaries, ``docs/detect.md`` 8.4), the number of windows of a run does not.
+
+    Parameters
+    ----------
+    g : array_like
+        GLR statistic per window after the burn-in, shape ``(m,)``.
+    per_segment : int
+        Windows per segment (>= 1); ``m // per_segment`` complete segments are used, the
+        remainder is left out.
+
+    Returns
+    -------
+    numpy.ndarray
+        One maximum per complete segment.
+
+    Raises
+    ------
+    ValueError
+        If ``per_segment < 1``.
+
+    Examples
+    --------
+    >>> glr_segment_maxima([1.0, 3.0, 2.0, 0.5, 9.0], 2).tolist()
+    [3.0, 2.0]
+    """
+    g = np.asarray(g, dtype=np.float64)
+    if int(per_segment) != per_segment or per_segment < 1:
+        raise ValueError(f"per_segment={per_segment!r} must be a whole number >= 1")
+    m = len(g) // int(per_segment)
+    return g[:m * int(per_segment)].reshape(m, int(per_segment)).max(axis=1) if m else np.zeros(0)
 
 
 def _leak_law_value(dp: float, law: str, ptr: float) -> float:
@@ -142,7 +183,14 @@ class FlowBalanceDetector(Detector):
         GLR maxima of the healthy runs in-sample and out-of-fold (two-fold cross-fitting, with
         at least 4 runs); the latter set ``alarm_threshold_.scale``.
     threshold_ : float
-        GLR alarm level (z scale); ``alarm_threshold_`` (:class:`GLRThreshold`) says how.
+        GLR alarm level (z scale) in use: ``threshold_basis_.threshold``.
+    threshold_basis_ : ThresholdBasis
+        How the level was set: ``"conformal"`` (``k``-th largest of ``n`` out-of-fold and
+        reference segment maxima, at most ``k / (n + 1)`` false alarms per segment for an
+        exchangeable healthy segment) or ``"glr-model"`` (the bootstrap level below, not
+        distribution-free; ``supported=False``).
+    alarm_threshold_ : GLRThreshold
+        The model-based level of the healthy-residual bootstrap and its simulated null.
     n_healthy_, healthy_hours_ : int, float
         Healthy data used.
 
@@ -296,25 +344,86 @@ class FlowBalanceDetector(Detector):
         return max(1, int(round(self.max_span_s / self.window_s)))
 
     # ------------------------------------------------------------------ fit
-    def _cross_fit_maxima(self, recs: list) -> np.ndarray:
-        """GLR maxima of each half of the healthy runs under a model fitted on the other half."""
+    def _cross_fit_glr(self, recs: list) -> list:
+        """GLR traces of each half of the healthy runs under a model fitted on the other half.
+
+        Returns the GLR per window of each run, in the order of ``recs`` (empty with < 4 runs).
+        """
         from sklearn.base import clone
 
         if len(recs) < 4:
-            return np.array([])
-        halves = (recs[0::2], recs[1::2])
-        out = []
-        for a, b in (halves, halves[::-1]):
+            return []
+        idx = (list(range(0, len(recs), 2)), list(range(1, len(recs), 2)))
+        out: list = [None] * len(recs)
+        for a, b in (idx, idx[::-1]):
             other = clone(self)
-            other._fit(a, _no_cross=True)
-            for r in b:
-                t = other._terms(r)
+            other._fit([recs[i] for i in a], _no_cross=True)
+            for i in b:
+                t = other._terms(recs[i])
                 g, _ = other._glr(t)
-                out.append(float(g.max()) if len(g) else 0.0)
-        return np.asarray(out)
+                out[i] = g
+        return out
 
-    def fit(self, recordings, y=None) -> "FlowBalanceDetector":
+    def reference_direction(self) -> str:
+        """Label of this detector's statistic in :class:`ReferenceMaxima` (``direction`` field).
+
+        Returns
+        -------
+        str
+            ``"glr(window_s=..., max_span_s=..., leak_law=...)"``: reference maxima pool only
+            with a detector whose label is the same (``drift`` is 0 for the GLR).
+        """
+        return (f"glr(window_s={self.window_s:g}, max_span_s={self.max_span_s:g}, "
+                f"leak_law={self.leak_law})")
+
+    def reference_settings(self) -> dict:
+        """Settings that reference maxima for this detector must carry (after :meth:`fit`).
+
+        Returns
+        -------
+        dict
+            ``segment_s`` (the fitted segment), ``drift`` 0, ``direction``
+            (:meth:`reference_direction`) and ``burn_in_s``.
+        """
+        self._check_fitted()
+        return {"segment_s": self.threshold_basis_.segment_s, "drift": 0.0,
+                "direction": self.reference_direction(), "burn_in_s": float(self.burn_in_s)}
+
+    def _threshold_basis(self, own: np.ndarray, segment_s: float, reference, h_model: float):
+        """Conformal basis when the maxima support the target, else the model-based level."""
+        alpha = float(self.false_alarms_per_hour) * segment_s / 3600.0
+        if reference is not None:
+            if not isinstance(reference, ReferenceMaxima):
+                raise TypeError(f"reference_maxima must be a ReferenceMaxima, got "
+                                f"{type(reference).__name__}")
+            reference.check_compatible(segment_s, 0.0, self.reference_direction(),
+                                       float(self.burn_in_s))
+        if 0.0 < alpha < 1.0:
+            try:
+                return conformal_threshold(own, alpha, segment_s=segment_s, reference=reference)
+            except InsufficientHealthyDataError:
+                pass
+        ref = reference.maxima if reference is not None else np.zeros(0)
+        pooled = np.sort(np.concatenate([own, ref]))[::-1]
+        n = len(pooled)
+        seg_h = segment_s / 3600.0
+        bound = min(alpha, 1.0)
+        return ThresholdBasis(
+            "glr-model", float(h_model), n, len(own), len(ref), 0, float(segment_s), alpha,
+            bound, alpha / seg_h, bound / seg_h, float("nan"), False,
+            int(math.ceil(1.0 / alpha)) - 1 if 0 < alpha < 1 else 0,
+            reference.source if reference is not None else "", pooled)
+
+    def fit(self, recordings, y=None, reference_maxima=None) -> "FlowBalanceDetector":
         """Identify the machine on healthy recordings and set the alarm level.
+
+        The level is **conformal** (distribution-free) when the healthy GLR maxima support
+        the target: the out-of-fold segment maxima of the runs (two-fold cross-fitting, from
+        4 runs), pooled with ``reference_maxima``, give the ``k``-th largest with ``k =
+        floor(alpha (n + 1)) >= 1``, ``alpha = false_alarms_per_hour * segment_s / 3600`` and
+        ``segment_s`` the shortest run's monitored span. Otherwise it is the **model-based**
+        level of the healthy-residual bootstrap (``threshold_basis_.method == "glr-model"``,
+        ``supported=False``: its rate rests on the error model, see ``docs/detect.md`` 8.4).
 
         Parameters
         ----------
@@ -322,12 +431,16 @@ class FlowBalanceDetector(Detector):
             Healthy runs of this machine (a single Recording is accepted).
         y : ignored
             scikit-learn compatibility.
+        reference_maxima : ReferenceMaxima, optional
+            Out-of-sample GLR segment maxima of other units fitted the same way (their
+            ``direction`` is :meth:`reference_direction`, ``drift`` 0, same ``burn_in_s`` and
+            segment), pooled with this unit's own.
 
         Returns
         -------
         FlowBalanceDetector
             ``self`` with ``model_``, ``model_std_``, the error model, ``dispersion_``,
-            ``threshold_`` and ``alarm_threshold_``.
+            ``threshold_``, ``threshold_basis_`` and ``alarm_threshold_``.
 
         Raises
         ------
@@ -335,12 +448,15 @@ class FlowBalanceDetector(Detector):
             If a recording lacks a channel the balance needs (the message names it) or holds
             a non-finite value.
         ValueError
-            For a bad setting, no recordings, a recording of another system, or too little
-            healthy data.
+            For a bad setting, no recordings, a recording of another system, too little
+            healthy data, or reference maxima made with other settings.
+        TypeError
+            If ``reference_maxima`` is not a ReferenceMaxima.
         """
-        return self._fit(recordings)
+        return self._fit(recordings, reference_maxima=reference_maxima)
 
-    def _fit(self, recordings, _no_cross: bool = False) -> "FlowBalanceDetector":
+    def _fit(self, recordings, _no_cross: bool = False,
+             reference_maxima=None) -> "FlowBalanceDetector":
         self._validate()
         recs = [recordings] if hasattr(recordings, "channels") else list(recordings)
         if not recs:
@@ -384,17 +500,25 @@ class FlowBalanceDetector(Detector):
         # scale check on data the model was not fitted on: two-fold cross-fitting (identify on
         # one half of the healthy runs, GLR maxima on the other); against the simulated maxima
         # (medians, robust with few runs); the level is raised, never lowered
-        self.cross_fit_maxima_ = self._cross_fit_maxima(recs) if not _no_cross else np.array([])
+        cross = self._cross_fit_glr(recs) if not _no_cross else []
+        self.cross_fit_maxima_ = np.array([float(g.max()) if len(g) else 0.0 for g in cross])
         ref = (self.cross_fit_maxima_ if len(self.cross_fit_maxima_) >= 2
                else self.healthy_maxima_)
         scale = max(1.0, float(np.median(ref)) / float(np.median(null_max)))
         h = h * scale
-        healthy_alarms = sum(glr_alarm_count(g, h) for g in gs)
         self.alarm_threshold_ = GLRThreshold(h, float(self.false_alarms_per_hour),
                                              "healthy-residual-bootstrap", hours,
-                                             self.healthy_hours_, healthy_alarms, grid, rate,
+                                             self.healthy_hours_,
+                                             sum(glr_alarm_count(g, h) for g in gs), grid, rate,
                                              scale)
-        self.threshold_ = h
+        # distribution-free level from out-of-fold segment maxima (+ reference) when supported
+        # one segment = the shortest run's monitored windows (one segment per run when equal)
+        self.segment_windows_ = max(1, min(len(t["residual"]) for t in terms))
+        segment_s = self.segment_windows_ * float(self.window_s)
+        own = (np.concatenate([glr_segment_maxima(g, self.segment_windows_) for g in cross])
+               if cross else np.zeros(0))
+        self.threshold_basis_ = self._threshold_basis(own, segment_s, reference_maxima, h)
+        self.threshold_ = float(self.threshold_basis_.threshold)
         self.n_healthy_ = len(recs)
         self.feature_name_ = "flow_balance"
         return self
@@ -514,8 +638,7 @@ class FlowBalanceDetector(Detector):
         t, a, b, g, arg = self._scan(recording, "predict")
         h = self.threshold_
         smax = float(g.max()) if len(g) else 0.0
-        hours = float(t["end"][-1] - t["start"][0]) / 3600.0 if len(g) else 0.0
-        confidence = float(np.exp(-self.alarm_threshold_.rate_at(smax) * hours))
+        confidence = self._p_value(smax, t)
         common = dict(confidence=confidence, leak_lpm_in_range=None, score_max=smax, threshold=h,
                       onset_method="glr", detector="flow_balance",
                       reference_dp_pa=float(self.reference_dp_pa), leak_law=self.leak_law)
@@ -541,6 +664,46 @@ class FlowBalanceDetector(Detector):
             leak_lpm=float(lpm), leak_lpm_interval=(float(interval[0]), float(interval[1])),
             shift=float(k / se), leak_coefficient=k, leak_coefficient_se=se,
             leak_lpm_at_reference=float(at_ref), **common)
+
+    def _p_value(self, smax: float, t: dict) -> float:
+        """Probability that healthy operation of this span scores at least ``smax``.
+
+        Conformal basis: ``m (1 + #{maxima >= smax}) / (n + 1)`` over the ``m`` segments the
+        span covers. Model-based level: ``1 - exp(-rate(smax) * hours)``, the chance of at
+        least one healthy alarm episode at level ``smax`` (Poisson episodes, rate from the
+        bootstrap null). Small = evidence of a leak, as ``Verdict.confidence`` everywhere.
+        """
+        basis = self.threshold_basis_
+        n_win = len(t["end"])
+        if basis.supported:
+            return basis.p_value(smax, max(1, math.ceil(n_win / self.segment_windows_)))
+        hours = n_win * float(self.window_s) / 3600.0
+        return float(-np.expm1(-self.alarm_threshold_.rate_at(smax) * hours))
+
+    def segment_maxima(self, recordings) -> np.ndarray:
+        """GLR maxima of every complete segment (``segment_windows_`` windows) of recordings.
+
+        Use it on healthy runs **not** given to :meth:`fit` to build a
+        :class:`~leakdiag.detect.threshold.ReferenceMaxima` for other units (``drift=0``,
+        ``direction=self.reference_direction()``, ``burn_in_s=self.burn_in_s``).
+
+        Parameters
+        ----------
+        recordings : sequence of Recording
+            Healthy recordings of the unit this detector was fitted on.
+
+        Returns
+        -------
+        numpy.ndarray
+            One maximum per complete segment, recordings in order.
+        """
+        self._check_fitted()
+        recs = [recordings] if hasattr(recordings, "channels") else list(recordings)
+        out = []
+        for r in recs:
+            _, _, _, g, _ = self._scan(r, "segment_maxima")
+            out.append(glr_segment_maxima(g, self.segment_windows_))
+        return np.concatenate(out) if out else np.zeros(0)
 
     def _estimate(self, t: dict, j: int) -> tuple[float, float]:
         """Leak coefficient (and its standard error) from window ``j`` on, nuisance profiled

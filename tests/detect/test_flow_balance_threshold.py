@@ -1,0 +1,115 @@
+"""FlowBalanceDetector thresholds: conformal from out-of-fold maxima when supported, else model.
+
+The conformal level must be exactly the k-th largest of the out-of-fold GLR segment maxima
+(recomputed here by hand from two half-fits), pool reference maxima only when they were made
+with the same statistic, and the p-value reported as ``confidence`` must be small for a leak and
+large for a healthy run (the ``Verdict.confidence`` convention of every detector).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+
+import leakdiag as ld
+from leakdiag.detect import FlowBalanceDetector
+from leakdiag.detect.flow_balance import glr_segment_maxima
+from leakdiag.detect.threshold import ReferenceMaxima
+
+DURATION_S = 20.0
+
+
+@pytest.fixture(scope="module")
+def healthy():
+    return [ld.sim.simulate_vca(duration=DURATION_S, leak_lpm=0.0, load="spring", machine=31,
+                                seed=s) for s in range(6)]
+
+
+@pytest.fixture(scope="module")
+def seg(healthy):
+    """Segment (s) of these runs: their monitored windows after the burn-in, times window_s."""
+    det = FlowBalanceDetector(system="vca").fit(healthy)
+    n_win = {len(det.score(r).values) for r in healthy}
+    assert len(n_win) == 1  # equal runs: one segment each
+    assert det.threshold_basis_.segment_s == n_win.pop() * det.window_s
+    return det.threshold_basis_.segment_s
+
+
+def _out_of_fold_maxima(det, recs):
+    """Two-fold maxima by hand: fit on the even/odd runs, GLR maxima of the other half."""
+    out = {}
+    for fit_idx, judge_idx in (((0, 2, 4), (1, 3, 5)), ((1, 3, 5), (0, 2, 4))):
+        half = clone(det).fit([recs[i] for i in fit_idx])
+        for i in judge_idx:
+            out[i] = half.segment_maxima([recs[i]])
+    return np.concatenate([out[i] for i in range(len(recs))])
+
+
+def test_segment_maxima_by_hand():
+    g = [0.5, 2.0, 1.0, 4.0, 3.0, 7.0, 9.0]
+    assert glr_segment_maxima(g, 3).tolist() == [2.0, 7.0]  # the 7th window is left out
+    assert glr_segment_maxima(g, 8).tolist() == []  # no complete segment
+    with pytest.raises(ValueError, match="per_segment"):
+        glr_segment_maxima(g, 0)
+
+
+def test_conformal_level_is_the_kth_largest_out_of_fold_maximum(healthy, seg):
+    # one segment per run (equal runs); 6 out-of-fold maxima support alpha >= 1/7 per segment;
+    # alpha = 0.3 per segment gives k = floor(0.3 * 7) = 2
+    det = FlowBalanceDetector(system="vca", false_alarms_per_hour=0.3 * 3600.0 / seg)
+    det.fit(healthy)
+    b = det.threshold_basis_
+    assert b.method == "conformal" and b.supported
+    assert (b.n, b.n_own, b.n_reference, b.k) == (6, 6, 0, 2)
+    by_hand = np.sort(_out_of_fold_maxima(FlowBalanceDetector(system="vca"), healthy))[::-1]
+    assert det.threshold_ == pytest.approx(by_hand[1], rel=1e-12)
+    assert b.bound_per_segment == pytest.approx(2 / 7)
+    # the model-based level is kept beside it, and is what a too-small target falls back to
+    assert det.alarm_threshold_.threshold > 0
+
+
+def test_too_few_maxima_fall_back_to_the_model_level_and_say_so(healthy, seg):
+    det = FlowBalanceDetector(system="vca", false_alarms_per_hour=1.0).fit(healthy)
+    b = det.threshold_basis_
+    assert b.method == "glr-model" and not b.supported and b.k == 0
+    assert det.threshold_ == det.alarm_threshold_.threshold
+    assert b.min_n_for_target == math.ceil(3600.0 / seg) - 1  # 1/h over 17 s segments: 211
+
+
+def test_reference_maxima_are_pooled_and_checked(healthy, seg):
+    det = FlowBalanceDetector(system="vca", false_alarms_per_hour=0.05 * 3600.0 / seg)
+    ref_values = np.linspace(1.0, 5.0, 60)
+    ref = ReferenceMaxima(ref_values, seg, 0.0, det.reference_direction(), det.burn_in_s,
+                          "test units", 60)
+    det.fit(healthy[:2], reference_maxima=ref)  # 2 own runs: no out-of-fold maxima
+    b = det.threshold_basis_
+    assert b.method == "conformal" and (b.n_own, b.n_reference) == (0, 60)
+    k = math.floor(0.05 * 61)
+    assert b.k == k and det.threshold_ == pytest.approx(np.sort(ref_values)[::-1][k - 1])
+    other = ReferenceMaxima(ref_values, seg, 0.0, "glr(window_s=2, max_span_s=30, "
+                            "leak_law=turbulent)", det.burn_in_s)
+    with pytest.raises(ValueError, match="direction"):
+        clone(det).fit(healthy[:2], reference_maxima=other)
+    with pytest.raises(ValueError, match="segment_s"):
+        clone(det).fit(healthy[:2], reference_maxima=ReferenceMaxima(
+            ref_values, 2 * seg, 0.0, det.reference_direction(), det.burn_in_s))
+    with pytest.raises(TypeError, match="ReferenceMaxima"):
+        clone(det).fit(healthy[:2], reference_maxima=list(ref_values))
+
+
+@pytest.mark.parametrize("rate_per_segment", [0.3, None])
+def test_confidence_is_a_p_value_small_for_a_leak(healthy, seg, rate_per_segment):
+    per_hour = 1.0 if rate_per_segment is None else rate_per_segment * 3600.0 / seg
+    det = FlowBalanceDetector(system="vca", false_alarms_per_hour=per_hour).fit(healthy)
+    ok = det.predict(ld.sim.simulate_vca(duration=DURATION_S, leak_lpm=0.0, load="spring",
+                                         machine=31, seed=50))
+    leak = det.predict(ld.sim.simulate_vca(duration=DURATION_S, leak_lpm=0.1, onset=8.0,
+                                           load="spring", machine=31, seed=51))
+    assert leak.leak and not ok.leak
+    assert 0.0 <= leak.confidence < ok.confidence <= 1.0
+    if det.threshold_basis_.supported:
+        # conformal p-value: never below the resolution 1/(n+1) of the healthy maxima
+        assert leak.confidence == pytest.approx(1 / 7)
+    else:
+        assert leak.confidence < 1e-3 and ok.confidence > 0.05
