@@ -189,3 +189,25 @@ def test_glr_rate_tail_never_rises_beyond_the_grid():
     falling = GLRThreshold(3.0, 0.3, "healthy-residual-bootstrap", 100.0, 1.0, 0, grid,
                            np.array([1.0, 0.1, 0.01]))
     assert falling.rate_at(4.0) == pytest.approx(0.001)
+
+
+def test_window_times_follow_the_quiet_boundaries(fitted):
+    rec = _with_offset(ld.sim.simulate_vca(duration=30, leak_lpm=0.0, load="spring", params=UNIT,
+                                           seed=21))
+    t = fitted.leak_estimates(rec)
+    dur = (t.end_s - t.start_s).to_numpy()
+    np.testing.assert_array_equal(t.end_s.to_numpy()[:-1], t.start_s.to_numpy()[1:])
+    assert dur.min() >= 0.5 and dur.max() <= 1.5 and np.ptp(dur) > 0.05  # moved, within w/4
+    flat = FlowBalanceDetector(system="vca", quiet_boundaries=False)
+    flat.model_ = fitted.model_
+    assert np.allclose(np.diff(flat._terms(rec)["start"]), 1.0)
+
+
+def test_detector_saved_before_quiet_boundaries_keeps_fixed_windows(fitted):
+    import pickle
+
+    old = pickle.loads(pickle.dumps(fitted))
+    del old.__dict__["quiet_boundaries"]  # as unpickled from a file written before the change
+    rec = _with_offset(ld.sim.simulate_vca(duration=20, leak_lpm=0.0, load="spring", params=UNIT,
+                                           seed=21))
+    assert np.allclose(np.diff(old._terms(rec)["start"]), 1.0)

@@ -295,8 +295,10 @@ class FlowBalanceDetector(Detector):
         """Window terms with the fitted model, burn-in dropped, plus window times."""
         be = self._backend()
         w = self._window(rec)
+        # a detector saved before quiet boundaries existed was fitted on fixed windows
+        quiet = bool(getattr(self, "quiet_boundaries", False))
         terms = be.terms(rec, self._nominal(), self.model_, w, self.leak_law == "laminar",
-                         quiet=bool(self.quiet_boundaries))
+                         quiet=quiet)
         n_win = len(terms["residual"])
         bounds = terms.pop("bounds", np.arange(n_win + 1) * w)
         terms["start"] = rec.start_time + bounds[:-1] / rec.sample_rate
