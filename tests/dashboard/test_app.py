@@ -177,3 +177,39 @@ def test_live_api_and_sse_stream_on_a_real_server():
     finally:
         srv.stop()
     assert not srv.thread.is_alive()
+
+
+def test_sse_stream_is_throttled_to_refresh_hz():
+    """The board changes 100 times a second; a page gets at most refresh_hz snapshots a second."""
+    import time
+
+    board = LiveBoard()
+    board.add("rig1", "feat")
+    stop, done = threading.Event(), threading.Event()
+
+    def feed():
+        i = 0
+        while not done.is_set():
+            board.update("rig1", np.array([float(i)]), np.array([0.5]))
+            i += 1
+            time.sleep(0.01)
+
+    feeder = threading.Thread(target=feed, daemon=True)
+    feeder.start()
+    srv = DashboardServer(make_app(board, refresh_hz=2.0, stop=stop), Bind("127.0.0.1", 0),
+                          stop).start()
+    try:
+        times, versions = [], []
+        with urllib.request.urlopen(srv.page_url("stream/rig1"), timeout=10) as r:
+            while not times or times[-1] - times[0] < 3.0:
+                line = r.readline()
+                if line.startswith(b"data:"):
+                    times.append(time.monotonic())
+                    versions.append(json.loads(line[5:])["version"])
+    finally:
+        done.set()
+        srv.stop()
+        feeder.join()
+    # 3 s at 2 Hz: 7 snapshots (the first at once), each newer than the one before
+    assert 5 <= len(times) <= 8, times
+    assert versions == sorted(set(versions)) and versions[-1] - versions[0] > 50
