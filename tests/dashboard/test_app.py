@@ -213,3 +213,29 @@ def test_sse_stream_is_throttled_to_refresh_hz():
     # 3 s at 2 Hz: 7 snapshots (the first at once), each newer than the one before
     assert 5 <= len(times) <= 8, times
     assert versions == sorted(set(versions)) and versions[-1] - versions[0] > 50
+
+
+def test_history_of_days_is_merged_to_at_most_history_points(tmp_path, client):
+    """Two days of 1-s chunks would be 172,800 rows; 5,000 here, sent as blocks of 3 chunks."""
+    from leakdiag.dashboard.app import HISTORY_POINTS
+
+    st = EventStore(tmp_path / "e.db")
+    run = st.start_run("rig-a", command="monitor", source="a.parquet", feature="ac p1")
+    n = 5000
+    rows = [ChunkSummary(float(i), i + 0.9, 5, i % 5, float(i), i - 1.0, i + 1.0, float(i),
+                         float(i % 7), 0.0, i == 4001) for i in range(n)]
+    st.add_chunks(run, rows, [AlarmRecord(4001.5, 6.0, 5.0)])
+    c = client(make_app(store=st))
+    h = c.get("/api/history/rig-a").json()
+    s = h["summaries"]
+    assert HISTORY_POINTS == 2000 and (h["n_chunks"], h["chunks_per_point"]) == (5000, 3)
+    assert len(s["recorded_at"]) == 1667 and sum(s["n_chunks"]) == n
+    # block 0 = chunks 0, 1, 2 with 5, 4, 3 finite windows: mean (0*5 + 1*4 + 2*3) / 12
+    assert (s["t_start_s"][0], s["t_end_s"][0], s["value_min"][0], s["value_max"][0]) == \
+        (0.0, 2.9, -1.0, 3.0)
+    assert s["value_mean"][0] == pytest.approx(10 / 12, rel=1e-15)
+    assert s["score_max"][0] == 2.0 and s["alarm"][0] is False
+    assert [i for i, a in enumerate(s["alarm"]) if a] == [4001 // 3]  # the alarm's block
+    assert s["n_chunks"][-1] == 2 and s["t_end_s"][-1] == 4999.9
+    assert len(h["alarms"]) == 1 and h["alarms"][0]["alarm_time_s"] == 4001.5
+    st.close()
