@@ -239,3 +239,14 @@ def test_history_of_days_is_merged_to_at_most_history_points(tmp_path, client):
     assert s["n_chunks"][-1] == 2 and s["t_end_s"][-1] == 4999.9
     assert len(h["alarms"]) == 1 and h["alarms"][0]["alarm_time_s"] == 4001.5
     st.close()
+
+
+def test_loopback_server_refuses_other_host_names(store, client):
+    """DNS rebinding: a page of evil.example that resolves to 127.0.0.1 is refused."""
+    c = client(make_app(store=store))
+    port = c.srv.port
+    for host in (f"127.0.0.1:{port}", f"localhost:{port}", "localhost"):
+        assert c.get("/api/fleet", headers={"Host": host}).status_code == 200, host
+    for host in (f"evil.example:{port}", "127.0.0.1.evil.example", "[::2]:80"):
+        r = c.get("/api/fleet", headers={"Host": host})
+        assert r.status_code == 400 and "rig-a" not in r.text, host
