@@ -5,9 +5,9 @@
   (``Date.now()`` against the chunk's ``received_wall``); goal <= 1 s. Real-time replay at
   1 kHz in 50-sample chunks, a headless Chromium on the live page.
 * the monitor's throughput (replay as fast as possible, 3.6 M samples replayed ``LOOPS`` = 8
-  times in 1,000- and 65,536-sample chunks): the monitor alone against ``--dashboard`` with a client process reading
-  the event stream, ``--store`` (SQLite), both, and ``--dashboard`` with the page open in
-  Chromium. The cases run interleaved in one process (ABBA order), ``REPEATS`` times each, and
+  times in 1,000- and 65,536-sample chunks): the monitor alone against ``--dashboard`` with
+  a client process reading the event stream, ``--store`` (SQLite), both, and ``--dashboard``
+  with the page open in Chromium. The cases run interleaved in one process (ABBA order), ``REPEATS`` times each, and
   their medians are compared: the loop's wall time (the monitor's throughput), the CPU time of
   the monitor's thread, and the wall time until the hooks have written everything (flush).
 

@@ -126,7 +126,8 @@ def test_killed_monitor_loses_at_most_the_last_chunk(leak_case, tmp_path):
     con = sqlite3.connect(db)
     assert con.execute("pragma integrity_check").fetchone()[0] == "ok"
     (n_chunks, n_win, status), = con.execute("select n_chunks, n_windows, status from runs")
-    rows = con.execute("select seq, n_windows, t_end_s from chunk_summaries order by seq").fetchall()
+    rows = con.execute("select seq, n_windows, t_end_s from chunk_summaries "
+                       "order by seq").fetchall()
     con.close()
     assert status == "running" and n_chunks == len(rows) and [r[0] for r in rows] == \
         list(range(len(rows))) and n_win == sum(r[1] for r in rows)
