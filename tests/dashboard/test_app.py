@@ -90,6 +90,12 @@ def test_fleet_page_lists_actuators_and_escapes(store, client):
     fleet = c.get("/api/fleet").json()
     assert [(f["name"], f["state"]) for f in fleet] == [
         (EVIL, "NO DATA"), ("rig-a", "OK"), ("rig-b", "ALARM")]
+    # last seen: the store's time of the actuator's last write (UTC), in its row of the page
+    seen = {n: store.fleet().set_index("name").loc[n, "last_seen_at"] for n in ("rig-a", "rig-b")}
+    assert seen["rig-a"] < seen["rig-b"]
+    row_b = body.split('<tr data-actuator="rig-b">')[1].split("</tr>")[0]
+    assert f'<td>{seen["rig-b"].isoformat()[:19].replace("T", " ")}</td>' in row_b
+    assert [f["last_seen_at"] for f in fleet[1:]] == [seen[n].isoformat() for n in seen]
 
 
 def test_history_api_and_404(store, client):
