@@ -90,6 +90,12 @@ def test_fleet_page_lists_actuators_and_escapes(store, client):
     fleet = c.get("/api/fleet").json()
     assert [(f["name"], f["state"]) for f in fleet] == [
         (EVIL, "NO DATA"), ("rig-a", "OK"), ("rig-b", "ALARM")]
+    # last seen: the store's time of the actuator's last write (UTC), in its row of the page
+    seen = {n: store.fleet().set_index("name").loc[n, "last_seen_at"] for n in ("rig-a", "rig-b")}
+    assert seen["rig-a"] < seen["rig-b"]
+    row_b = body.split('<tr data-actuator="rig-b">')[1].split("</tr>")[0]
+    assert f'<td>{seen["rig-b"].isoformat()[:19].replace("T", " ")}</td>' in row_b
+    assert [f["last_seen_at"] for f in fleet[1:]] == [seen[n].isoformat() for n in seen]
 
 
 def test_history_api_and_404(store, client):
@@ -177,3 +183,76 @@ def test_live_api_and_sse_stream_on_a_real_server():
     finally:
         srv.stop()
     assert not srv.thread.is_alive()
+
+
+def test_sse_stream_is_throttled_to_refresh_hz():
+    """The board changes 100 times a second; a page gets at most refresh_hz snapshots a second."""
+    import time
+
+    board = LiveBoard()
+    board.add("rig1", "feat")
+    stop, done = threading.Event(), threading.Event()
+
+    def feed():
+        i = 0
+        while not done.is_set():
+            board.update("rig1", np.array([float(i)]), np.array([0.5]))
+            i += 1
+            time.sleep(0.01)
+
+    feeder = threading.Thread(target=feed, daemon=True)
+    feeder.start()
+    srv = DashboardServer(make_app(board, refresh_hz=2.0, stop=stop), Bind("127.0.0.1", 0),
+                          stop).start()
+    try:
+        times, versions = [], []
+        with urllib.request.urlopen(srv.page_url("stream/rig1"), timeout=10) as r:
+            while not times or times[-1] - times[0] < 3.0:
+                line = r.readline()
+                if line.startswith(b"data:"):
+                    times.append(time.monotonic())
+                    versions.append(json.loads(line[5:])["version"])
+    finally:
+        done.set()
+        srv.stop()
+        feeder.join()
+    # 3 s at 2 Hz: 7 snapshots (the first at once), each newer than the one before
+    assert 5 <= len(times) <= 8, times
+    assert versions == sorted(set(versions)) and versions[-1] - versions[0] > 50
+
+
+def test_history_of_days_is_merged_to_at_most_history_points(tmp_path, client):
+    """Two days of 1-s chunks would be 172,800 rows; 5,000 here, sent as blocks of 3 chunks."""
+    from leakdiag.dashboard.app import HISTORY_POINTS
+
+    st = EventStore(tmp_path / "e.db")
+    run = st.start_run("rig-a", command="monitor", source="a.parquet", feature="ac p1")
+    n = 5000
+    rows = [ChunkSummary(float(i), i + 0.9, 5, i % 5, float(i), i - 1.0, i + 1.0, float(i),
+                         float(i % 7), 0.0, i == 4001) for i in range(n)]
+    st.add_chunks(run, rows, [AlarmRecord(4001.5, 6.0, 5.0)])
+    c = client(make_app(store=st))
+    h = c.get("/api/history/rig-a").json()
+    s = h["summaries"]
+    assert HISTORY_POINTS == 2000 and (h["n_chunks"], h["chunks_per_point"]) == (5000, 3)
+    assert len(s["recorded_at"]) == 1667 and sum(s["n_chunks"]) == n
+    # block 0 = chunks 0, 1, 2 with 5, 4, 3 finite windows: mean (0*5 + 1*4 + 2*3) / 12
+    assert (s["t_start_s"][0], s["t_end_s"][0], s["value_min"][0], s["value_max"][0]) == \
+        (0.0, 2.9, -1.0, 3.0)
+    assert s["value_mean"][0] == pytest.approx(10 / 12, rel=1e-15)
+    assert s["score_max"][0] == 2.0 and s["alarm"][0] is False
+    assert [i for i, a in enumerate(s["alarm"]) if a] == [4001 // 3]  # the alarm's block
+    assert s["n_chunks"][-1] == 2 and s["t_end_s"][-1] == 4999.9
+    assert len(h["alarms"]) == 1 and h["alarms"][0]["alarm_time_s"] == 4001.5
+    st.close()
+
+
+def test_loopback_server_refuses_other_host_names(store, client):
+    """DNS rebinding: a page of evil.example that resolves to 127.0.0.1 is refused."""
+    c = client(make_app(store=store))
+    port = c.srv.port
+    for host in (f"127.0.0.1:{port}", f"localhost:{port}", "localhost"):
+        assert c.get("/api/fleet", headers={"Host": host}).status_code == 200, host
+    for host in (f"evil.example:{port}", "127.0.0.1.evil.example", "[::2]:80"):
+        r = c.get("/api/fleet", headers={"Host": host})
+        assert r.status_code == 400 and "rig-a" not in r.text, host

@@ -2,6 +2,7 @@
 errors reach the monitor's thread."""
 
 import sqlite3
+import time
 
 import pytest
 
@@ -66,3 +67,29 @@ def test_worker_error_reaches_the_monitor(leak_case, tmp_path):
     with pytest.raises(StoreError, match="no run with id"):
         hooks.close(True)
     hooks.close(False)  # the monitor's own error is the one reported: no second raise
+
+
+def test_push_does_not_wait_for_a_slow_worker(leak_case):
+    """Throttle the page, not the detector: the monitor's push only queues the chunk."""
+    mon, spec, rec = _monitor(leak_case)
+    hooks = MonitorHooks("rig7", spec, mon, "rig7.parquet", rec.sample_rate, say=lambda m: None)
+    update = hooks.board.update
+
+    def slow_update(*args, **kw):  # a board (or store) that takes 0.3 s per update
+        time.sleep(0.3)
+        update(*args, **kw)
+
+    hooks.board.update = slow_update
+    t_push = 0.0
+    chunks = list(recording_chunks(rec, 1000, list(spec.channels)))[:30]
+    for c in chunks:
+        evs = mon.push(c)
+        t0 = time.perf_counter()
+        hooks.push(evs)
+        t_push += time.perf_counter() - t0
+    # one update per chunk in the monitor's thread would take 30 x 0.3 s = 9 s
+    assert t_push < 1.0, t_push
+    hooks.flush()
+    snap = hooks.board.snapshot("rig7")
+    assert snap["n_windows"] == mon.features[0].n_windows > 100
+    hooks.close(True)

@@ -246,3 +246,46 @@ def test_add_chunks_is_one_group_equal_to_single_chunks(tmp_path):
         group.add_chunks(99, sums)
     assert con.execute("select count(*) from chunk_summaries").fetchone() == (6,)  # rolled back
     con.close()
+
+
+def test_merge_summaries_equals_blocks_by_hand(tmp_path):
+    from leakdiag.store import merge_summaries
+
+    st = EventStore(tmp_path / "e.db")
+    run = st.start_run("rig1", command="monitor", source="a", feature="f")
+    rng = np.random.default_rng(5)
+    sums = []
+    for i in range(11):
+        deg = int(rng.integers(0, 4))
+        mean = None if deg == 3 else float(rng.normal())
+        sums.append(ChunkSummary(float(i), i + 0.5, 3, deg, mean, None if mean is None else
+                                 mean - 1, None if mean is None else mean + 1, mean,
+                                 None if i < 2 else float(rng.normal()), None,
+                                 None if i < 2 else bool(i in (5, 9))))
+    st.add_chunks(run, sums)
+    summ, _ = st.history("rig1")
+    m = merge_summaries(summ, 4)  # blocks of 3: [0-2], [3-5], [6-8], [9-10]
+    assert m["n_chunks"].tolist() == [3, 3, 3, 2] and m["n_windows"].tolist() == [9, 9, 9, 6]
+    for b, blk in enumerate([sums[0:3], sums[3:6], sums[6:9], sums[9:11]]):
+        w = [s.n_windows - s.n_degenerate for s in blk if s.value_mean is not None]
+        v = [s.value_mean for s in blk if s.value_mean is not None]
+        want = sum(x * y for x, y in zip(v, w)) / sum(w) if sum(w) else None
+        got = m.loc[b, "value_mean"]
+        assert (np.isnan(got) if want is None else got == pytest.approx(want, rel=1e-14))
+        mins = [s.value_min for s in blk if s.value_min is not None]
+        assert m.loc[b, "value_min"] == min(mins) if mins else np.isnan(m.loc[b, "value_min"])
+        scores = [s.score_max for s in blk if s.score_max is not None]
+        assert m.loc[b, "score_max"] == max(scores) if scores else \
+            np.isnan(m.loc[b, "score_max"])
+        flags = [s.alarm for s in blk if s.alarm is not None]
+        assert m.loc[b, "alarm"] == (any(flags) if flags else None)
+        assert (m.loc[b, "t_start_s"], m.loc[b, "t_end_s"]) == (blk[0].t_start_s,
+                                                                blk[-1].t_end_s)
+    same = merge_summaries(summ, 11)
+    assert same["n_chunks"].tolist() == [1] * 11
+    np.testing.assert_array_equal(same["value_mean"].to_numpy(float),
+                                  summ["value_mean"].to_numpy(float))
+    assert len(merge_summaries(summ.iloc[:0], 5)) == 0
+    with pytest.raises(ValueError, match="max_points=0 must be >= 1"):
+        merge_summaries(summ, 0)
+    st.close()

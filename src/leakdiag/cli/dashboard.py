@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import gc
 import os
 
 import click
@@ -87,11 +86,7 @@ def open_monitor_hooks(live: dict, spec, monitor, source, say):
         "stdin" if src in ("<stdin>", "-") else os.path.splitext(os.path.basename(src))[0])
     hooks = MonitorHooks(name, spec, monitor, src, source.sample_rate, live.get("store"), bind,
                          live.get("refresh_hz", 5.0), say)
-    # The modules, the detector and the server are loaded: move them out of the cyclic garbage
-    # collector's way, so that its collections (triggered by the allocations of the hooks'
-    # worker thread) do not traverse them in the monitor's thread (measured: the monitor's own
-    # CPU time with --store in a fast replay rose by a quarter without this).
-    gc.freeze()
+    hooks.freeze_gc()  # until hooks.close(): see MonitorHooks.freeze_gc
     return hooks
 
 

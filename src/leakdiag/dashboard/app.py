@@ -6,7 +6,8 @@ Routes (all ``GET``; any other method gets 405):
   link to the history) and the actuators monitored live by this process.
 * ``/live/{name}`` live page; its data come from ``/stream/{name}`` (server-sent events, at most
   ``refresh_hz`` per second, only when something changed) or ``/api/live/{name}`` (one JSON).
-* ``/history/{name}`` feature summaries over all runs, alarms marked (data: ``/api/history``).
+* ``/history/{name}`` feature summaries over all runs, alarms marked (data: ``/api/history``,
+  at most :data:`HISTORY_POINTS` points: longer histories merged in blocks of chunks).
 * ``/api/fleet`` the overview as JSON; ``/static/...`` the page scripts and Plotly's
   ``plotly.min.js`` served from the installed ``plotly`` package (no CDN, works offline).
 
@@ -41,6 +42,9 @@ from leakdiag.dashboard.live import LiveBoard
 __all__ = ["make_app", "plotly_js_path"]
 
 STATIC = Path(__file__).with_name("static")
+#: Most points of a history plot: longer histories are merged in blocks of consecutive chunks
+#: (:func:`leakdiag.store.merge_summaries`; a day of 1-s chunks is 86,400 rows).
+HISTORY_POINTS = 2000
 #: Content security policy: scripts and data only from this server.
 CSP = ("default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
        "img-src 'self' data:; connect-src 'self'; frame-ancestors 'none'")
@@ -280,9 +284,15 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
             summ, al = await anyio.to_thread.run_sync(store.history, request.path_params["name"])
         except StoreError as exc:
             return PlainTextResponse(f"404: {exc}", status_code=404)
-        cols = ["recorded_at", "t_start_s", "t_end_s", "value_mean", "value_min", "value_max",
-                "score_max", "alarm", "source"]
+        from leakdiag.store import merge_summaries
+
+        n_rows = len(summ)
+        summ = merge_summaries(summ, HISTORY_POINTS)  # days of 1-s chunks: one point per block
+        cols = ["recorded_at", "t_start_s", "t_end_s", "n_chunks", "value_mean", "value_min",
+                "value_max", "score_max", "alarm", "source"]
         out = {"summaries": {c: [_clean(v) for v in summ[c].tolist()] for c in cols},
+               "n_chunks": n_rows,
+               "chunks_per_point": int(summ["n_chunks"].max()) if n_rows else 1,
                "alarms": [{k: _clean(v) for k, v in r.items()} for r in al.to_dict("records")]}
         return JSONResponse(out)
 

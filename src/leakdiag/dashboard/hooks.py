@@ -16,6 +16,7 @@ commit takes, still gets one transaction per chunk.
 
 from __future__ import annotations
 
+import gc
 import threading
 import time
 from collections import deque
@@ -98,6 +99,7 @@ class MonitorHooks:
         self._closing = False
         self._error: BaseException | None = None
         self._wake = threading.Event()
+        self._froze_gc = False
         if store is not None:
             from leakdiag.store import EventStore
 
@@ -122,6 +124,20 @@ class MonitorHooks:
         self._worker = threading.Thread(target=self._work, name="leakdiag-monitor-hooks",
                                         daemon=True)
         self._worker.start()
+
+    def freeze_gc(self) -> None:
+        """Move every object loaded so far out of the cyclic garbage collector's way until close.
+
+        The modules, the detector and the server are loaded by now; frozen (``gc.freeze``),
+        the collections that the worker thread's allocations trigger no longer traverse them in
+        the monitor's thread (measured: the monitor's own CPU time with ``--store`` in a fast
+        replay rose by a quarter without this). :meth:`close` unfreezes them, so that a
+        monitor run inside a longer-lived process (tests, a notebook) leaves the collector as
+        it found it. Nothing is done when someone else has frozen objects already.
+        """
+        if gc.get_freeze_count() == 0:
+            gc.freeze()
+            self._froze_gc = True
 
     def wrap(self, chunks: Iterable) -> Iterator:
         """Yield the chunks, noting the wall-clock time each one arrives.
@@ -297,6 +313,9 @@ class MonitorHooks:
             self._wake.set()
             self._cond.notify_all()
         self._worker.join()
+        if self._froze_gc:
+            self._froze_gc = False
+            gc.unfreeze()
         error = self._error
         self.board.finish(self.actuator)
         try:

@@ -112,6 +112,10 @@ def stop_on_sigterm() -> None:
 class DashboardServer:
     """A uvicorn server for the dashboard app in a background thread.
 
+    On a loopback address, requests must name a loopback host (``127.0.0.1``, ``localhost``,
+    ``[::1]`` or the bound address) in their ``Host`` header, else they get 400: a web page of
+    another site cannot read the dashboard through a DNS name that points to 127.0.0.1.
+
     Parameters
     ----------
     app : ASGI application
@@ -136,6 +140,14 @@ class DashboardServer:
     def __init__(self, app, bind: Bind, stop: threading.Event | None = None):
         import uvicorn
 
+        if bind.is_loopback:
+            # a page of another site must not reach this server by a name that resolves to
+            # 127.0.0.1 (DNS rebinding): only loopback names in the Host header
+            from starlette.middleware.trustedhost import TrustedHostMiddleware
+
+            host = f"[{bind.host}]" if ":" in bind.host else bind.host
+            app = TrustedHostMiddleware(app, allowed_hosts=sorted(
+                {"127.0.0.1", "localhost", "[::1]", host}))
         self.bind = bind
         self._stop = stop or threading.Event()
         cfg = uvicorn.Config(app, host=bind.host, port=bind.port, log_level="warning",

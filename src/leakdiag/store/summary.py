@@ -7,7 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ChunkSummary", "AlarmRecord", "summarize_windows", "summarize_chunks"]
+__all__ = ["ChunkSummary", "AlarmRecord", "summarize_windows", "summarize_chunks",
+           "merge_summaries"]
 
 
 def _f(v) -> float | None:
@@ -215,3 +216,92 @@ def summarize_chunks(time, values, scores=None, alarms=None, counts=()) -> list[
         t[starts].tolist(), t[ends - 1].tolist(), c.tolist(), (c - n_fin).tolist(),
         _nan_none(mean.tolist()), _nan_none(vmin.tolist()), _nan_none(vmax.tolist()),
         _nan_none(v[ends - 1].tolist()), s_max, s_last, a_any)]
+
+
+def merge_summaries(summ, max_points: int):
+    """Merge consecutive rows of a history into at most ``max_points`` rows (for a plot).
+
+    Blocks of ``k = ceil(n / max_points)`` consecutive chunk summaries become one row: the last
+    ``recorded_at``, the first ``t_start_s`` and last ``t_end_s``, the mean of the feature
+    weighted by each chunk's finite windows (``n_windows - n_degenerate``), the smallest
+    minimum, the largest maximum and largest score, and ``alarm`` True if any chunk was in
+    alarm (None if no chunk had a detector). A history of fewer rows is returned as it is, with
+    ``n_chunks`` 1.
+
+    Parameters
+    ----------
+    summ : pandas.DataFrame
+        Summaries from :meth:`leakdiag.store.EventStore.history`, in order.
+    max_points : int
+        Largest number of rows returned (>= 1).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``recorded_at``, ``t_start_s``, ``t_end_s``, ``n_chunks``, ``n_windows``,
+        ``value_mean``, ``value_min``, ``value_max``, ``score_max``, ``alarm``, ``source``.
+
+    Raises
+    ------
+    ValueError
+        If ``max_points`` < 1.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> s = pd.DataFrame({"recorded_at": [1, 2, 3], "t_start_s": [0.0, 1.0, 2.0],
+    ...                   "t_end_s": [0.9, 1.9, 2.9], "n_windows": [4, 2, 3],
+    ...                   "n_degenerate": [0, 1, 0], "value_mean": [1.0, 4.0, 0.0],
+    ...                   "value_min": [0.0, 4.0, -1.0], "value_max": [2.0, 4.0, 1.0],
+    ...                   "score_max": [1.0, None, 3.0], "alarm": [False, None, True],
+    ...                   "source": ["a", "a", "b"]})
+    >>> m = merge_summaries(s, 2)
+    >>> cols = ["n_chunks", "n_windows", "value_mean", "value_min", "score_max", "alarm"]
+    >>> m[cols].values.tolist()
+    [[2, 6, 1.6, 0.0, 1.0, False], [1, 3, 0.0, -1.0, 3.0, True]]
+    """
+    import pandas as pd
+
+    if max_points < 1:
+        raise ValueError(f"max_points={max_points!r} must be >= 1")
+    n = len(summ)
+    k = max(1, -(-n // max_points))
+    starts = np.arange(0, n, k)
+    ends = np.minimum(starts + k, n) - 1
+    if not n:
+        starts = ends = np.empty(0, dtype=np.int64)
+
+    def col(c):
+        return pd.to_numeric(summ[c], errors="coerce").to_numpy(np.float64)
+
+    def red(ufunc, x, fill):
+        if not n:
+            return np.empty(0)
+        fin = np.isfinite(x)
+        out = ufunc.reduceat(np.where(fin, x, fill), starts)
+        return np.where(np.add.reduceat(fin.astype(np.int64), starts) > 0, out, np.nan)
+
+    w = col("n_windows") - col("n_degenerate")
+    mean = col("value_mean")
+    w = np.where(np.isfinite(mean), w, 0.0)
+    if k == 1:  # nothing to merge: the values as stored (no rounding by the weights)
+        wmean = mean
+    else:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            wmean = red(np.add, mean * w, 0.0) / red(np.add, w, 0.0)
+    a = summ["alarm"]
+    known = a.notna().to_numpy()
+    on = (a.fillna(False).astype(bool).to_numpy() & known).astype(np.int64)
+    n_known = np.add.reduceat(known.astype(np.int64), starts) if n else np.empty(0, np.int64)
+    n_on = np.add.reduceat(on, starts) if n else np.empty(0, np.int64)
+    alarm = [None if nk == 0 else bool(no) for nk, no in zip(n_known.tolist(), n_on.tolist())]
+    return pd.DataFrame({
+        "recorded_at": summ["recorded_at"].to_numpy()[ends],
+        "t_start_s": col("t_start_s")[starts], "t_end_s": col("t_end_s")[ends],
+        "n_chunks": (ends - starts + 1).astype(np.int64),
+        "n_windows": red(np.add, col("n_windows"), 0.0).astype(np.int64),
+        "value_mean": np.where(np.isfinite(wmean), wmean, np.nan),
+        "value_min": red(np.minimum, col("value_min"), np.inf),
+        "value_max": red(np.maximum, col("value_max"), -np.inf),
+        "score_max": red(np.maximum, col("score_max"), -np.inf),
+        "alarm": pd.array(alarm, dtype=object), "source": summ["source"].to_numpy()[ends]})

@@ -17,15 +17,17 @@ fetch(cfg.api).then((r) => r.json()).then((h) => {
     {x: s.recorded_at, y: s.value_max, mode: "lines", line: {width: 0}, showlegend: false,
      hoverinfo: "skip"},
     {x: s.recorded_at, y: s.value_min, mode: "lines", line: {width: 0}, fill: "tonexty",
-     fillcolor: "rgba(31,119,180,0.2)", name: "min-max per chunk"},
-    {x: s.recorded_at, y: s.value_mean, mode: "lines+markers", name: "mean per chunk",
+     fillcolor: "rgba(31,119,180,0.2)", name: "min-max"},
+    {x: s.recorded_at, y: s.value_mean, mode: "lines+markers", name: "mean",
      line: {color: "#1f77b4"}}],
-    {title: {text: "feature per chunk (UTC)"}, shapes: shapes, margin: {t: 40, r: 20, b: 40, l: 60},
+    {title: {text: h.chunks_per_point > 1 ? "feature per block of up to " + h.chunks_per_point +
+       " chunks (" + h.n_chunks + " chunks, UTC)" : "feature per chunk (UTC)"},
+     shapes: shapes, margin: {t: 40, r: 20, b: 40, l: 60},
      legend: {orientation: "h", x: 0, y: 1.12}},
     {displaylogo: false});
   Plotly.newPlot("score-plot", [{x: s.recorded_at, y: s.score_max, mode: "lines+markers",
-    name: "max score per chunk", line: {color: "#ff7f0e"}}],
-    {title: {text: "detector score per chunk"}, shapes: shapes, margin: {t: 40, r: 20, b: 40, l: 60}},
+    name: "max score per point", line: {color: "#ff7f0e"}}],
+    {title: {text: "largest detector score per point"}, shapes: shapes, margin: {t: 40, r: 20, b: 40, l: 60}},
     {displaylogo: false});
   const table = document.getElementById("alarms");
   for (const a of h.alarms) {
