@@ -21,7 +21,7 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
                      scheduler: str = "serial", n_workers: int | None = None,
                      cache_dir: str | None = None, work_dir: str | None = None,
                      progress: bool = True, command: str = "leakdiag benchmark --suite v5",
-                     unit_fit: int = 0):
+                     unit_fit: int = 0, full_budget: bool = False):
     """Run benchmark v5 and write its report.
 
     Parameters
@@ -48,6 +48,9 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
         Command line recorded in the report.
     unit_fit : int, default 0
         Per-unit mode with this many own healthy runs per unit (0: fleet mode).
+    full_budget : bool, default False
+        Run the expensive methods (EMD, EKF) on the suite's full run counts too, instead of
+        :data:`~leakdiag.bench.v5_run.REDUCED_BUDGET`.
 
     Returns
     -------
@@ -99,7 +102,7 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     runs, fits, settings = run_v5(suites, methods, work, false_alarm_per_run=far,
                                   onset_method=onset_method, scheduler=scheduler,
                                   n_workers=n_workers, cache_dir=cache_dir, progress=progress,
-                                  unit_fit=int(unit_fit))
+                                  unit_fit=int(unit_fit), full_budget=bool(full_budget))
     settings.update(command=command, quick=quick, wall_total_s=time.time() - t0,
                     suites={k: _jsonable(asdict(v)) for k, v in suites.items()},
                     scheduler=scheduler, n_workers=n_workers)

@@ -350,7 +350,8 @@ def score_chunk(config: ChunkConfig) -> int:
 
 def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_method: str = "binseg",
            scheduler: str = "serial", n_workers: int | None = None, cache_dir: str | None = None,
-           progress: bool = True, unit_fit: int = 0) -> tuple[Any, Any, dict]:
+           progress: bool = True, unit_fit: int = 0,
+           full_budget: bool = False) -> tuple[Any, Any, dict]:
     """All three stages; returns ``(runs, fits, settings)``.
 
     Parameters
@@ -371,6 +372,8 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
         0: fleet mode (each method fitted once on the group's training units). N > 0: per-unit
         mode (:mod:`leakdiag.bench.v5_unit`): each unit fitted on N own healthy runs, threshold
         from reference maxima of the training units.
+    full_budget : bool, default False
+        No :data:`REDUCED_BUDGET`: every method on the suite's run counts.
 
     Returns
     -------
@@ -388,6 +391,7 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
     from leakdiag.studies.executor import run_cases
 
     work = Path(work_dir)
+    budget = {} if full_budget else REDUCED_BUDGET
     cases = build_v5_suite(suites)
     fp = _fingerprint()
     groups: dict[tuple, list] = {}
@@ -405,7 +409,7 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
     t_sim = time.time() - t0
     if unit_fit:
         return _run_units(suites, methods, work, groups, fp, unit_fit, false_alarm_per_run,
-                          onset_method, scheduler, n_workers, cache_dir, progress, t_sim)
+                          onset_method, scheduler, n_workers, cache_dir, progress, t_sim, budget)
     fit_cfgs, chunk_cfgs = [], []
     for key, group in groups.items():
         s = suites[key[0]]
@@ -413,7 +417,7 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
         cal = [c for c in group if c.role == "cal"]
         fits = []
         for m in methods:
-            caps = REDUCED_BUDGET.get(m)
+            caps = budget.get(m)
             mcal = tuple(cal[: caps[0]] if caps else cal)
             k = _key([V5_VERSION, fp, m, asdict(alarm), [c.seed for c in mcal],
                       [c.to_dict() for c in mcal[:1]], simulator_has_machines(key[0])])
@@ -452,7 +456,7 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
     fits = pd.DataFrame([row for r in fit_res for row in r.result])
     settings = {"suite_version": V5_VERSION, "methods": list(methods),
                 "false_alarm_per_run": false_alarm_per_run, "onset_method": onset_method,
-                "reduced_budget": {m: list(v) for m, v in REDUCED_BUDGET.items() if m in methods},
+                "reduced_budget": {m: list(v) for m, v in budget.items() if m in methods},
                 "virtual_machines": {s: simulator_has_machines(s) for s in suites},
                 "code_fingerprint": fp, "wall_s": {"simulate_calibration": t_sim, "fit": t_fit,
                                                    "score": t_score},
@@ -461,7 +465,7 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
 
 
 def _run_units(suites, methods, work, groups, fp, n_own, far, onset_method, scheduler, n_workers,
-               cache_dir, progress, t_sim):
+               cache_dir, progress, t_sim, budget):
     """Per-unit mode of :func:`run_v5` (stages 2 and 3 of :mod:`leakdiag.bench.v5_unit`)."""
     import pandas as pd
 
@@ -476,9 +480,9 @@ def _run_units(suites, methods, work, groups, fp, n_own, far, onset_method, sche
         s = suites[key[0]]
         alarm = v5_alarm(far, s.duration_s, onset_method)
         cal = tuple(c for c in group if c.role == "cal")
-        n_units = tuple(REDUCED_BUDGET[m][0] if m in REDUCED_BUDGET else len(cal)
+        n_units = tuple(budget[m][0] if m in budget else len(cal)
                         for m in methods)
-        caps = tuple(REDUCED_BUDGET[m][1:] if m in REDUCED_BUDGET else None for m in methods)
+        caps = tuple(budget[m][1:] if m in budget else None for m in methods)
         k = _key([V5_VERSION, fp, "unit", n_own, list(methods), n_units, asdict(alarm),
                   [c.seed for c in cal], simulator_has_machines(key[0])])
         ref_path = str(work / "refs" / f"{k}.joblib")
@@ -504,7 +508,7 @@ def _run_units(suites, methods, work, groups, fp, n_own, far, onset_method, sche
     fits = pd.DataFrame([row for r in ref_res for row in r.result])
     settings = {"suite_version": V5_VERSION, "methods": list(methods), "unit_fit": n_own,
                 "false_alarm_per_run": far, "onset_method": onset_method,
-                "reduced_budget": {m: list(v) for m, v in REDUCED_BUDGET.items() if m in methods},
+                "reduced_budget": {m: list(v) for m, v in budget.items() if m in methods},
                 "virtual_machines": {s: simulator_has_machines(s) for s in suites},
                 "code_fingerprint": fp, "wall_s": {"simulate_calibration": t_sim, "fit": t_fit,
                                                    "score": t_score},

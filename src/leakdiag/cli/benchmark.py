@@ -41,6 +41,9 @@ def _command_line() -> str:
 @click.option("--unit-fit", default=0, show_default=True, type=click.IntRange(min=0),
               help="v5: fit every unit on N of its own healthy runs, threshold from the training "
                    "units' reference maxima (0: one fit on the training units for all).")
+@click.option("--full-budget", is_flag=True,
+              help="v5: run EMD and the EKF on the suite's full run counts too (default: 100 "
+                   "calibration, 100 healthy and 10 leaking runs per size for those two).")
 @click.option("--max-test-runs", default=None, type=click.IntRange(min=1),
               help="v4 only: at most N held-out healthy and leaking runs per size per group.")
 @click.option("--false-alarm-rate", "far", default=None, type=click.FloatRange(0, 1, min_open=True,
@@ -59,7 +62,7 @@ def _command_line() -> str:
 @click.option("--list-methods", is_flag=True, help="Print the registered methods and exit.")
 @click.option("--no-progress", is_flag=True, help="No progress bars.")
 def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal, n_test_healthy,
-              n_test_leak, unit_fit, max_test_runs, far, onset_method, scheduler, n_workers, cache_dir,
+              n_test_leak, unit_fit, full_budget, max_test_runs, far, onset_method, scheduler, n_workers, cache_dir,
               work_dir, list_methods, no_progress):
     """Run the detection benchmark and write its report to --out."""
     from leakdiag.bench.registry import METHODS
@@ -84,7 +87,7 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
                                    onset_method=onset_method, scheduler=scheduler,
                                    n_workers=n_workers, cache_dir=cache_dir, work_dir=work_dir,
                                    progress=not no_progress, command=command,
-                                   unit_fit=unit_fit)
+                                   unit_fit=unit_fit, full_budget=full_budget)
         except ValueError as exc:
             raise click.UsageError(str(exc)) from None
         if res["summary"] is not None:
