@@ -188,6 +188,31 @@ class ThresholdBasis:
     reference_source: str = ""
     maxima: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
 
+    def __str__(self) -> str:
+        """One sentence a user can act on: the level, its basis and what it promises.
+
+        Examples
+        --------
+        >>> print(conformal_threshold(np.arange(1.0, 300.0), 0.01, segment_s=60.0))
+        conformal: 3rd largest of 299 healthy maxima (299 own, 0 reference) over 60 s segments \
+= 297; at most 1 % false alarms per segment (0.6 per hour) on average over calibrations, 95 % \
+upper bound for this calibration 2.09 %
+        """
+        seg = f"{self.segment_s:g} s segments"
+        if self.supported:
+            k = self.k
+            nth = {1: "st", 2: "nd", 3: "rd"}.get(k if k < 20 else k % 10, "th")
+            return (f"{self.method}: {k}{nth} largest of {self.n} healthy maxima ({self.n_own} own, "
+                    f"{self.n_reference} reference) over {seg} = {self.threshold:.4g}; at most "
+                    f"{100 * self.bound_per_segment:.3g} % false alarms per segment "
+                    f"({self.bound_per_hour:.3g} per hour) on average over calibrations, 95 % "
+                    f"upper bound for this calibration {100 * self.conditional_upper_95:.3g} %")
+        need = (f"; {self.min_n_for_target} would support "
+                f"{100 * self.target_per_segment:.3g} % per segment" if self.min_n_for_target else "")
+        return (f"{self.method} = {self.threshold:.4g}, NOT distribution-free: {self.n} healthy "
+                f"maxima over {seg} support at best {100 / (self.n + 1):.3g} % per segment{need}; "
+                f"the requested {self.target_per_hour:.3g} per hour is not guaranteed by data")
+
     def p_value(self, score: float, n_segments: int = 1) -> float:
         """Conformal p-value of a maximum ``score`` observed over ``n_segments`` segments.
 
