@@ -106,9 +106,11 @@ def summarise(df: pd.DataFrame) -> pd.DataFrame:
     for (system, load), g in df.groupby(["system", "load"]):
         h = g[g.leak_lpm == 0]
         k, n = int(h.false_alarm.sum()), len(h)
-        lo, hi = _ci(k, n)
-        out.append({"system": system, "load": load, "leak_lpm": 0.0, "n": n,
-                    "rate": k / n, "ci_low": lo, "ci_high": hi, "what": "false alarm (healthy)"})
+        if n:  # --n-healthy 0: leaking runs only
+            lo, hi = _ci(k, n)
+            out.append({"system": system, "load": load, "leak_lpm": 0.0, "n": n,
+                        "rate": k / n, "ci_low": lo, "ci_high": hi,
+                        "what": "false alarm (healthy)"})
         for q, gq in g[g.leak_lpm > 0].groupby("leak_lpm"):
             n = len(gq)
             for col, what in (("detected_10s", "detected within 10 s"),
