@@ -209,3 +209,25 @@ def test_monitor_follow_checks_the_time_axis_like_file_mode(tmp_path):
                                  "-c", "p1", "-w", "20", "-q"])
     assert r.exit_code != 0
     assert f"{path}: line 102: time 0.2 s after 0.099 s is a gap" in str(r.exception)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_monitor_file_checks_the_whole_time_column_not_only_its_head(tmp_path, suffix):
+    """A gap or jitter after the rows the rate is taken from (4096) is refused, naming the row,
+    as leakdiag analyze refuses it; before, the file was judged as if uniformly sampled."""
+    rng = np.random.default_rng(2)
+    t = np.arange(12_000) / 1000.0
+    df = pd.DataFrame({"time": t, "p1": rng.normal(size=t.size)})
+    gap, jit = df.copy(), df.copy()
+    gap.loc[7000:, "time"] += 0.5
+    jit.loc[9000, "time"] += 0.0004
+    for frame, row, what in [(gap, 7000, "is a gap"), (jit, 9000, "is jitter")]:
+        path = tmp_path / f"rec{suffix}"
+        frame.to_csv(path, index=False) if suffix == ".csv" else frame.to_parquet(path)
+        for chunk in ("65536", "1000"):  # the bad row inside and at the edge of a chunk
+            r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-c", "p1", "-q",
+                                         "--chunk", chunk])
+            assert r.exit_code != 0, (what, chunk)
+            assert f"{path}: row {row}: time" in str(r.exception) and what in str(r.exception)
+        assert "not uniformly sampled" in str(CliRunner().invoke(
+            cli, ["analyze", str(path), "-c", "p1", "--onset", "6"]).exception)
