@@ -9,9 +9,7 @@ from click.testing import CliRunner
 
 from leakdiag.cli.main import COMMANDS, cli
 
-#: Commands owned by other helpers at the time of writing (benchmark: alarms, reproduce: thesis).
-OTHERS = {"benchmark", "reproduce"}
-MINE = sorted(set(COMMANDS) - OTHERS)
+MINE = sorted(COMMANDS)  # every command (benchmark and reproduce included since issue 15's audit)
 
 
 def _command(name) -> click.Command:
@@ -39,8 +37,8 @@ def test_help_ends_with_an_example(name):
 def test_dash_o_means_out(name):
     cmd = _command(name)
     for p in cmd.params:
-        if isinstance(p, click.Option) and "-o" in p.opts:
-            assert "--out" in p.opts, (name, p.opts)
+        if isinstance(p, click.Option) and ("-o" in p.opts or "--out" in p.opts):
+            assert {"-o", "--out"} <= set(p.opts), (name, p.opts)  # both or neither
 
 
 @pytest.mark.parametrize("name", MINE)
@@ -51,10 +49,23 @@ def test_onset_is_seconds(name):
             assert "(s)" in p.help or " s " in p.help or "seconds" in p.help.lower()
 
 
-@pytest.mark.parametrize("name", ["batch", "sensitivity"])
-def test_scheduler_serial_local_address(name):
-    opt = [p for p in _command(name).params if "--scheduler" in getattr(p, "opts", [])][0]
-    assert "serial" in opt.help and "local" in opt.help and "address" in opt.help
+def test_scheduler_is_one_option_wherever_dask_runs():
+    """reproduce, sensitivity, benchmark and batch take the same --scheduler serial|local|ADDRESS."""
+    opts = {n: [p for p in _command(n).params if "--scheduler" in getattr(p, "opts", [])]
+            for n in MINE}
+    have = sorted(n for n, o in opts.items() if o)
+    assert have == ["batch", "benchmark", "reproduce", "sensitivity"]
+    for n in have:
+        (opt,) = opts[n]
+        assert (opt.metavar, opt.help) == (opts["batch"][0].metavar, opts["batch"][0].help), n
+        assert "serial" in opt.help and "local" in opt.help and "address" in opt.help
+
+
+def test_benchmark_onset_estimator_is_onset_method():
+    r = CliRunner().invoke(cli, ["benchmark", "--onset", "pelt", "--list-methods"])
+    assert r.exit_code == 2 and "No such option '--onset'" in r.output
+    opts = {o for p in _command("benchmark").params for o in getattr(p, "opts", [])}
+    assert "--onset-method" in opts
 
 
 def test_batch_serial_flag_is_gone_for_scheduler_serial():

@@ -13,7 +13,8 @@ import warnings
 import click
 
 __all__ = ["recording_options", "resample_option", "column_map_from", "read_with", "read_healthy",
-           "false_alarm_option", "healthy_option", "no_progress_option", "TIME_UNIT_CHOICES"]
+           "false_alarm_option", "healthy_option", "no_progress_option", "scheduler_option",
+           "TIME_UNIT_CHOICES"]
 
 #: Below this rate (Hz) a time column is probably not in seconds (ms, sample counter): warned.
 LOW_RATE_HZ = 20.0
@@ -115,6 +116,25 @@ def no_progress_option(f):
     callable
     """
     return click.option("--no-progress", is_flag=True, help="Hide progress messages and bars.")(f)
+
+
+def scheduler_option(default: str = "local"):
+    """Decorator factory: ``--scheduler serial|local|ADDRESS`` (one definition for every command
+    that runs on Dask: batch, reproduce, sensitivity, benchmark).
+
+    Parameters
+    ----------
+    default : str, default "local"
+        Default scheduler.
+
+    Returns
+    -------
+    callable
+    """
+    return click.option("--scheduler", default=default, show_default=True,
+                        metavar="serial|local|ADDRESS",
+                        help="serial: in this process; local: a Dask cluster on this machine; or "
+                             "the address of a Dask scheduler (tcp://host:8786).")
 
 
 def column_map_from(column_map, cols, time_unit=None):

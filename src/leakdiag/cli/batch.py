@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from leakdiag.cli._options import scheduler_option
+
 __all__ = ["batch"]
 
 
@@ -26,9 +28,7 @@ def _stderr_is_terminal() -> bool:
                    "to the job's [[detector]] entries).")
 @click.option("--out", "-o", required=True, type=click.Path(),
               help="Results folder, a Parquet dataset (e.g. results.parquet); resumable.")
-@click.option("--scheduler", default="local", show_default=True, metavar="serial|local|ADDRESS",
-              help="serial: in this process; local: a Dask cluster on this machine; or the "
-                   "address of a Dask scheduler (tcp://host:8786).")
+@scheduler_option()
 @click.option("--workers", type=int, default=2, show_default=True,
               help="Worker processes of the local cluster.")
 @click.option("--retry-errors", is_flag=True, help="Re-run recordings whose result is an error.")
