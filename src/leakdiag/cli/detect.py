@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from leakdiag.cli._options import recording_options, resample_option
+from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
 
 __all__ = ["detect", "verdict_table", "overall_verdict"]
 
@@ -14,9 +15,12 @@ _DEFAULT_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 def _row(m, det, rec, n_healthy):
     v = det.predict(rec)
     basis = getattr(det, "threshold_basis_", None)
+    a = det._alarm()
+    monitored_h = max(rec.duration - a.burn_in_s, 0.0) / 3600.0  # the CUSUM's span in this run
     return {"method": m, **v.as_dict(), "threshold_method": det.alarm_threshold_.method,
-            "threshold_basis": basis if basis is None else str(basis), "n_healthy": n_healthy,
-            "false_alarms_per_hour": float(det._alarm().false_alarms_per_hour)}
+            "threshold_basis": basis if basis is None else threshold_words(basis),
+            "n_healthy": n_healthy, "false_alarms_per_hour": float(a.false_alarms_per_hour),
+            "false_alarms_per_run": float(a.false_alarms_per_hour) * monitored_h}
 
 
 def _cannot_judge(det, rec, file, m):
@@ -67,7 +71,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     false_alarm_rate : float, default 0.01
         Overall chance of a false "leak" for this run; split equally over the fitted methods
         (each fitted at ``false_alarm_rate / m`` per run, converted to a CUSUM rate per hour
-        with the file's duration).
+        with the file's monitored duration, i.e. after ``burn_in_s``).
     onset_method : {"binseg", "pelt", "cusum"}, default "binseg"
         Onset estimator.
     burn_in_s : float, default 5.0
@@ -86,8 +90,15 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     -------
     pandas.DataFrame
         One row per method: :meth:`Verdict.as_dict` plus ``method``, ``threshold_method``,
-        ``threshold_basis``, ``n_healthy`` and ``false_alarms_per_hour`` (or ``error`` when the
+        ``threshold_basis``, ``n_healthy``, ``false_alarms_per_hour`` and
+        ``false_alarms_per_run`` (after the burn-in) (or ``error`` when the
         method cannot be fitted on the healthy files, or a channel it reads is constant).
+
+    Raises
+    ------
+    ValueError
+        For a file that cannot be read, healthy files that disagree with it (rate, system,
+        channels, units), or recordings not longer than ``burn_in_s``.
     """
     import pandas as pd
 
@@ -111,8 +122,12 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
                     or _row(m, det, rec, meta.n_healthy if meta else None))
     if healthy:
         train = read_healthy(healthy, rec, column_map, sample_rate, resample=resample)
+        check_longer_than_burn_in(train, healthy, burn_in_s)
         system = system_of([rec, *train], system, [str(file), *map(str, healthy)])
-        hours = rec.duration / 3600.0
+        hours = (rec.duration - burn_in_s) / 3600.0  # monitored: the burn-in never alarms
+        if hours <= 0:
+            raise ValueError(f"{file}: {rec.duration:g} s long, not longer than --burn-in "
+                             f"{burn_in_s:g} s: nothing of it would be judged")
         per_hour = (false_alarms_per_hour if false_alarms_per_hour is not None
                     else false_alarm_rate / max(len(methods), 1) / hours)
         alarm = Alarm(false_alarms_per_hour=per_hour, onset_method=onset_method,
@@ -127,7 +142,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
             try:
                 det.fit(train)
             except ValueError as exc:
-                rows.append({"method": m, "error": str(exc)})
+                rows.append({"method": m, "error": in_cli_words(str(exc))})
                 continue
             rows.append(_row(m, det, rec, len(train)))
     tab = pd.DataFrame(rows)
@@ -143,7 +158,8 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
     tab : pandas.DataFrame
         Output of :func:`verdict_table`.
     duration_s : float
-        Duration of the judged file (s), for the per-run false-alarm rate.
+        Duration of the judged file (s), for the per-run false-alarm rate when ``tab`` has no
+        ``false_alarms_per_run`` column (each method's rate per hour times its monitored span).
 
     Returns
     -------
@@ -166,8 +182,9 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
 
     ok = tab[tab["leak"].notna()] if "leak" in tab else tab.iloc[:0]
     failed = tab[tab["leak"].isna()] if "leak" in tab else tab
-    rate = (pd.to_numeric(ok["false_alarms_per_hour"]).sum() * duration_s / 3600.0
-            if len(ok) else float("nan"))
+    per_run = (pd.to_numeric(ok["false_alarms_per_run"]) if "false_alarms_per_run" in ok
+               else pd.to_numeric(ok["false_alarms_per_hour"]) * duration_s / 3600.0)
+    rate = per_run.sum() if len(ok) else float("nan")
     fa = f"false-alarm rate for this run at most {rate:.3g} (sum over {len(ok)} method(s))"
     alarmed = ok[ok["leak"].astype(bool)]
     if len(alarmed):

@@ -1,0 +1,92 @@
+"""``leakdiag fit`` and ``detect`` speak the command line's words (issue 15, sec. 4): the threshold
+as a sentence (not a Python repr), advice naming their options, not API keywords."""
+
+import pytest
+
+from leakdiag.cli.main import main
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
+    d = tmp_path_factory.mktemp("words")
+    healthy = [str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, seed=60 + s,
+                                                reference_seed=160 + s), d / f"h{s}.parquet"))
+               for s in range(3)]
+    leak = simulate_vca(duration=20.0, leak_lpm=0.5, onset=10.0, seed=70, reference_seed=170)
+    short = simulate_vca(duration=4.0, leak_lpm=None, seed=71, reference_seed=171)
+    return (healthy, str(write_recording(leak, d / "leak.parquet")),
+            str(write_recording(short, d / "short.parquet")))
+
+
+def _h(paths):
+    return [a for p in paths for a in ("--healthy", p)]
+
+
+def test_fit_and_detect_state_the_threshold_in_words(files, tmp_path, capsys):
+    healthy, leak, _ = files
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", "--false-alarm-rate", "60",
+                 "-o", str(tmp_path / "det.joblib")]) == 0
+    out = capsys.readouterr().out
+    assert "ThresholdBasis(" not in out
+    # 3 healthy 15-s segments: 60/h is 0.25 per segment, exactly 1/(n+1): the largest maximum
+    assert "= the largest of 3 healthy CUSUM maxima (3 own; 15-s segments): at most 0.25 false " \
+           "alarm(s) per segment, i.e. 60 per hour (requested 60 per hour" in out
+    assert main(["detect", leak, *_h(healthy), "--methods", "ccf-p1p2", "--false-alarm-rate",
+                 "0.5", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "ThresholdBasis(" not in out
+    # 0.5 per run, monitored 15 s after the 5-s burn-in: 0.5 per 15-s segment, k = 2
+    assert ("  ccf-p1p2 threshold: " in out and "= the 2nd largest of 3 healthy CUSUM maxima "
+            "(3 own; 15-s segments): at most 0.5 false alarm(s) per segment" in out), out
+
+
+def test_detect_p_value_of_a_healthy_run_is_never_below_the_resolution(files, capsys):
+    """An identical or healthy score reads a p-value >= 1/(n+1), never 1e-133 (issue 15); a per-run
+    rate of 1/(n+1) per method is supported: the run is mapped onto the monitored span after the
+    burn-in, as the healthy segments are (it was refused when mapped onto the whole file)."""
+    healthy, _, _ = files
+    assert main(["detect", healthy[0], *_h(healthy), "--methods", "ccf-p1p2,acf-p1",
+                 "--false-alarm-rate", "0.5", "--no-progress"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    col = lines[0].split().index("p_value")
+    p = [float(ln.split()[col]) for ln in lines[1:3]]
+    assert min(p) >= 1 / 4
+
+
+@pytest.mark.parametrize("command", ["fit", "detect"])
+def test_too_little_healthy_data_is_advised_with_the_commands_options(files, tmp_path, capsys,
+                                                                     command):
+    healthy, leak, _ = files
+    args = (["fit", *_h(healthy), "-m", "acf-p1", "-o", str(tmp_path / "d.joblib")]
+            if command == "fit" else ["detect", leak, *_h(healthy), "--methods", "acf-p1"])
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "support false-alarm probabilities down to 1/(n+1) = 0.25" in err
+    assert "Give more --healthy recordings (or longer ones), or a larger --false-alarm-rate" in err
+    assert "reference maxima from other units" not in err and "larger target" not in err
+
+
+@pytest.mark.parametrize("command", ["fit", "detect"])
+def test_healthy_file_shorter_than_the_burn_in_names_file_and_option(files, tmp_path, capsys,
+                                                                     command):
+    healthy, leak, short = files
+    args = (["fit", *_h([healthy[0], short]), "-m", "acf-p1", "-o", str(tmp_path / "d.joblib")]
+            if command == "fit" else ["detect", leak, *_h([healthy[0], short]), "--methods",
+                                      "acf-p1"])
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert f"--healthy {short}: 4 s long, not longer than --burn-in 5 s" in err
+    assert "burn_in_s" not in err
+
+
+def test_fit_no_progress_hides_the_progress_lines(files, tmp_path, capsys):
+    healthy, _, _ = files
+    args = ["fit", *_h(healthy), "-m", "acf-p1", "--false-alarm-rate", "60",
+            "-o", str(tmp_path / "d.joblib")]
+    assert main(args) == 0
+    assert "fitting acf-p1 (VCA) on 3 healthy recording(s)..." in capsys.readouterr().err
+    assert main([*args, "--no-progress"]) == 0
+    assert capsys.readouterr().err == ""
