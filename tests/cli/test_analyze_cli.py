@@ -205,3 +205,13 @@ def test_nan_window_count_in_table_equals_the_warning(tmp_path, capsys):
     n_warned = int(re.search(r": (\d+) of 63 windows", str(rec[0].message)).group(1))
     row = [ln for ln in capsys.readouterr().out.splitlines() if ln.lstrip().startswith("auto")][0]
     assert n_warned == 3 and row.split()[-3] == "3"  # NaN windows column, before decision and p
+
+
+def test_analyze_sample_rate_contradicting_a_header_speaks_cli(tmp_path, capsys):
+    """The file's header says 1000 Hz: --sample-rate 500 is refused in the command's words."""
+    path = ld.io.write_recording(ld.Recording({"p1": np.sin(np.arange(3000.0))}, 1000.0),
+                                 tmp_path / "r.parquet")
+    assert main(["analyze", str(path), "-c", "p1", "--sample-rate", "500", "--onset", "1.5"]) == 2
+    err = capsys.readouterr().err
+    assert "a sample rate of 500 Hz was given (--sample-rate), but the file's header says " \
+           "1000 Hz" in err and "sample_rate=" not in err

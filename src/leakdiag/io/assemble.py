@@ -239,8 +239,9 @@ def _from_header(table: RawTable, header: dict[str, Any], sample_rate: float | N
     source = table.source
     rate = header["sample_rate"]
     if sample_rate is not None and sample_rate != rate:
-        raise RecordingError(f"{source}: sample_rate={sample_rate!r} disagrees with the file's "
-                             f"stored sample rate {rate!r} Hz")
+        raise RecordingError(f"{source}: a sample rate of {float(sample_rate):g} Hz was given "
+                             f"(--sample-rate), but the file's header says {float(rate):g} Hz; "
+                             "leave the sample rate out (it is known) or fix the file")
     missing = [c for c in header["channels"] if c not in table.columns]
     if missing:
         raise RecordingError(f"{source}: header lists channel(s) {missing} missing from the "
