@@ -279,3 +279,46 @@ def test_empty_and_text_csv_rows_name_file_channel_row(tmp_path):
     (t,) = run_case(str(rec_dir / "text.csv"), cfg)
     assert t["error"] == (f"{rec_dir / 'text.csv'}: channel 'p1' holds text, not numbers: "
                           "row 2500 is 'abc'")
+
+
+def test_cli_rerun_after_a_recording_changed_keeps_one_current_row_set(recordings):
+    """Through the command: an edited recording's rows replace its old ones (one row set per
+    path and job), and the exit code follows the current rows."""
+    tmp, paths = recordings
+    job = tmp / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    out = tmp / "res.parquet"
+    assert _cli_batch(tmp, job, out).exit_code == 1  # broken.parquet
+    old = read_results(out)
+    write_parquet(make_recording(11), paths[0])  # the recording changed
+    (tmp / "recordings" / "rig0" / "broken.parquet").unlink()  # and the bad one is gone
+    r = _cli_batch(tmp, job, out)
+    assert r.exit_code == 0, r.output
+    assert "3 recording(s): 1 run, 2 already done, 0 error(s) in this run; 3 current row(s)" \
+        in r.output
+    df = read_results(out)
+    mine = df[df["path"] == os.path.abspath(paths[0])]
+    assert len(mine) == 1 and mine["recording_sha256"].iloc[0] == content_hash(paths[0])
+    assert mine["value_mean"].iloc[0] != old[old["path"] == os.path.abspath(paths[0])][
+        "value_mean"].iloc[0]
+
+
+def test_cli_rows_for_empty_text_and_gapped_csv_name_file_channel_row(tmp_path):
+    rec_dir = tmp_path / "recordings"
+    rec_dir.mkdir()
+    (rec_dir / "empty.csv").write_text("")
+    rows = [f"{k / 1000},{np.sin(k)}" for k in range(6000)]
+    text = list(rows)
+    text[2500] = "2.5,abc"
+    (rec_dir / "text.csv").write_text("time,p1\n" + "\n".join(text) + "\n")
+    gap = [f"{k / 1000 + (0.5 if k >= 5000 else 0)},{np.sin(k)}" for k in range(6000)]
+    (rec_dir / "gap.csv").write_text("time,p1\n" + "\n".join(gap) + "\n")
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    r = CliRunner().invoke(cli, ["batch", str(rec_dir / "*.csv"), "--config", str(job), "-o",
+                                 str(tmp_path / "res"), "--scheduler", "serial", "--no-progress"])
+    assert r.exit_code == 1
+    assert f"{rec_dir / 'empty.csv'}: empty file: no header line and no data" in r.output
+    assert f"{rec_dir / 'text.csv'}: channel 'p1' holds text, not numbers: row 2500 is 'abc'" \
+        in r.output
+    assert f"{rec_dir / 'gap.csv'}: row 5000: time 5.5 s after 4.999 s is a gap" in r.output
