@@ -90,3 +90,22 @@ def test_fit_no_progress_hides_the_progress_lines(files, tmp_path, capsys):
     assert "fitting acf-p1 (VCA) on 3 healthy recording(s)..." in capsys.readouterr().err
     assert main([*args, "--no-progress"]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_detect_with_a_flow_balance_file_states_its_own_rate_and_no_p_value(files, tmp_path,
+                                                                           capsys):
+    """The flow balance keeps its rate and burn-in itself (not on the default Alarm): the run's
+    false-alarm statement uses them; its 'confidence' is not a conformal p-value, so none is
+    printed under that name."""
+    healthy, leak, _ = files
+    det = tmp_path / "fb.joblib"
+    assert main(["fit", *_h(healthy), "-m", "flow-balance", "--false-alarm-rate", "30",
+                 "--no-progress", "-o", str(det)]) == 0
+    capsys.readouterr()
+    assert main(["detect", leak, "--detector", str(det), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    col = lines[0].split().index("p_value")
+    assert lines[1].split()[0] == "flow-balance" and lines[1].split()[col] == "-"
+    # 30 per hour over the 18 s after the flow balance's own 2-s burn-in: 0.15 per run
+    assert "false-alarm rate for this run at most 0.15 (sum over 1 method(s))" in out

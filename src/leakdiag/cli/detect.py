@@ -16,11 +16,18 @@ def _row(m, det, rec, n_healthy):
     v = det.predict(rec)
     basis = getattr(det, "threshold_basis_", None)
     a = det._alarm()
-    monitored_h = max(rec.duration - a.burn_in_s, 0.0) / 3600.0  # the CUSUM's span in this run
-    return {"method": m, **v.as_dict(), "threshold_method": det.alarm_threshold_.method,
-            "threshold_basis": basis if basis is None else threshold_words(basis),
-            "n_healthy": n_healthy, "false_alarms_per_hour": float(a.false_alarms_per_hour),
-            "false_alarms_per_run": float(a.false_alarms_per_hour) * monitored_h}
+    # the rate and burn-in the detector was fitted with: detectors with their own alarm (the
+    # flow balance) keep them on the threshold and themselves, not on the default Alarm
+    per_hour = float(getattr(det.alarm_threshold_, "target_per_hour", a.false_alarms_per_hour))
+    burn_in = float(getattr(det, "burn_in_s", a.burn_in_s))
+    monitored_h = max(rec.duration - burn_in, 0.0) / 3600.0  # the alarm's span in this run
+    row = {"method": m, **v.as_dict(), "threshold_method": det.alarm_threshold_.method,
+           "threshold_basis": basis if basis is None else threshold_words(basis),
+           "n_healthy": n_healthy, "false_alarms_per_hour": per_hour,
+           "false_alarms_per_run": per_hour * monitored_h}
+    if basis is None:  # only a conformal basis gives a p-value (docs/detect.md, section 2)
+        row["confidence"] = None
+    return row
 
 
 def _cannot_judge(det, rec, file, m):
