@@ -322,3 +322,25 @@ def test_cli_rows_for_empty_text_and_gapped_csv_name_file_channel_row(tmp_path):
     assert f"{rec_dir / 'text.csv'}: channel 'p1' holds text, not numbers: row 2500 is 'abc'" \
         in r.output
     assert f"{rec_dir / 'gap.csv'}: row 5000: time 5.5 s after 4.999 s is a gap" in r.output
+
+
+def test_cli_job_of_detector_files_alone_and_whole_recording_detectors_refused(recordings,
+                                                                               tmp_path):
+    """A job file with only [job] runs the --detector files given; a detector that judges whole
+    recordings is refused before any recording is read, as monitor refuses it."""
+    tmp, _ = recordings
+    (tmp / "recordings" / "rig0" / "broken.parquet").unlink()
+    det = tmp_path / "slow.pkl"
+    det.write_bytes(pickle.dumps(SlowScorer()))
+    job = tmp_path / "job.toml"
+    job.write_text("[job]\nrms_chunk = 10\n")
+    r = _cli_batch(tmp, job, tmp_path / "res", "--detector", str(det))
+    assert r.exit_code == 0, r.output
+    assert "3 recording(s): 3 run" in r.output
+    whole = tmp_path / "whole.pkl"
+    whole.write_bytes(pickle.dumps(object()))  # no spec(), no score_windows(): whole recordings
+    r = _cli_batch(tmp, job, tmp_path / "res2", "--detector", str(whole))
+    assert r.exit_code == 2
+    assert "judges whole recordings and cannot run window by window" in r.output
+    assert "use leakdiag detect FILE --detector" in r.output
+    assert not (tmp_path / "res2").exists()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import click
 
 from leakdiag.cli._options import scheduler_option
@@ -49,14 +51,17 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
 
     if workers < 1:
         raise click.BadParameter(f"{workers} must be >= 1", param_hint="--workers")
-    cfg = load_config(config_path)
-    if detectors:
-        import dataclasses
+    cfg = load_config(config_path, detectors=detectors)
+    for ref in cfg.detectors:  # refused before any recording is read, as monitor does
+        import warnings
 
-        from leakdiag.batch.config import detector_ref
+        from leakdiag.cli.monitor import check_streamable, load_detector
 
-        cfg = dataclasses.replace(cfg, detectors=cfg.detectors + tuple(
-            detector_ref(d, name=None) for d in detectors))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a bare pickle: the runner says what it can
+            det, meta = load_detector(ref.path)
+        check_streamable(det, meta, ref.path, "--detector" if ref.path in {
+            os.path.abspath(d) for d in detectors} else f"[[detector]] in {config_path}")
     sched = None if scheduler == "serial" else scheduler
     if sched == "local":
         sched = LOCAL
@@ -64,7 +69,6 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
                   progress=not no_progress and _stderr_is_terminal(), retry_errors=retry_errors)
     if s.n_inputs == 0:
         raise click.UsageError(f"no recording matches {' '.join(inputs)}")
-    import os
 
     df = read_results(out)
     matched = {os.path.abspath(p) for p in expand_inputs(list(inputs))}

@@ -87,6 +87,35 @@ def load_detector(path: str):
         raise click.BadParameter(str(exc), param_hint="--detector") from None
 
 
+def check_streamable(detector, meta, path: str, hint: str = "--detector") -> None:
+    """Refuse a detector that judges whole recordings (monitor and batch run window by window).
+
+    Parameters
+    ----------
+    detector : object
+        Loaded detector.
+    meta : DetectorMeta or None
+        Its metadata record.
+    path : str
+        Its file (for the message).
+    hint : str, default "--detector"
+        Where the file was given (option or job-file entry).
+
+    Raises
+    ------
+    click.BadParameter
+        Naming the file and what to use instead.
+    """
+    if callable(getattr(detector, "score_windows", None)) or \
+            callable(getattr(detector, "spec", None)):
+        return
+    name = meta.method if meta else type(detector).__name__
+    raise click.BadParameter(f"{path}: {name} judges whole recordings and cannot run window by "
+                             f"window; use leakdiag detect FILE --detector {path}, or fit a "
+                             "single-feature detector (acf-p1, ccf-p1p2, ccf-ux, mlr-p1)",
+                             param_hint=hint)
+
+
 def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: int,
                  idle_timeout: float | None, batch_lines: int = 1, column_map=None):
     """The chunk source for ``--input``: stdin, a followed CSV, a chunked file or a recording.
@@ -192,13 +221,8 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
     from leakdiag.stream.detector_file import check_detector_fits
 
     detector, meta = load_detector(detector_path) if detector_path else (None, None)
-    if detector is not None and not callable(getattr(detector, "score_windows", None)) and \
-            not callable(getattr(detector, "spec", None)):
-        name = meta.method if meta else type(detector).__name__
-        raise click.BadParameter(f"{detector_path}: {name} judges whole recordings and cannot "
-                                 "run window by window; use leakdiag detect FILE --detector "
-                                 f"{detector_path}, or fit a single-feature detector (acf-p1, "
-                                 "ccf-p1p2, ccf-ux, mlr-p1)", param_hint="--detector")
+    if detector is not None:
+        check_streamable(detector, meta, detector_path)
     spec = _spec(method, channels, lag, lag_ratio, window, overlap, detector)
     cmap = column_map_from(column_map, cols, time_unit)
     try:
