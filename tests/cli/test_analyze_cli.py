@@ -215,3 +215,12 @@ def test_analyze_sample_rate_contradicting_a_header_speaks_cli(tmp_path, capsys)
     err = capsys.readouterr().err
     assert "a sample rate of 500 Hz was given (--sample-rate), but the file's header says " \
            "1000 Hz" in err and "sample_rate=" not in err
+
+
+def test_no_time_column_and_no_rate_advises_the_option(tmp_path, capsys):
+    path = tmp_path / "notime.csv"
+    pd.DataFrame({"p1": np.sin(np.arange(3000.0))}).to_csv(path, index=False)
+    assert main(["analyze", str(path), "-c", "p1", "--onset", "1.5"]) == 2
+    err = capsys.readouterr().err
+    assert "no sample rate; give the sample rate (--sample-rate, or sample_rate_hz in the map)" \
+        in err and "give sample_rate" not in err

@@ -123,7 +123,7 @@ def _time_axis(table: RawTable, cmap: ColumnMap | None, sample_rate: float | Non
         if rate is None:
             raise RecordingError(
                 f"{source}: time column {col!r} is a sample counter; give the sample rate "
-                f"(sample_rate=..., --sample-rate, or sample_rate_hz in the map)"
+                f"(--sample-rate, or sample_rate_hz in the map)"
             )
         t = raw / rate
     else:
@@ -229,7 +229,8 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
     if rate is None:
         raise RecordingError(
             f"{source}: no time column (no column named 'time'; columns: {table.names}) and "
-            f"no sample rate; give sample_rate (--sample-rate) or a time column in the map"
+            f"no sample rate; give the sample rate (--sample-rate, or sample_rate_hz in the "
+            f"map) or a time column in the map"
         )
     return Recording(channels, rate, start, out_units, meta)
 
