@@ -224,3 +224,16 @@ def test_no_time_column_and_no_rate_advises_the_option(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "no sample rate; give the sample rate (--sample-rate, or sample_rate_hz in the map)" \
         in err and "give sample_rate" not in err
+
+
+def test_time_unit_contradicting_a_leakdiag_header_is_refused(tmp_path, capsys):
+    """--time-unit ms on a file whose header says 1000 Hz read it silently at 1 MHz."""
+    path = ld.io.write_recording(ld.Recording({"p1": np.sin(np.arange(3000.0))}, 1000.0),
+                                 tmp_path / "r.parquet")
+    assert main(["analyze", str(path), "-c", "p1", "--time-unit", "ms", "--onset", "1.5e-3",
+                 "--chunk", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "r.parquet: the file's header says 1000 Hz, but its time column read with the column " \
+           "map (--map/--col/--time-unit) gives 1e+06 Hz" in err
+    assert main(["analyze", str(path), "-c", "p1", "--time-unit", "s", "--onset", "1.5",
+                 "--chunk", "2"]) == 0

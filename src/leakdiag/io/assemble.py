@@ -194,6 +194,13 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
         return _from_header(table, header, sample_rate)
     specs = _select(table, column_map, units)
     time_col, t, rate = _time_axis(table, column_map, sample_rate, resample)
+    own = header.get("sample_rate") if header is not None else None
+    if own is not None and rate is not None and resample is None and \
+            abs(rate - float(own)) > UNIFORM_TIME_RTOL * float(own):
+        raise RecordingError(
+            f"{source}: the file's header says {float(own):g} Hz, but its time column read with "
+            f"the column map (--map/--col/--time-unit) gives {rate:g} Hz; a file written by "
+            "leakdiag needs no time unit or map: leave them out for it, or fix the map")
     lengths = {name: spec.column for name, spec in specs.items()}
     if time_col is not None:
         lengths = {f"time column {time_col!r}": time_col, **lengths}
