@@ -139,3 +139,30 @@ def test_sweep_figures_are_readable_and_name_the_users_file(tmp_path, capsys):
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+def test_no_progress_wherever_there_is_progress():
+    """Commands that print progress (bars or per-step lines on stderr) can be silenced."""
+    for name in ["batch", "benchmark", "detect", "fit", "reproduce", "sensitivity", "simulate"]:
+        opts = {o for p in _command(name).params for o in getattr(p, "opts", [])}
+        assert "--no-progress" in opts, name
+
+
+def test_batch_draws_no_bar_into_a_log(tmp_path):
+    """Not at a terminal (a log, CI), batch prints its summary line once and no progress bar."""
+    import numpy as np
+
+    import leakdiag as ld
+
+    d = tmp_path / "recs"
+    d.mkdir()
+    for i in range(3):
+        ld.io.write_recording(ld.Recording({"p1": np.sin(np.arange(2000.0) * (1 + i))}, 1000.0),
+                              d / f"r{i}.parquet")
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    r = CliRunner().invoke(cli, ["batch", str(d / "*.parquet"), "--config", str(job), "-o",
+                                 str(tmp_path / "res"), "--scheduler", "serial"])
+    assert r.exit_code == 0, r.output
+    assert r.output.count("3 recording(s): 3 run") == 1
+    assert "rec/s" not in r.output and "%|" not in r.output
