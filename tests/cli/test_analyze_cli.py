@@ -237,3 +237,18 @@ def test_time_unit_contradicting_a_leakdiag_header_is_refused(tmp_path, capsys):
            "map (--map/--col/--time-unit) gives 1e+06 Hz" in err
     assert main(["analyze", str(path), "-c", "p1", "--time-unit", "s", "--onset", "1.5",
                  "--chunk", "2"]) == 0
+
+
+def test_a_method_without_a_measure_prints_dashes_not_nan(tmp_path, capsys):
+    rng = np.random.default_rng(5)
+    path = tmp_path / "short.csv"
+    ld.Recording({"p1": 1e6 + 1e3 * rng.standard_normal(3000),
+                  "p2": 1e6 + 1e3 * rng.standard_normal(3000)}, 1000.0).to_pandas().to_csv(
+        path, index=False)
+    # 15 autocorrelation windows in 3 s: no whole chunk of 10 on either side of the onset;
+    # 31 cross-correlation windows: one on each side, so the table has the measure's columns
+    assert main(["analyze", str(path), "--method", "all", "--onset", "1.5"]) == 0
+    out = capsys.readouterr().out
+    table = out.split("\n  autocorrelation p1:")[0]
+    assert "autocorrelation" in table and "inconclusive" in table
+    assert "nan" not in table.lower().replace("nan windows", "")

@@ -30,8 +30,10 @@ def format_verdict(table) -> str:
     show = table[table["skipped"].isna()].copy() if "skipped" in table else table.copy()
     cols = ["method", "channels", "setting", "window", "overlap", "n_windows"]
     if show["mean_rms_before"].notna().any():
-        show["mean_rms_before"] = show["mean_rms_before"].map(lambda v: f"{v:.5g}")
-        show["mean_rms_after"] = show["mean_rms_after"].map(lambda v: f"{v:.5g}")
+        show["mean_rms_before"] = show["mean_rms_before"].map(lambda v: f"{v:.5g}" if v == v
+                                                              else "-")
+        show["mean_rms_after"] = show["mean_rms_after"].map(lambda v: f"{v:.5g}" if v == v
+                                                            else "-")
         show["% change"] = show["pct_change"].map(lambda v: f"{v:.2f}" if v == v else "-")
         show["signed"] = show["pct_change_signed"].map(lambda v: f"{v:+.2f}" if v == v else "-")
         show["chunks b/a/x"] = [
