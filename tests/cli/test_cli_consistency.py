@@ -166,3 +166,32 @@ def test_batch_draws_no_bar_into_a_log(tmp_path):
     assert r.exit_code == 0, r.output
     assert r.output.count("3 recording(s): 3 run") == 1
     assert "rec/s" not in r.output and "%|" not in r.output
+
+
+def test_reproduce_says_it_writes_the_report_after_the_bar(tmp_path, monkeypatch):
+    """The report takes tens of seconds after the progress bar's 100 %: said before it starts."""
+    import types
+
+    import pandas as pd
+
+    rp = importlib.import_module("leakdiag.studies.reproduce")  # the package's reproduce()
+    said = []                                                 # shadows the module's name
+    rep = types.SimpleNamespace(tables=pd.DataFrame({"direction_agrees": [True]}),
+                                timing={"n_cases": 1, "cache_hits": 0, "wall_s": 1.0})
+    monkeypatch.setattr(rp, "reproduce", lambda *a, **k: rep)
+
+    def write_outputs(rep_, out, command):
+        said.append(capture.getvalue())
+        return {"html": out}
+
+    monkeypatch.setattr(rp, "write_outputs", write_outputs)
+    import contextlib
+    import io
+
+    from leakdiag.cli.main import main
+
+    capture = io.StringIO()
+    with contextlib.redirect_stderr(capture):
+        assert main(["reproduce", "vca", "--quick", "-o", str(tmp_path), "--scheduler",
+                     "serial"]) == 0
+    assert said and "writing the report (tables, figures, HTML and Markdown)" in said[0]
