@@ -109,3 +109,35 @@ def test_detect_with_a_flow_balance_file_states_its_own_rate_and_no_p_value(file
     assert lines[1].split()[0] == "flow-balance" and lines[1].split()[col] == "-"
     # 30 per hour over the 18 s after the flow balance's own 2-s burn-in: 0.15 per run
     assert "false-alarm rate for this run at most 0.15 (sum over 1 method(s))" in out
+
+
+def _cut(path, seconds, out):
+    from leakdiag.io import read_recording, write_recording
+    from leakdiag.io.recording import Recording
+
+    r = read_recording(path)
+    n = int(seconds * r.sample_rate)
+    return str(write_recording(Recording({c: r[c][:n] for c in r.channels}, r.sample_rate,
+                                         r.start_time, dict(r.units), dict(r.meta)), out))
+
+
+def test_detect_per_run_rate_holds_for_runs_shorter_or_longer_than_the_healthy(files, tmp_path,
+                                                                            capsys):
+    """The threshold comes from healthy segments as long as the judged run: a 10-s run against
+    20-s healthy files uses 3 segments of 5 s from each (9 maxima support 0.1 per run); a 20-s
+    run against 10-s healthy files spans 3 of their 5-s segments, each held to a third."""
+    healthy, leak, _ = files
+    short = _cut(healthy[0], 10.0, tmp_path / "short_run.parquet")
+    assert main(["detect", short, *_h(healthy), "--methods", "acf-p1", "--false-alarm-rate",
+                 "0.1", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "of 9 healthy CUSUM maxima (9 own; 5-s segments): at most 0.1 false alarm(s) per " \
+           "segment" in out
+    assert "false-alarm rate for this run at most 0.1 (sum over 1 method(s))" in out
+    cut = [_cut(h, 10.0, tmp_path / f"h{i}.parquet") for i, h in enumerate(healthy)]
+    assert main(["detect", leak, *_h(cut), "--methods", "acf-p1", "--false-alarm-rate", "0.75",
+                 "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "of 3 healthy CUSUM maxima (3 own; 5-s segments): at most 0.25 false alarm(s) per " \
+           "segment" in out
+    assert "false-alarm rate for this run at most 0.75 (sum over 1 method(s))" in out

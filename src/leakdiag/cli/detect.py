@@ -77,8 +77,10 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
         Sample rate in Hz when the files have no time column in seconds.
     false_alarm_rate : float, default 0.01
         Overall chance of a false "leak" for this run; split equally over the fitted methods
-        (each fitted at ``false_alarm_rate / m`` per run, converted to a CUSUM rate per hour
-        with the file's monitored duration, i.e. after ``burn_in_s``).
+        (each fitted at ``false_alarm_rate / m`` per run: its threshold is taken from healthy
+        segments as long as the file's monitored span after ``burn_in_s``, or, for a file
+        longer than the shortest healthy recording, ``1 / n`` of it per segment over the
+        ``n`` segments the file spans).
     onset_method : {"binseg", "pelt", "cusum"}, default "binseg"
         Onset estimator.
     burn_in_s : float, default 5.0
@@ -107,12 +109,15 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
         For a file that cannot be read, healthy files that disagree with it (rate, system,
         channels, units), or recordings not longer than ``burn_in_s``.
     """
+    import math
+
     import pandas as pd
 
     from leakdiag.bench.registry import make_detector
     from leakdiag.cli._options import read_healthy, read_with
     from leakdiag.cli.fit import system_of
     from leakdiag.detect.base import Alarm
+    from leakdiag.detect.threshold import SEGMENT_TOLERANCE
     from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
 
     say = progress or (lambda msg: None)
@@ -131,14 +136,19 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
         train = read_healthy(healthy, rec, column_map, sample_rate, resample=resample)
         check_longer_than_burn_in(train, healthy, burn_in_s)
         system = system_of([rec, *train], system, [str(file), *map(str, healthy)])
-        hours = (rec.duration - burn_in_s) / 3600.0  # monitored: the burn-in never alarms
-        if hours <= 0:
+        span = rec.duration - burn_in_s  # monitored: the burn-in never alarms
+        if span <= 0:
             raise ValueError(f"{file}: {rec.duration:g} s long, not longer than --burn-in "
                              f"{burn_in_s:g} s: nothing of it would be judged")
-        per_hour = (false_alarms_per_hour if false_alarms_per_hour is not None
-                    else false_alarm_rate / max(len(methods), 1) / hours)
-        alarm = Alarm(false_alarms_per_hour=per_hour, onset_method=onset_method,
-                      burn_in_s=burn_in_s)
+        if false_alarms_per_hour is not None:
+            alarm = Alarm(false_alarms_per_hour=false_alarms_per_hour,
+                          onset_method=onset_method, burn_in_s=burn_in_s)
+        else:  # per run: healthy segments as long as the judged run (docs/measure.md)
+            seg = min(span, min(r.duration for r in train) - burn_in_s)
+            n_seg = math.ceil(span / seg - SEGMENT_TOLERANCE)  # a longer run spans several
+            per_segment = false_alarm_rate / max(len(methods), 1) / n_seg
+            alarm = Alarm(false_alarms_per_hour=per_segment * 3600.0 / seg, segment_s=seg,
+                          onset_method=onset_method, burn_in_s=burn_in_s)
         for i, m in enumerate(methods):
             det = make_detector(m, system, alarm)  # unknown names raise here
             why = _cannot_judge(det, rec, file, m)
