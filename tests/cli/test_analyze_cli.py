@@ -252,3 +252,16 @@ def test_a_method_without_a_measure_prints_dashes_not_nan(tmp_path, capsys):
     table = out.split("\n  autocorrelation p1:")[0]
     assert "autocorrelation" in table and "inconclusive" in table
     assert "nan" not in table.lower().replace("nan windows", "")
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--chunk", "0"], "Invalid value for '--chunk': 0 is not in the range x>=1"),
+    (["--false-alarm-rate", "1.5"], "'--false-alarm-rate': 1.5 is not in the range 0<x<=0.5"),
+    (["--false-alarm-rate", "0"], "'--false-alarm-rate': 0.0 is not in the range 0<x<=0.5"),
+])
+def test_analyze_refuses_nonsense_settings_even_without_an_onset(run_file, capsys, args, needle):
+    """Without an onset the decision is INCONCLUSIVE; it used to state 'each at 1.5 so that the
+    overall false-alarm rate per run is 1.5' (or run with 0 chunks) instead of refusing."""
+    path, _ = run_file
+    assert main(["analyze", str(path), "-c", "p1", *args]) == 2
+    assert needle in capsys.readouterr().err

@@ -231,3 +231,37 @@ def test_monitor_file_checks_the_whole_time_column_not_only_its_head(tmp_path, s
             assert f"{path}: row {row}: time" in str(r.exception) and what in str(r.exception)
         assert "not uniformly sampled" in str(CliRunner().invoke(
             cli, ["analyze", str(path), "-c", "p1", "--onset", "6"]).exception)
+
+
+def test_monitor_refuses_options_it_would_ignore(run_file, tmp_path):
+    """Options that do nothing in the run asked for are refused, never silently ignored."""
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
+    path, _ = run_file
+    cases = [
+        (["-c", "p1", "--lag-ratio", "83:3"], "--lag-ratio applies to --method metric-length only"),
+        (["-m", "metric-length", "-c", "p1", "--lag", "3"], "--lag applies to autocorrelation"),
+        (["-c", "p1", "--idle-timeout", "2"], "--idle-timeout applies to --follow only"),
+        (["-c", "p1", "--batch-lines", "10"], "--batch-lines applies to stdin (--input -) and "
+                                              "--follow only"),
+        (["-c", "p1", "--chunk", "0"], "Invalid value for '--chunk': 0 is not in the range x>=1"),
+        (["-c", "p1", "--batch-lines", "0"], "'--batch-lines': 0 is not in the range x>=1"),
+    ]
+    for args, needle in cases:
+        r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-q", *args])
+        assert r.exit_code == 2 and needle in r.output, (args, r.output)
+    h = [str(write_recording(simulate_vca(duration=12.0, leak_lpm=None, seed=s,
+                                          reference_seed=50 + s), tmp_path / f"h{s}.parquet"))
+         for s in (1, 2)]
+    det = tmp_path / "det.joblib"
+    assert CliRunner().invoke(cli, ["fit", "--healthy", h[0], "--healthy", h[1], "-m", "acf-p1",
+                                    "--false-alarm-rate", "200", "-o", str(det)]).exit_code == 0
+    r = CliRunner().invoke(cli, ["monitor", "-i", h[0], "--detector", str(det), "-w", "500"])
+    assert r.exit_code == 2
+    assert "--window: the detector file fixes its feature (autocorrelation p1 1 N=200 5%)" \
+        in r.output
+    # the detector's own values are harmless
+    r = CliRunner().invoke(cli, ["monitor", "-i", h[0], "--detector", str(det), "-c", "p1",
+                                 "-w", "200", "-q"])
+    assert r.exit_code == 0, r.output

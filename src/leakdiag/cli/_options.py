@@ -85,7 +85,7 @@ def healthy_option(f):
                         help="Healthy reference recording of the same machine (repeatable).")(f)
 
 
-def false_alarm_option(default: float = 0.01, per: str = "run"):
+def false_alarm_option(default: float = 0.01, per: str = "run", upper: float = 1.0):
     """Decorator factory: ``--false-alarm-rate`` (the one name for the false-alarm target).
 
     Parameters
@@ -94,12 +94,15 @@ def false_alarm_option(default: float = 0.01, per: str = "run"):
         Default rate.
     per : str, default "run"
         What the rate is per (stated in the help).
+    upper : float, default 1.0
+        Largest accepted rate (included); 0 is always refused.
 
     Returns
     -------
     callable
     """
-    return click.option("--false-alarm-rate", type=float, default=default, show_default=True,
+    return click.option("--false-alarm-rate", type=click.FloatRange(0, upper, min_open=True),
+                        default=default, show_default=True,
                         help=f"Chance of a false 'leak' per {per} on healthy operation.")
 
 

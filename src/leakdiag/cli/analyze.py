@@ -135,10 +135,10 @@ def decision_words(table, false_alarm_rate: float) -> str:
 @click.option("--overlap", type=float, default=None, help="Overlap (%; default 5).")
 @click.option("--onset", type=float, default=None,
               help="Leak onset (s) for the before/after measure; default: the file's metadata.")
-@click.option("--chunk", type=int, default=10, show_default=True,
+@click.option("--chunk", type=click.IntRange(min=1), default=10, show_default=True,
               help="Feature values per RMS chunk (Sec. 5.2).")
 @healthy_option
-@false_alarm_option()
+@false_alarm_option(upper=0.5)
 @click.option("--out", "-o", type=click.Path(file_okay=False), default=None,
               help="Folder for verdict.csv, features.parquet and features.png.")
 def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, system, channels,
