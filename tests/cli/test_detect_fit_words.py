@@ -141,3 +141,18 @@ def test_detect_per_run_rate_holds_for_runs_shorter_or_longer_than_the_healthy(f
     assert "of 3 healthy CUSUM maxima (3 own; 5-s segments): at most 0.25 false alarm(s) per " \
            "segment" in out
     assert "false-alarm rate for this run at most 0.75 (sum over 1 method(s))" in out
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["fit", "--false-alarm-rate", "0"], "'--false-alarm-rate': 0.0 is not in the range x>0"),
+    (["fit", "--burn-in", "-1"], "'--burn-in': -1.0 is not in the range x>=0"),
+    (["detect", "--burn-in", "-1"], "'--burn-in': -1.0 is not in the range x>=0"),
+])
+def test_fit_and_detect_name_the_option_of_a_bad_value(files, tmp_path, capsys, args, needle):
+    healthy, leak, _ = files
+    cmd, *opts = args
+    full = ([cmd, *_h(healthy), "-m", "acf-p1", "-o", str(tmp_path / "d.joblib"), *opts]
+            if cmd == "fit" else [cmd, leak, *_h(healthy), *opts])
+    assert main(full) == 2
+    err = capsys.readouterr().err
+    assert needle in err and "burn_in_s=" not in err and "false_alarms_per_hour=" not in err

@@ -232,7 +232,8 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
                    "--healthy (a --detector keeps its own rate per hour).")
 @click.option("--onset-method", default="binseg", show_default=True,
               type=click.Choice(["binseg", "pelt", "cusum"]), help="Onset estimator.")
-@click.option("--burn-in", "burn_in_s", default=5.0, show_default=True, type=float,
+@click.option("--burn-in", "burn_in_s", default=5.0, show_default=True,
+              type=click.FloatRange(min=0),
               help="Seconds ignored at the start of every recording.")
 @click.option("--no-progress", is_flag=True, help="Do not print a line per method.")
 @click.option("--store", default=None, help="Also write the verdicts to this event store "

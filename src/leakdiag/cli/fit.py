@@ -161,10 +161,12 @@ class _LazyChoice(click.Choice):
               help="Rig (default: the files' metadata; required when they do not say).")
 @recording_options
 @resample_option
-@click.option("--false-alarm-rate", type=float, default=1.0, show_default=True,
+@click.option("--false-alarm-rate", type=click.FloatRange(min=0, min_open=True), default=1.0,
+              show_default=True,
               help="False alarms per hour of healthy operation the detector's threshold is set "
                    "for (continuous monitoring).")
-@click.option("--burn-in", "burn_in_s", type=float, default=5.0, show_default=True,
+@click.option("--burn-in", "burn_in_s", type=click.FloatRange(min=0), default=5.0,
+              show_default=True,
               help="Seconds ignored at the start of every recording.")
 @click.option("--calibrate", "calibration", multiple=True,
               type=click.Path(exists=True, dir_okay=False),
