@@ -344,3 +344,25 @@ def test_cli_job_of_detector_files_alone_and_whole_recording_detectors_refused(r
     assert "judges whole recordings and cannot run window by window" in r.output
     assert "use leakdiag detect FILE --detector" in r.output
     assert not (tmp_path / "res2").exists()
+
+
+def test_cli_error_rows_advise_what_a_batch_job_can_do(tmp_path):
+    """batch has no --sample-rate or --resample: its rows advise the job's column_map and
+    resampling beforehand instead."""
+    rec_dir = tmp_path / "recordings"
+    rec_dir.mkdir()
+    (rec_dir / "notime.csv").write_text("p1\n" + "".join(f"{np.sin(k)}\n" for k in range(3000)))
+    t = np.arange(3000) / 1000.0
+    t[1500:] += 0.0004
+    (rec_dir / "jitter.txt").write_text("time\tp1\n" + "".join(
+        f"{a}\t{np.sin(k)}\n" for k, a in enumerate(t)))
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    r = CliRunner().invoke(cli, ["batch", str(rec_dir / "*"), "--config", str(job), "-o",
+                                 str(tmp_path / "res"), "--scheduler", "serial", "--no-progress"])
+    assert r.exit_code == 1
+    assert "notime.csv: no 'time' column and no sample rate in the file: give the sample rate " \
+           "(sample_rate_hz in the job's column_map)" in r.output
+    assert "jitter.txt: column 'time' is not uniformly sampled" in r.output
+    assert "batch needs a uniform time axis: resample the file first" in r.output
+    assert "--sample-rate" not in r.output and "(--resample" not in r.output

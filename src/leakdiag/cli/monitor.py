@@ -243,6 +243,7 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
     Without --detector only the feature is computed: no alarm is possible.
     """
     from leakdiag.cli._options import column_map_from
+    from leakdiag.io.checks import RESAMPLE_ADVICE
     from leakdiag.stream import Monitor, paced
     from leakdiag.stream.detector_file import check_detector_fits
 
@@ -266,7 +267,7 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
                               idle_timeout, batch_lines, cmap)
     except ValueError as exc:  # advise only what monitor has: it streams, it cannot resample
         raise ValueError(str(exc).replace(
-            "resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess",
+            RESAMPLE_ADVICE,
             "monitor needs a uniform time axis: resample the file first (e.g. leakdiag analyze "
             "--resample RATE_HZ reads it)")) from None
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
