@@ -366,3 +366,17 @@ def test_cli_error_rows_advise_what_a_batch_job_can_do(tmp_path):
     assert "jitter.txt: column 'time' is not uniformly sampled" in r.output
     assert "batch needs a uniform time axis: resample the file first" in r.output
     assert "--sample-rate" not in r.output and "(--resample" not in r.output
+
+
+def test_cli_warns_of_a_time_column_read_as_a_low_rate(tmp_path):
+    rec_dir = tmp_path / "recordings"
+    rec_dir.mkdir()
+    (rec_dir / "ms.csv").write_text("time,p1\n" + "".join(f"{k},{np.sin(k)}\n"
+                                                          for k in range(3000)))
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    r = CliRunner().invoke(cli, ["batch", str(rec_dir / "*.csv"), "--config", str(job), "-o",
+                                 str(tmp_path / "res"), "--scheduler", "serial", "--no-progress"])
+    assert r.exit_code == 0
+    assert "warning: ms.csv: sample rate 1 Hz from the time column is low" in r.output
+    assert '[file] time_unit = "ms"' in r.output

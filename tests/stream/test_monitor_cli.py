@@ -265,3 +265,16 @@ def test_monitor_refuses_options_it_would_ignore(run_file, tmp_path):
     r = CliRunner().invoke(cli, ["monitor", "-i", h[0], "--detector", str(det), "-c", "p1",
                                  "-w", "200", "-q"])
     assert r.exit_code == 0, r.output
+
+
+def test_monitor_warns_when_a_time_column_reads_as_a_low_rate(tmp_path):
+    """A time column in milliseconds read as seconds (1 Hz) is warned about, as in analyze."""
+    path = tmp_path / "ms.csv"
+    rows = "".join(f"{k},{np.sin(k)}\n" for k in range(3000))  # time in ms
+    path.write_text("time,p1\n" + rows)
+    with pytest.warns(UserWarning, match=r"ms.csv: sample rate 1 Hz from the time column is low"
+                                         r".*give --time-unit ms"):
+        r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-c", "p1", "-q"])
+    assert r.exit_code == 0
+    r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-c", "p1", "--time-unit", "ms"])
+    assert r.exit_code == 0 and "3000 samples at 1000 Hz" in r.output

@@ -14,6 +14,7 @@ import click
 
 __all__ = ["recording_options", "resample_option", "column_map_from", "read_with", "read_healthy",
            "false_alarm_option", "healthy_option", "no_progress_option", "scheduler_option",
+           "warn_low_rate",
            "TIME_UNIT_CHOICES"]
 
 #: Below this rate (Hz) a time column is probably not in seconds (ms, sample counter): warned.
@@ -189,12 +190,34 @@ def read_with(path, cmap, sample_rate=None, resample=None):
     if rec.meta.get("source") != str(path):
         rec.meta["origin"] = rec.meta.get("source")
         rec.meta["source"] = str(path)
-    if rec.sample_rate < LOW_RATE_HZ and sample_rate is None:
-        warnings.warn(f"{path}: sample rate {rec.sample_rate:g} Hz from the time column is low "
-                      "for actuator pressures; if the time column is in milliseconds or a "
-                      "sample counter, give --time-unit ms (or samples with --sample-rate)",
-                      UserWarning, stacklevel=2)
+    if sample_rate is None:
+        warn_low_rate(path, rec.sample_rate)
     return rec
+
+
+def warn_low_rate(path, rate: float, advice: str = "give --time-unit ms (or samples with "
+                                                    "--sample-rate)") -> None:
+    """Warn when a rate read from a time column is implausibly low for actuator pressures.
+
+    Parameters
+    ----------
+    path : str
+        File (for the message).
+    rate : float
+        Sample rate (Hz) read from its time column.
+    advice : str
+        What the command lets the user do about it.
+
+    Warns
+    -----
+    UserWarning
+        Below :data:`LOW_RATE_HZ` (a time column in milliseconds or a sample counter read as
+        seconds).
+    """
+    if rate < LOW_RATE_HZ:
+        warnings.warn(f"{path}: sample rate {rate:g} Hz from the time column is low for actuator "
+                      "pressures; if the time column is in milliseconds or a sample counter, "
+                      f"{advice}", UserWarning, stacklevel=3)
 
 
 def _leaks(meta) -> bool:

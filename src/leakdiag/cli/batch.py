@@ -84,6 +84,14 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
         st = EventStore(store)
         click.echo(f"{record_batch(st, mine, cfg.digest)} run(s) written to {st.url}")
         st.close()
+    from leakdiag.cli._options import LOW_RATE_HZ
+
+    low = mine[(mine["status"] == "ok") & (mine["sample_rate"] < LOW_RATE_HZ)]
+    for rec_name, rate in low.groupby("recording")["sample_rate"].first().items():
+        click.echo(f"leakdiag: warning: {rec_name}: sample rate {rate:g} Hz from the time column "
+                   "is low for actuator pressures; if the time column is in milliseconds or a "
+                   "sample counter, give the job a column map ([job] column_map = \"map.toml\" "
+                   "with [file] time_unit = \"ms\")", err=True)
     bad = mine[mine["status"] == "error"]
     for _, r in bad.iterrows():
         click.echo(f"  error: {r['recording']}: {r['error']}", err=True)

@@ -242,7 +242,7 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
 
     Without --detector only the feature is computed: no alarm is possible.
     """
-    from leakdiag.cli._options import column_map_from
+    from leakdiag.cli._options import column_map_from, warn_low_rate
     from leakdiag.io.checks import RESAMPLE_ADVICE
     from leakdiag.stream import Monitor, paced
     from leakdiag.stream.detector_file import check_detector_fits
@@ -270,6 +270,9 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
             RESAMPLE_ADVICE,
             "monitor needs a uniform time axis: resample the file first (e.g. leakdiag analyze "
             "--resample RATE_HZ reads it)")) from None
+    if sample_rate is None:
+        warn_low_rate(source.source, source.sample_rate,
+                      "give --time-unit ms (files; stdin and --follow need the time in s)")
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
                         system=source.meta.get("system"), source=source.source,
                         path=str(detector_path))
