@@ -195,3 +195,12 @@ def test_reproduce_says_it_writes_the_report_after_the_bar(tmp_path, monkeypatch
         assert main(["reproduce", "vca", "--quick", "-o", str(tmp_path), "--scheduler",
                      "serial"]) == 0
     assert said and "writing the report (tables, figures, HTML and Markdown)" in said[0]
+
+
+def test_one_false_alarm_option_name():
+    """Every command that takes a false-alarm target calls it --false-alarm-rate."""
+    for name in MINE:
+        for p in _command(name).params:
+            for o in getattr(p, "opts", []):
+                if "alarm" in o:
+                    assert o == "--false-alarm-rate", (name, o)

@@ -156,3 +156,18 @@ def test_fit_and_detect_name_the_option_of_a_bad_value(files, tmp_path, capsys, 
     assert main(full) == 2
     err = capsys.readouterr().err
     assert needle in err and "burn_in_s=" not in err and "false_alarms_per_hour=" not in err
+
+
+@pytest.mark.parametrize("method", ["ekf", "emd-p1", "acf-p2", "ccf-ux", "wavelet-p1p2"])
+def test_fit_saves_the_other_registry_detectors_and_detect_reads_them(files, tmp_path, capsys,
+                                                                     method):
+    """Every detector of the registry can be fitted and saved by leakdiag fit (the thesis
+    features, combined, wavelet, FFT and flow balance are tested elsewhere)."""
+    healthy, leak, _ = files
+    det = tmp_path / f"{method}.joblib"
+    assert main(["fit", *_h(healthy), "-m", method, "--false-alarm-rate", "60", "--no-progress",
+                 "-o", str(det)]) == 0
+    assert f"wrote {det}: {method} for the VCA at 1000 Hz" in capsys.readouterr().out
+    assert main(["detect", leak, "--detector", str(det), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[1].split()[0] == method and "\nDecision: " in out
