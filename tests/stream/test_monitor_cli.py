@@ -278,3 +278,17 @@ def test_monitor_warns_when_a_time_column_reads_as_a_low_rate(tmp_path):
     assert r.exit_code == 0
     r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-c", "p1", "--time-unit", "ms"])
     assert r.exit_code == 0 and "3000 samples at 1000 Hz" in r.output
+
+
+@pytest.mark.parametrize("where,value,needle", [
+    (1, 1 / 1101, "not uniformly sampled: interval before row 1"),  # the rate was 1101 Hz
+    (150, 0.4, "<stdin>: line 152: time 0.4 s after 0.149 s is a gap"),
+    (150, 0.1503, "<stdin>: line 152: time 0.1503 s after 0.149 s is jitter"),
+])
+def test_monitor_stdin_checks_the_time_axis_like_file_mode(where, value, needle):
+    t = [k / 1000 for k in range(300)]
+    t[where] = value
+    lines = ["time,p1"] + [f"{a!r},{np.sin(k)}" for k, a in enumerate(t)]
+    r = CliRunner().invoke(cli, ["monitor", "-i", "-", "-c", "p1", "-w", "50", "-q"],
+                           input="\n".join(lines) + "\n")
+    assert r.exit_code != 0 and needle in str(r.exception), str(r.exception)
