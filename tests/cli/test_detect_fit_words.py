@@ -171,3 +171,17 @@ def test_fit_saves_the_other_registry_detectors_and_detect_reads_them(files, tmp
     assert main(["detect", leak, "--detector", str(det), "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert out.splitlines()[1].split()[0] == method and "\nDecision: " in out
+
+
+def test_detect_refuses_fitting_options_a_detector_file_would_ignore(files, tmp_path, capsys):
+    healthy, leak, _ = files
+    det = tmp_path / "det.joblib"
+    assert main(["fit", *_h(healthy), "-m", "acf-p1", "--false-alarm-rate", "60",
+                 "--no-progress", "-o", str(det)]) == 0
+    capsys.readouterr()
+    assert main(["detect", leak, "--detector", str(det), "--false-alarm-rate", "0.5",
+                 "--onset-method", "pelt"]) == 2
+    assert "--false-alarm-rate, --onset-method set how the --methods are fitted on --healthy " \
+           "files; a --detector file keeps the settings it was fitted with" \
+           in capsys.readouterr().err
+    assert main(["detect", leak, "--detector", str(det), "--no-progress"]) == 0

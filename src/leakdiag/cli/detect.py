@@ -257,6 +257,14 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     if methods is not None and not healthy:
         raise click.UsageError("--methods are fitted on --healthy files; a --detector file "
                                "already holds its method")
+    ctx = click.get_current_context()
+    fitting = [o for n, o in (("false_alarm_rate", "--false-alarm-rate"),
+                              ("onset_method", "--onset-method"), ("burn_in_s", "--burn-in"))
+               if ctx.get_parameter_source(n) is click.core.ParameterSource.COMMANDLINE]
+    if fitting and not healthy:  # they would be ignored: a detector file keeps its own
+        raise click.UsageError(f"{', '.join(fitting)} set{'s' if len(fitting) == 1 else ''} "
+                               "how the --methods are fitted on --healthy files; a --detector "
+                               "file keeps the settings it was fitted with (leakdiag fit)")
     if not 0.0 < false_alarm_rate < 1.0:
         raise click.BadParameter(f"{false_alarm_rate} must be in (0, 1)",
                                  param_hint="--false-alarm-rate")
