@@ -259,7 +259,8 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
                                "already holds its method")
     ctx = click.get_current_context()
     fitting = [o for n, o in (("false_alarm_rate", "--false-alarm-rate"),
-                              ("onset_method", "--onset-method"), ("burn_in_s", "--burn-in"))
+                              ("onset_method", "--onset-method"), ("burn_in_s", "--burn-in"),
+                              ("system", "--system"))
                if ctx.get_parameter_source(n) is click.core.ParameterSource.COMMANDLINE]
     if fitting and not healthy:  # they would be ignored: a detector file keeps its own
         raise click.UsageError(f"{', '.join(fitting)} set{'s' if len(fitting) == 1 else ''} "
