@@ -265,3 +265,14 @@ def test_analyze_refuses_nonsense_settings_even_without_an_onset(run_file, capsy
     path, _ = run_file
     assert main(["analyze", str(path), "-c", "p1", *args]) == 2
     assert needle in capsys.readouterr().err
+
+
+def test_method_all_states_whose_settings_it_uses(run_file, capsys):
+    """A file that does not say its system is analysed at the VCA's settings: said, not silent."""
+    path, _ = run_file
+    assert main(["analyze", str(path), "--method", "all", "--onset", "6"]) == 0
+    head = capsys.readouterr().out.splitlines()[0]
+    assert head.endswith("; --method all at the thesis's VCA settings (the file does not say its "
+                         "system; --system eha for the EHA's)")
+    assert main(["analyze", str(path), "--method", "all", "--onset", "6", "--system", "eha"]) == 0
+    assert capsys.readouterr().out.splitlines()[0].endswith("at the thesis's EHA settings")

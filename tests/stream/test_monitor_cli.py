@@ -246,6 +246,8 @@ def test_monitor_refuses_options_it_would_ignore(run_file, tmp_path):
         (["-c", "p1", "--batch-lines", "10"], "--batch-lines applies to stdin (--input -) and "
                                               "--follow only"),
         (["-c", "p1", "--chunk", "0"], "Invalid value for '--chunk': 0 is not in the range x>=1"),
+        (["-c", "p1", "--follow", "--idle-timeout", "0.1", "--replay", "10x"],
+         "--replay paces a file; stdin and --follow run as the data arrives"),
         (["-c", "p1", "--batch-lines", "0"], "'--batch-lines': 0 is not in the range x>=1"),
     ]
     for args, needle in cases:

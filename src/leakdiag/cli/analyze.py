@@ -155,7 +155,8 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
 
     cmap = column_map_from(column_map, cols, time_unit)
     rec = read_with(file, cmap, sample_rate, resample)
-    system = system or str(rec.meta.get("system", "vca")).lower()
+    said = system or rec.meta.get("system")
+    system = str(said or "vca").lower()
     specs = _specs(method, channels, lag, lag_ratio, window, overlap, system)
     needed = sorted({c for s in specs for c in s.channels if c in rec.channels})
     refs = read_healthy(healthy, rec, cmap, sample_rate, needed) if healthy else None
@@ -172,6 +173,10 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
         head += f", leak onset {result.onset:g} s"
     else:
         head += "; no onset given (use --onset) so no before/after measure"
+    if "all" in method:  # whose settings, and why: never a silent default
+        head += (f"; --method all at the thesis's {system.upper()} settings"
+                 + ("" if said else " (the file does not say its system; --system eha for "
+                                    "the EHA's)"))
     click.echo(head)
     click.echo(format_verdict(result.table))
     click.echo(decision_words(result.table, false_alarm_rate))

@@ -256,6 +256,10 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
              if ctx.get_parameter_source(n) is click.core.ParameterSource.COMMANDLINE]
     if idle_timeout is not None and not follow:
         raise click.UsageError("--idle-timeout applies to --follow only")
+    if ctx.get_parameter_source("replay") is click.core.ParameterSource.COMMANDLINE and \
+            (input_path == "-" or follow):
+        raise click.UsageError("--replay paces a file; stdin and --follow run as the data "
+                               "arrives")
     if ctx.get_parameter_source("batch_lines") is click.core.ParameterSource.COMMANDLINE and \
             input_path != "-" and not follow:
         raise click.UsageError("--batch-lines applies to stdin (--input -) and --follow only; "
