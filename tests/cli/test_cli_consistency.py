@@ -50,7 +50,7 @@ def test_onset_is_seconds(name):
 
 
 def test_scheduler_is_one_option_wherever_dask_runs():
-    """reproduce, sensitivity, benchmark and batch take the same --scheduler serial|local|ADDRESS."""
+    """reproduce, sensitivity, benchmark and batch: the same --scheduler serial|local|ADDRESS."""
     opts = {n: [p for p in _command(n).params if "--scheduler" in getattr(p, "opts", [])]
             for n in MINE}
     have = sorted(n for n, o in opts.items() if o)
