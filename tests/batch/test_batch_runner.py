@@ -279,3 +279,104 @@ def test_empty_and_text_csv_rows_name_file_channel_row(tmp_path):
     (t,) = run_case(str(rec_dir / "text.csv"), cfg)
     assert t["error"] == (f"{rec_dir / 'text.csv'}: channel 'p1' holds text, not numbers: "
                           "row 2500 is 'abc'")
+
+
+def test_cli_rerun_after_a_recording_changed_keeps_one_current_row_set(recordings):
+    """Through the command: an edited recording's rows replace its old ones (one row set per
+    path and job), and the exit code follows the current rows."""
+    tmp, paths = recordings
+    job = tmp / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    out = tmp / "res.parquet"
+    assert _cli_batch(tmp, job, out).exit_code == 1  # broken.parquet
+    old = read_results(out)
+    write_parquet(make_recording(11), paths[0])  # the recording changed
+    (tmp / "recordings" / "rig0" / "broken.parquet").unlink()  # and the bad one is gone
+    r = _cli_batch(tmp, job, out)
+    assert r.exit_code == 0, r.output
+    assert "3 recording(s): 1 run, 2 already done, 0 error(s) in this run; 3 current row(s)" \
+        in r.output
+    df = read_results(out)
+    mine = df[df["path"] == os.path.abspath(paths[0])]
+    assert len(mine) == 1 and mine["recording_sha256"].iloc[0] == content_hash(paths[0])
+    assert mine["value_mean"].iloc[0] != old[old["path"] == os.path.abspath(paths[0])][
+        "value_mean"].iloc[0]
+
+
+def test_cli_rows_for_empty_text_and_gapped_csv_name_file_channel_row(tmp_path):
+    rec_dir = tmp_path / "recordings"
+    rec_dir.mkdir()
+    (rec_dir / "empty.csv").write_text("")
+    rows = [f"{k / 1000},{np.sin(k)}" for k in range(6000)]
+    text = list(rows)
+    text[2500] = "2.5,abc"
+    (rec_dir / "text.csv").write_text("time,p1\n" + "\n".join(text) + "\n")
+    gap = [f"{k / 1000 + (0.5 if k >= 5000 else 0)},{np.sin(k)}" for k in range(6000)]
+    (rec_dir / "gap.csv").write_text("time,p1\n" + "\n".join(gap) + "\n")
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    r = CliRunner().invoke(cli, ["batch", str(rec_dir / "*.csv"), "--config", str(job), "-o",
+                                 str(tmp_path / "res"), "--scheduler", "serial", "--no-progress"])
+    assert r.exit_code == 1
+    assert f"{rec_dir / 'empty.csv'}: empty file: no header line and no data" in r.output
+    assert f"{rec_dir / 'text.csv'}: channel 'p1' holds text, not numbers: row 2500 is 'abc'" \
+        in r.output
+    assert f"{rec_dir / 'gap.csv'}: row 5000: time 5.5 s after 4.999 s is a gap" in r.output
+
+
+def test_cli_job_of_detector_files_alone_and_whole_recording_detectors_refused(recordings,
+                                                                               tmp_path):
+    """A job file with only [job] runs the --detector files given; a detector that judges whole
+    recordings is refused before any recording is read, as monitor refuses it."""
+    tmp, _ = recordings
+    (tmp / "recordings" / "rig0" / "broken.parquet").unlink()
+    det = tmp_path / "slow.pkl"
+    det.write_bytes(pickle.dumps(SlowScorer()))
+    job = tmp_path / "job.toml"
+    job.write_text("[job]\nrms_chunk = 10\n")
+    r = _cli_batch(tmp, job, tmp_path / "res", "--detector", str(det))
+    assert r.exit_code == 0, r.output
+    assert "3 recording(s): 3 run" in r.output
+    whole = tmp_path / "whole.pkl"
+    whole.write_bytes(pickle.dumps(object()))  # no spec(), no score_windows(): whole recordings
+    r = _cli_batch(tmp, job, tmp_path / "res2", "--detector", str(whole))
+    assert r.exit_code == 2
+    assert "judges whole recordings and cannot run window by window" in r.output
+    assert "use leakdiag detect FILE --detector" in r.output
+    assert not (tmp_path / "res2").exists()
+
+
+def test_cli_error_rows_advise_what_a_batch_job_can_do(tmp_path):
+    """batch has no --sample-rate or --resample: its rows advise the job's column_map and
+    resampling beforehand instead."""
+    rec_dir = tmp_path / "recordings"
+    rec_dir.mkdir()
+    (rec_dir / "notime.csv").write_text("p1\n" + "".join(f"{np.sin(k)}\n" for k in range(3000)))
+    t = np.arange(3000) / 1000.0
+    t[1500:] += 0.0004
+    (rec_dir / "jitter.txt").write_text("time\tp1\n" + "".join(
+        f"{a}\t{np.sin(k)}\n" for k, a in enumerate(t)))
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    r = CliRunner().invoke(cli, ["batch", str(rec_dir / "*"), "--config", str(job), "-o",
+                                 str(tmp_path / "res"), "--scheduler", "serial", "--no-progress"])
+    assert r.exit_code == 1
+    assert "notime.csv: no 'time' column and no sample rate in the file: give the sample rate " \
+           "(sample_rate_hz in the job's column_map)" in r.output
+    assert "jitter.txt: column 'time' is not uniformly sampled" in r.output
+    assert "batch needs a uniform time axis: resample the file first" in r.output
+    assert "--sample-rate" not in r.output and "(--resample" not in r.output
+
+
+def test_cli_warns_of_a_time_column_read_as_a_low_rate(tmp_path):
+    rec_dir = tmp_path / "recordings"
+    rec_dir.mkdir()
+    (rec_dir / "ms.csv").write_text("time,p1\n" + "".join(f"{k},{np.sin(k)}\n"
+                                                          for k in range(3000)))
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    r = CliRunner().invoke(cli, ["batch", str(rec_dir / "*.csv"), "--config", str(job), "-o",
+                                 str(tmp_path / "res"), "--scheduler", "serial", "--no-progress"])
+    assert r.exit_code == 0
+    assert "warning: ms.csv: sample rate 1 Hz from the time column is low" in r.output
+    assert '[file] time_unit = "ms"' in r.output

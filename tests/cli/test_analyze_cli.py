@@ -205,3 +205,74 @@ def test_nan_window_count_in_table_equals_the_warning(tmp_path, capsys):
     n_warned = int(re.search(r": (\d+) of 63 windows", str(rec[0].message)).group(1))
     row = [ln for ln in capsys.readouterr().out.splitlines() if ln.lstrip().startswith("auto")][0]
     assert n_warned == 3 and row.split()[-3] == "3"  # NaN windows column, before decision and p
+
+
+def test_analyze_sample_rate_contradicting_a_header_speaks_cli(tmp_path, capsys):
+    """The file's header says 1000 Hz: --sample-rate 500 is refused in the command's words."""
+    path = ld.io.write_recording(ld.Recording({"p1": np.sin(np.arange(3000.0))}, 1000.0),
+                                 tmp_path / "r.parquet")
+    assert main(["analyze", str(path), "-c", "p1", "--sample-rate", "500", "--onset", "1.5"]) == 2
+    err = capsys.readouterr().err
+    assert "a sample rate of 500 Hz was given (--sample-rate), but the file's header says " \
+           "1000 Hz" in err and "sample_rate=" not in err
+
+
+def test_no_time_column_and_no_rate_advises_the_option(tmp_path, capsys):
+    path = tmp_path / "notime.csv"
+    pd.DataFrame({"p1": np.sin(np.arange(3000.0))}).to_csv(path, index=False)
+    assert main(["analyze", str(path), "-c", "p1", "--onset", "1.5"]) == 2
+    err = capsys.readouterr().err
+    assert "no sample rate; give the sample rate (--sample-rate, or sample_rate_hz in the map)" \
+        in err and "give sample_rate" not in err
+
+
+def test_time_unit_contradicting_a_leakdiag_header_is_refused(tmp_path, capsys):
+    """--time-unit ms on a file whose header says 1000 Hz read it silently at 1 MHz."""
+    path = ld.io.write_recording(ld.Recording({"p1": np.sin(np.arange(3000.0))}, 1000.0),
+                                 tmp_path / "r.parquet")
+    assert main(["analyze", str(path), "-c", "p1", "--time-unit", "ms", "--onset", "1.5e-3",
+                 "--chunk", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "r.parquet: the file's header says 1000 Hz, but its time column read with the column " \
+           "map (--map/--col/--time-unit) gives 1e+06 Hz" in err
+    assert main(["analyze", str(path), "-c", "p1", "--time-unit", "s", "--onset", "1.5",
+                 "--chunk", "2"]) == 0
+
+
+def test_a_method_without_a_measure_prints_dashes_not_nan(tmp_path, capsys):
+    rng = np.random.default_rng(5)
+    path = tmp_path / "short.csv"
+    ld.Recording({"p1": 1e6 + 1e3 * rng.standard_normal(3000),
+                  "p2": 1e6 + 1e3 * rng.standard_normal(3000)}, 1000.0).to_pandas().to_csv(
+        path, index=False)
+    # 15 autocorrelation windows in 3 s: no whole chunk of 10 on either side of the onset;
+    # 31 cross-correlation windows: one on each side, so the table has the measure's columns
+    assert main(["analyze", str(path), "--method", "all", "--onset", "1.5"]) == 0
+    out = capsys.readouterr().out
+    table = out.split("\n  autocorrelation p1:")[0]
+    assert "autocorrelation" in table and "inconclusive" in table
+    assert "nan" not in table.lower().replace("nan windows", "")
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--chunk", "0"], "Invalid value for '--chunk': 0 is not in the range x>=1"),
+    (["--false-alarm-rate", "1.5"], "'--false-alarm-rate': 1.5 is not in the range 0<x<=0.5"),
+    (["--false-alarm-rate", "0"], "'--false-alarm-rate': 0.0 is not in the range 0<x<=0.5"),
+])
+def test_analyze_refuses_nonsense_settings_even_without_an_onset(run_file, capsys, args, needle):
+    """Without an onset the decision is INCONCLUSIVE; it used to state 'each at 1.5 so that the
+    overall false-alarm rate per run is 1.5' (or run with 0 chunks) instead of refusing."""
+    path, _ = run_file
+    assert main(["analyze", str(path), "-c", "p1", *args]) == 2
+    assert needle in capsys.readouterr().err
+
+
+def test_method_all_states_whose_settings_it_uses(run_file, capsys):
+    """A file that does not say its system is analysed at the VCA's settings: said, not silent."""
+    path, _ = run_file
+    assert main(["analyze", str(path), "--method", "all", "--onset", "6"]) == 0
+    head = capsys.readouterr().out.splitlines()[0]
+    assert head.endswith("; --method all at the thesis's VCA settings (the file does not say its "
+                         "system; --system eha for the EHA's)")
+    assert main(["analyze", str(path), "--method", "all", "--onset", "6", "--system", "eha"]) == 0
+    assert capsys.readouterr().out.splitlines()[0].endswith("at the thesis's EHA settings")

@@ -293,3 +293,13 @@ def test_reproduce_chunk_zero_is_a_usage_error(tmp_path, capsys):
                  "--out", str(tmp_path / "rep")])
     _one_error_line(capsys, code, "'--chunk'", "0 is not in the range x>=1")
     assert not (tmp_path / "rep").exists()
+
+
+def test_sweep_no_setting_meets_the_rule_speaks_options(files, capsys):
+    code = main(["sweep", str(files["good"]), "-c", "p1", "--onset", "1", "--windows", "100",
+                 "--lags", "1", "--overlaps", "5", "--min-chunks", "50", "--no-figures"])
+    err = capsys.readouterr().err
+    assert code == 2 and "SelectionRule(" not in err
+    assert "no setting meets the rule (at least --min-chunks 50 whole RMS chunks of --chunk 10 " \
+           "feature values on each side of the onset 1 s)" in err
+    assert "lower --min-chunks or --chunk, or check --onset" in err

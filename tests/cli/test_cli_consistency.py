@@ -9,9 +9,7 @@ from click.testing import CliRunner
 
 from leakdiag.cli.main import COMMANDS, cli
 
-#: Commands owned by other helpers at the time of writing (benchmark: alarms, reproduce: thesis).
-OTHERS = {"benchmark", "reproduce"}
-MINE = sorted(set(COMMANDS) - OTHERS)
+MINE = sorted(COMMANDS)  # every command (benchmark and reproduce included since issue 15's audit)
 
 
 def _command(name) -> click.Command:
@@ -39,8 +37,8 @@ def test_help_ends_with_an_example(name):
 def test_dash_o_means_out(name):
     cmd = _command(name)
     for p in cmd.params:
-        if isinstance(p, click.Option) and "-o" in p.opts:
-            assert "--out" in p.opts, (name, p.opts)
+        if isinstance(p, click.Option) and ("-o" in p.opts or "--out" in p.opts):
+            assert {"-o", "--out"} <= set(p.opts), (name, p.opts)  # both or neither
 
 
 @pytest.mark.parametrize("name", MINE)
@@ -51,10 +49,23 @@ def test_onset_is_seconds(name):
             assert "(s)" in p.help or " s " in p.help or "seconds" in p.help.lower()
 
 
-@pytest.mark.parametrize("name", ["batch", "sensitivity"])
-def test_scheduler_serial_local_address(name):
-    opt = [p for p in _command(name).params if "--scheduler" in getattr(p, "opts", [])][0]
-    assert "serial" in opt.help and "local" in opt.help and "address" in opt.help
+def test_scheduler_is_one_option_wherever_dask_runs():
+    """reproduce, sensitivity, benchmark and batch: the same --scheduler serial|local|ADDRESS."""
+    opts = {n: [p for p in _command(n).params if "--scheduler" in getattr(p, "opts", [])]
+            for n in MINE}
+    have = sorted(n for n, o in opts.items() if o)
+    assert have == ["batch", "benchmark", "reproduce", "sensitivity"]
+    for n in have:
+        (opt,) = opts[n]
+        assert (opt.metavar, opt.help) == (opts["batch"][0].metavar, opts["batch"][0].help), n
+        assert "serial" in opt.help and "local" in opt.help and "address" in opt.help
+
+
+def test_benchmark_onset_estimator_is_onset_method():
+    r = CliRunner().invoke(cli, ["benchmark", "--onset", "pelt", "--list-methods"])
+    assert r.exit_code == 2 and "No such option '--onset'" in r.output
+    opts = {o for p in _command("benchmark").params for o in getattr(p, "opts", [])}
+    assert "--onset-method" in opts
 
 
 def test_batch_serial_flag_is_gone_for_scheduler_serial():
@@ -128,3 +139,68 @@ def test_sweep_figures_are_readable_and_name_the_users_file(tmp_path, capsys):
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+def test_no_progress_wherever_there_is_progress():
+    """Commands that print progress (bars or per-step lines on stderr) can be silenced."""
+    for name in ["batch", "benchmark", "detect", "fit", "reproduce", "sensitivity", "simulate"]:
+        opts = {o for p in _command(name).params for o in getattr(p, "opts", [])}
+        assert "--no-progress" in opts, name
+
+
+def test_batch_draws_no_bar_into_a_log(tmp_path):
+    """Not at a terminal (a log, CI), batch prints its summary line once and no progress bar."""
+    import numpy as np
+
+    import leakdiag as ld
+
+    d = tmp_path / "recs"
+    d.mkdir()
+    for i in range(3):
+        ld.io.write_recording(ld.Recording({"p1": np.sin(np.arange(2000.0) * (1 + i))}, 1000.0),
+                              d / f"r{i}.parquet")
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    r = CliRunner().invoke(cli, ["batch", str(d / "*.parquet"), "--config", str(job), "-o",
+                                 str(tmp_path / "res"), "--scheduler", "serial"])
+    assert r.exit_code == 0, r.output
+    assert r.output.count("3 recording(s): 3 run") == 1
+    assert "rec/s" not in r.output and "%|" not in r.output
+
+
+def test_reproduce_says_it_writes_the_report_after_the_bar(tmp_path, monkeypatch):
+    """The report takes tens of seconds after the progress bar's 100 %: said before it starts."""
+    import types
+
+    import pandas as pd
+
+    rp = importlib.import_module("leakdiag.studies.reproduce")  # the package's reproduce()
+    said = []                                                 # shadows the module's name
+    rep = types.SimpleNamespace(tables=pd.DataFrame({"direction_agrees": [True]}),
+                                timing={"n_cases": 1, "cache_hits": 0, "wall_s": 1.0})
+    monkeypatch.setattr(rp, "reproduce", lambda *a, **k: rep)
+
+    def write_outputs(rep_, out, command):
+        said.append(capture.getvalue())
+        return {"html": out}
+
+    monkeypatch.setattr(rp, "write_outputs", write_outputs)
+    import contextlib
+    import io
+
+    from leakdiag.cli.main import main
+
+    capture = io.StringIO()
+    with contextlib.redirect_stderr(capture):
+        assert main(["reproduce", "vca", "--quick", "-o", str(tmp_path), "--scheduler",
+                     "serial"]) == 0
+    assert said and "writing the report (tables, figures, HTML and Markdown)" in said[0]
+
+
+def test_one_false_alarm_option_name():
+    """Every command that takes a false-alarm target calls it --false-alarm-rate."""
+    for name in MINE:
+        for p in _command(name).params:
+            for o in getattr(p, "opts", []):
+                if "alarm" in o:
+                    assert o == "--false-alarm-rate", (name, o)

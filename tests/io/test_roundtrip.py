@@ -120,7 +120,9 @@ def test_write_errors(tmp_path):
 def test_sample_rate_argument_must_agree_with_stored(tmp_path):
     path = write_recording(_rec(), tmp_path / "r.parquet")
     assert read_recording(path, sample_rate=1000.0).sample_rate == 1000.0
-    with pytest.raises(RecordingError, match=r"sample_rate=500.0 disagrees with the file's stored"):
+    with pytest.raises(RecordingError, match=r"a sample rate of 500 Hz was given "
+                                             r"\(--sample-rate\), but the file's header says "
+                                             r"1000 Hz"):
         read_recording(path, sample_rate=500.0)
 
 

@@ -70,3 +70,22 @@ def test_format_value():
 def test_heading_level():
     with pytest.raises(ValueError, match="level=1 must be 2, 3 or 4"):
         Report("x").heading("y", level=1)
+
+
+def test_figures_are_readable_and_named_on_request(tmp_path):
+    """Issue 15: report figures >= 900 px wide (150 dpi), named after their table when asked."""
+    import matplotlib.image as mpimg
+    import matplotlib.pyplot as plt
+
+    r = Report("t")
+    names = []
+    for _ in range(2):
+        fig, ax = plt.subplots(figsize=(6.4, 3.8))
+        ax.plot([0, 1], [0, 1])
+        names.append(r.figure(fig, "a line", name="table 5-3 series"))
+    fig, ax = plt.subplots(figsize=(6.4, 3.8))
+    ax.plot([0, 1], [1, 0])
+    names.append(r.figure(fig, "unnamed"))
+    assert names == ["table-5-3-series.png", "table-5-3-series-002.png", "fig-003.png"]
+    r.write(tmp_path)
+    assert all(mpimg.imread(tmp_path / "figures" / n).shape[1] >= 900 for n in names)

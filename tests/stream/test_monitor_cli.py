@@ -209,3 +209,88 @@ def test_monitor_follow_checks_the_time_axis_like_file_mode(tmp_path):
                                  "-c", "p1", "-w", "20", "-q"])
     assert r.exit_code != 0
     assert f"{path}: line 102: time 0.2 s after 0.099 s is a gap" in str(r.exception)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_monitor_file_checks_the_whole_time_column_not_only_its_head(tmp_path, suffix):
+    """A gap or jitter after the rows the rate is taken from (4096) is refused, naming the row,
+    as leakdiag analyze refuses it; before, the file was judged as if uniformly sampled."""
+    rng = np.random.default_rng(2)
+    t = np.arange(12_000) / 1000.0
+    df = pd.DataFrame({"time": t, "p1": rng.normal(size=t.size)})
+    gap, jit = df.copy(), df.copy()
+    gap.loc[7000:, "time"] += 0.5
+    jit.loc[9000, "time"] += 0.0004
+    for frame, row, what in [(gap, 7000, "is a gap"), (jit, 9000, "is jitter")]:
+        path = tmp_path / f"rec{suffix}"
+        frame.to_csv(path, index=False) if suffix == ".csv" else frame.to_parquet(path)
+        for chunk in ("65536", "1000"):  # the bad row inside and at the edge of a chunk
+            r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-c", "p1", "-q",
+                                         "--chunk", chunk])
+            assert r.exit_code != 0, (what, chunk)
+            assert f"{path}: row {row}: time" in str(r.exception) and what in str(r.exception)
+        assert "not uniformly sampled" in str(CliRunner().invoke(
+            cli, ["analyze", str(path), "-c", "p1", "--onset", "6"]).exception)
+
+
+def test_monitor_refuses_options_it_would_ignore(run_file, tmp_path):
+    """Options that do nothing in the run asked for are refused, never silently ignored."""
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
+    path, _ = run_file
+    cases = [
+        (["-c", "p1", "--lag-ratio", "83:3"], "--lag-ratio applies to --method metric-length only"),
+        (["-m", "metric-length", "-c", "p1", "--lag", "3"], "--lag applies to autocorrelation"),
+        (["-c", "p1", "--idle-timeout", "2"], "--idle-timeout applies to --follow only"),
+        (["-c", "p1", "--batch-lines", "10"], "--batch-lines applies to stdin (--input -) and "
+                                              "--follow only"),
+        (["-c", "p1", "--chunk", "0"], "Invalid value for '--chunk': 0 is not in the range x>=1"),
+        (["-c", "p1", "--follow", "--idle-timeout", "0.1", "--replay", "10x"],
+         "--replay paces a file; stdin and --follow run as the data arrives"),
+        (["-c", "p1", "--batch-lines", "0"], "'--batch-lines': 0 is not in the range x>=1"),
+    ]
+    for args, needle in cases:
+        r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-q", *args])
+        assert r.exit_code == 2 and needle in r.output, (args, r.output)
+    h = [str(write_recording(simulate_vca(duration=12.0, leak_lpm=None, seed=s,
+                                          reference_seed=50 + s), tmp_path / f"h{s}.parquet"))
+         for s in (1, 2)]
+    det = tmp_path / "det.joblib"
+    assert CliRunner().invoke(cli, ["fit", "--healthy", h[0], "--healthy", h[1], "-m", "acf-p1",
+                                    "--false-alarm-rate", "200", "-o", str(det)]).exit_code == 0
+    r = CliRunner().invoke(cli, ["monitor", "-i", h[0], "--detector", str(det), "-w", "500"])
+    assert r.exit_code == 2
+    assert "--window: the detector file fixes its feature (autocorrelation p1 1 N=200 5%)" \
+        in r.output
+    # the detector's own values are harmless
+    r = CliRunner().invoke(cli, ["monitor", "-i", h[0], "--detector", str(det), "-c", "p1",
+                                 "-w", "200", "-q"])
+    assert r.exit_code == 0, r.output
+
+
+def test_monitor_warns_when_a_time_column_reads_as_a_low_rate(tmp_path):
+    """A time column in milliseconds read as seconds (1 Hz) is warned about, as in analyze."""
+    path = tmp_path / "ms.csv"
+    rows = "".join(f"{k},{np.sin(k)}\n" for k in range(3000))  # time in ms
+    path.write_text("time,p1\n" + rows)
+    with pytest.warns(UserWarning, match=r"ms.csv: sample rate 1 Hz from the time column is low"
+                                         r".*give --time-unit ms"):
+        r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-c", "p1", "-q"])
+    assert r.exit_code == 0
+    r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-c", "p1", "--time-unit", "ms"])
+    assert r.exit_code == 0 and "3000 samples at 1000 Hz" in r.output
+
+
+@pytest.mark.parametrize("where,value,needle", [
+    (1, 1 / 1101, "not uniformly sampled: interval before row 1"),  # the rate was 1101 Hz
+    (150, 0.4, "<stdin>: line 152: time 0.4 s after 0.149 s is a gap"),
+    (150, 0.1503, "<stdin>: line 152: time 0.1503 s after 0.149 s is jitter"),
+])
+def test_monitor_stdin_checks_the_time_axis_like_file_mode(where, value, needle):
+    t = [k / 1000 for k in range(300)]
+    t[where] = value
+    lines = ["time,p1"] + [f"{a!r},{np.sin(k)}" for k, a in enumerate(t)]
+    r = CliRunner().invoke(cli, ["monitor", "-i", "-", "-c", "p1", "-w", "50", "-q"],
+                           input="\n".join(lines) + "\n")
+    assert r.exit_code != 0 and needle in str(r.exception), str(r.exception)

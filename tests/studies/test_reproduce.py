@@ -56,9 +56,16 @@ def test_html_and_markdown_complete(quick_run):
     for t in tables:
         assert f"Table {t}:" in page and f"Table {t}:" in md
     n_img = page.count('<img src="data:image/png;base64,')
-    pngs = re.findall(r"\]\(figures/(fig-\d+\.png)\)", md)
+    pngs = re.findall(r"\]\(figures/([\w.-]+\.png)\)", md)
     assert n_img == len(pngs) >= len(tables)
     assert all((out / "figures" / p).stat().st_size > 1000 for p in pngs)
+    # issue 15: figures named after their table, wide enough to read
+    import matplotlib.image as mpimg
+
+    assert all(p.startswith(("table-", "stationarity-")) for p in pngs), pngs
+    for t in tables:
+        assert f"table-{t}-series.png" in pngs
+    assert min(mpimg.imread(out / "figures" / p).shape[1] for p in pngs) >= 900
     for section in ("Summary", "Main disagreements", "Preferred settings", "sensitivity",
                     "Stationarity"):
         assert section in page

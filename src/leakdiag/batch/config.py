@@ -244,13 +244,16 @@ def config_from_dict(d: Mapping[str, Any], base_dir: str = ".") -> BatchConfig:
                        None if onset is None else float(onset), cmap, cmap_sha)
 
 
-def load_config(path: str | os.PathLike) -> BatchConfig:
+def load_config(path: str | os.PathLike, detectors=()) -> BatchConfig:
     """Read a batch job TOML file.
 
     Parameters
     ----------
     path : str or path-like
         The TOML file.
+    detectors : sequence of path-like, default ()
+        More detector files (``leakdiag batch --detector``; relative to the working directory),
+        added to the job's ``[[detector]]`` entries, so a job may consist of them alone.
 
     Returns
     -------
@@ -271,6 +274,9 @@ def load_config(path: str | os.PathLike) -> BatchConfig:
             d = tomllib.load(f)
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{path}: invalid TOML: {exc}") from None
+    if detectors:
+        d = {**d, "detector": [*d.get("detector", []),
+                               *({"path": os.path.abspath(os.fspath(p))} for p in detectors)]}
     try:
         return config_from_dict(d, os.path.dirname(os.path.abspath(path)))
     except ValueError as exc:

@@ -96,6 +96,19 @@ def _measure(spec, t, v, onset, chunk, sample_rate) -> dict:
             "pct_change_signed": r.pct_change_signed}
 
 
+def _in_job_words(msg: str) -> str:
+    """A reader's message with advice a batch job can follow (batch has no --resample or
+    --sample-rate: the job's column_map gives a rate, files are resampled beforehand)."""
+    import re
+
+    from leakdiag.io.checks import RESAMPLE_ADVICE
+
+    msg = msg.replace(RESAMPLE_ADVICE, "batch needs a uniform time axis: resample the file "
+                      "first (leakdiag analyze --resample RATE_HZ reads it)")
+    return re.sub(r"\(--sample-rate, or sample_rate_hz in (a column|the) map\)",
+                  "(sample_rate_hz in the job's column_map)", msg)
+
+
 def run_case(path: str, config: BatchConfig) -> list[dict]:
     """Run every analysis and detector of ``config`` on one recording, in one streaming pass.
 
@@ -181,7 +194,7 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                 row["alarm_time_s"] = float(t[np.argmax(alarms)]) if np.any(alarms) else None
             rows.append(row)
     except Exception as exc:  # noqa: BLE001 - a bad file must become a row, not stop the run
-        msg = str(exc)  # leakdiag's messages name the file, channel and row; others get the file
+        msg = _in_job_words(str(exc))  # leakdiag's messages name file, channel and row
         if isinstance(exc, ValueError) and (path in msg or os.path.basename(path) in msg):
             err = msg
         else:

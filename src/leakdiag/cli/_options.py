@@ -13,7 +13,9 @@ import warnings
 import click
 
 __all__ = ["recording_options", "resample_option", "column_map_from", "read_with", "read_healthy",
-           "false_alarm_option", "healthy_option", "no_progress_option", "TIME_UNIT_CHOICES"]
+           "false_alarm_option", "healthy_option", "no_progress_option", "scheduler_option",
+           "warn_low_rate",
+           "TIME_UNIT_CHOICES"]
 
 #: Below this rate (Hz) a time column is probably not in seconds (ms, sample counter): warned.
 LOW_RATE_HZ = 20.0
@@ -84,7 +86,7 @@ def healthy_option(f):
                         help="Healthy reference recording of the same machine (repeatable).")(f)
 
 
-def false_alarm_option(default: float = 0.01, per: str = "run"):
+def false_alarm_option(default: float = 0.01, per: str = "run", upper: float = 1.0):
     """Decorator factory: ``--false-alarm-rate`` (the one name for the false-alarm target).
 
     Parameters
@@ -93,12 +95,15 @@ def false_alarm_option(default: float = 0.01, per: str = "run"):
         Default rate.
     per : str, default "run"
         What the rate is per (stated in the help).
+    upper : float, default 1.0
+        Largest accepted rate (included); 0 is always refused.
 
     Returns
     -------
     callable
     """
-    return click.option("--false-alarm-rate", type=float, default=default, show_default=True,
+    return click.option("--false-alarm-rate", type=click.FloatRange(0, upper, min_open=True),
+                        default=default, show_default=True,
                         help=f"Chance of a false 'leak' per {per} on healthy operation.")
 
 
@@ -115,6 +120,25 @@ def no_progress_option(f):
     callable
     """
     return click.option("--no-progress", is_flag=True, help="Hide progress messages and bars.")(f)
+
+
+def scheduler_option(default: str = "local"):
+    """Decorator factory: ``--scheduler serial|local|ADDRESS`` (one definition for every command
+    that runs on Dask: batch, reproduce, sensitivity, benchmark).
+
+    Parameters
+    ----------
+    default : str, default "local"
+        Default scheduler.
+
+    Returns
+    -------
+    callable
+    """
+    return click.option("--scheduler", default=default, show_default=True,
+                        metavar="serial|local|ADDRESS",
+                        help="serial: in this process; local: a Dask cluster on this machine; or "
+                             "the address of a Dask scheduler (tcp://host:8786).")
 
 
 def column_map_from(column_map, cols, time_unit=None):
@@ -166,12 +190,34 @@ def read_with(path, cmap, sample_rate=None, resample=None):
     if rec.meta.get("source") != str(path):
         rec.meta["origin"] = rec.meta.get("source")
         rec.meta["source"] = str(path)
-    if rec.sample_rate < LOW_RATE_HZ and sample_rate is None:
-        warnings.warn(f"{path}: sample rate {rec.sample_rate:g} Hz from the time column is low "
-                      "for actuator pressures; if the time column is in milliseconds or a "
-                      "sample counter, give --time-unit ms (or samples with --sample-rate)",
-                      UserWarning, stacklevel=2)
+    if sample_rate is None:
+        warn_low_rate(path, rec.sample_rate)
     return rec
+
+
+def warn_low_rate(path, rate: float, advice: str = "give --time-unit ms (or samples with "
+                                                    "--sample-rate)") -> None:
+    """Warn when a rate read from a time column is implausibly low for actuator pressures.
+
+    Parameters
+    ----------
+    path : str
+        File (for the message).
+    rate : float
+        Sample rate (Hz) read from its time column.
+    advice : str
+        What the command lets the user do about it.
+
+    Warns
+    -----
+    UserWarning
+        Below :data:`LOW_RATE_HZ` (a time column in milliseconds or a sample counter read as
+        seconds).
+    """
+    if rate < LOW_RATE_HZ:
+        warnings.warn(f"{path}: sample rate {rate:g} Hz from the time column is low for actuator "
+                      "pressures; if the time column is in milliseconds or a sample counter, "
+                      f"{advice}", UserWarning, stacklevel=3)
 
 
 def _leaks(meta) -> bool:

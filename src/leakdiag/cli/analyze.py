@@ -30,8 +30,10 @@ def format_verdict(table) -> str:
     show = table[table["skipped"].isna()].copy() if "skipped" in table else table.copy()
     cols = ["method", "channels", "setting", "window", "overlap", "n_windows"]
     if show["mean_rms_before"].notna().any():
-        show["mean_rms_before"] = show["mean_rms_before"].map(lambda v: f"{v:.5g}")
-        show["mean_rms_after"] = show["mean_rms_after"].map(lambda v: f"{v:.5g}")
+        show["mean_rms_before"] = show["mean_rms_before"].map(lambda v: f"{v:.5g}" if v == v
+                                                              else "-")
+        show["mean_rms_after"] = show["mean_rms_after"].map(lambda v: f"{v:.5g}" if v == v
+                                                            else "-")
         show["% change"] = show["pct_change"].map(lambda v: f"{v:.2f}" if v == v else "-")
         show["signed"] = show["pct_change_signed"].map(lambda v: f"{v:+.2f}" if v == v else "-")
         show["chunks b/a/x"] = [
@@ -133,10 +135,10 @@ def decision_words(table, false_alarm_rate: float) -> str:
 @click.option("--overlap", type=float, default=None, help="Overlap (%; default 5).")
 @click.option("--onset", type=float, default=None,
               help="Leak onset (s) for the before/after measure; default: the file's metadata.")
-@click.option("--chunk", type=int, default=10, show_default=True,
+@click.option("--chunk", type=click.IntRange(min=1), default=10, show_default=True,
               help="Feature values per RMS chunk (Sec. 5.2).")
 @healthy_option
-@false_alarm_option()
+@false_alarm_option(upper=0.5)
 @click.option("--out", "-o", type=click.Path(file_okay=False), default=None,
               help="Folder for verdict.csv, features.parquet and features.png.")
 def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, system, channels,
@@ -153,7 +155,8 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
 
     cmap = column_map_from(column_map, cols, time_unit)
     rec = read_with(file, cmap, sample_rate, resample)
-    system = system or str(rec.meta.get("system", "vca")).lower()
+    said = system or rec.meta.get("system")
+    system = str(said or "vca").lower()
     specs = _specs(method, channels, lag, lag_ratio, window, overlap, system)
     needed = sorted({c for s in specs for c in s.channels if c in rec.channels})
     refs = read_healthy(healthy, rec, cmap, sample_rate, needed) if healthy else None
@@ -170,6 +173,10 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
         head += f", leak onset {result.onset:g} s"
     else:
         head += "; no onset given (use --onset) so no before/after measure"
+    if "all" in method:  # whose settings, and why: never a silent default
+        head += (f"; --method all at the thesis's {system.upper()} settings"
+                 + ("" if said else " (the file does not say its system; --system eha for "
+                                    "the EHA's)"))
     click.echo(head)
     click.echo(format_verdict(result.table))
     click.echo(decision_words(result.table, false_alarm_rate))

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import os
+
 import click
+
+from leakdiag.cli._options import scheduler_option
 
 __all__ = ["batch"]
 
@@ -26,9 +30,7 @@ def _stderr_is_terminal() -> bool:
                    "to the job's [[detector]] entries).")
 @click.option("--out", "-o", required=True, type=click.Path(),
               help="Results folder, a Parquet dataset (e.g. results.parquet); resumable.")
-@click.option("--scheduler", default="local", show_default=True, metavar="serial|local|ADDRESS",
-              help="serial: in this process; local: a Dask cluster on this machine; or the "
-                   "address of a Dask scheduler (tcp://host:8786).")
+@scheduler_option()
 @click.option("--workers", type=int, default=2, show_default=True,
               help="Worker processes of the local cluster.")
 @click.option("--retry-errors", is_flag=True, help="Re-run recordings whose result is an error.")
@@ -49,14 +51,17 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
 
     if workers < 1:
         raise click.BadParameter(f"{workers} must be >= 1", param_hint="--workers")
-    cfg = load_config(config_path)
-    if detectors:
-        import dataclasses
+    cfg = load_config(config_path, detectors=detectors)
+    for ref in cfg.detectors:  # refused before any recording is read, as monitor does
+        import warnings
 
-        from leakdiag.batch.config import detector_ref
+        from leakdiag.cli.monitor import check_streamable, load_detector
 
-        cfg = dataclasses.replace(cfg, detectors=cfg.detectors + tuple(
-            detector_ref(d, name=None) for d in detectors))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a bare pickle: the runner says what it can
+            det, meta = load_detector(ref.path)
+        check_streamable(det, meta, ref.path, "--detector" if ref.path in {
+            os.path.abspath(d) for d in detectors} else f"[[detector]] in {config_path}")
     sched = None if scheduler == "serial" else scheduler
     if sched == "local":
         sched = LOCAL
@@ -64,7 +69,6 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
                   progress=not no_progress and _stderr_is_terminal(), retry_errors=retry_errors)
     if s.n_inputs == 0:
         raise click.UsageError(f"no recording matches {' '.join(inputs)}")
-    import os
 
     df = read_results(out)
     matched = {os.path.abspath(p) for p in expand_inputs(list(inputs))}
@@ -80,6 +84,14 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
         st = EventStore(store)
         click.echo(f"{record_batch(st, mine, cfg.digest)} run(s) written to {st.url}")
         st.close()
+    from leakdiag.cli._options import LOW_RATE_HZ
+
+    low = mine[(mine["status"] == "ok") & (mine["sample_rate"] < LOW_RATE_HZ)]
+    for rec_name, rate in low.groupby("recording")["sample_rate"].first().items():
+        click.echo(f"leakdiag: warning: {rec_name}: sample rate {rate:g} Hz from the time column "
+                   "is low for actuator pressures; if the time column is in milliseconds or a "
+                   "sample counter, give the job a column map ([job] column_map = \"map.toml\" "
+                   "with [file] time_unit = \"ms\")", err=True)
     bad = mine[mine["status"] == "error"]
     for _, r in bad.iterrows():
         click.echo(f"  error: {r['recording']}: {r['error']}", err=True)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from leakdiag.cli._options import scheduler_option
+
 __all__ = ["benchmark"]
 
 
@@ -20,7 +22,7 @@ def _command_line() -> str:
     return " ".join(parts)
 
 
-@click.command("benchmark")
+@click.command("benchmark", epilog="Example: leakdiag benchmark --quick -o bench/")
 @click.option("-o", "--out", "out_dir", default=None, type=click.Path(file_okay=False),
               help="Output folder of the report.")
 @click.option("--suite", default="v5", show_default=True, type=click.Choice(["v5", "v4"]),
@@ -50,10 +52,9 @@ def _command_line() -> str:
                                                                                max_open=True),
               help="Target false-alarm probability per healthy run (default 0.01; v5 --quick "
                    "0.05).")
-@click.option("--onset", "onset_method", default="binseg", show_default=True,
+@click.option("--onset-method", "onset_method", default="binseg", show_default=True,
               type=click.Choice(["binseg", "pelt", "cusum"]), help="Onset estimator.")
-@click.option("--scheduler", default="serial", show_default=True,
-              help="'serial', 'local' (Dask LocalCluster) or a Dask scheduler address.")
+@scheduler_option(default="serial")
 @click.option("--workers", "n_workers", default=None, type=int, help="Dask workers.")
 @click.option("--cache-dir", default=None, type=click.Path(file_okay=False),
               help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")

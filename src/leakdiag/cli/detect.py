@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from leakdiag.cli._options import recording_options, resample_option
+from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
 
 __all__ = ["detect", "verdict_table", "overall_verdict"]
 
@@ -14,9 +15,19 @@ _DEFAULT_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 def _row(m, det, rec, n_healthy):
     v = det.predict(rec)
     basis = getattr(det, "threshold_basis_", None)
-    return {"method": m, **v.as_dict(), "threshold_method": det.alarm_threshold_.method,
-            "threshold_basis": basis if basis is None else str(basis), "n_healthy": n_healthy,
-            "false_alarms_per_hour": float(det._alarm().false_alarms_per_hour)}
+    a = det._alarm()
+    # the rate and burn-in the detector was fitted with: detectors with their own alarm (the
+    # flow balance) keep them on the threshold and themselves, not on the default Alarm
+    per_hour = float(getattr(det.alarm_threshold_, "target_per_hour", a.false_alarms_per_hour))
+    burn_in = float(getattr(det, "burn_in_s", a.burn_in_s))
+    monitored_h = max(rec.duration - burn_in, 0.0) / 3600.0  # the alarm's span in this run
+    row = {"method": m, **v.as_dict(), "threshold_method": det.alarm_threshold_.method,
+           "threshold_basis": basis if basis is None else threshold_words(basis),
+           "n_healthy": n_healthy, "false_alarms_per_hour": per_hour,
+           "false_alarms_per_run": per_hour * monitored_h}
+    if basis is None:  # only a conformal basis gives a p-value (docs/detect.md, section 2)
+        row["confidence"] = None
+    return row
 
 
 def _cannot_judge(det, rec, file, m):
@@ -66,8 +77,10 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
         Sample rate in Hz when the files have no time column in seconds.
     false_alarm_rate : float, default 0.01
         Overall chance of a false "leak" for this run; split equally over the fitted methods
-        (each fitted at ``false_alarm_rate / m`` per run, converted to a CUSUM rate per hour
-        with the file's duration).
+        (each fitted at ``false_alarm_rate / m`` per run: its threshold is taken from healthy
+        segments as long as the file's monitored span after ``burn_in_s``, or, for a file
+        longer than the shortest healthy recording, ``1 / n`` of it per segment over the
+        ``n`` segments the file spans).
     onset_method : {"binseg", "pelt", "cusum"}, default "binseg"
         Onset estimator.
     burn_in_s : float, default 5.0
@@ -86,15 +99,25 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     -------
     pandas.DataFrame
         One row per method: :meth:`Verdict.as_dict` plus ``method``, ``threshold_method``,
-        ``threshold_basis``, ``n_healthy`` and ``false_alarms_per_hour`` (or ``error`` when the
+        ``threshold_basis``, ``n_healthy``, ``false_alarms_per_hour`` and
+        ``false_alarms_per_run`` (after the burn-in) (or ``error`` when the
         method cannot be fitted on the healthy files, or a channel it reads is constant).
+
+    Raises
+    ------
+    ValueError
+        For a file that cannot be read, healthy files that disagree with it (rate, system,
+        channels, units), or recordings not longer than ``burn_in_s``.
     """
+    import math
+
     import pandas as pd
 
     from leakdiag.bench.registry import make_detector
     from leakdiag.cli._options import read_healthy, read_with
     from leakdiag.cli.fit import system_of
     from leakdiag.detect.base import Alarm
+    from leakdiag.detect.threshold import SEGMENT_TOLERANCE
     from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
 
     say = progress or (lambda msg: None)
@@ -111,12 +134,21 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
                     or _row(m, det, rec, meta.n_healthy if meta else None))
     if healthy:
         train = read_healthy(healthy, rec, column_map, sample_rate, resample=resample)
+        check_longer_than_burn_in(train, healthy, burn_in_s)
         system = system_of([rec, *train], system, [str(file), *map(str, healthy)])
-        hours = rec.duration / 3600.0
-        per_hour = (false_alarms_per_hour if false_alarms_per_hour is not None
-                    else false_alarm_rate / max(len(methods), 1) / hours)
-        alarm = Alarm(false_alarms_per_hour=per_hour, onset_method=onset_method,
-                      burn_in_s=burn_in_s)
+        span = rec.duration - burn_in_s  # monitored: the burn-in never alarms
+        if span <= 0:
+            raise ValueError(f"{file}: {rec.duration:g} s long, not longer than --burn-in "
+                             f"{burn_in_s:g} s: nothing of it would be judged")
+        if false_alarms_per_hour is not None:
+            alarm = Alarm(false_alarms_per_hour=false_alarms_per_hour,
+                          onset_method=onset_method, burn_in_s=burn_in_s)
+        else:  # per run: healthy segments as long as the judged run (docs/measure.md)
+            seg = min(span, min(r.duration for r in train) - burn_in_s)
+            n_seg = math.ceil(span / seg - SEGMENT_TOLERANCE)  # a longer run spans several
+            per_segment = false_alarm_rate / max(len(methods), 1) / n_seg
+            alarm = Alarm(false_alarms_per_hour=per_segment * 3600.0 / seg, segment_s=seg,
+                          onset_method=onset_method, burn_in_s=burn_in_s)
         for i, m in enumerate(methods):
             det = make_detector(m, system, alarm)  # unknown names raise here
             why = _cannot_judge(det, rec, file, m)
@@ -127,7 +159,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
             try:
                 det.fit(train)
             except ValueError as exc:
-                rows.append({"method": m, "error": str(exc)})
+                rows.append({"method": m, "error": in_cli_words(str(exc))})
                 continue
             rows.append(_row(m, det, rec, len(train)))
     tab = pd.DataFrame(rows)
@@ -143,7 +175,8 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
     tab : pandas.DataFrame
         Output of :func:`verdict_table`.
     duration_s : float
-        Duration of the judged file (s), for the per-run false-alarm rate.
+        Duration of the judged file (s), for the per-run false-alarm rate when ``tab`` has no
+        ``false_alarms_per_run`` column (each method's rate per hour times its monitored span).
 
     Returns
     -------
@@ -166,8 +199,9 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
 
     ok = tab[tab["leak"].notna()] if "leak" in tab else tab.iloc[:0]
     failed = tab[tab["leak"].isna()] if "leak" in tab else tab
-    rate = (pd.to_numeric(ok["false_alarms_per_hour"]).sum() * duration_s / 3600.0
-            if len(ok) else float("nan"))
+    per_run = (pd.to_numeric(ok["false_alarms_per_run"]) if "false_alarms_per_run" in ok
+               else pd.to_numeric(ok["false_alarms_per_hour"]) * duration_s / 3600.0)
+    rate = per_run.sum() if len(ok) else float("nan")
     fa = f"false-alarm rate for this run at most {rate:.3g} (sum over {len(ok)} method(s))"
     alarmed = ok[ok["leak"].astype(bool)]
     if len(alarmed):
@@ -198,7 +232,8 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
                    "--healthy (a --detector keeps its own rate per hour).")
 @click.option("--onset-method", default="binseg", show_default=True,
               type=click.Choice(["binseg", "pelt", "cusum"]), help="Onset estimator.")
-@click.option("--burn-in", "burn_in_s", default=5.0, show_default=True, type=float,
+@click.option("--burn-in", "burn_in_s", default=5.0, show_default=True,
+              type=click.FloatRange(min=0),
               help="Seconds ignored at the start of every recording.")
 @click.option("--no-progress", is_flag=True, help="Do not print a line per method.")
 @click.option("--store", default=None, help="Also write the verdicts to this event store "
@@ -222,6 +257,15 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     if methods is not None and not healthy:
         raise click.UsageError("--methods are fitted on --healthy files; a --detector file "
                                "already holds its method")
+    ctx = click.get_current_context()
+    fitting = [o for n, o in (("false_alarm_rate", "--false-alarm-rate"),
+                              ("onset_method", "--onset-method"), ("burn_in_s", "--burn-in"),
+                              ("system", "--system"))
+               if ctx.get_parameter_source(n) is click.core.ParameterSource.COMMANDLINE]
+    if fitting and not healthy:  # they would be ignored: a detector file keeps its own
+        raise click.UsageError(f"{', '.join(fitting)} set{'s' if len(fitting) == 1 else ''} "
+                               "how the --methods are fitted on --healthy files; a --detector "
+                               "file keeps the settings it was fitted with (leakdiag fit)")
     if not 0.0 < false_alarm_rate < 1.0:
         raise click.BadParameter(f"{false_alarm_rate} must be in (0, 1)",
                                  param_hint="--false-alarm-rate")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from leakdiag.cli._options import recording_options, resample_option
+from leakdiag.cli._options import no_progress_option, recording_options, resample_option
 
 __all__ = ["fit", "fit_detector", "detector_channels", "system_of"]
 
@@ -161,10 +161,12 @@ class _LazyChoice(click.Choice):
               help="Rig (default: the files' metadata; required when they do not say).")
 @recording_options
 @resample_option
-@click.option("--false-alarm-rate", type=float, default=1.0, show_default=True,
+@click.option("--false-alarm-rate", type=click.FloatRange(min=0, min_open=True), default=1.0,
+              show_default=True,
               help="False alarms per hour of healthy operation the detector's threshold is set "
                    "for (continuous monitoring).")
-@click.option("--burn-in", "burn_in_s", type=float, default=5.0, show_default=True,
+@click.option("--burn-in", "burn_in_s", type=click.FloatRange(min=0), default=5.0,
+              show_default=True,
               help="Seconds ignored at the start of every recording.")
 @click.option("--calibrate", "calibration", multiple=True,
               type=click.Path(exists=True, dir_okay=False),
@@ -172,8 +174,9 @@ class _LazyChoice(click.Choice):
                    "repeatable, at least 3: detect then gives the leak size with an interval.")
 @click.option("--out", "-o", required=True, type=click.Path(dir_okay=False),
               help="Detector file to write (joblib), e.g. det.joblib.")
+@no_progress_option
 def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resample,
-        false_alarm_rate, burn_in_s, calibration, out):
+        false_alarm_rate, burn_in_s, calibration, out, no_progress):
     """Fit a detector on healthy recordings and save it for detect, monitor and batch.
 
     The file holds the fitted detector and a record of what it was fitted on (leakdiag version,
@@ -181,15 +184,20 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
     that disagree with it.
     """
     from leakdiag.cli._options import column_map_from, read_healthy
+    from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
     from leakdiag.stream.detector_file import DetectorMeta, save_detector
 
     cmap = column_map_from(column_map, cols, time_unit)
     recs = read_healthy(healthy, None, cmap, sample_rate, resample=resample)
     system = system_of(recs, system, healthy)
-    click.echo(f"fitting {method} ({system.upper()}) on {len(recs)} healthy recording(s)...",
-               err=True)
-    det = fit_detector(method, system, recs, false_alarms_per_hour=false_alarm_rate,
-                       burn_in_s=burn_in_s)
+    say = (lambda msg: None) if no_progress else (lambda msg: click.echo(msg, err=True))
+    say(f"fitting {method} ({system.upper()}) on {len(recs)} healthy recording(s)...")
+    check_longer_than_burn_in(recs, healthy, burn_in_s)
+    try:
+        det = fit_detector(method, system, recs, false_alarms_per_hour=false_alarm_rate,
+                           burn_in_s=burn_in_s)
+    except ValueError as exc:
+        raise ValueError(in_cli_words(str(exc))) from None
     if calibration:
         from leakdiag.cli._options import read_with
 
@@ -204,7 +212,7 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
                                          "size (leak_lpm), so it cannot calibrate the leak size; "
                                          "use recordings with known leaks, e.g. from leakdiag "
                                          "simulate --leak Q --onset T", param_hint="--calibrate")
-        click.echo(f"calibrating the leak size on {len(cal)} recording(s)...", err=True)
+        say(f"calibrating the leak size on {len(cal)} recording(s)...")
         det.calibrate(cal, validity={"system": system, "files": [str(p) for p in calibration]})
     chans = detector_channels(det, recs[0])
     meta = DetectorMeta(method=method, system=system, sample_rate_hz=float(recs[0].sample_rate),
@@ -215,8 +223,7 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
     save_detector(det, meta, out)
     basis = getattr(det, "threshold_basis_", None)
     click.echo(f"wrote {out}: {method} for the {system.upper()} at {meta.sample_rate_hz:g} Hz, "
-               f"channels {','.join(chans)}, threshold {float(det.threshold_):.4g} "
-               f"for {false_alarm_rate:g} false alarm(s) per hour"
-               + (f" ({basis})" if basis else "")
+               f"channels {','.join(chans)}, for {false_alarm_rate:g} false alarm(s) per hour; "
+               f"threshold {threshold_words(basis) if basis else f'{float(det.threshold_):.4g}'}"
                + (f"; leak size calibrated on {len(calibration)} recording(s)" if calibration
                   else ""))

@@ -87,6 +87,35 @@ def load_detector(path: str):
         raise click.BadParameter(str(exc), param_hint="--detector") from None
 
 
+def check_streamable(detector, meta, path: str, hint: str = "--detector") -> None:
+    """Refuse a detector that judges whole recordings (monitor and batch run window by window).
+
+    Parameters
+    ----------
+    detector : object
+        Loaded detector.
+    meta : DetectorMeta or None
+        Its metadata record.
+    path : str
+        Its file (for the message).
+    hint : str, default "--detector"
+        Where the file was given (option or job-file entry).
+
+    Raises
+    ------
+    click.BadParameter
+        Naming the file and what to use instead.
+    """
+    if callable(getattr(detector, "score_windows", None)) or \
+            callable(getattr(detector, "spec", None)):
+        return
+    name = meta.method if meta else type(detector).__name__
+    raise click.BadParameter(f"{path}: {name} judges whole recordings and cannot run window by "
+                             f"window; use leakdiag detect FILE --detector {path}, or fit a "
+                             "single-feature detector (acf-p1, ccf-p1p2, ccf-ux, mlr-p1)",
+                             param_hint=hint)
+
+
 def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: int,
                  idle_timeout: float | None, batch_lines: int = 1, column_map=None):
     """The chunk source for ``--input``: stdin, a followed CSV, a chunked file or a recording.
@@ -138,12 +167,34 @@ def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: in
     return recording_chunks(rec, chunk, channels)
 
 
-def _spec(method, channels, lag, lag_ratio, window, overlap, detector):
+def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=()):
+    """The monitored feature; ``given`` lists the feature options given on the command line,
+    refused where they would be ignored (a detector's own feature, the other lag kind)."""
     from leakdiag.features.methods import MethodSpec
 
     if detector is not None and callable(getattr(detector, "spec", None)) and method is None:
-        return detector.spec()
+        spec = detector.spec()
+        try:  # the same values as the detector's are harmless
+            mine = MethodSpec(spec.method, tuple(c.strip() for c in channels.split(","))
+                              if channels else spec.channels, lag=lag or spec.lag,
+                              lag_ratio=lag_ratio or spec.lag_ratio, window=window,
+                              overlap=overlap)
+            given = [g for g in given if getattr(mine, g[2:].replace("-", "_")) !=
+                     getattr(spec, g[2:].replace("-", "_"))]
+        except ValueError:  # e.g. a lag ratio for a correlation detector: refused below
+            pass
+        if given:
+            raise click.UsageError(
+                f"{', '.join(given)}: the detector file fixes its feature ({spec.label}); leave "
+                f"{'it' if len(given) == 1 else 'them'} out, or fit a detector with the feature "
+                "you want (leakdiag fit)")
+        return spec
     method = method or "autocorrelation"
+    if "--lag" in given and method == "metric-length":
+        raise click.UsageError("--lag applies to autocorrelation and cross-correlation only; "
+                               "metric-length takes --lag-ratio")
+    if "--lag-ratio" in given and method != "metric-length":
+        raise click.UsageError("--lag-ratio applies to --method metric-length only")
     kw = {}
     if method in ("autocorrelation", "cross-correlation"):
         kw["lag"] = 1 if lag is None else lag
@@ -160,21 +211,25 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector):
 @click.option("--replay", default="fast", show_default=True,
               help="Replay speed of a file: fast, realtime, or a factor like 10x.")
 @click.option("--follow", is_flag=True, help="Follow a growing CSV file (like tail -f).")
-@click.option("--idle-timeout", type=float, default=None,
+@click.option("--idle-timeout", type=click.FloatRange(min=0), default=None,
               help="With --follow: stop after this many seconds without new lines.")
 @click.option("--method", "-m", type=click.Choice(_METHOD_CHOICES), default=None,
               help="Feature (default: the detector's, else autocorrelation).")
 @click.option("--channels", "-c", default=None, help="Channels, e.g. p1 | p1,p2 | u,x.")
-@click.option("--lag", type=int, default=None, help="Lag in samples (correlations; default 1).")
+@click.option("--lag", type=click.IntRange(min=1), default=None,
+              help="Lag in samples (correlations; default 1).")
 @click.option("--lag-ratio", default=None, help="Metric-length lag ratio l:k (default 83:3).")
-@click.option("--window", "-w", type=int, default=200, show_default=True, help="Window N (samples).")
-@click.option("--overlap", type=float, default=5.0, show_default=True, help="Overlap (%).")
+@click.option("--window", "-w", type=click.IntRange(min=2), default=200, show_default=True,
+              help="Window N (samples).")
+@click.option("--overlap", type=click.FloatRange(0, 100, max_open=True), default=5.0,
+              show_default=True, help="Overlap (%).")
 @click.option("--detector", "detector_path", type=click.Path(exists=True, dir_okay=False),
               help="Detector file from leakdiag fit (its feature settings are used unless "
                    "--method); its threshold holds its false-alarm rate per hour of monitoring.")
 @recording_options
-@click.option("--chunk", type=int, default=65536, show_default=True, help="Samples per file chunk.")
-@click.option("--batch-lines", type=int, default=1, show_default=True,
+@click.option("--chunk", type=click.IntRange(min=1), default=65536, show_default=True,
+              help="Samples per file chunk.")
+@click.option("--batch-lines", type=click.IntRange(min=1), default=1, show_default=True,
               help="CSV lines per chunk for stdin/--follow (more: faster, later events).")
 @click.option("--events", type=click.Path(dir_okay=False), default=None,
               help="Write one JSON line per window to this file ('-' for stdout).")
@@ -187,28 +242,41 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
 
     Without --detector only the feature is computed: no alarm is possible.
     """
-    from leakdiag.cli._options import column_map_from
+    from leakdiag.cli._options import column_map_from, warn_low_rate
+    from leakdiag.io.checks import RESAMPLE_ADVICE
     from leakdiag.stream import Monitor, paced
     from leakdiag.stream.detector_file import check_detector_fits
 
     detector, meta = load_detector(detector_path) if detector_path else (None, None)
-    if detector is not None and not callable(getattr(detector, "score_windows", None)) and \
-            not callable(getattr(detector, "spec", None)):
-        name = meta.method if meta else type(detector).__name__
-        raise click.BadParameter(f"{detector_path}: {name} judges whole recordings and cannot "
-                                 "run window by window; use leakdiag detect FILE --detector "
-                                 f"{detector_path}, or fit a single-feature detector (acf-p1, "
-                                 "ccf-p1p2, ccf-ux, mlr-p1)", param_hint="--detector")
-    spec = _spec(method, channels, lag, lag_ratio, window, overlap, detector)
+    if detector is not None:
+        check_streamable(detector, meta, detector_path)
+    ctx = click.get_current_context()
+    given = [f"--{n.replace('_', '-')}" for n in ("channels", "lag", "lag_ratio", "window",
+                                                  "overlap")
+             if ctx.get_parameter_source(n) is click.core.ParameterSource.COMMANDLINE]
+    if idle_timeout is not None and not follow:
+        raise click.UsageError("--idle-timeout applies to --follow only")
+    if ctx.get_parameter_source("replay") is click.core.ParameterSource.COMMANDLINE and \
+            (input_path == "-" or follow):
+        raise click.UsageError("--replay paces a file; stdin and --follow run as the data "
+                               "arrives")
+    if ctx.get_parameter_source("batch_lines") is click.core.ParameterSource.COMMANDLINE and \
+            input_path != "-" and not follow:
+        raise click.UsageError("--batch-lines applies to stdin (--input -) and --follow only; "
+                               "a file is read in --chunk samples")
+    spec = _spec(method, channels, lag, lag_ratio, window, overlap, detector, given)
     cmap = column_map_from(column_map, cols, time_unit)
     try:
         source = build_source(input_path, list(spec.channels), follow, sample_rate, chunk,
                               idle_timeout, batch_lines, cmap)
     except ValueError as exc:  # advise only what monitor has: it streams, it cannot resample
         raise ValueError(str(exc).replace(
-            "resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess",
+            RESAMPLE_ADVICE,
             "monitor needs a uniform time axis: resample the file first (e.g. leakdiag analyze "
             "--resample RATE_HZ reads it)")) from None
+    if sample_rate is None:
+        warn_low_rate(source.source, source.sample_rate,
+                      "give --time-unit ms (files; stdin and --follow need the time in s)")
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
                         system=source.meta.get("system"), source=source.source,
                         path=str(detector_path))

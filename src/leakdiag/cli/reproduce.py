@@ -8,17 +8,18 @@ import sys
 
 import click
 
+from leakdiag.cli._options import scheduler_option
+
 __all__ = ["reproduce"]
 
 
-@click.command()
+@click.command(epilog="Example: leakdiag reproduce vca --quick --scheduler serial -o repro/")
 @click.argument("system", type=click.Choice(["vca", "eha", "all"]))
 @click.option("--quick", is_flag=True,
               help="Short version (VCA 60 s, EHA 40 s, fewer leak sizes and seeds) for CI.")
-@click.option("--out", type=click.Path(file_okay=False), default="reproduction",
+@click.option("--out", "-o", type=click.Path(file_okay=False), default="reproduction",
               show_default=True, help="Output folder (index.html, report.md, tables.csv, ...).")
-@click.option("--scheduler", default="local", show_default=True,
-              help="serial | local (Dask LocalCluster) | tcp://HOST:PORT of a Dask scheduler.")
+@scheduler_option()
 @click.option("--workers", type=int, default=None, help="Workers of the local cluster.")
 @click.option("--cache-dir", type=click.Path(file_okay=False), default=None,
               help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")

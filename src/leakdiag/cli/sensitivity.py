@@ -7,6 +7,8 @@ from pathlib import Path
 
 import click
 
+from leakdiag.cli._options import scheduler_option
+
 __all__ = ["sensitivity"]
 
 
@@ -17,10 +19,7 @@ __all__ = ["sensitivity"]
 @click.option("--seeds", default=None, help="Seeds, e.g. 1,2,3.")
 @click.option("--durations", default=None, help="Experiment lengths in s (VCA), e.g. 300,400,600.")
 @click.option("--loads", default=None, help="Loads: spring,none.")
-@click.option("--scheduler", default="local", show_default=True,
-              metavar="serial|local|ADDRESS",
-              help="serial: in this process; local: a Dask cluster on this machine; or the "
-                   "address of a Dask scheduler (tcp://host:8786).")
+@scheduler_option()
 @click.option("--workers", type=int, default=None, help="Workers of the local cluster.")
 @click.option("--cache-dir", type=click.Path(file_okay=False), default=None,
               help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")

@@ -132,8 +132,13 @@ def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, chan
     try:
         table, chosen, groups = _run(rec, m, channels, lag_values, win_values, ov_values, rule,
                                      onset, chunk, mode)
-    except ValueError as exc:
-        raise ValueError(f"{file}: {exc}") from None
+    except ValueError as exc:  # the selection rule in the command's words, not its repr
+        msg = str(exc).replace(f"the rule {rule}", f"the rule (at least --min-chunks "
+                               f"{min_chunks} whole RMS chunks of --chunk {chunk} feature values "
+                               f"on each side of the onset {onset:g} s)")
+        if msg != str(exc):
+            msg += "; lower --min-chunks or --chunk, or check --onset"
+        raise ValueError(f"{file}: {msg}") from None
     click.echo(f"{file}: {rec.n_samples} samples at {rec.sample_rate:g} Hz, onset {onset:g} s, "
                f"{m} {channels or ''}, {len(table)} settings ({mode})")
     click.echo(format_table(table))

@@ -123,7 +123,7 @@ def _time_axis(table: RawTable, cmap: ColumnMap | None, sample_rate: float | Non
         if rate is None:
             raise RecordingError(
                 f"{source}: time column {col!r} is a sample counter; give the sample rate "
-                f"(sample_rate=..., --sample-rate, or sample_rate_hz in the map)"
+                f"(--sample-rate, or sample_rate_hz in the map)"
             )
         t = raw / rate
     else:
@@ -194,6 +194,13 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
         return _from_header(table, header, sample_rate)
     specs = _select(table, column_map, units)
     time_col, t, rate = _time_axis(table, column_map, sample_rate, resample)
+    own = header.get("sample_rate") if header is not None else None
+    if own is not None and rate is not None and resample is None and \
+            abs(rate - float(own)) > UNIFORM_TIME_RTOL * float(own):
+        raise RecordingError(
+            f"{source}: the file's header says {float(own):g} Hz, but its time column read with "
+            f"the column map (--map/--col/--time-unit) gives {rate:g} Hz; a file written by "
+            "leakdiag needs no time unit or map: leave them out for it, or fix the map")
     lengths = {name: spec.column for name, spec in specs.items()}
     if time_col is not None:
         lengths = {f"time column {time_col!r}": time_col, **lengths}
@@ -229,7 +236,8 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
     if rate is None:
         raise RecordingError(
             f"{source}: no time column (no column named 'time'; columns: {table.names}) and "
-            f"no sample rate; give sample_rate (--sample-rate) or a time column in the map"
+            f"no sample rate; give the sample rate (--sample-rate, or sample_rate_hz in the "
+            f"map) or a time column in the map"
         )
     return Recording(channels, rate, start, out_units, meta)
 
@@ -239,8 +247,9 @@ def _from_header(table: RawTable, header: dict[str, Any], sample_rate: float | N
     source = table.source
     rate = header["sample_rate"]
     if sample_rate is not None and sample_rate != rate:
-        raise RecordingError(f"{source}: sample_rate={sample_rate!r} disagrees with the file's "
-                             f"stored sample rate {rate!r} Hz")
+        raise RecordingError(f"{source}: a sample rate of {float(sample_rate):g} Hz was given "
+                             f"(--sample-rate), but the file's header says {float(rate):g} Hz; "
+                             "leave the sample rate out (it is known) or fix the file")
     missing = [c for c in header["channels"] if c not in table.columns]
     if missing:
         raise RecordingError(f"{source}: header lists channel(s) {missing} missing from the "

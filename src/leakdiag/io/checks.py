@@ -4,10 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "UNIFORM_TIME_RTOL"]
+__all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "UNIFORM_TIME_RTOL",
+           "RESAMPLE_ADVICE"]
 
 #: Relative tolerance on sample intervals for a time axis to count as uniform.
 UNIFORM_TIME_RTOL = 1e-3
+#: End of the non-uniform time message; commands without ``--resample`` (monitor, batch) replace
+#: it with advice they can follow.
+RESAMPLE_ADVICE = "resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess"
 
 
 def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIFORM_TIME_RTOL,
@@ -65,7 +69,7 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
         raise RecordingError(
             f"{source}: column {column!r} is not uniformly sampled: interval before row {i} is "
             f"{float(dt[i - 1])!r} s, median {med!r} s ({len(dev)} irregular interval(s)); "
-            f"resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess"
+            f"{RESAMPLE_ADVICE}"
         )
     # Over a uniform axis the mean interval (span / intervals) is the most accurate estimate:
     # the median of differences of large time values carries their rounding error.

@@ -12,6 +12,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+import math
 import re
 from dataclasses import dataclass
 from html.parser import HTMLParser
@@ -19,6 +20,9 @@ from pathlib import Path
 from typing import Any, Sequence
 
 __all__ = ["Report", "check_html", "format_value"]
+
+#: Narrowest PNG a report figure is written at (pixels): narrower ones are rendered at a higher dpi.
+MIN_FIGURE_WIDTH_PX = 900
 
 #: HTML5 void elements (no closing tag).
 _VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "meta", "source",
@@ -188,7 +192,7 @@ class Report:
         rows = [[format_value(v, digits) for v in row] for row in df.itertuples(index=False)]
         self._blocks.append(_Block("table", (caption, cols, text_cols, rows)))
 
-    def figure(self, fig, caption: str, dpi: int = 72) -> str:
+    def figure(self, fig, caption: str, dpi: int = 150, name: str | None = None) -> str:
         """Add a matplotlib figure (rendered to PNG now, then closed); return its file name.
 
         Parameters
@@ -197,21 +201,34 @@ class Report:
             The figure.
         caption : str
             Caption.
-        dpi : int, default 72
-            Resolution of the PNG.
+        dpi : int, default 150
+            Resolution of the PNG; raised when the (tightly cropped) PNG would be narrower than
+            :data:`MIN_FIGURE_WIDTH_PX`, so that text stays readable.
+        name : str, optional
+            File name stem, e.g. ``"table-5-3-series"`` (made unique with a number if taken);
+            default ``fig-NNN``.
 
         Returns
         -------
         str
-            File name used for the Markdown twin, e.g. ``"fig-003.png"``.
+            File name used for the Markdown twin, e.g. ``"table-5-3-series.png"`` or
+            ``"fig-003.png"``.
         """
         import matplotlib.pyplot as plt
 
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+        width = int.from_bytes(buf.getvalue()[16:20], "big")  # PNG IHDR: width in pixels
+        if width < MIN_FIGURE_WIDTH_PX:  # the tight box trimmed it: render finer, not smaller
+            buf = io.BytesIO()
+            fig.savefig(buf, format="png", dpi=math.ceil(dpi * MIN_FIGURE_WIDTH_PX / width),
+                        bbox_inches="tight")
         plt.close(fig)
         self._n_fig += 1
-        name = f"fig-{self._n_fig:03d}.png"
+        stem = re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-.") if name else ""
+        name = f"{stem}.png" if stem else f"fig-{self._n_fig:03d}.png"
+        if name in self.figures:
+            name = f"{stem}-{self._n_fig:03d}.png"
         self._blocks.append(_Block("figure", (name, buf.getvalue(), str(caption))))
         return name
 

@@ -265,7 +265,8 @@ def _sweep_section(rep, r: Report, figures: bool) -> None:
             fig = _panels(rep, g)
             if fig is not None:
                 r.figure(fig, f"Feature series of Table {g['table'].iloc[0]} (ours), leak onset "
-                              f"dashed; horizontal lines: mean RMS before/after.")
+                              f"dashed; horizontal lines: mean RMS before/after.",
+                         name=f"table-{g['table'].iloc[0]}-series")
             if g["varied"].iloc[0] != "signal" and len(g) > 1:
                 x = [varied_value(v, lag, w, o) for v, lag, w, o in
                      zip(g.varied, g.lag, g.window, g.overlap_pct)]
@@ -275,7 +276,8 @@ def _sweep_section(rep, r: Report, figures: bool) -> None:
                     title=f"Table {g['table'].iloc[0]}: % change",
                     xticklabels=_setting_col(g))
                 r.figure(fig, f"|% change| against the varied parameter, Table "
-                              f"{g['table'].iloc[0]}: ours and the thesis's.")
+                              f"{g['table'].iloc[0]}: ours and the thesis's.",
+                         name=f"table-{g['table'].iloc[0]}-pct-change")
 
 
 def _preferred_section(rep, r: Report) -> None:
@@ -316,7 +318,8 @@ def _sensitivity_section(rep, r: Report, figures: bool) -> None:
     if figures:
         for system, g in s.groupby("system", sort=False):
             r.figure(plot_sensitivity(g, system, summ[summ.system == system]),
-                     f"{system.upper()}: % change against mean leak size (thesis range shaded).")
+                     f"{system.upper()}: % change against mean leak size (thesis range shaded).",
+                     name=f"table-5-17-sensitivity-{system}")
 
 
 def _stationarity_section(rep, r: Report, figures: bool) -> None:
@@ -336,7 +339,8 @@ def _stationarity_section(rep, r: Report, figures: bool) -> None:
             for ch, df in st["moments"].items():
                 r.figure(plot_moments(df, ch, _onset(rep, system),
                                       f"{system.upper()} {ch}: windowed moments (400, 50 %)"),
-                         f"{system.upper()} {ch}: windowed moments, leak onset dashed.")
+                         f"{system.upper()} {ch}: windowed moments, leak onset dashed.",
+                         name=f"stationarity-{system}-{ch}")
 
 
 def build_report(rep, command: str = "", figures: bool = True) -> Report:

@@ -10,10 +10,10 @@ from typing import Iterable, Iterator, Sequence
 import numpy as np
 
 from leakdiag._validation import check_int, check_positive
-from leakdiag.io.checks import infer_sample_rate
+from leakdiag.io.checks import UNIFORM_TIME_RTOL, infer_sample_rate
 from leakdiag.io.recording import Recording, RecordingError
 
-__all__ = ["ChunkSource", "recording_chunks", "DEFAULT_CHUNK_SAMPLES", "TIME_COLUMN"]
+__all__ = ["ChunkSource", "TimeAxis", "recording_chunks", "DEFAULT_CHUNK_SAMPLES", "TIME_COLUMN"]
 
 #: Samples per chunk when reading files (8 MB per float64 channel).
 DEFAULT_CHUNK_SAMPLES = 1 << 20
@@ -53,6 +53,94 @@ class ChunkSource:
 
     def __iter__(self) -> Iterator[dict]:
         return iter(self.chunks)
+
+
+class TimeAxis:
+    """Checks streamed time values against the uniform grid of the sample rate, as
+    :func:`leakdiag.io.read_recording` checks a whole time column: time going backwards, repeated
+    times, gaps and jitter are errors naming the line (live) or data row (file chunks).
+
+    Parameters
+    ----------
+    fs : float
+        Sample rate (Hz) the intervals must match.
+    source : str
+        File name for messages.
+    rtol : float, default UNIFORM_TIME_RTOL
+        Tolerated relative deviation of an interval from ``1 / fs``.
+    basis : str, default "from the first lines"
+        Where ``fs`` came from (for messages).
+    """
+
+    def __init__(self, fs: float, source: str, rtol: float = UNIFORM_TIME_RTOL,
+                 basis: str = "from the first lines"):
+        self.dt = 1.0 / fs
+        self.fs = fs
+        self.source = source
+        self.rtol = rtol
+        self.basis = basis
+        self.prev: float | None = None
+
+    def _error(self, t: float, prev: float, where: str) -> RecordingError:
+        step = t - prev
+        what = ("time goes backwards" if step < 0 else "a repeated time" if step == 0
+                else "a gap" if step > 1.5 * self.dt else "jitter")
+        return RecordingError(
+            f"{self.source}: {where}: time {t!r} s after {prev!r} s is {what}: interval "
+            f"{step:.6g} s, expected {self.dt:.6g} s ({self.fs:g} Hz {self.basis}, tolerance "
+            f"{self.rtol:g} relative); the stream must be uniformly sampled")
+
+    def check(self, t: float, lineno: int) -> None:
+        """Check one time value (line ``lineno`` of a live stream).
+
+        Parameters
+        ----------
+        t : float
+            Time (s).
+        lineno : int
+            Line number for messages.
+
+        Raises
+        ------
+        RecordingError
+            When ``t`` is not finite or not one sample interval after the previous value.
+        """
+        if not np.isfinite(t):
+            raise RecordingError(f"{self.source}: line {lineno}: time {t!r} is not finite")
+        if self.prev is not None and abs(t - self.prev - self.dt) > self.rtol * self.dt:
+            raise self._error(t, self.prev, f"line {lineno}")
+        self.prev = t
+
+    def check_block(self, t: np.ndarray, row0: int) -> None:
+        """Check a chunk of a file's time column, whose first value is data row ``row0``.
+
+        Parameters
+        ----------
+        t : numpy.ndarray
+            Time values (s) of the chunk.
+        row0 : int
+            Data row (0-based) of ``t[0]``.
+
+        Raises
+        ------
+        RecordingError
+            Naming the first data row whose time is not finite or not one sample interval after
+            the previous row's.
+        """
+        t = np.asarray(t, dtype=np.float64)
+        if not len(t):
+            return
+        bad = np.flatnonzero(~np.isfinite(t))
+        if len(bad):
+            raise RecordingError(f"{self.source}: row {row0 + int(bad[0])}: time "
+                                 f"{float(t[bad[0]])!r} is not finite")
+        full = t if self.prev is None else np.concatenate(([self.prev], t))
+        off = 0 if self.prev is None else 1  # full[i] is data row row0 + i - off
+        dev = np.flatnonzero(np.abs(np.diff(full) - self.dt) > self.rtol * self.dt)
+        if len(dev):
+            i = int(dev[0]) + 1
+            raise self._error(float(full[i]), float(full[i - 1]), f"row {row0 + i - off}")
+        self.prev = float(t[-1])
 
 
 def _select(names: Sequence[str], channels: Sequence[str] | None, source: str) -> list[str]:

@@ -13,8 +13,8 @@ import numpy as np
 
 from leakdiag._validation import check_int
 from leakdiag.io.recording import RecordingError
-from leakdiag.stream.chunks import (DEFAULT_CHUNK_SAMPLES, TIME_COLUMN, ChunkSource, _json_dict,
-                                    _rate_start, _select)
+from leakdiag.stream.chunks import (DEFAULT_CHUNK_SAMPLES, TIME_COLUMN, ChunkSource, TimeAxis,
+                                    _json_dict, _rate_start, _select)
 
 __all__ = ["open_chunks", "PARQUET_HEADER_KEY", "HDF5_CHANNEL_GROUP"]
 
@@ -22,6 +22,26 @@ __all__ = ["open_chunks", "PARQUET_HEADER_KEY", "HDF5_CHANNEL_GROUP"]
 PARQUET_HEADER_KEY = b"leakdiag"
 #: HDF5 group with one dataset per channel (layout of :mod:`leakdiag.io`).
 HDF5_CHANNEL_GROUP = "channels"
+
+
+def _checked(chunks, axis: TimeAxis | None):
+    """Yield the channel chunks; each chunk's ``time`` (when the file has one) is checked against
+    the sample rate over the whole file, not only the rows the rate was taken from."""
+    row0 = 0
+    try:
+        for chunk in chunks:
+            t = chunk.pop(TIME_COLUMN, None)
+            if axis is not None and t is not None:
+                axis.check_block(t, row0)
+                row0 += len(t)
+            yield chunk
+    finally:
+        chunks.close()  # the CSV reader and HDF5 file close also when the consumer stops early
+
+
+def _axis(has_time: bool, fs: float, path: str, header: dict) -> TimeAxis | None:
+    basis = "from the file's header" if "sample_rate" in header else "from the first rows"
+    return TimeAxis(fs, path, basis=basis) if has_time else None
 
 
 def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
@@ -41,13 +61,16 @@ def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time) -
         t_head = first.column(0).to_numpy(zero_copy_only=False).astype(np.float64)
     fs, t0 = _rate_start(t_head, sample_rate, start_time, header, path)
 
+    cols = chans + ([TIME_COLUMN] if TIME_COLUMN in names else [])
+
     def gen():
-        for batch in pf.iter_batches(batch_size=chunk_samples, columns=chans):
+        for batch in pf.iter_batches(batch_size=chunk_samples, columns=cols):
             yield {c: np.ascontiguousarray(batch.column(i).to_numpy(zero_copy_only=False),
-                                           dtype=np.float64) for i, c in enumerate(chans)}
+                                           dtype=np.float64) for i, c in enumerate(cols)}
 
     meta = dict(header.get("meta") or {})
-    return ChunkSource(gen(), fs, t0, chans, pf.metadata.num_rows, path, meta)
+    axis = _axis(TIME_COLUMN in names, fs, path, header)
+    return ChunkSource(_checked(gen(), axis), fs, t0, chans, pf.metadata.num_rows, path, meta)
 
 
 def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
@@ -70,16 +93,22 @@ def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> C
             t_head = np.asarray(f[TIME_COLUMN][:4096], dtype=np.float64)
         n = len(group[chans[0]])
         gname = group.name
+        has_time = isinstance(f.get(TIME_COLUMN), h5py.Dataset)
     fs, t0 = _rate_start(t_head, sample_rate, start_time, header, path)
 
     def gen():
         with h5py.File(path, "r") as h:
             g = h[gname]
             for i0 in range(0, n, chunk_samples):
-                yield {c: np.ascontiguousarray(g[c][i0:i0 + chunk_samples], dtype=np.float64)
+                out = {c: np.ascontiguousarray(g[c][i0:i0 + chunk_samples], dtype=np.float64)
                        for c in chans}
+                if has_time:
+                    out[TIME_COLUMN] = np.asarray(h[TIME_COLUMN][i0:i0 + chunk_samples],
+                                                  dtype=np.float64)
+                yield out
 
-    return ChunkSource(gen(), fs, t0, chans, n, path, meta)
+    axis = _axis(has_time, fs, path, header)
+    return ChunkSource(_checked(gen(), axis), fs, t0, chans, n, path, meta)
 
 
 def _numeric(df, chans: list[str], path: str, row0: int) -> dict:
@@ -128,7 +157,9 @@ def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time) -> Ch
     t_head = (_numeric(head, [TIME_COLUMN], path, 0)[TIME_COLUMN] if TIME_COLUMN in head
               else None)
     fs, t0 = _rate_start(t_head, sample_rate, start_time, {}, path)
-    return ChunkSource(_csv_frames(path, chunk_samples, chans), fs, t0, chans, None, path, {})
+    cols = chans + ([TIME_COLUMN] if TIME_COLUMN in head else [])
+    return ChunkSource(_checked(_csv_frames(path, chunk_samples, cols), _axis(
+        TIME_COLUMN in head, fs, path, {})), fs, t0, chans, None, path, {})
 
 
 def open_chunks(path: str | os.PathLike, channels: Sequence[str] | None = None,

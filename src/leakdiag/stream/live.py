@@ -13,9 +13,8 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from leakdiag._validation import check_int, check_positive
-from leakdiag.io.checks import UNIFORM_TIME_RTOL
 from leakdiag.io.recording import RecordingError
-from leakdiag.stream.chunks import TIME_COLUMN, ChunkSource, _rate_start, _select
+from leakdiag.stream.chunks import TIME_COLUMN, ChunkSource, TimeAxis, _rate_start, _select
 
 __all__ = ["csv_lines", "tail_csv", "paced", "stdin_source"]
 
@@ -24,34 +23,8 @@ __all__ = ["csv_lines", "tail_csv", "paced", "stdin_source"]
 HEAD_LINES = 64
 
 
-class _TimeAxis:
-    """Checks each streamed time value against the uniform grid, as file mode checks the column."""
-
-    def __init__(self, fs: float, source: str, rtol: float = UNIFORM_TIME_RTOL):
-        self.dt = 1.0 / fs
-        self.fs = fs
-        self.source = source
-        self.rtol = rtol
-        self.prev: float | None = None
-
-    def check(self, t: float, lineno: int) -> None:
-        if not np.isfinite(t):
-            raise RecordingError(f"{self.source}: line {lineno}: time {t!r} is not finite")
-        if self.prev is not None:
-            step = t - self.prev
-            if abs(step - self.dt) > self.rtol * self.dt:
-                what = ("time goes backwards" if step < 0 else "a repeated time" if step == 0
-                        else "a gap" if step > 1.5 * self.dt else "jitter")
-                raise RecordingError(
-                    f"{self.source}: line {lineno}: time {t!r} s after {self.prev!r} s is {what}: "
-                    f"interval {step:.6g} s, expected {self.dt:.6g} s ({self.fs:g} Hz from the "
-                    f"first lines, tolerance {self.rtol:g} relative); the stream must be "
-                    "uniformly sampled")
-        self.prev = t
-
-
 def _parse_lines(lines: list[tuple[int, str]], header: list[str], cols: list[int],
-                 chans: list[str], source: str = "<stdin>", axis: _TimeAxis | None = None,
+                 chans: list[str], source: str = "<stdin>", axis: TimeAxis | None = None,
                  i_time: int | None = None) -> dict:
     rows = []
     for lineno, line in lines:
@@ -142,7 +115,7 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
                                      f"{p.strip()[:80]!r}") from None
         t_head = np.array(t_head)
     fs, t0 = _rate_start(t_head, sample_rate, None, {}, source)
-    axis = _TimeAxis(fs, source) if i_time is not None else None
+    axis = TimeAxis(fs, source) if i_time is not None else None
 
     def gen():
         buf: list[tuple[int, str]] = []

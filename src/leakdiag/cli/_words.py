@@ -1,0 +1,110 @@
+"""What the detectors report, in the command line's words (options, not Python keywords).
+
+The detectors' messages are written for the Python API (``burn_in_s=``, ``ReferenceMaxima``);
+``fit`` and ``detect`` say the same in terms of their own options.
+"""
+
+from __future__ import annotations
+
+__all__ = ["threshold_words", "in_cli_words", "check_longer_than_burn_in"]
+
+#: The detectors' advice when healthy data cannot support a rate (detect/threshold.py), and
+#: what a command-line user can do instead (reference maxima are a Python-API feature).
+_API_ADVICE = "Give more healthy recordings, reference maxima from other units, or a larger target"
+_CLI_ADVICE = ("Give more --healthy recordings (or longer ones), or a larger --false-alarm-rate")
+
+
+def _ordinal(k: int) -> str:
+    suffix = "th" if 10 <= k % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(k % 10, "th")
+    return f"{k}{suffix}"
+
+
+def threshold_words(basis) -> str:
+    """A detector's threshold basis (``Detector.threshold_basis_``) as one sentence.
+
+    Parameters
+    ----------
+    basis : ThresholdBasis or None
+        The basis.
+
+    Returns
+    -------
+    str
+        Threshold, rank among the healthy maxima, segment length and the false-alarm rate it
+        guarantees (or that it guarantees nothing, when unsupported); "" for None.
+
+    Examples
+    --------
+    >>> from leakdiag.detect.threshold import conformal_threshold
+    >>> threshold_words(conformal_threshold([3.0, 1.0, 2.0, 5.0, 4.0], 0.4, segment_s=60.0))
+    ... # doctest: +NORMALIZE_WHITESPACE
+    '4 = the 2nd largest of 5 healthy CUSUM maxima (5 own; 60-s segments): at most 0.333 false
+    alarm(s) per segment, i.e. 20 per hour (requested 24 per hour; 95 % upper bound for this very
+    threshold 0.657 per segment)'
+    """
+    if basis is None:
+        return ""
+    src = f"{basis.n_own} own" + (f", {basis.n_reference} from other units"
+                                  if basis.n_reference else "")
+    of = f"{basis.n} healthy CUSUM maxima ({src}; {basis.segment_s:g}-s segments)"
+    if not basis.supported:
+        return (f"{basis.threshold:.4g} = the largest of {of}: UNSUPPORTED, the requested "
+                f"{basis.target_per_hour:.3g} false alarm(s) per hour needs at least "
+                f"{basis.min_n_for_target} maxima; this threshold holds only "
+                f"{basis.bound_per_segment:.3g} per segment")
+    rank = "largest" if basis.k == 1 else f"{_ordinal(basis.k)} largest"
+    return (f"{basis.threshold:.4g} = the {rank} of {of}: at most {basis.bound_per_segment:.3g} "
+            f"false alarm(s) per segment, i.e. {basis.bound_per_hour:.3g} per hour (requested "
+            f"{basis.target_per_hour:.3g} per hour; 95 % upper bound for this very threshold "
+            f"{basis.conditional_upper_95:.3g} per segment)")
+
+
+def in_cli_words(message: str) -> str:
+    """A detector's fitting error with the advice a command-line user can follow.
+
+    Parameters
+    ----------
+    message : str
+        The error message.
+
+    Returns
+    -------
+    str
+        ``message`` with Python-API advice and keyword names replaced by the options of
+        ``fit``/``detect``.
+
+    Examples
+    --------
+    >>> in_cli_words("3 maxima. " + _API_ADVICE)
+    '3 maxima. Give more --healthy recordings (or longer ones), or a larger --false-alarm-rate'
+    >>> in_cli_words("fit: only 0 finite feature values after burn_in_s=5.0")
+    'fit: only 0 finite feature values after --burn-in 5.0 s'
+    """
+    import re
+
+    message = message.replace(_API_ADVICE, _CLI_ADVICE)
+    return re.sub(r"burn_in_s=([0-9.eE+-]+)", r"--burn-in \1 s", message)
+
+
+def check_longer_than_burn_in(recordings, paths, burn_in_s: float) -> None:
+    """Refuse healthy recordings that the burn-in would leave empty, naming file and option.
+
+    Parameters
+    ----------
+    recordings : sequence of Recording
+        Healthy recordings.
+    paths : sequence of str
+        Their files (for the message).
+    burn_in_s : float
+        ``--burn-in`` (s).
+
+    Raises
+    ------
+    ValueError
+        For the first recording not longer than the burn-in.
+    """
+    for p, r in zip(paths, recordings):
+        if r.duration <= burn_in_s:
+            raise ValueError(f"--healthy {p}: {r.duration:g} s long, not longer than --burn-in "
+                             f"{burn_in_s:g} s, so nothing of it is left to fit on; give longer "
+                             "healthy recordings or a shorter --burn-in")

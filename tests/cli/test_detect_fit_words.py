@@ -1,0 +1,187 @@
+"""``leakdiag fit`` and ``detect`` speak the command line's words (issue 15, sec. 4): the threshold
+as a sentence (not a Python repr), advice naming their options, not API keywords."""
+
+import pytest
+
+from leakdiag.cli.main import main
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
+    d = tmp_path_factory.mktemp("words")
+    healthy = [str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, seed=60 + s,
+                                                reference_seed=160 + s), d / f"h{s}.parquet"))
+               for s in range(3)]
+    leak = simulate_vca(duration=20.0, leak_lpm=0.5, onset=10.0, seed=70, reference_seed=170)
+    short = simulate_vca(duration=4.0, leak_lpm=None, seed=71, reference_seed=171)
+    return (healthy, str(write_recording(leak, d / "leak.parquet")),
+            str(write_recording(short, d / "short.parquet")))
+
+
+def _h(paths):
+    return [a for p in paths for a in ("--healthy", p)]
+
+
+def test_fit_and_detect_state_the_threshold_in_words(files, tmp_path, capsys):
+    healthy, leak, _ = files
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", "--false-alarm-rate", "60",
+                 "-o", str(tmp_path / "det.joblib")]) == 0
+    out = capsys.readouterr().out
+    assert "ThresholdBasis(" not in out
+    # 3 healthy 15-s segments: 60/h is 0.25 per segment, exactly 1/(n+1): the largest maximum
+    assert "= the largest of 3 healthy CUSUM maxima (3 own; 15-s segments): at most 0.25 false " \
+           "alarm(s) per segment, i.e. 60 per hour (requested 60 per hour" in out
+    assert main(["detect", leak, *_h(healthy), "--methods", "ccf-p1p2", "--false-alarm-rate",
+                 "0.5", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "ThresholdBasis(" not in out
+    # 0.5 per run, monitored 15 s after the 5-s burn-in: 0.5 per 15-s segment, k = 2
+    assert ("  ccf-p1p2 threshold: " in out and "= the 2nd largest of 3 healthy CUSUM maxima "
+            "(3 own; 15-s segments): at most 0.5 false alarm(s) per segment" in out), out
+
+
+def test_detect_p_value_of_a_healthy_run_is_never_below_the_resolution(files, capsys):
+    """An identical or healthy score reads a p-value >= 1/(n+1), never 1e-133 (issue 15); a per-run
+    rate of 1/(n+1) per method is supported: the run is mapped onto the monitored span after the
+    burn-in, as the healthy segments are (it was refused when mapped onto the whole file)."""
+    healthy, _, _ = files
+    assert main(["detect", healthy[0], *_h(healthy), "--methods", "ccf-p1p2,acf-p1",
+                 "--false-alarm-rate", "0.5", "--no-progress"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    col = lines[0].split().index("p_value")
+    p = [float(ln.split()[col]) for ln in lines[1:3]]
+    assert min(p) >= 1 / 4
+
+
+@pytest.mark.parametrize("command", ["fit", "detect"])
+def test_too_little_healthy_data_is_advised_with_the_commands_options(files, tmp_path, capsys,
+                                                                     command):
+    healthy, leak, _ = files
+    args = (["fit", *_h(healthy), "-m", "acf-p1", "-o", str(tmp_path / "d.joblib")]
+            if command == "fit" else ["detect", leak, *_h(healthy), "--methods", "acf-p1"])
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "support false-alarm probabilities down to 1/(n+1) = 0.25" in err
+    assert "Give more --healthy recordings (or longer ones), or a larger --false-alarm-rate" in err
+    assert "reference maxima from other units" not in err and "larger target" not in err
+
+
+@pytest.mark.parametrize("command", ["fit", "detect"])
+def test_healthy_file_shorter_than_the_burn_in_names_file_and_option(files, tmp_path, capsys,
+                                                                     command):
+    healthy, leak, short = files
+    args = (["fit", *_h([healthy[0], short]), "-m", "acf-p1", "-o", str(tmp_path / "d.joblib")]
+            if command == "fit" else ["detect", leak, *_h([healthy[0], short]), "--methods",
+                                      "acf-p1"])
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert f"--healthy {short}: 4 s long, not longer than --burn-in 5 s" in err
+    assert "burn_in_s" not in err
+
+
+def test_fit_no_progress_hides_the_progress_lines(files, tmp_path, capsys):
+    healthy, _, _ = files
+    args = ["fit", *_h(healthy), "-m", "acf-p1", "--false-alarm-rate", "60",
+            "-o", str(tmp_path / "d.joblib")]
+    assert main(args) == 0
+    assert "fitting acf-p1 (VCA) on 3 healthy recording(s)..." in capsys.readouterr().err
+    assert main([*args, "--no-progress"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_detect_with_a_flow_balance_file_states_its_own_rate_and_no_p_value(files, tmp_path,
+                                                                           capsys):
+    """The flow balance keeps its rate and burn-in itself (not on the default Alarm): the run's
+    false-alarm statement uses them; its 'confidence' is not a conformal p-value, so none is
+    printed under that name."""
+    healthy, leak, _ = files
+    det = tmp_path / "fb.joblib"
+    assert main(["fit", *_h(healthy), "-m", "flow-balance", "--false-alarm-rate", "30",
+                 "--no-progress", "-o", str(det)]) == 0
+    capsys.readouterr()
+    assert main(["detect", leak, "--detector", str(det), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    col = lines[0].split().index("p_value")
+    assert lines[1].split()[0] == "flow-balance" and lines[1].split()[col] == "-"
+    # 30 per hour over the 18 s after the flow balance's own 2-s burn-in: 0.15 per run
+    assert "false-alarm rate for this run at most 0.15 (sum over 1 method(s))" in out
+
+
+def _cut(path, seconds, out):
+    from leakdiag.io import read_recording, write_recording
+    from leakdiag.io.recording import Recording
+
+    r = read_recording(path)
+    n = int(seconds * r.sample_rate)
+    return str(write_recording(Recording({c: r[c][:n] for c in r.channels}, r.sample_rate,
+                                         r.start_time, dict(r.units), dict(r.meta)), out))
+
+
+def test_detect_per_run_rate_holds_for_runs_shorter_or_longer_than_the_healthy(files, tmp_path,
+                                                                            capsys):
+    """The threshold comes from healthy segments as long as the judged run: a 10-s run against
+    20-s healthy files uses 3 segments of 5 s from each (9 maxima support 0.1 per run); a 20-s
+    run against 10-s healthy files spans 3 of their 5-s segments, each held to a third."""
+    healthy, leak, _ = files
+    short = _cut(healthy[0], 10.0, tmp_path / "short_run.parquet")
+    assert main(["detect", short, *_h(healthy), "--methods", "acf-p1", "--false-alarm-rate",
+                 "0.1", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "of 9 healthy CUSUM maxima (9 own; 5-s segments): at most 0.1 false alarm(s) per " \
+           "segment" in out
+    assert "false-alarm rate for this run at most 0.1 (sum over 1 method(s))" in out
+    cut = [_cut(h, 10.0, tmp_path / f"h{i}.parquet") for i, h in enumerate(healthy)]
+    assert main(["detect", leak, *_h(cut), "--methods", "acf-p1", "--false-alarm-rate", "0.75",
+                 "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "of 3 healthy CUSUM maxima (3 own; 5-s segments): at most 0.25 false alarm(s) per " \
+           "segment" in out
+    assert "false-alarm rate for this run at most 0.75 (sum over 1 method(s))" in out
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["fit", "--false-alarm-rate", "0"], "'--false-alarm-rate': 0.0 is not in the range x>0"),
+    (["fit", "--burn-in", "-1"], "'--burn-in': -1.0 is not in the range x>=0"),
+    (["detect", "--burn-in", "-1"], "'--burn-in': -1.0 is not in the range x>=0"),
+])
+def test_fit_and_detect_name_the_option_of_a_bad_value(files, tmp_path, capsys, args, needle):
+    healthy, leak, _ = files
+    cmd, *opts = args
+    full = ([cmd, *_h(healthy), "-m", "acf-p1", "-o", str(tmp_path / "d.joblib"), *opts]
+            if cmd == "fit" else [cmd, leak, *_h(healthy), *opts])
+    assert main(full) == 2
+    err = capsys.readouterr().err
+    assert needle in err and "burn_in_s=" not in err and "false_alarms_per_hour=" not in err
+
+
+@pytest.mark.parametrize("method", ["ekf", "emd-p1", "acf-p2", "ccf-ux", "wavelet-p1p2"])
+def test_fit_saves_the_other_registry_detectors_and_detect_reads_them(files, tmp_path, capsys,
+                                                                     method):
+    """Every detector of the registry can be fitted and saved by leakdiag fit (the thesis
+    features, combined, wavelet, FFT and flow balance are tested elsewhere)."""
+    healthy, leak, _ = files
+    det = tmp_path / f"{method}.joblib"
+    assert main(["fit", *_h(healthy), "-m", method, "--false-alarm-rate", "60", "--no-progress",
+                 "-o", str(det)]) == 0
+    assert f"wrote {det}: {method} for the VCA at 1000 Hz" in capsys.readouterr().out
+    assert main(["detect", leak, "--detector", str(det), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[1].split()[0] == method and "\nDecision: " in out
+
+
+def test_detect_refuses_fitting_options_a_detector_file_would_ignore(files, tmp_path, capsys):
+    healthy, leak, _ = files
+    det = tmp_path / "det.joblib"
+    assert main(["fit", *_h(healthy), "-m", "acf-p1", "--false-alarm-rate", "60",
+                 "--no-progress", "-o", str(det)]) == 0
+    capsys.readouterr()
+    assert main(["detect", leak, "--detector", str(det), "--false-alarm-rate", "0.5",
+                 "--onset-method", "pelt"]) == 2
+    assert "--false-alarm-rate, --onset-method set how the --methods are fitted on --healthy " \
+           "files; a --detector file keeps the settings it was fitted with" \
+           in capsys.readouterr().err
+    assert main(["detect", leak, "--detector", str(det), "--no-progress"]) == 0
