@@ -92,11 +92,11 @@ def test_fit_no_progress_hides_the_progress_lines(files, tmp_path, capsys):
     assert capsys.readouterr().err == ""
 
 
-def test_detect_with_a_flow_balance_file_states_its_own_rate_and_no_p_value(files, tmp_path,
-                                                                           capsys):
+def test_detect_with_a_flow_balance_file_states_its_own_rate_and_its_p_value(files, tmp_path,
+                                                                            capsys):
     """The flow balance keeps its rate and burn-in itself (not on the default Alarm): the run's
-    false-alarm statement uses them; its 'confidence' is not a conformal p-value, so none is
-    printed under that name."""
+    false-alarm statement uses them; its 'confidence' is a p-value (small for a leak; on 3
+    healthy runs its model-based level, said so in the threshold line)."""
     healthy, leak, _ = files
     det = tmp_path / "fb.joblib"
     assert main(["fit", *_h(healthy), "-m", "flow-balance", "--false-alarm-rate", "30",
@@ -106,9 +106,11 @@ def test_detect_with_a_flow_balance_file_states_its_own_rate_and_no_p_value(file
     out = capsys.readouterr().out
     lines = out.splitlines()
     col = lines[0].split().index("p_value")
-    assert lines[1].split()[0] == "flow-balance" and lines[1].split()[col] == "-"
-    # 30 per hour over the 18 s after the flow balance's own 2-s burn-in: 0.15 per run
-    assert "false-alarm rate for this run at most 0.15 (sum over 1 method(s))" in out
+    assert lines[1].split()[0] == "flow-balance" and float(lines[1].split()[col]) < 0.01
+    assert "flow-balance threshold: " in out and "NOT distribution-free" in out
+    # 30 per hour over the 15 s after fit's burn-in (default 5 s, which the flow balance now
+    # takes from fit like every method): 0.125 per run
+    assert "false-alarm rate for this run at most 0.125 (sum over 1 method(s))" in out
 
 
 def _cut(path, seconds, out):

@@ -65,7 +65,7 @@ def test_conformal_level_is_the_kth_largest_out_of_fold_maximum(healthy, seg):
     by_hand = np.sort(_out_of_fold_maxima(FlowBalanceDetector(system="vca"), healthy))[::-1]
     assert det.threshold_ == pytest.approx(by_hand[1], rel=1e-12)
     assert b.bound_per_segment == pytest.approx(2 / 7)
-    assert str(b).startswith("conformal: 2nd largest of 6 healthy maxima (6 own, 0 reference)")
+    assert "= the 2nd largest of 6 healthy GLR maxima (6 own; 17-s segments)" in str(b)
     # the model-based level is kept beside it, and is what a too-small target falls back to
     assert det.alarm_threshold_.threshold > 0
 
@@ -76,8 +76,8 @@ def test_too_few_maxima_fall_back_to_the_model_level_and_say_so(healthy, seg):
     assert b.method == "glr-model" and not b.supported and b.k == 0
     assert det.threshold_ == det.alarm_threshold_.threshold
     assert b.min_n_for_target == math.ceil(3600.0 / seg) - 1  # 1/h over 17 s segments: 211
-    assert "NOT distribution-free: 6 healthy maxima" in str(b)
-    assert "1 per hour is not guaranteed by data" in str(b)
+    assert "NOT distribution-free: 6 healthy GLR maxima" in str(b)
+    assert "the requested 1 false alarm(s) per hour needs at least 211 maxima" in str(b)
 
 
 def test_reference_maxima_are_pooled_and_checked(healthy, seg):

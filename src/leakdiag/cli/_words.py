@@ -14,11 +14,6 @@ _API_ADVICE = "Give more healthy recordings, reference maxima from other units, 
 _CLI_ADVICE = ("Give more --healthy recordings (or longer ones), or a larger --false-alarm-rate")
 
 
-def _ordinal(k: int) -> str:
-    suffix = "th" if 10 <= k % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(k % 10, "th")
-    return f"{k}{suffix}"
-
-
 def threshold_words(basis) -> str:
     """A detector's threshold basis (``Detector.threshold_basis_``) as one sentence.
 
@@ -30,8 +25,9 @@ def threshold_words(basis) -> str:
     Returns
     -------
     str
-        Threshold, rank among the healthy maxima, segment length and the false-alarm rate it
-        guarantees (or that it guarantees nothing, when unsupported); "" for None.
+        ``str(basis)`` (:meth:`ThresholdBasis.__str__`): threshold, rank among the healthy
+        maxima, segment length and the false-alarm rate it guarantees (or that it guarantees
+        nothing); "" for None.
 
     Examples
     --------
@@ -42,21 +38,7 @@ def threshold_words(basis) -> str:
     alarm(s) per segment, i.e. 20 per hour (requested 24 per hour; 95 % upper bound for this very
     threshold 0.657 per segment)'
     """
-    if basis is None:
-        return ""
-    src = f"{basis.n_own} own" + (f", {basis.n_reference} from other units"
-                                  if basis.n_reference else "")
-    of = f"{basis.n} healthy CUSUM maxima ({src}; {basis.segment_s:g}-s segments)"
-    if not basis.supported:
-        return (f"{basis.threshold:.4g} = the largest of {of}: UNSUPPORTED, the requested "
-                f"{basis.target_per_hour:.3g} false alarm(s) per hour needs at least "
-                f"{basis.min_n_for_target} maxima; this threshold holds only "
-                f"{basis.bound_per_segment:.3g} per segment")
-    rank = "largest" if basis.k == 1 else f"{_ordinal(basis.k)} largest"
-    return (f"{basis.threshold:.4g} = the {rank} of {of}: at most {basis.bound_per_segment:.3g} "
-            f"false alarm(s) per segment, i.e. {basis.bound_per_hour:.3g} per hour (requested "
-            f"{basis.target_per_hour:.3g} per hour; 95 % upper bound for this very threshold "
-            f"{basis.conditional_upper_95:.3g} per segment)")
+    return "" if basis is None else str(basis)
 
 
 def in_cli_words(message: str) -> str:

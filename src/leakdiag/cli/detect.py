@@ -21,11 +21,12 @@ def _row(m, det, rec, n_healthy):
     per_hour = float(getattr(det.alarm_threshold_, "target_per_hour", a.false_alarms_per_hour))
     burn_in = float(getattr(det, "burn_in_s", a.burn_in_s))
     monitored_h = max(rec.duration - burn_in, 0.0) / 3600.0  # the alarm's span in this run
-    row = {"method": m, **v.as_dict(), "threshold_method": det.alarm_threshold_.method,
+    method = basis.method if basis is not None else det.alarm_threshold_.method
+    row = {"method": m, **v.as_dict(), "threshold_method": method,
            "threshold_basis": basis if basis is None else threshold_words(basis),
            "n_healthy": n_healthy, "false_alarms_per_hour": per_hour,
            "false_alarms_per_run": per_hour * monitored_h}
-    if basis is None:  # only a conformal basis gives a p-value (docs/detect.md, section 2)
+    if basis is None:  # only a threshold basis gives a p-value (docs/detect.md, section 2)
         row["confidence"] = None
     return row
 

@@ -11,7 +11,7 @@ or pump (EHA) of each machine is identified on its healthy recordings in :meth:`
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import nnls
@@ -402,7 +402,8 @@ class FlowBalanceDetector(Detector):
                                        float(self.burn_in_s))
         if 0.0 < alpha < 1.0:
             try:
-                return conformal_threshold(own, alpha, segment_s=segment_s, reference=reference)
+                b = conformal_threshold(own, alpha, segment_s=segment_s, reference=reference)
+                return replace(b, statistic="GLR")
             except InsufficientHealthyDataError:
                 pass
         ref = reference.maxima if reference is not None else np.zeros(0)
@@ -414,7 +415,7 @@ class FlowBalanceDetector(Detector):
             "glr-model", float(h_model), n, len(own), len(ref), 0, float(segment_s), alpha,
             bound, alpha / seg_h, bound / seg_h, float("nan"), False,
             int(math.ceil(1.0 / alpha)) - 1 if 0 < alpha < 1 else 0,
-            reference.source if reference is not None else "", pooled)
+            reference.source if reference is not None else "", pooled, "GLR")
 
     def fit(self, recordings, y=None, reference_maxima=None) -> "FlowBalanceDetector":
         """Identify the machine on healthy recordings and set the alarm level.

@@ -134,7 +134,8 @@ class ThresholdBasis:
     ----------
     method : str
         ``"conformal"`` (supported) or ``"conformal-unsupported"`` (``k < 1``: fitted on request
-        at the largest healthy maximum, the target is **not** guaranteed).
+        at the largest healthy maximum, the target is **not** guaranteed); ``"glr-model"``: the
+        flow balance's model-based level, used when its maxima do not support the target.
     threshold : float
         Alarm level h (healthy std units); an alarm is raised when the CUSUM exceeds it.
     n : int
@@ -163,6 +164,8 @@ class ThresholdBasis:
         ``ReferenceMaxima.source`` ("" without reference).
     maxima : numpy.ndarray
         The pooled maxima, sorted in decreasing order (for p-values).
+    statistic : str, default "CUSUM"
+        The per-segment statistic whose maxima set the level (``"GLR"`` for the flow balance).
 
     Examples
     --------
@@ -187,31 +190,42 @@ class ThresholdBasis:
     min_n_for_target: int
     reference_source: str = ""
     maxima: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    statistic: str = "CUSUM"
 
     def __str__(self) -> str:
-        """One sentence a user can act on: the level, its basis and what it promises.
+        """The basis as one sentence: level, rank among the healthy maxima, segment, and the
+        false-alarm rate it guarantees -- or that it guarantees none (``supported`` False).
 
         Examples
         --------
-        >>> print(conformal_threshold(np.arange(1.0, 300.0), 0.01, segment_s=60.0))
-        conformal: 3rd largest of 299 healthy maxima (299 own, 0 reference) over 60 s segments \
-= 297; at most 1 % false alarms per segment (0.6 per hour) on average over calibrations, 95 % \
-upper bound for this calibration 2.09 %
+        >>> print(conformal_threshold([3.0, 1.0, 2.0, 5.0, 4.0], 0.4, segment_s=60.0))
+        ... # doctest: +NORMALIZE_WHITESPACE
+        4 = the 2nd largest of 5 healthy CUSUM maxima (5 own; 60-s segments): at most 0.333 false
+        alarm(s) per segment, i.e. 20 per hour (requested 24 per hour; 95 % upper bound for this
+        very threshold 0.657 per segment)
         """
-        seg = f"{self.segment_s:g} s segments"
-        if self.supported:
-            k = self.k
-            nth = {1: "st", 2: "nd", 3: "rd"}.get(k if k < 20 else k % 10, "th")
-            return (f"{self.method}: {k}{nth} largest of {self.n} healthy maxima ({self.n_own} own, "
-                    f"{self.n_reference} reference) over {seg} = {self.threshold:.4g}; at most "
-                    f"{100 * self.bound_per_segment:.3g} % false alarms per segment "
-                    f"({self.bound_per_hour:.3g} per hour) on average over calibrations, 95 % "
-                    f"upper bound for this calibration {100 * self.conditional_upper_95:.3g} %")
-        need = (f"; {self.min_n_for_target} would support "
-                f"{100 * self.target_per_segment:.3g} % per segment" if self.min_n_for_target else "")
-        return (f"{self.method} = {self.threshold:.4g}, NOT distribution-free: {self.n} healthy "
-                f"maxima over {seg} support at best {100 / (self.n + 1):.3g} % per segment{need}; "
-                f"the requested {self.target_per_hour:.3g} per hour is not guaranteed by data")
+        src = f"{self.n_own} own" + (f", {self.n_reference} from other units"
+                                     if self.n_reference else "")
+        of = f"{self.n} healthy {self.statistic} maxima ({src}; {self.segment_s:g}-s segments)"
+        if self.method == "glr-model":
+            return (f"{self.threshold:.4g} = the model-based level of the healthy-residual "
+                    f"bootstrap, NOT distribution-free: {of} support at best "
+                    f"{1 / (self.n + 1):.3g} per segment; the requested {self.target_per_hour:.3g}"
+                    f" false alarm(s) per hour needs at least {self.min_n_for_target} maxima to be "
+                    "guaranteed by data (docs/detect.md 8.4)")
+        if not self.supported:
+            return (f"{self.threshold:.4g} = the largest of {of}: UNSUPPORTED, the requested "
+                    f"{self.target_per_hour:.3g} false alarm(s) per hour needs at least "
+                    f"{self.min_n_for_target} maxima; this threshold holds only "
+                    f"{self.bound_per_segment:.3g} per segment")
+        k = self.k
+        suffix = "th" if 10 <= k % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(k % 10, "th")
+        rank = "largest" if k == 1 else f"{k}{suffix} largest"
+        return (f"{self.threshold:.4g} = the {rank} of {of}: at most "
+                f"{self.bound_per_segment:.3g} false alarm(s) per segment, i.e. "
+                f"{self.bound_per_hour:.3g} per hour (requested {self.target_per_hour:.3g} per "
+                f"hour; 95 % upper bound for this very threshold {self.conditional_upper_95:.3g} "
+                "per segment)")
 
     def p_value(self, score: float, n_segments: int = 1) -> float:
         """Conformal p-value of a maximum ``score`` observed over ``n_segments`` segments.
