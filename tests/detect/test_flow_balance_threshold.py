@@ -116,3 +116,20 @@ def test_confidence_is_a_p_value_small_for_a_leak(healthy, seg, rate_per_segment
         assert leak.confidence == pytest.approx(1 / 7)
     else:
         assert leak.confidence < 1e-3 and ok.confidence > 0.05
+
+
+def test_detector_saved_before_threshold_bases_still_judges(healthy):
+    """A detector file written before ``threshold_basis_`` existed keeps its model level and
+    reports the model-based p-value."""
+    import pickle
+
+    det = FlowBalanceDetector(system="vca").fit(healthy[:4])
+    old = pickle.loads(pickle.dumps(det))
+    for name in ("threshold_basis_", "segment_windows_"):
+        del old.__dict__[name]
+    old.threshold_ = old.alarm_threshold_.threshold
+    rec = ld.sim.simulate_vca(duration=DURATION_S, leak_lpm=0.1, onset=8.0, load="spring",
+                              machine=31, seed=51)
+    v_old, v_new = old.predict(rec), det.predict(rec)
+    assert v_old.leak and v_old.threshold == det.alarm_threshold_.threshold
+    assert v_old.confidence == pytest.approx(v_new.confidence)  # both model-based here

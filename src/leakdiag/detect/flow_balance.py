@@ -676,9 +676,9 @@ class FlowBalanceDetector(Detector):
         least one healthy alarm episode at level ``smax`` (Poisson episodes, rate from the
         bootstrap null). Small = evidence of a leak, as ``Verdict.confidence`` everywhere.
         """
-        basis = self.threshold_basis_
+        basis = getattr(self, "threshold_basis_", None)  # None: a file saved before bases
         n_win = len(t["end"])
-        if basis.supported:
+        if basis is not None and basis.supported:
             return basis.p_value(smax, max(1, math.ceil(n_win / self.segment_windows_)))
         hours = n_win * float(self.window_s) / 3600.0
         return float(-np.expm1(-self.alarm_threshold_.rate_at(smax) * hours))
