@@ -7,6 +7,8 @@ from pathlib import Path
 
 import click
 
+from leakdiag.sim.leak import LPM_PER_M3S
+
 __all__ = ["simulate", "plot_simulation"]
 
 
@@ -48,7 +50,7 @@ def plot_simulation(rec, path):
     axes[2].set_ylabel("pressure (MPa)")
     axes[2].legend(loc="upper right")
     if "leak_flow" in rec:
-        axes[3].plot(t, rec["leak_flow"] * 60_000.0, lw=0.6, color="tab:red")
+        axes[3].plot(t, rec["leak_flow"] * LPM_PER_M3S, lw=0.6, color="tab:red")
     axes[3].set_ylabel("leak flow (L/min)")
     axes[3].set_xlabel("time (s)")
     onset = rec.onset

@@ -28,6 +28,7 @@ from leakdiag.detect.threshold import (
 )
 from leakdiag.features.series import FeatureSeries
 from leakdiag.io.recording import RecordingError
+from leakdiag.sim.leak import LPM_PER_M3S
 
 __all__ = ["FlowBalanceDetector", "FlowBalanceVerdict", "LEAK_LAWS", "SYSTEMS",
            "glr_segment_maxima"]
@@ -36,7 +37,6 @@ __all__ = ["FlowBalanceDetector", "FlowBalanceVerdict", "LEAK_LAWS", "SYSTEMS",
 LEAK_LAWS = ("turbulent", "laminar")
 #: Rigs with a flow balance.
 SYSTEMS = ("vca", "eha")
-_LPM_PER_M3S = 60_000.0
 #: Span lengths (windows) of the healthy dispersion check (leakdiag choice).
 _DISPERSION_SPANS = (1, 3, 10, 30)
 
@@ -658,10 +658,10 @@ class FlowBalanceDetector(Detector):
         dur = float(t["duration"][j:].sum())
         mean_phi = float(t["phi_abs"][j:].sum()) / dur
         zq = float(norm.ppf(0.5 + self.interval_level / 2))
-        lpm = k * mean_phi * _LPM_PER_M3S
-        interval = ((k - zq * se) * mean_phi * _LPM_PER_M3S, (k + zq * se) * mean_phi * _LPM_PER_M3S)
+        lpm = k * mean_phi * LPM_PER_M3S
+        interval = ((k - zq * se) * mean_phi * LPM_PER_M3S, (k + zq * se) * mean_phi * LPM_PER_M3S)
         ptr = self._backend().leak_transition_pa(self._nominal())
-        at_ref = k * _leak_law_value(float(self.reference_dp_pa), self.leak_law, ptr) * _LPM_PER_M3S
+        at_ref = k * _leak_law_value(float(self.reference_dp_pa), self.leak_law, ptr) * LPM_PER_M3S
         return FlowBalanceVerdict(
             leak=True, onset_s=float(t["start"][j]), alarm_time_s=float(t["end"][i]),
             leak_lpm=float(lpm), leak_lpm_interval=(float(interval[0]), float(interval[1])),

@@ -27,7 +27,7 @@ from leakdiag.sim.eha_model import (
 from leakdiag.sim.eha_params import P_KFREE, EHAParams
 from leakdiag.sim.eha_solver import CLOSED_LOOP_RTOL, DEFAULT_RTOL, integrate_fast
 from leakdiag.sim.leak import (
-    LEAK_REFERENCE_DP_PA, MIN_CALIBRATION_WINDOW_S, LeakCalibrationError, LeakSchedule,
+    LEAK_REFERENCE_DP_PA, LPM_PER_M3S, MIN_CALIBRATION_WINDOW_S, LeakCalibrationError, LeakSchedule,
     calibrate_with_pilot, check_calibrated, lpm_to_m3s, m3s_to_lpm,
     too_short_to_calibrate,
 )
@@ -90,7 +90,7 @@ def available_pump_flow_lpm(params: EHAParams, mode: str = "open-loop",
                      params.max_pump_speed_rad_per_s)
     else:
         w_peak = params.max_pump_speed_rad_per_s
-    return (2.0 / math.pi) * params.pump_flow_per_rad_m3 * w_peak * 60_000.0
+    return (2.0 / math.pi) * params.pump_flow_per_rad_m3 * w_peak * LPM_PER_M3S
 
 
 def measure_motor_speed(speed, sample_rate: float,
@@ -182,7 +182,7 @@ def _initial_leak_coefficient(leak_lpm: float, params: EHAParams, load: str) -> 
     if load == "spring":
         force += params.spring_stiffness_n_per_m * v_typ / DEFAULT_FREQUENCY_RAD_S
     dp = force / area
-    return (leak_lpm / 60_000.0) / math.sqrt(dp)
+    return (leak_lpm / LPM_PER_M3S) / math.sqrt(dp)
 
 
 def _leak_flow(k_leak: np.ndarray, states: np.ndarray, ptr: float) -> np.ndarray:

@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from leakdiag.sim.leak import LPM_PER_M3S
+
 __all__ = ["EHAParams", "RPM_TO_RAD_PER_S", "N_PARAMS"]
 
 RPM_TO_RAD_PER_S = 2.0 * math.pi / 60.0
@@ -276,7 +278,7 @@ class EHAParams:
     @property
     def rated_pump_flow_lpm(self) -> float:
         """Geometric pump flow at the speed limit, L/min (to report leaks as % of it)."""
-        return self.rated_pump_flow_m3_per_s * 60_000.0
+        return self.rated_pump_flow_m3_per_s * LPM_PER_M3S
 
     # ------------------------------------------------------------------ conversions
     def to_dict(self) -> dict[str, float]:

@@ -21,7 +21,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from leakdiag.sim.eha_params import EHAParams
-from leakdiag.sim.leak import lpm_to_m3s
+from leakdiag.sim.leak import LPM_PER_M3S, lpm_to_m3s
 from leakdiag.sim.sensors import PRESSURE_FULL_SCALE_PA, SensorParams
 from leakdiag.sim.vca_params import VCAParams
 
@@ -278,7 +278,7 @@ class VCAMachine(_MachineBase):
             Null leakage in L/min at this unit's supply pressure.
         """
         p = self.apply_params(VCAParams() if params is None else params)
-        return p.valve_leakage_m3_per_s_pa * (p.supply_pressure_pa - p.tank_pressure_pa) * 60_000.0
+        return p.valve_leakage_m3_per_s_pa * (p.supply_pressure_pa - p.tank_pressure_pa) * LPM_PER_M3S
 
 
 @dataclass(frozen=True)

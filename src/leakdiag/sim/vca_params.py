@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from leakdiag._validation import check_positive
+from leakdiag.sim.leak import LPM_PER_M3S
 
 __all__ = ["VCAParams", "LEAK_MODELS", "LOADS", "P_INDEX"]
 
@@ -224,7 +225,7 @@ class VCAParams:
         dp = (self.supply_pressure_pa - self.tank_pressure_pa) / 2
         q = (self.valve_flow_gain_m1_5_per_kg0_5 * self.orifice_area_gradient_m
              * self.max_spool_m * math.sqrt(dp))
-        return q * 60_000.0
+        return q * LPM_PER_M3S
 
     # ------------------------------------------------------------------ conversion
     def to_dict(self) -> dict[str, float]:
