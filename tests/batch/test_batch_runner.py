@@ -15,8 +15,7 @@ import pytest
 from click.testing import CliRunner
 
 from _batch_helpers import SlowScorer, make_recording
-from leakdiag.batch import (BatchConfig, config_from_dict, load_config, read_results, run_batch,
-                            run_case)
+from leakdiag.batch import config_from_dict, load_config, read_results, run_batch, run_case
 from leakdiag.batch.store import content_hash, result_key
 from leakdiag.cli.main import cli
 from leakdiag.detect.measure import rms_change

@@ -7,7 +7,7 @@ import pytest
 from sklearn.base import clone
 
 from leakdiag.detect.base import Alarm, Verdict
-from leakdiag.detect.cusum import cusum, cusum_alarm_count
+from leakdiag.detect.cusum import cusum
 
 from _detect_helpers import RATE, WINDOW, WindowMeanDetector, synthetic
 

@@ -208,7 +208,6 @@ def test_pressure_chain_defaults_equal_the_in_loop_adc():
 
 def test_simulators_record_pressures_through_the_chain():
     from leakdiag.sim import simulate_eha, simulate_vca
-    from leakdiag.sim.sensor_chain import pressure_chain
     from leakdiag.sim.sensors import THESIS_EHA_SENSORS
     from leakdiag.sim.vca_control import position_only_controller
     # The loop reads the pressures through the transducers (machine.py: the load-pressure feedback

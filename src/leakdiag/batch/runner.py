@@ -20,8 +20,7 @@ import numpy as np
 
 from leakdiag._version import __version__
 from leakdiag.batch.config import BatchConfig
-from leakdiag.batch.store import (content_hash, finished_state, read_results, result_key,
-                                  write_rows)
+from leakdiag.batch.store import content_hash, finished_state, result_key, write_rows
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["run_case", "run_batch", "expand_inputs", "BatchSummary", "LOCAL"]

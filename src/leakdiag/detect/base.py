@@ -316,7 +316,7 @@ class Detector(BaseEstimator):
             or reference maxima made with other alarm settings.
         """
         recs = _as_recordings(recordings)
-        a = self._alarm()
+        self._alarm()  # a bad alarm argument fails before any work
         self._fit_features(recs)
         parts = [self._fit_part(r) for r in recs]
         return self._fit_from_parts(parts, reference_maxima)

@@ -3,7 +3,7 @@ pacing of a replay."""
 
 from __future__ import annotations
 
-import io
+import io  # the doctests' text streams
 import itertools
 import os
 import sys
