@@ -410,10 +410,10 @@ class FlowBalanceDetector(Detector):
         pooled = np.sort(np.concatenate([own, ref]))[::-1]
         n = len(pooled)
         seg_h = segment_s / 3600.0
-        bound = min(alpha, 1.0)
+        # no data-backed bound: the model level's rate rests on the error model (NaN, not alpha)
         return ThresholdBasis(
             "glr-model", float(h_model), n, len(own), len(ref), 0, float(segment_s), alpha,
-            bound, alpha / seg_h, bound / seg_h, float("nan"), False,
+            float("nan"), alpha / seg_h, float("nan"), float("nan"), False,
             int(math.ceil(1.0 / alpha)) - 1 if 0 < alpha < 1 else 0,
             reference.source if reference is not None else "", pooled, "GLR")
 
@@ -492,6 +492,8 @@ class FlowBalanceDetector(Detector):
         self.flow_error_fraction_ = float(np.sqrt(coef[1]))
         self.dispersion_ = 1.0
         self.dispersion_ = self._dispersion(terms)
+        if _no_cross:  # a cross-fit half: only the model and error model score the other half
+            return self
         runs = [(t["phi"], self._sigma(t), t["nuisance"]) for t in terms]
         pool = np.concatenate([self._profiled(t) / self._sigma(t) for t in terms])
         h, grid, rate, hours, null_max = calibrate_glr(
@@ -503,7 +505,7 @@ class FlowBalanceDetector(Detector):
         # scale check on data the model was not fitted on: two-fold cross-fitting (identify on
         # one half of the healthy runs, GLR maxima on the other); against the simulated maxima
         # (medians, robust with few runs); the level is raised, never lowered
-        cross = self._cross_fit_glr(recs) if not _no_cross else []
+        cross = self._cross_fit_glr(recs)
         self.cross_fit_maxima_ = np.array([float(g.max()) if len(g) else 0.0 for g in cross])
         ref = (self.cross_fit_maxima_ if len(self.cross_fit_maxima_) >= 2
                else self.healthy_maxima_)

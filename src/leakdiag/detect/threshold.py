@@ -149,7 +149,8 @@ class ThresholdBasis:
     target_per_segment : float
         Requested false-alarm probability per segment, ``target_per_hour * segment_s / 3600``.
     bound_per_segment : float
-        Guaranteed bound ``k / (n + 1)`` (``1 / (n + 1)`` achieved level when unsupported).
+        Guaranteed bound ``k / (n + 1)`` (``1 / (n + 1)`` achieved level when unsupported; NaN
+        for ``"glr-model"``, whose rate no data bound).
     target_per_hour, bound_per_hour : float
         The same per hour of healthy operation (expected segments with an alarm per hour).
     conditional_upper_95 : float
