@@ -88,3 +88,40 @@ def test_per_unit_mode_pools_reference_maxima(tmp_path):
     # each held-out unit: 2 own (leave-one-run-out) maxima + 20 reference, k = floor(0.05 * 23)
     assert (ok.threshold_n == 22).all() and (ok.threshold_k == 1).all()
     assert res["settings"]["unit_fit"] == 2
+
+
+def test_full_budget_lifts_the_reduced_budget_through_the_cli(tmp_path, monkeypatch):
+    """A method in REDUCED_BUDGET is fitted and judged on fewer runs unless --full-budget."""
+    import leakdiag.bench.v5_run as v5_run
+
+    monkeypatch.setattr(v5_run, "REDUCED_BUDGET", {"acf-p1": (19, 5, 1)})
+    cache = tmp_path / "cache"
+    common = ["benchmark", "--quick", "--systems", "vca", "--methods", "acf-p1",
+              "--cache-dir", str(cache), "--no-progress"]
+    assert main([*common, "-o", str(tmp_path / "reduced"), "--work-dir", str(tmp_path / "w1")]) == 0
+    assert main([*common, "-o", str(tmp_path / "full"), "--work-dir", str(tmp_path / "w2"),
+                 "--full-budget"]) == 0
+    reduced = pd.read_csv(tmp_path / "reduced" / "runs.csv.gz")
+    full = pd.read_csv(tmp_path / "full" / "runs.csv.gz")
+    # quick VCA suite: 20 calibration, 20 healthy and 4 leaking runs (one size)
+    assert (reduced.role == "test_healthy").sum() == 5 and (reduced.role == "test_leak").sum() == 1
+    assert (full.role == "test_healthy").sum() == 20 and (full.role == "test_leak").sum() == 4
+    fits_r = pd.read_csv(tmp_path / "reduced" / "fits.csv")
+    fits_f = pd.read_csv(tmp_path / "full" / "fits.csv")
+    assert fits_r.n.tolist() == [19] and fits_f.n.tolist() == [20]
+    s_r = json.loads((tmp_path / "reduced" / "settings.json").read_text())
+    s_f = json.loads((tmp_path / "full" / "settings.json").read_text())
+    assert s_r["reduced_budget"] == {"acf-p1": [19, 5, 1]} and s_f["reduced_budget"] == {}
+
+
+def test_every_fit_failing_gives_a_report_of_errors_not_a_crash(tmp_path, monkeypatch):
+    """10 calibration runs cannot support 5 % per run (k < 1): the fit fails, and the run still
+    ends with its fits table naming the error (it crashed with 'No objects to concatenate')."""
+    import leakdiag.bench.v5_run as v5_run
+    from leakdiag.bench.v5_report import run_benchmark_v5
+
+    monkeypatch.setattr(v5_run, "REDUCED_BUDGET", {"acf-p1": (10, 5, 1)})
+    res = run_benchmark_v5(tmp_path / "out", quick=True, systems=["vca"], methods=["acf-p1"],
+                           cache_dir=str(tmp_path / "cache"), progress=False)
+    assert len(res["runs"]) == 0
+    assert res["fits"].error.str.contains("InsufficientHealthyDataError").all()

@@ -452,7 +452,8 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
               desc="score held-out runs", progress=progress)
     t_score = time.time() - t0
     shards = [pd.read_parquet(c.path) for c in chunk_cfgs if Path(c.path).is_file()]
-    runs = pd.concat([s for s in shards if len(s)], ignore_index=True) if shards else pd.DataFrame()
+    rows = [s for s in shards if len(s)]  # none when every method failed to fit: say so below
+    runs = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
     fits = pd.DataFrame([row for r in fit_res for row in r.result])
     settings = {"suite_version": V5_VERSION, "methods": list(methods),
                 "false_alarm_per_run": false_alarm_per_run, "onset_method": onset_method,
