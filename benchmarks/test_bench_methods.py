@@ -34,7 +34,7 @@ def test_bench_wavelet(rec, record_ratio, best_time):
     import pywt
 
     from leakdiag.features.windowing import window_starts
-    from leakdiag.methods.wavelet import wavelet_detail_rms
+    from leakdiag.literature.wavelet import wavelet_detail_rms
 
     x = rec["p1"]
     fast = best_time(lambda: wavelet_detail_rms(x, WINDOW, OVERLAP, "db4", 3), repeats=3)
@@ -51,7 +51,7 @@ def test_bench_wavelet(rec, record_ratio, best_time):
 
 def test_bench_fft_band(rec, record_ratio, best_time):
     from leakdiag.features.windowing import window_starts
-    from leakdiag.methods.fft_band import fft_band_rms
+    from leakdiag.literature.fft_band import fft_band_rms
 
     x = rec["p1"]
     band = (35.0, 105.0)
@@ -71,7 +71,7 @@ def test_bench_fft_band(rec, record_ratio, best_time):
 
 
 def test_bench_emd_hilbert(rec, record_ratio, best_time):
-    from leakdiag.methods.emd_hilbert import first_imf_amplitude
+    from leakdiag.literature.emd_hilbert import first_imf_amplitude
 
     x = rec["p1"]
     fast = best_time(lambda: first_imf_amplitude(x), repeats=1)
@@ -83,7 +83,7 @@ def test_bench_emd_hilbert(rec, record_ratio, best_time):
 
 
 def test_bench_ekf(rec, record_ratio, best_time):
-    from leakdiag.methods.ekf import run_vca_ekf
+    from leakdiag.literature.ekf import run_vca_ekf
 
     fast = best_time(lambda: run_vca_ekf(rec), repeats=1)
     record_ratio("EKF VCA (RK4 x4 substeps), 400 s", fast, DURATION_S, n_samples=rec.n_samples,

@@ -14,7 +14,7 @@ STEPS = structured_excitation("eha")
 def test_structured_eha_input_is_the_documented_step_waveform():
     rec = simulate_eha(duration=3.0, leak_lpm=None, sensors=False, input_signal=STEPS)
     u = rec["u"]
-    # docs/methods.md: -3 V for the first quarter period, then +3 V / -3 V every half period
+    # docs/literature.md: -3 V for the first quarter period, then +3 V / -3 V every half period
     assert np.all(u[:250] == -3.0)
     assert np.all(u[250:750] == 3.0)
     assert np.all(u[750:1250] == -3.0)

@@ -1,34 +1,20 @@
 """Detection methods of the benchmark, by name.
 
-:data:`METHODS` maps a method name to ``"module:factory"``; a factory is
-``factory(system: str, alarm: Alarm) -> Detector`` returning an *unfitted* detector for the rig
-(``"vca"`` or ``"eha"``). To add a method (wavelet, FFT, EMD, EKF, ...), write its factory and add
-one line here; ``leakdiag benchmark --methods NAME ...`` then selects it.
+:data:`METHODS` maps a method name to its factory ``factory(system: str, alarm: Alarm) ->
+Detector`` returning an *unfitted* detector for the rig (``"vca"`` or ``"eha"``). To add a method
+(wavelet, FFT, EMD, EKF, ...), write its factory, import it here and add one line to
+:data:`METHODS`; ``leakdiag benchmark --methods NAME ...`` then selects it.
 """
 
 from __future__ import annotations
 
-import importlib
+from dataclasses import replace
+
+from leakdiag.detect.flow_balance import FlowBalanceDetector
+from leakdiag.detect.methods import CombinedDetector, thesis_detector
+from leakdiag.literature.registry import LITERATURE_METHODS
 
 __all__ = ["METHODS", "make_detector", "thesis_methods", "DEFAULT_METHODS"]
-
-#: Method name -> "module:factory".
-METHODS: dict[str, str] = {
-    "acf-p1": "leakdiag.bench.registry:_acf_p1",
-    "acf-p2": "leakdiag.bench.registry:_acf_p2",
-    "ccf-p1p2": "leakdiag.bench.registry:_ccf_p1p2",
-    "ccf-ux": "leakdiag.bench.registry:_ccf_ux",
-    "mlr-p1": "leakdiag.bench.registry:_mlr_p1",
-    "combined": "leakdiag.bench.registry:_combined",
-    # literature methods (issue 6; factories in leakdiag.methods.registry)
-    "wavelet-p1": "leakdiag.methods.registry:wavelet_p1",
-    "wavelet-p1p2": "leakdiag.methods.registry:wavelet_p1p2",
-    "fft-p1": "leakdiag.methods.registry:fft_p1",
-    "emd-p1": "leakdiag.methods.registry:emd_p1",
-    "ekf": "leakdiag.methods.registry:ekf",
-    # physics-based (issue 12)
-    "flow-balance": "leakdiag.bench.registry:_flow_balance",
-}
 
 #: Methods run when ``--methods`` is not given.
 DEFAULT_METHODS = ("acf-p1", "acf-p2", "ccf-p1p2", "ccf-ux", "mlr-p1", "combined",
@@ -64,8 +50,7 @@ def make_detector(name: str, system: str, alarm):
     """
     if name not in METHODS:
         raise ValueError(f"unknown method {name!r}; known: {sorted(METHODS)}")
-    mod, attr = METHODS[name].split(":")
-    return getattr(importlib.import_module(mod), attr)(system, alarm)
+    return METHODS[name](system, alarm)
 
 
 def thesis_methods() -> tuple[str, ...]:
@@ -84,8 +69,6 @@ def thesis_methods() -> tuple[str, ...]:
 
 
 def _acf_p1(system, alarm):
-    from leakdiag.detect.methods import thesis_detector
-
     return thesis_detector(system, "autocorrelation", ("p1",), alarm)
 
 
@@ -95,28 +78,18 @@ def _acf_p2(system, alarm):
 
 
 def _ccf_p1p2(system, alarm):
-    from leakdiag.detect.methods import thesis_detector
-
     return thesis_detector(system, "cross-correlation", ("p1", "p2"), alarm)
 
 
 def _ccf_ux(system, alarm):
-    from leakdiag.detect.methods import thesis_detector
-
     return thesis_detector(system, "cross-correlation", ("u", "x"), alarm)
 
 
 def _mlr_p1(system, alarm):
-    from leakdiag.detect.methods import thesis_detector
-
     return thesis_detector(system, "metric-length", ("p1",), alarm)
 
 
 def _combined(system, alarm):
-    from dataclasses import replace
-
-    from leakdiag.detect.methods import CombinedDetector
-
     parts = [_acf_p1(system, None), _ccf_p1p2(system, None), _ccf_ux(system, None),
              _mlr_p1(system, None)]
     # the Mahalanobis distance only grows with a change
@@ -124,10 +97,23 @@ def _combined(system, alarm):
 
 
 def _flow_balance(system, alarm):
-    from leakdiag.detect.flow_balance import FlowBalanceDetector
-
     if alarm is None:
         return FlowBalanceDetector(system=system)
     # the suite's false-alarm target and burn-in (its segments are the monitored span)
     return FlowBalanceDetector(system=system, false_alarms_per_hour=alarm.false_alarms_per_hour,
                                burn_in_s=alarm.burn_in_s)
+
+
+#: Method name -> factory.
+METHODS = {
+    "acf-p1": _acf_p1,
+    "acf-p2": _acf_p2,
+    "ccf-p1p2": _ccf_p1p2,
+    "ccf-ux": _ccf_ux,
+    "mlr-p1": _mlr_p1,
+    "combined": _combined,
+    # literature methods (issue 6; factories in leakdiag.literature.registry)
+    **LITERATURE_METHODS,
+    # physics-based (issue 12)
+    "flow-balance": _flow_balance,
+}

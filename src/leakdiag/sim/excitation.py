@@ -193,7 +193,7 @@ def structured_excitation(system: str = "vca", kind: str = "steps"):
         Periodic steps (1 s period, +-10 mm or +-3 V) or a repeated 0.5-5 Hz chirp (4 s sweeps,
         5 mm or 3 V). The EHA steps are -3 V for the first quarter period, then alternate
         every half period (+3 V from 0.25 s to 0.75 s, ...): the open-loop EHA integrates its
-        command, so this keeps the piston swinging about mid-stroke (``docs/methods.md``).
+        command, so this keeps the piston swinging about mid-stroke (``docs/literature.md``).
 
     Returns
     -------

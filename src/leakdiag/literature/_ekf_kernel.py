@@ -1,6 +1,6 @@
-"""Numba kernel of the VCA extended Kalman filter (see :mod:`leakdiag.methods.ekf`).
+"""Numba kernel of the VCA extended Kalman filter (see :mod:`leakdiag.literature.ekf`).
 
-The kernel only computes; :func:`leakdiag.methods.ekf.run_vca_ekf` validates and scales.
+The kernel only computes; :func:`leakdiag.literature.ekf.run_vca_ekf` validates and scales.
 States are kept in scaled units ``z = state / scale`` so that the covariance is well
 conditioned (Pa and m differ by ten orders of magnitude).
 """

@@ -1,8 +1,8 @@
-"""Side-by-side comparison of the literature and thesis methods under both excitations.
+"""The literature comparison: literature and thesis methods side by side under both excitations.
 
 :func:`comparison_suite` is a mid-size VCA suite (both excitations, leak sizes from 0.02 to
 1 L/min) built from the benchmark's :class:`~leakdiag.bench.suite.SystemSuite`;
-:func:`compute_seconds_per_hour` measures each method's feature cost. ``docs/methods.md``
+:func:`compute_seconds_per_hour` measures each method's feature cost. ``docs/literature.md``
 reports their numbers.
 """
 
@@ -10,9 +10,14 @@ from __future__ import annotations
 
 import time
 
+from leakdiag._validation import check_int
+from leakdiag.bench.registry import make_detector
+from leakdiag.bench.suite import EXCITATIONS, SystemSuite
+from leakdiag.detect.base import Alarm
+
 __all__ = ["comparison_suite", "compute_seconds_per_hour", "COMPARISON_METHODS"]
 
-#: Methods compared in ``docs/methods.md`` (benchmark registry names).
+#: Methods compared in ``docs/literature.md`` (benchmark registry names).
 COMPARISON_METHODS = ("acf-p1", "ccf-p1p2", "ccf-ux", "mlr-p1", "combined", "wavelet-p1",
                       "wavelet-p1p2", "fft-p1", "emd-p1", "ekf")
 
@@ -40,8 +45,6 @@ def comparison_suite(duration_s: float = 100.0, n_fit: int = 5, n_test_healthy: 
     >>> s.excitations, s.leak_lpm
     (('operating', 'structured'), (0.02, 0.05, 0.1, 0.2, 0.5, 1.0))
     """
-    from leakdiag.bench.suite import EXCITATIONS, SystemSuite
-
     return {"vca": SystemSuite(
         system="vca", leak_lpm=(0.02, 0.05, 0.1, 0.2, 0.5, 1.0), loads=("none",),
         noise_levels={"low": 10e3}, duration_s=float(duration_s),
@@ -85,10 +88,6 @@ def compute_seconds_per_hour(method: str, recording, system: str = "vca",
     >>> compute_seconds_per_hour("fft-p1", rec) < 60
     True
     """
-    from leakdiag._validation import check_int
-    from leakdiag.bench.registry import make_detector
-    from leakdiag.detect.base import Alarm
-
     repeats = check_int(repeats, "repeats", 1)
     det = make_detector(method, system, Alarm())
     det._feature_series(recording)  # warm-up: imports, Numba compilation

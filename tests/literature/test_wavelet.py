@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from leakdiag.io.recording import Recording
-from leakdiag.methods.wavelet import (WaveletParams, wavelet_detail, wavelet_detail_rms,
+from leakdiag.literature.wavelet import (WaveletParams, wavelet_detail, wavelet_detail_rms,
                                       wavelet_feature, wavelet_level_for_frequency)
 
 FS = 1000.0

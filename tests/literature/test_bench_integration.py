@@ -9,8 +9,8 @@ from leakdiag.bench.run import simulator_kwargs
 from leakdiag.bench.scoring import minimum_detectable, summarise
 from leakdiag.bench.suite import EXCITATIONS, SUITES, build_suite
 from leakdiag.detect.base import Alarm
-from leakdiag.methods.compare import comparison_suite
-from leakdiag.methods.registry import LITERATURE_METHODS
+from leakdiag.bench.comparison import comparison_suite
+from leakdiag.literature.registry import LITERATURE_METHODS
 from leakdiag.sim.excitation import PeriodicSteps
 
 
@@ -58,7 +58,7 @@ def test_scoring_keeps_excitations_apart():
 
 def test_ekf_refuses_eha_recordings():
     from leakdiag.io.recording import Recording
-    from leakdiag.methods.ekf import run_vca_ekf
+    from leakdiag.literature.ekf import run_vca_ekf
 
     z = np.zeros(10)
     rec = Recording({"u": z, "x": z, "p1": z, "p2": z}, 1000.0, meta={"system": "eha"})

@@ -1,22 +1,16 @@
 """Benchmark factories of the literature methods: ``factory(system, alarm) -> Detector``.
 
-They follow :mod:`leakdiag.bench.registry` (``"name": "module:factory"`` in its ``METHODS``);
-:data:`LITERATURE_METHODS` lists the names and targets so that the benchmark registry can
-include them with one update.
+They follow :mod:`leakdiag.bench.registry` (``"name": factory`` in its ``METHODS``);
+:data:`LITERATURE_METHODS` maps the names to the factories so that the benchmark registry
+includes them with one update (and imports them, so the import graph shows the dependency).
 """
 
 from __future__ import annotations
 
-__all__ = ["LITERATURE_METHODS", "wavelet_p1", "wavelet_p1p2", "fft_p1", "emd_p1", "ekf"]
+from leakdiag.literature.detectors import (EKFDetector, EMDHilbertDetector, FFTBandDetector,
+                                           WaveletDetector)
 
-#: Benchmark name -> "module:factory" of each literature method.
-LITERATURE_METHODS: dict[str, str] = {
-    "wavelet-p1": "leakdiag.methods.registry:wavelet_p1",
-    "wavelet-p1p2": "leakdiag.methods.registry:wavelet_p1p2",
-    "fft-p1": "leakdiag.methods.registry:fft_p1",
-    "emd-p1": "leakdiag.methods.registry:emd_p1",
-    "ekf": "leakdiag.methods.registry:ekf",
-}
+__all__ = ["LITERATURE_METHODS", "wavelet_p1", "wavelet_p1p2", "fft_p1", "emd_p1", "ekf"]
 
 
 def wavelet_p1(system, alarm):
@@ -38,8 +32,6 @@ def wavelet_p1(system, alarm):
     >>> wavelet_p1("vca", None).channels
     ('p1',)
     """
-    from leakdiag.methods.detectors import WaveletDetector
-
     return WaveletDetector(channels=("p1",), alarm=alarm)
 
 
@@ -62,8 +54,6 @@ def wavelet_p1p2(system, alarm):
     >>> wavelet_p1p2("eha", None).channels
     ('p1', 'p2')
     """
-    from leakdiag.methods.detectors import WaveletDetector
-
     return WaveletDetector(channels=("p1", "p2"), alarm=alarm)
 
 
@@ -86,8 +76,6 @@ def fft_p1(system, alarm):
     >>> fft_p1("vca", None).band_hz is None
     True
     """
-    from leakdiag.methods.detectors import FFTBandDetector
-
     return FFTBandDetector(channels=("p1",), alarm=alarm)
 
 
@@ -110,8 +98,6 @@ def emd_p1(system, alarm):
     >>> emd_p1("vca", None).sifting_iterations
     10
     """
-    from leakdiag.methods.detectors import EMDHilbertDetector
-
     return EMDHilbertDetector(channels=("p1",), alarm=alarm)
 
 
@@ -139,7 +125,15 @@ def ekf(system, alarm):
     >>> d.load, d.feature, d.pressure_noise_std_pa
     ('auto', 'coefficient', None)
     """
-    from leakdiag.methods.detectors import EKFDetector
-
     return EKFDetector(feature="coefficient", load="auto", pressure_noise_std_pa=None,
                        alarm=alarm)
+
+
+#: Benchmark name -> factory of each literature method.
+LITERATURE_METHODS = {
+    "wavelet-p1": wavelet_p1,
+    "wavelet-p1p2": wavelet_p1p2,
+    "fft-p1": fft_p1,
+    "emd-p1": emd_p1,
+    "ekf": ekf,
+}

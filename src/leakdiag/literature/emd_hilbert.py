@@ -13,7 +13,7 @@ import numpy as np
 
 from leakdiag._validation import as_1d_float, check_int, check_overlap
 from leakdiag.features.series import FeatureSeries
-from leakdiag.methods._windowed import channel_rms_feature, check_channels, windowed_rms
+from leakdiag.literature._windowed import channel_rms_feature, check_channels, windowed_rms
 
 __all__ = ["EMDHilbertParams", "first_imf_amplitude", "emd_hilbert_feature"]
 
@@ -56,7 +56,7 @@ def first_imf_amplitude(x, block: int = DEFAULT_BLOCK, margin: int = DEFAULT_MAR
     PyEMD's default stopping criteria; its cost grows faster than linearly with the length
     (more extrema per spline and more sifting iterations), so a long record is cut into blocks
     of ``block`` samples, each decomposed with ``margin`` samples of context on both sides. The
-    cost is then proportional to the length (measured in ``docs/methods.md``). Under PyEMD's default
+    cost is then proportional to the length (measured in ``docs/literature.md``). Under PyEMD's default
     stopping criteria, sifting a block of a square-wave-driven pressure took hundreds of
     iterations (up to 2 s per 10 s block) and the resulting feature varied by about 8 % between
     windows of a healthy periodic run; with a fixed count of 10 iterations (the "S-number" style

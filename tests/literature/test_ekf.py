@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from leakdiag.io.recording import Recording, RecordingError
-from leakdiag.methods.ekf import EKFParams, ekf_feature, run_vca_ekf
+from leakdiag.literature.ekf import EKFParams, ekf_feature, run_vca_ekf
 
 
 @pytest.fixture(scope="module")
@@ -82,7 +82,7 @@ def noisy_spring_run():
 
 
 def test_measurement_noise_estimated_from_the_data(noisy_spring_run):
-    from leakdiag.methods.ekf import estimate_pressure_noise
+    from leakdiag.literature.ekf import estimate_pressure_noise
 
     # 40 kPa white noise + 5.05 kPa ADC quantum (uniform: 1.46 kPa) -> 40.03 kPa
     for ch in ("p1", "p2"):

@@ -16,7 +16,8 @@ import numpy as np
 from leakdiag._validation import check_finite, check_int, check_overlap, check_positive
 from leakdiag.features.series import FeatureSeries
 from leakdiag.features.windowing import window_starts, window_times
-from leakdiag.methods._windowed import windowed_mean
+from leakdiag.literature._ekf_kernel import ekf_vca_kernel
+from leakdiag.literature._windowed import windowed_mean
 from leakdiag.sim.leak import LPM_PER_M3S
 from leakdiag.sim.vca_params import VCAParams
 
@@ -245,8 +246,6 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
     >>> float(np.abs(res.leak_flow_lpm).max())
     0.0
     """
-    from leakdiag.methods._ekf_kernel import ekf_vca_kernel
-
     system = recording.meta.get("system", "vca")
     if system != "vca":
         raise ValueError(f"{recording.meta.get('source', '<recording>')}: system={system!r}; "

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from leakdiag.io.recording import Recording
-from leakdiag.methods.emd_hilbert import EMDHilbertParams, emd_hilbert_feature, first_imf_amplitude
+from leakdiag.literature.emd_hilbert import EMDHilbertParams, emd_hilbert_feature, first_imf_amplitude
 
 FS = 1000.0
 

@@ -4,7 +4,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from leakdiag.features.windowing import window_starts
-from leakdiag.methods._windowed import windowed_mean, windowed_rms
+from leakdiag.literature._windowed import windowed_mean, windowed_rms
 
 
 def _plain(x, window, overlap, fn):

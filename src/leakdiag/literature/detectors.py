@@ -11,7 +11,12 @@ import numpy as np
 
 from leakdiag.detect.base import Detector
 from leakdiag.features.series import FeatureSeries
-from leakdiag.methods._physics import DEFAULT_NATURAL_FREQUENCY_HZ
+from leakdiag.literature._physics import DEFAULT_NATURAL_FREQUENCY_HZ
+from leakdiag.literature.ekf import EKFParams, ekf_feature, run_vca_ekf
+from leakdiag.literature.emd_hilbert import EMDHilbertParams, emd_hilbert_feature
+from leakdiag.literature.fft_band import FFTBandParams, fft_band_feature
+from leakdiag.literature.wavelet import WaveletParams, wavelet_feature
+from leakdiag.sim.vca_params import VCAParams
 
 __all__ = ["WaveletDetector", "FFTBandDetector", "EMDHilbertDetector", "EKFDetector"]
 
@@ -38,7 +43,7 @@ class WaveletDetector(Detector):
 
     Notes
     -----
-    Feature: :func:`leakdiag.methods.wavelet.wavelet_feature` (see its assumptions).
+    Feature: :func:`leakdiag.literature.wavelet.wavelet_feature` (see its assumptions).
 
     Examples
     --------
@@ -58,8 +63,6 @@ class WaveletDetector(Detector):
         self.alarm = alarm
 
     def _feature_series(self, recording) -> FeatureSeries:
-        from leakdiag.methods.wavelet import WaveletParams, wavelet_feature
-
         return wavelet_feature(recording, WaveletParams(
             tuple(self.channels), self.wavelet, self.level, self.natural_frequency_hz,
             self.window, self.overlap))
@@ -85,7 +88,7 @@ class FFTBandDetector(Detector):
 
     Notes
     -----
-    Feature: :func:`leakdiag.methods.fft_band.fft_band_feature` (Goharrizi & Sepehri 2010).
+    Feature: :func:`leakdiag.literature.fft_band.fft_band_feature` (Goharrizi & Sepehri 2010).
 
     Examples
     --------
@@ -104,8 +107,6 @@ class FFTBandDetector(Detector):
         self.alarm = alarm
 
     def _feature_series(self, recording) -> FeatureSeries:
-        from leakdiag.methods.fft_band import FFTBandParams, fft_band_feature
-
         return fft_band_feature(recording, FFTBandParams(
             tuple(self.channels), self.band_hz, self.natural_frequency_hz, self.window,
             self.overlap))
@@ -133,8 +134,8 @@ class EMDHilbertDetector(Detector):
 
     Notes
     -----
-    Feature: :func:`leakdiag.methods.emd_hilbert.emd_hilbert_feature`. The slowest method
-    (see ``docs/methods.md`` for seconds per hour of signal).
+    Feature: :func:`leakdiag.literature.emd_hilbert.emd_hilbert_feature`. The slowest method
+    (see ``docs/literature.md`` for seconds per hour of signal).
 
     Examples
     --------
@@ -153,8 +154,6 @@ class EMDHilbertDetector(Detector):
         self.alarm = alarm
 
     def _feature_series(self, recording) -> FeatureSeries:
-        from leakdiag.methods.emd_hilbert import EMDHilbertParams, emd_hilbert_feature
-
         return emd_hilbert_feature(recording, EMDHilbertParams(
             tuple(self.channels), self.window, self.overlap, self.block, self.margin,
             self.sifting_iterations))
@@ -187,7 +186,7 @@ class EKFDetector(Detector):
 
     Notes
     -----
-    Feature: :func:`leakdiag.methods.ekf.ekf_feature`. VCA recordings only (channels ``u``,
+    Feature: :func:`leakdiag.literature.ekf.ekf_feature`. VCA recordings only (channels ``u``,
     ``x``, ``p1``, ``p2``).
 
     Examples
@@ -210,7 +209,7 @@ class EKFDetector(Detector):
         self.alarm = alarm
 
     def ekf_params(self, recording=None):
-        """The :class:`~leakdiag.methods.ekf.EKFParams` of this detector.
+        """The :class:`~leakdiag.literature.ekf.EKFParams` of this detector.
 
         Parameters
         ----------
@@ -221,9 +220,6 @@ class EKFDetector(Detector):
         -------
         EKFParams
         """
-        from leakdiag.methods.ekf import EKFParams
-        from leakdiag.sim.vca_params import VCAParams
-
         load = self.load
         if load == "auto":
             load = recording.meta.get("load", "none") if recording is not None else "none"
@@ -234,8 +230,6 @@ class EKFDetector(Detector):
                          overlap=self.overlap, feature=self.feature)
 
     def _feature_series(self, recording) -> FeatureSeries:
-        from leakdiag.methods.ekf import ekf_feature
-
         return ekf_feature(recording, self.ekf_params(recording))
 
     def leak_size_lpm(self, recording, onset_s: float) -> float:
@@ -253,8 +247,6 @@ class EKFDetector(Detector):
         float
             L/min; NaN when one side of the onset has no sample.
         """
-        from leakdiag.methods.ekf import run_vca_ekf
-
         res = run_vca_ekf(recording, self.ekf_params(recording))
         q = np.abs(res.leak_flow_lpm)
         before, after = res.time < onset_s, res.time >= onset_s

@@ -14,8 +14,8 @@ import numpy as np
 
 from leakdiag._validation import as_1d_float, check_int, check_overlap, check_positive
 from leakdiag.features.series import FeatureSeries
-from leakdiag.methods._physics import DEFAULT_NATURAL_FREQUENCY_HZ
-from leakdiag.methods._windowed import channel_rms_feature, check_channels, windowed_rms
+from leakdiag.literature._physics import DEFAULT_NATURAL_FREQUENCY_HZ
+from leakdiag.literature._windowed import channel_rms_feature, check_channels, windowed_rms
 
 __all__ = ["WaveletParams", "wavelet_level_for_frequency", "wavelet_detail",
            "wavelet_detail_rms", "wavelet_feature"]

@@ -8,7 +8,7 @@ from sklearn.base import clone
 
 from leakdiag.detect.base import Alarm
 
-from leakdiag.methods.detectors import (EKFDetector, EMDHilbertDetector, FFTBandDetector,
+from leakdiag.literature.detectors import (EKFDetector, EMDHilbertDetector, FFTBandDetector,
                                         WaveletDetector)
 
 ONSET_S = 30.0  # as in conftest.vca_runs

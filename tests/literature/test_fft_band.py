@@ -3,7 +3,7 @@ import pytest
 
 from leakdiag.features.windowing import window_starts
 from leakdiag.io.recording import Recording
-from leakdiag.methods.fft_band import FFTBandParams, fft_band_feature, fft_band_rms
+from leakdiag.literature.fft_band import FFTBandParams, fft_band_feature, fft_band_rms
 
 FS = 1000.0
 
@@ -41,7 +41,7 @@ def test_equals_plain_reference_on_noise(window, overlap):
 
 
 def test_blocks_do_not_change_result(monkeypatch):
-    import leakdiag.methods.fft_band as fb
+    import leakdiag.literature.fft_band as fb
 
     x = np.random.default_rng(2).standard_normal(20000)
     full = fb.fft_band_rms(x, FS, 500, 50, (30.0, 120.0))
