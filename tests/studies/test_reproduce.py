@@ -72,7 +72,7 @@ def test_html_and_markdown_complete(quick_run):
     agree = pd.read_csv(out / "tables.csv").direction_agrees.sum()
     assert f"agrees with the thesis in {agree} of" in md
     # the code the numbers come from, so that a committed report can be checked against today's
-    from leakdiag.studies.cache import code_fingerprint
+    from leakdiag.runtime.cache import code_fingerprint
     from leakdiag.studies.reproduce import code_fingerprints
     fp = code_fingerprints()
     assert fp["sim"] == code_fingerprint(sim.simulate_eha) != fp["features"]

@@ -9,8 +9,10 @@ rows as soon as it is done (:mod:`leakdiag.batch.store`).
 
 from __future__ import annotations
 
+import functools
 import glob
 import os
+import re
 import time
 import warnings
 from dataclasses import dataclass
@@ -21,12 +23,18 @@ import numpy as np
 from leakdiag._version import __version__
 from leakdiag.batch.config import BatchConfig
 from leakdiag.batch.store import content_hash, finished_state, result_key, write_rows
+from leakdiag.detect.measure import rms_change
 from leakdiag.features.series import FeatureSeries
+from leakdiag.io.api import read_recording
+from leakdiag.io.checks import RESAMPLE_ADVICE
+from leakdiag.runtime.executor import LOCAL, run_cases
+from leakdiag.stream import open_chunks, recording_chunks
+from leakdiag.stream.detector import as_scorer
+from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
+from leakdiag.stream.feature import StreamingFeature
 
 __all__ = ["run_case", "run_batch", "expand_inputs", "BatchSummary", "LOCAL"]
 
-#: ``scheduler`` value that starts a ``dask.distributed.LocalCluster`` for the run.
-LOCAL = "local"
 #: Suffixes read in chunks (others are loaded whole with :func:`leakdiag.io.read_recording`).
 _CHUNKED_SUFFIXES = (".parquet", ".pq", ".h5", ".hdf5", ".csv")
 
@@ -61,13 +69,9 @@ def expand_inputs(patterns: Iterable[str]) -> list[str]:
 
 
 def _source(path: str, channels: list[str], chunk_samples: int, column_map=None):
-    from leakdiag.stream import open_chunks, recording_chunks
-
     if column_map is None and os.path.splitext(path)[1].lower() in _CHUNKED_SUFFIXES:
         return open_chunks(path, channels, chunk_samples)
-    import leakdiag.io as lio
-
-    rec = lio.read_recording(path, column_map)
+    rec = read_recording(path, column_map)
     rec.meta["source"] = path
     return recording_chunks(rec, chunk_samples, channels)
 
@@ -81,8 +85,6 @@ def _summary(values: np.ndarray) -> dict:
 
 
 def _measure(spec, t, v, onset, chunk, sample_rate) -> dict:
-    from leakdiag.detect.measure import rms_change
-
     if onset is None:
         return {}
     fs = FeatureSeries(t, v, spec.method, {"window": spec.window, "sample_rate": sample_rate})
@@ -98,10 +100,6 @@ def _measure(spec, t, v, onset, chunk, sample_rate) -> dict:
 def _in_job_words(msg: str) -> str:
     """A reader's message with advice a batch job can follow (batch has no --resample or
     --sample-rate: the job's column_map gives a rate, files are resampled beforehand)."""
-    import re
-
-    from leakdiag.io.checks import RESAMPLE_ADVICE
-
     msg = msg.replace(RESAMPLE_ADVICE, "batch needs a uniform time axis: resample the file "
                       "first (leakdiag analyze --resample RATE_HZ reads it)")
     return re.sub(r"\(--sample-rate, or sample_rate_hz in (a column|the) map\)",
@@ -137,10 +135,6 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
     and Dask runs give the same table. The Sec. 5.2 measure (Eq. 5-1 to 5-3) is computed when an
     onset is known (``config.onset_s`` or the file's ``meta['onset']``).
     """
-    from leakdiag.stream.detector import as_scorer
-    from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
-    from leakdiag.stream.feature import StreamingFeature
-
     t0 = time.perf_counter()
     base = {"path": os.path.abspath(path), "recording": os.path.basename(path),
             "job_digest": config.digest, "job_config": config.to_json(),
@@ -259,8 +253,9 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
         Results folder (a Parquet dataset; one file per recording).
     scheduler : str, optional
         None runs serially in this process; ``"local"`` starts a
-        ``dask.distributed.LocalCluster`` with ``n_workers`` worker processes; any other value is
-        the address of an existing scheduler (e.g. ``"tcp://10.0.0.5:8786"``).
+        ``dask.distributed.LocalCluster`` with ``n_workers`` worker processes; an address
+        (e.g. ``"tcp://10.0.0.5:8786"``) uses an existing scheduler
+        (:func:`leakdiag.runtime.executor.run_cases`).
     n_workers : int, default 2
         Worker processes of the local cluster (one thread each).
     progress : bool, default True
@@ -271,6 +266,11 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
     Returns
     -------
     BatchSummary
+
+    Raises
+    ------
+    ValueError
+        For a scheduler that is neither None, ``"serial"``, ``"local"`` nor an address.
 
     Notes
     -----
@@ -295,38 +295,18 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
         bar.update(1)
 
     try:
-        if scheduler is None:
-            for p in todo:
-                finish(p, run_case(p, config))
-        elif todo:
-            _run_dask(todo, config, scheduler, n_workers, finish)
+        run_cases(functools.partial(run_case, config=config), todo, scheduler=scheduler,
+                  n_workers=n_workers, progress=False,
+                  on_result=lambda case: finish(case.config, case.result),
+                  on_error=functools.partial(_lost_case_rows, config=config))
     finally:
         bar.close()
     return BatchSummary(len(paths), len(paths) - len(todo), len(todo), n_err, os.fspath(out_dir))
 
 
-def _run_dask(todo, config, scheduler, n_workers, finish) -> None:
-    from dask.distributed import Client, LocalCluster, as_completed
-
-    cluster = None
-    if scheduler == LOCAL:
-        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                               dashboard_address=":0")  # a free port: no clash
-        client = Client(cluster)
-    else:
-        client = Client(scheduler)
-    try:
-        futures = {client.submit(run_case, p, config, pure=False): p for p in todo}
-        for fut in as_completed(futures):
-            path = futures[fut]
-            try:
-                rows = fut.result()
-            except Exception as exc:  # noqa: BLE001 - worker died or task lost
-                rows = [{"path": path, "recording": os.path.basename(path), "status": "error",
-                         "error": f"{type(exc).__name__}: {exc}", "job_digest": config.digest,
-                         "job_config": config.to_json(), "leakdiag_version": __version__}]
-            finish(path, rows)
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+def _lost_case_rows(path: str, exc: Exception, config: BatchConfig) -> list[dict]:
+    """The error row of a recording whose case raised outside :func:`run_case` (a worker that
+    died, a lost task)."""
+    return [{"path": path, "recording": os.path.basename(path), "status": "error",
+             "error": f"{type(exc).__name__}: {exc}", "job_digest": config.digest,
+             "job_config": config.to_json(), "leakdiag_version": __version__}]

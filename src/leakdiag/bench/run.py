@@ -1,7 +1,7 @@
 """Run the benchmark: simulate the suite (cached, on Dask), fit and score every method.
 
 Two stages, each a list of pure ``run_case(config)`` calls for
-:func:`leakdiag.studies.executor.run_cases` (serial in tests, Dask in production):
+:func:`leakdiag.runtime.executor.run_cases` (serial in tests, Dask in production):
 
 1. :func:`simulate_case` -- one run of the suite into the on-disk simulation cache;
 2. :func:`evaluate_group` -- one method on one group (rig, load, noise level, excitation):
@@ -105,7 +105,7 @@ def simulator_kwargs(case) -> dict:
     -------
     dict
         Keyword arguments of ``simulate_vca`` / ``simulate_eha`` for
-        :func:`leakdiag.studies.cache.cached_simulation`.
+        :func:`leakdiag.runtime.cache.cached_simulation`.
 
     Raises
     ------
@@ -170,7 +170,7 @@ def simulator_kwargs(case) -> dict:
 
 
 def _recording(case, cache_dir):
-    from leakdiag.studies.cache import cached_simulation
+    from leakdiag.runtime.cache import cached_simulation
 
     rec = cached_simulation(case.system, cache_dir=cache_dir, **simulator_kwargs(case))
     rec.meta.setdefault("source", f"{case.system}-{case.role}-{case.seed}")
@@ -343,7 +343,7 @@ def run_suite(suites, methods, *, false_alarm_per_run: float = 0.01, alarm=None,
 
     from leakdiag.bench.suite import SUITE_VERSION, build_suite
     from leakdiag.detect.base import Alarm
-    from leakdiag.studies.executor import run_cases
+    from leakdiag.runtime.executor import run_cases
 
     alarm = alarm if alarm is not None else Alarm()
     cases = build_suite(suites)

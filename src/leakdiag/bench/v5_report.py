@@ -68,7 +68,7 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     from leakdiag.bench.v5_scoring import summary_v5
     from leakdiag.bench.v5_suite import (V5_DEFAULT_FAR, V5_QUICK_FAR, V5_QUICK_SUITES,
                                          V5_SUITES)
-    from leakdiag.studies.cache import resolve_cache_dir
+    from leakdiag.runtime.cache import resolve_cache_dir
 
     base = V5_QUICK_SUITES if quick else V5_SUITES
     if methods is None:

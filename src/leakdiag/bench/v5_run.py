@@ -1,7 +1,7 @@
 """Run benchmark v5: calibrate on training machines, score held-out units, resumably.
 
 Three stages of pure ``run_case(config)`` calls (serial or Dask,
-:func:`leakdiag.studies.executor.run_cases`):
+:func:`leakdiag.runtime.executor.run_cases`):
 
 1. :func:`simulate_case` -- each calibration run into the simulation cache;
 2. :func:`fit_method` -- one method on one group's calibration runs (read lazily from the
@@ -388,7 +388,7 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
 
     from leakdiag.bench.run import simulator_has_machines
     from leakdiag.bench.v5_suite import V5_VERSION, build_v5_suite
-    from leakdiag.studies.executor import run_cases
+    from leakdiag.runtime.executor import run_cases
 
     work = Path(work_dir)
     budget = {} if full_budget else REDUCED_BUDGET
@@ -474,7 +474,7 @@ def _run_units(suites, methods, work, groups, fp, n_own, far, onset_method, sche
     from leakdiag.bench.v5_suite import V5_VERSION
     from leakdiag.bench.v5_unit import (UnitChunkConfig, UnitRefConfig, reference_group,
                                         score_chunk_unit)
-    from leakdiag.studies.executor import run_cases
+    from leakdiag.runtime.executor import run_cases
 
     ref_cfgs, chunk_cfgs = [], []
     for key, group in groups.items():

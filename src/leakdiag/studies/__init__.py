@@ -1,13 +1,13 @@
 """The thesis's studies: sweeps (Sec. 4.4), preferred settings, sensitivity (case study 3),
 stationarity (Sec. 4.7) and the reproduction protocol (``leakdiag reproduce``).
 
-Shared infrastructure: :mod:`leakdiag.studies.cache` (on-disk cache of simulations) and
-:mod:`leakdiag.studies.executor` (serial or Dask execution of pure cases). See
-``docs/studies.md``.
+They run on the shared runtime: :mod:`leakdiag.runtime.cache` (on-disk cache of simulations)
+and :mod:`leakdiag.runtime.executor` (serial or Dask execution of pure cases), re-exported here.
+See ``docs/studies.md``.
 """
 
-from leakdiag.studies.cache import cached_simulation
-from leakdiag.studies.executor import CaseResult, run_cases
+from leakdiag.runtime.cache import cached_simulation
+from leakdiag.runtime.executor import CaseResult, run_cases
 from leakdiag.studies.grid import grid, grid_loop
 from leakdiag.studies.protocol import FULL, QUICK, ProtocolConfig
 from leakdiag.studies.reproduce import reproduce, write_outputs

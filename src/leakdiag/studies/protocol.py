@@ -2,7 +2,7 @@
 
 :class:`ProtocolConfig` holds every setting of a reproduction (durations, onsets, leak sizes,
 loads, seeds, chunk length). :func:`build_cases` turns it into plain-dict cases of three kinds,
-each run by the pure :func:`run_case` (serially or on Dask, see :mod:`leakdiag.studies.executor`):
+each run by the pure :func:`run_case` (serially or on Dask, see :mod:`leakdiag.runtime.executor`):
 
 * ``"tables"``: one simulated experiment (case study 1 or 2 of a system), every row of
   ``tables.csv`` of that case computed at its stated setting, plus the Sec. 4.4 procedure
@@ -16,7 +16,7 @@ the Sec. 5.1 and Sec. 6 lists state them (VCA case studies 1-2 without load, ste
 8-20, 5-17 and 2-20 mm, the sensor chains of Secs. 2.2 and 3.2); ``"v1"`` keeps the setup of the
 first reproductions (spring load, 2-20 mm, default sensors) so that effects can be compared.
 
-Simulations go through :func:`~leakdiag.studies.cache.cached_simulation`.
+Simulations go through :func:`~leakdiag.runtime.cache.cached_simulation`.
 """
 
 from __future__ import annotations
@@ -92,7 +92,7 @@ class ProtocolConfig:
     chunk : int
         RMS chunk length in feature values (Sec. 5.2; not stated in the thesis).
     cache_dir : str or None
-        Simulation cache folder (None: default, see :func:`leakdiag.studies.cache.resolve_cache_dir`).
+        Simulation cache folder (None: default, see :func:`leakdiag.runtime.cache.resolve_cache_dir`).
     vca_reference_mm : tuple of (case_study, min_mm, max_mm) or None
         Step amplitudes of the VCA reference per case study (:data:`VCA_REFERENCE_MM`, Sec.
         5.1); ``None``: the simulator's default reference (2-20 mm, protocol ``v1``).
@@ -295,7 +295,7 @@ def simulate_case(case: dict):
     """
     from leakdiag.sim.reference import PseudoRandomSteps
     from leakdiag.sim.sensors import THESIS_EHA_SENSORS, THESIS_VCA_SENSORS
-    from leakdiag.studies.cache import cached_simulation
+    from leakdiag.runtime.cache import cached_simulation
 
     sim = dict(case["sim"])
     if "reference" in sim:

@@ -330,7 +330,7 @@ def code_fingerprints() -> dict[str, str]:
     """Fingerprints of the code a reproduction's numbers come from.
 
     The simulators' package (the fingerprint that is part of every cache key, see
-    :func:`leakdiag.studies.cache.code_fingerprint`) and the features' package. A committed
+    :func:`leakdiag.runtime.cache.code_fingerprint`) and the features' package. A committed
     report whose values differ from today's was made by other code: rerun it.
 
     Returns
@@ -345,7 +345,7 @@ def code_fingerprints() -> dict[str, str]:
     """
     from leakdiag.features.methods import compute_feature
     from leakdiag.sim import simulate_vca
-    from leakdiag.studies.cache import code_fingerprint
+    from leakdiag.runtime.cache import code_fingerprint
 
     return {"sim": code_fingerprint(simulate_vca), "features": code_fingerprint(compute_feature)}
 
@@ -376,7 +376,7 @@ def reproduce(systems=("vca", "eha"), config: ProtocolConfig | None = None, *, q
     """
     import pandas as pd
 
-    from leakdiag.studies.executor import run_cases
+    from leakdiag.runtime.executor import run_cases
     from leakdiag.studies.thesis import load_tables
 
     cfg = config or (QUICK if quick else FULL)

@@ -63,7 +63,7 @@ def run_sensitivity(systems=("vca", "eha"), config: ProtocolConfig | None = None
     """
     import pandas as pd
 
-    from leakdiag.studies.executor import run_cases
+    from leakdiag.runtime.executor import run_cases
     from leakdiag.studies.reproduce import sensitivity_summary
 
     cfg = config or (QUICK if quick else FULL)

@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import importlib
 import json
 import math
 import os
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any, Callable
@@ -28,6 +28,7 @@ import numpy as np
 
 from leakdiag._version import __version__
 from leakdiag.io.recording import Recording
+from leakdiag.sim import simulate_eha, simulate_vca
 
 __all__ = [
     "CACHE_ENV",
@@ -43,10 +44,10 @@ __all__ = [
 #: Environment variable naming the cache folder.
 CACHE_ENV = "LEAKDIAG_CACHE"
 
-#: System name -> "module:function" of its simulator (resolved lazily).
-SIMULATORS: dict[str, str] = {
-    "vca": "leakdiag.sim:simulate_vca",
-    "eha": "leakdiag.sim:simulate_eha",
+#: System name -> its simulator.
+SIMULATORS: dict[str, Callable[..., Recording]] = {
+    "vca": simulate_vca,
+    "eha": simulate_eha,
 }
 
 #: Version of the on-disk entry layout; part of the key so a layout change never reads stale files.
@@ -162,11 +163,7 @@ def cache_key(system: str, params: dict[str, Any], version: str = __version__) -
 def _resolve_simulator(system: str) -> Callable[..., Recording]:
     if system not in SIMULATORS:
         raise ValueError(f"unknown system {system!r}; known: {sorted(SIMULATORS)}")
-    mod, attr = SIMULATORS[system].split(":")
-    fn = getattr(importlib.import_module(mod), attr, None)
-    if fn is None:
-        raise ValueError(f"no simulator for system {system!r}: {mod} has no {attr}")
-    return fn
+    return SIMULATORS[system]
 
 
 def code_fingerprint(fn: Callable) -> str:
@@ -190,8 +187,6 @@ def code_fingerprint(fn: Callable) -> str:
     >>> len(code_fingerprint(resolve_cache_dir))
     16
     """
-    import sys
-
     mod = sys.modules.get(getattr(fn, "__module__", ""), None)
     path = getattr(mod, "__file__", None)
     if not path:

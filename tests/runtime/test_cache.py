@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from leakdiag.io.recording import Recording
-from leakdiag.studies import cache as C
+from leakdiag.runtime import cache as C
 
 CALLS = []
 

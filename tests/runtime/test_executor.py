@@ -1,0 +1,66 @@
+"""Tests of the one executor: serial and Dask give the same results in input order; a failed
+case stops the run, or becomes its result through on_error (the batch runner's setting)."""
+
+import math
+
+import pytest
+
+from leakdiag.runtime.executor import run_cases
+
+
+def square_plus_seed(cfg):
+    return cfg["x"] ** 2 + cfg["seed"]
+
+
+CONFIGS = [{"x": x, "seed": s} for x, s in [(3, 1), (-2, 0), (5, 7), (0, 2)]]
+
+
+def test_serial_order_and_configs():
+    out = run_cases(square_plus_seed, CONFIGS, progress=False)
+    assert [c.result for c in out] == [10, 4, 32, 2]
+    assert [c.config for c in out] == CONFIGS
+    assert all(c.elapsed_s >= 0 for c in out)
+
+
+def test_dask_local_equals_serial():
+    serial = run_cases(square_plus_seed, CONFIGS, progress=False)
+    dask = run_cases(square_plus_seed, CONFIGS, scheduler="local", n_workers=1, progress=False)
+    assert [c.result for c in dask] == [c.result for c in serial]
+    assert [c.config for c in dask] == CONFIGS
+
+
+def test_bad_scheduler():
+    with pytest.raises(ValueError, match="scheduler='fast' must be"):
+        run_cases(square_plus_seed, CONFIGS, scheduler="fast")
+
+
+def fails_on_negative(cfg):
+    if cfg["x"] < 0:
+        raise ArithmeticError(f"x={cfg['x']}")
+    return cfg["x"] ** 2 + cfg["seed"]
+
+
+def as_failure(cfg, exc):
+    return f"failed: {type(exc).__name__}: {exc}"
+
+
+def test_a_failed_case_stops_the_run_by_default():
+    with pytest.raises(ArithmeticError, match="x=-2"):
+        run_cases(fails_on_negative, CONFIGS, progress=False)
+
+
+@pytest.mark.parametrize("scheduler", ["serial", pytest.param("local", marks=pytest.mark.slow)])
+def test_on_error_turns_a_failed_case_into_its_result(scheduler):
+    seen = []
+    out = run_cases(fails_on_negative, CONFIGS, scheduler=scheduler, n_workers=1, progress=False,
+                    on_result=seen.append, on_error=as_failure)
+    assert [c.result for c in out] == [10, "failed: ArithmeticError: x=-2", 32, 2]
+    assert math.isnan(out[1].elapsed_s) and not math.isnan(out[0].elapsed_s)
+    # on_result saw every case once, as it finished (input order when serial)
+    assert sorted(c.config["x"] for c in seen) == [-2, 0, 3, 5]
+    if scheduler == "serial":
+        assert seen == out
+
+
+def test_no_cases_no_cluster():
+    assert run_cases(square_plus_seed, [], scheduler="local", progress=False) == []
