@@ -184,7 +184,8 @@ def test_reproduce_says_it_writes_the_report_after_the_bar(tmp_path, monkeypatch
         said.append(capture.getvalue())
         return {"html": out}
 
-    monkeypatch.setattr(rp, "write_outputs", write_outputs)
+    monkeypatch.setattr(importlib.import_module("leakdiag.report.reproduction"), "write_outputs",
+                        write_outputs)
     import contextlib
     import io
 

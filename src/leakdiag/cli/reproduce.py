@@ -44,7 +44,7 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol
     from leakdiag.studies.reproduce import reproduce as run
 
     t0 = time.perf_counter()
-    from leakdiag.studies.reproduce import write_outputs
+    from leakdiag.report.reproduction import write_outputs
 
     systems = ("vca", "eha") if system == "all" else (system,)
     cfg = dataclasses.replace(protocol_config(protocol, quick), cache_dir=cache_dir, chunk=chunk)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from leakdiag.io.errors import RecordingError
+
 __all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "UNIFORM_TIME_RTOL",
            "RESAMPLE_ADVICE"]
 
@@ -46,8 +48,6 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
     >>> infer_sample_rate(np.arange(5) / 1000.0)
     1000.0
     """
-    from leakdiag.io.recording import RecordingError
-
     t = np.asarray(t, dtype=np.float64)
     if len(t) < 2:
         raise RecordingError(f"{source}: column {column!r} has {len(t)} sample(s); need at least 2")
@@ -97,8 +97,6 @@ def check_channel_finite(x: np.ndarray, channel: str, source: str = "<input>") -
     --------
     >>> check_channel_finite(np.array([1.0, 2.0]), "p1")
     """
-    from leakdiag.io.recording import RecordingError
-
     bad = np.flatnonzero(~np.isfinite(x))
     if len(bad):
         kind = "NaN" if np.isnan(x[bad[0]]) else "inf"
@@ -138,11 +136,9 @@ def check_length(rec, window: int, channel: str | None = None) -> None:
     >>> check_length(rec, 200, "p1")
     Traceback (most recent call last):
     ...
-    leakdiag.io.recording.RecordingError: run.csv: channel 'p1' has 150 samples (0.15 s), fewer than one window of 200 samples; use a smaller window or a longer recording
+    leakdiag.io.errors.RecordingError: run.csv: channel 'p1' has 150 samples (0.15 s), fewer than one window of 200 samples; use a smaller window or a longer recording
     """
     from leakdiag._validation import check_int
-    from leakdiag.io.recording import RecordingError
-
     window = check_int(window, "window", 1)
     source = rec.meta.get("source", "<recording>")
     if channel is not None:

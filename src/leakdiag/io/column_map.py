@@ -1,8 +1,10 @@
 """Column maps: which file column is which channel, in which unit and scale.
 
 A column map is a :class:`ColumnMap` (file options plus one :class:`ChannelSpec` per channel). It
-is built from a TOML file or a dict here, and from command-line strings (``p1=PG_1:counts*0.5``)
-in :mod:`leakdiag.io.column_spec`; see ``docs/io.md`` for the syntax.
+is built from a TOML file or a dict here; one channel's string (``p1=PG_1:counts*0.5``, the same
+in a map and on the command line) is read by :func:`parse_column_spec`; the command line's
+``--map`` + ``--col`` are combined in :mod:`leakdiag.io.column_spec`. See ``docs/io.md`` for the
+syntax.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
-from leakdiag.io.recording import RecordingError
+from leakdiag.io.errors import RecordingError
 from leakdiag.io.units import COUNTS, QUANTITY_SI_UNIT, UNITS, known_units
 
 __all__ = [
@@ -25,6 +27,7 @@ __all__ = [
     "CHANNEL_KEYS",
     "CHANNEL_NAME_RE",
     "load_column_map",
+    "parse_column_spec",
 ]
 
 #: Units of a time column: seconds and sub-multiples, or a sample counter.
@@ -188,12 +191,97 @@ class ColumnMap:
         return {"file": file, "channels": chans}
 
 
+_NUM = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_SCALE_RE = re.compile(
+    rf"^\s*(?P<unit>[^\s*+\->]+?)?\s*"
+    rf"(?:(?P<sign>[-+])\s*(?P<offset>{_NUM}))?\s*"
+    rf"(?:\*\s*(?P<gain>[-+]?{_NUM}))?\s*"
+    rf"(?:->\s*(?P<si>\S+))?\s*$"
+)
+
+
+def _last_top_level_colon(text: str) -> int:
+    """Index of the last ``:`` outside parentheses (``data(:,2)`` keeps its colon), or -1."""
+    depth, cut = 0, -1
+    for i, ch in enumerate(text):
+        if ch == "(":
+            depth += 1
+        elif ch == ")":
+            depth = max(depth - 1, 0)
+        elif ch == ":" and depth == 0:
+            cut = i
+    return cut
+
+
+def parse_column_spec(spec: str) -> tuple[str, ChannelSpec]:
+    """Parse one command-line column spec ``CHANNEL=COLUMN[:UNIT[-OFFSET|+OFFSET][*GAIN][->SI]]``.
+
+    Parameters
+    ----------
+    spec : str
+        E.g. ``"p1=PG_1:psi"``, ``"p1=PG_1:counts*0.5"``, ``"p1=PG_1:counts-8192*0.5"``
+        (``si = (raw - 8192) * 0.5``), ``"angle=Angle:counts*0.00038->rad"``, or
+        ``"time=Time:samples"`` (the time column and its unit, see :func:`build_column_map`).
+        The column is everything between ``=`` and the **last** ``:`` outside parentheses
+        (so ``p1=data(:,2):bar`` works); other names containing ``:`` need a TOML map.
+
+    Returns
+    -------
+    channel : str
+        Channel name.
+    spec : ChannelSpec
+        Column, unit, gain, offset and si_unit. For ``time`` the unit is the time unit.
+
+    Raises
+    ------
+    RecordingError
+        If the spec does not follow the syntax or names an unknown unit.
+
+    Examples
+    --------
+    >>> parse_column_spec("p1=PG_1:counts-8192*0.5")
+    ('p1', ChannelSpec(column='PG_1', unit='counts', gain=0.5, offset=8192.0, si_unit=None))
+    >>> parse_column_spec("x = Pos:mm")
+    ('x', ChannelSpec(column='Pos', unit='mm', gain=None, offset=0.0, si_unit=None))
+    """
+    syntax = "CHANNEL=COLUMN[:UNIT[-OFFSET][*GAIN][->SI_UNIT]]"
+    if not isinstance(spec, str) or "=" not in spec:
+        raise RecordingError(f"column spec {spec!r} must look like {syntax}, e.g. p1=PG_1:psi")
+    name, rhs = (s.strip() for s in spec.split("=", 1))
+    if not CHANNEL_NAME_RE.match(name):
+        raise RecordingError(f"column spec {spec!r}: channel name {name!r} must be an identifier")
+    cut = _last_top_level_colon(rhs)
+    column, scale = (rhs, None) if cut < 0 else (rhs[:cut], rhs[cut + 1:])
+    column = column.strip()
+    if not column:
+        raise RecordingError(f"column spec {spec!r}: empty column name; syntax {syntax}")
+    if scale is None:
+        return name, ChannelSpec(column)
+    m = _SCALE_RE.match(scale)
+    if m is None:
+        raise RecordingError(f"column spec {spec!r}: cannot parse {scale!r}; syntax {syntax}")
+    unit = m["unit"]
+    if name == "time":
+        if unit not in TIME_UNITS or m["gain"] or m["offset"] or m["si"]:
+            raise RecordingError(
+                f"column spec {spec!r}: the time column takes only a unit, one of "
+                f"{', '.join(TIME_UNITS)}"
+            )
+        return name, ChannelSpec(column, None if unit == "samples" else unit)
+    offset = 0.0
+    if m["offset"] is not None:
+        offset = float(m["offset"]) * (1.0 if m["sign"] == "-" else -1.0)
+    gain = None if m["gain"] is None else float(m["gain"])
+    try:
+        return name, ChannelSpec(column, unit, gain, offset, m["si"])
+    except RecordingError as exc:
+        raise RecordingError(f"column spec {spec!r}: {exc}") from None
+
+
 def _spec_from_value(name: str, value: Any, where: str) -> ChannelSpec:
     if isinstance(value, ChannelSpec):
         return value
     if isinstance(value, str):
-        from leakdiag.io.column_spec import parse_column_spec
-
         return parse_column_spec(f"{name}={value}")[1]
     if isinstance(value, Mapping):
         unknown = sorted(set(value) - set(CHANNEL_KEYS))

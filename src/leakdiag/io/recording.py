@@ -9,6 +9,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from leakdiag._validation import check_positive
+from leakdiag.io.checks import infer_sample_rate
+from leakdiag.io.errors import RecordingError
 
 __all__ = ["Recording", "STANDARD_CHANNELS", "RecordingError"]
 
@@ -22,10 +24,6 @@ STANDARD_CHANNELS: dict[str, str] = {
     "leak_flow": "m^3/s",  # true internal leakage flow (simulations)
     "speed": "rad/s",  # motor/pump shaft speed (pump-driven EHA)
 }
-
-
-class RecordingError(ValueError):
-    """Bad recording input; the message names the file, channel, row or window and the problem."""
 
 
 @dataclass
@@ -217,8 +215,6 @@ class Recording:
         RecordingError
             If there is neither a sample rate nor a usable time column.
         """
-        from leakdiag.io.checks import infer_sample_rate
-
         meta = dict(meta if meta is not None else df.attrs.get("meta", {}))
         source = meta.get("source", "<DataFrame>")
         start = 0.0

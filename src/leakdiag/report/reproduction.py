@@ -2,17 +2,23 @@
 
 :func:`build_report` turns a :class:`~leakdiag.studies.reproduce.Reproduction` into a
 :class:`~leakdiag.report.html.Report`. Every number and every verdict in it is read from that
-object, i.e. computed in the same run.
+object, i.e. computed in the same run. :func:`write_outputs` writes it with the run's tables
+(``leakdiag reproduce``).
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from leakdiag.report.html import Report
-from leakdiag.studies.reproduce import compare_runs, per_table_agreement
+from leakdiag.report.study_plots import (plot_moments, plot_pct_vs_parameter, plot_sensitivity,
+                                         plot_stacked)
+from leakdiag.studies.reproduce import compare_runs, per_table_agreement, sensitivity_summary
+from leakdiag.studies.thesis import row_sign, varied_value
 
-__all__ = ["build_report", "direction_word", "trend_word"]
+__all__ = ["build_report", "direction_word", "trend_word", "write_outputs"]
 
 _SETTING_LABEL = {"lag": "lag", "lag_ratio": "lag ratio", "window": "window (samples)",
                   "overlap": "overlap (%)", "signal": "signal"}
@@ -102,8 +108,6 @@ def _table_title(g) -> str:
 
 
 def _verdict(g) -> list[str]:
-    from leakdiag.studies.thesis import row_sign
-
     ours = row_sign(g["pct_change_signed"])
     th = np.sign(g["thesis_mean_rms_after"] - g["thesis_mean_rms_before"]).astype(int)
     n = len(g)
@@ -124,8 +128,6 @@ def _verdict(g) -> list[str]:
 
 
 def _panels(rep, g):
-    from leakdiag.report.study_plots import plot_stacked
-
     series, rms, titles = [], [], []
     for _, r in g.iterrows():
         if r["row_id"] not in rep.series:
@@ -246,9 +248,6 @@ def _changes_section(rep, r: Report) -> None:
 
 
 def _sweep_section(rep, r: Report, figures: bool) -> None:
-    from leakdiag.report.study_plots import plot_pct_vs_parameter
-    from leakdiag.studies.thesis import varied_value
-
     t = rep.tables
     for system in rep.systems:
         ts = t[t.system.str.lower() == system]
@@ -300,9 +299,6 @@ def _preferred_section(rep, r: Report) -> None:
 
 
 def _sensitivity_section(rep, r: Report, figures: bool) -> None:
-    from leakdiag.report.study_plots import plot_sensitivity
-    from leakdiag.studies.reproduce import sensitivity_summary
-
     if rep.sensitivity is None or len(rep.sensitivity) == 0:
         return
     r.heading("Case study 3: sensitivity to leak size (Table 5-17, Sec. 6.x.5)")
@@ -323,8 +319,6 @@ def _sensitivity_section(rep, r: Report, figures: bool) -> None:
 
 
 def _stationarity_section(rep, r: Report, figures: bool) -> None:
-    from leakdiag.report.study_plots import plot_moments
-
     if not rep.stationarity:
         return
     r.heading("Stationarity (Sec. 4.7)")
@@ -398,3 +392,35 @@ def build_report(rep, command: str = "", figures: bool = True) -> Report:
 
     r.table(pd.DataFrame({"setting": list(cfg), "value": [str(v) for v in cfg.values()]}))
     return r
+
+
+def write_outputs(rep: Reproduction, out_dir, command: str = "") -> dict[str, Path]:
+    """Write ``tables.csv``, ``sensitivity.csv``, ``preferred.csv``, ``index.html``, ``report.md``.
+
+    Parameters
+    ----------
+    rep : Reproduction
+        Results of :func:`leakdiag.studies.reproduce.reproduce`.
+    out_dir : path-like
+        Output folder (created).
+    command : str, optional
+        Command line that made the run (printed in the report).
+
+    Returns
+    -------
+    dict
+        Name -> path of every file written.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    rep.tables.drop(columns=["row_id"]).to_csv(out / "tables.csv", index=False)
+    paths["tables"] = out / "tables.csv"
+    rep.sensitivity.to_csv(out / "sensitivity.csv", index=False)
+    paths["sensitivity"] = out / "sensitivity.csv"
+    rep.preferred.to_csv(out / "preferred.csv", index=False)
+    paths["preferred"] = out / "preferred.csv"
+    report = build_report(rep, command=command)
+    written = report.write(out)
+    paths.update(written)
+    return paths

@@ -4,15 +4,14 @@
 executor, then assembles: one row per row of the thesis's ``tables.csv`` with our measure beside
 the thesis's and the direction verdicts (:func:`assemble_tables`), the preferred settings (rule
 versus thesis), the sensitivity table and ranges, and the stationarity tests.
-:func:`write_outputs` writes ``tables.csv``, ``sensitivity.csv``, ``index.html`` and
-``report.md``.
+:func:`leakdiag.report.reproduction.write_outputs` writes ``tables.csv``, ``sensitivity.csv``,
+``index.html`` and ``report.md``.
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -20,10 +19,11 @@ import numpy as np
 from leakdiag.studies.protocol import FULL, QUICK, ProtocolConfig, build_cases, run_case
 
 __all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings",
-           "sensitivity_summary", "write_outputs", "CONTRACT_COLUMNS", "per_table_agreement",
+           "sensitivity_summary", "CONTRACT_COLUMNS", "per_table_agreement",
            "compare_runs", "code_fingerprints"]
 
-#: Columns of ``tables.csv`` written by :func:`write_outputs` (the outside contract).
+#: Columns of ``tables.csv`` written by :func:`leakdiag.report.reproduction.write_outputs`
+#: (the outside contract).
 CONTRACT_COLUMNS = [
     "table", "system", "case_study", "leak_lpm", "method", "signals", "varied", "lag", "window",
     "overlap_pct", "mean_rms_before", "mean_rms_after", "pct_change", "pct_change_signed",
@@ -407,37 +407,3 @@ def reproduce(systems=("vca", "eha"), config: ProtocolConfig | None = None, *, q
               "case_s": float(sum(cr.elapsed_s for cr in results)), "code": code_fingerprints()}
     return Reproduction(cfg, systems, tables, series, preferred_settings(tables), ofat,
                         pd.DataFrame(sens), stat, timing)
-
-
-def write_outputs(rep: Reproduction, out_dir, command: str = "") -> dict[str, Path]:
-    """Write ``tables.csv``, ``sensitivity.csv``, ``preferred.csv``, ``index.html``, ``report.md``.
-
-    Parameters
-    ----------
-    rep : Reproduction
-        Results of :func:`reproduce`.
-    out_dir : path-like
-        Output folder (created).
-    command : str, optional
-        Command line that made the run (printed in the report).
-
-    Returns
-    -------
-    dict
-        Name -> path of every file written.
-    """
-    from leakdiag.report.reproduction import build_report
-
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = {}
-    rep.tables.drop(columns=["row_id"]).to_csv(out / "tables.csv", index=False)
-    paths["tables"] = out / "tables.csv"
-    rep.sensitivity.to_csv(out / "sensitivity.csv", index=False)
-    paths["sensitivity"] = out / "sensitivity.csv"
-    rep.preferred.to_csv(out / "preferred.csv", index=False)
-    paths["preferred"] = out / "preferred.csv"
-    report = build_report(rep, command=command)
-    written = report.write(out)
-    paths.update(written)
-    return paths
