@@ -21,7 +21,7 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
 bench: $(STAMP)
-	$(BIN)/python -m pytest benchmarks -q -p no:randomly --benchmark-columns=min,mean,rounds --benchmark-sort=name
+	$(BIN)/python -m pytest perf -q -p no:randomly --benchmark-columns=min,mean,rounds --benchmark-sort=name
 
 clean:
 	rm -rf $(VENV) demo-output .pytest_cache build src/*.egg-info

@@ -3,7 +3,7 @@
 Machine 17, 4 healthy runs of 60 s to fit, one leaking run per case (onset 30 s, seed 77).
 About 30 CPU-seconds::
 
-    python benchmarks/flow_balance_leak_law.py
+    python perf/flow_balance_leak_law.py
 """
 
 import leakdiag as ld

@@ -1,7 +1,7 @@
 """Benchmark harness: time a fast path against a reference in the same run, report ratios.
 
 Every benchmark case records one :class:`RatioRecord` through the ``record_ratio`` fixture
-(``benchmarks/conftest.py``); at the end of the session all records are printed as one table
+(``perf/conftest.py``); at the end of the session all records are printed as one table
 (``pytest_terminal_summary``), with samples per second and the goals. Benchmarks never assert
 timings: a busy machine must not fail the build. The load average is printed with the table
 because the team's machine is shared (2 cores).

@@ -9,7 +9,7 @@ the VCA; temperature rise 0-10 K on the EHA) and a random onset. A detection is 
 
 Run (heavy: use the shared lock)::
 
-    flock /tmp/leakdiag-heavy.lock python benchmarks/flow_balance_study.py --system vca \
+    flock /tmp/leakdiag-heavy.lock python perf/flow_balance_study.py --system vca \
         --out docs/flow_balance_study
 """
 

@@ -7,7 +7,7 @@ reference would need minutes, so it is timed on a prefix of the signal holding
 ``REFERENCE_WINDOWS`` windows and scaled per window (said in the table's notes).
 
 The fast path's repeats are spread over ``SPREAD_S`` seconds of wall time (the host's speed
-changes for seconds at a time, see ``benchmarks/harness.py``); the table gives the best repeat
+changes for seconds at a time, see ``perf/harness.py``); the table gives the best repeat
 and, beside it, the median one. The reference is timed with fewer repeats, spread too.
 """
 
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import leakdiag.features as F
-from benchmarks.harness import time_calls
+from perf.harness import time_calls
 from leakdiag.features.windowing import n_windows, window_step
 from tests.features import reference as ref
 

@@ -2,7 +2,7 @@
 
 Any benchmark can call ``record_ratio(name, fast_seconds, reference_seconds, extra="...",
 n_samples=..., goal_ratio=..., goal_samples_per_s=..., fast_median_seconds=...)``;
-``best_time`` (fixture, or import from ``benchmarks.harness``) times a callable. All records are
+``best_time`` (fixture, or import from ``perf.harness``) times a callable. All records are
 printed in one table at the end.
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from benchmarks.harness import RatioRecord, best_time, format_table
+from perf.harness import RatioRecord, best_time, format_table
 
 _RECORDS = pytest.StashKey[list]()
 
@@ -37,7 +37,7 @@ def record_ratio(request):
 
 @pytest.fixture(name="best_time")
 def best_time_fixture():
-    """:func:`benchmarks.harness.best_time`."""
+    """:func:`perf.harness.best_time`."""
     return best_time
 
 

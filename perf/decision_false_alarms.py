@@ -2,7 +2,7 @@
 decisions of :func:`leakdiag.detect.analysis.analyze_recording` (docs/measure.md, "Decisions").
 
 About 75 s on one core; writes ``decision_false_alarms.csv`` in the current folder. Not collected
-by pytest (no ``test_`` prefix): run it with ``python benchmarks/decision_false_alarms.py``.
+by pytest (no ``test_`` prefix): run it with ``python perf/decision_false_alarms.py``.
 """
 
 import sys

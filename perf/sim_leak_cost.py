@@ -1,6 +1,6 @@
 """Cost of a leaking simulation against a healthy one (a timing script, not a test).
 
-Run: ``PYTHONPATH=src python benchmarks/sim_leak_cost.py [--repeat 3]``. Prints, per case, the
+Run: ``PYTHONPATH=src python perf/sim_leak_cost.py [--repeat 3]``. Prints, per case, the
 best wall time of a healthy and a leaking run of the same experiment, their ratio, the real-time
 factor of the leaking run and the calibration's post-onset runs. Compile time is excluded (one
 warm-up run first). Numbers depend on the host; quote them with the date and host load.

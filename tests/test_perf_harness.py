@@ -1,11 +1,11 @@
-"""The benchmark harness (``benchmarks/harness.py``): timing with a fake clock, table verdicts."""
+"""The speed-benchmark harness (``perf/harness.py``): timing with a fake clock, table verdicts."""
 
 import itertools
 
 import pytest
 
-from benchmarks import harness
-from benchmarks.harness import RatioRecord, best_time, format_table, time_calls
+from perf import harness
+from perf.harness import RatioRecord, best_time, format_table, time_calls
 
 
 def fake_clock(durations):

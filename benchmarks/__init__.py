@@ -1,1 +1,0 @@
-"""Benchmarks run by ``make bench`` (``pytest benchmarks``); see ``benchmarks/harness.py``."""
