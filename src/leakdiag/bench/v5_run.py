@@ -97,7 +97,7 @@ def _fingerprint() -> str:
 
     root = Path(leakdiag.__file__).parent
     h = hashlib.sha256()
-    for sub in ("detect", "features", "methods", "bench"):
+    for sub in ("detect", "features", "literature", "bench"):
         for f in sorted((root / sub).glob("*.py")):
             h.update(f.name.encode())
             h.update(f.read_bytes())
