@@ -3,10 +3,13 @@
 Implements the methods of *Internal Leakage Diagnosis in Valve Controlled Actuation Systems
 and Electrohydrostatic Actuation Systems* (the thesis in ``shared/thesis``) and goes beyond them.
 
-The sub-packages follow the data flow: :mod:`leakdiag.io` (recordings in/out) ->
-:mod:`leakdiag.sim` (actuator models) -> :mod:`leakdiag.features` (windowed features) ->
-:mod:`leakdiag.detect` (measures, alarms, onset) -> :mod:`leakdiag.studies` (sweeps, sensitivity,
-reproduction) -> :mod:`leakdiag.report` (figures, HTML) -> :mod:`leakdiag.cli`.
+The sub-packages follow the data flow (each imports only those before it; ``docs/layout.md``):
+:mod:`leakdiag.io` (recordings in/out) -> :mod:`leakdiag.sim` (actuator models) ->
+:mod:`leakdiag.features` (windowed features) -> :mod:`leakdiag.detect` (measures, alarms, onset)
+-> :mod:`leakdiag.literature` (the literature's methods) -> :mod:`leakdiag.runtime` (executor,
+cache) -> :mod:`leakdiag.studies` (sweeps, sensitivity, reproduction) -> :mod:`leakdiag.report`
+(figures, HTML) -> :mod:`leakdiag.stream`, :mod:`leakdiag.batch`, :mod:`leakdiag.bench` ->
+:mod:`leakdiag.store` -> :mod:`leakdiag.dashboard` -> :mod:`leakdiag.cli`.
 
 Sub-packages are imported lazily so that ``import leakdiag`` stays fast.
 """

@@ -93,9 +93,7 @@ def v5_alarm(false_alarm_per_run: float, duration_s: float, onset_method: str = 
 
 
 def _fingerprint() -> str:
-    import leakdiag
-
-    root = Path(leakdiag.__file__).parent
+    root = Path(__file__).resolve().parents[1]  # the leakdiag package
     h = hashlib.sha256()
     for sub in ("detect", "features", "literature", "bench"):
         for f in sorted((root / sub).glob("*.py")):
