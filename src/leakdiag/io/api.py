@@ -6,7 +6,14 @@ import os
 from pathlib import Path
 from typing import Any, Mapping
 
+from leakdiag.io.assemble import table_to_recording
+from leakdiag.io.column_map import load_column_map
+from leakdiag.io.hdf5 import read_hdf5, write_hdf5
+from leakdiag.io.header import encode_header
+from leakdiag.io.matlab import read_mat
+from leakdiag.io.parquet import read_parquet, write_parquet
 from leakdiag.io.recording import Recording, RecordingError
+from leakdiag.io.text import read_text, write_csv
 
 __all__ = ["READ_FORMATS", "WRITE_FORMATS", "read_recording", "write_recording"]
 
@@ -87,9 +94,6 @@ def read_recording(path: str | os.PathLike, column_map: Any = None, *,
     >>> rec["p1"].tolist(), rec.units, rec.sample_rate
     ([1000000.0, 1200000.0, 1400000.0], {'p1': 'Pa'}, 100.0)
     """
-    from leakdiag.io.assemble import table_to_recording
-    from leakdiag.io.column_map import load_column_map
-
     path = Path(path)
     if not path.exists():
         raise RecordingError(f"{path}: file not found")
@@ -103,20 +107,12 @@ def read_recording(path: str | os.PathLike, column_map: Any = None, *,
             raise  # the message names the map file
         raise RecordingError(f"{path}: column map: {exc}") from None
     if fmt == "text":
-        from leakdiag.io.text import read_text
-
         table = read_text(path, cmap.separator if cmap is not None else None)
     elif fmt == "parquet":
-        from leakdiag.io.parquet import read_parquet
-
         table = read_parquet(path)
     elif fmt == "hdf5":
-        from leakdiag.io.hdf5 import read_hdf5
-
         table = read_hdf5(path)
     else:
-        from leakdiag.io.matlab import read_mat
-
         table = read_mat(path)
     return table_to_recording(table, cmap, sample_rate=sample_rate, resample=resample,
                               units=units)
@@ -165,23 +161,15 @@ def write_recording(rec: Recording, path: str | os.PathLike) -> Path:
     if not isinstance(rec, Recording):
         raise TypeError(f"rec must be a Recording, got {type(rec).__name__}")
     if fmt != "csv":
-        from leakdiag.io.header import encode_header
-
         encode_header(rec, str(path))  # fail on unstorable metadata before touching the disk
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
     try:
         if fmt == "csv":
-            from leakdiag.io.text import write_csv
-
             write_csv(rec, tmp)
         elif fmt == "parquet":
-            from leakdiag.io.parquet import write_parquet
-
             write_parquet(rec, tmp)
         else:
-            from leakdiag.io.hdf5 import write_hdf5
-
             write_hdf5(rec, tmp)
         os.replace(tmp, path)
     finally:

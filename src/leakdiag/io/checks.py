@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from leakdiag._validation import check_int
 from leakdiag.io.errors import RecordingError
 
 __all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "UNIFORM_TIME_RTOL",
@@ -138,7 +139,6 @@ def check_length(rec, window: int, channel: str | None = None) -> None:
     ...
     leakdiag.io.errors.RecordingError: run.csv: channel 'p1' has 150 samples (0.15 s), fewer than one window of 200 samples; use a smaller window or a longer recording
     """
-    from leakdiag._validation import check_int
     window = check_int(window, "window", 1)
     source = rec.meta.get("source", "<recording>")
     if channel is not None:

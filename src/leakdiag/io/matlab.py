@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from leakdiag.io.hdf5 import read_hdf5
 from leakdiag.io.recording import RecordingError
 from leakdiag.io.table import RawTable, flatten_arrays
 
@@ -55,8 +56,6 @@ def read_mat(path: str | os.PathLike) -> RawTable:
     source = str(path)
     path = Path(path)
     if h5py.is_hdf5(path):
-        from leakdiag.io.hdf5 import read_hdf5
-
         table = read_hdf5(path, sep=".")
         return RawTable(table.columns, source)
     try:
