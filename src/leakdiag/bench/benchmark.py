@@ -3,9 +3,17 @@
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
+
+import leakdiag.sim as sim
+from leakdiag.bench.registry import DEFAULT_METHODS, METHODS
+from leakdiag.bench.report import build_report
+from leakdiag.bench.run import run_suite
+from leakdiag.bench.scoring import minimum_detectable, summarise
+from leakdiag.bench.suite import EXCITATIONS, QUICK_SUITES, SUITES
+from leakdiag.detect.base import Alarm
 
 __all__ = ["run_benchmark", "BenchmarkResult"]
 
@@ -38,7 +46,6 @@ class BenchmarkResult:
 def _by_condition(runs, rated):
     import pandas as pd
 
-    from leakdiag.bench.scoring import summarise
 
     parts = []
     ok = runs[runs.role.isin(["test_healthy", "test_leak"])]
@@ -53,7 +60,6 @@ def _by_condition(runs, rated):
 def _summary_by_condition(by_cond, rated, target):
     import pandas as pd
 
-    from leakdiag.bench.scoring import minimum_detectable
 
     parts = []
     for (load, noise), g in by_cond.groupby(["load", "noise_level"], sort=False):
@@ -115,14 +121,6 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
     ValueError
         Unknown method or system.
     """
-    import leakdiag.sim as sim
-    from leakdiag.bench.registry import DEFAULT_METHODS, METHODS
-    from leakdiag.bench.report import build_report
-    from leakdiag.bench.run import run_suite
-    from leakdiag.bench.scoring import minimum_detectable, summarise
-    from leakdiag.bench.suite import QUICK_SUITES, SUITES
-    from leakdiag.detect.base import Alarm
-
     methods = list(methods or DEFAULT_METHODS)
     for m in methods:
         if m not in METHODS:
@@ -135,22 +133,16 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
             raise ValueError(f"unknown system {s!r}; the suite has {sorted(base)}")
     suites = {s: base[s] for s in systems}
     if excitations is not None:
-        from dataclasses import replace as _replace
-
-        from leakdiag.bench.suite import EXCITATIONS
-
         for e in excitations:
             if e not in EXCITATIONS:
                 raise ValueError(f"unknown excitation {e!r}; known: {list(EXCITATIONS)}")
-        suites = {k: _replace(v, excitations=tuple(e for e in v.excitations if e in excitations))
+        suites = {k: replace(v, excitations=tuple(e for e in v.excitations if e in excitations))
                   for k, v in suites.items()}
     if max_test_runs is not None:
-        from dataclasses import replace as _replace
-
         if int(max_test_runs) < 1:
             raise ValueError(f"max_test_runs={max_test_runs!r} must be >= 1")
         m = int(max_test_runs)
-        suites = {k: _replace(v, n_test_healthy=min(v.n_test_healthy, m),
+        suites = {k: replace(v, n_test_healthy=min(v.n_test_healthy, m),
                               n_test_leak=min(v.n_test_leak, m)) for k, v in suites.items()}
     alarm = Alarm(onset_method=onset_method)
     sr = run_suite(suites, methods, false_alarm_per_run=false_alarm_per_run, alarm=alarm,

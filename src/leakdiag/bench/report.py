@@ -5,6 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from leakdiag._version import __version__
+from leakdiag.bench.scoring import roc_curve
+from leakdiag.report.html import Report
+
 __all__ = ["build_report", "method_style", "not_reached"]
 
 
@@ -85,8 +89,6 @@ def _roc_figure(runs, system):
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
-
-    from leakdiag.bench.scoring import roc_curve
 
     sub = runs[runs.system == system]
     methods = list(dict.fromkeys(sub.method))
@@ -174,8 +176,6 @@ def build_report(suite_run, results, summary, by_condition, command: str,
     -------
     leakdiag.report.html.Report
     """
-    from leakdiag.report.html import Report
-
     s = suite_run.settings
     rep = Report("leakdiag detection benchmark")
     rep.paragraph(f"Made by `{command}` (suite version {s['suite_version']}, leakdiag "
@@ -234,6 +234,4 @@ def build_report(suite_run, results, summary, by_condition, command: str,
 
 
 def _version() -> str:
-    from leakdiag._version import __version__
-
     return __version__

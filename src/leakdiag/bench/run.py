@@ -17,6 +17,18 @@ import time
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+import leakdiag.sim as sim
+from leakdiag.bench.registry import make_detector
+from leakdiag.bench.suite import SUITE_VERSION, build_suite
+from leakdiag.detect.base import Alarm
+from leakdiag.runtime.cache import cached_simulation
+from leakdiag.runtime.executor import run_cases
+from leakdiag.sim.eha import EHA_SENSORS
+from leakdiag.sim.eha_drive import EHAConditions
+from leakdiag.sim.excitation import structured_excitation
+from leakdiag.sim.sensors import SensorParams
+from leakdiag.sim.vca_conditions import OperatingConditions
+
 __all__ = ["SimConfig", "EvalConfig", "simulate_case", "evaluate_group", "simulator_kwargs",
            "per_run_target_per_hour", "run_suite", "simulator_has_machines"]
 
@@ -43,7 +55,6 @@ def simulator_has_machines(system: str) -> bool:
     """
     import inspect
 
-    import leakdiag.sim as sim
 
     fn = getattr(sim, f"simulate_{system}", None)
     return fn is not None and "machine" in inspect.signature(fn).parameters
@@ -123,9 +134,6 @@ def simulator_kwargs(case) -> dict:
     leak = case.leak_lpm if case.leak_lpm > 0 else None
     onset = case.onset_s if leak else case.duration_s / 2.0
     if case.system == "vca":
-        from leakdiag.sim.sensors import SensorParams
-        from leakdiag.sim.vca_conditions import OperatingConditions
-
         spring = case.load == "spring"
         cond = OperatingConditions(
             supply_ripple_pa=nz["supply_ripple_pa"], supply_ripple_hz=nz["supply_ripple_hz"],
@@ -136,18 +144,11 @@ def simulator_kwargs(case) -> dict:
               "seed": case.seed, "reference_seed": nz["reference_seed"], "conditions": cond,
               "sensor_params": SensorParams(pressure_noise_std_pa=case.noise_std_pa)}
         if case.excitation == "structured":  # issue 6: periodic-step test input
-            from leakdiag.sim.excitation import structured_excitation
-
             kw["reference"] = structured_excitation("vca")
         if "machine" in nz and simulator_has_machines("vca"):
             kw["machine"] = int(nz["machine"])
         return kw
     if case.system == "eha":
-        from dataclasses import replace as _replace
-
-        from leakdiag.sim.eha import EHA_SENSORS
-        from leakdiag.sim.eha_drive import EHAConditions
-
         spring = case.load == "spring"
         # the structured test input is repeated exactly (no amplitude/frequency variation)
         var = EHA_INPUT_VARIATION if case.excitation == "operating" else 0.0
@@ -158,10 +159,8 @@ def simulator_kwargs(case) -> dict:
             amplitude_variation=var, frequency_variation=var)
         kw = {"duration": case.duration_s, "leak_lpm": leak, "onset": onset, "load": case.load,
               "seed": case.seed, "conditions": cond,
-              "sensor_params": _replace(EHA_SENSORS, pressure_noise_std_pa=case.noise_std_pa)}
+              "sensor_params": replace(EHA_SENSORS, pressure_noise_std_pa=case.noise_std_pa)}
         if case.excitation == "structured":  # issue 6: periodic +-3 V steps, open loop
-            from leakdiag.sim.excitation import structured_excitation
-
             kw["input_signal"] = structured_excitation("eha")
         if "machine" in nz and simulator_has_machines("eha"):
             kw["machine"] = int(nz["machine"])
@@ -170,8 +169,6 @@ def simulator_kwargs(case) -> dict:
 
 
 def _recording(case, cache_dir):
-    from leakdiag.runtime.cache import cached_simulation
-
     rec = cached_simulation(case.system, cache_dir=cache_dir, **simulator_kwargs(case))
     rec.meta.setdefault("source", f"{case.system}-{case.role}-{case.seed}")
     return rec
@@ -247,8 +244,6 @@ def evaluate_group(config: EvalConfig) -> list[dict]:
         ``time.process_time``; loading the recording is not counted); or a single row with ``error`` if the method
         cannot be fitted on this group.
     """
-    from leakdiag.bench.registry import make_detector
-
     cases = list(config.cases)
     c0 = cases[0]
     base = {"method": config.method, "system": c0.system, "load": c0.load,
@@ -341,9 +336,6 @@ def run_suite(suites, methods, *, false_alarm_per_run: float = 0.01, alarm=None,
     """
     import pandas as pd
 
-    from leakdiag.bench.suite import SUITE_VERSION, build_suite
-    from leakdiag.detect.base import Alarm
-    from leakdiag.runtime.executor import run_cases
 
     alarm = alarm if alarm is not None else Alarm()
     cases = build_suite(suites)

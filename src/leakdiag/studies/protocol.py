@@ -26,6 +26,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from leakdiag.features.methods import MethodSpec, compute_feature, normalize_method
+from leakdiag.runtime.cache import cached_simulation
+from leakdiag.sim.reference import PseudoRandomSteps
+from leakdiag.sim.sensors import THESIS_EHA_SENSORS, THESIS_VCA_SENSORS
+from leakdiag.studies.grid import measure_row, quiet_degenerate
+from leakdiag.studies.select import SelectionRule
+from leakdiag.studies.stationarity import stationarity
+from leakdiag.studies.sweep import ofat_sweep
+from leakdiag.studies.thesis import channels_of, load_tables
+
 __all__ = ["ProtocolConfig", "QUICK", "FULL", "THESIS", "V1", "PROTOCOLS", "protocol_config",
            "build_cases", "run_case", "simulate_case", "SENSITIVITY_METHODS"]
 
@@ -293,10 +303,6 @@ def simulate_case(case: dict):
     ValueError
         For an unknown ``sensor_chain`` in the case's simulator arguments.
     """
-    from leakdiag.sim.reference import PseudoRandomSteps
-    from leakdiag.sim.sensors import THESIS_EHA_SENSORS, THESIS_VCA_SENSORS
-    from leakdiag.runtime.cache import cached_simulation
-
     sim = dict(case["sim"])
     if "reference" in sim:
         sim["reference"] = PseudoRandomSteps(**sim["reference"])
@@ -310,8 +316,6 @@ def simulate_case(case: dict):
 
 
 def _spec(method, channels, lag, window, overlap):
-    from leakdiag.features.methods import MethodSpec, normalize_method
-
     m = normalize_method(method)
     chans = tuple(c.strip() for c in str(channels).split(","))
     if m == "metric-length":
@@ -320,9 +324,6 @@ def _spec(method, channels, lag, window, overlap):
 
 
 def _measure(rec, spec, onset, chunk, keep_series=False) -> dict:
-    from leakdiag.features.methods import compute_feature
-    from leakdiag.studies.grid import measure_row, quiet_degenerate
-
     with quiet_degenerate():
         fs = compute_feature(rec, spec)
     lag = spec.lag_ratio if spec.lag_ratio is not None else spec.lag
@@ -335,10 +336,6 @@ def _measure(rec, spec, onset, chunk, keep_series=False) -> dict:
 
 
 def _run_tables(case, rec) -> dict:
-    from leakdiag.studies.select import SelectionRule
-    from leakdiag.studies.sweep import ofat_sweep
-    from leakdiag.studies.thesis import channels_of, load_tables
-
     t = load_tables()
     t = t[(t.system.str.lower() == case["system"]) & (t.case_study == case["case_study"])]
     onset = float(rec.onset if rec.onset is not None else case["sim"]["onset"])
@@ -410,8 +407,6 @@ def run_case(case: dict) -> dict:
     elif kind == "sensitivity":
         out = _run_sensitivity(case, rec)
     elif kind == "stationarity":
-        from leakdiag.studies.stationarity import stationarity
-
         out = stationarity(rec, window=STATIONARITY_WINDOW, overlap=STATIONARITY_OVERLAP)
     else:
         raise ValueError(f"unknown case kind {kind!r}")

@@ -7,7 +7,9 @@ trend along leak size (:func:`~leakdiag.studies.reproduce.sensitivity_summary`).
 
 from __future__ import annotations
 
+from leakdiag.runtime.executor import run_cases
 from leakdiag.studies.protocol import FULL, QUICK, ProtocolConfig, build_cases, run_case
+from leakdiag.studies.reproduce import sensitivity_summary
 
 __all__ = ["sensitivity_cases", "run_sensitivity"]
 
@@ -63,8 +65,6 @@ def run_sensitivity(systems=("vca", "eha"), config: ProtocolConfig | None = None
     """
     import pandas as pd
 
-    from leakdiag.runtime.executor import run_cases
-    from leakdiag.studies.reproduce import sensitivity_summary
 
     cfg = config or (QUICK if quick else FULL)
     cases = sensitivity_cases(cfg, systems)

@@ -14,6 +14,9 @@ import warnings
 
 import numpy as np
 
+from leakdiag.features.methods import MethodSpec, compute_feature
+from leakdiag.studies.grid import quiet_degenerate
+
 __all__ = ["TEST_MAX_POINTS", "ALPHA", "decimate_mean", "stationarity_tests", "stationarity"]
 
 #: Largest series handed to ADF/KPSS (decision, docs/studies.md).
@@ -137,9 +140,6 @@ def stationarity(recording, channels=("p1", "p2", "x", "u"), window: int = 400,
         ``tests``: list of dict rows (channel, part ``"whole"`` / ``"before leak"``, test
         results of :func:`stationarity_tests`).
     """
-    from leakdiag.features.methods import MethodSpec, compute_feature
-    from leakdiag.studies.grid import quiet_degenerate
-
     moments, tests = {}, []
     onset = recording.onset
     for ch in channels:
