@@ -16,7 +16,14 @@ from typing import Any
 
 import numpy as np
 
+from leakdiag.features.methods import compute_feature
+from leakdiag.runtime.cache import code_fingerprint
+from leakdiag.runtime.executor import run_cases
+from leakdiag.sim import simulate_vca
 from leakdiag.studies.protocol import FULL, QUICK, ProtocolConfig, build_cases, run_case
+from leakdiag.studies.select import THESIS_CHOICES, SelectionRule, preferred_setting
+from leakdiag.studies.thesis import (load_sensitivity, load_tables, row_sign, spearman, trend_sign,
+                                     varied_value)
 
 __all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings",
            "sensitivity_summary", "CONTRACT_COLUMNS", "per_table_agreement",
@@ -99,7 +106,6 @@ def assemble_tables(thesis, rows: list[dict]):
     """
     import pandas as pd
 
-    from leakdiag.studies.thesis import row_sign, trend_sign, varied_value
 
     ours = pd.DataFrame(rows).set_index("row_id")
     t = thesis.set_index("row_id").copy()
@@ -153,7 +159,6 @@ def preferred_settings(tables, rule=None):
     """
     import pandas as pd
 
-    from leakdiag.studies.select import THESIS_CHOICES, SelectionRule, preferred_setting
 
     rule = rule or SelectionRule()
     out = []
@@ -216,7 +221,6 @@ def sensitivity_summary(sens, thesis_ranges=None):
     """
     import pandas as pd
 
-    from leakdiag.studies.thesis import load_sensitivity, spearman
 
     th = load_sensitivity() if thesis_ranges is None else thesis_ranges
     name = {"autocorrelation": "autocorrelation", "cross-correlation": "cross_correlation",
@@ -343,10 +347,6 @@ def code_fingerprints() -> dict[str, str]:
     >>> sorted(code_fingerprints()), len(code_fingerprints()["sim"])
     (['features', 'sim'], 16)
     """
-    from leakdiag.features.methods import compute_feature
-    from leakdiag.sim import simulate_vca
-    from leakdiag.runtime.cache import code_fingerprint
-
     return {"sim": code_fingerprint(simulate_vca), "features": code_fingerprint(compute_feature)}
 
 
@@ -376,8 +376,6 @@ def reproduce(systems=("vca", "eha"), config: ProtocolConfig | None = None, *, q
     """
     import pandas as pd
 
-    from leakdiag.runtime.executor import run_cases
-    from leakdiag.studies.thesis import load_tables
 
     cfg = config or (QUICK if quick else FULL)
     systems = tuple(systems)
