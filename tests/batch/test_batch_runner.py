@@ -114,6 +114,32 @@ def test_bad_file_becomes_error_row(recordings):
     assert "FileNotFoundError" in rows[0]["error"]
 
 
+def test_a_case_that_raises_outside_run_case_becomes_its_error_row(recordings, monkeypatch):
+    """The executor's on_error (a worker that dies on Dask): that recording's error row, the
+    others finish, and the run reports one error."""
+    import leakdiag.batch.runner as runner
+
+    tmp, paths = recordings
+    real = runner.run_case
+
+    def dies_on_run1(path, config):
+        if path.endswith("run1.parquet"):
+            raise RuntimeError("worker lost")
+        return real(path, config)
+
+    monkeypatch.setattr(runner, "run_case", dies_on_run1)
+    cfg = config_from_dict(JOB)
+    s = run_batch([str(p) for p in paths], cfg, tmp / "out", progress=False)
+    assert (s.n_run, s.n_errors) == (3, 1)
+    res = read_results(tmp / "out")
+    err = res[res.status == "error"]
+    assert list(err.recording) == ["run1.parquet"]
+    assert err.error.iloc[0] == "RuntimeError: worker lost"
+    assert err.job_digest.iloc[0] == cfg.digest
+    ok = res[res.status == "ok"]  # three analyses each: lags 1 and 3, the metric length
+    assert ok.recording.value_counts().to_dict() == {"run0.parquet": 3, "run2.parquet": 3}
+
+
 def test_detector_rows(recordings, tmp_path):
     _, paths = recordings
     det = tmp_path / "det.pkl"
