@@ -70,8 +70,8 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
     -------
     FeatureSeries
         ``values`` (dimensionless, one per window, NaN for zero-variance windows) and ``time``
-        (s, time of each window's last sample); ``params`` holds ``lag``, ``window``,
-        ``overlap``, ``step``, ``channels``, ``sample_rate``, ``start_time``.
+        (s, time of each window's last sample); ``settings`` holds ``lag``; the geometry fields
+        ``window``, ``overlap``, ``step``, ``channels``, ``sample_rate``, ``start_time`` are set.
 
     Raises
     ------
@@ -111,7 +111,7 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
     >>> t = np.arange(2000) / 1000.0
     >>> fs = autocorrelation(np.sin(2 * np.pi * 5 * t), lag=10, window=200, overlap=50,
     ...                      sample_rate=1000.0)
-    >>> len(fs), fs.params["step"], round(float(fs.values[0]), 3)
+    >>> len(fs), fs.step, round(float(fs.values[0]), 3)
     (19, 100, 0.953)
     """
     x_arr = _args.signal_1d(x, "x", finite=False)  # checked with the kernel's help below
@@ -124,8 +124,8 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
         x_arr, lag, window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
     warn_degenerate(n_bad, len(values), "zero variance")
-    params = {"lag": lag, **plan.settings(_args.channel_names(x, "x"))}
-    return FeatureSeries(time, values, "autocorrelation", params)
+    return FeatureSeries(time, values, "autocorrelation", {"lag": lag},
+                         **plan.geometry(_args.channel_names(x, "x")))
 
 
 def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.0,
@@ -154,8 +154,8 @@ def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.
     -------
     FeatureSeries
         Dimensionless values (NaN where ``x`` or ``y`` has zero variance in the window) and
-        window times in s; ``params`` as for :func:`autocorrelation`, ``channels`` is
-        ``(y name, x name)``.
+        window times in s; settings and geometry as for :func:`autocorrelation`, ``channels``
+        is ``(y name, x name)``.
 
     Raises
     ------
@@ -204,8 +204,8 @@ def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
     warn_degenerate(n_bad, len(values), "zero variance")
     channels = _args.channel_names(y, "y") + _args.channel_names(x, "x")
-    params = {"lag": lag, **plan.settings(channels)}
-    return FeatureSeries(time, values, "cross_correlation", params)
+    return FeatureSeries(time, values, "cross-correlation", {"lag": lag},
+                         **plan.geometry(channels))
 
 
 def autocorrelation_at(x, lag: int, starts, window: int) -> np.ndarray:

@@ -7,6 +7,7 @@ import math
 import numba
 import numpy as np
 
+from leakdiag._validation import parse_lag_ratio
 from leakdiag.features import _args
 from leakdiag.features._chunks import CHUNK, NO_STARTS, fill_times
 from leakdiag.features._degenerate import warn_degenerate
@@ -165,8 +166,8 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
     -------
     FeatureSeries
         Dimensionless ratio per window (NaN where the denominator is zero) and window times in
-        s; ``params`` holds ``lag_ratio`` (``"l:k"``), ``l``, ``k``, ``window``, ``overlap``,
-        ``step``, ``channels``, ``sample_rate``, ``start_time``.
+        s; ``settings`` holds ``lag_ratio`` (``"l:k"``), ``l``, ``k``; the geometry fields
+        ``window``, ``overlap``, ``step``, ``channels``, ``sample_rate``, ``start_time`` are set.
 
     Raises
     ------
@@ -202,12 +203,12 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
     >>> fs = metric_length_ratio(ramp, lag_ratio="83:3", window=500, overlap=50)
     >>> fs.values.round(6).tolist() == [round(3 / 83, 6)] * 3
     True
-    >>> fs.params["lag_ratio"], fs.params["step"]
+    >>> fs.settings["lag_ratio"], fs.step
     ('83:3', 250)
     """
     x2 = _args.signal_2d(x, "x", finite=False)  # checked with the kernel's help below
     window = _args.check_window(window)
-    l_step, k_step = _args.parse_lag_ratio(lag_ratio, window)
+    l_step, k_step = parse_lag_ratio(lag_ratio, window)
     plan = _args.plan_windows(len(x2), window, overlap, sample_rate, start_time)
     if x2.shape[1] == 1 and use_step_kernels(plan.step):
         values, time, n_bad, n_nonfinite = metric_steps_regular(
@@ -220,9 +221,8 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
     _args.finish_finite_check(x2, "x", n_nonfinite, plan)
     warn_degenerate(n_bad, len(values), _DEGENERATE)
     channels = _args.channel_names(x, "x", x2.shape[1])
-    params = {"lag_ratio": f"{l_step}:{k_step}", "l": l_step, "k": k_step,
-              **plan.settings(channels)}
-    return FeatureSeries(time, values, "metric_length_ratio", params)
+    settings = {"lag_ratio": f"{l_step}:{k_step}", "l": l_step, "k": k_step}
+    return FeatureSeries(time, values, "metric-length", settings, **plan.geometry(channels))
 
 
 def metric_length_ratio_at(x, lag_ratio, starts, window: int) -> np.ndarray:
@@ -267,6 +267,6 @@ def metric_length_ratio_at(x, lag_ratio, starts, window: int) -> np.ndarray:
     """
     x2 = _args.signal_2d(x, "x")
     window = _args.check_window(window)
-    l_step, k_step = _args.parse_lag_ratio(lag_ratio, window)
+    l_step, k_step = parse_lag_ratio(lag_ratio, window)
     starts = _args.check_starts(starts, len(x2), window)
     return _ratio_values(x2, l_step, k_step, starts, window)

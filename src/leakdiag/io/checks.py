@@ -138,7 +138,7 @@ def check_length(rec, window: int, channel: str | None = None) -> None:
     >>> check_length(rec, 200, "p1")
     Traceback (most recent call last):
     ...
-    leakdiag.io.recording.RecordingError: run.csv: channel 'p1' has 150 samples (0.15 s), fewer than one window of 200 samples; use a smaller window or a longer recording
+    leakdiag.io.recording.RecordingError: run.csv: channel 'p1' has 150 samples (0.15 s), shorter than one window (window=200); use a smaller window or a longer recording
     """
     from leakdiag._validation import check_int
     from leakdiag.io.recording import RecordingError
@@ -151,6 +151,6 @@ def check_length(rec, window: int, channel: str | None = None) -> None:
     if n < window:
         what = f"channel {channel!r}" if channel is not None else "recording"
         raise RecordingError(
-            f"{source}: {what} has {n} samples ({n / rec.sample_rate:g} s), fewer than one "
-            f"window of {window} samples; use a smaller window or a longer recording"
+            f"{source}: {what} has {n} samples ({n / rec.sample_rate:g} s), shorter than one "
+            f"window (window={window}); use a smaller window or a longer recording"
         )

@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from leakdiag.features.registry import feature_record
+
 __all__ = ["ProtocolConfig", "QUICK", "FULL", "THESIS", "V1", "PROTOCOLS", "protocol_config",
            "build_cases", "run_case", "simulate_case", "SENSITIVITY_METHODS"]
 
@@ -310,17 +312,17 @@ def simulate_case(case: dict):
 
 
 def _spec(method, channels, lag, window, overlap):
-    from leakdiag.features.methods import MethodSpec, normalize_method
+    from leakdiag.features.spec import MethodSpec
 
-    m = normalize_method(method)
+    rec = feature_record(method)
     chans = tuple(c.strip() for c in str(channels).split(","))
-    if m == "metric-length":
-        return MethodSpec(m, chans, lag_ratio=str(lag), window=int(window), overlap=float(overlap))
-    return MethodSpec(m, chans, lag=int(lag), window=int(window), overlap=float(overlap))
+    kw = {"lag_ratio": str(lag)} if rec.setting == "lag_ratio" else \
+        {"lag": int(lag)} if rec.setting == "lag" else {}
+    return MethodSpec(rec.name, chans, window=int(window), overlap=float(overlap), **kw)
 
 
 def _measure(rec, spec, onset, chunk, keep_series=False) -> dict:
-    from leakdiag.features.methods import compute_feature
+    from leakdiag.features.spec import compute_feature
     from leakdiag.studies.grid import measure_row, quiet_degenerate
 
     with quiet_degenerate():

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from leakdiag.features.registry import feature_record
 from leakdiag.studies.protocol import FULL, QUICK, ProtocolConfig, build_cases, run_case
 
 __all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings",
@@ -219,12 +220,10 @@ def sensitivity_summary(sens, thesis_ranges=None):
     from leakdiag.studies.thesis import load_sensitivity, spearman
 
     th = load_sensitivity() if thesis_ranges is None else thesis_ranges
-    name = {"autocorrelation": "autocorrelation", "cross-correlation": "cross_correlation",
-            "metric-length": "ratio_of_metric_lengths"}
     out = []
     for (system, method, chans), g in sens.groupby(["system", "method", "channels"], sort=False):
         sig = chans.upper()
-        m = th[(th.system == system.upper()) & (th.method == name[method])]
+        m = th[(th.system == system.upper()) & (th.method == feature_record(method).thesis_name)]
         if len(m) > 1:
             m = m[m.signals.str.replace(" or ", ",").str.contains(sig.split(",")[0])]
             if sig.count(",") and len(m) > 1:
@@ -343,7 +342,7 @@ def code_fingerprints() -> dict[str, str]:
     >>> sorted(code_fingerprints()), len(code_fingerprints()["sim"])
     (['features', 'sim'], 16)
     """
-    from leakdiag.features.methods import compute_feature
+    from leakdiag.features.spec import compute_feature
     from leakdiag.sim import simulate_vca
     from leakdiag.studies.cache import code_fingerprint
 
