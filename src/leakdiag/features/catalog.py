@@ -12,18 +12,18 @@ import numpy as np
 
 from leakdiag.features._blocksums import autocorrelation_sorted, cross_correlation_sorted
 from leakdiag.features.correlation import (
-    autocorrelation,
     autocorrelation_at,
-    cross_correlation,
+    autocorrelation_planned,
     cross_correlation_at,
+    cross_correlation_planned,
 )
 from leakdiag.features.metric_length import (
     _DEGENERATE,
     _metric_sorted,
-    metric_length_ratio,
+    metric_length_planned,
     metric_length_ratio_at,
 )
-from leakdiag.features.moments import MOMENT_NAMES, _moments_sorted, moments, moments_at
+from leakdiag.features.moments import MOMENT_NAMES, _moments_sorted, moments_at, moments_planned
 from leakdiag.features.registry import FeatureRecord, register_feature
 
 __all__ = ["AUTOCORRELATION", "CROSS_CORRELATION", "METRIC_LENGTH", "MOMENTS"]
@@ -46,7 +46,7 @@ AUTOCORRELATION = register_feature(FeatureRecord(
     kernel=lambda s, lag, window, starts: autocorrelation_sorted(s[0], lag, window, starts),
     channels=("p1",), n_channels=1, setting="lag", default_setting=1, min_lag=1,
     aliases=("acf",), direction="down", equation="Eq. 4.1", thesis_name="autocorrelation",
-    batch=lambda s, lag, **kw: autocorrelation(s[0], lag=1 if lag is None else lag, **kw),
+    batch=lambda s, lag, plan, chans: autocorrelation_planned(s[0], lag, plan, chans),
     at=lambda s, lag, starts, window: autocorrelation_at(s[0], lag, starts, window),
 ))
 
@@ -58,8 +58,7 @@ CROSS_CORRELATION = register_feature(FeatureRecord(
     channels=("p1", "p2"), n_channels=2, setting="lag", default_setting=1, min_lag=0,
     aliases=("crosscorrelation", "ccf"), direction="down", equation="Eq. 4.2",
     thesis_name="cross_correlation",
-    batch=lambda s, lag, **kw: cross_correlation(s[0], s[1], lag=1 if lag is None else lag,
-                                                 **kw),
+    batch=lambda s, lag, plan, chans: cross_correlation_planned(s[0], s[1], lag, plan, chans),
     at=lambda s, lag, starts, window: cross_correlation_at(s[0], s[1], lag, starts, window),
 ))
 
@@ -71,8 +70,7 @@ METRIC_LENGTH = register_feature(FeatureRecord(
     channels=("p1",), n_channels=None, setting="lag_ratio", default_setting=(83, 3),
     aliases=("metric-length-ratio", "ratio-of-metric-lengths"), direction="up",
     equation="Eq. 4.3-4.4", degenerate=_DEGENERATE, thesis_name="ratio_of_metric_lengths",
-    batch=lambda s, lr, **kw: metric_length_ratio(_one(s), lag_ratio=(83, 3) if lr is None
-                                                  else lr, **kw),
+    batch=lambda s, lr, plan, chans: metric_length_planned(_columns(s), lr, plan, chans),
     at=lambda s, lr, starts, window: metric_length_ratio_at(_one(s), lr, starts, window),
 ))
 
@@ -83,7 +81,7 @@ MOMENTS = register_feature(FeatureRecord(
     channels=("p1",), n_channels=1, setting=None, outputs=MOMENT_NAMES, direction=None,
     equation="Eq. 4.11-4.14", degenerate="zero variance (skewness and kurtosis)",
     thesis_name="moments",
-    batch=lambda s, _, **kw: moments(s[0], **kw),
+    batch=lambda s, _, plan, chans: moments_planned(s[0], plan, chans),
     at=lambda s, _, starts, window: moments_at(s[0], starts, window).T,
     streamable=False,
 ))

@@ -118,14 +118,37 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
+    return autocorrelation_planned(x_arr, lag, plan, _args.channel_names(x, "x"))
+
+
+def autocorrelation_planned(x_arr: np.ndarray, lag: int, plan: _args.WindowPlan,
+                            channels: tuple[str, ...]) -> FeatureSeries:
+    """Eq. 4.1 on a checked signal over a checked window plan (the registry's batch path).
+
+    Parameters
+    ----------
+    x_arr : numpy.ndarray
+        Writeable C-contiguous float64 signal (its finiteness is checked here, cheaply).
+    lag : int
+        Checked lag, ``0 < lag < plan.window``.
+    plan : WindowPlan
+        The regular windows (:func:`leakdiag.features._args.plan_windows`).
+    channels : tuple of str
+        Channel name(s) recorded in the series.
+
+    Returns
+    -------
+    FeatureSeries
+        As :func:`autocorrelation`.
+    """
     regular = (autocorrelation_steps_regular if use_step_kernels(plan.step, lag)
                else autocorrelation_regular)
     values, time, n_bad, n_nonfinite = regular(
-        x_arr, lag, window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
+        x_arr, lag, plan.window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
-    warn_degenerate(n_bad, len(values), "zero variance")
+    warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return FeatureSeries(time, values, "autocorrelation", {"lag": lag},
-                         **plan.geometry(_args.channel_names(x, "x")))
+                         **plan.geometry(channels))
 
 
 def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.0,
@@ -196,14 +219,39 @@ def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
+    channels = _args.channel_names(y, "y") + _args.channel_names(x, "x")
+    return cross_correlation_planned(y_arr, x_arr, lag, plan, channels)
+
+
+def cross_correlation_planned(y_arr: np.ndarray, x_arr: np.ndarray, lag: int,
+                              plan: _args.WindowPlan, channels: tuple[str, ...]
+                              ) -> FeatureSeries:
+    """Eq. 4.2 on checked signals over a checked window plan (the registry's batch path).
+
+    Parameters
+    ----------
+    y_arr, x_arr : numpy.ndarray
+        Writeable C-contiguous float64 signals of equal length.
+    lag : int
+        Checked lag, ``0 < lag < plan.window``.
+    plan : WindowPlan
+        The regular windows.
+    channels : tuple of str
+        ``(y name, x name)``.
+
+    Returns
+    -------
+    FeatureSeries
+        As :func:`cross_correlation`.
+    """
     regular = (cross_correlation_steps_regular if use_step_kernels(plan.step, lag)
                else cross_correlation_regular)
     values, time, n_bad, n_nonfinite = regular(
-        y_arr, x_arr, lag, window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
+        y_arr, x_arr, lag, plan.window, plan.step, plan.n_windows, plan.sample_rate,
+        plan.start_time)
     _args.finish_finite_check(y_arr, "y", n_nonfinite, plan)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
-    warn_degenerate(n_bad, len(values), "zero variance")
-    channels = _args.channel_names(y, "y") + _args.channel_names(x, "x")
+    warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return FeatureSeries(time, values, "cross-correlation", {"lag": lag},
                          **plan.geometry(channels))
 

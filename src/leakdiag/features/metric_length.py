@@ -208,8 +208,33 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
     """
     x2 = _args.signal_2d(x, "x", finite=False)  # checked with the kernel's help below
     window = _args.check_window(window)
-    l_step, k_step = parse_lag_ratio(lag_ratio, window)
+    lag_ratio = parse_lag_ratio(lag_ratio, window)
     plan = _args.plan_windows(len(x2), window, overlap, sample_rate, start_time)
+    return metric_length_planned(x2, lag_ratio, plan, _args.channel_names(x, "x", x2.shape[1]))
+
+
+def metric_length_planned(x2: np.ndarray, lag_ratio: tuple[int, int], plan: _args.WindowPlan,
+                          channels: tuple[str, ...]) -> FeatureSeries:
+    """Eq. 4.3-4.4 on a checked signal over a checked window plan (the registry's batch path).
+
+    Parameters
+    ----------
+    x2 : numpy.ndarray
+        Writeable C-contiguous float64 signal, shape ``(n, c)``.
+    lag_ratio : tuple of int
+        Checked ``(l, k)``, ``l > k >= 1``, ``l < plan.window``.
+    plan : WindowPlan
+        The regular windows.
+    channels : tuple of str
+        Channel names.
+
+    Returns
+    -------
+    FeatureSeries
+        As :func:`metric_length_ratio`.
+    """
+    l_step, k_step = lag_ratio
+    window = plan.window
     if x2.shape[1] == 1 and use_step_kernels(plan.step):
         values, time, n_bad, n_nonfinite = metric_steps_regular(
             x2.reshape(-1), l_step, k_step, window, plan.step, plan.n_windows, plan.sample_rate,
@@ -219,8 +244,7 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
             x2, l_step, k_step, window, plan.step, plan.n_windows, plan.sample_rate,
             plan.start_time)
     _args.finish_finite_check(x2, "x", n_nonfinite, plan)
-    warn_degenerate(n_bad, len(values), _DEGENERATE)
-    channels = _args.channel_names(x, "x", x2.shape[1])
+    warn_degenerate(n_bad, len(values), _DEGENERATE, stacklevel=4)
     settings = {"lag_ratio": f"{l_step}:{k_step}", "l": l_step, "k": k_step}
     return FeatureSeries(time, values, "metric-length", settings, **plan.geometry(channels))
 

@@ -227,13 +227,35 @@ def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.
     x_arr = _args.signal_1d(x, "x", finite=False)  # checked with the kernel's help below
     window = _args.check_window(window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
+    return moments_planned(x_arr, plan, _args.channel_names(x, "x"))
+
+
+def moments_planned(x_arr: np.ndarray, plan: _args.WindowPlan, channels: tuple[str, ...]
+                    ) -> tuple[FeatureSeries, ...]:
+    """Eq. 4.11-4.14 on a checked signal over a checked window plan (the registry's batch path).
+
+    Parameters
+    ----------
+    x_arr : numpy.ndarray
+        Writeable C-contiguous float64 signal.
+    plan : WindowPlan
+        The regular windows.
+    channels : tuple of str
+        Channel name.
+
+    Returns
+    -------
+    tuple of FeatureSeries
+        As :func:`moments`.
+    """
+    window = plan.window
     regular = moments_steps_regular if use_step_kernels(plan.step) else _moments_regular
     buf, n_bad, n_nonfinite = regular(x_arr, window, plan.step, plan.n_windows,
                                       plan.sample_rate, plan.start_time)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
-    warn_degenerate(n_bad, plan.n_windows, "zero variance (skewness and kurtosis)")
+    warn_degenerate(n_bad, plan.n_windows, "zero variance (skewness and kurtosis)", stacklevel=4)
     # one (5, m) block: row 0 the times, rows 1-4 the moments (views, no copy)
-    geometry = plan.geometry(_args.channel_names(x, "x"))
+    geometry = plan.geometry(channels)
     return tuple(FeatureSeries(buf[0], buf[i + 1], name, {"moment": name}, **geometry)
                  for i, name in enumerate(MOMENT_NAMES))
 

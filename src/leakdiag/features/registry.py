@@ -20,7 +20,7 @@ from typing import Any, Callable, Literal
 
 import numpy as np
 
-from leakdiag._validation import check_int, parse_lag_ratio
+from leakdiag._validation import check_finite, check_int, parse_lag_ratio
 from leakdiag.features import _args
 from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
@@ -34,6 +34,7 @@ __all__ = [
     "feature_names",
     "normalize_method",
     "compute",
+    "compute_planned",
     "values_at",
 ]
 
@@ -81,9 +82,10 @@ class FeatureRecord:
     degenerate : str, default "zero variance"
         What makes a window degenerate (NaN), for the warning.
     batch : callable, optional
-        ``batch(signals, setting, window=, overlap=, sample_rate=, start_time=)`` returning the
-        :class:`FeatureSeries` (or one per output) over the regular windows of Sec. 4.4; default
-        derived from ``kernel``.
+        ``batch(signals, setting, plan, channels)`` returning the :class:`FeatureSeries` (or
+        one per output) over the regular windows of Sec. 4.4, from writeable C-contiguous
+        float64 signals (whose finiteness it checks), a checked setting and a checked
+        :class:`~leakdiag.features._args.WindowPlan`; default derived from ``kernel``.
     at : callable, optional
         ``at(signals, setting, starts, window)`` returning the values at arbitrary starts (any
         order); default derived from ``kernel``.
@@ -406,8 +408,9 @@ def feature_names(streamable: bool | None = None, single: bool | None = None) ->
 
 
 # ------------------------------------------------------------------ entry points
-def _coerce(record: FeatureRecord, signals) -> tuple[np.ndarray, ...]:
-    arrays = tuple(_args.signal_1d(s, f"{record.name} channel {i}") for i, s in enumerate(signals))
+def _coerce(record: FeatureRecord, signals, finite: bool = True) -> tuple[np.ndarray, ...]:
+    arrays = tuple(_args.signal_1d(s, f"{record.name} channel {i}", finite)
+                   for i, s in enumerate(signals))
     if record.n_channels is not None and len(arrays) != record.n_channels:
         raise ValueError(f"{record.name} takes {record.n_channels} signal(s), got {len(arrays)}")
     lengths = {len(a) for a in arrays}
@@ -416,19 +419,15 @@ def _coerce(record: FeatureRecord, signals) -> tuple[np.ndarray, ...]:
     return arrays
 
 
-def _kernel_series(record: FeatureRecord, signals, setting, *, window: int, overlap: float,
-                   sample_rate: float, start_time: float):
+def _kernel_series(record: FeatureRecord, arrays, setting, plan: _args.WindowPlan, channels):
     """The regular windows of Sec. 4.4 through the kernel (records without a batch function)."""
-    arrays = _coerce(record, signals)
-    window = _args.check_window(window)
-    setting = record.check_setting(setting, window)
-    plan = _args.plan_windows(len(arrays[0]), window, overlap, sample_rate, start_time)
+    for name, arr in zip(channels, arrays):
+        check_finite(arr, name)
     starts = np.arange(plan.n_windows, dtype=np.int64) * plan.step
-    values, n_bad = record.kernel(arrays, setting, window, starts)
-    warn_degenerate(int(n_bad), plan.n_windows, record.degenerate, stacklevel=4)
-    time = window_times(starts, window, plan.sample_rate, plan.start_time)
-    geometry = dict(window=window, overlap=plan.overlap, step=plan.step,
-                    sample_rate=plan.sample_rate, start_time=plan.start_time)
+    values, n_bad = record.kernel(arrays, setting, plan.window, starts)
+    warn_degenerate(int(n_bad), plan.n_windows, record.degenerate, stacklevel=5)
+    time = window_times(starts, plan.window, plan.sample_rate, plan.start_time)
+    geometry = plan.geometry(channels)
     values = np.asarray(values, dtype=np.float64)
     if not record.outputs:
         return FeatureSeries(time, values, record.name, record.setting_entries(setting),
@@ -470,20 +469,40 @@ def compute(record: FeatureRecord, signals, setting=None, *, window: int, overla
     ValueError
         For a setting that does not fit, a signal shorter than one window, NaN/inf.
     """
-    fn = record.batch or (lambda s, st, **kw: _kernel_series(record, s, st, **kw))
-    out = fn(tuple(signals), setting, window=window, overlap=overlap, sample_rate=sample_rate,
-             start_time=start_time)
-    chans = tuple(channels)
-    if not chans:
-        return out
-    if isinstance(out, tuple):
-        return tuple(_named(fs, chans) for fs in out)
-    return _named(out, chans)
+    arrays = _coerce(record, signals, finite=False)
+    window = _args.check_window(window)
+    setting = record.check_setting(setting, window)
+    plan = _args.plan_windows(len(arrays[0]), window, overlap, sample_rate, start_time)
+    return compute_planned(record, arrays, setting, plan, channels)
 
 
-def _named(fs: FeatureSeries, channels: tuple[str, ...]) -> FeatureSeries:
-    geometry = {**fs.geometry(), "channels": channels}
-    return FeatureSeries(fs.time, fs.values, fs.name, fs.settings, **geometry)
+def compute_planned(record: FeatureRecord, arrays: tuple, setting, plan: _args.WindowPlan,
+                    channels=()):
+    """A feature over a checked window plan: the path behind every batch computation.
+
+    Parameters
+    ----------
+    record : FeatureRecord
+        The feature.
+    arrays : tuple of numpy.ndarray
+        Writeable C-contiguous float64 signals, one per channel, of ``plan``'s length
+        (finiteness is checked here, with the kernels' help).
+    setting : int, tuple or None
+        The checked setting (:meth:`FeatureRecord.check_setting`).
+    plan : WindowPlan
+        The checked regular windows (:func:`leakdiag.features._args.plan_windows`).
+    channels : tuple of str, default ()
+        Channel names recorded in the result (default: positional names).
+
+    Returns
+    -------
+    FeatureSeries or tuple of FeatureSeries
+        As :func:`compute`.
+    """
+    chans = tuple(channels) or tuple(f"x[{i}]" for i in range(len(arrays)))
+    if record.batch is None:
+        return _kernel_series(record, arrays, setting, plan, chans)
+    return record.batch(arrays, setting, plan, chans)
 
 
 def values_at(record: FeatureRecord, signals, setting, starts, window: int) -> np.ndarray:

@@ -14,7 +14,13 @@ from dataclasses import dataclass, field
 
 from leakdiag._validation import check_int, check_overlap, parse_lag_ratio
 from leakdiag.features import catalog as _catalog  # noqa: F401  (registers the thesis's features)
-from leakdiag.features.registry import compute, feature_names, feature_record, normalize_method
+from leakdiag.features._args import plan_windows, signal_1d
+from leakdiag.features.registry import (
+    compute_planned,
+    feature_names,
+    feature_record,
+    normalize_method,
+)
 from leakdiag.io.checks import check_length
 
 __all__ = [
@@ -202,12 +208,13 @@ def compute_feature(recording, spec: MethodSpec):
     """
     recording.require(*spec.channels)
     check_length(recording, spec.window)
+    # the spec checked window, overlap and setting; the recording its rate and start time
+    plan = plan_windows(recording.n_samples, spec.window, spec.overlap, recording.sample_rate,
+                        recording.start_time)
+    arrays = tuple(signal_1d(recording[c], c, finite=False) for c in spec.channels)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        out = compute(spec.record, [recording[c] for c in spec.channels], spec.value,
-                      window=spec.window, overlap=spec.overlap,
-                      sample_rate=recording.sample_rate, start_time=recording.start_time,
-                      channels=spec.channels)
+        out = compute_planned(spec.record, arrays, spec.value, plan, spec.channels)
     source = recording.meta.get("source")
     where = f"{source}: " if source else ""
     for w in caught:  # re-emit naming the file, method and channels
