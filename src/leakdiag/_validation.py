@@ -18,6 +18,7 @@ __all__ = [
     "check_overlap",
     "check_finite",
     "parse_lag_ratio",
+    "check_length",
 ]
 
 
@@ -284,3 +285,36 @@ def parse_lag_ratio(lag_ratio, window: int | None = None) -> tuple[int, int]:
     if window is not None and l_step >= window:
         raise ValueError(f"lag_ratio={lag_ratio!r}: l={l_step} must be < window={window}")
     return l_step, k_step
+
+
+def check_length(n_samples: int, window: int, name: str = "signal",
+                 sample_rate: float | None = None) -> None:
+    """Raise if a signal is shorter than one window (the only "shorter than one window" check).
+
+    Parameters
+    ----------
+    n_samples : int
+        Samples in the signal.
+    window : int
+        Window size in samples.
+    name : str, default "signal"
+        What is too short, as the message names it (``io`` passes file and channel).
+    sample_rate : float, optional
+        Sample rate in Hz; the message then also gives the duration.
+
+    Raises
+    ------
+    ValueError
+        ``"<name> has <n> samples [(<t> s)], shorter than one window (window=<N>)"``.
+
+    Examples
+    --------
+    >>> check_length(10, 11)
+    Traceback (most recent call last):
+    ...
+    ValueError: signal has 10 samples, shorter than one window (window=11)
+    """
+    if n_samples < window:
+        dur = f" ({n_samples / sample_rate:g} s)" if sample_rate else ""
+        raise ValueError(f"{name} has {n_samples} samples{dur}, shorter than one window "
+                         f"(window={window})")

@@ -87,7 +87,7 @@ def test_at_any_order():
 def test_errors_and_inputs():
     with pytest.raises(ValueError, match=r"window=1 must be >= 2"):
         to_frame(moments(np.arange(10.0), window=1))
-    with pytest.raises(ValueError, match=r"signal length 10 is shorter than one window"):
+    with pytest.raises(ValueError, match=r"signal has 10 samples, shorter than one window"):
         to_frame(moments(np.arange(10.0), window=11))
     with pytest.raises(ValueError, match=r"x holds 1 non-finite value\(s\) \(inf\); first at sample 2"):
         to_frame(moments([1.0, 2.0, np.inf, 4.0], window=2))

@@ -15,6 +15,7 @@ from leakdiag._validation import (
     as_1d_float,
     as_2d_float,
     check_finite,
+    check_length,
     check_overlap,
     check_positive,
     parse_lag_ratio,
@@ -125,14 +126,6 @@ def check_lag(lag, window: int) -> int:
     if not 1 <= lag < window:
         raise ValueError(f"lag={lag} must be in [1, window={window})")
     return lag
-
-
-def check_length(n_samples: int, window: int) -> None:
-    """Raise if the signal is shorter than one window."""
-    if n_samples < window:
-        raise ValueError(
-            f"signal length {n_samples} is shorter than one window (window={window} samples)"
-        )
 
 
 def check_starts(starts, n_samples: int, window: int) -> np.ndarray:

@@ -141,16 +141,15 @@ def check_length(rec, window: int, channel: str | None = None) -> None:
     leakdiag.io.recording.RecordingError: run.csv: channel 'p1' has 150 samples (0.15 s), shorter than one window (window=200); use a smaller window or a longer recording
     """
     from leakdiag._validation import check_int
+    from leakdiag._validation import check_length as check_samples
     from leakdiag.io.recording import RecordingError
 
     window = check_int(window, "window", 1)
     source = rec.meta.get("source", "<recording>")
     if channel is not None:
         rec.require(channel)
-    n = rec.n_samples
-    if n < window:
-        what = f"channel {channel!r}" if channel is not None else "recording"
-        raise RecordingError(
-            f"{source}: {what} has {n} samples ({n / rec.sample_rate:g} s), shorter than one "
-            f"window (window={window}); use a smaller window or a longer recording"
-        )
+    what = f"channel {channel!r}" if channel is not None else "recording"
+    try:
+        check_samples(rec.n_samples, window, f"{source}: {what}", rec.sample_rate)
+    except ValueError as exc:
+        raise RecordingError(f"{exc}; use a smaller window or a longer recording") from None
