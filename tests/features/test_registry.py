@@ -127,12 +127,12 @@ def test_toy_batch_and_at_are_derived_from_the_kernel(toy):
 
 def test_toy_in_spec_and_streaming(toy, toy_file):
     _, rec = toy_file
-    spec = MethodSpec("mai", lag=2, window=100, overlap=0)
+    spec = MethodSpec("mai", lag=1, window=100, overlap=0)
     assert (spec.method, spec.channels, spec.label) == \
-        ("mean-abs-increment", ("p1",), "mean-abs-increment p1 2 N=100 0%")
+        ("mean-abs-increment", ("p1",), "mean-abs-increment p1 1 N=100 0%")
     fs = compute_feature(rec, spec)
-    # |x[j+2] - x[j]| is 0 for alternating steps of equal size: 0 before, 0 after, except
-    # the window straddling sample 1000 (steps +-1 then +-3 differ by 2)
+    # |x[j+1] - x[j]| is the step size: 1 in the ten windows before sample 1000, 3 after
+    np.testing.assert_allclose(fs.values, [1.0] * 10 + [3.0] * 10, rtol=1e-12)
     sf = StreamingFeature(spec, sample_rate=rec.sample_rate)
     pieces = [sf.push({"p1": rec["p1"][i:i + 77]}) for i in range(0, rec.n_samples, 77)]
     np.testing.assert_allclose(np.concatenate([p.values for p in pieces]), fs.values, rtol=1e-12)
