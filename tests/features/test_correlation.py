@@ -20,10 +20,10 @@ from leakdiag.features import (
     cross_correlation,
     cross_correlation_at,
 )
-from leakdiag.features._blocksums import _auto_core, _cross_core
-from leakdiag.features._chunks import NO_STARTS
-from leakdiag.features._smalllag import LAG_DIRECT, auto_small_core, cross_small_core
-from leakdiag.features._stepsums import STEP_MAX
+from leakdiag.features._kernels.blocksums import _auto_core, _cross_core
+from leakdiag.features._kernels.chunks import NO_STARTS
+from leakdiag.features._kernels.smalllag import LAG_DIRECT, auto_small_core, cross_small_core
+from leakdiag.features._kernels.stepsums import STEP_MAX
 
 from . import reference as ref
 from .signals import SETTINGS, make_signals

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from leakdiag.features import DegenerateWindowWarning, metric_length_ratio, metric_length_ratio_at
-from leakdiag.features._stepsums import STEP_MAX
+from leakdiag.features._kernels.stepsums import STEP_MAX
 from . import reference as ref
 from .signals import make_signals
 

@@ -8,7 +8,7 @@ import pytest
 from scipy import stats
 
 from leakdiag.features import DegenerateWindowWarning, FeatureSeries, moments, moments_at, to_frame
-from leakdiag.features._stepsums import STEP_MAX
+from leakdiag.features._kernels.stepsums import STEP_MAX
 from . import reference as ref
 from .signals import make_signals
 

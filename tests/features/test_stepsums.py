@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from leakdiag.features import autocorrelation, cross_correlation, metric_length_ratio, moments, to_frame
-from leakdiag.features._chunks import NO_STARTS
-from leakdiag.features._smalllag import auto_small_core, cross_small_core
-from leakdiag.features._stepsums import (
+from leakdiag.features._kernels.chunks import NO_STARTS
+from leakdiag.features._kernels.smalllag import auto_small_core, cross_small_core
+from leakdiag.features._kernels.stepsums import (
     STEP_MAX,
     auto_small_steps,
     cross_small_steps,

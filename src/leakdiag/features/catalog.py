@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from leakdiag.features._blocksums import autocorrelation_sorted, cross_correlation_sorted
+from leakdiag.features._kernels.blocksums import autocorrelation_sorted, cross_correlation_sorted
 from leakdiag.features.correlation import (
     autocorrelation_at,
     autocorrelation_planned,

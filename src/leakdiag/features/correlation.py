@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from leakdiag.features import _args
-from leakdiag.features._blocksums import (
+from leakdiag.features._kernels.blocksums import (
     autocorrelation_regular,
     autocorrelation_sorted,
     cross_correlation_regular,
     cross_correlation_sorted,
 )
 from leakdiag.features._degenerate import warn_degenerate
-from leakdiag.features._stepsums import (
+from leakdiag.features._kernels.stepsums import (
     autocorrelation_steps_regular,
     cross_correlation_steps_regular,
     use_step_kernels,
@@ -96,7 +96,7 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
 
     The numerator has :math:`N - \tau` terms, the denominator :math:`N`, so a perfectly
     correlated window gives about :math:`(N - \tau)/N`, not 1. Computed in O(n) for all windows
-    with anchored block sums (:mod:`leakdiag.features._blocksums`), to about 1e-12 relative of
+    with anchored block sums (:mod:`leakdiag.features._kernels.blocksums`), to about 1e-12 relative of
     a two-pass evaluation. :func:`autocorrelation_at` evaluates arbitrary window starts.
 
     References

@@ -9,9 +9,9 @@ import numpy as np
 
 from leakdiag._validation import parse_lag_ratio
 from leakdiag.features import _args
-from leakdiag.features._chunks import CHUNK, NO_STARTS, fill_times
+from leakdiag.features._kernels.chunks import CHUNK, NO_STARTS, fill_times
 from leakdiag.features._degenerate import warn_degenerate
-from leakdiag.features._stepsums import metric_steps_regular, use_step_kernels
+from leakdiag.features._kernels.stepsums import metric_steps_regular, use_step_kernels
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["metric_length_ratio", "metric_length_ratio_at"]
@@ -38,7 +38,7 @@ def _metric_core(x, l_step, k_step, window, starts, step, out):  # pragma: no co
     Sums over ``j = s .. s+N-l-1`` of ``||x_{j+k} - x_j||`` and ``||x_{j+l} - x_j||`` (Euclidean
     norm over the channels of ``x``, shape ``(n, c)``, Eq. 4.4), each split into the tail of the
     block of ``M = N - l`` terms holding ``s`` and the head of the next block, grown window by
-    window as in :mod:`leakdiag.features._blocksums` (backward for tails, forward for heads).
+    window as in :mod:`leakdiag.features._kernels.blocksums` (backward for tails, forward for heads).
     The terms are non-negative, so no anchor is needed: a window sum adds two partial sums of at
     most ``M`` terms of the window itself (relative error a few ulps times ``M``). The terms are
     computed on the fly (an inner function, which Numba inlines), never stored for the signal.

@@ -6,10 +6,10 @@ import numba
 import numpy as np
 
 from leakdiag.features import _args
-from leakdiag.features._chunks import CHUNK, NO_STARTS, UINT, fill_times
+from leakdiag.features._kernels.chunks import CHUNK, NO_STARTS, UINT, fill_times
 from leakdiag.features._degenerate import warn_degenerate
-from leakdiag.features._stepsums import moments_steps_regular, use_step_kernels
-from leakdiag.features._values import moment_values
+from leakdiag.features._kernels.stepsums import moments_steps_regular, use_step_kernels
+from leakdiag.features._kernels.values import moment_values
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["moments", "moments_at", "MOMENT_NAMES", "MOMENT_COLUMNS", "to_frame"]
@@ -43,7 +43,7 @@ def _moment_core(x, window, starts, step, out):  # pragma: no cover - compiled
     """Mean, variance (Eq. 4.12), skewness and kurtosis per window into the rows of ``out``.
 
     Windows ``s_k = k * step`` (``step > 0``) or the sorted ``starts`` (``step = 0``). The
-    anchored block sums of :mod:`leakdiag.features._blocksums` (blocks of N samples; tail and
+    anchored block sums of :mod:`leakdiag.features._kernels.blocksums` (blocks of N samples; tail and
     head of each window summed about the block's last sample ``x[e - 1]``, a sample of the
     window), shifted exactly to the window mean by the binomial expansion. Returns the numbers
     of constant windows and of windows whose sums are not finite (NaN/inf input).
