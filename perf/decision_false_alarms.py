@@ -12,7 +12,7 @@ import pandas as pd
 
 import leakdiag as ld
 from leakdiag.detect.analysis import analyze_recording, overall_decision
-from leakdiag.features.methods import thesis_defaults
+from leakdiag.features.spec import thesis_defaults
 
 SEEDS = range(100, 130)  # 30 healthy runs
 DURATION_S, SPLIT_S, ALPHA = 120.0, 60.0, 0.01

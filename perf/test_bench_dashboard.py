@@ -62,7 +62,7 @@ import pytest
 
 from leakdiag.dashboard.hooks import MonitorHooks
 from leakdiag.dashboard.server import Bind
-from leakdiag.features.methods import MethodSpec
+from leakdiag.features.spec import MethodSpec
 from leakdiag.io.recording import Recording
 from leakdiag.stream import Monitor, paced, recording_chunks
 

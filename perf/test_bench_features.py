@@ -105,7 +105,7 @@ def test_bench_feature(feature, window, overlap, signals, record_ratio):
 def test_bench_moments(overlap, signals, record_ratio):
     p1, _ = signals
     window = 400
-    df = F.moments(p1, window=window, overlap=overlap)
+    df = F.to_frame(F.moments(p1, window=window, overlap=overlap))
     total = len(df)
     fast, fast_median = time_fast(lambda: F.moments(p1, window=window, overlap=overlap))
     n_win = min(total, REFERENCE_WINDOWS)

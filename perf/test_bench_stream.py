@@ -11,7 +11,7 @@ Each benchmark prints its figure and the goal; they do not fail on a slow or bus
 import numpy as np
 import pytest
 
-from leakdiag.features.methods import MethodSpec
+from leakdiag.features.spec import MethodSpec
 from leakdiag.features.windowing import n_windows
 from leakdiag.stream import Monitor, StreamingFeature
 
@@ -96,7 +96,7 @@ def peak_rss_bytes():
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 import time
-from leakdiag.features.methods import MethodSpec
+from leakdiag.features.spec import MethodSpec
 from leakdiag.stream import open_chunks, stream_feature
 spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=5)
 t0 = time.perf_counter()

@@ -17,6 +17,8 @@ __all__ = [
     "check_positive",
     "check_overlap",
     "check_finite",
+    "parse_lag_ratio",
+    "check_length",
 ]
 
 
@@ -231,3 +233,88 @@ def check_finite(x: np.ndarray, name: str = "x") -> None:
         raise ValueError(
             f"{name} holds {int(bad.sum())} non-finite value(s) ({kind}); first at sample {idx}"
         )
+
+
+def parse_lag_ratio(lag_ratio, window: int | None = None) -> tuple[int, int]:
+    """Parse a metric-length lag ratio ``"l:k"`` (thesis notation, Eq. 4.3) into ``(l, k)``.
+
+    Parameters
+    ----------
+    lag_ratio : str or pair of int
+        ``"83:3"`` (spaces allowed) or ``(83, 3)``: ``l`` the long step, ``k`` the short one,
+        ``l > k >= 1``.
+    window : int, optional
+        Window size in samples; ``l < window`` is then required.
+
+    Returns
+    -------
+    tuple of int
+        ``(l, k)``.
+
+    Raises
+    ------
+    ValueError
+        If the string is malformed, ``l > k >= 1`` fails, or ``l >= window``.
+    TypeError
+        If it is neither a string nor a pair of integers.
+
+    Examples
+    --------
+    >>> parse_lag_ratio("83:3"), parse_lag_ratio((43, 3), window=400)
+    ((83, 3), (43, 3))
+    """
+    if isinstance(lag_ratio, str):
+        parts = lag_ratio.split(":")
+        try:
+            if len(parts) != 2:
+                raise ValueError
+            l_step, k_step = int(parts[0].strip()), int(parts[1].strip())
+        except ValueError:
+            raise ValueError(f"lag_ratio={lag_ratio!r} must look like 'l:k', e.g. '83:3'") from None
+    else:
+        try:
+            l_raw, k_raw = lag_ratio
+        except (TypeError, ValueError):
+            raise TypeError(f"lag_ratio={lag_ratio!r} must be 'l:k' or a pair (l, k)") from None
+        for v in (l_raw, k_raw):
+            if isinstance(v, bool) or not isinstance(v, numbers.Integral):
+                raise TypeError(f"lag_ratio={lag_ratio!r} must hold integers")
+        l_step, k_step = int(l_raw), int(k_raw)
+    if not l_step > k_step >= 1:
+        raise ValueError(f"lag_ratio={lag_ratio!r} needs l > k >= 1, got l={l_step}, k={k_step}")
+    if window is not None and l_step >= window:
+        raise ValueError(f"lag_ratio={lag_ratio!r}: l={l_step} must be < window={window}")
+    return l_step, k_step
+
+
+def check_length(n_samples: int, window: int, name: str = "signal",
+                 sample_rate: float | None = None) -> None:
+    """Raise if a signal is shorter than one window (the only "shorter than one window" check).
+
+    Parameters
+    ----------
+    n_samples : int
+        Samples in the signal.
+    window : int
+        Window size in samples.
+    name : str, default "signal"
+        What is too short, as the message names it (``io`` passes file and channel).
+    sample_rate : float, optional
+        Sample rate in Hz; the message then also gives the duration.
+
+    Raises
+    ------
+    ValueError
+        ``"<name> has <n> samples [(<t> s)], shorter than one window (window=<N>)"``.
+
+    Examples
+    --------
+    >>> check_length(10, 11)
+    Traceback (most recent call last):
+    ...
+    ValueError: signal has 10 samples, shorter than one window (window=11)
+    """
+    if n_samples < window:
+        dur = f" ({n_samples / sample_rate:g} s)" if sample_rate else ""
+        raise ValueError(f"{name} has {n_samples} samples{dur}, shorter than one window "
+                         f"(window={window})")

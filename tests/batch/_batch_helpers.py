@@ -5,7 +5,7 @@ import time
 import numpy as np
 from scipy.signal import lfilter
 
-from leakdiag.features.methods import MethodSpec
+from leakdiag.features.spec import MethodSpec
 from leakdiag.io.recording import Recording
 
 

@@ -97,7 +97,7 @@ def test_run_case_rows_equal_references(recordings):
         assert r["value_mean"] == pytest.approx(ref.mean(), rel=1e-9)
         assert r["value_min"] == pytest.approx(ref.min(), rel=1e-9)
         t = window_times(window_starts(12000, 200, 5), 200, 1000.0)
-        m = rms_change(FeatureSeries(t, ref, "ac", {"window": 200, "sample_rate": 1000.0}), 6.0, 10)
+        m = rms_change(FeatureSeries(t, ref, "ac", window=200, sample_rate=1000.0), 6.0, 10)
         assert r["pct_change_signed"] == pytest.approx(m.pct_change_signed, rel=1e-9)
         assert r["onset_s"] == 6.0
     # planted truth: the correlation falls after the onset

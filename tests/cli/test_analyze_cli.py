@@ -32,7 +32,6 @@ def test_analyze_prints_measure_and_writes_outputs(run_file, tmp_path, capsys):
     text = capsys.readouterr().out
     verdict = pd.read_csv(out / "verdict.csv")
     fs = ld.features.autocorrelation(rec["p1"], lag=1, window=200, overlap=5, sample_rate=1000.0)
-    fs.params.update(window=200, sample_rate=1000.0)
     direct = ld.detect.rms_change(fs, onset=6.0)
     assert verdict.loc[0, "mean_rms_before"] == pytest.approx(direct.mean_rms_before, rel=1e-9)
     assert f"{direct.pct_change:.2f}" in text

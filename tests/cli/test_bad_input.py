@@ -273,7 +273,7 @@ def test_monitor_garbage_detector_file(files, tmp_path, capsys):
     (["-w", "0"], "window=0 must be >= 2"),
     (["--overlap", "100"], "overlap=100.0 must be in [0, 100) percent"),
     (["--lag", "500"], "lag=500 must be in [1, 200)"),
-    (["-m", "metric-length", "--lag-ratio", "83-3"], "lag_ratio='83-3' must be written 'l:k'"),
+    (["-m", "metric-length", "--lag-ratio", "83-3"], "lag_ratio='83-3' must look like 'l:k'"),
     (["--sample-rate", "-5"], "sample_rate=-5.0 must be a finite number > 0"),
 ])
 def test_analyze_bad_option_values(files, capsys, args, needle):

@@ -22,8 +22,8 @@ class WindowMeanDetector(Detector):
         m = len(x) // self.window
         v = x[: m * self.window].reshape(m, self.window).mean(axis=1)
         t = recording.start_time + (np.arange(m) * self.window + self.window - 1) / recording.sample_rate
-        return FeatureSeries(t, v, "window-mean", {"window": self.window,
-                                                   "sample_rate": recording.sample_rate})
+        return FeatureSeries(t, v, "window-mean", window=self.window,
+                             sample_rate=recording.sample_rate)
 
 
 def synthetic(duration_s, seed, onset=None, step=0.0):

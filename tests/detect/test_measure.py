@@ -10,8 +10,8 @@ from leakdiag.features import FeatureSeries
 
 def _fs(values, window=None, rate=1.0):
     t = np.arange(len(values), dtype=float)
-    params = {} if window is None else {"window": window, "sample_rate": rate}
-    return FeatureSeries(t, np.asarray(values, float), "f", params)
+    geometry = {} if window is None else {"window": window, "sample_rate": rate}
+    return FeatureSeries(t, np.asarray(values, float), "f", **geometry)
 
 
 def test_chunk_rms_hand_values():

@@ -20,10 +20,10 @@ from leakdiag.features import (
     cross_correlation,
     cross_correlation_at,
 )
-from leakdiag.features._blocksums import _auto_core, _cross_core
-from leakdiag.features._chunks import NO_STARTS
-from leakdiag.features._smalllag import LAG_DIRECT, auto_small_core, cross_small_core
-from leakdiag.features._stepsums import STEP_MAX
+from leakdiag.features._kernels.blocksums import _auto_core, _cross_core
+from leakdiag.features._kernels.chunks import NO_STARTS
+from leakdiag.features._kernels.smalllag import LAG_DIRECT, auto_small_core, cross_small_core
+from leakdiag.features._kernels.stepsums import STEP_MAX
 
 from . import reference as ref
 from .signals import SETTINGS, make_signals
@@ -322,7 +322,7 @@ def test_no_numpy_warning_when_all_windows_degenerate():
     ({"window": 1, "lag": 1}, r"window=1 must be >= 2"),
     ({"overlap": 100}, r"overlap=100 must be in \[0, 100\)"),
     ({"overlap": -1}, r"overlap=-1 must be in \[0, 100\)"),
-    ({"window": 50}, r"signal length 30 is shorter than one window \(window=50"),
+    ({"window": 50}, r"signal has 30 samples, shorter than one window \(window=50"),
     ({"sample_rate": 0}, r"sample_rate=0 must be a finite number > 0"),
 ])
 def test_errors(kwargs, match):

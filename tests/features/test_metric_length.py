@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from leakdiag.features import DegenerateWindowWarning, metric_length_ratio, metric_length_ratio_at
-from leakdiag.features._stepsums import STEP_MAX
+from leakdiag.features._kernels.stepsums import STEP_MAX
 from . import reference as ref
 from .signals import make_signals
 
@@ -109,7 +109,7 @@ def test_lag_ratio_errors(lag_ratio, match):
 
 
 def test_other_errors():
-    with pytest.raises(ValueError, match=r"signal length 9 is shorter than one window \(window=10"):
+    with pytest.raises(ValueError, match=r"signal has 9 samples, shorter than one window \(window=10"):
         metric_length_ratio(np.arange(9.0), "3:1", window=10)
     with pytest.raises(ValueError, match=r"overlap=100 must be in \[0, 100\)"):
         metric_length_ratio(np.arange(40.0), "3:1", window=10, overlap=100)

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from leakdiag.features import autocorrelation, cross_correlation, metric_length_ratio, moments
-from leakdiag.features._chunks import NO_STARTS
-from leakdiag.features._smalllag import auto_small_core, cross_small_core
-from leakdiag.features._stepsums import (
+from leakdiag.features import autocorrelation, cross_correlation, metric_length_ratio, moments, to_frame
+from leakdiag.features._kernels.chunks import NO_STARTS
+from leakdiag.features._kernels.smalllag import auto_small_core, cross_small_core
+from leakdiag.features._kernels.stepsums import (
     STEP_MAX,
     auto_small_steps,
     cross_small_steps,
@@ -95,7 +95,7 @@ def test_features_at_short_steps_match_the_reference(name, step):
                                    rtol=1e-9, atol=1e-11)
     np.testing.assert_allclose(metric_length_ratio(x, "83:3", 200, ov).values,
                                ref.metric_length_ratio_ref(x, 83, 3, 200, ov), rtol=1e-12)
-    got = moments(x, 200, ov)[["mean", "variance", "skewness", "kurtosis"]].to_numpy()
+    got = to_frame(moments(x, 200, ov))[["mean", "variance", "skewness", "kurtosis"]].to_numpy()
     np.testing.assert_allclose(got, ref.moments_ref(x, 200, ov), rtol=1e-9, atol=1e-9)
 
 

@@ -137,7 +137,7 @@ def test_check_length():
                     meta={"source": "run.csv"})
     check_length(rec, 150, "p1")  # exactly one window is enough
     with pytest.raises(RecordingError, match=r"run.csv: channel 'p1' has 150 samples \(0.15 s\), "
-                                             r"fewer than one window of 151 samples"):
+                                             r"shorter than one window \(window=151\)"):
         check_length(rec, 151, "p1")
     with pytest.raises(RecordingError, match=r"run.csv: recording has 150 samples"):
         check_length(rec, 200)

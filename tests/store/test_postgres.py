@@ -76,7 +76,7 @@ def test_schema_version_mismatch(pg_url):
 def test_monitor_store_on_postgres(healthy_rec, pg_url):
     """The monitor's worker writes groups of chunks through the non-SQLite insert path."""
     from leakdiag.dashboard.hooks import MonitorHooks
-    from leakdiag.features.methods import MethodSpec
+    from leakdiag.features.spec import MethodSpec
     from leakdiag.stream import Monitor, recording_chunks
 
     spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=5)

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from leakdiag.features.methods import MethodSpec
+from leakdiag.features.spec import MethodSpec
 from leakdiag.stream import StreamingFeature
 
 #: Rows per row group and row groups: 12 x 8 Mi rows x 2 float64 channels = 1.6 GB.
@@ -32,7 +32,7 @@ def peak_rss_bytes():
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 import numpy as np
-from leakdiag.features.methods import MethodSpec
+from leakdiag.features.spec import MethodSpec
 from leakdiag.stream import open_chunks, stream_feature
 path, out = sys.argv[1], sys.argv[2]
 spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=5)

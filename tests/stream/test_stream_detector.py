@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from leakdiag.features.methods import MethodSpec
+from leakdiag.features.spec import MethodSpec
 from leakdiag.io.recording import Recording
 from leakdiag.stream import DetectorScorer, Monitor, recording_chunks
 

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from _stream_ref import ac_ref, cc_ref, mlr_ref, times_ref
 from leakdiag.features import autocorrelation
-from leakdiag.features.methods import MethodSpec
+from leakdiag.features.spec import MethodSpec
 from leakdiag.stream import StreamingFeature
 
 

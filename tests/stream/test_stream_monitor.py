@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from _stream_ref import ac_ref, mlr_ref
-from leakdiag.features.methods import MethodSpec
+from leakdiag.features.spec import MethodSpec
 from leakdiag.stream import Monitor, WindowEvent, check_scorer
 
 

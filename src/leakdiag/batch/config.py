@@ -30,8 +30,8 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from leakdiag._validation import check_int
-from leakdiag.features.methods import MethodSpec
-from leakdiag.stream.feature import STREAM_METHODS
+from leakdiag.features.spec import MethodSpec
+from leakdiag.stream.feature import stream_methods
 
 __all__ = ["BatchConfig", "DetectorRef", "load_config", "config_from_dict", "detector_ref",
            "DEFAULT_CHUNK_SAMPLES", "DEFAULT_RMS_CHUNK"]
@@ -109,8 +109,8 @@ class BatchConfig:
         if not self.analyses and not self.detectors:
             raise ValueError("the batch config has no [[analysis]] and no [[detector]]")
         for s in self.analyses:
-            if s.method not in STREAM_METHODS:
-                raise ValueError(f"analysis method={s.method!r} is not one of {STREAM_METHODS}")
+            if s.method not in stream_methods():
+                raise ValueError(f"analysis method={s.method!r} is not one of {stream_methods()}")
         object.__setattr__(self, "chunk_samples", check_int(self.chunk_samples, "chunk_samples", 1))
         object.__setattr__(self, "rms_chunk", check_int(self.rms_chunk, "rms_chunk", 1))
 

@@ -87,7 +87,7 @@ def _summary(values: np.ndarray) -> dict:
 def _measure(spec, t, v, onset, chunk, sample_rate) -> dict:
     if onset is None:
         return {}
-    fs = FeatureSeries(t, v, spec.method, {"window": spec.window, "sample_rate": sample_rate})
+    fs = FeatureSeries(t, v, spec.method, window=spec.window, sample_rate=sample_rate)
     try:
         r = rms_change(fs, onset, chunk)
     except ValueError as exc:

@@ -7,11 +7,11 @@ from pathlib import Path
 
 import click
 
+from leakdiag.cli._features import FeatureChoice, check_setting_options, spec_from_options
 from leakdiag.cli._options import false_alarm_option, healthy_option, recording_options
+from leakdiag.features.spec import thesis_defaults
 
 __all__ = ["analyze", "format_verdict", "decision_words"]
-
-_METHOD_CHOICES = ["autocorrelation", "cross-correlation", "metric-length", "moments", "all"]
 
 
 def format_verdict(table) -> str:
@@ -53,8 +53,6 @@ def format_verdict(table) -> str:
 
 
 def _specs(method, channels, lag, lag_ratio, window, overlap, system):
-    from leakdiag.features.methods import MethodSpec, thesis_defaults
-
     if "all" in method:
         given = [name for name, v in (("--channels", channels), ("--lag", lag),
                                       ("--lag-ratio", lag_ratio), ("--window", window),
@@ -66,22 +64,9 @@ def _specs(method, channels, lag, lag_ratio, window, overlap, system):
                 f"{'it' if len(given) == 1 else 'them'} or name the methods (--method "
                 "autocorrelation ...)")
         return list(thesis_defaults(system))
-    if lag is not None and not {"autocorrelation", "cross-correlation"} & set(method):
-        raise click.UsageError("--lag applies to autocorrelation and cross-correlation only; "
-                               "metric-length takes --lag-ratio")
-    if lag_ratio is not None and "metric-length" not in method:
-        raise click.UsageError("--lag-ratio applies to --method metric-length only")
-    specs = []
-    for m in method:
-        kw = {}
-        if m in ("autocorrelation", "cross-correlation"):
-            kw["lag"] = 1 if lag is None else lag
-        if m == "metric-length":
-            kw["lag_ratio"] = lag_ratio or "83:3"
-        specs.append(MethodSpec(m, tuple(channels.split(",")) if channels else (),
-                                window=200 if window is None else window,
-                                overlap=5.0 if overlap is None else overlap, **kw))
-    return specs
+    check_setting_options(method, lag, lag_ratio)
+    return [spec_from_options(m, channels, lag, lag_ratio, 200 if window is None else window,
+                              5.0 if overlap is None else overlap) for m in method]
 
 
 def decision_words(table, false_alarm_rate: float) -> str:
@@ -122,7 +107,7 @@ def decision_words(table, false_alarm_rate: float) -> str:
 @recording_options
 @click.option("--resample", type=float, metavar="HZ",
               help="Interpolate a non-uniform time axis onto a uniform grid at this rate.")
-@click.option("--method", "-m", multiple=True, type=click.Choice(_METHOD_CHOICES),
+@click.option("--method", "-m", multiple=True, type=FeatureChoice(extra=("all",)),
               default=["autocorrelation"], show_default=True,
               help="Method(s); 'all' runs the four thesis methods at the thesis's preferred "
                    "settings and skips those whose channels the file lacks.")

@@ -25,7 +25,7 @@ def demo(system, seed, out):
     import leakdiag as ld
     from leakdiag.cli.analyze import _write_outputs, decision_words, format_verdict
     from leakdiag.detect.analysis import analyze_recording
-    from leakdiag.features.methods import thesis_defaults
+    from leakdiag.features.spec import thesis_defaults
 
     if system == "vca":
         kw = dict(duration=400.0, leak_lpm=0.10, onset=200.0)

@@ -12,12 +12,13 @@ import time
 
 import click
 
+from leakdiag.features.spec import MethodSpec
+from leakdiag.cli._features import FeatureChoice, check_setting_options, spec_from_options
 from leakdiag.cli._options import recording_options
 from leakdiag.cli.dashboard import live_options, open_monitor_hooks
 
 __all__ = ["monitor", "build_source", "load_detector", "parse_replay"]
 
-_METHOD_CHOICES = ["autocorrelation", "cross-correlation", "metric-length"]
 #: Suffixes streamed in chunks without loading the file (others go through read_recording).
 _CHUNKED_SUFFIXES = (".parquet", ".pq", ".h5", ".hdf5", ".csv")
 
@@ -170,8 +171,6 @@ def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: in
 def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=()):
     """The monitored feature; ``given`` lists the feature options given on the command line,
     refused where they would be ignored (a detector's own feature, the other lag kind)."""
-    from leakdiag.features.methods import MethodSpec
-
     if detector is not None and callable(getattr(detector, "spec", None)) and method is None:
         spec = detector.spec()
         try:  # the same values as the detector's are harmless
@@ -190,18 +189,9 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=())
                 "you want (leakdiag fit)")
         return spec
     method = method or "autocorrelation"
-    if "--lag" in given and method == "metric-length":
-        raise click.UsageError("--lag applies to autocorrelation and cross-correlation only; "
-                               "metric-length takes --lag-ratio")
-    if "--lag-ratio" in given and method != "metric-length":
-        raise click.UsageError("--lag-ratio applies to --method metric-length only")
-    kw = {}
-    if method in ("autocorrelation", "cross-correlation"):
-        kw["lag"] = 1 if lag is None else lag
-    else:
-        kw["lag_ratio"] = lag_ratio or "83:3"
-    chans = tuple(c.strip() for c in channels.split(",")) if channels else ()
-    return MethodSpec(method, chans, window=window, overlap=overlap, **kw)
+    check_setting_options([method], lag if "--lag" in given else None,
+                          lag_ratio if "--lag-ratio" in given else None)
+    return spec_from_options(method, channels, lag, lag_ratio, window, overlap)
 
 
 @click.command(epilog="Example: leakdiag monitor --input run.parquet --detector det.joblib "
@@ -213,7 +203,7 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=())
 @click.option("--follow", is_flag=True, help="Follow a growing CSV file (like tail -f).")
 @click.option("--idle-timeout", type=click.FloatRange(min=0), default=None,
               help="With --follow: stop after this many seconds without new lines.")
-@click.option("--method", "-m", type=click.Choice(_METHOD_CHOICES), default=None,
+@click.option("--method", "-m", type=FeatureChoice(streamable=True), default=None,
               help="Feature (default: the detector's, else autocorrelation).")
 @click.option("--channels", "-c", default=None, help="Channels, e.g. p1 | p1,p2 | u,x.")
 @click.option("--lag", type=click.IntRange(min=1), default=None,

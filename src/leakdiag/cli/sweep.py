@@ -6,7 +6,9 @@ from pathlib import Path
 
 import click
 
+from leakdiag.cli._features import FeatureChoice, split_channels
 from leakdiag.cli._options import recording_options, resample_option
+from leakdiag.features.registry import feature_record
 
 __all__ = ["sweep", "format_table"]
 
@@ -40,7 +42,7 @@ def format_table(table) -> str:
 
 
 def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> list[Path]:
-    from leakdiag.features.methods import compute_feature
+    from leakdiag.features.spec import compute_feature
     from leakdiag.report.figures import save_figure
     from leakdiag.report.study_plots import plot_pct_vs_parameter, plot_stacked
     from leakdiag.studies.grid import _spec, parse_lag, quiet_degenerate
@@ -75,7 +77,8 @@ def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> l
         save_figure(plot_stacked(panels[0], onset=onset, titles=panels[1], rms=panels[2]), p)
         written.append(p)
         p = out / f"pct_vs_{varied}.png"
-        unit = {"lag": "lag (samples)" if method != "metric-length" else "lag ratio l:k",
+        unit = {"lag": "lag ratio l:k" if feature_record(method).setting == "lag_ratio"
+                else "lag (samples)",
                 "window": "window N (samples)", "overlap": "overlap (%)"}[varied]
         save_figure(plot_pct_vs_parameter(xs, g["pct_change"].to_numpy(), xlabel=unit,
                                           title=f"{method} {channels}: % change against {varied}",
@@ -90,7 +93,8 @@ def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> l
 @recording_options
 @resample_option
 @click.option("--method", "-m", default="autocorrelation", show_default=True,
-              help="autocorrelation | cross-correlation | metric-length (thesis spellings too).")
+              type=FeatureChoice(single=True),
+              help="A single-valued feature of the registry (thesis spellings too).")
 @click.option("--channels", "-c", default=None, help="Channels, e.g. p1 | p1,p2 | u,x.")
 @click.option("--lags", default="1,2,4,8", show_default=True,
               help="Lags (1,2,4 or 1:30:1) or lag ratios (83:3,57:3).")
@@ -112,12 +116,11 @@ def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> l
 def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, channels, lags,
           windows, overlaps, mode, onset, chunk, min_chunks, tolerance, out, no_figures):
     """Sweep lag, window and overlap on FILE; print the table of the Sec. 5.2 measure."""
-    from leakdiag.features.methods import normalize_method
     from leakdiag.studies.select import SelectionRule
     from leakdiag.studies.sweep import parse_values
 
-    m = normalize_method(method)
-    lag_values = parse_values(lags, str if m == "metric-length" else int)
+    m = method
+    lag_values = parse_values(lags, str if feature_record(m).setting == "lag_ratio" else int)
     win_values = parse_values(windows, int)
     ov_values = parse_values(overlaps, float)
     from leakdiag.cli._options import column_map_from, read_with
@@ -191,14 +194,10 @@ def _check_input(file, rec, method, channels, windows) -> None:
     """One clear error naming FILE for inputs no setting can use (too short, constant channel)."""
     import numpy as np
 
-    from leakdiag.features.methods import MethodSpec
-
     if rec.n_samples < min(windows):
         raise ValueError(f"{file}: {rec.n_samples} samples is shorter than the smallest window "
                          f"({min(windows)}); pass shorter --windows or a longer recording")
-    lag = {"lag_ratio": "83:3"} if method == "metric-length" else {"lag": 1}
-    chans = tuple(c.strip() for c in channels.split(",")) if channels else ()
-    for ch in MethodSpec(method, chans, window=min(windows), **lag).channels:
+    for ch in feature_record(method).check_channels(split_channels(channels)):
         x = rec[ch]
         if x.size and np.all(x == x[0]):
             raise ValueError(f"{file}: channel {ch!r} is constant ({x[0]:g} throughout): zero "

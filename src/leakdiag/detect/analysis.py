@@ -6,9 +6,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from leakdiag.detect.measure import (EXPECTED_DIRECTION, Decision, chunk_rms, decide_change,
+from leakdiag.detect.measure import (Decision, chunk_rms, decide_change,
                                      rms_change)
-from leakdiag.features.methods import MethodSpec, compute_feature
+from leakdiag.features.spec import MethodSpec, compute_feature
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["Analysis", "analyze_recording", "VERDICT_COLUMNS", "DECISION_COLUMNS",
@@ -67,14 +67,9 @@ class Analysis:
         return pd.concat(frames, ignore_index=True)
 
 
-def _moment_series(df, spec: MethodSpec) -> list[FeatureSeries]:
-    out = []
-    for col in ("mean", "variance", "skewness", "kurtosis"):
-        out.append(FeatureSeries(df["time"].to_numpy(), df[col].to_numpy(dtype=float), col,
-                                 {"channels": ",".join(spec.channels), "window": spec.window,
-                                  "overlap": spec.overlap,
-                                  "sample_rate": df.attrs.get("sample_rate", None) or 1.0}))
-    return out
+def _series_of(out) -> tuple[FeatureSeries, ...]:
+    """A feature's series: one, or one per output of a multi-valued feature (moments)."""
+    return out if isinstance(out, tuple) else (out,)
 
 
 def _healthy_chunks(healthy, spec: MethodSpec, chunk: int) -> dict[str, np.ndarray]:
@@ -82,13 +77,13 @@ def _healthy_chunks(healthy, spec: MethodSpec, chunk: int) -> dict[str, np.ndarr
     pooled: dict[str, list] = {}
     for rec in healthy:
         out = compute_feature(rec, spec)
-        for fs in (_moment_series(out, spec) if spec.method == "moments" else [out]):
+        for fs in _series_of(out):
             pooled.setdefault(fs.name, []).append(chunk_rms(fs.values, chunk)[0])
     return {k: np.concatenate(v) for k, v in pooled.items()}
 
 
 def _decide(res, fs, spec, ref_chunks, false_alarm_rate, chunk) -> Decision:
-    direction = EXPECTED_DIRECTION.get(spec.method, "both")
+    direction = spec.record.direction or "both"
     if ref_chunks is not None:
         ref = ref_chunks.get(fs.name, np.empty(0))
         if res is not None:
@@ -120,7 +115,7 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
     recording : Recording
         The recording (channels ``p1``, ``p2``, ``x``, ``u`` as the methods need).
     specs : MethodSpec or sequence of MethodSpec
-        Methods and settings (see :func:`leakdiag.features.methods.thesis_defaults`).
+        Methods and settings (see :func:`leakdiag.features.spec.thesis_defaults`).
     onset : float, optional
         Leak onset in seconds; default ``recording.meta['onset']`` if present.
     chunk : int, default 10
@@ -170,11 +165,9 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
                          "skipped": f"no channel {', '.join(missing)} in the recording"})
             continue
         out = compute_feature(recording, spec)
-        fss = _moment_series(out, spec) if spec.method == "moments" else [out]
         ref_chunks = _healthy_chunks(healthy, spec, chunk) if healthy else None
-        for fs in fss:
-            fs.params["sample_rate"] = recording.sample_rate
-            method = spec.method if spec.method != "moments" else f"moments:{fs.name}"
+        for fs in _series_of(out):
+            method = f"{spec.method}:{fs.name}" if spec.record.outputs else spec.method
             row = {"method": method, "channels": ",".join(spec.channels),
                    "setting": spec.setting, "window": spec.window, "overlap": spec.overlap,
                    "n_windows": len(fs),

@@ -202,8 +202,18 @@ class _Trace:
     z: np.ndarray
     s_up: np.ndarray
     s_down: np.ndarray
-    name: str = "feature"
-    params: dict = field(default_factory=dict)
+    series: FeatureSeries | None = None  # the feature series the trace was computed from
+
+    @property
+    def name(self) -> str:
+        return "feature" if self.series is None else self.series.name
+
+    def derived(self, values: np.ndarray, name: str, **extra) -> FeatureSeries:
+        """A series on the trace's windows (after the burn-in) with the feature's geometry."""
+        fs = self.series
+        settings = {**(fs.settings if fs is not None else {}), **extra}
+        geometry = fs.geometry() if fs is not None else {}
+        return FeatureSeries(self.time, values, name, settings, **geometry)
 
 
 def _as_recordings(recordings) -> Sequence:
@@ -260,9 +270,7 @@ class Detector(BaseEstimator):
         fs = self._feature_series(recording)
         t = np.asarray(fs.time, dtype=np.float64)
         v = np.asarray(fs.values, dtype=np.float64)
-        window = fs.params.get("window")
-        rate = fs.params.get("sample_rate")
-        start = t - (window - 1) / rate if window and rate else t.copy()
+        start = fs.window_start
         keep = start >= recording.start_time + self._alarm().burn_in_s
         return t[keep], start[keep], v[keep], fs
 
@@ -272,7 +280,7 @@ class Detector(BaseEstimator):
         z = (v - self.mean_) / self.std_
         a = self._alarm()
         s_up, s_down = cusum(z, a.drift, a.direction)
-        return _Trace(t, start, z, s_up, s_down, fs.name, dict(fs.params))
+        return _Trace(t, start, z, s_up, s_down, fs)
 
     # -------------------------------------------------------------- public API
     def _reference_maxima(self) -> ReferenceMaxima | None:
@@ -414,7 +422,7 @@ class Detector(BaseEstimator):
             ``z = (f - mean_) / std_`` (healthy standard deviations).
         """
         tr = self._trace(recording)
-        return FeatureSeries(tr.time, tr.z, f"z[{tr.name}]", tr.params)
+        return tr.derived(tr.z, f"z[{tr.name}]")
 
     def score(self, recording) -> FeatureSeries:
         """Evidence of a leak over time: the CUSUM ``max(S+, S-)`` in healthy std units.
@@ -431,8 +439,8 @@ class Detector(BaseEstimator):
             ``threshold_``.
         """
         tr = self._trace(recording)
-        return FeatureSeries(tr.time, np.maximum(tr.s_up, tr.s_down), f"cusum[{tr.name}]",
-                             {**tr.params, "threshold": self.threshold_})
+        return tr.derived(np.maximum(tr.s_up, tr.s_down), f"cusum[{tr.name}]",
+                          threshold=self.threshold_)
 
     def shift(self, recording, onset_s: float) -> float:
         """Mean standardised feature after minus before ``onset_s``.

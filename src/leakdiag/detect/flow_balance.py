@@ -574,9 +574,9 @@ class FlowBalanceDetector(Detector):
             One value per window (time = window end), after the burn-in.
         """
         t, _, _, g, _ = self._scan(recording, "score")
-        return FeatureSeries(t["end"], g, "glr[flow_balance]",
-                             {"window": self._window(recording) + 1,
-                              "sample_rate": recording.sample_rate, "threshold": self.threshold_})
+        return FeatureSeries(t["end"], g, "glr[flow_balance]", {"threshold": self.threshold_},
+                             window=self._window(recording) + 1,
+                             sample_rate=recording.sample_rate)
 
     def standardize(self, recording) -> FeatureSeries:
         """Per-window standardised leak-coefficient estimate ``k_w / se_w``.
@@ -594,9 +594,8 @@ class FlowBalanceDetector(Detector):
         """
         t, a, b, _, _ = self._scan(recording, "standardize")
         z = np.where(b > 0, a / np.sqrt(np.where(b > 0, b, 1.0)), 0.0)
-        return FeatureSeries(t["end"], z, "z[flow_balance]",
-                             {"window": self._window(recording) + 1,
-                              "sample_rate": recording.sample_rate})
+        return FeatureSeries(t["end"], z, "z[flow_balance]", window=self._window(recording) + 1,
+                             sample_rate=recording.sample_rate)
 
     def leak_estimates(self, recording):
         """Per-window leak estimates as a tidy table.

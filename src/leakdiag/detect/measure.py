@@ -3,20 +3,44 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 
 from leakdiag._validation import check_int
+from leakdiag.features.registry import feature_names, feature_record
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["RMSChange", "rms_change", "pct_change", "chunk_rms", "Decision", "decide_change",
            "EXPECTED_DIRECTION", "DECISIONS"]
 
-#: Direction in which a leak moves each thesis feature: the thesis sees the auto- and
-#: cross-correlations fall and the metric-length ratio rise after a leak (Ch. 5, Tables 5-1 to
-#: 5-12); the moments have no stated direction. See docs/measure.md, "Decisions".
-EXPECTED_DIRECTION: dict[str, str] = {"autocorrelation": "down", "cross-correlation": "down",
-                                      "metric-length": "up"}
+
+
+class _Directions(Mapping):
+    """Feature name -> expected direction, read from the feature registry when asked."""
+
+    def _items(self) -> dict[str, str]:
+        return {n: feature_record(n).direction for n in feature_names()
+                if feature_record(n).direction is not None}
+
+    def __getitem__(self, key: str) -> str:
+        return self._items()[key]
+
+    def __iter__(self):
+        return iter(self._items())
+
+    def __len__(self) -> int:
+        return len(self._items())
+
+    def __repr__(self) -> str:
+        return repr(self._items())
+
+
+#: Direction in which a leak moves each feature (``FeatureRecord.direction``, read from the
+#: registry): the thesis sees the auto- and cross-correlations fall and the metric-length ratio
+#: rise after a leak (Ch. 5, Tables 5-1 to 5-12); the moments have no stated direction. See
+#: docs/measure.md, "Decisions".
+EXPECTED_DIRECTION: Mapping[str, str] = _Directions()
 #: The three decision words, as written in ``verdict.csv``.
 DECISIONS = ("leak", "no-leak", "inconclusive")
 
@@ -163,8 +187,8 @@ def rms_change(fs: FeatureSeries, onset: float, chunk: int = 10) -> RMSChange:
     Parameters
     ----------
     fs : FeatureSeries
-        Feature series; ``fs.params`` may hold ``window`` (samples) and ``sample_rate`` (Hz) so
-        that each window's first sample time is known.
+        Feature series; its window geometry gives each window's first sample time
+        (:attr:`FeatureSeries.window_start`; a series without a window has instantaneous values).
     onset : float
         Leak onset time in seconds (same time base as ``fs.time``).
     chunk : int, default 10
@@ -206,9 +230,7 @@ def rms_change(fs: FeatureSeries, onset: float, chunk: int = 10) -> RMSChange:
     chunk = check_int(chunk, "chunk", 1)
     onset = float(onset)
     t_last = np.asarray(fs.time, dtype=np.float64)
-    window = fs.params.get("window")
-    rate = fs.params.get("sample_rate", 1.0)
-    t_first = t_last - (window - 1) / rate if window else t_last
+    t_first = fs.window_start
     m = len(t_last)
     k = m // chunk
     rms, n_valid = chunk_rms(fs.values, chunk)

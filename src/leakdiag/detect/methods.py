@@ -2,7 +2,7 @@
 
 * :class:`FeatureDetector` -- one windowed feature of :mod:`leakdiag.features` (autocorrelation
   of P1 or P2, cross-correlation of P1 and P2 or of U and X, ratio of metric lengths), given by the
-  same settings as :class:`leakdiag.features.methods.MethodSpec`.
+  same settings as :class:`leakdiag.features.spec.MethodSpec`.
 * :class:`CombinedDetector` -- several features at once: the Mahalanobis distance of the feature
   vector from its healthy mean (healthy covariance), on the time grid of the coarsest feature.
 """
@@ -15,7 +15,10 @@ import numpy as np
 
 from leakdiag._validation import check_int
 from leakdiag.detect.base import Detector
+from leakdiag.features import DegenerateWindowWarning
+from leakdiag.features.registry import feature_names
 from leakdiag.features.series import FeatureSeries
+from leakdiag.features.spec import MethodSpec, compute_feature, thesis_defaults
 
 __all__ = ["FeatureDetector", "CombinedDetector", "thesis_detector"]
 
@@ -43,7 +46,7 @@ class FeatureDetector(Detector):
 
     Notes
     -----
-    The feature is computed by :func:`leakdiag.features.methods.compute_feature`; the alarm,
+    The feature is computed by :func:`leakdiag.features.spec.compute_feature`; the alarm,
     threshold and onset logic is the shared one of :class:`~leakdiag.detect.base.Detector`.
 
     References
@@ -67,32 +70,26 @@ class FeatureDetector(Detector):
         self.alarm = alarm
 
     def spec(self):
-        """The :class:`~leakdiag.features.methods.MethodSpec` of this detector's feature.
+        """The :class:`~leakdiag.features.spec.MethodSpec` of this detector's feature.
 
         Returns
         -------
         MethodSpec
         """
-        from leakdiag.features.methods import MethodSpec
-
         return MethodSpec(self.method, tuple(self.channels or ()), lag=self.lag,
                           lag_ratio=self.lag_ratio, window=self.window, overlap=self.overlap)
 
     def _feature_series(self, recording) -> FeatureSeries:
-        from leakdiag.features import DegenerateWindowWarning
-        from leakdiag.features.methods import compute_feature
-
         spec = self.spec()
-        if spec.method == "moments":
-            raise ValueError("FeatureDetector takes autocorrelation, cross-correlation or "
-                             "metric-length, not moments")
+        if spec.record.outputs:
+            raise ValueError(f"FeatureDetector takes a single-valued feature "
+                             f"({', '.join(feature_names(single=True))}), not {spec.method}")
         with warnings.catch_warnings():
             # zero-variance windows are NaN and skipped by the alarm (docs/detect.md); counted
             warnings.simplefilter("ignore", DegenerateWindowWarning)
             fs = compute_feature(recording, spec)
-        params = dict(fs.params)
-        params["n_nan_windows"] = int(np.count_nonzero(~np.isfinite(fs.values)))
-        return FeatureSeries(fs.time, fs.values, spec.label, params)
+        n_nan = int(np.count_nonzero(~np.isfinite(fs.values)))
+        return fs.with_values(fs.values, spec.label, {**fs.settings, "n_nan_windows": n_nan})
 
 
 def thesis_detector(system: str, method: str, channels=None, alarm=None) -> FeatureDetector:
@@ -123,8 +120,6 @@ def thesis_detector(system: str, method: str, channels=None, alarm=None) -> Feat
     >>> thesis_detector("vca", "metric-length").window
     500
     """
-    from leakdiag.features.methods import thesis_defaults
-
     specs = thesis_defaults(system, method)
     if channels is not None:
         specs = tuple(s for s in specs if s.channels == tuple(channels))
@@ -195,16 +190,14 @@ class CombinedDetector(Detector):
             with np.errstate(invalid="ignore", divide="ignore"):
                 avg[k - 1:] = np.where(cnt > 0, (c[k:] - c[:-k]) / cnt, np.nan)
             mat = avg
-        return np.asarray(ref.time), mat, dict(ref.params)
+        return np.asarray(ref.time), mat, ref
 
     def _fit_features(self, recordings: list) -> None:
         burn = self._alarm().burn_in_s
         rows = []
         for rec in recordings:
-            t, m, params = self._matrix(rec)
-            w, fs = params.get("window"), params.get("sample_rate")
-            start = t - (w - 1) / fs if w and fs else t
-            rows.append(m[start >= rec.start_time + burn])
+            _, m, ref = self._matrix(rec)
+            rows.append(m[ref.window_start >= rec.start_time + burn])
         mat = np.concatenate(rows)
         mat = mat[np.isfinite(mat).all(axis=1)]
         if len(mat) <= mat.shape[1]:
@@ -217,8 +210,8 @@ class CombinedDetector(Detector):
     def _feature_series(self, recording) -> FeatureSeries:
         if not hasattr(self, "feature_precision_"):
             raise ValueError("CombinedDetector is not fitted; call fit(healthy_recordings) first")
-        t, m, params = self._matrix(recording)
+        _, m, ref = self._matrix(recording)
         d = m - self.feature_mean_
         d2 = np.einsum("ij,jk,ik->i", d, self.feature_precision_, d)
         name = "mahalanobis[" + "; ".join(x.spec().label for x in self.detectors) + "]"
-        return FeatureSeries(t, np.sqrt(np.maximum(d2, 0.0)), name, params)
+        return ref.with_values(np.sqrt(np.maximum(d2, 0.0)), name)

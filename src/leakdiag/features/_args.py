@@ -11,7 +11,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from leakdiag._validation import as_1d_float, as_2d_float, check_finite, check_overlap, check_positive
+from leakdiag._validation import (
+    as_1d_float,
+    as_2d_float,
+    check_finite,
+    check_length,
+    check_overlap,
+    check_positive,
+    parse_lag_ratio,
+)
 from leakdiag.features.windowing import n_windows, window_step
 
 __all__ = [
@@ -21,7 +29,6 @@ __all__ = [
     "channel_names",
     "check_window",
     "check_lag",
-    "parse_lag_ratio",
     "check_length",
     "check_starts",
     "finish_finite_check",
@@ -121,43 +128,6 @@ def check_lag(lag, window: int) -> int:
     return lag
 
 
-def parse_lag_ratio(lag_ratio, window: int) -> tuple[int, int]:
-    """Parse a metric-length lag ratio ``"l:k"`` (or a tuple ``(l, k)``) into ``(l, k)``.
-
-    ``l > k >= 1`` and ``l < window`` are required (Eq. 4.3).
-    """
-    if isinstance(lag_ratio, str):
-        parts = lag_ratio.split(":")
-        try:
-            if len(parts) != 2:
-                raise ValueError
-            l_step, k_step = int(parts[0].strip()), int(parts[1].strip())
-        except ValueError:
-            raise ValueError(f"lag_ratio={lag_ratio!r} must look like 'l:k', e.g. '83:3'") from None
-    else:
-        try:
-            l_raw, k_raw = lag_ratio
-        except (TypeError, ValueError):
-            raise TypeError(f"lag_ratio={lag_ratio!r} must be 'l:k' or a pair (l, k)") from None
-        for v in (l_raw, k_raw):
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-                raise TypeError(f"lag_ratio={lag_ratio!r} must hold integers")
-        l_step, k_step = int(l_raw), int(k_raw)
-    if not l_step > k_step >= 1:
-        raise ValueError(f"lag_ratio={lag_ratio!r} needs l > k >= 1, got l={l_step}, k={k_step}")
-    if l_step >= window:
-        raise ValueError(f"lag_ratio={lag_ratio!r}: l={l_step} must be < window={window}")
-    return l_step, k_step
-
-
-def check_length(n_samples: int, window: int) -> None:
-    """Raise if the signal is shorter than one window."""
-    if n_samples < window:
-        raise ValueError(
-            f"signal length {n_samples} is shorter than one window (window={window} samples)"
-        )
-
-
 def check_starts(starts, n_samples: int, window: int) -> np.ndarray:
     """Window start indices as int64, each with ``0 <= start <= n_samples - window``.
 
@@ -213,14 +183,14 @@ class WindowPlan:
     sample_rate: float
     start_time: float
 
-    def settings(self, channels: tuple[str, ...]) -> dict:
-        """The windowing entries of a feature's ``params``, in the order every feature uses.
+    def geometry(self, channels: tuple[str, ...]) -> dict:
+        """The geometry fields of a :class:`~leakdiag.features.FeatureSeries` on these windows.
 
         ``window``, ``overlap``, ``step``, ``channels``, ``sample_rate`` and ``start_time``
-        (the last two as checked ``float``).
+        (the last two as checked ``float``), as keyword arguments.
         """
         return {"window": self.window, "overlap": self.overlap, "step": self.step,
-                "channels": channels, "sample_rate": self.sample_rate,
+                "channels": tuple(channels), "sample_rate": self.sample_rate,
                 "start_time": self.start_time}
 
 

@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from leakdiag.features import _args
-from leakdiag.features._blocksums import (
+from leakdiag.features._kernels.blocksums import (
     autocorrelation_regular,
     autocorrelation_sorted,
     cross_correlation_regular,
     cross_correlation_sorted,
 )
 from leakdiag.features._degenerate import warn_degenerate
-from leakdiag.features._stepsums import (
+from leakdiag.features._kernels.stepsums import (
     autocorrelation_steps_regular,
     cross_correlation_steps_regular,
     use_step_kernels,
@@ -70,8 +70,8 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
     -------
     FeatureSeries
         ``values`` (dimensionless, one per window, NaN for zero-variance windows) and ``time``
-        (s, time of each window's last sample); ``params`` holds ``lag``, ``window``,
-        ``overlap``, ``step``, ``channels``, ``sample_rate``, ``start_time``.
+        (s, time of each window's last sample); ``settings`` holds ``lag``; the geometry fields
+        ``window``, ``overlap``, ``step``, ``channels``, ``sample_rate``, ``start_time`` are set.
 
     Raises
     ------
@@ -96,7 +96,7 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
 
     The numerator has :math:`N - \tau` terms, the denominator :math:`N`, so a perfectly
     correlated window gives about :math:`(N - \tau)/N`, not 1. Computed in O(n) for all windows
-    with anchored block sums (:mod:`leakdiag.features._blocksums`), to about 1e-12 relative of
+    with anchored block sums (:mod:`leakdiag.features._kernels.blocksums`), to about 1e-12 relative of
     a two-pass evaluation. :func:`autocorrelation_at` evaluates arbitrary window starts.
 
     References
@@ -111,21 +111,44 @@ def autocorrelation(x, lag: int = 1, window: int = 200, overlap: float = 5.0,
     >>> t = np.arange(2000) / 1000.0
     >>> fs = autocorrelation(np.sin(2 * np.pi * 5 * t), lag=10, window=200, overlap=50,
     ...                      sample_rate=1000.0)
-    >>> len(fs), fs.params["step"], round(float(fs.values[0]), 3)
+    >>> len(fs), fs.step, round(float(fs.values[0]), 3)
     (19, 100, 0.953)
     """
     x_arr = _args.signal_1d(x, "x", finite=False)  # checked with the kernel's help below
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
+    return autocorrelation_planned(x_arr, lag, plan, _args.channel_names(x, "x"))
+
+
+def autocorrelation_planned(x_arr: np.ndarray, lag: int, plan: _args.WindowPlan,
+                            channels: tuple[str, ...]) -> FeatureSeries:
+    """Eq. 4.1 on a checked signal over a checked window plan (the registry's batch path).
+
+    Parameters
+    ----------
+    x_arr : numpy.ndarray
+        Writeable C-contiguous float64 signal (its finiteness is checked here, cheaply).
+    lag : int
+        Checked lag, ``0 < lag < plan.window``.
+    plan : WindowPlan
+        The regular windows (:func:`leakdiag.features._args.plan_windows`).
+    channels : tuple of str
+        Channel name(s) recorded in the series.
+
+    Returns
+    -------
+    FeatureSeries
+        As :func:`autocorrelation`.
+    """
     regular = (autocorrelation_steps_regular if use_step_kernels(plan.step, lag)
                else autocorrelation_regular)
     values, time, n_bad, n_nonfinite = regular(
-        x_arr, lag, window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
+        x_arr, lag, plan.window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
-    warn_degenerate(n_bad, len(values), "zero variance")
-    params = {"lag": lag, **plan.settings(_args.channel_names(x, "x"))}
-    return FeatureSeries(time, values, "autocorrelation", params)
+    warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
+    return FeatureSeries(time, values, "autocorrelation", {"lag": lag},
+                         **plan.geometry(channels))
 
 
 def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.0,
@@ -154,8 +177,8 @@ def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.
     -------
     FeatureSeries
         Dimensionless values (NaN where ``x`` or ``y`` has zero variance in the window) and
-        window times in s; ``params`` as for :func:`autocorrelation`, ``channels`` is
-        ``(y name, x name)``.
+        window times in s; settings and geometry as for :func:`autocorrelation`, ``channels``
+        is ``(y name, x name)``.
 
     Raises
     ------
@@ -196,16 +219,41 @@ def cross_correlation(y, x, lag: int = 1, window: int = 100, overlap: float = 5.
     window = _args.check_window(window)
     lag = _args.check_lag(lag, window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
+    channels = _args.channel_names(y, "y") + _args.channel_names(x, "x")
+    return cross_correlation_planned(y_arr, x_arr, lag, plan, channels)
+
+
+def cross_correlation_planned(y_arr: np.ndarray, x_arr: np.ndarray, lag: int,
+                              plan: _args.WindowPlan, channels: tuple[str, ...]
+                              ) -> FeatureSeries:
+    """Eq. 4.2 on checked signals over a checked window plan (the registry's batch path).
+
+    Parameters
+    ----------
+    y_arr, x_arr : numpy.ndarray
+        Writeable C-contiguous float64 signals of equal length.
+    lag : int
+        Checked lag, ``0 < lag < plan.window``.
+    plan : WindowPlan
+        The regular windows.
+    channels : tuple of str
+        ``(y name, x name)``.
+
+    Returns
+    -------
+    FeatureSeries
+        As :func:`cross_correlation`.
+    """
     regular = (cross_correlation_steps_regular if use_step_kernels(plan.step, lag)
                else cross_correlation_regular)
     values, time, n_bad, n_nonfinite = regular(
-        y_arr, x_arr, lag, window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
+        y_arr, x_arr, lag, plan.window, plan.step, plan.n_windows, plan.sample_rate,
+        plan.start_time)
     _args.finish_finite_check(y_arr, "y", n_nonfinite, plan)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
-    warn_degenerate(n_bad, len(values), "zero variance")
-    channels = _args.channel_names(y, "y") + _args.channel_names(x, "x")
-    params = {"lag": lag, **plan.settings(channels)}
-    return FeatureSeries(time, values, "cross_correlation", params)
+    warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
+    return FeatureSeries(time, values, "cross-correlation", {"lag": lag},
+                         **plan.geometry(channels))
 
 
 def autocorrelation_at(x, lag: int, starts, window: int) -> np.ndarray:

@@ -7,10 +7,11 @@ import math
 import numba
 import numpy as np
 
+from leakdiag._validation import parse_lag_ratio
 from leakdiag.features import _args
-from leakdiag.features._chunks import CHUNK, NO_STARTS, fill_times
+from leakdiag.features._kernels.chunks import CHUNK, NO_STARTS, fill_times
 from leakdiag.features._degenerate import warn_degenerate
-from leakdiag.features._stepsums import metric_steps_regular, use_step_kernels
+from leakdiag.features._kernels.stepsums import metric_steps_regular, use_step_kernels
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["metric_length_ratio", "metric_length_ratio_at"]
@@ -37,7 +38,7 @@ def _metric_core(x, l_step, k_step, window, starts, step, out):  # pragma: no co
     Sums over ``j = s .. s+N-l-1`` of ``||x_{j+k} - x_j||`` and ``||x_{j+l} - x_j||`` (Euclidean
     norm over the channels of ``x``, shape ``(n, c)``, Eq. 4.4), each split into the tail of the
     block of ``M = N - l`` terms holding ``s`` and the head of the next block, grown window by
-    window as in :mod:`leakdiag.features._blocksums` (backward for tails, forward for heads).
+    window as in :mod:`leakdiag.features._kernels.blocksums` (backward for tails, forward for heads).
     The terms are non-negative, so no anchor is needed: a window sum adds two partial sums of at
     most ``M`` terms of the window itself (relative error a few ulps times ``M``). The terms are
     computed on the fly (an inner function, which Numba inlines), never stored for the signal.
@@ -165,8 +166,8 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
     -------
     FeatureSeries
         Dimensionless ratio per window (NaN where the denominator is zero) and window times in
-        s; ``params`` holds ``lag_ratio`` (``"l:k"``), ``l``, ``k``, ``window``, ``overlap``,
-        ``step``, ``channels``, ``sample_rate``, ``start_time``.
+        s; ``settings`` holds ``lag_ratio`` (``"l:k"``), ``l``, ``k``; the geometry fields
+        ``window``, ``overlap``, ``step``, ``channels``, ``sample_rate``, ``start_time`` are set.
 
     Raises
     ------
@@ -202,13 +203,38 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
     >>> fs = metric_length_ratio(ramp, lag_ratio="83:3", window=500, overlap=50)
     >>> fs.values.round(6).tolist() == [round(3 / 83, 6)] * 3
     True
-    >>> fs.params["lag_ratio"], fs.params["step"]
+    >>> fs.settings["lag_ratio"], fs.step
     ('83:3', 250)
     """
     x2 = _args.signal_2d(x, "x", finite=False)  # checked with the kernel's help below
     window = _args.check_window(window)
-    l_step, k_step = _args.parse_lag_ratio(lag_ratio, window)
+    lag_ratio = parse_lag_ratio(lag_ratio, window)
     plan = _args.plan_windows(len(x2), window, overlap, sample_rate, start_time)
+    return metric_length_planned(x2, lag_ratio, plan, _args.channel_names(x, "x", x2.shape[1]))
+
+
+def metric_length_planned(x2: np.ndarray, lag_ratio: tuple[int, int], plan: _args.WindowPlan,
+                          channels: tuple[str, ...]) -> FeatureSeries:
+    """Eq. 4.3-4.4 on a checked signal over a checked window plan (the registry's batch path).
+
+    Parameters
+    ----------
+    x2 : numpy.ndarray
+        Writeable C-contiguous float64 signal, shape ``(n, c)``.
+    lag_ratio : tuple of int
+        Checked ``(l, k)``, ``l > k >= 1``, ``l < plan.window``.
+    plan : WindowPlan
+        The regular windows.
+    channels : tuple of str
+        Channel names.
+
+    Returns
+    -------
+    FeatureSeries
+        As :func:`metric_length_ratio`.
+    """
+    l_step, k_step = lag_ratio
+    window = plan.window
     if x2.shape[1] == 1 and use_step_kernels(plan.step):
         values, time, n_bad, n_nonfinite = metric_steps_regular(
             x2.reshape(-1), l_step, k_step, window, plan.step, plan.n_windows, plan.sample_rate,
@@ -218,11 +244,9 @@ def metric_length_ratio(x, lag_ratio="83:3", window: int = 500, overlap: float =
             x2, l_step, k_step, window, plan.step, plan.n_windows, plan.sample_rate,
             plan.start_time)
     _args.finish_finite_check(x2, "x", n_nonfinite, plan)
-    warn_degenerate(n_bad, len(values), _DEGENERATE)
-    channels = _args.channel_names(x, "x", x2.shape[1])
-    params = {"lag_ratio": f"{l_step}:{k_step}", "l": l_step, "k": k_step,
-              **plan.settings(channels)}
-    return FeatureSeries(time, values, "metric_length_ratio", params)
+    warn_degenerate(n_bad, len(values), _DEGENERATE, stacklevel=4)
+    settings = {"lag_ratio": f"{l_step}:{k_step}", "l": l_step, "k": k_step}
+    return FeatureSeries(time, values, "metric-length", settings, **plan.geometry(channels))
 
 
 def metric_length_ratio_at(x, lag_ratio, starts, window: int) -> np.ndarray:
@@ -267,6 +291,6 @@ def metric_length_ratio_at(x, lag_ratio, starts, window: int) -> np.ndarray:
     """
     x2 = _args.signal_2d(x, "x")
     window = _args.check_window(window)
-    l_step, k_step = _args.parse_lag_ratio(lag_ratio, window)
+    l_step, k_step = parse_lag_ratio(lag_ratio, window)
     starts = _args.check_starts(starts, len(x2), window)
     return _ratio_values(x2, l_step, k_step, starts, window)

@@ -6,15 +6,18 @@ import numba
 import numpy as np
 
 from leakdiag.features import _args
-from leakdiag.features._chunks import CHUNK, NO_STARTS, UINT, fill_times
+from leakdiag.features._kernels.chunks import CHUNK, NO_STARTS, UINT, fill_times
 from leakdiag.features._degenerate import warn_degenerate
-from leakdiag.features._stepsums import moments_steps_regular, use_step_kernels
-from leakdiag.features._values import moment_values
+from leakdiag.features._kernels.stepsums import moments_steps_regular, use_step_kernels
+from leakdiag.features._kernels.values import moment_values
+from leakdiag.features.series import FeatureSeries
 
-__all__ = ["moments", "moments_at", "MOMENT_COLUMNS"]
+__all__ = ["moments", "moments_at", "MOMENT_NAMES", "MOMENT_COLUMNS", "to_frame"]
 
-#: Columns of the :func:`moments` DataFrame.
-MOMENT_COLUMNS = ("time", "mean", "variance", "skewness", "kurtosis")
+#: The four moments of Eq. 4.11-4.14, in the order :func:`moments` returns them.
+MOMENT_NAMES = ("mean", "variance", "skewness", "kurtosis")
+#: Columns of :func:`to_frame` applied to the moments: the window time, then the moments.
+MOMENT_COLUMNS = ("time",) + MOMENT_NAMES
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -40,7 +43,7 @@ def _moment_core(x, window, starts, step, out):  # pragma: no cover - compiled
     """Mean, variance (Eq. 4.12), skewness and kurtosis per window into the rows of ``out``.
 
     Windows ``s_k = k * step`` (``step > 0``) or the sorted ``starts`` (``step = 0``). The
-    anchored block sums of :mod:`leakdiag.features._blocksums` (blocks of N samples; tail and
+    anchored block sums of :mod:`leakdiag.features._kernels.blocksums` (blocks of N samples; tail and
     head of each window summed about the block's last sample ``x[e - 1]``, a sample of the
     window), shifted exactly to the window mean by the binomial expansion. Returns the numbers
     of constant windows and of windows whose sums are not finite (NaN/inf input).
@@ -177,11 +180,12 @@ def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.
 
     Returns
     -------
-    pandas.DataFrame
-        One row per window, columns ``time`` (s, last sample of the window), ``mean`` (unit of
-        ``x``), ``variance`` (unit squared, population, divide by N), ``skewness`` and
-        ``kurtosis`` (dimensionless, NaN for a constant window). ``df.attrs`` holds the settings
-        (``window``, ``overlap``, ``step``, ``channels``, ``sample_rate``, ``start_time``).
+    tuple of FeatureSeries
+        Four series on the same windows, named and ordered as :data:`MOMENT_NAMES`: ``mean``
+        (unit of ``x``), ``variance`` (unit squared, population, divide by N), ``skewness`` and
+        ``kurtosis`` (dimensionless, NaN for a constant window); time in s (last sample of
+        the window). Each has ``settings={"moment": name}`` and the window geometry.
+        :func:`to_frame` makes one DataFrame of them.
 
     Raises
     ------
@@ -214,23 +218,83 @@ def moments(x, window: int = 400, overlap: float = 50.0, sample_rate: float = 1.
 
     Examples
     --------
-    >>> df = moments([1.0, 2.0, 3.0, 10.0], window=4, overlap=0)
-    >>> df.round(4).iloc[0].tolist()
+    >>> series = moments([1.0, 2.0, 3.0, 10.0], window=4, overlap=0)
+    >>> [(fs.name, round(float(fs.values[0]), 4)) for fs in series]
+    [('mean', 4.0), ('variance', 12.5), ('skewness', 0.8818), ('kurtosis', 1.6728)]
+    >>> to_frame(series).round(4).iloc[0].tolist()
     [3.0, 4.0, 12.5, 0.8818, 1.6728]
     """
-    import pandas as pd
-
     x_arr = _args.signal_1d(x, "x", finite=False)  # checked with the kernel's help below
     window = _args.check_window(window)
     plan = _args.plan_windows(len(x_arr), window, overlap, sample_rate, start_time)
+    return moments_planned(x_arr, plan, _args.channel_names(x, "x"))
+
+
+def moments_planned(x_arr: np.ndarray, plan: _args.WindowPlan, channels: tuple[str, ...]
+                    ) -> tuple[FeatureSeries, ...]:
+    """Eq. 4.11-4.14 on a checked signal over a checked window plan (the registry's batch path).
+
+    Parameters
+    ----------
+    x_arr : numpy.ndarray
+        Writeable C-contiguous float64 signal.
+    plan : WindowPlan
+        The regular windows.
+    channels : tuple of str
+        Channel name.
+
+    Returns
+    -------
+    tuple of FeatureSeries
+        As :func:`moments`.
+    """
+    window = plan.window
     regular = moments_steps_regular if use_step_kernels(plan.step) else _moments_regular
     buf, n_bad, n_nonfinite = regular(x_arr, window, plan.step, plan.n_windows,
                                       plan.sample_rate, plan.start_time)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
-    warn_degenerate(n_bad, plan.n_windows, "zero variance (skewness and kurtosis)")
-    # one (5, m) block, handed to pandas without a copy (a fresh copy costs page faults)
-    df = pd.DataFrame(buf.T, columns=list(MOMENT_COLUMNS), copy=False)
-    df.attrs.update(plan.settings(_args.channel_names(x, "x")))
+    warn_degenerate(n_bad, plan.n_windows, "zero variance (skewness and kurtosis)", stacklevel=4)
+    # one (5, m) block: row 0 the times, rows 1-4 the moments (views, no copy)
+    geometry = plan.geometry(channels)
+    return tuple(FeatureSeries(buf[0], buf[i + 1], name, {"moment": name}, **geometry)
+                 for i, name in enumerate(MOMENT_NAMES))
+
+
+def to_frame(series) -> "pandas.DataFrame":
+    """Series on the same windows as one tidy DataFrame (``time`` and one column per series).
+
+    Parameters
+    ----------
+    series : sequence of FeatureSeries
+        Series with equal times (e.g. the four of :func:`moments`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``time`` then each series' name; ``df.attrs`` holds the first series' geometry
+        (``window``, ``overlap``, ``step``, ``channels``, ``sample_rate``, ``start_time``).
+
+    Raises
+    ------
+    ValueError
+        If the series are empty or their times differ.
+
+    Examples
+    --------
+    >>> list(to_frame(moments(np.arange(8.0), window=4, overlap=0)).columns)
+    ['time', 'mean', 'variance', 'skewness', 'kurtosis']
+    """
+    import pandas as pd
+
+    series = tuple(series)
+    if not series:
+        raise ValueError("to_frame needs at least one FeatureSeries")
+    time = np.asarray(series[0].time)
+    for fs in series[1:]:
+        if np.shape(fs.time) != time.shape or not np.array_equal(fs.time, time):
+            raise ValueError(f"series {fs.name!r} is not on the windows of {series[0].name!r}")
+    df = pd.DataFrame({"time": time, **{fs.name: np.asarray(fs.values) for fs in series}})
+    df.attrs.update(series[0].geometry())
     return df
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from leakdiag._validation import check_int
+from leakdiag._validation import check_length as check_samples
 from leakdiag.io.errors import RecordingError
 
 __all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "UNIFORM_TIME_RTOL",
@@ -137,16 +138,14 @@ def check_length(rec, window: int, channel: str | None = None) -> None:
     >>> check_length(rec, 200, "p1")
     Traceback (most recent call last):
     ...
-    leakdiag.io.errors.RecordingError: run.csv: channel 'p1' has 150 samples (0.15 s), fewer than one window of 200 samples; use a smaller window or a longer recording
+    leakdiag.io.errors.RecordingError: run.csv: channel 'p1' has 150 samples (0.15 s), shorter than one window (window=200); use a smaller window or a longer recording
     """
     window = check_int(window, "window", 1)
     source = rec.meta.get("source", "<recording>")
     if channel is not None:
         rec.require(channel)
-    n = rec.n_samples
-    if n < window:
-        what = f"channel {channel!r}" if channel is not None else "recording"
-        raise RecordingError(
-            f"{source}: {what} has {n} samples ({n / rec.sample_rate:g} s), fewer than one "
-            f"window of {window} samples; use a smaller window or a longer recording"
-        )
+    what = f"channel {channel!r}" if channel is not None else "recording"
+    try:
+        check_samples(rec.n_samples, window, f"{source}: {what}", rec.sample_rate)
+    except ValueError as exc:
+        raise RecordingError(f"{exc}; use a smaller window or a longer recording") from None

@@ -10,7 +10,7 @@ import numpy as np
 
 from leakdiag._validation import as_1d_float, check_int
 from leakdiag.features.series import FeatureSeries
-from leakdiag.features.windowing import window_starts, window_times
+from leakdiag.features.windowing import window_starts, window_step, window_times
 
 __all__ = ["windowed_rms", "windowed_mean", "check_channels", "channel_rms_feature"]
 
@@ -165,4 +165,6 @@ def channel_rms_feature(recording, channels, window: int, overlap: float, rms_of
         ms = r**2 if ms is None else ms + r**2
     starts = window_starts(recording.n_samples, window, overlap)
     times = window_times(starts, window, recording.sample_rate, recording.start_time)
-    return FeatureSeries(times, np.sqrt(ms), name, params)
+    return FeatureSeries(times, np.sqrt(ms), name, params, window=window, overlap=overlap,
+                         step=window_step(window, overlap), channels=tuple(channels),
+                         sample_rate=recording.sample_rate, start_time=recording.start_time)

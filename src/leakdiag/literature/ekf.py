@@ -15,7 +15,7 @@ import numpy as np
 
 from leakdiag._validation import check_finite, check_int, check_overlap, check_positive
 from leakdiag.features.series import FeatureSeries
-from leakdiag.features.windowing import window_starts, window_times
+from leakdiag.features.windowing import window_starts, window_step, window_times
 from leakdiag.literature._ekf_kernel import ekf_vca_kernel
 from leakdiag.literature._windowed import windowed_mean
 from leakdiag.sim.leak import LPM_PER_M3S
@@ -341,6 +341,7 @@ def ekf_feature(recording, params: EKFParams = EKFParams()) -> FeatureSeries:
     starts = window_starts(recording.n_samples, params.window, params.overlap)
     times = window_times(starts, params.window, recording.sample_rate, recording.start_time)
     return FeatureSeries(times, values, f"ekf_{params.feature}",
-                         {"feature": params.feature, "window": params.window,
-                          "overlap": params.overlap, "sample_rate": recording.sample_rate,
-                          "leak_model": params.leak_model, "load": params.load})
+                         {"feature": params.feature, "leak_model": params.leak_model,
+                          "load": params.load}, window=params.window, overlap=params.overlap,
+                         step=window_step(params.window, params.overlap),
+                         sample_rate=recording.sample_rate, start_time=recording.start_time)

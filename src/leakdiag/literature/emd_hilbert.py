@@ -192,8 +192,5 @@ def emd_hilbert_feature(recording, params: EMDHilbertParams = EMDHilbertParams()
 
     return channel_rms_feature(recording, params.channels, params.window, params.overlap,
                                rms_of, "emd_hilbert",
-                               {"channels": params.channels, "window": params.window,
-                                "overlap": params.overlap, "block": params.block,
-                                "margin": params.margin,
-                                "sifting_iterations": params.sifting_iterations,
-                                "sample_rate": recording.sample_rate})
+                               {"block": params.block, "margin": params.margin,
+                                "sifting_iterations": params.sifting_iterations})

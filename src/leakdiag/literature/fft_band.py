@@ -194,5 +194,4 @@ def fft_band_feature(recording, params: FFTBandParams = FFTBandParams()) -> Feat
     return channel_rms_feature(
         recording, params.channels, params.window, params.overlap,
         lambda p: fft_band_rms(p, fs_hz, params.window, params.overlap, band), "fft_band",
-        {"channels": params.channels, "band_hz": band, "window": params.window,
-         "overlap": params.overlap, "sample_rate": fs_hz})
+        {"band_hz": band})

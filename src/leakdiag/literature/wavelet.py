@@ -257,5 +257,4 @@ def wavelet_feature(recording, params: WaveletParams = WaveletParams()) -> Featu
         recording, params.channels, params.window, params.overlap,
         lambda p: wavelet_detail_rms(p, params.window, params.overlap, params.wavelet, level),
         "wavelet",
-        {"channels": params.channels, "wavelet": params.wavelet, "level": level,
-         "window": params.window, "overlap": params.overlap, "sample_rate": fs_hz})
+        {"wavelet": params.wavelet, "level": level})

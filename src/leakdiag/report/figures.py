@@ -73,16 +73,16 @@ def plot_feature_series(series: Sequence, onset: float | None = None, titles: Se
 
 def _label(fs) -> str:
     p = fs.params
-    parts = [fs.name, str(p.get("channels", ""))]
+    parts = [fs.name, ",".join(fs.channels)]
     if p.get("lag") is not None:
         parts.append(f"lag {p['lag']}")
     if p.get("lag_ratio") is not None:
         lr = p["lag_ratio"]
         parts.append(f"lag ratio {lr if isinstance(lr, str) else '%d:%d' % tuple(lr)}")
-    if p.get("window") is not None:
-        parts.append(f"window {p['window']}")
-    if p.get("overlap") is not None:
-        parts.append(f"overlap {p['overlap']:g}%")
+    if fs.window is not None:
+        parts.append(f"window {fs.window}")
+    if fs.overlap is not None:
+        parts.append(f"overlap {fs.overlap:g}%")
     return ", ".join(x for x in parts if x)
 
 

@@ -1,6 +1,6 @@
 """Streaming: windowed features, detector scores and alarms computed chunk by chunk.
 
-Given a :class:`~leakdiag.features.methods.MethodSpec`, :class:`StreamingFeature` computes
+Given a :class:`~leakdiag.features.spec.MethodSpec`, :class:`StreamingFeature` computes
 Eq. 4.1-4.3 incrementally with a state of less than one window per channel; :class:`Monitor`
 combines features with detectors (the :class:`WindowScorer` protocol) into :class:`WindowEvent` s;
 :mod:`leakdiag.stream.files` reads Parquet/HDF5/CSV files in chunks (larger than memory),
@@ -8,7 +8,7 @@ combines features with detectors (the :class:`WindowScorer` protocol) into :clas
 See ``docs/operations.md``.
 """
 
-from leakdiag.stream.feature import STREAM_METHODS, StreamingFeature
+from leakdiag.stream.feature import StreamingFeature, stream_methods
 from leakdiag.stream.detector import DetectorScorer
 from leakdiag.stream.monitor import Monitor, WindowEvent, WindowScorer, check_scorer
 from leakdiag.stream.chunks import ChunkSource, recording_chunks
@@ -17,7 +17,7 @@ from leakdiag.stream.live import csv_lines, paced, tail_csv
 from leakdiag.stream.summary import stream_feature
 
 __all__ = [
-    "STREAM_METHODS",
+    "stream_methods",
     "StreamingFeature",
     "Monitor",
     "WindowEvent",

@@ -1,6 +1,6 @@
 """A windowed feature computed incrementally over chunks of any size.
 
-:class:`~leakdiag.features.methods.MethodSpec` says *what* is computed (method, channels,
+:class:`~leakdiag.features.spec.MethodSpec` says *what* is computed (method, channels,
 window, overlap, lag or lag ratio);
 :class:`StreamingFeature` keeps the smallest state that lets it compute each window as soon as
 its last sample arrives: the samples from the start of the next incomplete window onward, i.e.
@@ -14,16 +14,23 @@ from typing import Mapping
 import numpy as np
 
 from leakdiag._validation import as_1d_float, check_positive
-from leakdiag.features.methods import MethodSpec
+from leakdiag.features.registry import feature_names
 from leakdiag.features.series import FeatureSeries
+from leakdiag.features.spec import MethodSpec
 from leakdiag.features.windowing import window_step
-from leakdiag.features._blocksums import autocorrelation_sorted, cross_correlation_sorted
-from leakdiag.features.metric_length import _metric_sorted
 
-__all__ = ["StreamingFeature", "STREAM_METHODS"]
+__all__ = ["StreamingFeature", "stream_methods"]
 
-#: Methods the streaming path computes (canonical names of :mod:`leakdiag.features.methods`).
-STREAM_METHODS: tuple[str, ...] = ("autocorrelation", "cross-correlation", "metric-length")
+
+def stream_methods() -> tuple[str, ...]:
+    """Features the streaming path computes: the registry's streamable ones.
+
+    Returns
+    -------
+    tuple of str
+        Canonical names (see :func:`leakdiag.features.feature_names`).
+    """
+    return feature_names(streamable=True)
 
 
 def _as_column(values, name: str) -> np.ndarray:
@@ -40,7 +47,7 @@ class StreamingFeature:
     Parameters
     ----------
     spec : MethodSpec
-        Method and settings; one of :data:`STREAM_METHODS`.
+        Method and settings; a streamable feature (:func:`stream_methods`).
     sample_rate : float, default 1.0
         Sample rate in Hz (1.0 gives times in samples).
     start_time : float, default 0.0
@@ -72,10 +79,12 @@ class StreamingFeature:
     def __init__(self, spec: MethodSpec, sample_rate: float = 1.0, start_time: float = 0.0):
         if not isinstance(spec, MethodSpec):
             raise TypeError(f"spec must be a MethodSpec, got {type(spec).__name__}")
-        if spec.method not in STREAM_METHODS:
+        if not spec.record.streamable:
             raise ValueError(
-                f"method={spec.method!r} cannot be streamed; use one of {STREAM_METHODS}")
+                f"method={spec.method!r} cannot be streamed; use one of {stream_methods()}")
         self.spec = spec
+        self._kernel = spec.record.kernel
+        self._setting = spec.value
         self.sample_rate = check_positive(sample_rate, "sample_rate")
         self.start_time = float(start_time)
         self._step = window_step(spec.window, spec.overlap)
@@ -86,7 +95,10 @@ class StreamingFeature:
         self.n_samples_seen = 0
         self.n_windows = 0
         self.n_degenerate = 0
-        self._params = {**spec.as_dict(), "sample_rate": self.sample_rate}
+        self._settings = spec.record.setting_entries(spec.value)
+        self._geometry = dict(window=spec.window, overlap=spec.overlap, step=self._step,
+                              channels=spec.channels, sample_rate=self.sample_rate,
+                              start_time=self.start_time)
 
     @property
     def state_samples(self) -> int:
@@ -172,17 +184,10 @@ class StreamingFeature:
             self.n_degenerate += int(np.count_nonzero(np.isnan(values)))
         starts = (first + np.arange(n_win, dtype=np.float64)) * self._step
         times = self.start_time + (starts + (self.spec.window - 1)) / self.sample_rate
-        return FeatureSeries(times, values, self.spec.method, dict(self._params))
+        return FeatureSeries(times, values, self.spec.method, self._settings, **self._geometry)
 
     def _compute(self, work: np.ndarray, n_win: int) -> np.ndarray:
-        """The batch kernels of :mod:`leakdiag.features` on the buffer (first sample = a start)."""
-        spec = self.spec
+        """The feature's registry kernel on the buffer (first sample = a window start)."""
         starts = np.arange(n_win, dtype=np.int64) * self._step
-        if spec.method == "autocorrelation":
-            values, _ = autocorrelation_sorted(work[0], spec.lag, spec.window, starts)
-        elif spec.method == "cross-correlation":
-            values, _ = cross_correlation_sorted(work[0], work[1], spec.lag, spec.window, starts)
-        else:
-            ell, k = spec.lag_ratio
-            values, _ = _metric_sorted(np.ascontiguousarray(work.T), ell, k, spec.window, starts)
+        values, _ = self._kernel(tuple(work), self._setting, self.spec.window, starts)
         return values

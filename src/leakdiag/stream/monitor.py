@@ -22,7 +22,7 @@ from typing import Any, Iterable, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
-from leakdiag.features.methods import MethodSpec
+from leakdiag.features.spec import MethodSpec
 from leakdiag.stream.feature import StreamingFeature
 
 __all__ = ["Monitor", "WindowEvent", "WindowScorer", "check_scorer"]

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from leakdiag.features.series import FeatureSeries
-from leakdiag.features.methods import MethodSpec
+from leakdiag.features.spec import MethodSpec
+from leakdiag.features.windowing import window_step
 from leakdiag.stream.feature import StreamingFeature
 from leakdiag.stream.chunks import ChunkSource
 
@@ -65,6 +66,8 @@ def stream_feature(source: ChunkSource, spec: MethodSpec, progress: bool = False
             bar.close()
     t = np.concatenate(times) if times else np.empty(0)
     v = np.concatenate(values) if values else np.empty(0)
-    params = {**spec.as_dict(), "sample_rate": source.sample_rate,
-              "n_samples": feat.n_samples_seen, "n_degenerate": feat.n_degenerate}
-    return FeatureSeries(t, v, spec.method, params)
+    settings = {**spec.record.setting_entries(spec.value), "n_samples": feat.n_samples_seen,
+                "n_degenerate": feat.n_degenerate}
+    return FeatureSeries(t, v, spec.method, settings, window=spec.window, overlap=spec.overlap,
+                         step=window_step(spec.window, spec.overlap), channels=spec.channels,
+                         sample_rate=source.sample_rate, start_time=feat.start_time)

@@ -19,7 +19,10 @@ import numpy as np
 
 from leakdiag._validation import check_int
 from leakdiag.detect.measure import rms_change
+from leakdiag.features import DegenerateWindowWarning
+from leakdiag.features.registry import feature_names, feature_record, values_at
 from leakdiag.features.series import FeatureSeries
+from leakdiag.features.spec import MethodSpec, compute_feature
 from leakdiag.features.windowing import window_starts, window_step, window_times
 
 __all__ = ["MEASURE_COLUMNS", "SETTING_COLUMNS", "parse_lag", "lag_label", "grid", "grid_loop",
@@ -45,8 +48,6 @@ def quiet_degenerate():
     ------
     None
     """
-    from leakdiag.features import DegenerateWindowWarning
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DegenerateWindowWarning)
         yield
@@ -58,7 +59,7 @@ def parse_lag(method: str, lag) -> int | tuple[int, int]:
     Parameters
     ----------
     method : str
-        Method name (any alias of :func:`leakdiag.features.methods.normalize_method`).
+        Method name (any spelling the feature registry accepts).
     lag : int, str or tuple
         ``1``, ``"4"``, ``"83:3"`` or ``(83, 3)``.
 
@@ -76,17 +77,10 @@ def parse_lag(method: str, lag) -> int | tuple[int, int]:
     >>> parse_lag("ratio_of_metric_lengths", "83:3"), parse_lag("acf", "4")
     ((83, 3), 4)
     """
-    from leakdiag.features.methods import normalize_method, parse_lag_ratio
-
-    m = normalize_method(method)
-    if m == "metric-length":
-        return parse_lag_ratio(lag)
-    if isinstance(lag, str) and ":" in lag:
-        raise ValueError(f"lag={lag!r} is a lag ratio; {m} takes an integer lag")
-    try:
-        return int(lag)
-    except (TypeError, ValueError):
-        raise ValueError(f"lag={lag!r} must be an integer for {m}") from None
+    rec = feature_record(method)
+    if rec.setting is None:
+        raise ValueError(f"{rec.name} has no lag to sweep")
+    return rec.check_setting(lag)
 
 
 def lag_label(lag) -> str:
@@ -112,8 +106,6 @@ def lag_label(lag) -> str:
 
 
 def _spec(method, channels, lag, window, overlap):
-    from leakdiag.features.methods import MethodSpec
-
     if isinstance(lag, tuple):
         return MethodSpec(method, tuple(channels), lag_ratio=lag, window=window, overlap=overlap)
     return MethodSpec(method, tuple(channels), lag=lag, window=window, overlap=overlap)
@@ -168,35 +160,6 @@ def measure_row(fs: FeatureSeries, onset: float, chunk: int, method: str, channe
     return row
 
 
-def _at_function(method: str):
-    """The features' evaluate-at-starts kernel for a method, or None if not available."""
-    import importlib
-
-    name = {"autocorrelation": "autocorrelation_at", "cross-correlation": "cross_correlation_at",
-            "metric-length": "metric_length_ratio_at"}.get(method)
-    if name is None:
-        return None
-    for mod in ("leakdiag.features", "leakdiag.features.correlation",
-                "leakdiag.features.metric_length"):
-        try:
-            fn = getattr(importlib.import_module(mod), name, None)
-        except ImportError:
-            fn = None
-        if fn is not None:
-            return fn
-    return None
-
-
-def _values_at(fn, method, recording, channels, lag, window, starts):
-    if method == "cross-correlation":
-        return fn(recording[channels[0]], recording[channels[1]], lag, starts, window)
-    if method == "metric-length":
-        x = recording[channels[0]] if len(channels) == 1 else np.column_stack(
-            [recording[c] for c in channels])
-        return fn(x, lag, starts, window)
-    return fn(recording[channels[0]], lag, starts, window)
-
-
 def _frame(rows):
     import pandas as pd
 
@@ -206,19 +169,19 @@ def _frame(rows):
 
 
 def _prepare(recording, method, channels, lags, onset):
-    from leakdiag.features.methods import METHODS, normalize_method
-
-    m = normalize_method(method)
-    chans = tuple(channels) if channels else METHODS[m]
-    if isinstance(channels, str):
-        chans = tuple(c.strip() for c in channels.split(",") if c.strip())
+    rec = feature_record(method)
+    if rec.outputs:
+        raise ValueError(f"{rec.name} has {len(rec.outputs)} values per window "
+                         f"{rec.outputs}; a grid sweeps single-valued features "
+                         f"({', '.join(feature_names(single=True))})")
+    chans = rec.check_channels(channels)
     recording.require(*chans)
-    lag_values = [parse_lag(m, lag) for lag in lags]
+    lag_values = [parse_lag(rec.name, lag) for lag in lags]
     if onset is None:
         onset = recording.onset
     if onset is None:
         raise ValueError("no leak onset: pass onset= (s) or use a recording with meta['onset']")
-    return m, chans, lag_values, float(onset)
+    return rec, chans, lag_values, float(onset)
 
 
 def grid(recording, method: str, channels: Sequence[str] | str | None,
@@ -277,8 +240,9 @@ def grid(recording, method: str, channels: Sequence[str] | str | None,
     (True, [40, 79])
     """
     check_int(chunk, "chunk", 1)  # the chunk sides divide by it
-    m, chans, lag_values, onset = _prepare(recording, method, channels, lags, onset)
-    fn = _at_function(m)
+    rec, chans, lag_values, onset = _prepare(recording, method, channels, lags, onset)
+    m = rec.name
+    signals = [recording[c] for c in chans]
     windows = [int(w) for w in windows]
     overlaps = [float(o) for o in overlaps]
     n, rate, t0 = recording.n_samples, recording.sample_rate, recording.start_time
@@ -304,17 +268,12 @@ def grid(recording, method: str, channels: Sequence[str] | str | None,
             top = lag[0] if isinstance(lag, tuple) else lag
             if top >= window:
                 continue
-            if fn is not None:
-                with quiet_degenerate():
-                    vals = _values_at(fn, m, recording, chans, lag, window, union)
+            with quiet_degenerate():
+                vals = values_at(rec, signals, lag, union, window)
             for oi, ov in enumerate(overlaps):
                 st, idx, sides = plans[ov]
-                if fn is not None:
-                    row = _setting_row(m, chans, lag, window, ov)
-                    row.update(_fast_measure(vals[idx], sides, chunk))
-                else:
-                    fs = _feature(recording, m, chans, lag, window, ov)
-                    row = measure_row(fs, onset, chunk, m, chans, lag, window, ov)
+                row = _setting_row(m, chans, lag, window, ov)
+                row.update(_fast_measure(vals[idx], sides, chunk))
                 keyed.append(((li, wi, oi), row))
     keyed.sort(key=lambda kv: kv[0])
     return _frame([row for _, row in keyed])
@@ -363,8 +322,6 @@ def _fast_measure(values, sides, chunk) -> dict:
 
 
 def _feature(recording, method, chans, lag, window, overlap) -> FeatureSeries:
-    from leakdiag.features.methods import compute_feature
-
     with quiet_degenerate():
         return compute_feature(recording, _spec(method, chans, lag, window, overlap))
 
@@ -394,7 +351,8 @@ def grid_loop(recording, method: str, channels: Sequence[str] | str | None,
     pandas.DataFrame
         Same rows and columns as :func:`grid`.
     """
-    m, chans, lag_values, onset = _prepare(recording, method, channels, lags, onset)
+    rec, chans, lag_values, onset = _prepare(recording, method, channels, lags, onset)
+    m = rec.name
     rows = []
     for lag, window, ov in itertools.product(lag_values, [int(w) for w in windows],
                                              [float(o) for o in overlaps]):

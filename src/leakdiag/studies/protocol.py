@@ -26,7 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from leakdiag.features.methods import MethodSpec, compute_feature, normalize_method
+from leakdiag.features.registry import feature_record
+from leakdiag.features.spec import MethodSpec, compute_feature
 from leakdiag.runtime.cache import cached_simulation
 from leakdiag.sim.reference import PseudoRandomSteps
 from leakdiag.sim.sensors import THESIS_EHA_SENSORS, THESIS_VCA_SENSORS
@@ -316,11 +317,11 @@ def simulate_case(case: dict):
 
 
 def _spec(method, channels, lag, window, overlap):
-    m = normalize_method(method)
+    rec = feature_record(method)
     chans = tuple(c.strip() for c in str(channels).split(","))
-    if m == "metric-length":
-        return MethodSpec(m, chans, lag_ratio=str(lag), window=int(window), overlap=float(overlap))
-    return MethodSpec(m, chans, lag=int(lag), window=int(window), overlap=float(overlap))
+    kw = {"lag_ratio": str(lag)} if rec.setting == "lag_ratio" else \
+        {"lag": int(lag)} if rec.setting == "lag" else {}
+    return MethodSpec(rec.name, chans, window=int(window), overlap=float(overlap), **kw)
 
 
 def _measure(rec, spec, onset, chunk, keep_series=False) -> dict:

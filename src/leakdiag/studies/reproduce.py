@@ -16,7 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from leakdiag.features.methods import compute_feature
+from leakdiag.features.registry import feature_record
+from leakdiag.features.spec import compute_feature
 from leakdiag.runtime.cache import code_fingerprint
 from leakdiag.runtime.executor import run_cases
 from leakdiag.sim import simulate_vca
@@ -221,14 +222,11 @@ def sensitivity_summary(sens, thesis_ranges=None):
     """
     import pandas as pd
 
-
     th = load_sensitivity() if thesis_ranges is None else thesis_ranges
-    name = {"autocorrelation": "autocorrelation", "cross-correlation": "cross_correlation",
-            "metric-length": "ratio_of_metric_lengths"}
     out = []
     for (system, method, chans), g in sens.groupby(["system", "method", "channels"], sort=False):
         sig = chans.upper()
-        m = th[(th.system == system.upper()) & (th.method == name[method])]
+        m = th[(th.system == system.upper()) & (th.method == feature_record(method).thesis_name)]
         if len(m) > 1:
             m = m[m.signals.str.replace(" or ", ",").str.contains(sig.split(",")[0])]
             if sig.count(",") and len(m) > 1:

@@ -14,7 +14,8 @@ import warnings
 
 import numpy as np
 
-from leakdiag.features.methods import MethodSpec, compute_feature
+from leakdiag.features.moments import to_frame
+from leakdiag.features.spec import MethodSpec, compute_feature
 from leakdiag.studies.grid import quiet_degenerate
 
 __all__ = ["TEST_MAX_POINTS", "ALPHA", "decimate_mean", "stationarity_tests", "stationarity"]
@@ -146,8 +147,8 @@ def stationarity(recording, channels=("p1", "p2", "x", "u"), window: int = 400,
         if ch not in recording:
             continue
         with quiet_degenerate():  # zero-variance windows are NaN rows of the moments frame
-            moments[ch] = compute_feature(recording, MethodSpec("moments", (ch,), window=window,
-                                                                overlap=overlap))
+            moments[ch] = to_frame(compute_feature(
+                recording, MethodSpec("moments", (ch,), window=window, overlap=overlap)))
         parts = [("whole", recording[ch])]
         if onset is not None:
             i = int(round((onset - recording.start_time) * recording.sample_rate))

@@ -14,6 +14,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from leakdiag.features.registry import feature_record
 from leakdiag.studies.grid import grid, lag_label, parse_lag
 from leakdiag.studies.select import SelectionRule, preferred_setting
 
@@ -151,9 +152,7 @@ class OFATResult:
 
 def _value(row, varied, method):
     if varied == "lag":
-        from leakdiag.features.methods import normalize_method
-
-        if normalize_method(method) == "metric-length":
+        if feature_record(method).setting == "lag_ratio":
             return row["lag_ratio"]
         return int(row["lag"])
     if varied == "window":

@@ -36,9 +36,9 @@ array; the ``*_regular`` entry points also write the window times and return val
 as two rows of one allocation (each fresh megabyte-sized array costs about 0.4 ms of page faults
 on the team's VM, more than the whole kernel at 5 % overlap). Arbitrary starts pass ``step = 0``
 and a sorted ``starts`` array (the wrappers sort). For ``lag <= LAG_DIRECT`` the entry points
-call the one-structure kernels of :mod:`leakdiag.features._smalllag` instead (fewer running sums;
+call the one-structure kernels of :mod:`leakdiag.features._kernels.smalllag` instead (fewer running sums;
 same anchors-in-the-window accuracy). Regular windows with ``2 <= step <= STEP_MAX`` go to the
-step-increment kernels of :mod:`leakdiag.features._stepsums` instead (chosen by the Python
+step-increment kernels of :mod:`leakdiag.features._kernels.stepsums` instead (chosen by the Python
 wrappers, so that those large kernels compile only when such a step is used).
 
 The block bookkeeping is written out inline in each kernel on purpose: Numba helper calls taking
@@ -50,9 +50,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.features._chunks import (CHUNK, NO_STARTS, PRODUCT_MAX, PRODUCT_MIN, UINT,
+from leakdiag.features._kernels.chunks import (CHUNK, NO_STARTS, PRODUCT_MAX, PRODUCT_MIN, UINT,
                                        fill_times)
-from leakdiag.features._smalllag import LAG_DIRECT, auto_small_core, cross_small_core
+from leakdiag.features._kernels.smalllag import LAG_DIRECT, auto_small_core, cross_small_core
 
 __all__ = [
     "autocorrelation_sorted",
@@ -278,7 +278,7 @@ def _cross_eval(gay, gcy, gax, gcx, gu, gv, guv, du0, dv0, hay, hcy, hax, hcx, h
                 fn, fm, out, o0, cnt, split):  # pragma: no cover - compiled
     """Eq. 4.2 from the tail/head sums of ``cnt`` windows, written to ``out[o0:o0+cnt]``.
 
-    Denominator and returned counts as in :func:`leakdiag.features._smalllag._cross_small_eval`.
+    Denominator and returned counts as in :func:`leakdiag.features._kernels.smalllag._cross_small_eval`.
     """
     inv = 1.0 / fn
     bad = 0

@@ -1,6 +1,6 @@
 """Numba kernels for Eq. 4.1 and 4.2 at short lags: one block structure, fewer running sums.
 
-The general kernels (:mod:`leakdiag.features._blocksums`) keep two block structures per
+The general kernels (:mod:`leakdiag.features._kernels.blocksums`) keep two block structures per
 window: plain sums over the ``N`` samples (blocks of ``N``) and lagged-pair sums over the
 ``M = N - lag`` pairs (blocks of ``M``). For a short lag (``lag <= LAG_DIRECT``) everything can
 live on the pair blocks alone, because a window's ``N`` samples are its ``M`` pair heads
@@ -20,7 +20,7 @@ Three running sums instead of five for Eq. 4.1, five instead of seven for Eq. 4.
 check per window instead of two. The ``lag``-sample edge sums cost O(lag) per window, which is
 why this path is limited to ``lag <= LAG_DIRECT``; the backward pass forms them with scalar loads
 (one sample each for ``lag = 1``; gathering them in the vectorised loop was slower). Tails and heads are grown in a backward and a forward pass
-exactly as in :mod:`leakdiag.features._blocksums`, every sum holds samples of the window only,
+exactly as in :mod:`leakdiag.features._kernels.blocksums`, every sum holds samples of the window only,
 as deviations from a sample of the window, so the accuracy is that of the general kernels.
 """
 
@@ -29,8 +29,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.features._chunks import CHUNK, UINT
-from leakdiag.features._values import auto_value, cross_value
+from leakdiag.features._kernels.chunks import CHUNK, UINT
+from leakdiag.features._kernels.values import auto_value, cross_value
 
 __all__ = ["LAG_DIRECT", "auto_small_core", "cross_small_core"]
 

@@ -3,7 +3,7 @@
 Each function turns the sums of one window, taken about an anchor inside the window
 (``docs/features.md``, "Numerical method"), into the feature's value: Eq. 4.1
 (:func:`auto_value`), Eq. 4.2 (:func:`cross_value`) for the short-lag kernels of
-:mod:`leakdiag.features._smalllag` and :mod:`leakdiag.features._stepsums`, and Eq. 4.11-4.14
+:mod:`leakdiag.features._kernels.smalllag` and :mod:`leakdiag.features._kernels.stepsums`, and Eq. 4.11-4.14
 (:func:`moment_values`). They take and return scalars and are inlined (``inline="always"``)
 into the kernels' evaluation loops, which LLVM vectorises.
 """
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.features._chunks import PRODUCT_MAX, PRODUCT_MIN
+from leakdiag.features._kernels.chunks import PRODUCT_MAX, PRODUCT_MIN
 
 __all__ = ["auto_value", "cross_value", "moment_values"]
 
@@ -47,7 +47,7 @@ def cross_value(y1, x1, cy, cx, p, ly1, ly2, fx1, fx2, inv, fm, split):  # pragm
     ``lag``. The denominator is ``sqrt(ss_x ss_y)``, or ``sqrt(ss_x) sqrt(ss_y)`` with ``split``.
     Returns the value (NaN if either variance is zero), 1 if so, 1 if the sums are not finite,
     1 if ``ss_x ss_y`` leaves ``[PRODUCT_MIN, PRODUCT_MAX]`` (redo with ``split``; see
-    :mod:`leakdiag.features._chunks`).
+    :mod:`leakdiag.features._kernels.chunks`).
     """
     ay = y1 + ly1
     ax = x1 + fx1

@@ -1,7 +1,7 @@
 """Numba kernels for regular windows at short steps: block sums grown by step increments.
 
 For the features' own windows ``s_k = k * step`` with ``2 <= step <= STEP_MAX`` (overlaps of
-about 96-99 % at N = 200), the kernels of :mod:`leakdiag.features._smalllag`,
+about 96-99 % at N = 200), the kernels of :mod:`leakdiag.features._kernels.smalllag`,
 :mod:`leakdiag.features.moments` and :mod:`leakdiag.features.metric_length` spend most of their
 time on per-window work: each window adds only ``step`` terms to each running sum. Here the
 same anchored block sums (``docs/features.md``, "Numerical method") are formed in two steps per
@@ -41,9 +41,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.features._chunks import UINT, fill_times
-from leakdiag.features._smalllag import LAG_DIRECT
-from leakdiag.features._values import auto_value, cross_value, moment_values
+from leakdiag.features._kernels.chunks import UINT, fill_times
+from leakdiag.features._kernels.smalllag import LAG_DIRECT
+from leakdiag.features._kernels.values import auto_value, cross_value, moment_values
 
 __all__ = ["STEP_MAX", "use_step_kernels", "auto_small_steps", "cross_small_steps",
            "moments_steps", "metric_steps", "autocorrelation_steps_regular",
@@ -158,7 +158,7 @@ def auto_small_steps(x, lag, window, step, out):  # pragma: no cover - compiled
     """Eq. 4.1 for ``lag <= LAG_DIRECT`` and the windows ``s_k = k * step``, ``step >= 2``.
 
     Pair blocks of ``M = N - lag``, anchors ``(ut, vt) = (x[e-1], x[e-1+lag])`` and edge sums
-    as :func:`leakdiag.features._smalllag.auto_small_core`, formula :func:`auto_value`.
+    as :func:`leakdiag.features._kernels.smalllag.auto_small_core`, formula :func:`auto_value`.
     Returns the numbers of zero-variance windows and of windows whose sums are not finite.
     """
     mm = window - lag
@@ -347,7 +347,7 @@ def cross_small_steps(y, x, lag, window, step, out):  # pragma: no cover - compi
     ``s_k = k * step``, ``step >= 2``.
 
     Pair blocks, anchors ``(uy, vx) = (y[e-1], x[e-1+lag])`` and edge sums as
-    :func:`leakdiag.features._smalllag.cross_small_core`, formula :func:`cross_value`. Returns
+    :func:`leakdiag.features._kernels.smalllag.cross_small_core`, formula :func:`cross_value`. Returns
     the numbers of windows with a zero variance and of windows whose sums are not finite.
     """
     mm = window - lag
@@ -678,7 +678,7 @@ def metric_steps(x, l_step, k_step, window, step, out):  # pragma: no cover - co
 # ---------------------------------------------------------------- entry points (values and times)
 @numba.njit(cache=True)
 def autocorrelation_steps_regular(x, lag, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
-    """As :func:`leakdiag.features._blocksums.autocorrelation_regular`, computed by
+    """As :func:`leakdiag.features._kernels.blocksums.autocorrelation_regular`, computed by
     :func:`auto_small_steps`."""
     buf = np.empty((2, n_win))
     n_bad, n_nonfinite = auto_small_steps(x, lag, window, step, buf[0])
@@ -688,7 +688,7 @@ def autocorrelation_steps_regular(x, lag, window, step, n_win, sample_rate, star
 
 @numba.njit(cache=True)
 def cross_correlation_steps_regular(y, x, lag, window, step, n_win, sample_rate, start_time):  # pragma: no cover - compiled
-    """As :func:`leakdiag.features._blocksums.cross_correlation_regular`, computed by
+    """As :func:`leakdiag.features._kernels.blocksums.cross_correlation_regular`, computed by
     :func:`cross_small_steps`."""
     buf = np.empty((2, n_win))
     n_bad, n_nonfinite = cross_small_steps(y, x, lag, window, step, buf[0])
