@@ -34,7 +34,8 @@ __all__ = [
     "stream",
 ]
 
-_SUBMODULES = {"io", "sim", "features", "detect", "studies", "report", "stream", "cli"}
+_SUBMODULES = {"io", "sim", "features", "detect", "literature", "runtime", "studies", "report",
+               "stream", "batch", "bench", "store", "dashboard", "cli"}
 
 
 def __getattr__(name: str) -> Any:

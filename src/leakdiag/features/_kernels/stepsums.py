@@ -58,6 +58,18 @@ def use_step_kernels(step: int, lag: int = 0) -> bool:
     The wrappers decide in Python, so that these kernels, whose eight copies of each loop take
     about 15 s to compile once (then cached on disk), compile only when such a step is used.
 
+    Parameters
+    ----------
+    step : int
+        Samples between window starts.
+    lag : int, default 0
+        Lag of Eq. 4.1/4.2 in samples (0 for the metric length and the moments).
+
+    Returns
+    -------
+    bool
+        ``2 <= step <= STEP_MAX`` and ``lag <= LAG_DIRECT``.
+
     Examples
     --------
     >>> [use_step_kernels(2, lag=1), use_step_kernels(1), use_step_kernels(190)]
