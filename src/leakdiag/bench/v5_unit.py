@@ -247,6 +247,7 @@ def score_chunk_unit(config: UnitChunkConfig) -> int:
                          "alarm": bool(v.leak), "alarm_time_s": v.alarm_time_s,
                          "onset_est_s": v.onset_s, "confidence": v.confidence,
                          "threshold": v.threshold,
+                         "threshold_method": getattr(basis, "method", None),
                          "threshold_k": getattr(basis, "k", np.nan),
                          "threshold_n": getattr(basis, "n", np.nan),
                          "cpu_s": time.process_time() - t0, "sim_cpu_s": sim_cpu})
