@@ -172,6 +172,13 @@ class FlowBalanceDetector(Detector):
         ``false_alarms_per_hour * segment_s / 3600``. None: the shortest healthy run's
         monitored *complete windows* (``segment_windows_``), which can be a window shorter
         than its monitored span (docs/detect.md, section 8.4).
+    profile_flow_gain : bool, default True
+        VCA: a recording's own valve flow-gain factor is a nuisance of the test, profiled like
+        its null offset and drift (the residual is linear in the gain): the flow gain of a
+        recording moves with temperature and supply, and an unprofiled gain error left the
+        first tested windows of no-load runs alternating with the valve volume, which the
+        offset and drift turned into a leak-like estimate (docs/detect.md, section 8.4).
+        Ignored by the EHA.
 
     Attributes
     ----------
@@ -226,7 +233,8 @@ class FlowBalanceDetector(Detector):
     def __init__(self, system="vca", false_alarms_per_hour=1.0, window_s=1.0, max_span_s=30.0,
                  leak_law="turbulent", params=None, fit_bandwidth=False, fit_bulk_modulus=False,
                  burn_in_s=2.0, reference_dp_pa=1e6, interval_level=0.95, alarm=None,
-                 quiet_boundaries=True, fit_valve_timing=False, segment_s=None):
+                 quiet_boundaries=True, fit_valve_timing=False, segment_s=None,
+                 profile_flow_gain=True):
         self.system = system
         self.false_alarms_per_hour = false_alarms_per_hour
         self.window_s = window_s
@@ -242,6 +250,7 @@ class FlowBalanceDetector(Detector):
         self.quiet_boundaries = quiet_boundaries
         self.fit_valve_timing = fit_valve_timing
         self.segment_s = segment_s
+        self.profile_flow_gain = profile_flow_gain
 
     # ------------------------------------------------------------------ validation
     def _validate(self) -> None:
@@ -315,9 +324,13 @@ class FlowBalanceDetector(Detector):
         terms["end"] = rec.start_time + bounds[1:] / rec.sample_rate
         # nuisance regressors: null offset and its linear drift (VCA), none (EHA)
         psi = terms.pop("nuisance", None)
+        gain = terms.pop("gain_sensitivity", None)
         mid = 0.5 * (terms["start"] + terms["end"])
-        terms["nuisance"] = (np.zeros((n_win, 0)) if psi is None
-                             else np.column_stack([psi, psi * (mid - mid.mean())]))
+        cols = [] if psi is None else [psi, psi * (mid - mid.mean())]
+        # a file saved before the option existed did not profile the gain
+        if gain is not None and getattr(self, "profile_flow_gain", False):
+            cols.append(gain)
+        terms["nuisance"] = np.column_stack(cols) if cols else np.zeros((n_win, 0))
         sk = min(self._skip(rec), n_win)
         return {k: np.asarray(v)[sk:] for k, v in terms.items()}
 
