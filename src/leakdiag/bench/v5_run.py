@@ -335,10 +335,8 @@ def error_row(case, method: str, exc: Exception) -> dict:
 
     Parameters
     ----------
-    case : BenchCase
-        The run.
-    method : str
-        Registry name.
+    case, method : BenchCase, str
+        The run and the registry name of the method.
     exc : Exception
         What failed.
 
