@@ -272,6 +272,8 @@ def test_v5_per_unit_reference_maxima_for_every_fit_that_pools_them():
     assert takes_reference(fb)  # GLR maxima pooled since its fit takes reference_maxima
     # the suite's target and burn-in reach the flow balance (its segment = monitored span)
     assert fb.burn_in_s == 5.0 and fb.false_alarms_per_hour == pytest.approx(36 / 55)
+    # and its segment: per run 1 % of 55 s, not of its 54 complete windows (k = 0 of 100)
+    assert fb.segment_s == 55.0
 
 
 def test_rate_figure_gives_twelve_methods_distinct_colours_and_markers():

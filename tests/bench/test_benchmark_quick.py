@@ -87,7 +87,11 @@ def test_per_unit_mode_pools_reference_maxima(tmp_path):
     assert set(ok.method) == {"acf-p1", "combined"} and len(ok) == 2 * (20 + 4)
     # each held-out unit: 2 own (leave-one-run-out) maxima + 20 reference, k = floor(0.05 * 23)
     assert (ok.threshold_n == 22).all() and (ok.threshold_k == 1).all()
+    assert (ok.threshold_method == "conformal").all()
     assert res["settings"]["unit_fit"] == 2
+    # the report says on which basis the held-out runs were judged (a fallback would show)
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "| vca | none | acf-p1 | conformal | 1 | 22 | 24 |" in report
 
 
 def test_full_budget_lifts_the_reduced_budget_through_the_cli(tmp_path, monkeypatch):

@@ -133,3 +133,36 @@ def test_detector_saved_before_threshold_bases_still_judges(healthy):
     v_old, v_new = old.predict(rec), det.predict(rec)
     assert v_old.leak and v_old.threshold == det.alarm_threshold_.threshold
     assert v_old.confidence == pytest.approx(v_new.confidence)  # both model-based here
+
+
+def test_a_per_run_target_needs_the_runs_segment_not_its_complete_windows(healthy, seg):
+    """Benchmark v5 states 1 % per run and converts it to per hour with the run's monitored
+    span (duration - burn-in); the windows cover a window less (the last, incomplete one). With
+    the window segment the per-run target shrinks below what the maxima support and the level
+    falls back to the model; with ``segment_s`` = the monitored span it is conformal."""
+    span = DURATION_S - 2.0  # default burn-in 2 s: 18 s monitored, 17 complete windows
+    assert seg == span - 1.0
+    per_hour = (1 / 7) * 3600.0 / span  # 1/7 per run: k = 1 of the 6 out-of-fold maxima
+    windows = FlowBalanceDetector(system="vca", false_alarms_per_hour=per_hour).fit(healthy)
+    assert windows.threshold_basis_.method == "glr-model"  # alpha = (1/7) 17/18: k = 0
+    runs = FlowBalanceDetector(system="vca", false_alarms_per_hour=per_hour,
+                               segment_s=span).fit(healthy)
+    b = runs.threshold_basis_
+    assert b.method == "conformal" and (b.n, b.k, b.segment_s) == (6, 1, span)
+    by_hand = _out_of_fold_maxima(FlowBalanceDetector(system="vca", segment_s=span), healthy)
+    assert runs.threshold_ == pytest.approx(by_hand.max(), rel=1e-12)
+    # one segment per run holds every monitored window: the same maxima as the window segment
+    assert by_hand == pytest.approx(_out_of_fold_maxima(FlowBalanceDetector(system="vca"),
+                                                        healthy), rel=1e-12)
+
+
+def test_segment_s_bins_windows_by_their_end_time(healthy):
+    det = FlowBalanceDetector(system="vca", segment_s=9.0).fit(healthy[:2])
+    rec = healthy[3]
+    g = det.score(rec)
+    rel = g.time - (rec.start_time + det.burn_in_s)
+    by_hand = [g.values[rel < 9.0].max(), g.values[(rel >= 9.0) & (rel < 18.0)].max()]
+    assert det.segment_maxima([rec]).tolist() == by_hand  # 18 s monitored: 2 segments of 9 s
+    assert det.threshold_basis_.segment_s == 9.0
+    with pytest.raises(ValueError, match="segment_s"):
+        FlowBalanceDetector(system="vca", segment_s=0.0).fit(healthy[:2])

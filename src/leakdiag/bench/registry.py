@@ -99,9 +99,9 @@ def _combined(system, alarm):
 def _flow_balance(system, alarm):
     if alarm is None:
         return FlowBalanceDetector(system=system)
-    # the suite's false-alarm target and burn-in (its segments are the monitored span)
+    # the suite's false-alarm target, burn-in and segment (v5: one per run's monitored span)
     return FlowBalanceDetector(system=system, false_alarms_per_hour=alarm.false_alarms_per_hour,
-                               burn_in_s=alarm.burn_in_s)
+                               burn_in_s=alarm.burn_in_s, segment_s=alarm.segment_s)
 
 
 #: Method name -> factory.

@@ -227,6 +227,14 @@ def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings) -> d
         md += [f"Per-unit mode: every unit fitted on {settings['unit_fit']} own healthy runs, "
                "threshold from the reference maxima of the training units (table below: "
                "reference maxima per method and group).", ""]
+        if runs is not None and "threshold_method" in runs:
+            # the basis each held-out run was judged on (a fallback to a model level shows)
+            basis = (runs[runs["role"] != "error"]
+                     .groupby(["system", "load", "method", "threshold_method", "threshold_k",
+                               "threshold_n"], dropna=False).size().reset_index(name="runs"))
+            md += ["Threshold basis of the held-out runs (k-th largest of n; k = 0: no "
+                   "conformal level, the method's model level):", "",
+                   _md_table(basis, list(basis.columns), list(basis.columns)), ""]
     if fits is not None and len(fits):
         cols = [c for c in ("system", "load", "method", "n", "k", "threshold",
                             "bound_per_segment", "conditional_upper_95", "n_reference",

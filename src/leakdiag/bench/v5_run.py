@@ -28,8 +28,9 @@ from typing import Any
 
 from leakdiag.bench.run import SimConfig, _recording, simulate_case, simulator_kwargs
 
-__all__ = ["LazyRecordings", "FitConfig", "ChunkConfig", "fit_method", "fit_shared",
-           "score_chunk", "run_v5", "REDUCED_BUDGET", "v5_alarm", "shares_fit"]
+__all__ = ["LazyRecordings", "FitConfig", "ChunkConfig", "Plan", "fit_method", "fit_shared",
+           "score_chunk", "run_v5", "REDUCED_BUDGET", "v5_alarm", "shares_fit", "run_row",
+           "error_row", "write_shard"]
 
 #: Reduced budget of the slow literature methods (calibration runs, held-out healthy runs,
 #: leaking runs per size, per group): EMD ~12 and the EKF ~50 CPU s per hour of signal would
@@ -95,9 +96,9 @@ def v5_alarm(false_alarm_per_run: float, duration_s: float, onset_method: str = 
 def _fingerprint() -> str:
     root = Path(__file__).resolve().parents[1]  # the leakdiag package
     h = hashlib.sha256()
-    for sub in ("detect", "features", "literature", "bench"):
-        for f in sorted((root / sub).glob("*.py")):
-            h.update(f.name.encode())
+    for sub in ("detect", "features", "literature", "bench"):  # subfolders too (_kernels/)
+        for f in sorted((root / sub).rglob("*.py")):
+            h.update(str(f.relative_to(root)).encode())
             h.update(f.read_bytes())
     return h.hexdigest()[:16]
 
@@ -321,24 +322,86 @@ def score_chunk(config: ChunkConfig) -> int:
             try:
                 v = det.predict(rec)
             except (ValueError, ArithmeticError) as exc:  # recorded, never dropped
-                rows.append({"method": m, "system": c.system, "load": c.load,
-                             "excitation": c.excitation, "role": "error", "seed": c.seed,
-                             "leak_lpm": c.leak_lpm, "error": f"{type(exc).__name__}: {exc}"})
+                rows.append(error_row(c, m, exc))
                 continue
-            cpu = time.process_time() - cpu0
-            rows.append({"method": m, "system": c.system, "load": c.load,
-                         "excitation": c.excitation, "role": c.role, "leak_lpm": c.leak_lpm,
-                         "seed": c.seed, "machine": c.nuisance["machine"],
-                         "duration_s": c.duration_s, "onset_true_s": c.onset_s,
-                         "leak_lpm_achieved": rec.meta.get("leak_lpm_achieved"),
-                         "noise_std_pa": c.noise_std_pa, "score_max": v.score_max,
-                         "alarm": bool(v.leak), "alarm_time_s": v.alarm_time_s,
-                         "onset_est_s": v.onset_s, "confidence": v.confidence,
-                         "threshold": v.threshold, "cpu_s": cpu, "sim_cpu_s": sim_cpu})
+            rows.append(run_row(c, m, rec, v, time.process_time() - cpu0, sim_cpu))
+    return write_shard(rows, path)
+
+
+def error_row(case, method: str, exc: Exception) -> dict:
+    """The row of a held-out run a method could not judge (recorded, never dropped).
+
+    Parameters
+    ----------
+    case, method : BenchCase, str
+        The run and the registry name of the method.
+    exc : Exception
+        What failed.
+
+    Returns
+    -------
+    dict
+        Role ``"error"`` and the error's type and message.
+    """
+    return {"method": method, "system": case.system, "load": case.load,
+            "excitation": case.excitation, "role": "error", "seed": case.seed,
+            "leak_lpm": case.leak_lpm, "error": f"{type(exc).__name__}: {exc}"}
+
+
+def run_row(case, method: str, rec, v, cpu_s: float, sim_cpu_s: float) -> dict:
+    """The row of one judged held-out run (both modes; per-unit mode adds threshold columns).
+
+    Parameters
+    ----------
+    case : BenchCase
+        The run.
+    method : str
+        Registry name.
+    rec : Recording
+        Its simulation (achieved leak in the metadata).
+    v : Verdict
+        The method's verdict.
+    cpu_s, sim_cpu_s : float
+        CPU seconds of judging and of simulating.
+
+    Returns
+    -------
+    dict
+        The columns of ``runs.csv``.
+    """
+    return {"method": method, "system": case.system, "load": case.load,
+            "excitation": case.excitation, "role": case.role, "leak_lpm": case.leak_lpm,
+            "seed": case.seed, "machine": case.nuisance["machine"],
+            "duration_s": case.duration_s, "onset_true_s": case.onset_s,
+            "leak_lpm_achieved": rec.meta.get("leak_lpm_achieved"),
+            "noise_std_pa": case.noise_std_pa, "score_max": v.score_max,
+            "alarm": bool(v.leak), "alarm_time_s": v.alarm_time_s,
+            "onset_est_s": v.onset_s, "confidence": v.confidence,
+            "threshold": v.threshold, "cpu_s": cpu_s, "sim_cpu_s": sim_cpu_s}
+
+
+def write_shard(rows: list, path) -> int:
+    """Write one result shard atomically (Parquet).
+
+    Parameters
+    ----------
+    rows : list of dict
+        Rows of :func:`run_row` / :func:`error_row`.
+    path : path-like
+        Shard file.
+
+    Returns
+    -------
+    int
+        Rows written.
+    """
+    import pandas as pd
+
     df = pd.DataFrame(rows)
     for col in ("onset_true_s", "alarm_time_s", "onset_est_s", "leak_lpm_achieved"):
         if col in df:
             df[col] = pd.to_numeric(df[col], errors="coerce")
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp")
     df.to_parquet(tmp, index=False)
@@ -397,21 +460,64 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
         groups.setdefault((c.system, c.load, c.excitation), []).append(c)
     cal_all = [c for c in cases if c.role == "cal"]
     if unit_fit:
-        from leakdiag.bench.v5_unit import own_cases
+        from leakdiag.bench.v5_unit import own_cases, plan_units
 
         cal_all = cal_all + [o for c in cal_all
                              for o in own_cases(c, unit_fit, suites[c.system].nuisance)]
-    t0 = time.time()
-    run_cases(simulate_case, [SimConfig(c, cache_dir) for c in cal_all], scheduler=scheduler,
-              n_workers=n_workers, desc="simulate calibration runs", progress=progress)
-    t_sim = time.time() - t0
+        plan = plan_units(suites, methods, work, groups, fp, unit_fit, false_alarm_per_run,
+                          onset_method, cache_dir, budget)
+    else:
+        plan = _plan_fleet(suites, methods, work, groups, fp, false_alarm_per_run, onset_method,
+                           cache_dir, budget)
+    # the one skeleton of both modes: simulate, fit (or reference maxima), score, collect
+    stages = [(simulate_case, [SimConfig(c, cache_dir) for c in cal_all],
+               "simulate calibration runs"), (plan.fit, plan.fit_tasks, plan.fit_desc),
+              (plan.score, plan.chunks, plan.score_desc)]
+    walls, results = [], []
+    for fn, cfgs, desc in stages:
+        t0 = time.time()
+        results.append(run_cases(fn, cfgs, scheduler=scheduler, n_workers=n_workers, desc=desc,
+                                 progress=progress))
+        walls.append(time.time() - t0)
+    shards = [pd.read_parquet(c.path) for c in plan.chunks if Path(c.path).is_file()]
+    rows = [x for x in shards if len(x)]  # none when every method failed to fit: say so below
+    runs = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
+    fits = pd.DataFrame([row for r in results[1] for row in r.result])
+    settings = {"suite_version": V5_VERSION, "methods": list(methods),
+                "false_alarm_per_run": false_alarm_per_run, "onset_method": onset_method,
+                "reduced_budget": {m: list(v) for m, v in budget.items() if m in methods},
+                "virtual_machines": {s: simulator_has_machines(s) for s in suites},
+                "code_fingerprint": fp,
+                "wall_s": dict(zip(("simulate_calibration", "fit", "score"), walls)),
+                "n_fit_tasks": plan.n_fit_tasks, "n_chunks": len(plan.chunks)}
     if unit_fit:
-        return _run_units(suites, methods, work, groups, fp, unit_fit, false_alarm_per_run,
-                          onset_method, scheduler, n_workers, cache_dir, progress, t_sim, budget)
+        settings["unit_fit"] = unit_fit
+    return runs, fits, settings
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Stages 2 and 3 of a v5 run: fit tasks and scoring chunks, with their functions."""
+
+    fit: Any
+    fit_tasks: list
+    fit_desc: str
+    score: Any
+    chunks: list
+    score_desc: str
+    n_fit_tasks: int
+
+
+def _plan_fleet(suites, methods, work, groups, fp, far, onset_method, cache_dir, budget) -> Plan:
+    """Fleet mode: each method fitted once per group on its training units."""
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.bench.run import simulator_has_machines
+    from leakdiag.bench.v5_suite import V5_VERSION
+
     fit_cfgs, chunk_cfgs = [], []
     for key, group in groups.items():
         s = suites[key[0]]
-        alarm = v5_alarm(false_alarm_per_run, s.duration_s, onset_method)
+        alarm = v5_alarm(far, s.duration_s, onset_method)
         cal = [c for c in group if c.role == "cal"]
         fits = []
         for m in methods:
@@ -430,8 +536,6 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
             chunk_cfgs.append(ChunkConfig(chunk, tuple(fits), str(work / "shards" / f"{k}.parquet")))
     # methods using the base class's fit share one read of each calibration run per group;
     # the others (own fit, feature-level state) read the runs themselves
-    from leakdiag.bench.registry import make_detector
-
     shared: dict[tuple, list] = {}
     alone = []
     for cfg in fit_cfgs:
@@ -440,76 +544,6 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
             shared.setdefault((c0.system, c0.load, c0.excitation), []).append(cfg)
         else:
             alone.append(cfg)
-    t0 = time.time()
     tasks = [("alone", c) for c in alone] + [("shared", tuple(v)) for v in shared.values()]
-    fit_res = run_cases(_fit_task, tasks, scheduler=scheduler, n_workers=n_workers,
-                        desc="fit", progress=progress)
-    t_fit = time.time() - t0
-    t0 = time.time()
-    run_cases(score_chunk, chunk_cfgs, scheduler=scheduler, n_workers=n_workers,
-              desc="score held-out runs", progress=progress)
-    t_score = time.time() - t0
-    shards = [pd.read_parquet(c.path) for c in chunk_cfgs if Path(c.path).is_file()]
-    rows = [s for s in shards if len(s)]  # none when every method failed to fit: say so below
-    runs = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
-    fits = pd.DataFrame([row for r in fit_res for row in r.result])
-    settings = {"suite_version": V5_VERSION, "methods": list(methods),
-                "false_alarm_per_run": false_alarm_per_run, "onset_method": onset_method,
-                "reduced_budget": {m: list(v) for m, v in budget.items() if m in methods},
-                "virtual_machines": {s: simulator_has_machines(s) for s in suites},
-                "code_fingerprint": fp, "wall_s": {"simulate_calibration": t_sim, "fit": t_fit,
-                                                   "score": t_score},
-                "n_fit_tasks": len(fit_cfgs), "n_chunks": len(chunk_cfgs)}
-    return runs, fits, settings
-
-
-def _run_units(suites, methods, work, groups, fp, n_own, far, onset_method, scheduler, n_workers,
-               cache_dir, progress, t_sim, budget):
-    """Per-unit mode of :func:`run_v5` (stages 2 and 3 of :mod:`leakdiag.bench.v5_unit`)."""
-    import pandas as pd
-
-    from leakdiag.bench.run import simulator_has_machines
-    from leakdiag.bench.v5_suite import V5_VERSION
-    from leakdiag.bench.v5_unit import (UnitChunkConfig, UnitRefConfig, reference_group,
-                                        score_chunk_unit)
-    from leakdiag.runtime.executor import run_cases
-
-    ref_cfgs, chunk_cfgs = [], []
-    for key, group in groups.items():
-        s = suites[key[0]]
-        alarm = v5_alarm(far, s.duration_s, onset_method)
-        cal = tuple(c for c in group if c.role == "cal")
-        n_units = tuple(budget[m][0] if m in budget else len(cal)
-                        for m in methods)
-        caps = tuple(budget[m][1:] if m in budget else None for m in methods)
-        k = _key([V5_VERSION, fp, "unit", n_own, list(methods), n_units, asdict(alarm),
-                  [c.seed for c in cal], simulator_has_machines(key[0])])
-        ref_path = str(work / "refs" / f"{k}.joblib")
-        ref_cfgs.append(UnitRefConfig(cal, tuple(methods), n_units, alarm, n_own, s.nuisance,
-                                      cache_dir, ref_path))
-        test = [c for c in group if c.role != "cal"]
-        for i in range(0, len(test), s.chunk):
-            chunk = tuple(test[i: i + s.chunk])
-            kc = _key([k, [c.seed for c in chunk], caps])
-            chunk_cfgs.append(UnitChunkConfig(chunk, tuple(methods), caps, alarm, n_own,
-                                              s.nuisance, ref_path,
-                                              str(work / "unit-shards" / f"{kc}.parquet")))
-    t0 = time.time()
-    ref_res = run_cases(reference_group, ref_cfgs, scheduler=scheduler, n_workers=n_workers,
-                        desc="reference maxima", progress=progress)
-    t_fit = time.time() - t0
-    t0 = time.time()
-    run_cases(score_chunk_unit, chunk_cfgs, scheduler=scheduler, n_workers=n_workers,
-              desc="score held-out units", progress=progress)
-    t_score = time.time() - t0
-    shards = [pd.read_parquet(c.path) for c in chunk_cfgs if Path(c.path).is_file()]
-    runs = pd.concat([x for x in shards if len(x)], ignore_index=True) if shards else pd.DataFrame()
-    fits = pd.DataFrame([row for r in ref_res for row in r.result])
-    settings = {"suite_version": V5_VERSION, "methods": list(methods), "unit_fit": n_own,
-                "false_alarm_per_run": far, "onset_method": onset_method,
-                "reduced_budget": {m: list(v) for m, v in budget.items() if m in methods},
-                "virtual_machines": {s: simulator_has_machines(s) for s in suites},
-                "code_fingerprint": fp, "wall_s": {"simulate_calibration": t_sim, "fit": t_fit,
-                                                   "score": t_score},
-                "n_fit_tasks": len(ref_cfgs), "n_chunks": len(chunk_cfgs)}
-    return runs, fits, settings
+    return Plan(_fit_task, tasks, "fit", score_chunk, chunk_cfgs, "score held-out runs",
+                len(fit_cfgs))

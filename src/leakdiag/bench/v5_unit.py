@@ -20,16 +20,16 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from leakdiag.bench.run import _recording
-from leakdiag.bench.v5_run import _simulate
+from leakdiag.bench.v5_run import _simulate, error_row, run_row, write_shard
 
 __all__ = ["own_cases", "UnitRefConfig", "UnitChunkConfig", "reference_group",
-           "score_chunk_unit", "takes_reference"]
+           "score_chunk_unit", "takes_reference", "plan_units"]
 
 
 def own_cases(case, n: int, nuisance) -> list:
@@ -222,8 +222,6 @@ def score_chunk_unit(config: UnitChunkConfig) -> int:
         own = [_simulate(o) for o in own_cases(c, config.n_own, config.nuisance)]
         rec = _simulate(c)
         sim_cpu = time.process_time() - t0
-        base = {"system": c.system, "load": c.load, "excitation": c.excitation,
-                "leak_lpm": c.leak_lpm, "seed": c.seed}
         for m in todo:
             det = make_detector(m, c.system, config.alarm)
             ref = None
@@ -236,26 +234,69 @@ def score_chunk_unit(config: UnitChunkConfig) -> int:
                 _fit_own(det, own, ref)
                 v = det.predict(rec)
             except (ValueError, ArithmeticError, NotImplementedError) as exc:
-                rows.append({**base, "method": m, "role": "error",
-                             "error": f"{type(exc).__name__}: {exc}"})
+                rows.append(error_row(c, m, exc))
                 continue
             basis = getattr(det, "threshold_basis_", None)
-            rows.append({**base, "method": m, "role": c.role, "machine": c.nuisance["machine"],
-                         "duration_s": c.duration_s, "onset_true_s": c.onset_s,
-                         "leak_lpm_achieved": rec.meta.get("leak_lpm_achieved"),
-                         "noise_std_pa": c.noise_std_pa, "score_max": v.score_max,
-                         "alarm": bool(v.leak), "alarm_time_s": v.alarm_time_s,
-                         "onset_est_s": v.onset_s, "confidence": v.confidence,
-                         "threshold": v.threshold,
+            rows.append({**run_row(c, m, rec, v, time.process_time() - t0, sim_cpu),
+                         "threshold_method": getattr(basis, "method", None),
                          "threshold_k": getattr(basis, "k", np.nan),
-                         "threshold_n": getattr(basis, "n", np.nan),
-                         "cpu_s": time.process_time() - t0, "sim_cpu_s": sim_cpu})
-    df = pd.DataFrame(rows)
-    for col in ("onset_true_s", "alarm_time_s", "onset_est_s", "leak_lpm_achieved"):
-        if col in df:
-            df[col] = pd.to_numeric(df[col], errors="coerce")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    df.to_parquet(tmp, index=False)
-    tmp.replace(path)
-    return len(df)
+                         "threshold_n": getattr(basis, "n", np.nan)})
+    return write_shard(rows, path)
+
+
+def plan_units(suites, methods, work, groups, fp, n_own, far, onset_method, cache_dir, budget):
+    """Stages 2 and 3 of :func:`~leakdiag.bench.v5_run.run_v5` in per-unit mode.
+
+    Parameters
+    ----------
+    suites : dict
+        Rig -> suite.
+    methods : sequence of str
+        Registry names.
+    work : pathlib.Path
+        Resumable state folder.
+    groups : dict
+        (rig, load, excitation) -> runs of the group.
+    fp : str
+        Code fingerprint (part of every key).
+    n_own : int
+        Own healthy runs per unit.
+    far : float
+        Target false alarms per run.
+    onset_method : str
+        Onset estimator.
+    cache_dir : str or None
+        Simulation cache.
+    budget : dict
+        Reduced budget per method.
+
+    Returns
+    -------
+    Plan
+        :func:`reference_group` tasks (one per group) and :func:`score_chunk_unit` chunks.
+    """
+    from leakdiag.bench.run import simulator_has_machines
+    from leakdiag.bench.v5_run import Plan, _key, v5_alarm
+    from leakdiag.bench.v5_suite import V5_VERSION
+
+    ref_cfgs, chunk_cfgs = [], []
+    for key, group in groups.items():
+        s = suites[key[0]]
+        alarm = v5_alarm(far, s.duration_s, onset_method)
+        cal = tuple(c for c in group if c.role == "cal")
+        n_units = tuple(budget[m][0] if m in budget else len(cal) for m in methods)
+        caps = tuple(budget[m][1:] if m in budget else None for m in methods)
+        k = _key([V5_VERSION, fp, "unit", n_own, list(methods), n_units, asdict(alarm),
+                  [c.seed for c in cal], simulator_has_machines(key[0])])
+        ref_path = str(work / "refs" / f"{k}.joblib")
+        ref_cfgs.append(UnitRefConfig(cal, tuple(methods), n_units, alarm, n_own, s.nuisance,
+                                      cache_dir, ref_path))
+        test = [c for c in group if c.role != "cal"]
+        for i in range(0, len(test), s.chunk):
+            chunk = tuple(test[i: i + s.chunk])
+            kc = _key([k, [c.seed for c in chunk], caps])
+            chunk_cfgs.append(UnitChunkConfig(chunk, tuple(methods), caps, alarm, n_own,
+                                              s.nuisance, ref_path,
+                                              str(work / "unit-shards" / f"{kc}.parquet")))
+    return Plan(reference_group, ref_cfgs, "reference maxima", score_chunk_unit, chunk_cfgs,
+                "score held-out units", len(ref_cfgs))

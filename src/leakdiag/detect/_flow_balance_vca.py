@@ -261,8 +261,10 @@ def vca_terms(raw: np.ndarray, params: VCAParams, model: VCAValveModel) -> dict[
         baseline leak volume; the leak volume plus errors), ``balance`` (m^3, leak-free sum
         equation), ``phi`` (integral of the leak-law pressure term), ``phi_abs``, ``flow``
         (m^3 through the valve), ``duration`` (s), ``edge_flow2`` (sum of the squared valve
-        flows at the two end samples, m^6/s^2) and ``compressibility`` (m^3, the
-        compressibility volume of the difference equation).
+        flows at the two end samples, m^6/s^2), ``compressibility`` (m^3, the
+        compressibility volume of the difference equation) and ``gain_sensitivity`` (m^3: the
+        change of ``residual`` per unit of ``flow_gain_factor``, the valve volume of the
+        difference equation; ``residual`` is linear in the gain).
     """
     g = model.flow_gain_factor
     beta = model.bulk_modulus_pa
@@ -277,7 +279,9 @@ def vca_terms(raw: np.ndarray, params: VCAParams, model: VCAValveModel) -> dict[
          - (raw[:, _C1] + raw[:, _C2] + tau * raw[:, _ESUM]) / beta
          + 2.0 * cv * ((model.supply_pressure_pa + params.tank_pressure_pa) * raw[:, _T]
                        - raw[:, _SP]))
-    return {"residual": r, "balance": s, "phi": raw[:, _PHI].copy(),
+    # d residual / d flow_gain_factor: the valve volume of the difference equation
+    gain = 0.5 * (raw[:, _S1] + raw[:, _S2] + lead * (raw[:, _TR1] + raw[:, _TR2]))
+    return {"residual": r, "balance": s, "phi": raw[:, _PHI].copy(), "gain_sensitivity": gain,
             "phi_abs": raw[:, _PHIABS].copy(), "flow": g * raw[:, _F],
             "duration": raw[:, _T].copy(),
             "edge_flow2": g * g * (raw[:, _QA] ** 2 + raw[:, _QB] ** 2),

@@ -23,8 +23,8 @@ from leakdiag.detect._flow_balance_search import (
 )
 from leakdiag.detect.base import Detector, Verdict
 from leakdiag.detect.threshold import (
-    InsufficientHealthyDataError, ReferenceMaxima, ThresholdBasis,
-    conformal_threshold,
+    SEGMENT_TOLERANCE, InsufficientHealthyDataError, ReferenceMaxima, ThresholdBasis,
+    binned_maxima, conformal_threshold,
 )
 from leakdiag.features.series import FeatureSeries
 from leakdiag.io.recording import RecordingError
@@ -165,6 +165,20 @@ class FlowBalanceDetector(Detector):
         bandwidth error acts as a lead or lag of ~0.2 ms) as a linear term; ignored with
         ``fit_bandwidth=True`` and by the EHA. Identifiable on fixed windows (0.19 ms found for
         0.21 ms), hardly on quiet ones, where it matters less (docs/detect.md, section 8.3).
+    segment_s : float or None, default None
+        Duration (s) of the monitored segments whose GLR maxima set the conformal level, as
+        :class:`~leakdiag.detect.base.Alarm`'s ``segment_s``: a window belongs to the segment
+        its end falls in, counted from the burn-in; the false-alarm target per segment is
+        ``false_alarms_per_hour * segment_s / 3600``. None: the shortest healthy run's
+        monitored *complete windows* (``segment_windows_``), which can be a window shorter
+        than its monitored span (docs/detect.md, section 8.4).
+    profile_flow_gain : bool, default True
+        VCA: a recording's own valve flow-gain factor is a nuisance of the test, profiled like
+        its null offset and drift (the residual is linear in the gain): the flow gain of a
+        recording moves with temperature and supply, and an unprofiled gain error left the
+        first tested windows of no-load runs alternating with the valve volume, which the
+        offset and drift turned into a leak-like estimate (docs/detect.md, section 8.4).
+        Ignored by the EHA.
 
     Attributes
     ----------
@@ -219,7 +233,8 @@ class FlowBalanceDetector(Detector):
     def __init__(self, system="vca", false_alarms_per_hour=1.0, window_s=1.0, max_span_s=30.0,
                  leak_law="turbulent", params=None, fit_bandwidth=False, fit_bulk_modulus=False,
                  burn_in_s=2.0, reference_dp_pa=1e6, interval_level=0.95, alarm=None,
-                 quiet_boundaries=True, fit_valve_timing=False):
+                 quiet_boundaries=True, fit_valve_timing=False, segment_s=None,
+                 profile_flow_gain=True):
         self.system = system
         self.false_alarms_per_hour = false_alarms_per_hour
         self.window_s = window_s
@@ -234,6 +249,8 @@ class FlowBalanceDetector(Detector):
         self.alarm = alarm
         self.quiet_boundaries = quiet_boundaries
         self.fit_valve_timing = fit_valve_timing
+        self.segment_s = segment_s
+        self.profile_flow_gain = profile_flow_gain
 
     # ------------------------------------------------------------------ validation
     def _validate(self) -> None:
@@ -249,6 +266,8 @@ class FlowBalanceDetector(Detector):
             raise ValueError(f"burn_in_s={self.burn_in_s!r} must be a finite number >= 0")
         if not 0 < self.interval_level < 1:
             raise ValueError(f"interval_level={self.interval_level!r} must be in (0, 1)")
+        if self.segment_s is not None:
+            check_positive(self.segment_s, "segment_s")
         if self.max_span_s < self.window_s:
             raise ValueError(f"max_span_s={self.max_span_s!r} must be >= window_s={self.window_s!r}")
 
@@ -305,9 +324,13 @@ class FlowBalanceDetector(Detector):
         terms["end"] = rec.start_time + bounds[1:] / rec.sample_rate
         # nuisance regressors: null offset and its linear drift (VCA), none (EHA)
         psi = terms.pop("nuisance", None)
+        gain = terms.pop("gain_sensitivity", None)
         mid = 0.5 * (terms["start"] + terms["end"])
-        terms["nuisance"] = (np.zeros((n_win, 0)) if psi is None
-                             else np.column_stack([psi, psi * (mid - mid.mean())]))
+        cols = [] if psi is None else [psi, psi * (mid - mid.mean())]
+        # a file saved before the option existed did not profile the gain
+        if gain is not None and getattr(self, "profile_flow_gain", False):
+            cols.append(gain)
+        terms["nuisance"] = np.column_stack(cols) if cols else np.zeros((n_win, 0))
         sk = min(self._skip(rec), n_win)
         return {k: np.asarray(v)[sk:] for k, v in terms.items()}
 
@@ -518,15 +541,30 @@ class FlowBalanceDetector(Detector):
                                              scale)
         # distribution-free level from out-of-fold segment maxima (+ reference) when supported
         # one segment = the shortest run's monitored windows (one segment per run when equal)
+        # or segment_s of monitored time (windows by their end), as the Alarm's segment_s
         self.segment_windows_ = max(1, min(len(t["residual"]) for t in terms))
-        segment_s = self.segment_windows_ * float(self.window_s)
-        own = (np.concatenate([glr_segment_maxima(g, self.segment_windows_) for g in cross])
+        seg = self._fixed_segment()
+        segment_s = self.segment_windows_ * float(self.window_s) if seg is None else seg
+        own = (np.concatenate([self._maxima(g, t, r) for g, t, r in zip(cross, terms, recs)])
                if cross else np.zeros(0))
         self.threshold_basis_ = self._threshold_basis(own, segment_s, reference_maxima, h)
         self.threshold_ = float(self.threshold_basis_.threshold)
         self.n_healthy_ = len(recs)
         self.feature_name_ = "flow_balance"
         return self
+
+    def _fixed_segment(self) -> float | None:
+        """``segment_s`` in seconds, or None (also for a detector saved before it existed)."""
+        seg = getattr(self, "segment_s", None)
+        return None if seg is None else float(seg)
+
+    def _maxima(self, g, t: dict, rec) -> np.ndarray:
+        """GLR maxima of the complete segments of one recording's trace ``g``."""
+        seg = self._fixed_segment()
+        if seg is None:
+            return glr_segment_maxima(g, self.segment_windows_)
+        burn = float(self.burn_in_s)
+        return binned_maxima(g, t["end"], seg, rec.start_time + burn, rec.duration - burn)
 
     def _dispersion(self, terms: list[dict]) -> float:
         """sqrt of the largest variance of healthy span z-scores over several span lengths."""
@@ -642,7 +680,7 @@ class FlowBalanceDetector(Detector):
         t, a, b, g, arg = self._scan(recording, "predict")
         h = self.threshold_
         smax = float(g.max()) if len(g) else 0.0
-        confidence = self._p_value(smax, t)
+        confidence = self._p_value(smax, t, recording)
         common = dict(confidence=confidence, leak_lpm_in_range=None, score_max=smax, threshold=h,
                       onset_method="glr", detector="flow_balance",
                       reference_dp_pa=float(self.reference_dp_pa), leak_law=self.leak_law)
@@ -669,7 +707,7 @@ class FlowBalanceDetector(Detector):
             shift=float(k / se), leak_coefficient=k, leak_coefficient_se=se,
             leak_lpm_at_reference=float(at_ref), **common)
 
-    def _p_value(self, smax: float, t: dict) -> float:
+    def _p_value(self, smax: float, t: dict, rec) -> float:
         """Probability that healthy operation of this span scores at least ``smax``.
 
         Conformal basis: ``m (1 + #{maxima >= smax}) / (n + 1)`` over the ``m`` segments the
@@ -680,12 +718,16 @@ class FlowBalanceDetector(Detector):
         basis = getattr(self, "threshold_basis_", None)  # None: a file saved before bases
         n_win = len(t["end"])
         if basis is not None and basis.supported:
-            return basis.p_value(smax, max(1, math.ceil(n_win / self.segment_windows_)))
+            seg = self._fixed_segment()
+            m = (math.ceil(n_win / self.segment_windows_) if seg is None else
+                 math.ceil((rec.duration - float(self.burn_in_s)) / seg - SEGMENT_TOLERANCE))
+            return basis.p_value(smax, max(1, m))
         hours = n_win * float(self.window_s) / 3600.0
         return float(-np.expm1(-self.alarm_threshold_.rate_at(smax) * hours))
 
     def segment_maxima(self, recordings) -> np.ndarray:
-        """GLR maxima of every complete segment (``segment_windows_`` windows) of recordings.
+        """GLR maxima of every complete segment of recordings (``segment_s`` of monitored
+        time, or ``segment_windows_`` windows when ``segment_s`` is None).
 
         Use it on healthy runs **not** given to :meth:`fit` to build a
         :class:`~leakdiag.detect.threshold.ReferenceMaxima` for other units (``drift=0``,
@@ -705,8 +747,8 @@ class FlowBalanceDetector(Detector):
         recs = [recordings] if hasattr(recordings, "channels") else list(recordings)
         out = []
         for r in recs:
-            _, _, _, g, _ = self._scan(r, "segment_maxima")
-            out.append(glr_segment_maxima(g, self.segment_windows_))
+            t, _, _, g, _ = self._scan(r, "segment_maxima")
+            out.append(self._maxima(g, t, r))
         return np.concatenate(out) if out else np.zeros(0)
 
     def _estimate(self, t: dict, j: int) -> tuple[float, float]:

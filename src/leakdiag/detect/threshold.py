@@ -29,7 +29,7 @@ from leakdiag.detect.rates import clopper_pearson
 
 __all__ = ["ThresholdBasis", "ReferenceMaxima", "InsufficientHealthyDataError",
            "InsufficientHealthyDataWarning", "conformal_threshold", "segment_maxima",
-           "clopper_pearson", "SEGMENT_TOLERANCE"]
+           "binned_maxima", "clopper_pearson", "SEGMENT_TOLERANCE"]
 
 #: Relative tolerance when counting complete segments in a run (a run of 59.99 s holds one
 #: 60 s segment): sample-grid rounding must not drop a segment (leakdiag choice).
@@ -295,13 +295,52 @@ def segment_maxima(z, time, segment_s: float, t0: float, span_s: float, drift: f
     [3.0, 2.5]
     """
     z = np.asarray(z, dtype=np.float64)
+    check_positive(segment_s, "segment_s")
+    if len(z) == 0:
+        return np.zeros(0)
+    up, dn = cusum(z, drift, direction)
+    return binned_maxima(np.maximum(up, dn), time, segment_s, t0, span_s)
+
+
+def binned_maxima(stat, time, segment_s: float, t0: float, span_s: float) -> np.ndarray:
+    """Largest value of a statistic in each complete segment of a monitored span.
+
+    Parameters
+    ----------
+    stat : array_like
+        Statistic per window, shape ``(m,)``.
+    time : array_like
+        Window timestamps (s), shape ``(m,)``; a window belongs to the segment its timestamp
+        falls in.
+    segment_s : float
+        Segment duration (s).
+    t0 : float
+        Start of the monitored span (s).
+    span_s : float
+        Monitored duration (s); ``floor(span_s / segment_s + SEGMENT_TOLERANCE)`` complete
+        segments are used, the remainder is left out.
+
+    Returns
+    -------
+    numpy.ndarray
+        One maximum per complete segment (0 for a segment without a window).
+
+    Raises
+    ------
+    ValueError
+        If ``segment_s`` is not positive.
+
+    Examples
+    --------
+    >>> binned_maxima([1.0, 4.0, 2.0, 3.0], [1.0, 2.0, 3.0, 4.0], 2.0, 0.5, 4.0).tolist()
+    [4.0, 3.0]
+    """
+    stat = np.asarray(stat, dtype=np.float64)
     time = np.asarray(time, dtype=np.float64)
     check_positive(segment_s, "segment_s")
     n_seg = int(math.floor(span_s / segment_s + SEGMENT_TOLERANCE))
-    if n_seg < 1 or len(z) == 0:
+    if n_seg < 1 or len(stat) == 0:
         return np.zeros(0)
-    up, dn = cusum(z, drift, direction)
-    stat = np.maximum(up, dn)
     idx = np.floor((time - t0) / segment_s).astype(np.int64)
     idx = np.clip(idx, 0, None)
     keep = idx < n_seg
