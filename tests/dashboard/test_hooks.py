@@ -23,7 +23,7 @@ def test_worker_equals_chunk_by_chunk(leak_case, tmp_path):
     ref = LiveBoard()
     ref.add("rig7", spec.label, ref_mon.scorers[0], (spec.window - 1) / rec.sample_rate)
     hooks = MonitorHooks("rig7", spec, mon, "rig7.parquet", rec.sample_rate,
-                         store=str(tmp_path / "ev.db"), say=lambda m: None)
+                         store=str(tmp_path / "ev.db"), say=lambda m: None, board=True)
     ref_rows = []
     for c in recording_chunks(rec, 1000, list(spec.channels)):
         hooks.push(mon.push(c))
@@ -72,7 +72,8 @@ def test_worker_error_reaches_the_monitor(leak_case, tmp_path):
 def test_push_does_not_wait_for_a_slow_worker(leak_case):
     """Throttle the page, not the detector: the monitor's push only queues the chunk."""
     mon, spec, rec = _monitor(leak_case)
-    hooks = MonitorHooks("rig7", spec, mon, "rig7.parquet", rec.sample_rate, say=lambda m: None)
+    hooks = MonitorHooks("rig7", spec, mon, "rig7.parquet", rec.sample_rate, say=lambda m: None,
+                         board=True)
     update = hooks.board.update
 
     def slow_update(*args, **kw):  # a board (or store) that takes 0.3 s per update

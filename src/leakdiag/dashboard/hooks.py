@@ -1,17 +1,18 @@
 """What ``leakdiag monitor`` does with ``--store`` and ``--dashboard``, off the detector's path.
 
 :class:`MonitorHooks` keeps the live state of the monitored actuator
-(:class:`~leakdiag.dashboard.live.ActuatorLive`), serves it with ``--dashboard`` and writes the
-chunks to the event store with ``--store``.
+(:class:`~leakdiag.dashboard.live.ActuatorLive`) and serves it with ``--dashboard``, and hands
+the chunks to the event store's writer process with ``--store``.
 
-The monitor's only cost per chunk is :meth:`MonitorHooks.push`: it appends a reference to the
-chunk's events to a bounded queue (no array, no JSON, no I/O). A worker thread takes everything
-queued at once, at most every :data:`UPDATE_PERIOD_S` seconds: one update of the live board (split
-only where an alarm is raised, so each alarm episode keeps its own leak estimate), the chunk
-summaries computed together (:func:`~leakdiag.store.summarize_chunks`) and one store transaction
-for all of them (a group commit). A fast replay therefore costs one board update and one commit
-per period instead of one per chunk; a real-time stream, whose chunks come further apart than a
-commit takes, still gets one transaction per chunk.
+The monitor's only cost per chunk is :meth:`MonitorHooks.push`:
+
+* with ``--store``, it writes the chunk's windows to the pipe of the writer process
+  (:class:`~leakdiag.dashboard.store_writer.StoreWriter`, about 1-2 us): the summaries, alarm
+  rows and transactions are computed in another process, and a chunk is out of the monitor's
+  process before its events are printed, so a killed monitor loses no chunk it has emitted;
+* with ``--dashboard``, it appends a reference to the chunk's window arrays to a bounded queue. A
+  worker thread takes everything queued at once, at most every :data:`UPDATE_PERIOD_S` seconds,
+  into one update of the live board that the page reads.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from urllib.parse import quote
 import numpy as np
 
 from leakdiag.dashboard.live import LiveBoard
+from leakdiag.store import StoreError
 
 __all__ = ["MonitorHooks"]
 
@@ -71,6 +73,8 @@ class MonitorHooks:
         Largest page update rate.
     say : callable, optional
         Prints a message for the user.
+    board : bool, optional
+        Keep the live board up to date (default: only with ``bind``, for the page).
 
     Raises
     ------
@@ -80,18 +84,15 @@ class MonitorHooks:
 
     def __init__(self, actuator: str, spec: Any, monitor: Any, source: str, sample_rate: float,
                  store: str | None = None, bind: Any = None, refresh_hz: float = 5.0,
-                 say: Callable[[str], None] = print):
+                 say: Callable[[str], None] = print, board: bool | None = None):
         self.actuator = actuator
         self.scorer = monitor.scorers[0]
         self.monitor = monitor
         self.board = LiveBoard()
         self.board.add(actuator, spec.label, self.scorer, (spec.window - 1) / sample_rate)
         self.live = self.board._live[actuator]
-        self.store = self.run_id = self.server = None
-        self._alarm_id: int | None = None
-        self._sent_leak = None
-        self._sent_onset = None
-        self._n_events = 0
+        self.store = self.run_id = self.server = self.writer = None
+        self._board_on = bind is not None if board is None else bool(board)
         self._recv = time.time()
         self._cond = threading.Condition()
         self._pending: deque = deque()
@@ -112,6 +113,15 @@ class MonitorHooks:
                 system=system if isinstance(system, str) else None,
                 config={"method": spec.method, "channels": list(spec.channels),
                         "window": spec.window, "overlap": spec.overlap})
+            from leakdiag.dashboard.store_writer import StoreWriter
+
+            try:
+                self.writer = StoreWriter(self.store.url, self.run_id, actuator, spec.label,
+                                          self.scorer, (spec.window - 1) / sample_rate)
+            except BaseException:
+                self.store.end_run(self.run_id, "failed")
+                self.store.close()
+                raise
         if bind is not None:
             from leakdiag.dashboard.app import make_app
             from leakdiag.dashboard.server import DashboardServer, stop_on_sigterm
@@ -123,7 +133,8 @@ class MonitorHooks:
             say(f"dashboard: {self.server.page_url('live/' + quote(actuator))}")
         self._worker = threading.Thread(target=self._work, name="leakdiag-monitor-hooks",
                                         daemon=True)
-        self._worker.start()
+        if self._board_on:
+            self._worker.start()
 
     def freeze_gc(self) -> None:
         """Move every object loaded so far out of the cyclic garbage collector's way until close.
@@ -156,9 +167,10 @@ class MonitorHooks:
             yield c
 
     def push(self, events: list) -> None:
-        """Queue the events of one chunk (from ``Monitor.push``) for the worker thread.
+        """Hand the events of one chunk (from ``Monitor.push``) to the store writer and the board.
 
-        Waits only when the worker is :data:`MAX_PENDING_WINDOWS` windows behind.
+        Waits only when the store writer's pipe is full or the board's worker is
+        :data:`MAX_PENDING_WINDOWS` windows behind.
 
         Parameters
         ----------
@@ -180,6 +192,10 @@ class MonitorHooks:
         # a chunk is kept as four arrays (no event objects: they would burden the garbage
         # collector of the monitor's thread while they wait)
         br = getattr(self.scorer, "branches_", None)  # a new tuple per scored block
+        if self.writer is not None:
+            self.writer.push(*arrays, br)
+        if not self._board_on:
+            return
         with self._cond:
             while self._n_pending >= MAX_PENDING_WINDOWS and self._error is None:
                 self._cond.wait()
@@ -214,66 +230,17 @@ class MonitorHooks:
                 self._cond.notify_all()
 
     def _apply(self, batch: list) -> None:
+        """One board update with every chunk of a take (any split gives the same state)."""
         t, v = (np.concatenate([c[k] for c, _, _ in batch]) for k in (0, 1))
-        n = len(t)
         s = a = br = None
         if batch[0][0][2] is not None:
             s, a = (np.concatenate([c[k] for c, _, _ in batch]) for k in (2, 3))
-            if all(b is not None and len(b[0]) == len(c[0]) for c, b, _ in batch):
-                br = tuple(np.concatenate([b[k] for _, b, _ in batch]) for k in (0, 1))
-        recv = batch[-1][2]
-        # split where an alarm is raised: each episode's leak estimate is taken before the next
-        cuts = [0, n]
-        if a is not None:
-            prev = np.concatenate(([self.live.alarm_on], a[:-1]))
-            cuts = sorted({0, n, *np.flatnonzero(a & ~prev).tolist()})
-        new: list = []
-        updates: dict = {}
-        for i0, i1 in zip(cuts[:-1], cuts[1:]):
-            seg = slice(i0, i1)
-            self.board.update(self.actuator, t[seg], v[seg], None if s is None else s[seg],
-                              None if a is None else a[seg], recv,
-                              None if br is None else (br[0][seg], br[1][seg]))
-            if self.store is not None:
-                self._collect(new, updates)
-        if self.store is not None:
-            from leakdiag.store import summarize_chunks
-
-            summaries = summarize_chunks(t, v, s, a, [len(c[0]) for c, _, _ in batch])
-            _, ids = self.store.add_chunks(self.run_id, summaries, new, updates)
-            if ids:
-                self._alarm_id = ids[-1]
-
-    def _collect(self, new: list, updates: dict) -> None:
-        """Alarm rows to write for the events since the last call (``new``/``updates`` grow)."""
-        from leakdiag.store import AlarmRecord
-
-        live = self.live
-        evs = list(live.events)  # oldest first; the deque is bounded, so count from the end
-        fresh = evs[len(evs) - min(len(evs), live.n_events_total - self._n_events):]
-        self._n_events = live.n_events_total
-        for e in fresh:
-            if e["kind"] == "alarm" and not e["again"]:
-                new.append(AlarmRecord(e["time_s"], e["score"], live.threshold, e["onset_s"],
-                                       detector=live.feature))
-                continue
-            if new:  # the episode's alarm row is written with these chunks
-                new[-1] = AlarmRecord(**{**new[-1].__dict__, "cleared_time_s":
-                                         e["time_s"] if e["kind"] == "cleared" else None})
-            elif self._alarm_id is not None:
-                updates.setdefault(self._alarm_id, {})["cleared_time_s"] = \
-                    e["time_s"] if e["kind"] == "cleared" else None
-        leak = (live.leak[0], live.leak[1], live.leak[2]) if live.leak else None
-        if new and leak:
-            new[-1] = AlarmRecord(**{**new[-1].__dict__, "leak_lpm": leak[0],
-                                     "leak_lpm_low": leak[1], "leak_lpm_high": leak[2]})
-        elif self._alarm_id is not None and leak and leak != self._sent_leak:
-            updates.setdefault(self._alarm_id, {}).update(
-                leak_lpm=leak[0], leak_lpm_low=leak[1], leak_lpm_high=leak[2])
-        self._sent_leak = leak
+            br = tuple(np.concatenate([c[2] if b is None or len(b[0]) != len(c[0]) else b[k]
+                                       for c, b, _ in batch]) for k in (0, 1))
+        self.board.update(self.actuator, t, v, s, a, batch[-1][2], br)
 
     def flush(self) -> None:
-        """Wait until the worker has taken every queued chunk into the board and the store.
+        """Wait until every chunk pushed is in the board and committed to the store.
 
         Raises
         ------
@@ -288,6 +255,8 @@ class MonitorHooks:
                 self._wake.clear()
         if self._error is not None:
             raise self._error
+        if self.writer is not None:
+            self.writer.flush()
 
     def close(self, ok: bool, linger_s: float = 0.0, say: Callable[[str], None] = print) -> None:
         """Write what is queued, end the run in the store; keep serving, then stop the server.
@@ -312,11 +281,18 @@ class MonitorHooks:
             self._closing = True
             self._wake.set()
             self._cond.notify_all()
-        self._worker.join()
+        if self._worker.is_alive():
+            self._worker.join()
         if self._froze_gc:
             self._froze_gc = False
             gc.unfreeze()
         error = self._error
+        if self.writer is not None:
+            try:
+                self.writer.close()  # the writer commits what the pipe holds, then ends
+            except StoreError as exc:
+                error = error or exc
+            self.writer = None
         self.board.finish(self.actuator)
         try:
             if self.store is not None:
