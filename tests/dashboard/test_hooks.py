@@ -1,6 +1,7 @@
 """MonitorHooks: the worker thread's board and store equal a chunk-by-chunk update, and its
 errors reach the monitor's thread."""
 
+import os
 import sqlite3
 import time
 
@@ -94,3 +95,40 @@ def test_push_does_not_wait_for_a_slow_worker(leak_case):
     snap = hooks.board.snapshot("rig7")
     assert snap["n_windows"] == mon.features[0].n_windows > 100
     hooks.close(True)
+
+
+def test_store_work_is_done_in_the_writer_process(leak_case, tmp_path, monkeypatch):
+    """--store: the monitor's process writes no row itself, and its push does not wait for a
+    database that another process keeps locked; the writer process stores every chunk."""
+    from leakdiag.store import EventStore
+
+    def no_sql_here(*args, **kw):
+        raise AssertionError("EventStore.add_chunks called in the monitor's process")
+
+    monkeypatch.setattr(EventStore, "add_chunks", no_sql_here)
+    mon, spec, rec = _monitor(leak_case)
+    db = tmp_path / "ev.db"
+    hooks = MonitorHooks("rig7", spec, mon, "rig7.parquet", rec.sample_rate, store=str(db),
+                         say=lambda m: None)
+    assert hooks.writer.proc.pid != os.getpid() and not hooks._worker.is_alive()  # no thread
+    lock = sqlite3.connect(db, isolation_level=None)
+    lock.execute("begin immediate")  # the writer's transactions wait for this lock
+    n_chunks = t_push = 0
+    for c in recording_chunks(rec, 1000, list(spec.channels)):
+        evs = mon.push(c)
+        t0 = time.perf_counter()
+        hooks.push(evs)
+        t_push += time.perf_counter() - t0
+        n_chunks += bool(evs)
+    time.sleep(0.3)
+    lock.execute("rollback")
+    lock.close()
+    assert t_push < 0.5, t_push
+    hooks.flush()
+    hooks.close(True)
+    con = sqlite3.connect(db)
+    assert con.execute("select count(*), sum(n_windows) from chunk_summaries").fetchone() == \
+        (n_chunks, mon.features[0].n_windows)
+    (alarm_time,), = con.execute("select alarm_time_s from alarms")
+    assert alarm_time == leak_case["verdict"].alarm_time_s
+    con.close()
