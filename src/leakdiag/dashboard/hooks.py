@@ -140,9 +140,10 @@ class MonitorHooks:
         """Move every object loaded so far out of the cyclic garbage collector's way until close.
 
         The modules, the detector and the server are loaded by now; frozen (``gc.freeze``),
-        the collections that the worker thread's allocations trigger no longer traverse them in
-        the monitor's thread (measured: the monitor's own CPU time with ``--store`` in a fast
-        replay rose by a quarter without this). :meth:`close` unfreezes them, so that a
+        the collections that the board's worker thread and the server trigger no longer
+        traverse them in the monitor's thread (measured when the store was written by that
+        thread: the monitor's own CPU time with ``--store`` in a fast replay rose by a quarter
+        without this). :meth:`close` unfreezes them, so that a
         monitor run inside a longer-lived process (tests, a notebook) leaves the collector as
         it found it. Nothing is done when someone else has frozen objects already.
         """
@@ -205,7 +206,7 @@ class MonitorHooks:
             self._cond.notify()
 
     def _work(self) -> None:
-        """Worker thread: take every queued chunk, update the board and the store, pause."""
+        """Worker thread: take every queued chunk into one board update, pause."""
         try:
             while True:
                 with self._cond:

@@ -5,10 +5,10 @@ to a pipe (a few hundred bytes, about 1-2 us) and returns. A child process
 (:func:`main`) reads the pipe, keeps the live state that the alarm rows need
 (:class:`~leakdiag.dashboard.live.ActuatorLive`: alarm episodes, onset, leak estimate), summarises
 the chunks (:func:`~leakdiag.store.summarize_chunks`) and commits everything it has read in one
-transaction (:class:`ChunkRecorder`). After each transaction it lets the next chunks gather in the pipe for
-:data:`GATHER_S` seconds (less when the pipe is half full), so a fast replay costs one
-transaction per 0.1 s, not one per chunk (each has a fixed cost of about 2 ms of CPU and an
-fsync), while a real-time stream whose chunks come further apart gets one per chunk. So:
+transaction (:class:`ChunkRecorder`). After each transaction it lets the next chunks gather in
+the pipe for :data:`GATHER_S` seconds (less when the pipe is half full), so a fast replay costs
+one transaction per 0.1 s, not one per chunk (each has a fixed cost of about 2 ms of CPU and
+an fsync), while a real-time stream whose chunks come further apart gets one per chunk. So:
 
 * the monitor's process does no SQL, no summaries and no board update for the store: nothing
   that would take Python's GIL from the detector;
