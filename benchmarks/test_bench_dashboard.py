@@ -92,9 +92,16 @@ def _before_hooks():
     return mod.MonitorHooks
 
 
+def _page_url(hooks, path: str) -> str:
+    """A page's address from the hooks (``server.page_url`` in the hooks before the sidecar)."""
+    page_url = getattr(hooks, "page_url", None)
+    return page_url(path) if page_url else hooks.server.page_url(path)
+
+
 def _child_cpu(hooks) -> float:
-    """CPU seconds of the hooks' store writer process so far (0 without one)."""
-    proc = getattr(getattr(hooks, "writer", None), "proc", None)
+    """CPU seconds of the hooks' sidecar (or store writer) process so far (0 without one)."""
+    proc = getattr(getattr(hooks, "sidecar", None) or getattr(hooks, "writer", None), "proc",
+                   None)
     if proc is None:
         return 0.0
     with open(f"/proc/{proc.pid}/stat") as f:
@@ -167,10 +174,10 @@ def _run(rec, hooks_kw=None, page=None, chunk=1000, speed=None, loops=1, hooks_c
     drv = prof = client = None
     if page == "chromium":
         drv, prof = _browser()
-        drv.get(hooks.server.page_url("live/bench"))
+        drv.get(_page_url(hooks, "live/bench"))
         time.sleep(1.0)  # page loaded and streaming
     elif page == "sse":
-        client = _sse_client(hooks.server.page_url("stream/bench"))
+        client = _sse_client(_page_url(hooks, "stream/bench"))
         time.sleep(1.0)
     it = src if speed is None else paced(src, speed)
     t0, c0, p0 = time.perf_counter(), time.thread_time(), time.process_time()

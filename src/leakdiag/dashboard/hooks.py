@@ -1,42 +1,26 @@
 """What ``leakdiag monitor`` does with ``--store`` and ``--dashboard``, off the detector's path.
 
-:class:`MonitorHooks` keeps the live state of the monitored actuator
-(:class:`~leakdiag.dashboard.live.ActuatorLive`) and serves it with ``--dashboard``, and hands
-the chunks to the event store's writer process with ``--store``.
-
-The monitor's only cost per chunk is :meth:`MonitorHooks.push`:
-
-* with ``--store``, it writes the chunk's windows to the pipe of the writer process
-  (:class:`~leakdiag.dashboard.store_writer.StoreWriter`, about 1-2 us): the summaries, alarm
-  rows and transactions are computed in another process, and a chunk is out of the monitor's
-  process before its events are printed, so a killed monitor loses no chunk it has emitted;
-* with ``--dashboard``, it appends a reference to the chunk's window arrays to a bounded queue. A
-  worker thread takes everything queued at once, at most every :data:`UPDATE_PERIOD_S` seconds,
-  into one update of the live board that the page reads.
+:class:`MonitorHooks` starts the monitor's sidecar process
+(:class:`~leakdiag.dashboard.sidecar.Sidecar`), which keeps the live state of the monitored
+actuator (:class:`~leakdiag.dashboard.live.ActuatorLive`), serves it with ``--dashboard`` and
+writes the chunks to the event store with ``--store``. The monitor's only cost per chunk is
+:meth:`MonitorHooks.push`: it writes the chunk's window arrays to the sidecar's pipe (about
+1-2 us). The run itself is registered in the store (and ended) by the monitor's process, so
+that a store that cannot be used stops the monitor before it starts.
 """
 
 from __future__ import annotations
 
 import gc
-import threading
 import time
-from collections import deque
 from typing import Any, Callable, Iterable, Iterator
 from urllib.parse import quote
 
 import numpy as np
 
-from leakdiag.dashboard.live import LiveBoard
 from leakdiag.store import StoreError
 
 __all__ = ["MonitorHooks"]
-
-#: Seconds the worker pauses after each take, so that the chunks of a fast replay gather into one
-#: board update and one store transaction. Small against the page's 1 s latency goal (issue 17).
-UPDATE_PERIOD_S = 0.1
-#: Windows the monitor may run ahead of the worker before :meth:`MonitorHooks.push` waits
-#: (bounds the memory of the queue: about 200 bytes per window).
-MAX_PENDING_WINDOWS = 100_000
 
 
 def _arrays(events: list) -> tuple:
@@ -51,7 +35,7 @@ def _arrays(events: list) -> tuple:
 
 
 class MonitorHooks:
-    """Live board, web server and store writer of one monitor run.
+    """Live page and store writer of one monitor run, in a sidecar process.
 
     Parameters
     ----------
@@ -73,34 +57,28 @@ class MonitorHooks:
         Largest page update rate.
     say : callable, optional
         Prints a message for the user.
-    board : bool, optional
-        Keep the live board up to date (default: only with ``bind``, for the page).
 
     Raises
     ------
     leakdiag.store.StoreError
-        If the store cannot be opened.
+        If the store cannot be opened, or the sidecar cannot start.
+    OSError
+        If the page cannot listen on ``bind``.
     """
 
     def __init__(self, actuator: str, spec: Any, monitor: Any, source: str, sample_rate: float,
                  store: str | None = None, bind: Any = None, refresh_hz: float = 5.0,
-                 say: Callable[[str], None] = print, board: bool | None = None):
+                 say: Callable[[str], None] = print):
+        from leakdiag.dashboard.live import _num
+        from leakdiag.dashboard.sidecar import Sidecar
+
         self.actuator = actuator
         self.scorer = monitor.scorers[0]
         self.monitor = monitor
-        self.board = LiveBoard()
-        self.board.add(actuator, spec.label, self.scorer, (spec.window - 1) / sample_rate)
-        self.live = self.board._live[actuator]
-        self.store = self.run_id = self.server = self.writer = None
-        self._board_on = bind is not None if board is None else bool(board)
+        self.store = self.run_id = None
         self._recv = time.time()
-        self._cond = threading.Condition()
-        self._pending: deque = deque()
-        self._n_pending = self._n_pushed = self._n_done = 0
-        self._closing = False
-        self._error: BaseException | None = None
-        self._wake = threading.Event()
         self._froze_gc = False
+        self._closed = False
         if store is not None:
             from leakdiag.store import EventStore
 
@@ -109,43 +87,56 @@ class MonitorHooks:
             system = getattr(det, "system", None)
             self.run_id = self.store.start_run(
                 actuator, command="monitor", source=source, feature=spec.label,
-                sample_rate_hz=float(sample_rate), threshold=self.live.threshold,
+                sample_rate_hz=float(sample_rate),
+                threshold=_num(getattr(self.scorer, "threshold_", None)),
                 system=system if isinstance(system, str) else None,
                 config={"method": spec.method, "channels": list(spec.channels),
                         "window": spec.window, "overlap": spec.overlap})
-            from leakdiag.dashboard.store_writer import StoreWriter
-
-            try:
-                self.writer = StoreWriter(self.store.url, self.run_id, actuator, spec.label,
-                                          self.scorer, (spec.window - 1) / sample_rate)
-            except BaseException:
+        try:
+            self.sidecar = Sidecar(actuator, spec.label, self.scorer,
+                                   (spec.window - 1) / sample_rate,
+                                   None if self.store is None else self.store.url, self.run_id,
+                                   bind, refresh_hz)
+        except BaseException:
+            if self.store is not None:
                 self.store.end_run(self.run_id, "failed")
                 self.store.close()
-                raise
+            raise
         if bind is not None:
-            from leakdiag.dashboard.app import make_app
-            from leakdiag.dashboard.server import DashboardServer, stop_on_sigterm
+            from leakdiag.dashboard.server import stop_on_sigterm
 
-            stop = threading.Event()
-            app = make_app(self.board, self.store, bind.token, refresh_hz, stop)
-            self.server = DashboardServer(app, bind, stop).start()
             stop_on_sigterm()  # `kill PID` stops a served monitor like Ctrl-C
-            say(f"dashboard: {self.server.page_url('live/' + quote(actuator))}")
-        self._worker = threading.Thread(target=self._work, name="leakdiag-monitor-hooks",
-                                        daemon=True)
-        if self._board_on:
-            self._worker.start()
+            say(f"dashboard: {self.page_url('live/' + quote(actuator))}")
+
+    def page_url(self, path: str) -> str:
+        """Address of a page of the live server (with the token, if any).
+
+        Parameters
+        ----------
+        path : str
+            Path below the server's root, e.g. ``live/rig1``.
+
+        Returns
+        -------
+        str
+
+        Raises
+        ------
+        ValueError
+            Without ``--dashboard``.
+        """
+        return self.sidecar.page_url(path)
 
     def freeze_gc(self) -> None:
         """Move every object loaded so far out of the cyclic garbage collector's way until close.
 
-        The modules, the detector and the server are loaded by now; frozen (``gc.freeze``),
-        the collections that the board's worker thread and the server trigger no longer
-        traverse them in the monitor's thread (measured when the store was written by that
-        thread: the monitor's own CPU time with ``--store`` in a fast replay rose by a quarter
-        without this). :meth:`close` unfreezes them, so that a
-        monitor run inside a longer-lived process (tests, a notebook) leaves the collector as
-        it found it. Nothing is done when someone else has frozen objects already.
+        The modules and the detector are loaded by now; frozen (``gc.freeze``), the
+        collections that the monitor's own allocations trigger no longer traverse them
+        (measured when the store was written by a thread of the monitor's process: the
+        monitor's own CPU time with ``--store`` in a fast replay rose by a quarter without
+        this). :meth:`close` unfreezes them, so that a monitor run inside a longer-lived process
+        (tests, a notebook) leaves the collector as it found it. Nothing is done when someone
+        else has frozen objects already.
         """
         if gc.get_freeze_count() == 0:
             gc.freeze()
@@ -168,10 +159,9 @@ class MonitorHooks:
             yield c
 
     def push(self, events: list) -> None:
-        """Hand the events of one chunk (from ``Monitor.push``) to the store writer and the board.
+        """Hand the events of one chunk (from ``Monitor.push``) to the sidecar.
 
-        Waits only when the store writer's pipe is full or the board's worker is
-        :data:`MAX_PENDING_WINDOWS` windows behind.
+        Waits only while the sidecar's pipe is full.
 
         Parameters
         ----------
@@ -181,86 +171,27 @@ class MonitorHooks:
         Raises
         ------
         leakdiag.store.StoreError
-            Or any other error the worker met (e.g. the database became unwritable).
+            Or any other error the sidecar met (e.g. the database became unwritable).
         """
-        if self._error is not None:
-            raise self._error
         if not events:
             return
         arrays = self.monitor.last_arrays[0] if self.monitor.last_arrays else None
         if arrays is None or len(arrays[0]) != len(events) or arrays[0][-1] != events[-1].time:
             arrays = _arrays(events)  # not the monitor's last push: take them from the events
-        # a chunk is kept as four arrays (no event objects: they would burden the garbage
-        # collector of the monitor's thread while they wait)
-        br = getattr(self.scorer, "branches_", None)  # a new tuple per scored block
-        if self.writer is not None:
-            self.writer.push(*arrays, br)
-        if not self._board_on:
-            return
-        with self._cond:
-            while self._n_pending >= MAX_PENDING_WINDOWS and self._error is None:
-                self._cond.wait()
-            self._pending.append((arrays, br, self._recv))
-            self._n_pending += len(events)
-            self._n_pushed += 1
-            self._cond.notify()
-
-    def _work(self) -> None:
-        """Worker thread: take every queued chunk into one board update, pause."""
-        try:
-            while True:
-                with self._cond:
-                    while not self._pending and not self._closing:
-                        self._cond.wait()
-                    if not self._pending:
-                        return
-                    batch = list(self._pending)
-                    self._pending.clear()
-                    self._n_pending = 0
-                    self._cond.notify_all()
-                self._apply(batch)
-                with self._cond:
-                    self._n_done += len(batch)
-                    self._cond.notify_all()
-                self._wake.wait(UPDATE_PERIOD_S)  # let a fast replay's chunks gather
-        except BaseException as exc:  # handed to the monitor's thread by push() and close()
-            with self._cond:
-                self._error = exc
-                self._pending.clear()
-                self._n_pending = 0
-                self._cond.notify_all()
-
-    def _apply(self, batch: list) -> None:
-        """One board update with every chunk of a take (any split gives the same state)."""
-        t, v = (np.concatenate([c[k] for c, _, _ in batch]) for k in (0, 1))
-        s = a = br = None
-        if batch[0][0][2] is not None:
-            s, a = (np.concatenate([c[k] for c, _, _ in batch]) for k in (2, 3))
-            br = tuple(np.concatenate([c[2] if b is None or len(b[0]) != len(c[0]) else b[k]
-                                       for c, b, _ in batch]) for k in (0, 1))
-        self.board.update(self.actuator, t, v, s, a, batch[-1][2], br)
+        self.sidecar.push(*arrays, getattr(self.scorer, "branches_", None), self._recv)
 
     def flush(self) -> None:
-        """Wait until every chunk pushed is in the board and committed to the store.
+        """Wait until every chunk pushed is on the board and committed to the store.
 
         Raises
         ------
         leakdiag.store.StoreError
-            Or any other error the worker met.
+            Or any other error the sidecar met.
         """
-        with self._cond:
-            self._wake.set()  # no pause between two takes while someone waits
-            while self._n_done < self._n_pushed and self._error is None:
-                self._cond.wait(0.05)
-            if not self._closing:
-                self._wake.clear()
-        if self._error is not None:
-            raise self._error
-        if self.writer is not None:
-            self.writer.flush()
+        self.sidecar.flush()
 
     def close(self, ok: bool, linger_s: float = 0.0, say: Callable[[str], None] = print) -> None:
-        """Write what is queued, end the run in the store; keep serving, then stop the server.
+        """Take what is queued, end the run in the store; keep serving, then stop the sidecar.
 
         Parameters
         ----------
@@ -275,42 +206,37 @@ class MonitorHooks:
         Raises
         ------
         leakdiag.store.StoreError
-            Or any other error the worker met, when ``ok`` (otherwise the monitor's own error
+            Or any other error the sidecar met, when ``ok`` (otherwise the monitor's own error
             is the one to report).
         """
-        with self._cond:
-            self._closing = True
-            self._wake.set()
-            self._cond.notify_all()
-        if self._worker.is_alive():
-            self._worker.join()
         if self._froze_gc:
             self._froze_gc = False
             gc.unfreeze()
-        error = self._error
-        if self.writer is not None:
-            try:
-                self.writer.close()  # the writer commits what the pipe holds, then ends
-            except StoreError as exc:
-                error = error or exc
-            self.writer = None
-        self.board.finish(self.actuator)
+        if self._closed:
+            return
+        self._closed = True
+        error = None
+        try:
+            self.sidecar.finish()
+            self.sidecar.flush()
+        except (StoreError, OSError) as exc:
+            error = exc
         try:
             if self.store is not None:
                 self.store.end_run(self.run_id, "finished" if ok and error is None else "failed")
                 self.store.close()
-            if ok and error is not None:
-                raise error
-        finally:
-            if self.server is not None:
+            if ok and error is None and linger_s > 0 and self.sidecar.page_base is not None:
+                say(f"dashboard: input ended; serving for {linger_s:g} s more (Ctrl-C stops)")
+                t_end = time.monotonic() + linger_s
                 try:
-                    if ok and error is None and linger_s > 0:
-                        say(f"dashboard: input ended; serving for {linger_s:g} s more "
-                            "(Ctrl-C stops)")
-                        t_end = time.monotonic() + linger_s
-                        while time.monotonic() < t_end:
-                            time.sleep(min(0.5, max(0.0, t_end - time.monotonic())))
+                    while time.monotonic() < t_end:
+                        time.sleep(min(0.5, max(0.0, t_end - time.monotonic())))
                 except KeyboardInterrupt:
                     pass
-                finally:
-                    self.server.stop()
+        finally:
+            try:
+                self.sidecar.close()
+            except (StoreError, OSError) as exc:
+                error = error or exc
+        if ok and error is not None:
+            raise error
