@@ -246,6 +246,7 @@ def test_bench_throughput_with_and_without_page(capsys, tmp_path, chunk):
         cases.append(("--dashboard, the page open in Chromium", srv, "chromium"))
     reps = REPEATS
     res: dict = {name: [] for name, _, _ in cases}
+    load0 = os.getloadavg()[0]
     for r in range(reps):
         for k, (name, kw, page) in enumerate(cases if r % 2 == 0 else cases[::-1]):
             if kw == "store":
@@ -256,6 +257,8 @@ def test_bench_throughput_with_and_without_page(capsys, tmp_path, chunk):
             out = _run(rec, kw, page, chunk=chunk, loops=LOOPS, hooks_cls=cls)
             res[name].append(out[:3] + out[4:])
     base = np.median(np.array(res["monitor alone"]), axis=0)
+    _say(capsys, f"throughput, {chunk}-sample chunks: load {load0:.1f} -> "
+         f"{os.getloadavg()[0]:.1f} (1-min average)")
     for name, _, _ in cases:
         m = np.median(np.array(res[name]), axis=0)
         _say(capsys, f"throughput, {chunk}-sample chunks, {name}: {n / m[0]:.3g} samples/s "
