@@ -52,6 +52,24 @@ monitor alone, samples/s                        4.3e7        8.4e7
 Latency sample -> page, same day: load about 6 (other jobs): median 162 ms, 95th percentile
 779 ms, max 1,582 ms (goal NOT met at the max); load 4-5: 127 / 212 / 217 ms; load 3.5:
 113 / 196 / 208 ms.
+
+With the sidecar process (board, page server and store writer out of the monitor's process),
+before = the hooks of b705627 through ``LEAKDIAG_BENCH_BEFORE_HOOKS``, interleaved in one run,
+load 0.8-0.9, loop / CPU in %:
+
+==================================================  ===========  ===========  ===========  ===========
+case                                                1000 before  1000 after   65536 before 65536 after
+==================================================  ===========  ===========  ===========  ===========
+monitor alone, samples/s                            5.3e7                     1.5e8
+--store (SQLite)                                    61 / 75      89 / 90      93 / 97      99 / 99
+--store and --dashboard with a client               62 / 76      89 / 89      91 / 96      97 / 100
+--dashboard, a client reading the event stream                   90 / 90                   99 / 100
+--dashboard, the page open in Chromium                           82 / 90                   87 / 97
+==================================================  ===========  ===========  ===========  ===========
+
+Latency (median / 99th percentile / max): load 2.3 -> 1.4: 130 / 221 / 221 ms (page), 114 / 216
+/ 221 ms (page and store); with 4 extra busy loops, load 2.1 -> 5.2: 184 / 296 / 316 ms and
+178 / 356 / 364 ms.
 """
 
 import gc
