@@ -307,6 +307,7 @@ def main() -> int:
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C stops the monitor; this ends with it
     signal.signal(signal.SIGUSR1, lambda *_: _HURRY.__setitem__(0, True))
+    signal.siginterrupt(signal.SIGUSR1, False)  # system calls (SQLite's) restart, no EINTR
     store = server = None
     try:
         cfg = pickle.loads(_read_exact(0, struct.unpack("<I", _read_exact(0, 4))[0]))
