@@ -13,6 +13,12 @@
 
 The latency and page-open cases are skipped when Debian's chromium/chromedriver are missing.
 
+``LEAKDIAG_BENCH_BEFORE_HOOKS=FILE`` (a ``hooks.py`` of an earlier commit, e.g. from ``git show
+REV:src/leakdiag/dashboard/hooks.py > FILE``) adds its ``--store`` cases to the same interleaved
+run ("before"), so that a change of the hooks is measured against its predecessor under the same
+load. The CPU time outside the monitor's thread (worker and server threads, and the store
+writer's process where there is one) is printed beside.
+
 Measured on the shared 2-core development machine at load 8-12 (docs/operations.md has the
 table). Throughput in % of the monitor alone, "loop wall / monitor-thread CPU", medians; before =
 the hooks at 152754d (board update and one store transaction per chunk in the monitor's
@@ -46,9 +52,28 @@ monitor alone, samples/s                        4.3e7        8.4e7
 Latency sample -> page, same day: load about 6 (other jobs): median 162 ms, 95th percentile
 779 ms, max 1,582 ms (goal NOT met at the max); load 4-5: 127 / 212 / 217 ms; load 3.5:
 113 / 196 / 208 ms.
+
+With the sidecar process (board, page server and store writer out of the monitor's process),
+before = the hooks of b705627 through ``LEAKDIAG_BENCH_BEFORE_HOOKS``, interleaved in one run,
+load 0.8-0.9, loop / CPU in %:
+
+==================================================  ===========  ===========  ===========  ===========
+case                                                1000 before  1000 after   65536 before 65536 after
+==================================================  ===========  ===========  ===========  ===========
+monitor alone, samples/s                            5.3e7                     1.5e8
+--store (SQLite)                                    61 / 75      89 / 90      93 / 97      99 / 99
+--store and --dashboard with a client               62 / 76      89 / 89      91 / 96      97 / 100
+--dashboard, a client reading the event stream                   90 / 90                   99 / 100
+--dashboard, the page open in Chromium                           82 / 90                   87 / 97
+==================================================  ===========  ===========  ===========  ===========
+
+Latency (median / 99th percentile / max): load 2.3 -> 1.4: 130 / 221 / 221 ms (page), 114 / 216
+/ 221 ms (page and store); with 4 extra busy loops, load 2.1 -> 5.2: 184 / 296 / 316 ms and
+178 / 356 / 364 ms.
 """
 
 import gc
+import importlib.util
 import itertools
 import os
 import shutil
@@ -74,6 +99,32 @@ REPEATS = int(os.environ.get("LEAKDIAG_BENCH_REPEATS", "6"))
 #: Passes over the one-hour recording per throughput run: the monitor alone replays one hour
 #: in about 0.07 s (1,000-sample chunks), too short a run to measure the hooks against.
 LOOPS = 8
+#: An earlier hooks.py to measure against in the same run (see the module docstring).
+BEFORE_HOOKS = os.environ.get("LEAKDIAG_BENCH_BEFORE_HOOKS")
+
+
+def _before_hooks():
+    spec = importlib.util.spec_from_file_location("_leakdiag_hooks_before", BEFORE_HOOKS)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.MonitorHooks
+
+
+def _page_url(hooks, path: str) -> str:
+    """A page's address from the hooks (``server.page_url`` in the hooks before the sidecar)."""
+    page_url = getattr(hooks, "page_url", None)
+    return page_url(path) if page_url else hooks.server.page_url(path)
+
+
+def _child_cpu(hooks) -> float:
+    """CPU seconds of the hooks' sidecar (or store writer) process so far (0 without one)."""
+    proc = getattr(getattr(hooks, "sidecar", None) or getattr(hooks, "writer", None), "proc",
+                   None)
+    if proc is None:
+        return 0.0
+    with open(f"/proc/{proc.pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 class _Scorer:
@@ -123,30 +174,32 @@ def _sse_client(url):
                             stderr=subprocess.DEVNULL)
 
 
-def _run(rec, hooks_kw=None, page=None, chunk=1000, speed=None, loops=1):
+def _run(rec, hooks_kw=None, page=None, chunk=1000, speed=None, loops=1, hooks_cls=None):
     """Replay ``rec`` (``loops`` times, back to back, when ``speed`` is None); ``page``: None,
-    "sse" (a client process) or "chromium" (the live page).
+    "sse" (a client process) or "chromium" (the live page); ``hooks_cls``: default
+    :class:`MonitorHooks`.
 
-    Returns (loop wall s, monitor-thread CPU s, wall s including the hooks' close, latencies).
+    Returns (loop wall s, monitor-thread CPU s, wall s including the hooks' flush, latencies,
+    CPU s outside the monitor's thread: other threads and the store writer's process).
     """
     src = recording_chunks(rec, chunk, ["p1"])
     if loops > 1 and speed is None:
         src = itertools.chain.from_iterable(recording_chunks(rec, chunk, ["p1"])
                                             for _ in range(loops))
     mon = Monitor(SPEC, rec.sample_rate, 0.0, scorers=_Scorer())
-    hooks = None if hooks_kw is None else MonitorHooks("bench", SPEC, mon, "synthetic",
-                                                      rec.sample_rate, say=lambda m: None,
-                                                      **hooks_kw)
+    hooks = None if hooks_kw is None else (hooks_cls or MonitorHooks)(
+        "bench", SPEC, mon, "synthetic", rec.sample_rate, say=lambda m: None, **hooks_kw)
     drv = prof = client = None
     if page == "chromium":
         drv, prof = _browser()
-        drv.get(hooks.server.page_url("live/bench"))
+        drv.get(_page_url(hooks, "live/bench"))
         time.sleep(1.0)  # page loaded and streaming
     elif page == "sse":
-        client = _sse_client(hooks.server.page_url("stream/bench"))
+        client = _sse_client(_page_url(hooks, "stream/bench"))
         time.sleep(1.0)
     it = src if speed is None else paced(src, speed)
-    t0, c0 = time.perf_counter(), time.thread_time()
+    t0, c0, p0 = time.perf_counter(), time.thread_time(), time.process_time()
+    k0 = _child_cpu(hooks)
     for c in (hooks.wrap(it) if hooks else it):
         evs = mon.push(c)
         if hooks:
@@ -156,6 +209,7 @@ def _run(rec, hooks_kw=None, page=None, chunk=1000, speed=None, loops=1):
     if hooks and hasattr(hooks, "flush"):  # (the hooks before 49d6169 wrote in push)
         hooks.flush()
     dt_all = time.perf_counter() - t0
+    other = time.process_time() - p0 - cpu + _child_cpu(hooks) - k0
     if drv is not None:
         time.sleep(1.0)
         lat = drv.execute_script("return window.leakdiagLatencies")
@@ -166,17 +220,24 @@ def _run(rec, hooks_kw=None, page=None, chunk=1000, speed=None, loops=1):
         client.wait()
     if hooks:
         hooks.close(True)
-    return dt, cpu, dt_all, lat
+    return dt, cpu, dt_all, lat, other
 
 
-def test_bench_latency_sample_to_page(capsys):
+@pytest.mark.parametrize("store", [False, True], ids=["page", "page+store"])
+def test_bench_latency_sample_to_page(capsys, tmp_path, store):
     rec = _recording(30.0)
-    _, _, _, lat = _run(rec, {"bind": Bind("127.0.0.1", 0)}, page="chromium", chunk=50,
-                        speed=1.0)
+    kw = {"bind": Bind("127.0.0.1", 0)}
+    if store:
+        kw["store"] = str(tmp_path / "lat.db")
+    load0 = os.getloadavg()[0]
+    _, _, _, lat, _ = _run(rec, kw, page="chromium", chunk=50, speed=1.0)
+    load1 = os.getloadavg()[0]
     lat = np.array(lat[3:])  # the first renders include the page's start-up
     _say(capsys, f"latency sample -> page render, real-time replay 1 kHz, 50-sample chunks, "
-         f"{len(lat)} renders: median {np.median(lat) * 1e3:.0f} ms, 95th percentile "
-         f"{np.percentile(lat, 95) * 1e3:.0f} ms, max {lat.max() * 1e3:.0f} ms "
+         f"{'--dashboard and --store' if store else '--dashboard'}, {len(lat)} renders, load "
+         f"{load0:.1f} -> {load1:.1f}: median {np.median(lat) * 1e3:.0f} ms, 95th percentile "
+         f"{np.percentile(lat, 95) * 1e3:.0f} ms, 99th percentile "
+         f"{np.percentile(lat, 99) * 1e3:.0f} ms, max {lat.max() * 1e3:.0f} ms "
          f"(goal <= {LATENCY_GOAL_S * 1e3:.0f} ms: "
          f"{'met' if lat.max() <= LATENCY_GOAL_S else 'NOT met'} at the max)")
 
@@ -195,24 +256,34 @@ def test_bench_throughput_with_and_without_page(capsys, tmp_path, chunk):
              ("--dashboard, a client reading the event stream", srv, "sse"),
              ("--store (SQLite)", "store", None),
              ("--store and --dashboard with a client", "both", "sse")]
+    before = _before_hooks() if BEFORE_HOOKS else None
+    if before is not None:
+        cases += [("--store (SQLite), before", "store", None),
+                  ("--store and --dashboard with a client, before", "both", "sse")]
     if have_browser:
         cases.append(("--dashboard, the page open in Chromium", srv, "chromium"))
     reps = REPEATS
     res: dict = {name: [] for name, _, _ in cases}
+    load0 = os.getloadavg()[0]
     for r in range(reps):
         for k, (name, kw, page) in enumerate(cases if r % 2 == 0 else cases[::-1]):
             if kw == "store":
                 kw = {"store": str(tmp_path / f"s{r}-{k}.db")}
             elif kw == "both":
                 kw = {"store": str(tmp_path / f"b{r}-{k}.db"), **srv}
-            res[name].append(_run(rec, kw, page, chunk=chunk, loops=LOOPS)[:3])
+            cls = before if name.endswith(", before") else None
+            out = _run(rec, kw, page, chunk=chunk, loops=LOOPS, hooks_cls=cls)
+            res[name].append(out[:3] + out[4:])
     base = np.median(np.array(res["monitor alone"]), axis=0)
+    _say(capsys, f"throughput, {chunk}-sample chunks: load {load0:.1f} -> "
+         f"{os.getloadavg()[0]:.1f} (1-min average)")
     for name, _, _ in cases:
         m = np.median(np.array(res[name]), axis=0)
         _say(capsys, f"throughput, {chunk}-sample chunks, {name}: {n / m[0]:.3g} samples/s "
              f"(median of {reps}: loop {m[0]:.3f} s, {base[0] / m[0]:.0%} of the monitor alone; "
              f"monitor-thread CPU {m[1]:.3f} s, {base[1] / m[1]:.0%}; with the hooks' final "
-             f"flush {m[2]:.3f} s, {base[2] / m[2]:.0%})")
+             f"flush {m[2]:.3f} s, {base[2] / m[2]:.0%}; CPU outside the monitor's thread "
+             f"{m[3]:.3f} s)")
     gc.unfreeze()
     if not have_browser:
         _say(capsys, "page-open case skipped: no chromium")

@@ -1,13 +1,19 @@
-"""MonitorHooks: the worker thread's board and store equal a chunk-by-chunk update, and its
-errors reach the monitor's thread."""
+"""MonitorHooks and its sidecar process: the page's board and the store equal a chunk-by-chunk
+update, the sidecar's errors reach the monitor's thread, and the monitor's process does none of
+the work."""
 
+import json
+import os
 import sqlite3
+import threading
 import time
+import urllib.request
 
 import pytest
 
 from leakdiag.dashboard.hooks import MonitorHooks
 from leakdiag.dashboard.live import LiveBoard
+from leakdiag.dashboard.server import Bind
 from leakdiag.store import StoreError, summarize_windows
 from leakdiag.stream import Monitor, recording_chunks
 
@@ -17,13 +23,14 @@ def _monitor(leak_case):
     return Monitor(det.spec(), rec.sample_rate, 0.0, scorers=det), det.spec(), rec
 
 
-def test_worker_equals_chunk_by_chunk(leak_case, tmp_path):
+def test_sidecar_equals_chunk_by_chunk(leak_case, tmp_path):
     mon, spec, rec = _monitor(leak_case)
     ref_mon, _, _ = _monitor(leak_case)
     ref = LiveBoard()
     ref.add("rig7", spec.label, ref_mon.scorers[0], (spec.window - 1) / rec.sample_rate)
     hooks = MonitorHooks("rig7", spec, mon, "rig7.parquet", rec.sample_rate,
-                         store=str(tmp_path / "ev.db"), say=lambda m: None)
+                         store=str(tmp_path / "ev.db"), bind=Bind("127.0.0.1", 0),
+                         say=lambda m: None)
     ref_rows = []
     for c in recording_chunks(rec, 1000, list(spec.channels)):
         hooks.push(mon.push(c))
@@ -32,7 +39,9 @@ def test_worker_equals_chunk_by_chunk(leak_case, tmp_path):
         if len(t):
             ref_rows.append(summarize_windows(t, v, s, a))
     hooks.flush()
-    got, want = hooks.board.snapshot("rig7"), ref.snapshot("rig7")
+    with urllib.request.urlopen(hooks.page_url("api/live/rig7")) as r:  # the sidecar's board
+        got = json.loads(r.read())
+    want = json.loads(json.dumps(ref.snapshot("rig7")))
     for k in ("state", "alarm_time_s", "onset_s", "n_windows", "time", "score", "events"):
         assert got[k] == want[k], k
     assert got["leak_lpm"] == pytest.approx(want["leak_lpm"], rel=1e-12)
@@ -69,27 +78,40 @@ def test_worker_error_reaches_the_monitor(leak_case, tmp_path):
     hooks.close(False)  # the monitor's own error is the one reported: no second raise
 
 
-def test_push_does_not_wait_for_a_slow_worker(leak_case):
-    """Throttle the page, not the detector: the monitor's push only queues the chunk."""
+def test_store_and_page_work_is_done_in_the_sidecar(leak_case, tmp_path, monkeypatch):
+    """--store --dashboard: the monitor's process writes no row and starts no thread (no board
+    worker, no server), and its push does not wait for a database that another process keeps
+    locked; the sidecar stores every chunk."""
+    from leakdiag.store import EventStore
+
+    def no_sql_here(*args, **kw):
+        raise AssertionError("EventStore.add_chunks called in the monitor's process")
+
+    monkeypatch.setattr(EventStore, "add_chunks", no_sql_here)
     mon, spec, rec = _monitor(leak_case)
-    hooks = MonitorHooks("rig7", spec, mon, "rig7.parquet", rec.sample_rate, say=lambda m: None)
-    update = hooks.board.update
-
-    def slow_update(*args, **kw):  # a board (or store) that takes 0.3 s per update
-        time.sleep(0.3)
-        update(*args, **kw)
-
-    hooks.board.update = slow_update
-    t_push = 0.0
-    chunks = list(recording_chunks(rec, 1000, list(spec.channels)))[:30]
-    for c in chunks:
+    db = tmp_path / "ev.db"
+    n_threads = threading.active_count()
+    hooks = MonitorHooks("rig7", spec, mon, "rig7.parquet", rec.sample_rate, store=str(db),
+                         bind=Bind("127.0.0.1", 0), say=lambda m: None)
+    assert hooks.sidecar.proc.pid != os.getpid() and threading.active_count() == n_threads
+    lock = sqlite3.connect(db, isolation_level=None)
+    lock.execute("begin immediate")  # the writer's transactions wait for this lock
+    n_chunks = t_push = 0
+    for c in recording_chunks(rec, 1000, list(spec.channels)):
         evs = mon.push(c)
         t0 = time.perf_counter()
         hooks.push(evs)
         t_push += time.perf_counter() - t0
-    # one update per chunk in the monitor's thread would take 30 x 0.3 s = 9 s
-    assert t_push < 1.0, t_push
+        n_chunks += bool(evs)
+    time.sleep(0.3)
+    lock.execute("rollback")
+    lock.close()
+    assert t_push < 0.5, t_push
     hooks.flush()
-    snap = hooks.board.snapshot("rig7")
-    assert snap["n_windows"] == mon.features[0].n_windows > 100
     hooks.close(True)
+    con = sqlite3.connect(db)
+    assert con.execute("select count(*), sum(n_windows) from chunk_summaries").fetchone() == \
+        (n_chunks, mon.features[0].n_windows)
+    (alarm_time,), = con.execute("select alarm_time_s from alarms")
+    assert alarm_time == leak_case["verdict"].alarm_time_s
+    con.close()

@@ -1,40 +1,26 @@
 """What ``leakdiag monitor`` does with ``--store`` and ``--dashboard``, off the detector's path.
 
-:class:`MonitorHooks` keeps the live state of the monitored actuator
-(:class:`~leakdiag.dashboard.live.ActuatorLive`), serves it with ``--dashboard`` and writes the
-chunks to the event store with ``--store``.
-
-The monitor's only cost per chunk is :meth:`MonitorHooks.push`: it appends a reference to the
-chunk's events to a bounded queue (no array, no JSON, no I/O). A worker thread takes everything
-queued at once, at most every :data:`UPDATE_PERIOD_S` seconds: one update of the live board (split
-only where an alarm is raised, so each alarm episode keeps its own leak estimate), the chunk
-summaries computed together (:func:`~leakdiag.store.summarize_chunks`) and one store transaction
-for all of them (a group commit). A fast replay therefore costs one board update and one commit
-per period instead of one per chunk; a real-time stream, whose chunks come further apart than a
-commit takes, still gets one transaction per chunk.
+:class:`MonitorHooks` starts the monitor's sidecar process
+(:class:`~leakdiag.dashboard.sidecar.Sidecar`), which keeps the live state of the monitored
+actuator (:class:`~leakdiag.dashboard.live.ActuatorLive`), serves it with ``--dashboard`` and
+writes the chunks to the event store with ``--store``. The monitor's only cost per chunk is
+:meth:`MonitorHooks.push`: it writes the chunk's window arrays to the sidecar's pipe (about
+1-2 us). The run itself is registered in the store (and ended) by the monitor's process, so
+that a store that cannot be used stops the monitor before it starts.
 """
 
 from __future__ import annotations
 
 import gc
-import threading
 import time
-from collections import deque
 from typing import Any, Callable, Iterable, Iterator
 from urllib.parse import quote
 
 import numpy as np
 
-from leakdiag.dashboard.live import LiveBoard
+from leakdiag.store import StoreError
 
 __all__ = ["MonitorHooks"]
-
-#: Seconds the worker pauses after each take, so that the chunks of a fast replay gather into one
-#: board update and one store transaction. Small against the page's 1 s latency goal (issue 17).
-UPDATE_PERIOD_S = 0.1
-#: Windows the monitor may run ahead of the worker before :meth:`MonitorHooks.push` waits
-#: (bounds the memory of the queue: about 200 bytes per window).
-MAX_PENDING_WINDOWS = 100_000
 
 
 def _arrays(events: list) -> tuple:
@@ -49,7 +35,7 @@ def _arrays(events: list) -> tuple:
 
 
 class MonitorHooks:
-    """Live board, web server and store writer of one monitor run.
+    """Live page and store writer of one monitor run, in a sidecar process.
 
     Parameters
     ----------
@@ -75,31 +61,24 @@ class MonitorHooks:
     Raises
     ------
     leakdiag.store.StoreError
-        If the store cannot be opened.
+        If the store cannot be opened, or the sidecar cannot start.
+    OSError
+        If the page cannot listen on ``bind``.
     """
 
     def __init__(self, actuator: str, spec: Any, monitor: Any, source: str, sample_rate: float,
                  store: str | None = None, bind: Any = None, refresh_hz: float = 5.0,
                  say: Callable[[str], None] = print):
+        from leakdiag.dashboard.live import _num
+        from leakdiag.dashboard.sidecar import Sidecar
+
         self.actuator = actuator
         self.scorer = monitor.scorers[0]
         self.monitor = monitor
-        self.board = LiveBoard()
-        self.board.add(actuator, spec.label, self.scorer, (spec.window - 1) / sample_rate)
-        self.live = self.board._live[actuator]
-        self.store = self.run_id = self.server = None
-        self._alarm_id: int | None = None
-        self._sent_leak = None
-        self._sent_onset = None
-        self._n_events = 0
+        self.store = self.run_id = None
         self._recv = time.time()
-        self._cond = threading.Condition()
-        self._pending: deque = deque()
-        self._n_pending = self._n_pushed = self._n_done = 0
-        self._closing = False
-        self._error: BaseException | None = None
-        self._wake = threading.Event()
         self._froze_gc = False
+        self._closed = False
         if store is not None:
             from leakdiag.store import EventStore
 
@@ -108,32 +87,56 @@ class MonitorHooks:
             system = getattr(det, "system", None)
             self.run_id = self.store.start_run(
                 actuator, command="monitor", source=source, feature=spec.label,
-                sample_rate_hz=float(sample_rate), threshold=self.live.threshold,
+                sample_rate_hz=float(sample_rate),
+                threshold=_num(getattr(self.scorer, "threshold_", None)),
                 system=system if isinstance(system, str) else None,
                 config={"method": spec.method, "channels": list(spec.channels),
                         "window": spec.window, "overlap": spec.overlap})
+        try:
+            self.sidecar = Sidecar(actuator, spec.label, self.scorer,
+                                   (spec.window - 1) / sample_rate,
+                                   None if self.store is None else self.store.url, self.run_id,
+                                   bind, refresh_hz)
+        except BaseException:
+            if self.store is not None:
+                self.store.end_run(self.run_id, "failed")
+                self.store.close()
+            raise
         if bind is not None:
-            from leakdiag.dashboard.app import make_app
-            from leakdiag.dashboard.server import DashboardServer, stop_on_sigterm
+            from leakdiag.dashboard.server import stop_on_sigterm
 
-            stop = threading.Event()
-            app = make_app(self.board, self.store, bind.token, refresh_hz, stop)
-            self.server = DashboardServer(app, bind, stop).start()
             stop_on_sigterm()  # `kill PID` stops a served monitor like Ctrl-C
-            say(f"dashboard: {self.server.page_url('live/' + quote(actuator))}")
-        self._worker = threading.Thread(target=self._work, name="leakdiag-monitor-hooks",
-                                        daemon=True)
-        self._worker.start()
+            say(f"dashboard: {self.page_url('live/' + quote(actuator))}")
+
+    def page_url(self, path: str) -> str:
+        """Address of a page of the live server (with the token, if any).
+
+        Parameters
+        ----------
+        path : str
+            Path below the server's root, e.g. ``live/rig1``.
+
+        Returns
+        -------
+        str
+
+        Raises
+        ------
+        ValueError
+            Without ``--dashboard``.
+        """
+        return self.sidecar.page_url(path)
 
     def freeze_gc(self) -> None:
         """Move every object loaded so far out of the cyclic garbage collector's way until close.
 
-        The modules, the detector and the server are loaded by now; frozen (``gc.freeze``),
-        the collections that the worker thread's allocations trigger no longer traverse them in
-        the monitor's thread (measured: the monitor's own CPU time with ``--store`` in a fast
-        replay rose by a quarter without this). :meth:`close` unfreezes them, so that a
-        monitor run inside a longer-lived process (tests, a notebook) leaves the collector as
-        it found it. Nothing is done when someone else has frozen objects already.
+        The modules and the detector are loaded by now; frozen (``gc.freeze``), the
+        collections that the monitor's own allocations trigger no longer traverse them
+        (measured when the store was written by a thread of the monitor's process: the
+        monitor's own CPU time with ``--store`` in a fast replay rose by a quarter without
+        this). :meth:`close` unfreezes them, so that a monitor run inside a longer-lived process
+        (tests, a notebook) leaves the collector as it found it. Nothing is done when someone
+        else has frozen objects already.
         """
         if gc.get_freeze_count() == 0:
             gc.freeze()
@@ -156,9 +159,9 @@ class MonitorHooks:
             yield c
 
     def push(self, events: list) -> None:
-        """Queue the events of one chunk (from ``Monitor.push``) for the worker thread.
+        """Hand the events of one chunk (from ``Monitor.push``) to the sidecar.
 
-        Waits only when the worker is :data:`MAX_PENDING_WINDOWS` windows behind.
+        Waits only while the sidecar's pipe is full.
 
         Parameters
         ----------
@@ -168,129 +171,27 @@ class MonitorHooks:
         Raises
         ------
         leakdiag.store.StoreError
-            Or any other error the worker met (e.g. the database became unwritable).
+            Or any other error the sidecar met (e.g. the database became unwritable).
         """
-        if self._error is not None:
-            raise self._error
         if not events:
             return
         arrays = self.monitor.last_arrays[0] if self.monitor.last_arrays else None
         if arrays is None or len(arrays[0]) != len(events) or arrays[0][-1] != events[-1].time:
             arrays = _arrays(events)  # not the monitor's last push: take them from the events
-        # a chunk is kept as four arrays (no event objects: they would burden the garbage
-        # collector of the monitor's thread while they wait)
-        br = getattr(self.scorer, "branches_", None)  # a new tuple per scored block
-        with self._cond:
-            while self._n_pending >= MAX_PENDING_WINDOWS and self._error is None:
-                self._cond.wait()
-            self._pending.append((arrays, br, self._recv))
-            self._n_pending += len(events)
-            self._n_pushed += 1
-            self._cond.notify()
-
-    def _work(self) -> None:
-        """Worker thread: take every queued chunk, update the board and the store, pause."""
-        try:
-            while True:
-                with self._cond:
-                    while not self._pending and not self._closing:
-                        self._cond.wait()
-                    if not self._pending:
-                        return
-                    batch = list(self._pending)
-                    self._pending.clear()
-                    self._n_pending = 0
-                    self._cond.notify_all()
-                self._apply(batch)
-                with self._cond:
-                    self._n_done += len(batch)
-                    self._cond.notify_all()
-                self._wake.wait(UPDATE_PERIOD_S)  # let a fast replay's chunks gather
-        except BaseException as exc:  # handed to the monitor's thread by push() and close()
-            with self._cond:
-                self._error = exc
-                self._pending.clear()
-                self._n_pending = 0
-                self._cond.notify_all()
-
-    def _apply(self, batch: list) -> None:
-        t, v = (np.concatenate([c[k] for c, _, _ in batch]) for k in (0, 1))
-        n = len(t)
-        s = a = br = None
-        if batch[0][0][2] is not None:
-            s, a = (np.concatenate([c[k] for c, _, _ in batch]) for k in (2, 3))
-            if all(b is not None and len(b[0]) == len(c[0]) for c, b, _ in batch):
-                br = tuple(np.concatenate([b[k] for _, b, _ in batch]) for k in (0, 1))
-        recv = batch[-1][2]
-        # split where an alarm is raised: each episode's leak estimate is taken before the next
-        cuts = [0, n]
-        if a is not None:
-            prev = np.concatenate(([self.live.alarm_on], a[:-1]))
-            cuts = sorted({0, n, *np.flatnonzero(a & ~prev).tolist()})
-        new: list = []
-        updates: dict = {}
-        for i0, i1 in zip(cuts[:-1], cuts[1:]):
-            seg = slice(i0, i1)
-            self.board.update(self.actuator, t[seg], v[seg], None if s is None else s[seg],
-                              None if a is None else a[seg], recv,
-                              None if br is None else (br[0][seg], br[1][seg]))
-            if self.store is not None:
-                self._collect(new, updates)
-        if self.store is not None:
-            from leakdiag.store import summarize_chunks
-
-            summaries = summarize_chunks(t, v, s, a, [len(c[0]) for c, _, _ in batch])
-            _, ids = self.store.add_chunks(self.run_id, summaries, new, updates)
-            if ids:
-                self._alarm_id = ids[-1]
-
-    def _collect(self, new: list, updates: dict) -> None:
-        """Alarm rows to write for the events since the last call (``new``/``updates`` grow)."""
-        from leakdiag.store import AlarmRecord
-
-        live = self.live
-        evs = list(live.events)  # oldest first; the deque is bounded, so count from the end
-        fresh = evs[len(evs) - min(len(evs), live.n_events_total - self._n_events):]
-        self._n_events = live.n_events_total
-        for e in fresh:
-            if e["kind"] == "alarm" and not e["again"]:
-                new.append(AlarmRecord(e["time_s"], e["score"], live.threshold, e["onset_s"],
-                                       detector=live.feature))
-                continue
-            if new:  # the episode's alarm row is written with these chunks
-                new[-1] = AlarmRecord(**{**new[-1].__dict__, "cleared_time_s":
-                                         e["time_s"] if e["kind"] == "cleared" else None})
-            elif self._alarm_id is not None:
-                updates.setdefault(self._alarm_id, {})["cleared_time_s"] = \
-                    e["time_s"] if e["kind"] == "cleared" else None
-        leak = (live.leak[0], live.leak[1], live.leak[2]) if live.leak else None
-        if new and leak:
-            new[-1] = AlarmRecord(**{**new[-1].__dict__, "leak_lpm": leak[0],
-                                     "leak_lpm_low": leak[1], "leak_lpm_high": leak[2]})
-        elif self._alarm_id is not None and leak and leak != self._sent_leak:
-            updates.setdefault(self._alarm_id, {}).update(
-                leak_lpm=leak[0], leak_lpm_low=leak[1], leak_lpm_high=leak[2])
-        self._sent_leak = leak
+        self.sidecar.push(*arrays, getattr(self.scorer, "branches_", None), self._recv)
 
     def flush(self) -> None:
-        """Wait until the worker has taken every queued chunk into the board and the store.
+        """Wait until every chunk pushed is on the board and committed to the store.
 
         Raises
         ------
         leakdiag.store.StoreError
-            Or any other error the worker met.
+            Or any other error the sidecar met.
         """
-        with self._cond:
-            self._wake.set()  # no pause between two takes while someone waits
-            while self._n_done < self._n_pushed and self._error is None:
-                self._cond.wait(0.05)
-            if not self._closing:
-                self._wake.clear()
-        if self._error is not None:
-            raise self._error
+        self.sidecar.flush()
 
     def close(self, ok: bool, linger_s: float = 0.0, say: Callable[[str], None] = print) -> None:
-        """Write what is queued, end the run in the store; keep serving, then stop the server.
+        """Take what is queued, end the run in the store; keep serving, then stop the sidecar.
 
         Parameters
         ----------
@@ -305,35 +206,37 @@ class MonitorHooks:
         Raises
         ------
         leakdiag.store.StoreError
-            Or any other error the worker met, when ``ok`` (otherwise the monitor's own error
+            Or any other error the sidecar met, when ``ok`` (otherwise the monitor's own error
             is the one to report).
         """
-        with self._cond:
-            self._closing = True
-            self._wake.set()
-            self._cond.notify_all()
-        self._worker.join()
         if self._froze_gc:
             self._froze_gc = False
             gc.unfreeze()
-        error = self._error
-        self.board.finish(self.actuator)
+        if self._closed:
+            return
+        self._closed = True
+        error = None
+        try:
+            self.sidecar.finish()
+            self.sidecar.flush()
+        except (StoreError, OSError) as exc:
+            error = exc
         try:
             if self.store is not None:
                 self.store.end_run(self.run_id, "finished" if ok and error is None else "failed")
                 self.store.close()
-            if ok and error is not None:
-                raise error
-        finally:
-            if self.server is not None:
+            if ok and error is None and linger_s > 0 and self.sidecar.page_base is not None:
+                say(f"dashboard: input ended; serving for {linger_s:g} s more (Ctrl-C stops)")
+                t_end = time.monotonic() + linger_s
                 try:
-                    if ok and error is None and linger_s > 0:
-                        say(f"dashboard: input ended; serving for {linger_s:g} s more "
-                            "(Ctrl-C stops)")
-                        t_end = time.monotonic() + linger_s
-                        while time.monotonic() < t_end:
-                            time.sleep(min(0.5, max(0.0, t_end - time.monotonic())))
+                    while time.monotonic() < t_end:
+                        time.sleep(min(0.5, max(0.0, t_end - time.monotonic())))
                 except KeyboardInterrupt:
                     pass
-                finally:
-                    self.server.stop()
+        finally:
+            try:
+                self.sidecar.close()
+            except (StoreError, OSError) as exc:
+                error = error or exc
+        if ok and error is not None:
+            raise error

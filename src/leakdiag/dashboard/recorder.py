@@ -1,0 +1,232 @@
+"""What the monitor's sidecar process does with each chunk: the live board and the store rows.
+
+The monitor sends each chunk's windows as one frame (:func:`encode_chunk`) through the sidecar's
+pipe (:mod:`leakdiag.dashboard.sidecar`); the sidecar decodes what it has read
+(:func:`decode_frames`) and hands the chunks to :class:`ChunkRecorder` in one call: one update
+of the live board that the page serves (split only where an alarm is raised, so that each alarm
+episode keeps its own leak estimate) and, with a store, the chunk summaries
+(:func:`~leakdiag.store.summarize_chunks`) and alarm rows in one transaction.
+"""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from leakdiag.dashboard.live import LiveBoard
+from leakdiag.store import AlarmRecord, EventStore, summarize_chunks
+
+__all__ = ["ChunkRecorder", "encode_chunk", "decode_frames", "ScorerFacts"]
+
+#: Frame header: windows in the chunk, flags (1: scores and alarms follow, 2: CUSUM branches),
+#: wall-clock time (``time.time()``) at which the chunk reached the monitor.
+HEADER = struct.Struct("<IBd")
+#: Window count of a flush request (no body): the sidecar answers once what precedes is done.
+FLUSH = 0xFFFFFFFF
+#: Window count of the end of the input (no body): the page shows "input ended".
+FINISH = 0xFFFFFFFE
+_F8 = np.dtype(np.float64)
+
+
+def encode_chunk(t, v, s=None, a=None, branches=None, received: float = 0.0) -> bytes:
+    """One chunk's windows as a frame of the pipe.
+
+    Parameters
+    ----------
+    t, v : numpy.ndarray
+        Window times (s) and feature values.
+    s, a : numpy.ndarray, optional
+        Scores and alarms (both or neither).
+    branches : tuple of numpy.ndarray, optional
+        CUSUM branches (S+, S-) of these windows.
+    received : float, default 0.0
+        Wall-clock time at which the chunk arrived (the page shows the delay from it).
+
+    Returns
+    -------
+    bytes
+
+    Examples
+    --------
+    >>> fr = encode_chunk(np.array([0.2]), np.array([0.5]), received=7.0)  # 13 + 2 x 8 bytes
+    >>> chunks, control, used = decode_frames(fr + fr[:7])  # one frame and part of the next
+    >>> [(c[0], c[1], c[5]) for c in chunks], control, used
+    ([(array([0.2]), array([0.5]), 7.0)], [], 29)
+    """
+    n = len(t)
+    if s is None:
+        return b"".join((HEADER.pack(n, 0, received), np.asarray(t, _F8).tobytes(),
+                         np.asarray(v, _F8).tobytes()))
+    parts = [b"", np.asarray(t, _F8).tobytes(), np.asarray(v, _F8).tobytes(),
+             np.asarray(s, _F8).tobytes(), np.asarray(a, bool).tobytes()]
+    flags = 1
+    if branches is not None and len(branches[0]) == n:
+        flags = 3
+        parts += [np.asarray(branches[0], _F8).tobytes(), np.asarray(branches[1], _F8).tobytes()]
+    parts[0] = HEADER.pack(n, flags, received)
+    return b"".join(parts)
+
+
+def decode_frames(buf: bytes) -> tuple[list, int, int]:
+    """The complete frames at the start of ``buf``.
+
+    Parameters
+    ----------
+    buf : bytes
+        Bytes read from the pipe (may end inside a frame).
+
+    Returns
+    -------
+    chunks : list of tuple
+        ``(t, v, s, a, branches, received)`` per chunk; ``s``, ``a``, ``branches`` may be None.
+    control : list of int
+        The control frames among them (:data:`FLUSH`, :data:`FINISH`), in order.
+    used : int
+        Bytes of the complete frames.
+    """
+    chunks: list = []
+    control: list = []
+    pos = 0
+    end = len(buf)
+    h = HEADER.size
+    while pos + h <= end:
+        n, flags, received = HEADER.unpack_from(buf, pos)
+        if n in (FLUSH, FINISH):
+            control.append(n)
+            pos += h
+            continue
+        size = 16 * n + (9 * n if flags & 1 else 0) + (16 * n if flags & 2 else 0)
+        if pos + h + size > end:
+            break
+        p = pos + h
+        t = np.frombuffer(buf, _F8, n, p)
+        v = np.frombuffer(buf, _F8, n, p + 8 * n)
+        s = a = br = None
+        if flags & 1:
+            s = np.frombuffer(buf, _F8, n, p + 16 * n)
+            a = np.frombuffer(buf, bool, n, p + 24 * n)
+        if flags & 2:
+            br = (np.frombuffer(buf, _F8, n, p + 25 * n), np.frombuffer(buf, _F8, n, p + 33 * n))
+        chunks.append((t, v, s, a, br, received))
+        pos = p + size
+    return chunks, control, pos
+
+
+class ScorerFacts:
+    """What the board needs of the monitor's scorer, picklable (no detector code runs).
+
+    Parameters
+    ----------
+    scorer : object
+        The monitor's scorer (``threshold_``; a
+        :class:`~leakdiag.stream.detector.DetectorScorer` also has ``mean_``, ``std_`` and the
+        detector's ``calibration_``).
+    """
+
+    def __init__(self, scorer: Any):
+        self.threshold_ = getattr(scorer, "threshold_", None)
+        self.mean_ = getattr(scorer, "mean_", None)
+        self.std_ = getattr(scorer, "std_", None)
+        self.calibration_ = getattr(getattr(scorer, "detector", None), "calibration_", None)
+        self.detector = self  # ActuatorLive reads detector.calibration_
+
+
+class ChunkRecorder:
+    """Live board, alarm rows and chunk summaries of a monitor run, updated take by take.
+
+    Parameters
+    ----------
+    store : EventStore or None
+        Open store (None: the board only).
+    run_id : int or None
+        The run (from :meth:`EventStore.start_run`).
+    actuator, feature : str
+        Actuator name and feature label.
+    scorer : object, optional
+        The monitor's scorer or its :class:`ScorerFacts` (threshold, standardisation,
+        calibration); None without a detector.
+    window_s : float, default 0.0
+        Window span in s.
+    """
+
+    def __init__(self, store: EventStore | None, run_id: int | None, actuator: str, feature: str,
+                 scorer: Any = None, window_s: float = 0.0):
+        self.store, self.run_id, self.actuator = store, run_id, actuator
+        self.board = LiveBoard()
+        self.board.add(actuator, feature, scorer, window_s)
+        self.live = self.board._live[actuator]
+        self._alarm_id: int | None = None
+        self._sent_leak = None
+        self._n_events = 0
+
+    def apply(self, chunks: list) -> None:
+        """Take consecutive chunks: one board update, one transaction (summaries, alarms).
+
+        Parameters
+        ----------
+        chunks : list of tuple
+            ``(t, v, s, a, branches, received)`` per chunk, as :func:`decode_frames` gives
+            them.
+
+        Raises
+        ------
+        leakdiag.store.StoreError
+            Or the database's error.
+        """
+        t, v = (np.concatenate([c[k] for c in chunks]) for k in (0, 1))
+        n = len(t)
+        s = a = br = None
+        if chunks[0][2] is not None:
+            s, a = (np.concatenate([c[k] for c in chunks]) for k in (2, 3))
+            br = tuple(np.concatenate([c[2] if c[4] is None else c[4][k] for c in chunks])
+                       for k in (0, 1))
+        # split where an alarm is raised: each episode's leak estimate is taken before the next
+        cuts = [0, n]
+        if a is not None:
+            prev = np.concatenate(([self.live.alarm_on], a[:-1]))
+            cuts = sorted({0, n, *np.flatnonzero(a & ~prev).tolist()})
+        new: list = []
+        updates: dict = {}
+        if self.store is None:  # the page only: any split gives the same state
+            cuts = [0, n]
+        for i0, i1 in zip(cuts[:-1], cuts[1:]):
+            seg = slice(i0, i1)
+            self.board.update(self.actuator, t[seg], v[seg], None if s is None else s[seg],
+                              None if a is None else a[seg], chunks[-1][5],
+                              None if br is None else (br[0][seg], br[1][seg]))
+            if self.store is not None:
+                self._collect(new, updates)
+        if self.store is None:
+            return
+        summaries = summarize_chunks(t, v, s, a, [len(c[0]) for c in chunks])
+        _, ids = self.store.add_chunks(self.run_id, summaries, new, updates)
+        if ids:
+            self._alarm_id = ids[-1]
+
+    def _collect(self, new: list, updates: dict) -> None:
+        """Alarm rows to write for the events since the last call (``new``/``updates`` grow)."""
+        live = self.live
+        evs = list(live.events)  # oldest first; the deque is bounded, so count from the end
+        fresh = evs[len(evs) - min(len(evs), live.n_events_total - self._n_events):]
+        self._n_events = live.n_events_total
+        for e in fresh:
+            if e["kind"] == "alarm" and not e["again"]:
+                new.append(AlarmRecord(e["time_s"], e["score"], live.threshold, e["onset_s"],
+                                       detector=live.feature))
+                continue
+            cleared = e["time_s"] if e["kind"] == "cleared" else None
+            if new:  # the episode's alarm row is written with these chunks
+                new[-1] = replace(new[-1], cleared_time_s=cleared)
+            elif self._alarm_id is not None:
+                updates.setdefault(self._alarm_id, {})["cleared_time_s"] = cleared
+        leak = (live.leak[0], live.leak[1], live.leak[2]) if live.leak else None
+        if new and leak:
+            new[-1] = replace(new[-1], leak_lpm=leak[0], leak_lpm_low=leak[1],
+                              leak_lpm_high=leak[2])
+        elif self._alarm_id is not None and leak and leak != self._sent_leak:
+            updates.setdefault(self._alarm_id, {}).update(
+                leak_lpm=leak[0], leak_lpm_low=leak[1], leak_lpm_high=leak[2])
+        self._sent_leak = leak
