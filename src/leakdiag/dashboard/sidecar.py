@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import json
 import os
+from pathlib import Path
 import pickle
 import signal
 import struct
@@ -96,9 +97,7 @@ class Sidecar:
     def __init__(self, actuator: str, feature: str, scorer: Any = None, window_s: float = 0.0,
                  url: str | None = None, run_id: int | None = None, bind: Any = None,
                  refresh_hz: float = 5.0):
-        import leakdiag
-
-        root = os.path.dirname(os.path.dirname(os.path.abspath(leakdiag.__file__)))
+        root = str(Path(__file__).resolve().parents[2])  # the folder holding the package
         env = {**os.environ, "PYTHONPATH": os.pathsep.join(
             [root, *filter(None, [os.environ.get("PYTHONPATH")])])}
         self.proc = subprocess.Popen([sys.executable, "-c", _CHILD], stdin=subprocess.PIPE,
