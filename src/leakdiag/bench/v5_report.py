@@ -9,7 +9,12 @@ from pathlib import Path
 
 import numpy as np
 
+from leakdiag.bench.registry import METHODS, thesis_methods
 from leakdiag.bench.report import method_style
+from leakdiag.bench.v5_run import run_v5
+from leakdiag.bench.v5_scoring import false_alarm_table, summary_v5
+from leakdiag.bench.v5_suite import V5_DEFAULT_FAR, V5_QUICK_FAR, V5_QUICK_SUITES, V5_SUITES
+from leakdiag.runtime.cache import resolve_cache_dir
 
 __all__ = ["run_benchmark_v5", "write_v5_report"]
 
@@ -63,12 +68,6 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     ValueError
         Unknown method, system, load or excitation.
     """
-    from leakdiag.bench.registry import METHODS, thesis_methods
-    from leakdiag.bench.v5_run import run_v5
-    from leakdiag.bench.v5_scoring import summary_v5
-    from leakdiag.bench.v5_suite import (V5_DEFAULT_FAR, V5_QUICK_FAR, V5_QUICK_SUITES,
-                                         V5_SUITES)
-    from leakdiag.runtime.cache import resolve_cache_dir
 
     base = V5_QUICK_SUITES if quick else V5_SUITES
     if methods is None:
@@ -107,7 +106,6 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
                     suites={k: _jsonable(asdict(v)) for k, v in suites.items()},
                     scheduler=scheduler, n_workers=n_workers)
     summary, det = summary_v5(runs) if len(runs) else (None, None)
-    from leakdiag.bench.v5_scoring import false_alarm_table
 
     far_tab = false_alarm_table(runs) if len(runs) else None
     out = Path(out_dir)

@@ -18,15 +18,28 @@ stale file.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import time
-from collections.abc import Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from leakdiag.bench.run import SimConfig, _recording, simulate_case, simulator_kwargs
+from leakdiag.bench.registry import make_detector
+from leakdiag.bench.run import SimConfig, simulate_case, simulator_has_machines
+from leakdiag.bench.v5_common import (
+    LazyRecordings,
+    Plan,
+    _fingerprint,
+    _key,
+    _simulate,
+    error_row,
+    run_row,
+    v5_alarm,
+    write_shard,
+)
+from leakdiag.bench.v5_suite import V5_VERSION, build_v5_suite
+from leakdiag.bench.v5_unit import own_cases, plan_units
+from leakdiag.detect.base import Detector
+from leakdiag.runtime.executor import run_cases
 
 __all__ = ["LazyRecordings", "FitConfig", "ChunkConfig", "Plan", "fit_method", "fit_shared",
            "score_chunk", "run_v5", "REDUCED_BUDGET", "v5_alarm", "shares_fit", "run_row",
@@ -37,75 +50,6 @@ __all__ = ["LazyRecordings", "FitConfig", "ChunkConfig", "Plan", "fit_method", "
 #: alone take hours on the full suite. Stated in the report.
 REDUCED_BUDGET: dict[str, tuple[int, int, int]] = {"emd-p1": (100, 100, 10),
                                                    "ekf": (100, 100, 10)}
-
-
-class LazyRecordings(Sequence):
-    """Calibration runs read from the simulation cache one at a time (``Detector.fit`` input).
-
-    Parameters
-    ----------
-    cases : sequence of BenchCase
-        Runs (already in the cache, or simulated into it on access).
-    cache_dir : str or None
-        Simulation cache.
-    """
-
-    def __init__(self, cases, cache_dir):
-        self.cases = list(cases)
-        self.cache_dir = cache_dir
-
-    def __len__(self) -> int:
-        return len(self.cases)
-
-    def __getitem__(self, i):
-        if isinstance(i, slice):
-            return LazyRecordings(self.cases[i], self.cache_dir)
-        return _recording(self.cases[i], self.cache_dir)
-
-
-def v5_alarm(false_alarm_per_run: float, duration_s: float, onset_method: str = "binseg"):
-    """The alarm of a v5 group: one segment per run, ``false_alarm_per_run`` per segment.
-
-    Parameters
-    ----------
-    false_alarm_per_run : float
-        Target false-alarm probability per healthy run, in (0, 1).
-    duration_s : float
-        Run duration (s); the segment is the monitored span ``duration_s - burn_in``.
-    onset_method : str, default "binseg"
-        Onset estimator.
-
-    Returns
-    -------
-    Alarm
-        ``segment_s = duration_s - 5``, ``false_alarms_per_hour = p * 3600 / segment_s``.
-
-    Examples
-    --------
-    >>> a = v5_alarm(0.01, 60.0)
-    >>> a.segment_s, round(a.false_alarms_per_hour * a.segment_s / 3600, 12)
-    (55.0, 0.01)
-    """
-    from leakdiag.detect.base import Alarm
-
-    base = Alarm(onset_method=onset_method)
-    seg = duration_s - base.burn_in_s
-    return replace(base, segment_s=seg, false_alarms_per_hour=false_alarm_per_run * 3600.0 / seg)
-
-
-def _fingerprint() -> str:
-    root = Path(__file__).resolve().parents[1]  # the leakdiag package
-    h = hashlib.sha256()
-    for sub in ("detect", "features", "literature", "bench"):  # subfolders too (_kernels/)
-        for f in sorted((root / sub).rglob("*.py")):
-            h.update(str(f.relative_to(root)).encode())
-            h.update(f.read_bytes())
-    return h.hexdigest()[:16]
-
-
-def _key(obj) -> str:
-    txt = json.dumps(obj, sort_keys=True, default=str)
-    return hashlib.sha256(txt.encode()).hexdigest()[:24]
 
 
 @dataclass(frozen=True)
@@ -143,8 +87,6 @@ def fit_method(config: FitConfig) -> dict:
         (``threshold_basis_.as_dict()``) of the fitted detector.
     """
     import joblib
-
-    from leakdiag.bench.registry import make_detector
 
     c0 = config.cases[0]
     base = {"method": config.method, "system": c0.system, "load": c0.load,
@@ -203,8 +145,6 @@ def shares_fit(det) -> bool:
         False for detectors with their own ``fit`` or ``_fit_features`` (read the runs
         themselves).
     """
-    from leakdiag.detect.base import Detector
-
     cls = type(det)
     return (isinstance(det, Detector) and cls.fit is Detector.fit
             and cls._fit_features is Detector._fit_features)
@@ -225,8 +165,6 @@ def fit_shared(configs: tuple) -> list[dict]:
         One :func:`fit_method`-like row per method.
     """
     import joblib
-
-    from leakdiag.bench.registry import make_detector
 
     todo, rows = [], []
     for cfg in configs:
@@ -277,12 +215,6 @@ def fit_shared(configs: tuple) -> list[dict]:
     return rows
 
 
-def _simulate(case):
-    import leakdiag.sim as sim
-
-    return getattr(sim, f"simulate_{case.system}")(**simulator_kwargs(case))
-
-
 def score_chunk(config: ChunkConfig) -> int:
     """Judge a chunk of held-out runs with every fitted method; write one Parquet shard.
 
@@ -328,87 +260,6 @@ def score_chunk(config: ChunkConfig) -> int:
     return write_shard(rows, path)
 
 
-def error_row(case, method: str, exc: Exception) -> dict:
-    """The row of a held-out run a method could not judge (recorded, never dropped).
-
-    Parameters
-    ----------
-    case, method : BenchCase, str
-        The run and the registry name of the method.
-    exc : Exception
-        What failed.
-
-    Returns
-    -------
-    dict
-        Role ``"error"`` and the error's type and message.
-    """
-    return {"method": method, "system": case.system, "load": case.load,
-            "excitation": case.excitation, "role": "error", "seed": case.seed,
-            "leak_lpm": case.leak_lpm, "error": f"{type(exc).__name__}: {exc}"}
-
-
-def run_row(case, method: str, rec, v, cpu_s: float, sim_cpu_s: float) -> dict:
-    """The row of one judged held-out run (both modes; per-unit mode adds threshold columns).
-
-    Parameters
-    ----------
-    case : BenchCase
-        The run.
-    method : str
-        Registry name.
-    rec : Recording
-        Its simulation (achieved leak in the metadata).
-    v : Verdict
-        The method's verdict.
-    cpu_s, sim_cpu_s : float
-        CPU seconds of judging and of simulating.
-
-    Returns
-    -------
-    dict
-        The columns of ``runs.csv``.
-    """
-    return {"method": method, "system": case.system, "load": case.load,
-            "excitation": case.excitation, "role": case.role, "leak_lpm": case.leak_lpm,
-            "seed": case.seed, "machine": case.nuisance["machine"],
-            "duration_s": case.duration_s, "onset_true_s": case.onset_s,
-            "leak_lpm_achieved": rec.meta.get("leak_lpm_achieved"),
-            "noise_std_pa": case.noise_std_pa, "score_max": v.score_max,
-            "alarm": bool(v.leak), "alarm_time_s": v.alarm_time_s,
-            "onset_est_s": v.onset_s, "confidence": v.confidence,
-            "threshold": v.threshold, "cpu_s": cpu_s, "sim_cpu_s": sim_cpu_s}
-
-
-def write_shard(rows: list, path) -> int:
-    """Write one result shard atomically (Parquet).
-
-    Parameters
-    ----------
-    rows : list of dict
-        Rows of :func:`run_row` / :func:`error_row`.
-    path : path-like
-        Shard file.
-
-    Returns
-    -------
-    int
-        Rows written.
-    """
-    import pandas as pd
-
-    df = pd.DataFrame(rows)
-    for col in ("onset_true_s", "alarm_time_s", "onset_est_s", "leak_lpm_achieved"):
-        if col in df:
-            df[col] = pd.to_numeric(df[col], errors="coerce")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    df.to_parquet(tmp, index=False)
-    tmp.replace(path)
-    return len(df)
-
-
 def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_method: str = "binseg",
            scheduler: str = "serial", n_workers: int | None = None, cache_dir: str | None = None,
            progress: bool = True, unit_fit: int = 0,
@@ -447,10 +298,6 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
     """
     import pandas as pd
 
-    from leakdiag.bench.run import simulator_has_machines
-    from leakdiag.bench.v5_suite import V5_VERSION, build_v5_suite
-    from leakdiag.runtime.executor import run_cases
-
     work = Path(work_dir)
     budget = {} if full_budget else REDUCED_BUDGET
     cases = build_v5_suite(suites)
@@ -460,7 +307,6 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
         groups.setdefault((c.system, c.load, c.excitation), []).append(c)
     cal_all = [c for c in cases if c.role == "cal"]
     if unit_fit:
-        from leakdiag.bench.v5_unit import own_cases, plan_units
 
         cal_all = cal_all + [o for c in cal_all
                              for o in own_cases(c, unit_fit, suites[c.system].nuisance)]
@@ -495,24 +341,8 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
     return runs, fits, settings
 
 
-@dataclass(frozen=True)
-class Plan:
-    """Stages 2 and 3 of a v5 run: fit tasks and scoring chunks, with their functions."""
-
-    fit: Any
-    fit_tasks: list
-    fit_desc: str
-    score: Any
-    chunks: list
-    score_desc: str
-    n_fit_tasks: int
-
-
 def _plan_fleet(suites, methods, work, groups, fp, far, onset_method, cache_dir, budget) -> Plan:
     """Fleet mode: each method fitted once per group on its training units."""
-    from leakdiag.bench.registry import make_detector
-    from leakdiag.bench.run import simulator_has_machines
-    from leakdiag.bench.v5_suite import V5_VERSION
 
     fit_cfgs, chunk_cfgs = [], []
     for key, group in groups.items():

@@ -25,8 +25,20 @@ from pathlib import Path
 
 import numpy as np
 
-from leakdiag.bench.run import _recording
-from leakdiag.bench.v5_run import _simulate, error_row, run_row, write_shard
+from leakdiag.bench.registry import make_detector
+from leakdiag.bench.run import _recording, simulator_has_machines
+from leakdiag.bench.v5_common import (
+    Plan,
+    _key,
+    _simulate,
+    error_row,
+    run_row,
+    v5_alarm,
+    write_shard,
+)
+from leakdiag.bench.v5_suite import V5_VERSION
+from leakdiag.detect.base import Detector
+from leakdiag.detect.threshold import InsufficientHealthyDataWarning, ReferenceMaxima
 
 __all__ = ["own_cases", "UnitRefConfig", "UnitChunkConfig", "reference_group",
            "score_chunk_unit", "takes_reference", "plan_units"]
@@ -110,16 +122,12 @@ def takes_reference(det) -> bool:
     """
     import inspect
 
-    from leakdiag.detect.base import Detector
-
     return (isinstance(det, Detector)
             and "reference_maxima" in inspect.signature(type(det).fit).parameters)
 
 
 def _fit_own(det, own, ref):
     """Fit on own runs (+ reference maxima); an own-only unsupported threshold is expected."""
-    from leakdiag.detect.threshold import InsufficientHealthyDataWarning
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", InsufficientHealthyDataWarning)
         return det.fit(own, reference_maxima=ref) if ref is not None else det.fit(own)
@@ -139,9 +147,6 @@ def reference_group(config: UnitRefConfig) -> list[dict]:
         Per method: ``n_reference`` maxima, ``n_units``, ``error`` (first failure) and CPU s.
     """
     import joblib
-
-    from leakdiag.bench.registry import make_detector
-    from leakdiag.detect.threshold import ReferenceMaxima
 
     path = Path(config.path)
     if path.is_file():
@@ -204,8 +209,6 @@ def score_chunk_unit(config: UnitChunkConfig) -> int:
     """
     import joblib
     import pandas as pd
-
-    from leakdiag.bench.registry import make_detector
 
     path = Path(config.path)
     if path.is_file():
@@ -275,9 +278,6 @@ def plan_units(suites, methods, work, groups, fp, n_own, far, onset_method, cach
     Plan
         :func:`reference_group` tasks (one per group) and :func:`score_chunk_unit` chunks.
     """
-    from leakdiag.bench.run import simulator_has_machines
-    from leakdiag.bench.v5_run import Plan, _key, v5_alarm
-    from leakdiag.bench.v5_suite import V5_VERSION
 
     ref_cfgs, chunk_cfgs = [], []
     for key, group in groups.items():
