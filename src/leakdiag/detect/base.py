@@ -40,20 +40,25 @@ no change on the healthy runs it was fitted on.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
-
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from sklearn.base import BaseEstimator
 
 from leakdiag._validation import check_int, check_positive
 from leakdiag.detect.cusum import DIRECTIONS, cusum
+from leakdiag.detect.leaksize import fit_leak_calibration
 from leakdiag.detect.onset import ONSET_METHODS, best_split_gain, change_points, cusum_onset
-from leakdiag.detect.threshold import (SEGMENT_TOLERANCE, ReferenceMaxima, ThresholdBasis,
-                                       conformal_threshold, segment_maxima)
+from leakdiag.detect.threshold import (
+    SEGMENT_TOLERANCE,
+    ReferenceMaxima,
+    ThresholdBasis,
+    conformal_threshold,
+    segment_maxima,
+)
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["Alarm", "Verdict", "Detector"]
@@ -530,8 +535,6 @@ class Detector(BaseEstimator):
         ValueError
             If a recording lacks ``onset`` or ``leak_lpm`` metadata.
         """
-        from leakdiag.detect.leaksize import fit_leak_calibration
-
         shifts, flows = [], []
         for rec in _as_recordings(recordings):
             if rec.onset is None or rec.meta.get("leak_lpm") is None:

@@ -18,13 +18,22 @@ from scipy.optimize import nnls
 from scipy.stats import norm
 
 from leakdiag._validation import check_positive
+from leakdiag.detect import _flow_balance_eha as eha
+from leakdiag.detect import _flow_balance_vca as vca
 from leakdiag.detect._flow_balance_search import (
-    GLRThreshold, calibrate_glr, glr_alarm_count, glr_profile,
+    GLRThreshold,
+    calibrate_glr,
+    glr_alarm_count,
+    glr_profile,
 )
 from leakdiag.detect.base import Detector, Verdict
 from leakdiag.detect.threshold import (
-    SEGMENT_TOLERANCE, InsufficientHealthyDataError, ReferenceMaxima, ThresholdBasis,
-    binned_maxima, conformal_threshold,
+    SEGMENT_TOLERANCE,
+    InsufficientHealthyDataError,
+    ReferenceMaxima,
+    ThresholdBasis,
+    binned_maxima,
+    conformal_threshold,
 )
 from leakdiag.features.series import FeatureSeries
 from leakdiag.io.recording import RecordingError
@@ -272,8 +281,6 @@ class FlowBalanceDetector(Detector):
             raise ValueError(f"max_span_s={self.max_span_s!r} must be >= window_s={self.window_s!r}")
 
     def _backend(self):
-        from leakdiag.detect import _flow_balance_eha as eha
-        from leakdiag.detect import _flow_balance_vca as vca
 
         return vca if self.system == "vca" else eha
 

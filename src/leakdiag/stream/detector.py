@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from leakdiag._validation import check_positive
+from leakdiag.detect.base import Alarm
 
 __all__ = ["DetectorScorer", "as_scorer"]
 
@@ -59,8 +60,6 @@ class DetectorScorer:
             raise ValueError(f"{type(detector).__name__} is not fitted; call fit(...) first")
         alarm = getattr(detector, "alarm", None)
         if alarm is None:
-            from leakdiag.detect.base import Alarm
-
             alarm = Alarm()
         self.detector = detector
         self.mean_, self.std_ = float(detector.mean_), float(detector.std_)

@@ -23,6 +23,7 @@ from typing import Any, Iterable, Protocol, Sequence, runtime_checkable
 import numpy as np
 
 from leakdiag.features.spec import MethodSpec
+from leakdiag.stream.detector import as_scorer
 from leakdiag.stream.feature import StreamingFeature
 
 __all__ = ["Monitor", "WindowEvent", "WindowScorer", "check_scorer"]
@@ -170,7 +171,6 @@ class Monitor:
             scorers = [scorers]
         if len(scorers) != len(specs):
             raise ValueError(f"got {len(scorers)} scorer(s) for {len(specs)} feature spec(s)")
-        from leakdiag.stream.detector import as_scorer
 
         self.scorers = [
             None if s is None else check_scorer(as_scorer(s, sp, sample_rate, start_time))
