@@ -14,7 +14,7 @@ def vca_runs():
     All with the periodic-step structured excitation; seeds differ (sensor noise).
     """
     from leakdiag.sim.excitation import structured_excitation
-    from leakdiag.sim.vca_simulate import simulate_vca
+    from leakdiag.sim.vca.simulate import simulate_vca
 
     ref = structured_excitation("vca")
     fit = [simulate_vca(DURATION_S, None, ONSET_S, seed=s, reference=ref) for s in (11, 12, 13, 14)]

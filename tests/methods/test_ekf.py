@@ -7,7 +7,7 @@ from leakdiag.methods.ekf import EKFParams, ekf_feature, run_vca_ekf
 
 @pytest.fixture(scope="module")
 def noise_free_leak():
-    from leakdiag.sim.vca_simulate import simulate_vca
+    from leakdiag.sim.vca.simulate import simulate_vca
 
     return simulate_vca(30.0, 0.5, 10.0, seed=3, sensors=False)
 
@@ -75,7 +75,7 @@ def test_errors():
 @pytest.fixture(scope="module")
 def noisy_spring_run():
     from leakdiag.sim.sensors import SensorParams
-    from leakdiag.sim.vca_simulate import simulate_vca
+    from leakdiag.sim.vca.simulate import simulate_vca
 
     return simulate_vca(12.0, 0.0, load="spring", seed=5,
                         sensor_params=SensorParams(pressure_noise_std_pa=40e3))

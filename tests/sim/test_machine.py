@@ -8,16 +8,16 @@ import pytest
 
 import leakdiag as ld
 from leakdiag.sim import machine as mach
-from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha.params import EHAParams
 from leakdiag.sim.leak import LeakSchedule
 from leakdiag.sim.machine import EHAMachine, VCAMachine, draw_machine, resolve_machine
 from leakdiag.sim.sensor_chain import antialias_sos
 from leakdiag.sim.sensors import SensorParams, measure_pressure
-from leakdiag.sim.vca_conditions import OperatingConditions
-from leakdiag.sim.vca_control import FixedGainController
-from leakdiag.sim.vca_integrator import integrate_closed_loop
-from leakdiag.sim.vca_model import default_inputs, vca_rhs
-from leakdiag.sim.vca_params import VCAParams
+from leakdiag.sim.vca.conditions import OperatingConditions
+from leakdiag.sim.vca.control import FixedGainController
+from leakdiag.sim.vca.integrate import integrate_closed_loop
+from leakdiag.sim.vca.model import default_inputs, vca_rhs
+from leakdiag.sim.vca.params import VCAParams
 from leakdiag.sim.reference import SampledReference
 
 

@@ -124,7 +124,7 @@ def simulator_kwargs(case) -> dict:
     onset = case.onset_s if leak else case.duration_s / 2.0
     if case.system == "vca":
         from leakdiag.sim.sensors import SensorParams
-        from leakdiag.sim.vca_conditions import OperatingConditions
+        from leakdiag.sim.vca.conditions import OperatingConditions
 
         spring = case.load == "spring"
         cond = OperatingConditions(
@@ -145,8 +145,8 @@ def simulator_kwargs(case) -> dict:
     if case.system == "eha":
         from dataclasses import replace as _replace
 
-        from leakdiag.sim.eha import EHA_SENSORS
-        from leakdiag.sim.eha_drive import EHAConditions
+        from leakdiag.sim.eha.simulate import EHA_SENSORS
+        from leakdiag.sim.eha.drive import EHAConditions
 
         spring = case.load == "spring"
         # the structured test input is repeated exactly (no amplitude/frequency variation)

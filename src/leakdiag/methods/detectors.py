@@ -222,7 +222,7 @@ class EKFDetector(Detector):
         EKFParams
         """
         from leakdiag.methods.ekf import EKFParams
-        from leakdiag.sim.vca_params import VCAParams
+        from leakdiag.sim.vca.params import VCAParams
 
         load = self.load
         if load == "auto":

@@ -20,10 +20,10 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha.params import EHAParams
 from leakdiag.sim.leak import LPM_PER_M3S, lpm_to_m3s
 from leakdiag.sim.sensors import PRESSURE_FULL_SCALE_PA, SensorParams
-from leakdiag.sim.vca_params import VCAParams
+from leakdiag.sim.vca.params import VCAParams
 
 __all__ = [
     "VCAMachine",

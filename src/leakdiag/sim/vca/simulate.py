@@ -28,13 +28,13 @@ from leakdiag.sim.machine import VCAMachine, resolve_machine
 from leakdiag.sim.reference import as_reference
 from leakdiag.sim.sensor_chain import antialias_sos, pressure_chain
 from leakdiag.sim.sensors import SensorParams
-from leakdiag.sim.vca_conditions import OperatingConditions
-from leakdiag.sim.vca_control import FixedGainController
-from leakdiag.sim.vca_integrator import (
+from leakdiag.sim.vca.conditions import OperatingConditions
+from leakdiag.sim.vca.control import FixedGainController
+from leakdiag.sim.vca.integrate import (
     ClosedLoopResult, _SegmentedLoop, rk4_advance, sos_step, valve_null_v,
 )
-from leakdiag.sim.vca_model import vca_leak_flow
-from leakdiag.sim.vca_params import LEAK_MODELS, LOADS, VCAParams
+from leakdiag.sim.vca.model import vca_leak_flow
+from leakdiag.sim.vca.params import LEAK_MODELS, LOADS, VCAParams
 
 __all__ = ["simulate_vca", "DEFAULT_MAX_STEP_S", "initial_leak_coefficient"]
 
@@ -335,7 +335,7 @@ def simulate_vca(
 
     Notes
     -----
-    Model: Eqs. 2-1 to 2-5 (see :func:`~leakdiag.sim.vca_model.vca_rhs`). Integration: fixed-step
+    Model: Eqs. 2-1 to 2-5 (see :func:`~leakdiag.sim.vca.model.vca_rhs`). Integration: fixed-step
     RK4, control held between samples. The achieved leak is the mean of :math:`|Q_l|` over the
     samples at or after the onset (Sec. 4.5, "the mean of the leak after 200 seconds"). The
     calibration integrates the leak-free part before the onset once, takes its first guess of

@@ -7,7 +7,7 @@ path is the two-stage, L-stable Rosenbrock method ROS2 (order 2,
 :math:`\\gamma = 1 + 1/\\sqrt 2`) with the analytic Jacobian and local error control
 (steps shrink at the orifice switches, grow elsewhere). Inputs are given at the output samples
 and interpolated linearly in between.
-:func:`integrate_reference` solves the same :func:`~leakdiag.sim.eha_model.eha_rhs` with SciPy's
+:func:`integrate_reference` solves the same :func:`~leakdiag.sim.eha.model.eha_rhs` with SciPy's
 implicit ``Radau`` solver and tight tolerances, for tests and ``make bench``.
 """
 
@@ -19,8 +19,8 @@ import numba
 import numpy as np
 
 from leakdiag._validation import as_2d_float, check_int, check_positive
-from leakdiag.sim.eha_jacobian import _jacobian_into
-from leakdiag.sim.eha_model import (
+from leakdiag.sim.eha.jacobian import _jacobian_into
+from leakdiag.sim.eha.model import (
     N_INPUTS, N_STATES, S_P1, S_P2, S_PA, S_PB, _rhs_into,
 )
 
@@ -287,7 +287,7 @@ def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
 
     Examples
     --------
-    >>> from leakdiag.sim.eha_params import EHAParams
+    >>> from leakdiag.sim.eha.params import EHAParams
     >>> prm = EHAParams()
     >>> y0 = np.zeros(N_STATES); y0[2:6] = prm.accumulator_pressure_pa
     >>> u = np.tile([0.0, 0.0, 1.0, 1.0, 0.0, 0.0], (11, 1))
@@ -350,7 +350,7 @@ def integrate_reference(y0, inputs, params, sample_rate: float, t0: float = 0.0,
     """
     from scipy.integrate import solve_ivp
 
-    from leakdiag.sim.eha_model import eha_rhs
+    from leakdiag.sim.eha.model import eha_rhs
 
     y0 = np.ascontiguousarray(y0, dtype=np.float64)
     inputs = as_2d_float(inputs, "inputs")

@@ -13,7 +13,7 @@ convention. Positions in the three vectors are named integers:
   modulus and the viscous damping (temperature), ``IN_SPRING`` load-spring stiffness (N/m),
   ``IN_KLEAK`` leak coefficient :math:`s(t) k_l` of Eq. 2-4 (m^3/(s sqrt(Pa))), i.e. the
   calibrated coefficient times the leak schedule of :mod:`leakdiag.sim.leak`.
-* ``params``: :meth:`leakdiag.sim.eha_params.EHAParams.to_array`.
+* ``params``: :meth:`leakdiag.sim.eha.params.EHAParams.to_array`.
 """
 
 from __future__ import annotations
@@ -21,8 +21,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.sim.eha_flows import check_valve_flow, line_orifice_flow, orifice_flow
-from leakdiag.sim.eha_params import (
+from leakdiag.sim.eha.flows import check_valve_flow, line_orifice_flow, orifice_flow
+from leakdiag.sim.eha.params import (
     P_AREA, P_BETA, P_BM, P_CE, P_CEXT, P_CINT, P_CLOSED, P_CM, P_CSTOP, P_FPR, P_FV,
     P_JM, P_KCV, P_KFREE, P_KI, P_KP, P_KRESTR, P_KSTOP, P_KW, P_KX, P_LC, P_M, P_PACC,
     P_PCV, P_PTR, P_QB, P_RC, P_STROKE, P_UMAX, P_V0, P_VLINE, P_VMAX, P_VTH, P_WMAX,
@@ -66,7 +66,7 @@ def eha_command(state, inputs, params):
 
     Examples
     --------
-    >>> from leakdiag.sim.eha_params import EHAParams
+    >>> from leakdiag.sim.eha.params import EHAParams
     >>> p = EHAParams().to_array(closed_loop=True)
     >>> x = np.zeros(N_STATES); x[S_X] = 0.01
     >>> u = np.zeros(N_INPUTS); u[IN_XREF] = 0.015
@@ -105,7 +105,7 @@ def eha_leak_flow(state, inputs, params):
 
     Examples
     --------
-    >>> from leakdiag.sim.eha_params import EHAParams
+    >>> from leakdiag.sim.eha.params import EHAParams
     >>> p = EHAParams().to_array()
     >>> x = np.zeros(N_STATES); x[S_P1] = 2e6 + 1e8; x[S_P2] = 2e6
     >>> u = np.zeros(N_INPUTS); u[IN_KLEAK] = 1e-8
@@ -247,7 +247,7 @@ def eha_rhs(t, state, inputs, params):
     --------
     At the accumulator pressure with zero input nothing changes:
 
-    >>> from leakdiag.sim.eha_params import EHAParams
+    >>> from leakdiag.sim.eha.params import EHAParams
     >>> p = EHAParams().to_array()
     >>> y = np.zeros(N_STATES); y[S_P1:S_PB + 1] = EHAParams().accumulator_pressure_pa
     >>> u = np.array([0.0, 0.0, 1.0, 1.0, 0.0, 0.0])

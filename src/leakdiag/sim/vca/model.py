@@ -73,7 +73,7 @@ def vca_leak_flow(p1, p2, leak_coefficient, params):
 
     Examples
     --------
-    >>> from leakdiag.sim.vca_params import VCAParams
+    >>> from leakdiag.sim.vca.params import VCAParams
     >>> pa = VCAParams().to_array("laminar")
     >>> float(vca_leak_flow(2e6, 1e6, 1e-12, pa))
     1e-06
@@ -182,11 +182,11 @@ def vca_rhs(t, state, inputs, params):
     leakage :math:`c_v` (``valve_leakage_m3_per_s_pa``, 0 in Table 2-1) adds
     :math:`c_v(P_s - P_i) - c_v(P_i - P_r)` to the flow into chamber :math:`i`. ``inputs[0]``
     is the signal the valve sees: the controller's command plus the valve's null offset, which
-    :func:`~leakdiag.sim.vca_integrator.integrate_closed_loop` adds (``valve_null_v``).
+    :func:`~leakdiag.sim.vca.integrate.integrate_closed_loop` adds (``valve_null_v``).
 
     Examples
     --------
-    >>> from leakdiag.sim.vca_params import VCAParams
+    >>> from leakdiag.sim.vca.params import VCAParams
     >>> p = VCAParams()
     >>> s = np.array([0.0, 0.0, 8.6e6, 8.6e6, 0.0, 0.0])
     >>> vca_rhs(0.0, s, default_inputs(), p.to_array()).tolist()  # at rest, valve closed

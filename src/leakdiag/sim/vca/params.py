@@ -116,7 +116,7 @@ class VCAParams:
         0 = the ideal valve of Table 2-1).
     valve_null_shift_v_per_k : float, default 0.0
         Null shift :math:`s_T` per kelvin of the fluid temperature rise :math:`\\Delta T(t)` of
-        :class:`~leakdiag.sim.vca_conditions.OperatingConditions` (any sign).
+        :class:`~leakdiag.sim.vca.conditions.OperatingConditions` (any sign).
     valve_leakage_m3_per_s_pa : float, default 0.0
         Laminar conductance :math:`c_v` of the radial clearance at each of the four metering
         lands: chamber 1 gains :math:`c_v(P_s - P_1) - c_v(P_1 - P_r)`, chamber 2 likewise; the

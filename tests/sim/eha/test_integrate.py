@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from leakdiag.sim.eha import initial_state
-from leakdiag.sim.eha_drive import build_inputs
-from leakdiag.sim.eha_params import EHAParams
-from leakdiag.sim.eha_solver import (
+from leakdiag.sim.eha.simulate import initial_state
+from leakdiag.sim.eha.drive import build_inputs
+from leakdiag.sim.eha.params import EHAParams
+from leakdiag.sim.eha.integrate import (
     CLOSED_LOOP_RTOL, DEFAULT_RTOL, _lu_factor, _lu_solve, integrate_fast, integrate_reference,
 )
 from leakdiag.sim.leak import LeakSchedule

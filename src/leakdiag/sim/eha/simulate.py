@@ -2,8 +2,8 @@
 
 The electrohydrostatic actuator is driven open loop by ``3 sin 4t`` V for 180 s with a leak
 switched on at 90 s (Sec. 4.6), or, as the thesis proposes for future work (Sec. 7.2), closed
-loop around an outer position loop. The model is :func:`~leakdiag.sim.eha_model.eha_rhs`, the
-integrator :func:`~leakdiag.sim.eha_solver.integrate_fast`, the leak schedule and calibration
+loop around an outer position loop. The model is :func:`~leakdiag.sim.eha.model.eha_rhs`, the
+integrator :func:`~leakdiag.sim.eha.integrate.integrate_fast`, the leak schedule and calibration
 come from :mod:`leakdiag.sim.leak` and the sensor chain from :mod:`leakdiag.sim.sensors`.
 """
 
@@ -20,12 +20,12 @@ from leakdiag.io.recording import Recording
 from leakdiag.sim._checks import (
     check_choice, check_leak_kind, check_onset, check_params_type, check_seed, n_samples,
 )
-from leakdiag.sim.eha_drive import LOADS, MODES, EHAConditions, build_inputs
-from leakdiag.sim.eha_model import (
+from leakdiag.sim.eha.drive import LOADS, MODES, EHAConditions, build_inputs
+from leakdiag.sim.eha.model import (
     IN_KLEAK, IN_U, IN_XREF, N_STATES, S_P1, S_P2, S_PA, S_PB, S_W, S_X,
 )
-from leakdiag.sim.eha_params import P_KFREE, EHAParams
-from leakdiag.sim.eha_solver import CLOSED_LOOP_RTOL, DEFAULT_RTOL, integrate_fast
+from leakdiag.sim.eha.params import P_KFREE, EHAParams
+from leakdiag.sim.eha.integrate import CLOSED_LOOP_RTOL, DEFAULT_RTOL, integrate_fast
 from leakdiag.sim.leak import (
     LEAK_REFERENCE_DP_PA, LPM_PER_M3S, MIN_CALIBRATION_WINDOW_S, LeakCalibrationError, LeakSchedule,
     calibrate_with_pilot, check_calibrated, lpm_to_m3s, m3s_to_lpm,
@@ -350,7 +350,7 @@ def simulate_eha(
     Notes
     -----
     Model: Eqs. 3-1 to 3-19 with the leak of Eq. 2-4 between the chambers (see
-    :func:`~leakdiag.sim.eha_model.eha_rhs`). The achieved leak is the mean of
+    :func:`~leakdiag.sim.eha.model.eha_rhs`). The achieved leak is the mean of
     :math:`|Q_l|` over the samples at or after the onset (Sec. 4.6, "the average leak after 90
     seconds"). The calibration integrates the leak-free part before the onset once, guesses the
     coefficient from its healthy pressures and reruns only the part after the onset (continuing

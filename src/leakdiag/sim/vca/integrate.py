@@ -17,9 +17,9 @@ from scipy.signal import sosfilt_zi
 from leakdiag._validation import as_1d_float, check_int, check_positive
 from leakdiag.sim.leak import leak_multiplier
 from leakdiag.sim.sensors import adc_reading, quantize
-from leakdiag.sim.vca_conditions import fill_inputs
-from leakdiag.sim.vca_control import control_law
-from leakdiag.sim.vca_model import _rhs_into, vca_leak_flow
+from leakdiag.sim.vca.conditions import fill_inputs
+from leakdiag.sim.vca.control import control_law
+from leakdiag.sim.vca.model import _rhs_into, vca_leak_flow
 
 __all__ = ["ClosedLoopResult", "integrate_closed_loop", "rk4_advance", "valve_null_v",
            "sos_step"]
@@ -46,8 +46,8 @@ def valve_null_v(t, prm, cond):
 
     Examples
     --------
-    >>> from leakdiag.sim.vca_params import VCAParams
-    >>> from leakdiag.sim.vca_conditions import OperatingConditions
+    >>> from leakdiag.sim.vca.params import VCAParams
+    >>> from leakdiag.sim.vca.conditions import OperatingConditions
     >>> prm = VCAParams(valve_null_offset_v=0.05, valve_null_shift_v_per_k=-0.002).to_array()
     >>> round(valve_null_v(50.0, prm, OperatingConditions(temperature_rise_k=8.0).to_array(100.0)),
     ...       12)                                # 0.05 - 0.002 * 4 K
@@ -234,9 +234,9 @@ def rk4_advance(state, t0, dt, n_steps, u, leak_coefficient, schedule, cond, par
 
     Examples
     --------
-    >>> from leakdiag.sim.vca_params import VCAParams
+    >>> from leakdiag.sim.vca.params import VCAParams
     >>> from leakdiag.sim.leak import LeakSchedule
-    >>> from leakdiag.sim.vca_conditions import OperatingConditions
+    >>> from leakdiag.sim.vca.conditions import OperatingConditions
     >>> s = np.array([0.0, 0.0, 8.6e6, 8.6e6, 0.0, 0.0])
     >>> rk4_advance(s, 0.0, 1e-4, 100, 0.0, 0.0, LeakSchedule().to_array(),
     ...             OperatingConditions().to_array(1.0), VCAParams().to_array())
@@ -331,10 +331,10 @@ def integrate_closed_loop(x_ref, sample_rate, n_sub, params, gains, u_max, leak_
 
     Examples
     --------
-    >>> from leakdiag.sim.vca_params import VCAParams
-    >>> from leakdiag.sim.vca_control import FixedGainController
+    >>> from leakdiag.sim.vca.params import VCAParams
+    >>> from leakdiag.sim.vca.control import FixedGainController
     >>> from leakdiag.sim.leak import LeakSchedule
-    >>> from leakdiag.sim.vca_conditions import OperatingConditions
+    >>> from leakdiag.sim.vca.conditions import OperatingConditions
     >>> res = integrate_closed_loop(np.full(2000, 5e-3), 1000.0, 10, VCAParams().to_array(),
     ...     FixedGainController().to_array(), 10.0, 0.0, LeakSchedule().to_array(),
     ...     OperatingConditions().to_array(2.0), [0, 0, 8.6e6, 8.6e6, 0, 0])
@@ -371,7 +371,7 @@ class _SegmentedLoop:
     ``advance(carry, stop, ...)`` integrates samples ``[carry.index, stop)`` and updates the
     carry in place; integrating ``[0, m)`` then ``[m, n)`` equals ``[0, n)`` bit for bit, so a
     leak calibration can restart the part after the onset from a copy of the carry at the
-    onset (:func:`leakdiag.sim.vca_simulate.simulate_vca`).
+    onset (:func:`leakdiag.sim.vca.simulate.simulate_vca`).
     """
 
     def __init__(self, x_ref, sample_rate, params, gains, u_max, schedule, cond, state0,

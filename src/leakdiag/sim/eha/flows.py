@@ -1,7 +1,7 @@
 """Flow laws of the EHA model: orifices (Eqs. 3-9 to 3-12, 2-4) and accumulator check valves.
 
 Each law is a Numba scalar function of the pressure drop; the ``_d*`` functions are their
-derivatives, used by the analytic Jacobian (:mod:`leakdiag.sim.eha_jacobian`).
+derivatives, used by the analytic Jacobian (:mod:`leakdiag.sim.eha.jacobian`).
 """
 
 from __future__ import annotations
