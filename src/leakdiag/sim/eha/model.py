@@ -21,12 +21,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.sim.eha.flows import check_valve_flow, line_orifice_flow, orifice_flow
+from leakdiag.sim.eha.flows import check_valve_flow, line_orifice_flow
 from leakdiag.sim.eha.params import (
     P_AREA, P_BETA, P_BM, P_CE, P_CEXT, P_CINT, P_CLOSED, P_CM, P_CSTOP, P_FPR, P_FV,
     P_JM, P_KCV, P_KFREE, P_KI, P_KP, P_KRESTR, P_KSTOP, P_KW, P_KX, P_LC, P_M, P_PACC,
     P_PCV, P_PTR, P_QB, P_RC, P_STROKE, P_UMAX, P_V0, P_VLINE, P_VMAX, P_VTH, P_WMAX,
 )
+from leakdiag.sim.leak import leak_flow
 
 __all__ = [
     "eha_rhs",
@@ -101,7 +102,7 @@ def eha_leak_flow(state, inputs, params):
     Returns
     -------
     float
-        :math:`s(t)\\,k_l\\,g(P_A - P_B)` in m^3/s, with :math:`g` of :func:`orifice_flow`.
+        :math:`s(t)\\,k_l\\,g(P_A - P_B)` in m^3/s, :func:`leakdiag.sim.leak.leak_flow`.
 
     Examples
     --------
@@ -115,7 +116,7 @@ def eha_leak_flow(state, inputs, params):
     k = inputs[IN_KLEAK]
     if k == 0.0:
         return 0.0
-    return orifice_flow(k, state[S_P1] - state[S_P2], params[P_PTR])
+    return leak_flow(k, state[S_P1] - state[S_P2], params[P_PTR], False)
 
 
 @numba.njit(cache=True)

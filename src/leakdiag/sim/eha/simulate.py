@@ -28,7 +28,7 @@ from leakdiag.sim.eha.params import P_KFREE, EHAParams
 from leakdiag.sim.eha.integrate import CLOSED_LOOP_RTOL, DEFAULT_RTOL, integrate_fast
 from leakdiag.sim.leak import (
     LEAK_REFERENCE_DP_PA, LPM_PER_M3S, MIN_CALIBRATION_WINDOW_S, LeakCalibrationError, LeakSchedule,
-    calibrate_with_pilot, check_calibrated, lpm_to_m3s, m3s_to_lpm,
+    calibrate_with_pilot, check_calibrated, leak_flow, lpm_to_m3s, m3s_to_lpm,
     too_short_to_calibrate,
 )
 from leakdiag.sim.machine import EHAMachine, resolve_machine
@@ -186,9 +186,8 @@ def _initial_leak_coefficient(leak_lpm: float, params: EHAParams, load: str) -> 
 
 
 def _leak_flow(k_leak: np.ndarray, states: np.ndarray, ptr: float) -> np.ndarray:
-    """Leak flow of Eq. 2-4 (regularised as in the model) at each sample, m^3/s."""
-    dp = states[:, S_P1] - states[:, S_P2]
-    return k_leak * dp / np.sqrt(np.sqrt(dp * dp + ptr * ptr))
+    """Leak flow of Eq. 2-4 (the model's law, :func:`leak_flow`) at each sample, m^3/s."""
+    return leak_flow(k_leak, states[:, S_P1] - states[:, S_P2], ptr, False)
 
 
 def _coefficient_from_healthy(states: np.ndarray, split: int, fs: float, leak_lpm: float,
@@ -522,9 +521,8 @@ def simulate_eha(
         "leak_pct_of_rated_flow": 100.0 * achieved / params.rated_pump_flow_lpm,
         "leak_coefficient": float(k_leak),
         "leak_reference_dp_pa": LEAK_REFERENCE_DP_PA,
-        "leak_lpm_at_reference_dp": m3s_to_lpm(
-            k_leak * LEAK_REFERENCE_DP_PA
-            / math.sqrt(math.sqrt(LEAK_REFERENCE_DP_PA**2 + ptr * ptr))),
+        "leak_lpm_at_reference_dp": m3s_to_lpm(leak_flow(k_leak, LEAK_REFERENCE_DP_PA, ptr,
+                                                         False)),
         "leak_model": "turbulent",
         "leak_kind": sched.kind,
         "ramp_duration": float(ramp_duration) if sched.kind == "ramp" else None,

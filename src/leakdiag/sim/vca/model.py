@@ -13,6 +13,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from leakdiag.sim.leak import leak_flow
+from leakdiag.sim.orifice import signed_sqrt
 from leakdiag.sim.vca.params import (
     P_AREA, P_BETA, P_C_END, P_C_VALVE_LEAK, P_DAMPING, P_F_COULOMB, P_HALF_STROKE, P_K_END,
     P_K_SPRING, P_KV_FLOW, P_KV_SPOOL, P_LEAK_MODEL, P_MASS, P_OMEGA_V, P_PS, P_PT, P_PTR_LEAK,
@@ -58,12 +60,6 @@ def default_inputs(u: float = 0.0, leak_coefficient: float = 0.0) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _sqrt_reg(dp, ptr):
-    # sgn(dp) sqrt(|dp|), laminar below ~ptr: dp / (dp^2 + ptr^2)^(1/4)
-    return dp / np.sqrt(np.sqrt(dp * dp + ptr * ptr))
-
-
-@numba.njit(cache=True)
 def vca_leak_flow(p1, p2, leak_coefficient, params):
     """Internal leakage flow from chamber 1 to chamber 2, Eq. 2-4 or Eq. 2-5 (m^3/s).
 
@@ -89,12 +85,9 @@ def vca_leak_flow(p1, p2, leak_coefficient, params):
     >>> float(vca_leak_flow(2e6, 1e6, 1e-12, pa))
     1e-06
     """
-    dp = p1 - p2
     if leak_coefficient == 0.0:
         return 0.0
-    if params[P_LEAK_MODEL] == 1.0:
-        return leak_coefficient * dp
-    return leak_coefficient * _sqrt_reg(dp, params[P_PTR_LEAK])
+    return leak_flow(leak_coefficient, p1 - p2, params[P_PTR_LEAK], params[P_LEAK_MODEL] == 1.0)
 
 
 @numba.njit(cache=True)
@@ -122,11 +115,11 @@ def _rhs_into(t, s, inp, prm, out):
     g = prm[P_KV_FLOW] * prm[P_W] * xv
     ptr = prm[P_PTR_VALVE]
     if xv >= 0.0:
-        q1 = g * _sqrt_reg(ps - p1, ptr)
-        q2 = g * _sqrt_reg(p2 - pt, ptr)
+        q1 = g * signed_sqrt(ps - p1, ptr)
+        q2 = g * signed_sqrt(p2 - pt, ptr)
     else:
-        q1 = g * _sqrt_reg(p1 - pt, ptr)
-        q2 = g * _sqrt_reg(ps - p2, ptr)
+        q1 = g * signed_sqrt(p1 - pt, ptr)
+        q2 = g * signed_sqrt(ps - p2, ptr)
     ql = vca_leak_flow(p1, p2, inp[IN_KLEAK], prm)
     beta = prm[P_BETA] * inp[IN_BETA_SCALE]
     v1 = prm[P_VOLUME] + area * x
