@@ -17,7 +17,7 @@ def vca_runs():
     from leakdiag.sim.vca.simulate import simulate_vca
 
     ref = structured_excitation("vca")
-    fit = [simulate_vca(DURATION_S, None, ONSET_S, seed=s, reference=ref) for s in (11, 12, 13, 14)]
-    healthy = simulate_vca(DURATION_S, None, ONSET_S, seed=15, reference=ref)
-    leak = simulate_vca(DURATION_S, LEAK_LPM, ONSET_S, seed=16, reference=ref)
+    fit = [simulate_vca(duration=DURATION_S, leak_lpm=None, onset=ONSET_S, seed=s, reference=ref) for s in (11, 12, 13, 14)]
+    healthy = simulate_vca(duration=DURATION_S, leak_lpm=None, onset=ONSET_S, seed=15, reference=ref)
+    leak = simulate_vca(duration=DURATION_S, leak_lpm=LEAK_LPM, onset=ONSET_S, seed=16, reference=ref)
     return {"fit": fit, "healthy": healthy, "leak": leak}
