@@ -11,8 +11,10 @@ convention. Positions in the three vectors are named integers:
 * ``inputs`` (``N_INPUTS``): ``IN_U`` command voltage (V, open loop), ``IN_XREF`` position
   reference (m, closed loop), ``IN_BETA_SCALE`` and ``IN_FV_SCALE`` multipliers of the bulk
   modulus and the viscous damping (temperature), ``IN_SPRING`` load-spring stiffness (N/m),
-  ``IN_KLEAK`` leak coefficient :math:`s(t) k_l` of Eq. 2-4 (m^3/(s sqrt(Pa))), i.e. the
-  calibrated coefficient times the leak schedule of :mod:`leakdiag.sim.leak`.
+  ``IN_KLEAK`` leak coefficient in force :math:`s(t) k_l` of Eq. 2-4 (m^3/(s sqrt(Pa))):
+  the integrator (:func:`~leakdiag.sim.eha.integrate.integrate_fast` with ``leak_schedule``)
+  multiplies the calibrated coefficient of the input rows by the schedule of
+  :mod:`leakdiag.sim.leak`, as the VCA kernel does.
 * ``params``: :meth:`leakdiag.sim.eha.params.EHAParams.to_array`.
 """
 

@@ -347,9 +347,9 @@ def simulate_eha(
     the solver, bit-identical to a whole run) until the mean is within ``calibration_rtol``,
     first on pilots with 4x the rtol (``calibration_pilot_runs``), then on the delivered
     tolerance (``calibration_runs``, usually 1); the delivered run is checked against the
-    target. The leak coefficient is an
-    input sampled at the output rate, so a step leak rises over the one sample interval before
-    the onset sample. In closed-loop mode the position loop sees the true position.
+    target. The integrator applies the leak schedule to the coefficient at the output samples
+    (as the VCA kernel does) and interpolates in between, so a step leak rises over the one
+    sample interval before the onset sample. In closed-loop mode the position loop sees the true position.
 
     Examples
     --------
@@ -403,7 +403,8 @@ def simulate_eha(
                         rng=np.random.default_rng(cond_ss))
     if drive is not None:
         base[:, IN_U if mode == "open-loop" else IN_XREF] = drive
-    multiplier = sched.multipliers(t)
+    multiplier = sched.multipliers(t)  # for the recorded leak flow; the kernel applies s(t)
+    sched_arr = sched.to_array()
     prm = params.to_array(closed_loop=(mode == "closed-loop"))
     y0 = initial_state(params)
     i_on = plan.onset_index
@@ -415,10 +416,10 @@ def simulate_eha(
 
     def run(k_leak: float):
         inputs = base.copy()
-        inputs[:, IN_KLEAK] = k_leak * multiplier
-        sol = integrate_fast(y0, inputs, prm, fs, rtol=rtol)
+        inputs[:, IN_KLEAK] = k_leak  # the kernel applies s(t), as the VCA's does
+        sol = integrate_fast(y0, inputs, prm, fs, rtol=rtol, leak_schedule=sched_arr)
         report(n)
-        return sol.states, sol.n_accepted, _leak_flow(inputs[:, IN_KLEAK], sol.states, ptr)
+        return sol.states, sol.n_accepted, _leak_flow(k_leak * multiplier, sol.states, ptr)
 
     cal = None
     if not plan.active:
@@ -433,7 +434,7 @@ def simulate_eha(
         # split + 1 = onset sample ramps it in): integrate them once, then restart every trial
         # from the solver state at `split` (bit-identical to a whole run).
         split = max(i_on - 1, 0)
-        pre = integrate_fast(y0, base[:split + 1], prm, fs, rtol=rtol)
+        pre = integrate_fast(y0, base[:split + 1], prm, fs, rtol=rtol, leak_schedule=sched_arr)
         report(split)
         history: list[tuple[float, float]] = []
         last: list = []
@@ -445,13 +446,13 @@ def simulate_eha(
                     f"{k_max:.3g} m^3/(s Pa^0.5), a leak path wider than the lines; history so "
                     f"far: {history}")
             inputs = base[split:].copy()
-            inputs[:, IN_KLEAK] = k * multiplier[split:]
+            inputs[:, IN_KLEAK] = k
             post = integrate_fast(pre.states[-1], inputs, prm, fs,
                                   rtol=PILOT_RTOL_FACTOR * rtol if pilot else rtol,
-                                  resume=pre.resume)
+                                  resume=pre.resume, leak_schedule=sched_arr)
             report(n - split)
             st = np.concatenate([pre.states[:-1], post.states])
-            kl = np.concatenate([np.zeros(split), inputs[:, IN_KLEAK]])
+            kl = np.concatenate([np.zeros(split), k * multiplier[split:]])
             q_leak = _leak_flow(kl, st, ptr)
             q = plan.mean_lpm(q_leak)
             if not pilot:
