@@ -57,3 +57,17 @@ def test_simulate_eha_laminar_leak_is_a_one_line_error(tmp_path, capsys):
     assert "Traceback" not in err and len(errors) == 1
     assert errors[0] == "leakdiag: error: leak_model='laminar' must be one of ['turbulent']"
     assert not (tmp_path / "x.parquet").exists()
+
+
+def test_simulate_help_states_each_rigs_defaults(capsys):
+    """The help's per-rig defaults are the simulators' own (one signature, no introspection)."""
+    import inspect
+
+    assert main(["simulate", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    for name, flag in (("duration", "Run length"), ("onset", "Leak onset"),
+                       ("leak_lpm", "Target mean leak")):
+        vca = inspect.signature(ld.sim.simulate_vca).parameters[name].default
+        eha = inspect.signature(ld.sim.simulate_eha).parameters[name].default
+        part = text[text.index(flag):]
+        assert f"{vca:g} for vca, {eha:g} for eha" in part[:160], (name, part[:160])

@@ -72,11 +72,12 @@ def plot_simulation(rec, path):
                       "--seed 1 -o run.parquet --plot")
 @click.argument("system", type=click.Choice(["vca", "eha"]))
 @click.option("--duration", type=float, default=None,
-              help="Run length in s [default: 400 for vca, the EHA simulator's default for eha].")
+              help="Run length in s [default: 400 for vca, 180 for eha (Secs. 4.5, 4.6)].")
 @click.option("--onset", type=float, default=None,
-              help="Leak onset in s [default: 200 for vca, the EHA default for eha].")
+              help="Leak onset in s [default: 200 for vca, 90 for eha].")
 @click.option("--leak", "leak_lpm", type=float, default=None,
-              help="Target mean leak after onset in L/min (0 = none) [default: 0.1 for vca].")
+              help="Target mean leak after onset in L/min (0 = none) "
+                   "[default: 0.1 for vca, 1.2 for eha].")
 @click.option("--leak-model", type=click.Choice(["turbulent", "laminar"]), default="turbulent",
               show_default=True, help="Eq. 2-4 or Eq. 2-5 (the EHA has Eq. 2-4 only).")
 @click.option("--leak-kind", type=click.Choice(["step", "ramp"]), default="step",
