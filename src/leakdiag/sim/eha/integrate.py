@@ -119,8 +119,6 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
     piv = np.empty(n, dtype=np.int64)
     in0 = np.empty(n_in)
     in1 = np.empty(n_in)
-    row0 = np.empty(n_in)
-    row1 = np.empty(n_in)
     h = min(h_max, dt_out) * 0.1
     since_jac = jac_every  # force a Jacobian on the first step
     last_regime = -1
@@ -138,11 +136,8 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
         tj = t0 + (j0 + j) * dt_out
         t_end = tj + dt_out
         t = tj
-        for c in range(n_in):
-            row0[c] = inputs[j, c]
-            row1[c] = inputs[j + 1, c]
-        row0[IN_KLEAK] *= leak_multiplier(t0 + (j0 + j) / fs, sched)
-        row1[IN_KLEAK] *= leak_multiplier(t0 + (j0 + j + 1) / fs, sched)
+        lk0 = inputs[j, IN_KLEAK] * leak_multiplier(t0 + (j0 + j) / fs, sched)
+        lk1 = inputs[j + 1, IN_KLEAK] * leak_multiplier(t0 + (j0 + j + 1) / fs, sched)
         while t_end - t > 1e-12 * dt_out:
             remaining = t_end - t
             hs = min(h, h_max)
@@ -153,8 +148,10 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
             a0 = (t - tj) / dt_out
             a1 = (t + hs - tj) / dt_out
             for c in range(n_in):
-                in0[c] = row0[c] + a0 * (row1[c] - row0[c])
-                in1[c] = row0[c] + a1 * (row1[c] - row0[c])
+                in0[c] = inputs[j, c] + a0 * (inputs[j + 1, c] - inputs[j, c])
+                in1[c] = inputs[j, c] + a1 * (inputs[j + 1, c] - inputs[j, c])
+            in0[IN_KLEAK] = lk0 + a0 * (lk1 - lk0)
+            in1[IN_KLEAK] = lk0 + a1 * (lk1 - lk0)
             _rhs_into(t, y, in0, params, f0)
             # flow direction through the two line orifices: the Jacobian changes tenfold when
             # one reverses, so a reversal forces a fresh Jacobian
