@@ -25,7 +25,7 @@ import pandas as pd
 from scipy.stats import binomtest
 
 import leakdiag as ld
-from leakdiag.sim.eha_drive import EHAConditions
+from leakdiag.sim.eha.drive import EHAConditions
 
 SIZES = {"vca": (0.002, 0.005, 0.01, 0.02, 0.05), "eha": (0.02, 0.05, 0.1, 0.2, 0.5)}
 DEADLINE_S = 10.0

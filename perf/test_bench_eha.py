@@ -2,7 +2,7 @@
 
 The fast path is ``simulate_eha`` with a fixed leak coefficient (one run, sensors on, the
 compiled adaptive ROS2 kernel), open loop (Sec. 4.6) and closed loop. The reference is the same
-model (:func:`~leakdiag.sim.eha_model.eha_rhs`) integrated by SciPy's implicit ``solve_ivp``
+model (:func:`~leakdiag.sim.eha.model.eha_rhs`) integrated by SciPy's implicit ``solve_ivp``
 (Radau, rtol 1e-7), run on a shorter experiment because it is far slower; its time is scaled
 linearly to 180 s and the table says so. CPU time, best of repeats; the wall time of the fast
 path is printed as well. Nothing here fails on a slow machine.
@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from leakdiag.sim import EHAParams, LeakSchedule, simulate_eha
-from leakdiag.sim.eha import DEFAULT_REFERENCE_AMPLITUDE_M, initial_state
-from leakdiag.sim.eha_drive import build_inputs
-from leakdiag.sim.eha_solver import integrate_reference
+from leakdiag.sim.eha.simulate import DEFAULT_REFERENCE_AMPLITUDE_M, initial_state
+from leakdiag.sim.eha.drive import build_inputs
+from leakdiag.sim.eha.integrate import integrate_reference
 
 DURATION_S = 180.0
 REFERENCE_S = 2.0

@@ -25,9 +25,9 @@ OVERLAP = 50.0
 @pytest.fixture(scope="module")
 def rec():
     from leakdiag.sim.excitation import structured_excitation
-    from leakdiag.sim.vca_simulate import simulate_vca
+    from leakdiag.sim.vca.simulate import simulate_vca
 
-    return simulate_vca(DURATION_S, 0.2, 200.0, seed=7, reference=structured_excitation("vca"))
+    return simulate_vca(duration=DURATION_S, leak_lpm=0.2, onset=200.0, seed=7, reference=structured_excitation("vca"))
 
 
 def test_bench_wavelet(rec, record_ratio, best_time):

@@ -20,7 +20,7 @@ from leakdiag.sim import (
     VCAParams,
     simulate_vca,
 )
-from leakdiag.sim.vca_scipy import integrate_closed_loop_scipy
+from leakdiag.sim.vca.scipy_reference import integrate_closed_loop_scipy
 
 DURATION_S = 400.0
 REFERENCE_S = 2.0

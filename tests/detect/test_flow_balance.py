@@ -18,7 +18,7 @@ def terms(rec, params, model, window, laminar):
                        model.supply_pressure_pa, model.valve_natural_frequency_hz, window, laminar)
     return vca_terms(raw, params, model)
 from leakdiag.io.recording import Recording, RecordingError
-from leakdiag.sim.vca_params import VCAParams
+from leakdiag.sim.vca.params import VCAParams
 
 P = VCAParams()
 #: An off-nominal unit: flow gain +5 %, supply +0.3 MPa (the detector assumes Table 2-1).

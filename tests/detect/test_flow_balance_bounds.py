@@ -11,7 +11,7 @@ from leakdiag.detect._flow_balance_bounds import fixed_bounds, quiet_bounds
 from leakdiag.detect._flow_balance_vca import (
     _QA, _QB, _TR1, _TR2, VCAValveModel, identify, recording_bounds, vca_raw_sums, vca_terms,
 )
-from leakdiag.sim.vca_params import VCAParams
+from leakdiag.sim.vca.params import VCAParams
 
 P = VCAParams()
 #: A unit whose valve is faster than Table 2-1: to first order a lead of

@@ -9,7 +9,7 @@ import leakdiag as ld
 from leakdiag.detect import FlowBalanceDetector
 from leakdiag.detect._flow_balance_eha import EHAPumpModel, terms
 from leakdiag.io.recording import Recording, RecordingError
-from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha.params import EHAParams
 
 P = EHAParams()
 #: Off-nominal unit: pump displacement +3 %, cross-port leakage x1.5.

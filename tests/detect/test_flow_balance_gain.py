@@ -13,7 +13,7 @@ import pytest
 import leakdiag as ld
 from leakdiag.detect import FlowBalanceDetector
 from leakdiag.detect._flow_balance_vca import VCAValveModel, vca_raw_sums, vca_terms
-from leakdiag.sim.vca_params import VCAParams
+from leakdiag.sim.vca.params import VCAParams
 
 P = VCAParams()
 

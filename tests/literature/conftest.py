@@ -14,10 +14,10 @@ def vca_runs():
     All with the periodic-step structured excitation; seeds differ (sensor noise).
     """
     from leakdiag.sim.excitation import structured_excitation
-    from leakdiag.sim.vca_simulate import simulate_vca
+    from leakdiag.sim.vca.simulate import simulate_vca
 
     ref = structured_excitation("vca")
-    fit = [simulate_vca(DURATION_S, None, ONSET_S, seed=s, reference=ref) for s in (11, 12, 13, 14)]
-    healthy = simulate_vca(DURATION_S, None, ONSET_S, seed=15, reference=ref)
-    leak = simulate_vca(DURATION_S, LEAK_LPM, ONSET_S, seed=16, reference=ref)
+    fit = [simulate_vca(duration=DURATION_S, leak_lpm=None, onset=ONSET_S, seed=s, reference=ref) for s in (11, 12, 13, 14)]
+    healthy = simulate_vca(duration=DURATION_S, leak_lpm=None, onset=ONSET_S, seed=15, reference=ref)
+    leak = simulate_vca(duration=DURATION_S, leak_lpm=LEAK_LPM, onset=ONSET_S, seed=16, reference=ref)
     return {"fit": fit, "healthy": healthy, "leak": leak}

@@ -7,9 +7,9 @@ from leakdiag.literature.ekf import EKFParams, ekf_feature, run_vca_ekf
 
 @pytest.fixture(scope="module")
 def noise_free_leak():
-    from leakdiag.sim.vca_simulate import simulate_vca
+    from leakdiag.sim.vca.simulate import simulate_vca
 
-    return simulate_vca(30.0, 0.5, 10.0, seed=3, sensors=False)
+    return simulate_vca(duration=30.0, leak_lpm=0.5, onset=10.0, seed=3, sensors=False)
 
 
 def test_leak_coefficient_converges_on_noise_free_run(noise_free_leak):
@@ -75,9 +75,9 @@ def test_errors():
 @pytest.fixture(scope="module")
 def noisy_spring_run():
     from leakdiag.sim.sensors import SensorParams
-    from leakdiag.sim.vca_simulate import simulate_vca
+    from leakdiag.sim.vca.simulate import simulate_vca
 
-    return simulate_vca(12.0, 0.0, load="spring", seed=5,
+    return simulate_vca(duration=12.0, leak_lpm=0.0, load="spring", seed=5,
                         sensor_params=SensorParams(pressure_noise_std_pa=40e3))
 
 

@@ -35,9 +35,9 @@ def test_repeated_chirp_instantaneous_frequency_and_continuity():
 
 
 def test_works_as_a_simulator_reference():
-    from leakdiag.sim.vca_simulate import simulate_vca
+    from leakdiag.sim.vca.simulate import simulate_vca
 
-    rec = simulate_vca(3.0, None, 1.0, seed=1, sensors=False,
+    rec = simulate_vca(duration=3.0, leak_lpm=None, onset=1.0, seed=1, sensors=False,
                        reference=structured_excitation("vca"))
     np.testing.assert_allclose(rec["x_ref"], structured_excitation("vca").samples(rec.time))
     # the closed loop follows: position near +10 mm at the end of each high half-period

@@ -8,16 +8,16 @@ import pytest
 
 import leakdiag as ld
 from leakdiag.sim import machine as mach
-from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha.params import EHAParams
 from leakdiag.sim.leak import LeakSchedule
 from leakdiag.sim.machine import EHAMachine, VCAMachine, draw_machine, resolve_machine
 from leakdiag.sim.sensor_chain import antialias_sos
 from leakdiag.sim.sensors import SensorParams, measure_pressure
-from leakdiag.sim.vca_conditions import OperatingConditions
-from leakdiag.sim.vca_control import FixedGainController
-from leakdiag.sim.vca_integrator import integrate_closed_loop
-from leakdiag.sim.vca_model import default_inputs, vca_rhs
-from leakdiag.sim.vca_params import VCAParams
+from leakdiag.sim.vca.conditions import OperatingConditions
+from leakdiag.sim.vca.control import FixedGainController
+from leakdiag.sim.vca.integrate import integrate_closed_loop
+from leakdiag.sim.vca.model import default_inputs, vca_rhs
+from leakdiag.sim.vca.params import VCAParams
 from leakdiag.sim.reference import SampledReference
 
 
@@ -222,3 +222,26 @@ def test_public_names():
     assert ld.sim.VCAMachine is VCAMachine and ld.sim.EHAMachine is EHAMachine
     assert ld.sim.draw_machine is draw_machine
     assert dataclasses.is_dataclass(VCAMachine) and mach.MACHINE_SYSTEMS == ("vca", "eha")
+
+
+@pytest.mark.parametrize("system", ["vca", "eha"])
+def test_every_deviation_has_one_rule(system):
+    """One code path: each parameter deviation of a machine is one row of its _APPLY table,
+    and each row names a field of the rig's parameters."""
+    from dataclasses import fields
+
+    from leakdiag.sim import VCAParams
+
+    cls = mach.MACHINES[system]
+    params = {f.name for f in fields(VCAParams if system == "vca" else EHAParams)}
+    sensor_fields = {"unit", "p1_offset_pa", "p2_offset_pa", "p1_gain", "p2_gain",
+                     "antialias_cutoff_hz"}
+    deviations = {f.name for f in fields(cls)} - sensor_fields
+    assert {name for name, _, _ in cls._APPLY} == deviations
+    assert all(target in params and op in ("mul", "add") for _, target, op in cls._APPLY)
+    # a hand-made unit moves exactly its parameters: +1 % on one factor -> x1.01 on its target
+    name, target, op = cls._APPLY[0]
+    base = (VCAParams if system == "vca" else EHAParams)()
+    moved = cls(**{name: 1.01 if op == "mul" else 0.01}).apply_params(base)
+    changed = {k for k, v in moved.to_dict().items() if v != base.to_dict()[k]}
+    assert changed == {target}

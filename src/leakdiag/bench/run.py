@@ -23,11 +23,11 @@ from leakdiag.bench.suite import SUITE_VERSION, build_suite
 from leakdiag.detect.base import Alarm
 from leakdiag.runtime.cache import cached_simulation
 from leakdiag.runtime.executor import run_cases
-from leakdiag.sim.eha import EHA_SENSORS
-from leakdiag.sim.eha_drive import EHAConditions
+from leakdiag.sim.eha.simulate import EHA_SENSORS
+from leakdiag.sim.eha.drive import EHAConditions
 from leakdiag.sim.excitation import structured_excitation
 from leakdiag.sim.sensors import SensorParams
-from leakdiag.sim.vca_conditions import OperatingConditions
+from leakdiag.sim.vca.conditions import OperatingConditions
 
 __all__ = ["SimConfig", "EvalConfig", "simulate_case", "evaluate_group", "simulator_kwargs",
            "per_run_target_per_hour", "run_suite", "simulator_has_machines"]

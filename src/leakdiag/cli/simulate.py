@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import inspect
 from pathlib import Path
 
 import click
@@ -73,13 +72,14 @@ def plot_simulation(rec, path):
                       "--seed 1 -o run.parquet --plot")
 @click.argument("system", type=click.Choice(["vca", "eha"]))
 @click.option("--duration", type=float, default=None,
-              help="Run length in s [default: 400 for vca, the EHA simulator's default for eha].")
+              help="Run length in s [default: 400 for vca, 180 for eha (Secs. 4.5, 4.6)].")
 @click.option("--onset", type=float, default=None,
-              help="Leak onset in s [default: 200 for vca, the EHA default for eha].")
+              help="Leak onset in s [default: 200 for vca, 90 for eha].")
 @click.option("--leak", "leak_lpm", type=float, default=None,
-              help="Target mean leak after onset in L/min (0 = none) [default: 0.1 for vca].")
+              help="Target mean leak after onset in L/min (0 = none) "
+                   "[default: 0.1 for vca, 1.2 for eha].")
 @click.option("--leak-model", type=click.Choice(["turbulent", "laminar"]), default="turbulent",
-              show_default=True, help="Eq. 2-4 or Eq. 2-5 (VCA only).")
+              show_default=True, help="Eq. 2-4 or Eq. 2-5 (the EHA has Eq. 2-4 only).")
 @click.option("--leak-kind", type=click.Choice(["step", "ramp"]), default="step",
               show_default=True, help="Leak switched on at the onset, or ramped up over "
                                       "--ramp-duration.")
@@ -105,50 +105,40 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     from tqdm import tqdm
 
     import leakdiag as ld
+    from leakdiag.sim.eha.simulate import DEFAULT_DURATION_S as EHA_DURATION_S
+    from leakdiag.sim.vca.simulate import DEFAULT_DURATION_S as VCA_DURATION_S
 
+    # One signature for both rigs (keyword-only, same names): only what the user gave is
+    # passed, every other argument keeps the rig's own default.
     kwargs = dict(seed=seed, sensors=not no_sensors, sample_rate=sample_rate, load=load,
-                  leak_kind=leak_kind)
+                  leak_kind=leak_kind, leak_model=leak_model)
     for name, value in (("duration", duration), ("onset", onset), ("leak_lpm", leak_lpm),
                         ("ramp_duration", ramp_duration)):
         if value is not None:
             kwargs[name] = value
-    if system == "vca":
-        fn = ld.sim.simulate_vca
-        kwargs["leak_model"] = leak_model
-        if params_file is not None:
-            kwargs["params"] = _params_from_toml(ld.sim.VCAParams, params_file)
-    else:
-        fn = getattr(ld.sim, "simulate_eha", None)
-        if fn is None:
-            raise click.ClickException("the EHA simulator is not available in this version")
-        if params_file is not None:
-            kwargs["params"] = _params_from_toml(ld.sim.EHAParams, params_file)
-        accepted = inspect.signature(fn).parameters
-        ignored = [k for k in ("leak_kind",) if k in kwargs and k not in accepted]
-        kwargs = {k: v for k, v in kwargs.items() if k in accepted}
-        if leak_model != "turbulent" or ignored:
-            click.echo("note: --leak-model applies to the VCA only", err=True)
+    fn = ld.sim.simulate_vca if system == "vca" else ld.sim.simulate_eha
+    if params_file is not None:
+        cls = ld.sim.VCAParams if system == "vca" else ld.sim.EHAParams
+        kwargs["params"] = _params_from_toml(cls, params_file)
 
-    bar = None
-    if "progress" in inspect.signature(fn).parameters:
-        total = int(round(kwargs.get("duration", 400.0) * sample_rate))
-        bar = tqdm(total=total, unit="sample", desc=f"{system} run 1", leave=False,
-                   disable=no_progress)
-        runs = [1]
+    default_duration = VCA_DURATION_S if system == "vca" else EHA_DURATION_S
+    total = int(round(kwargs.get("duration", default_duration) * sample_rate))
+    bar = tqdm(total=total, unit="sample", desc=f"{system} run 1", leave=False,
+               disable=no_progress)
+    runs = [1]
 
-        def progress(n_done):
-            if bar.n + n_done > bar.total:
-                runs[0] += 1
-                bar.reset()
-                bar.set_description(f"{system} run {runs[0]} (leak calibration)")
-            bar.update(n_done)
+    def progress(n_done):
+        if bar.n + n_done > bar.total:
+            runs[0] += 1
+            bar.reset()
+            bar.set_description(f"{system} run {runs[0]} (leak calibration)")
+        bar.update(n_done)
 
-        kwargs["progress"] = progress
+    kwargs["progress"] = progress
     try:
         rec = fn(**kwargs)
     finally:
-        if bar is not None:
-            bar.close()
+        bar.close()
     path = ld.io.write_recording(rec, out)
     m = rec.meta
     click.echo(f"wrote {path} ({rec.n_samples} samples at {rec.sample_rate:g} Hz); leak target "

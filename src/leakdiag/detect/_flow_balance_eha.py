@@ -24,7 +24,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from leakdiag.detect._flow_balance_kernel import eha_window_sums
-from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha.params import EHAParams
 
 __all__ = ["EHAPumpModel", "CHANNELS", "terms", "identify"]
 

@@ -33,7 +33,7 @@ from scipy.optimize import least_squares
 
 from leakdiag.detect._flow_balance_bounds import fixed_bounds, quiet_bounds
 from leakdiag.detect._flow_balance_kernel import spool_positions, vca_window_sums
-from leakdiag.sim.vca_params import VCAParams
+from leakdiag.sim.vca.params import VCAParams
 
 __all__ = ["VCAValveModel", "VCA_CHANNELS", "vca_raw_sums", "vca_terms", "identify_vca"]
 

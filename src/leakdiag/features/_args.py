@@ -18,7 +18,6 @@ from leakdiag._validation import (
     check_length,
     check_overlap,
     check_positive,
-    parse_lag_ratio,
 )
 from leakdiag.features.windowing import n_windows, window_step
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.sim.vca_model import vca_leak_flow, vca_rhs
+from leakdiag.sim.vca.model import vca_leak_flow, vca_rhs
 
 __all__: list[str] = []
 

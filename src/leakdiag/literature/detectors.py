@@ -16,7 +16,7 @@ from leakdiag.literature.ekf import EKFParams, ekf_feature, run_vca_ekf
 from leakdiag.literature.emd_hilbert import EMDHilbertParams, emd_hilbert_feature
 from leakdiag.literature.fft_band import FFTBandParams, fft_band_feature
 from leakdiag.literature.wavelet import WaveletParams, wavelet_feature
-from leakdiag.sim.vca_params import VCAParams
+from leakdiag.sim.vca.params import VCAParams
 
 __all__ = ["WaveletDetector", "FFTBandDetector", "EMDHilbertDetector", "EKFDetector"]
 

@@ -19,7 +19,7 @@ from leakdiag.features.windowing import window_starts, window_step, window_times
 from leakdiag.literature._ekf_kernel import ekf_vca_kernel
 from leakdiag.literature._windowed import windowed_mean
 from leakdiag.sim.leak import LPM_PER_M3S
-from leakdiag.sim.vca_params import VCAParams
+from leakdiag.sim.vca.params import VCAParams
 
 __all__ = ["EKFParams", "EKFResult", "run_vca_ekf", "ekf_feature", "EKF_FEATURES",
            "estimate_pressure_noise"]
@@ -214,7 +214,7 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
 
     Notes
     -----
-    Model (Eqs. 2-1, 2-2, 2-4, through ``leakdiag.sim.vca_model.vca_rhs``) augmented with
+    Model (Eqs. 2-1, 2-2, 2-4, through ``leakdiag.sim.vca.model.vca_rhs``) augmented with
     :math:`\\dot k_l = w(t)` and a load-force disturbance :math:`f_d` on the piston
     (:math:`m\\dot v \\mathrel{+}= f_d`, :math:`\\dot f_d = w_f(t)`), white noises.
     Prediction over one sample with RK4 substeps and the

@@ -170,7 +170,9 @@ def code_fingerprint(fn: Callable) -> str:
     """SHA-256 (16 hex digits) of the source files of the package holding ``fn``.
 
     Part of the cache key, so that a change to the simulator's code between releases (same
-    version number) never serves a stale recording.
+    version number) never serves a stale recording. For a function of ``leakdiag`` the package
+    is the top-level folder under ``leakdiag`` (e.g. all of ``leakdiag/sim/`` with its
+    ``vca/`` and ``eha/`` subpackages, for either simulator); otherwise the folder of its module.
 
     Parameters
     ----------
@@ -191,9 +193,13 @@ def code_fingerprint(fn: Callable) -> str:
     path = getattr(mod, "__file__", None)
     if not path:
         return ""
+    root = Path(path).parent
+    parts = mod.__name__.split(".")
+    if parts[0] == "leakdiag" and len(parts) > 2:
+        root = Path(sys.modules["leakdiag"].__file__).parent / parts[1]
     h = hashlib.sha256()
-    for f in sorted(Path(path).parent.glob("*.py")):
-        h.update(f.name.encode())
+    for f in sorted(root.rglob("*.py")):
+        h.update(f.relative_to(root).as_posix().encode())
         h.update(f.read_bytes())
     return h.hexdigest()[:16]
 

@@ -115,7 +115,7 @@ def check_params_type(value, cls: type, name: str = "params"):
 
     Examples
     --------
-    >>> from leakdiag.sim.vca_params import VCAParams
+    >>> from leakdiag.sim.vca.params import VCAParams
     >>> check_params_type(None, VCAParams) == VCAParams()
     True
     >>> check_params_type(1.0, VCAParams)

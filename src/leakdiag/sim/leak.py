@@ -26,10 +26,12 @@ import numba
 import numpy as np
 
 from leakdiag._validation import check_positive
+from leakdiag.sim.orifice import orifice_flow
 
 __all__ = [
     "LPM_PER_M3S",
     "LEAK_KINDS",
+    "leak_flow",
     "LeakSchedule",
     "leak_multiplier",
     "lpm_to_m3s",
@@ -101,6 +103,40 @@ def m3s_to_lpm(m3s: float) -> float:
     0.6
     """
     return float(m3s) * LPM_PER_M3S
+
+
+@numba.njit(cache=True)
+def leak_flow(coefficient, dp, transition_pa, laminar):
+    """Internal leakage flow from chamber 1 to chamber 2, the leak law of both rigs (m^3/s).
+
+    Parameters
+    ----------
+    coefficient : float or numpy.ndarray
+        :math:`s(t)\\,k_l`, the coefficient in force (Eq. 2-4: m^3/(s Pa^0.5), Eq. 2-5:
+        m^3/(s Pa)).
+    dp : float or numpy.ndarray
+        :math:`P_1 - P_2`, Pa.
+    transition_pa : float
+        Laminar core of the turbulent law (:func:`~leakdiag.sim.orifice.signed_sqrt`), Pa.
+    laminar : bool
+        Eq. 2-5 instead of Eq. 2-4.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        :math:`k_l\\,\\mathrm{sgn}(\\Delta p)\\sqrt{|\\Delta p|}` (Eq. 2-4, regularised below
+        ``transition_pa``) or :math:`k_l\\,\\Delta p` (Eq. 2-5).
+
+    Examples
+    --------
+    >>> float(leak_flow(1e-12, 1e6, 1e4, True))
+    1e-06
+    >>> round(float(leak_flow(1e-8, 1e8, 1e4, False)) * 1e4, 6)     # 1e-8 * sqrt(1e8)
+    1.0
+    """
+    if laminar:
+        return coefficient * dp
+    return orifice_flow(coefficient, dp, transition_pa)
 
 
 @dataclass(frozen=True)
@@ -195,13 +231,31 @@ class LeakSchedule:
         numpy.ndarray
             Multipliers in [0, 1], same shape as ``time``.
         """
-        arr = self.to_array()
         t = np.asarray(time, dtype=np.float64)
-        if arr[0] == 0.0:
-            return np.zeros_like(t)
-        if arr[0] == 1.0:
-            return (t >= arr[1]).astype(np.float64)
-        return np.clip((t - arr[1]) / arr[2], 0.0, 1.0)
+        return _multipliers(np.ascontiguousarray(t.ravel()), self.to_array()).reshape(t.shape)
+
+    def coefficients(self, coefficient: float, time: np.ndarray) -> np.ndarray:
+        """The coefficient in force, :math:`k_l\\,s(t)`, at each time of ``time`` (s).
+
+        Parameters
+        ----------
+        coefficient : float
+            Full leakage coefficient :math:`k_l`.
+        time : numpy.ndarray
+            Times in seconds.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``coefficient * multipliers(time)``, same shape as ``time``.
+
+        Examples
+        --------
+        >>> LeakSchedule("ramp", onset_s=1.0, ramp_duration_s=2.0).coefficients(
+        ...     4.0, np.array([0.0, 2.0, 5.0])).tolist()
+        [0.0, 2.0, 4.0]
+        """
+        return float(coefficient) * self.multipliers(time)
 
 
 @numba.njit(cache=True)
@@ -233,6 +287,15 @@ def leak_multiplier(t, schedule):
         return 1.0
     r = (t - schedule[1]) / schedule[2]
     return r if r < 1.0 else 1.0
+
+
+@numba.njit(cache=True)
+def _multipliers(t, schedule):
+    """:func:`leak_multiplier` at each time of the 1-D array ``t``."""
+    out = np.empty(t.shape[0])
+    for i in range(t.shape[0]):
+        out[i] = leak_multiplier(t[i], schedule)
+    return out
 
 
 class LeakCalibrationError(RuntimeError):

@@ -20,10 +20,10 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha.params import EHAParams  # noqa: F401  (the doctests use it)
 from leakdiag.sim.leak import LPM_PER_M3S, lpm_to_m3s
 from leakdiag.sim.sensors import PRESSURE_FULL_SCALE_PA, SensorParams
-from leakdiag.sim.vca_params import VCAParams
+from leakdiag.sim.vca.params import VCAParams
 
 __all__ = [
     "VCAMachine",
@@ -81,9 +81,51 @@ def _check_unit(unit) -> int | None:
 
 
 class _MachineBase:
-    """Shared conversion helpers (dict round trip, sensor errors)."""
+    """What both rigs' machines do, in one code path: checks, parameters, sensors, dict round trip.
+
+    A subclass declares its deviations as fields and, as class attributes, how they apply:
+    ``_APPLY`` rows ``(field, parameter, "mul" | "add")`` (the parameter is multiplied by, or
+    offset by, the field) and ``_NON_NEGATIVE`` fields; every field ending in ``factor`` or
+    ``gain`` must be > 0, every other one finite.
+    """
 
     system: str = ""
+    _APPLY: tuple = ()
+    _NON_NEGATIVE: tuple = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "unit", _check_unit(self.unit))
+        names = [f.name for f in fields(self) if f.name not in ("unit", "antialias_cutoff_hz")]
+        _check_finite(self, names)
+        _check_positive_fields(self, [n for n in names if n.endswith(("factor", "gain"))])
+        for name in self._NON_NEGATIVE:
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name}={getattr(self, name)!r} must be >= 0")
+        if self.antialias_cutoff_hz is not None:
+            _check_finite(self, ["antialias_cutoff_hz"])
+            _check_positive_fields(self, ["antialias_cutoff_hz"])
+
+    def apply_params(self, params):
+        """The rig parameters of this unit: ``params`` with the deviations applied.
+
+        Parameters
+        ----------
+        params : VCAParams or EHAParams
+            Parameters without this unit's deviations (usually Table 2-1 / 3-1).
+
+        Returns
+        -------
+        VCAParams or EHAParams
+            ``params`` itself for a nominal machine.
+        """
+        if self.is_nominal:
+            return params
+        changes = {}
+        for name, target, op in self._APPLY:
+            value = getattr(self, name)
+            base = getattr(params, target)
+            changes[target] = base * value if op == "mul" else base + value
+        return dataclasses.replace(params, **changes)
 
     def to_dict(self) -> dict:
         """Field name -> value plus ``system``, JSON-serialisable (for recording metadata).
@@ -205,6 +247,16 @@ class VCAMachine(_MachineBase):
     """
 
     system = "vca"
+    _APPLY = (
+        ("valve_flow_gain_factor", "valve_flow_gain_m1_5_per_kg0_5", "mul"),
+        ("valve_null_offset_v", "valve_null_offset_v", "add"),
+        ("valve_null_shift_v_per_k", "valve_null_shift_v_per_k", "add"),
+        ("valve_bandwidth_factor", "valve_natural_frequency_hz", "mul"),
+        ("valve_leakage_m3_per_s_pa", "valve_leakage_m3_per_s_pa", "add"),
+        ("supply_pressure_factor", "supply_pressure_pa", "mul"),
+        ("bulk_modulus_factor", "bulk_modulus_pa", "mul"),
+    )
+    _NON_NEGATIVE = ("valve_leakage_m3_per_s_pa",)
 
     unit: int | None = None
     valve_flow_gain_factor: float = 1.0
@@ -219,50 +271,6 @@ class VCAMachine(_MachineBase):
     p1_gain: float = 1.0
     p2_gain: float = 1.0
     antialias_cutoff_hz: float | None = None
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "unit", _check_unit(self.unit))
-        names = [f.name for f in fields(self) if f.name not in ("unit", "antialias_cutoff_hz")]
-        _check_finite(self, names)
-        _check_positive_fields(self, ["valve_flow_gain_factor", "valve_bandwidth_factor",
-                                      "supply_pressure_factor", "bulk_modulus_factor",
-                                      "p1_gain", "p2_gain"])
-        if self.valve_leakage_m3_per_s_pa < 0:
-            raise ValueError(f"valve_leakage_m3_per_s_pa={self.valve_leakage_m3_per_s_pa!r} "
-                             "must be >= 0")
-        if self.antialias_cutoff_hz is not None:
-            _check_finite(self, ["antialias_cutoff_hz"])
-            _check_positive_fields(self, ["antialias_cutoff_hz"])
-
-    def apply_params(self, params: VCAParams) -> VCAParams:
-        """The rig parameters of this unit: ``params`` with the deviations applied.
-
-        Parameters
-        ----------
-        params : VCAParams
-            Parameters without this unit's deviations (usually Table 2-1).
-
-        Returns
-        -------
-        VCAParams
-            ``params`` itself for a nominal machine.
-        """
-        if self.is_nominal:
-            return params
-        return dataclasses.replace(
-            params,
-            valve_flow_gain_m1_5_per_kg0_5=params.valve_flow_gain_m1_5_per_kg0_5
-            * self.valve_flow_gain_factor,
-            valve_null_offset_v=params.valve_null_offset_v + self.valve_null_offset_v,
-            valve_null_shift_v_per_k=params.valve_null_shift_v_per_k
-            + self.valve_null_shift_v_per_k,
-            valve_natural_frequency_hz=params.valve_natural_frequency_hz
-            * self.valve_bandwidth_factor,
-            valve_leakage_m3_per_s_pa=params.valve_leakage_m3_per_s_pa
-            + self.valve_leakage_m3_per_s_pa,
-            supply_pressure_pa=params.supply_pressure_pa * self.supply_pressure_factor,
-            bulk_modulus_pa=params.bulk_modulus_pa * self.bulk_modulus_factor,
-        )
 
     def valve_null_leakage_lpm(self, params: VCAParams | None = None) -> float:
         """Spool null leakage from supply to tank of this unit, L/min: ``c_v (P_s - P_r)``.
@@ -316,6 +324,15 @@ class EHAMachine(_MachineBase):
     """
 
     system = "eha"
+    _APPLY = (
+        ("pump_displacement_factor", "pump_displacement_m3_per_rev", "mul"),
+        ("pump_internal_leakage_factor", "pump_internal_leakage_m3_per_s_pa", "mul"),
+        ("pump_external_leakage_factor", "pump_external_leakage_m3_per_s_pa", "mul"),
+        ("motor_constant_factor", "torque_constant_n_m_per_a", "mul"),
+        ("motor_constant_factor", "back_emf_v_s_per_rad", "mul"),
+        ("motor_resistance_factor", "motor_resistance_ohm", "mul"),
+        ("bulk_modulus_factor", "bulk_modulus_pa", "mul"),
+    )
 
     unit: int | None = None
     pump_displacement_factor: float = 1.0
@@ -330,44 +347,31 @@ class EHAMachine(_MachineBase):
     p2_gain: float = 1.0
     antialias_cutoff_hz: float | None = None
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "unit", _check_unit(self.unit))
-        names = [f.name for f in fields(self) if f.name not in ("unit", "antialias_cutoff_hz")]
-        _check_finite(self, names)
-        _check_positive_fields(self, [n for n in names if n.endswith(("factor", "gain"))])
-        if self.antialias_cutoff_hz is not None:
-            _check_finite(self, ["antialias_cutoff_hz"])
-            _check_positive_fields(self, ["antialias_cutoff_hz"])
 
-    def apply_params(self, params: EHAParams) -> EHAParams:
-        """The rig parameters of this unit: ``params`` with the deviations applied.
-
-        Parameters
-        ----------
-        params : EHAParams
-            Parameters without this unit's deviations (usually Table 3-1).
-
-        Returns
-        -------
-        EHAParams
-            ``params`` itself for a nominal machine.
-        """
-        if self.is_nominal:
-            return params
-        return dataclasses.replace(
-            params,
-            pump_displacement_m3_per_rev=params.pump_displacement_m3_per_rev
-            * self.pump_displacement_factor,
-            pump_internal_leakage_m3_per_s_pa=params.pump_internal_leakage_m3_per_s_pa
-            * self.pump_internal_leakage_factor,
-            pump_external_leakage_m3_per_s_pa=params.pump_external_leakage_m3_per_s_pa
-            * self.pump_external_leakage_factor,
-            torque_constant_n_m_per_a=params.torque_constant_n_m_per_a
-            * self.motor_constant_factor,
-            back_emf_v_s_per_rad=params.back_emf_v_s_per_rad * self.motor_constant_factor,
-            motor_resistance_ohm=params.motor_resistance_ohm * self.motor_resistance_factor,
-            bulk_modulus_pa=params.bulk_modulus_pa * self.bulk_modulus_factor,
-        )
+#: The machine class of each system.
+MACHINES = {"vca": VCAMachine, "eha": EHAMachine}
+#: What :func:`draw_machine` draws for each system, in stream order: ``(field, kind, band)``,
+#: kind ``"factor"`` (1 + uniform within +-band), ``"offset"`` (uniform within +-band) or
+#: ``"log"`` (log-uniform on the band); the sensor errors follow.
+_DRAWS = {
+    "vca": (
+        ("supply_pressure_factor", "factor", SUPPLY_PRESSURE_TOL),
+        ("valve_flow_gain_factor", "factor", VALVE_FLOW_GAIN_TOL),
+        ("valve_null_offset_v", "offset", VALVE_NULL_OFFSET_TOL_V),
+        ("valve_null_shift_v_per_k", "offset", VALVE_NULL_SHIFT_TOL_V_PER_K),
+        ("valve_bandwidth_factor", "factor", VALVE_BANDWIDTH_TOL),
+        ("bulk_modulus_factor", "factor", BULK_MODULUS_TOL),
+        ("null_leakage_lpm", "log", VALVE_NULL_LEAKAGE_LPM),
+    ),
+    "eha": (
+        ("pump_displacement_factor", "factor", PUMP_DISPLACEMENT_TOL),
+        ("pump_internal_leakage_factor", "log", PUMP_LEAKAGE_FACTOR),
+        ("pump_external_leakage_factor", "log", PUMP_LEAKAGE_FACTOR),
+        ("motor_constant_factor", "factor", MOTOR_CONSTANT_TOL),
+        ("motor_resistance_factor", "factor", MOTOR_RESISTANCE_TOL),
+        ("bulk_modulus_factor", "factor", BULK_MODULUS_TOL),
+    ),
+}
 
 
 def _uniform(rng: np.random.Generator, half_width: float) -> float:
@@ -426,29 +430,18 @@ def draw_machine(system: str, unit: int) -> VCAMachine | EHAMachine:
         raise ValueError("unit=None must be a non-negative integer")
     index = MACHINE_SYSTEMS.index(system)
     rng = np.random.default_rng(np.random.SeedSequence([unit, index, MACHINE_STREAM_TAG]))
-    if system == "vca":
-        supply = 1.0 + _uniform(rng, SUPPLY_PRESSURE_TOL)
-        values = {
-            "valve_flow_gain_factor": 1.0 + _uniform(rng, VALVE_FLOW_GAIN_TOL),
-            "valve_null_offset_v": _uniform(rng, VALVE_NULL_OFFSET_TOL_V),
-            "valve_null_shift_v_per_k": _uniform(rng, VALVE_NULL_SHIFT_TOL_V_PER_K),
-            "valve_bandwidth_factor": 1.0 + _uniform(rng, VALVE_BANDWIDTH_TOL),
-            "supply_pressure_factor": supply,
-            "bulk_modulus_factor": 1.0 + _uniform(rng, BULK_MODULUS_TOL),
-        }
-        null_lpm = _log_uniform(rng, *VALVE_NULL_LEAKAGE_LPM)
-        ps = VCAParams().supply_pressure_pa * supply
-        values["valve_leakage_m3_per_s_pa"] = lpm_to_m3s(null_lpm) / ps
-        return VCAMachine(unit=unit, **values, **_draw_sensor_errors(rng))
-    values = {
-        "pump_displacement_factor": 1.0 + _uniform(rng, PUMP_DISPLACEMENT_TOL),
-        "pump_internal_leakage_factor": _log_uniform(rng, *PUMP_LEAKAGE_FACTOR),
-        "pump_external_leakage_factor": _log_uniform(rng, *PUMP_LEAKAGE_FACTOR),
-        "motor_constant_factor": 1.0 + _uniform(rng, MOTOR_CONSTANT_TOL),
-        "motor_resistance_factor": 1.0 + _uniform(rng, MOTOR_RESISTANCE_TOL),
-        "bulk_modulus_factor": 1.0 + _uniform(rng, BULK_MODULUS_TOL),
-    }
-    return EHAMachine(unit=unit, **values, **_draw_sensor_errors(rng))
+    values = {}
+    for name, kind, band in _DRAWS[system]:  # in this order: the stream is part of the unit
+        if kind == "factor":
+            values[name] = 1.0 + _uniform(rng, band)
+        elif kind == "offset":
+            values[name] = _uniform(rng, band)
+        else:
+            values[name] = _log_uniform(rng, *band)
+    if system == "vca":  # null leakage drawn in L/min at the unit's supply pressure
+        ps = VCAParams().supply_pressure_pa * values["supply_pressure_factor"]
+        values["valve_leakage_m3_per_s_pa"] = lpm_to_m3s(values.pop("null_leakage_lpm")) / ps
+    return MACHINES[system](unit=unit, **values, **_draw_sensor_errors(rng))
 
 
 def resolve_machine(machine, system: str) -> VCAMachine | EHAMachine:
@@ -477,7 +470,7 @@ def resolve_machine(machine, system: str) -> VCAMachine | EHAMachine:
     >>> resolve_machine(None, "eha") == EHAMachine()
     True
     """
-    cls = VCAMachine if system == "vca" else EHAMachine
+    cls = MACHINES[system]
     if machine is None:
         return cls()
     if isinstance(machine, (int, np.integer)) and not isinstance(machine, bool):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from leakdiag.sim import VCAParams
-from leakdiag.sim.vca_params import P_INDEX
+from leakdiag.sim.vca.params import P_INDEX
 
 
 def test_table_2_1_in_si():

@@ -4,7 +4,7 @@
 Table 3-1 are named constants below; values the thesis does not give (or prints inconsistently)
 are decided here and justified in ``docs/models.md`` (section "EHA"). :meth:`EHAParams.to_array`
 packs the parameters into the float64 vector read by the Numba right-hand side
-:func:`leakdiag.sim.eha_model.eha_rhs`; the ``P_*`` integers are the positions in that vector.
+:func:`leakdiag.sim.eha.model.eha_rhs`; the ``P_*`` integers are the positions in that vector.
 """
 
 from __future__ import annotations
@@ -343,7 +343,7 @@ class EHAParams:
             raise ValueError(f"{path}: {exc}") from None
 
     def to_array(self, closed_loop: bool = False) -> np.ndarray:
-        """Pack into the float64 vector read by :func:`~leakdiag.sim.eha_model.eha_rhs`.
+        """Pack into the float64 vector read by :func:`~leakdiag.sim.eha.model.eha_rhs`.
 
         Parameters
         ----------

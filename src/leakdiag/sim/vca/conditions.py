@@ -13,8 +13,15 @@ import numba
 import numpy as np
 
 from leakdiag.sim.leak import leak_multiplier
+from leakdiag.sim.vca.model import (
+    IN_BETA_SCALE, IN_DAMPING_SCALE, IN_DPS, IN_KLEAK, IN_SPRING_SCALE, IN_U,
+)
 
 __all__ = ["OperatingConditions", "fill_inputs"]
+
+# Positions in :meth:`OperatingConditions.to_array` (module-level integers: Numba folds them).
+(C_RIPPLE_PA, C_RIPPLE_HZ, C_TEMP_RISE_K, C_DURATION_S, C_BETA_PER_K, C_DAMPING_PER_K,
+ C_SPRING_TIME_S, C_SPRING_FACTOR) = range(8)
 
 
 @dataclass(frozen=True)
@@ -139,20 +146,20 @@ def fill_inputs(t, u, leak_coefficient, schedule, cond, inputs):
     >>> inp.tolist()
     [1.0, 2.0, 0.0, 1.0, 1.0, 1.0]
     """
-    inputs[0] = u
-    inputs[1] = leak_coefficient * leak_multiplier(t, schedule)
-    if cond[0] != 0.0:
-        inputs[2] = cond[0] * np.sin(2.0 * np.pi * cond[1] * t)
+    inputs[IN_U] = u
+    inputs[IN_KLEAK] = leak_coefficient * leak_multiplier(t, schedule)
+    if cond[C_RIPPLE_PA] != 0.0:
+        inputs[IN_DPS] = cond[C_RIPPLE_PA] * np.sin(2.0 * np.pi * cond[C_RIPPLE_HZ] * t)
     else:
-        inputs[2] = 0.0
-    if cond[2] != 0.0:
-        frac = t / cond[3]
+        inputs[IN_DPS] = 0.0
+    if cond[C_TEMP_RISE_K] != 0.0:
+        frac = t / cond[C_DURATION_S]
         if frac > 1.0:
             frac = 1.0
-        dtemp = cond[2] * frac
-        inputs[3] = max(0.1, 1.0 + cond[4] * dtemp)
-        inputs[4] = max(0.1, 1.0 + cond[5] * dtemp)
+        dtemp = cond[C_TEMP_RISE_K] * frac
+        inputs[IN_BETA_SCALE] = max(0.1, 1.0 + cond[C_BETA_PER_K] * dtemp)
+        inputs[IN_DAMPING_SCALE] = max(0.1, 1.0 + cond[C_DAMPING_PER_K] * dtemp)
     else:
-        inputs[3] = 1.0
-        inputs[4] = 1.0
-    inputs[5] = cond[7] if t >= cond[6] else 1.0
+        inputs[IN_BETA_SCALE] = 1.0
+        inputs[IN_DAMPING_SCALE] = 1.0
+    inputs[IN_SPRING_SCALE] = cond[C_SPRING_FACTOR] if t >= cond[C_SPRING_TIME_S] else 1.0

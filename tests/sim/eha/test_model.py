@@ -7,12 +7,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from leakdiag.sim.eha_model import (
+from leakdiag.sim.eha.model import (
     IN_BETA_SCALE, IN_FV_SCALE, IN_KLEAK, IN_SPRING, IN_U, IN_XREF, N_INPUTS, N_STATES, S_I,
     S_P1, S_P2, S_PA, S_PB, S_V, S_W, S_X, S_Z, eha_command, eha_leak_flow, eha_rhs,
 )
-from leakdiag.sim.eha_flows import check_valve_flow, line_orifice_flow, orifice_flow
-from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha.flows import check_valve_flow, line_orifice_flow, orifice_flow
+from leakdiag.sim.eha.params import EHAParams
 
 PRM = EHAParams()
 P = PRM.to_array()
@@ -168,8 +168,8 @@ def test_command_open_and_closed_loop_with_saturation():
 
 @pytest.mark.parametrize("closed", [False, True])
 def test_analytic_jacobian_matches_central_differences(closed):
-    from leakdiag.sim.eha_jacobian import _jacobian_into
-    from leakdiag.sim.eha_model import _rhs_into
+    from leakdiag.sim.eha.jacobian import _jacobian_into
+    from leakdiag.sim.eha.model import _rhs_into
 
     p = PRM.to_array(closed_loop=closed)
     rng = np.random.default_rng(5)

@@ -11,9 +11,11 @@ convention. Positions in the three vectors are named integers:
 * ``inputs`` (``N_INPUTS``): ``IN_U`` command voltage (V, open loop), ``IN_XREF`` position
   reference (m, closed loop), ``IN_BETA_SCALE`` and ``IN_FV_SCALE`` multipliers of the bulk
   modulus and the viscous damping (temperature), ``IN_SPRING`` load-spring stiffness (N/m),
-  ``IN_KLEAK`` leak coefficient :math:`s(t) k_l` of Eq. 2-4 (m^3/(s sqrt(Pa))), i.e. the
-  calibrated coefficient times the leak schedule of :mod:`leakdiag.sim.leak`.
-* ``params``: :meth:`leakdiag.sim.eha_params.EHAParams.to_array`.
+  ``IN_KLEAK`` leak coefficient in force :math:`s(t) k_l` of Eq. 2-4 (m^3/(s sqrt(Pa))):
+  the integrator (:func:`~leakdiag.sim.eha.integrate.integrate_fast` with ``leak_schedule``)
+  multiplies the calibrated coefficient of the input rows by the schedule of
+  :mod:`leakdiag.sim.leak`, as the VCA kernel does.
+* ``params``: :meth:`leakdiag.sim.eha.params.EHAParams.to_array`.
 """
 
 from __future__ import annotations
@@ -21,12 +23,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.sim.eha_flows import check_valve_flow, line_orifice_flow, orifice_flow
-from leakdiag.sim.eha_params import (
+from leakdiag.sim.eha.flows import check_valve_flow, line_orifice_flow
+from leakdiag.sim.eha.params import (
     P_AREA, P_BETA, P_BM, P_CE, P_CEXT, P_CINT, P_CLOSED, P_CM, P_CSTOP, P_FPR, P_FV,
     P_JM, P_KCV, P_KFREE, P_KI, P_KP, P_KRESTR, P_KSTOP, P_KW, P_KX, P_LC, P_M, P_PACC,
     P_PCV, P_PTR, P_QB, P_RC, P_STROKE, P_UMAX, P_V0, P_VLINE, P_VMAX, P_VTH, P_WMAX,
 )
+from leakdiag.sim.leak import leak_flow
 
 __all__ = [
     "eha_rhs",
@@ -66,7 +69,7 @@ def eha_command(state, inputs, params):
 
     Examples
     --------
-    >>> from leakdiag.sim.eha_params import EHAParams
+    >>> from leakdiag.sim.eha.params import EHAParams
     >>> p = EHAParams().to_array(closed_loop=True)
     >>> x = np.zeros(N_STATES); x[S_X] = 0.01
     >>> u = np.zeros(N_INPUTS); u[IN_XREF] = 0.015
@@ -101,11 +104,11 @@ def eha_leak_flow(state, inputs, params):
     Returns
     -------
     float
-        :math:`s(t)\\,k_l\\,g(P_A - P_B)` in m^3/s, with :math:`g` of :func:`orifice_flow`.
+        :math:`s(t)\\,k_l\\,g(P_A - P_B)` in m^3/s, :func:`leakdiag.sim.leak.leak_flow`.
 
     Examples
     --------
-    >>> from leakdiag.sim.eha_params import EHAParams
+    >>> from leakdiag.sim.eha.params import EHAParams
     >>> p = EHAParams().to_array()
     >>> x = np.zeros(N_STATES); x[S_P1] = 2e6 + 1e8; x[S_P2] = 2e6
     >>> u = np.zeros(N_INPUTS); u[IN_KLEAK] = 1e-8
@@ -115,7 +118,7 @@ def eha_leak_flow(state, inputs, params):
     k = inputs[IN_KLEAK]
     if k == 0.0:
         return 0.0
-    return orifice_flow(k, state[S_P1] - state[S_P2], params[P_PTR])
+    return leak_flow(k, state[S_P1] - state[S_P2], params[P_PTR], False)
 
 
 @numba.njit(cache=True)
@@ -247,7 +250,7 @@ def eha_rhs(t, state, inputs, params):
     --------
     At the accumulator pressure with zero input nothing changes:
 
-    >>> from leakdiag.sim.eha_params import EHAParams
+    >>> from leakdiag.sim.eha.params import EHAParams
     >>> p = EHAParams().to_array()
     >>> y = np.zeros(N_STATES); y[S_P1:S_PB + 1] = EHAParams().accumulator_pressure_pa
     >>> u = np.array([0.0, 0.0, 1.0, 1.0, 0.0, 0.0])

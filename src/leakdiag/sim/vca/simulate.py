@@ -8,36 +8,27 @@ from typing import Callable
 import numpy as np
 
 from leakdiag._validation import check_positive
-from leakdiag._version import __version__
 from leakdiag.io.recording import Recording
-from leakdiag.sim._checks import (
-    check_choice, check_leak_kind, check_onset, check_params_type, check_seed, n_samples,
+from leakdiag.sim.experiment import (
+    calibrate_leak, coefficient_from_healthy, experiment_metadata, plan_leak, random_streams, setup,
 )
-from leakdiag.sim.leak import (
-    LEAK_REFERENCE_DP_PA,
-    MIN_CALIBRATION_WINDOW_S,
-    LeakCalibrationError,
-    LeakSchedule,
-    calibrate_leak_coefficient,
-    check_calibrated,
-    lpm_to_m3s,
-    m3s_to_lpm,
-    too_short_to_calibrate,
-)
-from leakdiag.sim.machine import VCAMachine, resolve_machine
+from leakdiag.sim.leak import LeakCalibrationError, lpm_to_m3s
+from leakdiag.sim.machine import VCAMachine
 from leakdiag.sim.reference import as_reference
 from leakdiag.sim.sensor_chain import antialias_sos, pressure_chain
 from leakdiag.sim.sensors import SensorParams
-from leakdiag.sim.vca_conditions import OperatingConditions
-from leakdiag.sim.vca_control import FixedGainController
-from leakdiag.sim.vca_integrator import (
+from leakdiag.sim.vca.conditions import OperatingConditions
+from leakdiag.sim.vca.control import FixedGainController
+from leakdiag.sim.vca.integrate import (
     ClosedLoopResult, _SegmentedLoop, rk4_advance, sos_step, valve_null_v,
 )
-from leakdiag.sim.vca_model import vca_leak_flow
-from leakdiag.sim.vca_params import LEAK_MODELS, LOADS, VCAParams
+from leakdiag.sim.vca.model import S_P1, S_P2, S_X, vca_leak_flow
+from leakdiag.sim.vca.params import LEAK_MODELS, LOADS, VCAParams
 
-__all__ = ["simulate_vca", "DEFAULT_MAX_STEP_S", "initial_leak_coefficient"]
+__all__ = ["simulate_vca", "DEFAULT_DURATION_S", "DEFAULT_MAX_STEP_S", "initial_leak_coefficient"]
 
+#: Run length of the thesis's experiment (Sec. 4.5), s.
+DEFAULT_DURATION_S = 400.0
 #: Largest RK4 step (s). Halving it changes pressures by < 0.01 % RMS (docs/models.md), and it
 #: keeps the stiffest mode (end-stop contact, ~2850 rad/s) well inside RK4's stability region.
 DEFAULT_MAX_STEP_S = 2.5e-4
@@ -140,39 +131,6 @@ class _OnsetRestarts:
         return (r.state, r.measured, r.u, r.leak_flow)
 
 
-def _coefficient_from_healthy(pre: ClosedLoopResult, i_on: int, n: int, fs: float,
-                              leak_lpm: float, leak_model: str, params: VCAParams,
-                              sched: LeakSchedule) -> float | None:
-    """First guess of k_l from the leak-free run before the onset (None if under 2 s).
-
-    The mean leak after the onset would be ``k_l mean(s(t)) mean|g(P_1 - P_2)|`` if the
-    pressures did not react to the leak; the healthy pressures before the onset (from 1 s on,
-    past the start-up transient) stand in for those after it.
-    """
-    i0 = int(round(fs))
-    i1 = max(i_on - 1, 0)
-    if i1 - i0 < int(round(fs)):
-        return None
-    dp = pre.state[i0:i1, 2] - pre.state[i0:i1, 3]
-    if leak_model == "laminar":
-        g = np.mean(np.abs(dp))
-    else:
-        ptr = params.leak_transition_pressure_pa
-        g = np.mean(np.abs(dp) / np.sqrt(np.sqrt(dp * dp + ptr * ptr)))
-    mult = float(np.mean(sched.multipliers(np.arange(i_on, n) / fs)))
-    if not (g > 0 and mult > 0 and math.isfinite(g)):
-        return None
-    return lpm_to_m3s(leak_lpm) / (mult * float(g))
-
-
-def _too_short(exc: LeakCalibrationError, leak_lpm: float, window_s: float,
-               history) -> LeakCalibrationError:
-    """The calibration error, reworded when the run after the onset is too short."""
-    if window_s < MIN_CALIBRATION_WINDOW_S:
-        return too_short_to_calibrate(leak_lpm, window_s, exc, history)
-    return exc
-
-
 def _antialias(cutoff_hz: float, fs: float) -> np.ndarray:
     """Anti-alias sections, with an error that names the sample rate and the machine."""
     if not cutoff_hz < fs / 2:
@@ -203,13 +161,13 @@ def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sch
     for k in range(n):
         t = k / fs
         out_state[k] = s
-        out_q[k] = vca_leak_flow(s[2], s[3], k_leak * sched.multiplier(t), prm)
+        out_q[k] = vca_leak_flow(s[S_P1], s[S_P2], k_leak * sched.multiplier(t), prm)
         if sensors is not None:
             fsc, q = sensors.pressure_full_scale_pa, sensors.pressure_quantum_pa
-            xm = quantize(s[0], sensors.position_resolution_m)
+            xm = quantize(s[S_X], sensors.position_resolution_m)
             g1, o1 = sensors.transducer_error("p1")
             g2, o2 = sensors.transducer_error("p2")
-            r1, r2 = g1 * s[2] + o1, g2 * s[3] + o2
+            r1, r2 = g1 * s[S_P1] + o1, g2 * s[S_P2] + o2
             if sos is not None:
                 a1, a2 = r1 + noise1[k], r2 + noise2[k]
                 if k == 0:
@@ -220,7 +178,7 @@ def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sch
                 p1m = adc_reading(r1, noise1[k], fsc, q)
                 p2m = adc_reading(r2, noise2[k], fsc, q)
         else:
-            xm, p1m, p2m = s[0], s[2], s[3]
+            xm, p1m, p2m = s[S_X], s[S_P1], s[S_P2]
         out_meas[k] = (xm, p1m, p2m)
         u = float(controller(t, x_ref[k], xm, p1m, p2m))
         if not math.isfinite(u):
@@ -234,28 +192,28 @@ def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sch
 
 
 def simulate_vca(
-    duration: float = 400.0,
+    *,
+    duration: float = DEFAULT_DURATION_S,
     leak_lpm: float | None = 0.10,
     onset: float = 200.0,
-    leak_model: str = "turbulent",
-    load: str = "none",
-    seed: int = 1,
-    sensors: bool = True,
-    params: VCAParams | None = None,
-    sample_rate: float = 1000.0,
-    *,
     leak_kind: str = "step",
     ramp_duration: float = 100.0,
+    leak_model: str = "turbulent",
     leak_coefficient: float | None = None,
+    calibration_rtol: float = 0.02,
+    load: str = "none",
+    seed: int = 1,
+    sample_rate: float = 1000.0,
+    sensors: bool = True,
+    sensor_params: SensorParams | None = None,
+    params: VCAParams | None = None,
+    conditions: OperatingConditions | None = None,
+    machine: VCAMachine | int | None = None,
+    progress: Callable[[int], None] | None = None,
     reference=None,
     reference_seed: int | None = None,
     controller: FixedGainController | Callable | None = None,
-    conditions: OperatingConditions | None = None,
-    sensor_params: SensorParams | None = None,
     max_step: float = DEFAULT_MAX_STEP_S,
-    calibration_rtol: float = 0.02,
-    progress: Callable[[int], None] | None = None,
-    machine: VCAMachine | int | None = None,
 ) -> Recording:
     """Simulate a closed-loop valve-controlled actuator experiment (thesis Ch. 2, Sec. 4.5).
 
@@ -335,7 +293,7 @@ def simulate_vca(
 
     Notes
     -----
-    Model: Eqs. 2-1 to 2-5 (see :func:`~leakdiag.sim.vca_model.vca_rhs`). Integration: fixed-step
+    Model: Eqs. 2-1 to 2-5 (see :func:`~leakdiag.sim.vca.model.vca_rhs`). Integration: fixed-step
     RK4, control held between samples. The achieved leak is the mean of :math:`|Q_l|` over the
     samples at or after the onset (Sec. 4.5, "the mean of the leak after 200 seconds"). The
     calibration integrates the leak-free part before the onset once, takes its first guess of
@@ -354,34 +312,28 @@ def simulate_vca(
     >>> rec.meta["system"], rec.meta["leak_lpm_achieved"], rec.n_samples
     ('vca', 0.0, 4000)
     """
-    duration = check_positive(duration, "duration")
-    fs = check_positive(sample_rate, "sample_rate")
-    max_step = check_positive(max_step, "max_step")
-    check_choice(leak_model, "leak_model", LEAK_MODELS)
-    check_choice(load, "load", LOADS)
-    check_leak_kind(leak_kind)
-    check_seed(seed)
-    params = check_params_type(params, VCAParams)
+    exp = setup("vca", duration=duration, sample_rate=sample_rate, load=load, loads=LOADS,
+                leak_model=leak_model, leak_models=LEAK_MODELS, leak_kind=leak_kind, seed=seed,
+                params=params, params_cls=VCAParams, sensor_params=sensor_params,
+                default_sensors=SensorParams(), machine=machine,
+                extra_checks=lambda: check_positive(max_step, "max_step"))
+    duration, fs, n = exp.duration, exp.sample_rate, exp.n
+    params, sensor_params, machine = exp.params, exp.sensor_params, exp.machine
+    max_step = float(max_step)
     conditions = OperatingConditions() if conditions is None else conditions
-    sensor_params = SensorParams() if sensor_params is None else sensor_params
-    machine = resolve_machine(machine, "vca")
-    params = machine.apply_params(params)
-    sensor_params = machine.apply_sensors(sensor_params)
-    n = n_samples(duration, fs)
     n_sub = max(1, math.ceil(1.0 / (fs * max_step) - 1e-9))
-    has_leak = leak_lpm is not None and leak_lpm != 0
-    if has_leak:
-        leak_lpm = check_positive(leak_lpm, "leak_lpm")
-        if leak_lpm >= params.rated_flow_lpm:
-            raise ValueError(f"leak_lpm={leak_lpm} must be below the rated flow "
+
+    def below_rated_flow(lpm: float) -> None:
+        if lpm >= params.rated_flow_lpm:
+            raise ValueError(f"leak_lpm={lpm} must be below the rated flow "
                              f"{params.rated_flow_lpm:.1f} L/min")
-        onset = check_onset(onset, n, fs, duration)
-        sched = LeakSchedule(leak_kind, onset, ramp_duration)
-    else:
-        sched = LeakSchedule("none")
+
+    plan = plan_leak(leak_lpm, onset, leak_kind, ramp_duration, n=n, sample_rate=fs,
+                     duration=duration, check_target=below_rated_flow)
+    sched = plan.schedule
 
     # --- random streams: reference and noise independent, both from `seed`
-    ref_ss, noise_ss = np.random.SeedSequence(int(seed)).spawn(2)
+    ref_ss, noise_ss = random_streams(seed)
     ref_rng = np.random.default_rng(ref_ss if reference_seed is None else reference_seed)
     t = np.arange(n) / fs
     x_ref = np.ascontiguousarray(as_reference(reference).samples(t, ref_rng), dtype=np.float64)
@@ -434,13 +386,11 @@ def simulate_vca(
                                       k_leak, sched, cond, s0, noise[0], noise[1],
                                       sensor_params if sensors else None)
 
-    i_on = int(math.ceil(onset * fs - 1e-9)) if has_leak else n
-
-    def mean_leak_lpm(res: ClosedLoopResult) -> float:
-        return m3s_to_lpm(float(np.mean(np.abs(res.leak_flow[i_on:])))) if i_on < n else 0.0
-
-    calibration_runs = pilot_runs = 0
-    if not has_leak:
+    i_on = plan.onset_index
+    ptr = params.leak_transition_pressure_pa
+    laminar = leak_model == "laminar"
+    cal = None
+    if not plan.active:
         k_leak = 0.0
         result = run(0.0)
     elif leak_coefficient is not None:
@@ -448,37 +398,32 @@ def simulate_vca(
         result = run(k_leak)
     else:
         history: list[tuple[float, float]] = []
+        k0 = None
         if fixed:
             segments = _OnsetRestarts(loop, max(i_on - 1, 0), chunk, progress)
 
             def simulate_fn(k: float) -> float:
-                q = mean_leak_lpm(segments.run(k, substeps(k)))
+                q = plan.mean_lpm(segments.run(k, substeps(k)).leak_flow)
                 history.append((k, q))
                 return q
 
             pre = segments.before_onset(n_sub)
-            k0 = _coefficient_from_healthy(pre, i_on, n, fs, leak_lpm, leak_model, params,
-                                           sched)
+            k0 = coefficient_from_healthy(pre.state[:, S_P1], pre.state[:, S_P2],
+                                          max(i_on - 1, 0), plan, ptr, laminar)
         else:
             runs: dict[float, ClosedLoopResult] = {}
 
             def simulate_fn(k: float) -> float:
                 runs[k] = run(k)
-                q = mean_leak_lpm(runs[k])
+                q = plan.mean_lpm(runs[k].leak_flow)
                 history.append((k, q))
                 return q
 
-            k0 = None
         if k0 is None:
-            k0 = initial_leak_coefficient(leak_lpm, leak_model, load)
-        try:
-            cal = calibrate_leak_coefficient(simulate_fn, leak_lpm, k0, rtol=calibration_rtol)
-        except LeakCalibrationError as exc:
-            raise _too_short(exc, leak_lpm, (n - i_on) / fs, history) from exc
-        k_leak, calibration_runs = cal.coefficient, cal.n_evaluations
-        pilot_runs = cal.n_pilot_evaluations
+            k0 = initial_leak_coefficient(plan.target_lpm, leak_model, load)
+        cal = calibrate_leak(plan, simulate_fn, k0, calibration_rtol, history)
+        k_leak = cal.coefficient
         result = segments.result if fixed else runs[k_leak]
-        check_calibrated(mean_leak_lpm(result), leak_lpm, calibration_rtol)
 
     if sensors:
         x_out, p1_out, p2_out = result.measured[:, 0], result.measured[:, 1], result.measured[:, 2]
@@ -493,35 +438,19 @@ def simulate_vca(
                                     sample_rate=fs)
     else:
         x_out, p1_out, p2_out = result.state[:, 0], result.state[:, 2], result.state[:, 3]
-    meta = {
-        "system": "vca",
-        "source": "leakdiag.sim.simulate_vca",
-        "onset": sched.onset_s if has_leak else None,
-        "leak_lpm": float(leak_lpm) if has_leak else 0.0,
-        "leak_lpm_achieved": mean_leak_lpm(result),
-        "leak_coefficient": float(k_leak),
-        "leak_reference_dp_pa": LEAK_REFERENCE_DP_PA,
-        "leak_lpm_at_reference_dp": m3s_to_lpm(vca_leak_flow(LEAK_REFERENCE_DP_PA, 0.0,
-                                                             float(k_leak), prm)),
-        "leak_model": leak_model,
-        "leak_kind": sched.kind,
-        "ramp_duration": float(ramp_duration) if sched.kind == "ramp" else None,
-        "load": load,
-        "seed": int(seed),
+    meta = experiment_metadata(
+        "vca", plan, result.leak_flow, k_leak=k_leak, leak_model=leak_model, transition_pa=ptr,
+        load=load, seed=seed, params=params, sensors=sensors, sensor_params=sensor_params,
+        conditions=conditions, machine=machine, calibration=cal,
+        calibration_rtol=calibration_rtol, rated_flow_lpm=params.rated_flow_lpm,
+        ramp_duration=ramp_duration)
+    meta.update({
         "reference_seed": reference_seed,
         "reference": type(as_reference(reference)).__name__,
-        "params": params.to_dict(),
         "controller": ctrl.to_dict() if isinstance(ctrl, FixedGainController) else repr(ctrl),
-        "sensors": sensor_params.to_dict() if sensors else None,
-        "conditions": conditions.to_dict(),
         "rk4_step_s": 1.0 / (fs * max(n_sub, _leak_stable_substeps(k_leak, leak_model, params,
                                                                    fs))),
-        "calibration_runs": calibration_runs,
-        "calibration_pilot_runs": pilot_runs,
-        "rated_flow_lpm": params.rated_flow_lpm,
-        "machine": machine.to_dict(),
-        "leakdiag_version": __version__,
-    }
+    })
     channels = {"p1": p1_out, "p2": p2_out, "x": x_out, "u": result.u,
                 "leak_flow": result.leak_flow, "x_ref": x_ref}
     return Recording({k: np.array(v) for k, v in channels.items()}, fs, 0.0, {}, meta)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from leakdiag.sim import simulate_eha
-from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha.params import EHAParams
 
 
 @pytest.fixture(scope="module")

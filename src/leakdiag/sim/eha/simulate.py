@@ -2,8 +2,8 @@
 
 The electrohydrostatic actuator is driven open loop by ``3 sin 4t`` V for 180 s with a leak
 switched on at 90 s (Sec. 4.6), or, as the thesis proposes for future work (Sec. 7.2), closed
-loop around an outer position loop. The model is :func:`~leakdiag.sim.eha_model.eha_rhs`, the
-integrator :func:`~leakdiag.sim.eha_solver.integrate_fast`, the leak schedule and calibration
+loop around an outer position loop. The model is :func:`~leakdiag.sim.eha.model.eha_rhs`, the
+integrator :func:`~leakdiag.sim.eha.integrate.integrate_fast`, the leak schedule and calibration
 come from :mod:`leakdiag.sim.leak` and the sensor chain from :mod:`leakdiag.sim.sensors`.
 """
 
@@ -11,39 +11,40 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Callable
 
 import numpy as np
 
 from leakdiag._validation import check_positive
-from leakdiag._version import __version__
 from leakdiag.io.recording import Recording
-from leakdiag.sim._checks import (
-    check_choice, check_leak_kind, check_onset, check_params_type, check_seed, n_samples,
-)
-from leakdiag.sim.eha_drive import LOADS, MODES, EHAConditions, build_inputs
-from leakdiag.sim.eha_model import (
+from leakdiag.sim._checks import check_choice, check_params_type
+from leakdiag.sim.eha.drive import LOADS, MODES, EHAConditions, build_inputs
+from leakdiag.sim.eha.integrate import CLOSED_LOOP_RTOL, DEFAULT_RTOL, integrate_fast
+from leakdiag.sim.eha.model import (
     IN_KLEAK, IN_U, IN_XREF, N_STATES, S_P1, S_P2, S_PA, S_PB, S_W, S_X,
 )
-from leakdiag.sim.eha_params import P_KFREE, EHAParams
-from leakdiag.sim.eha_solver import CLOSED_LOOP_RTOL, DEFAULT_RTOL, integrate_fast
-from leakdiag.sim.leak import (
-    LEAK_REFERENCE_DP_PA, LPM_PER_M3S, MIN_CALIBRATION_WINDOW_S, LeakCalibrationError, LeakSchedule,
-    calibrate_with_pilot, check_calibrated, lpm_to_m3s, m3s_to_lpm,
-    too_short_to_calibrate,
+from leakdiag.sim.eha.params import P_KFREE, EHAParams
+from leakdiag.sim.experiment import (
+    calibrate_leak, coefficient_from_healthy, experiment_metadata, plan_leak, random_streams, setup,
 )
-from leakdiag.sim.machine import EHAMachine, resolve_machine
+from leakdiag.sim.leak import LPM_PER_M3S, LeakCalibrationError, leak_flow
+from leakdiag.sim.machine import EHAMachine
 from leakdiag.sim.sensors import SensorParams, measure_position, measure_pressure
 
-__all__ = ["simulate_eha", "EHA_SENSORS", "initial_state", "available_pump_flow_lpm",
-           "measure_motor_speed", "MOTOR_ENCODER_COUNTS_PER_REV",
+__all__ = ["simulate_eha", "DEFAULT_DURATION_S", "LEAK_MODELS", "EHA_SENSORS", "initial_state",
+           "available_pump_flow_lpm", "measure_motor_speed", "MOTOR_ENCODER_COUNTS_PER_REV",
            "DEFAULT_REFERENCE_AMPLITUDE_M", "MAX_LEAK_FRACTION"]
 
+#: Run length of the thesis's experiment (Sec. 4.6), s.
+DEFAULT_DURATION_S = 180.0
 #: EHA sensor chain (Sec. 3.2): 3000 psi pressure sensors read by the 14-bit Quanser Q8 A/D;
 #: the position encoder's resolution is not given, the VCA rig's 0.03 mm is assumed.
 EHA_SENSORS = SensorParams(pressure_adc_bits=14, control_dac_bits=14)
 #: Motor shaft encoder of the M-4650 servo motor read through the SSt-6000 drive: "20,000 quad
 #: counts per revolution of the rotor" (Sec. 3.2). The speed channel is derived from it.
 MOTOR_ENCODER_COUNTS_PER_REV = 20_000
+#: Leak laws of the EHA: Eq. 2-4 only (the thesis's EHA leak is a turbulent needle-valve flow).
+LEAK_MODELS = ("turbulent",)
 #: Input amplitude of Sec. 4.6, V.
 DEFAULT_AMPLITUDE_V = 3.0
 #: Closed-loop reference amplitude, m: the open-loop stroke of 3 sin 4t is about +-39 mm.
@@ -186,27 +187,8 @@ def _initial_leak_coefficient(leak_lpm: float, params: EHAParams, load: str) -> 
 
 
 def _leak_flow(k_leak: np.ndarray, states: np.ndarray, ptr: float) -> np.ndarray:
-    """Leak flow of Eq. 2-4 (regularised as in the model) at each sample, m^3/s."""
-    dp = states[:, S_P1] - states[:, S_P2]
-    return k_leak * dp / np.sqrt(np.sqrt(dp * dp + ptr * ptr))
-
-
-def _coefficient_from_healthy(states: np.ndarray, split: int, fs: float, leak_lpm: float,
-                              post_multiplier: np.ndarray, ptr: float) -> float | None:
-    """First guess of k_l from the leak-free part before the onset (None if under 2 s).
-
-    ``k_l = Q* / (mean s(t) after the onset * mean |g(P_A - P_B)| before it)``, from 1 s on
-    (past the start-up transient): exact if the pressures did not react to the leak.
-    """
-    i0 = int(round(fs))
-    if split - i0 < int(round(fs)):
-        return None
-    dp = states[i0:split, S_P1] - states[i0:split, S_P2]
-    g = float(np.mean(np.abs(dp) / np.sqrt(np.sqrt(dp * dp + ptr * ptr))))
-    mult = float(np.mean(post_multiplier)) if post_multiplier.size else 0.0
-    if not (g > 0 and mult > 0 and math.isfinite(g)):
-        return None
-    return lpm_to_m3s(leak_lpm) / (mult * g)
+    """Leak flow of Eq. 2-4 (the model's law, :func:`leak_flow`) at each sample, m^3/s."""
+    return leak_flow(k_leak, states[:, S_P1] - states[:, S_P2], ptr, False)
 
 
 def _input_samples(input_signal, t: np.ndarray, conditions: EHAConditions,
@@ -235,27 +217,29 @@ def _describe(input_signal) -> str:
 
 
 def simulate_eha(
-    duration: float = 180.0,
+    *,
+    duration: float = DEFAULT_DURATION_S,
     leak_lpm: float | None = 1.2,
     onset: float = 90.0,
-    seed: int = 1,
-    sensors: bool = True,
-    params: EHAParams | None = None,
-    load: str = "none",
-    mode: str = "open-loop",
-    sample_rate: float = 1000.0,
-    *,
-    amplitude: float | None = None,
-    frequency_rad_s: float = DEFAULT_FREQUENCY_RAD_S,
     leak_kind: str = "step",
     ramp_duration: float = 30.0,
+    leak_model: str = "turbulent",
     leak_coefficient: float | None = None,
-    conditions: EHAConditions | None = None,
-    sensor_params: SensorParams | None = None,
-    rtol: float | None = None,
     calibration_rtol: float = 0.02,
-    input_signal=None,
+    load: str = "none",
+    seed: int = 1,
+    sample_rate: float = 1000.0,
+    sensors: bool = True,
+    sensor_params: SensorParams | None = None,
+    params: EHAParams | None = None,
+    conditions: EHAConditions | None = None,
     machine: EHAMachine | int | None = None,
+    progress: Callable[[int], None] | None = None,
+    mode: str = "open-loop",
+    amplitude: float | None = None,
+    frequency_rad_s: float = DEFAULT_FREQUENCY_RAD_S,
+    input_signal=None,
+    rtol: float | None = None,
 ) -> Recording:
     """Simulate an EHA experiment (thesis Ch. 3 model, Sec. 4.6 procedure).
 
@@ -293,6 +277,12 @@ def simulate_eha(
         Ramp length in s.
     leak_coefficient : float, optional
         Use this coefficient :math:`k_l` (m^3/(s sqrt(Pa))) instead of calibrating one.
+    leak_model : {"turbulent"}, default "turbulent"
+        The leak law, Eq. 2-4 (the same argument as :func:`~leakdiag.sim.simulate_vca`; the
+        EHA has no laminar leak).
+    progress : callable, optional
+        ``progress(n_samples)`` after each integration (the whole run, or the part before the
+        onset and each trial after it during the leak calibration).
     conditions : EHAConditions, optional
         Temperature drift, spring change, amplitude/frequency variation; default nominal.
     sensor_params : SensorParams, optional
@@ -350,16 +340,16 @@ def simulate_eha(
     Notes
     -----
     Model: Eqs. 3-1 to 3-19 with the leak of Eq. 2-4 between the chambers (see
-    :func:`~leakdiag.sim.eha_model.eha_rhs`). The achieved leak is the mean of
+    :func:`~leakdiag.sim.eha.model.eha_rhs`). The achieved leak is the mean of
     :math:`|Q_l|` over the samples at or after the onset (Sec. 4.6, "the average leak after 90
     seconds"). The calibration integrates the leak-free part before the onset once, guesses the
     coefficient from its healthy pressures and reruns only the part after the onset (continuing
     the solver, bit-identical to a whole run) until the mean is within ``calibration_rtol``,
     first on pilots with 4x the rtol (``calibration_pilot_runs``), then on the delivered
     tolerance (``calibration_runs``, usually 1); the delivered run is checked against the
-    target. The leak coefficient is an
-    input sampled at the output rate, so a step leak rises over the one sample interval before
-    the onset sample. In closed-loop mode the position loop sees the true position.
+    target. The integrator applies the leak schedule to the coefficient at the output samples
+    (as the VCA kernel does) and interpolates in between, so a step leak rises over the one
+    sample interval before the onset sample. In closed-loop mode the position loop sees the true position.
 
     Examples
     --------
@@ -369,18 +359,14 @@ def simulate_eha(
     >>> rec.meta["system"], rec.meta["leak_lpm_achieved"], rec.n_samples
     ('eha', 0.0, 2000)
     """
-    duration = check_positive(duration, "duration")
-    fs = check_positive(sample_rate, "sample_rate")
-    check_choice(mode, "mode", MODES)
-    check_choice(load, "load", LOADS)
-    check_leak_kind(leak_kind)
-    check_seed(seed)
-    params = check_params_type(params, EHAParams)
+    exp = setup("eha", duration=duration, sample_rate=sample_rate, load=load, loads=LOADS,
+                leak_model=leak_model, leak_models=LEAK_MODELS, leak_kind=leak_kind, seed=seed,
+                params=params, params_cls=EHAParams, sensor_params=sensor_params,
+                default_sensors=EHA_SENSORS, machine=machine,
+                extra_checks=lambda: check_choice(mode, "mode", MODES))
+    duration, fs, n = exp.duration, exp.sample_rate, exp.n
+    params, sensor_params, machine = exp.params, exp.sensor_params, exp.machine
     conditions = check_params_type(conditions, EHAConditions, "conditions")
-    sensor_params = EHA_SENSORS if sensor_params is None else sensor_params
-    machine = resolve_machine(machine, "eha")
-    params = machine.apply_params(params)
-    sensor_params = machine.apply_sensors(sensor_params)
     if (sensors and sensor_params.antialias_cutoff_hz is not None
             and not sensor_params.antialias_cutoff_hz < fs / 2):
         raise ValueError(f"antialias_cutoff_hz={sensor_params.antialias_cutoff_hz:.4g} "
@@ -393,49 +379,50 @@ def simulate_eha(
         rtol = DEFAULT_RTOL if mode == "open-loop" else CLOSED_LOOP_RTOL
     rtol = check_positive(rtol, "rtol")
     frequency_rad_s = check_positive(frequency_rad_s, "frequency_rad_s")
-    n = n_samples(duration, fs)
     t = np.arange(n) / fs
-    cond_ss, noise_ss = np.random.SeedSequence(int(seed)).spawn(2)
+    cond_ss, noise_ss = random_streams(seed)
     drive = None
     if input_signal is not None:
         drive = _input_samples(input_signal, t, conditions, np.random.default_rng(cond_ss))
         amplitude = max(float(np.max(np.abs(drive))), 1e-12)
-    has_leak = leak_lpm is not None and leak_lpm != 0
-    if has_leak:
-        leak_lpm = check_positive(leak_lpm, "leak_lpm")
+
+    def within_pump_flow(lpm: float) -> None:
         q_avail = available_pump_flow_lpm(params, mode, amplitude)
-        if leak_coefficient is None and leak_lpm > MAX_LEAK_FRACTION * q_avail:
+        if leak_coefficient is None and lpm > MAX_LEAK_FRACTION * q_avail:
             raise ValueError(
-                f"leak_lpm={leak_lpm} exceeds {MAX_LEAK_FRACTION:.0%} of the mean pump flow "
+                f"leak_lpm={lpm} exceeds {MAX_LEAK_FRACTION:.0%} of the mean pump flow "
                 f"available in this experiment ({q_avail:.3g} L/min, mode={mode!r}, "
                 f"amplitude={amplitude}); the pump is a flow source, a larger mean leak is not "
                 "physical")
-        onset = check_onset(onset, n, fs, duration)
-        sched = LeakSchedule(leak_kind, onset, ramp_duration)
-    else:
-        sched = LeakSchedule("none")
+
+    plan = plan_leak(leak_lpm, onset, leak_kind, ramp_duration, n=n, sample_rate=fs,
+                     duration=duration, check_target=within_pump_flow)
+    sched = plan.schedule
 
     base = build_inputs(t, params, mode, load, amplitude, frequency_rad_s, conditions,
                         rng=np.random.default_rng(cond_ss))
     if drive is not None:
         base[:, IN_U if mode == "open-loop" else IN_XREF] = drive
-    multiplier = sched.multipliers(t)
+    multiplier = sched.multipliers(t)  # for the recorded leak flow; the kernel applies s(t)
+    sched_arr = sched.to_array()
     prm = params.to_array(closed_loop=(mode == "closed-loop"))
     y0 = initial_state(params)
-    i_on = int(math.ceil(onset * fs - 1e-9)) if has_leak else n
+    i_on = plan.onset_index
     ptr = params.laminar_transition_pa
+
+    def report(n_done: int) -> None:
+        if progress is not None:
+            progress(n_done)
 
     def run(k_leak: float):
         inputs = base.copy()
-        inputs[:, IN_KLEAK] = k_leak * multiplier
-        sol = integrate_fast(y0, inputs, prm, fs, rtol=rtol)
-        return sol.states, sol.n_accepted, _leak_flow(inputs[:, IN_KLEAK], sol.states, ptr)
+        inputs[:, IN_KLEAK] = k_leak  # the kernel applies s(t), as the VCA's does
+        sol = integrate_fast(y0, inputs, prm, fs, rtol=rtol, leak_schedule=sched_arr)
+        report(n)
+        return sol.states, sol.n_accepted, _leak_flow(k_leak * multiplier, sol.states, ptr)
 
-    def mean_leak_lpm(q: np.ndarray) -> float:
-        return m3s_to_lpm(float(np.mean(np.abs(q[i_on:])))) if i_on < n else 0.0
-
-    calibration_runs = pilot_runs = 0
-    if not has_leak:
+    cal = None
+    if not plan.active:
         k_leak = 0.0
         states, n_steps, q_leak = run(0.0)
     elif leak_coefficient is not None:
@@ -447,44 +434,40 @@ def simulate_eha(
         # split + 1 = onset sample ramps it in): integrate them once, then restart every trial
         # from the solver state at `split` (bit-identical to a whole run).
         split = max(i_on - 1, 0)
-        pre = integrate_fast(y0, base[:split + 1], prm, fs, rtol=rtol)
+        pre = integrate_fast(y0, base[:split + 1], prm, fs, rtol=rtol, leak_schedule=sched_arr)
+        report(split)
         history: list[tuple[float, float]] = []
         last: list = []
 
         def simulate_fn(k: float, pilot: bool = False) -> float:
             if k > k_max:
                 raise LeakCalibrationError(
-                    f"leak calibration to {leak_lpm} L/min needs a coefficient above {k_max:.3g} "
-                    "m^3/(s Pa^0.5), a leak path wider than the lines; history so far: "
-                    f"{history}")
+                    f"leak calibration to {plan.target_lpm} L/min needs a coefficient above "
+                    f"{k_max:.3g} m^3/(s Pa^0.5), a leak path wider than the lines; history so "
+                    f"far: {history}")
             inputs = base[split:].copy()
-            inputs[:, IN_KLEAK] = k * multiplier[split:]
+            inputs[:, IN_KLEAK] = k
             post = integrate_fast(pre.states[-1], inputs, prm, fs,
                                   rtol=PILOT_RTOL_FACTOR * rtol if pilot else rtol,
-                                  resume=pre.resume)
+                                  resume=pre.resume, leak_schedule=sched_arr)
+            report(n - split)
             st = np.concatenate([pre.states[:-1], post.states])
-            kl = np.concatenate([np.zeros(split), inputs[:, IN_KLEAK]])
+            kl = np.concatenate([np.zeros(split), k * multiplier[split:]])
             q_leak = _leak_flow(kl, st, ptr)
-            q = mean_leak_lpm(q_leak)
+            q = plan.mean_lpm(q_leak)
             if not pilot:
                 last[:] = [st, pre.n_accepted + post.n_accepted, q_leak]
                 history.append((k, q))
             return q
 
-        k0 = _coefficient_from_healthy(pre.states, split, fs, leak_lpm, multiplier[i_on:], ptr)
+        k0 = coefficient_from_healthy(pre.states[:, S_P1], pre.states[:, S_P2], split, plan,
+                                      ptr, False)
         if k0 is None:
-            k0 = _initial_leak_coefficient(leak_lpm, params, load)
-        try:
-            cal = calibrate_with_pilot(simulate_fn, lambda k: simulate_fn(k, pilot=True),
-                                       leak_lpm, k0, rtol=calibration_rtol)
-        except LeakCalibrationError as exc:
-            if (n - i_on) / fs < MIN_CALIBRATION_WINDOW_S:
-                raise too_short_to_calibrate(leak_lpm, (n - i_on) / fs, exc, history) from exc
-            raise
-        k_leak, calibration_runs = cal.coefficient, cal.n_evaluations
-        pilot_runs = cal.n_pilot_evaluations
+            k0 = _initial_leak_coefficient(plan.target_lpm, params, load)
+        cal = calibrate_leak(plan, simulate_fn, k0, calibration_rtol, history,
+                             pilot_fn=lambda k: simulate_fn(k, pilot=True))
+        k_leak = cal.coefficient
         states, n_steps, q_leak = last
-        check_calibrated(mean_leak_lpm(q_leak), leak_lpm, calibration_rtol)
 
     if mode == "closed-loop":
         u = params.position_gain_v_per_m * (base[:, IN_XREF] - states[:, S_X])
@@ -510,39 +493,21 @@ def simulate_eha(
         chans["speed"] = measure_motor_speed(chans["speed"], fs)
     if mode == "closed-loop":
         chans["x_ref"] = base[:, IN_XREF]
-    achieved = mean_leak_lpm(q_leak)
-    meta = {
-        "system": "eha",
-        "source": "leakdiag.sim.simulate_eha",
+    meta = experiment_metadata(
+        "eha", plan, q_leak, k_leak=k_leak, leak_model=leak_model, transition_pa=ptr, load=load,
+        seed=seed, params=params, sensors=sensors, sensor_params=sensor_params,
+        conditions=conditions, machine=machine, calibration=cal,
+        calibration_rtol=calibration_rtol, rated_flow_lpm=params.rated_pump_flow_lpm,
+        ramp_duration=ramp_duration)
+    meta.update({
         "mode": mode,
-        "load": load,
-        "onset": sched.onset_s if has_leak else None,
-        "leak_lpm": float(leak_lpm) if has_leak else 0.0,
-        "leak_lpm_achieved": achieved,
-        "leak_pct_of_rated_flow": 100.0 * achieved / params.rated_pump_flow_lpm,
-        "leak_coefficient": float(k_leak),
-        "leak_reference_dp_pa": LEAK_REFERENCE_DP_PA,
-        "leak_lpm_at_reference_dp": m3s_to_lpm(
-            k_leak * LEAK_REFERENCE_DP_PA
-            / math.sqrt(math.sqrt(LEAK_REFERENCE_DP_PA**2 + ptr * ptr))),
-        "leak_model": "turbulent",
-        "leak_kind": sched.kind,
-        "ramp_duration": float(ramp_duration) if sched.kind == "ramp" else None,
-        "seed": int(seed),
-        "params": params.to_dict(),
-        "rated_flow_lpm": params.rated_pump_flow_lpm,
+        "leak_pct_of_rated_flow": 100.0 * meta["leak_lpm_achieved"] / params.rated_pump_flow_lpm,
         "amplitude": float(amplitude),
         "frequency_rad_s": float(frequency_rad_s),
         "input_signal": None if input_signal is None else _describe(input_signal),
-        "conditions": conditions.to_dict(),
-        "sensors": sensor_params.to_dict() if sensors else None,
         "motor_encoder_counts_per_rev": MOTOR_ENCODER_COUNTS_PER_REV if sensors else None,
-        "machine": machine.to_dict(),
         "rtol": float(rtol),
         "solver_steps": int(n_steps),
-        "calibration_runs": calibration_runs,
-        "calibration_pilot_runs": pilot_runs,
-        "leakdiag_version": __version__,
-    }
+    })
     units = {"pa": "Pa", "pb": "Pa", "speed": "rad/s"}
     return Recording({k: np.array(v) for k, v in chans.items()}, fs, 0.0, units, meta)

@@ -17,9 +17,12 @@ from scipy.signal import sosfilt_zi
 from leakdiag._validation import as_1d_float, check_int, check_positive
 from leakdiag.sim.leak import leak_multiplier
 from leakdiag.sim.sensors import adc_reading, quantize
-from leakdiag.sim.vca_conditions import fill_inputs
-from leakdiag.sim.vca_control import control_law
-from leakdiag.sim.vca_model import _rhs_into, vca_leak_flow
+from leakdiag.sim.vca.conditions import C_DURATION_S, C_RIPPLE_PA, C_TEMP_RISE_K, fill_inputs
+from leakdiag.sim.vca.control import control_law
+from leakdiag.sim.vca.model import (
+    N_INPUTS, N_STATES, S_P1, S_P2, S_X, _rhs_into, vca_leak_flow,
+)
+from leakdiag.sim.vca.params import P_PS, P_PT, P_U_NULL, P_U_NULL_PER_K
 
 __all__ = ["ClosedLoopResult", "integrate_closed_loop", "rk4_advance", "valve_null_v",
            "sos_step"]
@@ -46,19 +49,19 @@ def valve_null_v(t, prm, cond):
 
     Examples
     --------
-    >>> from leakdiag.sim.vca_params import VCAParams
-    >>> from leakdiag.sim.vca_conditions import OperatingConditions
+    >>> from leakdiag.sim.vca.params import VCAParams
+    >>> from leakdiag.sim.vca.conditions import OperatingConditions
     >>> prm = VCAParams(valve_null_offset_v=0.05, valve_null_shift_v_per_k=-0.002).to_array()
     >>> round(valve_null_v(50.0, prm, OperatingConditions(temperature_rise_k=8.0).to_array(100.0)),
     ...       12)                                # 0.05 - 0.002 * 4 K
     0.042
     """
-    u0 = prm[21]
-    if prm[22] != 0.0 and cond[2] != 0.0:
-        frac = t / cond[3]
+    u0 = prm[P_U_NULL]
+    if prm[P_U_NULL_PER_K] != 0.0 and cond[C_TEMP_RISE_K] != 0.0:
+        frac = t / cond[C_DURATION_S]
         if frac > 1.0:
             frac = 1.0
-        u0 += prm[22] * cond[2] * frac
+        u0 += prm[P_U_NULL_PER_K] * cond[C_TEMP_RISE_K] * frac
     return u0
 
 
@@ -106,7 +109,7 @@ def _rk4_steps(s, t0, h, n_steps, u, k_leak, sched, cond, prm, ps_max,
     # time-varying input); otherwise once per call (one output sample), since the leak
     # schedule and the temperature drift change slowly and the control is held anyway.
     n = s.shape[0]
-    per_stage = cond[0] != 0.0
+    per_stage = cond[C_RIPPLE_PA] != 0.0
     fill_inputs(t0, u, k_leak, sched, cond, inp)
     for j in range(n_steps):
         t = t0 + j * h
@@ -129,9 +132,9 @@ def _rk4_steps(s, t0, h, n_steps, u, k_leak, sched, cond, prm, ps_max,
         for i in range(n):
             s[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
         # pressures bounded between tank and supply (+ ripple)
-        for i in range(2, 4):
-            if s[i] < prm[6]:
-                s[i] = prm[6]
+        for i in range(S_P1, S_P2 + 1):
+            if s[i] < prm[P_PT]:
+                s[i] = prm[P_PT]
             elif s[i] > ps_max:
                 s[i] = ps_max
 
@@ -145,30 +148,30 @@ def _closed_loop_kernel(s, integ, i0, i1, prm, gains, u_max, x_ref, sched, k_arr
     # DAC quantum, p1 gain, p1 offset, p2 gain, p2 offset]; sos has 0 rows without a filter.
     transducer = sens[4] != 1.0 or sens[5] != 0.0 or sens[6] != 1.0 or sens[7] != 0.0
     use_filter = sos.shape[0] > 0
-    has_null = prm[21] != 0.0 or prm[22] != 0.0
-    k1 = np.empty(6)
-    k2 = np.empty(6)
-    k3 = np.empty(6)
-    k4 = np.empty(6)
-    tmp = np.empty(6)
-    inp = np.empty(6)
+    has_null = prm[P_U_NULL] != 0.0 or prm[P_U_NULL_PER_K] != 0.0
+    k1 = np.empty(N_STATES)
+    k2 = np.empty(N_STATES)
+    k3 = np.empty(N_STATES)
+    k4 = np.empty(N_STATES)
+    tmp = np.empty(N_STATES)
+    inp = np.empty(N_INPUTS)
     h = dt_out / n_sub
-    ps_max = prm[5] + abs(cond[0])
+    ps_max = prm[P_PS] + abs(cond[C_RIPPLE_PA])
     integral = integ[0]
     for k in range(i0, i1):
         t = k * dt_out
-        for i in range(6):
+        for i in range(N_STATES):
             out_state[k, i] = s[i]
         k_leak = k_arr[k] if k_arr.shape[0] > 1 else k_arr[0]
-        out_q[k] = vca_leak_flow(s[2], s[3], k_leak * leak_multiplier(t, sched), prm)
+        out_q[k] = vca_leak_flow(s[S_P1], s[S_P2], k_leak * leak_multiplier(t, sched), prm)
         if use_sensors:
-            xm = quantize(s[0], sens[0])
+            xm = quantize(s[S_X], sens[0])
             if transducer:
-                r1 = sens[4] * s[2] + sens[5]
-                r2 = sens[6] * s[3] + sens[7]
+                r1 = sens[4] * s[S_P1] + sens[5]
+                r2 = sens[6] * s[S_P2] + sens[7]
             else:
-                r1 = s[2]
-                r2 = s[3]
+                r1 = s[S_P1]
+                r2 = s[S_P2]
             if use_filter:
                 # anti-alias low-pass of (reading + noise), started at rest on the first value
                 a1 = r1 + noise1[k]
@@ -184,9 +187,9 @@ def _closed_loop_kernel(s, integ, i0, i1, prm, gains, u_max, x_ref, sched, k_arr
                 p1m = adc_reading(r1, noise1[k], sens[1], sens[2])
                 p2m = adc_reading(r2, noise2[k], sens[1], sens[2])
         else:
-            xm = s[0]
-            p1m = s[2]
-            p2m = s[3]
+            xm = s[S_X]
+            p1m = s[S_P1]
+            p2m = s[S_P2]
         out_meas[k, 0] = xm
         out_meas[k, 1] = p1m
         out_meas[k, 2] = p2m
@@ -234,9 +237,9 @@ def rk4_advance(state, t0, dt, n_steps, u, leak_coefficient, schedule, cond, par
 
     Examples
     --------
-    >>> from leakdiag.sim.vca_params import VCAParams
+    >>> from leakdiag.sim.vca.params import VCAParams
     >>> from leakdiag.sim.leak import LeakSchedule
-    >>> from leakdiag.sim.vca_conditions import OperatingConditions
+    >>> from leakdiag.sim.vca.conditions import OperatingConditions
     >>> s = np.array([0.0, 0.0, 8.6e6, 8.6e6, 0.0, 0.0])
     >>> rk4_advance(s, 0.0, 1e-4, 100, 0.0, 0.0, LeakSchedule().to_array(),
     ...             OperatingConditions().to_array(1.0), VCAParams().to_array())
@@ -249,7 +252,7 @@ def rk4_advance(state, t0, dt, n_steps, u, leak_coefficient, schedule, cond, par
                          "shape (6,)")
     work = [np.empty(6) for _ in range(6)]
     _rk4_steps(state, float(t0), float(dt), int(n_steps), float(u), float(leak_coefficient),
-               schedule, cond, params, params[5] + abs(cond[0]), *work)
+               schedule, cond, params, params[P_PS] + abs(cond[C_RIPPLE_PA]), *work)
 
 
 @dataclass(frozen=True)
@@ -331,10 +334,10 @@ def integrate_closed_loop(x_ref, sample_rate, n_sub, params, gains, u_max, leak_
 
     Examples
     --------
-    >>> from leakdiag.sim.vca_params import VCAParams
-    >>> from leakdiag.sim.vca_control import FixedGainController
+    >>> from leakdiag.sim.vca.params import VCAParams
+    >>> from leakdiag.sim.vca.control import FixedGainController
     >>> from leakdiag.sim.leak import LeakSchedule
-    >>> from leakdiag.sim.vca_conditions import OperatingConditions
+    >>> from leakdiag.sim.vca.conditions import OperatingConditions
     >>> res = integrate_closed_loop(np.full(2000, 5e-3), 1000.0, 10, VCAParams().to_array(),
     ...     FixedGainController().to_array(), 10.0, 0.0, LeakSchedule().to_array(),
     ...     OperatingConditions().to_array(2.0), [0, 0, 8.6e6, 8.6e6, 0, 0])
@@ -371,7 +374,7 @@ class _SegmentedLoop:
     ``advance(carry, stop, ...)`` integrates samples ``[carry.index, stop)`` and updates the
     carry in place; integrating ``[0, m)`` then ``[m, n)`` equals ``[0, n)`` bit for bit, so a
     leak calibration can restart the part after the onset from a copy of the carry at the
-    onset (:func:`leakdiag.sim.vca_simulate.simulate_vca`).
+    onset (:func:`leakdiag.sim.vca.simulate.simulate_vca`).
     """
 
     def __init__(self, x_ref, sample_rate, params, gains, u_max, schedule, cond, state0,

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from leakdiag.sim.eha import EHA_SENSORS, simulate_eha
-from leakdiag.sim.eha_drive import EHAConditions
-from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha.simulate import EHA_SENSORS, simulate_eha
+from leakdiag.sim.eha.drive import EHAConditions
+from leakdiag.sim.eha.params import EHAParams
 from leakdiag.sim.excitation import PeriodicSteps, structured_excitation
 
 STEPS = structured_excitation("eha")

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 import leakdiag as ld
-from leakdiag.sim.eha import EHA_SENSORS, simulate_eha
-from leakdiag.sim.eha_drive import EHAConditions, build_inputs
-from leakdiag.sim.eha_model import IN_BETA_SCALE, IN_FV_SCALE, IN_KLEAK, IN_SPRING, IN_XREF
-from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha.simulate import EHA_SENSORS, simulate_eha
+from leakdiag.sim.eha.drive import EHAConditions, build_inputs
+from leakdiag.sim.eha.model import IN_BETA_SCALE, IN_FV_SCALE, IN_KLEAK, IN_SPRING, IN_XREF
+from leakdiag.sim.eha.params import EHAParams
 from leakdiag.sim.leak import LeakSchedule
 
 SHORT = {"duration": 12.0, "onset": 6.0}

@@ -15,7 +15,7 @@ import numpy as np
 from leakdiag._validation import check_positive
 from leakdiag.sim.leak import LPM_PER_M3S
 
-__all__ = ["VCAParams", "LEAK_MODELS", "LOADS", "P_INDEX"]
+__all__ = ["VCAParams", "LEAK_MODELS", "LOADS", "P_INDEX", "N_PARAMS"]
 
 SUPPLY_PRESSURE_PA = 17.2e6  # Table 2-1 (2500 psi, Sec. 2.2)
 TANK_PRESSURE_PA = 0.0  # gauge; Eq. 2-2 measures chamber-to-tank drops from 0
@@ -49,18 +49,42 @@ LEAK_MODELS: dict[str, int] = {"turbulent": 0, "laminar": 1}
 #: Loads: none, or a linear spring centred at x = 0 (Sec. 4.5).
 LOADS = ("none", "spring")
 
-#: Index of each entry of :meth:`VCAParams.to_array` (the ``params`` of ``vca_rhs``).
-P_INDEX: dict[str, int] = {
-    name: i
-    for i, name in enumerate(
-        [
-            "area", "mass", "damping", "volume", "beta", "ps", "pt", "kv_flow", "w", "kv_spool",
-            "omega_v", "zeta_v", "half_stroke", "k_end", "c_end", "k_spring", "f_coulomb",
-            "v_coulomb", "leak_model", "ptr_valve", "ptr_leak", "u_null", "u_null_per_k",
-            "c_valve_leak",
-        ]
-    )
-}
+# Positions in the parameter vector (:meth:`VCAParams.to_array`, the ``params`` of ``vca_rhs``).
+# Plain module-level integers, so Numba folds them into the compiled kernels like literals.
+_PARAM_NAMES = (
+    "area", "mass", "damping", "volume", "beta", "ps", "pt", "kv_flow", "w", "kv_spool",
+    "omega_v", "zeta_v", "half_stroke", "k_end", "c_end", "k_spring", "f_coulomb",
+    "v_coulomb", "leak_model", "ptr_valve", "ptr_leak", "u_null", "u_null_per_k",
+    "c_valve_leak",
+)
+(P_AREA,  # A, piston area (Table 2-1)
+ P_MASS,  # m (Table 2-1)
+ P_DAMPING,  # d, viscous damping (Table 2-1)
+ P_VOLUME,  # V, chamber volume at mid-stroke (Table 2-1)
+ P_BETA,  # beta (Table 2-1)
+ P_PS,  # P_s (Table 2-1)
+ P_PT,  # P_r, tank
+ P_KV_FLOW,  # K_v, valve flow gain (Eq. 2-2)
+ P_W,  # w, orifice area gradient (Eq. 2-2)
+ P_KV_SPOOL,  # k_v, spool gain
+ P_OMEGA_V,  # omega_v = 2 pi f_v, valve natural frequency
+ P_ZETA_V,  # xi, valve damping ratio
+ P_HALF_STROKE,  # L / 2, end stops
+ P_K_END,  # end-stop stiffness
+ P_C_END,  # end-stop damping
+ P_K_SPRING,  # load spring (0 without load)
+ P_F_COULOMB,  # F_c, seal friction
+ P_V_COULOMB,  # v_c, its tanh smoothing velocity
+ P_LEAK_MODEL,  # 0 turbulent (Eq. 2-4), 1 laminar (Eq. 2-5)
+ P_PTR_VALVE,  # laminar transition of the valve orifices (Eq. 2-2)
+ P_PTR_LEAK,  # laminar transition of the turbulent leak (Eq. 2-4)
+ P_U_NULL,  # valve null offset, V
+ P_U_NULL_PER_K,  # valve null shift, V/K
+ P_C_VALVE_LEAK,  # spool-clearance conductance of each metering land
+ ) = range(len(_PARAM_NAMES))
+N_PARAMS = len(_PARAM_NAMES)
+#: Index of each entry of :meth:`VCAParams.to_array` (the ``params`` of ``vca_rhs``), by name.
+P_INDEX: dict[str, int] = {name: i for i, name in enumerate(_PARAM_NAMES)}
 
 
 @dataclass(frozen=True)
@@ -116,7 +140,7 @@ class VCAParams:
         0 = the ideal valve of Table 2-1).
     valve_null_shift_v_per_k : float, default 0.0
         Null shift :math:`s_T` per kelvin of the fluid temperature rise :math:`\\Delta T(t)` of
-        :class:`~leakdiag.sim.vca_conditions.OperatingConditions` (any sign).
+        :class:`~leakdiag.sim.vca.conditions.OperatingConditions` (any sign).
     valve_leakage_m3_per_s_pa : float, default 0.0
         Laminar conductance :math:`c_v` of the radial clearance at each of the four metering
         lands: chamber 1 gains :math:`c_v(P_s - P_1) - c_v(P_1 - P_r)`, chamber 2 likewise; the

@@ -7,7 +7,7 @@ path is the two-stage, L-stable Rosenbrock method ROS2 (order 2,
 :math:`\\gamma = 1 + 1/\\sqrt 2`) with the analytic Jacobian and local error control
 (steps shrink at the orifice switches, grow elsewhere). Inputs are given at the output samples
 and interpolated linearly in between.
-:func:`integrate_reference` solves the same :func:`~leakdiag.sim.eha_model.eha_rhs` with SciPy's
+:func:`integrate_reference` solves the same :func:`~leakdiag.sim.eha.model.eha_rhs` with SciPy's
 implicit ``Radau`` solver and tight tolerances, for tests and ``make bench``.
 """
 
@@ -19,13 +19,14 @@ import numba
 import numpy as np
 
 from leakdiag._validation import as_2d_float, check_int, check_positive
-from leakdiag.sim.eha_jacobian import _jacobian_into
-from leakdiag.sim.eha_model import (
-    N_INPUTS, N_STATES, S_P1, S_P2, S_PA, S_PB, _rhs_into,
+from leakdiag.sim.eha.jacobian import _jacobian_into
+from leakdiag.sim.eha.model import (
+    IN_KLEAK, N_INPUTS, N_STATES, S_P1, S_P2, S_PA, S_PB, _rhs_into,
 )
+from leakdiag.sim.leak import _multipliers, leak_multiplier
 
 __all__ = ["integrate_fast", "integrate_reference", "Solution", "DEFAULT_RTOL",
-           "CLOSED_LOOP_RTOL", "DEFAULT_MAX_STEP_S"]
+           "CLOSED_LOOP_RTOL", "DEFAULT_MAX_STEP_S", "ALWAYS_ON"]
 
 #: Default local error tolerance and largest step; chosen by the study in docs/models.md (EHA).
 DEFAULT_RTOL = 3e-4
@@ -91,8 +92,12 @@ def _lu_solve(a, piv, b):
 
 @numba.njit(cache=True)
 def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, out, stats,
-                 carry, jac):
+                 carry, jac, sched, fs):
     """Adaptive ROS2 between output samples; writes states at the samples into ``out``.
+
+    The leak column of row ``j`` is multiplied by the schedule ``s(t0 + (j0 + j) / fs)``
+    (:func:`~leakdiag.sim.leak.leak_multiplier`, ``sched`` from ``LeakSchedule.to_array``)
+    before the rows are interpolated, as the VCA kernel scales its coefficient by ``s(t)``.
 
     ``stats`` receives [accepted steps, rejected steps, Jacobian evaluations, min step].
     ``carry`` = [next step (<= 0: start afresh), steps since the Jacobian, orifice regime,
@@ -131,6 +136,8 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
         tj = t0 + (j0 + j) * dt_out
         t_end = tj + dt_out
         t = tj
+        lk0 = inputs[j, IN_KLEAK] * leak_multiplier(t0 + (j0 + j) / fs, sched)
+        lk1 = inputs[j + 1, IN_KLEAK] * leak_multiplier(t0 + (j0 + j + 1) / fs, sched)
         while t_end - t > 1e-12 * dt_out:
             remaining = t_end - t
             hs = min(h, h_max)
@@ -143,6 +150,8 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
             for c in range(n_in):
                 in0[c] = inputs[j, c] + a0 * (inputs[j + 1, c] - inputs[j, c])
                 in1[c] = inputs[j, c] + a1 * (inputs[j + 1, c] - inputs[j, c])
+            in0[IN_KLEAK] = lk0 + a0 * (lk1 - lk0)
+            in1[IN_KLEAK] = lk0 + a1 * (lk1 - lk0)
             _rhs_into(t, y, in0, params, f0)
             # flow direction through the two line orifices: the Jacobian changes tenfold when
             # one reverses, so a reversal forces a fresh Jacobian
@@ -202,6 +211,23 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
     carry[3] = j0 + n_out - 1
 
 
+#: A schedule that is always on (multiplier 1): the leak column is the coefficient in force.
+ALWAYS_ON = np.array([1.0, -np.inf, 0.0])
+
+
+def _schedule_array(leak_schedule) -> np.ndarray:
+    """``LeakSchedule.to_array()`` of a schedule, an encoded schedule, or :data:`ALWAYS_ON`."""
+    if leak_schedule is None:
+        return ALWAYS_ON
+    if hasattr(leak_schedule, "to_array"):
+        return leak_schedule.to_array()
+    arr = np.ascontiguousarray(leak_schedule, dtype=np.float64)
+    if arr.shape != (3,):
+        raise ValueError(f"leak_schedule must be a LeakSchedule or its to_array(), got shape "
+                         f"{arr.shape}")
+    return arr
+
+
 @dataclass(frozen=True)
 class Solution:
     """States at the output samples plus solver statistics.
@@ -229,7 +255,8 @@ class Solution:
 
 def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
                    rtol: float = DEFAULT_RTOL, max_step: float | None = None,
-                   jacobian_every: int = DEFAULT_JACOBIAN_EVERY, resume=None) -> Solution:
+                   jacobian_every: int = DEFAULT_JACOBIAN_EVERY, resume=None,
+                   leak_schedule=None) -> Solution:
     """Integrate the EHA with the adaptive ROS2 kernel; states at the output samples.
 
     Parameters
@@ -257,6 +284,11 @@ def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
         ``inputs[0]``: continue it (same step, Jacobian and sample clock) instead of starting
         afresh, so that integrating ``[0, m]`` then ``[m, n]`` equals ``[0, n]`` bit for bit.
         ``t0`` and ``sample_rate`` must be those of that run.
+    leak_schedule : LeakSchedule or numpy.ndarray, optional
+        The leak schedule :math:`s(t)` (or its ``to_array()``): the leak column of sample ``j``
+        is multiplied by :math:`s(t_0 + j/f_s)` inside the kernel, so the column can hold the
+        full coefficient :math:`k_l` (the convention of both simulators). Default: the column
+        is the coefficient in force.
 
     Returns
     -------
@@ -287,7 +319,7 @@ def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
 
     Examples
     --------
-    >>> from leakdiag.sim.eha_params import EHAParams
+    >>> from leakdiag.sim.eha.params import EHAParams
     >>> prm = EHAParams()
     >>> y0 = np.zeros(N_STATES); y0[2:6] = prm.accumulator_pressure_pa
     >>> u = np.tile([0.0, 0.0, 1.0, 1.0, 0.0, 0.0], (11, 1))
@@ -320,18 +352,19 @@ def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
         if carry.shape != (4,) or jac.shape != (N_STATES, N_STATES):
             raise ValueError("resume must be the Solution.resume of an earlier run")
     _ros2_kernel(y0, inputs, float(t0), 1.0 / fs, params, _STATE_SCALE, rtol, h_max,
-                 jac_every, out, stats, carry, jac)
+                 jac_every, out, stats, carry, jac, _schedule_array(leak_schedule), fs)
     return Solution(out, int(stats[0]), int(stats[1]), int(stats[2]), float(stats[3]),
                     (carry, jac))
 
 
 def integrate_reference(y0, inputs, params, sample_rate: float, t0: float = 0.0,
-                        rtol: float = 1e-7, method: str = "Radau") -> np.ndarray:
+                        rtol: float = 1e-7, method: str = "Radau",
+                        leak_schedule=None) -> np.ndarray:
     """Integrate the same model with SciPy's implicit ``solve_ivp`` (slow reference).
 
     Parameters
     ----------
-    y0, inputs, params, sample_rate, t0
+    y0, inputs, params, sample_rate, t0, leak_schedule
         As :func:`integrate_fast`.
     rtol : float, default 1e-7
         Relative tolerance; absolute tolerances are ``rtol`` times a typical state magnitude.
@@ -350,13 +383,15 @@ def integrate_reference(y0, inputs, params, sample_rate: float, t0: float = 0.0,
     """
     from scipy.integrate import solve_ivp
 
-    from leakdiag.sim.eha_model import eha_rhs
+    from leakdiag.sim.eha.model import eha_rhs
 
     y0 = np.ascontiguousarray(y0, dtype=np.float64)
-    inputs = as_2d_float(inputs, "inputs")
+    inputs = as_2d_float(inputs, "inputs").copy()
     params = np.ascontiguousarray(params, dtype=np.float64)
-    dt_out = 1.0 / check_positive(sample_rate, "sample_rate")
+    fs = check_positive(sample_rate, "sample_rate")
+    dt_out = 1.0 / fs
     n = inputs.shape[0]
+    inputs[:, IN_KLEAK] *= _multipliers(t0 + np.arange(n) / fs, _schedule_array(leak_schedule))
     t_eval = t0 + np.arange(n) * dt_out
     last = n - 1
 

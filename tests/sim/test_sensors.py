@@ -209,7 +209,7 @@ def test_pressure_chain_defaults_equal_the_in_loop_adc():
 def test_simulators_record_pressures_through_the_chain():
     from leakdiag.sim import simulate_eha, simulate_vca
     from leakdiag.sim.sensors import THESIS_EHA_SENSORS
-    from leakdiag.sim.vca_control import position_only_controller
+    from leakdiag.sim.vca.control import position_only_controller
     # The loop reads the pressures through the transducers (machine.py: the load-pressure feedback
     # sees offsets and gains); a controller without pressure feedback makes the loop independent
     # of the pressure readings, so the runs differ only by the chain.
@@ -239,8 +239,8 @@ def test_simulators_record_pressures_through_the_chain():
 
 def test_position_only_controller_loop_shape():
     """QFT structure's feedback path (position only): margins of the linearised loop."""
-    from leakdiag.sim.vca_control import loop_margins, position_only_controller
-    from leakdiag.sim.vca_params import VCAParams
+    from leakdiag.sim.vca.control import loop_margins, position_only_controller
+    from leakdiag.sim.vca.params import VCAParams
     c = position_only_controller(6.0)
     assert c.integral_gain_v_per_m_s == 0 and c.pressure_gain_v_per_pa == 0
     m = loop_margins(c.position_gain_v_per_m)
@@ -254,7 +254,7 @@ def test_position_only_controller_loop_shape():
 
 def test_position_only_controller_tracks_a_step_without_steady_error():
     from leakdiag.sim import SampledReference, simulate_vca
-    from leakdiag.sim.vca_control import position_only_controller
+    from leakdiag.sim.vca.control import position_only_controller
     x_ref = np.r_[np.zeros(100), np.full(1900, 10e-3)]
     rec = simulate_vca(duration=2.0, leak_lpm=None, seed=1, sensors=False,
                        reference=SampledReference(x_ref), controller=position_only_controller())

@@ -13,13 +13,26 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["STATE_NAMES", "INPUT_INDEX", "vca_rhs", "vca_leak_flow", "default_inputs"]
+from leakdiag.sim.leak import leak_flow
+from leakdiag.sim.orifice import signed_sqrt
+from leakdiag.sim.vca.params import (
+    P_AREA, P_BETA, P_C_END, P_C_VALVE_LEAK, P_DAMPING, P_F_COULOMB, P_HALF_STROKE, P_K_END,
+    P_K_SPRING, P_KV_FLOW, P_KV_SPOOL, P_LEAK_MODEL, P_MASS, P_OMEGA_V, P_PS, P_PT, P_PTR_LEAK,
+    P_PTR_VALVE, P_V_COULOMB, P_VOLUME, P_W, P_ZETA_V,
+)
+
+__all__ = ["STATE_NAMES", "INPUT_INDEX", "vca_rhs", "vca_leak_flow", "default_inputs",
+           "N_STATES", "N_INPUTS"]
 
 #: Names of the six states, in order.
 STATE_NAMES = ("x", "v", "p1", "p2", "xv", "vv")
+S_X, S_V, S_P1, S_P2, S_XV, S_VV = range(6)
+N_STATES = 6
 #: Index of each input of ``vca_rhs``.
 INPUT_INDEX = {"u": 0, "leak_coefficient": 1, "supply_offset_pa": 2, "beta_scale": 3,
                "damping_scale": 4, "spring_scale": 5}
+IN_U, IN_KLEAK, IN_DPS, IN_BETA_SCALE, IN_DAMPING_SCALE, IN_SPRING_SCALE = range(6)
+N_INPUTS = 6
 _MIN_VOLUME_M3 = 1e-7  # guard against a volume <= 0 if an end stop is overrun
 
 
@@ -47,12 +60,6 @@ def default_inputs(u: float = 0.0, leak_coefficient: float = 0.0) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _sqrt_reg(dp, ptr):
-    # sgn(dp) sqrt(|dp|), laminar below ~ptr: dp / (dp^2 + ptr^2)^(1/4)
-    return dp / np.sqrt(np.sqrt(dp * dp + ptr * ptr))
-
-
-@numba.njit(cache=True)
 def vca_leak_flow(p1, p2, leak_coefficient, params):
     """Internal leakage flow from chamber 1 to chamber 2, Eq. 2-4 or Eq. 2-5 (m^3/s).
 
@@ -73,58 +80,56 @@ def vca_leak_flow(p1, p2, leak_coefficient, params):
 
     Examples
     --------
-    >>> from leakdiag.sim.vca_params import VCAParams
+    >>> from leakdiag.sim.vca.params import VCAParams
     >>> pa = VCAParams().to_array("laminar")
     >>> float(vca_leak_flow(2e6, 1e6, 1e-12, pa))
     1e-06
     """
-    dp = p1 - p2
     if leak_coefficient == 0.0:
         return 0.0
-    if params[18] == 1.0:
-        return leak_coefficient * dp
-    return leak_coefficient * _sqrt_reg(dp, params[20])
+    return leak_flow(leak_coefficient, p1 - p2, params[P_PTR_LEAK], params[P_LEAK_MODEL] == 1.0)
 
 
 @numba.njit(cache=True)
 def _rhs_into(t, s, inp, prm, out):
-    x = s[0]
-    v = s[1]
-    p1 = s[2]
-    p2 = s[3]
-    xv = s[4]
-    vv = s[5]
-    area = prm[0]
-    ps = prm[5] + inp[2]
-    pt = prm[6]
-    half = prm[12]
+    x = s[S_X]
+    v = s[S_V]
+    p1 = s[S_P1]
+    p2 = s[S_P2]
+    xv = s[S_XV]
+    vv = s[S_VV]
+    area = prm[P_AREA]
+    ps = prm[P_PS] + inp[IN_DPS]
+    pt = prm[P_PT]
+    half = prm[P_HALF_STROKE]
     # Mechanics, Eq. 2-1 + spring load, Coulomb friction, end stops (not in the thesis).
-    force = area * (p1 - p2) - prm[2] * inp[4] * v - prm[15] * inp[5] * x
-    if prm[16] > 0.0:
-        force -= prm[16] * np.tanh(v / prm[17])
+    force = (area * (p1 - p2) - prm[P_DAMPING] * inp[IN_DAMPING_SCALE] * v
+             - prm[P_K_SPRING] * inp[IN_SPRING_SCALE] * x)
+    if prm[P_F_COULOMB] > 0.0:
+        force -= prm[P_F_COULOMB] * np.tanh(v / prm[P_V_COULOMB])
     if x > half:
-        force -= prm[13] * (x - half) + prm[14] * v
+        force -= prm[P_K_END] * (x - half) + prm[P_C_END] * v
     elif x < -half:
-        force -= prm[13] * (x + half) + prm[14] * v
+        force -= prm[P_K_END] * (x + half) + prm[P_C_END] * v
     # Valve flows, Eq. 2-2 (critically lapped, matched orifices; Q2 leaves chamber 2).
-    g = prm[7] * prm[8] * xv
-    ptr = prm[19]  # ptr_valve
+    g = prm[P_KV_FLOW] * prm[P_W] * xv
+    ptr = prm[P_PTR_VALVE]
     if xv >= 0.0:
-        q1 = g * _sqrt_reg(ps - p1, ptr)
-        q2 = g * _sqrt_reg(p2 - pt, ptr)
+        q1 = g * signed_sqrt(ps - p1, ptr)
+        q2 = g * signed_sqrt(p2 - pt, ptr)
     else:
-        q1 = g * _sqrt_reg(p1 - pt, ptr)
-        q2 = g * _sqrt_reg(ps - p2, ptr)
-    ql = vca_leak_flow(p1, p2, inp[1], prm)
-    beta = prm[4] * inp[3]
-    v1 = prm[3] + area * x
-    v2 = prm[3] - area * x
+        q1 = g * signed_sqrt(p1 - pt, ptr)
+        q2 = g * signed_sqrt(ps - p2, ptr)
+    ql = vca_leak_flow(p1, p2, inp[IN_KLEAK], prm)
+    beta = prm[P_BETA] * inp[IN_BETA_SCALE]
+    v1 = prm[P_VOLUME] + area * x
+    v2 = prm[P_VOLUME] - area * x
     if v1 < _MIN_VOLUME_M3:
         v1 = _MIN_VOLUME_M3
     if v2 < _MIN_VOLUME_M3:
         v2 = _MIN_VOLUME_M3
     # Spool-clearance leakage of the four metering lands (laminar; 0 for the ideal valve).
-    c_vl = prm[23]
+    c_vl = prm[P_C_VALVE_LEAK]
     if c_vl > 0.0:
         q1 += c_vl * (ps - p1) - c_vl * (p1 - pt)
         q2 -= c_vl * (ps - p2) - c_vl * (p2 - pt)
@@ -135,13 +140,14 @@ def _rhs_into(t, s, inp, prm, out):
         dp1 = 0.0
     if (p2 >= ps and dp2 > 0.0) or (p2 <= pt and dp2 < 0.0):
         dp2 = 0.0
-    wv = prm[10]
-    out[0] = v
-    out[1] = force / prm[1]
-    out[2] = dp1
-    out[3] = dp2
-    out[4] = vv
-    out[5] = -wv * wv * xv - 2.0 * prm[11] * wv * vv + prm[9] * wv * wv * inp[0]
+    wv = prm[P_OMEGA_V]
+    out[S_X] = v
+    out[S_V] = force / prm[P_MASS]
+    out[S_P1] = dp1
+    out[S_P2] = dp2
+    out[S_XV] = vv
+    out[S_VV] = (-wv * wv * xv - 2.0 * prm[P_ZETA_V] * wv * vv
+                 + prm[P_KV_SPOOL] * wv * wv * inp[IN_U])
 
 
 @numba.njit(cache=True)
@@ -182,11 +188,11 @@ def vca_rhs(t, state, inputs, params):
     leakage :math:`c_v` (``valve_leakage_m3_per_s_pa``, 0 in Table 2-1) adds
     :math:`c_v(P_s - P_i) - c_v(P_i - P_r)` to the flow into chamber :math:`i`. ``inputs[0]``
     is the signal the valve sees: the controller's command plus the valve's null offset, which
-    :func:`~leakdiag.sim.vca_integrator.integrate_closed_loop` adds (``valve_null_v``).
+    :func:`~leakdiag.sim.vca.integrate.integrate_closed_loop` adds (``valve_null_v``).
 
     Examples
     --------
-    >>> from leakdiag.sim.vca_params import VCAParams
+    >>> from leakdiag.sim.vca.params import VCAParams
     >>> p = VCAParams()
     >>> s = np.array([0.0, 0.0, 8.6e6, 8.6e6, 0.0, 0.0])
     >>> vca_rhs(0.0, s, default_inputs(), p.to_array()).tolist()  # at rest, valve closed

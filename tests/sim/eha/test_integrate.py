@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from leakdiag.sim.eha import initial_state
-from leakdiag.sim.eha_drive import build_inputs
-from leakdiag.sim.eha_params import EHAParams
-from leakdiag.sim.eha_solver import (
+from leakdiag.sim.eha.simulate import initial_state
+from leakdiag.sim.eha.drive import build_inputs
+from leakdiag.sim.eha.params import EHAParams
+from leakdiag.sim.eha.integrate import (
     CLOSED_LOOP_RTOL, DEFAULT_RTOL, _lu_factor, _lu_solve, integrate_fast, integrate_reference,
 )
 from leakdiag.sim.leak import LeakSchedule
@@ -107,3 +107,33 @@ def test_input_validation(case, kwargs, match):
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
         integrate_fast(**args)
+
+
+@pytest.mark.parametrize("sched", [LeakSchedule("step", onset_s=0.75),
+                                   LeakSchedule("ramp", onset_s=0.5, ramp_duration_s=0.4)])
+def test_kernel_applies_the_schedule_as_the_precomputed_column(sched):
+    """One convention: the kernel scales the leak column by s(t) (as the VCA kernel does);
+    the full coefficient plus the schedule equals the coefficient in force, bit for bit, and
+    so does a run resumed at sample 600 (the calibration's restart)."""
+    t = np.arange(1200) / FS
+    base = build_inputs(t, PRM)
+    y0, p = initial_state(PRM), PRM.to_array()
+    in_force = build_inputs(t, PRM, leak_coefficient=8e-8, leak_schedule=sched)
+    full = base.copy()
+    full[:, 5] = 8e-8                          # IN_KLEAK: the full coefficient
+    want = integrate_fast(y0, in_force, p, FS).states
+    got = integrate_fast(y0, full, p, FS, leak_schedule=sched)
+    assert np.array_equal(got.states, want)
+    assert not np.array_equal(integrate_fast(y0, full, p, FS).states, want)  # s(t) matters
+    pre = integrate_fast(y0, full[:601], p, FS, leak_schedule=sched.to_array())
+    post = integrate_fast(pre.states[-1], full[600:], p, FS, resume=pre.resume,
+                          leak_schedule=sched)
+    assert np.array_equal(np.concatenate([pre.states[:-1], post.states]), want)
+    ref = integrate_reference(y0, full[:300], p, FS, leak_schedule=sched)
+    assert np.array_equal(ref, integrate_reference(y0, in_force[:300], p, FS))
+
+
+def test_bad_leak_schedule_is_refused():
+    with pytest.raises(ValueError, match="leak_schedule"):
+        integrate_fast(initial_state(PRM), build_inputs(np.arange(5) / FS, PRM),
+                       PRM.to_array(), FS, leak_schedule=[1.0, 2.0])

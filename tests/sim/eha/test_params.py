@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from leakdiag.sim.eha_params import _FIELD_ORDER, N_PARAMS, P_CLOSED, P_KFREE, P_KRESTR, EHAParams
+from leakdiag.sim.eha.params import _FIELD_ORDER, N_PARAMS, P_CLOSED, P_KFREE, P_KRESTR, EHAParams
 
 
 def test_table_3_1_values():

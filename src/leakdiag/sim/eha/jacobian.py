@@ -1,7 +1,7 @@
-"""Analytic Jacobian of the EHA right-hand side (:func:`leakdiag.sim.eha_model.eha_rhs`).
+"""Analytic Jacobian of the EHA right-hand side (:func:`leakdiag.sim.eha.model.eha_rhs`).
 
-Used by the ROS2 integrator (:mod:`leakdiag.sim.eha_solver`) at every step; tested against
-central differences of the right-hand side in ``tests/sim/test_eha_model.py``.
+Used by the ROS2 integrator (:mod:`leakdiag.sim.eha.integrate`) at every step; tested against
+central differences of the right-hand side in ``tests/sim/eha/test_model.py``.
 """
 
 from __future__ import annotations
@@ -9,14 +9,14 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from leakdiag.sim.eha_flows import (
+from leakdiag.sim.eha.flows import (
     _dcheck_valve, _dline_orifice, _dorifice, line_orifice_flow,
 )
-from leakdiag.sim.eha_model import (
+from leakdiag.sim.eha.model import (
     IN_BETA_SCALE, IN_FV_SCALE, IN_KLEAK, IN_SPRING, IN_U, IN_XREF, MIN_VOLUME_FRACTION,
     N_STATES, S_I, S_P1, S_P2, S_PA, S_PB, S_V, S_W, S_X, S_Z, TWO_PI, eha_leak_flow,
 )
-from leakdiag.sim.eha_params import (
+from leakdiag.sim.eha.params import (
     P_AREA, P_BETA, P_BM, P_CE, P_CEXT, P_CINT, P_CLOSED, P_CM, P_CSTOP, P_FPR, P_FV, P_JM,
     P_KCV, P_KFREE, P_KI, P_KP, P_KRESTR, P_KSTOP, P_KW, P_KX, P_LC, P_M, P_PACC, P_PCV,
     P_PTR, P_QB, P_RC, P_STROKE, P_UMAX, P_V0, P_VLINE, P_VMAX, P_VTH, P_WMAX,

@@ -1,50 +1,17 @@
-"""Flow laws of the EHA model: orifices (Eqs. 3-9 to 3-12, 2-4) and accumulator check valves.
+"""Flow laws of the EHA model: line orifices (Eqs. 3-9 to 3-12) and accumulator check valves.
 
-Each law is a Numba scalar function of the pressure drop; the ``_d*`` functions are their
-derivatives, used by the analytic Jacobian (:mod:`leakdiag.sim.eha_jacobian`).
+Each law is a Numba scalar function of the pressure drop built on the shared regularised
+orifice law (:mod:`leakdiag.sim.orifice`); the ``_d*`` functions are their derivatives, used
+by the analytic Jacobian (:mod:`leakdiag.sim.eha.jacobian`).
 """
 
 from __future__ import annotations
 
 import numba
-import numpy as np
+
+from leakdiag.sim.orifice import _dorifice, orifice_flow
 
 __all__ = ["orifice_flow", "line_orifice_flow", "check_valve_flow"]
-
-
-@numba.njit(cache=True)
-def orifice_flow(coefficient, dp, transition_pa):
-    """Turbulent orifice flow with a laminar core, ``k dp / (dp^2 + p_t^2)^(1/4)``.
-
-    Parameters
-    ----------
-    coefficient : float
-        ``C_d sqrt(2/rho) A``, m^3/(s sqrt(Pa)).
-    dp : float
-        Pressure drop across the orifice, Pa (flow is positive for ``dp > 0``).
-    transition_pa : float
-        Laminar-turbulent transition pressure :math:`p_t`, Pa.
-
-    Returns
-    -------
-    float
-        Flow in m^3/s.
-
-    Notes
-    -----
-    For :math:`|dp| \\gg p_t` this is the orifice law of Eqs. 3-9 to 3-12 and 2-4,
-    :math:`k\\,\\mathrm{sgn}(dp)\\sqrt{|dp|}`; near zero it is linear with slope
-    :math:`k/\\sqrt{p_t}`, which removes the infinite conductance of the square root at
-    :math:`dp = 0` (a smooth regularisation, documented in ``docs/models.md``).
-
-    Examples
-    --------
-    >>> round(orifice_flow(1e-6, 1e8, 1e4) / (1e-6 * 1e4), 6)   # sqrt(1e8) = 1e4
-    1.0
-    >>> orifice_flow(1e-6, 0.0, 1e4)
-    0.0
-    """
-    return coefficient * dp / np.sqrt(np.sqrt(dp * dp + transition_pa * transition_pa))
 
 
 @numba.njit(cache=True)
@@ -129,13 +96,6 @@ def check_valve_flow(coefficient, dp, opening_pa, transition_pa):
     if dp <= 0.0:
         return 0.0
     return _smoothstep(dp / opening_pa) * orifice_flow(coefficient, dp, transition_pa)
-
-
-@numba.njit(cache=True)
-def _dorifice(coefficient, dp, transition_pa):
-    """d orifice_flow / d dp."""
-    r2 = dp * dp + transition_pa * transition_pa
-    return coefficient * (0.5 * dp * dp + transition_pa * transition_pa) / (r2 * np.sqrt(np.sqrt(r2)))
 
 
 @numba.njit(cache=True)

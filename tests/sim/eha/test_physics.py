@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from leakdiag.sim.eha import initial_state
-from leakdiag.sim.eha_drive import build_inputs
-from leakdiag.sim.eha_model import IN_BETA_SCALE, IN_FV_SCALE, IN_KLEAK, IN_U, N_INPUTS
-from leakdiag.sim.eha_params import EHAParams
-from leakdiag.sim.eha_solver import integrate_fast
+from leakdiag.sim.eha.simulate import initial_state
+from leakdiag.sim.eha.drive import build_inputs
+from leakdiag.sim.eha.model import IN_BETA_SCALE, IN_FV_SCALE, IN_KLEAK, IN_U, N_INPUTS
+from leakdiag.sim.eha.params import EHAParams
+from leakdiag.sim.eha.integrate import integrate_fast
 
 PRM = EHAParams()
 P = PRM.to_array()

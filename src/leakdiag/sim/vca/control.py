@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 from leakdiag._validation import check_positive
-from leakdiag.sim.vca_params import VCAParams
+from leakdiag.sim.vca.params import VCAParams
 
 __all__ = ["FixedGainController", "control_law", "linearized_position_plant",
            "position_only_controller", "loop_margins"]

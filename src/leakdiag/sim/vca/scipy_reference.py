@@ -1,6 +1,6 @@
 """Reference solution of the closed-loop VCA with SciPy's implicit ``solve_ivp`` (slow, exact).
 
-Same model (:func:`~leakdiag.sim.vca_model.vca_rhs`), same control law and zero-order hold as
+Same model (:func:`~leakdiag.sim.vca.model.vca_rhs`), same control law and zero-order hold as
 the fast RK4 kernel, ideal sensors; each sample interval is integrated by an implicit solver
 with tight tolerances. Used by the tests (accuracy of the fixed RK4 step) and by ``make bench``
 (speed ratio).
@@ -12,10 +12,10 @@ import numpy as np
 
 from leakdiag._validation import as_1d_float, check_positive
 from leakdiag.sim.leak import leak_multiplier
-from leakdiag.sim.vca_conditions import fill_inputs
-from leakdiag.sim.vca_control import control_law
-from leakdiag.sim.vca_integrator import ClosedLoopResult
-from leakdiag.sim.vca_model import vca_leak_flow, vca_rhs
+from leakdiag.sim.vca.conditions import fill_inputs
+from leakdiag.sim.vca.control import control_law
+from leakdiag.sim.vca.integrate import ClosedLoopResult
+from leakdiag.sim.vca.model import vca_leak_flow, vca_rhs
 
 __all__ = ["integrate_closed_loop_scipy"]
 
@@ -50,7 +50,7 @@ def integrate_closed_loop_scipy(x_ref, sample_rate, params, gains, u_max, leak_c
     Returns
     -------
     ClosedLoopResult
-        As :func:`~leakdiag.sim.vca_integrator.integrate_closed_loop` with ideal sensors.
+        As :func:`~leakdiag.sim.vca.integrate.integrate_closed_loop` with ideal sensors.
 
     Raises
     ------

@@ -1,7 +1,7 @@
 """Drive signals and operating conditions of the EHA experiment (thesis Sec. 4.6).
 
 :func:`build_inputs` turns the experiment settings into the input matrix read by
-:func:`~leakdiag.sim.eha_model.eha_rhs`, one row per output sample: the open-loop command
+:func:`~leakdiag.sim.eha.model.eha_rhs`, one row per output sample: the open-loop command
 ``3 sin 4t`` V (Sec. 4.6) or, in closed-loop mode, the position reference; the load spring; the
 temperature multipliers of bulk modulus and damping; and the scheduled leak coefficient.
 :class:`EHAConditions` holds the leak-free variations of the operating point (all off by
@@ -15,10 +15,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from leakdiag.sim.eha_model import (
+from leakdiag.sim.eha.model import (
     IN_BETA_SCALE, IN_FV_SCALE, IN_KLEAK, IN_SPRING, IN_U, IN_XREF, N_INPUTS,
 )
-from leakdiag.sim.eha_params import EHAParams
+from leakdiag.sim.eha.params import EHAParams
 from leakdiag.sim.leak import LeakSchedule
 
 __all__ = ["EHAConditions", "build_inputs", "LOADS", "MODES"]

@@ -11,8 +11,8 @@ from leakdiag.sim import (
     VCAParams,
     integrate_closed_loop,
 )
-from leakdiag.sim.vca_scipy import integrate_closed_loop_scipy
-from leakdiag.sim.vca_simulate import DEFAULT_MAX_STEP_S
+from leakdiag.sim.vca.scipy_reference import integrate_closed_loop_scipy
+from leakdiag.sim.vca.simulate import DEFAULT_MAX_STEP_S
 
 FS = 1000.0
 N_SUB = round(1 / (FS * DEFAULT_MAX_STEP_S))  # 4 RK4 steps per 1 ms sample

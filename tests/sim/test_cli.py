@@ -1,0 +1,73 @@
+"""``leakdiag simulate`` command line."""
+
+import numpy as np
+
+import leakdiag as ld
+from leakdiag.cli.main import main
+
+
+def test_simulate_vca_writes_parquet_and_plot(tmp_path, capsys):
+    out = tmp_path / "run.parquet"
+    code = main(["simulate", "vca", "--duration", "6", "--onset", "3", "--leak", "0.1",
+                 "--leak-model", "laminar", "--load", "spring", "--seed", "4",
+                 "--out", str(out), "--plot"])
+    assert code == 0
+    rec = ld.io.read_recording(out)
+    assert rec.channel_names == ["p1", "p2", "x", "u", "leak_flow", "x_ref"]
+    assert rec.meta["leak_model"] == "laminar" and rec.meta["load"] == "spring"
+    assert abs(rec.meta["leak_lpm_achieved"] - 0.1) <= 0.002
+    # the file holds the same samples as the API gives for the same arguments
+    api = ld.sim.simulate_vca(duration=6.0, onset=3.0, leak_lpm=0.1, leak_model="laminar",
+                              load="spring", seed=4)
+    assert np.array_equal(rec["p1"], api["p1"])
+    assert (tmp_path / "run.png").stat().st_size > 10_000
+    assert "achieved" in capsys.readouterr().out
+
+
+def test_simulate_bad_onset_is_a_one_line_error(tmp_path, capsys):
+    code = main(["simulate", "vca", "--duration", "2", "--onset", "5",
+                 "--out", str(tmp_path / "x.parquet")])
+    assert code == 2
+    assert "onset=5.0 s must lie in [0, duration=2.0) s" in capsys.readouterr().err
+
+
+def test_simulate_eha_same_options_as_vca(tmp_path, capsys):
+    """One signature: the EHA takes the VCA's options (--leak-kind, --ramp-duration, progress)."""
+    out = tmp_path / "eha.parquet"
+    code = main(["simulate", "eha", "--duration", "25", "--onset", "12", "--leak", "1.0",
+                 "--leak-kind", "ramp", "--ramp-duration", "4", "--seed", "3", "--out", str(out)])
+    assert code == 0
+    rec = ld.io.read_recording(out)
+    assert rec.meta["system"] == "eha" and rec.meta["leak_kind"] == "ramp"
+    assert rec.meta["ramp_duration"] == 4.0 and rec.meta["onset"] == 12.0
+    assert abs(rec.meta["leak_lpm_achieved"] / 1.0 - 1) <= 0.02
+    api = ld.sim.simulate_eha(duration=25.0, onset=12.0, leak_lpm=1.0, leak_kind="ramp",
+                              ramp_duration=4.0, seed=3)
+    assert np.array_equal(rec["p1"], api["p1"])
+    assert f"achieved {rec.meta['leak_lpm_achieved']:.4g} L/min" in capsys.readouterr().out
+
+
+def test_simulate_eha_laminar_leak_is_a_one_line_error(tmp_path, capsys):
+    """The EHA has Eq. 2-4 only: --leak-model laminar is refused, not ignored."""
+    code = main(["simulate", "eha", "--duration", "25", "--onset", "12",
+                 "--leak-model", "laminar", "--out", str(tmp_path / "x.parquet")])
+    assert code == 2
+    err = capsys.readouterr().err
+    errors = [ln for ln in err.splitlines() if "error" in ln.lower()]
+    assert "Traceback" not in err and len(errors) == 1
+    assert errors[0] == "leakdiag: error: leak_model='laminar' must be one of ['turbulent']"
+    assert not (tmp_path / "x.parquet").exists()
+
+
+def test_simulate_help_states_each_rigs_defaults(capsys):
+    """The help's per-rig defaults are the simulators' own (one signature, no introspection)."""
+    import inspect
+
+    assert main(["simulate", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    for name, flag in (("duration", "Run length"), ("onset", "Leak onset"),
+                       ("leak_lpm", "Target mean leak")):
+        vca = inspect.signature(ld.sim.simulate_vca).parameters[name].default
+        eha = inspect.signature(ld.sim.simulate_eha).parameters[name].default
+        part = text[text.index(flag):]
+        assert f"{vca:g} for vca, {eha:g} for eha" in part[:160], (name, part[:160])

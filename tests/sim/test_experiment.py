@@ -1,0 +1,95 @@
+"""The shared experiment module and the one simulator signature of both rigs."""
+
+import inspect
+
+import numpy as np
+import pytest
+
+from leakdiag.sim import LeakCalibrationError, simulate_eha, simulate_vca
+from leakdiag.sim.experiment import (
+    calibrate_leak, coefficient_from_healthy, plan_leak, random_streams,
+)
+
+SHARED = ["duration", "leak_lpm", "onset", "leak_kind", "ramp_duration", "leak_model",
+          "leak_coefficient", "calibration_rtol", "load", "seed", "sample_rate", "sensors",
+          "sensor_params", "params", "conditions", "machine", "progress"]
+
+
+@pytest.mark.parametrize("fn", [simulate_vca, simulate_eha])
+def test_one_keyword_only_signature(fn):
+    params = inspect.signature(fn).parameters
+    assert all(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params.values())
+    assert list(params)[:len(SHARED)] == SHARED
+
+
+@pytest.mark.parametrize("fn", [simulate_vca, simulate_eha])
+def test_positional_call_is_refused(fn):
+    with pytest.raises(TypeError, match="positional"):
+        fn(4.0)
+
+
+def test_plan_leak_onset_sample_and_window():
+    # onset 2.0005 s at 1 kHz: the first sample at or after it is 2001 (t = 2.001 s)
+    p = plan_leak(0.2, 2.0005, "ramp", 3.0, n=12_000, sample_rate=1000.0, duration=12.0)
+    assert p.onset_index == 2001 and p.window_s == pytest.approx(9.999)
+    assert p.schedule.kind == "ramp" and p.schedule.ramp_duration_s == 3.0
+    # mean |Q| over samples 2001.. only: 1e-5 m^3/s there = 0.6 L/min
+    q = np.zeros(12_000)
+    q[2001:] = -1e-5
+    q[:2001] = 5.0                      # ignored: before the onset
+    assert p.mean_lpm(q) == pytest.approx(0.6, rel=1e-12)
+    none = plan_leak(0, 2.0, "step", 1.0, n=100, sample_rate=10.0, duration=10.0)
+    assert not none.active and none.target_lpm == 0.0 and none.mean_lpm(q[:100]) == 0.0
+
+
+def test_plan_leak_checks_target_before_onset():
+    calls = []
+    with pytest.raises(ValueError, match="onset=50.0"):
+        plan_leak(0.1, 50.0, "step", 1.0, n=1000, sample_rate=100.0, duration=10.0,
+                  check_target=calls.append)
+    assert calls == [0.1]
+    with pytest.raises(ValueError, match="leak_lpm=-1"):
+        plan_leak(-1, 1.0, "step", 1.0, n=1000, sample_rate=100.0, duration=10.0)
+
+
+def test_coefficient_from_healthy_hand_computed():
+    # turbulent, dp = 1e8 Pa >> p_tr = 1 Pa: g = 1e4 Pa^0.5; step -> mean s = 1;
+    # k = (0.6 L/min = 1e-5 m^3/s) / 1e4 = 1e-9
+    fs = 100.0
+    p = plan_leak(0.6, 5.0, "step", 1.0, n=1000, sample_rate=fs, duration=10.0)
+    p1, p2 = np.full(1000, 1.01e8), np.full(1000, 1e6)
+    assert coefficient_from_healthy(p1, p2, 499, p, 1.0, False) == pytest.approx(1e-9, rel=1e-9)
+    # a ramp of 10 s over the 5 s after the onset: mean s = mean(0, 0.001, ..., 0.499) = 0.2495
+    r = plan_leak(0.6, 5.0, "ramp", 10.0, n=1000, sample_rate=fs, duration=10.0)
+    assert coefficient_from_healthy(p1, p2, 499, r, 1.0, False) == pytest.approx(
+        1e-9 / 0.2495, rel=1e-9)
+    # under 1 s of healthy samples after the first second: no guess
+    assert coefficient_from_healthy(p1, p2, 150, p, 1.0, False) is None
+    assert coefficient_from_healthy(p2, p2, 499, p, 1.0, False) is None
+
+
+def test_calibrate_leak_rewords_a_failure_on_a_short_run():
+    short = plan_leak(0.1, 1.0, "step", 1.0, n=5000, sample_rate=1000.0, duration=5.0)
+    with pytest.raises(LeakCalibrationError, match="too short to calibrate a 0.1 L/min"):
+        calibrate_leak(short, lambda k: -1.0, 1.0, 0.02, [(1.0, -1.0)])
+    long = plan_leak(0.1, 1.0, "step", 1.0, n=20_000, sample_rate=1000.0, duration=20.0)
+    with pytest.raises(LeakCalibrationError, match="must be finite and > 0"):
+        calibrate_leak(long, lambda k: -1.0, 1.0, 0.02, [])
+
+
+def test_random_streams_are_those_of_both_simulators():
+    drive, noise = random_streams(7)
+    ref = np.random.SeedSequence(7).spawn(2)
+    assert drive.entropy == ref[0].entropy and drive.spawn_key == ref[0].spawn_key
+    assert noise.spawn_key == ref[1].spawn_key
+
+
+def test_eha_reports_progress_over_its_runs():
+    done = []
+    rec = simulate_eha(duration=25.0, onset=12.0, leak_lpm=1.0, seed=2, progress=done.append)
+    n, split = 25_000, 11_999
+    runs = rec.meta["calibration_runs"] + rec.meta["calibration_pilot_runs"]
+    assert done == [split] + [n - split] * runs
+    healthy = []
+    simulate_eha(duration=2.0, leak_lpm=None, progress=healthy.append)
+    assert healthy == [2000]
