@@ -30,14 +30,20 @@ from urllib.parse import quote
 import anyio
 from sse_starlette import EventSourceResponse
 from starlette.applications import Starlette
-from starlette.middleware import Middleware
 from starlette.datastructures import MutableHeaders
+from starlette.middleware import Middleware
 from starlette.requests import Request
-from starlette.responses import (FileResponse, HTMLResponse, JSONResponse, PlainTextResponse,
-                                 Response)
+from starlette.responses import (
+    FileResponse,
+    HTMLResponse,
+    JSONResponse,
+    PlainTextResponse,
+    Response,
+)
 from starlette.routing import Route
 
 from leakdiag.dashboard.live import LiveBoard
+from leakdiag.store import StoreError, merge_summaries
 
 __all__ = ["make_app", "plotly_js_path"]
 
@@ -276,15 +282,12 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                                   ["plotly.min.js", "history.js"], tq))
 
     async def history_api(request: Request):
-        from leakdiag.store import StoreError
-
         if store is None:
             return PlainTextResponse("404: no event store", status_code=404)
         try:
             summ, al = await anyio.to_thread.run_sync(store.history, request.path_params["name"])
         except StoreError as exc:
             return PlainTextResponse(f"404: {exc}", status_code=404)
-        from leakdiag.store import merge_summaries
 
         n_rows = len(summ)
         summ = merge_summaries(summ, HISTORY_POINTS)  # days of 1-s chunks: one point per block

@@ -18,6 +18,8 @@ from urllib.parse import quote
 
 import numpy as np
 
+from leakdiag.dashboard.live import _num
+from leakdiag.dashboard.sidecar import Sidecar
 from leakdiag.store import StoreError
 
 __all__ = ["MonitorHooks"]
@@ -69,8 +71,6 @@ class MonitorHooks:
     def __init__(self, actuator: str, spec: Any, monitor: Any, source: str, sample_rate: float,
                  store: str | None = None, bind: Any = None, refresh_hz: float = 5.0,
                  say: Callable[[str], None] = print):
-        from leakdiag.dashboard.live import _num
-        from leakdiag.dashboard.sidecar import Sidecar
 
         self.actuator = actuator
         self.scorer = monitor.scorers[0]

@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Sequence
 
+from leakdiag.features.series import FeatureSeries
+
 __all__ = ["plot_feature_series", "save_figure"]
 
 
@@ -36,8 +38,6 @@ def plot_feature_series(series: Sequence, onset: float | None = None, titles: Se
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
-
-    from leakdiag.features.series import FeatureSeries
 
     if isinstance(series, FeatureSeries):
         series = [series]

@@ -21,7 +21,15 @@ import numpy as np
 from leakdiag._validation import as_2d_float, check_int, check_positive
 from leakdiag.sim.eha.jacobian import _jacobian_into
 from leakdiag.sim.eha.model import (
-    IN_KLEAK, N_INPUTS, N_STATES, S_P1, S_P2, S_PA, S_PB, _rhs_into,
+    IN_KLEAK,
+    N_INPUTS,
+    N_STATES,
+    S_P1,
+    S_P2,
+    S_PA,
+    S_PB,
+    _rhs_into,
+    eha_rhs,
 )
 from leakdiag.sim.leak import _multipliers, leak_multiplier
 
@@ -382,8 +390,6 @@ def integrate_reference(y0, inputs, params, sample_rate: float, t0: float = 0.0,
         If the SciPy solver fails (its message is included).
     """
     from scipy.integrate import solve_ivp
-
-    from leakdiag.sim.eha.model import eha_rhs
 
     y0 = np.ascontiguousarray(y0, dtype=np.float64)
     inputs = as_2d_float(inputs, "inputs").copy()

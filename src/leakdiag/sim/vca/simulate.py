@@ -10,17 +10,26 @@ import numpy as np
 from leakdiag._validation import check_positive
 from leakdiag.io.recording import Recording
 from leakdiag.sim.experiment import (
-    calibrate_leak, coefficient_from_healthy, experiment_metadata, plan_leak, random_streams, setup,
+    calibrate_leak,
+    coefficient_from_healthy,
+    experiment_metadata,
+    plan_leak,
+    random_streams,
+    setup,
 )
 from leakdiag.sim.leak import LeakCalibrationError, lpm_to_m3s
 from leakdiag.sim.machine import VCAMachine
 from leakdiag.sim.reference import as_reference
 from leakdiag.sim.sensor_chain import antialias_sos, pressure_chain
-from leakdiag.sim.sensors import SensorParams
+from leakdiag.sim.sensors import SensorParams, adc_reading, quantize
 from leakdiag.sim.vca.conditions import OperatingConditions
 from leakdiag.sim.vca.control import FixedGainController
 from leakdiag.sim.vca.integrate import (
-    ClosedLoopResult, _SegmentedLoop, rk4_advance, sos_step, valve_null_v,
+    ClosedLoopResult,
+    _SegmentedLoop,
+    rk4_advance,
+    sos_step,
+    valve_null_v,
 )
 from leakdiag.sim.vca.model import S_P1, S_P2, S_X, vca_leak_flow
 from leakdiag.sim.vca.params import LEAK_MODELS, LOADS, VCAParams
@@ -142,8 +151,6 @@ def _antialias(cutoff_hz: float, fs: float) -> np.ndarray:
 def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sched, cond, s0,
                            noise1, noise2, sensors: SensorParams | None) -> ClosedLoopResult:
     """Slow path: a user controller ``u = controller(t, x_ref, x_m, p1_m, p2_m)`` in Python."""
-    from leakdiag.sim.sensors import adc_reading, quantize
-
     n = x_ref.size
     sos = zi1 = zi2 = None
     if sensors is not None and sensors.antialias_cutoff_hz is not None:
