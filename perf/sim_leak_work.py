@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 
 import leakdiag as ld
-from leakdiag.sim.eha.simulate import simulate as eha_simulate
+from leakdiag.sim.eha import simulate as eha_simulate
 from leakdiag.sim.vca import integrate as vca_integrate
 
 from sim_leak_cost import CASES  # noqa: E402  (same folder)
