@@ -1,6 +1,6 @@
 """Where a leaking simulation's time goes (a measuring script, not a test).
 
-Run: ``PYTHONPATH=src python benchmarks/sim_leak_work.py``. For each case of
+Run: ``PYTHONPATH=src python -m perf.sim_leak_work``. For each case of
 ``sim_leak_cost.py`` it lists the integrations a healthy and a leaking run perform and their work:
 VCA, samples x RK4 steps per sample (the kernel's cost is proportional to it); EHA, accepted +
 rejected Rosenbrock steps. The work does not depend on the host (CPU seconds are printed too).
@@ -14,7 +14,7 @@ import leakdiag as ld
 from leakdiag.sim.eha import simulate as eha_simulate
 from leakdiag.sim.vca import integrate as vca_integrate
 
-from sim_leak_cost import CASES  # noqa: E402  (same folder)
+from perf.sim_leak_cost import CASES
 
 _log: list[tuple[str, int, float]] = []
 
