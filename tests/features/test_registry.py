@@ -137,6 +137,10 @@ def test_toy_in_spec_and_streaming(toy, toy_file):
     pieces = [sf.push({"p1": rec["p1"][i:i + 77]}) for i in range(0, rec.n_samples, 77)]
     np.testing.assert_allclose(np.concatenate([p.values for p in pieces]), fs.values, rtol=1e-12)
     np.testing.assert_allclose(np.concatenate([p.time for p in pieces]), fs.time)
+    # the pushed series carry the same typed geometry and settings as the batch one
+    for p in pieces:
+        assert p.geometry() == fs.geometry() and dict(p.settings) == dict(fs.settings) == {"lag": 1}
+        assert p.name == fs.name and isinstance(p.settings, type(fs.settings))
 
 
 def test_toy_seen_by_analyze_sweep_and_monitor(toy, toy_file, tmp_path, capsys):

@@ -121,6 +121,18 @@ class FeatureSeries:
             raise ValueError(f"window={self.window} needs sample_rate= (Hz) to place the "
                              f"windows in time")
 
+    @classmethod
+    def _trusted(cls, time, values, name: str, settings: Mapping, geometry: dict
+                 ) -> "FeatureSeries":
+        """A series from parts already checked (the streaming path: one per pushed chunk).
+
+        ``settings`` must be a read-only mapping and ``geometry`` the checked fields of another
+        series (:meth:`geometry`); nothing is validated again.
+        """
+        self = object.__new__(cls)
+        self.__dict__.update(time=time, values=values, name=name, settings=settings, **geometry)
+        return self
+
     def __len__(self) -> int:
         return len(self.values)
 

@@ -95,10 +95,13 @@ class StreamingFeature:
         self.n_samples_seen = 0
         self.n_windows = 0
         self.n_degenerate = 0
-        self._settings = spec.record.setting_entries(spec.value)
-        self._geometry = dict(window=spec.window, overlap=spec.overlap, step=self._step,
-                              channels=spec.channels, sample_rate=self.sample_rate,
-                              start_time=self.start_time)
+        # checked once here; every push builds its series from these without re-checking
+        template = FeatureSeries(np.empty(0), np.empty(0), spec.method,
+                                 spec.record.setting_entries(spec.value), window=spec.window,
+                                 overlap=spec.overlap, step=self._step, channels=spec.channels,
+                                 sample_rate=self.sample_rate, start_time=self.start_time)
+        self._settings = template.settings
+        self._geometry = template.geometry()
 
     @property
     def state_samples(self) -> int:
@@ -184,7 +187,8 @@ class StreamingFeature:
             self.n_degenerate += int(np.count_nonzero(np.isnan(values)))
         starts = (first + np.arange(n_win, dtype=np.float64)) * self._step
         times = self.start_time + (starts + (self.spec.window - 1)) / self.sample_rate
-        return FeatureSeries(times, values, self.spec.method, self._settings, **self._geometry)
+        return FeatureSeries._trusted(times, values, self.spec.method, self._settings,
+                                      self._geometry)
 
     def _compute(self, work: np.ndarray, n_win: int) -> np.ndarray:
         """The feature's registry kernel on the buffer (first sample = a window start)."""
