@@ -9,6 +9,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from leakdiag.features.windowing import window_first_times
+
 __all__ = ["FeatureSeries", "GEOMETRY_FIELDS"]
 
 #: The typed window-geometry fields of a :class:`FeatureSeries` (never keys of ``settings``).
@@ -148,10 +150,9 @@ class FeatureSeries:
         ``time - (window - 1) / sample_rate`` (Sec. 4.4); equal to ``time`` when the series
         has no window (instantaneous values).
         """
-        t = np.asarray(self.time, dtype=np.float64)
         if self.window is None:
-            return t.copy()
-        return t - (self.window - 1) / self.sample_rate
+            return np.array(self.time, dtype=np.float64)
+        return window_first_times(self.time, self.window, self.sample_rate)
 
     @property
     def params(self) -> Mapping[str, Any]:

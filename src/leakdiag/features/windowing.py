@@ -14,7 +14,7 @@ import numpy as np
 
 from leakdiag._validation import check_int, check_overlap, check_positive
 
-__all__ = ["window_step", "window_starts", "window_times", "n_windows"]
+__all__ = ["window_step", "window_starts", "window_times", "window_first_times", "n_windows"]
 
 
 def window_step(window: int, overlap: float) -> int:
@@ -130,3 +130,32 @@ def window_times(starts: np.ndarray, window: int, sample_rate: float = 1.0,
     """
     sample_rate = check_positive(sample_rate, "sample_rate")
     return start_time + (np.asarray(starts, dtype=np.float64) + (window - 1)) / sample_rate
+
+
+def window_first_times(times, window: int, sample_rate: float) -> np.ndarray:
+    """Time of each window's first sample from its timestamp (its last sample's time).
+
+    The one place of ``time - (window - 1) / sample_rate`` (Sec. 4.4):
+    :attr:`FeatureSeries.window_start` and the sweep grids use it, so that a window counts as
+    before or after a leak onset the same way everywhere.
+
+    Parameters
+    ----------
+    times : array_like
+        Window timestamps in seconds (last sample of each window).
+    window : int
+        Window size N in samples.
+    sample_rate : float
+        Sample rate in Hz.
+
+    Returns
+    -------
+    numpy.ndarray
+        float64 times in seconds.
+
+    Examples
+    --------
+    >>> window_first_times(np.array([1.5, 2.5]), 4, sample_rate=2.0).tolist()
+    [0.0, 1.0]
+    """
+    return np.asarray(times, dtype=np.float64) - (window - 1) / sample_rate

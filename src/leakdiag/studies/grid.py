@@ -23,7 +23,12 @@ from leakdiag.features import DegenerateWindowWarning
 from leakdiag.features.registry import feature_names, feature_record, values_at
 from leakdiag.features.series import FeatureSeries
 from leakdiag.features.spec import MethodSpec, compute_feature
-from leakdiag.features.windowing import window_starts, window_step, window_times
+from leakdiag.features.windowing import (
+    window_first_times,
+    window_starts,
+    window_step,
+    window_times,
+)
 
 __all__ = ["MEASURE_COLUMNS", "SETTING_COLUMNS", "parse_lag", "lag_label", "grid", "grid_loop",
            "measure_row", "quiet_degenerate"]
@@ -262,7 +267,7 @@ def grid(recording, method: str, channels: Sequence[str] | str | None,
         plans = {}
         for ov, st in per_ov.items():
             t_last = window_times(st, window, rate, t0)
-            plans[ov] = (st, pos[st], _chunk_sides(t_last, t_last - (window - 1) / rate,
+            plans[ov] = (st, pos[st], _chunk_sides(t_last, window_first_times(t_last, window, rate),
                                                    onset, chunk))
         for li, lag in enumerate(lag_values):
             top = lag[0] if isinstance(lag, tuple) else lag
