@@ -23,7 +23,7 @@ def mean_abs_increment_kernel(signals, lag, window, starts):
     return values, 0
 
 
-RECORD = FeatureRecord.from_kernel(
+RECORD = FeatureRecord(
     "mean-abs-increment", mean_abs_increment_kernel, channels=("p1",), n_channels=1,
     setting="lag", default_setting=1, aliases=("mai",), direction="up",
     equation="toy example, docs/features.md")

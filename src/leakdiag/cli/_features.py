@@ -14,7 +14,7 @@ import click
 from leakdiag.features.registry import feature_names, feature_record, normalize_method
 from leakdiag.features.spec import MethodSpec
 
-__all__ = ["FeatureChoice", "check_setting_options", "spec_from_options", "split_channels"]
+__all__ = ["FeatureChoice", "check_setting_options", "spec_from_options"]
 
 
 class FeatureChoice(click.ParamType):
@@ -75,18 +75,6 @@ class FeatureChoice(click.ParamType):
         return name
 
 
-def split_channels(channels) -> tuple[str, ...]:
-    """``"p1,p2"`` as ``("p1", "p2")``; None or empty as ``()``.
-
-    Returns
-    -------
-    tuple of str
-    """
-    if not channels:
-        return ()
-    return tuple(c.strip() for c in channels.split(",") if c.strip())
-
-
 def _takers(kind: str) -> list[str]:
     return [n for n in feature_names() if feature_record(n).setting == kind]
 
@@ -145,4 +133,4 @@ def spec_from_options(method: str, channels, lag, lag_ratio, window: int, overla
         kw["lag"] = lag
     elif rec.setting == "lag_ratio":
         kw["lag_ratio"] = lag_ratio
-    return MethodSpec(rec.name, split_channels(channels), window=window, overlap=overlap, **kw)
+    return MethodSpec(rec.name, channels or (), window=window, overlap=overlap, **kw)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from leakdiag.cli._features import FeatureChoice, split_channels
+from leakdiag.cli._features import FeatureChoice
 from leakdiag.cli._options import recording_options, resample_option
 from leakdiag.features.registry import feature_record
 
@@ -197,7 +197,7 @@ def _check_input(file, rec, method, channels, windows) -> None:
     if rec.n_samples < min(windows):
         raise ValueError(f"{file}: {rec.n_samples} samples is shorter than the smallest window "
                          f"({min(windows)}); pass shorter --windows or a longer recording")
-    for ch in feature_record(method).check_channels(split_channels(channels)):
+    for ch in feature_record(method).check_channels(channels):
         x = rec[ch]
         if x.size and np.all(x == x[0]):
             raise ValueError(f"{file}: channel {ch!r} is constant ({x[0]:g} throughout): zero "

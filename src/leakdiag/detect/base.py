@@ -207,18 +207,16 @@ class _Trace:
     z: np.ndarray
     s_up: np.ndarray
     s_down: np.ndarray
-    series: FeatureSeries | None = None  # the feature series the trace was computed from
+    series: FeatureSeries  # the feature series the trace was computed from
 
     @property
     def name(self) -> str:
-        return "feature" if self.series is None else self.series.name
+        return self.series.name
 
     def derived(self, values: np.ndarray, name: str, **extra) -> FeatureSeries:
         """A series on the trace's windows (after the burn-in) with the feature's geometry."""
-        fs = self.series
-        settings = {**(fs.settings if fs is not None else {}), **extra}
-        geometry = fs.geometry() if fs is not None else {}
-        return FeatureSeries(self.time, values, name, settings, **geometry)
+        return self.series.with_values(values, name, {**self.series.settings, **extra},
+                                       time=self.time)
 
 
 def _as_recordings(recordings) -> Sequence:

@@ -8,9 +8,9 @@ kernel), the command line's choices and the benchmarks' names. A feature's name 
 with a string nowhere else.
 
 Adding a feature is one kernel module plus one :func:`register_feature` call (worked example in
-``docs/features.md``): a record built with :meth:`FeatureRecord.from_kernel` needs only the
-kernel ``(signals, setting, window, starts) -> (values, n_degenerate)``; the batch function and
-the evaluate-at-starts function are derived from it.
+``docs/features.md``): a record given only the kernel
+``(signals, setting, window, starts) -> (values, n_degenerate)`` gets its batch function and its
+evaluate-at-starts function derived from it.
 """
 
 from __future__ import annotations
@@ -135,25 +135,6 @@ class FeatureRecord:
         object.__setattr__(self, "name", self.name.strip().lower())
         object.__setattr__(self, "channels", tuple(self.channels))
         object.__setattr__(self, "aliases", tuple(a.strip().lower() for a in self.aliases))
-
-    @classmethod
-    def from_kernel(cls, name: str, kernel: Kernel, **fields) -> "FeatureRecord":
-        """A record whose batch and evaluate-at-starts functions are derived from the kernel.
-
-        Parameters
-        ----------
-        name : str
-            Canonical name.
-        kernel : callable
-            The compute-only core (see :data:`Kernel`).
-        **fields
-            Any other :class:`FeatureRecord` field.
-
-        Returns
-        -------
-        FeatureRecord
-        """
-        return cls(name, kernel, **fields)
 
     def check_setting(self, value, window: int | None = None):
         """The feature's setting, checked (default when ``value`` is None).

@@ -13,7 +13,6 @@ import warnings
 from dataclasses import dataclass, field
 
 from leakdiag._validation import check_int, check_overlap, parse_lag_ratio
-from leakdiag.features import catalog as _catalog  # noqa: F401  (registers the thesis's features)
 from leakdiag.features._args import plan_windows, signal_1d
 from leakdiag.features.registry import (
     compute_planned,
