@@ -129,3 +129,24 @@ def test_every_fit_failing_gives_a_report_of_errors_not_a_crash(tmp_path, monkey
                            cache_dir=str(tmp_path / "cache"), progress=False)
     assert len(res["runs"]) == 0
     assert res["fits"].error.str.contains("InsufficientHealthyDataError").all()
+
+
+def test_confidence_sets_calibration_conditional_levels_through_the_cli(tmp_path):
+    """``--confidence``: 20 calibration runs at 5 % per run give k = 1 at 60 % confidence
+    (P(Bin(20, .05) = 0) = 0.358 <= 0.4) and no level at 70 % (needs 24 maxima)."""
+    cache = tmp_path / "cache"
+    common = ["benchmark", "--quick", "--systems", "vca", "--methods", "acf-p1",
+              "--cache-dir", str(cache), "--no-progress"]
+    assert main([*common, "-o", str(tmp_path / "c60"), "--work-dir", str(tmp_path / "w1"),
+                 "--confidence", "0.6"]) == 0
+    fits = pd.read_csv(tmp_path / "c60" / "fits.csv")
+    assert fits.k.tolist() == [1] and fits.confidence.tolist() == [0.6]
+    settings = json.loads((tmp_path / "c60" / "settings.json").read_text())
+    assert settings["threshold_confidence"] == 0.6
+    assert "with probability 60 % over its healthy data" in (tmp_path / "c60" / "report.md").read_text()
+    assert main([*common, "-o", str(tmp_path / "c70"), "--work-dir", str(tmp_path / "w2"),
+                 "--confidence", "0.7"]) == 0
+    fits = pd.read_csv(tmp_path / "c70" / "fits.csv")
+    assert fits.error.str.contains("at 70 % confidence needs at least 24 maxima").all()
+    assert main(["benchmark", "--suite", "v4", "-o", str(tmp_path / "v4"),
+                 "--confidence", "0.9"]) == 2  # a usage error: v5 only

@@ -43,6 +43,24 @@ def test_fit_and_detect_state_the_threshold_in_words(files, tmp_path, capsys):
             "(3 own; 15-s segments): at most 0.5 false alarm(s) per segment" in out), out
 
 
+def test_fit_confidence_makes_the_rate_a_promise_about_this_threshold(files, tmp_path, capsys):
+    healthy, _, _ = files
+    # 0.25 per 15-s segment over 3 maxima: P(Bin(3, .25) = 0) = 0.42 <= 0.5, so k = 1 at 50 %
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", "--false-alarm-rate", "60",
+                 "--confidence", "0.5", "-o", str(tmp_path / "det.joblib")]) == 0
+    out = capsys.readouterr().out
+    assert ("= the largest of 3 healthy CUSUM maxima (3 own; 15-s segments): at most 0.25 false "
+            "alarm(s) per segment, i.e. 60 per hour, with probability 50 % over the healthy "
+            "data" in out), out
+    # at 90 %: ceil(log 0.1 / log 0.75) = 9 maxima needed
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", "--false-alarm-rate", "60",
+                 "--confidence", "0.9", "-o", str(tmp_path / "d2.joblib")]) == 2
+    assert "at 90 % confidence needs at least 9 maxima" in capsys.readouterr().err
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", "--confidence", "1",
+                 "-o", str(tmp_path / "d3.joblib")]) == 2
+    assert "--confidence" in capsys.readouterr().err
+
+
 def test_detect_p_value_of_a_healthy_run_is_never_below_the_resolution(files, capsys):
     """An identical or healthy score reads a p-value >= 1/(n+1), never 1e-133 (issue 15); a per-run
     rate of 1/(n+1) per method is supported: the run is mapped onto the monitored span after the

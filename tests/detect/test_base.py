@@ -1,6 +1,7 @@
 """Detector protocol: sklearn conventions, threshold calibration, planted onsets, verdicts."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -52,7 +53,9 @@ def test_zero_variance_feature_rejected():
 
 @pytest.mark.parametrize("bad,match", [({"drift": -1.0}, "drift"), ({"direction": "left"}, "direction"),
                                        ({"onset_method": "magic"}, "onset_method"),
-                                       ({"false_alarms_per_hour": 0}, "false_alarms_per_hour")])
+                                       ({"false_alarms_per_hour": 0}, "false_alarms_per_hour"),
+                                       ({"confidence": 1.0}, "confidence"),
+                                       ({"confidence": 0.0}, "confidence")])
 def test_alarm_validation(bad, match):
     with pytest.raises(ValueError, match=match):
         Alarm(**bad)
@@ -133,6 +136,13 @@ def test_reference_maxima_from_other_units_are_pooled():
     with pytest.raises(ValueError, match="burn_in_s"):
         WindowMeanDetector(alarm=Alarm(false_alarms_per_hour=0.5, burn_in_s=1.0, segment_s=60.0)
                            ).fit(own, reference_maxima=ref)
+    # calibration-conditional: 1/120 per segment at 60 % needs (119/120)^n <= 0.4, n >= 110;
+    # with 130 maxima k = 1 (P(Bin(130, 1/120) <= 1) = 0.70 > 0.4), the largest pooled maximum
+    cond = WindowMeanDetector(alarm=replace(alarm, confidence=0.6)).fit(own, reference_maxima=ref)
+    assert cond.threshold_basis_.k == 1 and cond.threshold_basis_.confidence == 0.6
+    assert cond.threshold_ == max(ref.maxima.max(), det.healthy_maxima_.max())
+    with pytest.raises(ValueError, match="at 90 % confidence needs at least 276 maxima"):
+        WindowMeanDetector(alarm=replace(alarm, confidence=0.9)).fit(own, reference_maxima=ref)
 
 
 def test_planted_step_found_by_all_onset_methods(fitted):

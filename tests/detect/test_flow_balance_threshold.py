@@ -101,6 +101,28 @@ def test_reference_maxima_are_pooled_and_checked(healthy, seg):
         clone(det).fit(healthy[:2], reference_maxima=list(ref_values))
 
 
+def test_confidence_picks_the_calibration_conditional_rank_or_says_what_it_needs(healthy, seg):
+    # 5 % per segment over 60 reference maxima: marginal k = floor(0.05 * 61) = 3; at 80 %
+    # confidence the largest k with P(Bin(60, 0.05) <= k - 1) <= 0.2 is 2 (0.046, 0.19, 0.42)
+    ref_values = np.linspace(1.0, 5.0, 60)
+    det = FlowBalanceDetector(system="vca", false_alarms_per_hour=0.05 * 3600.0 / seg,
+                              confidence=0.8)
+    ref = ReferenceMaxima(ref_values, seg, 0.0, det.reference_direction(), det.burn_in_s,
+                          "test units", 60)
+    det.fit(healthy[:2], reference_maxima=ref)
+    b = det.threshold_basis_
+    assert b.method == "conformal" and b.k == 2 and b.confidence == 0.8
+    assert det.threshold_ == pytest.approx(np.sort(ref_values)[::-1][1])
+    assert "with probability 80 % over the healthy data" in str(b)
+    # at 99 % confidence 60 maxima are too few (0.95^60 = 0.046 > 0.01): the model level, and
+    # the number of maxima the request needs, ceil(log 0.01 / log 0.95) = 90
+    hi = clone(det).set_params(confidence=0.99).fit(healthy[:2], reference_maxima=ref)
+    assert hi.threshold_basis_.method == "glr-model"
+    assert hi.threshold_basis_.min_n_for_target == 90
+    with pytest.raises(ValueError, match="confidence"):
+        clone(det).set_params(confidence=1.5).fit(healthy[:2], reference_maxima=ref)
+
+
 @pytest.mark.parametrize("rate_per_segment", [0.3, None])
 def test_confidence_is_a_p_value_small_for_a_leak(healthy, seg, rate_per_segment):
     per_hour = 1.0 if rate_per_segment is None else rate_per_segment * 3600.0 / seg

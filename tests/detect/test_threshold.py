@@ -9,7 +9,8 @@ from scipy.stats import binomtest
 from leakdiag.detect.rates import clopper_pearson
 from leakdiag.detect.threshold import (InsufficientHealthyDataError,
                                        InsufficientHealthyDataWarning, ReferenceMaxima,
-                                       conformal_threshold, segment_maxima)
+                                       conditional_rank, conformal_threshold, min_maxima,
+                                       segment_maxima)
 
 
 # ---------------------------------------------------------------- Clopper-Pearson
@@ -91,6 +92,69 @@ def test_too_little_healthy_data_says_so():
         b = conformal_threshold(np.arange(50.0), 0.01, segment_s=60.0, on_insufficient="warn")
     assert not b.supported and b.k == 0 and b.threshold == 49.0
     assert b.bound_per_segment == pytest.approx(1 / 51) and b.min_n_for_target == 99
+
+
+# ---------------------------------------------------------------- calibration-conditional rank
+@pytest.mark.parametrize("n", [1, 10, 98, 299, 300, 458, 1000, 5000])
+@pytest.mark.parametrize("alpha,conf", [(0.01, 0.95), (0.01, 0.9), (0.05, 0.5), (0.001, 0.99)])
+def test_conditional_rank_is_the_largest_beta_quantile_below_the_target(n, alpha, conf):
+    # defined through the binomial; checked against the rate's own law, Beta(k, n + 1 - k):
+    # P(rate > alpha) <= 1 - conf for k, and > 1 - conf for k + 1
+    from scipy.stats import beta
+
+    k = conditional_rank(n, alpha, conf)
+    if k >= 1:
+        assert beta.sf(alpha, k, n + 1 - k) <= (1 - conf) * (1 + 1e-9)
+    else:
+        assert (1 - alpha) ** n > 1 - conf  # even the largest maximum is not enough
+        assert n < min_maxima(alpha, conf)
+    if k < n:
+        assert beta.sf(alpha, k + 1, n - k) > 1 - conf
+    # never looser than the marginal rank at the confidences offered (the mean of the rate's
+    # law, k / (n + 1), lies below its 90 % quantile)
+    if conf >= 0.9:
+        assert k <= math.floor(alpha * (n + 1) + 1e-9)
+
+
+def test_conditional_rank_by_hand():
+    # k = 1 needs (1 - alpha)^n <= 1 - c: 0.99^298 = 0.0500 > 0.05, 0.99^299 = 0.0495
+    assert conditional_rank(298, 0.01, 0.95) == 0 and conditional_rank(299, 0.01, 0.95) == 1
+    assert min_maxima(0.01, 0.95) == 299 and min_maxima(0.01) == 99
+    # n = 1000, alpha = 1 %: P(Bin <= 4) = 0.0287, P(Bin <= 5) = 0.0661
+    assert conditional_rank(1000, 0.01, 0.95) == 5 and conditional_rank(1000, 0.01, 0.9) == 6
+
+
+def test_conditional_threshold_holds_its_rate_in_the_stated_share_of_calibrations():
+    # exponential maxima: the exact rate of a threshold h is exp(-h). Over 4000 calibrations of
+    # 299 maxima the share whose own rate exceeds 1 % must be at most 5 % (it is 0.99^299 =
+    # 4.95 % here, k = 1); the marginal rank (k = 3) exceeds 1 % in P(Bin(299, .01) <= 2) = 42 %.
+    rng = np.random.default_rng(7)
+    m = rng.exponential(size=(4000, 299))
+    cond = conformal_threshold(m[0], 0.01, segment_s=60.0, confidence=0.95)
+    marg = conformal_threshold(m[0], 0.01, segment_s=60.0)
+    assert (cond.k, marg.k) == (1, 3)
+    top = -np.sort(-m, axis=1)
+    over_cond = (np.exp(-top[:, 0]) > 0.01).mean()
+    over_marg = (np.exp(-top[:, 2]) > 0.01).mean()
+    sd = math.sqrt(0.0495 * 0.9505 / 4000)
+    assert over_cond == pytest.approx(0.99 ** 299, abs=4 * sd)
+    assert over_marg == pytest.approx(0.4218, abs=0.04)
+    assert cond.conditional_upper_95 <= 0.01 < marg.conditional_upper_95
+
+
+def test_conditional_basis_says_what_it_promises():
+    # 600 maxima at 1 %: P(Bin <= 1) = 0.0171, P(Bin <= 2) = 0.0611 -> k = 2 (marginal: 6)
+    b = conformal_threshold(np.arange(600.0), 0.01, segment_s=55.0, confidence=0.95)
+    assert (b.k, b.threshold, b.confidence, b.conditional) == (2, 598.0, 0.95, True)
+    text = str(b)
+    assert "with probability 95 % over the healthy data" in text and "2nd largest" in text
+    assert b.as_dict()["confidence"] == 0.95
+    assert not conformal_threshold(np.arange(400.0), 0.01, segment_s=55.0).conditional
+    with pytest.raises(InsufficientHealthyDataError, match=r"at 95 % confidence needs at least "
+                                                           r"299 maxima"):
+        conformal_threshold(np.arange(298.0), 0.01, segment_s=55.0, confidence=0.95)
+    with pytest.raises(ValueError, match="confidence"):
+        conformal_threshold(np.arange(400.0), 0.01, segment_s=55.0, confidence=1.0)
 
 
 def test_reference_maxima_pooled_and_checked():

@@ -101,7 +101,8 @@ def _flow_balance(system, alarm):
         return FlowBalanceDetector(system=system)
     # the suite's false-alarm target, burn-in and segment (v5: one per run's monitored span)
     return FlowBalanceDetector(system=system, false_alarms_per_hour=alarm.false_alarms_per_hour,
-                               burn_in_s=alarm.burn_in_s, segment_s=alarm.segment_s)
+                               burn_in_s=alarm.burn_in_s, segment_s=alarm.segment_s,
+                               confidence=alarm.confidence)
 
 
 #: Method name -> factory.

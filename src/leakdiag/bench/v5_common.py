@@ -44,7 +44,8 @@ class LazyRecordings(Sequence):
         return _recording(self.cases[i], self.cache_dir)
 
 
-def v5_alarm(false_alarm_per_run: float, duration_s: float, onset_method: str = "binseg"):
+def v5_alarm(false_alarm_per_run: float, duration_s: float, onset_method: str = "binseg",
+             confidence: float | None = None):
     """The alarm of a v5 group: one segment per run, ``false_alarm_per_run`` per segment.
 
     Parameters
@@ -55,6 +56,8 @@ def v5_alarm(false_alarm_per_run: float, duration_s: float, onset_method: str = 
         Run duration (s); the segment is the monitored span ``duration_s - burn_in``.
     onset_method : str, default "binseg"
         Onset estimator.
+    confidence : float, optional
+        Calibration-conditional rank (:class:`~leakdiag.detect.base.Alarm`); None: marginal.
 
     Returns
     -------
@@ -67,7 +70,7 @@ def v5_alarm(false_alarm_per_run: float, duration_s: float, onset_method: str = 
     >>> a.segment_s, round(a.false_alarms_per_hour * a.segment_s / 3600, 12)
     (55.0, 0.01)
     """
-    base = Alarm(onset_method=onset_method)
+    base = Alarm(onset_method=onset_method, confidence=confidence)
     seg = duration_s - base.burn_in_s
     return replace(base, segment_s=seg, false_alarms_per_hour=false_alarm_per_run * 3600.0 / seg)
 

@@ -26,7 +26,8 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
                      scheduler: str = "serial", n_workers: int | None = None,
                      cache_dir: str | None = None, work_dir: str | None = None,
                      progress: bool = True, command: str = "leakdiag benchmark --suite v5",
-                     unit_fit: int = 0, full_budget: bool = False):
+                     unit_fit: int = 0, full_budget: bool = False,
+                     confidence: float | None = None):
     """Run benchmark v5 and write its report.
 
     Parameters
@@ -56,6 +57,9 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     full_budget : bool, default False
         Run the expensive methods (EMD, EKF) on the suite's full run counts too, instead of
         :data:`~leakdiag.bench.v5_run.REDUCED_BUDGET`.
+    confidence : float, optional
+        Calibration-conditional thresholds: every fitted level holds the target with this
+        probability over its healthy data (``Alarm.confidence``). None: the marginal rank.
 
     Returns
     -------
@@ -101,7 +105,8 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     runs, fits, settings = run_v5(suites, methods, work, false_alarm_per_run=far,
                                   onset_method=onset_method, scheduler=scheduler,
                                   n_workers=n_workers, cache_dir=cache_dir, progress=progress,
-                                  unit_fit=int(unit_fit), full_budget=bool(full_budget))
+                                  unit_fit=int(unit_fit), full_budget=bool(full_budget),
+                                  confidence=confidence)
     settings.update(command=command, quick=quick, wall_total_s=time.time() - t0,
                     suites={k: _jsonable(asdict(v)) for k, v in suites.items()},
                     scheduler=scheduler, n_workers=n_workers)
@@ -112,6 +117,13 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     paths = write_v5_report(out, runs, fits, summary, det, far_tab, settings)
     return {"summary": summary, "detection": det, "false_alarms": far_tab, "fits": fits,
             "runs": runs, "paths": paths, "settings": settings}
+
+
+def _threshold_words(confidence) -> str:
+    if confidence is None:
+        return "conformal threshold: the bound holds on average over calibrations"
+    return (f"calibration-conditional conformal threshold: each fitted level holds the target "
+            f"with probability {100 * confidence:g} % over its healthy data")
 
 
 def _jsonable(d):
@@ -204,7 +216,8 @@ def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings) -> d
           f"{w.get('simulate_calibration', 0):.0f} s, fit {w.get('fit', 0):.0f} s, score "
           f"{w.get('score', 0):.0f} s; scheduler {settings['scheduler']}, workers "
           f"{settings['n_workers']}). Target: {100 * settings['false_alarm_per_run']:g} % false "
-          "alarms per healthy run (conformal threshold, one segment per run).", "",
+          f"alarms per healthy run ({_threshold_words(settings.get('threshold_confidence'))}, "
+          "one segment per run).", "",
           f"Virtual machines in the simulator: {settings['virtual_machines']} (False: machine "
           "ids recorded, the nominal unit simulated). Reduced budget (calibration, healthy, "
           f"leaking per size): {settings['reduced_budget'] or 'none'}.", ""]

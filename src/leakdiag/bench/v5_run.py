@@ -263,7 +263,7 @@ def score_chunk(config: ChunkConfig) -> int:
 def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_method: str = "binseg",
            scheduler: str = "serial", n_workers: int | None = None, cache_dir: str | None = None,
            progress: bool = True, unit_fit: int = 0,
-           full_budget: bool = False) -> tuple[Any, Any, dict]:
+           full_budget: bool = False, confidence: float | None = None) -> tuple[Any, Any, dict]:
     """All three stages; returns ``(runs, fits, settings)``.
 
     Parameters
@@ -286,6 +286,9 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
         from reference maxima of the training units.
     full_budget : bool, default False
         No :data:`REDUCED_BUDGET`: every method on the suite's run counts.
+    confidence : float, optional
+        Calibration-conditional thresholds at this confidence (``Alarm.confidence``); None:
+        the marginal rank ``floor(alpha (n + 1))``.
 
     Returns
     -------
@@ -311,10 +314,10 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
         cal_all = cal_all + [o for c in cal_all
                              for o in own_cases(c, unit_fit, suites[c.system].nuisance)]
         plan = plan_units(suites, methods, work, groups, fp, unit_fit, false_alarm_per_run,
-                          onset_method, cache_dir, budget)
+                          onset_method, cache_dir, budget, confidence)
     else:
         plan = _plan_fleet(suites, methods, work, groups, fp, false_alarm_per_run, onset_method,
-                           cache_dir, budget)
+                           cache_dir, budget, confidence)
     # the one skeleton of both modes: simulate, fit (or reference maxima), score, collect
     stages = [(simulate_case, [SimConfig(c, cache_dir) for c in cal_all],
                "simulate calibration runs"), (plan.fit, plan.fit_tasks, plan.fit_desc),
@@ -331,6 +334,7 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
     fits = pd.DataFrame([row for r in results[1] for row in r.result])
     settings = {"suite_version": V5_VERSION, "methods": list(methods),
                 "false_alarm_per_run": false_alarm_per_run, "onset_method": onset_method,
+                "threshold_confidence": confidence,
                 "reduced_budget": {m: list(v) for m, v in budget.items() if m in methods},
                 "virtual_machines": {s: simulator_has_machines(s) for s in suites},
                 "code_fingerprint": fp,
@@ -341,13 +345,14 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
     return runs, fits, settings
 
 
-def _plan_fleet(suites, methods, work, groups, fp, far, onset_method, cache_dir, budget) -> Plan:
+def _plan_fleet(suites, methods, work, groups, fp, far, onset_method, cache_dir, budget,
+                confidence=None) -> Plan:
     """Fleet mode: each method fitted once per group on its training units."""
 
     fit_cfgs, chunk_cfgs = [], []
     for key, group in groups.items():
         s = suites[key[0]]
-        alarm = v5_alarm(far, s.duration_s, onset_method)
+        alarm = v5_alarm(far, s.duration_s, onset_method, confidence)
         cal = [c for c in group if c.role == "cal"]
         fits = []
         for m in methods:

@@ -247,7 +247,8 @@ def score_chunk_unit(config: UnitChunkConfig) -> int:
     return write_shard(rows, path)
 
 
-def plan_units(suites, methods, work, groups, fp, n_own, far, onset_method, cache_dir, budget):
+def plan_units(suites, methods, work, groups, fp, n_own, far, onset_method, cache_dir, budget,
+               confidence=None):
     """Stages 2 and 3 of :func:`~leakdiag.bench.v5_run.run_v5` in per-unit mode.
 
     Parameters
@@ -272,6 +273,8 @@ def plan_units(suites, methods, work, groups, fp, n_own, far, onset_method, cach
         Simulation cache.
     budget : dict
         Reduced budget per method.
+    confidence : float, optional
+        Calibration-conditional thresholds (``Alarm.confidence``).
 
     Returns
     -------
@@ -282,7 +285,7 @@ def plan_units(suites, methods, work, groups, fp, n_own, far, onset_method, cach
     ref_cfgs, chunk_cfgs = [], []
     for key, group in groups.items():
         s = suites[key[0]]
-        alarm = v5_alarm(far, s.duration_s, onset_method)
+        alarm = v5_alarm(far, s.duration_s, onset_method, confidence)
         cal = tuple(c for c in group if c.role == "cal")
         n_units = tuple(budget[m][0] if m in budget else len(cal) for m in methods)
         caps = tuple(budget[m][1:] if m in budget else None for m in methods)

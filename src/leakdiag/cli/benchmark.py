@@ -52,6 +52,11 @@ def _command_line() -> str:
                                                                                max_open=True),
               help="Target false-alarm probability per healthy run (default 0.01; v5 --quick "
                    "0.05).")
+@click.option("--confidence", default=None, type=click.FloatRange(0, 1, min_open=True,
+                                                                  max_open=True),
+              help="v5: calibration-conditional thresholds: each fitted level holds the target "
+                   "with this probability over its healthy data (e.g. 0.95; needs 299 maxima "
+                   "for 1 %). Default: the marginal conformal rank.")
 @click.option("--onset-method", "onset_method", default="binseg", show_default=True,
               type=click.Choice(["binseg", "pelt", "cusum"]), help="Onset estimator.")
 @scheduler_option(default="serial")
@@ -63,8 +68,8 @@ def _command_line() -> str:
 @click.option("--list-methods", is_flag=True, help="Print the registered methods and exit.")
 @click.option("--no-progress", is_flag=True, help="No progress bars.")
 def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal, n_test_healthy,
-              n_test_leak, unit_fit, full_budget, max_test_runs, far, onset_method, scheduler, n_workers, cache_dir,
-              work_dir, list_methods, no_progress):
+              n_test_leak, unit_fit, full_budget, max_test_runs, far, confidence, onset_method,
+              scheduler, n_workers, cache_dir, work_dir, list_methods, no_progress):
     """Run the detection benchmark and write its report to --out."""
     from leakdiag.bench.registry import METHODS
 
@@ -75,6 +80,8 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
         raise click.UsageError("--out DIR is required")
     split = lambda s: [v.strip() for v in s.split(",") if v.strip()] if s else None  # noqa: E731
     command = _command_line()
+    if confidence is not None and suite != "v5":
+        raise click.UsageError("--confidence is for --suite v5")
     if suite == "v5":
         from leakdiag.bench.v5_report import run_benchmark_v5
 
@@ -88,7 +95,8 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
                                    onset_method=onset_method, scheduler=scheduler,
                                    n_workers=n_workers, cache_dir=cache_dir, work_dir=work_dir,
                                    progress=not no_progress, command=command,
-                                   unit_fit=unit_fit, full_budget=full_budget)
+                                   unit_fit=unit_fit, full_budget=full_budget,
+                                   confidence=confidence)
         except ValueError as exc:
             raise click.UsageError(str(exc)) from None
         if res["summary"] is not None:

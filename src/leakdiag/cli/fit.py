@@ -96,7 +96,8 @@ def system_of(recordings, given: str | None, names) -> str:
 
 
 def fit_detector(method: str, system: str, healthy, *, false_alarms_per_hour: float = 1.0,
-                 burn_in_s: float = 5.0, onset_method: str = "binseg"):
+                 burn_in_s: float = 5.0, onset_method: str = "binseg",
+                 confidence: float | None = None):
     """Build the registry's detector ``method`` for ``system`` and fit it on ``healthy``.
 
     Parameters
@@ -113,6 +114,9 @@ def fit_detector(method: str, system: str, healthy, *, false_alarms_per_hour: fl
         Leading seconds ignored in every recording.
     onset_method : {"binseg", "pelt", "cusum"}, default "binseg"
         Onset estimator.
+    confidence : float, optional
+        Calibration-conditional threshold (:class:`~leakdiag.detect.base.Alarm`); None: the
+        marginal conformal rank.
 
     Returns
     -------
@@ -123,7 +127,7 @@ def fit_detector(method: str, system: str, healthy, *, false_alarms_per_hour: fl
     from leakdiag.detect.base import Alarm
 
     alarm = Alarm(false_alarms_per_hour=false_alarms_per_hour, onset_method=onset_method,
-                  burn_in_s=burn_in_s)
+                  burn_in_s=burn_in_s, confidence=confidence)
     det = make_detector(method, system, alarm)
     return det.fit(list(healthy))
 
@@ -168,6 +172,11 @@ class _LazyChoice(click.Choice):
 @click.option("--burn-in", "burn_in_s", type=click.FloatRange(min=0), default=5.0,
               show_default=True,
               help="Seconds ignored at the start of every recording.")
+@click.option("--confidence", type=click.FloatRange(0, 1, min_open=True, max_open=True),
+              default=None,
+              help="Make the false-alarm rate a promise about THIS threshold: it holds with this "
+                   "probability over the healthy data (e.g. 0.95; needs more healthy data, "
+                   "about 3x). Default: the rate holds on average over calibrations.")
 @click.option("--calibrate", "calibration", multiple=True,
               type=click.Path(exists=True, dir_okay=False),
               help="Recording with a known leak (metadata onset and leak_lpm, e.g. simulated), "
@@ -176,7 +185,7 @@ class _LazyChoice(click.Choice):
               help="Detector file to write (joblib), e.g. det.joblib.")
 @no_progress_option
 def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resample,
-        false_alarm_rate, burn_in_s, calibration, out, no_progress):
+        false_alarm_rate, burn_in_s, confidence, calibration, out, no_progress):
     """Fit a detector on healthy recordings and save it for detect, monitor and batch.
 
     The file holds the fitted detector and a record of what it was fitted on (leakdiag version,
@@ -195,7 +204,7 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
     check_longer_than_burn_in(recs, healthy, burn_in_s)
     try:
         det = fit_detector(method, system, recs, false_alarms_per_hour=false_alarm_rate,
-                           burn_in_s=burn_in_s)
+                           burn_in_s=burn_in_s, confidence=confidence)
     except ValueError as exc:
         raise ValueError(in_cli_words(str(exc))) from None
     if calibration:

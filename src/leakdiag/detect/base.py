@@ -94,6 +94,12 @@ class Alarm:
         When the healthy maxima cannot support the target (``k < 1``): raise
         :class:`~leakdiag.detect.threshold.InsufficientHealthyDataError`, or fit at the largest
         healthy maximum with an unsupported basis and a warning.
+    confidence : float or None, default None
+        Choose the threshold's rank calibration-conditionally: with this probability over the
+        healthy data, the fitted threshold's own false-alarm rate is at most the target
+        (:func:`~leakdiag.detect.threshold.conditional_rank`; needs more healthy maxima, e.g.
+        299 for 1 % per segment at 0.95). None: the rank ``floor(alpha (n + 1))``, whose bound
+        holds on average over calibrations.
 
     Raises
     ------
@@ -115,6 +121,7 @@ class Alarm:
     min_size: int = 5
     segment_s: float | None = None
     on_insufficient: str = "raise"
+    confidence: float | None = None
 
     def __post_init__(self) -> None:
         check_positive(self.false_alarms_per_hour, "false_alarms_per_hour")
@@ -132,6 +139,8 @@ class Alarm:
             check_positive(self.segment_s, "segment_s")
         if self.on_insufficient not in ("raise", "warn"):
             raise ValueError(f"on_insufficient={self.on_insufficient!r} must be 'raise' or 'warn'")
+        if self.confidence is not None and not 0.0 < self.confidence < 1.0:
+            raise ValueError(f"confidence={self.confidence!r} must be in (0, 1) or None")
 
 
 @dataclass(frozen=True)
@@ -374,7 +383,8 @@ class Detector(BaseEstimator):
             raise ValueError(f"false_alarms_per_hour={a.false_alarms_per_hour} is one or more "
                              f"alarms per {seg:g} s segment: choose a smaller target or segment_s")
         self.threshold_basis_: ThresholdBasis = conformal_threshold(
-            maxima, alpha, segment_s=seg, reference=ref, on_insufficient=a.on_insufficient)
+            maxima, alpha, segment_s=seg, reference=ref, on_insufficient=a.on_insufficient,
+            confidence=a.confidence)
         self.alarm_threshold_ = self.threshold_basis_
         self.threshold_ = self.threshold_basis_.threshold
         self.healthy_maxima_ = maxima

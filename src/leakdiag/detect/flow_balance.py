@@ -34,6 +34,7 @@ from leakdiag.detect.threshold import (
     ThresholdBasis,
     binned_maxima,
     conformal_threshold,
+    min_maxima,
 )
 from leakdiag.features.series import FeatureSeries
 from leakdiag.io.recording import RecordingError
@@ -188,6 +189,11 @@ class FlowBalanceDetector(Detector):
         first tested windows of no-load runs alternating with the valve volume, which the
         offset and drift turned into a leak-like estimate (docs/detect.md, section 8.4).
         Ignored by the EHA.
+    confidence : float or None, default None
+        Choose the conformal rank calibration-conditionally, as
+        :class:`~leakdiag.detect.base.Alarm`'s ``confidence``: with this probability over the
+        healthy maxima the level's own rate is at most the target (e.g. 0.95 needs 299 maxima
+        for 1 % per segment). None: ``k = floor(alpha (n + 1))``.
 
     Attributes
     ----------
@@ -243,7 +249,7 @@ class FlowBalanceDetector(Detector):
                  leak_law="turbulent", params=None, fit_bandwidth=False, fit_bulk_modulus=False,
                  burn_in_s=2.0, reference_dp_pa=1e6, interval_level=0.95, alarm=None,
                  quiet_boundaries=True, fit_valve_timing=False, segment_s=None,
-                 profile_flow_gain=True):
+                 profile_flow_gain=True, confidence=None):
         self.system = system
         self.false_alarms_per_hour = false_alarms_per_hour
         self.window_s = window_s
@@ -260,6 +266,7 @@ class FlowBalanceDetector(Detector):
         self.fit_valve_timing = fit_valve_timing
         self.segment_s = segment_s
         self.profile_flow_gain = profile_flow_gain
+        self.confidence = confidence
 
     # ------------------------------------------------------------------ validation
     def _validate(self) -> None:
@@ -277,6 +284,8 @@ class FlowBalanceDetector(Detector):
             raise ValueError(f"interval_level={self.interval_level!r} must be in (0, 1)")
         if self.segment_s is not None:
             check_positive(self.segment_s, "segment_s")
+        if self.confidence is not None and not 0.0 < self.confidence < 1.0:
+            raise ValueError(f"confidence={self.confidence!r} must be in (0, 1) or None")
         if self.max_span_s < self.window_s:
             raise ValueError(f"max_span_s={self.max_span_s!r} must be >= window_s={self.window_s!r}")
 
@@ -424,6 +433,7 @@ class FlowBalanceDetector(Detector):
     def _threshold_basis(self, own: np.ndarray, segment_s: float, reference, h_model: float):
         """Conformal basis when the maxima support the target, else the model-based level."""
         alpha = float(self.false_alarms_per_hour) * segment_s / 3600.0
+        conf = getattr(self, "confidence", None)  # absent from detectors saved before it
         if reference is not None:
             if not isinstance(reference, ReferenceMaxima):
                 raise TypeError(f"reference_maxima must be a ReferenceMaxima, got "
@@ -432,7 +442,8 @@ class FlowBalanceDetector(Detector):
                                        float(self.burn_in_s))
         if 0.0 < alpha < 1.0:
             try:
-                b = conformal_threshold(own, alpha, segment_s=segment_s, reference=reference)
+                b = conformal_threshold(own, alpha, segment_s=segment_s, reference=reference,
+                                        confidence=conf)
                 return replace(b, statistic="GLR")
             except InsufficientHealthyDataError:
                 pass
@@ -444,8 +455,9 @@ class FlowBalanceDetector(Detector):
         return ThresholdBasis(
             "glr-model", float(h_model), n, len(own), len(ref), 0, float(segment_s), alpha,
             float("nan"), alpha / seg_h, float("nan"), float("nan"), False,
-            int(math.ceil(1.0 / alpha)) - 1 if 0 < alpha < 1 else 0,
-            reference.source if reference is not None else "", pooled, "GLR")
+            min_maxima(alpha, conf) if 0 < alpha < 1 else 0,
+            reference.source if reference is not None else "", pooled, "GLR",
+            float("nan") if conf is None else float(conf))
 
     def fit(self, recordings, y=None, reference_maxima=None) -> "FlowBalanceDetector":
         """Identify the machine on healthy recordings and set the alarm level.

@@ -11,6 +11,15 @@ ones, the probability that its maximum exceeds the threshold is at most ``k / (n
 cannot support ``alpha``: :class:`InsufficientHealthyDataError` (or, on request, a recorded
 unsupported basis and an :class:`InsufficientHealthyDataWarning`). Nothing is extrapolated.
 
+That bound holds on average over calibrations: the rate of one fitted threshold is itself
+random, ``Beta(k, n + 1 - k)``-distributed (mean ``k / (n + 1)``), so with ``n = 100`` and
+``k = 1`` one calibration in seven gives more than twice the target. With ``confidence=c``
+the rank is chosen **calibration-conditionally** (Vovk 2012, "Conditional validity of inductive
+conformal predictors"): the largest ``k`` with ``P(Binomial(n, alpha) <= k - 1) <= 1 - c``, so
+that *this very threshold's* rate is at most ``alpha`` with probability at least ``c`` over the
+healthy data. It needs more maxima (``n >= log(1 - c) / log(1 - alpha)``: 299 for 1 % at
+``c = 0.95``) and gives a higher level.
+
 A per-hour target ``lambda`` maps to ``alpha = lambda * segment_s / 3600``: the expected number
 of segments with an alarm per hour of healthy operation is then at most ``lambda``.
 """
@@ -28,7 +37,8 @@ from leakdiag.detect.cusum import cusum
 from leakdiag.detect.rates import clopper_pearson
 
 __all__ = ["ThresholdBasis", "ReferenceMaxima", "InsufficientHealthyDataError",
-           "InsufficientHealthyDataWarning", "conformal_threshold", "segment_maxima",
+           "InsufficientHealthyDataWarning", "conformal_threshold", "conditional_rank",
+           "min_maxima", "segment_maxima",
            "binned_maxima", "clopper_pearson", "SEGMENT_TOLERANCE"]
 
 #: Relative tolerance when counting complete segments in a run (a run of 59.99 s holds one
@@ -167,6 +177,11 @@ class ThresholdBasis:
         The pooled maxima, sorted in decreasing order (for p-values).
     statistic : str, default "CUSUM"
         The per-segment statistic whose maxima set the level (``"GLR"`` for the flow balance).
+    confidence : float, default NaN
+        Calibration-conditional rank (``conformal_threshold(..., confidence=c)``): with
+        probability at least ``c`` over the healthy maxima, this threshold's rate is at most
+        ``target_per_segment``. NaN: the rank ``floor(alpha (n + 1))``, whose bound holds on
+        average over calibrations.
 
     Examples
     --------
@@ -192,6 +207,12 @@ class ThresholdBasis:
     reference_source: str = ""
     maxima: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     statistic: str = "CUSUM"
+    confidence: float = float("nan")
+
+    @property
+    def conditional(self) -> bool:
+        """Whether the rank was chosen calibration-conditionally (``confidence`` given)."""
+        return bool(np.isfinite(self.confidence))
 
     def __str__(self) -> str:
         """The basis as one sentence: level, rank among the healthy maxima, segment, and the
@@ -214,14 +235,22 @@ class ThresholdBasis:
                     f"{1 / (self.n + 1):.3g} per segment; the requested {self.target_per_hour:.3g}"
                     f" false alarm(s) per hour needs at least {self.min_n_for_target} maxima to be "
                     "guaranteed by data (docs/detect.md 8.4)")
+        at = (f" at {self.confidence * 100:g} % confidence over the healthy data"
+              if self.conditional else "")
         if not self.supported:
             return (f"{self.threshold:.4g} = the largest of {of}: UNSUPPORTED, the requested "
-                    f"{self.target_per_hour:.3g} false alarm(s) per hour needs at least "
+                    f"{self.target_per_hour:.3g} false alarm(s) per hour{at} needs at least "
                     f"{self.min_n_for_target} maxima; this threshold holds only "
                     f"{self.bound_per_segment:.3g} per segment")
         k = self.k
         suffix = "th" if 10 <= k % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(k % 10, "th")
         rank = "largest" if k == 1 else f"{k}{suffix} largest"
+        if self.conditional:
+            return (f"{self.threshold:.4g} = the {rank} of {of}: at most "
+                    f"{self.target_per_segment:.3g} false alarm(s) per segment, i.e. "
+                    f"{self.target_per_hour:.3g} per hour, with probability "
+                    f"{self.confidence * 100:g} % over the healthy data (calibration-conditional; "
+                    f"{self.bound_per_segment:.3g} per segment on average over calibrations)")
         return (f"{self.threshold:.4g} = the {rank} of {of}: at most "
                 f"{self.bound_per_segment:.3g} false alarm(s) per segment, i.e. "
                 f"{self.bound_per_hour:.3g} per hour (requested {self.target_per_hour:.3g} per "
@@ -259,7 +288,8 @@ class ThresholdBasis:
         return {k: getattr(self, k) for k in (
             "method", "threshold", "n", "n_own", "n_reference", "k", "segment_s",
             "target_per_segment", "bound_per_segment", "target_per_hour", "bound_per_hour",
-            "conditional_upper_95", "supported", "min_n_for_target", "reference_source")}
+            "conditional_upper_95", "supported", "min_n_for_target", "reference_source",
+            "statistic", "confidence")}
 
 
 def segment_maxima(z, time, segment_s: float, t0: float, span_s: float, drift: float = 0.5,
@@ -349,9 +379,79 @@ def binned_maxima(stat, time, segment_s: float, t0: float, span_s: float) -> np.
     return out
 
 
+def conditional_rank(n: int, alpha: float, confidence: float) -> int:
+    """Largest rank whose threshold holds ``alpha`` with probability ``confidence``.
+
+    Parameters
+    ----------
+    n : int
+        Healthy maxima, >= 0.
+    alpha : float
+        Target false-alarm probability per segment, in (0, 1).
+    confidence : float
+        Probability over the healthy data that the threshold's rate is at most ``alpha``, in
+        (0, 1).
+
+    Returns
+    -------
+    int
+        The largest ``k`` in ``[1, n]`` with ``P(Binomial(n, alpha) <= k - 1) <= 1 -
+        confidence``, or 0 when even ``k = 1`` does not qualify (``(1 - alpha)^n > 1 -
+        confidence``).
+
+    Notes
+    -----
+    For exchangeable maxima with a continuous law the rate of the ``k``-th largest of ``n``,
+    ``P(M > M_(k) | M_1..M_n)``, is distributed as the ``k``-th smallest of ``n`` uniforms,
+    ``Beta(k, n + 1 - k)``, and ``P(Beta(k, n + 1 - k) > alpha) = P(Binomial(n, alpha) <= k -
+    1)`` (Vovk 2012, Prop. 2a; ties only lower the rate).
+
+    Examples
+    --------
+    >>> conditional_rank(100, 0.01, 0.95), conditional_rank(299, 0.01, 0.95)
+    (0, 1)
+    >>> conditional_rank(1000, 0.01, 0.95)
+    5
+    """
+    from scipy.stats import binom
+
+    if n < 1:
+        return 0
+    cdf = binom.cdf(np.arange(n), n, alpha)  # cdf[k - 1] = P(Binomial <= k - 1)
+    return int(np.count_nonzero(cdf <= (1.0 - confidence) * (1.0 + _RANK_TOL)))
+
+
+def min_maxima(alpha: float, confidence: float | None = None) -> int:
+    """Fewest healthy maxima that support a target per segment.
+
+    Parameters
+    ----------
+    alpha : float
+        Target false-alarm probability per segment, in (0, 1).
+    confidence : float, optional
+        Calibration-conditional confidence (:func:`conditional_rank`); None: the rank
+        ``floor(alpha (n + 1))``.
+
+    Returns
+    -------
+    int
+        ``ceil(1 / alpha) - 1`` (rank 1 of the marginal rule), or ``ceil(log(1 - c) / log(1 -
+        alpha))`` with a confidence ``c``.
+
+    Examples
+    --------
+    >>> min_maxima(0.01), min_maxima(0.01, 0.95)
+    (99, 299)
+    """
+    if confidence is None:
+        return int(math.ceil(1.0 / alpha - _RANK_TOL)) - 1
+    return int(math.ceil(math.log1p(-confidence) / math.log1p(-alpha) - _RANK_TOL))
+
+
 def conformal_threshold(maxima, target_per_segment: float, *, segment_s: float,
                         reference: ReferenceMaxima | None = None,
-                        on_insufficient: str = "raise") -> ThresholdBasis:
+                        on_insufficient: str = "raise",
+                        confidence: float | None = None) -> ThresholdBasis:
     """Threshold = k-th largest healthy maximum, ``k = floor(alpha (n + 1))``.
 
     Parameters
@@ -368,6 +468,10 @@ def conformal_threshold(maxima, target_per_segment: float, *, segment_s: float,
         What to do when ``k < 1``: raise :class:`InsufficientHealthyDataError`, or return an
         unsupported basis at the largest maximum with an
         :class:`InsufficientHealthyDataWarning`.
+    confidence : float, optional
+        Choose the rank calibration-conditionally (:func:`conditional_rank`): with probability
+        at least ``confidence`` over the healthy maxima the threshold's own rate is at most
+        ``alpha``. None: ``k = floor(alpha (n + 1))``, a bound on average over calibrations.
 
     Returns
     -------
@@ -379,7 +483,7 @@ def conformal_threshold(maxima, target_per_segment: float, *, segment_s: float,
         If ``k < 1`` and ``on_insufficient="raise"``; the message names the number of maxima
         needed.
     ValueError
-        For a target outside (0, 1) or no maxima at all.
+        For a target or confidence outside (0, 1), or no maxima at all.
 
     Notes
     -----
@@ -389,7 +493,8 @@ def conformal_threshold(maxima, target_per_segment: float, *, segment_s: float,
     .. math:: P(M > M_{(k)}) \\le k / (n + 1) \\le \\alpha .
 
     The bound holds on average over calibrations; the rate of one calibration is
-    ``Beta(k, n + 1 - k)``-distributed, whose 95 % quantile is recorded.
+    ``Beta(k, n + 1 - k)``-distributed, whose 95 % quantile is recorded. With ``confidence``
+    the rank is the calibration-conditional one instead (module docstring).
 
     Examples
     --------
@@ -397,6 +502,9 @@ def conformal_threshold(maxima, target_per_segment: float, *, segment_s: float,
     >>> b = conformal_threshold(rng.exponential(size=299), 0.01, segment_s=60.0)
     >>> b.k, round(b.bound_per_segment, 4)
     (3, 0.01)
+    >>> c = conformal_threshold(rng.exponential(size=299), 0.01, segment_s=60.0, confidence=0.95)
+    >>> c.k, bool(c.conditional_upper_95 <= 0.01)
+    (1, True)
     """
     from scipy.stats import beta
 
@@ -412,15 +520,26 @@ def conformal_threshold(maxima, target_per_segment: float, *, segment_s: float,
     if n == 0:
         raise InsufficientHealthyDataError("no healthy segment maxima: give healthy recordings "
                                            f"at least segment_s={segment_s} s long")
-    k = int(math.floor(alpha * (n + 1) + _RANK_TOL))
-    k = min(k, n)
     seg_h = segment_s / 3600.0
-    need = int(math.ceil(1.0 / alpha - _RANK_TOL)) - 1
+    if confidence is None:
+        conf = float("nan")
+        k = min(int(math.floor(alpha * (n + 1) + _RANK_TOL)), n)
+        floor = f"support false-alarm probabilities down to 1/(n+1) = {1 / (n + 1):.3g} per segment"
+        asked = f"{alpha:.3g} per segment ({alpha / seg_h:.3g} per hour)"
+    else:
+        conf = float(confidence)
+        if not 0.0 < conf < 1.0:
+            raise ValueError(f"confidence={confidence!r} must be in (0, 1)")
+        k = conditional_rank(n, alpha, conf)
+        floor = (f"hold a rate at {conf * 100:g} % confidence down to "
+                 f"{-math.expm1(math.log1p(-conf) / n):.3g} per segment")
+        asked = (f"{alpha:.3g} per segment ({alpha / seg_h:.3g} per hour) at {conf * 100:g} % "
+                 "confidence")
+    need = min_maxima(alpha, confidence)
     src = reference.source if reference is not None else ""
     if k < 1:
         msg = (f"{n} healthy maxima of {segment_s:g} s segments ({len(own)} own, {len(ref)} "
-               f"reference) support false-alarm probabilities down to 1/(n+1) = {1 / (n + 1):.3g} "
-               f"per segment; {alpha:.3g} per segment ({alpha / seg_h:.3g} per hour) needs at "
+               f"reference) {floor}; {asked} needs at "
                f"least {need} maxima, i.e. about {need * segment_s / 3600:.3g} h of healthy data. "
                "Give more healthy recordings, reference maxima from other units, or a larger "
                "target")
@@ -431,8 +550,9 @@ def conformal_threshold(maxima, target_per_segment: float, *, segment_s: float,
         return ThresholdBasis("conformal-unsupported", float(pooled[0]), n, len(own), len(ref),
                               0, float(segment_s), alpha, 1.0 / (n + 1), alpha / seg_h,
                               1.0 / (n + 1) / seg_h, float(beta.ppf(0.95, 1, n)), False, need,
-                              src, pooled)
+                              src, pooled, confidence=conf)
     bound = k / (n + 1)
     return ThresholdBasis("conformal", float(pooled[k - 1]), n, len(own), len(ref), k,
                           float(segment_s), alpha, bound, alpha / seg_h, bound / seg_h,
-                          float(beta.ppf(0.95, k, n + 1 - k)), True, need, src, pooled)
+                          float(beta.ppf(0.95, k, n + 1 - k)), True, need, src, pooled,
+                          confidence=conf)
