@@ -59,6 +59,13 @@ def test_fit_confidence_makes_the_rate_a_promise_about_this_threshold(files, tmp
     assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", "--confidence", "1",
                  "-o", str(tmp_path / "d3.joblib")]) == 2
     assert "--confidence" in capsys.readouterr().err
+    # detect fits its --methods the same way; with a --detector file the option is refused
+    assert main(["detect", healthy[0], *_h(healthy), "--methods", "ccf-p1p2",
+                 "--false-alarm-rate", "0.25", "--confidence", "0.5", "--no-progress"]) == 0
+    assert "with probability 50 % over the healthy data" in capsys.readouterr().out
+    assert main(["detect", healthy[0], "--detector", str(tmp_path / "det.joblib"),
+                 "--confidence", "0.5"]) == 2
+    assert "--confidence" in capsys.readouterr().err
 
 
 def test_detect_p_value_of_a_healthy_run_is_never_below_the_resolution(files, capsys):

@@ -57,7 +57,7 @@ def _cannot_judge(det, rec, file, m):
 def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"), system=None,
                   column_map=None, sample_rate=None, false_alarm_rate=0.01,
                   onset_method="binseg", burn_in_s=5.0, detectors=(), progress=None,
-                  resample=None, false_alarms_per_hour=None):
+                  resample=None, false_alarms_per_hour=None, confidence=None):
     """Fit each method on the healthy files (or load saved detectors) and judge ``file``.
 
     Parameters
@@ -95,6 +95,8 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     false_alarms_per_hour : float, optional
         Per-hour CUSUM target for each fitted method, instead of the per-run split of
         ``false_alarm_rate``.
+    confidence : float, optional
+        Calibration-conditional thresholds for the fitted methods (``Alarm.confidence``).
 
     Returns
     -------
@@ -143,13 +145,15 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
                              f"{burn_in_s:g} s: nothing of it would be judged")
         if false_alarms_per_hour is not None:
             alarm = Alarm(false_alarms_per_hour=false_alarms_per_hour,
-                          onset_method=onset_method, burn_in_s=burn_in_s)
+                          onset_method=onset_method, burn_in_s=burn_in_s,
+                          confidence=confidence)
         else:  # per run: healthy segments as long as the judged run (docs/measure.md)
             seg = min(span, min(r.duration for r in train) - burn_in_s)
             n_seg = math.ceil(span / seg - SEGMENT_TOLERANCE)  # a longer run spans several
             per_segment = false_alarm_rate / max(len(methods), 1) / n_seg
             alarm = Alarm(false_alarms_per_hour=per_segment * 3600.0 / seg, segment_s=seg,
-                          onset_method=onset_method, burn_in_s=burn_in_s)
+                          onset_method=onset_method, burn_in_s=burn_in_s,
+                          confidence=confidence)
         for i, m in enumerate(methods):
             det = make_detector(m, system, alarm)  # unknown names raise here
             why = _cannot_judge(det, rec, file, m)
@@ -231,6 +235,10 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
 @click.option("--false-alarm-rate", type=float, default=0.01, show_default=True,
               help="Chance of a false 'leak' for this run, split over the --methods fitted on "
                    "--healthy (a --detector keeps its own rate per hour).")
+@click.option("--confidence", type=click.FloatRange(0, 1, min_open=True, max_open=True),
+              default=None,
+              help="Thresholds of the --methods fitted on --healthy hold --false-alarm-rate with "
+                   "this probability over the healthy data (as leakdiag fit --confidence).")
 @click.option("--onset-method", default="binseg", show_default=True,
               type=click.Choice(["binseg", "pelt", "cusum"]), help="Onset estimator.")
 @click.option("--burn-in", "burn_in_s", default=5.0, show_default=True,
@@ -241,7 +249,8 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
               "(SQLite file or SQLAlchemy URL).")
 @click.option("--actuator", default=None, help="Actuator name in the store (default: FILE stem).")
 def detect(file, healthy, detectors, methods, system, column_map, cols, sample_rate, time_unit,
-           resample, false_alarm_rate, onset_method, burn_in_s, no_progress, store, actuator):
+           resample, false_alarm_rate, confidence, onset_method, burn_in_s, no_progress, store,
+           actuator):
     """Judge FILE: leak or not, onset, alarm time, leak size, and one overall decision.
 
     Each method is a detector fitted on --healthy recordings (or loaded with --detector); the
@@ -261,6 +270,7 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     ctx = click.get_current_context()
     fitting = [o for n, o in (("false_alarm_rate", "--false-alarm-rate"),
                               ("onset_method", "--onset-method"), ("burn_in_s", "--burn-in"),
+                              ("confidence", "--confidence"),
                               ("system", "--system"))
                if ctx.get_parameter_source(n) is click.core.ParameterSource.COMMANDLINE]
     if fitting and not healthy:  # they would be ignored: a detector file keeps its own
@@ -276,7 +286,7 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     tab = verdict_table(file, healthy, methods=names, system=system, column_map=cmap,
                         sample_rate=sample_rate, false_alarm_rate=false_alarm_rate,
                         onset_method=onset_method, burn_in_s=burn_in_s, detectors=detectors,
-                        progress=say, resample=resample)
+                        progress=say, resample=resample, confidence=confidence)
     cols_ = [c for c in ("method", "leak", "onset_s", "alarm_time_s", "confidence", "leak_lpm",
                          "score_max", "threshold", "threshold_method", "error") if c in tab]
     # Verdict.confidence is a conformal p-value (small = evidence of a leak): print it by that name
