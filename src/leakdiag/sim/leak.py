@@ -41,6 +41,7 @@ __all__ = [
     "calibrate_leak_coefficient",
     "check_calibrated",
     "calibrate_with_pilot",
+    "reaction_step",
     "too_short_to_calibrate",
     "LEAK_REFERENCE_DP_PA",
     "MIN_CALIBRATION_WINDOW_S",
@@ -336,12 +337,55 @@ class CalibrationResult:
         return abs(self.achieved_lpm - self.target_lpm) / self.target_lpm
 
 
+def reaction_step(coefficient: float, achieved_lpm: float, target_lpm: float) -> float:
+    r"""Next coefficient when the first guess ignored a reaction that is first order in the leak.
+
+    Parameters
+    ----------
+    coefficient : float
+        The first guess :math:`k_0`, computed as if the pressures did not react to the leak
+        (:math:`q(k) = c\,k` with :math:`c = q^*/k_0`).
+    achieved_lpm : float
+        Mean leak :math:`q_0` of the run with :math:`k_0`, L/min, > 0.
+    target_lpm : float
+        Target :math:`q^*`, L/min.
+
+    Returns
+    -------
+    float
+        :math:`k_1 = k_0 / (2 - q^*/q_0)`: the coefficient at which
+        :math:`q(k) = c\,k\,(1 - \alpha q)` reaches :math:`q^*`, with :math:`\alpha` fitted
+        to the run (:math:`1 - \alpha q_0 = q_0/q^*`). When :math:`q^*/q_0` lies outside
+        [2/3, 1.5] (a reaction too strong for a first-order model) the proportional correction
+        :math:`k_0 q^*/q_0` instead.
+
+    Notes
+    -----
+    The model holds when the pressure difference that drives the leak falls in proportion to
+    the leak flow, e.g. when a flow source feeds the actuator (the EHA's pump: the leak flow
+    is taken from the flow that moves the piston). Measured on EHA runs (docs/models.md),
+    :math:`1 - q/(c\,k)` is proportional to :math:`q` within a few per cent of itself.
+
+    Examples
+    --------
+    >>> round(reaction_step(1.0, 0.9, 1.0), 6)       # 10 % low: 1 / (2 - 1/0.9)
+    1.125
+    >>> round(reaction_step(1.0, 0.5, 1.0), 6)       # 50 % low: proportional, 2x
+    2.0
+    """
+    ratio = target_lpm / achieved_lpm
+    if not 2.0 / 3.0 <= ratio <= 1.5:
+        return coefficient * ratio
+    return coefficient / (2.0 - ratio)
+
+
 def calibrate_leak_coefficient(
     simulate_fn: Callable[[float], float],
     target_lpm: float,
     initial_coefficient: float,
     rtol: float = 0.02,
     max_evaluations: int = 12,
+    first_step: str = "proportional",
 ) -> CalibrationResult:
     """Find the leakage coefficient whose simulated mean |Q_leak| after onset hits a target.
 
@@ -360,6 +404,11 @@ def calibrate_leak_coefficient(
         that meets it ends the search.
     max_evaluations : int, default 12
         Maximum number of simulator runs.
+    first_step : {"proportional", "reaction"}, default "proportional"
+        The correction after the first run: ``"proportional"`` assumes the mean leak
+        proportional to the coefficient; ``"reaction"`` assumes that ``initial_coefficient``
+        ignored the pressures' reaction to the leak and that this reaction is first order in
+        the leak flow (:func:`reaction_step`).
 
     Returns
     -------
@@ -369,7 +418,8 @@ def calibrate_leak_coefficient(
     Raises
     ------
     ValueError
-        If ``target_lpm``, ``initial_coefficient`` or ``rtol`` is not positive.
+        If ``target_lpm``, ``initial_coefficient`` or ``rtol`` is not positive, or
+        ``first_step`` is unknown.
     LeakCalibrationError
         If ``simulate_fn`` returns a non-positive or non-finite flow, or the tolerance is not
         met within ``max_evaluations`` runs.
@@ -397,6 +447,8 @@ def calibrate_leak_coefficient(
     target = check_positive(target_lpm, "target_lpm")
     k = check_positive(initial_coefficient, "initial_coefficient")
     rtol = check_positive(rtol, "rtol")
+    if first_step not in ("proportional", "reaction"):
+        raise ValueError(f"first_step={first_step!r} must be 'proportional' or 'reaction'")
     history: list[tuple[float, float]] = []
 
     def run(coef: float) -> float:
@@ -411,6 +463,7 @@ def calibrate_leak_coefficient(
 
     q = run(k)
     slope = 1.0
+    weights: dict = {}
     while True:
         if abs(q - target) <= rtol * target:
             break
@@ -424,9 +477,41 @@ def calibrate_leak_coefficient(
             if k0 != k1 and q0 != q1:
                 slope = (math.log(q1) - math.log(q0)) / (math.log(k1) - math.log(k0))
                 slope = min(max(slope, 0.2), 5.0)
-        k = k * math.exp((math.log(target) - math.log(q)) / slope)
+        bracket = _illinois(history, target, weights)
+        if bracket is not None:
+            k = bracket
+        elif len(history) == 1 and first_step == "reaction":
+            k = reaction_step(k, q, target)
+        else:
+            k = k * math.exp((math.log(target) - math.log(q)) / slope)
         q = run(k)
     return CalibrationResult(k, q, target, len(history), tuple(history))
+
+
+def _illinois(history, target: float, weights: dict) -> float | None:
+    r"""Next coefficient once runs below and above the target bracket it, else None.
+
+    Regula falsi on :math:`\log q(\log k)` between the closest runs on either side, with the
+    Illinois modification (the end kept twice in a row has its residual halved, ``weights``
+    carries that state between calls), so a strongly convex :math:`q(k)` cannot pin one end.
+    When the last two runs are the bracket and no halving is due, this is the secant step.
+    """
+    below = [(k, q) for k, q in history if q < target]
+    above = [(k, q) for k, q in history if q > target]
+    if not below or not above:
+        return None
+    (k_lo, q_lo), (k_hi, q_hi) = max(below), min(above)
+    side = 1 if history[-1][1] > target else -1
+    if weights.get("side") == side:
+        weights[-side] = weights.get(-side, 1.0) * 0.5
+    else:
+        weights[-side] = 1.0
+    weights[side] = 1.0
+    weights["side"] = side
+    x_lo, x_hi = math.log(k_lo), math.log(k_hi)
+    f_lo = (math.log(q_lo) - math.log(target)) * weights.get(-1, 1.0)
+    f_hi = (math.log(q_hi) - math.log(target)) * weights.get(1, 1.0)
+    return math.exp(x_lo - f_lo * (x_hi - x_lo) / (f_hi - f_lo))
 
 
 def check_calibrated(achieved_lpm: float, target_lpm: float, rtol: float) -> float:
@@ -504,58 +589,61 @@ def calibrate_with_pilot(
     target_lpm: float,
     initial_coefficient: float,
     rtol: float = 0.02,
-    pilot_rtol: float | None = None,
     max_evaluations: int = 12,
 ) -> CalibrationResult:
-    """Calibrate on a cheap pilot model first, then confirm (and if needed refine) on the full one.
+    """Measure the reaction to the leak on one cheap pilot run, then search on the full model.
 
     Parameters
     ----------
     simulate_fn : callable
         The delivered experiment: ``simulate_fn(k) -> mean |Q_leak| after the onset``, L/min.
     pilot_fn : callable
-        A cheaper approximation of it (e.g. the same run with a coarser integration step); it
+        A cheaper approximation of it (e.g. the same run with a looser solver tolerance); it
         only has to be close, the tolerance is checked on ``simulate_fn``.
     target_lpm : float
         Target mean leak, L/min.
     initial_coefficient : float
-        First guess, > 0.
+        First guess :math:`k_0`, > 0, computed as if the pressures did not react to the leak.
     rtol : float, default 0.02
         Tolerance on the full run.
-    pilot_rtol : float, optional
-        Tolerance of the pilot search; default ``rtol / 4``.
     max_evaluations : int, default 12
-        Limit for each of the two searches.
+        Limit of the full search.
 
     Returns
     -------
     CalibrationResult
         The full run's coefficient and mean; ``n_evaluations`` counts full runs,
-        ``n_pilot_evaluations`` pilot runs; ``history`` lists the full runs.
+        ``n_pilot_evaluations`` the pilot run (1); ``history`` lists the full runs.
 
     Raises
     ------
+    ValueError
+        If ``rtol`` is not positive.
     LeakCalibrationError
-        As :func:`calibrate_leak_coefficient`.
+        If the pilot returns a non-positive or non-finite flow, or as
+        :func:`calibrate_leak_coefficient`.
 
     Notes
     -----
-    The pilot search is :func:`calibrate_leak_coefficient` on ``pilot_fn`` to ``pilot_rtol``;
-    the full search starts from its coefficient, so when the pilot's bias is well inside
-    ``rtol - pilot_rtol`` one full run suffices. The last full run is the accepted one.
+    One pilot run at :math:`k_0`, then the full search of :func:`calibrate_leak_coefficient`
+    from :func:`reaction_step` of the pilot's mean. When the reaction is first order in the
+    leak flow and the pilot's bias is well inside ``rtol``, the first full run lands.
 
     Examples
     --------
-    >>> full = lambda k: 3.0 * k ** 0.8
-    >>> pilot = lambda k: 1.004 * full(k)          # a 0.4 % biased cheap model
-    >>> res = calibrate_with_pilot(full, pilot, 0.1, initial_coefficient=1.0)
-    >>> res.n_evaluations, abs(res.achieved_lpm / 0.1 - 1) <= 0.02
-    (1, True)
+    >>> full = lambda k: k * (1.0 - 0.2 * k)        # reaction first order in the leak flow
+    >>> pilot = lambda k: 1.004 * full(k)           # a 0.4 % biased cheap model
+    >>> res = calibrate_with_pilot(full, pilot, 0.5, initial_coefficient=0.5)
+    >>> res.n_evaluations, res.n_pilot_evaluations, abs(res.achieved_lpm / 0.5 - 1) <= 0.02
+    (1, 1, True)
     """
     rtol = check_positive(rtol, "rtol")
-    pilot_rtol = rtol / 4 if pilot_rtol is None else check_positive(pilot_rtol, "pilot_rtol")
-    pilot = calibrate_leak_coefficient(pilot_fn, target_lpm, initial_coefficient,
-                                       rtol=pilot_rtol, max_evaluations=max_evaluations)
-    full = calibrate_leak_coefficient(simulate_fn, target_lpm, pilot.coefficient, rtol=rtol,
-                                      max_evaluations=max_evaluations)
-    return dataclasses.replace(full, n_pilot_evaluations=pilot.n_evaluations)
+    k0 = check_positive(initial_coefficient, "initial_coefficient")
+    target = check_positive(target_lpm, "target_lpm")
+    q0 = float(pilot_fn(k0))
+    if not math.isfinite(q0) or q0 <= 0:
+        raise LeakCalibrationError(
+            f"pilot_fn({k0:.6g}) returned mean leak {q0!r} L/min; it must be finite and > 0")
+    full = calibrate_leak_coefficient(simulate_fn, target, reaction_step(k0, q0, target),
+                                      rtol=rtol, max_evaluations=max_evaluations)
+    return dataclasses.replace(full, n_pilot_evaluations=1)

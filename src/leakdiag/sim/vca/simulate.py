@@ -148,9 +148,14 @@ def _antialias(cutoff_hz: float, fs: float) -> np.ndarray:
     return antialias_sos(cutoff_hz, fs)
 
 
-def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sched, cond, s0,
+def _python_controller_run(controller, x_ref, fs, steps, prm, u_max, k_leak, sched, cond, s0,
                            noise1, noise2, sensors: SensorParams | None) -> ClosedLoopResult:
-    """Slow path: a user controller ``u = controller(t, x_ref, x_m, p1_m, p2_m)`` in Python."""
+    """Slow path: a user controller ``u = controller(t, x_ref, x_m, p1_m, p2_m)`` in Python.
+
+    ``steps = (n_sub, split, n_sub_after)``: RK4 steps per sample before sample ``split`` and
+    from it on, as the compiled path.
+    """
+    n_sub_before, split, n_sub_after = steps
     n = x_ref.size
     sos = zi1 = zi2 = None
     if sensors is not None and sensors.antialias_cutoff_hz is not None:
@@ -163,7 +168,6 @@ def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sch
     out_u = np.empty(n)
     out_q = np.empty(n)
     s = s0.copy()
-    h = 1.0 / fs / n_sub
     sched_arr = sched.to_array()
     for k in range(n):
         t = k / fs
@@ -194,7 +198,9 @@ def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sch
         if sensors is not None:  # 12-bit DAC, as in the compiled path
             u = float(quantize(u, 2 * u_max / 2.0**sensors.control_dac_bits))
         out_u[k] = u
-        rk4_advance(s, t, h, n_sub, u + valve_null_v(t, prm, cond), k_leak, sched_arr, cond, prm)
+        n_sub = n_sub_before if k < split else n_sub_after
+        rk4_advance(s, t, 1.0 / fs / n_sub, n_sub, u + valve_null_v(t, prm, cond), k_leak,
+                    sched_arr, cond, prm)
     return ClosedLoopResult(out_state, out_meas, out_u, out_q)
 
 
@@ -382,18 +388,24 @@ def simulate_vca(
             )
         return n_sub_k
 
+    i_on = plan.onset_index
+    # samples [0, split) carry no leak, whatever the coefficient (split = onset sample - 1, so
+    # that no RK4 stage reaches the onset); without a leak the whole run is one part
+    split = max(i_on - 1, 0) if plan.active else n
+
     def run(k_leak: float) -> ClosedLoopResult:
+        # the leak-free part at the base step, the rest at the leak's stable step
         n_sub_k = substeps(k_leak)
         if fixed:
             out = loop.empty_result()
-            loop.advance(loop.start(), n, n_sub_k, loop.coefficients(k_leak), out, chunk,
-                         progress)
+            carry, k_arr = loop.start(), loop.coefficients(k_leak)
+            loop.advance(carry, split, n_sub, k_arr, out, chunk, progress)
+            loop.advance(carry, n, n_sub_k, k_arr, out, chunk, progress)
             return out
-        return _python_controller_run(ctrl, x_ref, fs, n_sub_k, prm, params.control_limit_v,
-                                      k_leak, sched, cond, s0, noise[0], noise[1],
-                                      sensor_params if sensors else None)
+        return _python_controller_run(ctrl, x_ref, fs, (n_sub, split, n_sub_k), prm,
+                                      params.control_limit_v, k_leak, sched, cond, s0, noise[0],
+                                      noise[1], sensor_params if sensors else None)
 
-    i_on = plan.onset_index
     ptr = params.leak_transition_pressure_pa
     laminar = leak_model == "laminar"
     cal = None
@@ -407,16 +419,16 @@ def simulate_vca(
         history: list[tuple[float, float]] = []
         k0 = None
         if fixed:
-            segments = _OnsetRestarts(loop, max(i_on - 1, 0), chunk, progress)
+            segments = _OnsetRestarts(loop, split, chunk, progress)
 
             def simulate_fn(k: float) -> float:
-                q = plan.mean_lpm(segments.run(k, substeps(k)).leak_flow)
+                q = plan.mean_lpm(segments.run(k, n_sub, substeps(k)).leak_flow)
                 history.append((k, q))
                 return q
 
             pre = segments.before_onset(n_sub)
-            k0 = coefficient_from_healthy(pre.state[:, S_P1], pre.state[:, S_P2],
-                                          max(i_on - 1, 0), plan, ptr, laminar)
+            k0 = coefficient_from_healthy(pre.state[:, S_P1], pre.state[:, S_P2], split, plan,
+                                          ptr, laminar, reference=x_ref)
         else:
             runs: dict[float, ClosedLoopResult] = {}
 
@@ -457,6 +469,7 @@ def simulate_vca(
         "controller": ctrl.to_dict() if isinstance(ctrl, FixedGainController) else repr(ctrl),
         "rk4_step_s": 1.0 / (fs * max(n_sub, _leak_stable_substeps(k_leak, leak_model, params,
                                                                    fs))),
+        "rk4_step_before_onset_s": 1.0 / (fs * n_sub),
     })
     channels = {"p1": p1_out, "p2": p2_out, "x": x_out, "u": result.u,
                 "leak_flow": result.leak_flow, "x_ref": x_ref}
