@@ -106,7 +106,7 @@ def m3s_to_lpm(m3s: float) -> float:
     return float(m3s) * LPM_PER_M3S
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def leak_flow(coefficient, dp, transition_pa, laminar):
     """Internal leakage flow from chamber 1 to chamber 2, the leak law of both rigs (m^3/s).
 
@@ -259,7 +259,7 @@ class LeakSchedule:
         return float(coefficient) * self.multipliers(time)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def leak_multiplier(t, schedule):
     """Leak-coefficient multiplier at time ``t`` from an encoded schedule (Numba-compiled).
 
@@ -290,7 +290,7 @@ def leak_multiplier(t, schedule):
     return r if r < 1.0 else 1.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _multipliers(t, schedule):
     """:func:`leak_multiplier` at each time of the 1-D array ``t``."""
     out = np.empty(t.shape[0])
