@@ -9,7 +9,9 @@ integrator and drive; everything else is here, so both follow one convention:
 * the leak is a :class:`LeakPlan`: the target mean :math:`|Q_l|` after the onset (Sec. 4.5,
   Sec. 4.6), the schedule :math:`s(t)`, and the first sample at or after the onset;
 * the coefficient :math:`k_l` is calibrated by :func:`calibrate_leak` from a first guess taken
-  from the healthy pressures before the onset (:func:`coefficient_from_healthy`), within
+  from the healthy pressures before the onset (:func:`coefficient_from_healthy`, with the
+  window after the onset predicted from the reference where the load pressure follows it,
+  :mod:`leakdiag.sim.linear_response`), within
   ``calibration_rtol`` (2 % by default), and the delivered run is checked against the target;
 * the metadata every recording carries come from :func:`experiment_metadata`.
 """

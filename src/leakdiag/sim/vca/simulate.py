@@ -96,7 +96,7 @@ class _OnsetRestarts:
 
     Samples ``[0, split)`` do not depend on the leak coefficient (the schedule is 0 there,
     ``split`` = onset sample - 1 so that no RK4 stage reaches the onset), so they are
-    integrated once per RK4 step count and every trial coefficient restarts from a copy of the
+    integrated once (at the base step) and every trial coefficient restarts from a copy of the
     carry at ``split``. The stitched run equals a full run with that coefficient bit for bit.
     The output buffer is shared: after each :meth:`run` it holds that run (the calibration
     accepts its last run).
@@ -126,7 +126,7 @@ class _OnsetRestarts:
         """The whole run with coefficient ``k_leak`` (only the part after the onset is new).
 
         ``n_sub_after`` (default ``n_sub``) integrates the part after the onset with another
-        step count: a coarser pilot of the calibration.
+        step count: the leak's stable step.
         """
         self.before_onset(n_sub)
         carry = self._pre[n_sub][0].copy()
@@ -290,8 +290,8 @@ def simulate_vca(
         ``leak_lpm_at_reference_dp`` (the leak law with the full coefficient at that pressure
         difference, L/min), ``leak_model``, ``leak_kind``, ``load``,
         ``seed``, ``params`` (dict, the unit's), ``controller``, ``sensors``, ``conditions``,
-        ``rk4_step_s``, ``calibration_runs``, ``calibration_pilot_runs``, ``rated_flow_lpm``,
-        ``machine``
+        ``rk4_step_s`` (after the onset), ``rk4_step_before_onset_s``, ``calibration_runs``,
+        ``calibration_pilot_runs``, ``rated_flow_lpm``, ``machine``
         (:meth:`VCAMachine.to_dict`), ``leakdiag_version``, ``source``.
 
     Raises
@@ -307,14 +307,18 @@ def simulate_vca(
     Notes
     -----
     Model: Eqs. 2-1 to 2-5 (see :func:`~leakdiag.sim.vca.model.vca_rhs`). Integration: fixed-step
-    RK4, control held between samples. The achieved leak is the mean of :math:`|Q_l|` over the
+    RK4, control held between samples; the leak-free part before the onset at the step of
+    ``max_step``, the part after it at the leak's stable step (``rk4_step_before_onset_s``,
+    ``rk4_step_s``). The achieved leak is the mean of :math:`|Q_l|` over the
     samples at or after the onset (Sec. 4.5, "the mean of the leak after 200 seconds"). The
     calibration integrates the leak-free part before the onset once, takes its first guess of
-    the coefficient from the healthy pressures there, and reruns only the part after the onset
-    (same seed, bit-identical to a full run) until the mean is within ``calibration_rtol``;
-    the delivered run is checked against the target. ``calibration_runs`` counts the
-    post-onset runs (``calibration_pilot_runs`` is 0: a coarser-step pilot was tried and
-    rejected, without load it is biased by up to 40 %, docs/models.md). A Python
+    the coefficient from the healthy pressures there (with the window after the onset
+    predicted from the reference when the load pressure follows it, e.g. with the spring), and
+    reruns only the part after the onset (same seed, bit-identical to a full run with that
+    coefficient) until the mean is within ``calibration_rtol``; the delivered run is checked
+    against the target. ``calibration_runs`` counts the post-onset runs (1 with the spring in
+    the cases measured, 2-3 without load; ``calibration_pilot_runs`` is 0: a coarser-step pilot
+    was tried and rejected, without load it is biased by up to 40 %, docs/models.md). A Python
     ``controller`` reruns whole experiments.
 
     Examples
