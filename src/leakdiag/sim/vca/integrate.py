@@ -11,6 +11,9 @@ The Numba functions of the integration path (here, ``model``, ``control``, ``con
 raise ``ZeroDivisionError``. Every divisor there is a parameter validated > 0 or a volume
 clamped above zero, so the results are bit-identical and the VCA 15-20 % faster (EHA ~8 %;
 docs/models.md). The EHA's LU factorisation keeps the test (a singular pivot still raises).
+``_rk4_steps`` and the model's ``_rhs_into`` are inlined into the sample loop
+(``inline="always"``): a call per sample with its array arguments cost about 100 ns, a third
+of a sample at 4 RK4 steps; same arithmetic, bit-identical.
 """
 
 from __future__ import annotations
@@ -109,7 +112,7 @@ def sos_step(x, sos, zi):
     return y
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _rk4_steps(s, t0, h, n_steps, u, k_leak, sched, cond, prm, ps_max,
                k1, k2, k3, k4, tmp, inp):
     # Inputs are evaluated at every stage time only with a supply ripple (the one fast

@@ -90,7 +90,7 @@ def vca_leak_flow(p1, p2, leak_coefficient, params):
     return leak_flow(leak_coefficient, p1 - p2, params[P_PTR_LEAK], params[P_LEAK_MODEL] == 1.0)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _rhs_into(t, s, inp, prm, out):
     x = s[S_X]
     v = s[S_V]
