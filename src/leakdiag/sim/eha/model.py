@@ -121,7 +121,7 @@ def eha_leak_flow(state, inputs, params):
     return leak_flow(k, state[S_P1] - state[S_P2], params[P_PTR], False)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _rhs_into(t, y, inputs, p, out):
     """Write dy/dt into ``out`` (no allocation); see :func:`eha_rhs`."""
     x = y[S_X]
