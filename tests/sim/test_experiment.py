@@ -117,6 +117,11 @@ def test_coefficient_from_healthy_predicts_the_window_after_the_onset_from_the_r
     assert abs(before / exact - 1) > 0.4  # without the reference the guess is far off
     assert coefficient_from_healthy(p1, p2, 9_999, p, 1.0, True) == pytest.approx(before,
                                                                                 rel=1e-12)
+    # under MIN_FIT_S = 20 s of healthy samples to fit (here 1-19.99 s) no prediction is made
+    assert coefficient_from_healthy(p1, p2, 1_999, p, 1.0, True, reference=x) == \
+        coefficient_from_healthy(p1, p2, 1_999, p, 1.0, True)
+    assert coefficient_from_healthy(p1, p2, 2_101, p, 1.0, True, reference=x) != \
+        coefficient_from_healthy(p1, p2, 2_101, p, 1.0, True)
 
 
 def test_coefficient_from_healthy_ignores_a_reference_the_pressure_does_not_follow():
