@@ -320,7 +320,7 @@ def coefficient_from_healthy(p1: np.ndarray, p2: np.ndarray, split: int, plan: L
     if reference is not None:
         ratio = window_ratio(reference, p1[:split] - p2[:split], i0, split, plan.onset_index, fs,
                              lambda d: np.abs(leak_flow(1.0, d, transition_pa, laminar)),
-                             plan.schedule.multipliers(np.arange(plan.n) / fs))
+                             plan.schedule.multipliers)
         if ratio is not None and ratio > 0:
             return lpm_to_m3s(plan.target_lpm) / (ratio * g)
     return lpm_to_m3s(plan.target_lpm) / (mult * g)

@@ -43,7 +43,7 @@ MEMORY_S = 0.3
 
 def window_ratio(reference: np.ndarray, dp: np.ndarray, start: int, split: int, onset: int,
                  sample_rate: float, law: Callable[[np.ndarray], np.ndarray],
-                 multipliers: np.ndarray) -> float | None:
+                 multiplier: Callable[[np.ndarray], np.ndarray]) -> float | None:
     """Predicted mean leak law after the onset over the healthy mean before it.
 
     Parameters
@@ -60,8 +60,9 @@ def window_ratio(reference: np.ndarray, dp: np.ndarray, start: int, split: int, 
         Rate of ``reference`` and ``dp``, Hz.
     law : callable
         :math:`|g(\\Delta p)|`, the leak law with unit coefficient, on an array.
-    multipliers : numpy.ndarray
-        The schedule :math:`s(t)` at every sample of the run.
+    multiplier : callable
+        The schedule :math:`s(t)` on an array of times in s (e.g.
+        :meth:`~leakdiag.sim.leak.LeakSchedule.multipliers`), evaluated on the grid only.
 
     Returns
     -------
@@ -79,7 +80,7 @@ def window_ratio(reference: np.ndarray, dp: np.ndarray, start: int, split: int, 
     >>> rng = np.random.default_rng(0)
     >>> x = np.repeat(rng.uniform(-1, 1, 400), 500)          # 200 s of 0.5 s steps, 1 kHz
     >>> dp = 3.0 + 2.0 * np.concatenate([np.zeros(50), x[:-50]])
-    >>> r = window_ratio(x, dp, 1000, 100_000, 100_000, 1000.0, np.abs, np.ones(200_000))
+    >>> r = window_ratio(x, dp, 1000, 100_000, 100_000, 1000.0, np.abs, np.ones_like)
     >>> bool(abs(r - np.abs(dp[100_000::10]).mean() / np.abs(dp[1000:100_000:10]).mean()) < 1e-6)
     True
     """
@@ -105,7 +106,8 @@ def window_ratio(reference: np.ndarray, dp: np.ndarray, start: int, split: int, 
         return None
     pred = _predict(xs, first[0] + second[0], first[1] + second[1])
     before = float(np.mean(law(pred[a:b])))
-    after = float(np.mean(np.asarray(multipliers)[::m][on:] * law(pred[on:])))
+    grid_times = np.arange(on, xs.size) * m / sample_rate  # the samples' own times j m / fs
+    after = float(np.mean(multiplier(grid_times) * law(pred[on:])))
     if not (before > 0 and math.isfinite(after)):
         return None
     return after / before

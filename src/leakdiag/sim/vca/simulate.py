@@ -96,48 +96,26 @@ class _OnsetRestarts:
 
     Samples ``[0, split)`` do not depend on the leak coefficient (the schedule is 0 there,
     ``split`` = onset sample - 1 so that no RK4 stage reaches the onset), so they are
-    integrated once (at the base step) and every trial coefficient restarts from a copy of the
-    carry at ``split``. The stitched run equals a full run with that coefficient bit for bit.
-    The output buffer is shared: after each :meth:`run` it holds that run (the calibration
-    accepts its last run).
+    integrated once, at the base step, into the shared output buffer, and every trial
+    coefficient restarts from a copy of the carry at ``split`` and overwrites only the samples
+    from ``split`` on. The stitched run equals a full run with that coefficient bit for bit;
+    after each :meth:`run` the buffer holds that run (the calibration accepts its last run).
     """
 
-    def __init__(self, loop: _SegmentedLoop, split: int, chunk: int, progress):
-        self.loop, self.split, self.chunk, self.progress = loop, split, chunk, progress
+    def __init__(self, loop: _SegmentedLoop, split: int, n_sub: int, chunk: int, progress):
+        self.loop, self.n_sub, self.chunk, self.progress = loop, n_sub, chunk, progress
         self.result = loop.empty_result()
-        self._pre: dict[int, tuple] = {}
-        self._in_buffer: int | None = None
+        self._carry = loop.start()
+        loop.advance(self._carry, split, n_sub, loop.coefficients(0.0), self.result, chunk,
+                     progress)
 
-    def before_onset(self, n_sub: int) -> ClosedLoopResult:
-        """Integrate (or reuse) the part before the onset with ``n_sub`` steps per sample."""
-        if n_sub not in self._pre:
-            carry = self.loop.start()
-            self.loop.advance(carry, self.split, n_sub, self.loop.coefficients(0.0),
-                              self.result, self.chunk, self.progress)
-            cut = slice(0, self.split)
-            self._pre[n_sub] = (carry, [a[cut].copy() for a in self._arrays()])
-        elif self._in_buffer != n_sub:
-            for dst, src in zip(self._arrays(), self._pre[n_sub][1]):
-                dst[:self.split] = src
-        self._in_buffer = n_sub
-        return self.result
-
-    def run(self, k_leak: float, n_sub: int, n_sub_after: int | None = None) -> ClosedLoopResult:
-        """The whole run with coefficient ``k_leak`` (only the part after the onset is new).
-
-        ``n_sub_after`` (default ``n_sub``) integrates the part after the onset with another
-        step count: the leak's stable step.
-        """
-        self.before_onset(n_sub)
-        carry = self._pre[n_sub][0].copy()
-        self.loop.advance(carry, self.loop.n, n_sub if n_sub_after is None else n_sub_after,
+    def run(self, k_leak: float, n_sub_after: int) -> ClosedLoopResult:
+        """The whole run with coefficient ``k_leak``, ``n_sub_after`` RK4 steps per sample from
+        ``split`` on (the leak's stable step); only the part after the onset is new."""
+        self.loop.advance(self._carry.copy(), self.loop.n, n_sub_after,
                           self.loop.coefficients(k_leak), self.result, self.chunk,
                           self.progress)
         return self.result
-
-    def _arrays(self):
-        r = self.result
-        return (r.state, r.measured, r.u, r.leak_flow)
 
 
 def _antialias(cutoff_hz: float, fs: float) -> np.ndarray:
@@ -423,14 +401,14 @@ def simulate_vca(
         history: list[tuple[float, float]] = []
         k0 = None
         if fixed:
-            segments = _OnsetRestarts(loop, split, chunk, progress)
+            segments = _OnsetRestarts(loop, split, n_sub, chunk, progress)
 
             def simulate_fn(k: float) -> float:
-                q = plan.mean_lpm(segments.run(k, n_sub, substeps(k)).leak_flow)
+                q = plan.mean_lpm(segments.run(k, substeps(k)).leak_flow)
                 history.append((k, q))
                 return q
 
-            pre = segments.before_onset(n_sub)
+            pre = segments.result  # valid on [0, split) until the first trial
             k0 = coefficient_from_healthy(pre.state[:, S_P1], pre.state[:, S_P2], split, plan,
                                           ptr, laminar, reference=x_ref)
         else:
