@@ -2,7 +2,9 @@
 
 Run: ``PYTHONPATH=src python perf/sim_leak_cost.py [--repeat 3]``. Prints, per case, the
 best wall time of a healthy and a leaking run of the same experiment, their ratio, the real-time
-factor of the leaking run and the calibration's post-onset runs. Compile time is excluded (one
+factors of the leaking and the healthy run, and the calibration's post-onset and pilot runs.
+To compare two trees, run it alternately on each (``PYTHONPATH=<tree>/src``) under one
+``flock /tmp/leakdiag-heavy.lock`` and compare within that run. Compile time is excluded (one
 warm-up run first). Numbers depend on the host; quote them with the date and host load.
 """
 
@@ -43,7 +45,7 @@ def main() -> None:
     ld.sim.simulate_vca(duration=2.0, leak_lpm=0.1, onset=1.0, leak_coefficient=1e-8)
     ld.sim.simulate_eha(duration=2.0, leak_lpm=None)
     print(f"{'case':48s} {'healthy s':>9s} {'leak s':>8s} {'ratio':>6s} {'x real':>7s} "
-          f"{'runs':>4s} {'achieved/target':>15s}")
+          f"{'healthy x':>9s} {'runs':>4s} {'pilots':>6s} {'achieved/target':>15s}")
     for system, kw, label in CASES:
         fn = ld.sim.simulate_vca if system == "vca" else ld.sim.simulate_eha
         healthy = {k: v for k, v in kw.items() if k != "leak_lpm"}
@@ -51,7 +53,8 @@ def main() -> None:
         t_l, rec = _best(lambda: fn(**kw), args.repeat)
         m = rec.meta
         print(f"{label:48s} {t_h:9.3f} {t_l:8.3f} {t_l / t_h:6.2f} "
-              f"{kw['duration'] / t_l:7.0f} {m['calibration_runs']:4d} "
+              f"{kw['duration'] / t_l:7.0f} {kw['duration'] / t_h:9.0f} "
+              f"{m['calibration_runs']:4d} {m['calibration_pilot_runs']:6d} "
               f"{m['leak_lpm_achieved'] / m['leak_lpm']:15.4f}")
 
 

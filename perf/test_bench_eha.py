@@ -52,3 +52,19 @@ def test_bench_eha_180s_vs_scipy(benchmark, record_ratio, best_time, mode):
                f"{met}); {rec.meta['solver_steps']} ROS2 steps; SciPy ran {REFERENCE_S:g} s, "
                f"scaled x{scale:g}"),
     )
+
+
+def test_bench_eha_180s_calibrated_leak_vs_healthy(record_ratio, best_time):
+    """Issue 12: a leaking 180 s run (calibrated to 1.2 L/min) against the same healthy run.
+
+    Ratio = healthy / leaking time (1 = a leak costs nothing extra); CPU time, best of 3.
+    """
+    base = dict(duration=DURATION_S, onset=90.0, seed=1)
+    healthy = best_time(lambda: simulate_eha(leak_lpm=None, **base), repeats=3)
+    leak = best_time(lambda: simulate_eha(leak_lpm=1.2, **base), repeats=3)
+    m = simulate_eha(leak_lpm=1.2, **base).meta
+    record_ratio("EHA 180 s leak 1.2 L/min vs healthy", leak, healthy,
+                 n_samples=int(DURATION_S * 1000),
+                 extra=(f"{DURATION_S / leak:.0f}x real time with the leak "
+                        f"({DURATION_S / healthy:.0f}x healthy), {m['calibration_runs']} full + "
+                        f"{m['calibration_pilot_runs']} pilot run(s)"))

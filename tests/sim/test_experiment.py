@@ -93,3 +93,48 @@ def test_eha_reports_progress_over_its_runs():
     healthy = []
     simulate_eha(duration=2.0, leak_lpm=None, progress=healthy.append)
     assert healthy == [2000]
+
+
+def _steps(rng, n_holds, hold, lo, hi):
+    levels = rng.uniform(lo, hi, n_holds) * rng.choice([-1.0, 1.0], n_holds)
+    return np.repeat(levels, hold)
+
+
+def test_coefficient_from_healthy_predicts_the_window_after_the_onset_from_the_reference():
+    # the load pressure is a linear response of the reference (dp = 1e6 x, a spring): the
+    # steps after the onset are twice as large, so the mean law there is twice the one before,
+    # and the guess is Q* / mean|dp after the onset| (laminar g = |dp|), not Q* / mean before
+    fs, n = 100.0, 20_000
+    rng = np.random.default_rng(3)
+    x = np.concatenate([_steps(rng, 100, 100, 1.0, 2.0), _steps(rng, 100, 100, 2.0, 4.0)])
+    p2 = np.full(n, 5e6)
+    p1 = p2 + 1e6 * x
+    p = plan_leak(0.6, 100.0, "step", 1.0, n=n, sample_rate=fs, duration=200.0)
+    exact = 1e-5 / np.mean(np.abs(1e6 * x[10_000:]))
+    before = 1e-5 / np.mean(np.abs(1e6 * x[100:9_999]))
+    got = coefficient_from_healthy(p1, p2, 9_999, p, 1.0, True, reference=x)
+    assert got == pytest.approx(exact, rel=1e-6)
+    assert abs(before / exact - 1) > 0.4  # without the reference the guess is far off
+    assert coefficient_from_healthy(p1, p2, 9_999, p, 1.0, True) == pytest.approx(before,
+                                                                                rel=1e-12)
+    # under MIN_FIT_S = 20 s of healthy samples to fit (here 1-19.99 s) no prediction is made
+    assert coefficient_from_healthy(p1, p2, 1_999, p, 1.0, True, reference=x) == \
+        coefficient_from_healthy(p1, p2, 1_999, p, 1.0, True)
+    assert coefficient_from_healthy(p1, p2, 2_101, p, 1.0, True, reference=x) != \
+        coefficient_from_healthy(p1, p2, 2_101, p, 1.0, True)
+
+
+def test_coefficient_from_healthy_ignores_a_reference_the_pressure_does_not_follow():
+    # no load: the pressure is not a linear response of the reference (here: independent
+    # noise, R^2 ~ 0 < MIN_R2), so the guess stays the mean before the onset
+    fs, n = 100.0, 20_000
+    rng = np.random.default_rng(4)
+    x = _steps(rng, 200, 100, 1.0, 4.0)
+    p2 = np.full(n, 5e6)
+    p1 = p2 + 1e6 * rng.standard_normal(n)
+    p = plan_leak(0.6, 100.0, "step", 1.0, n=n, sample_rate=fs, duration=200.0)
+    assert coefficient_from_healthy(p1, p2, 9_999, p, 1.0, True, reference=x) == \
+        coefficient_from_healthy(p1, p2, 9_999, p, 1.0, True)
+    # a constant reference cannot be fitted either
+    assert coefficient_from_healthy(p1, p2, 9_999, p, 1.0, True, reference=np.ones(n)) == \
+        coefficient_from_healthy(p1, p2, 9_999, p, 1.0, True)

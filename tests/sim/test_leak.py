@@ -119,7 +119,7 @@ def test_calibration_nonfinite_flow():
 # ------------------------------------------------------------------ restarts, tolerance, reports
 import leakdiag as _ld  # noqa: E402
 from leakdiag.sim.leak import (  # noqa: E402
-    LEAK_REFERENCE_DP_PA, calibrate_with_pilot, check_calibrated,
+    LEAK_REFERENCE_DP_PA, calibrate_with_pilot, check_calibrated, reaction_step,
 )
 
 
@@ -162,10 +162,54 @@ def test_reference_flow_in_meta():
     assert eha.meta["leak_lpm_at_reference_dp"] == pytest.approx(want, rel=1e-12)
 
 
+def _first_order_reaction(k):
+    # q = k (1 - 0.5 q): the pressures fall in proportion to the leak flow; q = k / (1 + 0.5 k)
+    return k / (1.0 + 0.5 * k)
+
+
 def test_check_calibrated_and_pilot():
     with pytest.raises(LeakCalibrationError, match=r"2.80% from the target 0.047 L/min"):
         check_calibrated(0.047 * 0.972, 0.047, 0.02)
-    full = lambda k: 2.0 * k ** 1.3  # noqa: E731
-    res = calibrate_with_pilot(full, lambda k: 0.995 * full(k), 0.2, 1.0)
-    assert res.n_evaluations == 1 and res.n_pilot_evaluations >= 2
-    assert abs(res.achieved_lpm / 0.2 - 1) <= 0.02 and res.history[-1][1] == res.achieved_lpm
+    # no-reaction guess k0 = 0.5; the 0.5 %-biased pilot gives 0.4 * 0.995 = 0.398, so
+    # k1 = 0.5 / (2 - 0.5 / 0.398) = 0.67230 and the full run 0.67230 / 1.33615 = 0.50316
+    pilot = lambda k: 0.995 * _first_order_reaction(k)  # noqa: E731
+    res = calibrate_with_pilot(_first_order_reaction, pilot, 0.5, 0.5)
+    assert res.n_evaluations == 1 and res.n_pilot_evaluations == 1
+    assert res.coefficient == pytest.approx(0.5 / (2 - 0.5 / 0.398), rel=1e-12)
+    assert res.achieved_lpm == pytest.approx(0.50316, abs=1e-5)
+    assert res.history[-1][1] == res.achieved_lpm
+    with pytest.raises(LeakCalibrationError, match=r"pilot_fn\(0.5\) returned mean leak 0"):
+        calibrate_with_pilot(_first_order_reaction, lambda k: 0.0, 0.5, 0.5)
+
+
+def test_reaction_step_hand_values_and_first_step():
+    # 20 % low: 1 / (2 - 1.25); outside [2/3, 1.5] the proportional correction
+    assert reaction_step(0.5, 0.4, 0.5) == pytest.approx(0.5 / 0.75, rel=1e-15)
+    assert reaction_step(1.0, 1.1, 1.0) == pytest.approx(1.0 / (2.0 - 1.0 / 1.1), rel=1e-15)
+    assert reaction_step(1.0, 0.25, 1.0) == 4.0 and reaction_step(1.0, 2.0, 1.0) == 0.5
+    # a first-order reaction: the reaction step lands exactly on the second run (0.6667 ->
+    # 0.5), the proportional one needs a third (0.625 -> 0.47619, then the secant)
+    res = calibrate_leak_coefficient(_first_order_reaction, 0.5, 0.5, first_step="reaction")
+    assert res.n_evaluations == 2 and res.achieved_lpm == pytest.approx(0.5, rel=1e-12)
+    prop = calibrate_leak_coefficient(_first_order_reaction, 0.5, 0.5)
+    assert prop.n_evaluations == 3 and prop.history[1][1] == pytest.approx(0.625 / 1.3125)
+    with pytest.raises(ValueError, match="first_step='newton' must be"):
+        calibrate_leak_coefficient(_first_order_reaction, 0.5, 0.5, first_step="newton")
+
+
+def test_bracketed_search_uses_illinois_on_a_convex_response():
+    # a kink (slope 1, then 10: a large leak without load turns superlinear, docs/models.md):
+    # once runs bracket the target the regula falsi keeps the bracket and halves a stuck
+    # end's residual: 6 runs (the secant through the last two runs alone took 11)
+    def kinked(k):
+        return k if k <= 1.0 else 1.0 + 10.0 * (k - 1.0)
+
+    res = calibrate_leak_coefficient(kinked, 1.5, 1.0, rtol=1e-3, max_evaluations=40)
+    assert abs(res.achieved_lpm / 1.5 - 1) <= 1e-3 and res.n_evaluations == 6
+    h = res.history
+    first = next(i for i in range(len(h)) if {q < 1.5 for _, q in h[:i + 1]} == {True, False})
+    assert first == 1
+    for i in range(first + 1, len(h)):  # every later run lies inside the bracket before it
+        lo = max(k for k, q in h[:i] if q < 1.5)
+        hi = min(k for k, q in h[:i] if q > 1.5)
+        assert lo < h[i][0] < hi

@@ -9,7 +9,9 @@ integrator and drive; everything else is here, so both follow one convention:
 * the leak is a :class:`LeakPlan`: the target mean :math:`|Q_l|` after the onset (Sec. 4.5,
   Sec. 4.6), the schedule :math:`s(t)`, and the first sample at or after the onset;
 * the coefficient :math:`k_l` is calibrated by :func:`calibrate_leak` from a first guess taken
-  from the healthy pressures before the onset (:func:`coefficient_from_healthy`), within
+  from the healthy pressures before the onset (:func:`coefficient_from_healthy`, with the
+  window after the onset predicted from the reference where the load pressure follows it,
+  :mod:`leakdiag.sim.linear_response`), within
   ``calibration_rtol`` (2 % by default), and the delivered run is checked against the target;
 * the metadata every recording carries come from :func:`experiment_metadata`.
 """
@@ -41,6 +43,7 @@ from leakdiag.sim.leak import (
     m3s_to_lpm,
     too_short_to_calibrate,
 )
+from leakdiag.sim.linear_response import window_ratio
 from leakdiag.sim.machine import resolve_machine
 
 __all__ = ["Setup", "setup", "random_streams", "LeakPlan", "plan_leak",
@@ -264,7 +267,8 @@ def plan_leak(leak_lpm, onset, leak_kind: str, ramp_duration, *, n: int, sample_
 
 
 def coefficient_from_healthy(p1: np.ndarray, p2: np.ndarray, split: int, plan: LeakPlan,
-                             transition_pa: float, laminar: bool) -> float | None:
+                             transition_pa: float, laminar: bool,
+                             reference: np.ndarray | None = None) -> float | None:
     """First guess of :math:`k_l` from the healthy pressures before the onset.
 
     Parameters
@@ -279,6 +283,11 @@ def coefficient_from_healthy(p1: np.ndarray, p2: np.ndarray, split: int, plan: L
         Laminar core of the turbulent law.
     laminar : bool
         Eq. 2-5 instead of Eq. 2-4.
+    reference : numpy.ndarray, optional
+        The run's reference at every sample. When given and the load pressure is a linear
+        response to it (:func:`~leakdiag.sim.linear_response.window_ratio`), the mean after the
+        onset is predicted from the reference after the onset instead of taken equal to the
+        mean before it.
 
     Returns
     -------
@@ -286,7 +295,10 @@ def coefficient_from_healthy(p1: np.ndarray, p2: np.ndarray, split: int, plan: L
         :math:`Q^* / (\\overline{s(t)}\\;\\overline{|g(P_1 - P_2)|})`, the means over the
         samples from the onset on and over ``[1 s, split)`` (past the start-up), with
         :math:`g` the leak law of :func:`~leakdiag.sim.leak.leak_flow` with unit coefficient:
-        exact if the pressures did not react to the leak. None if fewer than 1 s of healthy
+        exact if the pressures did not react to the leak and the window after the onset had
+        the mean of the one before. With a linear response to ``reference``,
+        :math:`\\overline{s(t)}` is replaced by the predicted ratio of
+        :func:`~leakdiag.sim.linear_response.window_ratio`. None if fewer than 1 s of healthy
         samples or no pressure difference.
 
     Examples
@@ -305,12 +317,18 @@ def coefficient_from_healthy(p1: np.ndarray, p2: np.ndarray, split: int, plan: L
     mult = float(np.mean(plan.schedule.multipliers(np.arange(plan.onset_index, plan.n) / fs)))
     if not (g > 0 and mult > 0 and math.isfinite(g)):
         return None
+    if reference is not None:
+        ratio = window_ratio(reference, p1[:split] - p2[:split], i0, split, plan.onset_index, fs,
+                             lambda d: np.abs(leak_flow(1.0, d, transition_pa, laminar)),
+                             plan.schedule.multipliers)
+        if ratio is not None and ratio > 0:
+            return lpm_to_m3s(plan.target_lpm) / (ratio * g)
     return lpm_to_m3s(plan.target_lpm) / (mult * g)
 
 
 def calibrate_leak(plan: LeakPlan, simulate_fn: Callable[[float], float], k0: float,
-                   rtol: float, history, pilot_fn: Callable[[float], float] | None = None
-                   ) -> CalibrationResult:
+                   rtol: float, history, pilot_fn: Callable[[float], float] | None = None,
+                   first_step: str = "proportional") -> CalibrationResult:
     """Calibrate :math:`k_l` to the plan's target; a failure on a short run says so.
 
     Parameters
@@ -326,7 +344,11 @@ def calibrate_leak(plan: LeakPlan, simulate_fn: Callable[[float], float], k0: fl
     history : list
         The ``(k, L/min)`` pairs ``simulate_fn`` records, for the error message.
     pilot_fn : callable, optional
-        A cheaper model searched first (:func:`~leakdiag.sim.leak.calibrate_with_pilot`).
+        A cheaper model run once at ``k0`` first
+        (:func:`~leakdiag.sim.leak.calibrate_with_pilot`).
+    first_step : {"proportional", "reaction"}, default "proportional"
+        Without a pilot, the correction after the first run
+        (:func:`~leakdiag.sim.leak.calibrate_leak_coefficient`).
 
     Returns
     -------
@@ -346,7 +368,8 @@ def calibrate_leak(plan: LeakPlan, simulate_fn: Callable[[float], float], k0: fl
     """
     try:
         if pilot_fn is None:
-            return calibrate_leak_coefficient(simulate_fn, plan.target_lpm, k0, rtol=rtol)
+            return calibrate_leak_coefficient(simulate_fn, plan.target_lpm, k0, rtol=rtol,
+                                              first_step=first_step)
         return calibrate_with_pilot(simulate_fn, pilot_fn, plan.target_lpm, k0, rtol=rtol)
     except LeakCalibrationError as exc:
         if plan.window_s < MIN_CALIBRATION_WINDOW_S:

@@ -17,15 +17,23 @@ integrator.
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from dataclasses import dataclass, field
-from typing import Callable
+from dataclasses import dataclass
 
 import numba
 import numpy as np
 
 from leakdiag._validation import check_positive
+from leakdiag.sim.calibration import (  # noqa: F401  (re-exported: the leak API in one place)
+    MIN_CALIBRATION_WINDOW_S,
+    CalibrationResult,
+    LeakCalibrationError,
+    calibrate_leak_coefficient,
+    calibrate_with_pilot,
+    check_calibrated,
+    reaction_step,
+    too_short_to_calibrate,
+)
 from leakdiag.sim.orifice import orifice_flow
 
 __all__ = [
@@ -41,6 +49,7 @@ __all__ = [
     "calibrate_leak_coefficient",
     "check_calibrated",
     "calibrate_with_pilot",
+    "reaction_step",
     "too_short_to_calibrate",
     "LEAK_REFERENCE_DP_PA",
     "MIN_CALIBRATION_WINDOW_S",
@@ -53,11 +62,6 @@ LPM_PER_M3S = 60_000.0
 #: (``meta["leak_lpm_at_reference_dp"]``): 1 MPa, inside the load-pressure range of both rigs
 #: (VCA spring load ~0.8 MPa typical, EHA 0.1-2 MPa), so a coefficient reads as a flow.
 LEAK_REFERENCE_DP_PA = 1e6
-
-#: Shortest stretch after the onset, s, over which a mean leak is a usable calibration target:
-#: a few reference steps (1-5 s holds, VCA) or input periods (pi/2 s, EHA). A calibration that
-#: fails on a shorter stretch is reported as "too short to calibrate".
-MIN_CALIBRATION_WINDOW_S = 10.0
 
 #: Schedule kinds and their integer code in :meth:`LeakSchedule.to_array`.
 LEAK_KINDS: dict[str, int] = {"none": 0, "step": 1, "ramp": 2}
@@ -105,7 +109,7 @@ def m3s_to_lpm(m3s: float) -> float:
     return float(m3s) * LPM_PER_M3S
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def leak_flow(coefficient, dp, transition_pa, laminar):
     """Internal leakage flow from chamber 1 to chamber 2, the leak law of both rigs (m^3/s).
 
@@ -258,7 +262,7 @@ class LeakSchedule:
         return float(coefficient) * self.multipliers(time)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def leak_multiplier(t, schedule):
     """Leak-coefficient multiplier at time ``t`` from an encoded schedule (Numba-compiled).
 
@@ -289,273 +293,10 @@ def leak_multiplier(t, schedule):
     return r if r < 1.0 else 1.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _multipliers(t, schedule):
     """:func:`leak_multiplier` at each time of the 1-D array ``t``."""
     out = np.empty(t.shape[0])
     for i in range(t.shape[0]):
         out[i] = leak_multiplier(t[i], schedule)
     return out
-
-
-class LeakCalibrationError(RuntimeError):
-    """The leak coefficient could not be calibrated to the target within the tolerance."""
-
-
-@dataclass(frozen=True)
-class CalibrationResult:
-    """Outcome of :func:`calibrate_leak_coefficient`.
-
-    Attributes
-    ----------
-    coefficient : float
-        Calibrated leakage coefficient (units of the simulator's leak law).
-    achieved_lpm : float
-        Mean |Q_leak| after the onset with that coefficient, L/min.
-    target_lpm : float
-        Requested mean leak, L/min.
-    n_evaluations : int
-        Number of simulator runs used.
-    history : tuple of (float, float)
-        ``(coefficient, achieved_lpm)`` of every run, in order.
-    n_pilot_evaluations : int
-        Runs of a cheaper pilot model before the first full run
-        (:func:`calibrate_with_pilot`), not counted in ``n_evaluations``.
-    """
-
-    coefficient: float
-    achieved_lpm: float
-    target_lpm: float
-    n_evaluations: int
-    history: tuple[tuple[float, float], ...] = field(default=())
-    n_pilot_evaluations: int = 0
-
-    @property
-    def relative_error(self) -> float:
-        """``|achieved - target| / target``."""
-        return abs(self.achieved_lpm - self.target_lpm) / self.target_lpm
-
-
-def calibrate_leak_coefficient(
-    simulate_fn: Callable[[float], float],
-    target_lpm: float,
-    initial_coefficient: float,
-    rtol: float = 0.02,
-    max_evaluations: int = 12,
-) -> CalibrationResult:
-    """Find the leakage coefficient whose simulated mean |Q_leak| after onset hits a target.
-
-    Parameters
-    ----------
-    simulate_fn : callable
-        ``simulate_fn(coefficient) -> mean |Q_leak| after the onset in L/min``. Must be
-        deterministic (same seed every call) and increase with the coefficient.
-    target_lpm : float
-        Target mean leak in L/min, > 0.
-    initial_coefficient : float
-        First guess of the coefficient, > 0 (e.g. the target flow divided by the law evaluated
-        at a typical pressure difference).
-    rtol : float, default 0.02
-        Accept when ``|achieved - target| <= rtol * target`` (the issue's 2 %); the first run
-        that meets it ends the search.
-    max_evaluations : int, default 12
-        Maximum number of simulator runs.
-
-    Returns
-    -------
-    CalibrationResult
-        Coefficient, achieved flow and the run history.
-
-    Raises
-    ------
-    ValueError
-        If ``target_lpm``, ``initial_coefficient`` or ``rtol`` is not positive.
-    LeakCalibrationError
-        If ``simulate_fn`` returns a non-positive or non-finite flow, or the tolerance is not
-        met within ``max_evaluations`` runs.
-
-    Notes
-    -----
-    The mean leak is close to proportional to the coefficient (exactly so if the pressure
-    difference did not react to the leak, Eqs. 2-4 and 2-5), so the search is a secant
-    iteration on :math:`\\log q(\\log k)`: the first step is the proportional correction
-    :math:`k_1 = k_0\\,q^*/q(k_0)`, later steps use the measured log-log slope (clipped to
-    [0.2, 5]). Typically 2-4 simulator runs are needed, so calibrating costs 2-4 times one
-    simulation; pass a shorter run to ``simulate_fn`` to make it cheaper (the mean leak then
-    comes from fewer reference steps and generalises less exactly).
-
-    Examples
-    --------
-    A made-up simulator whose mean leak grows like :math:`k^{0.8}`:
-
-    >>> res = calibrate_leak_coefficient(lambda k: 3.0 * k ** 0.8, 0.1, initial_coefficient=1.0)
-    >>> abs(res.achieved_lpm - 0.1) <= 0.002
-    True
-    >>> res.n_evaluations <= 4
-    True
-    """
-    target = check_positive(target_lpm, "target_lpm")
-    k = check_positive(initial_coefficient, "initial_coefficient")
-    rtol = check_positive(rtol, "rtol")
-    history: list[tuple[float, float]] = []
-
-    def run(coef: float) -> float:
-        q = float(simulate_fn(coef))
-        if not math.isfinite(q) or q <= 0:
-            raise LeakCalibrationError(
-                f"simulate_fn({coef:.6g}) returned mean leak {q!r} L/min; it must be finite and "
-                "> 0 (is the onset inside the run and the schedule not 'none'?)"
-            )
-        history.append((coef, q))
-        return q
-
-    q = run(k)
-    slope = 1.0
-    while True:
-        if abs(q - target) <= rtol * target:
-            break
-        if len(history) >= max_evaluations:
-            raise LeakCalibrationError(
-                f"leak calibration did not reach target_lpm={target} within rtol={rtol} after "
-                f"{len(history)} runs; history (coefficient, L/min): {history}"
-            )
-        if len(history) >= 2:
-            (k0, q0), (k1, q1) = history[-2], history[-1]
-            if k0 != k1 and q0 != q1:
-                slope = (math.log(q1) - math.log(q0)) / (math.log(k1) - math.log(k0))
-                slope = min(max(slope, 0.2), 5.0)
-        k = k * math.exp((math.log(target) - math.log(q)) / slope)
-        q = run(k)
-    return CalibrationResult(k, q, target, len(history), tuple(history))
-
-
-def check_calibrated(achieved_lpm: float, target_lpm: float, rtol: float) -> float:
-    """Verify a delivered run's mean leak against its target (the calibration's promise).
-
-    Parameters
-    ----------
-    achieved_lpm : float
-        Mean |Q_leak| after the onset of the delivered run, L/min.
-    target_lpm : float
-        Requested mean leak, L/min.
-    rtol : float
-        Relative tolerance.
-
-    Returns
-    -------
-    float
-        ``achieved_lpm``, unchanged.
-
-    Raises
-    ------
-    LeakCalibrationError
-        If ``|achieved - target| > rtol * target``.
-
-    Examples
-    --------
-    >>> check_calibrated(0.0465, 0.047, 0.02)
-    0.0465
-    """
-    if not abs(achieved_lpm - target_lpm) <= rtol * target_lpm:
-        raise LeakCalibrationError(
-            f"the delivered run's mean leak after the onset is {achieved_lpm:.6g} L/min, "
-            f"{abs(achieved_lpm / target_lpm - 1):.2%} from the target {target_lpm} L/min "
-            f"(tolerance {rtol:.0%})")
-    return achieved_lpm
-
-
-def too_short_to_calibrate(leak_lpm: float, window_s: float, cause: Exception,
-                           history=()) -> LeakCalibrationError:
-    """The error for a run whose stretch after the onset is too short to calibrate a leak.
-
-    Parameters
-    ----------
-    leak_lpm : float
-        Target mean leak, L/min.
-    window_s : float
-        Length of the run after the onset, s.
-    cause : Exception
-        What the calibration ran into.
-    history : sequence of (float, float), optional
-        ``(coefficient, L/min)`` of the runs tried.
-
-    Returns
-    -------
-    LeakCalibrationError
-        With a message that says the run is too short and what to do.
-
-    Examples
-    --------
-    >>> str(too_short_to_calibrate(0.1, 1.0, RuntimeError("x")))[:60]
-    'the run is too short to calibrate a 0.1 L/min leak: 1 s afte'
-    """
-    tried = ", ".join(f"{k:.3g} -> {q:.3g} L/min" for k, q in history)
-    return LeakCalibrationError(
-        f"the run is too short to calibrate a {leak_lpm} L/min leak: {window_s:g} s after the "
-        f"onset, and a mean leak over fewer than {MIN_CALIBRATION_WINDOW_S:g} s depends on the "
-        "few reference steps in it. Make the run longer or the onset earlier, or give "
-        "leak_coefficient= instead of leak_lpm. "
-        f"(Calibration stopped: {cause}{'; tried ' + tried if tried else ''})")
-
-
-def calibrate_with_pilot(
-    simulate_fn: Callable[[float], float],
-    pilot_fn: Callable[[float], float],
-    target_lpm: float,
-    initial_coefficient: float,
-    rtol: float = 0.02,
-    pilot_rtol: float | None = None,
-    max_evaluations: int = 12,
-) -> CalibrationResult:
-    """Calibrate on a cheap pilot model first, then confirm (and if needed refine) on the full one.
-
-    Parameters
-    ----------
-    simulate_fn : callable
-        The delivered experiment: ``simulate_fn(k) -> mean |Q_leak| after the onset``, L/min.
-    pilot_fn : callable
-        A cheaper approximation of it (e.g. the same run with a coarser integration step); it
-        only has to be close, the tolerance is checked on ``simulate_fn``.
-    target_lpm : float
-        Target mean leak, L/min.
-    initial_coefficient : float
-        First guess, > 0.
-    rtol : float, default 0.02
-        Tolerance on the full run.
-    pilot_rtol : float, optional
-        Tolerance of the pilot search; default ``rtol / 4``.
-    max_evaluations : int, default 12
-        Limit for each of the two searches.
-
-    Returns
-    -------
-    CalibrationResult
-        The full run's coefficient and mean; ``n_evaluations`` counts full runs,
-        ``n_pilot_evaluations`` pilot runs; ``history`` lists the full runs.
-
-    Raises
-    ------
-    LeakCalibrationError
-        As :func:`calibrate_leak_coefficient`.
-
-    Notes
-    -----
-    The pilot search is :func:`calibrate_leak_coefficient` on ``pilot_fn`` to ``pilot_rtol``;
-    the full search starts from its coefficient, so when the pilot's bias is well inside
-    ``rtol - pilot_rtol`` one full run suffices. The last full run is the accepted one.
-
-    Examples
-    --------
-    >>> full = lambda k: 3.0 * k ** 0.8
-    >>> pilot = lambda k: 1.004 * full(k)          # a 0.4 % biased cheap model
-    >>> res = calibrate_with_pilot(full, pilot, 0.1, initial_coefficient=1.0)
-    >>> res.n_evaluations, abs(res.achieved_lpm / 0.1 - 1) <= 0.02
-    (1, True)
-    """
-    rtol = check_positive(rtol, "rtol")
-    pilot_rtol = rtol / 4 if pilot_rtol is None else check_positive(pilot_rtol, "pilot_rtol")
-    pilot = calibrate_leak_coefficient(pilot_fn, target_lpm, initial_coefficient,
-                                       rtol=pilot_rtol, max_evaluations=max_evaluations)
-    full = calibrate_leak_coefficient(simulate_fn, target_lpm, pilot.coefficient, rtol=rtol,
-                                      max_evaluations=max_evaluations)
-    return dataclasses.replace(full, n_pilot_evaluations=pilot.n_evaluations)

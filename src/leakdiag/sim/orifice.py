@@ -21,7 +21,7 @@ import numpy as np
 __all__ = ["signed_sqrt", "orifice_flow"]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def signed_sqrt(dp, transition_pa):
     """Regularised :math:`\\mathrm{sgn}(\\Delta p)\\sqrt{|\\Delta p|}`, laminar below ~``transition_pa``.
 
@@ -47,7 +47,7 @@ def signed_sqrt(dp, transition_pa):
     return dp / np.sqrt(np.sqrt(dp * dp + transition_pa * transition_pa))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def orifice_flow(coefficient, dp, transition_pa):
     """Turbulent orifice flow with a laminar core, ``k dp / (dp^2 + p_t^2)^(1/4)``.
 
@@ -82,7 +82,7 @@ def orifice_flow(coefficient, dp, transition_pa):
     return coefficient * dp / np.sqrt(np.sqrt(dp * dp + transition_pa * transition_pa))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _dorifice(coefficient, dp, transition_pa):
     """d orifice_flow / d dp."""
     r2 = dp * dp + transition_pa * transition_pa

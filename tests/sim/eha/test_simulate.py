@@ -25,6 +25,30 @@ def test_calibrated_leak_hits_target_within_2_percent(target):
     assert 1 <= rec.meta["calibration_runs"] <= 6
 
 
+@pytest.mark.parametrize("kw", [dict(leak_lpm=1.2), dict(leak_lpm=0.77, load="spring"),
+                                dict(leak_lpm=0.8, mode="closed-loop"),
+                                dict(leak_lpm=0.3, machine=3)])
+def test_a_typical_leak_costs_one_pilot_and_one_full_run(monkeypatch, kw):
+    # the pilot at the first guess measures the pressures' reaction; the coefficient of a
+    # reaction first order in the leak flow lands within 2 % on the first full run: the part
+    # before the onset, one pilot (4x rtol) and one full part after it
+    from leakdiag.sim.eha import simulate as eha_simulate
+
+    rtols = []
+    fast = eha_simulate.integrate_fast
+
+    def logged(y0, inputs, params, sample_rate, **options):
+        rtols.append((inputs.shape[0], options["rtol"]))
+        return fast(y0, inputs, params, sample_rate, **options)
+
+    monkeypatch.setattr(eha_simulate, "integrate_fast", logged)
+    rec = simulate_eha(duration=40.0, onset=20.0, **kw)
+    rtol = rec.meta["rtol"]
+    assert rtols == [(20_000, rtol), (20_001, 4 * rtol), (20_001, rtol)]
+    assert rec.meta["calibration_runs"] == 1 and rec.meta["calibration_pilot_runs"] == 1
+    assert abs(rec.meta["leak_lpm_achieved"] / kw["leak_lpm"] - 1) <= 0.02
+
+
 def test_ramp_leak_grows_and_hits_target():
     rec = simulate_eha(leak_lpm=1.2, leak_kind="ramp", ramp_duration=3.0, sensors=False, **SHORT)
     q = np.abs(rec["leak_flow"])

@@ -104,7 +104,8 @@ def test_sensors_quantise_and_add_noise():
     assert not np.allclose(np.diff(true["x"][:50]) % s.position_resolution_m, 0)
 
 
-def test_python_controller_equals_compiled_controller():
+def _python_fixed_gain_controller():
+    """The fixed-gain law of the compiled path, written as a Python controller."""
     g = FixedGainController()
     state = {"i": 0.0}
 
@@ -117,6 +118,11 @@ def test_python_controller_equals_compiled_controller():
             state["i"] = new
         return u
 
+    return ctrl
+
+
+def test_python_controller_equals_compiled_controller():
+    ctrl = _python_fixed_gain_controller()
     kw = dict(leak_lpm=None, duration=0.6, sensors=False, seed=1)
     fast = simulate_vca(**kw)
     slow = simulate_vca(controller=ctrl, **kw)
@@ -190,3 +196,69 @@ def test_python_controller_with_sensors_sees_quantised_position_and_drives_dac()
     assert np.allclose(np.asarray(seen) / q, np.round(np.asarray(seen) / q), atol=1e-6)
     dac = 20.0 / 4096
     assert np.allclose(r["u"] / dac, np.round(r["u"] / dac), atol=1e-6)
+
+
+def _integration_work(monkeypatch):
+    """Log samples x RK4 steps of every integration the simulator performs."""
+    from leakdiag.sim.vca import integrate
+
+    work = []
+    advance = integrate._SegmentedLoop.advance
+
+    def logged(self, carry, stop, n_sub, k_arr, out, chunk=None, callback=None):
+        work.append((stop - carry.index) * n_sub)
+        advance(self, carry, stop, n_sub, k_arr, out, chunk, callback)
+
+    monkeypatch.setattr(integrate._SegmentedLoop, "advance", logged)
+    return work
+
+
+@pytest.mark.parametrize("kw", [
+    dict(leak_lpm=0.047, leak_model="turbulent", seed=1),
+    dict(leak_lpm=0.1, leak_model="laminar", seed=2, machine=17),
+    dict(leak_lpm=0.02, leak_model="turbulent", seed=3, machine=17,
+         conditions=OperatingConditions(temperature_rise_k=8.0)),
+])
+def test_a_spring_leak_costs_one_healthy_run(monkeypatch, kw):
+    # with the spring the load pressure follows the reference, so the first guess predicts the
+    # window after the onset and the first post-onset run lands within 2 %: the part before
+    # the onset once plus one part after it, exactly the integration work of a healthy run
+    work = _integration_work(monkeypatch)
+    base = dict(duration=120.0, onset=60.0, load="spring")
+    simulate_vca(**base, **{k: v for k, v in kw.items() if k != "leak_lpm"}, leak_lpm=None)
+    healthy = sum(work)
+    work.clear()
+    rec = simulate_vca(**base, **kw)
+    assert rec.meta["calibration_runs"] == 1 and len(work) == 2
+    assert sum(work) == healthy == 120_000 * 4
+    assert abs(rec.meta["leak_lpm_achieved"] / kw["leak_lpm"] - 1) <= 0.02
+
+
+def test_a_large_leak_takes_its_smaller_step_only_after_the_onset(monkeypatch):
+    # 0.5 L/min without load needs 7-8 RK4 steps per sample after the onset; the leak-free part
+    # keeps the base step, so it equals the healthy run's, and the run equals a whole run with
+    # the delivered coefficient
+    kw = dict(duration=12.0, onset=6.0, seed=2)
+    work = _integration_work(monkeypatch)
+    rec = simulate_vca(leak_lpm=0.5, **kw)
+    steps_after = [w // 6_001 for w in work[1:]]
+    assert work[0] == 5_999 * 4 and [s * 6_001 for s in steps_after] == work[1:]
+    assert min(steps_after) >= 4 and steps_after[-1] > 4
+    assert rec.meta["rk4_step_before_onset_s"] == 2.5e-4
+    assert rec.meta["rk4_step_s"] == 1.0 / (1000.0 * steps_after[-1])
+    healthy = simulate_vca(leak_lpm=None, **kw)
+    for name in ("p1", "p2", "x", "u"):
+        assert np.array_equal(rec[name][:5_999], healthy[name][:5_999]), name
+    again = simulate_vca(leak_coefficient=rec.meta["leak_coefficient"], **kw)
+    for name in rec.channel_names:
+        assert np.array_equal(rec[name], again[name]), name
+
+
+def test_python_controller_takes_the_same_two_steps_as_the_compiled_one():
+    ctrl = _python_fixed_gain_controller()
+    kw = dict(leak_coefficient=1e-7, onset=0.3, duration=0.6, sensors=False, seed=1)
+    fast = simulate_vca(**kw)
+    slow = simulate_vca(controller=ctrl, **kw)
+    assert fast.meta["rk4_step_s"] < fast.meta["rk4_step_before_onset_s"]
+    assert np.allclose(fast["x"], slow["x"], rtol=0, atol=1e-12)
+    assert np.allclose(fast["leak_flow"], slow["leak_flow"], rtol=0, atol=1e-15)

@@ -14,7 +14,7 @@ from leakdiag.sim.orifice import _dorifice, orifice_flow
 __all__ = ["orifice_flow", "line_orifice_flow", "check_valve_flow"]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _smoothstep(r):
     """C1 switch: 0 for ``r <= 0``, ``3r^2 - 2r^3`` on ``(0, 1)``, 1 for ``r >= 1``."""
     if r <= 0.0:
@@ -24,7 +24,7 @@ def _smoothstep(r):
     return r * r * (3.0 - 2.0 * r)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def line_orifice_flow(k_free, k_restricted, dp, transition_pa):
     """Flow through a line orifice with a free and a restricted direction (Eqs. 3-9 to 3-12).
 
@@ -61,7 +61,7 @@ def line_orifice_flow(k_free, k_restricted, dp, transition_pa):
     return orifice_flow(k, dp, transition_pa)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def check_valve_flow(coefficient, dp, opening_pa, transition_pa):
     """Flow through an accumulator check valve, closed for ``dp <= 0``.
 
@@ -98,14 +98,14 @@ def check_valve_flow(coefficient, dp, opening_pa, transition_pa):
     return _smoothstep(dp / opening_pa) * orifice_flow(coefficient, dp, transition_pa)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _dsmoothstep(r):
     if r <= 0.0 or r >= 1.0:
         return 0.0
     return 6.0 * r * (1.0 - r)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _dline_orifice(k_free, k_restricted, dp, transition_pa):
     """d line_orifice_flow / d dp."""
     r = 0.5 * (dp + transition_pa) / transition_pa
@@ -114,7 +114,7 @@ def _dline_orifice(k_free, k_restricted, dp, transition_pa):
     return _dorifice(k, dp, transition_pa) + dk * orifice_flow(1.0, dp, transition_pa)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _dcheck_valve(coefficient, dp, opening_pa, transition_pa):
     """d check_valve_flow / d dp."""
     if dp <= 0.0:

@@ -98,7 +98,7 @@ def _lu_solve(a, piv, b):
         b[r] = s / a[r, r]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, out, stats,
                  carry, jac, sched, fs):
     """Adaptive ROS2 between output samples; writes states at the samples into ``out``.

@@ -25,7 +25,7 @@ from leakdiag.sim.eha.params import (
 __all__: list[str] = []
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _jacobian_into(t, y, inputs, p, jac):
     """Write the analytic Jacobian d f / d y of :func:`_rhs_into` into ``jac`` (9 x 9)."""
     for r in range(N_STATES):

@@ -49,7 +49,7 @@ TWO_PI = 2.0 * np.pi
 MIN_VOLUME_FRACTION = 0.05  # chamber volume floor (fraction of V) if an end stop is overrun
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def eha_command(state, inputs, params):
     """Command voltage seen by the drive: ``u`` (open loop) or ``K_x (x_ref - x)`` (closed loop).
 
@@ -88,7 +88,7 @@ def eha_command(state, inputs, params):
     return u
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def eha_leak_flow(state, inputs, params):
     """Internal leakage flow from chamber 1 to chamber 2, m^3/s (Eq. 2-4, turbulent).
 
@@ -121,7 +121,7 @@ def eha_leak_flow(state, inputs, params):
     return leak_flow(k, state[S_P1] - state[S_P2], params[P_PTR], False)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _rhs_into(t, y, inputs, p, out):
     """Write dy/dt into ``out`` (no allocation); see :func:`eha_rhs`."""
     x = y[S_X]
@@ -205,7 +205,7 @@ def _rhs_into(t, y, inputs, p, out):
     out[S_Z] = dz
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def eha_rhs(t, state, inputs, params):
     """Time derivative of the EHA state (Numba-compiled; callable from Python and Numba).
 

@@ -55,7 +55,7 @@ DEFAULT_FREQUENCY_RAD_S = 4.0
 #: pump is a flow source, so the mean leak can never reach its mean flow, and close to it the
 #: coefficient (and the stiffness) would grow without bound.
 MAX_LEAK_FRACTION = 0.75
-#: The calibration's pilot runs use this multiple of the delivered rtol after the onset (about
+#: The calibration's pilot run uses this multiple of the delivered rtol after the onset (about
 #: half the steps of ROS2, order 2); only the delivered run is checked against the target.
 PILOT_RTOL_FACTOR = 4.0
 
@@ -344,10 +344,11 @@ def simulate_eha(
     :math:`|Q_l|` over the samples at or after the onset (Sec. 4.6, "the average leak after 90
     seconds"). The calibration integrates the leak-free part before the onset once, guesses the
     coefficient from its healthy pressures and reruns only the part after the onset (continuing
-    the solver, bit-identical to a whole run) until the mean is within ``calibration_rtol``,
-    first on pilots with 4x the rtol (``calibration_pilot_runs``), then on the delivered
-    tolerance (``calibration_runs``, usually 1); the delivered run is checked against the
-    target. The integrator applies the leak schedule to the coefficient at the output samples
+    the solver, bit-identical to a whole run) until the mean is within ``calibration_rtol``:
+    one pilot with 4x the rtol at the first guess measures the pressures' reaction to the leak
+    (``calibration_pilot_runs`` = 1), then the delivered tolerance from the coefficient that a
+    reaction first order in the leak flow gives (``calibration_runs``, 1 in the cases
+    measured, docs/models.md); the delivered run is checked against the target. The integrator applies the leak schedule to the coefficient at the output samples
     (as the VCA kernel does) and interpolates in between, so a step leak rises over the one
     sample interval before the onset sample. In closed-loop mode the position loop sees the true position.
 

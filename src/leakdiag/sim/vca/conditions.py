@@ -118,7 +118,7 @@ class OperatingConditions:
                          self.spring_change_factor], dtype=np.float64)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def fill_inputs(t, u, leak_coefficient, schedule, cond, inputs):
     """Write the ``vca_rhs`` inputs at time ``t`` into ``inputs`` (Numba-compiled).
 

@@ -89,7 +89,7 @@ class FixedGainController:
         return asdict(self)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def control_law(error, integral, load_pressure, dt, gains, u_max):
     """One step of the fixed-gain control law (Numba-compiled).
 

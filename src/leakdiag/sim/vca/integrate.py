@@ -4,6 +4,16 @@ At each output sample the kernel records the true state, measures (encoder, ADC)
 control signal from the *measured* signals, and integrates ``n_sub`` RK4 steps with the control
 held (zero-order hold). The leak schedule and the operating conditions are evaluated at every
 RK4 stage time.
+
+The Numba functions of the integration path (here, ``model``, ``control``, ``conditions``,
+``orifice``, ``leak`` and the EHA's model and kernel) are compiled with
+``error_model="numpy"``: Numba then drops the zero test it adds before every float division to
+raise ``ZeroDivisionError``. Every divisor there is a parameter validated > 0 or a volume
+clamped above zero, so the results are bit-identical and the VCA 15-20 % faster (EHA ~8 %;
+docs/models.md). The EHA's LU factorisation keeps the test (a singular pivot still raises).
+``_rk4_steps`` and the model's ``_rhs_into`` are inlined into the sample loop
+(``inline="always"``): a call per sample with its array arguments cost about 100 ns, a third
+of a sample at 4 RK4 steps; same arithmetic, bit-identical.
 """
 
 from __future__ import annotations
@@ -28,7 +38,7 @@ __all__ = ["ClosedLoopResult", "integrate_closed_loop", "rk4_advance", "valve_nu
            "sos_step"]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def valve_null_v(t, prm, cond):
     """Null offset of the valve at time ``t``: ``u_0 + s_T dT(t)`` in V (Numba-compiled).
 
@@ -65,7 +75,7 @@ def valve_null_v(t, prm, cond):
     return u0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def sos_step(x, sos, zi):
     """One sample through cascaded second-order sections (transposed direct form II).
 
@@ -102,7 +112,7 @@ def sos_step(x, sos, zi):
     return y
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _rk4_steps(s, t0, h, n_steps, u, k_leak, sched, cond, prm, ps_max,
                k1, k2, k3, k4, tmp, inp):
     # Inputs are evaluated at every stage time only with a supply ripple (the one fast
@@ -139,7 +149,7 @@ def _rk4_steps(s, t0, h, n_steps, u, k_leak, sched, cond, prm, ps_max,
                 s[i] = ps_max
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _closed_loop_kernel(s, integ, i0, i1, prm, gains, u_max, x_ref, sched, k_arr, cond, n_sub,
                         dt_out, noise1, noise2, sens, use_sensors, sos, zi_unit, zi1, zi2,
                         out_state, out_meas, out_u, out_q):

@@ -59,7 +59,7 @@ def default_inputs(u: float = 0.0, leak_coefficient: float = 0.0) -> np.ndarray:
     return np.array([u, leak_coefficient, 0.0, 1.0, 1.0, 1.0], dtype=np.float64)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def vca_leak_flow(p1, p2, leak_coefficient, params):
     """Internal leakage flow from chamber 1 to chamber 2, Eq. 2-4 or Eq. 2-5 (m^3/s).
 
@@ -90,7 +90,7 @@ def vca_leak_flow(p1, p2, leak_coefficient, params):
     return leak_flow(leak_coefficient, p1 - p2, params[P_PTR_LEAK], params[P_LEAK_MODEL] == 1.0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _rhs_into(t, s, inp, prm, out):
     x = s[S_X]
     v = s[S_V]
@@ -150,7 +150,7 @@ def _rhs_into(t, s, inp, prm, out):
                  + prm[P_KV_SPOOL] * wv * wv * inp[IN_U])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def vca_rhs(t, state, inputs, params):
     """Time derivative of the VCA state, Eqs. 2-1 to 2-5 (Numba-compiled).
 

@@ -96,48 +96,26 @@ class _OnsetRestarts:
 
     Samples ``[0, split)`` do not depend on the leak coefficient (the schedule is 0 there,
     ``split`` = onset sample - 1 so that no RK4 stage reaches the onset), so they are
-    integrated once per RK4 step count and every trial coefficient restarts from a copy of the
-    carry at ``split``. The stitched run equals a full run with that coefficient bit for bit.
-    The output buffer is shared: after each :meth:`run` it holds that run (the calibration
-    accepts its last run).
+    integrated once, at the base step, into the shared output buffer, and every trial
+    coefficient restarts from a copy of the carry at ``split`` and overwrites only the samples
+    from ``split`` on. The stitched run equals a full run with that coefficient bit for bit;
+    after each :meth:`run` the buffer holds that run (the calibration accepts its last run).
     """
 
-    def __init__(self, loop: _SegmentedLoop, split: int, chunk: int, progress):
-        self.loop, self.split, self.chunk, self.progress = loop, split, chunk, progress
+    def __init__(self, loop: _SegmentedLoop, split: int, n_sub: int, chunk: int, progress):
+        self.loop, self.n_sub, self.chunk, self.progress = loop, n_sub, chunk, progress
         self.result = loop.empty_result()
-        self._pre: dict[int, tuple] = {}
-        self._in_buffer: int | None = None
+        self._carry = loop.start()
+        loop.advance(self._carry, split, n_sub, loop.coefficients(0.0), self.result, chunk,
+                     progress)
 
-    def before_onset(self, n_sub: int) -> ClosedLoopResult:
-        """Integrate (or reuse) the part before the onset with ``n_sub`` steps per sample."""
-        if n_sub not in self._pre:
-            carry = self.loop.start()
-            self.loop.advance(carry, self.split, n_sub, self.loop.coefficients(0.0),
-                              self.result, self.chunk, self.progress)
-            cut = slice(0, self.split)
-            self._pre[n_sub] = (carry, [a[cut].copy() for a in self._arrays()])
-        elif self._in_buffer != n_sub:
-            for dst, src in zip(self._arrays(), self._pre[n_sub][1]):
-                dst[:self.split] = src
-        self._in_buffer = n_sub
-        return self.result
-
-    def run(self, k_leak: float, n_sub: int, n_sub_after: int | None = None) -> ClosedLoopResult:
-        """The whole run with coefficient ``k_leak`` (only the part after the onset is new).
-
-        ``n_sub_after`` (default ``n_sub``) integrates the part after the onset with another
-        step count: a coarser pilot of the calibration.
-        """
-        self.before_onset(n_sub)
-        carry = self._pre[n_sub][0].copy()
-        self.loop.advance(carry, self.loop.n, n_sub if n_sub_after is None else n_sub_after,
+    def run(self, k_leak: float, n_sub_after: int) -> ClosedLoopResult:
+        """The whole run with coefficient ``k_leak``, ``n_sub_after`` RK4 steps per sample from
+        ``split`` on (the leak's stable step); only the part after the onset is new."""
+        self.loop.advance(self._carry.copy(), self.loop.n, n_sub_after,
                           self.loop.coefficients(k_leak), self.result, self.chunk,
                           self.progress)
         return self.result
-
-    def _arrays(self):
-        r = self.result
-        return (r.state, r.measured, r.u, r.leak_flow)
 
 
 def _antialias(cutoff_hz: float, fs: float) -> np.ndarray:
@@ -148,9 +126,14 @@ def _antialias(cutoff_hz: float, fs: float) -> np.ndarray:
     return antialias_sos(cutoff_hz, fs)
 
 
-def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sched, cond, s0,
+def _python_controller_run(controller, x_ref, fs, steps, prm, u_max, k_leak, sched, cond, s0,
                            noise1, noise2, sensors: SensorParams | None) -> ClosedLoopResult:
-    """Slow path: a user controller ``u = controller(t, x_ref, x_m, p1_m, p2_m)`` in Python."""
+    """Slow path: a user controller ``u = controller(t, x_ref, x_m, p1_m, p2_m)`` in Python.
+
+    ``steps = (n_sub, split, n_sub_after)``: RK4 steps per sample before sample ``split`` and
+    from it on, as the compiled path.
+    """
+    n_sub_before, split, n_sub_after = steps
     n = x_ref.size
     sos = zi1 = zi2 = None
     if sensors is not None and sensors.antialias_cutoff_hz is not None:
@@ -163,7 +146,6 @@ def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sch
     out_u = np.empty(n)
     out_q = np.empty(n)
     s = s0.copy()
-    h = 1.0 / fs / n_sub
     sched_arr = sched.to_array()
     for k in range(n):
         t = k / fs
@@ -194,7 +176,9 @@ def _python_controller_run(controller, x_ref, fs, n_sub, prm, u_max, k_leak, sch
         if sensors is not None:  # 12-bit DAC, as in the compiled path
             u = float(quantize(u, 2 * u_max / 2.0**sensors.control_dac_bits))
         out_u[k] = u
-        rk4_advance(s, t, h, n_sub, u + valve_null_v(t, prm, cond), k_leak, sched_arr, cond, prm)
+        n_sub = n_sub_before if k < split else n_sub_after
+        rk4_advance(s, t, 1.0 / fs / n_sub, n_sub, u + valve_null_v(t, prm, cond), k_leak,
+                    sched_arr, cond, prm)
     return ClosedLoopResult(out_state, out_meas, out_u, out_q)
 
 
@@ -284,8 +268,8 @@ def simulate_vca(
         ``leak_lpm_at_reference_dp`` (the leak law with the full coefficient at that pressure
         difference, L/min), ``leak_model``, ``leak_kind``, ``load``,
         ``seed``, ``params`` (dict, the unit's), ``controller``, ``sensors``, ``conditions``,
-        ``rk4_step_s``, ``calibration_runs``, ``calibration_pilot_runs``, ``rated_flow_lpm``,
-        ``machine``
+        ``rk4_step_s`` (after the onset), ``rk4_step_before_onset_s``, ``calibration_runs``,
+        ``calibration_pilot_runs``, ``rated_flow_lpm``, ``machine``
         (:meth:`VCAMachine.to_dict`), ``leakdiag_version``, ``source``.
 
     Raises
@@ -301,14 +285,18 @@ def simulate_vca(
     Notes
     -----
     Model: Eqs. 2-1 to 2-5 (see :func:`~leakdiag.sim.vca.model.vca_rhs`). Integration: fixed-step
-    RK4, control held between samples. The achieved leak is the mean of :math:`|Q_l|` over the
+    RK4, control held between samples; the leak-free part before the onset at the step of
+    ``max_step``, the part after it at the leak's stable step (``rk4_step_before_onset_s``,
+    ``rk4_step_s``). The achieved leak is the mean of :math:`|Q_l|` over the
     samples at or after the onset (Sec. 4.5, "the mean of the leak after 200 seconds"). The
     calibration integrates the leak-free part before the onset once, takes its first guess of
-    the coefficient from the healthy pressures there, and reruns only the part after the onset
-    (same seed, bit-identical to a full run) until the mean is within ``calibration_rtol``;
-    the delivered run is checked against the target. ``calibration_runs`` counts the
-    post-onset runs (``calibration_pilot_runs`` is 0: a coarser-step pilot was tried and
-    rejected, without load it is biased by up to 40 %, docs/models.md). A Python
+    the coefficient from the healthy pressures there (with the window after the onset
+    predicted from the reference when the load pressure follows it, e.g. with the spring), and
+    reruns only the part after the onset (same seed, bit-identical to a full run with that
+    coefficient) until the mean is within ``calibration_rtol``; the delivered run is checked
+    against the target. ``calibration_runs`` counts the post-onset runs (1 with the spring in
+    the cases measured, 2-3 without load; ``calibration_pilot_runs`` is 0: a coarser-step pilot
+    was tried and rejected, without load it is biased by up to 40 %, docs/models.md). A Python
     ``controller`` reruns whole experiments.
 
     Examples
@@ -382,18 +370,24 @@ def simulate_vca(
             )
         return n_sub_k
 
+    i_on = plan.onset_index
+    # samples [0, split) carry no leak, whatever the coefficient (split = onset sample - 1, so
+    # that no RK4 stage reaches the onset); without a leak the whole run is one part
+    split = max(i_on - 1, 0) if plan.active else n
+
     def run(k_leak: float) -> ClosedLoopResult:
+        # the leak-free part at the base step, the rest at the leak's stable step
         n_sub_k = substeps(k_leak)
         if fixed:
             out = loop.empty_result()
-            loop.advance(loop.start(), n, n_sub_k, loop.coefficients(k_leak), out, chunk,
-                         progress)
+            carry, k_arr = loop.start(), loop.coefficients(k_leak)
+            loop.advance(carry, split, n_sub, k_arr, out, chunk, progress)
+            loop.advance(carry, n, n_sub_k, k_arr, out, chunk, progress)
             return out
-        return _python_controller_run(ctrl, x_ref, fs, n_sub_k, prm, params.control_limit_v,
-                                      k_leak, sched, cond, s0, noise[0], noise[1],
-                                      sensor_params if sensors else None)
+        return _python_controller_run(ctrl, x_ref, fs, (n_sub, split, n_sub_k), prm,
+                                      params.control_limit_v, k_leak, sched, cond, s0, noise[0],
+                                      noise[1], sensor_params if sensors else None)
 
-    i_on = plan.onset_index
     ptr = params.leak_transition_pressure_pa
     laminar = leak_model == "laminar"
     cal = None
@@ -407,16 +401,16 @@ def simulate_vca(
         history: list[tuple[float, float]] = []
         k0 = None
         if fixed:
-            segments = _OnsetRestarts(loop, max(i_on - 1, 0), chunk, progress)
+            segments = _OnsetRestarts(loop, split, n_sub, chunk, progress)
 
             def simulate_fn(k: float) -> float:
                 q = plan.mean_lpm(segments.run(k, substeps(k)).leak_flow)
                 history.append((k, q))
                 return q
 
-            pre = segments.before_onset(n_sub)
-            k0 = coefficient_from_healthy(pre.state[:, S_P1], pre.state[:, S_P2],
-                                          max(i_on - 1, 0), plan, ptr, laminar)
+            pre = segments.result  # valid on [0, split) until the first trial
+            k0 = coefficient_from_healthy(pre.state[:, S_P1], pre.state[:, S_P2], split, plan,
+                                          ptr, laminar, reference=x_ref)
         else:
             runs: dict[float, ClosedLoopResult] = {}
 
@@ -457,6 +451,7 @@ def simulate_vca(
         "controller": ctrl.to_dict() if isinstance(ctrl, FixedGainController) else repr(ctrl),
         "rk4_step_s": 1.0 / (fs * max(n_sub, _leak_stable_substeps(k_leak, leak_model, params,
                                                                    fs))),
+        "rk4_step_before_onset_s": 1.0 / (fs * n_sub),
     })
     channels = {"p1": p1_out, "p2": p2_out, "x": x_out, "u": result.u,
                 "leak_flow": result.leak_flow, "x_ref": x_ref}
