@@ -1,6 +1,6 @@
 """MonitorHooks and its sidecar process: the page's board and the store equal a chunk-by-chunk
 update, the sidecar's errors reach the monitor's thread, and the monitor's process does none of
-the work."""
+the work (it runs in the sidecar process, at a lower priority)."""
 
 import json
 import os
@@ -14,6 +14,7 @@ import pytest
 from leakdiag.dashboard.hooks import MonitorHooks
 from leakdiag.dashboard.live import LiveBoard
 from leakdiag.dashboard.server import Bind
+from leakdiag.dashboard.sidecar import NICE
 from leakdiag.store import StoreError, summarize_windows
 from leakdiag.stream import Monitor, recording_chunks
 
@@ -94,6 +95,9 @@ def test_store_and_page_work_is_done_in_the_sidecar(leak_case, tmp_path, monkeyp
     hooks = MonitorHooks("rig7", spec, mon, "rig7.parquet", rec.sample_rate, store=str(db),
                          bind=Bind("127.0.0.1", 0), say=lambda m: None)
     assert hooks.sidecar.proc.pid != os.getpid() and threading.active_count() == n_threads
+    # the sidecar runs at a lower priority than the monitor (once configured, i.e. by now)
+    assert os.getpriority(os.PRIO_PROCESS, hooks.sidecar.proc.pid) == \
+        min(19, os.getpriority(os.PRIO_PROCESS, 0) + NICE)
     lock = sqlite3.connect(db, isolation_level=None)
     lock.execute("begin immediate")  # the writer's transactions wait for this lock
     n_chunks = t_push = 0

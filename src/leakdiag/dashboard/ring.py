@@ -328,10 +328,13 @@ class RingReader(_Ring):
         while r < w:
             pos = r % cap
             p = DATA_OFFSET + pos
-            if cap - pos < _H or HEADER.unpack_from(mm, p)[0] == WRAP:
+            if cap - pos < _H:
                 r += cap - pos
                 continue
             n, flags, received, crc = HEADER.unpack_from(mm, p)
+            if n == WRAP:
+                r += cap - pos
+                continue
             size = frame_size(n, flags)
             body = mm[p + _H:p + size]
             if flags & CHECKED and zlib.crc32(body) != crc:
