@@ -62,18 +62,22 @@ def _before_hooks():
     runs with that tree first on its path)."""
     names = ("recorder", "sidecar", "hooks")
     saved = {n: sys.modules.get(f"leakdiag.dashboard.{n}") for n in names}
+    mods = {}
     try:
         for n in names:
             spec = importlib.util.spec_from_file_location(
                 f"leakdiag.dashboard.{n}", os.path.join(BEFORE_SRC, "leakdiag", "dashboard",
                                                         f"{n}.py"))
-            mod = importlib.util.module_from_spec(spec)
-            sys.modules[spec.name] = mod
-            spec.loader.exec_module(mod)
-        return mod.MonitorHooks
+            mods[n] = importlib.util.module_from_spec(spec)
+            sys.modules[spec.name] = mods[n]
+            spec.loader.exec_module(mods[n])
     finally:
-        for n, mod in saved.items():
-            sys.modules[f"leakdiag.dashboard.{n}"] = mod
+        for n, cur in saved.items():
+            sys.modules[f"leakdiag.dashboard.{n}"] = cur
+    # the scorer's facts are pickled by class name for that tree's sidecar process: send the
+    # current class (both trees' ScorerFacts have the same attributes)
+    mods["sidecar"].ScorerFacts = saved["recorder"].ScorerFacts
+    return mods["hooks"].MonitorHooks
 
 
 def _page_url(hooks, path: str) -> str:
