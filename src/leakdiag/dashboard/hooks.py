@@ -104,6 +104,7 @@ class MonitorHooks:
                 self.store.close()
             raise
         self._push = self.sidecar.ring.push  # Sidecar.push without a call's cost
+        self._one_feature = len(monitor.features) == 1
         if bind is not None:
             from leakdiag.dashboard.server import stop_on_sigterm
 
@@ -177,10 +178,12 @@ class MonitorHooks:
         """
         if not events:
             return
-        arrays = self.monitor.last_arrays[0] if self.monitor.last_arrays else None
-        if arrays is None or len(arrays[0]) != len(events) or arrays[0][-1] != events[-1].time:
-            arrays = _arrays(events)  # not the monitor's last push: take them from the events
-        self._push(*arrays, getattr(self.scorer, "branches_", None), self._recv)
+        mon = self.monitor
+        if events is mon.last_events and self._one_feature:  # the monitor's last push
+            t, v, s, a = mon.last_arrays[0]
+        else:  # take them from the events
+            t, v, s, a = _arrays(events)
+        self._push(t, v, s, a, getattr(self.scorer, "branches_", None), self._recv)
 
     def flush(self) -> None:
         """Wait until every chunk pushed is on the board and committed to the store.
