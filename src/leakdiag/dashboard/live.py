@@ -293,6 +293,22 @@ class LiveBoard:
         with self._lock:
             return sorted(self._live)
 
+    def last_time(self, name: str) -> float | None:
+        """Stream time (s) of an actuator's last window, None before the first or if unknown.
+
+        Parameters
+        ----------
+        name : str
+            Actuator name.
+
+        Returns
+        -------
+        float or None
+        """
+        with self._lock:
+            live = self._live.get(name)
+            return live.time[-1] if live is not None and live.time else None
+
     def update(self, name: str, t, v, s=None, a=None, received_wall: float | None = None,
                branches: tuple | None = None) -> None:
         """Append the windows of one or more consecutive chunks to an actuator.
