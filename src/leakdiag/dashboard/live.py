@@ -294,20 +294,21 @@ class LiveBoard:
             return sorted(self._live)
 
     def last_time(self, name: str) -> float | None:
-        """Stream time (s) of an actuator's last window, None before the first or if unknown.
+        """Stream time (s) of an actuator's last window.
 
         Parameters
         ----------
         name : str
-            Actuator name.
+            Any name (an unknown one has no last window).
 
         Returns
         -------
         float or None
+            None before the first window.
         """
         with self._lock:
-            live = self._live.get(name)
-            return live.time[-1] if live is not None and live.time else None
+            times = getattr(self._live.get(name), "time", None)
+            return times[-1] if times else None
 
     def update(self, name: str, t, v, s=None, a=None, received_wall: float | None = None,
                branches: tuple | None = None) -> None:
