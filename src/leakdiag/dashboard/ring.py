@@ -159,6 +159,7 @@ class RingWriter(_Ring):
         self.on_full = on_full
         self.checked = (not _ORDERED) if checked is None else checked
         self._w = self._r = 0
+        self._cont = 0  # CONTINUED while _push_split writes all but the last part
         #: Frames that started a new lap, and pushes that waited for room (for the tests).
         self.n_wraps = self.n_waits = 0
 
@@ -254,8 +255,6 @@ class RingWriter(_Ring):
             crc = zlib.crc32(memoryview(mm)[p + _H:p + size])
         HEADER.pack_into(mm, p, n, flags | self._cont, received, crc)
         idx[_W] = self._w  # publish: after the frame's bytes (module docstring)
-
-    _cont = 0
 
     def _push_split(self, t, v, s, a, branches, received: float) -> None:
         k = 2 + (s is not None) + 2 * (branches is not None)
