@@ -127,7 +127,9 @@ def frame_size(n: int, flags: int) -> int:
 class _Ring:
     def __init__(self, fd: int, capacity: int):
         self.capacity = capacity
-        self.mm = mmap.mmap(fd, DATA_OFFSET + capacity)
+        # faulted in now (Linux MAP_POPULATE), not page by page inside the monitor's loop
+        self.mm = mmap.mmap(fd, DATA_OFFSET + capacity,
+                            flags=mmap.MAP_SHARED | getattr(mmap, "MAP_POPULATE", 0))
         self.idx = memoryview(self.mm).cast("Q")  # the positions, one aligned word each
 
     def close(self) -> None:
@@ -225,8 +227,8 @@ class RingWriter(_Ring):
             self._w = idx[_P] = w + size
             p = DATA_OFFSET + pos
         elif size > cap // 4:  # a huge chunk: several frames
-            return self._push_split(t, v, s, a, branches if flags & BRANCHES else None,
-                                    received)
+            self._push_split(t, v, s, a, branches if flags & BRANCHES else None, received)
+            return
         else:
             p = self._reserve(size)
         mm = self.mm
