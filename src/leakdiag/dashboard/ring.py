@@ -3,8 +3,9 @@
 One producer (the monitor's thread, :class:`RingWriter`) and one consumer (the sidecar process,
 :class:`RingReader`) share a memory file (``memfd_create``; elsewhere an unlinked temporary
 file) that both map. A chunk costs the monitor a few slice copies into the mapping and two
-8-byte stores, no system call (about 0.5 us for a 1,000-sample chunk against about 1.5 us for
-packing the frame and writing it to a pipe, measured in docs/operations.md).
+8-byte stores, no system call: about 0.6 us for a 1,000-sample chunk in a tight loop, about
+1 us in the monitor's loop, against about 2 us for the pipe write it replaced
+(docs/operations.md has the measurements).
 
 Layout (byte offsets; the positions are totals since the start, so ``W - R`` is what is held):
 
@@ -31,11 +32,15 @@ and loads are not reordered with other loads or with later stores, so a ``W`` se
 frame bytes before it are seen, and an ``R`` seen implies the consumer has finished reading
 below it. ARM64 and other weakly ordered processors give no such order without a fence, which
 Python cannot issue; there each frame carries its CRC-32 (flag :data:`CHECKED`, about 0.15 us
-more per chunk), and the consumer takes a frame only when its CRC matches: a frame whose
-bytes are not all visible yet is taken at the next poll; one that is still wrong when the
-producer has ended is reported and not stored. After the producer's death the consumer sees
-every store the producer made: its pipe's end-of-file is delivered through the kernel, which
-orders them.
+more per chunk), and the consumer takes a frame only when the CRC of its copy matches: a frame
+whose bytes were not all visible yet is read again at the next take, one still wrong then is an
+error (the sidecar stops and reports it), and one wrong when the producer has ended is
+reported and not stored. The consumer's ``R`` store then depends on the check of the bytes it
+copied, and ARM64 does not make a store visible before the loads that it depends on. After
+the producer's death the consumer sees every store the producer made: its pipe's end-of-file
+is delivered through the kernel, which orders them. Both ends map the file with
+``MAP_POPULATE`` (Linux), so its pages are faulted in at start (about 7 ms for 4 MiB), not one
+by one inside the monitor's loop during the first lap.
 
 **A producer killed inside** ``push`` leaves ``P > W``: the consumer reports those bytes (and a
 chunk of which only ``CONTINUED`` frames arrived) as incomplete, and stores none of it. Such a

@@ -1,7 +1,7 @@
-"""The sidecar of ``leakdiag monitor --store/--dashboard``: a process of its own, fed through shared memory.
+"""The sidecar of ``leakdiag monitor --store/--dashboard``: a process of its own, fed by a ring.
 
 The monitor's thread hands each chunk's windows to :meth:`Sidecar.push`, which copies them into
-a ring in shared memory (:mod:`leakdiag.dashboard.ring`; about 0.5 us, no system call) and
+a ring in shared memory (:mod:`leakdiag.dashboard.ring`; about 1 us, no system call) and
 returns. The sidecar process (:func:`main`) polls the ring and hands what it took to a
 :class:`~leakdiag.dashboard.recorder.ChunkRecorder`: one update of the live board and, with
 ``--store``, one transaction with the chunks' summaries and alarm rows. With ``--dashboard`` it
