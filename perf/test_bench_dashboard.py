@@ -7,69 +7,22 @@
 * the monitor's throughput (replay as fast as possible, 3.6 M samples replayed ``LOOPS`` = 8
   times in 1,000- and 65,536-sample chunks): the monitor alone against ``--dashboard`` with
   a client process reading the event stream, ``--store`` (SQLite), both, and ``--dashboard``
-  with the page open in Chromium. The cases run interleaved in one process (ABBA order), ``REPEATS`` times each, and
-  their medians are compared: the loop's wall time (the monitor's throughput), the CPU time of
-  the monitor's thread, and the wall time until the hooks have written everything (flush).
+  with the page open in Chromium. The cases run interleaved in one process (ABBA order),
+  ``REPEATS`` times each, and their medians are compared: the loop's wall time (the monitor's
+  throughput), the CPU time of the monitor's thread, and the wall time until the hooks have
+  written everything (flush). The CPU time outside the monitor's thread (its other threads and
+  the sidecar process) is printed beside.
 
 The latency and page-open cases are skipped when Debian's chromium/chromedriver are missing.
 
-``LEAKDIAG_BENCH_BEFORE_HOOKS=FILE`` (a ``hooks.py`` of an earlier commit, e.g. from ``git show
-REV:src/leakdiag/dashboard/hooks.py > FILE``) adds its ``--store`` cases to the same interleaved
-run ("before"), so that a change of the hooks is measured against its predecessor under the same
-load. The CPU time outside the monitor's thread (worker and server threads, and the store
-writer's process where there is one) is printed beside.
+``LEAKDIAG_BENCH_BEFORE_SRC=DIR`` (the ``src`` folder of an earlier commit, e.g. from ``git
+archive REV src | tar -x -C /tmp/before``, then ``DIR=/tmp/before/src``) adds a "before" run of
+every case with hooks to the same interleaved run: that tree's hooks, sidecar and recorder
+(its sidecar process runs that tree), with the current monitor, so that a change of the hooks
+is measured against its predecessor under the same load.
 
-Measured on the shared 2-core development machine at load 8-12 (docs/operations.md has the
-table). Throughput in % of the monitor alone, "loop wall / monitor-thread CPU", medians; before =
-the hooks at 152754d (board update and one store transaction per chunk in the monitor's
-thread, 4 runs), after = the worker thread (6 runs):
-
-==============================================  ===========  ===========  ===========  ===========
-case                                            1000 before  1000 after   65536 before 65536 after
-==============================================  ===========  ===========  ===========  ===========
-monitor alone, samples/s                        3.9e6        4.3e6        1.6e7        1.8e7
---dashboard, a client reading the event stream  50 / 56      83 / 108     52 / 74      91 / 101
---store (SQLite)                                2 / 3        64 / 86      19 / 24      80 / 95
---store and --dashboard with a client           2 / 3        62 / 92      18 / 25      82 / 106
---dashboard, the page open in Chromium          15 / 64      31 / 94      18 / 74      42 / 100
-==============================================  ===========  ===========  ===========  ===========
-
-Latency sample -> page (after, load 11): median 188 ms, 95th percentile 322 ms, max 367 ms.
-
-Measured again on 2026-11-26 (the monitor about 10 times faster than above, so one pass took
-0.07 s: since then the throughput runs replay the hour 8 times), load 3.5-4, loop / CPU in %:
-
-==============================================  ===========  ===========
-case                                            1000         65536
-==============================================  ===========  ===========
-monitor alone, samples/s                        4.3e7        8.4e7
---dashboard, a client reading the event stream  97 / 88      103 / 99
---store (SQLite)                                81 / 86      87 / 97
---store and --dashboard with a client           76 / 87      104 / 98
---dashboard, the page open in Chromium          76 / 87      93 / 94
-==============================================  ===========  ===========
-
-Latency sample -> page, same day: load about 6 (other jobs): median 162 ms, 95th percentile
-779 ms, max 1,582 ms (goal NOT met at the max); load 4-5: 127 / 212 / 217 ms; load 3.5:
-113 / 196 / 208 ms.
-
-With the sidecar process (board, page server and store writer out of the monitor's process),
-before = the hooks of b705627 through ``LEAKDIAG_BENCH_BEFORE_HOOKS``, interleaved in one run,
-load 0.8-0.9, loop / CPU in %:
-
-==================================================  ===========  ===========  ===========  ===========
-case                                                1000 before  1000 after   65536 before 65536 after
-==================================================  ===========  ===========  ===========  ===========
-monitor alone, samples/s                            5.3e7                     1.5e8
---store (SQLite)                                    61 / 75      89 / 90      93 / 97      99 / 99
---store and --dashboard with a client               62 / 76      89 / 89      91 / 96      97 / 100
---dashboard, a client reading the event stream                   90 / 90                   99 / 100
---dashboard, the page open in Chromium                           82 / 90                   87 / 97
-==================================================  ===========  ===========  ===========  ===========
-
-Latency (median / 99th percentile / max): load 2.3 -> 1.4: 130 / 221 / 221 ms (page), 114 / 216
-/ 221 ms (page and store); with 4 extra busy loops, load 2.1 -> 5.2: 184 / 296 / 316 ms and
-178 / 356 / 364 ms.
+The results, with the load they were measured at, are in docs/operations.md ("Tests and
+measurements").
 """
 
 import gc
@@ -99,15 +52,32 @@ REPEATS = int(os.environ.get("LEAKDIAG_BENCH_REPEATS", "6"))
 #: Passes over the one-hour recording per throughput run: the monitor alone replays one hour
 #: in about 0.07 s (1,000-sample chunks), too short a run to measure the hooks against.
 LOOPS = 8
-#: An earlier hooks.py to measure against in the same run (see the module docstring).
-BEFORE_HOOKS = os.environ.get("LEAKDIAG_BENCH_BEFORE_HOOKS")
+#: The ``src`` folder of an earlier commit to measure against in the same run (module docstring).
+BEFORE_SRC = os.environ.get("LEAKDIAG_BENCH_BEFORE_SRC")
 
 
 def _before_hooks():
-    spec = importlib.util.spec_from_file_location("_leakdiag_hooks_before", BEFORE_HOOKS)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod.MonitorHooks
+    """MonitorHooks of the ``src`` tree at BEFORE_SRC, with that tree's sidecar and recorder
+    (loaded under the current modules' names while its hooks are imported; its sidecar process
+    runs with that tree first on its path)."""
+    names = ("recorder", "sidecar", "hooks")
+    saved = {n: sys.modules.get(f"leakdiag.dashboard.{n}") for n in names}
+    mods = {}
+    try:
+        for n in names:
+            spec = importlib.util.spec_from_file_location(
+                f"leakdiag.dashboard.{n}", os.path.join(BEFORE_SRC, "leakdiag", "dashboard",
+                                                        f"{n}.py"))
+            mods[n] = importlib.util.module_from_spec(spec)
+            sys.modules[spec.name] = mods[n]
+            spec.loader.exec_module(mods[n])
+    finally:
+        for n, cur in saved.items():
+            sys.modules[f"leakdiag.dashboard.{n}"] = cur
+    # the scorer's facts are pickled by class name for that tree's sidecar process: send the
+    # current class (both trees' ScorerFacts have the same attributes)
+    mods["sidecar"].ScorerFacts = saved["recorder"].ScorerFacts
+    return mods["hooks"].MonitorHooks
 
 
 def _page_url(hooks, path: str) -> str:
@@ -256,12 +226,11 @@ def test_bench_throughput_with_and_without_page(capsys, tmp_path, chunk):
              ("--dashboard, a client reading the event stream", srv, "sse"),
              ("--store (SQLite)", "store", None),
              ("--store and --dashboard with a client", "both", "sse")]
-    before = _before_hooks() if BEFORE_HOOKS else None
-    if before is not None:
-        cases += [("--store (SQLite), before", "store", None),
-                  ("--store and --dashboard with a client, before", "both", "sse")]
     if have_browser:
         cases.append(("--dashboard, the page open in Chromium", srv, "chromium"))
+    before = _before_hooks() if BEFORE_SRC else None
+    if before is not None:
+        cases += [(name + ", before", kw, page) for name, kw, page in cases[1:]]
     reps = REPEATS
     res: dict = {name: [] for name, _, _ in cases}
     load0 = os.getloadavg()[0]

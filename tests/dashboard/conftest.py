@@ -87,6 +87,15 @@ def browser():
         shutil.rmtree(profile, ignore_errors=True)
 
 
+def process_gone(pid: int) -> bool:
+    """Whether process ``pid`` has ended (gone, or a zombie; Linux /proc)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] in ("Z", "X")
+    except OSError:
+        return True
+
+
 def src_env():
     """Environment for a child ``leakdiag`` process that imports this tree."""
     src = str(Path(__file__).resolve().parents[2] / "src")

@@ -16,7 +16,7 @@ from click.testing import CliRunner
 from leakdiag.cli.main import main
 from leakdiag.store import EventStore
 
-from .conftest import src_env
+from .conftest import process_gone, src_env
 
 
 def _run(args):
@@ -113,14 +113,6 @@ def _children(pid: int) -> list[int]:
     return out
 
 
-def _gone(pid: int) -> bool:
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().rsplit(")", 1)[1].split()[0] in ("Z", "X")
-    except OSError:
-        return True
-
-
 @pytest.mark.parametrize("replay, chunk", [("realtime", 500), ("50x", 100)],
                          ids=["realtime-500", "50x-100"])
 def test_killed_monitor_loses_no_emitted_window(leak_case, tmp_path, replay, chunk):
@@ -151,9 +143,9 @@ def test_killed_monitor_loses_no_emitted_window(leak_case, tmp_path, replay, chu
         p.stderr.close()
     assert p.returncode == -signal.SIGKILL and len(writers) == 1
     t_end = time.monotonic() + 30
-    while not _gone(writers[0]) and time.monotonic() < t_end:  # it commits what the pipe held
+    while not process_gone(writers[0]) and time.monotonic() < t_end:  # it commits the ring
         time.sleep(0.05)
-    assert _gone(writers[0])
+    assert process_gone(writers[0])
     n_printed = n_read + len(printed)
     con = sqlite3.connect(db)
     assert con.execute("pragma integrity_check").fetchone()[0] == "ok"

@@ -1,6 +1,6 @@
 """MonitorHooks and its sidecar process: the page's board and the store equal a chunk-by-chunk
 update, the sidecar's errors reach the monitor's thread, and the monitor's process does none of
-the work."""
+the work (it runs in the sidecar process, at a lower priority)."""
 
 import json
 import os
@@ -14,6 +14,7 @@ import pytest
 from leakdiag.dashboard.hooks import MonitorHooks
 from leakdiag.dashboard.live import LiveBoard
 from leakdiag.dashboard.server import Bind
+from leakdiag.dashboard.sidecar import NICE
 from leakdiag.store import StoreError, summarize_windows
 from leakdiag.stream import Monitor, recording_chunks
 
@@ -94,6 +95,9 @@ def test_store_and_page_work_is_done_in_the_sidecar(leak_case, tmp_path, monkeyp
     hooks = MonitorHooks("rig7", spec, mon, "rig7.parquet", rec.sample_rate, store=str(db),
                          bind=Bind("127.0.0.1", 0), say=lambda m: None)
     assert hooks.sidecar.proc.pid != os.getpid() and threading.active_count() == n_threads
+    # the sidecar runs at a lower priority than the monitor (once configured, i.e. by now)
+    assert os.getpriority(os.PRIO_PROCESS, hooks.sidecar.proc.pid) == \
+        min(19, os.getpriority(os.PRIO_PROCESS, 0) + NICE)
     lock = sqlite3.connect(db, isolation_level=None)
     lock.execute("begin immediate")  # the writer's transactions wait for this lock
     n_chunks = t_push = 0
@@ -115,3 +119,32 @@ def test_store_and_page_work_is_done_in_the_sidecar(leak_case, tmp_path, monkeyp
     (alarm_time,), = con.execute("select alarm_time_s from alarms")
     assert alarm_time == leak_case["verdict"].alarm_time_s
     con.close()
+
+
+def test_push_of_events_other_than_the_last_push(tmp_path):
+    """The hooks take the monitor's arrays only for the list its last push returned; other
+    events (here those of the push before) are read from the events themselves."""
+    import numpy as np
+
+    from leakdiag.features.spec import MethodSpec
+
+    class Threshold:
+        threshold_ = 0.5
+
+        def score_windows(self, values, time):
+            return np.abs(values)
+
+    spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=100, overlap=0)
+    mon = Monitor(spec, 1000.0, 0.0, scorers=Threshold())
+    hooks = MonitorHooks("rig8", spec, mon, "x", 1000.0, store=str(tmp_path / "ev.db"),
+                         say=lambda m: None)
+    x = np.random.default_rng(0).normal(size=600)
+    first, second = mon.push({"p1": x[:300]}), mon.push({"p1": x[300:]})
+    assert mon.last_events is second and len(first) == len(second) == 3
+    hooks.push(first)
+    hooks.push(second)
+    hooks.close(True)
+    con = sqlite3.connect(tmp_path / "ev.db")
+    rows = con.execute("select t_start_s, t_end_s, n_windows from chunk_summaries "
+                       "order by seq").fetchall()
+    assert rows == [(0.099, 0.299, 3), (0.399, 0.599, 3)]

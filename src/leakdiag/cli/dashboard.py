@@ -34,7 +34,8 @@ def live_options(f):
         click.option("--token", default=None,
                      help="Token required by the page ('auto': random); needed with a remote host."),
         click.option("--refresh-hz", type=float, default=5.0, show_default=True,
-                     help="Largest page update rate (the detector is never throttled)."),
+                     help="Largest page update rate; at most 2 a second while a replay "
+                          "runs faster than real time (the detector is never throttled)."),
         click.option("--linger", type=float, default=0.0, show_default=True,
                      help="Seconds to keep the page up after the input ends (inf: until Ctrl-C)."),
     ]

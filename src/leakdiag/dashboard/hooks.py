@@ -4,9 +4,10 @@
 (:class:`~leakdiag.dashboard.sidecar.Sidecar`), which keeps the live state of the monitored
 actuator (:class:`~leakdiag.dashboard.live.ActuatorLive`), serves it with ``--dashboard`` and
 writes the chunks to the event store with ``--store``. The monitor's only cost per chunk is
-:meth:`MonitorHooks.push`: it writes the chunk's window arrays to the sidecar's pipe (about
-1-2 us). The run itself is registered in the store (and ended) by the monitor's process, so
-that a store that cannot be used stops the monitor before it starts.
+:meth:`MonitorHooks.push`: it copies the chunk's window arrays into the sidecar's
+shared-memory ring (:mod:`leakdiag.dashboard.ring`; under 1 us). The run itself is registered
+in the store (and ended) by the monitor's process, so that a store that cannot be used stops
+the monitor before it starts.
 """
 
 from __future__ import annotations
@@ -102,6 +103,8 @@ class MonitorHooks:
                 self.store.end_run(self.run_id, "failed")
                 self.store.close()
             raise
+        self._push = self.sidecar.ring.push  # Sidecar.push without a call's cost
+        self._one_feature = len(monitor.features) == 1
         if bind is not None:
             from leakdiag.dashboard.server import stop_on_sigterm
 
@@ -161,7 +164,7 @@ class MonitorHooks:
     def push(self, events: list) -> None:
         """Hand the events of one chunk (from ``Monitor.push``) to the sidecar.
 
-        Waits only while the sidecar's pipe is full.
+        Waits only while the sidecar's ring is full.
 
         Parameters
         ----------
@@ -175,10 +178,12 @@ class MonitorHooks:
         """
         if not events:
             return
-        arrays = self.monitor.last_arrays[0] if self.monitor.last_arrays else None
-        if arrays is None or len(arrays[0]) != len(events) or arrays[0][-1] != events[-1].time:
-            arrays = _arrays(events)  # not the monitor's last push: take them from the events
-        self.sidecar.push(*arrays, getattr(self.scorer, "branches_", None), self._recv)
+        mon = self.monitor
+        if events is mon.last_events and self._one_feature:  # the monitor's last push
+            t, v, s, a = mon.last_arrays[0]
+        else:  # take them from the events
+            t, v, s, a = _arrays(events)
+        self._push(t, v, s, a, getattr(self.scorer, "branches_", None), self._recv)
 
     def flush(self) -> None:
         """Wait until every chunk pushed is on the board and committed to the store.

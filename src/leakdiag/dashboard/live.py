@@ -293,6 +293,23 @@ class LiveBoard:
         with self._lock:
             return sorted(self._live)
 
+    def last_time(self, name: str) -> float | None:
+        """Stream time (s) of an actuator's last window.
+
+        Parameters
+        ----------
+        name : str
+            Any name (an unknown one has no last window).
+
+        Returns
+        -------
+        float or None
+            None before the first window.
+        """
+        with self._lock:
+            times = getattr(self._live.get(name), "time", None)
+            return times[-1] if times else None
+
     def update(self, name: str, t, v, s=None, a=None, received_wall: float | None = None,
                branches: tuple | None = None) -> None:
         """Append the windows of one or more consecutive chunks to an actuator.

@@ -1,8 +1,8 @@
 """What the monitor's sidecar process does with each chunk: the live board and the store rows.
 
-The monitor sends each chunk's windows as one frame (:func:`encode_chunk`) through the sidecar's
-pipe (:mod:`leakdiag.dashboard.sidecar`); the sidecar decodes what it has read
-(:func:`decode_frames`) and hands the chunks to :class:`ChunkRecorder` in one call: one update
+The monitor copies each chunk's windows into the sidecar's shared-memory ring
+(:mod:`leakdiag.dashboard.ring`); the sidecar (:mod:`leakdiag.dashboard.sidecar`) takes what the
+ring holds and hands the chunks to :class:`ChunkRecorder` in one call: one update
 of the live board that the page serves (split only where an alarm is raised, so that each alarm
 episode keeps its own leak estimate) and, with a store, the chunk summaries
 (:func:`~leakdiag.store.summarize_chunks`) and alarm rows in one transaction.
@@ -10,7 +10,6 @@ episode keeps its own leak estimate) and, with a store, the chunk summaries
 
 from __future__ import annotations
 
-import struct
 from dataclasses import replace
 from typing import Any
 
@@ -19,100 +18,7 @@ import numpy as np
 from leakdiag.dashboard.live import LiveBoard
 from leakdiag.store import AlarmRecord, EventStore, summarize_chunks
 
-__all__ = ["ChunkRecorder", "encode_chunk", "decode_frames", "ScorerFacts"]
-
-#: Frame header: windows in the chunk, flags (1: scores and alarms follow, 2: CUSUM branches),
-#: wall-clock time (``time.time()``) at which the chunk reached the monitor.
-HEADER = struct.Struct("<IBd")
-#: Window count of a flush request (no body): the sidecar answers once what precedes is done.
-FLUSH = 0xFFFFFFFF
-#: Window count of the end of the input (no body): the page shows "input ended".
-FINISH = 0xFFFFFFFE
-_F8 = np.dtype(np.float64)
-
-
-def encode_chunk(t, v, s=None, a=None, branches=None, received: float = 0.0) -> bytes:
-    """One chunk's windows as a frame of the pipe.
-
-    Parameters
-    ----------
-    t, v : numpy.ndarray
-        Window times (s) and feature values.
-    s, a : numpy.ndarray, optional
-        Scores and alarms (both or neither).
-    branches : tuple of numpy.ndarray, optional
-        CUSUM branches (S+, S-) of these windows.
-    received : float, default 0.0
-        Wall-clock time at which the chunk arrived (the page shows the delay from it).
-
-    Returns
-    -------
-    bytes
-
-    Examples
-    --------
-    >>> fr = encode_chunk(np.array([0.2]), np.array([0.5]), received=7.0)  # 13 + 2 x 8 bytes
-    >>> chunks, control, used = decode_frames(fr + fr[:7])  # one frame and part of the next
-    >>> [(c[0], c[1], c[5]) for c in chunks], control, used
-    ([(array([0.2]), array([0.5]), 7.0)], [], 29)
-    """
-    n = len(t)
-    if s is None:
-        return b"".join((HEADER.pack(n, 0, received), np.asarray(t, _F8).tobytes(),
-                         np.asarray(v, _F8).tobytes()))
-    parts = [b"", np.asarray(t, _F8).tobytes(), np.asarray(v, _F8).tobytes(),
-             np.asarray(s, _F8).tobytes(), np.asarray(a, bool).tobytes()]
-    flags = 1
-    if branches is not None and len(branches[0]) == n:
-        flags = 3
-        parts += [np.asarray(branches[0], _F8).tobytes(), np.asarray(branches[1], _F8).tobytes()]
-    parts[0] = HEADER.pack(n, flags, received)
-    return b"".join(parts)
-
-
-def decode_frames(buf: bytes) -> tuple[list, int, int]:
-    """The complete frames at the start of ``buf``.
-
-    Parameters
-    ----------
-    buf : bytes
-        Bytes read from the pipe (may end inside a frame).
-
-    Returns
-    -------
-    chunks : list of tuple
-        ``(t, v, s, a, branches, received)`` per chunk; ``s``, ``a``, ``branches`` may be None.
-    control : list of int
-        The control frames among them (:data:`FLUSH`, :data:`FINISH`), in order.
-    used : int
-        Bytes of the complete frames.
-    """
-    chunks: list = []
-    control: list = []
-    pos = 0
-    end = len(buf)
-    h = HEADER.size
-    while pos + h <= end:
-        n, flags, received = HEADER.unpack_from(buf, pos)
-        if n in (FLUSH, FINISH):
-            control.append(n)
-            pos += h
-            continue
-        size = 16 * n + (9 * n if flags & 1 else 0) + (16 * n if flags & 2 else 0)
-        if pos + h + size > end:
-            break
-        p = pos + h
-        t = np.frombuffer(buf, _F8, n, p)
-        v = np.frombuffer(buf, _F8, n, p + 8 * n)
-        s = a = br = None
-        if flags & 1:
-            s = np.frombuffer(buf, _F8, n, p + 16 * n)
-            a = np.frombuffer(buf, bool, n, p + 24 * n)
-        if flags & 2:
-            br = (np.frombuffer(buf, _F8, n, p + 25 * n), np.frombuffer(buf, _F8, n, p + 33 * n))
-        chunks.append((t, v, s, a, br, received))
-        pos = p + size
-    return chunks, control, pos
+__all__ = ["ChunkRecorder", "ScorerFacts"]
 
 
 class ScorerFacts:
@@ -168,8 +74,8 @@ class ChunkRecorder:
         Parameters
         ----------
         chunks : list of tuple
-            ``(t, v, s, a, branches, received)`` per chunk, as :func:`decode_frames` gives
-            them.
+            ``(t, v, s, a, branches, received)`` per chunk, as
+            :meth:`~leakdiag.dashboard.ring.RingReader.take` gives them.
 
         Raises
         ------

@@ -1,29 +1,33 @@
-"""The sidecar of ``leakdiag monitor --store/--dashboard``: a process of its own, fed through a pipe.
+"""The sidecar of ``leakdiag monitor --store/--dashboard``: a process of its own, fed by a ring.
 
-The monitor's thread hands each chunk's windows to :meth:`Sidecar.push`, which writes them to a
-pipe (a few hundred bytes, about 1-2 us) and returns. The sidecar process (:func:`main`) reads
-the pipe and hands what it read to a :class:`~leakdiag.dashboard.recorder.ChunkRecorder`: one
-update of the live board and, with ``--store``, one transaction with the chunks' summaries and
-alarm rows. With ``--dashboard`` it also runs the web server that serves the board. After each
-take it lets the next chunks gather in the pipe for :data:`GATHER_S` seconds (less when the
-pipe is half full, or when the monitor waits for it), so a fast replay costs one board update
-and one transaction per 0.1 s, not one per chunk (a transaction has a fixed cost of about 2 ms
-of CPU and an fsync), while a real-time stream whose chunks come further apart gets one per
-chunk. So:
+The monitor's thread hands each chunk's windows to :meth:`Sidecar.push`, which copies them into
+a ring in shared memory (:mod:`leakdiag.dashboard.ring`; about 1 us, no system call) and
+returns. The sidecar process (:func:`main`) polls the ring and hands what it took to a
+:class:`~leakdiag.dashboard.recorder.ChunkRecorder`: one update of the live board and, with
+``--store``, one transaction with the chunks' summaries and alarm rows. With ``--dashboard`` it
+also runs the web server that serves the board. After each take it lets the next chunks gather
+for :data:`GATHER_S` seconds (less when the ring is half full, or when the monitor asks through
+the pipe), so a fast replay costs one board update and one transaction per 0.1 s, not one per
+chunk (a transaction has a fixed cost of about 2 ms of CPU and an fsync); once that time is up
+it looks every :data:`POLL_S` seconds, so a chunk of a real-time stream is taken within 0.1 s.
+The pipe to the sidecar's stdin carries the configuration, then the control requests (flush,
+end of input), and its end of file says that the monitor has ended. So:
 
 * the monitor's process runs no SQL, no summaries, no board update and no web server: nothing
   that would take Python's GIL from the detector;
 * a chunk is out of the monitor's process as soon as ``push`` returns, before the monitor prints
-  its events. If the monitor is killed (``kill -9``, a crash), the sidecar still reads what is in
-  the pipe, commits it and ends: every chunk pushed is stored; only a chunk being written to the
-  pipe at that instant can be lost (its bytes are then incomplete; the sidecar says so on
-  stderr);
+  its events: the ring is a memory file that the sidecar has mapped too. If the monitor is
+  killed (``kill -9``, a crash), the sidecar sees the pipe end, takes what is in the ring,
+  commits it and ends: every chunk pushed is stored; a chunk being written at that instant is
+  not, and the sidecar says so on stderr (its events were not printed);
 * the sidecar ignores Ctrl-C's SIGINT and runs in a session of its own, so a signal to the
-  monitor's process group does not stop it half-way: it ends when the pipe does.
+  monitor's process group does not stop it half-way: it ends when the pipe does;
+* the sidecar runs at a lower priority (:data:`NICE`): where cores are short, the detector
+  gets them first.
 
-A sidecar that falls behind makes :meth:`Sidecar.push` wait once the pipe is full (1 MiB where
-Linux allows it), which bounds memory. An error of the sidecar (e.g. the database became
-unwritable) is reported on its stdout and raised by the next ``push``, ``flush`` or ``close``.
+A sidecar that falls behind makes :meth:`Sidecar.push` wait once the ring is full (4 MiB),
+which bounds memory. An error of the sidecar (e.g. the database became unwritable) is flagged in
+the ring and reported on its stdout, and raised by the next ``push``, ``flush`` or ``close``.
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ import json
 import os
 from pathlib import Path
 import pickle
+import select
 import signal
 import struct
 import subprocess
@@ -39,19 +44,27 @@ import sys
 import time
 from typing import Any
 
-from leakdiag.dashboard.recorder import (FINISH, FLUSH, HEADER, ChunkRecorder, ScorerFacts,
-                                         decode_frames, encode_chunk)
+from leakdiag.dashboard.recorder import ChunkRecorder, ScorerFacts
+from leakdiag.dashboard.ring import RING_BYTES, RingReader, RingWriter, ring_file
 from leakdiag.store import EventStore, StoreError
 
 __all__ = ["Sidecar", "main"]
 
-#: Pipe capacity asked for (Linux ``F_SETPIPE_SZ``; the default 64 KiB holds about 300 chunks).
-PIPE_BYTES = 1 << 20
-#: Seconds the sidecar lets chunks gather after each take (ended early when the pipe is half
-#: full, so that the monitor does not wait for a pausing sidecar, or when the monitor waits).
+#: Seconds the sidecar lets chunks gather after each take (ended early when the ring is half
+#: full, so that the monitor does not wait for a pausing sidecar, or by a request on the pipe).
 GATHER_S = 0.1
+#: Seconds between two looks at the ring while it gathers or waits.
+POLL_S = 0.01
+#: Control requests on the pipe (one byte each): flush (the sidecar answers ``flushed`` once
+#: every chunk pushed before it is taken) and end of input (the page shows "input ended").
+FLUSH, FINISH = b"F", b"E"
+#: Niceness added to the sidecar process: on a machine with fewer free cores than busy
+#: processes, the scheduler gives the monitor's thread about three times the sidecar's share
+#: (Linux CFS weights 1024 against 335), so the page and the store fall behind, not the
+#: detector. The sidecar needs a few % of a core in real time, so its chunks still reach the
+#: page in time (docs/operations.md has the latency measured under load).
+NICE = 5
 _CHILD = "import sys; from leakdiag.dashboard.sidecar import main; sys.exit(main())"
-_HURRY = [False]  # set by SIGUSR1: the monitor waits for a flush or the end
 
 
 def _raise_reported(line: bytes, code: int | None) -> None:
@@ -85,6 +98,8 @@ class Sidecar:
         Serve the live page there.
     refresh_hz : float, default 5.0
         Largest page update rate.
+    ring_bytes : int, default RING_BYTES
+        Size of the shared-memory ring.
 
     Raises
     ------
@@ -96,24 +111,24 @@ class Sidecar:
 
     def __init__(self, actuator: str, feature: str, scorer: Any = None, window_s: float = 0.0,
                  url: str | None = None, run_id: int | None = None, bind: Any = None,
-                 refresh_hz: float = 5.0):
+                 refresh_hz: float = 5.0, ring_bytes: int = RING_BYTES):
         root = str(Path(__file__).resolve().parents[2])  # the folder holding the package
         env = {**os.environ, "PYTHONPATH": os.pathsep.join(
             [root, *filter(None, [os.environ.get("PYTHONPATH")])])}
-        self.proc = subprocess.Popen([sys.executable, "-c", _CHILD], stdin=subprocess.PIPE,
-                                     stdout=subprocess.PIPE, env=env, start_new_session=True)
+        fd = ring_file(ring_bytes)
+        try:
+            self.ring = RingWriter(fd, ring_bytes, self._on_full)
+            self.proc = subprocess.Popen([sys.executable, "-c", _CHILD], stdin=subprocess.PIPE,
+                                         stdout=subprocess.PIPE, env=env, pass_fds=(fd,),
+                                         start_new_session=True)
+        finally:
+            os.close(fd)  # both ends hold their mapping
         self._fd = self.proc.stdin.fileno()
         self._error: BaseException | None = None
         self.page_base: str | None = None
-        try:
-            import fcntl
-
-            fcntl.fcntl(self._fd, fcntl.F_SETPIPE_SZ, PIPE_BYTES)
-        except (ImportError, AttributeError, OSError):  # not Linux, or above pipe-max-size
-            pass
         cfg = pickle.dumps({"url": url, "run_id": run_id, "actuator": actuator,
                             "feature": feature, "window_s": window_s, "bind": bind,
-                            "refresh_hz": refresh_hz,
+                            "refresh_hz": refresh_hz, "ring": (fd, ring_bytes),
                             "scorer": None if scorer is None else ScorerFacts(scorer)})
         try:
             self._write(struct.pack("<I", len(cfg)) + cfg)
@@ -148,7 +163,7 @@ class Sidecar:
     def _write(self, data: bytes) -> None:
         try:
             n = os.write(self._fd, data)
-            while n < len(data):  # a frame larger than the pipe's free space
+            while n < len(data):  # a configuration larger than the pipe's free space
                 data = data[n:]
                 n = os.write(self._fd, data)
         except BrokenPipeError:  # the sidecar ended: say why
@@ -170,29 +185,31 @@ class Sidecar:
             raise
         raise AssertionError("unreachable")  # pragma: no cover
 
-    def _hurry(self) -> None:
-        try:
-            self.proc.send_signal(signal.SIGUSR1)  # end its pause: someone waits
-        except ProcessLookupError:  # pragma: no cover - it has ended; _expect says why
-            pass
+    def _on_full(self) -> None:
+        """The ring is full: raise if the sidecar has stopped, else wait a little for it."""
+        if self.ring.failed or self.proc.poll() is not None:
+            self._expect(b"")
+        time.sleep(POLL_S / 10)
 
     def push(self, t, v, s=None, a=None, branches=None, received: float = 0.0) -> None:
-        """Write one chunk's windows to the pipe (waits only while the pipe is full).
+        """Copy one chunk's windows into the ring (waits only while the ring is full).
 
         Parameters
         ----------
         t, v, s, a, branches, received
-            As :func:`~leakdiag.dashboard.recorder.encode_chunk`.
+            As :meth:`~leakdiag.dashboard.ring.RingWriter.push`.
 
         Raises
         ------
         leakdiag.store.StoreError
             If the sidecar has met an error.
+        ValueError
+            If the arrays are not float64 (alarms: bool) of one length.
         """
         if self._error is not None:
             raise self._error
-        if len(t):
-            self._write(encode_chunk(t, v, s, a, branches, received))
+        if len(t):  # (the ring raises the error that the sidecar flagged)
+            self.ring.push(t, v, s, a, branches, received)
 
     def flush(self) -> None:
         """Wait until the sidecar has taken every chunk pushed so far (board and store).
@@ -202,8 +219,7 @@ class Sidecar:
         leakdiag.store.StoreError
             If the sidecar has met an error.
         """
-        self._write(HEADER.pack(FLUSH, 0, 0.0))
-        self._hurry()
+        self._write(FLUSH)
         self._expect(b"flushed")
 
     def finish(self) -> None:
@@ -214,7 +230,7 @@ class Sidecar:
         leakdiag.store.StoreError
             If the sidecar has met an error.
         """
-        self._write(HEADER.pack(FINISH, 0, 0.0))
+        self._write(FINISH)
 
     def close(self) -> None:
         """End the pipe and wait for the sidecar to take what it holds, stop serving and exit.
@@ -229,11 +245,10 @@ class Sidecar:
                 self.proc.stdin.close()
             except BrokenPipeError:
                 pass
-        if self.proc.poll() is None:
-            self._hurry()
         lines = [ln.rstrip(b"\n") for ln in self.proc.stdout.read().splitlines()]
         code = self.proc.wait()
         self.proc.stdout.close()
+        self.ring.close()
         if self._error is not None:
             raise self._error
         if not lines or lines[-1] != b"done":
@@ -260,25 +275,16 @@ def _read_exact(fd: int, n: int) -> bytes:
     return out
 
 
-def _gather(fd: int, seconds: float = GATHER_S, step: float = 0.01) -> None:
-    """Sleep up to ``seconds`` while chunks gather in the pipe; stop once it is half full or
-    the monitor waits (SIGUSR1)."""
-    try:
-        import fcntl
-        import termios
-
-        half = fcntl.fcntl(fd, fcntl.F_GETPIPE_SZ) // 2
-        buf = bytearray(4)
-
-        def pending() -> int:
-            fcntl.ioctl(fd, termios.FIONREAD, buf)
-            return struct.unpack("<i", buf)[0]
-    except (ImportError, AttributeError, OSError):  # not Linux: a plain pause
-        half, pending = 1, (lambda: 0)
-    t_end = time.monotonic() + seconds
-    while not _HURRY[0] and (left := t_end - time.monotonic()) > 0 and pending() < half:
-        time.sleep(min(step, left))
-    _HURRY[0] = False
+def _wait(ring: RingReader, since: float) -> bool:
+    """Wait until the pipe has something (True) or chunks are due (False): the ring is half full,
+    or holds chunks and :data:`GATHER_S` has passed since the take at ``since``."""
+    half = ring.capacity // 2
+    while True:
+        held = ring.held()
+        if held >= half or (held and time.monotonic() - since >= GATHER_S):
+            return False
+        if select.select([0], [], [], POLL_S)[0]:
+            return True
 
 
 def _serve(cfg: dict, rec: ChunkRecorder, store: EventStore | None):
@@ -296,7 +302,7 @@ def _serve(cfg: dict, rec: ChunkRecorder, store: EventStore | None):
 
 
 def main() -> int:
-    """The sidecar process: configuration, then frames from stdin until it ends.
+    """The sidecar process: configuration, then chunks from the ring until the pipe ends.
 
     Returns
     -------
@@ -305,17 +311,23 @@ def main() -> int:
         stdout as ``error {json}``).
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C stops the monitor; this ends with it
-    signal.signal(signal.SIGUSR1, lambda *_: _HURRY.__setitem__(0, True))
-    signal.siginterrupt(signal.SIGUSR1, False)  # system calls (SQLite's) restart, no EINTR
-    store = server = None
+    try:
+        os.nice(NICE)  # where cores are short, the monitor's thread runs first
+    except OSError:  # pragma: no cover - not allowed here
+        pass
+    store = server = ring = None
     try:
         cfg = pickle.loads(_read_exact(0, struct.unpack("<I", _read_exact(0, 4))[0]))
+        ring = RingReader(*cfg["ring"])
+        os.close(cfg["ring"][0])
         if cfg["url"] is not None:
             store = EventStore(cfg["url"], create=False)
         rec = ChunkRecorder(store, cfg["run_id"], cfg["actuator"], cfg["feature"],
                             cfg["scorer"], cfg["window_s"])
         server = _serve(cfg, rec, store)
     except BaseException as exc:  # noqa: BLE001 - everything is reported to the monitor
+        if ring is not None:
+            ring.fail()
         _report(exc)
         if store is not None:
             store.close()
@@ -325,24 +337,24 @@ def main() -> int:
     gc.freeze()  # the modules loaded by now stay out of the collector's way
     page = "" if server is None else " " + server.page_url("")
     os.write(1, f"ready{page}\n".encode())
-    buf = b""
+    lost = None
     try:
+        taken = time.monotonic()
         while True:
-            data = os.read(0, PIPE_BYTES)
-            buf += data
-            chunks, control, used = decode_frames(buf)
+            control = os.read(0, 4096) if _wait(ring, taken) else None
+            chunks, lost = ring.take(final=control == b"")  # after the read: all pushed before
             if chunks:
                 rec.apply(chunks)
-            for c in control:
-                if c == FINISH:
+            for c in control or b"":
+                if c == FINISH[0]:
                     rec.board.finish(cfg["actuator"])
                 else:
                     os.write(1, b"flushed\n")
-            buf = buf[used:]
-            if not data:
+            taken = time.monotonic()
+            if control == b"":  # the monitor has closed the pipe or ended
                 break
-            _gather(0)
     except BaseException as exc:  # noqa: BLE001
+        ring.fail()
         _report(exc)
         return 1
     finally:
@@ -350,8 +362,8 @@ def main() -> int:
             server.stop()
         if store is not None:
             store.close()
-    if buf:  # the monitor ended in the middle of writing a chunk that it had not emitted yet
-        print(f"leakdiag monitor sidecar: the monitor ended while writing a chunk; its "
-              f"{len(buf)} bytes are incomplete and not stored", file=sys.stderr)
+    if lost:  # the monitor ended while writing a chunk that it had not printed yet
+        print(f"leakdiag monitor sidecar: the monitor ended while writing a chunk: {lost}; "
+              "incomplete, not stored", file=sys.stderr)
     os.write(1, b"done\n")
     return 0

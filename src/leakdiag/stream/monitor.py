@@ -180,6 +180,9 @@ class Monitor:
         #: The arrays of the last push, per spec ``(time, values, scores, alarms)``: what a
         #: consumer of the events (the dashboard, the store) can keep without the event objects.
         self.last_arrays: list = []
+        #: The events that the last :meth:`push` returned (the same list object): a consumer
+        #: given them can tell that :attr:`last_arrays` holds them.
+        self.last_events: list | None = None
 
     @property
     def n_samples_seen(self) -> int:
@@ -242,6 +245,7 @@ class Monitor:
                     float(t[i]), first + i, feat.spec.method, feat.spec.channels, float(v[i]),
                     None if s is None else float(s[i]), None if a is None else bool(a[i])))
         events.sort(key=lambda e: e.time)
+        self.last_events = events
         return events
 
     def run(self, chunks: Iterable) -> Iterable[WindowEvent]:
