@@ -2,7 +2,6 @@
 chunk pushed (after wrapping around a small ring and waiting for room), and a chunk being
 written at the kill instant is reported on stderr, not stored."""
 
-import os
 import signal
 import sqlite3
 import subprocess
