@@ -67,3 +67,36 @@ def test_killed_monitor_mid_ring(tmp_path, mode):
             "written; incomplete, not stored" in err
     else:
         assert "incomplete" not in err
+
+
+def test_a_sidecar_killed_from_outside_is_noticed_by_the_next_pushes(tmp_path):
+    """A real-time stream (one chunk every 50 ms) would fill the 4 MiB ring only after hours;
+    push checks the sidecar at most once a second, so its death is raised within about 1 s."""
+    import numpy as np
+
+    from leakdiag.dashboard.sidecar import ALIVE_CHECK_S, Sidecar
+    from leakdiag.store import StoreError
+
+    st = EventStore(tmp_path / "ev.db")
+    run = st.start_run("rig9", command="monitor", source="test", feature="f")
+    url = st.url
+    st.close()
+
+    class Threshold:
+        threshold_ = 0.5
+
+    sc = Sidecar("rig9", "f", Threshold(), 0.2, url, run)
+    try:
+        t = np.arange(5) / 10.0
+        sc.push(t, -t, t, t > 0.25, None, 0.0)
+        sc.proc.kill()
+        sc.proc.wait(timeout=10)
+        killed = time.monotonic()
+        with pytest.raises(StoreError, match="ended unexpectedly"):
+            for i in range(1, 200):  # 10 s of chunks at most
+                sc.push(t + i, -t, t, t > 0.25, None, 0.0)
+                time.sleep(0.05)
+        assert time.monotonic() - killed <= ALIVE_CHECK_S + 0.5
+    finally:
+        with pytest.raises(StoreError):
+            sc.close()

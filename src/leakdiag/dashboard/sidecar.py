@@ -27,7 +27,8 @@ end of input), and its end of file says that the monitor has ended. So:
 
 A sidecar that falls behind makes :meth:`Sidecar.push` wait once the ring is full (4 MiB),
 which bounds memory. An error of the sidecar (e.g. the database became unwritable) is flagged in
-the ring and reported on its stdout, and raised by the next ``push``, ``flush`` or ``close``.
+the ring and reported on its stdout, and raised by the next ``push``, ``flush`` or ``close``; a
+sidecar that ended without a word is raised by ``push`` within :data:`ALIVE_CHECK_S`.
 """
 
 from __future__ import annotations
@@ -55,6 +56,10 @@ __all__ = ["Sidecar", "main"]
 GATHER_S = 0.1
 #: Seconds between two looks at the ring while it gathers or waits.
 POLL_S = 0.01
+#: Seconds between two checks by ``push`` that the sidecar process still runs (a sidecar killed
+#: from outside would otherwise be noticed only when the ring fills, hours later in real time;
+#: a clock read per push costs about 0.05 us, the check itself one waitpid per second).
+ALIVE_CHECK_S = 1.0
 #: Control requests on the pipe (one byte each): flush (the sidecar answers ``flushed`` once
 #: every chunk pushed before it is taken) and end of input (the page shows "input ended").
 FLUSH, FINISH = b"F", b"E"
@@ -125,6 +130,7 @@ class Sidecar:
             os.close(fd)  # both ends hold their mapping
         self._fd = self.proc.stdin.fileno()
         self._error: BaseException | None = None
+        self._alive_until = time.monotonic() + ALIVE_CHECK_S
         self.page_base: str | None = None
         cfg = pickle.dumps({"url": url, "run_id": run_id, "actuator": actuator,
                             "feature": feature, "window_s": window_s, "bind": bind,
@@ -202,12 +208,18 @@ class Sidecar:
         Raises
         ------
         leakdiag.store.StoreError
-            If the sidecar has met an error.
+            If the sidecar has met an error, or has ended (checked at most once every
+            :data:`ALIVE_CHECK_S`).
         ValueError
             If the arrays are not float64 (alarms: bool) of one length.
         """
         if self._error is not None:
             raise self._error
+        now = time.monotonic()
+        if now >= self._alive_until:  # a sidecar that died silently (killed, OOM): say so
+            self._alive_until = now + ALIVE_CHECK_S
+            if self.proc.poll() is not None:
+                self._expect(b"")
         if len(t):  # (the ring raises the error that the sidecar flagged)
             self.ring.push(t, v, s, a, branches, received)
 
