@@ -211,3 +211,27 @@ def test_detector_saved_before_quiet_boundaries_keeps_fixed_windows(fitted):
     rec = _with_offset(ld.sim.simulate_vca(duration=20, leak_lpm=0.0, load="spring", params=UNIT,
                                            seed=21))
     assert np.allclose(np.diff(old._terms(rec)["start"]), 1.0)
+
+
+def test_healthy_recordings_at_different_temperatures_do_not_bias_the_model():
+    # unit 17's null moves 5 mV/K: healthy runs warming by 2 K and by 10 K sit 20 mV apart
+    # on average. With one offset shared by both runs the identification put that difference
+    # into the baseline leak coefficient (3e-10 on a v5 unit: a 0.02 L/min leak-shaped bias
+    # that made its healthy windows scatter 10x wider); each recording now has its own offset.
+    m17 = ld.sim.draw_machine("vca", 17)
+    shift = m17.valve_null_shift_v_per_k
+    recs = [ld.sim.simulate_vca(duration=40, leak_lpm=0.0, load="spring", machine=17, seed=s,
+                                conditions=ld.sim.OperatingConditions(temperature_rise_k=dt))
+            for s, dt in ((3, 2.0), (4, 10.0))]
+    det = FlowBalanceDetector(system="vca").fit(recs)
+    m, se = det.model_, det.model_std_
+    k_001 = ld.sim.simulate_vca(duration=4, leak_lpm=0.01, onset=1.0, load="spring", machine=17,
+                                seed=5).meta["leak_coefficient"]  # 0.01 L/min
+    assert abs(m.baseline_leak_coefficient) < 0.1 * k_001
+    assert m.flow_gain_factor == pytest.approx(m17.valve_flow_gain_factor, abs=3e-3)
+    # the mean offsets of the two runs: null + shift * (mean temperature rise of each run)
+    means = m17.valve_null_offset_v + shift * np.array([1.0, 5.0])
+    assert m.null_offset_v == pytest.approx(means.mean(), abs=2e-3)
+    assert se["null_offset_spread_v"] == pytest.approx(np.std(means, ddof=1), rel=0.1)
+    # and the healthy windows scatter like the sensor noise, not like a leak
+    assert det.noise_floor_m3_ < 3e-8

@@ -24,6 +24,7 @@ of Table 2-1, discretised exactly for a control held between samples.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import asdict, dataclass
 
@@ -46,6 +47,13 @@ VCA_CHANNELS = ("p1", "p2", "x", "u")
 _RATE_HALF_WIDTH = 3
 #: Null-offset step used for the offset sensitivity psi = d residual / d offset (V).
 _PSI_STEP_V = 1e-3
+#: Scale of the null-offset parameters in the identification's nonlinear search (V).
+OFFSET_SCALE_V = 1e-2
+#: Forward-difference step of the identification's Jacobian, in scaled units (1e-5 V of
+#: offset, 100 Pa of supply, 5 mHz of valve bandwidth).
+_JAC_STEP = 1e-3
+#: Points of the raw-sum memo per recording in the identification.
+_RAW_CACHE_POINTS = 3
 #: Moving average applied to P1 - P2 for the mean |phi| only (s; leakdiag choice: 5 ms cuts
 #: white pressure noise 2.2x; without load the mean |phi| is then -1 % / +14 % off at 10 / 40 kPa
 #: noise on the simulator, under the spring load < 0.2 %; docs/detect.md).
@@ -122,13 +130,19 @@ class VCAValveModel:
 
 def _zoh(params: VCAParams, freq_hz: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact discretisation of the valve of Eq. 2-1 (second order, Table 2-1) for a held u."""
+    phi, gam = _zoh_cached(float(freq_hz), float(params.valve_damping_ratio),
+                           float(params.spool_gain_m_per_v), float(dt))
+    return phi.copy(), gam.copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _zoh_cached(freq_hz: float, zeta: float, gain: float, dt: float):
     wv = 2.0 * math.pi * freq_hz
-    z = params.valve_damping_ratio
     m = np.zeros((3, 3))
     m[0, 1] = 1.0
     m[1, 0] = -wv * wv
-    m[1, 1] = -2.0 * z * wv
-    m[1, 2] = params.spool_gain_m_per_v * wv * wv
+    m[1, 1] = -2.0 * zeta * wv
+    m[1, 2] = gain * wv * wv
     e = expm(m * dt)
     return np.ascontiguousarray(e[:2, :2]), np.ascontiguousarray(e[:2, 2])
 
@@ -358,8 +372,14 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, windows: li
     """Identify the valve model of one machine from its healthy recordings.
 
     Separable nonlinear least squares (variable projection) of the window residuals of both
-    equations over all healthy windows. The null offset, the supply pressure and optionally the
-    valve natural frequency enter nonlinearly (``scipy.optimize.least_squares`` over them);
+    equations over all healthy windows. The null offset of each recording, the supply pressure
+    and optionally the valve natural frequency enter nonlinearly
+    (``scipy.optimize.least_squares`` over them). Each recording has its own null offset
+    because the null moves with the fluid temperature (up to ~0.05 V over a 10 K warm-up on the
+    virtual machines): one offset shared by recordings made at different temperatures left the
+    difference between them to the baseline leak coefficient, a leak-shaped bias of the model
+    (docs/detect.md, section 8.4). The model's ``null_offset_v`` is their mean, and
+    ``std["null_offset_spread_v"]`` their spread.
     the flow-gain factor, the spool-clearance leakage, the baseline leak coefficient, the
     pressure delay and optionally the inverse bulk modulus enter linearly and are solved exactly at every step. A
     null drift linear in time is profiled out of each recording's leak-equation residuals
@@ -391,14 +411,19 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, windows: li
     model : VCAValveModel
     std : dict
         Standard error of each identified field (Jacobian and linear-solve covariances with
-        the residual scale; windows are treated as independent, so they are optimistic).
+        the residual scale; windows are treated as independent, so they are optimistic), and,
+        with two or more recordings, ``null_offset_spread_v``: the standard deviation of the
+        recordings' own null offsets.
     """
-    nl_names = ["null_offset_v", "supply_pressure_pa"]
-    nl_scales = [1e-2, 1e5]
+    n_rec = len(recordings_arrays)
+    # nonlinear parameters: one null offset per recording (its value at the recording's middle
+    # time; the drift around it is profiled), then the shared supply pressure and bandwidth
+    shared_names = ["supply_pressure_pa"]
+    shared_scales = [1e5]
     if fit_bandwidth:
-        nl_names.append("valve_natural_frequency_hz")
-        nl_scales.append(5.0)
-    nl_scales = np.asarray(nl_scales)
+        shared_names.append("valve_natural_frequency_hz")
+        shared_scales.append(5.0)
+    nl_scales = np.asarray([OFFSET_SCALE_V] * n_rec + shared_scales)
     lin_names = ["flow_gain_factor", "valve_leakage_m3_per_s_pa", "baseline_leak_coefficient",
                  "pressure_delay_s"]
     if fit_bulk_modulus:
@@ -409,29 +434,51 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, windows: li
     beta0 = params.bulk_modulus_pa
     pt = params.tank_pressure_pa
 
-    def nl_values(theta) -> dict:
-        return {nm: getattr(base, nm) + th * sc for nm, th, sc in zip(nl_names, theta, nl_scales)}
+    def offsets(theta) -> np.ndarray:
+        return base.null_offset_v + np.asarray(theta[:n_rec]) * OFFSET_SCALE_V
 
-    projectors = []
-    for a, fs, sk, window in zip(recordings_arrays, sample_rates, skip, windows):
-        psi = offset_sensitivity(a, fs, params, base, window, laminar)[sk:]
-        raw0 = vca_raw_sums(a, fs, params, 0.0, base.supply_pressure_pa,
-                            base.valve_natural_frequency_hz, window, laminar)[sk:]
-        t = np.cumsum(raw0[:, _T]) - 0.5 * raw0[:, _T]
-        reg = psi * (t - t.mean())
-        rr = float(reg @ reg)
-        projectors.append((reg, rr))
+    def shared(theta) -> dict:
+        return {nm: getattr(base, nm) + th * sc
+                for nm, th, sc in zip(shared_names, theta[n_rec:], shared_scales)}
+
+    def make_projectors(offs) -> list:
+        """Per recording: the drift regressor ``psi (t - mean t)`` at its offset, and its norm."""
+        out = []
+        for a, fs, sk, window, off in zip(recordings_arrays, sample_rates, skip, windows, offs):
+            at = VCAValveModel(**{**base.to_dict(), "null_offset_v": float(off)})
+            raw0 = vca_raw_sums(a, fs, params, float(off), base.supply_pressure_pa,
+                                base.valve_natural_frequency_hz, window, laminar)[sk:]
+            psi = offset_sensitivity(a, fs, params, at, window, laminar)[sk:]
+            t = np.cumsum(raw0[:, _T]) - 0.5 * raw0[:, _T]
+            reg = psi * (t - t.mean())
+            out.append((reg, float(reg @ reg)))
+        return out
+
+    projectors = make_projectors(offsets(np.zeros(n_rec)))
+    cache: dict = {}
+
+    def raw_of(r: int, off: float, v: dict) -> np.ndarray:
+        """Raw sums of recording ``r``, memoised (the last few points: an offset moves one
+        recording only, and the Jacobian returns to the base point)."""
+        key = (off, v.get("supply_pressure_pa", base.supply_pressure_pa),
+               v.get("valve_natural_frequency_hz", base.valve_natural_frequency_hz))
+        hits = cache.setdefault(r, [])
+        for k, raw in hits:
+            if k == key:
+                return raw
+        a, fs, sk, window = recordings_arrays[r], sample_rates[r], skip[r], windows[r]
+        raw = vca_raw_sums(a, fs, params, off, key[1], key[2], window, laminar)[sk:]
+        hits.insert(0, (key, raw))
+        del hits[_RAW_CACHE_POINTS:]
+        return raw
 
     def design(theta):
         """Stacked (X, y) of both equations, drift-profiled, unweighted."""
-        v = nl_values(theta)
+        v = shared(theta)
+        offs = offsets(theta)
         xr, yr, xs, ys = [], [], [], []
-        for a, fs, sk, window, (reg, rr) in zip(recordings_arrays, sample_rates, skip, windows,
-                                                projectors):
-            raw = vca_raw_sums(a, fs, params, v.get("null_offset_v", base.null_offset_v),
-                               v.get("supply_pressure_pa", base.supply_pressure_pa),
-                               v.get("valve_natural_frequency_hz",
-                                     base.valve_natural_frequency_hz), window, laminar)[sk:]
+        for r, (reg, rr) in enumerate(projectors):
+            raw = raw_of(r, float(offs[r]), v)
             ps = v.get("supply_pressure_pa", base.supply_pressure_pa)
             c_diff = raw[:, _C1] - raw[:, _C2]
             c_sum = raw[:, _C1] + raw[:, _C2]
@@ -458,50 +505,93 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, windows: li
             yr.append(y_r)
             xs.append(np.column_stack(cols_s))
             ys.append(y_s)
-        return np.concatenate(xr), np.concatenate(yr), np.concatenate(xs), np.concatenate(ys)
+        sizes = np.array([len(v) for v in yr])
+        return (np.concatenate(xr), np.concatenate(yr), np.concatenate(xs), np.concatenate(ys),
+                sizes)
 
     weights = [1.0, 1.0]
     last: dict = {}
 
-    def solve(theta):
-        x_r, y_r, x_s, y_s = design(theta)
+    def weighted(theta):
+        x_r, y_r, x_s, y_s, sizes = design(theta)
         x = np.vstack([x_r / weights[0], x_s / weights[1]])
         y = np.concatenate([y_r / weights[0], y_s / weights[1]])
+        return x, y, len(y_r), sizes
+
+    def lstsq_scaled(x, y):
         col = np.sqrt(np.mean(x * x, axis=0))
         col[col == 0] = 1.0
         coef, *_ = np.linalg.lstsq(x / col, y, rcond=None)
-        coef = coef / col
-        last.update(x=x, y=y, coef=coef, n_r=len(y_r))
+        return coef / (col[:, None] if np.ndim(coef) == 2 else col)
+
+    def solve(theta):
+        x, y, n_r, sizes = weighted(theta)
+        coef = lstsq_scaled(x, y)
+        last.update(theta=np.array(theta, dtype=float), x=x, y=y, coef=coef, n_r=n_r,
+                    sizes=sizes)
         return x @ coef - y
 
-    theta0 = np.zeros(len(nl_names))
+    def jac(theta):
+        """Variable-projection Jacobian (Kaufman 1975): ``P (dX/dtheta) coef``, with ``P`` the
+        projection off the linear columns. All recordings' offsets are stepped at once (each
+        moves its own rows only), so a Jacobian costs 2 + (shared parameters) design
+        evaluations whatever the number of recordings."""
+        if "theta" not in last or not np.array_equal(last["theta"], theta):
+            solve(theta)
+        x, coef, n_r, sizes = last["x"], last["coef"], last["n_r"], last["sizes"]
+        f0 = x @ coef
+        d = np.zeros((len(f0), len(theta)))
+        ends = np.cumsum(sizes)
+        starts = ends - sizes
+        step = np.array(theta, dtype=float)
+        step[:n_rec] += _JAC_STEP
+        moved = (weighted(step)[0] @ coef - f0) / _JAC_STEP
+        for r, (lo, hi) in enumerate(zip(starts, ends)):
+            d[lo:hi, r] = moved[lo:hi]
+            d[n_r + lo:n_r + hi, r] = moved[n_r + lo:n_r + hi]
+        for j in range(n_rec, len(theta)):
+            step = np.array(theta, dtype=float)
+            step[j] += _JAC_STEP
+            d[:, j] = (weighted(step)[0] @ coef - f0) / _JAC_STEP
+        return d - x @ lstsq_scaled(x, d)
+
+    theta0 = np.zeros(len(nl_scales))
     res0 = solve(theta0)
     n_r = last["n_r"]
     weights[0] = _robust_std(res0[:n_r])
     weights[1] = _robust_std(res0[n_r:])
-    res = least_squares(solve, theta0, diff_step=1e-3, method="trf")
+    res = least_squares(solve, theta0, jac=jac, method="trf")
+    # second pass: drift regressors at each recording's identified offset (the offset
+    # sensitivity changes across the valve null), residual scales re-estimated
+    projectors = make_projectors(offsets(res.x))
     r1 = solve(res.x) * 1.0
     weights[0] *= _robust_std(r1[:n_r])
     weights[1] *= _robust_std(r1[n_r:])
-    res = least_squares(solve, res.x, diff_step=1e-3, method="trf")
+    res = least_squares(solve, res.x, jac=jac, method="trf")
     fun = solve(res.x)
     coef, x = last["coef"], last["x"]
-    dof = max(1, fun.size - len(nl_names) - len(lin_names))
+    dof = max(1, fun.size - len(nl_scales) - len(lin_names))
     s2 = float(fun @ fun) / dof
     std = {}
+    offs = offsets(res.x)
     try:
-        cov_nl = np.linalg.inv(res.jac.T @ res.jac) * s2
-        for nm, c, sc in zip(nl_names, np.diag(cov_nl), nl_scales):
-            std[nm] = float(np.sqrt(max(c, 0.0)) * sc)
+        cov_nl = np.linalg.inv(res.jac.T @ res.jac) * s2 * np.outer(nl_scales, nl_scales)
+        # the reported offset is the recordings' mean: its standard error from the block
+        std["null_offset_v"] = float(np.sqrt(max(cov_nl[:n_rec, :n_rec].sum(), 0.0)) / n_rec)
+        for i, nm in enumerate(shared_names):
+            std[nm] = float(np.sqrt(max(cov_nl[n_rec + i, n_rec + i], 0.0)))
     except np.linalg.LinAlgError:
-        std.update({nm: float("nan") for nm in nl_names})
+        std.update({nm: float("nan") for nm in ["null_offset_v", *shared_names]})
     col = np.sqrt(np.mean(x * x, axis=0))
     col[col == 0] = 1.0
     cov_lin = np.linalg.pinv((x / col).T @ (x / col)) * s2 / np.outer(col, col)
     for nm, c in zip(lin_names, np.diag(cov_lin)):
         std[nm] = float(np.sqrt(max(c, 0.0)))
     vals = base.to_dict()
-    vals.update(nl_values(res.x))
+    vals.update(shared(res.x))
+    vals["null_offset_v"] = float(np.mean(offs))
+    if n_rec > 1:  # spread of the recordings' own offsets (temperature, drift between runs)
+        std["null_offset_spread_v"] = float(np.std(offs, ddof=1))
     lin = dict(zip(lin_names, (float(c) for c in coef)))
     if fit_bulk_modulus:
         inv = lin.pop("inverse_bulk_modulus")

@@ -48,8 +48,13 @@ class CaseResult:
 
 
 def _timed(run_case: Callable[[Any], Any], config: Any) -> tuple[Any, float]:
+    # one BLAS thread per case, in the caller's process as in Dask's workers (whose nannies set
+    # OPENBLAS_NUM_THREADS=1): the cases' matrices are small, and threads only contend
+    from threadpoolctl import threadpool_limits
+
     t0 = time.perf_counter()
-    out = run_case(config)
+    with threadpool_limits(1):
+        out = run_case(config)
     return out, time.perf_counter() - t0
 
 
