@@ -218,10 +218,20 @@ class Sidecar:
         now = time.monotonic()
         if now >= self._alive_until:  # a sidecar that died silently (killed, OOM): say so
             self._alive_until = now + ALIVE_CHECK_S
-            if self.proc.poll() is not None:
-                self._expect(b"")
+            self.check_alive()
         if len(t):  # (the ring raises the error that the sidecar flagged)
             self.ring.push(t, v, s, a, branches, received)
+
+    def check_alive(self) -> None:
+        """Raise if the sidecar process has ended (one ``waitpid``, no wait).
+
+        Raises
+        ------
+        leakdiag.store.StoreError
+            Saying why it ended (the error it reported, or its exit code).
+        """
+        if self.proc.poll() is not None:
+            self._expect(b"")
 
     def flush(self) -> None:
         """Wait until the sidecar has taken every chunk pushed so far (board and store).
