@@ -225,10 +225,11 @@ class RingWriter(_Ring):
         """
         n = len(t)
         try:
-            if not (len(v) == n if s is None else len(v) == len(s) == len(a) == n):
-                raise ValueError("arrays of different lengths")
-        except TypeError as exc:
+            same = len(v) == n if s is None else len(v) == len(s) == len(a) == n
+        except TypeError as exc:  # e.g. scores without alarms
             raise _bad(n, exc) from None
+        if not same:
+            raise _bad(n, "arrays of different lengths")
         self.write(t, v, s, a, branches, received)
 
     def write(self, t, v, s=None, a=None, branches=None, received: float = 0.0) -> None:
@@ -300,7 +301,7 @@ class RingWriter(_Ring):
                 self._cont = 0
 
 
-def _bad(n: int, exc: BaseException) -> ValueError:
+def _bad(n: int, exc: BaseException | str) -> ValueError:
     return ValueError(f"a chunk's window arrays must be {n} contiguous float64 values each "
                       f"(alarms: bool): {exc}")
 
