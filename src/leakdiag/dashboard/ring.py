@@ -2,10 +2,11 @@
 
 One producer (the monitor's thread, :class:`RingWriter`) and one consumer (the sidecar process,
 :class:`RingReader`) share a memory file (``memfd_create``; elsewhere an unlinked temporary
-file) that both map. A chunk costs the monitor a few slice copies into the mapping and two
-8-byte stores, no system call: about 0.6 us for a 1,000-sample chunk in a tight loop, about
-1 us in the monitor's loop, against about 2 us for the pipe write it replaced
-(docs/operations.md has the measurements).
+file) that both map. A chunk costs the monitor one ``bytes.join`` of the frame's header and
+arrays, one slice assignment into the mapping and two 8-byte stores, no system call: about
+0.6 us for a 1,000-sample chunk in a tight loop, about 0.8 us in the monitor's loop, where
+the caches hold the detector's data rather than this code's (docs/operations.md has the
+measurements).
 
 Layout (byte offsets; the positions are totals since the start, so ``W - R`` is what is held):
 
