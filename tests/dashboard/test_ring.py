@@ -143,6 +143,22 @@ def test_bad_arrays_publish_nothing():
     assert lost is None
 
 
+def test_write_checks_the_frame_size_push_each_length():
+    """write (the monitor's arrays, made together) refuses what changes the frame's size;
+    push also refuses lengths whose errors cancel out in the size (v one short, s one long)."""
+    w, r = _pair()
+    t, v, s, a, _, rec = _chunk(0, 5, "scores")
+    with pytest.raises(ValueError, match="5 contiguous float64 values"):
+        w.write(t, v.astype(np.float32), s, a, None, rec)
+    with pytest.raises(ValueError, match="5 contiguous float64 values.*different lengths"):
+        w.push(t, v[:4], np.append(s, 9.0), a, None, rec)
+    with pytest.raises(ValueError, match="5 contiguous float64 values"):
+        w.push(t, v, s, None, None, rec)  # scores without alarms
+    assert r.held() == 0 and w.idx[8] == w.idx[0] == 0  # nothing announced or published
+    w.write(t, v, s, a, None, rec)
+    _same(r.take(final=True)[0], [(t, v, s, a, None, rec)])
+
+
 def test_crc_frames():
     """With CRC-32 (the default off x86): good frames pass; a frame whose bytes are not right is
     retried at the next take, an error if still wrong then, and reported at the end."""

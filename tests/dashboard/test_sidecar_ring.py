@@ -100,3 +100,38 @@ def test_a_sidecar_killed_from_outside_is_noticed_by_the_next_pushes(tmp_path):
     finally:
         with pytest.raises(StoreError):
             sc.close()
+
+
+def test_monitor_hooks_notice_a_killed_sidecar(tmp_path):
+    """The same check on the monitor's path (MonitorHooks.push writes to the ring itself, not
+    through Sidecar.push): a killed sidecar is raised within about ALIVE_CHECK_S."""
+    import numpy as np
+
+    from leakdiag.dashboard.hooks import MonitorHooks
+    from leakdiag.dashboard.sidecar import ALIVE_CHECK_S
+    from leakdiag.features.spec import MethodSpec
+    from leakdiag.store import StoreError
+    from leakdiag.stream import Monitor
+
+    class Threshold:
+        threshold_ = 0.5
+
+        def score_windows(self, values, time):
+            return np.abs(values)
+
+    spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=10, overlap=0)
+    mon = Monitor(spec, 1000.0, 0.0, scorers=Threshold())
+    hooks = MonitorHooks("rig9", spec, mon, "x", 1000.0, store=str(tmp_path / "ev.db"),
+                         say=lambda m: None)
+    x = np.random.default_rng(0).normal(size=50)
+    hooks.push(mon.push({"p1": x}))
+    hooks.sidecar.proc.kill()
+    hooks.sidecar.proc.wait(timeout=10)
+    killed = time.monotonic()
+    with pytest.raises(StoreError, match="ended unexpectedly"):
+        for _ in range(200):  # 10 s of 50-ms chunks at most
+            hooks.push(mon.push({"p1": x}))
+            time.sleep(0.05)
+    assert time.monotonic() - killed <= ALIVE_CHECK_S + 0.5
+    with pytest.raises(StoreError):
+        hooks.close(True)

@@ -125,3 +125,15 @@ def test_scorer_protocol_errors():
     mon = Monitor(spec, 10.0, scorers=Bad())
     with pytest.raises(ValueError, match=r"score_windows returned shape \(0,\) for \(1,\)"):
         mon.push({"p1": np.arange(10.0)})
+
+    class BadAlarms:  # one alarm per chunk, whatever its windows: the events would be wrong
+        def score_windows(self, values, time):
+            return values
+
+        def alarm_windows(self, scores):
+            return [True]
+
+    mon = Monitor(spec, 10.0, scorers=BadAlarms())
+    assert [e.alarm for e in mon.push({"p1": np.arange(10.0)})] == [True]
+    with pytest.raises(ValueError, match=r"alarm_windows returned shape \(1,\) for \(2,\)"):
+        mon.push({"p1": np.arange(20.0)})

@@ -2,10 +2,11 @@
 
 One producer (the monitor's thread, :class:`RingWriter`) and one consumer (the sidecar process,
 :class:`RingReader`) share a memory file (``memfd_create``; elsewhere an unlinked temporary
-file) that both map. A chunk costs the monitor a few slice copies into the mapping and two
-8-byte stores, no system call: about 0.6 us for a 1,000-sample chunk in a tight loop, about
-1 us in the monitor's loop, against about 2 us for the pipe write it replaced
-(docs/operations.md has the measurements).
+file) that both map. A chunk costs the monitor one ``bytes.join`` of the frame's header and
+arrays, one slice assignment into the mapping and two 8-byte stores, no system call: about
+0.6 us for a 1,000-sample chunk in a tight loop, about 0.8 us in the monitor's loop, where
+the caches hold the detector's data rather than this code's (docs/operations.md has the
+measurements).
 
 Layout (byte offsets; the positions are totals since the start, so ``W - R`` is what is held):
 
@@ -75,6 +76,8 @@ SCORES, BRANCHES, CONTINUED, CHECKED = 1, 2, 4, 8
 _ORDERED = platform.machine().lower() in ("x86_64", "amd64", "i386", "i686", "x86")
 _H = HEADER.size
 _F8 = np.dtype(np.float64)
+_PAD = tuple(bytes(k) for k in range(8))  # zero bytes that pad a frame to 8
+_cat = b"".join
 
 
 def ring_file(capacity: int = RING_BYTES) -> int:
@@ -166,6 +169,9 @@ class RingWriter(_Ring):
         self.on_full = on_full
         self.checked = (not _ORDERED) if checked is None else checked
         self._w = self._r = 0
+        # a frame that ends at or below _limit needs no wrap and no wait: it goes at mmap
+        # offset w + _base (the fast path of push; _reserve sets both)
+        self._base, self._limit = DATA_OFFSET, capacity
         self._cont = 0  # CONTINUED while _push_split writes all but the last part
         #: Frames that started a new lap, and pushes that waited for room (for the tests).
         self.n_wraps = self.n_waits = 0
@@ -194,6 +200,8 @@ class RingWriter(_Ring):
             if skip >= _H:
                 HEADER.pack_into(self.mm, DATA_OFFSET + pos, WRAP, 0, 0.0, 0)
         self._w = end
+        lap = w + skip - (w + skip) % cap  # where this frame's lap starts
+        self._base, self._limit = DATA_OFFSET - lap, min(lap + cap, self._r + cap)
         return DATA_OFFSET + (w + skip) % cap
 
     def push(self, t, v, s=None, a=None, branches=None, received: float = 0.0) -> None:
@@ -216,51 +224,68 @@ class RingWriter(_Ring):
             If an array has another item size than float64 (alarms: bool), another length
             than ``t`` or is not contiguous (nothing is published then).
         """
+        n = len(t)
+        try:
+            same = len(v) == n if s is None else len(v) == len(s) == len(a) == n
+        except TypeError as exc:  # e.g. scores without alarms
+            raise _bad(n, exc) from None
+        if not same:
+            raise _bad(n, "arrays of different lengths")
+        self.write(t, v, s, a, branches, received)
+
+    def write(self, t, v, s=None, a=None, branches=None, received: float = 0.0) -> None:
+        """:meth:`push` without the check of the arrays' lengths: for arrays made together.
+
+        The monitor's arrays of one push have one length by construction (the feature's times
+        and values; scores and alarms checked by :class:`~leakdiag.stream.Monitor`); the frame
+        is one ``bytes.join`` of the header and the arrays, written by one slice assignment,
+        whose size check still refuses an array of another item size or length (unless two
+        such errors cancel out). About 0.5 us per 1,000-sample chunk in the monitor's loop.
+
+        Parameters
+        ----------
+        t, v, s, a, branches, received
+            As :meth:`push`.
+
+        Raises
+        ------
+        ValueError
+            If the frame does not have the size of ``len(t)`` windows, or an array is not
+            contiguous (nothing is published then).
+        """
         idx = self.idx
         if idx[_STATUS]:
             self.on_full()  # raises: the reader has stopped on an error
         n = len(t)
         if s is None:
-            flags, size = 0, (_H + 16 * n + 7) & -8
+            flags, size = 0, _H + 16 * n
+            frame = (HEADER.pack(n, self._cont, received, 0), t, v)
         elif branches is None or len(branches[0]) != n:
             flags, size = SCORES, (_H + 25 * n + 7) & -8
+            frame = (HEADER.pack(n, SCORES | self._cont, received, 0), t, v, s, a, _PAD[-n & 7])
         else:
             flags, size = SCORES | BRANCHES, (_H + 41 * n + 7) & -8
-        w, cap = self._w, self.capacity
-        pos = w % cap
-        if pos + size <= cap and w + size - self._r <= cap:  # no wrap, room: the usual case
-            self._w = idx[_P] = w + size
-            p = DATA_OFFSET + pos
-        elif size > cap // 4:  # a huge chunk: several frames
+            frame = (HEADER.pack(n, SCORES | BRANCHES | self._cont, received, 0), t, v, s,
+                     branches[0], branches[1], a, _PAD[-n & 7])
+        end = self._w + size
+        if end <= self._limit:  # no wrap, room: the usual case
+            p = end - size + self._base
+            self._w = idx[_P] = end
+        elif size > self.capacity // 4:  # a huge chunk: several frames
             self._push_split(t, v, s, a, branches if flags & BRANCHES else None, received)
             return
         else:
             p = self._reserve(size)
         mm = self.mm
         try:
-            q = p + _H
-            e = q + 8 * n
-            mm[q:e] = t
-            q = e + 8 * n
-            mm[e:q] = v
-            if s is not None:
-                e = q + 8 * n
-                mm[q:e] = s
-                if flags & BRANCHES:
-                    q = e + 8 * n
-                    mm[e:q] = branches[0]
-                    e = q + 8 * n
-                    mm[q:e] = branches[1]
-                mm[e:e + n] = a
+            mm[p:p + size] = _cat(frame)
+            if self.checked:
+                HEADER.pack_into(mm, p, n, flags | CHECKED | self._cont, received,
+                                 zlib.crc32(mm[p + _H:p + size]))
         except (IndexError, ValueError, TypeError, BufferError) as exc:
             self._w = idx[_P] = idx[_W]  # nothing was published: the next frame goes here
-            raise ValueError(f"a chunk's window arrays must be {n} contiguous float64 values "
-                             f"each (alarms: bool): {exc}") from None
-        crc = 0
-        if self.checked:
-            flags |= CHECKED
-            crc = zlib.crc32(memoryview(mm)[p + _H:p + size])
-        HEADER.pack_into(mm, p, n, flags | self._cont, received, crc)
+            self._limit = -1  # _reserve places the next frame (it may not be in this lap)
+            raise _bad(n, exc) from None
         idx[_W] = self._w  # publish: after the frame's bytes (module docstring)
 
     def _push_split(self, t, v, s, a, branches, received: float) -> None:
@@ -270,11 +295,16 @@ class RingWriter(_Ring):
             j = slice(i, i + step)
             self._cont = CONTINUED if i + step < len(t) else 0
             try:
-                self.push(t[j], v[j], None if s is None else s[j], None if a is None else a[j],
+                self.write(t[j], v[j], None if s is None else s[j], None if a is None else a[j],
                           None if branches is None else (branches[0][j], branches[1][j]),
                           received)
             finally:
                 self._cont = 0
+
+
+def _bad(n: int, exc: BaseException | str) -> ValueError:
+    return ValueError(f"a chunk's window arrays must be {n} contiguous float64 values each "
+                      f"(alarms: bool): {exc}")
 
 
 class RingReader(_Ring):

@@ -1,8 +1,9 @@
 """The sidecar of ``leakdiag monitor --store/--dashboard``: a process of its own, fed by a ring.
 
 The monitor's thread hands each chunk's windows to :meth:`Sidecar.push`, which copies them into
-a ring in shared memory (:mod:`leakdiag.dashboard.ring`; about 1 us, no system call) and
-returns. The sidecar process (:func:`main`) polls the ring and hands what it took to a
+a ring in shared memory (:mod:`leakdiag.dashboard.ring`; under 1 us, no system call) and
+returns (:class:`~leakdiag.dashboard.hooks.MonitorHooks` writes to the ring itself, with the
+same check that the sidecar still runs). The sidecar process (:func:`main`) polls the ring and hands what it took to a
 :class:`~leakdiag.dashboard.recorder.ChunkRecorder`: one update of the live board and, with
 ``--store``, one transaction with the chunks' summaries and alarm rows. With ``--dashboard`` it
 also runs the web server that serves the board. After each take it lets the next chunks gather
@@ -218,10 +219,20 @@ class Sidecar:
         now = time.monotonic()
         if now >= self._alive_until:  # a sidecar that died silently (killed, OOM): say so
             self._alive_until = now + ALIVE_CHECK_S
-            if self.proc.poll() is not None:
-                self._expect(b"")
+            self.check_alive()
         if len(t):  # (the ring raises the error that the sidecar flagged)
             self.ring.push(t, v, s, a, branches, received)
+
+    def check_alive(self) -> None:
+        """Raise if the sidecar process has ended (one ``waitpid``, no wait).
+
+        Raises
+        ------
+        leakdiag.store.StoreError
+            Saying why it ended (the error it reported, or its exit code).
+        """
+        if self.proc.poll() is not None:
+            self._expect(b"")
 
     def flush(self) -> None:
         """Wait until the sidecar has taken every chunk pushed so far (board and store).

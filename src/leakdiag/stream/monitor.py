@@ -77,7 +77,11 @@ def check_scorer(scorer: Any) -> Any:
 
 def _alarms(scorer: Any, scores: np.ndarray) -> np.ndarray:
     if callable(getattr(scorer, "alarm_windows", None)):
-        return np.asarray(scorer.alarm_windows(scores), dtype=bool)
+        alarms = np.asarray(scorer.alarm_windows(scores), dtype=bool)
+        if alarms.shape != scores.shape:
+            raise ValueError(f"alarm_windows returned shape {alarms.shape} for {scores.shape} "
+                             "scores")
+        return alarms
     return np.asarray(scores >= float(scorer.threshold_), dtype=bool)
 
 
@@ -208,7 +212,8 @@ class Monitor:
         ------
         ValueError
             If a chunk is not finite or its channels differ in length (from the streaming
-            feature), or a scorer's ``score_windows`` returns a shape other than the values'.
+            feature), or a scorer's ``score_windows`` returns a shape other than the values'
+            (``alarm_windows`` one other than the scores').
         """
         out = []
         for feat, scorer in zip(self.features, self.scorers):
