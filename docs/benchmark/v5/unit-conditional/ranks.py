@@ -5,7 +5,7 @@ Usage: python ranks.py runs.csv.gz refs   (refs/: the run's reference maxima, <w
 Per rig and load: held-out healthy GLR maxima above the k-th largest of the 300 reference
 maxima (k = 1 is the level at 95 % confidence the run used; k = 3 the marginal rank
 floor(0.01 x 301)); pooled counts with Clopper-Pearson intervals, and, under exchangeability
-(each group's rate Beta(k, 301 - k), its count Binomial(200)), the chance of a pooled count at
+(each group's rate Beta(k, 301 - k), its count Binomial(its held-out runs)), the chance of a pooled count at
 least as large (200,000 draws).
 """
 import glob, sys
@@ -31,7 +31,7 @@ for k in (1, 2, 3):
     lo, hi = clopper_pearson(tot[k], n)
     print(f"k={k} of 300: {tot[k]}/{n} = {tot[k]/n:.2%} [{lo:.2%}, {hi:.2%}]")
 print("alarms (recorded):", int(h.alarm.sum()), "/", n, [f"{x:.2%}" for x in clopper_pearson(int(h.alarm.sum()), n)])
-# under exchangeability: per group rate Beta(k, 301-k), count Binomial(200, rate), sum of 4 groups
+# under exchangeability: per group rate Beta(k, 301-k), count Binomial(n per group, rate), sum of 4 groups
 rng = np.random.default_rng(0)
 ng = h.groupby(["system", "load"]).ngroups; nt = n // ng
 for k in (1, 3):
