@@ -100,3 +100,28 @@ def src_env():
     """Environment for a child ``leakdiag`` process that imports this tree."""
     src = str(Path(__file__).resolve().parents[2] / "src")
     return {**os.environ, "PYTHONPATH": src + os.pathsep + os.environ.get("PYTHONPATH", "")}
+
+
+class AbsScorer:
+    """A scorer whose score is the feature's absolute value, alarm level 0.5."""
+
+    threshold_ = 0.5
+
+    def score_windows(self, values, time):
+        import numpy as np
+
+        return np.abs(values)
+
+
+def abs_monitor_hooks(tmp_path, actuator: str, window: int):
+    """An autocorrelation monitor of p1 (lag 1, ``window`` samples, 1 kHz) scored by
+    :class:`AbsScorer`, and its hooks storing into ``tmp_path / "ev.db"``."""
+    from leakdiag.dashboard.hooks import MonitorHooks
+    from leakdiag.features.spec import MethodSpec
+    from leakdiag.stream import Monitor
+
+    spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=window, overlap=0)
+    mon = Monitor(spec, 1000.0, 0.0, scorers=AbsScorer())
+    hooks = MonitorHooks(actuator, spec, mon, "x", 1000.0, store=str(tmp_path / "ev.db"),
+                         say=lambda m: None)
+    return mon, hooks

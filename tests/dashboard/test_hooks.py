@@ -126,18 +126,9 @@ def test_push_of_events_other_than_the_last_push(tmp_path):
     events (here those of the push before) are read from the events themselves."""
     import numpy as np
 
-    from leakdiag.features.spec import MethodSpec
+    from .conftest import abs_monitor_hooks
 
-    class Threshold:
-        threshold_ = 0.5
-
-        def score_windows(self, values, time):
-            return np.abs(values)
-
-    spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=100, overlap=0)
-    mon = Monitor(spec, 1000.0, 0.0, scorers=Threshold())
-    hooks = MonitorHooks("rig8", spec, mon, "x", 1000.0, store=str(tmp_path / "ev.db"),
-                         say=lambda m: None)
+    mon, hooks = abs_monitor_hooks(tmp_path, "rig8", 100)
     x = np.random.default_rng(0).normal(size=600)
     first, second = mon.push({"p1": x[:300]}), mon.push({"p1": x[300:]})
     assert mon.last_events is second and len(first) == len(second) == 3

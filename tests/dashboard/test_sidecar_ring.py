@@ -12,7 +12,7 @@ import pytest
 
 from leakdiag.store import EventStore
 
-from .conftest import process_gone, src_env
+from .conftest import abs_monitor_hooks, process_gone, src_env
 
 #: The "monitor": a sidecar with a 4,096-byte ring, K chunks of 5 windows (152 bytes each with
 #: scores) pushed as fast as it can, then (mode "torn") half a frame written, then kill -9.
@@ -107,22 +107,10 @@ def test_monitor_hooks_notice_a_killed_sidecar(tmp_path):
     through Sidecar.push): a killed sidecar is raised within about ALIVE_CHECK_S."""
     import numpy as np
 
-    from leakdiag.dashboard.hooks import MonitorHooks
     from leakdiag.dashboard.sidecar import ALIVE_CHECK_S
-    from leakdiag.features.spec import MethodSpec
     from leakdiag.store import StoreError
-    from leakdiag.stream import Monitor
 
-    class Threshold:
-        threshold_ = 0.5
-
-        def score_windows(self, values, time):
-            return np.abs(values)
-
-    spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=10, overlap=0)
-    mon = Monitor(spec, 1000.0, 0.0, scorers=Threshold())
-    hooks = MonitorHooks("rig9", spec, mon, "x", 1000.0, store=str(tmp_path / "ev.db"),
-                         say=lambda m: None)
+    mon, hooks = abs_monitor_hooks(tmp_path, "rig9", 10)
     x = np.random.default_rng(0).normal(size=50)
     hooks.push(mon.push({"p1": x}))
     hooks.sidecar.proc.kill()
