@@ -108,3 +108,18 @@ def test_valve_lead_identified_on_fixed_windows_and_reduces_the_sum_residual():
     worst = [np.abs(vca_terms(raw, P, dataclasses.replace(nominal, valve_lead_s=lead))
                     ["balance"][2:]).max() for lead in (0.0, LEAD_S)]
     assert worst[1] < worst[0] / 3  # 1047 -> 153 nL measured
+
+
+def test_the_last_boundary_also_leaves_a_transient_but_stays_in_the_recording():
+    # v5 healthy run of unit 62500438 (spring): a command step 24 ms before the fixed last
+    # boundary, the piston still moving there; the last window alarmed with z = -13.3
+    busy = np.zeros(5100)
+    busy[4976:5030] = np.arange(54)  # the spool moves for 54 ms across the nominal 5000
+    busy[5030:] = 53.0
+    b = quiet_bounds(busy, 1000, 1000.0)
+    assert b[:-1].tolist() == [0, 1000, 2000, 3000, 4000]
+    assert b[-1] <= 4976 - 21 or b[-1] >= 5029 + 21  # 20 ms away from the motion
+    end = np.zeros(5001)  # the recording ends at the nominal last boundary, mid-motion
+    end[4980:] = np.arange(21)
+    b = quiet_bounds(end, 1000, 1000.0)
+    assert b[-1] <= 5000 and 4959 - b[-1] >= 0  # moved back before the motion, never past the end

@@ -56,9 +56,12 @@ def quiet_bounds(spool: np.ndarray, window: int, sample_rate: float,
                  half_width_s: float = QUIET_HALF_WIDTH_S) -> np.ndarray:
     """Boundaries moved, within ``+-search_fraction * window``, to where the spool is at rest.
 
-    Each interior boundary of :func:`fixed_bounds` moves to the sample in its search range with
-    the smallest largest spool step ``|x_v[k+1] - x_v[k]|`` within ``+-half_width_s`` (ties: the
-    one nearest the nominal place). The first and last boundaries stay.
+    Each boundary of :func:`fixed_bounds` after the first moves to the sample in its search
+    range with the smallest largest spool step ``|x_v[k+1] - x_v[k]|`` within ``+-half_width_s``
+    (ties: the one nearest the nominal place). The first stays (it starts the burn-in); the last
+    moves within the recording (up to its last sample): a fixed last boundary inside the motion
+    after a command step made the last window of a healthy v5 run alarm (z = -13.3;
+    docs/detect.md section 8.4).
 
     Parameters
     ----------
@@ -89,6 +92,9 @@ def quiet_bounds(spool: np.ndarray, window: int, sample_rate: float,
     >>> xv = np.zeros(4001); xv[1990:] = 1.0  # a spool step 10 ms before a boundary
     >>> quiet_bounds(xv, 1000, 1000.0).tolist()  # moved to 20 ms after the step
     [0, 1000, 2010, 3000, 4000]
+    >>> xv = np.zeros(4200); xv[3990:] = 1.0  # ... and before the last one
+    >>> quiet_bounds(xv, 1000, 1000.0).tolist()
+    [0, 1000, 2000, 3000, 4010]
     """
     if not 0 <= search_fraction < 0.5:
         raise ValueError(f"search_fraction={search_fraction!r} must be in [0, 0.5)")
@@ -102,8 +108,11 @@ def quiet_bounds(spool: np.ndarray, window: int, sample_rate: float,
     busy = maximum_filter1d(step, 2 * half + 1, mode="nearest")
     offsets = np.arange(-reach, reach + 1)
     out = b.copy()
-    for i in range(1, len(b) - 1):
+    last = len(spool) - 1
+    for i in range(1, len(b)):
         cand = b[i] + offsets
+        if i == len(b) - 1:
+            cand = cand[cand <= last]
         cost = busy[cand]
         best = np.flatnonzero(cost == cost.min())
         out[i] = cand[best[np.argmin(np.abs(offsets[best]))]]
