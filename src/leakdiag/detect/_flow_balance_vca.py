@@ -358,6 +358,13 @@ def drift_profiled(residual: np.ndarray, psi: np.ndarray, duration: np.ndarray) 
     return residual - reg * (float(reg @ residual) / rr)
 
 
+def _column_scales(x: np.ndarray) -> np.ndarray:
+    """RMS of each column of ``x`` (1 for an all-zero column): the least-squares scaling."""
+    col = np.sqrt(np.mean(x * x, axis=0))
+    col[col == 0] = 1.0
+    return col
+
+
 def _robust_std(v: np.ndarray) -> float:
     v = v[np.isfinite(v)]
     if v.size == 0:
@@ -379,11 +386,12 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, windows: li
     virtual machines): one offset shared by recordings made at different temperatures left the
     difference between them to the baseline leak coefficient, a leak-shaped bias of the model
     (docs/detect.md, section 8.4). The model's ``null_offset_v`` is their mean, and
-    ``std["null_offset_spread_v"]`` their spread.
-    the flow-gain factor, the spool-clearance leakage, the baseline leak coefficient, the
-    pressure delay and optionally the inverse bulk modulus enter linearly and are solved exactly at every step. A
-    null drift linear in time is profiled out of each recording's leak-equation residuals
-    (projection on ``psi (t - mean t)``): the slow drift allowance. Each equation is weighted by
+    ``std["null_offset_spread_v"]`` their spread. The flow-gain factor, the spool-clearance
+    leakage, the baseline leak coefficient, the pressure delay and optionally the inverse bulk
+    modulus enter linearly and are solved exactly at every step. A null drift linear in time is
+    profiled out of each recording's leak-equation residuals (projection on
+    ``psi (t - mean t)``, with ``psi`` taken at that recording's offset): the slow drift
+    allowance. Each equation is weighted by
     a robust scale of its residuals (two passes).
 
     Parameters
@@ -441,15 +449,19 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, windows: li
         return {nm: getattr(base, nm) + th * sc
                 for nm, th, sc in zip(shared_names, theta[n_rec:], shared_scales)}
 
+    # window mid-times of each recording (s; they do not depend on the model)
+    mid_times = []
+    for a, fs, sk, window in zip(recordings_arrays, sample_rates, skip, windows):
+        bounds = _as_bounds(window, len(a[3]))
+        mid_times.append((0.5 * (bounds[:-1] + bounds[1:]) / fs)[sk:])
+
     def make_projectors(offs) -> list:
         """Per recording: the drift regressor ``psi (t - mean t)`` at its offset, and its norm."""
         out = []
-        for a, fs, sk, window, off in zip(recordings_arrays, sample_rates, skip, windows, offs):
+        for a, fs, sk, window, off, t in zip(recordings_arrays, sample_rates, skip, windows,
+                                             offs, mid_times):
             at = VCAValveModel(**{**base.to_dict(), "null_offset_v": float(off)})
-            raw0 = vca_raw_sums(a, fs, params, float(off), base.supply_pressure_pa,
-                                base.valve_natural_frequency_hz, window, laminar)[sk:]
             psi = offset_sensitivity(a, fs, params, at, window, laminar)[sk:]
-            t = np.cumsum(raw0[:, _T]) - 0.5 * raw0[:, _T]
             reg = psi * (t - t.mean())
             out.append((reg, float(reg @ reg)))
         return out
@@ -519,8 +531,7 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, windows: li
         return x, y, len(y_r), sizes
 
     def lstsq_scaled(x, y):
-        col = np.sqrt(np.mean(x * x, axis=0))
-        col[col == 0] = 1.0
+        col = _column_scales(x)
         coef, *_ = np.linalg.lstsq(x / col, y, rcond=None)
         return coef / (col[:, None] if np.ndim(coef) == 2 else col)
 
@@ -582,8 +593,7 @@ def identify_vca(recordings_arrays, sample_rates, params: VCAParams, windows: li
             std[nm] = float(np.sqrt(max(cov_nl[n_rec + i, n_rec + i], 0.0)))
     except np.linalg.LinAlgError:
         std.update({nm: float("nan") for nm in ["null_offset_v", *shared_names]})
-    col = np.sqrt(np.mean(x * x, axis=0))
-    col[col == 0] = 1.0
+    col = _column_scales(x)
     cov_lin = np.linalg.pinv((x / col).T @ (x / col)) * s2 / np.outer(col, col)
     for nm, c in zip(lin_names, np.diag(cov_lin)):
         std[nm] = float(np.sqrt(max(c, 0.0)))

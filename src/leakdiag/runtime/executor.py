@@ -19,6 +19,8 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
+from threadpoolctl import threadpool_limits
+
 __all__ = ["CaseResult", "run_cases", "SERIAL", "LOCAL"]
 
 #: Scheduler name: run in this process, one case after the other.
@@ -50,8 +52,6 @@ class CaseResult:
 def _timed(run_case: Callable[[Any], Any], config: Any) -> tuple[Any, float]:
     # one BLAS thread per case, in the caller's process as in Dask's workers (whose nannies set
     # OPENBLAS_NUM_THREADS=1): the cases' matrices are small, and threads only contend
-    from threadpoolctl import threadpool_limits
-
     t0 = time.perf_counter()
     with threadpool_limits(1):
         out = run_case(config)
