@@ -138,3 +138,22 @@ def test_coefficient_from_healthy_ignores_a_reference_the_pressure_does_not_foll
     # a constant reference cannot be fitted either
     assert coefficient_from_healthy(p1, p2, 9_999, p, 1.0, True, reference=np.ones(n)) == \
         coefficient_from_healthy(p1, p2, 9_999, p, 1.0, True)
+
+
+def test_slope_pilot_stretch_and_slope():
+    # 10 % of the window after the onset, at least 10 s, none above a quarter of the window
+    def plan(duration, onset):
+        return plan_leak(0.1, onset, "step", 1.0, n=int(duration * 1000), sample_rate=1000.0,
+                         duration=duration)
+
+    assert plan(400.0, 200.0).pilot_stop == 200_000 + 20_000
+    assert plan(120.0, 60.0).pilot_stop == 60_000 + 10_000      # 6 s -> the 10 s minimum
+    assert plan(100.0, 60.0).pilot_stop == 60_000 + 10_000      # 10 s of 40 s: a quarter
+    assert plan(100.0, 61.0).pilot_stop is None                 # 10 s of 39 s
+    p = plan(400.0, 200.0)
+    flow = np.zeros(400_000)
+    flow[200_000:220_000] = 2.0 / 60_000  # 2 L/min over the stretch, 0 after it
+    assert p.pilot_mean_lpm(flow) == pytest.approx(2.0, rel=1e-12)
+    assert p.slope_between(2.0, 2.0 * 1.5 ** 1.2, 1e-8, 1.5e-8) == pytest.approx(1.2, rel=1e-12)
+    for bad in [(0.0, 1.0, 1.0, 2.0), (1.0, 1.0, 1.0, 1.0), (1.0, np.inf, 1.0, 2.0)]:
+        assert p.slope_between(*bad) == 1.0

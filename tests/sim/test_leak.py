@@ -197,6 +197,29 @@ def test_reaction_step_hand_values_and_first_step():
         calibrate_leak_coefficient(_first_order_reaction, 0.5, 0.5, first_step="newton")
 
 
+def test_first_slope_pilot_takes_the_first_step_with_its_slope():
+    # q = 3 k^0.8 from k = 1 to 0.1 L/min: the proportional step (k = 1/30) gives 0.197, 97 %
+    # too much; with the pilot's slope 0.8 the second run hits 0.1 (to rounding)
+    q = lambda k: 3.0 * k ** 0.8  # noqa: E731
+    calls = []
+
+    def slope(k0, k1):
+        calls.append((k0, k1))
+        return math.log(q(k1) / q(k0)) / math.log(k1 / k0)
+
+    res = calibrate_leak_coefficient(q, 0.1, 1.0, first_slope=slope)
+    assert (res.n_evaluations, res.n_pilot_evaluations) == (2, 1)
+    assert calls == [(1.0, pytest.approx(1.0 / 30.0, rel=1e-15))]
+    assert res.coefficient == pytest.approx((1.0 / 30.0) ** 1.25, rel=1e-12)
+    assert res.achieved_lpm == pytest.approx(0.1, rel=1e-12)
+    # a first run that lands needs no pilot; the slope is clipped to [0.2, 5]
+    assert calibrate_leak_coefficient(q, 3.0, 1.0, first_slope=slope).n_pilot_evaluations == 0
+    flat = calibrate_leak_coefficient(q, 0.1, 1.0, first_slope=lambda a, b: 0.01)
+    assert flat.history[1][0] == pytest.approx(30.0 ** -5, rel=1e-12)
+    with pytest.raises(LeakCalibrationError, match=r"first_slope\(1, 0.0333333\) returned nan"):
+        calibrate_leak_coefficient(q, 0.1, 1.0, first_slope=lambda a, b: math.nan)
+
+
 def test_bracketed_search_uses_illinois_on_a_convex_response():
     # a kink (slope 1, then 10: a large leak without load turns superlinear, docs/models.md):
     # once runs bracket the target the regula falsi keeps the bracket and halves a stuck

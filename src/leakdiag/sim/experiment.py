@@ -32,6 +32,7 @@ from leakdiag.sim._checks import (
 from leakdiag.sim.leak import (
     LEAK_REFERENCE_DP_PA,
     MIN_CALIBRATION_WINDOW_S,
+    SLOPE_PILOT_FRACTION,
     CalibrationResult,
     LeakCalibrationError,
     LeakSchedule,
@@ -218,6 +219,56 @@ class LeakPlan:
         i_on = self.onset_index
         return m3s_to_lpm(float(np.mean(np.abs(leak_flow_m3s[i_on:])))) if i_on < self.n else 0.0
 
+    @property
+    def pilot_stop(self) -> int | None:
+        """End sample of the slope pilot's stretch after the onset, or None if it has none.
+
+        The stretch is :data:`SLOPE_PILOT_FRACTION` of the window after the onset, at least
+        ``MIN_CALIBRATION_WINDOW_S``; None when that is more than a quarter of the window (a
+        pilot would then cost about what a run does) or without a leak.
+
+        Examples
+        --------
+        >>> plan_leak(0.1, 200.0, "step", 1.0, n=400_000, sample_rate=1000.0,
+        ...           duration=400.0).pilot_stop              # 200 s + 20 s
+        220000
+        """
+        if not self.active:
+            return None
+        length = max(SLOPE_PILOT_FRACTION * self.window_s, MIN_CALIBRATION_WINDOW_S)
+        if length > 0.25 * self.window_s:
+            return None
+        return self.onset_index + int(round(length * self.sample_rate))
+
+    def pilot_mean_lpm(self, leak_flow_m3s: np.ndarray) -> float:
+        """Mean :math:`|Q_l|` over the pilot's stretch ``[onset, pilot_stop)``, L/min.
+
+        Parameters
+        ----------
+        leak_flow_m3s : numpy.ndarray
+            True leak flow, m^3/s, valid at least on that stretch.
+
+        Returns
+        -------
+        float
+        """
+        return m3s_to_lpm(float(np.mean(np.abs(leak_flow_m3s[self.onset_index:
+                                                              self.pilot_stop]))))
+
+    def slope_between(self, q0_lpm: float, q1_lpm: float, k0: float, k1: float) -> float:
+        """Log-log slope of two pilot means; 1 (the proportional step) when it is undefined.
+
+        Examples
+        --------
+        >>> p = plan_leak(0.1, 1.0, "step", 1.0, n=20_000, sample_rate=1000.0, duration=20.0)
+        >>> round(p.slope_between(1.0, 2.0 ** 0.8, 1.0, 2.0), 12)
+        0.8
+        """
+        if not (q0_lpm > 0 and q1_lpm > 0 and k0 > 0 and k1 > 0 and k0 != k1
+                and math.isfinite(q0_lpm) and math.isfinite(q1_lpm)):
+            return 1.0
+        return math.log(q1_lpm / q0_lpm) / math.log(k1 / k0)
+
 
 def plan_leak(leak_lpm, onset, leak_kind: str, ramp_duration, *, n: int, sample_rate: float,
               duration: float, check_target: Callable[[float], None] | None = None) -> LeakPlan:
@@ -328,7 +379,9 @@ def coefficient_from_healthy(p1: np.ndarray, p2: np.ndarray, split: int, plan: L
 
 def calibrate_leak(plan: LeakPlan, simulate_fn: Callable[[float], float], k0: float,
                    rtol: float, history, pilot_fn: Callable[[float], float] | None = None,
-                   first_step: str = "proportional") -> CalibrationResult:
+                   first_step: str = "proportional",
+                   first_slope: Callable[[float, float], float] | None = None
+                   ) -> CalibrationResult:
     """Calibrate :math:`k_l` to the plan's target; a failure on a short run says so.
 
     Parameters
@@ -349,6 +402,10 @@ def calibrate_leak(plan: LeakPlan, simulate_fn: Callable[[float], float], k0: fl
     first_step : {"proportional", "reaction"}, default "proportional"
         Without a pilot, the correction after the first run
         (:func:`~leakdiag.sim.leak.calibrate_leak_coefficient`).
+    first_slope : callable, optional
+        Without a pilot model, ``first_slope(k0, k1)``: the log-log slope of the mean leak
+        measured on a pilot stretch, for the correction after the first run
+        (:func:`~leakdiag.sim.leak.calibrate_leak_coefficient`; overrides ``first_step``).
 
     Returns
     -------
@@ -369,7 +426,7 @@ def calibrate_leak(plan: LeakPlan, simulate_fn: Callable[[float], float], k0: fl
     try:
         if pilot_fn is None:
             return calibrate_leak_coefficient(simulate_fn, plan.target_lpm, k0, rtol=rtol,
-                                              first_step=first_step)
+                                              first_step=first_step, first_slope=first_slope)
         return calibrate_with_pilot(simulate_fn, pilot_fn, plan.target_lpm, k0, rtol=rtol)
     except LeakCalibrationError as exc:
         if plan.window_s < MIN_CALIBRATION_WINDOW_S:

@@ -26,6 +26,7 @@ import numpy as np
 from leakdiag._validation import check_positive
 from leakdiag.sim.calibration import (  # noqa: F401  (re-exported: the leak API in one place)
     MIN_CALIBRATION_WINDOW_S,
+    SLOPE_PILOT_FRACTION,
     CalibrationResult,
     LeakCalibrationError,
     calibrate_leak_coefficient,

@@ -262,3 +262,29 @@ def test_python_controller_takes_the_same_two_steps_as_the_compiled_one():
     assert fast.meta["rk4_step_s"] < fast.meta["rk4_step_before_onset_s"]
     assert np.allclose(fast["x"], slow["x"], rtol=0, atol=1e-12)
     assert np.allclose(fast["leak_flow"], slow["leak_flow"], rtol=0, atol=1e-15)
+
+
+def test_a_slope_pilot_lets_the_second_run_land_without_load(monkeypatch):
+    # without load the mean leak is not proportional to the coefficient (the pressures react
+    # to the leak), so the proportional correction after the first run missed 2 % and needed a
+    # third run here; a pilot over the first 10 s after the onset measures the slope, and the
+    # second run lands. The pilot's samples are all overwritten: the run equals a whole run
+    # with the delivered coefficient, bit for bit.
+    from leakdiag.sim import experiment
+
+    kw = dict(duration=120.0, onset=60.0, load="none", seed=0, leak_lpm=0.2)
+    work = _integration_work(monkeypatch)
+    rec = simulate_vca(**kw)
+    m = rec.meta
+    assert (m["calibration_runs"], m["calibration_pilot_runs"]) == (2, 1)
+    assert abs(m["leak_lpm_achieved"] / 0.2 - 1) <= 0.02
+    n_sub = round(1.0 / (1000.0 * m["rk4_step_s"]))
+    split, post, pilot = 59_999, 60_001, 10_001  # onset sample 60 000 - 1; [split, 70 000)
+    assert work[0] == split * 4 and len(work) == 4
+    assert work[2] % pilot == 0 and work[3] == post * n_sub
+    again = simulate_vca(**{k: v for k, v in kw.items() if k != "leak_lpm"},
+                         leak_coefficient=m["leak_coefficient"])
+    for name in rec.channel_names:
+        assert np.array_equal(rec[name], again[name]), name
+    monkeypatch.setattr(experiment.LeakPlan, "pilot_stop", property(lambda self: None))
+    assert simulate_vca(**kw).meta["calibration_runs"] == 3  # the proportional step's count

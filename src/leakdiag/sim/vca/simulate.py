@@ -109,11 +109,15 @@ class _OnsetRestarts:
         loop.advance(self._carry, split, n_sub, loop.coefficients(0.0), self.result, chunk,
                      progress)
 
-    def run(self, k_leak: float, n_sub_after: int) -> ClosedLoopResult:
+    def run(self, k_leak: float, n_sub_after: int, stop: int | None = None) -> ClosedLoopResult:
         """The whole run with coefficient ``k_leak``, ``n_sub_after`` RK4 steps per sample from
-        ``split`` on (the leak's stable step); only the part after the onset is new."""
-        self.loop.advance(self._carry.copy(), self.loop.n, n_sub_after,
-                          self.loop.coefficients(k_leak), self.result, self.chunk,
+        ``split`` on (the leak's stable step); only the part after the onset is new.
+
+        With ``stop``, a pilot: only samples ``[split, stop)`` are integrated, and the buffer
+        is a whole run again only after the next :meth:`run` without ``stop``.
+        """
+        self.loop.advance(self._carry.copy(), self.loop.n if stop is None else stop,
+                          n_sub_after, self.loop.coefficients(k_leak), self.result, self.chunk,
                           self.progress)
         return self.result
 
@@ -294,10 +298,14 @@ def simulate_vca(
     predicted from the reference when the load pressure follows it, e.g. with the spring), and
     reruns only the part after the onset (same seed, bit-identical to a full run with that
     coefficient) until the mean is within ``calibration_rtol``; the delivered run is checked
-    against the target. ``calibration_runs`` counts the post-onset runs (1 with the spring in
-    the cases measured, 2-3 without load; ``calibration_pilot_runs`` is 0: a coarser-step pilot
-    was tried and rejected, without load it is biased by up to 40 %, docs/models.md). A Python
-    ``controller`` reruns whole experiments.
+    against the target. When the first run misses, a pilot reruns only the first 10 % of the
+    window after the onset (at least 10 s, :data:`~leakdiag.sim.leak.SLOPE_PILOT_FRACTION`) at
+    the proportional step, and the correction uses the log-log slope it measures.
+    ``calibration_runs`` counts the post-onset runs (1 with the spring in the cases measured,
+    mostly 2 without load, where the pressures react to the leak), ``calibration_pilot_runs``
+    the slope pilots (0 or 1; a coarser-step pilot of the whole window was tried and rejected,
+    without load it is biased by up to 40 %, docs/models.md). A Python ``controller`` reruns
+    whole experiments.
 
     Examples
     --------
@@ -399,14 +407,27 @@ def simulate_vca(
         result = run(k_leak)
     else:
         history: list[tuple[float, float]] = []
-        k0 = None
+        k0 = slope_pilot = None
         if fixed:
             segments = _OnsetRestarts(loop, split, n_sub, chunk, progress)
+            stop = plan.pilot_stop
+            pilot_means: dict[float, float] = {}
 
             def simulate_fn(k: float) -> float:
-                q = plan.mean_lpm(segments.run(k, substeps(k)).leak_flow)
+                flow = segments.run(k, substeps(k)).leak_flow
+                q = plan.mean_lpm(flow)
+                if stop is not None:
+                    pilot_means[k] = plan.pilot_mean_lpm(flow)
                 history.append((k, q))
                 return q
+
+            def first_slope(k0: float, k1: float) -> float:
+                # the first run's stretch [onset, stop) against a pilot over it at k1
+                q1 = plan.pilot_mean_lpm(segments.run(k1, substeps(k1), stop).leak_flow)
+                return plan.slope_between(pilot_means[k0], q1, k0, k1)
+
+            if stop is not None:
+                slope_pilot = first_slope
 
             pre = segments.result  # valid on [0, split) until the first trial
             k0 = coefficient_from_healthy(pre.state[:, S_P1], pre.state[:, S_P2], split, plan,
@@ -422,7 +443,8 @@ def simulate_vca(
 
         if k0 is None:
             k0 = initial_leak_coefficient(plan.target_lpm, leak_model, load)
-        cal = calibrate_leak(plan, simulate_fn, k0, calibration_rtol, history)
+        cal = calibrate_leak(plan, simulate_fn, k0, calibration_rtol, history,
+                             first_slope=slope_pilot)
         k_leak = cal.coefficient
         result = segments.result if fixed else runs[k_leak]
 
