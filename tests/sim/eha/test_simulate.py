@@ -8,6 +8,7 @@ from leakdiag.sim.eha.simulate import EHA_SENSORS, simulate_eha
 from leakdiag.sim.eha.drive import EHAConditions, build_inputs
 from leakdiag.sim.eha.model import IN_BETA_SCALE, IN_FV_SCALE, IN_KLEAK, IN_SPRING, IN_XREF
 from leakdiag.sim.eha.params import EHAParams
+from leakdiag.sim.excitation import structured_excitation
 from leakdiag.sim.leak import LeakSchedule
 
 SHORT = {"duration": 12.0, "onset": 6.0}
@@ -25,28 +26,54 @@ def test_calibrated_leak_hits_target_within_2_percent(target):
     assert 1 <= rec.meta["calibration_runs"] <= 6
 
 
-@pytest.mark.parametrize("kw", [dict(leak_lpm=1.2), dict(leak_lpm=0.77, load="spring"),
-                                dict(leak_lpm=0.8, mode="closed-loop"),
-                                dict(leak_lpm=0.3, machine=3)])
-def test_a_typical_leak_costs_one_pilot_and_one_full_run(monkeypatch, kw):
+@pytest.mark.parametrize("kw, stride, factor", [
+    (dict(leak_lpm=1.2), 8, 64), (dict(leak_lpm=0.77, load="spring"), 8, 64),
+    (dict(leak_lpm=0.8, mode="closed-loop"), 8, 8), (dict(leak_lpm=0.3, machine=3), 8, 64),
+    (dict(leak_lpm=0.3, input_signal=structured_excitation("eha")), 1, 4),
+])
+def test_a_typical_leak_costs_one_pilot_and_one_full_run(monkeypatch, kw, stride, factor):
     # the pilot at the first guess measures the pressures' reaction; the coefficient of a
     # reaction first order in the leak flow lands within 2 % on the first full run: the part
-    # before the onset, one pilot (4x rtol) and one full part after it
+    # before the onset, one pilot and one full part after it. The pilot runs on every 8th
+    # sample (steps up to 8 ms) at 64x rtol (8x in closed loop), or on every sample at 4x rtol
+    # when a coarser grid would smear the inputs (the structured excitation's steps)
     from leakdiag.sim.eha import simulate as eha_simulate
 
     rtols = []
     fast = eha_simulate.integrate_fast
 
     def logged(y0, inputs, params, sample_rate, **options):
-        rtols.append((inputs.shape[0], options["rtol"]))
+        rtols.append((inputs.shape[0], sample_rate, options["rtol"]))
         return fast(y0, inputs, params, sample_rate, **options)
 
     monkeypatch.setattr(eha_simulate, "integrate_fast", logged)
     rec = simulate_eha(duration=40.0, onset=20.0, **kw)
     rtol = rec.meta["rtol"]
-    assert rtols == [(20_000, rtol), (20_001, 4 * rtol), (20_001, rtol)]
+    pilot = (-(-20_001 // stride), 1000.0 / stride, factor * rtol)  # rows 19 999, +8, ... 39 999
+    assert rtols == [(20_000, 1000.0, rtol), pilot, (20_001, 1000.0, rtol)]
     assert rec.meta["calibration_runs"] == 1 and rec.meta["calibration_pilot_runs"] == 1
     assert abs(rec.meta["leak_lpm_achieved"] / kw["leak_lpm"] - 1) <= 0.02
+
+
+def test_the_pilot_grid_is_used_only_for_inputs_it_represents(monkeypatch):
+    from leakdiag.sim.eha import simulate as eha_simulate
+    from leakdiag.sim.eha.simulate import PILOT_INTERPOLATION_TOLERANCE, _stride_represents
+
+    t = np.arange(90_001) / 1000.0
+    sine = 3.0 * np.sin(4.0 * t)
+    spring = np.where(t < 10.0, 1.0e5, 1.1e5)  # one step
+    steps = np.where(np.sin(2.0 * np.pi * t / 4.0) > 0, 3.0, -3.0)  # every 2 s
+    assert _stride_represents(np.c_[sine, spring, np.ones_like(t)], 8)
+    assert not _stride_represents(np.c_[sine, steps], 8)
+    # hand value of the criterion for the sine: the error of linear interpolation at j ms of
+    # 8 is about |u''| (j h / 8)(h - j h / 8) / 2, h = 8 ms; its mean over j = 0..7 is
+    # h^2 / 2 * (8^2 - 1) / (6 * 8^2) * mean|u''|, mean|u''| = 3 * 4^2 * 2 / pi; range 6 V
+    ratio = 0.008**2 / 2 * 63 / 384 * 48.0 * 2.0 / np.pi / 6.0
+    assert ratio == pytest.approx(2.7e-5, rel=0.02) and ratio < PILOT_INTERPOLATION_TOLERANCE
+    for factor, represented in [(1.01, True), (0.99, False)]:
+        monkeypatch.setattr(eha_simulate, "PILOT_INTERPOLATION_TOLERANCE", factor * ratio)
+        assert _stride_represents(np.c_[sine], 8) is represented
+    assert not _stride_represents(np.c_[sine[:16]], 8)  # fewer than two grid intervals
 
 
 def test_ramp_leak_grows_and_hits_target():
