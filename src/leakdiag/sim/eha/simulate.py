@@ -104,13 +104,18 @@ def _stride_represents(rows: np.ndarray, stride: int) -> bool:
     n = (rows.shape[0] - 1) // stride * stride + 1
     if n < 2 * stride + 1:
         return False
-    span = rows[:n]
-    grid = span[::stride]
-    frac = (np.arange(stride) / stride)[None, :, None]  # position between grid points
-    interp = grid[:-1, None, :] + frac * (grid[1:, None, :] - grid[:-1, None, :])
-    err = np.abs(span[:-1].reshape(-1, stride, rows.shape[1]) - interp).mean(axis=(0, 1))
-    ptp = np.ptp(span, axis=0)
-    return bool(np.all(err <= PILOT_INTERPOLATION_TOLERANCE * ptp))
+    frac = np.arange(stride) / stride  # position between grid points
+    for c in range(rows.shape[1]):
+        col = np.ascontiguousarray(rows[:n, c])
+        ptp = float(col.max() - col.min())
+        if ptp == 0.0:
+            continue
+        grid = col[::stride]
+        interp = grid[:-1, None] + frac * np.diff(grid)[:, None]
+        err = float(np.abs(col[:-1].reshape(-1, stride) - interp).mean())
+        if not err <= PILOT_INTERPOLATION_TOLERANCE * ptp:
+            return False
+    return True
 
 
 def available_pump_flow_lpm(params: EHAParams, mode: str = "open-loop",
