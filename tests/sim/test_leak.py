@@ -88,6 +88,22 @@ def test_calibration_hits_target_on_power_law(power, target):
         assert res.n_evaluations == 2
 
 
+def test_a_step_goes_at_most_twice_as_far_as_the_proportional_one():
+    # a nearly flat mean leak below a knee (as the VCA's without load near 0.5 L/min): the
+    # secant slope 0.11 is taken as MIN_SLOPE = 0.5, so the third run is at
+    # k1 (q*/q1)^2, not k1 (q*/q1)^9 far past the knee
+    from leakdiag.sim.calibration import MIN_SLOPE
+
+    def q(k):
+        return 0.4 * k ** 0.11 if k < 2.0 else 0.4 * 2.0 ** 0.11 * (k / 2.0) ** 3
+
+    res = calibrate_leak_coefficient(q, 0.5, 1.0)
+    (k0, _), (k1, q1), (k2, _) = res.history[:3]
+    assert MIN_SLOPE == 0.5 and k1 == pytest.approx(1.25, rel=1e-12)
+    assert k2 == pytest.approx(1.25 * (0.5 / q1) ** 2, rel=1e-12)
+    assert res.relative_error <= 0.02
+
+
 def test_calibration_rejects_zero_flow():
     with pytest.raises(LeakCalibrationError, match="must be finite and > 0"):
         calibrate_leak_coefficient(lambda k: 0.0, 0.1, 1.0)
@@ -212,10 +228,11 @@ def test_first_slope_pilot_takes_the_first_step_with_its_slope():
     assert calls == [(1.0, pytest.approx(1.0 / 30.0, rel=1e-15))]
     assert res.coefficient == pytest.approx((1.0 / 30.0) ** 1.25, rel=1e-12)
     assert res.achieved_lpm == pytest.approx(0.1, rel=1e-12)
-    # a first run that lands needs no pilot; the slope is clipped to [0.2, 5]
+    # a first run that lands needs no pilot; the slope is clipped to [0.5, 5]: a step goes at
+    # most twice as far in log k as the proportional one
     assert calibrate_leak_coefficient(q, 3.0, 1.0, first_slope=slope).n_pilot_evaluations == 0
     flat = calibrate_leak_coefficient(q, 0.1, 1.0, first_slope=lambda a, b: 0.01)
-    assert flat.history[1][0] == pytest.approx(30.0 ** -5, rel=1e-12)
+    assert flat.history[1][0] == pytest.approx(30.0 ** -2, rel=1e-12)
     with pytest.raises(LeakCalibrationError, match=r"first_slope\(1, 0.0333333\) returned nan"):
         calibrate_leak_coefficient(q, 0.1, 1.0, first_slope=lambda a, b: math.nan)
 

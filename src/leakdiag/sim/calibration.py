@@ -40,6 +40,15 @@ MIN_CALIBRATION_WINDOW_S = 10.0
 #: in 33, with 20 % in 36 at twice the pilot's cost.
 SLOPE_PILOT_FRACTION = 0.1
 
+#: Smallest log-log slope of the mean leak in the coefficient that a search step assumes (the
+#: largest slope is 5): a step goes at most twice as far in log k as the proportional one.
+#: Without load on the VCA the mean leak is nearly flat in k just below a knee where it jumps
+#: (0.47-0.48 L/min for k = 6.3e-8 ... 7.4e-8, 0.53 at 8.3e-8, 120-s runs), and a slope
+#: measured on the flat part sent the next run far past the knee; with 0.5 instead of 0.2 the
+#: 0.5 L/min cases of the 42-case grid (docs/models.md) took 4.5 instead of 6.0 healthy runs of
+#: work at 120 s, 2.0 instead of 2.1 at 400 s, the other sizes unchanged.
+MIN_SLOPE = 0.5
+
 
 class LeakCalibrationError(RuntimeError):
     """The leak coefficient could not be calibrated to the target within the tolerance."""
@@ -156,7 +165,7 @@ def calibrate_leak_coefficient(
         ``first_slope(k0, k1) -> log-log slope`` of the mean leak between the first run's
         coefficient ``k0`` and the proportional step ``k1``, measured on a cheap pilot (e.g.
         the same run over a short stretch after the onset). When given, the correction after
-        the first run is :math:`k_0 (q^*/q_0)^{1/s}` with that slope (clipped to [0.2, 5])
+        the first run is :math:`k_0 (q^*/q_0)^{1/s}` with that slope (clipped to [0.5, 5])
         instead of ``first_step``; each call counts as one pilot run.
 
     Returns
@@ -180,7 +189,7 @@ def calibrate_leak_coefficient(
     difference did not react to the leak, Eqs. 2-4 and 2-5), so the search is a secant
     iteration on :math:`\\log q(\\log k)`: the first step is the proportional correction
     :math:`k_1 = k_0\\,q^*/q(k_0)`, later steps use the measured log-log slope (clipped to
-    [0.2, 5]). Typically 2-4 simulator runs are needed, so calibrating costs 2-4 times one
+    [:data:`MIN_SLOPE`, 5]). Typically 2-4 simulator runs are needed, so calibrating costs 2-4 times one
     simulation; pass a shorter run to ``simulate_fn`` to make it cheaper (the mean leak then
     comes from fewer reference steps and generalises less exactly). With ``first_slope`` the
     first step uses the pilot's slope instead of 1, so that a mean leak whose slope is far
@@ -237,7 +246,7 @@ def calibrate_leak_coefficient(
             (k0, q0), (k1, q1) = history[-2], history[-1]
             if k0 != k1 and q0 != q1:
                 slope = (math.log(q1) - math.log(q0)) / (math.log(k1) - math.log(k0))
-                slope = min(max(slope, 0.2), 5.0)
+                slope = min(max(slope, MIN_SLOPE), 5.0)
         bracket = _illinois(history, target, weights)
         if bracket is not None:
             k = bracket
@@ -254,12 +263,12 @@ def calibrate_leak_coefficient(
 
 
 def _pilot_slope(first_slope: Callable[[float, float], float], k0: float, k1: float) -> float:
-    """The pilot's slope between ``k0`` and ``k1``, clipped to [0.2, 5]; 1 if it has none."""
+    """The pilot's slope between ``k0`` and ``k1``, clipped to [MIN_SLOPE, 5]."""
     s = float(first_slope(k0, k1))
     if not math.isfinite(s):
         raise LeakCalibrationError(
             f"first_slope({k0:.6g}, {k1:.6g}) returned {s!r}; it must be a finite slope")
-    return min(max(s, 0.2), 5.0)
+    return min(max(s, MIN_SLOPE), 5.0)
 
 
 def _illinois(history, target: float, weights: dict) -> float | None:
