@@ -34,10 +34,10 @@ __all__ = [
 MIN_CALIBRATION_WINDOW_S = 10.0
 
 #: Share of the window after the onset that a slope pilot reruns (``first_slope`` of
-#: :func:`calibrate_leak_coefficient`; at least ``MIN_CALIBRATION_WINDOW_S``). Chosen from the
-#: VCA without load (docs/models.md): with 10 % (20 s of a 400-s run, onset 200 s) the second
-#: run landed within 2 % in 33 of 36 cases (six sizes 0.01-0.5 L/min x seeds 0-5), with 5 %
-#: in 33, with 20 % in 36 at twice the pilot's cost.
+#: :func:`calibrate_leak_coefficient`; at least ``MIN_CALIBRATION_WINDOW_S``). Chosen on the VCA
+#: without load (docs/models.md; 42 cases: seeds 0-5 x 0.005-0.5 L/min, 400-s runs, onset
+#: 200 s): with 5 / 10 / 20 % the calibration needed a third post-onset run in 4 / 2 / 0 cases
+#: (11 without a pilot) and 1.58 / 1.57 / 1.59 healthy runs of work on average (1.65).
 SLOPE_PILOT_FRACTION = 0.1
 
 #: Smallest log-log slope of the mean leak in the coefficient that a search step assumes (the
