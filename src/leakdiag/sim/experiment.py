@@ -258,6 +258,19 @@ class LeakPlan:
     def slope_between(self, q0_lpm: float, q1_lpm: float, k0: float, k1: float) -> float:
         """Log-log slope of two pilot means; 1 (the proportional step) when it is undefined.
 
+        Parameters
+        ----------
+        q0_lpm, q1_lpm : float
+            Mean leaks over the pilot's stretch with the coefficients ``k0`` and ``k1``, L/min.
+        k0, k1 : float
+            The two coefficients.
+
+        Returns
+        -------
+        float
+            :math:`\\ln(q_1/q_0) / \\ln(k_1/k_0)`, or 1 when a mean or coefficient is not
+            positive and finite or the coefficients are equal.
+
         Examples
         --------
         >>> p = plan_leak(0.1, 1.0, "step", 1.0, n=20_000, sample_rate=1000.0, duration=20.0)
