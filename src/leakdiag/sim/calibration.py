@@ -26,6 +26,7 @@ __all__ = [
     "too_short_to_calibrate",
     "MIN_CALIBRATION_WINDOW_S",
     "SLOPE_PILOT_FRACTION",
+    "MIN_SLOPE",
 ]
 
 #: Shortest stretch after the onset, s, over which a mean leak is a usable calibration target:
@@ -189,11 +190,11 @@ def calibrate_leak_coefficient(
     difference did not react to the leak, Eqs. 2-4 and 2-5), so the search is a secant
     iteration on :math:`\\log q(\\log k)`: the first step is the proportional correction
     :math:`k_1 = k_0\\,q^*/q(k_0)`, later steps use the measured log-log slope (clipped to
-    [:data:`MIN_SLOPE`, 5]). Typically 2-4 simulator runs are needed, so calibrating costs 2-4 times one
-    simulation; pass a shorter run to ``simulate_fn`` to make it cheaper (the mean leak then
-    comes from fewer reference steps and generalises less exactly). With ``first_slope`` the
-    first step uses the pilot's slope instead of 1, so that a mean leak whose slope is far
-    from 1 is reached by the second run rather than the third or fourth.
+    [:data:`MIN_SLOPE`, 5]). Typically 2-4 simulator runs are needed, so calibrating costs
+    2-4 times one simulation; pass a shorter run to ``simulate_fn`` to make it cheaper (the
+    mean leak then comes from fewer reference steps and generalises less exactly). With
+    ``first_slope`` the first step uses the pilot's slope instead of 1, so that a mean leak
+    whose slope is far from 1 is reached by the second run rather than the third or fourth.
 
     Examples
     --------

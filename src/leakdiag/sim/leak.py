@@ -26,6 +26,7 @@ import numpy as np
 from leakdiag._validation import check_positive
 from leakdiag.sim.calibration import (  # noqa: F401  (re-exported: the leak API in one place)
     MIN_CALIBRATION_WINDOW_S,
+    MIN_SLOPE,
     SLOPE_PILOT_FRACTION,
     CalibrationResult,
     LeakCalibrationError,
@@ -54,6 +55,8 @@ __all__ = [
     "too_short_to_calibrate",
     "LEAK_REFERENCE_DP_PA",
     "MIN_CALIBRATION_WINDOW_S",
+    "SLOPE_PILOT_FRACTION",
+    "MIN_SLOPE",
 ]
 
 #: 1 m^3/s in L/min (1000 L/m^3 * 60 s/min).

@@ -60,7 +60,7 @@ MAX_LEAK_FRACTION = 0.75
 #: the inputs are smooth on that grid (:func:`_stride_represents`); otherwise on every sample at
 #: ``FINE_PILOT_RTOL_FACTOR`` x rtol (steps then end on every sample: about half the steps of
 #: ROS2, order 2). Only the delivered run is checked against the target. Chosen in
-#: docs/models.md ("The EHA's pilot"): the closed loop reacts to the pilot's looser tolerance
+#: docs/models.md ("Pilots revised"): the closed loop reacts to the pilot's looser tolerance
 #: about 8x more than the open loop.
 PILOT_RTOL_FACTOR = {"open-loop": 64.0, "closed-loop": 8.0}
 #: Samples per pilot step grid point (see ``PILOT_RTOL_FACTOR``).
@@ -409,8 +409,10 @@ def simulate_eha(
     reaction first order in the leak flow gives (``calibration_runs``, 1 in the cases
     measured, docs/models.md); the delivered run is checked against the target. The pilot
     integrates the window after the onset on every 8th sample at 64x the rtol (8x in closed
-    loop; about a tenth of a full part's work) when the inputs are smooth on that grid, else on
-    every sample at 4x (:data:`PILOT_RTOL_FACTOR`, :data:`PILOT_INTERPOLATION_TOLERANCE`). The integrator applies the leak schedule to the coefficient at the output samples
+    loop; a tenth of a full part's work in open loop, about a third in closed loop) when the
+    inputs are smooth on that grid, else on every sample at 4x (:data:`PILOT_RTOL_FACTOR`,
+    :data:`PILOT_INTERPOLATION_TOLERANCE`). The integrator applies the leak schedule to the
+    coefficient at the output samples
     (as the VCA kernel does) and interpolates in between, so a step leak rises over the one
     sample interval before the onset sample. In closed-loop mode the position loop sees the true position.
 
