@@ -212,3 +212,27 @@ def test_detect_prints_the_conformal_p_value_by_its_name(files, capsys):
     assert main(args) == 0
     header = capsys.readouterr().out.splitlines()[0].split()
     assert "p_value" in header and "confidence" not in header
+
+
+def test_detect_eha_flow_balance_states_the_profiled_transducer_offset(tmp_path, capsys):
+    # unit 17's chamber transducers differ by -32.7 kPa at zero; without load the EHA's size
+    # profiles that offset out (docs/detect.md 8.5) and the command says so beside the size
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_eha
+
+    healthy = [str(write_recording(simulate_eha(duration=60.0, leak_lpm=None, machine=17,
+                                                seed=s), tmp_path / f"h{s}.parquet"))
+               for s in range(4)]
+    rec = simulate_eha(duration=60.0, leak_lpm=0.1, onset=30.0, machine=17, seed=99)
+    leak = str(write_recording(rec, tmp_path / "leak.parquet"))
+    det = tmp_path / "eha.joblib"
+    assert main(["fit", *_h(healthy), "--method", "flow-balance", "--system", "eha",
+                 "-o", str(det)]) == 0
+    capsys.readouterr()
+    assert main(["detect", leak, "--detector", str(det)]) == 0
+    out = capsys.readouterr().out
+    assert "Decision: LEAK" in out
+    line = next(x for x in out.splitlines() if "leak size (flow-balance)" in x)
+    size = float(line.split(": ")[1].split()[0])
+    assert abs(size / rec.meta["leak_lpm_achieved"] - 1) <= 0.03
+    assert "transducer zero error found on the leak's windows, -3" in line  # -32 kPa

@@ -62,3 +62,50 @@ def test_missing_speed_is_named(fitted, where):
             FlowBalanceDetector(system="eha").fit([bad])
         else:
             fitted.predict(bad)
+
+
+def test_no_load_size_profiles_the_transducers_differential_offset():
+    # unit 17's chamber transducers are 32.7 kPa apart at zero (p1 +5.2, p2 +37.9 kPa); without
+    # load |P1 - P2| is tens of kPa, so the leak law on the measured difference sized a
+    # 0.1 L/min leak 21 % low with an interval that excluded the truth. The leak's own windows
+    # identify the offset (the residual does not depend on it, the leak law's shape does)
+    healthy = [ld.sim.simulate_eha(duration=60, leak_lpm=0.0, machine=17, seed=s)
+               for s in range(4)]
+    det = FlowBalanceDetector(system="eha").fit(healthy)
+    rec = ld.sim.simulate_eha(duration=60, leak_lpm=0.1, onset=30, machine=17, seed=99)
+    m = rec.meta["machine"]
+    true_offset = m["p1_offset_pa"] - m["p2_offset_pa"]
+    assert true_offset == pytest.approx(-32_687.0, abs=1.0)
+    v = det.predict(rec)
+    achieved = rec.meta["leak_lpm_achieved"]
+    assert v.leak and abs(v.leak_lpm / achieved - 1) <= 0.03
+    lo, hi = v.leak_lpm_interval
+    assert lo <= achieved <= hi
+    # found within the transducers' gain errors (0.2 %) of the offset
+    assert v.pressure_offset_pa == pytest.approx(true_offset, abs=4e3)
+    assert v.as_dict()["pressure_offset_pa"] == v.pressure_offset_pa
+
+
+def test_offset_profile_by_hand():
+    from leakdiag.detect._flow_balance_offset import profile_offset
+
+    # k(d) peaks at d = -40 kPa; se 2 % of k; mean |g| 0.5 everywhere
+    def ev(d):
+        return 1.0 - ((d + 4e4) / 1e5) ** 2, 0.02, 0.5
+
+    p = profile_offset(ev, 0.95)
+    assert p.offset_pa == pytest.approx(-4e4, abs=50.0)
+    assert p.size == pytest.approx(0.5, rel=1e-6)
+    # the offsets whose (k / se)^2 is within 3.84 of the best: k >= sqrt(1 - 3.84 * 4e-4)
+    # = 0.99923, |d + 40 kPa| <= 2.77 kPa: on the 10 kPa grid only the best point, so the
+    # interval is the coefficient's own: (1 -+ 1.96 * 0.02) * 0.5
+    assert p.size_interval == pytest.approx((0.5 * (1 - 1.96 * 0.02), 0.5 * (1 + 1.96 * 0.02)),
+                                            rel=1e-3)
+    # a reverse "leak" (k < 0) never wins over the offsets that fit a leak
+    q = profile_offset(lambda d: (-5.0 if d > 1e5 else 1.0, 0.02, 0.5), 0.95)
+    assert q.offset_pa <= 1e5
+    for bad, match in [(dict(level=1.0), "level"), (dict(level=0.9, half_range_pa=0.0),
+                                                    "half_range_pa"),
+                       (dict(level=0.9, grid_points=2), "grid_points")]:
+        with pytest.raises(ValueError, match=match):
+            profile_offset(ev, **bad)

@@ -22,6 +22,7 @@ from threadpoolctl import threadpool_limits
 from leakdiag._validation import check_positive
 from leakdiag.detect import _flow_balance_eha as eha
 from leakdiag.detect import _flow_balance_vca as vca
+from leakdiag.detect._flow_balance_offset import profile_offset
 from leakdiag.detect._flow_balance_search import (
     GLRThreshold,
     calibrate_glr,
@@ -70,6 +71,10 @@ class FlowBalanceVerdict(Verdict):
         Reference pressure difference (Pa).
     leak_law : str
         Leak law assumed.
+    pressure_offset_pa : float or None
+        EHA: the differential zero error of the chamber transducers found on the leak's own
+        windows (:math:`o_1 - o_2`, Pa), subtracted from the measured :math:`P_1 - P_2` in the
+        leak law for the size; None for the VCA and without an alarm.
     """
 
     leak_coefficient: float | None = None
@@ -77,6 +82,7 @@ class FlowBalanceVerdict(Verdict):
     leak_lpm_at_reference: float | None = None
     reference_dp_pa: float = 1e6
     leak_law: str = "turbulent"
+    pressure_offset_pa: float | None = None
 
     def as_dict(self) -> dict:
         """Fields as a flat dict (interval split in two columns).
@@ -89,7 +95,8 @@ class FlowBalanceVerdict(Verdict):
         d.update({"leak_coefficient": self.leak_coefficient,
                   "leak_coefficient_se": self.leak_coefficient_se,
                   "leak_lpm_at_reference": self.leak_lpm_at_reference,
-                  "reference_dp_pa": self.reference_dp_pa, "leak_law": self.leak_law})
+                  "reference_dp_pa": self.reference_dp_pa, "leak_law": self.leak_law,
+                  "pressure_offset_pa": self.pressure_offset_pa})
         return d
 
 
@@ -713,6 +720,9 @@ class FlowBalanceDetector(Detector):
             after the onset window to the end of the recording, the mean leak flow is that
             coefficient times the mean ``|phi|`` from the onset to the end (L/min) with an
             ``interval_level`` interval, and ``leak_lpm_at_reference`` the flow at ``reference_dp_pa``.
+            EHA: the size is taken at the differential pressure-transducer offset that fits
+            the leak's windows best (``pressure_offset_pa``, searched within +-200 kPa), and its
+            interval also holds the offsets the data allow (docs/detect.md 8.5).
         """
         t, a, b, g, arg = self._scan(recording, "predict")
         h = self.threshold_
@@ -730,19 +740,45 @@ class FlowBalanceDetector(Detector):
         # k from the first window wholly after the onset window (the leak starts somewhere
         # inside window j; counting all of it as leaking biases k low by the leak-free part);
         # the mean |phi| over the whole time since the onset (the thesis's mean leak)
-        k, se = self._estimate(t, j + 1 if j + 1 < len(g) else j)
+        first = j + 1 if j + 1 < len(g) else j
         dur = float(t["duration"][j:].sum())
-        mean_phi = float(t["phi_abs"][j:].sum()) / dur
-        zq = float(norm.ppf(0.5 + self.interval_level / 2))
+        if self.system == "eha":
+            # the leak law's pressure difference carries the transducers' differential zero
+            # error, which the healthy recordings cannot identify: profiled out on the leak's
+            # own windows (_flow_balance_offset)
+            prof = self._offset_profile(recording, first, j, dur)
+            k, se, mean_phi, offset = (prof.coefficient, prof.coefficient_se,
+                                       prof.mean_abs_law, prof.offset_pa)
+            interval = tuple(v * LPM_PER_M3S for v in prof.size_interval)
+        else:
+            k, se = self._estimate(t, first)
+            mean_phi = float(t["phi_abs"][j:].sum()) / dur
+            zq = float(norm.ppf(0.5 + self.interval_level / 2))
+            interval = ((k - zq * se) * mean_phi * LPM_PER_M3S,
+                        (k + zq * se) * mean_phi * LPM_PER_M3S)
+            offset = None
         lpm = k * mean_phi * LPM_PER_M3S
-        interval = ((k - zq * se) * mean_phi * LPM_PER_M3S, (k + zq * se) * mean_phi * LPM_PER_M3S)
         ptr = self._backend().leak_transition_pa(self._nominal())
         at_ref = k * _leak_law_value(float(self.reference_dp_pa), self.leak_law, ptr) * LPM_PER_M3S
         return FlowBalanceVerdict(
             leak=True, onset_s=float(t["start"][j]), alarm_time_s=float(t["end"][i]),
             leak_lpm=float(lpm), leak_lpm_interval=(float(interval[0]), float(interval[1])),
             shift=float(k / se), leak_coefficient=k, leak_coefficient_se=se,
-            leak_lpm_at_reference=float(at_ref), **common)
+            leak_lpm_at_reference=float(at_ref), pressure_offset_pa=offset, **common)
+
+    def _offset_profile(self, rec, first: int, j: int, dur: float):
+        """Leak coefficient and mean ``|phi|`` since window ``j`` with the differential
+        pressure offset profiled (:func:`~leakdiag.detect._flow_balance_offset.profile_offset`;
+        the coefficient from window ``first`` on)."""
+        channels = dict(rec.channels)
+
+        def evaluate(delta: float) -> tuple[float, float, float]:
+            shifted = replace(rec, channels={**channels, "p1": channels["p1"] - delta})
+            t = self._terms(shifted)
+            k, se = self._estimate(t, first)
+            return k, se, float(t["phi_abs"][j:].sum()) / dur
+
+        return profile_offset(evaluate, self.interval_level)
 
     def _p_value(self, smax: float, t: dict, rec) -> float:
         """Probability that healthy operation of this span scores at least ``smax``.
