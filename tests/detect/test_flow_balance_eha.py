@@ -101,6 +101,9 @@ def test_offset_profile_by_hand():
     # interval is the coefficient's own: (1 -+ 1.96 * 0.02) * 0.5
     assert p.size_interval == pytest.approx((0.5 * (1 - 1.96 * 0.02), 0.5 * (1 + 1.96 * 0.02)),
                                             rel=1e-3)
+    # an offset beyond the range: the range doubles until the best is inside (here 2x)
+    far = profile_offset(lambda d: (1.0 - ((d - 3e5) / 1e5) ** 2, 0.02, 0.5), 0.95)
+    assert far.offset_pa == pytest.approx(3e5, abs=100.0)
     # a reverse "leak" (k < 0) never wins over the offsets that fit a leak
     q = profile_offset(lambda d: (-5.0 if d > 1e5 else 1.0, 0.02, 0.5), 0.95)
     assert q.offset_pa <= 1e5

@@ -37,6 +37,8 @@ __all__ = ["OffsetProfile", "profile_offset", "SEARCH_HALF_RANGE_PA", "GRID_POIN
 SEARCH_HALF_RANGE_PA = 2e5
 #: Points of the grid over the range (10 kPa apart), then a bounded search around the best.
 GRID_POINTS = 41
+#: Times the range is doubled when the best grid point is at its edge.
+MAX_WIDENINGS = 2
 
 
 @dataclass(frozen=True)
@@ -88,7 +90,8 @@ def profile_offset(evaluate: Callable[[float], tuple[float, float, float]], leve
     level : float
         Two-sided level of the size interval, in (0, 1).
     half_range_pa : float, default SEARCH_HALF_RANGE_PA
-        Offsets searched: ``[-half_range_pa, half_range_pa]``.
+        Offsets searched: ``[-half_range_pa, half_range_pa]``, doubled up to
+        :data:`MAX_WIDENINGS` times while the best grid point is at the range's edge.
     grid_points : int, default GRID_POINTS
         Grid points over that range (>= 3, odd keeps 0 on the grid).
 
@@ -132,9 +135,13 @@ def profile_offset(evaluate: Callable[[float], tuple[float, float, float]], leve
         # least squares with k >= 0 (a leak): the fit's gain over k = 0 is max(k, 0)^2 / se^2
         return 0.5 * (max(k, 0.0) / se) ** 2 if se > 0 and math.isfinite(k) else -math.inf
 
-    grid = np.linspace(-half_range_pa, half_range_pa, grid_points)
-    lls = np.array([loglik(float(d)) for d in grid])
-    i = int(np.argmax(lls))
+    for _ in range(MAX_WIDENINGS + 1):
+        grid = np.linspace(-half_range_pa, half_range_pa, grid_points)
+        lls = np.array([loglik(float(d)) for d in grid])
+        i = int(np.argmax(lls))
+        if 0 < i < grid_points - 1:
+            break
+        half_range_pa *= 2.0  # the best offset at the edge: it may lie beyond, widen
     step = grid[1] - grid[0]
     lo, hi = max(grid[0], grid[i] - step), min(grid[-1], grid[i] + step)
     best = float(grid[i])
