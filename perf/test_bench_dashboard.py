@@ -177,7 +177,8 @@ def _run(rec, hooks_kw=None, page=None, chunk=1000, speed=None, loops=1, hooks_c
     it = src if speed is None else paced(src, speed)
     t0, c0, p0 = time.perf_counter(), time.thread_time(), time.process_time()
     k0 = _child_cpu(hooks)
-    for c in (hooks.wrap(it) if hooks else it):
+    # hooks before c7f219d noted each chunk's arrival in a wrap() generator
+    for c in (hooks.wrap(it) if hasattr(hooks, "wrap") else it):
         evs = mon.push(c)
         if hooks:
             hooks.push(evs)

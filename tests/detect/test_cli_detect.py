@@ -235,5 +235,5 @@ def test_detect_eha_flow_balance_states_the_profiled_transducer_offset(tmp_path,
     line = next(x for x in out.splitlines() if "leak size (flow-balance)" in x)
     size = float(line.split(": ")[1].split()[0])
     assert abs(size / rec.meta["leak_lpm_achieved"] - 1) <= 0.03
-    assert "transducer zero error found on the leak's windows, -3" in line  # -32 kPa
-    assert "statistical error only" not in line
+    assert ("interval: the coefficient's statistical error and the P1-P2 transducer zero "
+            "error found on the leak's windows, -3") in line  # -32 kPa

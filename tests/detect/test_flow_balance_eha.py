@@ -84,6 +84,7 @@ def test_no_load_size_profiles_the_transducers_differential_offset():
     # found within the transducers' gain errors (0.2 %) of the offset
     assert v.pressure_offset_pa == pytest.approx(true_offset, abs=4e3)
     assert v.as_dict()["pressure_offset_pa"] == v.pressure_offset_pa
+    assert v.leak_lpm_interval_holds.endswith(f"{v.pressure_offset_pa / 1e3:+.3g} kPa")
 
 
 def test_offset_profile_by_hand():

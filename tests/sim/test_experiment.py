@@ -140,7 +140,7 @@ def test_coefficient_from_healthy_ignores_a_reference_the_pressure_does_not_foll
         coefficient_from_healthy(p1, p2, 9_999, p, 1.0, True)
 
 
-def test_slope_pilot_stretch_and_slope():
+def test_slope_pilot_stretch():
     # 10 % of the window after the onset, at least 10 s, none above a quarter of the window
     def plan(duration, onset):
         return plan_leak(0.1, onset, "step", 1.0, n=int(duration * 1000), sample_rate=1000.0,
@@ -154,6 +154,3 @@ def test_slope_pilot_stretch_and_slope():
     flow = np.zeros(400_000)
     flow[200_000:220_000] = 2.0 / 60_000  # 2 L/min over the stretch, 0 after it
     assert p.pilot_mean_lpm(flow) == pytest.approx(2.0, rel=1e-12)
-    assert p.slope_between(2.0, 2.0 * 1.5 ** 1.2, 1e-8, 1.5e-8) == pytest.approx(1.2, rel=1e-12)
-    for bad in [(0.0, 1.0, 1.0, 2.0), (1.0, 1.0, 1.0, 1.0), (1.0, np.inf, 1.0, 2.0)]:
-        assert p.slope_between(*bad) == 1.0

@@ -235,6 +235,19 @@ def test_first_slope_pilot_takes_the_first_step_with_its_slope():
     assert flat.history[1][0] == pytest.approx(30.0 ** -2, rel=1e-12)
     with pytest.raises(LeakCalibrationError, match=r"first_slope\(1, 0.0333333\) returned nan"):
         calibrate_leak_coefficient(q, 0.1, 1.0, first_slope=lambda a, b: math.nan)
+    # a pilot without a slope (None): the proportional step, 1/30
+    prop = calibrate_leak_coefficient(q, 0.1, 1.0, first_slope=lambda a, b: None)
+    assert prop.history[1][0] == pytest.approx(1.0 / 30.0, rel=1e-12)
+
+
+def test_log_slope_by_hand_and_undefined():
+    from leakdiag.sim.leak import log_slope
+
+    assert log_slope(1e-8, 2.0, 1.5e-8, 2.0 * 1.5 ** 1.2) == pytest.approx(1.2, rel=1e-12)
+    assert log_slope(2.0, 1.0, 1.0, 2.0) == pytest.approx(-1.0, rel=1e-12)
+    for bad in [(0.0, 1.0, 1.0, 2.0), (1.0, 1.0, 1.0, 2.0), (1.0, 1.0, 2.0, 1.0),
+                (1.0, np.inf, 2.0, 1.0), (1.0, 1.0, 2.0, -1.0)]:
+        assert log_slope(*bad) is None
 
 
 def test_bracketed_search_uses_illinois_on_a_convex_response():

@@ -322,13 +322,9 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
             if r.get("leak_lpm") is not None and r["leak_lpm"] == r["leak_lpm"]:
                 where = ("" if r.get("leak_lpm_in_range") in (True, None)
                          else " (feature shift outside the calibrated range: extrapolated)")
-                off = r.get("pressure_offset_pa")
-                if off is not None and off == off:  # EHA flow balance: profiled zero error
-                    where += (f" (with the P1-P2 transducer zero error found on the leak's "
-                              f"windows, {off / 1e3:+.3g} kPa)")
-                elif r["method"] == "flow-balance":  # the VCA's: statistical error only
-                    where += (" (the coefficient's statistical error only: without load the "
-                              "VCA's sizes were 0.70-1.14x the truth, docs/detect.md 8.5)")
+                holds = r.get("leak_lpm_interval_holds")
+                if isinstance(holds, str):  # the detector says what its interval holds
+                    where += f" (interval: {holds})"
                 click.echo(f"  leak size ({r['method']}): {r['leak_lpm']:.3g} L/min, prediction "
                            f"interval {r['leak_lpm_low']:.3g}-{r['leak_lpm_high']:.3g} L/min"
                            + where)

@@ -283,7 +283,7 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
     hooks = open_monitor_hooks(live, spec, mon, source, say)  # --store / --dashboard
     t0 = time.perf_counter()
     try:
-        for chunk_ in (hooks.wrap(paced(source, speed)) if hooks else paced(source, speed)):
+        for chunk_ in paced(source, speed):
             try:
                 evs = mon.push(chunk_)
             except ValueError as exc:  # e.g. a NaN sample: name the input

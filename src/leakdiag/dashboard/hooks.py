@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import gc
 import time
-from typing import Any, Callable, Iterable, Iterator
+from typing import Any, Callable
 from urllib.parse import quote
 
 import numpy as np
@@ -155,25 +155,6 @@ class MonitorHooks:
         if gc.get_freeze_count() == 0:
             gc.freeze()
             self._froze_gc = True
-
-    def wrap(self, chunks: Iterable) -> Iterator:
-        """Return the chunks unchanged (kept for callers of earlier versions).
-
-        The time of each chunk shown on the page is read by :meth:`push` now, when the monitor
-        hands the chunk's windows over (after its detector's work on it, about 20 us for a
-        1,000-sample chunk): a generator around the source cost the monitor's loop about
-        0.1 us per chunk.
-
-        Parameters
-        ----------
-        chunks : iterable of dict
-            The (paced) chunk source.
-
-        Returns
-        -------
-        iterator of dict
-        """
-        return iter(chunks)
 
     def push(self, events: list) -> None:
         """Hand the events of one chunk (from ``Monitor.push``) to the sidecar.

@@ -33,6 +33,15 @@ CHANNELS = ("p1", "p2", "x", "speed", "pa", "pb")
 _TH, _DX, _CA, _CB, _DPA, _DPB, _L, _PHI, _T, _FW, _PHIABS, _WA, _WB = range(13)
 #: Moving average of P1 - P2 for the mean |phi| (s), as for the VCA.
 DP_SMOOTHING_S = 0.005
+#: The size profiles the chamber transducers' differential zero error out (the residual does
+#: not depend on it, the leak law does; :mod:`._flow_balance_offset`).
+SIZE_PROFILES_PRESSURE_OFFSET = True
+
+
+def size_interval_holds(offset_pa: float) -> str:
+    """What the size interval holds, in words (``offset_pa``: the zero error found, Pa)."""
+    return ("the coefficient's statistical error and the P1-P2 transducer zero error found on "
+            f"the leak's windows, {offset_pa / 1e3:+.3g} kPa")
 
 
 @dataclass(frozen=True)

@@ -45,6 +45,18 @@ VCA_CHANNELS = ("p1", "p2", "x", "u")
  _TR2) = range(17)
 #: Half-width of the central difference for the pressure rate at the window ends (samples).
 _RATE_HALF_WIDTH = 3
+#: The size does not profile the transducers' zero error: the VCA's residual depends on the
+#: measured pressures too (Eq. 2-2), and a profile of the leak law's alone corrected only part
+#: of the no-load size error (docs/detect.md 8.5).
+SIZE_PROFILES_PRESSURE_OFFSET = False
+
+
+def size_interval_holds(offset_pa: None = None) -> str:
+    """What the size interval holds, in words (no offset is profiled on the VCA)."""
+    return ("the coefficient's statistical error only: without load the VCA's sizes were "
+            "0.70-1.14x the truth, docs/detect.md 8.5")
+
+
 #: Null-offset step used for the offset sensitivity psi = d residual / d offset (V).
 _PSI_STEP_V = 1e-3
 #: Scale of the null-offset parameters in the identification's nonlinear search (V).

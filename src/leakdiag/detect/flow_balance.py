@@ -75,6 +75,8 @@ class FlowBalanceVerdict(Verdict):
         EHA: the differential zero error of the chamber transducers found on the leak's own
         windows (:math:`o_1 - o_2`, Pa), subtracted from the measured :math:`P_1 - P_2` in the
         leak law for the size; None for the VCA and without an alarm.
+    leak_lpm_interval_holds : str or None
+        What ``leak_lpm_interval`` holds, in words (None without an alarm).
     """
 
     leak_coefficient: float | None = None
@@ -83,6 +85,7 @@ class FlowBalanceVerdict(Verdict):
     reference_dp_pa: float = 1e6
     leak_law: str = "turbulent"
     pressure_offset_pa: float | None = None
+    leak_lpm_interval_holds: str | None = None
 
     def as_dict(self) -> dict:
         """Fields as a flat dict (interval split in two columns).
@@ -96,7 +99,8 @@ class FlowBalanceVerdict(Verdict):
                   "leak_coefficient_se": self.leak_coefficient_se,
                   "leak_lpm_at_reference": self.leak_lpm_at_reference,
                   "reference_dp_pa": self.reference_dp_pa, "leak_law": self.leak_law,
-                  "pressure_offset_pa": self.pressure_offset_pa})
+                  "pressure_offset_pa": self.pressure_offset_pa,
+                  "leak_lpm_interval_holds": self.leak_lpm_interval_holds})
         return d
 
 
@@ -742,7 +746,8 @@ class FlowBalanceDetector(Detector):
         # the mean |phi| over the whole time since the onset (the thesis's mean leak)
         first = j + 1 if j + 1 < len(g) else j
         dur = float(t["duration"][j:].sum())
-        if self.system == "eha":
+        be = self._backend()
+        if be.SIZE_PROFILES_PRESSURE_OFFSET:
             # the leak law's pressure difference carries the transducers' differential zero
             # error, which the healthy recordings cannot identify: profiled out on the leak's
             # own windows (_flow_balance_offset)
@@ -758,13 +763,14 @@ class FlowBalanceDetector(Detector):
                         (k + zq * se) * mean_phi * LPM_PER_M3S)
             offset = None
         lpm = k * mean_phi * LPM_PER_M3S
-        ptr = self._backend().leak_transition_pa(self._nominal())
+        ptr = be.leak_transition_pa(self._nominal())
         at_ref = k * _leak_law_value(float(self.reference_dp_pa), self.leak_law, ptr) * LPM_PER_M3S
         return FlowBalanceVerdict(
             leak=True, onset_s=float(t["start"][j]), alarm_time_s=float(t["end"][i]),
             leak_lpm=float(lpm), leak_lpm_interval=(float(interval[0]), float(interval[1])),
             shift=float(k / se), leak_coefficient=k, leak_coefficient_se=se,
-            leak_lpm_at_reference=float(at_ref), pressure_offset_pa=offset, **common)
+            leak_lpm_at_reference=float(at_ref), pressure_offset_pa=offset,
+            leak_lpm_interval_holds=be.size_interval_holds(offset), **common)
 
     def _offset_profile(self, rec, first: int, j: int, dur: float):
         """Leak coefficient and mean ``|phi|`` since window ``j`` with the differential

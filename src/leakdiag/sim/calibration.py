@@ -27,6 +27,7 @@ __all__ = [
     "MIN_CALIBRATION_WINDOW_S",
     "SLOPE_PILOT_FRACTION",
     "MIN_SLOPE",
+    "log_slope",
 ]
 
 #: Shortest stretch after the onset, s, over which a mean leak is a usable calibration target:
@@ -138,7 +139,7 @@ def calibrate_leak_coefficient(
     rtol: float = 0.02,
     max_evaluations: int = 12,
     first_step: str = "proportional",
-    first_slope: Callable[[float, float], float] | None = None,
+    first_slope: Callable[[float, float], float | None] | None = None,
 ) -> CalibrationResult:
     """Find the leakage coefficient whose simulated mean |Q_leak| after onset hits a target.
 
@@ -165,9 +166,10 @@ def calibrate_leak_coefficient(
     first_slope : callable, optional
         ``first_slope(k0, k1) -> log-log slope`` of the mean leak between the first run's
         coefficient ``k0`` and the proportional step ``k1``, measured on a cheap pilot (e.g.
-        the same run over a short stretch after the onset). When given, the correction after
-        the first run is :math:`k_0 (q^*/q_0)^{1/s}` with that slope (clipped to [0.5, 5])
-        instead of ``first_step``; each call counts as one pilot run.
+        the same run over a short stretch after the onset; :func:`log_slope`). When given, the
+        correction after the first run is :math:`k_0 (q^*/q_0)^{1/s}` with that slope (clipped
+        to [0.5, 5]; None: the proportional step) instead of ``first_step``; each call counts
+        as one pilot run.
 
     Returns
     -------
@@ -244,10 +246,9 @@ def calibrate_leak_coefficient(
                 f"{len(history)} runs; history (coefficient, L/min): {history}"
             )
         if len(history) >= 2:
-            (k0, q0), (k1, q1) = history[-2], history[-1]
-            if k0 != k1 and q0 != q1:
-                slope = (math.log(q1) - math.log(q0)) / (math.log(k1) - math.log(k0))
-                slope = min(max(slope, MIN_SLOPE), 5.0)
+            measured = log_slope(*history[-2], *history[-1])
+            if measured is not None:
+                slope = min(max(measured, MIN_SLOPE), 5.0)
         bracket = _illinois(history, target, weights)
         if bracket is not None:
             k = bracket
@@ -263,9 +264,41 @@ def calibrate_leak_coefficient(
     return CalibrationResult(k, q, target, len(history), tuple(history), n_pilot)
 
 
-def _pilot_slope(first_slope: Callable[[float, float], float], k0: float, k1: float) -> float:
-    """The pilot's slope between ``k0`` and ``k1``, clipped to [MIN_SLOPE, 5]."""
-    s = float(first_slope(k0, k1))
+def log_slope(k0: float, q0: float, k1: float, q1: float) -> float | None:
+    """Log-log slope :math:`\\ln(q_1/q_0) / \\ln(k_1/k_0)` of the mean leak between two runs.
+
+    Parameters
+    ----------
+    k0, q0, k1, q1 : float
+        Two coefficients and their mean leaks (any one unit each).
+
+    Returns
+    -------
+    float or None
+        None when it is undefined: a value that is not positive and finite, equal
+        coefficients, or equal means (the search then keeps the slope it had).
+
+    Examples
+    --------
+    >>> round(log_slope(1.0, 2.0, 2.0, 2.0 * 2.0 ** 0.8), 12)
+    0.8
+    >>> log_slope(1.0, 2.0, 1.0, 3.0) is None
+    True
+    """
+    vals = (k0, q0, k1, q1)
+    if not all(v > 0 and math.isfinite(v) for v in vals) or k0 == k1 or q0 == q1:
+        return None
+    return math.log(q1 / q0) / math.log(k1 / k0)
+
+
+def _pilot_slope(first_slope: Callable[[float, float], float | None], k0: float,
+                 k1: float) -> float:
+    """The pilot's slope between ``k0`` and ``k1`` clipped to [MIN_SLOPE, 5]; 1 (the
+    proportional step) when it has none."""
+    s = first_slope(k0, k1)
+    if s is None:
+        return 1.0
+    s = float(s)
     if not math.isfinite(s):
         raise LeakCalibrationError(
             f"first_slope({k0:.6g}, {k1:.6g}) returned {s!r}; it must be a finite slope")

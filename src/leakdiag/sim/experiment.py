@@ -255,33 +255,6 @@ class LeakPlan:
         return m3s_to_lpm(float(np.mean(np.abs(leak_flow_m3s[self.onset_index:
                                                               self.pilot_stop]))))
 
-    def slope_between(self, q0_lpm: float, q1_lpm: float, k0: float, k1: float) -> float:
-        """Log-log slope of two pilot means; 1 (the proportional step) when it is undefined.
-
-        Parameters
-        ----------
-        q0_lpm, q1_lpm : float
-            Mean leaks over the pilot's stretch with the coefficients ``k0`` and ``k1``, L/min.
-        k0, k1 : float
-            The two coefficients.
-
-        Returns
-        -------
-        float
-            :math:`\\ln(q_1/q_0) / \\ln(k_1/k_0)`, or 1 when a mean or coefficient is not
-            positive and finite or the coefficients are equal.
-
-        Examples
-        --------
-        >>> p = plan_leak(0.1, 1.0, "step", 1.0, n=20_000, sample_rate=1000.0, duration=20.0)
-        >>> round(p.slope_between(1.0, 2.0 ** 0.8, 1.0, 2.0), 12)
-        0.8
-        """
-        if not (q0_lpm > 0 and q1_lpm > 0 and k0 > 0 and k1 > 0 and k0 != k1
-                and math.isfinite(q0_lpm) and math.isfinite(q1_lpm)):
-            return 1.0
-        return math.log(q1_lpm / q0_lpm) / math.log(k1 / k0)
-
 
 def plan_leak(leak_lpm, onset, leak_kind: str, ramp_duration, *, n: int, sample_rate: float,
               duration: float, check_target: Callable[[float], None] | None = None) -> LeakPlan:
@@ -393,7 +366,7 @@ def coefficient_from_healthy(p1: np.ndarray, p2: np.ndarray, split: int, plan: L
 def calibrate_leak(plan: LeakPlan, simulate_fn: Callable[[float], float], k0: float,
                    rtol: float, history, pilot_fn: Callable[[float], float] | None = None,
                    first_step: str = "proportional",
-                   first_slope: Callable[[float, float], float] | None = None
+                   first_slope: Callable[[float, float], float | None] | None = None
                    ) -> CalibrationResult:
     """Calibrate :math:`k_l` to the plan's target; a failure on a short run says so.
 

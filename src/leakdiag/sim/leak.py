@@ -33,6 +33,7 @@ from leakdiag.sim.calibration import (  # noqa: F401  (re-exported: the leak API
     calibrate_leak_coefficient,
     calibrate_with_pilot,
     check_calibrated,
+    log_slope,
     reaction_step,
     too_short_to_calibrate,
 )
@@ -57,6 +58,7 @@ __all__ = [
     "MIN_CALIBRATION_WINDOW_S",
     "SLOPE_PILOT_FRACTION",
     "MIN_SLOPE",
+    "log_slope",
 ]
 
 #: 1 m^3/s in L/min (1000 L/m^3 * 60 s/min).

@@ -504,7 +504,7 @@ def simulate_eha(
         history: list[tuple[float, float]] = []
         last: list = []
 
-        def simulate_fn(k: float, pilot: bool = False, pilot_rtol: float = 0.0) -> float:
+        def simulate_fn(k: float) -> float:
             if k > k_max:
                 raise LeakCalibrationError(
                     f"leak calibration to {plan.target_lpm} L/min needs a coefficient above "
@@ -512,34 +512,33 @@ def simulate_eha(
                     f"far: {history}")
             inputs = base[split:].copy()
             inputs[:, IN_KLEAK] = k
-            post = integrate_fast(pre.states[-1], inputs, prm, fs,
-                                  rtol=pilot_rtol if pilot else rtol,
+            post = integrate_fast(pre.states[-1], inputs, prm, fs, rtol=rtol,
                                   resume=pre.resume, leak_schedule=sched_arr)
             report(n - split)
             st = np.concatenate([pre.states[:-1], post.states])
             kl = np.concatenate([np.zeros(split), k * multiplier[split:]])
             q_leak = _leak_flow(kl, st, ptr)
             q = plan.mean_lpm(q_leak)
-            if not pilot:
-                last[:] = [st, pre.n_accepted + post.n_accepted, q_leak]
-                history.append((k, q))
+            last[:] = [st, pre.n_accepted + post.n_accepted, q_leak]
+            history.append((k, q))
             return q
 
-        # the pilot: on a grid of every m-th sample if the inputs are smooth on it
+        # the pilot: the window after the onset on every m-th sample (inputs linear between
+        # them, as between samples; steps up to m sample intervals) if the inputs are smooth
+        # on that grid, else on every sample, continuing the solver as the full runs do
         m = PILOT_STRIDE if _stride_represents(base[split:], PILOT_STRIDE) else 1
         pilot_rtol = rtol * (PILOT_RTOL_FACTOR[mode] if m > 1 else FINE_PILOT_RTOL_FACTOR)
+        after = np.arange(split, n, m) >= i_on  # its rows from the onset sample on
 
         def pilot_fn(k: float) -> float:
-            if m == 1:
-                return simulate_fn(k, pilot=True, pilot_rtol=pilot_rtol)
-            # from the state at `split`, inputs linear between the grid points (as between
-            # samples), steps up to the grid's interval
             inputs = base[split::m].copy()
             inputs[:, IN_KLEAK] = k
-            part = integrate_fast(pre.states[-1], inputs, prm, fs / m, t0=split / fs,
-                                  rtol=pilot_rtol, max_step=m / fs, leak_schedule=sched_arr)
+            fine = m == 1
+            part = integrate_fast(pre.states[-1], inputs, prm, fs / m,
+                                  t0=0.0 if fine else split / fs, rtol=pilot_rtol,
+                                  max_step=None if fine else m / fs,
+                                  resume=pre.resume if fine else None, leak_schedule=sched_arr)
             report(n - split)
-            after = np.arange(split, n, m) >= i_on
             kl = k * multiplier[split::m][after]
             return LPM_PER_M3S * float(np.mean(np.abs(_leak_flow(kl, part.states[after], ptr))))
 

@@ -17,7 +17,7 @@ from leakdiag.sim.experiment import (
     random_streams,
     setup,
 )
-from leakdiag.sim.leak import LeakCalibrationError, lpm_to_m3s
+from leakdiag.sim.leak import LeakCalibrationError, log_slope, lpm_to_m3s
 from leakdiag.sim.machine import VCAMachine
 from leakdiag.sim.reference import as_reference
 from leakdiag.sim.sensor_chain import antialias_sos, pressure_chain
@@ -421,10 +421,10 @@ def simulate_vca(
                 history.append((k, q))
                 return q
 
-            def first_slope(k0: float, k1: float) -> float:
+            def first_slope(k0: float, k1: float) -> float | None:
                 # the first run's stretch [onset, stop) against a pilot over it at k1
                 q1 = plan.pilot_mean_lpm(segments.run(k1, substeps(k1), stop).leak_flow)
-                return plan.slope_between(pilot_means[k0], q1, k0, k1)
+                return log_slope(k0, pilot_means[k0], k1, q1)
 
             if stop is not None:
                 slope_pilot = first_slope
