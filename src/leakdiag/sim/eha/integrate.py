@@ -5,8 +5,10 @@ constant of a few microseconds, so explicit methods would need steps of ~1e-5 s,
 strongly nonlinear where an orifice changes direction (its conductance changes tenfold). The fast
 path is the two-stage, L-stable Rosenbrock method ROS2 (order 2,
 :math:`\\gamma = 1 + 1/\\sqrt 2`) with the analytic Jacobian and local error control
-(steps shrink at the orifice switches, grow elsewhere). Inputs are given at the output samples
-and interpolated linearly in between.
+(steps shrink at the orifice switches, grow elsewhere). Each step factorises
+:math:`W = I - \\gamma h J` by the sparse elimination of :mod:`leakdiag.sim.eha.sparse_lu`
+(no pivoting; the dense LU with partial pivoting when a pivot is too small). Inputs are given
+at the output samples and interpolated linearly in between.
 :func:`integrate_reference` solves the same :func:`~leakdiag.sim.eha.model.eha_rhs` with SciPy's
 implicit ``Radau`` solver and tight tolerances, for tests and ``make bench``.
 """
@@ -19,7 +21,9 @@ import numba
 import numpy as np
 
 from leakdiag._validation import as_2d_float, check_int, check_positive
+from leakdiag.sim.eha._sparse_lu_kernel import _w_factor, _w_solve
 from leakdiag.sim.eha.jacobian import _jacobian_into
+from leakdiag.sim.eha.sparse_lu import PIVOT_FLOOR
 from leakdiag.sim.eha.model import (
     IN_KLEAK,
     N_INPUTS,
@@ -53,6 +57,9 @@ _STATE_SCALE = np.array([1e-2, 1e-1, 1e6, 1e6, 1e6, 1e6, 100.0, 100.0, 1.0])
 @numba.njit(cache=True)
 def _lu_factor(a, piv):
     """In-place LU factorisation with partial pivoting of an ``N_STATES`` x ``N_STATES`` matrix.
+
+    The fallback of the Rosenbrock step when the sparse elimination
+    (:mod:`leakdiag.sim.eha.sparse_lu`) refuses a pivot.
 
     The size is the module's constant, not ``a.shape[0]``: with loop bounds known at compile
     time the compiler unrolls the short loops (same operations in the same order, so the
@@ -107,14 +114,15 @@ def _lu_solve(a, piv, b):
 
 @numba.njit(cache=True, error_model="numpy")
 def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, out, stats,
-                 carry, jac, sched, fs):
+                 carry, jac, sched, fs, pivot_floor):
     """Adaptive ROS2 between output samples; writes states at the samples into ``out``.
 
     The leak column of row ``j`` is multiplied by the schedule ``s(t0 + (j0 + j) / fs)``
     (:func:`~leakdiag.sim.leak.leak_multiplier`, ``sched`` from ``LeakSchedule.to_array``)
     before the rows are interpolated, as the VCA kernel scales its coefficient by ``s(t)``.
 
-    ``stats`` receives [accepted steps, rejected steps, Jacobian evaluations, min step].
+    ``stats`` receives [accepted steps, rejected steps, Jacobian evaluations, min step, dense
+    factorisations (steps whose W the sparse elimination refused)].
     ``carry`` = [next step (<= 0: start afresh), steps since the Jacobian, orifice regime,
     index of the first sample] is read at the start and holds the controller's state at the
     end, with ``jac`` (the last Jacobian), so that a run can continue bit for bit.
@@ -146,6 +154,7 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
     n_acc = 0
     n_rej = 0
     n_jac = 0
+    n_dense = 0
     smallest = h_max
     for j in range(n_out - 1):
         tj = t0 + (j0 + j) * dt_out
@@ -178,20 +187,31 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
                 _jacobian_into(t, y, in0, params, jac)
                 n_jac += 1
                 since_jac = 0
-            for r in range(n):
-                for c in range(n):
-                    w[r, c] = -GAMMA * hs * jac[r, c]
-                w[r, r] += 1.0
-            _lu_factor(w, piv)
+            # W = I - gamma h J: the sparse elimination (sparse_lu), or the dense LU with
+            # partial pivoting when one of its pivots is too small
+            sparse = _w_factor(jac, GAMMA * hs, w, pivot_floor)
+            if not sparse:
+                n_dense += 1
+                for r in range(n):
+                    for c in range(n):
+                        w[r, c] = -GAMMA * hs * jac[r, c]
+                    w[r, r] += 1.0
+                _lu_factor(w, piv)
             for r in range(n):
                 k1[r] = f0[r]
-            _lu_solve(w, piv, k1)
+            if sparse:
+                _w_solve(w, k1)
+            else:
+                _lu_solve(w, piv, k1)
             for r in range(n):
                 ys[r] = y[r] + hs * k1[r]
             _rhs_into(t + hs, ys, in1, params, f1)
             for r in range(n):
                 k2[r] = f1[r] - 2.0 * k1[r]
-            _lu_solve(w, piv, k2)
+            if sparse:
+                _w_solve(w, k2)
+            else:
+                _lu_solve(w, piv, k2)
             # error of the embedded first-order solution y + h k1
             err = 0.0  # max norm: the worst state decides (an RMS norm dilutes transients)
             for r in range(n):
@@ -220,6 +240,7 @@ def _ros2_kernel(y0, inputs, t0, dt_out, params, scale, rtol, h_max, jac_every, 
     stats[1] = n_rej
     stats[2] = n_jac
     stats[3] = smallest
+    stats[4] = n_dense
     carry[0] = h
     carry[1] = since_jac
     carry[2] = last_regime
@@ -258,6 +279,11 @@ class Solution:
     resume : tuple or None
         The step controller's state after the last sample (pass it with the last state to
         ``integrate_fast(..., resume=...)`` to continue the run bit for bit).
+    n_dense : int
+        Steps (accepted or rejected) whose matrix :math:`W = I - \\gamma h J` the sparse
+        elimination refused (a pivot below
+        :data:`~leakdiag.sim.eha.sparse_lu.PIVOT_FLOOR`), factorised by the dense LU with
+        partial pivoting instead.
     """
 
     states: np.ndarray
@@ -266,12 +292,13 @@ class Solution:
     n_jacobians: int
     min_step_s: float
     resume: tuple | None = None
+    n_dense: int = 0
 
 
 def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
                    rtol: float = DEFAULT_RTOL, max_step: float | None = None,
                    jacobian_every: int = DEFAULT_JACOBIAN_EVERY, resume=None,
-                   leak_schedule=None) -> Solution:
+                   leak_schedule=None, pivot_floor: float = PIVOT_FLOOR) -> Solution:
     """Integrate the EHA with the adaptive ROS2 kernel; states at the output samples.
 
     Parameters
@@ -304,6 +331,10 @@ def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
         is multiplied by :math:`s(t_0 + j/f_s)` inside the kernel, so the column can hold the
         full coefficient :math:`k_l` (the convention of both simulators). Default: the column
         is the coefficient in force.
+    pivot_floor : float, default PIVOT_FLOOR
+        Smallest pivot magnitude the sparse elimination of :math:`W` accepts
+        (:mod:`leakdiag.sim.eha.sparse_lu`); a step with a smaller pivot is factorised by the
+        dense LU with partial pivoting (``inf``: every step, ``0``: only non-finite pivots).
 
     Returns
     -------
@@ -313,7 +344,7 @@ def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
     Raises
     ------
     ValueError
-        If shapes do not match, or a value is not finite / positive.
+        If shapes do not match, or a value is not finite / positive (``pivot_floor``: >= 0).
 
     Notes
     -----
@@ -354,10 +385,13 @@ def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
     rtol = check_positive(rtol, "rtol")
     h_max = check_positive(DEFAULT_MAX_STEP_S if max_step is None else max_step, "max_step")
     jac_every = check_int(jacobian_every, "jacobian_every", 1)
+    if not float(pivot_floor) >= 0.0:
+        raise ValueError(f"pivot_floor={pivot_floor} must be >= 0 (inf: the dense LU at every "
+                         "step)")
     if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(inputs))):
         raise ValueError("y0 and inputs must be finite")
     out = np.empty((inputs.shape[0], N_STATES))
-    stats = np.zeros(4)
+    stats = np.zeros(5)
     if resume is None:
         carry = np.array([0.0, 0.0, -1.0, 0.0])
         jac = np.zeros((N_STATES, N_STATES))
@@ -367,9 +401,10 @@ def integrate_fast(y0, inputs, params, sample_rate: float, t0: float = 0.0,
         if carry.shape != (4,) or jac.shape != (N_STATES, N_STATES):
             raise ValueError("resume must be the Solution.resume of an earlier run")
     _ros2_kernel(y0, inputs, float(t0), 1.0 / fs, params, _STATE_SCALE, rtol, h_max,
-                 jac_every, out, stats, carry, jac, _schedule_array(leak_schedule), fs)
+                 jac_every, out, stats, carry, jac, _schedule_array(leak_schedule), fs,
+                 float(pivot_floor))
     return Solution(out, int(stats[0]), int(stats[1]), int(stats[2]), float(stats[3]),
-                    (carry, jac))
+                    (carry, jac), int(stats[4]))
 
 
 def integrate_reference(y0, inputs, params, sample_rate: float, t0: float = 0.0,
