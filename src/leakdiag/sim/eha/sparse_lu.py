@@ -165,4 +165,3 @@ def generate_source() -> str:
         lines.append(f"    b[{k}] = (b[{k}]{terms}) * a[{k}, {k}]")
     lines.append("")
     return "\n".join(lines)
-
