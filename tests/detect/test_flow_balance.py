@@ -235,3 +235,19 @@ def test_healthy_recordings_at_different_temperatures_do_not_bias_the_model():
     assert se["null_offset_spread_v"] == pytest.approx(np.std(means, ddof=1), rel=0.1)
     # and the healthy windows scatter like the sensor noise, not like a leak
     assert det.noise_floor_m3_ < 3e-8
+
+
+def test_linear_algebra_runs_on_one_blas_thread_and_restores_the_pools():
+    from threadpoolctl import threadpool_info
+
+    from leakdiag.detect.flow_balance import _blas_controller, _one_blas_thread
+
+    def blas_threads():
+        return [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+
+    before = blas_threads()
+    inside = _one_blas_thread(blas_threads)()
+    assert inside and all(n == 1 for n in inside)
+    assert blas_threads() == before
+    # the loaded libraries are searched once, not at every call
+    assert _blas_controller() is _blas_controller()
