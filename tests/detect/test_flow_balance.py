@@ -251,3 +251,59 @@ def test_linear_algebra_runs_on_one_blas_thread_and_restores_the_pools():
     assert blas_threads() == before
     # the loaded libraries are searched once, not at every call
     assert _blas_controller() is _blas_controller()
+
+
+def _glr_z_reference(phi, r, w, nu, i, j):
+    """Z of span j..i by weighted least squares on windows 0..i with numpy (None: not
+    determined or not positive), the definition in glr_profile's docstring."""
+    ind = (np.arange(i + 1) >= j).astype(float)
+    x = np.column_stack([phi[:i + 1] * ind, nu[:i + 1]])
+    a = (x * w[:i + 1, None]).T @ x
+    p = nu.shape[1]
+    sch = a[0, 0] - (a[0, 1:] @ np.linalg.solve(a[1:, 1:], a[0, 1:]) if p else 0.0)
+    if not sch > 1e-12 * a[0, 0]:
+        return None
+    k = np.linalg.solve(a, (x * w[:i + 1, None]).T @ r[:i + 1])[0]
+    return k * np.sqrt(sch) if k > 0 else None
+
+
+@pytest.mark.parametrize("p", [0, 1, 2, 3])
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_glr_profile_equals_least_squares_per_span(p, seed):
+    from leakdiag.detect._flow_balance_search import glr_profile
+
+    rng = np.random.default_rng(seed)
+    n, max_span, min_history = 40, 12, 3
+    phi = rng.standard_normal(n)
+    r = rng.standard_normal(n) + 0.4 * phi * (np.arange(n) > 25)
+    w = rng.uniform(0.5, 2.0, n)
+    nu = rng.standard_normal((n, p))
+    g, arg = glr_profile(phi, r, w, nu, max_span, min_history)
+    for i in range(n):
+        a = (nu[:i + 1] * w[:i + 1, None]).T @ nu[:i + 1]
+        determined = p == 0 or np.linalg.det(a / a.diagonal().max()) >= 1e-10
+        if i + 1 < min_history or not determined:
+            assert g[i] == 0.0 and arg[i] == i
+            continue
+        zs = [_glr_z_reference(phi, r, w, nu, i, j) for j in range(i, max(-1, i - max_span), -1)]
+        best = max([z for z in zs if z is not None], default=0.0)
+        assert g[i] == pytest.approx(max(best, 0.0), rel=1e-10, abs=1e-12)
+        if g[i] > 0:  # the span it names attains the maximum (ties may name another)
+            assert i - max_span < arg[i] <= i
+            assert _glr_z_reference(phi, r, w, nu, i, arg[i]) == pytest.approx(g[i], rel=1e-10)
+
+
+def test_upcrossing_counts_equal_a_comparison_of_every_sample_with_every_level():
+    from leakdiag.detect._flow_balance_search import _count_upcrossings
+
+    rng = np.random.default_rng(0)
+    grid = np.arange(0.5, 10.01, 0.05)
+    for t in range(300):
+        g = np.maximum(0.0, rng.standard_normal(int(rng.integers(1, 80))) * rng.uniform(0.5, 5))
+        if t % 3 == 0:
+            g = np.round(g, 1)  # values on (or next to) the levels
+        counts = np.zeros(len(grid))
+        _count_upcrossings(g, grid, counts)
+        above = g[None, :] >= grid[:, None]
+        expected = above[:, 0] + np.count_nonzero(above[:, 1:] & ~above[:, :-1], axis=1)
+        np.testing.assert_array_equal(counts, expected)
