@@ -77,8 +77,9 @@ def _spd_inverse(a, p, chol, out):
     """Inverse of the symmetric p x p Gram matrix ``a`` into ``out`` by Cholesky factorisation
     of ``a / max(diag a)``; False (``out`` unusable) when that scaled matrix has a determinant
     below 1e-10 or is not positive definite, i.e. the nuisance is not determined yet. For the
-    p <= 3 of :func:`glr_profile` this replaces two LAPACK calls and two array allocations per
-    window (``det`` and ``inv``: ~0.5 us a window, 8-14x the rest of the kernel)."""
+    p <= 3 of :func:`glr_profile` this replaces two LAPACK calls (``det``, ``inv``) and two
+    array allocations per window: a 60-window replicate took 32 -> 10 us with one nuisance
+    column, 50 -> 22 us with three."""
     scale = 0.0
     for c in range(p):
         scale = max(scale, a[c, c])
