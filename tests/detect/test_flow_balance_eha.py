@@ -113,3 +113,8 @@ def test_offset_profile_by_hand():
                        (dict(level=0.9, grid_points=2), "grid_points")]:
         with pytest.raises(ValueError, match=match):
             profile_offset(ev, **bad)
+    # no offset with a usable standard error: a clear error, not an empty interval
+    with pytest.raises(ValueError, match="no offset gave a finite leak coefficient"):
+        profile_offset(lambda d: (1.0, 0.0, 0.5), 0.95)
+    with pytest.raises(ValueError, match="no offset gave a finite leak coefficient"):
+        profile_offset(lambda d: (float("nan"), 0.02, 0.5), 0.95)

@@ -4,9 +4,9 @@ The monitor's thread hands each chunk's windows to :meth:`Sidecar.push`, which c
 a ring in shared memory (:mod:`leakdiag.dashboard.ring`; under 1 us, no system call) and
 returns (:class:`~leakdiag.dashboard.hooks.MonitorHooks` writes to the ring itself, with the
 same check that the sidecar still runs). The sidecar process (:func:`main`) polls the ring
-and hands what it took to a :class:`~leakdiag.dashboard.recorder.ChunkRecorder`: one update of the live board and, with
-``--store``, one transaction with the chunks' summaries and alarm rows. With ``--dashboard`` it
-also runs the web server that serves the board. After each take it lets the next chunks gather
+and hands what it took to a :class:`~leakdiag.dashboard.recorder.ChunkRecorder`: one update
+of the live board and, with ``--store``, one transaction with the chunks' summaries and alarm
+rows. With ``--dashboard`` it also runs the web server that serves the board. After each take it lets the next chunks gather
 for :data:`GATHER_S` seconds (less when the ring is half full, or when the monitor asks through
 the pipe), so a fast replay costs one board update and one transaction per 0.1 s, not one per
 chunk (a transaction has a fixed cost of about 2 ms of CPU and an fsync); once that time is up

@@ -103,7 +103,8 @@ def profile_offset(evaluate: Callable[[float], tuple[float, float, float]], leve
     ------
     ValueError
         If ``level`` is not in (0, 1), ``half_range_pa`` is not positive or ``grid_points``
-        is below 3.
+        is below 3, or no offset gives a finite coefficient with a positive standard error
+        (the likelihood is then undefined everywhere; the size interval would be empty).
 
     Examples
     --------
@@ -151,6 +152,9 @@ def profile_offset(evaluate: Callable[[float], tuple[float, float, float]], leve
         if -res.fun > lls[i]:
             best = float(res.x)
     ll_max = loglik(best)
+    if not math.isfinite(ll_max):
+        raise ValueError("profile_offset: no offset gave a finite leak coefficient with a "
+                         f"positive standard error (evaluations: {sorted(seen.items())[:3]} ...)")
     bound = 0.5 * float(chi2.ppf(level, 1))
     zq = float(norm.ppf(0.5 + level / 2))
     inside = [d for d in seen if ll_max - loglik(d) <= bound]
