@@ -281,7 +281,8 @@ def test_glr_profile_equals_least_squares_per_span(p, seed):
     g, arg = glr_profile(phi, r, w, nu, max_span, min_history)
     for i in range(n):
         a = (nu[:i + 1] * w[:i + 1, None]).T @ nu[:i + 1]
-        determined = p == 0 or np.linalg.det(a / a.diagonal().max()) >= 1e-10
+        d = np.sqrt(a.diagonal())
+        determined = p == 0 or (np.all(d > 0) and np.linalg.det(a / np.outer(d, d)) >= 1e-10)
         if i + 1 < min_history or not determined:
             assert g[i] == 0.0 and arg[i] == i
             continue
@@ -291,6 +292,107 @@ def test_glr_profile_equals_least_squares_per_span(p, seed):
         if g[i] > 0:  # the span it names attains the maximum (ties may name another)
             assert i - max_span < arg[i] <= i
             assert _glr_z_reference(phi, r, w, nu, i, arg[i]) == pytest.approx(g[i], rel=1e-10)
+
+
+def test_glr_profile_does_not_depend_on_the_nuisance_columns_scale():
+    """The nuisance spans the same space whatever each column's unit: G must not change, and
+    the test must start at ``min_history`` once the columns are not collinear. Before the
+    equilibrated check, one column 1e4 times another (the VCA's offset drift on a long
+    recording) kept G at 0 for a stretch that grew with the recording's length."""
+    from leakdiag.detect._flow_balance_search import glr_profile
+
+    rng = np.random.default_rng(7)
+    n, max_span, min_history = 300, 30, 5
+    t = np.arange(n) + 0.5
+    psi = 1.0 + 0.3 * rng.standard_normal(n)
+    phi = rng.uniform(0.5, 1.5, n)
+    w = rng.uniform(0.5, 2.0, n)
+    r = rng.standard_normal(n) / np.sqrt(w) + 0.05 * psi + 4.0 * phi * (np.arange(n) >= 120)
+    # offset, its drift centred on the recording's middle (as FlowBalanceDetector builds it),
+    # and a small third column (the flow gain)
+    nu = np.column_stack([7e-5 * psi, 7e-5 * psi * (t - t.mean()), 6e-6 * rng.standard_normal(n)])
+    g, _ = glr_profile(phi, r, w, nu, max_span, min_history)
+    for scales in ([1.0, 1.0, 1.0], [1e6, 1.0, 1.0], [1.0, 1e-4, 1e3], [3e-3, 1e5, 1e-2]):
+        g2, _ = glr_profile(phi, r, w, nu * np.array(scales), max_span, min_history)
+        np.testing.assert_allclose(g2, g, rtol=1e-8, atol=1e-10)
+    # tested from window min_history on: the leak from window 120 is seen at once (the old
+    # check, det(a / max diag a) >= 1e-10, held the first test back to window 183 here)
+    assert np.all(g[:min_history - 1] == 0.0) and np.any(g[min_history - 1:10] > 0.0)
+    assert np.all(g[:120] < 3.0) and np.all(g[122:180] > 6.0)
+
+
+def test_long_vca_recording_is_tested_from_its_first_windows():
+    """A detector fitted on two 60-s runs judges a 400-s recording with a leak from 200 s:
+    it must alarm soon after the onset. Before the equilibrated nuisance check the VCA test
+    (with the flow gain profiled) never started in a 400-s recording: NO LEAK, score 0."""
+    healthy = [ld.sim.simulate_vca(duration=60, leak_lpm=0.0, load="spring", machine=17, seed=s)
+               for s in (1, 2)]
+    det = FlowBalanceDetector(system="vca").fit(healthy)
+    rec = ld.sim.simulate_vca(duration=400, leak_lpm=0.1, onset=200, load="spring", machine=17,
+                              seed=5)
+    v = det.predict(rec)
+    assert v.leak and 200.0 <= v.alarm_time_s <= 210.0
+    assert abs(v.onset_s - 200.0) <= 5.0
+    # and in a long healthy run the statistic is computed from the first monitored windows on
+    quiet = ld.sim.simulate_vca(duration=400, leak_lpm=0.0, load="spring", machine=17, seed=6)
+    g, _ = det._glr(det._terms(quiet))
+    assert np.any(g[:det._MIN_HISTORY + 5] > 0.0)
+
+
+@pytest.mark.parametrize("p", [0, 1, 2, 3])
+@pytest.mark.parametrize("seed", [1, 2])
+def test_change_point_equals_least_squares_per_candidate(p, seed):
+    """Z_j of change_point against a weighted least-squares fit on all windows in NumPy, and
+    the onset of a clear step recovered."""
+    from leakdiag.detect._flow_balance_search import change_point
+
+    rng = np.random.default_rng(seed)
+    n, step, last = 120, 70, 90
+    t = np.arange(n) + 0.5
+    phi = rng.uniform(0.5, 1.5, n)
+    w = rng.uniform(0.5, 2.0, n)
+    cols = [np.ones(n), t - t.mean(), rng.standard_normal(n)][:p]
+    nu = np.column_stack([c * sc for c, sc in zip(cols, (7e-5, 7e-5, 6e-6))]) if p else \
+        np.zeros((n, 0))
+    r = rng.standard_normal(n) / np.sqrt(w) + 1.5 * phi * (np.arange(n) >= step)
+    if p:
+        r = r + nu @ (rng.uniform(-1, 1, p) / np.abs(nu).max(axis=0))
+    j, z = change_point(phi, r, w, nu, last)
+    assert z.shape == (last + 1,)
+    for jj in range(last + 1):
+        x = np.column_stack([phi * (np.arange(n) >= jj), nu]) * np.sqrt(w)[:, None]
+        cov = np.linalg.inv(x.T @ x)
+        k = (cov @ (x.T @ (r * np.sqrt(w))))[0]
+        assert z[jj] == pytest.approx(k / np.sqrt(cov[0, 0]), rel=1e-7, abs=1e-9)
+    assert j == int(np.nanargmax(z)) and abs(j - step) <= 2
+
+
+def test_no_load_onset_is_the_step_not_the_longest_span():
+    """Without load the GLR's best span at the first alarm ran back to its 30-s limit (onset
+    33 s for a leak from 60 s, and a size diluted by the leak-free half: 0.63x on unit 3);
+    the onset is now the maximum-likelihood step over the whole recording."""
+    healthy = [ld.sim.simulate_vca(duration=120, leak_lpm=0.0, load="none", machine=3, seed=s)
+               for s in range(6)]
+    det = FlowBalanceDetector(system="vca").fit(healthy)
+    rec = ld.sim.simulate_vca(duration=120, leak_lpm=0.02, onset=60, load="none", machine=3,
+                              seed=123, conditions=ld.sim.OperatingConditions(
+                                  temperature_rise_k=8.0))
+    v = det.predict(rec)
+    assert v.leak and abs(v.onset_s - 60.0) <= 3.0
+    assert 0.7 <= v.leak_lpm / rec.meta["leak_lpm_achieved"] <= 1.3
+
+
+@pytest.mark.parametrize("duration", [3.0, 6.0])
+def test_a_recording_too_short_to_test_is_refused_by_name(duration):
+    healthy = [ld.sim.simulate_vca(duration=30, leak_lpm=0.0, load="spring", machine=17, seed=s)
+               for s in (1, 2)]
+    det = FlowBalanceDetector(system="vca").fit(healthy)
+    rec = ld.sim.simulate_vca(duration=duration, leak_lpm=0.1, onset=0.5, load="spring",
+                              machine=17, seed=1)
+    with pytest.raises(RecordingError, match=r"predict: leakdiag\.sim\.simulate_vca: too short "
+                       r"to judge: .* window\(s\) of 1 s after the 2-s burn-in.*longer than "
+                       r"about 7 s"):
+        det.predict(rec)
 
 
 def test_upcrossing_counts_equal_a_comparison_of_every_sample_with_every_level():

@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-__all__ = ["GLRThreshold", "glr_scan", "glr_profile", "glr_alarm_count", "calibrate_glr"]
+__all__ = ["GLRThreshold", "glr_scan", "glr_profile", "glr_alarm_count", "calibrate_glr",
+           "change_point"]
 
 
 @numba.njit(cache=True)
@@ -73,22 +74,26 @@ def glr_scan(a: np.ndarray, b: np.ndarray, max_span: int) -> tuple[np.ndarray, n
 
 
 @numba.njit(cache=True)
-def _spd_inverse(a, p, chol, out):
+def _spd_inverse(a, p, chol, out, diag):
     """Inverse of the symmetric p x p Gram matrix ``a`` into ``out`` by Cholesky factorisation
-    of ``a / max(diag a)``; False (``out`` unusable) when that scaled matrix has a determinant
-    below 1e-10 or is not positive definite, i.e. the nuisance is not determined yet. For the
-    p <= 3 of :func:`glr_profile` this replaces two LAPACK calls (``det``, ``inv``) and two
-    array allocations per window: a 60-window replicate took 32 -> 10 us with one nuisance
-    column, 50 -> 22 us with three."""
-    scale = 0.0
+    of its equilibrated form ``D^-1/2 a D^-1/2`` (``D = diag a``, unit diagonal); False
+    (``out`` unusable) when that matrix has a determinant below 1e-10 or is not positive
+    definite, i.e. the nuisance columns are (numerically) collinear: the nuisance is not
+    determined yet. Equilibrated, the test does not depend on the columns' units or sizes: an
+    earlier version scaled by ``max(diag a)`` only, so that a column much larger than another
+    (the VCA's offset drift on a long recording against its offset and gain columns) held the
+    determinant below 1e-10 for a stretch that grew with the recording's length (no test at all
+    in a 400-s VCA recording). For the p <= 3 of :func:`glr_profile` this replaces two LAPACK
+    calls (``det``, ``inv``) and two array allocations per window: a 60-window replicate took
+    32 -> 10 us with one nuisance column, 50 -> 22 us with three."""
     for c in range(p):
-        scale = max(scale, a[c, c])
-    if not scale > 0.0:
-        return False
+        if not a[c, c] > 0.0:
+            return False
+        diag[c] = np.sqrt(a[c, c])
     det = 1.0
-    for c in range(p):  # chol: lower factor L of a / scale
+    for c in range(p):  # chol: lower factor L of D^-1/2 a D^-1/2
         for d in range(c + 1):
-            v = a[c, d] / scale
+            v = a[c, d] / (diag[c] * diag[d])
             for e in range(d):
                 v -= chol[c, e] * chol[d, e]
             if c == d:
@@ -100,7 +105,7 @@ def _spd_inverse(a, p, chol, out):
                 chol[c, d] = v / chol[d, d]
     if det < 1e-10:
         return False
-    for col in range(p):  # column col of (a / scale)^-1: L y = e_col, then L^T x = y
+    for col in range(p):  # column col of the equilibrated inverse: L y = e_col, then L^T x = y
         for c in range(p):
             v = 1.0 if c == col else 0.0
             for e in range(c):
@@ -113,7 +118,7 @@ def _spd_inverse(a, p, chol, out):
             out[c, col] = v / chol[c, c]
     for c in range(p):
         for d in range(p):
-            out[c, d] /= scale
+            out[c, d] /= diag[c] * diag[d]
     return True
 
 
@@ -128,6 +133,7 @@ def _glr_profile(phi, r, w, nu, max_span, min_history, g, arg):
     tmp = np.zeros(p)
     ainv = np.zeros((p, p))
     chol = np.zeros((p, p))
+    diag = np.zeros(p)
     for i in range(n):
         for c in range(p):
             bn[c] += w[i] * nu[i, c] * r[i]
@@ -138,7 +144,7 @@ def _glr_profile(phi, r, w, nu, max_span, min_history, g, arg):
         if i + 1 < min_history:
             continue
         if p > 0:
-            if not _spd_inverse(ann, p, chol, ainv):
+            if not _spd_inverse(ann, p, chol, ainv, diag):
                 continue
             for c in range(p):
                 tmp[c] = 0.0
@@ -204,6 +210,68 @@ def glr_profile(phi, r, w, nuisance, max_span: int, min_history: int = 1):
     arg = np.zeros(len(phi), dtype=np.int64)
     _glr_profile(phi, r, w, nu, int(max_span), int(min_history), g, arg)
     return g, arg
+
+
+def change_point(phi, r, w, nuisance, last: int) -> tuple[int, np.ndarray]:
+    """Maximum-likelihood onset of a step in the leak coefficient, from the whole recording.
+
+    For each candidate ``j <= last`` the weighted least-squares fit of the residuals of *all*
+    windows on ``[phi 1(w >= j), nuisance]`` gives :math:`Z_j = \\hat k_j / \\mathrm{se}(\\hat
+    k_j)`; the onset is the ``j`` of the largest :math:`Z_j` (for a positive step this
+    maximises the likelihood, :math:`Z_j^2` being the weighted residual sum of squares that the
+    step removes; Hinkley 1970). Unlike the span of the GLR at its first alarm, which sees only
+    the windows up to the alarm and at most ``max_span`` of them, it uses the windows after the
+    alarm too and has no span limit. O(n p^2) by suffix sums.
+
+    Parameters
+    ----------
+    phi, r, w : numpy.ndarray
+        Per window: leak-law term, residual, weight ``1/s^2``.
+    nuisance : numpy.ndarray
+        Shape ``(n, p)``, ``p`` in 0..3, profiled over all windows.
+    last : int
+        Latest candidate window (e.g. the first alarm's).
+
+    Returns
+    -------
+    j : int
+        The onset window.
+    z : numpy.ndarray
+        :math:`Z_j` for ``j = 0..last`` (NaN where the step is not determined).
+
+    Examples
+    --------
+    >>> n = 40
+    >>> phi, w = np.ones(n), np.ones(n)
+    >>> r = np.where(np.arange(n) >= 25, 1.0, 0.0) + 0.01 * np.sin(np.arange(n))
+    >>> change_point(phi, r, w, np.ones((n, 1)), last=30)[0]
+    25
+    """
+    phi = np.asarray(phi, dtype=np.float64)
+    r = np.asarray(r, dtype=np.float64)
+    w = np.asarray(w, dtype=np.float64)
+    n = len(phi)
+    nu = np.asarray(nuisance, dtype=np.float64).reshape(n, -1)
+    last = int(min(max(last, 0), n - 1))
+    wp = w * phi
+    akk = np.cumsum((wp * phi)[::-1])[::-1][:last + 1]  # sums over windows >= j
+    bk = np.cumsum((wp * r)[::-1])[::-1][:last + 1]
+    if nu.shape[1]:
+        akn = np.cumsum((wp[:, None] * nu)[::-1], axis=0)[::-1][:last + 1]
+        wn = nu * w[:, None]
+        ann, bn = wn.T @ nu, wn.T @ r
+        d = np.sqrt(np.diag(ann))
+        if not np.all(d > 0):
+            return last, np.full(last + 1, np.nan)
+        # the nuisance block equilibrated (its columns' sizes differ by orders of magnitude)
+        inv = np.linalg.pinv(ann / np.outer(d, d)) / np.outer(d, d)
+        akk = akk - np.einsum("jc,cd,jd->j", akn, inv, akn)
+        bk = bk - akn @ (inv @ bn)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(akk > 1e-12 * np.max(akk, initial=0.0), bk / np.sqrt(akk), np.nan)
+    if not np.any(np.isfinite(z)):
+        return last, z
+    return int(np.nanargmax(z)), z
 
 
 def glr_alarm_count(g: np.ndarray, h: float) -> int:

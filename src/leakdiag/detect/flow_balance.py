@@ -26,6 +26,7 @@ from leakdiag.detect._flow_balance_offset import profile_offset
 from leakdiag.detect._flow_balance_search import (
     GLRThreshold,
     calibrate_glr,
+    change_point,
     glr_alarm_count,
     glr_profile,
 )
@@ -652,6 +653,14 @@ class FlowBalanceDetector(Detector):
         self._check_fitted()
         self._check_recording(rec, where)
         t = self._terms(rec)
+        n_win = len(t["end"])
+        if n_win < self._MIN_HISTORY:  # the GLR tests from its _MIN_HISTORY-th window on
+            source = rec.meta.get("source", "<recording>")
+            raise RecordingError(
+                f"{where}: {source}: too short to judge: {rec.duration:.4g} s gives {n_win} "
+                f"window(s) of {self.window_s:g} s after the {self.burn_in_s:g}-s burn-in, "
+                f"and the flow-balance test starts at the {self._MIN_HISTORY}th (a recording "
+                f"longer than about {self.burn_in_s + self._MIN_HISTORY * self.window_s:.3g} s)")
         a, b = self._ab(t)
         g, arg = self._glr(t)
         return t, a, b, g, arg
@@ -729,8 +738,11 @@ class FlowBalanceDetector(Detector):
         Returns
         -------
         FlowBalanceVerdict
-            Without an alarm ``leak=False`` and no size. With one, the onset is the start of
-            the GLR's best span at the alarm, the leak coefficient is estimated on every window
+            Without an alarm ``leak=False`` and no size. With one, the onset is the
+            maximum-likelihood step of the leak coefficient over the whole recording, among the
+            windows up to the first alarm
+            (:func:`~leakdiag.detect._flow_balance_search.change_point`), the leak coefficient
+            is estimated on every window
             after the onset window to the end of the recording, the mean leak flow is that
             coefficient times the mean ``|phi|`` from the onset to the end (L/min) with an
             ``interval_level`` interval, and ``leak_lpm_at_reference`` the flow at ``reference_dp_pa``.
@@ -750,7 +762,11 @@ class FlowBalanceDetector(Detector):
             return FlowBalanceVerdict(leak=False, onset_s=None, alarm_time_s=None, leak_lpm=None,
                                       leak_lpm_interval=None, shift=None, **common)
         i = int(above[0])
-        j = int(arg[i])
+        # the onset: the maximum-likelihood step in k over the whole recording, up to the
+        # first alarm (the GLR's best span at the alarm, arg[i], sees only the windows up to it
+        # and at most max_span of them)
+        sig = self._sigma(t)
+        j, _ = change_point(t["phi"], t["residual"], 1.0 / sig**2, t["nuisance"], last=i)
         # k from the first window wholly after the onset window (the leak starts somewhere
         # inside window j; counting all of it as leaking biases k low by the leak-free part);
         # the mean |phi| over the whole time since the onset (the thesis's mean leak)
