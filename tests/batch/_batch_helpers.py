@@ -1,6 +1,7 @@
 """Helpers for the batch tests: synthetic recordings and a picklable slow detector."""
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.signal import lfilter
@@ -33,3 +34,20 @@ class SlowScorer:
     def score_windows(self, values, time_s):
         time.sleep(self.delay_s)
         return 1.0 - values
+
+
+@dataclass(frozen=True)
+class _BurnIn:
+    burn_in_s: float = 5.0
+
+
+class BurnInScorer(SlowScorer):
+    """:class:`SlowScorer` that scores no window starting within a 5-s burn-in (NaN)."""
+
+    alarm = _BurnIn()
+
+    def score_windows(self, values, time_s):
+        return np.where(time_s - 0.199 < self.alarm.burn_in_s, np.nan, 1.0 - values)
+
+    def alarm_windows(self, scores):
+        return np.where(np.isnan(scores), False, scores >= self.threshold_)

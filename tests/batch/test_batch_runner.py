@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
-from _batch_helpers import SlowScorer, make_recording
+from _batch_helpers import BurnInScorer, SlowScorer, make_recording
 from leakdiag.batch import config_from_dict, load_config, read_results, run_batch, run_case
 from leakdiag.batch.store import content_hash, result_key
 from leakdiag.cli.main import cli
@@ -151,6 +151,22 @@ def test_detector_rows(recordings, tmp_path):
     assert row["score_max"] == pytest.approx((1 - ref).max(), rel=1e-9)
     first = int(np.argmax(1 - ref >= 0.5))
     assert row["alarm"] and row["alarm_time_s"] == pytest.approx((first * 190 + 199) / 1000.0)
+
+
+def test_a_detector_that_scored_no_window_is_not_judged(tmp_path):
+    """A recording shorter than the detector's burn-in: alarm None (not False) and a note."""
+    from leakdiag.io.recording import Recording
+
+    det = tmp_path / "det.pkl"
+    det.write_bytes(pickle.dumps(BurnInScorer()))
+    rec = make_recording(0, n=4500, onset_s=1.0)
+    path = tmp_path / "short.parquet"
+    write_parquet(Recording(rec.channels, rec.sample_rate, meta={}), path)
+    cfg = config_from_dict({"detector": [{"name": "b", "path": str(det)}]})
+    (row,) = run_case(str(path), cfg)
+    assert row["status"] == "ok" and row["alarm"] is None and row["score_max"] is None
+    assert row["error"].startswith("detector not judged: no window of 23 was scored (the "
+                                   "recording, 4.5 s, is too short for the 5-s burn-in")
 
 
 def test_resume_skips_finished_and_recomputes_changed(recordings):

@@ -169,7 +169,7 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
         onset = config.onset_s if config.onset_s is not None else src.meta.get("onset")
         onset = None if onset is None else float(onset)
         rows = []
-        for (kind, name, spec, _), feat, scorer, acc in zip(items, feats, scorers, parts):
+        for (kind, name, spec, det), feat, scorer, acc in zip(items, feats, scorers, parts):
             t = np.concatenate([a[0] for a in acc]) if acc else np.empty(0)
             v = np.concatenate([a[1] for a in acc]) if acc else np.empty(0)
             row = {**base, "status": "ok", "kind": kind, "name": name, **spec.as_dict(),
@@ -185,6 +185,13 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                 row["score_max"] = float(np.nanmax(s)) if np.isfinite(s).any() else None
                 row["alarm"] = bool(np.any(alarms))
                 row["alarm_time_s"] = float(t[np.argmax(alarms)]) if np.any(alarms) else None
+                if row["score_max"] is None:  # no window scored: nothing was tested
+                    row["alarm"] = None
+                    burn = float(getattr(getattr(det, "alarm", None), "burn_in_s", 0.0) or 0.0)
+                    row["error"] = (f"detector not judged: no window of {len(v)} was scored "
+                                    f"(the recording, {row['duration_s']:.4g} s, is too short "
+                                    f"for the {burn:g}-s burn-in, or its feature values are "
+                                    "not finite)")
             rows.append(row)
     except Exception as exc:  # noqa: BLE001 - a bad file must become a row, not stop the run
         msg = _in_job_words(str(exc))  # leakdiag's messages name file, channel and row

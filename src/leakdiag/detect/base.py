@@ -60,6 +60,7 @@ from leakdiag.detect.threshold import (
     segment_maxima,
 )
 from leakdiag.features.series import FeatureSeries
+from leakdiag.io.errors import RecordingError
 
 __all__ = ["Alarm", "Verdict", "Detector"]
 
@@ -487,9 +488,22 @@ class Detector(BaseEstimator):
         Returns
         -------
         Verdict
+
+        Raises
+        ------
+        leakdiag.io.RecordingError
+            If no window after the burn-in has a finite feature value: the recording is too
+            short to judge, or its channel is constant (nothing was tested, so no verdict).
         """
         tr = self._trace(recording)
         a = self._alarm()
+        if not np.isfinite(tr.z).any():
+            source = recording.meta.get("source", "<recording>")
+            why = (f"too short to judge: {recording.duration:.4g} s leaves no complete window "
+                   f"of the feature after the {a.burn_in_s:g}-s burn-in" if len(tr.z) == 0 else
+                   f"no finite feature value in the {len(tr.z)} window(s) after the "
+                   f"{a.burn_in_s:g}-s burn-in (zero variance: constant channel?)")
+            raise RecordingError(f"predict: {source}: {why}")
         h = self.threshold_
         stat = np.maximum(tr.s_up, tr.s_down)
         smax = float(stat.max()) if len(stat) else 0.0
