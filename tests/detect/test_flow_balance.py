@@ -177,6 +177,50 @@ def test_null_drift_with_temperature_is_not_a_leak(machine17):
     assert v.leak and 30.0 <= v.alarm_time_s <= 40.0
 
 
+def test_a_recording_the_fitted_balance_does_not_describe_is_refused(machine17):
+    """Another load or machine (from the metadata), or a channel in another unit: refused by
+    name (a no-load detector judged healthy spring runs LEAK; bar read as Pa gave LEAK with a
+    negative leak size)."""
+    det = machine17[1]
+    assert det.operation_["machine"] == 17 and det.operation_["load"] == "spring"
+    lo, hi = det.operation_["ranges"]["p1"]
+    rec = ld.sim.simulate_vca(duration=20, leak_lpm=0.0, load="none", machine=17, seed=50)
+    with pytest.raises(RecordingError, match=r"predict: leakdiag\.sim\.simulate_vca: recording "
+                       r"of load 'none', but the detector was fitted on healthy recordings of "
+                       r"load 'spring'"):
+        det.predict(rec)
+    rec = ld.sim.simulate_vca(duration=20, leak_lpm=0.0, load="spring", machine=3, seed=50)
+    with pytest.raises(RecordingError, match=r"recording of machine unit 3, but .* machine unit "
+                       r"17"):
+        det.predict(rec)
+    rec = ld.sim.simulate_vca(duration=20, leak_lpm=0.0, load="spring", machine=17, seed=50)
+    in_bar = dataclasses.replace(rec, channels={**rec.channels, "p1": rec["p1"] / 1e5},
+                                 meta={**rec.meta, "source": "in_bar.csv"})
+    with pytest.raises(RecordingError, match=r"predict: in_bar\.csv: channel 'p1' spans .* far "
+                       r"outside the healthy recordings the detector was fitted on"):
+        det.predict(in_bar)
+    in_mm = dataclasses.replace(rec, channels={**rec.channels, "x": rec["x"] * 1e3})
+    with pytest.raises(RecordingError, match=r"channel 'x' spans"):
+        det.score(in_mm)
+    assert not det.predict(rec).leak  # the same recording in SI units is judged
+    # a large leak moves u far beyond its healthy range (the servo feeds the leak): judged
+    big = ld.sim.simulate_vca(duration=20, leak_lpm=2.0, onset=10, load="spring", machine=17,
+                              seed=51)
+    u_lo, u_hi = det.operation_["ranges"]["u"]
+    assert np.percentile(big["u"][2000:], 99) > u_hi + (u_hi - u_lo)
+    assert det.predict(big).leak
+
+
+def test_a_fleet_fit_has_no_machine_to_check():
+    recs = [ld.sim.simulate_vca(duration=20, leak_lpm=0.0, load="spring", machine=m, seed=1)
+            for m in (3, 17)]
+    from leakdiag.detect.flow_balance import _operation
+
+    op = _operation(recs, ("p1",))
+    assert op["machine"] is None and op["load"] == "spring"
+    assert _operation([dataclasses.replace(recs[0], meta={})], ())["machine"] is None
+
+
 def test_glr_rate_tail_never_rises_beyond_the_grid():
     from leakdiag.detect._flow_balance_search import GLRThreshold
 

@@ -319,15 +319,20 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
         click.echo(f"  onset {first['onset_s']:.4g} s, first alarm {first['alarm_time_s']:.4g} s "
                    f"({first['method']})")
         for r in sized.to_dict("records"):
+            holds = r.get("leak_lpm_interval_holds")
             if r.get("leak_lpm") is not None and r["leak_lpm"] == r["leak_lpm"]:
-                where = ("" if r.get("leak_lpm_in_range") in (True, None)
+                in_range = r.get("leak_lpm_in_range")
+                where = ("" if in_range is True or in_range is None or in_range != in_range
                          else " (feature shift outside the calibrated range: extrapolated)")
-                holds = r.get("leak_lpm_interval_holds")
+                kind = "prediction interval"  # of a detector calibrated on known leaks
                 if isinstance(holds, str):  # the detector says what its interval holds
-                    where += f" (interval: {holds})"
-                click.echo(f"  leak size ({r['method']}): {r['leak_lpm']:.3g} L/min, prediction "
-                           f"interval {r['leak_lpm_low']:.3g}-{r['leak_lpm_high']:.3g} L/min"
-                           + where)
-        if "leak_lpm" not in sized or sized["leak_lpm"].isna().all():
+                    where, kind = where + f" (interval: {holds})", "interval"
+                click.echo(f"  leak size ({r['method']}): {r['leak_lpm']:.3g} L/min, {kind} "
+                           f"{r['leak_lpm_low']:.3g}-{r['leak_lpm_high']:.3g} L/min" + where)
+            elif isinstance(holds, str):  # a physical detector that gives no size says why
+                click.echo(f"  leak size ({r['method']}): {holds}")
+        if ("leak_lpm" not in sized or sized["leak_lpm"].isna().all()) and not (
+                "leak_lpm_interval_holds" in sized
+                and sized["leak_lpm_interval_holds"].map(lambda v: isinstance(v, str)).any()):
             click.echo("  leak size: not estimated (no detector here is calibrated on known "
                        "leaks)")

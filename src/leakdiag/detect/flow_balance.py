@@ -55,6 +55,47 @@ SYSTEMS = ("vca", "eha")
 _DISPERSION_SPANS = (1, 3, 10, 30)
 
 
+#: How far beyond the healthy recordings' range of a channel (1st-99th percentile, in multiples
+#: of that range) a judged recording may reach before it is refused (leakdiag choice). Measured
+#: on drawn units 3 and 17, both loads, leaks up to 2 L/min (VCA) and 1.63 L/min (EHA), with
+#: and without temperature rise, supply ripple, drive variation and a 1.3x spring change: the
+#: pressures, position and speed went at most 0.26 (VCA) and 0.48 (EHA) of their range beyond
+#: it; a unit error moves a channel by 10^3-10^6 of it.
+OPERATION_MARGIN = 1.0
+#: Wider margins for channels that the leak itself moves: the VCA's servo opens the valve to
+#: feed the leak, so ``u`` left its healthy range by up to 18.5 ranges at 2 L/min (no load).
+OPERATION_MARGINS = {"u": 100.0}
+
+
+def _after(rec, c: str, skip_s: float) -> np.ndarray:
+    """Channel ``c`` of ``rec`` after its first ``skip_s`` seconds (the burn-in)."""
+    return np.asarray(rec[c], dtype=np.float64)[int(round(skip_s * rec.sample_rate)):]
+
+
+def _operation(recs, channels, skip_s: float = 0.0) -> dict:
+    """Machine unit and load common to ``recs`` (None when unknown or mixed), and each
+    channel's 1st-99th percentile range over all of them after ``skip_s`` (the burn-in)."""
+    out: dict = {}
+    machines = set()
+    for r in recs:
+        m = r.meta.get("machine")
+        if isinstance(m, dict) and "unit" in m:
+            machines.add("nominal" if m["unit"] is None else m["unit"])
+        else:
+            machines.add(None)
+    out["machine"] = machines.pop() if len(machines) == 1 else None
+    loads = {r.meta.get("load") for r in recs}
+    out["load"] = loads.pop() if len(loads) == 1 else None
+    ranges = {}
+    for c in channels:
+        q = np.array([np.percentile(_after(r, c, skip_s), [1.0, 99.0])
+                      for r in recs if c in r.channels and len(_after(r, c, skip_s))])
+        if len(q):
+            ranges[c] = (float(q[:, 0].min()), float(q[:, 1].max()))
+    out["ranges"] = ranges
+    return out
+
+
 @dataclass(frozen=True)
 class FlowBalanceVerdict(Verdict):
     """:class:`~leakdiag.detect.base.Verdict` plus the physical leak estimate.
@@ -353,6 +394,39 @@ class FlowBalanceDetector(Detector):
                 raise RecordingError(f"{where}: {source}: channel {c!r} is not finite at row "
                                      f"{int(bad[0])} ({bad.size} such rows)")
 
+    def _check_operation(self, rec, where: str) -> None:
+        """Refuse a recording that the fitted flow balance does not describe: another machine
+        or load than every healthy recording (when both carry it in their metadata), or a
+        channel far outside the healthy recordings' range (a unit error, another rig)."""
+        op = getattr(self, "operation_", None)  # None: a file saved before this check
+        if op is None:
+            return
+        source = rec.meta.get("source", "<recording>")
+        mine = _operation([rec], ())
+        for key, what in (("machine", "machine unit"), ("load", "load")):
+            fitted, here = op.get(key), mine.get(key)
+            if fitted is not None and here is not None and fitted != here:
+                raise RecordingError(
+                    f"{where}: {source}: recording of {what} {here!r}, but the detector was "
+                    f"fitted on healthy recordings of {what} {fitted!r}: the flow balance is "
+                    "identified per machine and operation; fit one on healthy recordings of "
+                    "this machine under this load")
+        for c, (lo, hi) in op.get("ranges", {}).items():
+            if c not in rec.channels or not hi > lo:
+                continue
+            x = _after(rec, c, float(self.burn_in_s))  # as the test: after the burn-in
+            if not len(x):
+                continue
+            q_lo, q_hi = np.percentile(x, [1.0, 99.0])
+            span, margin = hi - lo, OPERATION_MARGINS.get(c, OPERATION_MARGIN)
+            if q_lo < lo - margin * span or q_hi > hi + margin * span:
+                raise RecordingError(
+                    f"{where}: {source}: channel {c!r} spans {q_lo:.4g} to {q_hi:.4g} (1st-99th "
+                    f"percentile after the burn-in), far outside the healthy recordings the detector was fitted "
+                    f"on ({lo:.4g} to {hi:.4g}, allowed {margin:g}x that span beyond either "
+                    "end): another unit (Pa, m, V, rad/s expected; see --col CH=COL:UNIT), "
+                    "another rig, or operation the detector was not fitted for")
+
     def _window(self, rec) -> int:
         w = int(round(self.window_s * rec.sample_rate))
         if w < 2:
@@ -548,6 +622,7 @@ class FlowBalanceDetector(Detector):
             raise ValueError("fit needs at least one healthy recording, got none")
         for r in recs:
             self._check_recording(r, "fit")
+        self.operation_ = _operation(recs, self._backend().CHANNELS, float(self.burn_in_s))
         be = self._backend()
         nominal = self._nominal()
         self.model_, self.model_std_ = be.identify(
@@ -652,6 +727,7 @@ class FlowBalanceDetector(Detector):
     def _scan(self, rec, where: str):
         self._check_fitted()
         self._check_recording(rec, where)
+        self._check_operation(rec, where)
         t = self._terms(rec)
         n_win = len(t["end"])
         if n_win < self._MIN_HISTORY:  # the GLR tests from its _MIN_HISTORY-th window on
@@ -788,11 +864,21 @@ class FlowBalanceDetector(Detector):
             interval = ((k - zq * se) * mean_phi * LPM_PER_M3S,
                         (k + zq * se) * mean_phi * LPM_PER_M3S)
             offset = None
+        onset, alarm = float(t["start"][j]), float(t["end"][i])
+        if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
+            return FlowBalanceVerdict(
+                leak=True, onset_s=onset, alarm_time_s=alarm, leak_lpm=None,
+                leak_lpm_interval=None, shift=float(k / se), leak_coefficient=k,
+                leak_coefficient_se=se, pressure_offset_pa=offset,
+                leak_lpm_interval_holds=(
+                    f"no size: the leak coefficient estimated since the onset is not positive "
+                    f"({k:.3g} +- {se:.2g}), so the flow balance does not describe this "
+                    "recording well (channels' units, machine, operation?)"), **common)
         lpm = k * mean_phi * LPM_PER_M3S
         ptr = be.leak_transition_pa(self._nominal())
         at_ref = k * _leak_law_value(float(self.reference_dp_pa), self.leak_law, ptr) * LPM_PER_M3S
         return FlowBalanceVerdict(
-            leak=True, onset_s=float(t["start"][j]), alarm_time_s=float(t["end"][i]),
+            leak=True, onset_s=onset, alarm_time_s=alarm,
             leak_lpm=float(lpm), leak_lpm_interval=(float(interval[0]), float(interval[1])),
             shift=float(k / se), leak_coefficient=k, leak_coefficient_se=se,
             leak_lpm_at_reference=float(at_ref), pressure_offset_pa=offset,
