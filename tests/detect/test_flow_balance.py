@@ -1,6 +1,7 @@
 """FlowBalanceDetector (VCA): physics identities, identification, planted leaks, refusals."""
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -219,6 +220,26 @@ def test_a_fleet_fit_has_no_machine_to_check():
     op = _operation(recs, ("p1",))
     assert op["machine"] is None and op["load"] == "spring"
     assert _operation([dataclasses.replace(recs[0], meta={})], ())["machine"] is None
+
+
+def test_model_based_p_value_stops_at_the_null_resolution(machine17):
+    """The log-linear tail beyond the Monte-Carlo grid gave p = 1e-286 and 0 on strong leaks:
+    the p-value is floored at one episode in the null's simulated hours."""
+    import copy
+
+    det = copy.deepcopy(machine17[1])
+    assert not det.threshold_basis_.supported  # 3 x 30 s: the model-based level
+    th = det.alarm_threshold_
+    # a null whose rates fall steeply beyond its grid (this unit's own tail is held flat)
+    falling = np.exp(-3.0 * np.arange(len(th.grid)))
+    det.alarm_threshold_ = th = dataclasses.replace(th, rate_per_hour=falling)
+    rec = ld.sim.simulate_vca(duration=40, leak_lpm=0.5, onset=10, load="spring", machine=17,
+                              seed=52)
+    v = det.predict(rec)
+    assert v.leak and th.rate_at(v.score_max) < 1e-6 / th.simulated_hours  # deep in the tail
+    n_win = len(det.score(rec).values)
+    floor = -math.expm1(-n_win * det.window_s / 3600.0 / th.simulated_hours)
+    assert v.confidence == pytest.approx(floor, rel=1e-12)
 
 
 def test_glr_rate_tail_never_rises_beyond_the_grid():

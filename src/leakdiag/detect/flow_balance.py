@@ -904,7 +904,8 @@ class FlowBalanceDetector(Detector):
         Conformal basis: ``m (1 + #{maxima >= smax}) / (n + 1)`` over the ``m`` segments the
         span covers. Model-based level: ``1 - exp(-rate(smax) * hours)``, the chance of at
         least one healthy alarm episode at level ``smax`` (Poisson episodes, rate from the
-        bootstrap null). Small = evidence of a leak, as ``Verdict.confidence`` everywhere.
+        bootstrap null, at least one episode in its ``simulated_hours``: the null's
+        resolution). Small = evidence of a leak, as ``Verdict.confidence`` everywhere.
         """
         basis = getattr(self, "threshold_basis_", None)  # None: a file saved before bases
         n_win = len(t["end"])
@@ -914,7 +915,11 @@ class FlowBalanceDetector(Detector):
                  math.ceil((rec.duration - float(self.burn_in_s)) / seg - SEGMENT_TOLERANCE))
             return basis.p_value(smax, max(1, m))
         hours = n_win * float(self.window_s) / 3600.0
-        return float(-np.expm1(-self.alarm_threshold_.rate_at(smax) * hours))
+        th = self.alarm_threshold_
+        # no smaller than the Monte-Carlo null resolves (one episode in its simulated hours):
+        # beyond it the log-linear tail is a model, which gave p-values of 1e-286 and 0
+        rate = max(th.rate_at(smax), 1.0 / th.simulated_hours)
+        return float(-np.expm1(-rate * hours))
 
     def segment_maxima(self, recordings) -> np.ndarray:
         """GLR maxima of every complete segment of recordings (``segment_s`` of monitored
