@@ -142,6 +142,28 @@ def test_detect_with_a_flow_balance_file_states_its_own_rate_and_its_p_value(fil
     assert "0.70-1.14x the truth in 12 measured runs on 4 units" in size
 
 
+def test_fit_flow_balance_refuses_calibrate_and_records_its_own_channels(files, tmp_path,
+                                                                         capsys):
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_eha
+    from leakdiag.stream.detector_file import load_detector_file
+
+    healthy, leak, _ = files
+    assert main(["fit", *_h(healthy), "-m", "flow-balance", "--calibrate", leak, "--calibrate",
+                 leak, "--no-progress", "-o", str(tmp_path / "fb.joblib")]) == 2
+    assert ("Invalid value for --calibrate: flow-balance sizes a leak from the flow balance "
+            "itself, not from leaking examples: --calibrate does not apply"
+            in capsys.readouterr().err)
+    assert not (tmp_path / "fb.joblib").exists()
+    eha = [str(write_recording(simulate_eha(duration=12.0, leak_lpm=None, seed=80 + s),
+                               tmp_path / f"e{s}.parquet")) for s in range(2)]
+    assert main(["fit", *_h(eha), "-m", "flow-balance", "--no-progress",
+                 "-o", str(tmp_path / "e.joblib")]) == 0
+    assert "channels p1,p2,x,speed,pa,pb," in capsys.readouterr().out  # not p1,p2,x,u
+    assert tuple(load_detector_file(tmp_path / "e.joblib")[1].channels) == (
+        "p1", "p2", "x", "speed", "pa", "pb")
+
+
 def _cut(path, seconds, out):
     from leakdiag.io import read_recording, write_recording
     from leakdiag.io.recording import Recording

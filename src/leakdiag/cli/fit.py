@@ -190,12 +190,18 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
 
     The file holds the fitted detector and a record of what it was fitted on (leakdiag version,
     method, system, sample rate, channels, units); detect, monitor and batch refuse recordings
-    that disagree with it.
+    that disagree with it. flow-balance judges whole recordings: its file is for detect only
+    (monitor and batch run window-by-window detectors), and it sizes leaks from physics
+    (no --calibrate).
     """
     from leakdiag.cli._options import column_map_from, read_healthy
     from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
     from leakdiag.stream.detector_file import DetectorMeta, save_detector
 
+    if calibration and method == "flow-balance":
+        raise click.BadParameter("flow-balance sizes a leak from the flow balance itself, not "
+                                 "from leaking examples: --calibrate does not apply",
+                                 param_hint="--calibrate")
     cmap = column_map_from(column_map, cols, time_unit)
     recs = read_healthy(healthy, None, cmap, sample_rate, resample=resample)
     system = system_of(recs, system, healthy)

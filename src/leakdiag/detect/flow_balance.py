@@ -372,6 +372,11 @@ class FlowBalanceDetector(Detector):
 
         return vca if self.system == "vca" else eha
 
+    @property
+    def channels(self) -> tuple[str, ...]:
+        """Channels the balance reads (VCA: p1, p2, x, u; EHA: p1, p2, x, speed, pa, pb)."""
+        return tuple(self._backend().CHANNELS)
+
     def _nominal(self):
         be = self._backend()
         return be.default_params() if self.params is None else be.check_params(self.params)
