@@ -84,7 +84,23 @@ def test_no_load_size_profiles_the_transducers_differential_offset():
     # found within the transducers' gain errors (0.2 %) of the offset
     assert v.pressure_offset_pa == pytest.approx(true_offset, abs=4e3)
     assert v.as_dict()["pressure_offset_pa"] == v.pressure_offset_pa
-    assert v.leak_lpm_interval_holds.endswith(f"{v.pressure_offset_pa / 1e3:+.3g} kPa")
+    lo_d, hi_d = v.leak_lpm_interval_holds.rsplit("(the data allow ", 1)[1].split(" kPa)")[0] \
+        .split(" to ")
+    assert v.leak_lpm_interval_holds.endswith(
+        f"{v.pressure_offset_pa / 1e3:+.3g} kPa (the data allow {lo_d} to {hi_d} kPa)")
+    assert float(lo_d) * 1e3 <= v.pressure_offset_pa <= float(hi_d) * 1e3
+    assert "beyond the +-200 kPa" not in v.leak_lpm_interval_holds  # a plausible offset
+
+
+def test_an_offset_beyond_what_two_transducers_can_differ_by_is_flagged():
+    from leakdiag.detect._flow_balance_eha import size_interval_holds
+
+    text = size_interval_holds(-3.65e5, (-4e5, 1e4))
+    assert text == ("the coefficient's statistical error and the P1-P2 transducer zero error "
+                    "found on the leak's windows, -365 kPa (the data allow -400 to +10 kPa); "
+                    "beyond the +-200 kPa two calibrated transducers can differ by: the offset "
+                    "is poorly determined here (large |P1-P2|, e.g. under load) or the "
+                    "transducers' zero needs checking")
 
 
 def test_offset_profile_by_hand():

@@ -38,10 +38,24 @@ DP_SMOOTHING_S = 0.005
 SIZE_PROFILES_PRESSURE_OFFSET = True
 
 
-def size_interval_holds(offset_pa: float) -> str:
-    """What the size interval holds, in words (``offset_pa``: the zero error found, Pa)."""
-    return ("the coefficient's statistical error and the P1-P2 transducer zero error found on "
+#: Differential zero error two calibrated chamber transducers can show, Pa (0.25 % of a
+#: 20.7 MPa full scale each, opposite signs): a profiled offset beyond it is flagged.
+PLAUSIBLE_OFFSET_PA = 2e5
+
+
+def size_interval_holds(offset_pa: float, offset_interval_pa=None) -> str:
+    """What the size interval holds, in words (``offset_pa``: the zero error found, Pa;
+    ``offset_interval_pa``: the offsets the leak's windows allow)."""
+    text = ("the coefficient's statistical error and the P1-P2 transducer zero error found on "
             f"the leak's windows, {offset_pa / 1e3:+.3g} kPa")
+    if offset_interval_pa is not None:
+        lo, hi = offset_interval_pa
+        text += f" (the data allow {lo / 1e3:+.3g} to {hi / 1e3:+.3g} kPa)"
+    if abs(offset_pa) > PLAUSIBLE_OFFSET_PA:
+        text += (f"; beyond the +-{PLAUSIBLE_OFFSET_PA / 1e3:.0f} kPa two calibrated transducers "
+                 "can differ by: the offset is poorly determined here (large |P1-P2|, e.g. "
+                 "under load) or the transducers' zero needs checking")
+    return text
 
 
 @dataclass(frozen=True)

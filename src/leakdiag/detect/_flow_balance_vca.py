@@ -51,7 +51,7 @@ _RATE_HALF_WIDTH = 3
 SIZE_PROFILES_PRESSURE_OFFSET = False
 
 
-def size_interval_holds(offset_pa: None = None) -> str:
+def size_interval_holds(offset_pa: None = None, offset_interval_pa: None = None) -> str:
     """What the size interval holds, in words (no offset is profiled on the VCA)."""
     return ("the coefficient's statistical error only: without load the VCA's sizes were "
             "0.70-1.14x the truth in 12 measured runs on 4 units, docs/detect.md 8.5")

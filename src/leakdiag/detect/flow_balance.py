@@ -828,8 +828,10 @@ class FlowBalanceDetector(Detector):
             coefficient times the mean ``|phi|`` from the onset to the end (L/min) with an
             ``interval_level`` interval, and ``leak_lpm_at_reference`` the flow at ``reference_dp_pa``.
             EHA: the size is taken at the differential pressure-transducer offset that fits
-            the leak's windows best (``pressure_offset_pa``, searched within +-200 kPa), and its
-            interval also holds the offsets the data allow (docs/detect.md 8.5).
+            the leak's windows best (``pressure_offset_pa``, searched within +-200 kPa, widened
+            up to +-800 kPa while the best is at the edge), and its interval also holds the
+            offsets the data allow (docs/detect.md 8.5; ``leak_lpm_interval_holds`` names them
+            and flags an offset beyond +-200 kPa).
         """
         t, a, b, g, arg = self._scan(recording, "predict")
         h = self.threshold_
@@ -861,6 +863,7 @@ class FlowBalanceDetector(Detector):
             prof = self._offset_profile(recording, first, j, dur)
             k, se, mean_phi, offset = (prof.coefficient, prof.coefficient_se,
                                        prof.mean_abs_law, prof.offset_pa)
+            offset_range = prof.offset_interval_pa
             interval = tuple(v * LPM_PER_M3S for v in prof.size_interval)
         else:
             k, se = self._estimate(t, first)
@@ -868,7 +871,7 @@ class FlowBalanceDetector(Detector):
             zq = float(norm.ppf(0.5 + self.interval_level / 2))
             interval = ((k - zq * se) * mean_phi * LPM_PER_M3S,
                         (k + zq * se) * mean_phi * LPM_PER_M3S)
-            offset = None
+            offset = offset_range = None
         onset, alarm = float(t["start"][j]), float(t["end"][i])
         if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
             return FlowBalanceVerdict(
@@ -887,7 +890,7 @@ class FlowBalanceDetector(Detector):
             leak_lpm=float(lpm), leak_lpm_interval=(float(interval[0]), float(interval[1])),
             shift=float(k / se), leak_coefficient=k, leak_coefficient_se=se,
             leak_lpm_at_reference=float(at_ref), pressure_offset_pa=offset,
-            leak_lpm_interval_holds=be.size_interval_holds(offset), **common)
+            leak_lpm_interval_holds=be.size_interval_holds(offset, offset_range), **common)
 
     def _offset_profile(self, rec, first: int, j: int, dur: float):
         """Leak coefficient and mean ``|phi|`` since window ``j`` with the differential
