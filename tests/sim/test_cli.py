@@ -24,6 +24,21 @@ def test_simulate_vca_writes_parquet_and_plot(tmp_path, capsys):
     assert "achieved" in capsys.readouterr().out
 
 
+def test_simulate_draws_a_virtual_machine_unit(tmp_path, capsys):
+    out = tmp_path / "m17.parquet"
+    assert main(["simulate", "vca", "--duration", "4", "--leak", "0", "--machine", "17",
+                 "--load", "spring", "--no-progress", "--out", str(out)]) == 0
+    assert capsys.readouterr().out.strip().endswith(
+        "(4000 samples at 1000 Hz, machine unit 17, load spring); no leak")
+    rec = ld.io.read_recording(out)
+    api = ld.sim.simulate_vca(duration=4.0, leak_lpm=0.0, load="spring", machine=17, seed=1)
+    assert rec.meta["machine"]["unit"] == 17 and np.array_equal(rec["p1"], api["p1"])
+    assert main(["simulate", "eha", "--duration", "4", "--machine", "-1", "--out",
+                 str(tmp_path / "x.parquet")]) == 2
+    assert "Invalid value for '--machine': -1 is not in the range x>=0" in \
+        capsys.readouterr().err
+
+
 def test_simulate_bad_onset_is_a_one_line_error(tmp_path, capsys):
     code = main(["simulate", "vca", "--duration", "2", "--onset", "5",
                  "--out", str(tmp_path / "x.parquet")])

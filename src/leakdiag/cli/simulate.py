@@ -88,6 +88,10 @@ def plot_simulation(rec, path):
               help="Load on the piston: a spring (Table 2-1 stiffness) or none.")
 @click.option("--seed", type=int, default=1, show_default=True,
               help="Seed of the sensor noise and the reference sequence.")
+@click.option("--machine", type=click.IntRange(min=0), default=None,
+              help="Draw virtual machine unit N (its tolerances: valve or pump, supply, bulk "
+                   "modulus, transducers; docs/models.md); default: the nominal Table 2-1 / 3-1 "
+                   "unit. The same N is the same unit whatever --seed.")
 @click.option("--sample-rate", type=float, default=1000.0, show_default=True,
               help="Sample rate of the recording (Hz).")
 @click.option("--no-sensors", is_flag=True, help="Record true, noise-free states.")
@@ -98,7 +102,7 @@ def plot_simulation(rec, path):
 @click.option("--plot", is_flag=True, help="Also save a figure next to --out (.png).")
 @click.option("--no-progress", is_flag=True, help="Hide the progress bar.")
 def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_duration, load,
-             seed, sample_rate, no_sensors, params_file, out, plot, no_progress):
+             seed, machine, sample_rate, no_sensors, params_file, out, plot, no_progress):
     """Simulate a VCA or EHA experiment with a leak and write the recording.
 
     """
@@ -113,7 +117,7 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     kwargs = dict(seed=seed, sensors=not no_sensors, sample_rate=sample_rate, load=load,
                   leak_kind=leak_kind, leak_model=leak_model)
     for name, value in (("duration", duration), ("onset", onset), ("leak_lpm", leak_lpm),
-                        ("ramp_duration", ramp_duration)):
+                        ("ramp_duration", ramp_duration), ("machine", machine)):
         if value is not None:
             kwargs[name] = value
     fn = ld.sim.simulate_vca if system == "vca" else ld.sim.simulate_eha
@@ -141,9 +145,13 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
         bar.close()
     path = ld.io.write_recording(rec, out)
     m = rec.meta
-    click.echo(f"wrote {path} ({rec.n_samples} samples at {rec.sample_rate:g} Hz); leak target "
-               f"{m.get('leak_lpm', 0):.4g} L/min, achieved {m.get('leak_lpm_achieved', 0):.4g} "
-               f"L/min, onset {m.get('onset')} s")
+    unit = (m.get("machine") or {}).get("unit")
+    what = (f"leak target {m.get('leak_lpm', 0):.4g} L/min, achieved "
+            f"{m.get('leak_lpm_achieved', 0):.4g} L/min, onset {m.get('onset'):g} s"
+            if m.get("onset") is not None else "no leak")
+    click.echo(f"wrote {path} ({rec.n_samples} samples at {rec.sample_rate:g} Hz, "
+               f"{'nominal unit' if unit is None else f'machine unit {unit}'}, load "
+               f"{m.get('load')}); {what}")
     if plot:
         fig = plot_simulation(rec, Path(out).with_suffix(".png"))
         click.echo(f"wrote {fig}")
