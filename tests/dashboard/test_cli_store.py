@@ -77,7 +77,7 @@ def test_detect_and_batch_store(leak_case, tmp_path):
                    f'[[detector]]\nname = "det"\npath = "{leak_case["detector_path"]}"\n')
     code, out, err = _run(["batch", str(leak_case["recording"]), str(healthy), "--config",
                            str(job), "--out", str(tmp_path / "res"), "--scheduler", "serial", "--no-progress",
-                           "--store", str(db)])
+                           "--store", str(db), "--actuator-from", "stem"])
     assert code == 0, err
     assert "4 run(s) written" in out
     fl = st.fleet().set_index("name")
@@ -85,6 +85,29 @@ def test_detect_and_batch_store(leak_case, tmp_path):
     assert fl.loc["rig7", "last_alarm_time_s"] == leak_case["verdict"].alarm_time_s
     summ, _ = st.history("healthy")
     assert summ["n_windows"].tolist() == [631, 631]
+
+
+def test_batch_store_names_actuators_by_folder_and_refuses_merged_stems(leak_case, tmp_path):
+    """The README's layout (recordings/rig1/run1, recordings/rig2/run1): one actuator per folder
+    by default; by file stem the two run1 files would merge into one actuator: refused."""
+    import shutil
+
+    for rig in ("rig1", "rig2"):
+        (tmp_path / "rec" / rig).mkdir(parents=True)
+        shutil.copy(leak_case["recording"], tmp_path / "rec" / rig / "run1.parquet")
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    db = tmp_path / "ev.db"
+    args = ["batch", str(tmp_path / "rec" / "**" / "*.parquet"), "--config", str(job), "--out",
+            str(tmp_path / "res"), "--scheduler", "serial", "--no-progress", "--store", str(db)]
+    code, out, err = _run(args)
+    assert code == 0, err
+    assert sorted(EventStore(db).fleet()["name"]) == ["rig1", "rig2"]
+    code, out, err = _run(args[:-2] + ["--store", str(tmp_path / "ev2.db"), "--actuator-from",
+                                       "stem"])
+    assert code == 2
+    assert "have the same file stem 'run1': with one actuator per file stem their runs would " \
+           "be merged into one actuator; use --actuator-from folder" in err
 
 
 def test_remote_bind_refused_and_missing_store(leak_case, tmp_path):

@@ -37,8 +37,13 @@ def _stderr_is_terminal() -> bool:
 @click.option("--no-progress", is_flag=True,
               help="Hide the progress bar (shown only at a terminal: logs get the summary line).")
 @click.option("--store", default=None, help="Also write the job's rows to this event store "
-              "(SQLite file or SQLAlchemy URL; actuator = recording file stem).")
-def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors, no_progress, store):
+              "(SQLite file or SQLAlchemy URL; actuator: see --actuator-from).")
+@click.option("--actuator-from", type=click.Choice(["folder", "stem"]), default="folder",
+              show_default=True, help="With --store, each recording's actuator: the name of its "
+              "folder (one folder per actuator, its runs inside) or its file stem (one file "
+              "per actuator; two files of one stem in different folders are refused).")
+def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors, no_progress, store,
+          actuator_from):
     """Run the job in --config on every recording matching INPUTS (quote globs: 'data/**/*.parquet').
 
     One row per recording and analysis/detector goes to --out; a bad file becomes a row with its
@@ -82,8 +87,11 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
         from leakdiag.store.writers import record_batch
 
         st = EventStore(store)
-        click.echo(f"{record_batch(st, mine, cfg.digest)} run(s) written to {st.url}")
-        st.close()
+        try:
+            n_runs = record_batch(st, mine, cfg.digest, actuator_from)
+        finally:
+            st.close()
+        click.echo(f"{n_runs} run(s) written to {st.url}")
     from leakdiag.cli._options import LOW_RATE_HZ
 
     low = mine[(mine["status"] == "ok") & (mine["sample_rate"] < LOW_RATE_HZ)]

@@ -20,10 +20,58 @@ def _num(v) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def record_batch(store: EventStore, results, job_digest: str) -> int:
+#: How ``leakdiag batch --store`` names a recording's actuator.
+ACTUATOR_FROM = ("folder", "stem")
+
+
+def actuator_names(paths, actuator_from: str = "folder") -> dict[str, str]:
+    """Actuator of each recording path: its folder's name (one folder per actuator, its runs
+    inside) or its file stem (one file per actuator).
+
+    Parameters
+    ----------
+    paths : iterable of str
+        Recording paths.
+    actuator_from : {"folder", "stem"}, default "folder"
+
+    Returns
+    -------
+    dict
+        Path to actuator name.
+
+    Raises
+    ------
+    ValueError
+        If ``actuator_from`` is unknown, or two files in different folders have the same stem
+        with ``"stem"`` (their runs would be merged into one actuator).
+
+    Examples
+    --------
+    >>> actuator_names(["rec/rig1/run1.parquet", "rec/rig2/run1.parquet"])
+    {'rec/rig1/run1.parquet': 'rig1', 'rec/rig2/run1.parquet': 'rig2'}
+    """
+    if actuator_from not in ACTUATOR_FROM:
+        raise ValueError(f"actuator_from={actuator_from!r} must be one of {ACTUATOR_FROM}")
+    out, seen = {}, {}
+    for p in dict.fromkeys(str(x) for x in paths):
+        pp = Path(p)
+        name = (pp.resolve().parent.name or "/") if actuator_from == "folder" else pp.stem
+        if actuator_from == "stem" and seen.setdefault(name, p) != p:
+            raise ValueError(
+                f"{seen[name]} and {p} have the same file stem {name!r}: with one actuator per "
+                "file stem their runs would be merged into one actuator; use --actuator-from "
+                "folder (one folder per actuator) or rename the files")
+        out[p] = name
+    return out
+
+
+def record_batch(store: EventStore, results, job_digest: str,
+                 actuator_from: str = "folder") -> int:
     """Store the rows of one batch job: a run per recording and row, one summary per row.
 
-    The actuator is the recording's file stem. Analysis rows become a summary of the whole
+    The actuator is the recording's folder name (``actuator_from="folder"``: one folder per
+    actuator, its runs inside) or its file stem (``"stem"``; two files of one stem in different
+    folders are refused, :func:`actuator_names`). Analysis rows become a summary of the whole
     recording (``t_start_s`` 0, ``t_end_s`` its duration, the row's value statistics); detector
     rows also carry the score maximum, and an alarm at ``alarm_time_s`` when one was raised.
     Error rows become a run with status ``failed``.
@@ -36,17 +84,25 @@ def record_batch(store: EventStore, results, job_digest: str) -> int:
         :func:`leakdiag.batch.read_results` (all jobs; only ``job_digest`` rows are written).
     job_digest : str
         The job's digest.
+    actuator_from : {"folder", "stem"}, default "folder"
+        Where the actuator's name comes from.
 
     Returns
     -------
     int
         Runs written.
+
+    Raises
+    ------
+    ValueError
+        From :func:`actuator_names` (nothing is written then).
     """
     rows = results[results["job_digest"] == job_digest]
+    names = actuator_names(rows["path"].astype(str), actuator_from)
     inv = uuid.uuid4().hex
     n = 0
     for r in rows.to_dict("records"):
-        actuator = Path(str(r["path"])).stem
+        actuator = names[str(r["path"])]
         feature = str(r["name"]) if r.get("name") is not None and r["name"] == r["name"] \
             else "batch"
         run = store.start_run(actuator, command="batch", source=str(r["path"]), feature=feature,
