@@ -169,6 +169,14 @@ def test_validation_messages(kwargs, exc, match):
         simulate_vca(**base)
 
 
+def test_conditions_of_the_other_rig_are_refused_by_name():
+    from leakdiag.sim import EHAConditions
+
+    with pytest.raises(TypeError, match=r"^conditions must be an OperatingConditions, got "
+                       r"EHAConditions$"):
+        simulate_vca(duration=2.0, leak_lpm=0.0, conditions=EHAConditions())
+
+
 def test_leak_beyond_rated_flow_is_refused():
     with pytest.raises(ValueError, match="leak_lpm=100.0 must be below the rated flow 43.3"):
         simulate_vca(leak_lpm=100.0, duration=1.0, onset=0.5)

@@ -22,6 +22,7 @@ from leakdiag.sim.machine import VCAMachine
 from leakdiag.sim.reference import as_reference
 from leakdiag.sim.sensor_chain import antialias_sos, pressure_chain
 from leakdiag.sim.sensors import SensorParams, adc_reading, quantize
+from leakdiag.sim._checks import check_params_type
 from leakdiag.sim.vca.conditions import OperatingConditions
 from leakdiag.sim.vca.control import FixedGainController
 from leakdiag.sim.vca.integrate import (
@@ -323,7 +324,7 @@ def simulate_vca(
     duration, fs, n = exp.duration, exp.sample_rate, exp.n
     params, sensor_params, machine = exp.params, exp.sensor_params, exp.machine
     max_step = float(max_step)
-    conditions = OperatingConditions() if conditions is None else conditions
+    conditions = check_params_type(conditions, OperatingConditions, "conditions")
     n_sub = max(1, math.ceil(1.0 / (fs * max_step) - 1e-9))
 
     def below_rated_flow(lpm: float) -> None:
