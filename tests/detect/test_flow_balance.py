@@ -242,6 +242,20 @@ def test_model_based_p_value_stops_at_the_null_resolution(machine17):
     assert v.confidence == pytest.approx(floor, rel=1e-12)
 
 
+def test_a_verdict_prints_in_words(machine17):
+    det = machine17[1]
+    rec = ld.sim.simulate_vca(duration=40, leak_lpm=0.05, onset=20, load="spring", machine=17,
+                              seed=53)
+    v = det.predict(rec)
+    head, holds = str(v).split("\n")
+    assert head.startswith(f"LEAK (flow_balance): alarm at {v.alarm_time_s:.4g} s, onset "
+                           f"{v.onset_s:.4g} s (glr); leak {v.leak_lpm:.3g} L/min, interval ")
+    assert head.endswith(f"; score max {v.score_max:.3g} against threshold {v.threshold:.3g}, "
+                         f"p-value {v.confidence:.3g}")
+    assert holds == f"  interval: {v.leak_lpm_interval_holds}"
+    assert repr(v).startswith("FlowBalanceVerdict(leak=True, ")  # repr keeps every field
+
+
 def test_glr_rate_tail_never_rises_beyond_the_grid():
     from leakdiag.detect._flow_balance_search import GLRThreshold
 

@@ -193,6 +193,36 @@ class Verdict:
     onset_method: str
     detector: str
 
+    def __str__(self) -> str:
+        """The verdict in words (``repr`` keeps every field).
+
+        Examples
+        --------
+        >>> v = Verdict(True, 59.8, 60.8, 8e-05, 0.0202, (0.0200, 0.0205), None, 132.6, 4.11,
+        ...             None, "glr", "flow_balance")
+        >>> for part in str(v).split("; "):
+        ...     print(part)
+        LEAK (flow_balance): alarm at 60.8 s, onset 59.8 s (glr)
+        leak 0.0202 L/min, interval 0.02-0.0205 L/min
+        score max 133 against threshold 4.11, p-value 8e-05
+        >>> print(Verdict(False, None, None, 0.93, None, None, None, 1.2, 4.11, None, "glr",
+        ...               "flow_balance"))
+        NO LEAK (flow_balance): score max 1.2 against threshold 4.11, p-value 0.93
+        """
+        if not self.leak:
+            head = f"NO LEAK ({self.detector}): "
+        else:
+            head = (f"LEAK ({self.detector}): alarm at {self.alarm_time_s:.4g} s, onset "
+                    f"{self.onset_s:.4g} s ({self.onset_method}); ")
+            if self.leak_lpm is not None:
+                head += f"leak {self.leak_lpm:.3g} L/min"
+                if self.leak_lpm_interval is not None:
+                    lo, hi = self.leak_lpm_interval
+                    head += f", interval {lo:.3g}-{hi:.3g} L/min"
+                head += "; "
+        return (head + f"score max {self.score_max:.3g} against threshold {self.threshold:.3g}"
+                + (f", p-value {self.confidence:.3g}" if self.confidence is not None else ""))
+
     def as_dict(self) -> dict[str, Any]:
         """Fields as a flat dict (interval split in two columns).
 

@@ -129,6 +129,13 @@ class FlowBalanceVerdict(Verdict):
     pressure_offset_pa: float | None = None
     leak_lpm_interval_holds: str | None = None
 
+    def __str__(self) -> str:
+        """The verdict in words, with what the size interval holds."""
+        text = super().__str__()
+        if self.leak and self.leak_lpm_interval_holds:
+            text += f"\n  interval: {self.leak_lpm_interval_holds}"
+        return text
+
     def as_dict(self) -> dict:
         """Fields as a flat dict (interval split in two columns).
 
