@@ -111,3 +111,32 @@ def test_thesis_defaults_match_case_study_2_tables(shared_dir):
         assert specs, (system, row.method, chans)
         s = specs[0]
         assert (s.setting, s.window, s.overlap) == (str(row.lag), int(row.window), float(row.overlap_pct))
+
+
+def test_overall_decision_judges_both_directions_at_the_split_level():
+    """A per-method LEAK at p = 0.006 does not make the overall LEAK with 4 methods (level
+    0.0025); an opposite change at p = 0.006 no longer makes it INCONCLUSIVE either (it did)."""
+    import pandas as pd
+
+    from leakdiag.detect.analysis import overall_decision
+
+    def table(decision, p, p_opp):
+        return pd.DataFrame({"method": ["a", "b", "c", "d"],
+                             "decision": [decision, "no-leak", "no-leak", "no-leak"],
+                             "p_value": [p, 0.5, 0.5, 0.5],
+                             "p_value_opposite": [p_opp, float("nan"), float("nan"),
+                                                  float("nan")]})
+
+    dec, why = overall_decision(table("leak", 0.006, float("nan")), 0.01)
+    assert dec == "no-leak" and "(a below 0.01 alone, not below the split level)" in why
+    dec, why = overall_decision(table("inconclusive", 0.99, 0.006), 0.01)
+    assert dec == "no-leak" and ("(a: a change opposite to a leak's below 0.01 alone, not "
+                                 "below the split level)") in why
+    assert overall_decision(table("inconclusive", 0.99, 0.001), 0.01)[0] == "inconclusive"
+    # not tested (too few chunks to reach the level): inconclusive
+    assert overall_decision(table("inconclusive", float("nan"), float("nan")), 0.01)[0] == \
+        "inconclusive"
+    assert overall_decision(table("leak", 0.001, float("nan")), 0.01)[0] == "leak"
+    # a table written before the column existed keeps its inconclusive rows
+    old = table("inconclusive", 0.99, 0.006).drop(columns="p_value_opposite")
+    assert overall_decision(old, 0.01)[0] == "inconclusive"

@@ -24,7 +24,7 @@ VERDICT_COLUMNS = [
 ]
 #: The decision columns of the verdict table (see :class:`~leakdiag.detect.measure.Decision`).
 DECISION_COLUMNS = ["decision", "basis", "test", "p_value", "false_alarm_rate", "n_reference",
-                    "n_test", "chunk_autocorr", "reason"]
+                    "n_test", "chunk_autocorr", "reason", "p_value_opposite"]
 
 
 @dataclass
@@ -202,8 +202,11 @@ def overall_decision(table, false_alarm_rate: float = 0.01) -> tuple[str, str]:
 
     The overall answer is ``leak`` when any row's p-value is below ``false_alarm_rate / m``
     (``m`` the rows with a decision), so that the chance of a false "leak" over all rows of a
-    healthy run stays below ``false_alarm_rate``; ``no-leak`` when every row is ``no-leak``
-    at that level; ``inconclusive`` otherwise.
+    healthy run stays below ``false_alarm_rate``; ``inconclusive`` when a row could not be
+    tested (no p-value) or changed opposite to a leak's signature at that same level
+    (``p_value_opposite``); ``no-leak`` otherwise. Both directions are judged at the split
+    level, so a change too weak to say "leak" overall is also too weak to say "something
+    else changed".
 
     Parameters
     ----------
@@ -241,11 +244,23 @@ def overall_decision(table, false_alarm_rate: float = 0.01) -> tuple[str, str]:
         names = ", ".join(f"{r['method']} {r.get('channels', '')}".strip()
                           for r in hit.to_dict("records"))
         return "leak", f"{names} (p < {level:.3g}); {split}"
-    if (judged["decision"] == "inconclusive").any():
+    inc = weak = judged[judged["decision"] == "inconclusive"]
+    if len(inc) and "p_value_opposite" in inc:  # (a table from before the column: as it says)
+        opp = inc["p_value_opposite"].to_numpy(dtype=float)
+        # untested (no p-value), or an opposite change at the split level as well
+        untested = ~np.isfinite(inc["p_value"].to_numpy(dtype=float)) & ~np.isfinite(opp)
+        keep = untested | (np.isfinite(opp) & (opp < level))
+        inc, weak = inc[keep], inc[~keep]
+    else:
+        weak = inc.iloc[:0]
+    if len(inc):
         names = ", ".join(f"{r['method']} {r.get('channels', '')}".strip()
-                          for r in judged[judged["decision"] == "inconclusive"].to_dict("records"))
+                          for r in inc.to_dict("records"))
         return "inconclusive", f"inconclusive: {names}; {split}"
     alone = judged[judged["decision"] == "leak"]
     note = (f" ({', '.join(alone['method'])} below {false_alarm_rate:g} alone, not below the "
             "split level)" if len(alone) else "")
+    if len(weak):
+        note += (f" ({', '.join(weak['method'])}: a change opposite to a leak's below "
+                 f"{false_alarm_rate:g} alone, not below the split level)")
     return "no-leak", f"no method below {level:.3g}{note}; {split}"

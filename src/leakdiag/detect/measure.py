@@ -283,6 +283,9 @@ class Decision:
         Lag-1 autocorrelation of the reference chunk RMS values (the test assumes ~0).
     reason : str
         Why, in words.
+    p_value_opposite : float
+        One-sided p-value of a change opposite to the leak's (what made an ``inconclusive``
+        "something else changed"); NaN when not tested.
     """
 
     decision: str
@@ -294,6 +297,7 @@ class Decision:
     n_test: int
     chunk_autocorr: float
     reason: str
+    p_value_opposite: float = float("nan")
 
     def as_dict(self) -> dict:
         """Fields as a plain dict (for tables).
@@ -399,6 +403,6 @@ def decide_change(reference, test, *, false_alarm_rate: float = 0.01, direction:
         return Decision("inconclusive", basis, test_name, p, alpha, n1, n2, rho,
                         f"the feature {'rose' if direction == 'down' else 'fell'} significantly "
                         f"(p={p_other:.3g}), the opposite of a leak's signature: something else "
-                        "changed")
+                        "changed", p_other)
     return Decision("no-leak", basis, test_name, p, alpha, n1, n2, rho,
                     f"no significant change in a leak's direction: p={p:.3g} >= {alpha:g}")
