@@ -70,7 +70,7 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
         i = int(dev[0]) + 1
         raise RecordingError(
             f"{source}: column {column!r} is not uniformly sampled: interval before row {i} is "
-            f"{float(dt[i - 1])!r} s, median {med!r} s ({len(dev)} irregular interval(s)); "
+            f"{float(dt[i - 1]):.6g} s, median {med:.6g} s ({len(dev)} irregular interval(s)); "
             f"{RESAMPLE_ADVICE}"
         )
     # Over a uniform axis the mean interval (span / intervals) is the most accurate estimate:
