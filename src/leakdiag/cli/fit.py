@@ -241,4 +241,7 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
                f"channels {','.join(chans)}, for {false_alarm_rate:g} false alarm(s) per hour; "
                f"threshold {threshold_words(basis) if basis else f'{float(det.threshold_):.4g}'}"
                + (f"; leak size calibrated on {len(calibration)} recording(s)" if calibration
-                  else ""))
+                  else "")
+               + ("; the flow balance's own GLR maxima come from two-fold cross-fitting of at "
+                  f"least 4 healthy recordings (got {len(recs)}, so none)"
+                  if method == "flow-balance" and len(recs) < 4 else ""))
