@@ -169,6 +169,34 @@ def test_fit_flow_balance_refuses_calibrate_and_records_its_own_channels(files, 
         "p1", "p2", "x", "speed", "pa", "pb")
 
 
+def test_a_recording_under_another_load_is_refused_by_detect_monitor_and_fit_files(
+        files, tmp_path, capsys):
+    """Detectors fitted without load judged healthy spring runs LEAK: the detector file keeps
+    the healthy recordings' load and the commands refuse another one."""
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+    from leakdiag.stream.detector_file import load_detector_file
+
+    healthy, _, _ = files
+    det = tmp_path / "acf.joblib"
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", "--false-alarm-rate", "60",
+                 "--no-progress", "-o", str(det)]) == 0
+    assert load_detector_file(det)[1].load == "none"
+    spring = str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, load="spring",
+                                              seed=72), tmp_path / "spring.parquet"))
+    capsys.readouterr()
+    want = (f"spring.parquet: load 'spring', but {det} was fitted on healthy recordings with "
+            "load 'none'; fit one on healthy recordings under this load")
+    assert main(["detect", spring, "--detector", str(det), "--no-progress"]) == 2
+    assert want in capsys.readouterr().err
+    assert main(["monitor", "-i", spring, "--detector", str(det), "-q"]) == 2
+    assert want in capsys.readouterr().err
+    assert main(["detect", spring, *_h(healthy), "--methods", "ccf-p1p2",
+                 "--false-alarm-rate", "0.5", "--no-progress"]) == 2
+    assert ("spring.parquet: load 'spring', but the --healthy recordings are all load 'none': "
+            "give healthy recordings under this load") in capsys.readouterr().err
+
+
 def _cut(path, seconds, out):
     from leakdiag.io import read_recording, write_recording
     from leakdiag.io.recording import Recording

@@ -155,7 +155,8 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
         src = _source(path, channels, config.chunk_samples, config.column_map)
         for name, _, meta, dpath in dets:
             check_detector_fits(meta, sample_rate=src.sample_rate, channels=src.channels,
-                                system=src.meta.get("system"), source=path, path=dpath)
+                                system=src.meta.get("system"), source=path, path=dpath,
+                                load=src.meta.get("load"))
         feats = [StreamingFeature(s, src.sample_rate, src.start_time) for _, _, s, _ in items]
         scorers = [None if d is None else as_scorer(d, s, src.sample_rate, src.start_time)
                    for _, _, s, d in items]

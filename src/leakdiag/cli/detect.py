@@ -118,7 +118,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
 
     from leakdiag.bench.registry import make_detector
     from leakdiag.cli._options import read_healthy, read_with
-    from leakdiag.cli.fit import system_of
+    from leakdiag.cli.fit import common_load, system_of
     from leakdiag.detect.base import Alarm
     from leakdiag.detect.threshold import SEGMENT_TOLERANCE
     from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
@@ -130,7 +130,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
         det, meta = load_detector_file(path)
         check_detector_fits(meta, sample_rate=rec.sample_rate, channels=rec.channels,
                             units=rec.units, system=rec.meta.get("system"), source=str(file),
-                            path=str(path))
+                            path=str(path), load=rec.meta.get("load"))
         m = meta.method if meta else str(path)
         say(f"judging with {path} ({m})...")
         rows.append(_cannot_judge(det, rec, file, m)
@@ -138,6 +138,11 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     if healthy:
         train = read_healthy(healthy, rec, column_map, sample_rate, resample=resample)
         check_longer_than_burn_in(train, healthy, burn_in_s)
+        fitted_load, load = common_load(train), rec.meta.get("load")
+        if fitted_load is not None and load is not None and str(load) != fitted_load:
+            raise ValueError(f"{file}: load {str(load)!r}, but the --healthy recordings are "
+                             f"all load {fitted_load!r}: give healthy recordings under this "
+                             "load")
         system = system_of([rec, *train], system, [str(file), *map(str, healthy)])
         span = rec.duration - burn_in_s  # monitored: the burn-in never alarms
         if span <= 0:

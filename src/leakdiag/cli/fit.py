@@ -6,7 +6,7 @@ import click
 
 from leakdiag.cli._options import no_progress_option, recording_options, resample_option
 
-__all__ = ["fit", "fit_detector", "detector_channels", "system_of"]
+__all__ = ["fit", "fit_detector", "detector_channels", "system_of", "common_load"]
 
 #: Channels a detector without a ``channels`` attribute may read (e.g. the EKF).
 _ALL_CHANNELS = ("p1", "p2", "x", "u")
@@ -45,6 +45,21 @@ def detector_channels(det, recording=None) -> tuple[str, ...]:
     if recording is not None:
         return tuple(c for c in _ALL_CHANNELS if c in recording.channels)
     return _ALL_CHANNELS
+
+
+def common_load(recordings) -> str | None:
+    """The load every recording's metadata names, or None (unknown or mixed).
+
+    Examples
+    --------
+    >>> from leakdiag.io.recording import Recording
+    >>> r = lambda load: Recording({"p1": [0.0, 1.0]}, 1.0, meta={"load": load})
+    >>> common_load([r("spring"), r("spring")]), common_load([r("spring"), r("none")])
+    ('spring', None)
+    """
+    loads = {r.meta.get("load") for r in recordings}
+    load = loads.pop() if len(loads) == 1 else None
+    return None if load is None else str(load)
 
 
 def system_of(recordings, given: str | None, names) -> str:
@@ -234,7 +249,7 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
                         channels=chans, units={c: recs[0].units.get(c) for c in chans
                                                if recs[0].units.get(c)},
                         false_alarms_per_hour=float(false_alarm_rate), n_healthy=len(recs),
-                        healthy_files=tuple(str(h) for h in healthy))
+                        healthy_files=tuple(str(h) for h in healthy), load=common_load(recs))
     save_detector(det, meta, out)
     basis = getattr(det, "threshold_basis_", None)
     click.echo(f"wrote {out}: {method} for the {system.upper()} at {meta.sample_rate_hz:g} Hz, "

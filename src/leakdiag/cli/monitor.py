@@ -269,7 +269,7 @@ def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag
                       "give --time-unit ms (files; stdin and --follow need the time in s)")
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
                         system=source.meta.get("system"), source=source.source,
-                        path=str(detector_path))
+                        path=str(detector_path), load=source.meta.get("load"))
     mon = Monitor(spec, source.sample_rate, source.start_time, scorers=detector)
     speed = None if input_path == "-" or follow else parse_replay(replay)
     out = None

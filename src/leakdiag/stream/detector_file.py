@@ -48,6 +48,9 @@ class DetectorMeta:
         Their paths, as given.
     leakdiag_version : str
         Version that wrote the file.
+    load : str or None
+        The load named in every healthy recording's metadata (``"none"``, ``"spring"``); None
+        when they do not say or differ (files written before it: None).
     """
 
     method: str
@@ -59,6 +62,7 @@ class DetectorMeta:
     n_healthy: int = 0
     healthy_files: tuple = ()
     leakdiag_version: str = __version__
+    load: str | None = None
 
 
 def save_detector(detector: Any, meta: DetectorMeta, path: str | os.PathLike) -> str:
@@ -148,7 +152,8 @@ def load_detector_file(path: str | os.PathLike) -> tuple[Any, DetectorMeta | Non
 
 def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
                         channels=None, units: dict | None = None, system: str | None = None,
-                        source: str = "<recording>", path: str = "<detector>") -> None:
+                        source: str = "<recording>", path: str = "<detector>",
+                        load: str | None = None) -> None:
     """Refuse a recording that disagrees with what the detector was fitted on.
 
     Parameters
@@ -165,6 +170,10 @@ def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
         The recording's system (from its metadata).
     source, path : str
         Names for the message.
+    load : str, optional
+        The recording's load (from its metadata): refused when the detector's healthy
+        recordings all named another one (a detector fitted without load judged healthy spring
+        runs LEAK).
 
     Raises
     ------
@@ -187,6 +196,11 @@ def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
     if system and str(system).lower() != meta.system:
         raise ValueError(f"{source}: system {str(system).lower()!r}, but {path} was fitted on "
                          f"{meta.system!r} recordings")
+    fitted_load = getattr(meta, "load", None)
+    if load is not None and fitted_load is not None and str(load) != fitted_load:
+        raise ValueError(f"{source}: load {str(load)!r}, but {path} was fitted on healthy "
+                         f"recordings with load {fitted_load!r}; fit one on healthy recordings "
+                         "under this load")
     if channels is not None:
         missing = [c for c in meta.channels if c not in set(channels)]
         if missing:
