@@ -50,6 +50,16 @@ def detector_channels(det, recording=None) -> tuple[str, ...]:
 def common_load(recordings) -> str | None:
     """The load every recording's metadata names, or None (unknown or mixed).
 
+    Parameters
+    ----------
+    recordings : iterable of Recording
+        Healthy recordings.
+
+    Returns
+    -------
+    str or None
+        ``meta["load"]`` when all recordings carry the same one.
+
     Examples
     --------
     >>> from leakdiag.io.recording import Recording
