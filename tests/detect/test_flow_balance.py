@@ -449,7 +449,8 @@ def test_change_point_equals_least_squares_per_candidate(p, seed):
 def test_no_load_onset_is_the_step_not_the_longest_span():
     """Without load the GLR's best span at the first alarm ran back to its 30-s limit (onset
     33 s for a leak from 60 s, and a size diluted by the leak-free half: 0.63x on unit 3);
-    the onset is now the maximum-likelihood step over the whole recording."""
+    the onset is now the maximum-likelihood step over all windows (nuisance fitted before the
+    span)."""
     healthy = [ld.sim.simulate_vca(duration=120, leak_lpm=0.0, load="none", machine=3, seed=s)
                for s in range(6)]
     det = FlowBalanceDetector(system="vca").fit(healthy)
@@ -459,6 +460,36 @@ def test_no_load_onset_is_the_step_not_the_longest_span():
     v = det.predict(rec)
     assert v.leak and abs(v.onset_s - 60.0) <= 3.0
     assert 0.7 <= v.leak_lpm / rec.meta["leak_lpm_achieved"] <= 1.3
+
+
+def test_onset_nuisance_is_fitted_where_the_test_saw_no_leak():
+    """A v5 benchmark run (VCA, no load, 0.002 L/min from 24.4 s, own-unit fit on two healthy
+    runs): with the nuisance profiled over the whole recording the offset-drift column took
+    up part of the leak and the maximum-likelihood step went to the first windows (4.8 s);
+    fitted on the windows before the GLR's best span it is the step near the true onset."""
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.bench.run import simulator_kwargs
+    from leakdiag.bench.v5_common import v5_alarm
+    from leakdiag.bench.v5_suite import V5_SUITES, build_v5_suite
+    from leakdiag.bench.v5_unit import own_cases
+    from leakdiag.detect._flow_balance_search import change_point
+
+    suite = V5_SUITES["vca"]
+    case = next(c for c in build_v5_suite({"vca": suite})
+                if c.role == "test_leak" and c.seed == 54000027)
+    assert case.load == "none" and case.leak_lpm == 0.002
+    own = [ld.sim.simulate_vca(**simulator_kwargs(o)) for o in own_cases(case, 2, suite.nuisance)]
+    det = make_detector("flow-balance", "vca", v5_alarm(0.01, case.duration_s, confidence=0.95))
+    det.fit(own)
+    rec = ld.sim.simulate_vca(**simulator_kwargs(case))
+    v = det.predict(rec)
+    assert v.leak and case.onset_s <= v.alarm_time_s <= case.onset_s + 30.0
+    assert abs(v.onset_s - case.onset_s) <= 3.0
+    t = det._terms(rec)
+    g, _ = det._glr(t)
+    i = int(np.flatnonzero(g >= det.threshold_)[0])
+    j, _ = change_point(t["phi"], t["residual"], 1.0 / det._sigma(t) ** 2, t["nuisance"], last=i)
+    assert case.onset_s - t["start"][j] > 10.0   # the whole-recording profile: far too early
 
 
 @pytest.mark.parametrize("duration", [3.0, 6.0])

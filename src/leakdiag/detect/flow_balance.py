@@ -827,10 +827,9 @@ class FlowBalanceDetector(Detector):
         -------
         FlowBalanceVerdict
             Without an alarm ``leak=False`` and no size. With one, the onset is the
-            maximum-likelihood step of the leak coefficient over the whole recording, among the
-            windows up to the first alarm
-            (:func:`~leakdiag.detect._flow_balance_search.change_point`), the leak coefficient
-            is estimated on every window
+            maximum-likelihood step of the leak coefficient over all windows, among those up to
+            the first alarm, with the nuisance fitted before the GLR's best span (``_onset``),
+            the leak coefficient is estimated on every window
             after the onset window to the end of the recording, the mean leak flow is that
             coefficient times the mean ``|phi|`` from the onset to the end (L/min) with an
             ``interval_level`` interval, and ``leak_lpm_at_reference`` the flow at ``reference_dp_pa``.
@@ -852,11 +851,7 @@ class FlowBalanceDetector(Detector):
             return FlowBalanceVerdict(leak=False, onset_s=None, alarm_time_s=None, leak_lpm=None,
                                       leak_lpm_interval=None, shift=None, **common)
         i = int(above[0])
-        # the onset: the maximum-likelihood step in k over the whole recording, up to the
-        # first alarm (the GLR's best span at the alarm, arg[i], sees only the windows up to it
-        # and at most max_span of them)
-        sig = self._sigma(t)
-        j, _ = change_point(t["phi"], t["residual"], 1.0 / sig**2, t["nuisance"], last=i)
+        j = self._onset(t, i, int(arg[i]))
         # k from the first window wholly after the onset window (the leak starts somewhere
         # inside window j; counting all of it as leaking biases k low by the leak-free part);
         # the mean |phi| over the whole time since the onset (the thesis's mean leak)
@@ -898,6 +893,28 @@ class FlowBalanceDetector(Detector):
             shift=float(k / se), leak_coefficient=k, leak_coefficient_se=se,
             leak_lpm_at_reference=float(at_ref), pressure_offset_pa=offset,
             leak_lpm_interval_holds=be.size_interval_holds(offset, offset_range), **common)
+
+    def _onset(self, t: dict, i: int, j_span: int) -> int:
+        """Onset window of the first alarm at window ``i`` (``j_span``: the GLR's best span).
+
+        The nuisance (null offset, its drift, flow gain) is fitted on the windows before the
+        GLR's best span, which the test itself found leak-free; the onset is then the
+        maximum-likelihood step of ``k`` in the residuals without it, over all windows (also
+        those after the alarm), among the windows up to the alarm
+        (:func:`~leakdiag.detect._flow_balance_search.change_point`). The span alone ended at
+        its ``max_span_s`` limit without load (onset 33 s for a leak from 60 s); a step with
+        the nuisance profiled over the whole recording let the nuisance absorb the leak and
+        put the onset at the first windows (docs/detect.md 8.4, "Onset").
+        """
+        r, nu, w = t["residual"], t["nuisance"], 1.0 / self._sigma(t) ** 2
+        p = nu.shape[1]
+        if p:
+            pre = slice(0, min(len(r), max(j_span, p + 1)))
+            sw = np.sqrt(w[pre])
+            beta = np.linalg.lstsq(nu[pre] * sw[:, None], r[pre] * sw, rcond=None)[0]
+            r = r - nu @ beta
+        j, _ = change_point(t["phi"], r, w, nu[:, :0], last=i)
+        return int(j)
 
     def _offset_profile(self, rec, first: int, j: int, dur: float):
         """Leak coefficient and mean ``|phi|`` since window ``j`` with the differential
