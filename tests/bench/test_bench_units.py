@@ -244,6 +244,33 @@ def test_v5_false_alarm_table_counts_healthy_runs_with_interval():
     assert r.far_high == pytest.approx(0.02894, abs=1e-4)  # 95 % CP upper bound of 3/300
 
 
+def test_v5_size_table_counts_only_runs_detected_in_time_and_their_coverage():
+    from leakdiag.bench.v5_scoring import size_table
+    from leakdiag.detect.rates import clopper_pearson
+
+    # five runs of 0.1 L/min from 20 s: detected at 21, 25 and 29 s (sized), 35 s (too late),
+    # 15 s (early); one healthy run with a size that must not count
+    runs = pd.DataFrame({
+        "method": "m", "system": "vca", "load": "spring", "excitation": "operating",
+        "role": ["test_leak"] * 5 + ["test_healthy"], "leak_lpm": [0.1] * 5 + [0.0],
+        "leak_lpm_achieved": [0.1, 0.08, 0.1, 0.1, 0.1, 0.0],
+        "onset_true_s": [20.0] * 5 + [None], "alarm": [True] * 6,
+        "alarm_time_s": [21.0, 25.0, 29.0, 35.0, 15.0, 30.0],
+        "leak_lpm_est": [0.11, 0.08, 0.2, 0.1, 0.1, 0.05],
+        "leak_lpm_low": [0.105, 0.07, 0.15, 0.09, 0.09, 0.04],
+        "leak_lpm_high": [0.115, 0.09, 0.25, 0.11, 0.11, 0.06]})
+    tab = size_table(runs)
+    assert len(tab) == 1
+    r = tab.iloc[0]
+    ratio = np.array([1.1, 1.0, 2.0])  # 0.11/0.1, 0.08/0.08, 0.2/0.1
+    assert r.n_sized == 3 and r.covered == 1  # only the 0.08 run's interval holds its truth
+    assert r.ratio_median == pytest.approx(np.median(ratio))
+    assert r.ratio_p90 == pytest.approx(np.quantile(ratio, 0.9))
+    lo, hi = clopper_pearson(1, 3)
+    assert (r.coverage, r.coverage_low, r.coverage_high) == pytest.approx((1 / 3, lo, hi))
+    assert size_table(runs.drop(columns="leak_lpm_low")).empty  # no size columns: no table
+
+
 def test_v5_alarm_maps_per_run_target_exactly():
     from leakdiag.bench.v5_run import v5_alarm
 

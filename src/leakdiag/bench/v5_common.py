@@ -142,7 +142,10 @@ def run_row(case, method: str, rec, v, cpu_s: float, sim_cpu_s: float) -> dict:
             "leak_lpm_achieved": rec.meta.get("leak_lpm_achieved"),
             "noise_std_pa": case.noise_std_pa, "score_max": v.score_max,
             "alarm": bool(v.leak), "alarm_time_s": v.alarm_time_s,
-            "onset_est_s": v.onset_s, "confidence": v.confidence,
+            "onset_est_s": v.onset_s, "leak_lpm_est": v.leak_lpm,
+            "leak_lpm_low": v.leak_lpm_interval[0] if v.leak_lpm_interval else None,
+            "leak_lpm_high": v.leak_lpm_interval[1] if v.leak_lpm_interval else None,
+            "confidence": v.confidence,
             "threshold": v.threshold, "cpu_s": cpu_s, "sim_cpu_s": sim_cpu_s}
 
 
@@ -164,7 +167,8 @@ def write_shard(rows: list, path) -> int:
     import pandas as pd
 
     df = pd.DataFrame(rows)
-    for col in ("onset_true_s", "alarm_time_s", "onset_est_s", "leak_lpm_achieved"):
+    for col in ("onset_true_s", "alarm_time_s", "onset_est_s", "leak_lpm_achieved",
+                "leak_lpm_est", "leak_lpm_low", "leak_lpm_high"):
         if col in df:
             df[col] = pd.to_numeric(df[col], errors="coerce")
     path = Path(path)

@@ -12,7 +12,7 @@ import numpy as np
 from leakdiag.bench.registry import METHODS, thesis_methods
 from leakdiag.bench.report import method_style
 from leakdiag.bench.v5_run import run_v5
-from leakdiag.bench.v5_scoring import false_alarm_table, summary_v5
+from leakdiag.bench.v5_scoring import false_alarm_table, size_table, summary_v5
 from leakdiag.bench.v5_suite import V5_DEFAULT_FAR, V5_QUICK_FAR, V5_QUICK_SUITES, V5_SUITES
 from leakdiag.runtime.cache import resolve_cache_dir
 
@@ -202,6 +202,10 @@ def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings) -> d
         if df is not None:
             paths[name] = out / f"{name}.csv"
             df.to_csv(paths[name], index=False)
+    sizes = size_table(runs) if runs is not None and len(runs) else None
+    if sizes is not None and len(sizes):
+        paths["size"] = out / "size.csv"
+        sizes.to_csv(paths["size"], index=False)
     if runs is not None and len(runs):
         paths["runs"] = out / "runs.csv.gz"
         runs.to_csv(paths["runs"], index=False)
@@ -246,6 +250,17 @@ def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings) -> d
             md += ["Threshold basis of the held-out runs (k-th largest of n; k = 0: no "
                    "conformal level, the method's model level):", "",
                    _md_table(basis, list(basis.columns), list(basis.columns)), ""]
+    if sizes is not None and (sizes.n_sized > 0).any():
+        md += ["## Leak size (runs detected within 10 s of the onset)", "",
+               "Estimate / truth (the run's achieved mean leak flow after the onset) and how "
+               "often the method's interval held the truth, with its 95 % Clopper-Pearson "
+               "interval.", "",
+               _md_table(sizes[sizes.n_sized > 0],
+                         ["system", "load", "method", "leak_lpm", "n_sized", "ratio_median",
+                          "ratio_p10", "ratio_p90", "covered", "coverage", "coverage_low",
+                          "coverage_high"],
+                         ["rig", "load", "method", "leak (L/min)", "runs", "ratio median",
+                          "ratio p10", "ratio p90", "held", "coverage", "low", "high"]), ""]
     if fits is not None and len(fits):
         cols = [c for c in ("system", "load", "method", "n", "k", "threshold",
                             "bound_per_segment", "conditional_upper_95", "n_reference",
@@ -254,8 +269,8 @@ def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings) -> d
                _md_table(fits, cols, cols), ""]
     md += [f"![{f}]({f})" for f in figs]
     md += ["", "Files: summary.csv, detection.csv (per size: detection within 5/10/30 s, early "
-           "alarms, each with its interval), false_alarms.csv, fits.csv, runs.csv.gz, "
-           "settings.json."]
+           "alarms, each with its interval), size.csv (leak-size estimates and interval "
+           "coverage), false_alarms.csv, fits.csv, runs.csv.gz, settings.json."]
     paths["report"] = out / "report.md"
     paths["report"].write_text("\n".join(md) + "\n", encoding="utf-8")
     return paths
