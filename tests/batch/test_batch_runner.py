@@ -69,7 +69,9 @@ def test_config_sweep_and_digest(tmp_path):
     ({"analysis": [{"method": "moments"}]}, "method='moments' is not one of"),
     ({"analysis": [{"method": "autocorrelation", "lags": 2}]}, "unknown key\\(s\\) \\['lags'\\]"),
     ({"analysis": [{"method": "autocorrelation", "lag": [1, 300]}]},
-     "#1 {'lag': 300}: lag=300 must be in \\[1, 200\\)"),
+     "#1 \\(lag = 300\\): lag=300 must be in \\[1, 200\\)"),
+    ({"analysis": [{"method": "autocorr"}]},
+     "^\\[\\[analysis\\]\\] #1: unknown method 'autocorr'; known: .* \\(aliases: acf, ccf"),
     ({"detector": [{"path": "/no/such.pkl"}]}, "\\[\\[detector\\]\\] #1: cannot read"),
     ({"jobs": {}}, "unknown table\\(s\\) \\['jobs'\\]"),
 ])

@@ -40,6 +40,19 @@ def test_analyze_prints_measure_and_writes_outputs(run_file, tmp_path, capsys):
     assert (out / "features.png").stat().st_size > 10_000
 
 
+def test_analyze_refuses_a_system_the_file_contradicts(run_file, tmp_path, capsys):
+    """--system eha on a file whose metadata say VCA ran silently at the EHA's settings."""
+    path, _ = run_file
+    rec = ld.io.read_recording(path)
+    rec.meta["system"] = "vca"
+    f = tmp_path / "vca.parquet"
+    ld.io.write_recording(rec, f)
+    assert main(["analyze", str(f), "--method", "all", "--system", "eha"]) == 2
+    err = capsys.readouterr().err
+    assert f"--system eha, but {f}'s metadata says 'vca'" in err
+    assert main(["analyze", str(f), "--method", "autocorrelation", "--system", "vca"]) == 0
+
+
 def test_analyze_all_uses_thesis_settings(run_file, capsys):
     path, _ = run_file
     rec = ld.io.read_recording(path)

@@ -163,7 +163,9 @@ def _expand(entry: Mapping[str, Any], i: int) -> list[MethodSpec]:
         try:
             specs.append(MethodSpec(entry["method"], chans, **kw))
         except (TypeError, ValueError) as exc:
-            raise ValueError(f"[[analysis]] #{i + 1} {kw}: {exc}") from None
+            where = ", ".join(f"{k} = {v!r}" for k, v in kw.items())
+            raise ValueError(f"[[analysis]] #{i + 1}" + (f" ({where})" if where else "")
+                             + f": {exc}") from None
     return specs
 
 

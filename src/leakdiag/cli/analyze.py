@@ -140,6 +140,10 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
 
     cmap = column_map_from(column_map, cols, time_unit)
     rec = read_with(file, cmap, sample_rate, resample)
+    if rec.meta.get("system"):  # a --system against the file's own word is refused
+        from leakdiag.cli.fit import system_of
+
+        system = system_of([rec], system, [str(file)])
     said = system or rec.meta.get("system")
     system = str(said or "vca").lower()
     specs = _specs(method, channels, lag, lag_ratio, window, overlap, system)

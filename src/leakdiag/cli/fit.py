@@ -178,7 +178,9 @@ class _LazyChoice(click.Choice):
 
 
 @click.command("fit", epilog="Example: leakdiag fit --healthy h1.parquet --healthy h2.parquet "
-                             "--method ccf-p1p2 -o det.joblib")
+                             "--healthy h3.parquet --method ccf-p1p2 --false-alarm-rate 10 -o "
+                             "det.joblib (three 120-s runs support about 10 false alarms per "
+                             "hour; the default 1 per hour needs about an hour of healthy data)")
 @click.option("--healthy", multiple=True, required=True,
               type=click.Path(exists=True, dir_okay=False),
               help="Healthy recording of the machine (repeat for several; more gives a "

@@ -330,7 +330,9 @@ def normalize_method(name: str) -> str:
     """
     key = str(name).strip().lower()
     if key not in _ALIASES:
-        raise ValueError(f"unknown method {name!r}; known: {sorted(_REGISTRY)}")
+        aliases = sorted(a for r in _REGISTRY.values() for a in r.aliases)
+        raise ValueError(f"unknown method {name!r}; known: {sorted(_REGISTRY)}"
+                         + (f" (aliases: {', '.join(aliases)})" if aliases else ""))
     return _ALIASES[key]
 
 
