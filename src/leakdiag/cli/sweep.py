@@ -143,7 +143,8 @@ def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, chan
             msg += "; lower --min-chunks or --chunk, or check --onset"
         raise ValueError(f"{file}: {msg}") from None
     click.echo(f"{file}: {rec.n_samples} samples at {rec.sample_rate:g} Hz, onset {onset:g} s, "
-               f"{m} {channels or ''}, {len(table)} settings ({mode})")
+               f"{m} {channels or ','.join(feature_record(m).channels)}, {len(table)} settings "
+               f"({mode})")
     click.echo(format_table(table))
     click.echo(f"preferred (max |% change|, >= {min_chunks} chunks per side, tolerance "
                f"{tolerance:g}): lag {chosen['lag']}, window {chosen['window']}, overlap "
