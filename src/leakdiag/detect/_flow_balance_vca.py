@@ -53,8 +53,7 @@ SIZE_PROFILES_PRESSURE_OFFSET = False
 
 def size_interval_holds(offset_pa: None = None, offset_interval_pa: None = None) -> str:
     """What the size interval holds, in words (no offset is profiled on the VCA)."""
-    return ("the coefficient's statistical error only: without load the VCA's sizes were "
-            "0.70-1.14x the truth in 12 measured runs on 4 units, docs/detect.md 8.5")
+    return "the coefficient's statistical error"
 
 
 #: Null-offset step used for the offset sensitivity psi = d residual / d offset (V).

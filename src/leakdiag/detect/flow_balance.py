@@ -23,6 +23,7 @@ from leakdiag._validation import check_positive
 from leakdiag.detect import _flow_balance_eha as eha
 from leakdiag.detect import _flow_balance_vca as vca
 from leakdiag.detect._flow_balance_offset import profile_offset
+from leakdiag.detect._flow_balance_size import band_words, size_band
 from leakdiag.detect._flow_balance_search import (
     GLRThreshold,
     calibrate_glr,
@@ -887,12 +888,25 @@ class FlowBalanceDetector(Detector):
         lpm = k * mean_phi * LPM_PER_M3S
         ptr = be.leak_transition_pa(self._nominal())
         at_ref = k * _leak_law_value(float(self.reference_dp_pa), self.leak_law, ptr) * LPM_PER_M3S
+        # the model error the statistical interval does not hold: the ratio range measured on
+        # virtual machines (_flow_balance_size; docs/detect.md 8.5, "Size interval")
+        load = self._load_of(recording)
+        r_lo, r_hi, _, _ = size_band(self.system, load)
+        interval = (min(interval[0], lpm / r_hi), max(interval[1], lpm / r_lo))
+        holds = f"{be.size_interval_holds(offset, offset_range)}, {band_words(self.system, load)}"
         return FlowBalanceVerdict(
             leak=True, onset_s=onset, alarm_time_s=alarm,
             leak_lpm=float(lpm), leak_lpm_interval=(float(interval[0]), float(interval[1])),
             shift=float(k / se), leak_coefficient=k, leak_coefficient_se=se,
             leak_lpm_at_reference=float(at_ref), pressure_offset_pa=offset,
-            leak_lpm_interval_holds=be.size_interval_holds(offset, offset_range), **common)
+            leak_lpm_interval_holds=holds, **common)
+
+    def _load_of(self, rec) -> str | None:
+        """The recording's load (its metadata, else the healthy recordings'), or None."""
+        load = rec.meta.get("load")
+        if load is None:
+            load = (getattr(self, "operation_", None) or {}).get("load")
+        return None if load is None else str(load)
 
     def _onset(self, t: dict, i: int, j_span: int) -> int:
         """Onset window of the first alarm at window ``i`` (``j_span``: the GLR's best span).
