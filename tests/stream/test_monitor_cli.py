@@ -55,6 +55,23 @@ def test_monitor_equals_analyze(run_file, tmp_path):
     np.testing.assert_allclose([e["time"] for e in events], feats["time"], atol=1e-12)
 
 
+def test_monitor_takes_the_recording_as_file_like_analyze_and_detect(run_file, tmp_path):
+    """`leakdiag monitor FILE` (as analyze/detect/sweep take FILE) equals `--input FILE`;
+    both at once, or neither, is a usage error that says what to give."""
+    path, rec = run_file
+    out = {}
+    for how, args in (("file", [str(path)]), ("input", ["--input", str(path)])):
+        ev = tmp_path / f"{how}.jsonl"
+        r = CliRunner().invoke(cli, ["monitor", *args, "--window", "200", "--events", str(ev)])
+        assert r.exit_code == 0, r.output
+        out[how] = _events(ev)
+    assert out["file"] == out["input"] and len(out["file"]) == 63
+    r = CliRunner().invoke(cli, ["monitor", str(path), "--input", str(path)])
+    assert r.exit_code == 2 and "give the recording once: FILE" in r.output
+    r = CliRunner().invoke(cli, ["monitor", "--window", "200"])
+    assert r.exit_code == 2 and "give the recording: leakdiag monitor FILE" in r.output
+
+
 def test_monitor_stdin_cross_correlation():
     rng = np.random.default_rng(2)
     y, x = rng.normal(size=250), rng.normal(size=250)

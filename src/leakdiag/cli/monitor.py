@@ -194,10 +194,12 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=())
     return spec_from_options(method, channels, lag, lag_ratio, window, overlap)
 
 
-@click.command(epilog="Example: leakdiag monitor --input run.parquet --detector det.joblib "
+@click.command(epilog="Example: leakdiag monitor run.parquet --detector det.joblib "
                       "--events events.jsonl")
-@click.option("--input", "-i", "input_path", required=True,
-              help="Recording file (Parquet, HDF5, CSV, ...) or '-' for CSV lines on stdin.")
+@click.argument("file", required=False, metavar="[FILE]")
+@click.option("--input", "-i", "input_path", default=None,
+              help="Recording file (Parquet, HDF5, CSV, ...) or '-' for CSV lines on stdin "
+                   "(or give it as FILE, like analyze and detect).")
 @click.option("--replay", default="fast", show_default=True,
               help="Replay speed of a file: fast, realtime, or a factor like 10x.")
 @click.option("--follow", is_flag=True, help="Follow a growing CSV file (like tail -f).")
@@ -225,13 +227,21 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=())
               help="Write one JSON line per window to this file ('-' for stdout).")
 @click.option("--quiet", "-q", is_flag=True, help="Do not print alarms and the summary.")
 @live_options
-def monitor(input_path, replay, follow, idle_timeout, method, channels, lag, lag_ratio, window,
-            overlap, detector_path, column_map, cols, sample_rate, time_unit, chunk, batch_lines,
-            events, quiet, **live):
+def monitor(file, input_path, replay, follow, idle_timeout, method, channels, lag, lag_ratio,
+            window, overlap, detector_path, column_map, cols, sample_rate, time_unit, chunk,
+            batch_lines, events, quiet, **live):
     """Monitor a stream: feature value per window, detector score and alarm, as soon as known.
 
-    Without --detector only the feature is computed: no alarm is possible.
+    FILE (or --input FILE) is a recording file, or '-' for CSV lines on stdin. Without
+    --detector only the feature is computed: no alarm is possible.
     """
+    if file is not None and input_path is not None:
+        raise click.UsageError(f"give the recording once: FILE ({file}) or --input "
+                               f"({input_path}), not both")
+    input_path = input_path if input_path is not None else file
+    if input_path is None:
+        raise click.UsageError("give the recording: leakdiag monitor FILE (or --input FILE; "
+                               "'-' reads CSV lines from stdin)")
     from leakdiag.cli._options import column_map_from, warn_low_rate
     from leakdiag.io.checks import RESAMPLE_ADVICE
     from leakdiag.stream import Monitor, paced
