@@ -308,6 +308,33 @@ def test_job_with_fitted_detector_file_and_column_map(tmp_path):
     assert row["status"] == "ok" and row["alarm"] and row["alarm_time_s"] >= 15.0
 
 
+def test_a_detector_that_disagrees_with_a_recording_gets_its_own_error_row(tmp_path):
+    """An EHA recording in a fleet job with a VCA detector: the detector's row is an error that
+    names both files and the systems; the analyses of that recording are still computed (the
+    whole recording used to become one error row)."""
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_eha, simulate_vca
+
+    h = [str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, seed=s),
+                             tmp_path / f"h{s}.parquet")) for s in (1, 2)]
+    r = CliRunner().invoke(cli, ["fit", "--healthy", h[0], "--healthy", h[1], "-m", "acf-p1",
+                                 "--false-alarm-rate", "100", "--no-progress",
+                                 "-o", str(tmp_path / "det.joblib")])
+    assert r.exit_code == 0, r.output
+    eha = str(write_recording(simulate_eha(duration=20.0, leak_lpm=None, seed=3),
+                              tmp_path / "eha.parquet"))
+    cfg = config_from_dict({"analysis": [{"method": "autocorrelation", "channels": ["p1"]}],
+                            "detector": [{"name": "acf", "path": str(tmp_path / "det.joblib")}]})
+    rows = {r["kind"]: r for r in run_case(eha, cfg)}
+    assert rows["analysis"]["status"] == "ok" and rows["analysis"]["n_windows"] > 0
+    det = rows["detector"]
+    assert det["status"] == "error" and det["name"] == "acf"
+    assert eha in det["error"] and "det.joblib" in det["error"]
+    assert "'eha'" in det["error"] and "'vca'" in det["error"]
+    ok = {r["kind"]: r for r in run_case(h[0], cfg)}  # a VCA run: both computed
+    assert ok["detector"]["status"] == "ok" and ok["analysis"]["status"] == "ok"
+
+
 def test_empty_and_text_csv_rows_name_file_channel_row(tmp_path):
     rec_dir = tmp_path / "recordings"
     rec_dir.mkdir()

@@ -120,8 +120,10 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
     -------
     list of dict
         One row per analysis and per detector (columns of
-        :data:`leakdiag.batch.store.RESULT_COLUMNS`), or a single row with ``status="error"``
-        and the message if anything fails. Never raises for a bad file.
+        :data:`leakdiag.batch.store.RESULT_COLUMNS`); a detector that disagrees with the
+        recording (system, load, sample rate, units) gets a row with ``status="error"`` and
+        the message while the others are computed; a single row with ``status="error"`` if
+        anything else fails. Never raises for a bad file.
 
     Raises
     ------
@@ -153,10 +155,17 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
         items += [("detector", name, d.spec(), d) for name, d, _, _ in dets]
         channels = sorted({c for _, _, s, _ in items for c in s.channels})
         src = _source(path, channels, config.chunk_samples, config.column_map)
+        # a detector that disagrees with the recording (system, load, rate, units) gets its own
+        # error row; the analyses and the other detectors are still computed
+        refused = {}
         for name, _, meta, dpath in dets:
-            check_detector_fits(meta, sample_rate=src.sample_rate, channels=src.channels,
-                                system=src.meta.get("system"), source=path, path=dpath,
-                                load=src.meta.get("load"))
+            try:
+                check_detector_fits(meta, sample_rate=src.sample_rate, channels=src.channels,
+                                    system=src.meta.get("system"), source=path, path=dpath,
+                                    load=src.meta.get("load"))
+            except ValueError as exc:
+                refused[name] = _in_job_words(str(exc))
+        items = [it for it in items if not (it[0] == "detector" and it[1] in refused)]
         feats = [StreamingFeature(s, src.sample_rate, src.start_time) for _, _, s, _ in items]
         scorers = [None if d is None else as_scorer(d, s, src.sample_rate, src.start_time)
                    for _, _, s, d in items]
@@ -194,6 +203,8 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                                     f"for the {burn:g}-s burn-in, or its feature values are "
                                     "not finite)")
             rows.append(row)
+        rows += [{**base, "status": "error", "kind": "detector", "name": name, "error": msg}
+                 for name, msg in refused.items()]
     except Exception as exc:  # noqa: BLE001 - a bad file must become a row, not stop the run
         msg = _in_job_words(str(exc))  # leakdiag's messages name file, channel and row
         if isinstance(exc, ValueError) and (path in msg or os.path.basename(path) in msg):
