@@ -271,8 +271,22 @@ def test_a_fleet_fit_has_no_machine_to_check():
     from leakdiag.detect.flow_balance import _operation
 
     op = _operation(recs, ("p1",))
-    assert op["machine"] is None and op["load"] == "spring"
-    assert _operation([dataclasses.replace(recs[0], meta={})], ())["machine"] is None
+    assert op["machine"] is None and op["load"] == "spring" and op["n_machines"] == 2
+    alone = _operation([dataclasses.replace(recs[0], meta={})], ())
+    assert alone["machine"] is None and alone["n_machines"] == 0
+
+
+def test_a_fleet_fit_says_its_size_band_is_no_promise():
+    """The size band was measured with each machine's own fit; fitted on several machines the
+    benchmark's fleet runs fell outside it in 11 of 188: the verdict says so."""
+    healthy = [ld.sim.simulate_vca(duration=40, leak_lpm=0.0, load="spring", machine=m, seed=s)
+               for m in (3, 17) for s in (1, 2)]
+    det = FlowBalanceDetector(system="vca").fit(healthy)
+    v = det.predict(ld.sim.simulate_vca(duration=40, leak_lpm=0.5, onset=20, load="spring",
+                                        machine=5, seed=3))
+    assert v.leak and v.leak_lpm is not None
+    assert "while this detector was fitted on 2 machines" in v.leak_lpm_interval_holds
+    assert "no promise here" in v.leak_lpm_interval_holds
 
 
 def test_model_based_p_value_stops_at_the_null_resolution(machine17):
