@@ -108,6 +108,11 @@ def test_history_api_and_404(store, client):
     assert c.get("/live/rig-b").status_code == 404  # no live board in `leakdiag dashboard`
     page = c.get("/history/" + urllib.parse.quote(EVIL))
     assert EVIL not in page.text
+    # a name with '/' (EVIL has one) reaches its data: the routes take the rest of the path
+    # (before 2026-11-26 such a name was stored but its pages gave 404)
+    assert c.get("/api/history/" + urllib.parse.quote(EVIL)).status_code == 200
+    assert c.get("/api/history/" + urllib.parse.quote(EVIL, safe="")).status_code == 200
+    assert page.status_code == 200
 
 
 def test_only_get(store, client):

@@ -187,3 +187,70 @@ def test_killed_monitor_loses_no_emitted_window(leak_case, tmp_path, replay, chu
     run = st.start_run("rig7", command="monitor", source="again", feature="f")
     assert st.add_chunk(run, None) == (None, [])
     st.close()
+
+
+def test_batch_store_rerun_writes_nothing_twice_and_states_failed_and_unjudged(leak_case,
+                                                                               tmp_path):
+    """Found by a store audit (2026-11-26): a re-run of a finished batch wrote every run and
+    alarm again; an actuator whose only file was broken showed OK; a detector not judged (a
+    recording shorter than its burn-in) was stored as 'no alarm'."""
+    import shutil
+
+    from leakdiag.io import read_recording, write_recording
+
+    rec = tmp_path / "rec"
+    for rig in ("rig1", "broken", "short"):
+        (rec / rig).mkdir(parents=True)
+    shutil.copy(leak_case["recording"], rec / "rig1" / "run1.parquet")
+    (rec / "broken" / "bad.parquet").write_text("not a recording\n")
+    full = read_recording(leak_case["recording"])  # 4 s: shorter than the detector's burn-in
+    write_recording(full.slice_time(0.0, 4.0), rec / "short" / "s.parquet")
+    job = tmp_path / "job.toml"
+    job.write_text(f'[[detector]]\nname = "det"\npath = "{leak_case["detector_path"]}"\n')
+    db = tmp_path / "ev.db"
+    args = ["batch", str(rec / "**" / "*.parquet"), "--config", str(job), "--out",
+            str(tmp_path / "res"), "--scheduler", "serial", "--no-progress", "--store", str(db)]
+    code, out, err = _run(args)
+    assert code == 1 and "3 run(s) written" in out  # exit 1: the broken file is an error row
+    st = EventStore(db)
+    n_runs, n_alarms = st.count("runs"), st.count("alarms")
+    assert (n_runs, n_alarms) == (3, 1)
+    state = st.fleet().set_index("name")["state"]
+    assert state.to_dict() == {"rig1": "ALARM", "broken": "FAILED", "short": "NOT JUDGED"}
+    con = sqlite3.connect(db)
+    assert con.execute("select c.alarm, r.status from chunk_summaries c join runs r on "
+                       "r.id = c.run_id where r.source like '%s.parquet'").fetchall() == \
+        [(None, "unjudged")]
+    code, out, err = _run(args)  # nothing new: nothing written again
+    assert code == 1 and "0 run(s) written" in out
+    assert (st.count("runs"), st.count("alarms")) == (n_runs, n_alarms)
+    st.close()
+
+
+def test_store_refusals_before_any_work_and_without_secrets(leak_case, tmp_path):
+    """A store file that is not a database, a password in a URL, a name the pages cannot
+    serve ('..'), two folders of one name: clear errors (exit 2), none after the work."""
+    bad = tmp_path / "text.db"
+    bad.write_text("hello\n")
+    code, out, err = _run(["detect", str(leak_case["recording"]), "--detector",
+                           str(leak_case["detector_path"]), "--store", str(bad)])
+    assert code == 2 and "cannot open the event store: file is not a database" in err
+    assert "Decision" not in out and "acf" not in out  # refused before the work
+    code, out, err = _run(["dashboard", "--store",
+                           "postgresql+psycopg://fleet:hunter2@127.0.0.1:1/x"])
+    assert code == 2 and "fleet:***@127.0.0.1:1/x" in err and "hunter2" not in err + out
+    for name in ("..", ""):
+        code, out, err = _run(["monitor", str(leak_case["recording"]), "--store",
+                               str(tmp_path / "e.db"), "--actuator", name])
+        assert code == 2 and "Invalid value for '--actuator'" in err
+    import shutil
+
+    for site in ("siteA", "siteB"):
+        (tmp_path / "rec" / site / "rig1").mkdir(parents=True)
+        shutil.copy(leak_case["recording"], tmp_path / "rec" / site / "rig1" / "run.parquet")
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    code, out, err = _run(["batch", str(tmp_path / "rec" / "**" / "*.parquet"), "--config",
+                           str(job), "--out", str(tmp_path / "res"), "--scheduler", "serial",
+                           "--no-progress", "--store", str(tmp_path / "f.db")])
+    assert code == 2 and "have the same folder name 'rig1'" in err

@@ -67,6 +67,10 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
             det, meta = load_detector(ref.path)
         check_streamable(det, meta, ref.path, "--detector" if ref.path in {
             os.path.abspath(d) for d in detectors} else f"[[detector]] in {config_path}")
+    if store:  # a store that cannot be opened stops the job before the work, not after
+        from leakdiag.store import EventStore
+
+        EventStore(store).close()
     sched = None if scheduler == "serial" else scheduler
     if sched == "local":
         sched = LOCAL
@@ -91,7 +95,7 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
             n_runs = record_batch(st, mine, cfg.digest, actuator_from)
         finally:
             st.close()
-        click.echo(f"{n_runs} run(s) written to {st.url}")
+        click.echo(f"{n_runs} run(s) written to {st.shown_url}")
     from leakdiag.cli._options import LOW_RATE_HZ
 
     low = mine[(mine["status"] == "ok") & (mine["sample_rate"] < LOW_RATE_HZ)]

@@ -6,7 +6,19 @@ import os
 
 import click
 
-__all__ = ["dashboard", "live_options", "open_monitor_hooks"]
+__all__ = ["dashboard", "live_options", "open_monitor_hooks", "actuator_option"]
+
+
+def actuator_option(ctx, param, value):
+    """Click callback of ``--actuator``: a name the store and its pages can hold, or None."""
+    if value is None:
+        return None
+    from leakdiag.store.database import check_actuator_name
+
+    try:
+        return check_actuator_name(value)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
 
 
 def live_options(f):
@@ -25,7 +37,7 @@ def live_options(f):
     opts = [
         click.option("--store", "store", default=None,
                      help="Event store: SQLite file or SQLAlchemy URL (chunk summaries, alarms)."),
-        click.option("--actuator", default=None,
+        click.option("--actuator", default=None, callback=actuator_option,
                      help="Actuator name in the store and on the page (default: input file stem)."),
         click.option("--dashboard", "dashboard_bind", default=None, metavar="[HOST:]PORT",
                      help="Serve a live page (127.0.0.1 unless HOST is given; PORT 0: any)."),
@@ -116,7 +128,7 @@ def dashboard(store, bind_, allow_remote, token):
     st = EventStore(store, create=False)
     stop = threading.Event()
     srv = DashboardServer(make_app(None, st, bind.token, stop=stop), bind, stop).start()
-    click.echo(f"leakdiag dashboard: {st.url} on {srv.url} (Ctrl-C stops)", err=True)
+    click.echo(f"leakdiag dashboard: {st.shown_url} on {srv.url} (Ctrl-C stops)", err=True)
     stop_on_sigterm()
     try:
         while srv.thread.is_alive():

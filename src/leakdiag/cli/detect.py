@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from leakdiag.cli._options import recording_options, resample_option
+from leakdiag.cli.dashboard import actuator_option
 from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
 
 __all__ = ["detect", "verdict_table", "overall_verdict"]
@@ -252,7 +253,8 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
 @click.option("--no-progress", is_flag=True, help="Do not print a line per method.")
 @click.option("--store", default=None, help="Also write the verdicts to this event store "
               "(SQLite file or SQLAlchemy URL).")
-@click.option("--actuator", default=None, help="Actuator name in the store (default: FILE stem).")
+@click.option("--actuator", default=None, callback=actuator_option,
+              help="Actuator name in the store (default: FILE stem).")
 def detect(file, healthy, detectors, methods, system, column_map, cols, sample_rate, time_unit,
            resample, false_alarm_rate, confidence, onset_method, burn_in_s, no_progress, store,
            actuator):
@@ -265,6 +267,11 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     import pandas as pd
 
     from leakdiag.cli._options import column_map_from
+
+    if store:  # a store that cannot be opened stops the command before the work, not after
+        from leakdiag.store import EventStore
+
+        EventStore(store).close()
 
     if not healthy and not detectors:
         raise click.UsageError("give --healthy FILE (repeatable) or --detector FILE "
@@ -305,7 +312,7 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
 
         st = EventStore(store)
         name = actuator or os.path.splitext(os.path.basename(file))[0]
-        click.echo(f"{record_verdicts(st, name, file, tab)} alarm(s) for {name} written to {st.url}")
+        click.echo(f"{record_verdicts(st, name, file, tab)} alarm(s) for {name} written to {st.shown_url}")
         st.close()
     scores = tab["score_max"] if "score_max" in tab else pd.Series(float("nan"), index=tab.index)
     if not np.isfinite(scores.to_numpy(dtype=float)).any():  # no method could judge FILE

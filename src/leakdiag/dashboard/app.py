@@ -339,11 +339,11 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
 
     routes = [Route("/", index, methods=["GET"]),
               Route("/favicon.ico", favicon, methods=["GET"]),
-              Route("/live/{name}", live_page, methods=["GET"]),
-              Route("/api/live/{name}", live_api, methods=["GET"]),
-              Route("/stream/{name}", live_stream, methods=["GET"]),
-              Route("/history/{name}", history_page, methods=["GET"]),
-              Route("/api/history/{name}", history_api, methods=["GET"]),
+              Route("/live/{name:path}", live_page, methods=["GET"]),
+              Route("/api/live/{name:path}", live_api, methods=["GET"]),
+              Route("/stream/{name:path}", live_stream, methods=["GET"]),
+              Route("/history/{name:path}", history_page, methods=["GET"]),
+              Route("/api/history/{name:path}", history_api, methods=["GET"]),
               Route("/api/fleet", fleet_api, methods=["GET"]),
               Route("/static/{fname}", static, methods=["GET"])]
     return Starlette(routes=routes, middleware=[Middleware(_Guard, token=token)])

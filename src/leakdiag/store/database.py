@@ -20,7 +20,7 @@ from typing import Any, Callable
 
 from sqlalchemy import create_engine, event, func, insert, select, update
 from sqlalchemy.engine import Engine
-from sqlalchemy.exc import OperationalError
+from sqlalchemy.exc import DatabaseError, OperationalError
 
 from leakdiag._version import __version__
 from leakdiag.store import schema as S
@@ -70,6 +70,55 @@ def store_url(target: str | os.PathLike) -> str:
     return f"sqlite:///{os.path.abspath(t)}"
 
 
+def check_actuator_name(name: str) -> str:
+    """Refuse an actuator name the store and its pages cannot hold.
+
+    Parameters
+    ----------
+    name : str
+
+    Returns
+    -------
+    str
+        ``name``.
+
+    Raises
+    ------
+    ValueError
+        If it is empty or blank, or is ``.`` or ``..`` (its page is ``/history/NAME``, which a
+        browser resolves to another address).
+
+    Examples
+    --------
+    >>> check_actuator_name("Presse 3")
+    'Presse 3'
+    """
+    text = str(name)
+    if not text.strip():
+        raise ValueError("actuator name must not be empty")
+    if text.strip() in (".", ".."):
+        raise ValueError(f"actuator name {text!r}: must not be '.' or '..' (it names the "
+                         "actuator's page, /history/NAME, which a browser would resolve "
+                         "elsewhere)")
+    return text
+
+
+def _shown_url(url: str) -> str:
+    """``url`` with its password hidden, for messages.
+
+    Examples
+    --------
+    >>> _shown_url("postgresql+psycopg://fleet:hunter2@db.example/leaks")
+    'postgresql+psycopg://fleet:***@db.example/leaks'
+    """
+    try:
+        from sqlalchemy.engine import make_url
+
+        return make_url(url).render_as_string(hide_password=True)
+    except Exception:  # noqa: BLE001 - not parseable: create_engine will say why
+        return url
+
+
 def _now() -> datetime:
     return datetime.now(timezone.utc)
 
@@ -109,6 +158,8 @@ class EventStore:
 
     def __init__(self, target: str | os.PathLike, create: bool = True):
         self.url = store_url(target)
+        #: The URL as messages show it: a password in it is hidden (``***``).
+        self.shown_url = _shown_url(self.url)
         self.is_sqlite = self.url.startswith("sqlite")
         path = self.url.split(":///", 1)[1] if self.is_sqlite and ":///" in self.url else ""
         if not create and path and path != ":memory:" and not os.path.exists(path):
@@ -116,7 +167,7 @@ class EventStore:
         try:
             self.engine: Engine = create_engine(self.url)
         except Exception as exc:  # bad URL, missing driver
-            raise StoreError(f"--store {self.url}: cannot open: {type(exc).__name__}: {exc}") \
+            raise StoreError(f"--store {self.shown_url}: cannot open: {type(exc).__name__}: {exc}") \
                 from None
         self._read_engine: Engine = self.engine
         if self.is_sqlite:
@@ -127,9 +178,9 @@ class EventStore:
             event.listen(self._read_engine, "begin", _sqlite_begin_read)
         try:
             self._write(lambda c: self._check_schema(c, create))
-        except OperationalError as exc:
+        except DatabaseError as exc:  # OperationalError, or a file that is not a database
             self.close()
-            raise StoreError(f"{self.url}: cannot open the event store: {exc.orig}") from None
+            raise StoreError(f"{self.shown_url}: cannot open the event store: {exc.orig}") from None
         except BaseException:
             self.close()  # no pooled connection left open behind a refused store
             raise
@@ -143,16 +194,16 @@ class EventStore:
             rows = conn.execute(select(S.schema_version.c.version)).scalars().all()
             if rows and rows != [S.SCHEMA_VERSION]:
                 raise StoreError(
-                    f"{self.url}: event store has schema version {rows}, this leakdiag "
+                    f"{self.shown_url}: event store has schema version {rows}, this leakdiag "
                     f"({__version__}) reads version {S.SCHEMA_VERSION}; use a new store file or "
                     "the leakdiag version that wrote it")
         elif have and not create:
-            raise StoreError(f"{self.url}: not a leakdiag event store (no schema_version table)")
+            raise StoreError(f"{self.shown_url}: not a leakdiag event store (no schema_version table)")
         elif have:
-            raise StoreError(f"{self.url}: not a leakdiag event store: it has tables "
+            raise StoreError(f"{self.shown_url}: not a leakdiag event store: it has tables "
                              f"{sorted(have)} but no schema_version table")
         if not create and not have:
-            raise StoreError(f"{self.url}: empty database, no event store in it")
+            raise StoreError(f"{self.shown_url}: empty database, no event store in it")
         S.metadata.create_all(conn)
         if not conn.execute(select(S.schema_version.c.version)).first():
             conn.execute(insert(S.schema_version).values(version=S.SCHEMA_VERSION,
@@ -218,8 +269,7 @@ class EventStore:
         ValueError
             If ``actuator`` is empty.
         """
-        if not str(actuator).strip():
-            raise ValueError("actuator name must not be empty")
+        check_actuator_name(actuator)
 
         def fn(conn):
             aid = self._actuator_id(conn, str(actuator), system)
@@ -298,7 +348,7 @@ class EventStore:
             run = conn.execute(select(S.runs.c.actuator_id, S.runs.c.n_chunks)
                                .where(S.runs.c.id == run_id)).first()
             if run is None:
-                raise StoreError(f"{self.url}: no run with id {run_id}")
+                raise StoreError(f"{self.shown_url}: no run with id {run_id}")
             now = _now()
             seq0 = int(run.n_chunks)
             if summaries:
@@ -343,6 +393,28 @@ class EventStore:
             res = conn.execute(stmt)
             return pd.DataFrame(res.fetchall(), columns=list(res.keys()))
 
+    def batch_row_keys(self) -> set[str]:
+        """Keys of the batch result rows already stored (``config["row"]`` of batch runs).
+
+        Returns
+        -------
+        set of str
+            What :func:`leakdiag.store.writers.record_batch` wrote, so that a re-run of a
+            finished job writes nothing twice.
+        """
+        with self._read_engine.connect() as conn:
+            configs = conn.execute(select(S.runs.c.config).where(
+                S.runs.c.command == "batch")).scalars().all()
+        keys = set()
+        for c in configs:
+            try:
+                row = json.loads(c).get("row") if c else None
+            except (ValueError, AttributeError):
+                row = None
+            if row:
+                keys.add(str(row))
+        return keys
+
     def actuator_names(self) -> list[str]:
         """Names of every actuator in the store, sorted.
 
@@ -357,8 +429,10 @@ class EventStore:
         """One row per actuator: state, last alarm, leak estimate, last seen.
 
         The state is ``ALARM`` when a run of the actuator's latest invocation has an alarm that
-        was not cleared, else ``OK`` (``NO DATA`` while its latest runs are running and have
-        neither a chunk nor an alarm).
+        was not cleared; else ``FAILED`` when every run of it failed, ``NOT JUDGED`` when one
+        failed or was not judged (a detector on a recording too short for its burn-in), and
+        ``OK`` otherwise (``NO DATA`` while its latest runs are running and have neither a
+        chunk nor an alarm).
 
         Returns
         -------
@@ -386,6 +460,10 @@ class EventStore:
                 state = "NO DATA"
             elif in_last["cleared_time_s"].isna().any():
                 state = "ALARM"
+            elif (inv["status"] == "failed").all():
+                state = "FAILED"  # nothing of the latest invocation could be read or judged
+            elif inv["status"].isin(["failed", "unjudged"]).any():
+                state = "NOT JUDGED"  # no alarm, but a run of it was not judged: not an OK
             else:
                 state = "OK"
 
@@ -430,7 +508,7 @@ class EventStore:
             aid = conn.execute(select(S.actuators.c.id)
                                .where(S.actuators.c.name == actuator)).scalar()
         if aid is None:
-            raise StoreError(f"{self.url}: no actuator named {actuator!r}")
+            raise StoreError(f"{self.shown_url}: no actuator named {actuator!r}")
         extra = (S.runs.c.feature, S.runs.c.source)
         summ = self._frame(select(S.chunk_summaries, *extra)
                            .join(S.runs, S.runs.c.id == S.chunk_summaries.c.run_id)

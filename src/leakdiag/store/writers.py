@@ -42,8 +42,9 @@ def actuator_names(paths, actuator_from: str = "folder") -> dict[str, str]:
     Raises
     ------
     ValueError
-        If ``actuator_from`` is unknown, or two files in different folders have the same stem
-        with ``"stem"`` (their runs would be merged into one actuator).
+        If ``actuator_from`` is unknown, or two different folders have the same name with
+        ``"folder"``, or two files in different folders the same stem with ``"stem"`` (their
+        runs would be merged into one actuator).
 
     Examples
     --------
@@ -52,15 +53,24 @@ def actuator_names(paths, actuator_from: str = "folder") -> dict[str, str]:
     """
     if actuator_from not in ACTUATOR_FROM:
         raise ValueError(f"actuator_from={actuator_from!r} must be one of {ACTUATOR_FROM}")
-    out, seen = {}, {}
+    out, seen, folders = {}, {}, {}
     for p in dict.fromkeys(str(x) for x in paths):
         pp = Path(p)
-        name = (pp.resolve().parent.name or "/") if actuator_from == "folder" else pp.stem
-        if actuator_from == "stem" and seen.setdefault(name, p) != p:
-            raise ValueError(
-                f"{seen[name]} and {p} have the same file stem {name!r}: with one actuator per "
-                "file stem their runs would be merged into one actuator; use --actuator-from "
-                "folder (one folder per actuator) or rename the files")
+        if actuator_from == "folder":
+            folder = pp.resolve().parent
+            name = folder.name or "/"
+            if folders.setdefault(name, folder) != folder:
+                raise ValueError(
+                    f"{folders[name]} and {folder} have the same folder name {name!r}: with one "
+                    "actuator per folder their runs would be merged into one actuator; rename "
+                    "a folder or give the recordings of one of them in another job")
+        else:
+            name = pp.stem
+            if seen.setdefault(name, p) != p:
+                raise ValueError(
+                    f"{seen[name]} and {p} have the same file stem {name!r}: with one actuator "
+                    "per file stem their runs would be merged into one actuator; use "
+                    "--actuator-from folder (one folder per actuator) or rename the files")
         out[p] = name
     return out
 
@@ -74,7 +84,9 @@ def record_batch(store: EventStore, results, job_digest: str,
     folders are refused, :func:`actuator_names`). Analysis rows become a summary of the whole
     recording (``t_start_s`` 0, ``t_end_s`` its duration, the row's value statistics); detector
     rows also carry the score maximum, and an alarm at ``alarm_time_s`` when one was raised.
-    Error rows become a run with status ``failed``.
+    Error rows become a run with status ``failed``, a detector row that was not judged (no
+    alarm value: too short for the burn-in) one with status ``unjudged``. A row already in the store (same job,
+    recording path and content, kind and name) is not written again.
 
     Parameters
     ----------
@@ -100,33 +112,43 @@ def record_batch(store: EventStore, results, job_digest: str,
     rows = results[results["job_digest"] == job_digest]
     names = actuator_names(rows["path"].astype(str), actuator_from)
     inv = uuid.uuid4().hex
+    stored = store.batch_row_keys()
     n = 0
     for r in rows.to_dict("records"):
         actuator = names[str(r["path"])]
         feature = str(r["name"]) if r.get("name") is not None and r["name"] == r["name"] \
             else "batch"
+        # one stored run per result row: a re-run of a finished job writes nothing again
+        key = "|".join(str(r.get(c)) for c in ("job_digest", "path", "recording_sha256",
+                                                "kind", "name"))
+        if key in stored:
+            continue
         run = store.start_run(actuator, command="batch", source=str(r["path"]), feature=feature,
                               sample_rate_hz=_num(r.get("sample_rate")), invocation=inv,
-                              config={"job_digest": job_digest, "kind": r.get("kind")})
+                              config={"job_digest": job_digest, "kind": r.get("kind"),
+                                      "row": key})
         n += 1
         if r["status"] != "ok":
             store.end_run(run, "failed")
             continue
         n_win = int(r["n_windows"]) if _num(r.get("n_windows")) is not None else 0
+        judged = r.get("kind") == "detector" and r.get("alarm") is not None \
+            and r.get("alarm") == r.get("alarm")  # None / NaN: the detector was not judged
         summ = None
         if n_win:
             summ = ChunkSummary(0.0, _num(r.get("duration_s")) or 0.0, n_win,
                                 int(_num(r.get("n_degenerate")) or 0), _num(r.get("value_mean")),
                                 _num(r.get("value_min")), _num(r.get("value_max")), None,
                                 _num(r.get("score_max")), None,
-                                None if r.get("kind") != "detector" else bool(r.get("alarm")))
+                                bool(r.get("alarm")) if judged else None)
         alarms = []
         if r.get("kind") == "detector" and bool(r.get("alarm")) \
                 and _num(r.get("alarm_time_s")) is not None:
             alarms.append(AlarmRecord(_num(r["alarm_time_s"]), detector=feature))
         if summ is not None or alarms:
             store.add_chunk(run, summ, alarms)
-        store.end_run(run)
+        store.end_run(run, "unjudged" if r.get("kind") == "detector" and not judged
+                      else "finished")
     return n
 
 
