@@ -95,7 +95,7 @@ def test_schema_version_mismatch(tmp_path):
     con.execute("update schema_version set version = 99")
     con.commit()
     con.close()
-    with pytest.raises(StoreError, match=r"schema version \[99\].*reads version 1"):
+    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 1"):
         EventStore(db)
 
 
@@ -288,4 +288,25 @@ def test_merge_summaries_equals_blocks_by_hand(tmp_path):
     assert len(merge_summaries(summ.iloc[:0], 5)) == 0
     with pytest.raises(ValueError, match="max_points=0 must be >= 1"):
         merge_summaries(summ, 0)
+    st.close()
+
+
+@pytest.mark.parametrize("order", [("acf", "fb"), ("fb", "acf")])
+def test_fleet_shows_the_first_standing_alarm_and_a_size_whatever_the_method_order(tmp_path,
+                                                                                   order):
+    """`detect --detector A --detector B --store`: the fleet row showed the alarm and size of
+    whichever method came last (found by a store audit, 2026-11-26)."""
+    alarms = {"acf": AlarmRecord(14.829, onset_s=13.0, detector="acf"),
+              "fb": AlarmRecord(32.117, onset_s=31.128, leak_lpm=0.118, leak_lpm_low=0.0713,
+                                leak_lpm_high=0.938, detector="fb")}
+    st = EventStore(tmp_path / "e.db")
+    for m in order:
+        run = st.start_run("rig", command="detect", source="s.parquet", feature=m,
+                           invocation="one")
+        st.add_chunk(run, None, [alarms[m]])
+        st.end_run(run)
+    row = st.fleet().iloc[0]
+    assert row["state"] == "ALARM"
+    assert (row["last_alarm_time_s"], row["onset_s"]) == (14.829, 13.0)
+    assert (row["leak_lpm"], row["leak_lpm_low"], row["leak_lpm_high"]) == (0.118, 0.0713, 0.938)
     st.close()

@@ -288,6 +288,9 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
         name = request.path_params["name"]
         if store is None:
             return PlainTextResponse("404: no event store", status_code=404)
+        if name not in await anyio.to_thread.run_sync(store.actuator_names):
+            return PlainTextResponse(f"404: no actuator named {name!r} in the store",
+                                     status_code=404)
         tq = tok_q(request)
         body = (_cfg({"name": name, "api": f"/api/history/{quote(name)}{tq}"}) +
                 '<h1>leakdiag history: <span id="name"></span></h1>'

@@ -88,8 +88,10 @@ def parse_bind(text: str, allow_remote: bool = False, token: str | None = None) 
     b = Bind(host, port, token or None)
     if not b.is_loopback:
         if not allow_remote or not b.token:
+            need = " and ".join(x for x, ok in (("--allow-remote", allow_remote),
+                                                ("a --token", b.token)) if not ok)
             raise ValueError(f"--dashboard {text} binds an address other machines can reach; "
-                             "add --allow-remote and a --token")
+                             f"add {need}")
     return b
 
 

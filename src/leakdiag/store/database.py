@@ -194,7 +194,8 @@ class EventStore:
             rows = conn.execute(select(S.schema_version.c.version)).scalars().all()
             if rows and rows != [S.SCHEMA_VERSION]:
                 raise StoreError(
-                    f"{self.shown_url}: event store has schema version {rows}, this leakdiag "
+                    f"{self.shown_url}: event store has schema version "
+                    f"{', '.join(map(str, rows))}, this leakdiag "
                     f"({__version__}) reads version {S.SCHEMA_VERSION}; use a new store file or "
                     "the leakdiag version that wrote it")
         elif have and not create:
@@ -452,9 +453,16 @@ class EventStore:
             r = runs[runs["actuator_id"] == a.id].sort_values("id")
             last = r.iloc[-1] if len(r) else None
             mine = al[al["actuator_id"] == a.id].sort_values("id")
-            la = mine.iloc[-1] if len(mine) else None
             inv = r[r["invocation"] == last["invocation"]] if last is not None else r
             in_last = mine[mine["run_id"].isin(inv["id"])]
+            # the alarm shown: the first standing alarm of the latest invocation (detect's
+            # "first alarm" whatever the order of its methods), with a leak size when one of
+            # them has it; else the actuator's last alarm
+            standing = in_last[in_last["cleared_time_s"].isna()].sort_values(
+                ["alarm_time_s", "id"], kind="stable")
+            sized = standing[standing["leak_lpm"].notna()]
+            la = (standing.iloc[0] if len(standing) else mine.iloc[-1] if len(mine) else None)
+            size_row = sized.iloc[0] if len(sized) else la
             if last is None or (int(inv["n_chunks"].sum()) == 0 and not len(in_last)
                                 and (inv["status"] == "running").all()):
                 state = "NO DATA"
@@ -467,14 +475,16 @@ class EventStore:
             else:
                 state = "OK"
 
-            def g(k):
-                return None if la is None or pd.isna(la[k]) else la[k]
+            def g(k, row=None):
+                row = la if row is None else row
+                return None if row is None or pd.isna(row[k]) else row[k]
 
             rows.append({"name": a.name, "system": a.system, "state": state,
                          "last_seen_at": a.last_seen_at, "n_runs": len(r),
                          "last_alarm_at": g("raised_at"), "last_alarm_time_s": g("alarm_time_s"),
-                         "onset_s": g("onset_s"), "leak_lpm": g("leak_lpm"),
-                         "leak_lpm_low": g("leak_lpm_low"), "leak_lpm_high": g("leak_lpm_high"),
+                         "onset_s": g("onset_s"), "leak_lpm": g("leak_lpm", size_row),
+                         "leak_lpm_low": g("leak_lpm_low", size_row),
+                         "leak_lpm_high": g("leak_lpm_high", size_row),
                          "feature": None if last is None else last["feature"],
                          "source": None if last is None else last["source"]})
         cols = ["name", "system", "state", "last_seen_at", "n_runs", "last_alarm_at",
