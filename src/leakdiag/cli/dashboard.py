@@ -10,7 +10,25 @@ __all__ = ["dashboard", "live_options", "open_monitor_hooks", "actuator_option"]
 
 
 def actuator_option(ctx, param, value):
-    """Click callback of ``--actuator``: a name the store and its pages can hold, or None."""
+    """Click callback of ``--actuator``: a name the store and its pages can hold, or None.
+
+    Parameters
+    ----------
+    ctx, param : click.Context, click.Parameter
+        Click's callback arguments (unused).
+    value : str or None
+        The option's value.
+
+    Returns
+    -------
+    str or None
+        ``value``.
+
+    Raises
+    ------
+    click.BadParameter
+        For an empty name, ``.`` or ``..`` (:func:`leakdiag.store.database.check_actuator_name`).
+    """
     if value is None:
         return None
     from leakdiag.store.database import check_actuator_name
