@@ -140,3 +140,23 @@ def test_overall_decision_judges_both_directions_at_the_split_level():
     # a table written before the column existed keeps its inconclusive rows
     old = table("inconclusive", 0.99, 0.006).drop(columns="p_value_opposite")
     assert overall_decision(old, 0.01)[0] == "inconclusive"
+
+
+@pytest.mark.filterwarnings("ignore:.*have zero variance")
+def test_opposite_change_reaches_the_overall_decision_through_analyze_recording():
+    """End to end (found by an audit session, 2026-11-27): Decision.as_dict and the verdict
+    table's columns dropped p_value_opposite, so a healthy run whose metric length fell at
+    p = 0.0062 (opposite to a leak, not below the split level 0.0025) was INCONCLUSIVE overall
+    instead of NO LEAK; the table-level test above did not see it."""
+    from leakdiag.detect.analysis import analyze_recording, overall_decision
+    from leakdiag.features.spec import thesis_defaults
+
+    recs = [ld.sim.simulate_vca(duration=120, leak_lpm=0.0, seed=s) for s in (105, 106, 107)]
+    a = analyze_recording(recs[0], thesis_defaults("vca"), healthy=recs[1:],
+                          false_alarm_rate=0.01)
+    row = a.table.set_index("method").loc["metric-length"]
+    assert row["decision"] == "inconclusive"
+    assert 0.0025 <= row["p_value_opposite"] < 0.01
+    assert f"(p={row['p_value_opposite']:.3g})" in row["reason"]
+    dec, why = overall_decision(a.table, 0.01)
+    assert dec == "no-leak" and "metric-length: a change opposite to a leak's" in why

@@ -20,7 +20,7 @@ VERDICT_COLUMNS = [
     "mean_rms_after", "pct_change", "pct_change_signed", "n_chunks_before", "n_chunks_after",
     "n_chunks_straddling", "n_chunks_empty", "n_nan_windows",
     "decision", "basis", "test", "p_value", "false_alarm_rate", "n_reference", "n_test",
-    "chunk_autocorr", "reason", "skipped",
+    "chunk_autocorr", "reason", "p_value_opposite", "skipped",
 ]
 #: The decision columns of the verdict table (see :class:`~leakdiag.detect.measure.Decision`).
 DECISION_COLUMNS = ["decision", "basis", "test", "p_value", "false_alarm_rate", "n_reference",

@@ -308,7 +308,7 @@ class Decision:
         """
         return {k: getattr(self, k) for k in (
             "decision", "basis", "test", "p_value", "false_alarm_rate", "n_reference", "n_test",
-            "chunk_autocorr", "reason")}
+            "chunk_autocorr", "reason", "p_value_opposite")}
 
 
 def _lag1(x: np.ndarray) -> float:
