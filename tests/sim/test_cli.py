@@ -70,7 +70,8 @@ def test_simulate_eha_laminar_leak_is_a_one_line_error(tmp_path, capsys):
     err = capsys.readouterr().err
     errors = [ln for ln in err.splitlines() if "error" in ln.lower()]
     assert "Traceback" not in err and len(errors) == 1
-    assert errors[0] == "leakdiag: error: leak_model='laminar' must be one of ['turbulent']"
+    assert errors[0] == ("Error: --leak-model laminar: the EHA's leak is the thesis's turbulent "
+                         "needle-valve flow, Eq. 2-4, only")
     assert not (tmp_path / "x.parquet").exists()
 
 
@@ -86,3 +87,26 @@ def test_simulate_help_states_each_rigs_defaults(capsys):
         eha = inspect.signature(ld.sim.simulate_eha).parameters[name].default
         part = text[text.index(flag):]
         assert f"{vca:g} for vca, {eha:g} for eha" in part[:160], (name, part[:160])
+
+
+def test_simulate_says_what_it_did_not_use_and_refuses_what_cannot_be(tmp_path, capsys):
+    """Found by an audit session (2026-11-27): --ramp-duration without a ramp and --onset
+    without a leak were silently ignored, a ramp longer than the run was not mentioned, and the
+    EHA's laminar law failed with a bare choice list."""
+    out = str(tmp_path / "r.parquet")
+    assert main(["simulate", "vca", "--duration", "40", "--onset", "20", "--leak", "0.1",
+                 "--leak-kind", "ramp", "--no-progress", "--out", out]) == 0
+    said = capsys.readouterr().out
+    rec = ld.io.read_recording(out)
+    assert rec.meta["ramp_duration"] == 100.0  # the VCA's default, now in --help
+    assert "the 100-s ramp from 20 s outlasts the run (40 s): the leak still rises" in said
+    assert main(["simulate", "vca", "--duration", "4", "--onset", "2", "--leak", "0",
+                 "--no-progress", "--out", out]) == 0
+    assert capsys.readouterr().out.strip().endswith("no leak (--onset 2 ignored: no leak to start)")
+    assert main(["simulate", "vca", "--duration", "4", "--ramp-duration", "10",
+                 "--no-progress", "--out", out]) == 2
+    assert "--ramp-duration applies to ramp leaks: add --leak-kind ramp" in capsys.readouterr().err
+    assert main(["simulate", "eha", "--duration", "4", "--leak-model", "laminar",
+                 "--no-progress", "--out", out]) == 2
+    assert "the EHA's leak is the thesis's turbulent needle-valve flow, Eq. 2-4, only" in \
+        capsys.readouterr().err

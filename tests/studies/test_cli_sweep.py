@@ -35,3 +35,23 @@ def test_sweep_cli_ofat_and_grid(tmp_path, capsys):
     assert f"lag {int(best.lag)}, window {int(best.window)}" in capsys.readouterr().out
     np.testing.assert_allclose(g["pct_change"], g.pct_change_signed.abs())
     assert (out / "g" / "grid_heatmap.png").stat().st_size > 500
+
+
+def test_sweep_says_which_grid_settings_it_skipped_and_refuses_an_onset_outside(tmp_path,
+                                                                                capsys):
+    """Found by an audit session (2026-11-27): a grid quietly dropped lag >= window settings,
+    and an onset after the end read as 'no setting meets the rule'."""
+    rec = ar_recording()
+    path = tmp_path / "rec.csv"
+    rec.to_pandas().to_csv(path, index=False)
+    code = main(["sweep", str(path), "-m", "autocorrelation", "-c", "p1", "--lags", "1,80",
+                 "--windows", "60,120", "--overlaps", "0", "--onset", "30", "--chunk", "5",
+                 "--mode", "grid", "--no-figures"])
+    assert code == 0
+    head = capsys.readouterr().out.splitlines()[0]
+    assert head.endswith("3 settings (grid); 1 of 4 skipped: a lag not smaller than its "
+                         "window, or a window longer than the recording")
+    end = rec.start_time + rec.duration
+    code = main(["sweep", str(path), "-c", "p1", "--onset", str(end + 10)])
+    assert code == 2
+    assert f"onset {end + 10:g} s is outside the recording" in capsys.readouterr().err

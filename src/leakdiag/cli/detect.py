@@ -205,6 +205,8 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
     ...                   "false_alarms_per_hour": [0.5, 0.5]})
     >>> overall_verdict(t, 3600.0)[0]
     'leak'
+    >>> overall_verdict(t, 3600.0 * 3)[1].split("; ")[1][:44]  # 3 expected: no probability
+    'false alarms expected in this run up to 3 (s'
     """
     import pandas as pd
 
@@ -214,6 +216,10 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
                else pd.to_numeric(ok["false_alarms_per_hour"]) * duration_s / 3600.0)
     rate = per_run.sum() if len(ok) else float("nan")
     fa = f"false-alarm rate for this run at most {rate:.3g} (sum over {len(ok)} method(s))"
+    if rate > 1.0:  # a sum of expected false alarms, not a probability any more
+        fa = (f"false alarms expected in this run up to {rate:.3g} (sum over {len(ok)} "
+              "method(s)): no useful bound on the chance of one; ask for fewer false alarms "
+              "per hour or judge a shorter run")
     alarmed = ok[ok["leak"].astype(bool)]
     if len(alarmed):
         return "leak", f"alarm from {', '.join(alarmed['method'])}; {fa}"

@@ -83,11 +83,13 @@ def plot_simulation(rec, path):
 @click.option("--leak-kind", type=click.Choice(["step", "ramp"]), default="step",
               show_default=True, help="Leak switched on at the onset, or ramped up over "
                                       "--ramp-duration.")
-@click.option("--ramp-duration", type=float, default=None, help="Ramp length in s (ramp leaks).")
+@click.option("--ramp-duration", type=float, default=None,
+              help="Ramp length in s (with --leak-kind ramp) [default: 100 for vca, 30 for eha].")
 @click.option("--load", type=click.Choice(["spring", "none"]), default="none", show_default=True,
               help="Load on the piston: a spring (Table 2-1 stiffness) or none.")
 @click.option("--seed", type=int, default=1, show_default=True,
-              help="Seed of the sensor noise and the reference sequence.")
+              help="Seed of the sensor noise and the VCA's reference sequence (the EHA's "
+                   "open-loop input is the fixed 3 sin 4t).")
 @click.option("--machine", type=click.IntRange(min=0), default=None,
               help="Draw virtual machine unit N (its tolerances: valve or pump, supply, bulk "
                    "modulus, transducers; docs/models.md); default: the nominal Table 2-1 / 3-1 "
@@ -96,7 +98,8 @@ def plot_simulation(rec, path):
               help="Sample rate of the recording (Hz).")
 @click.option("--no-sensors", is_flag=True, help="Record true, noise-free states.")
 @click.option("--params", "params_file", type=click.Path(exists=True, dir_okay=False),
-              default=None, help="TOML file overriding Table 2-1 parameters (VCA).")
+              default=None, help="TOML file overriding Table 2-1 (vca) or Table 3-1 (eha) "
+                                 "parameters.")
 @click.option("--out", "-o", type=click.Path(dir_okay=False), default="run.parquet", show_default=True,
               help="Output recording (.parquet, .csv, .h5).")
 @click.option("--plot", is_flag=True, help="Also save a figure next to --out (.png).")
@@ -112,6 +115,11 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     from leakdiag.sim.eha.simulate import DEFAULT_DURATION_S as EHA_DURATION_S
     from leakdiag.sim.vca.simulate import DEFAULT_DURATION_S as VCA_DURATION_S
 
+    if ramp_duration is not None and leak_kind != "ramp":
+        raise click.UsageError("--ramp-duration applies to ramp leaks: add --leak-kind ramp")
+    if system == "eha" and leak_model == "laminar":
+        raise click.UsageError("--leak-model laminar: the EHA's leak is the thesis's turbulent "
+                               "needle-valve flow, Eq. 2-4, only")
     # One signature for both rigs (keyword-only, same names): only what the user gave is
     # passed, every other argument keeps the rig's own default.
     kwargs = dict(seed=seed, sensors=not no_sensors, sample_rate=sample_rate, load=load,
@@ -149,6 +157,13 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     what = (f"leak target {m.get('leak_lpm', 0):.4g} L/min, achieved "
             f"{m.get('leak_lpm_achieved', 0):.4g} L/min, onset {m.get('onset'):g} s"
             if m.get("onset") is not None else "no leak")
+    if m.get("onset") is None and onset is not None:
+        what += f" (--onset {onset:g} ignored: no leak to start)"
+    if m.get("leak_kind") == "ramp" and m.get("onset") is not None \
+            and m["onset"] + m["ramp_duration"] > rec.duration:
+        what += (f"; the {m['ramp_duration']:g}-s ramp from {m['onset']:g} s outlasts the run "
+                 f"({rec.duration:g} s): the leak still rises at its end, and the target is its "
+                 "mean after the onset")
     click.echo(f"wrote {path} ({rec.n_samples} samples at {rec.sample_rate:g} Hz, "
                f"{'nominal unit' if unit is None else f'machine unit {unit}'}, load "
                f"{m.get('load')}); {what}")

@@ -132,6 +132,10 @@ def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, chan
     if onset is None:
         raise click.UsageError(f"{file}: the file's metadata has no leak onset: give --onset "
                                "SECONDS (the sweep compares the feature before and after it)")
+    t0, t1 = rec.start_time, rec.start_time + rec.duration
+    if not t0 < onset < t1:
+        raise click.UsageError(f"{file}: onset {onset:g} s is outside the recording "
+                               f"({t0:g} to {t1:g} s): nothing to compare before and after it")
     try:
         table, chosen, groups = _run(rec, m, channels, lag_values, win_values, ov_values, rule,
                                      onset, chunk, mode)
@@ -142,9 +146,15 @@ def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, chan
         if msg != str(exc):
             msg += "; lower --min-chunks or --chunk, or check --onset"
         raise ValueError(f"{file}: {msg}") from None
+    skipped = ""
+    if mode == "grid":
+        n_all = len(lag_values) * len(win_values) * len(ov_values)
+        if n_all > len(table):
+            skipped = (f"; {n_all - len(table)} of {n_all} skipped: a lag not smaller than its "
+                       "window, or a window longer than the recording")
     click.echo(f"{file}: {rec.n_samples} samples at {rec.sample_rate:g} Hz, onset {onset:g} s, "
                f"{m} {channels or ','.join(feature_record(m).channels)}, {len(table)} settings "
-               f"({mode})")
+               f"({mode}){skipped}")
     click.echo(format_table(table))
     click.echo(f"preferred (max |% change|, >= {min_chunks} chunks per side, tolerance "
                f"{tolerance:g}): lag {chosen['lag']}, window {chosen['window']}, overlap "
