@@ -52,3 +52,26 @@ def test_sensitivity_summary_ranges_and_thesis_match():
     assert (s.loc["p2", "thesis_min_pct"], s.loc["p2", "thesis_max_pct"]) == (19, 50)
     assert (s.loc["u,x", "thesis_min_pct"], s.loc["u,x", "thesis_max_pct"]) == (20, 63)
     assert s.loc["u,x", "n_runs"] == 1
+
+
+def test_sensitivity_trend_is_taken_within_each_load_not_pooled():
+    """Two loads at different levels, each rising with the leak: pooled, the levels decide the
+    ranks (rho 0.45 for every EHA method in the reproduction); within each load it is 1."""
+    leaks = [0.77, 0.98, 1.2, 1.4, 1.63]
+    sens = pd.DataFrame({
+        "system": "eha", "method": "autocorrelation", "channels": "p1",
+        "leak_lpm": leaks * 2, "load": ["none"] * 5 + ["spring"] * 5, "duration": 180.0,
+        "pct_change": [20.0, 21, 22, 23, 24] + [1.0, 2, 3, 4, 5],
+        "pct_change_signed": -1.0})
+    from leakdiag.studies.thesis import spearman
+
+    pooled = spearman(sens["leak_lpm"], sens["pct_change"])
+    assert abs(pooled) < 0.5  # what the summary used to report
+    s = sensitivity_summary(sens).iloc[0]
+    assert s["rho_pct_vs_leak"] == pytest.approx(1.0)
+    assert s["rho_pct_vs_leak_none"] == pytest.approx(1.0)
+    assert s["rho_pct_vs_leak_spring"] == pytest.approx(1.0)
+    falls = sens.assign(pct_change=[24.0, 23, 22, 21, 20] + [1.0, 2, 3, 4, 5])
+    s = sensitivity_summary(falls).iloc[0]
+    assert (s["rho_pct_vs_leak_none"], s["rho_pct_vs_leak_spring"]) == pytest.approx((-1, 1))
+    assert s["rho_pct_vs_leak"] == pytest.approx(0.0)

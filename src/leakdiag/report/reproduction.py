@@ -310,6 +310,10 @@ def _sensitivity_section(rep, r: Report, figures: bool) -> None:
                 f"loads {list(cfg.loads)}; seeds {list(cfg.sensitivity_seeds)}; leak at half "
                 f"time; each method at the thesis's preferred setting.")
     summ = sensitivity_summary(s)
+    r.paragraph("rho_pct_vs_leak: Spearman rank correlation of |% change| with the leak size "
+                "within each operating condition (load and duration), averaged; "
+                "rho_pct_vs_leak_<load>: the same within one load (pooled over loads the "
+                "loads' levels, not the sizes, would order the runs).")
     r.table(summ, "Range of |% change| per method, ours beside the thesis's")
     if figures:
         for system, g in s.groupby("system", sort=False):
