@@ -15,7 +15,8 @@ import numpy as np
 from leakdiag.report.html import Report
 from leakdiag.report.study_plots import (plot_moments, plot_pct_vs_parameter, plot_sensitivity,
                                          plot_stacked)
-from leakdiag.studies.reproduce import compare_runs, per_table_agreement, sensitivity_summary
+from leakdiag.studies.reproduce import (Reproduction, compare_runs, per_table_agreement,
+                                        sensitivity_summary)
 from leakdiag.studies.thesis import row_sign, varied_value
 
 __all__ = ["build_report", "direction_word", "trend_word", "write_outputs"]
