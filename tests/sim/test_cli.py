@@ -102,7 +102,8 @@ def test_simulate_says_what_it_did_not_use_and_refuses_what_cannot_be(tmp_path, 
     assert "the 100-s ramp from 20 s outlasts the run (40 s): the leak still rises" in said
     assert main(["simulate", "vca", "--duration", "4", "--onset", "2", "--leak", "0",
                  "--no-progress", "--out", out]) == 0
-    assert capsys.readouterr().out.strip().endswith("no leak (--onset 2 ignored: no leak to start)")
+    assert capsys.readouterr().out.strip().endswith(
+        "no leak (--onset 2 ignored: no leak to start)")
     assert main(["simulate", "vca", "--duration", "4", "--ramp-duration", "10",
                  "--no-progress", "--out", out]) == 2
     assert "--ramp-duration applies to ramp leaks: add --leak-kind ramp" in capsys.readouterr().err

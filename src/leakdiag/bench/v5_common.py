@@ -143,8 +143,7 @@ def run_row(case, method: str, rec, v, cpu_s: float, sim_cpu_s: float) -> dict:
             "noise_std_pa": case.noise_std_pa, "score_max": v.score_max,
             "alarm": bool(v.leak), "alarm_time_s": v.alarm_time_s,
             "onset_est_s": v.onset_s, "leak_lpm_est": v.leak_lpm,
-            "leak_lpm_low": v.leak_lpm_interval[0] if v.leak_lpm_interval else None,
-            "leak_lpm_high": v.leak_lpm_interval[1] if v.leak_lpm_interval else None,
+            **{k: v.as_dict()[k] for k in ("leak_lpm_low", "leak_lpm_high")},
             "confidence": v.confidence,
             "threshold": v.threshold, "cpu_s": cpu_s, "sim_cpu_s": sim_cpu_s}
 

@@ -67,10 +67,12 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
             det, meta = load_detector(ref.path)
         check_streamable(det, meta, ref.path, "--detector" if ref.path in {
             os.path.abspath(d) for d in detectors} else f"[[detector]] in {config_path}")
-    if store:  # a store that cannot be opened stops the job before the work, not after
+    st = None
+    if store:  # opened before the work: a store that cannot be opened stops the job first
         from leakdiag.store import EventStore
 
-        EventStore(store).close()
+        st = EventStore(store)
+        click.get_current_context().call_on_close(st.close)
     sched = None if scheduler == "serial" else scheduler
     if sched == "local":
         sched = LOCAL
@@ -86,15 +88,10 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     click.echo(f"{s.n_inputs} recording(s): {s.n_run} run, {s.n_skipped} already done, "
                f"{s.n_errors} error(s) in this run; {n_rows} current row(s) for job {cfg.digest} "
                f"in {out}")
-    if store:
-        from leakdiag.store import EventStore
+    if st is not None:
         from leakdiag.store.writers import record_batch
 
-        st = EventStore(store)
-        try:
-            n_runs = record_batch(st, mine, cfg.digest, actuator_from)
-        finally:
-            st.close()
+        n_runs = record_batch(st, mine, cfg.digest, actuator_from)
         click.echo(f"{n_runs} run(s) written to {st.shown_url}")
     from leakdiag.cli._options import LOW_RATE_HZ
 

@@ -274,10 +274,12 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
 
     from leakdiag.cli._options import column_map_from
 
-    if store:  # a store that cannot be opened stops the command before the work, not after
+    st = None
+    if store:  # opened before the work: a store that cannot be opened stops the command first
         from leakdiag.store import EventStore
 
-        EventStore(store).close()
+        st = EventStore(store)
+        click.get_current_context().call_on_close(st.close)
 
     if not healthy and not detectors:
         raise click.UsageError("give --healthy FILE (repeatable) or --detector FILE "
@@ -310,16 +312,14 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     # Verdict.confidence is a conformal p-value (small = evidence of a leak): print it by that name
     shown = tab[cols_].astype(object).rename(columns={"confidence": "p_value"})
     click.echo(shown.where(shown.notna(), "-").to_string(index=False))
-    if store:
+    if st is not None:
         import os
 
-        from leakdiag.store import EventStore
         from leakdiag.store.writers import record_verdicts
 
-        st = EventStore(store)
         name = actuator or os.path.splitext(os.path.basename(file))[0]
-        click.echo(f"{record_verdicts(st, name, file, tab)} alarm(s) for {name} written to {st.shown_url}")
-        st.close()
+        click.echo(f"{record_verdicts(st, name, file, tab)} alarm(s) for {name} written to "
+                   f"{st.shown_url}")
     scores = tab["score_max"] if "score_max" in tab else pd.Series(float("nan"), index=tab.index)
     if not np.isfinite(scores.to_numpy(dtype=float)).any():  # no method could judge FILE
         why = (tab["error"].dropna().iloc[0] if "error" in tab and tab["error"].notna().any()

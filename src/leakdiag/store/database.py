@@ -167,8 +167,8 @@ class EventStore:
         try:
             self.engine: Engine = create_engine(self.url)
         except Exception as exc:  # bad URL, missing driver
-            raise StoreError(f"--store {self.shown_url}: cannot open: {type(exc).__name__}: {exc}") \
-                from None
+            raise StoreError(f"--store {self.shown_url}: cannot open: "
+                             f"{type(exc).__name__}: {exc}") from None
         self._read_engine: Engine = self.engine
         if self.is_sqlite:
             event.listen(self.engine, "connect", _sqlite_connect)
@@ -180,7 +180,8 @@ class EventStore:
             self._write(lambda c: self._check_schema(c, create))
         except DatabaseError as exc:  # OperationalError, or a file that is not a database
             self.close()
-            raise StoreError(f"{self.shown_url}: cannot open the event store: {exc.orig}") from None
+            raise StoreError(f"{self.shown_url}: cannot open the event store: "
+                             f"{exc.orig}") from None
         except BaseException:
             self.close()  # no pooled connection left open behind a refused store
             raise
@@ -199,7 +200,8 @@ class EventStore:
                     f"({__version__}) reads version {S.SCHEMA_VERSION}; use a new store file or "
                     "the leakdiag version that wrote it")
         elif have and not create:
-            raise StoreError(f"{self.shown_url}: not a leakdiag event store (no schema_version table)")
+            raise StoreError(f"{self.shown_url}: not a leakdiag event store (no "
+                             "schema_version table)")
         elif have:
             raise StoreError(f"{self.shown_url}: not a leakdiag event store: it has tables "
                              f"{sorted(have)} but no schema_version table")

@@ -85,8 +85,8 @@ def record_batch(store: EventStore, results, job_digest: str,
     recording (``t_start_s`` 0, ``t_end_s`` its duration, the row's value statistics); detector
     rows also carry the score maximum, and an alarm at ``alarm_time_s`` when one was raised.
     Error rows become a run with status ``failed``, a detector row that was not judged (no
-    alarm value: too short for the burn-in) one with status ``unjudged``. A row already in the store (same job,
-    recording path and content, kind and name) is not written again.
+    alarm value: too short for the burn-in) one with status ``unjudged``. A row already in the
+    store (same job, recording path and content, kind and name) is not written again.
 
     Parameters
     ----------
