@@ -450,3 +450,54 @@ def test_cli_warns_of_a_time_column_read_as_a_low_rate(tmp_path):
     assert r.exit_code == 0
     assert "warning: ms.csv: sample rate 1 Hz from the time column is low" in r.output
     assert '[file] time_unit = "ms"' in r.output
+
+
+def test_a_leakdiag_detector_row_is_its_verdict(tmp_path):
+    """A fitted and calibrated leakdiag detector in a job: the row says what
+    ``Detector.predict`` says of the whole recording (alarm, times, onset by its own method,
+    p-value, threshold, leak size with interval); a healthy run gets no alarm and no size."""
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm
+    from leakdiag.io import read_recording, write_recording
+    from leakdiag.sim import simulate_vca
+
+    det = make_detector("ccf-p1p2", "vca", Alarm(false_alarms_per_hour=100.0, burn_in_s=2.0))
+    det.fit([simulate_vca(duration=30.0, leak_lpm=None, seed=s) for s in (1, 2, 3)])
+    det.calibrate([simulate_vca(duration=30.0, leak_lpm=q, onset=15.0, seed=10 + i)
+                   for i, q in enumerate((0.2, 0.5, 1.0, 2.0))])
+    (tmp_path / "det.pkl").write_bytes(pickle.dumps(det))
+    cfg = config_from_dict({"detector": [{"name": "ccf", "path": str(tmp_path / "det.pkl")}]})
+    leak = str(write_recording(simulate_vca(duration=30.0, leak_lpm=1.0, onset=15.0, seed=30),
+                               tmp_path / "leak.parquet"))
+    ok = str(write_recording(simulate_vca(duration=30.0, leak_lpm=None, seed=31),
+                             tmp_path / "ok.parquet"))
+    (row,) = run_case(leak, cfg)
+    v = det.predict(read_recording(leak))
+    assert v.leak and v.leak_lpm is not None  # the case this test is about
+    assert row["alarm"] is True and row["system"] == "vca"
+    assert row["alarm_time_s"] == v.alarm_time_s and row["alarm_onset_s"] == v.onset_s
+    assert row["onset_method"] == v.onset_method and row["p_value"] == v.confidence
+    assert row["score_max"] == pytest.approx(v.score_max, rel=1e-12)
+    assert row["threshold"] == det.threshold_
+    assert (row["leak_lpm"], row["leak_lpm_low"], row["leak_lpm_high"]) == pytest.approx(
+        (v.leak_lpm, *v.leak_lpm_interval), rel=1e-12)
+    assert row["leak_lpm_in_range"] == v.leak_lpm_in_range
+    (row,) = run_case(ok, cfg)
+    v = det.predict(read_recording(ok))
+    assert row["alarm"] is v.leak and row["score_max"] == pytest.approx(v.score_max, rel=1e-12)
+    if not v.leak:
+        assert row["alarm_time_s"] is None and row["leak_lpm"] is None
+
+
+def test_predict_series_refuses_another_feature(tmp_path):
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm
+    from leakdiag.sim import simulate_vca
+
+    det = make_detector("ccf-p1p2", "vca", Alarm(false_alarms_per_hour=100.0, burn_in_s=2.0))
+    det.fit([simulate_vca(duration=30.0, leak_lpm=None, seed=s) for s in (1, 2, 3)])
+    fs = FeatureSeries(np.array([0.5, 1.0]), np.array([0.1, 0.2]), "autocorrelation",
+                       window=200, step=190, sample_rate=1000.0)
+    with pytest.raises(ValueError, match=r"predict_series: x.csv: the series is "
+                                         r"'autocorrelation' over N=200, the detector's"):
+        det.predict_series(fs, 30.0, source="x.csv")

@@ -3,6 +3,7 @@ through the CLI entry point."""
 
 import gc
 import json
+import math
 import os
 import signal
 import sqlite3
@@ -50,6 +51,7 @@ def test_monitor_store_matches_the_offline_verdict(leak_case, tmp_path):
     assert cleared is None  # still in alarm at the end of the recording
     fl = EventStore(db).fleet()
     assert fl.loc[0, "state"] == "ALARM" and fl.loc[0, "name"] == "rig7"
+    assert fl.loc[0, "system"] == "vca"  # from the recording's metadata
     # the monitor froze the garbage collector's generations while it ran (hooks.py); run
     # in-process, it must leave them as it found them (frozen objects are never collected, and
     # gc.get_referrers no longer sees them: hypothesis' register_random then warns)
@@ -82,7 +84,17 @@ def test_detect_and_batch_store(leak_case, tmp_path):
     assert "4 run(s) written" in out
     fl = st.fleet().set_index("name")
     assert fl.loc["rig7", "state"] == "ALARM" and fl.loc["healthy", "state"] == "OK"
-    assert fl.loc["rig7", "last_alarm_time_s"] == leak_case["verdict"].alarm_time_s
+    assert fl.loc["rig7", "system"] == "vca" and fl.loc["healthy", "system"] == "vca"
+    v = leak_case["verdict"]  # the detector's own predict: batch stores the same verdict
+    assert fl.loc["rig7", "last_alarm_time_s"] == v.alarm_time_s
+    _, al = st.history("rig7")
+    b = al[al["detector"] == "det"].iloc[0]
+    assert (b["onset_s"], b["threshold"]) == (v.onset_s, v.threshold)
+    assert b["score"] == pytest.approx(v.score_max, rel=1e-12)
+    assert (b["leak_lpm"], b["leak_lpm_low"], b["leak_lpm_high"]) == pytest.approx(
+        (v.leak_lpm, *v.leak_lpm_interval), rel=1e-12)
+    assert (fl.loc["rig7", "onset_s"], fl.loc["rig7", "leak_lpm"]) == pytest.approx(
+        (v.onset_s, v.leak_lpm), rel=1e-12)
     summ, _ = st.history("healthy")
     assert summ["n_windows"].tolist() == [631, 631]
 
@@ -215,8 +227,13 @@ def test_batch_store_rerun_writes_nothing_twice_and_states_failed_and_unjudged(l
     st = EventStore(db)
     n_runs, n_alarms = st.count("runs"), st.count("alarms")
     assert (n_runs, n_alarms) == (3, 1)
-    state = st.fleet().set_index("name")["state"]
-    assert state.to_dict() == {"rig1": "ALARM", "broken": "FAILED", "short": "NOT JUDGED"}
+    fl = st.fleet().set_index("name")
+    assert fl["state"].to_dict() == {"rig1": "ALARM", "broken": "FAILED", "short": "NOT JUDGED"}
+    # the reason is kept (schema version 2) and shown on the fleet page
+    assert fl.loc["broken", "error"].startswith(f"batch: {rec / 'broken' / 'bad.parquet'}")
+    assert fl.loc["short", "error"].startswith("det: detector not judged: no window")
+    assert fl.loc["rig1", "error"] is None or math.isnan(fl.loc["rig1", "error"])  # none
+    assert st.runs_of("broken")["status"].tolist() == ["failed"]
     con = sqlite3.connect(db)
     assert con.execute("select c.alarm, r.status from chunk_summaries c join runs r on "
                        "r.id = c.run_id where r.source like '%s.parquet'").fetchall() == \
@@ -254,3 +271,27 @@ def test_store_refusals_before_any_work_and_without_secrets(leak_case, tmp_path)
                            str(job), "--out", str(tmp_path / "res"), "--scheduler", "serial",
                            "--no-progress", "--store", str(tmp_path / "f.db")])
     assert code == 2 and "have the same folder name 'rig1'" in err
+
+
+def test_a_monitor_that_fails_stores_why(leak_case, tmp_path):
+    """A CSV whose line 900 is not a number: the monitor stops (exit 2), the stored run is
+    ``failed`` with the message the user saw, and the fleet says FAILED with it."""
+    from leakdiag.io import read_recording
+
+    rec = read_recording(leak_case["recording"])
+    df = rec.to_pandas()[["time", "p1", "p2"]].iloc[:3000].astype(object)
+    df.iloc[898, 1] = "abc"  # data line 899 = file line 900
+    csv = tmp_path / "rig3.csv"
+    df.to_csv(csv, index=False)
+    db = tmp_path / "ev.db"
+    code, out, err = _run(["monitor", str(csv), "--method", "autocorrelation", "--channels",
+                           "p1", "--window", "200", "--chunk", "500", "--store", str(db)])
+    assert code == 2 and "'abc'" in err
+    st = EventStore(db)
+    runs = st.runs_of("rig3")
+    assert runs["status"].tolist() == ["failed"]
+    why = runs["error"].iloc[0]
+    assert why.startswith("RecordingError: ") and "'abc'" in why and str(csv) in why
+    fl = st.fleet()
+    assert fl["state"].tolist() == ["FAILED"] and fl["error"].iloc[0].endswith(why)
+    st.close()

@@ -69,7 +69,7 @@ def test_schema_version_mismatch(pg_url):
     with eng.begin() as c:
         c.execute(text("update schema_version set version = 99"))
     eng.dispose()
-    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 1"):
+    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 2"):
         EventStore(pg_url)
 
 
@@ -104,3 +104,22 @@ def healthy_rec():
 
     return simulate_vca(duration=20.0, leak_lpm=None, seed=4)
 
+
+
+def test_a_version_1_store_is_upgraded_in_place(pg_url):
+    st = EventStore(pg_url)
+    st.end_run(st.start_run("rig1", command="monitor", source="a.parquet", feature="ac p1"))
+    st.close()
+    eng = create_engine(pg_url)
+    with eng.begin() as c:
+        c.execute(text("alter table runs drop column error"))
+        c.execute(text("update schema_version set version = 1"))
+    st = EventStore(pg_url, create=False)
+    with eng.connect() as c:
+        assert c.execute(text("select version from schema_version")).all() == [(2,)]
+        assert c.execute(text("select status, error from runs")).all() == [("finished", None)]
+    eng.dispose()
+    run = st.start_run("rig1", command="batch", source="b.csv", feature="acf")
+    st.end_run(run, "failed", "b.csv: unreadable")
+    assert st.fleet()["error"].tolist() == ["acf: b.csv: unreadable"]
+    st.close()

@@ -95,7 +95,7 @@ def test_schema_version_mismatch(tmp_path):
     con.execute("update schema_version set version = 99")
     con.commit()
     con.close()
-    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 1"):
+    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 2"):
         EventStore(db)
 
 
@@ -309,4 +309,76 @@ def test_fleet_shows_the_first_standing_alarm_and_a_size_whatever_the_method_ord
     assert row["state"] == "ALARM"
     assert (row["last_alarm_time_s"], row["onset_s"]) == (14.829, 13.0)
     assert (row["leak_lpm"], row["leak_lpm_low"], row["leak_lpm_high"]) == (0.118, 0.0713, 0.938)
+    st.close()
+
+
+def _as_version_1(db):
+    """Make a store file the version-1 layout: ``runs`` without ``error``, version 1."""
+    con = sqlite3.connect(db)
+    con.execute("alter table runs drop column error")
+    con.execute("update schema_version set version = 1")
+    con.commit()
+    con.close()
+
+
+def test_a_version_1_store_is_upgraded_in_place(tmp_path):
+    db = tmp_path / "e.db"
+    st = EventStore(db)
+    run = st.start_run("rig1", command="monitor", source="a.parquet", feature="ac p1")
+    st.add_chunk(run, _summary(0))
+    st.end_run(run)
+    st.close()
+    _as_version_1(db)
+    st = EventStore(db, create=False)  # also a reader (the fleet page) upgrades it
+    con = sqlite3.connect(db)
+    assert con.execute("select version from schema_version").fetchall() == [(2,)]
+    assert "error" in [r[1] for r in con.execute("pragma table_info(runs)")]
+    assert con.execute("select status, error from runs").fetchall() == [("finished", None)]
+    con.close()
+    assert st.fleet()["state"].tolist() == ["OK"] and st.count("chunk_summaries") == 1
+    run = st.start_run("rig1", command="batch", source="b.csv", feature="acf")
+    st.end_run(run, "failed", "b.csv: line 3, channel 'p1': 'x' is not a number")
+    assert st.fleet()["error"].tolist() == ["acf: b.csv: line 3, channel 'p1': 'x' is not a "
+                                            "number"]
+    st.close()
+    EventStore(db).close()  # opening a current store changes nothing
+    assert sqlite3.connect(db).execute("select version from schema_version").fetchall() == \
+        [(2,)]
+
+
+def test_failed_and_unjudged_runs_keep_their_reason(tmp_path):
+    st = EventStore(tmp_path / "e.db")
+    inv = "i1"
+    a = st.start_run("rig1", command="detect", source="x.csv", feature="acf-p1", invocation=inv)
+    b = st.start_run("rig1", command="detect", source="x.csv", feature="ekf", invocation=inv)
+    st.end_run(a, "finished")
+    st.end_run(b, "unjudged", "too short to judge: 3 s")
+    fl = st.fleet()
+    assert fl["state"].tolist() == ["NOT JUDGED"]
+    assert fl["error"].tolist() == ["ekf: too short to judge: 3 s"]
+    runs = st.runs_of("rig1")
+    assert runs["feature"].tolist() == ["ekf", "acf-p1"]  # newest first
+    assert runs["error"].tolist()[0] == "too short to judge: 3 s"
+    assert runs["error"].isna().tolist() == [False, True]
+    c = st.start_run("rig1", command="detect", source="y.csv", feature="acf-p1")
+    st.end_run(c, "finished")
+    assert st.fleet()[["state", "error"]].values.tolist() == [["OK", None]]
+    with pytest.raises(StoreError, match="no actuator named 'rig9'"):
+        st.runs_of("rig9")
+    st.close()
+
+
+def test_the_system_of_an_actuator_is_filled_once_and_never_overridden(tmp_path):
+    st = EventStore(tmp_path / "e.db")
+    st.end_run(st.start_run("rig1", command="batch", source="a.csv", feature="f"))
+    assert st.fleet()["system"].tolist() == [None]
+    st.end_run(st.start_run("rig1", command="detect", source="b.csv", feature="f",
+                            system="VCA"))
+    assert st.fleet()["system"].tolist() == ["vca"]
+    st.end_run(st.start_run("rig1", command="batch", source="c.csv", feature="f"))
+    assert st.fleet()["system"].tolist() == ["vca"]
+    with pytest.raises(StoreError, match="actuator 'rig1' is a vca in the store, this run says "
+                                         "eha: give it another name"):
+        st.start_run("rig1", command="detect", source="d.csv", feature="f", system="eha")
+    assert st.count("runs") == 3 and st.fleet()["system"].tolist() == ["vca"]
     st.close()

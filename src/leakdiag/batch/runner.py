@@ -167,21 +167,28 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                 refused[name] = _in_job_words(str(exc))
         items = [it for it in items if not (it[0] == "detector" and it[1] in refused)]
         feats = [StreamingFeature(s, src.sample_rate, src.start_time) for _, _, s, _ in items]
-        scorers = [None if d is None else as_scorer(d, s, src.sample_rate, src.start_time)
-                   for _, _, s, d in items]
+        # a leakdiag Detector judges the whole streamed feature at the end (predict_series);
+        # another scorer (anything with score_windows) scores it chunk by chunk
+        scorers = [None if d is None or _judges_series(d) else
+                   as_scorer(d, s, src.sample_rate, src.start_time) for _, _, s, d in items]
         parts: list[list[tuple]] = [[] for _ in items]
         for chunk in src:
             for feat, scorer, acc in zip(feats, scorers, parts):
                 fs = feat.push(chunk)
                 if len(fs):
                     sc = None if scorer is None else scorer.score_windows(fs.values, fs.time)
-                    acc.append((fs.time, fs.values, sc))
+                    acc.append((fs, sc))
+        # the rig: the recording's metadata, else the detectors' (check_detector_fits above
+        # refused a detector of another rig than the recording's)
+        system = src.meta.get("system") or next(
+            (m.system for _, _, m, _ in dets if getattr(m, "system", None)), None)
+        base = {**base, "system": None if system is None else str(system)}
         onset = config.onset_s if config.onset_s is not None else src.meta.get("onset")
         onset = None if onset is None else float(onset)
         rows = []
         for (kind, name, spec, det), feat, scorer, acc in zip(items, feats, scorers, parts):
-            t = np.concatenate([a[0] for a in acc]) if acc else np.empty(0)
-            v = np.concatenate([a[1] for a in acc]) if acc else np.empty(0)
+            t = np.concatenate([a[0].time for a in acc]) if acc else np.empty(0)
+            v = np.concatenate([a[0].values for a in acc]) if acc else np.empty(0)
             row = {**base, "status": "ok", "kind": kind, "name": name, **spec.as_dict(),
                    "sample_rate": src.sample_rate, "n_samples": feat.n_samples_seen,
                    "duration_s": feat.n_samples_seen / src.sample_rate,
@@ -189,19 +196,11 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                    **_summary(v), **_measure(spec, t, v, onset, config.rms_chunk,
                                              src.sample_rate)}
             if scorer is not None:
-                s = np.concatenate([a[2] for a in acc]) if acc else np.empty(0)
-                alarms = scorer.alarm_windows(s) if hasattr(scorer, "alarm_windows") else (
-                    s >= scorer.threshold_)
-                row["score_max"] = float(np.nanmax(s)) if np.isfinite(s).any() else None
-                row["alarm"] = bool(np.any(alarms))
-                row["alarm_time_s"] = float(t[np.argmax(alarms)]) if np.any(alarms) else None
-                if row["score_max"] is None:  # no window scored: nothing was tested
-                    row["alarm"] = None
-                    burn = float(getattr(getattr(det, "alarm", None), "burn_in_s", 0.0) or 0.0)
-                    row["error"] = (f"detector not judged: no window of {len(v)} was scored "
-                                    f"(the recording, {row['duration_s']:.4g} s, is too short "
-                                    f"for the {burn:g}-s burn-in, or its feature values are "
-                                    "not finite)")
+                s = np.concatenate([a[1] for a in acc]) if acc else np.empty(0)
+                row.update(_scorer_columns(det, scorer, t, s, row["duration_s"]))
+            elif det is not None:
+                row.update(_verdict_columns(det, [a[0] for a in acc], t, v, row["duration_s"],
+                                            src.start_time, path))
             rows.append(row)
         rows += [{**base, "status": "error", "kind": "detector", "name": name, "error": msg}
                  for name, msg in refused.items()]
@@ -321,6 +320,61 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
     finally:
         bar.close()
     return BatchSummary(len(paths), len(paths) - len(todo), len(todo), n_err, os.fspath(out_dir))
+
+
+def _judges_series(det) -> bool:
+    """Whether a job's detector is a fitted leakdiag Detector (it gives a whole Verdict)."""
+    return callable(getattr(det, "predict_series", None)) and hasattr(det, "threshold_")
+
+
+def _not_judged(det, n_windows: int, duration_s: float) -> str:
+    burn = float(getattr(getattr(det, "alarm", None), "burn_in_s", 0.0) or 0.0)
+    return (f"detector not judged: no window of {n_windows} was scored (the recording, "
+            f"{duration_s:.4g} s, is too short for the {burn:g}-s burn-in, or its feature "
+            "values are not finite)")
+
+
+def _scorer_columns(det, scorer, t: np.ndarray, s: np.ndarray, duration_s: float) -> dict:
+    """A detector row from a scorer that is not a leakdiag Detector: CUSUM-like scores and an
+    alarm where they reach its ``threshold_`` (no onset or leak size: it has none)."""
+    alarms = scorer.alarm_windows(s) if hasattr(scorer, "alarm_windows") else (
+        s >= scorer.threshold_)
+    thr = getattr(scorer, "threshold_", None)
+    out = {"threshold": None if thr is None else float(thr),
+           "score_max": float(np.nanmax(s)) if np.isfinite(s).any() else None,
+           "alarm": bool(np.any(alarms)),
+           "alarm_time_s": float(t[np.argmax(alarms)]) if np.any(alarms) else None}
+    if out["score_max"] is None:  # no window scored: nothing was tested
+        out.update(alarm=None, error=_not_judged(det, len(s), duration_s))
+    return out
+
+
+def _verdict_columns(det, parts: list[FeatureSeries], t: np.ndarray, v: np.ndarray,
+                     duration_s: float, start_time: float, path: str) -> dict:
+    """A detector row's verdict: what ``leakdiag detect --detector`` says of the recording.
+
+    The streamed windows are judged by :meth:`leakdiag.detect.base.Detector.predict_series`:
+    alarm, alarm time, onset estimate (the detector's own onset method), p-value, CUSUM
+    maximum and threshold, and the leak size with its interval when the detector is
+    calibrated. A recording with no finite window after the burn-in is not judged (``alarm``
+    null, the reason in ``error``).
+    """
+    from leakdiag.io.errors import RecordingError
+
+    cols = {"threshold": float(det.threshold_)}
+    series = parts[0].with_values(v, time=t) if parts else None
+    try:
+        if series is None:
+            raise RecordingError("no complete window")
+        verdict = det.predict_series(series, duration_s, start_time, source=path)
+    except RecordingError:  # nothing was tested
+        return {**cols, "alarm": None, "error": _not_judged(det, len(v), duration_s)}
+    d = verdict.as_dict()
+    return {**cols, "alarm": bool(verdict.leak), "alarm_time_s": d["alarm_time_s"],
+            "score_max": d["score_max"], "p_value": d["confidence"],
+            "alarm_onset_s": d["onset_s"], "onset_method": d["onset_method"] if verdict.leak
+            else None, "leak_lpm": d["leak_lpm"], "leak_lpm_low": d["leak_lpm_low"],
+            "leak_lpm_high": d["leak_lpm_high"], "leak_lpm_in_range": d["leak_lpm_in_range"]}
 
 
 def _lost_case_rows(path: str, exc: Exception, config: BatchConfig) -> list[dict]:

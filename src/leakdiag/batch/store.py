@@ -21,6 +21,7 @@ __all__ = ["RESULT_COLUMNS", "result_key", "finished_keys", "finished_state", "w
 #: Result columns and their Arrow types (a fixed schema so that all files concatenate).
 RESULT_COLUMNS: dict[str, str] = {
     "path": "string", "recording": "string", "status": "string", "error": "string",
+    "system": "string",
     "kind": "string", "name": "string", "method": "string", "channels": "string",
     "lag": "int64", "lag_ratio": "string", "window": "int64", "overlap": "float64",
     "sample_rate": "float64", "n_samples": "int64", "duration_s": "float64",
@@ -29,6 +30,9 @@ RESULT_COLUMNS: dict[str, str] = {
     "onset_s": "float64", "mean_rms_before": "float64", "mean_rms_after": "float64",
     "pct_change": "float64", "pct_change_signed": "float64",
     "score_max": "float64", "alarm": "bool", "alarm_time_s": "float64",
+    "threshold": "float64", "p_value": "float64", "alarm_onset_s": "float64",
+    "onset_method": "string", "leak_lpm": "float64", "leak_lpm_low": "float64",
+    "leak_lpm_high": "float64", "leak_lpm_in_range": "bool",
     "elapsed_s": "float64", "job_digest": "string", "job_config": "string",
     "leakdiag_version": "string", "recording_sha256": "string",
 }

@@ -116,7 +116,7 @@ def open_monitor_hooks(live: dict, spec, monitor, source, say):
     name = live.get("actuator") or (
         "stdin" if src in ("<stdin>", "-") else os.path.splitext(os.path.basename(src))[0])
     hooks = MonitorHooks(name, spec, monitor, src, source.sample_rate, live.get("store"), bind,
-                         live.get("refresh_hz", 5.0), say)
+                         live.get("refresh_hz", 5.0), say, system=live.get("system"))
     hooks.freeze_gc()  # until hooks.close(): see MonitorHooks.freeze_gc
     return hooks
 

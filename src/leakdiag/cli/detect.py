@@ -127,8 +127,10 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     say = progress or (lambda msg: None)
     rec = read_with(file, column_map, sample_rate, resample)
     rows = []
+    rig = rec.meta.get("system")  # the file's rig, else the detectors' or the --system
     for path in detectors:
         det, meta = load_detector_file(path)
+        rig = rig or getattr(meta, "system", None)
         check_detector_fits(meta, sample_rate=rec.sample_rate, channels=rec.channels,
                             units=rec.units, system=rec.meta.get("system"), source=str(file),
                             path=str(path), load=rec.meta.get("load"))
@@ -145,6 +147,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
                              f"all load {fitted_load!r}: give healthy recordings under this "
                              "load")
         system = system_of([rec, *train], system, [str(file), *map(str, healthy)])
+        rig = rig or system
         span = rec.duration - burn_in_s  # monitored: the burn-in never alarms
         if span <= 0:
             raise ValueError(f"{file}: {rec.duration:g} s long, not longer than --burn-in "
@@ -175,6 +178,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
             rows.append(_row(m, det, rec, len(train)))
     tab = pd.DataFrame(rows)
     tab.attrs["duration_s"] = float(rec.duration)
+    tab.attrs["system"] = None if rig is None else str(rig).lower()
     return tab
 
 

@@ -290,6 +290,7 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     say = (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=out is sys.stdout))
     n_win = n_alarm = 0
     alarm_on = False
+    live = {**live, "system": source.meta.get("system") or getattr(meta, "system", None)}
     hooks = open_monitor_hooks(live, spec, mon, source, say)  # --store / --dashboard
     t0 = time.perf_counter()
     try:
@@ -319,7 +320,10 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
         if out is not None and out is not sys.stdout:
             out.close()
         if hooks:
-            hooks.close(sys.exc_info()[0] is None, live["linger"], say)
+            exc = sys.exc_info()[1]
+            hooks.close(exc is None, live["linger"], say, None if exc is None else
+                        "interrupted (Ctrl-C)" if isinstance(exc, KeyboardInterrupt) else
+                        f"{type(exc).__name__}: {exc}")
     dt = time.perf_counter() - t0
     n = mon.n_samples_seen
     alarms = (f"{n_alarm} alarm(s)" if detector is not None else

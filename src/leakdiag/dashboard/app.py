@@ -53,6 +53,8 @@ STATIC = Path(__file__).with_name("static")
 #: Most points of a history plot: longer histories are merged in blocks of consecutive chunks
 #: (:func:`leakdiag.store.merge_summaries`; a day of 1-s chunks is 86,400 rows).
 HISTORY_POINTS = 2000
+#: Runs listed on a history page (newest first; the API says how many there are in all).
+HISTORY_RUNS = 200
 #: Largest live-page update rate while the stream runs faster than real time (its stream time
 #: advanced more than :data:`REPLAY_SPEEDUP` times the wall time since the last update): each
 #: update costs the browser a redraw of up to 3,000 points per trace on the cores that the
@@ -223,15 +225,19 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                 last = "–" if r["last_alarm_at"] is None else (
                     f'{r["last_alarm_at"][:19].replace("T", " ")} (t={r["last_alarm_time_s"]:.6g} s)')
                 onset = "–" if r["onset_s"] is None else f'{r["onset_s"]:.6g} s'
+                why = r.get("error") or ""
+                note = (f'<td class="note" title="{html.escape(why)}">'
+                        f'{html.escape(why if len(why) <= 160 else why[:157] + "...")}</td>')
                 rows.append(
                     f'<tr data-actuator="{html.escape(n)}"><td><a href="/history/{quote(n)}{tq}">'
                     f'{html.escape(n)}</a></td><td class="state {html.escape(r["state"])}">'
                     f'{html.escape(r["state"])}</td><td>{html.escape(last)}</td>'
                     f'<td>{html.escape(onset)}</td><td>{html.escape(leak)}</td>'
                     f'<td>{html.escape(str(r["last_seen_at"])[:19].replace("T", " "))}</td>'
-                    f'<td>{html.escape(str(r["feature"]))}</td></tr>')
+                    f'<td>{html.escape(str(r["feature"]))}</td>{note}</tr>')
             head = ("<tr><th>Actuator</th><th>State</th><th>Last alarm (UTC)</th><th>Onset</th>"
-                    "<th>Leak estimate</th><th>Last seen (UTC)</th><th>Feature</th></tr>")
+                    "<th>Leak estimate</th><th>Last seen (UTC)</th><th>Feature</th>"
+                    "<th>Why not judged</th></tr>")
             parts.append(f'<h2>Event store</h2><table id="fleet">{head}{"".join(rows)}</table>'
                          f'<p class="note">{len(rows)} actuator(s); refreshed every 10 s.</p>')
         return HTMLResponse(_page("leakdiag fleet", "".join(parts), [], tq, refresh=10))
@@ -297,6 +303,9 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                 '<div id="summary-plot" class="plot"></div><div id="score-plot" class="plot"></div>'
                 '<h2>Alarms</h2><table id="alarms"><tr><th>Raised (UTC)</th><th>Alarm time</th>'
                 '<th>Onset</th><th>Leak estimate</th><th>Cleared</th><th>Source</th></tr></table>'
+                '<h2>Runs</h2><table id="runs"><tr><th>Started (UTC)</th><th>Command</th>'
+                '<th>Feature</th><th>Status</th><th>Windows</th><th>Source</th><th>Error</th>'
+                '</tr></table>'
                 f'<p><a href="/{tq}">fleet</a></p>')
         return HTMLResponse(_page(f"leakdiag history {name}", body,
                                   ["plotly.min.js", "history.js"], tq))
@@ -306,6 +315,7 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
             return PlainTextResponse("404: no event store", status_code=404)
         try:
             summ, al = await anyio.to_thread.run_sync(store.history, request.path_params["name"])
+            runs = await anyio.to_thread.run_sync(store.runs_of, request.path_params["name"])
         except StoreError as exc:
             return PlainTextResponse(f"404: {exc}", status_code=404)
 
@@ -316,7 +326,10 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
         out = {"summaries": {c: [_clean(v) for v in summ[c].tolist()] for c in cols},
                "n_chunks": n_rows,
                "chunks_per_point": int(summ["n_chunks"].max()) if n_rows else 1,
-               "alarms": [{k: _clean(v) for k, v in r.items()} for r in al.to_dict("records")]}
+               "alarms": [{k: _clean(v) for k, v in r.items()} for r in al.to_dict("records")],
+               "runs": [{k: _clean(v) for k, v in r.items()}
+                        for r in runs.head(HISTORY_RUNS).to_dict("records")],
+               "n_runs": len(runs)}
         return JSONResponse(out)
 
     async def fleet_api(request: Request):

@@ -15,6 +15,7 @@ it starts.
 from __future__ import annotations
 
 import gc
+import sys
 import time
 from typing import Any, Callable
 from urllib.parse import quote
@@ -64,6 +65,9 @@ class MonitorHooks:
         Largest page update rate.
     say : callable, optional
         Prints a message for the user.
+    system : str, optional
+        The rig (``vca``/``eha``: the recording's metadata or the detector file's); default:
+        the detector's ``system`` attribute, if any.
 
     Raises
     ------
@@ -75,7 +79,7 @@ class MonitorHooks:
 
     def __init__(self, actuator: str, spec: Any, monitor: Any, source: str, sample_rate: float,
                  store: str | None = None, bind: Any = None, refresh_hz: float = 5.0,
-                 say: Callable[[str], None] = print):
+                 say: Callable[[str], None] = print, system: str | None = None):
 
         self.actuator = actuator
         self.scorer = monitor.scorers[0]
@@ -87,8 +91,8 @@ class MonitorHooks:
             from leakdiag.store import EventStore
 
             self.store = EventStore(store)
-            det = getattr(self.scorer, "detector", None)
-            system = getattr(det, "system", None)
+            if system is None:
+                system = getattr(getattr(self.scorer, "detector", None), "system", None)
             self.run_id = self.store.start_run(
                 actuator, command="monitor", source=source, feature=spec.label,
                 sample_rate_hz=float(sample_rate),
@@ -103,7 +107,9 @@ class MonitorHooks:
                                    bind, refresh_hz)
         except BaseException:
             if self.store is not None:
-                self.store.end_run(self.run_id, "failed")
+                exc = sys.exc_info()[1]
+                self.store.end_run(self.run_id, "failed",
+                                   f"the page or store sidecar did not start: {exc}")
                 self.store.close()
             raise
         self._write = self.sidecar.ring.write  # Sidecar.push without its layers
@@ -196,7 +202,8 @@ class MonitorHooks:
         """
         self.sidecar.flush()
 
-    def close(self, ok: bool, linger_s: float = 0.0, say: Callable[[str], None] = print) -> None:
+    def close(self, ok: bool, linger_s: float = 0.0, say: Callable[[str], None] = print,
+              reason: str | None = None) -> None:
         """Take what is queued, end the run in the store; keep serving, then stop the sidecar.
 
         Parameters
@@ -208,6 +215,8 @@ class MonitorHooks:
             SIGTERM).
         say : callable, optional
             Prints a message for the user.
+        reason : str, optional
+            Why the monitor did not finish (stored with the failed run).
 
         Raises
         ------
@@ -229,7 +238,11 @@ class MonitorHooks:
             error = exc
         try:
             if self.store is not None:
-                self.store.end_run(self.run_id, "finished" if ok and error is None else "failed")
+                failed = not ok or error is not None
+                why = reason if not ok else (None if error is None else
+                                             f"{type(error).__name__}: {error}")
+                self.store.end_run(self.run_id, "failed" if failed else "finished",
+                                   why if failed else None)
                 self.store.close()
             if ok and error is None and linger_s > 0 and self.sidecar.page_base is not None:
                 say(f"dashboard: input ended; serving for {linger_s:g} s more (Ctrl-C stops)")

@@ -310,16 +310,21 @@ class Detector(BaseEstimator):
             raise ValueError(f"{type(self).__name__} is not fitted; call fit(healthy_recordings) first")
 
     def _series(self, recording) -> tuple[np.ndarray, np.ndarray, np.ndarray, FeatureSeries]:
-        fs = self._feature_series(recording)
+        return self._after_burn_in(self._feature_series(recording), recording.start_time)
+
+    def _after_burn_in(self, fs: FeatureSeries, start_time: float
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, FeatureSeries]:
         t = np.asarray(fs.time, dtype=np.float64)
         v = np.asarray(fs.values, dtype=np.float64)
         start = fs.window_start
-        keep = start >= recording.start_time + self._alarm().burn_in_s
+        keep = start >= start_time + self._alarm().burn_in_s
         return t[keep], start[keep], v[keep], fs
 
     def _trace(self, recording) -> _Trace:
         self._check_fitted()
-        t, start, v, fs = self._series(recording)
+        return self._trace_of(*self._series(recording))
+
+    def _trace_of(self, t, start, v, fs) -> _Trace:
         z = (v - self.mean_) / self.std_
         a = self._alarm()
         s_up, s_down = cusum(z, a.drift, a.direction)
@@ -526,10 +531,57 @@ class Detector(BaseEstimator):
             short to judge, or its channel is constant (nothing was tested, so no verdict).
         """
         tr = self._trace(recording)
+        return self._verdict(tr, recording.duration, recording.meta.get("source", "<recording>"))
+
+    def predict_series(self, series: FeatureSeries, duration_s: float,
+                       start_time: float = 0.0, source: str = "<series>") -> Verdict:
+        """Verdict from the detector's feature computed elsewhere, e.g. window by window.
+
+        ``leakdiag batch`` streams a recording through the detector's feature
+        (:class:`leakdiag.stream.StreamingFeature`) and judges the concatenated windows here:
+        the same :class:`Verdict` as :meth:`predict` gives on the whole recording, because the
+        streamed feature equals the offline one (``tests/stream``).
+
+        Parameters
+        ----------
+        series : FeatureSeries
+            The detector's feature over the whole recording (``spec()``'s method, window and
+            sample rate).
+        duration_s : float
+            Duration of the recording in s (``n_samples / sample_rate``; it sets how many
+            healthy-reference segments the p-value counts).
+        start_time : float, default 0.0
+            Time of the recording's first sample in s (the burn-in counts from it).
+        source : str, default "<series>"
+            Name of the recording in error messages.
+
+        Returns
+        -------
+        Verdict
+
+        Raises
+        ------
+        ValueError
+            If ``series`` is not the detector's feature (method or window size differ).
+        leakdiag.io.RecordingError
+            As :meth:`predict`, when no window after the burn-in has a finite value.
+        """
+        self._check_fitted()
+        spec = self.spec() if callable(getattr(self, "spec", None)) else None
+        if spec is not None:
+            if series.name not in (spec.method, spec.label) or series.window != spec.window:
+                raise ValueError(f"predict_series: {source}: the series is {series.name!r} "
+                                 f"over N={series.window}, the detector's feature "
+                                 f"{spec.label!r} over N={spec.window}")
+            series = series.with_values(series.values, spec.label)  # the verdict's name
+        tr = self._trace_of(*self._after_burn_in(series, float(start_time)))
+        return self._verdict(tr, float(duration_s), source)
+
+    def _verdict(self, tr: _Trace, duration_s: float, source: str) -> Verdict:
+        """The verdict on a trace (:meth:`predict`, :meth:`predict_series`)."""
         a = self._alarm()
         if not np.isfinite(tr.z).any():
-            source = recording.meta.get("source", "<recording>")
-            why = (f"too short to judge: {recording.duration:.4g} s leaves no complete window "
+            why = (f"too short to judge: {duration_s:.4g} s leaves no complete window "
                    f"of the feature after the {a.burn_in_s:g}-s burn-in" if len(tr.z) == 0 else
                    f"no finite feature value in the {len(tr.z)} window(s) after the "
                    f"{a.burn_in_s:g}-s burn-in (zero variance: constant channel?)")
@@ -538,7 +590,7 @@ class Detector(BaseEstimator):
         stat = np.maximum(tr.s_up, tr.s_down)
         smax = float(stat.max()) if len(stat) else 0.0
         basis = self.threshold_basis_
-        span = recording.duration - a.burn_in_s
+        span = duration_s - a.burn_in_s
         n_seg = max(1, math.ceil(span / basis.segment_s - SEGMENT_TOLERANCE))
         confidence = basis.p_value(smax, n_seg)
         above = np.flatnonzero(stat > h)

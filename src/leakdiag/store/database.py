@@ -193,6 +193,8 @@ class EventStore:
         have = set(inspect(conn).get_table_names())
         if "schema_version" in have:
             rows = conn.execute(select(S.schema_version.c.version)).scalars().all()
+            while len(rows) == 1 and rows[0] in S.UPGRADES and rows[0] < S.SCHEMA_VERSION:
+                rows = [self._upgrade(conn, rows[0])]
             if rows and rows != [S.SCHEMA_VERSION]:
                 raise StoreError(
                     f"{self.shown_url}: event store has schema version "
@@ -212,6 +214,16 @@ class EventStore:
             conn.execute(insert(S.schema_version).values(version=S.SCHEMA_VERSION,
                                                           created_at=_now()))
 
+    @staticmethod
+    def _upgrade(conn, version: int) -> int:
+        """Take the store from ``version`` to the next one, in the open transaction."""
+        from sqlalchemy import text
+
+        for stmt in S.UPGRADES[version]:
+            conn.execute(text(stmt))
+        conn.execute(update(S.schema_version).values(version=version + 1))
+        return version + 1
+
     def _write(self, fn: Callable[[Any], Any]) -> Any:
         for attempt in range(WRITE_ATTEMPTS):
             try:
@@ -225,10 +237,17 @@ class EventStore:
 
     def _actuator_id(self, conn, name: str, system: str | None) -> int:
         now = _now()
-        row = conn.execute(select(S.actuators.c.id).where(S.actuators.c.name == name)).first()
+        system = None if system is None else str(system).lower()
+        row = conn.execute(select(S.actuators.c.id, S.actuators.c.system)
+                           .where(S.actuators.c.name == name)).first()
         if row:
-            conn.execute(update(S.actuators).where(S.actuators.c.id == row[0])
-                         .values(last_seen_at=now))
+            if system is not None and row[1] is not None and row[1] != system:
+                raise StoreError(f"{self.shown_url}: actuator {name!r} is a {row[1]} in the "
+                                 f"store, this run says {system}: give it another name")
+            values = {"last_seen_at": now}
+            if system is not None and row[1] is None:
+                values["system"] = system  # first run that knows it
+            conn.execute(update(S.actuators).where(S.actuators.c.id == row[0]).values(**values))
             return int(row[0])
         return int(conn.execute(insert(S.actuators).values(
             name=name, system=system, first_seen_at=now, last_seen_at=now)).inserted_primary_key[0])
@@ -370,8 +389,8 @@ class EventStore:
 
         return self._write(fn)
 
-    def end_run(self, run_id: int, status: str = "finished") -> None:
-        """Mark a run as ended (``finished`` or ``failed``).
+    def end_run(self, run_id: int, status: str = "finished", error: str | None = None) -> None:
+        """Mark a run as ended (``finished``, ``failed`` or ``unjudged``).
 
         Parameters
         ----------
@@ -379,9 +398,11 @@ class EventStore:
             From :meth:`start_run`.
         status : str, default "finished"
             Final status.
+        error : str, optional
+            Why the run failed or was not judged (the message the user saw).
         """
         self._write(lambda c: c.execute(update(S.runs).where(S.runs.c.id == run_id)
-                                        .values(ended_at=_now(), status=status)))
+                                        .values(ended_at=_now(), status=status, error=error)))
 
     def close(self) -> None:
         """Release the database connections."""
@@ -442,7 +463,9 @@ class EventStore:
         pandas.DataFrame
             Columns ``name``, ``system``, ``state``, ``last_seen_at``, ``n_runs``,
             ``last_alarm_at``, ``last_alarm_time_s``, ``onset_s``, ``leak_lpm``,
-            ``leak_lpm_low``, ``leak_lpm_high``, ``feature``, ``source``.
+            ``leak_lpm_low``, ``leak_lpm_high``, ``feature``, ``source`` and ``error`` (for
+            ``FAILED`` and ``NOT JUDGED``: the feature and reason of the first such run of the
+            latest invocation, when it was stored).
         """
         import pandas as pd
 
@@ -476,6 +499,10 @@ class EventStore:
                 state = "NOT JUDGED"  # no alarm, but a run of it was not judged: not an OK
             else:
                 state = "OK"
+            why = None
+            if state in ("FAILED", "NOT JUDGED"):
+                bad = inv[inv["status"].isin(["failed", "unjudged"]) & inv["error"].notna()]
+                why = f"{bad.iloc[0]['feature']}: {bad.iloc[0]['error']}" if len(bad) else None
 
             def g(k, row=None):
                 row = la if row is None else row
@@ -488,10 +515,10 @@ class EventStore:
                          "leak_lpm_low": g("leak_lpm_low", size_row),
                          "leak_lpm_high": g("leak_lpm_high", size_row),
                          "feature": None if last is None else last["feature"],
-                         "source": None if last is None else last["source"]})
+                         "source": None if last is None else last["source"], "error": why})
         cols = ["name", "system", "state", "last_seen_at", "n_runs", "last_alarm_at",
                 "last_alarm_time_s", "onset_s", "leak_lpm", "leak_lpm_low", "leak_lpm_high",
-                "feature", "source"]
+                "feature", "source", "error"]
         return pd.DataFrame(rows, columns=cols).sort_values("name", kind="stable") \
             .reset_index(drop=True)
 
@@ -529,6 +556,35 @@ class EventStore:
         al = self._frame(select(S.alarms, *extra).join(S.runs, S.runs.c.id == S.alarms.c.run_id)
                          .where(S.runs.c.actuator_id == aid).order_by(S.alarms.c.id))
         return summ, al
+
+    def runs_of(self, actuator: str):
+        """Every run of one actuator, newest first: command, source, feature, status, error.
+
+        Parameters
+        ----------
+        actuator : str
+            Actuator name.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``id``, ``command``, ``source``, ``feature``, ``started_at``,
+            ``ended_at``, ``status``, ``n_chunks``, ``n_windows``, ``threshold``, ``error``.
+
+        Raises
+        ------
+        StoreError
+            If the actuator is not in the store.
+        """
+        with self._read_engine.connect() as conn:
+            aid = conn.execute(select(S.actuators.c.id)
+                               .where(S.actuators.c.name == actuator)).scalar()
+        if aid is None:
+            raise StoreError(f"{self.shown_url}: no actuator named {actuator!r}")
+        c = S.runs.c
+        return self._frame(select(c.id, c.command, c.source, c.feature, c.started_at, c.ended_at,
+                                  c.status, c.n_chunks, c.n_windows, c.threshold, c.error)
+                           .where(c.actuator_id == aid).order_by(c.id.desc()))
 
     def count(self, table: str) -> int:
         """Rows in one of the store's tables.

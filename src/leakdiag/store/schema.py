@@ -12,11 +12,16 @@ from __future__ import annotations
 from sqlalchemy import (Boolean, Column, DateTime, Float, ForeignKey, Index, Integer, MetaData,
                         String, Table, Text)
 
-__all__ = ["SCHEMA_VERSION", "metadata", "schema_version", "actuators", "runs", "chunk_summaries",
-           "alarms"]
+__all__ = ["SCHEMA_VERSION", "UPGRADES", "metadata", "schema_version", "actuators", "runs",
+           "chunk_summaries", "alarms"]
 
-#: Version of the table layout below; a store written with another version is refused.
-SCHEMA_VERSION = 1
+#: Version of the table layout below. 1: the first layout; 2: ``runs.error``, the reason a run
+#: failed or was not judged. A version-1 store is upgraded in place when opened (one added
+#: column, :data:`UPGRADES`); a store of any other version is refused.
+SCHEMA_VERSION = 2
+
+#: The statements that take a store from version ``v`` to ``v + 1``.
+UPGRADES = {1: ("ALTER TABLE runs ADD COLUMN error TEXT",)}
 
 metadata = MetaData()
 
@@ -52,6 +57,7 @@ runs = Table(
     Column("n_windows", Integer, nullable=False, default=0),
     Column("config", Text),
     Column("leakdiag_version", String(40)),
+    Column("error", Text),  # why a run failed or was not judged (schema version 2)
 )
 
 chunk_summaries = Table(

@@ -20,6 +20,13 @@ def _num(v) -> float | None:
     return v if math.isfinite(v) else None
 
 
+def _text(v) -> str | None:
+    """A result cell as text, None for a missing one (None, NaN, pandas.NA, empty)."""
+    if v is None or (isinstance(v, float) and v != v) or str(v) in ("", "<NA>", "nan"):
+        return None
+    return str(v)
+
+
 #: How ``leakdiag batch --store`` names a recording's actuator.
 ACTUATOR_FROM = ("folder", "stem")
 
@@ -125,11 +132,12 @@ def record_batch(store: EventStore, results, job_digest: str,
             continue
         run = store.start_run(actuator, command="batch", source=str(r["path"]), feature=feature,
                               sample_rate_hz=_num(r.get("sample_rate")), invocation=inv,
+                              threshold=_num(r.get("threshold")), system=_text(r.get("system")),
                               config={"job_digest": job_digest, "kind": r.get("kind"),
                                       "row": key})
         n += 1
         if r["status"] != "ok":
-            store.end_run(run, "failed")
+            store.end_run(run, "failed", _text(r.get("error")))
             continue
         n_win = int(r["n_windows"]) if _num(r.get("n_windows")) is not None else 0
         judged = r.get("kind") == "detector" and r.get("alarm") is not None \
@@ -142,13 +150,16 @@ def record_batch(store: EventStore, results, job_digest: str,
                                 _num(r.get("score_max")), None,
                                 bool(r.get("alarm")) if judged else None)
         alarms = []
-        if r.get("kind") == "detector" and bool(r.get("alarm")) \
-                and _num(r.get("alarm_time_s")) is not None:
-            alarms.append(AlarmRecord(_num(r["alarm_time_s"]), detector=feature))
+        if judged and bool(r.get("alarm")) and _num(r.get("alarm_time_s")) is not None:
+            alarms.append(AlarmRecord(
+                _num(r["alarm_time_s"]), _num(r.get("score_max")), _num(r.get("threshold")),
+                _num(r.get("alarm_onset_s")), _num(r.get("leak_lpm")),
+                _num(r.get("leak_lpm_low")), _num(r.get("leak_lpm_high")), detector=feature))
         if summ is not None or alarms:
             store.add_chunk(run, summ, alarms)
-        store.end_run(run, "unjudged" if r.get("kind") == "detector" and not judged
-                      else "finished")
+        unjudged = r.get("kind") == "detector" and not judged
+        store.end_run(run, "unjudged" if unjudged else "finished",
+                      _text(r.get("error")) if unjudged else None)
     return n
 
 
@@ -164,7 +175,7 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
     file : str
         The judged recording.
     table : pandas.DataFrame
-        :func:`leakdiag.cli.detect.verdict_table`.
+        :func:`leakdiag.cli.detect.verdict_table` (its ``attrs["system"]`` names the rig).
 
     Returns
     -------
@@ -173,11 +184,12 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
     """
     inv = uuid.uuid4().hex
     n = 0
+    system = _text(table.attrs.get("system"))
     for r in table.to_dict("records"):
         err = r.get("error")
         failed = isinstance(err, str) and bool(err)
         run = store.start_run(actuator, command="detect", source=str(file), feature=str(r["method"]),
-                              threshold=_num(r.get("threshold")), invocation=inv,
+                              threshold=_num(r.get("threshold")), invocation=inv, system=system,
                               config={"method": r["method"]})
         if not failed and bool(r.get("leak")) and _num(r.get("alarm_time_s")) is not None:
             store.add_chunk(run, None, [AlarmRecord(
@@ -185,5 +197,5 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
                 _num(r.get("onset_s")), _num(r.get("leak_lpm")), _num(r.get("leak_lpm_low")),
                 _num(r.get("leak_lpm_high")), detector=str(r["method"]))])
             n += 1
-        store.end_run(run, "failed" if failed else "finished")
+        store.end_run(run, "failed" if failed else "finished", err if failed else None)
     return n

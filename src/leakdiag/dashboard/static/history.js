@@ -42,5 +42,23 @@ fetch(cfg.api).then((r) => r.json()).then((h) => {
     cell(tr, a.source);
     table.appendChild(tr);
   }
+  const runs = document.getElementById("runs");
+  for (const r of h.runs) {
+    const tr = document.createElement("tr");
+    tr.className = "run " + r.status;
+    cell(tr, r.started_at);
+    cell(tr, r.command);
+    cell(tr, r.feature);
+    cell(tr, r.status);
+    cell(tr, r.n_windows);
+    cell(tr, r.source);
+    cell(tr, r.error);
+    runs.appendChild(tr);
+  }
+  if (h.n_runs > h.runs.length) {
+    const tr = document.createElement("tr");
+    cell(tr, "... " + (h.n_runs - h.runs.length) + " older run(s) not listed");
+    runs.appendChild(tr);
+  }
   document.body.dataset.loaded = "1";
 });
