@@ -426,6 +426,9 @@ def test_cli_error_rows_advise_what_a_batch_job_can_do(tmp_path):
     t[1500:] += 0.0004
     (rec_dir / "jitter.txt").write_text("time\tp1\n" + "".join(
         f"{a}\t{np.sin(k)}\n" for k, a in enumerate(t)))
+    for name in ("raw.csv", "raw.txt"):  # a real rig's names: they need a column map
+        (rec_dir / name).write_text("time,PG_1\n" + "".join(
+            f"{k / 1000},{k}\n" for k in range(3000)))
     job = tmp_path / "job.toml"
     job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
     r = CliRunner().invoke(cli, ["batch", str(rec_dir / "*"), "--config", str(job), "-o",
@@ -435,7 +438,13 @@ def test_cli_error_rows_advise_what_a_batch_job_can_do(tmp_path):
            "(sample_rate_hz in the job's column_map)" in r.output
     assert "jitter.txt: column 'time' is not uniformly sampled" in r.output
     assert "batch needs a uniform time axis: resample the file first" in r.output
+    assert "raw.txt: no column is named like a channel" in r.output
+    assert "raw.csv: missing channel(s) ['p1']; available: ['PG_1']; give the job a column " \
+           'map (column_map = "map.toml" under [job])' in r.output
+    assert r.output.count('give the job a column map (column_map = "map.toml" under [job])') \
+        == 2
     assert "--sample-rate" not in r.output and "(--resample" not in r.output
+    assert "--map" not in r.output and "--col" not in r.output
 
 
 def test_cli_warns_of_a_time_column_read_as_a_low_rate(tmp_path):

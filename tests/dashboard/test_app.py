@@ -268,3 +268,27 @@ def test_loopback_server_refuses_other_host_names(store, client):
     for host in (f"evil.example:{port}", "127.0.0.1.evil.example", "[::2]:80"):
         r = c.get("/api/fleet", headers={"Host": host})
         assert r.status_code == 400 and "rig-a" not in r.text, host
+
+
+def test_history_keeps_features_apart(tmp_path, client):
+    """Found by a real-data audit (2026-11-27): after a batch with several analyses the history
+    drew every feature's value as one 'mean' line; now each feature is its own series, merged
+    on its own (no point mixes two features) within the same total of points."""
+    from leakdiag.dashboard.app import HISTORY_POINTS
+
+    st = EventStore(tmp_path / "e.db")
+    a = st.start_run("rig-a", command="monitor", source="a.parquet", feature="ac p1")
+    st.add_chunks(a, [ChunkSummary(float(i), i + 0.9, 5, 0, 0.8, 0.7, 0.9, 0.8, None, None,
+                                   None) for i in range(3000)])
+    b = st.start_run("rig-a", command="batch", source="b.csv", feature="metric-length")
+    st.add_chunk(b, ChunkSummary(0.0, 30.0, 31, 2, -0.3, -0.5, 0.1, None, 4.0, None, False))
+    h = client(make_app(store=st)).get("/api/history/rig-a").json()
+    s = h["summaries"]
+    assert h["features"] == ["ac p1", "metric-length"] and h["n_chunks"] == 3001
+    ac = [i for i, f in enumerate(s["feature"]) if f == "ac p1"]
+    ml = [i for i, f in enumerate(s["feature"]) if f == "metric-length"]
+    assert len(ac) == 1000 == HISTORY_POINTS // 2 and sum(s["n_chunks"][i] for i in ac) == 3000
+    assert {s["value_mean"][i] for i in ac} == {0.8} and h["chunks_per_point"] == 3
+    assert [(s["value_mean"][i], s["score_max"][i], s["n_chunks"][i]) for i in ml] == \
+        [(-0.3, 4.0, 1)]
+    st.close()

@@ -200,3 +200,57 @@ def test_leak_size_calibration_recovers_linear_truth(fitted):
     lo, hi = v.leak_lpm_interval
     assert lo < 0.25 < hi and v.leak_lpm_in_range
     assert det.calibration_.validity == {"rig": "synthetic"}
+
+
+def test_not_fitted_is_sklearns_not_fitted_error():
+    from sklearn.exceptions import NotFittedError
+
+    with pytest.raises(NotFittedError, match="WindowMeanDetector is not fitted; call fit"):
+        WindowMeanDetector().score(synthetic(10.0, 0))
+
+
+def _with(rec, **changes):
+    from leakdiag.io.recording import Recording
+
+    meta = {**rec.meta, **changes.pop("meta", {})}
+    return Recording(dict(rec.channels), changes.get("sample_rate", rec.sample_rate),
+                     meta=meta)
+
+
+def test_fit_refuses_a_leaking_run_a_repeated_run_and_mixed_rates_or_rigs():
+    """Found by an API audit (2026-11-27): all four were accepted; a leaking 'healthy' run
+    lowers the threshold's reference and repeated runs are not independent."""
+    h = [synthetic(60.0, s) for s in range(3)]
+    det = WindowMeanDetector(alarm=Alarm(false_alarms_per_hour=30.0, burn_in_s=0.0))
+    leak = synthetic(60.0, 9, onset=30.0, step=0.5)
+    with pytest.raises(ValueError, match=r"fit: healthy recording 4 \(syn9\) leaks by its "
+                                         r"metadata \(0.5 L/min from 30 s\): fit on healthy"):
+        det.fit(h + [leak])
+    with pytest.raises(ValueError, match=r"fit: healthy recording 3 \(syn0\) holds the same "
+                                         r"samples as healthy recording 1 \(syn0\)"):
+        det.fit([h[0], h[1], h[0]])
+    with pytest.raises(ValueError, match=r"different sample rates \(100, 200 Hz\)"):
+        det.fit([h[0], _with(h[1], sample_rate=2 * RATE)])
+    with pytest.raises(ValueError, match=r"different rigs \(\['eha', 'vca'\]\); fit one "):
+        det.fit([_with(h[0], meta={"system": "VCA"}), _with(h[1], meta={"system": "eha"})])
+    det.fit([_with(r, meta={"system": "vca"}) for r in h[:2]] + [h[2]])  # one unknown: fine
+    assert (det.sample_rate_, det.system_) == (RATE, "vca")
+
+
+def test_predict_refuses_another_rate_or_rig_than_the_healthy_runs():
+    """Found by an API audit (2026-11-27): a VCA detector judged a healthy EHA run LEAK
+    (score 985 against 54), a run at another rate likewise (windows are in samples)."""
+    from leakdiag.io import RecordingError
+
+    h = [_with(synthetic(60.0, s), meta={"system": "vca"}) for s in range(3)]
+    det = WindowMeanDetector(alarm=Alarm(false_alarms_per_hour=30.0, burn_in_s=0.0)).fit(h)
+    other = synthetic(60.0, 7)
+    with pytest.raises(RecordingError, match=r"syn7: sampled at 200 Hz, but WindowMeanDetector "
+                                             r"was fitted on healthy recordings at 100 Hz"):
+        det.predict(_with(other, sample_rate=2 * RATE))
+    with pytest.raises(RecordingError, match=r"syn7: a 'eha' recording, but WindowMeanDetector "
+                                             r"was fitted on 'vca' recordings"):
+        det.score(_with(other, meta={"system": "EHA"}))
+    assert det.predict(other).leak in (True, False)  # no rig said: judged
+    del det.sample_rate_, det.system_  # a detector saved before these existed: not checked
+    det.predict(_with(other, meta={"system": "eha"}))

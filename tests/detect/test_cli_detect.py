@@ -143,11 +143,32 @@ def test_detect_needs_a_system_when_no_file_says(files, tmp_path, capsys):
     assert "give --system vca or --system eha" in capsys.readouterr().err
 
 
-def test_detect_warns_when_a_healthy_file_says_it_leaks(files, capsys):
+def test_detect_refuses_a_healthy_file_that_says_it_leaks(files, capsys):
     healthy, leak = files
-    with pytest.warns(UserWarning, match=r"--healthy .*leak.parquet: its metadata says it leaks"):
-        main(["detect", healthy[0], "--healthy", leak, "--healthy", healthy[1],
-              "--methods", "acf-p1"])
+    assert main(["detect", healthy[0], "--healthy", leak, "--healthy", healthy[1],
+                 "--methods", "acf-p1"]) == 2
+    assert "--healthy " in (err := capsys.readouterr().err)
+    assert "leak.parquet: its metadata says it leaks (leak_lpm=0.5); give healthy " in err
+
+
+def test_a_method_that_cannot_judge_the_file_gets_an_error_row(files):
+    """Found by an API audit (2026-11-27): a detector's refusal in predict (too short, units)
+    stopped the whole table; now that method's row says why and the others judge."""
+    from leakdiag.cli.detect import _row, overall_verdict
+    from leakdiag.io import RecordingError
+
+    class Refuses:
+        def predict(self, rec):
+            raise RecordingError("predict: x.parquet: too short to judge")
+
+    assert _row("flow-balance", Refuses(), None, 3) == {
+        "method": "flow-balance", "error": "predict: x.parquet: too short to judge"}
+    import pandas as pd
+
+    tab = pd.DataFrame([{"method": "flow-balance", "error": "too short"},
+                        {"method": "acf-p1", "error": "constant"}])
+    assert overall_verdict(tab, 30.0) == (
+        "inconclusive", "no method could judge the file (flow-balance, acf-p1)")
 
 
 def test_detect_without_references_is_a_usage_error(files, capsys):

@@ -92,3 +92,22 @@ def test_huge_finite_values_are_not_an_error(overlap):
         fs = autocorrelation(x, 1, WINDOW, overlap)
     assert len(fs) == n_windows(N, WINDOW, overlap)
     assert np.isnan(fs.values).all()
+
+
+def test_compute_feature_names_the_file_channel_and_row():
+    """Found by an API audit (2026-11-27): a NaN in p2 of a recording reached a detector as
+    "x holds 1 non-finite value(s)": the kernel's argument, not the channel (x is also the
+    position channel), and no file."""
+    from leakdiag.features.spec import MethodSpec, compute_feature
+    from leakdiag.io import RecordingError
+    from leakdiag.io.recording import Recording
+
+    p1, p2 = np.sin(np.arange(N) / 7.0), np.cos(np.arange(N) / 5.0)
+    p2[70] = np.nan
+    p2[90] = np.inf
+    rec = Recording({"p1": p1, "p2": p2}, 1000.0, meta={"source": "run7.parquet"})
+    spec = MethodSpec("cross-correlation", ("p1", "p2"), lag=1, window=WINDOW, overlap=0)
+    with pytest.raises(RecordingError, match=r"^run7.parquet: channel 'p2' is not finite at row "
+                                             r"70 \(nan; 2 non-finite value\(s\)\): "
+                                             r"cross-correlation p1,p2 1 N=200 0% cannot be "):
+        compute_feature(rec, spec)

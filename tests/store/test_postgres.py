@@ -114,7 +114,8 @@ def test_a_version_1_store_is_upgraded_in_place(pg_url):
     with eng.begin() as c:
         c.execute(text("alter table runs drop column error"))
         c.execute(text("update schema_version set version = 1"))
-    st = EventStore(pg_url, create=False)
+    with pytest.warns(UserWarning, match="upgraded from schema version 1 to 2"):
+        st = EventStore(pg_url)
     with eng.connect() as c:
         assert c.execute(text("select version from schema_version")).all() == [(2,)]
         assert c.execute(text("select status, error from runs")).all() == [("finished", None)]

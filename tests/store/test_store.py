@@ -329,7 +329,16 @@ def test_a_version_1_store_is_upgraded_in_place(tmp_path):
     st.end_run(run)
     st.close()
     _as_version_1(db)
-    st = EventStore(db, create=False)  # also a reader (the fleet page) upgrades it
+    st = EventStore(db, create=False)  # a reader (the fleet page) reads it as it is
+    assert st.version == 1 and st.fleet()[["state", "error"]].values.tolist() == [["OK", None]]
+    assert st.runs_of("rig1")["error"].tolist() == [None]
+    st.close()
+    con = sqlite3.connect(db)
+    assert con.execute("select version from schema_version").fetchall() == [(1,)]
+    con.close()
+    with pytest.warns(UserWarning, match=r"e.db: event store upgraded from schema version 1 to "
+                                         r"2 \(runs.error added\); leakdiag versions before"):
+        st = EventStore(db)  # a writer upgrades it
     con = sqlite3.connect(db)
     assert con.execute("select version from schema_version").fetchall() == [(2,)]
     assert "error" in [r[1] for r in con.execute("pragma table_info(runs)")]

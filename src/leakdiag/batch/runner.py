@@ -102,6 +102,8 @@ def _in_job_words(msg: str) -> str:
     --sample-rate: the job's column_map gives a rate, files are resampled beforehand)."""
     msg = msg.replace(RESAMPLE_ADVICE, "batch needs a uniform time axis: resample the file "
                       "first (leakdiag analyze --resample RATE_HZ reads it)")
+    msg = msg.replace("give a column map (--map FILE or --col p1=COLUMN:UNIT)",
+                      'give the job a column map (column_map = "map.toml" under [job])')
     return re.sub(r"\(--sample-rate, or sample_rate_hz in (a column|the) map\)",
                   "(sample_rate_hz in the job's column_map)", msg)
 
@@ -206,6 +208,8 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                  for name, msg in refused.items()]
     except Exception as exc:  # noqa: BLE001 - a bad file must become a row, not stop the run
         msg = _in_job_words(str(exc))  # leakdiag's messages name file, channel and row
+        if config.column_map is None and "missing channel(s)" in msg and "column map" not in msg:
+            msg += '; give the job a column map (column_map = "map.toml" under [job])'
         if isinstance(exc, ValueError) and (path in msg or os.path.basename(path) in msg):
             err = msg
         else:

@@ -254,12 +254,8 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
     Raises
     ------
     ValueError
-        When a healthy file's sample rate, system, units or channels differ from the suspect's.
-
-    Warns
-    -----
-    UserWarning
-        When a healthy file's metadata records a leak (``leak_lpm`` > 0).
+        When a healthy file's sample rate, system, units or channels differ from the suspect's,
+        or its metadata records a leak (``leak_lpm`` > 0).
     """
     recs = [read_with(p, cmap, sample_rate, resample) for p in paths]
     ref = suspect if suspect is not None else (recs[0] if recs else None)
@@ -282,8 +278,7 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
                     r.units.get(c) != ref.units.get(c):
                 raise ValueError(f"--healthy {p}: channel {c!r} is in {r.units.get(c)!r}, "
                                  f"{name} in {ref.units.get(c)!r}")
-        if _leaks(r.meta):
-            warnings.warn(f"--healthy {p}: its metadata says it leaks "
-                          f"(leak_lpm={r.meta.get('leak_lpm')}); is it really healthy?",
-                          UserWarning, stacklevel=2)
+        if _leaks(r.meta):  # refused, as Detector.fit refuses it (until 2026-11-27 a warning)
+            raise ValueError(f"--healthy {p}: its metadata says it leaks "
+                             f"(leak_lpm={r.meta.get('leak_lpm')}); give healthy recordings")
     return recs

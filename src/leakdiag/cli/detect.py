@@ -14,7 +14,10 @@ _DEFAULT_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 
 
 def _row(m, det, rec, n_healthy):
-    v = det.predict(rec)
+    try:
+        v = det.predict(rec)
+    except ValueError as exc:  # RecordingError: too short, units, ...: this method cannot judge
+        return {"method": m, "error": in_cli_words(str(exc))}
     basis = getattr(det, "threshold_basis_", None)
     a = det._alarm()
     # the rate and burn-in the detector was fitted with: detectors with their own alarm (the
@@ -216,9 +219,12 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
 
     ok = tab[tab["leak"].notna()] if "leak" in tab else tab.iloc[:0]
     failed = tab[tab["leak"].isna()] if "leak" in tab else tab
+    if not len(ok):  # no method judged (every row an error): no rate to state
+        return "inconclusive", (f"no method could judge the file "
+                                f"({', '.join(map(str, failed['method']))})")
     per_run = (pd.to_numeric(ok["false_alarms_per_run"]) if "false_alarms_per_run" in ok
                else pd.to_numeric(ok["false_alarms_per_hour"]) * duration_s / 3600.0)
-    rate = per_run.sum() if len(ok) else float("nan")
+    rate = per_run.sum()
     fa = f"false-alarm rate for this run at most {rate:.3g} (sum over {len(ok)} method(s))"
     if rate > 1.0:  # a sum of expected false alarms, not a probability any more
         fa = (f"false alarms expected in this run up to {rate:.3g} (sum over {len(ok)} "

@@ -320,11 +320,25 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
             return PlainTextResponse(f"404: {exc}", status_code=404)
 
         n_rows = len(summ)
-        summ = merge_summaries(summ, HISTORY_POINTS)  # days of 1-s chunks: one point per block
+        # one series per feature (the runs of an actuator may monitor several: batch analyses,
+        # detect's methods), each merged on its own so that no point mixes two features; days
+        # of 1-s chunks: one point per block
+        feats = list(dict.fromkeys(summ["feature"].tolist()))
+        budget = max(1, HISTORY_POINTS // max(len(feats), 1))
+        parts = []
+        for f in feats:
+            m = merge_summaries(summ[summ["feature"] == f].reset_index(drop=True), budget)
+            parts.append(m.assign(feature=f))
+        if parts:
+            import pandas as pd
+
+            summ = pd.concat(parts, ignore_index=True)
+        else:
+            summ = merge_summaries(summ, HISTORY_POINTS).assign(feature=None)
         cols = ["recorded_at", "t_start_s", "t_end_s", "n_chunks", "value_mean", "value_min",
-                "value_max", "score_max", "alarm", "source"]
+                "value_max", "score_max", "alarm", "source", "feature"]
         out = {"summaries": {c: [_clean(v) for v in summ[c].tolist()] for c in cols},
-               "n_chunks": n_rows,
+               "features": feats, "n_chunks": n_rows,
                "chunks_per_point": int(summ["n_chunks"].max()) if n_rows else 1,
                "alarms": [{k: _clean(v) for k, v in r.items()} for r in al.to_dict("records")],
                "runs": [{k: _clean(v) for k, v in r.items()}

@@ -307,7 +307,10 @@ class Detector(BaseEstimator):
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "threshold_"):
-            raise ValueError(f"{type(self).__name__} is not fitted; call fit(healthy_recordings) first")
+            from sklearn.exceptions import NotFittedError  # a ValueError and AttributeError
+
+            raise NotFittedError(f"{type(self).__name__} is not fitted; call "
+                                 "fit(healthy_recordings) first")
 
     def _series(self, recording) -> tuple[np.ndarray, np.ndarray, np.ndarray, FeatureSeries]:
         return self._after_burn_in(self._feature_series(recording), recording.start_time)
@@ -322,7 +325,26 @@ class Detector(BaseEstimator):
 
     def _trace(self, recording) -> _Trace:
         self._check_fitted()
+        self._check_like_healthy(recording.sample_rate, recording.meta.get("system"),
+                                 recording.meta.get("source", "<recording>"))
         return self._trace_of(*self._series(recording))
+
+    def _check_like_healthy(self, sample_rate, system, source: str) -> None:
+        """Refuse a recording of another sample rate or rig than the healthy ones of ``fit``
+        (windows and lags are in samples; a feature's healthy level is the rig's)."""
+        rate = getattr(self, "sample_rate_", None)  # None: fitted before 2026-11-27
+        if rate is not None and sample_rate is not None and \
+                not math.isclose(float(sample_rate), rate, rel_tol=1e-9):
+            raise RecordingError(
+                f"{source}: sampled at {float(sample_rate):g} Hz, but {type(self).__name__} was "
+                f"fitted on healthy recordings at {rate:g} Hz: its windows and lags are in "
+                "samples, so its feature means something else here; resample the recording "
+                "or fit on healthy recordings at this rate")
+        fitted = getattr(self, "system_", None)
+        if fitted is not None and system is not None and str(system).lower() != fitted:
+            raise RecordingError(
+                f"{source}: a {str(system).lower()!r} recording, but {type(self).__name__} was "
+                f"fitted on {fitted!r} recordings; fit it on healthy recordings of this rig")
 
     def _trace_of(self, t, start, v, fs) -> _Trace:
         z = (v - self.mean_) / self.std_
@@ -359,8 +381,10 @@ class Detector(BaseEstimator):
         Detector
             ``self``, with ``mean_``, ``std_``, ``threshold_`` (float), ``threshold_basis_``
             (:class:`~leakdiag.detect.threshold.ThresholdBasis`; ``alarm_threshold_`` is the same
-            object), ``healthy_maxima_``, ``penalty_``, ``n_healthy_``, ``healthy_hours_`` and
-            ``feature_name_``.
+            object), ``healthy_maxima_``, ``penalty_``, ``n_healthy_``, ``healthy_hours_``,
+            ``feature_name_``, ``sample_rate_`` (Hz) and ``system_`` (the rig by the
+            recordings' metadata, None when they do not say): :meth:`predict` and
+            :meth:`score` refuse a recording of another rate or rig.
 
         Raises
         ------
@@ -369,7 +393,9 @@ class Detector(BaseEstimator):
             "raise"); the message says how much healthy data is needed.
         ValueError
             No usable windows, zero healthy variance, recordings shorter than ``segment_s``,
-            or reference maxima made with other alarm settings.
+            reference maxima made with other alarm settings; a recording whose metadata says
+            it leaks (``leak_lpm`` > 0), the same samples given twice, or recordings of
+            different sample rates or rigs.
         """
         recs = _as_recordings(recordings)
         self._alarm()  # a bad alarm argument fails before any work
@@ -379,11 +405,13 @@ class Detector(BaseEstimator):
 
     def _fit_part(self, recording) -> tuple:
         """What :meth:`fit` needs from one healthy recording (lets a caller read it only once
-        for several detectors): ``(time, values, t0, feature name, monitored span)``."""
+        for several detectors): ``(time, values, t0, feature name, monitored span, info)``
+        with ``info`` the recording's source, sample rate, rig, metadata leak and a digest of
+        its samples (:func:`_healthy_info`)."""
         a = self._alarm()
         t, _, v, fs = self._series(recording)
         return (t, v, recording.start_time + a.burn_in_s, fs.name,
-                max(0.0, recording.duration - a.burn_in_s))
+                max(0.0, recording.duration - a.burn_in_s), _healthy_info(recording))
 
     def _fit_from_parts(self, parts: list, reference_maxima=None) -> "Detector":
         """The rest of :meth:`fit`, from :meth:`_fit_part` of every healthy recording."""
@@ -391,6 +419,7 @@ class Detector(BaseEstimator):
         series = [p[:4] for p in parts]
         spans = [p[4] for p in parts]
         recs = parts
+        rate, system = _check_healthy([p[5] for p in parts if len(p) > 5])
         values = np.concatenate([s[1] for s in series])
         values = values[np.isfinite(values)]
         if len(values) < 2:
@@ -429,6 +458,7 @@ class Detector(BaseEstimator):
         self.n_healthy_ = len(recs)
         self.healthy_hours_ = float(sum(spans)) / 3600.0
         self.feature_name_ = series[0][3]
+        self.sample_rate_, self.system_ = rate, system
         return self
 
     def segment_maxima(self, recordings) -> np.ndarray:
@@ -574,6 +604,7 @@ class Detector(BaseEstimator):
                                  f"over N={series.window}, the detector's feature "
                                  f"{spec.label!r} over N={spec.window}")
             series = series.with_values(series.values, spec.label)  # the verdict's name
+        self._check_like_healthy(series.sample_rate, None, source)
         tr = self._trace_of(*self._after_burn_in(series, float(start_time)))
         return self._verdict(tr, float(duration_s), source)
 
@@ -648,6 +679,63 @@ class Detector(BaseEstimator):
             flows.append(float(rec.meta["leak_lpm"]))
         self.calibration_ = fit_leak_calibration(shifts, flows, level, validity)
         return self
+
+
+def _healthy_info(recording) -> dict:
+    """What :meth:`Detector.fit` checks of a healthy recording besides its feature."""
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=16)
+    for name in sorted(recording.channels):
+        h.update(name.encode())
+        h.update(np.ascontiguousarray(recording.channels[name], dtype=np.float64).tobytes())
+    meta = recording.meta
+    return {"source": str(meta.get("source", "<recording>")),
+            "sample_rate": float(recording.sample_rate),
+            "system": None if meta.get("system") is None else str(meta["system"]).lower(),
+            "leak_lpm": meta.get("leak_lpm"), "onset": meta.get("onset"),
+            "digest": h.hexdigest()}
+
+
+def _check_healthy(infos: list[dict]) -> tuple[float | None, str | None]:
+    """Refuse healthy recordings that leak by their metadata, repeat one another, or differ in
+    sample rate or rig; return the common rate and rig (None when unknown).
+
+    Raises
+    ------
+    ValueError
+        Naming the recordings (by position and source) and the problem.
+    """
+    def name(i):
+        return f"healthy recording {i + 1} ({infos[i]['source']})"
+
+    for i, info in enumerate(infos):
+        q = info["leak_lpm"]
+        try:
+            leaks = q is not None and float(q) > 0
+        except (TypeError, ValueError):
+            leaks = False
+        if leaks:
+            onset = info["onset"]
+            raise ValueError(f"fit: {name(i)} leaks by its metadata ({float(q):g} L/min"
+                             + (f" from {float(onset):g} s" if onset is not None else "")
+                             + "): fit on healthy recordings only")
+    seen: dict[str, int] = {}
+    for i, info in enumerate(infos):
+        j = seen.setdefault(info["digest"], i)
+        if j != i:
+            raise ValueError(f"fit: {name(i)} holds the same samples as {name(j)}: a run "
+                             "given twice would count as two independent healthy runs")
+    rates = sorted({info["sample_rate"] for info in infos})
+    if len(rates) > 1:
+        raise ValueError(f"fit: the healthy recordings have different sample rates "
+                         f"({', '.join(f'{r:g}' for r in rates)} Hz): windows and lags are in "
+                         "samples; resample them to one rate")
+    systems = sorted({info["system"] for info in infos if info["system"] is not None})
+    if len(systems) > 1:
+        raise ValueError(f"fit: the healthy recordings come from different rigs ({systems}); "
+                         "fit one detector per rig")
+    return (rates[0] if rates else None), (systems[0] if systems else None)
 
 
 def _leave_one_out_z(values: list) -> list:

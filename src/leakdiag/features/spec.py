@@ -12,6 +12,8 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from leakdiag._validation import check_int, check_overlap, parse_lag_ratio
 from leakdiag.features._args import plan_windows, signal_1d
 from leakdiag.features.registry import (
@@ -21,6 +23,7 @@ from leakdiag.features.registry import (
     normalize_method,
 )
 from leakdiag.io.checks import check_length
+from leakdiag.io.errors import RecordingError
 
 __all__ = [
     "MethodSpec",
@@ -190,7 +193,7 @@ def compute_feature(recording, spec: MethodSpec):
     Raises
     ------
     RecordingError
-        If a channel is missing or the recording is shorter than one window.
+        If a channel is missing or not finite, or the recording is shorter than one window.
 
     Examples
     --------
@@ -207,6 +210,15 @@ def compute_feature(recording, spec: MethodSpec):
     """
     recording.require(*spec.channels)
     check_length(recording, spec.window)
+    source = recording.meta.get("source")
+    where = f"{source}: " if source else ""
+    for c in spec.channels:  # named here: the kernels know their arguments, not the channels
+        x = np.asarray(recording[c], dtype=np.float64)
+        bad = np.flatnonzero(~np.isfinite(x))
+        if len(bad):
+            raise RecordingError(f"{where}channel {c!r} is not finite at row {int(bad[0])} "
+                                 f"({x[bad[0]]}; {len(bad)} non-finite value(s)): "
+                                 f"{spec.label} cannot be computed over it")
     # the spec checked window, overlap and setting; the recording its rate and start time
     plan = plan_windows(recording.n_samples, spec.window, spec.overlap, recording.sample_rate,
                         recording.start_time)
@@ -214,8 +226,6 @@ def compute_feature(recording, spec: MethodSpec):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         out = compute_planned(spec.record, arrays, spec.value, plan, spec.channels)
-    source = recording.meta.get("source")
-    where = f"{source}: " if source else ""
     for w in caught:  # re-emit naming the file, method and channels
         warnings.warn(f"{where}{spec.label}: {w.message}", w.category, stacklevel=2)
     return out

@@ -14,6 +14,7 @@ import json
 import os
 import time
 import uuid
+import warnings
 from dataclasses import asdict, fields
 from datetime import datetime, timezone
 from typing import Any, Callable
@@ -158,6 +159,9 @@ class EventStore:
 
     def __init__(self, target: str | os.PathLike, create: bool = True):
         self.url = store_url(target)
+        #: Schema version of the file: :data:`SCHEMA_VERSION`, or an older one that a reader
+        #: (``create=False``) reads as it is.
+        self.version = S.SCHEMA_VERSION
         #: The URL as messages show it: a password in it is hidden (``***``).
         self.shown_url = _shown_url(self.url)
         self.is_sqlite = self.url.startswith("sqlite")
@@ -193,8 +197,16 @@ class EventStore:
         have = set(inspect(conn).get_table_names())
         if "schema_version" in have:
             rows = conn.execute(select(S.schema_version.c.version)).scalars().all()
-            while len(rows) == 1 and rows[0] in S.UPGRADES and rows[0] < S.SCHEMA_VERSION:
-                rows = [self._upgrade(conn, rows[0])]
+            if len(rows) == 1 and rows[0] in S.UPGRADES and rows[0] < S.SCHEMA_VERSION:
+                if not create:  # a reader (the fleet page) leaves the file as it is
+                    self.version = rows[0]
+                    return
+                old = rows[0]
+                while rows[0] in S.UPGRADES and rows[0] < S.SCHEMA_VERSION:
+                    rows = [self._upgrade(conn, rows[0])]
+                warnings.warn(f"{self.shown_url}: event store upgraded from schema version "
+                              f"{old} to {rows[0]} (runs.error added); leakdiag versions "
+                              "before this one no longer open it", UserWarning, stacklevel=4)
             if rows and rows != [S.SCHEMA_VERSION]:
                 raise StoreError(
                     f"{self.shown_url}: event store has schema version "
@@ -470,7 +482,7 @@ class EventStore:
         import pandas as pd
 
         act = self._frame(select(S.actuators))
-        runs = self._frame(select(S.runs))
+        runs = self._frame(select(*self._run_columns()))
         al = self._frame(select(S.alarms, S.runs.c.actuator_id).join(
             S.runs, S.runs.c.id == S.alarms.c.run_id))
         rows = []
@@ -582,9 +594,19 @@ class EventStore:
         if aid is None:
             raise StoreError(f"{self.shown_url}: no actuator named {actuator!r}")
         c = S.runs.c
-        return self._frame(select(c.id, c.command, c.source, c.feature, c.started_at, c.ended_at,
-                                  c.status, c.n_chunks, c.n_windows, c.threshold, c.error)
+        cols = {col.name: col for col in self._run_columns()}
+        return self._frame(select(*(cols[k] for k in (
+            "id", "command", "source", "feature", "started_at", "ended_at", "status",
+            "n_chunks", "n_windows", "threshold", "error")))
                            .where(c.actuator_id == aid).order_by(c.id.desc()))
+
+    def _run_columns(self) -> list:
+        """The columns of ``runs`` this file has (a version-1 file read as it is: no error)."""
+        from sqlalchemy import null
+
+        if self.version >= 2:
+            return list(S.runs.c)
+        return [c for c in S.runs.c if c.name != "error"] + [null().label("error")]
 
     def count(self, table: str) -> int:
         """Rows in one of the store's tables.

@@ -9,24 +9,47 @@ function cell(tr, text) {
   tr.appendChild(td);
 }
 
+// one colour per feature (blue first; orange is the score's, red the alarms')
+const PALETTE = ["#1f77b4", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22",
+  "#17becf"];
+
+function rgba(hex, a) {
+  const n = parseInt(hex.slice(1), 16);
+  return "rgba(" + (n >> 16) + "," + ((n >> 8) & 255) + "," + (n & 255) + "," + a + ")";
+}
+
 fetch(cfg.api).then((r) => r.json()).then((h) => {
   const s = h.summaries;
   const shapes = h.alarms.map((a) => ({type: "line", xref: "x", yref: "paper", x0: a.raised_at,
     x1: a.raised_at, y0: 0, y1: 1, line: {color: "#d62728", width: 2}}));
-  Plotly.newPlot("summary-plot", [
-    {x: s.recorded_at, y: s.value_max, mode: "lines", line: {width: 0}, showlegend: false,
-     hoverinfo: "skip"},
-    {x: s.recorded_at, y: s.value_min, mode: "lines", line: {width: 0}, fill: "tonexty",
-     fillcolor: "rgba(31,119,180,0.2)", name: "min-max"},
-    {x: s.recorded_at, y: s.value_mean, mode: "lines+markers", name: "mean",
-     line: {color: "#1f77b4"}}],
-    {title: {text: h.chunks_per_point > 1 ? "feature per block of up to " + h.chunks_per_point +
-       " chunks (" + h.n_chunks + " chunks, UTC)" : "feature per chunk (UTC)"},
+  const feats = h.features.length ? h.features : [null];
+  const traces = [], scores = [];
+  feats.forEach((f, k) => {
+    const idx = s.feature.map((g, i) => (g === f ? i : -1)).filter((i) => i >= 0);
+    const pick = (col) => idx.map((i) => s[col][i]);
+    const x = pick("recorded_at"), colour = PALETTE[k % PALETTE.length];
+    const label = feats.length > 1 ? f : "mean";
+    traces.push({x: x, y: pick("value_max"), mode: "lines", line: {width: 0},
+      showlegend: false, hoverinfo: "skip", legendgroup: String(k)});
+    traces.push({x: x, y: pick("value_min"), mode: "lines", line: {width: 0}, fill: "tonexty",
+      fillcolor: rgba(colour, 0.2), name: "min-max",
+      showlegend: k === 0, legendgroup: String(k)});
+    traces.push({x: x, y: pick("value_mean"), mode: "lines+markers", name: label,
+      line: {color: colour}, legendgroup: String(k)});
+    const sc = pick("score_max");
+    if (sc.some((v) => v !== null) || feats.length === 1) {
+      scores.push({x: x, y: sc, mode: "lines+markers", name: feats.length > 1 ? f :
+        "max score per point", line: {color: k === 0 ? "#ff7f0e" : colour}});
+    }
+  });
+  const per = h.chunks_per_point > 1 ? "per block of up to " + h.chunks_per_point +
+    " chunks (" + h.n_chunks + " chunks, UTC)" : "per chunk (UTC)";
+  Plotly.newPlot("summary-plot", traces,
+    {title: {text: (feats.length > 1 ? feats.length + " features " : "feature ") + per},
      shapes: shapes, margin: {t: 40, r: 20, b: 40, l: 60},
      legend: {orientation: "h", x: 0, y: 1.12}},
     {displaylogo: false});
-  Plotly.newPlot("score-plot", [{x: s.recorded_at, y: s.score_max, mode: "lines+markers",
-    name: "max score per point", line: {color: "#ff7f0e"}}],
+  Plotly.newPlot("score-plot", scores,
     {title: {text: "largest detector score per point"}, shapes: shapes, margin: {t: 40, r: 20, b: 40, l: 60}},
     {displaylogo: false});
   const table = document.getElementById("alarms");
