@@ -4,11 +4,13 @@ Skipped when ``<repo>/../shared`` is absent. No library code knows about this da
 ``docs/examples/rotary_actuator_map.toml`` does.
 """
 
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from leakdiag.cli.main import main
 from leakdiag.io import RecordingError, build_column_map, read_recording
 
 REPO = Path(__file__).resolve().parents[2]
@@ -93,3 +95,62 @@ def test_half_empty_numeric_junk_column_gives_first_nan_row(files):
     with pytest.raises(RecordingError, match=r"channel 'p1' has \d+ non-finite value\(s\); first "
                                              r"NaN at row \d+"):
         read_recording(files[0], cmap)
+
+
+def _damaged_copy(path, tmp_path, header=None, last=None):
+    """A copy of a real file with its header and/or its last line (without newline) replaced."""
+    lines = path.read_bytes().split(b"\n")
+    assert lines[-1] == b"" and len(lines) == 3002  # header, 3000 rows, final newline
+    if header is not None:
+        lines[0] = header
+    if last is not None:
+        lines[-2:] = [last]
+    copy = tmp_path / path.name  # same odd name (spaces), other folder
+    copy.write_bytes(b"\n".join(lines))
+    return copy
+
+
+def test_truncated_last_line_of_a_real_file(files, tmp_path, capsys):
+    path = files[0]
+    original = read_recording(path, MAP)
+    fields = path.read_bytes().split(b"\n")[-2].split(b"\t")
+    assert len(fields) == 18 and len(fields[9]) >= 2  # PG_2 is the 10th field
+    cut = b"\t".join(fields[:9] + [fields[9][:1]])  # "...\t5406" cut to "...\t5"
+    copy = _damaged_copy(path, tmp_path, last=cut)
+    message = (f"{copy}: row 2999 has 10 of 18 fields (truncated line?); column 'PG_2' "
+               f"(channel 'p2') is missing or cut")
+    with pytest.raises(RecordingError, match=re.escape(message) + "$"):
+        read_recording(copy, MAP)
+    assert main(["analyze", str(copy), "--map", str(MAP), "-m", "cross-correlation",
+                 "-c", "p1,p2"]) == 2
+    assert message in capsys.readouterr().err
+    # the cut removes PG_1 and PG_2 entirely (7 fields: up to Temp_2)
+    copy = _damaged_copy(path, tmp_path, last=b"\t".join(fields[:7]))
+    with pytest.raises(RecordingError, match=re.escape(
+            f"{copy}: row 2999 has 7 of 18 fields (truncated line?); columns 'PG_1' (channel "
+            f"'p1'), 'PG_2' (channel 'p2') are missing or cut") + "$"):
+        read_recording(copy, MAP)
+    # only the final newline lost, or only the unread columns after Internal_Temp: read as is
+    for last in (b"\t".join(fields), b"\t".join(fields[:15])):
+        rec = read_recording(_damaged_copy(path, tmp_path, last=last), MAP)
+        for name in original.channels:
+            assert rec[name].tobytes() == original[name].tobytes()
+
+
+def test_repeated_column_name_in_a_real_header(files, tmp_path, capsys):
+    path = files[0]
+    header = path.read_bytes().split(b"\n")[0]
+    assert header.split(b"\t")[7:9] == [b"Temp_3", b"PG_1"]
+    copy = _damaged_copy(path, tmp_path, header=header.replace(b"Temp_3", b"PG_1"))
+    message = (f"{copy}: column 'PG_1' (channel 'p1') appears 2 times in the header, at fields "
+               f"8 and 9 (counting from 1); which one is meant cannot be told: rename the others")
+    with pytest.raises(RecordingError, match=re.escape(message) + "$"):
+        read_recording(copy, MAP)
+    assert main(["analyze", str(copy), "--map", str(MAP), "-m", "cross-correlation",
+                 "-c", "p1,p2"]) == 2
+    assert message in capsys.readouterr().err
+    # a repeated name that the map does not read is harmless
+    copy = _damaged_copy(path, tmp_path, header=header.replace(b"Temp_2", b"Temp_3"))
+    rec, original = read_recording(copy, MAP), read_recording(path, MAP)
+    for name in original.channels:
+        assert rec[name].tobytes() == original[name].tobytes()

@@ -75,9 +75,11 @@ def read_recording(path: str | os.PathLike, column_map: Any = None, *,
     RecordingError
         One message naming the file, channel or column, row and problem: file not found,
         unknown extension, unreadable or empty file, missing column (lists the available
-        ones), text in a mapped column, NaN/inf (first row), non-monotonic or non-uniform time
-        (suggests ``--resample``), channels of different lengths, unknown unit (lists known
-        ones), no sample rate. See ``docs/io.md`` for the catalogue.
+        ones), a column read whose name appears twice in the header, a row too short to hold
+        the columns read (truncated line), text in a mapped column, NaN/inf (first row),
+        non-monotonic or non-uniform time (suggests ``--resample``), channels of different
+        lengths, unknown unit (lists known ones), no sample rate. See ``docs/io.md`` for the
+        catalogue.
 
     Examples
     --------

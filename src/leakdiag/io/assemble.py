@@ -42,6 +42,14 @@ def _numeric(table: RawTable, column: str, channel: str) -> np.ndarray:
     return coerced
 
 
+def _available(table: RawTable) -> str:
+    """``available columns: [...]`` for messages, naming also the names that occur twice."""
+    text = f"available columns: {table.names}"
+    if table.duplicates:
+        text += f"; in the header more than once (not readable): {list(table.duplicates)}"
+    return text
+
+
 def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | None
             ) -> dict[str, ChannelSpec]:
     """Channel -> spec: the map's channels, or every non-time column when there is no map."""
@@ -49,13 +57,21 @@ def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | 
     if cmap is not None and cmap.channels:
         specs = dict(cmap.channels)
         for name, spec in specs.items():
+            table.require_unique(spec.column, f"channel {name!r}")
             if spec.column not in table.columns:
                 raise RecordingError(
                     f"{table.source}: missing column {spec.column!r} for channel {name!r}; "
-                    f"available columns: {available}"
+                    f"{_available(table)}"
                 )
     else:
         time_col = cmap.time_column if cmap is not None and cmap.time_column else "time"
+        for name in table.duplicates:  # without a map every column is read
+            try:
+                table.require_unique(name, "time column" if name == time_col
+                                     else f"channel {name!r}")
+            except RecordingError as exc:
+                raise RecordingError(f"{exc}; without a column map every column is read - "
+                                     f"give a map that selects the columns to read") from None
         specs = {c: ChannelSpec(c) for c in available if c != time_col}
         if not any(c in STANDARD_CHANNELS for c in specs):
             raise RecordingError(
@@ -69,15 +85,6 @@ def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | 
                 f"{table.source}: column name(s) {bad} are not valid channel names; give a "
                 f"column map that selects the columns to read"
             )
-        for name in specs:
-            if table.columns[name].dtype == object:
-                try:
-                    _numeric(table, name, name)
-                except RecordingError as exc:
-                    raise RecordingError(
-                        f"{exc}; without a column map every column is read - give a map that "
-                        f"selects the numeric columns"
-                    ) from None
     for name, unit in (units or {}).items():
         if name not in specs:
             raise RecordingError(
@@ -92,6 +99,32 @@ def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | 
     return specs
 
 
+def _check_all_numeric(table: RawTable, specs: Mapping[str, ChannelSpec]) -> None:
+    """Without a map every column is read: text in any of them is an error suggesting a map."""
+    for name, spec in specs.items():
+        if table.columns[spec.column].dtype == object:
+            try:
+                _numeric(table, spec.column, name)
+            except RecordingError as exc:
+                raise RecordingError(
+                    f"{exc}; without a column map every column is read - give a map that "
+                    f"selects the numeric columns"
+                ) from None
+
+
+def _time_column(table: RawTable, cmap: ColumnMap | None) -> str | None:
+    """The time column: the map's ``time_column``, else ``time`` if the file has one."""
+    col = cmap.time_column if cmap is not None and cmap.time_column else None
+    if col is None:
+        table.require_unique("time", "time column")
+        return "time" if "time" in table.columns else None
+    table.require_unique(col, "time column")
+    if col not in table.columns:
+        raise RecordingError(f"{table.source}: missing time column {col!r}; "
+                             f"{_available(table)}")
+    return col
+
+
 def _check_lengths(table: RawTable, columns: dict[str, str]) -> None:
     lengths = {label: len(table.columns[col]) for label, col in columns.items()}
     if len(set(lengths.values())) > 1:
@@ -99,9 +132,10 @@ def _check_lengths(table: RawTable, columns: dict[str, str]) -> None:
         raise RecordingError(f"{table.source}: channels have different lengths ({desc})")
 
 
-def _time_axis(table: RawTable, cmap: ColumnMap | None, sample_rate: float | None,
-               resample: float | None) -> tuple[str | None, np.ndarray | None, float | None]:
-    """(time column, times in s or None, sample rate or None)."""
+def _time_axis(table: RawTable, cmap: ColumnMap | None, col: str | None,
+               sample_rate: float | None, resample: float | None
+               ) -> tuple[np.ndarray | None, float | None]:
+    """(times in s or None, sample rate or None) from the time column ``col`` (or None)."""
     source = table.source
     rate = sample_rate if sample_rate is not None else (cmap.sample_rate_hz if cmap else None)
     if rate is not None:
@@ -109,14 +143,8 @@ def _time_axis(table: RawTable, cmap: ColumnMap | None, sample_rate: float | Non
             rate = check_positive(rate, "sample_rate")
         except (TypeError, ValueError) as exc:
             raise RecordingError(f"{source}: {exc}") from None
-    col = cmap.time_column if cmap is not None and cmap.time_column else None
-    if col is not None and col not in table.columns:
-        raise RecordingError(f"{source}: missing time column {col!r}; available columns: "
-                             f"{table.names}")
-    if col is None and "time" in table.columns:
-        col = "time"
     if col is None:
-        return None, None, rate
+        return None, rate
     raw = _numeric(table, col, "time")
     unit = cmap.time_unit if cmap is not None else "s"
     if unit == "samples":
@@ -133,14 +161,14 @@ def _time_axis(table: RawTable, cmap: ColumnMap | None, sample_rate: float | Non
         raise RecordingError(f"{source}: time column {col!r} is not a finite number at row "
                              f"{int(bad[0])}")
     if resample is not None:
-        return col, t, rate
+        return t, rate
     inferred = infer_sample_rate(t, source=source, column=col)
     if rate is not None and unit != "samples" and abs(inferred - rate) > UNIFORM_TIME_RTOL * rate:
         raise RecordingError(
             f"{source}: sample rate {rate!r} Hz disagrees with time column {col!r} "
             f"({inferred!r} Hz); drop one of them"
         )
-    return col, t, inferred
+    return t, inferred
 
 
 def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
@@ -175,9 +203,10 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
     Raises
     ------
     RecordingError
-        Missing column, text in a mapped column, NaN/inf, channels of different lengths,
-        non-monotonic or non-uniform time, no sample rate, unknown unit. The message names
-        the file, the channel or column, and the row.
+        Missing column, a column read whose name the header holds more than once, a row too
+        short to hold the columns read (truncated line), text in a mapped column, NaN/inf,
+        channels of different lengths, non-monotonic or non-uniform time, no sample rate,
+        unknown unit. The message names the file, the channel or column, and the row.
 
     Examples
     --------
@@ -193,7 +222,12 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
     if header is not None and column_map is None and units is None and resample is None:
         return _from_header(table, header, sample_rate)
     specs = _select(table, column_map, units)
-    time_col, t, rate = _time_axis(table, column_map, sample_rate, resample)
+    time_col = _time_column(table, column_map)
+    read = {f"channel {name!r}": spec.column for name, spec in specs.items()}
+    table.check_rows(read if time_col is None else {"time column": time_col, **read})
+    if column_map is None or not column_map.channels:
+        _check_all_numeric(table, specs)
+    t, rate = _time_axis(table, column_map, time_col, sample_rate, resample)
     own = header.get("sample_rate") if header is not None else None
     if own is not None and rate is not None and resample is None and \
             abs(rate - float(own)) > UNIFORM_TIME_RTOL * float(own):

@@ -7,10 +7,12 @@ different lengths for MATLAB files) and, for files written by leakdiag, the stor
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Iterator
+from dataclasses import dataclass, field
+from typing import Any, Iterator, Mapping
 
 import numpy as np
+
+from leakdiag.io.errors import RecordingError
 
 __all__ = ["RawTable", "flatten_arrays"]
 
@@ -27,6 +29,10 @@ class RawTable:
         File name for messages.
     header : dict, optional
         The leakdiag header (see :mod:`leakdiag.io.header`) if the file was written by leakdiag.
+    duplicates : dict of str to list of int, optional
+        Names that the file's header holds more than once -> their 0-based positions. Such
+        columns are not in ``columns``: which one a name means cannot be told, so reading one
+        is an error (:meth:`require_unique`); unused duplicates do no harm.
 
     Examples
     --------
@@ -37,11 +43,63 @@ class RawTable:
     columns: dict[str, np.ndarray]
     source: str
     header: dict[str, Any] | None = None
+    duplicates: dict[str, list[int]] = field(default_factory=dict)
 
     @property
     def names(self) -> list[str]:
-        """Column names in file order."""
+        """Column names in file order (names that occur more than once are left out)."""
         return list(self.columns)
+
+    def require_unique(self, column: str, label: str) -> None:
+        """Raise if ``column`` is a name the file's header holds more than once.
+
+        Parameters
+        ----------
+        column : str
+            Column about to be read.
+        label : str
+            What it is read as, for the message, e.g. ``"channel 'p1'"`` or ``"time column"``.
+
+        Raises
+        ------
+        RecordingError
+            Naming the file, the column, what it is read as and its positions (1-based).
+
+        Examples
+        --------
+        >>> t = RawTable({"t": np.zeros(2)}, "a.csv", duplicates={"P": [1, 3]})
+        >>> t.require_unique("t", "time column")
+        >>> t.require_unique("P", "channel 'p1'")
+        Traceback (most recent call last):
+        ...
+        leakdiag.io.errors.RecordingError: a.csv: column 'P' (channel 'p1') appears 2 times in
+        the header, at fields 2 and 4 (counting from 1); ...
+        """
+        positions = self.duplicates.get(column)
+        if positions:
+            where = [str(p + 1) for p in positions]
+            fields = ", ".join(where[:-1]) + " and " + where[-1]
+            raise RecordingError(
+                f"{self.source}: column {column!r} ({label}) appears {len(positions)} times in "
+                f"the header, at fields {fields} (counting from 1); which one is meant cannot "
+                f"be told: rename the others"
+            )
+
+    def check_rows(self, columns: Mapping[str, str]) -> None:
+        """Raise if a row of the file is too short to hold the columns read from it.
+
+        Only row-oriented files (delimited text, :class:`leakdiag.io.text.TextTable`) can have
+        short rows; for the other formats this does nothing.
+
+        Parameters
+        ----------
+        columns : dict of str to str
+            What a column is read as (``"channel 'p1'"``, ``"time column"``) -> column name.
+
+        Examples
+        --------
+        >>> RawTable({"p1": np.zeros(2)}, "a.h5").check_rows({"channel 'p1'": "p1"})
+        """
 
 
 def _is_numeric(arr: np.ndarray) -> bool:

@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
 from leakdiag.io.recording import Recording, RecordingError
 from leakdiag.io.table import RawTable
 
-__all__ = ["SEPARATOR_CANDIDATES", "detect_separator", "read_text", "write_csv"]
+__all__ = ["SEPARATOR_CANDIDATES", "TextTable", "detect_separator", "read_text", "write_csv"]
 
 #: Separators tried by :func:`detect_separator`, in order of preference on a tie.
 SEPARATOR_CANDIDATES = ("\t", ",", ";", "|")
@@ -69,8 +71,130 @@ def _sniff(path: Path, source: str) -> tuple[list[str], str]:
     return lines[:_SNIFF_LINES], encoding
 
 
-def read_text(path: str | os.PathLike, separator: str | None = None) -> RawTable:
-    """Read a delimited text file with one header row into a :class:`RawTable`.
+def _field_counts(path: Path, sep: str, encoding: str) -> np.ndarray:
+    """Number of fields of every data row, with the row numbering of ``pandas.read_csv``.
+
+    Quoted fields are honoured as pandas' C parser does (``csv`` module, same dialect); a
+    regular-expression separator splits the stripped line (pandas' Python parser). Lines that
+    are empty or hold one blank field are skipped, as pandas skips them; the first row left is
+    the header and is not returned.
+    """
+    import csv
+    import re
+
+    with open(path, encoding=encoding, newline="") as fh:
+        if len(sep) == 1:
+            rows = csv.reader(fh, delimiter=sep, skipinitialspace=True, strict=False)
+        else:
+            pat = re.compile(sep)
+            rows = (pat.split(line.strip()) for line in fh)
+        counts = np.fromiter((len(r) for r in rows if len(r) > 1 or (r and r[0].strip())),
+                             dtype=np.int64)
+    return counts[1:]
+
+
+@dataclass
+class TextTable(RawTable):
+    """A :class:`RawTable` read from delimited text, which can check its rows for missing fields.
+
+    Parameters
+    ----------
+    columns, source, header, duplicates
+        As in :class:`RawTable`.
+    fields : list of str
+        The header's column names by position (duplicates included).
+    path : pathlib.Path, optional
+        The file, re-read by :meth:`check_rows` only if a row may be short.
+    separator : str, default ","
+        Field separator (one character, or a regular expression such as ``r"\\s+"``).
+    encoding : str, default "utf-8"
+        Text encoding of the file.
+    by_position : list of numpy.ndarray
+        The parsed column at each header position (duplicates included): a missing field
+        reads as NaN (numbers) or None (text).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "cut.csv"
+    >>> _ = p.write_text("time,p1,p2\\n0,1,10\\n1,2,20\\n2,3")
+    >>> table = read_text(p)
+    >>> table.columns["p2"]
+    array([10., 20., nan])
+    >>> table.check_rows({"time column": "time", "channel 'p1'": "p1"})
+    Traceback (most recent call last):
+    ...
+    leakdiag.io.errors.RecordingError: ...cut.csv: row 2 has 2 of 3 fields (truncated line?);
+    column 'p1' (channel 'p1') is missing or cut
+    """
+
+    fields: list[str] = field(default_factory=list)
+    path: Path | None = None
+    separator: str = ","
+    encoding: str = "utf-8"
+    by_position: list[np.ndarray] = field(default_factory=list, repr=False)
+
+    def check_rows(self, columns: Mapping[str, str]) -> None:
+        """Raise if a data row ends at or before the last column read (a truncated line).
+
+        A row with fewer fields than the header has no value for the columns after its last
+        field, and its last field may itself be cut short (``53`` written as ``5``). So a short
+        row is refused if its last field is at or before the last column read; a row that
+        lacks only columns after every column read is accepted (they are not read).
+
+        Parameters
+        ----------
+        columns : dict of str to str
+            What a column is read as (``"channel 'p1'"``, ``"time column"``) -> column name;
+            names that are not in the header are ignored (reported elsewhere).
+
+        Raises
+        ------
+        RecordingError
+            Naming the file, the first short row (0-based data row, as every row number of
+            :mod:`leakdiag.io`), its field count and the columns read that it lacks or cuts.
+
+        Notes
+        -----
+        Missing fields parse as NaN, so only when the column after the last one read (or the
+        last column) holds NaN is the file scanned again to count the fields of each row.
+        """
+        pos = {name: self.fields.index(name) for name in columns.values() if name in self.fields}
+        if not pos:
+            return
+        n = len(self.fields)
+        # a row with k fields is refused iff k <= last + 1 (and k < n), i.e. iff it lacks the
+        # field at `probe`: missing fields are always at the end of a row
+        probe = min(max(pos.values()) + 1, n - 1)
+        values = self.by_position[probe]
+        blank = (np.isnan(values) if values.dtype != object
+                 else np.fromiter((v is None for v in values), dtype=bool, count=len(values)))
+        if not blank.any():
+            return
+        counts = _field_counts(self.path, self.separator, self.encoding)
+        if len(counts) != len(values):
+            raise RecordingError(
+                f"{self.source}: cannot check the rows for missing fields: pandas reads "
+                f"{len(values)} data rows, counting fields line by line finds {len(counts)}; "
+                f"look for odd lines (only quotes or blanks)"
+            )
+        short = np.flatnonzero(counts <= probe)
+        if not len(short):
+            return
+        row, k = int(short[0]), int(counts[short[0]])
+        hit = sorted({c for c in columns.values() if pos.get(c, -1) >= k - 1}, key=pos.get)
+        desc = ", ".join(f"{c!r} ({', '.join(lab for lab, col in columns.items() if col == c)})"
+                         for c in hit)
+        more = f"; {len(short)} rows are short like this" if len(short) > 1 else ""
+        raise RecordingError(
+            f"{self.source}: row {row} has {k} of {n} fields (truncated line?); "
+            f"{'column' if len(hit) == 1 else 'columns'} {desc} "
+            f"{'is' if len(hit) == 1 else 'are'} missing or cut{more}"
+        )
+
+
+def read_text(path: str | os.PathLike, separator: str | None = None) -> TextTable:
+    """Read a delimited text file with one header row into a :class:`TextTable`.
 
     Parameters
     ----------
@@ -81,10 +205,13 @@ def read_text(path: str | os.PathLike, separator: str | None = None) -> RawTable
 
     Returns
     -------
-    RawTable
-        One column per header name (names stripped of blanks): float64 where every value is a
-        number or empty (NaN), object (text) otherwise. Trailing separators at the end of rows
-        (empty trailing fields) are ignored.
+    TextTable
+        One column per header name (names stripped of blanks; an empty name at 0-based
+        position ``j`` becomes ``Unnamed: j``): float64 where every value is a number or empty
+        (NaN), object (text) otherwise. A missing field of a short row reads as empty: call
+        :meth:`TextTable.check_rows` with the columns you use. Names that occur more than once
+        are left out of ``columns`` and listed in ``duplicates``. Trailing separators at the
+        end of rows (empty trailing fields) are ignored.
 
     Raises
     ------
@@ -108,9 +235,13 @@ def read_text(path: str | os.PathLike, separator: str | None = None) -> RawTable
     if not lines:
         raise RecordingError(f"{source}: file is empty")
     sep = separator if separator is not None else detect_separator(lines)
+    options = dict(sep=sep, index_col=False, skipinitialspace=True, encoding=encoding,
+                   engine="c" if len(sep) == 1 else "python")
     try:
-        df = pd.read_csv(path, sep=sep, index_col=False, skipinitialspace=True,
-                         encoding=encoding, engine="c" if len(sep) == 1 else "python")
+        # the header as written: pandas renames repeated names ("PG_1" -> "PG_1.1")
+        raw = pd.read_csv(path, header=None, nrows=1, dtype=str, keep_default_na=False,
+                          **options).iloc[0].tolist()
+        df = pd.read_csv(path, **options)
     except pd.errors.EmptyDataError:
         raise RecordingError(f"{source}: file is empty") from None
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as exc:
@@ -120,15 +251,24 @@ def read_text(path: str | os.PathLike, separator: str | None = None) -> RawTable
     if len(df) == 0:
         raise RecordingError(f"{source}: has a header ({', '.join(map(str, df.columns))}) "
                              f"but no data rows")
-    columns: dict[str, np.ndarray] = {}
-    for col in df.columns:
-        s = df[col]
-        name = str(col).strip()
+    if len(raw) != len(df.columns):
+        raise RecordingError(f"{source}: the header has {len(raw)} names but pandas read "
+                             f"{len(df.columns)} columns (separator {sep!r})")
+    names = [str(r).strip() or str(c).strip() for r, c in zip(raw, df.columns)]
+    by_position = []
+    for j in range(len(names)):
+        s = df.iloc[:, j]
         if pd.api.types.is_numeric_dtype(s) and not pd.api.types.is_bool_dtype(s):
-            columns[name] = s.to_numpy(dtype=np.float64, na_value=np.nan)
+            by_position.append(s.to_numpy(dtype=np.float64, na_value=np.nan))
         else:
-            columns[name] = s.to_numpy(dtype=object, na_value=None)
-    return RawTable(columns, source)
+            by_position.append(s.to_numpy(dtype=object, na_value=None))
+    positions: dict[str, list[int]] = {}
+    for j, name in enumerate(names):
+        positions.setdefault(name, []).append(j)
+    columns = {name: by_position[js[0]] for name, js in positions.items() if len(js) == 1}
+    duplicates = {name: js for name, js in positions.items() if len(js) > 1}
+    return TextTable(columns, source, duplicates=duplicates, fields=names, path=path,
+                     separator=sep, encoding=encoding, by_position=by_position)
 
 
 def write_csv(rec: Recording, path: str | os.PathLike) -> None:
