@@ -510,3 +510,31 @@ def test_predict_series_refuses_another_feature(tmp_path):
     with pytest.raises(ValueError, match=r"predict_series: x.csv: the series is "
                                          r"'autocorrelation' over N=200, the detector's"):
         det.predict_series(fs, 30.0, source="x.csv")
+
+
+def test_a_recording_shorter_than_a_window_says_so_in_its_rows(tmp_path):
+    """Found by a real-data audit (2026-11-27): a 5-row file gave rows with status ok and no
+    note (the reason was only printed), the detector's note blamed a 0-s burn-in, and the
+    printed window was '200.0'."""
+    from leakdiag.io.recording import Recording
+
+    det = tmp_path / "det.pkl"
+    det.write_bytes(pickle.dumps(SlowScorer()))
+    path = tmp_path / "five.parquet"
+    write_parquet(Recording({"p1": np.arange(5.0)}, 1000.0, meta={}), path)
+    cfg = config_from_dict({"analysis": [{"method": "autocorrelation", "channels": ["p1"],
+                                          "window": 200}],
+                            "detector": [{"name": "slow", "path": str(det)}]})
+    rows = {r["kind"]: r for r in run_case(str(path), cfg)}
+    why = "no window: 5 samples is shorter than one window (window=200)"
+    assert rows["analysis"]["status"] == "ok" and rows["analysis"]["error"] == why
+    assert rows["detector"]["alarm"] is None
+    assert rows["detector"]["error"] == f"detector not judged: {why}"
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n'
+                   'window = 200\n')
+    r = CliRunner().invoke(cli, ["batch", str(path), "--config", str(job), "-o",
+                                 str(tmp_path / "res"), "--scheduler", "serial", "--no-progress"])
+    assert r.exit_code == 1
+    assert "unusable: five.parquet: autocorrelation p1 1 N=200 5%: 5 samples is shorter than " \
+           "one window (window=200)" in r.output

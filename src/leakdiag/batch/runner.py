@@ -197,12 +197,18 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                    "n_windows": feat.n_windows, "n_degenerate": feat.n_degenerate,
                    **_summary(v), **_measure(spec, t, v, onset, config.rms_chunk,
                                              src.sample_rate)}
+            unusable = _unusable(feat, spec)
+            if unusable is not None:  # kept with the row (and the store), not only printed
+                note = row.get("error")
+                row["error"] = unusable + (f"; {note}" if note else "")
             if scorer is not None:
                 s = np.concatenate([a[1] for a in acc]) if acc else np.empty(0)
                 row.update(_scorer_columns(det, scorer, t, s, row["duration_s"]))
             elif det is not None:
                 row.update(_verdict_columns(det, [a[0] for a in acc], t, v, row["duration_s"],
                                             src.start_time, path))
+            if unusable is not None and row.get("alarm") is None and kind == "detector":
+                row["error"] = f"detector not judged: {unusable}"
             rows.append(row)
         rows += [{**base, "status": "error", "kind": "detector", "name": name, "error": msg}
                  for name, msg in refused.items()]
@@ -329,6 +335,17 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
 def _judges_series(det) -> bool:
     """Whether a job's detector is a fitted leakdiag Detector (it gives a whole Verdict)."""
     return callable(getattr(det, "predict_series", None)) and hasattr(det, "threshold_")
+
+
+def _unusable(feat: StreamingFeature, spec) -> str | None:
+    """Why a feature gave nothing to use: no window at all, or only degenerate ones."""
+    if feat.n_windows == 0:
+        return (f"no window: {feat.n_samples_seen} samples is shorter than one window "
+                f"(window={int(spec.window)})")
+    if feat.n_degenerate == feat.n_windows:
+        return (f"all {feat.n_windows} windows degenerate (zero variance: constant "
+                "channel?)")
+    return None
 
 
 def _not_judged(det, n_windows: int, duration_s: float) -> str:

@@ -109,7 +109,8 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     n_deg = ok["n_degenerate"].fillna(0).astype(int)
     empty = ok[(n_win == 0) | (n_deg == n_win)]
     for _, r in empty.iterrows():
-        why = (f"{int(r['n_samples'])} samples is shorter than one window (window={r['window']})"
+        why = (f"{int(r['n_samples'])} samples is shorter than one window "
+               f"(window={int(r['window'])})"
                if int(r["n_windows"]) == 0 else
                f"all {int(r['n_windows'])} windows degenerate (zero variance: constant channel?)")
         click.echo(f"  unusable: {r['recording']}: {r['name']}: {why}", err=True)

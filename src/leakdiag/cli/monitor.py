@@ -330,6 +330,11 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
               "no alarm possible (features only: give --detector FILE from leakdiag fit)")
     say(f"{source.source}: {n} samples at {source.sample_rate:g} Hz, {n_win} windows "
         f"({spec.label}), {alarms}, {mon.features[0].n_degenerate} degenerate, in {dt:.3g} s")
+    basis = getattr(detector, "threshold_basis_", None)
+    if basis is not None:  # the basis of "alarm" / "no alarm", as detect prints it
+        from leakdiag.cli._words import threshold_words
+
+        say(f"  threshold: {threshold_words(basis)}")
     n_bad = mon.features[0].n_degenerate
     if n_win == 0:
         raise ValueError(f"{source.source}: {n} samples is shorter than one window "
