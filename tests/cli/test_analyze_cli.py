@@ -1,6 +1,7 @@
 """`leakdiag analyze` end to end on files: table numbers, outputs, errors with exit code 2."""
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -288,3 +289,84 @@ def test_method_all_states_whose_settings_it_uses(run_file, capsys):
                          "system; --system eha for the EHA's)")
     assert main(["analyze", str(path), "--method", "all", "--onset", "6", "--system", "eha"]) == 0
     assert capsys.readouterr().out.splitlines()[0].endswith("at the thesis's EHA settings")
+
+
+# --------------------- found by an audit on real recordings (2026-11-28): too few chunks
+@pytest.fixture(scope="module")
+def three_seconds(tmp_path_factory):
+    """3000 samples at 1 kHz (as the rotary-actuator files): 6 metric-length windows of 500."""
+    d = tmp_path_factory.mktemp("short")
+    paths = []
+    for seed in (5, 6):
+        rng = np.random.default_rng(seed)
+        rec = ld.Recording({"p1": 1e6 + 1e3 * rng.standard_normal(3000),
+                            "p2": 1e6 + 1e3 * rng.standard_normal(3000)}, 1000.0)
+        paths.append(d / f"short{seed}.csv")
+        rec.to_pandas().to_csv(paths[-1], index=False)
+    return paths
+
+
+def test_one_method_without_a_whole_chunk_is_inconclusive_like_one_of_many(three_seconds,
+                                                                           capsys):
+    """A single method used to exit 2 ('the Sec. 5.2 measure needs ...', no file name) where
+    the same method among --method all was INCONCLUSIVE with exit 0."""
+    path = three_seconds[0]
+    why = ("metric-length p1: INCONCLUSIVE (before vs after the onset; the Sec. 5.2 measure "
+           "needs at least one whole chunk on each side of the onset (1.5 s): got 0 before and "
+           "0 after (6 windows, fewer than one chunk of 10); use a smaller chunk (--chunk), "
+           "more windows (a smaller window or a larger overlap), or check the onset (--onset))")
+    assert main(["analyze", str(path), "-m", "metric-length", "-c", "p1", "-w", "500",
+                 "--onset", "1.5"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"{path}: 3000 samples at 1000 Hz (3 s), leak onset 1.5 s\n")
+    assert f"\n  {why}\n" in out and "Decision: INCONCLUSIVE" in out
+    assert main(["analyze", str(path), "-m", "all", "--onset", "1.5"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"{path}: ") and f"\n  {why}\n" in out
+    # the row's chunk counts: none before, none after, none straddling (no whole chunk)
+    row = [ln for ln in out.splitlines() if ln.lstrip().startswith("metric-length")][0]
+    assert "0/0/0" in row.split()
+
+
+def test_an_onset_outside_the_recording_is_refused_naming_the_file(three_seconds, capsys):
+    path = three_seconds[0]
+    for method in (["-m", "autocorrelation"], ["-m", "all"]):
+        assert main(["analyze", str(path), *method, "--onset", "7"]) == 2
+        assert (f"{path}: onset 7 s is outside the recording (0 to 3 s): nothing to compare "
+                "before and after it") in capsys.readouterr().err
+
+
+def test_healthy_reference_too_short_says_why_without_numpy_warnings(three_seconds, capsys):
+    """It printed 'leakdiag: warning: Mean of empty slice' and 'invalid value encountered in
+    scalar divide' (warnings are errors in this suite) and a reason of 'too few chunks (0
+    reference, 0 tested): the smallest p-value the test can give, 1'."""
+    path, ref = three_seconds
+    assert main(["analyze", str(path), "-m", "metric-length", "-c", "p1", "-w", "500",
+                 "--healthy", str(ref)]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    assert ("metric-length p1: INCONCLUSIVE (against healthy references; too few chunks to "
+            "test (0 reference, 0 tested): the file has 6 windows, fewer than one chunk of 10; "
+            "the healthy reference short6.csv has 6 windows, fewer than one chunk of 10; use a "
+            "smaller chunk (--chunk), or more windows (a smaller --window or a larger "
+            "--overlap))") in out
+
+
+def test_audit_commands_on_the_rotary_actuator_files(shared_dir, capsys):
+    """The audit's own commands (shared/realdata; 3000 samples, '1 kHz' assumed)."""
+    data = shared_dir / "realdata" / "rotary-actuators" / "Data"
+    cmap = str(Path(__file__).resolve().parents[2] / "docs" / "examples"
+               / "rotary_actuator_map.toml")
+    leak = next((data / "Act_4 (Seal Defect)").glob("Leak_000_10_313_*PM.txt"))
+    base = next((data / "Act_1").glob("Base_000_10_418_*AM.txt"))
+    assert main(["analyze", str(leak), "--map", cmap, "-m", "metric-length", "-c", "p1",
+                 "-w", "500", "--healthy", str(base)]) == 0
+    out, err = capsys.readouterr()
+    assert err == "" and (f"the file has 6 windows, fewer than one chunk of 10; the healthy "
+                          f"reference {base.name} has 6 windows, fewer than one chunk of 10"
+                          ) in out
+    assert main(["analyze", str(leak), "--map", cmap, "-m", "metric-length", "-c", "p1",
+                 "-w", "500", "--onset", "1.5"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(str(leak)) and "metric-length p1: INCONCLUSIVE (before vs after the " \
+        "onset; the Sec. 5.2 measure needs at least one whole chunk" in out

@@ -160,3 +160,100 @@ def test_opposite_change_reaches_the_overall_decision_through_analyze_recording(
     assert f"(p={row['p_value_opposite']:.3g})" in row["reason"]
     dec, why = overall_decision(a.table, 0.01)
     assert dec == "no-leak" and "metric-length: a change opposite to a leak's" in why
+
+
+# ------------------------- too few chunks: INCONCLUSIVE with the counts, for one method as many
+def _noise(n, seed, rate=1000.0, source=None):
+    rng = np.random.default_rng(seed)
+    meta = {"source": source} if source else {}
+    return ld.Recording({"p1": 1e6 + 1e3 * rng.standard_normal(n)}, rate, meta=meta)
+
+
+def test_one_method_too_short_for_the_measure_is_inconclusive_not_an_error():
+    """It raised for a single method and was INCONCLUSIVE among several (found by an audit,
+    2026-11-28). 3000 samples, N=200, 5 %: 15 windows; onset 1.5 s: one whole chunk of 10,
+    straddling the onset."""
+    from leakdiag.detect.measure import TooFewChunksError
+
+    rec = _noise(3000, 1)
+    spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=5)
+    fs = compute_feature(rec, spec)
+    with pytest.raises(TooFewChunksError) as info:
+        ld.detect.rms_change(fs, onset=1.5, chunk=10)
+    for specs in ([spec], [spec, MethodSpec("autocorrelation", ("p1",), lag=2)]):
+        row = analyze_recording(rec, specs, onset=1.5).table.iloc[0]
+        assert (row["decision"], row["basis"]) == ("inconclusive", "before-after")
+        assert row["reason"] == str(info.value)
+        assert "got 0 before and 0 after (15 windows, 1 whole chunk of 10: 1 straddling " \
+               "the onset, 5 windows left over)" in row["reason"]
+        p = info.value.partial  # the row's counts are rms_change's
+        assert (row["n_windows"], row["n_chunks_before"], row["n_chunks_after"],
+                row["n_chunks_straddling"], row["n_chunks_empty"]) == (
+            p.n_windows, p.n_chunks_before, p.n_chunks_after, p.n_chunks_straddling,
+            p.n_chunks_empty) == (15, 0, 0, 1, 0)
+        assert np.isnan(row["pct_change"]) and np.isnan(row["p_value"])
+
+
+def test_healthy_reference_too_short_says_windows_and_chunk_in_the_reason():
+    """It said 'too few chunks (0 reference, 0 tested): the smallest p-value the test can give,
+    1' after two bare numpy warnings (warnings are errors in this suite). N=500, 5 %: step 475,
+    3000 samples give 6 windows, fewer than one chunk of 10."""
+    spec = MethodSpec("metric-length", ("p1",), lag_ratio="83:3", window=500, overlap=5)
+    rec = _noise(3000, 2)
+    refs = [_noise(3000, 3, source="/data/h1.txt")]
+    row = analyze_recording(rec, [spec], healthy=refs).table.iloc[0]
+    assert (row["decision"], row["basis"], row["n_reference"], row["n_test"]) == (
+        "inconclusive", "healthy", 0, 0)
+    assert row["reason"] == (
+        "too few chunks to test (0 reference, 0 tested): the file has 6 windows, fewer than one "
+        "chunk of 10; the healthy reference h1.txt has 6 windows, fewer than one chunk of 10; "
+        "use a smaller chunk (--chunk), or more windows (a smaller --window or a larger "
+        "--overlap)")
+    # a longer file: (20000 - 500) // 475 + 1 = 42 windows, 4 whole chunks, 2 left over
+    row = analyze_recording(_noise(20_000, 8), [spec], healthy=refs).table.iloc[0]
+    assert (row["n_reference"], row["n_test"]) == (0, 4)
+    assert row["reason"].startswith(
+        "too few chunks to test (0 reference, 4 tested): the file has 42 windows, 4 whole "
+        "chunks of 10: 2 windows left over; the healthy reference h1.txt has 6 windows, fewer "
+        "than one chunk of 10; ")
+    refs = [_noise(3000, s) for s in (3, 4)]
+    row = analyze_recording(rec, [spec], onset=1.5, healthy=refs).table.iloc[0]
+    assert row["reason"] == (
+        "too few chunks to test (0 reference, 0 tested): the file has 0 whole chunks of 10 "
+        "after the onset (1.5 s; 6 windows, fewer than one chunk of 10); the 2 healthy "
+        "references make 0 whole chunks of 10 from 12 windows (at most 6 per file); use a "
+        "smaller chunk (--chunk), or more windows (a smaller --window or a larger --overlap)")
+
+
+def test_healthy_references_judge_the_chunks_after_an_onset_with_none_before():
+    """With healthy references the decision needs no chunk before the onset: an onset 0.3 s
+    into the file still gets its test (it was INCONCLUSIVE, or an error for one method)."""
+    from leakdiag.detect.measure import chunk_rms, decide_change
+
+    spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=100, overlap=0)
+    rec = _noise(20_000, 5)
+    refs = [_noise(20_000, s) for s in (6, 7)]
+    row = analyze_recording(rec, [spec], onset=0.3, healthy=refs).table.iloc[0]
+    fs = compute_feature(rec, spec)
+    ref = np.concatenate([chunk_rms(compute_feature(r, spec).values, 10)[0] for r in refs])
+    # windows of 100 samples from 0: the first after 0.3 s is window 3; chunk 0 straddles
+    want = decide_change(ref, chunk_rms(fs.values, 10)[0][1:], direction="down",
+                         basis="healthy")
+    assert (row["n_chunks_before"], row["n_chunks_after"], row["n_chunks_straddling"]) == (
+        0, 19, 1)
+    assert (row["decision"], row["basis"], row["n_reference"], row["n_test"]) == (
+        want.decision, "healthy", 40, 19)
+    assert row["p_value"] == want.p_value and np.isnan(row["pct_change"])
+
+
+def test_a_row_without_a_measure_has_no_result_to_draw():
+    """Analysis.results stays None for such a row (a figure would draw 'mean RMS before nan')."""
+    rec = _noise(3000, 1)
+    specs = [MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=5),
+             MethodSpec("autocorrelation", ("p1",), lag=1, window=100, overlap=50)]
+    a = analyze_recording(rec, specs, onset=1.5)
+    assert a.results[0] is None and a.table.loc[0, "n_chunks_straddling"] == 1
+    fs = compute_feature(rec, specs[1])
+    want = ld.detect.rms_change(fs, onset=1.5, chunk=10)
+    assert a.results[1].mean_rms_before == want.mean_rms_before
+    assert a.table.loc[1, "pct_change_signed"] == want.pct_change_signed

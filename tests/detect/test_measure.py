@@ -134,3 +134,47 @@ def test_decision_rejects_bad_alpha_and_direction():
         decide_change([1.0], [2.0], false_alarm_rate=0.0)
     with pytest.raises(ValueError, match="direction='sideways'"):
         decide_change([1.0], [2.0], direction="sideways")
+
+
+# ------------------------------------------- too few chunks: counts kept, said in words
+def test_too_few_chunks_error_keeps_the_counts_and_says_them():
+    """rms_change's counts also when it has no measure (sweep rows and analyze reasons use
+    them); windows of 4 samples, step 1: window i spans i .. i + 3."""
+    from leakdiag.detect.measure import TooFewChunksError
+
+    v = np.r_[np.ones(5), np.full(5, np.nan), 2.0 * np.ones(5)]
+    fs = FeatureSeries(np.arange(15.0) + 3, v, "f", window=4, sample_rate=1.0)
+    # onset 12: chunk 0 (windows 0-4, last samples 3-7) before; chunk 1 all NaN (empty);
+    # chunk 2 (first samples 10-14) straddles 12: nothing after
+    with pytest.raises(TooFewChunksError) as info:
+        rms_change(fs, onset=12.0, chunk=5)
+    assert str(info.value) == (
+        "the Sec. 5.2 measure needs at least one whole chunk on each side of the onset (12 s): "
+        "got 1 before and 0 after (15 windows, 3 whole chunks of 5: 1 straddling the "
+        "onset, 1 of NaN values only (zero-variance windows)); use a smaller chunk (--chunk), "
+        "more windows (a smaller window or a larger overlap), or check the onset (--onset)")
+    p = info.value.partial
+    assert (p.n_chunks_before, p.n_chunks_after, p.n_chunks_straddling, p.n_chunks_empty,
+            p.n_windows, p.n_windows_dropped, p.n_nan_windows) == (1, 0, 1, 1, 15, 0, 5)
+    assert p.chunk_side.tolist() == [-1, 2, 0] and np.isnan(p.mean_rms_before)
+    assert isinstance(info.value, ValueError)  # callers catching ValueError keep working
+
+
+def test_too_few_chunks_message_for_fewer_windows_than_a_chunk():
+    with pytest.raises(ValueError, match=r"got 0 before and 0 after \(6 windows, fewer than "
+                                         r"one chunk of 10\)"):
+        rms_change(_fs(np.ones(6)), onset=3.0, chunk=10)
+
+
+def test_decision_with_an_empty_side_says_so_without_numpy_warnings():
+    """An empty reference used to print 'Mean of empty slice' and 'invalid value encountered
+    in scalar divide' (the lag-1 autocorrelation of no values) and to give 'the smallest
+    p-value the test can give, 1' as the reason (warnings are errors in this test suite)."""
+    for ref, tst in (([], []), ([], [1.0, 2.0]), ([np.nan, np.nan], [1.0]), ([1.0, 2.0], [])):
+        d = decide_change(ref, tst, direction="down")
+        n1, n2 = int(np.isfinite(ref).sum()), len(tst)
+        assert (d.decision, d.n_reference, d.n_test) == ("inconclusive", n1, n2)
+        assert np.isnan(d.p_value) and np.isnan(d.chunk_autocorr)
+        assert d.reason == (f"nothing to test ({n1} reference, {n2} tested chunk RMS values): "
+                            "the test needs at least one on each side (a chunk of NaN values "
+                            "only has none)")

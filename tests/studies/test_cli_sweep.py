@@ -55,3 +55,108 @@ def test_sweep_says_which_grid_settings_it_skipped_and_refuses_an_onset_outside(
     code = main(["sweep", str(path), "-c", "p1", "--onset", str(end + 10)])
     assert code == 2
     assert f"onset {end + 10:g} s is outside the recording" in capsys.readouterr().err
+
+
+# ------------------------------------------ found by an audit on real recordings, 2026-11-28
+import pytest  # noqa: E402
+
+from leakdiag.detect.measure import TooFewChunksError, rms_change  # noqa: E402
+from leakdiag.features import DegenerateWindowWarning  # noqa: E402
+from leakdiag.features.spec import MethodSpec, compute_feature  # noqa: E402
+from leakdiag.studies.grid import grid, quiet_degenerate  # noqa: E402
+
+from .test_grid import degenerate_recording  # noqa: E402
+
+COUNTS = ["n_windows", "n_windows_dropped", "n_chunks_before", "n_chunks_after",
+          "n_chunks_straddling", "n_chunks_empty", "n_nan_windows", "chunk"]
+
+
+def rms_change_counts(rec, method, channels, lag, window, overlap, onset, chunk):
+    """The reference: rms_change's counts on the plain feature series of that setting."""
+    with quiet_degenerate():
+        fs = compute_feature(rec, MethodSpec(method, tuple(channels.split(",")), lag=lag,
+                                             window=window, overlap=overlap))
+    try:
+        d = rms_change(fs, onset, chunk=chunk).as_dict()
+    except TooFewChunksError as exc:
+        d = exc.partial.as_dict()
+    return [d[c] for c in COUNTS]
+
+
+def test_sweep_counts_and_reports_nan_windows_as_analyze_does(tmp_path, capsys):
+    rec = degenerate_recording()
+    path = tmp_path / "flat.csv"
+    rec.to_pandas().to_csv(path, index=False)
+    args = ["sweep", str(path), "-m", "autocorrelation", "-c", "p1", "--lags", "1",
+            "--windows", "100", "--overlaps", "0,5,50", "--mode", "grid", "--onset", "1.5",
+            "--chunk", "2", "--min-chunks", "1", "--no-figures", "-o", str(tmp_path / "o")]
+    with pytest.warns(DegenerateWindowWarning) as caught:
+        assert main(args) == 0
+    t = pd.read_csv(tmp_path / "o" / "sweep.csv")
+    for r in t.itertuples(index=False):
+        assert [getattr(r, c) for c in COUNTS] == rms_change_counts(
+            rec, "autocorrelation", "p1", 1, 100, r.overlap, 1.5, 2)
+    # overlap 0: 30 windows, 10 NaN in 15 chunks of 2, 3 of them NaN only; 5 %: 31 windows
+    assert t[["n_nan_windows", "n_chunks_empty"]].values.tolist() == [[10, 3], [7, 1], [17, 7]]
+    assert [str(w.message) for w in caught] == [
+        f"{path}: autocorrelation p1: in 3 of 3 settings, windows have zero variance; their "
+        "values are NaN (skipped inside their chunk's RMS, column n_nan_windows; a chunk of "
+        "NaN values only is left out, column n_chunks_empty); the most at lag 1, window 100, "
+        "overlap 0%: 10 of the 30 windows in whole chunks, 3 chunks of NaN values only"]
+    head = capsys.readouterr().out.splitlines()[1].split()
+    assert head[-2:] == ["n_nan_windows", "n_chunks_empty"]
+
+
+@pytest.mark.parametrize("mode, stage", [("grid", ""), ("ofat", " at the lag stage")])
+def test_sweep_without_an_eligible_setting_keeps_its_table(tmp_path, capsys, mode, stage):
+    """No setting meeting the rule used to exit 2 with nothing printed and nothing written."""
+    rec = ar_recording()
+    path = tmp_path / "rec.csv"
+    rec.to_pandas().to_csv(path, index=False)
+    out = tmp_path / "o"
+    code = main(["sweep", str(path), "-m", "autocorrelation", "-c", "p1", "--lags", "1,3",
+                 "--windows", "60,120", "--overlaps", "0", "--mode", mode, "--onset", "30",
+                 "--chunk", "5", "--min-chunks", "1000", "-o", str(out)])
+    text = capsys.readouterr()
+    assert code == 2
+    t = pd.read_csv(out / "sweep.csv")
+    want = grid(rec, "autocorrelation", "p1", [1, 3], [60], [0], onset=30, chunk=5) \
+        if mode == "ofat" else grid(rec, "autocorrelation", "p1", [1, 3], [60, 120], [0],
+                                    onset=30, chunk=5)
+    np.testing.assert_array_equal(t["pct_change_signed"], want["pct_change_signed"])
+    assert sorted(p.name for p in out.iterdir()) == ["sweep.csv", "sweep.parquet"]
+    assert f"wrote {out}/: sweep.csv, sweep.parquet (no figures: no setting was chosen)" \
+        in text.out and "preferred" not in text.out
+    assert len(text.out.splitlines()) == 1 + 1 + len(t) + 1  # head, column names, rows, wrote
+    later = " (the window and overlap stages could not run)" if mode == "ofat" else ""
+    assert text.err == (
+        f"leakdiag: error: {path}: no setting meets the rule (at least --min-chunks 1000 whole "
+        f"RMS chunks of --chunk 5 feature values on each side of the onset 30 s){stage}: "
+        f"{len(t)} row(s), {len(t)} with a finite % change{later}; lower --min-chunks or "
+        f"--chunk, or check --onset; the table is printed above and in {out / 'sweep.csv'}\n")
+
+
+def test_audit_sweep_on_a_rotary_actuator_file(shared_dir, tmp_path, capsys):
+    """The audit's command: sweep.csv said n_chunks_straddling=6 where rms_change says 0
+    straddling and 6 empty (all-NaN chunks), and hid that 13 windows were NaN."""
+    from pathlib import Path
+
+    from leakdiag.cli._options import column_map_from, read_with
+
+    repo = Path(__file__).resolve().parents[2]
+    cmap = str(repo / "docs" / "examples" / "rotary_actuator_map.toml")
+    f = shared_dir / "realdata" / "rotary-actuators" / "Data" / "Act_2" / \
+        "Base_000_30_754_9-11-2019-10-36-12 AM.txt"
+    with pytest.warns(DegenerateWindowWarning, match=r"in 3 of 3 settings, windows have zero "
+                                                     r"variance"):
+        assert main(["sweep", str(f), "--map", cmap, "-m", "cross-correlation", "-c", "p1,p2",
+                     "--lags", "1", "--windows", "100", "--mode", "grid", "--onset", "1",
+                     "--chunk", "2", "--min-chunks", "1", "--no-figures",
+                     "-o", str(tmp_path / "sw2")]) == 0
+    t = pd.read_csv(tmp_path / "sw2" / "sweep.csv")
+    rec = read_with(str(f), column_map_from(cmap, (), None), None, None)
+    for r in t.itertuples(index=False):
+        assert [getattr(r, c) for c in COUNTS] == rms_change_counts(
+            rec, "cross-correlation", "p1,p2", 1, 100, r.overlap, 1.0, 2)
+    assert t.loc[0, ["n_chunks_straddling", "n_chunks_empty", "n_nan_windows"]].tolist() == [
+        0, 6, 13]

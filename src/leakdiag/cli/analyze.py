@@ -147,6 +147,7 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
     said = system or rec.meta.get("system")
     system = str(said or "vca").lower()
     specs = _specs(method, channels, lag, lag_ratio, window, overlap, system)
+    _check_onset(file, rec, onset)
     needed = sorted({c for s in specs for c in s.channels if c in rec.channels})
     refs = read_healthy(healthy, rec, cmap, sample_rate, needed) if healthy else None
     with warnings.catch_warnings(record=True) as caught:
@@ -175,13 +176,27 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
         click.echo(f"wrote {outp / 'verdict.csv'}, features.parquet, features.png")
 
 
+def _check_onset(file, rec, onset) -> None:
+    """Refuse an onset outside the recording: bad input, not a case the measure cannot judge."""
+    given = onset is not None
+    onset = onset if given else rec.onset
+    if onset is None:
+        return
+    t0, t1 = rec.start_time, rec.start_time + rec.duration
+    if not t0 < onset < t1:
+        where = "" if given else " (from the file's metadata; give --onset to override it)"
+        raise click.UsageError(f"{file}: onset {onset:g} s{where} is outside the recording "
+                               f"({t0:g} to {t1:g} s): nothing to compare before and after it")
+
+
 def _fail_if_nothing_computed(file, table) -> None:
-    """Raise when every window of every method is NaN (e.g. constant channels): no verdict exists."""
+    """Raise when every window of every method is NaN (constant channels): no verdict exists."""
     n_win = table["n_windows"].fillna(0).astype(int)
     n_nan = table["n_nan_windows"].fillna(0).astype(int)
     if len(table) and bool((n_win > 0).all() and (n_nan == n_win).all()):
         labels = "; ".join(f"{m} {c} (lag {s}, N={w})" for m, c, s, w in
-                           zip(table["method"], table["channels"], table["setting"], table["window"]))
+                           zip(table["method"], table["channels"], table["setting"],
+                               table["window"]))
         raise ValueError(f"{file}: every window is NaN for {labels}: the channel(s) have zero "
                          "variance (constant signal?), so there is nothing to analyse")
 

@@ -24,6 +24,8 @@ def format_table(table) -> str:
     Returns
     -------
     str
+        A missing measure (no whole chunk on a side) prints as ``-``; the columns
+        ``n_nan_windows`` and ``n_chunks_empty`` are shown when a setting has NaN windows.
     """
     show = table.copy()
     show["setting"] = [lr if isinstance(lr, str) else str(lag) for lag, lr in
@@ -33,10 +35,10 @@ def format_table(table) -> str:
                                                      "pct_change", "pct_change_signed",
                                                      "n_windows", "n_chunks_before",
                                                      "n_chunks_after"]
-    for c in ("mean_rms_before", "mean_rms_after"):
-        show[c] = show[c].map(lambda v: f"{v:.5g}")
-    show["pct_change"] = show["pct_change"].map(lambda v: f"{v:.2f}")
-    show["pct_change_signed"] = show["pct_change_signed"].map(lambda v: f"{v:+.2f}")
+    cols += [c for c in ("n_nan_windows", "n_chunks_empty") if c in show and show[c].any()]
+    for c, fmt in (("mean_rms_before", "{:.5g}"), ("mean_rms_after", "{:.5g}"),
+                   ("pct_change", "{:.2f}"), ("pct_change_signed", "{:+.2f}")):
+        show[c] = show[c].map(lambda v, fmt=fmt: fmt.format(v) if v == v else "-")
     show["overlap"] = show["overlap"].map(lambda v: f"{v:g}")
     return show[cols].to_string(index=False)
 
@@ -66,7 +68,8 @@ def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> l
                           f"overlap {r.overlap:g}%")
             xs.append({"lag": float(lab.split(":")[0]), "window": r.window,
                        "overlap": r.overlap}[varied])
-            labels.append({"lag": lab, "window": str(r.window), "overlap": f"{r.overlap:g}"}[varied])
+            labels.append({"lag": lab, "window": str(r.window),
+                           "overlap": f"{r.overlap:g}"}[varied])
         if len(series) > 6:
             keep = sorted(set(int(round(i)) for i in
                               [k * (len(series) - 1) / 5 for k in range(6)]))
@@ -137,35 +140,32 @@ def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, chan
         raise click.UsageError(f"{file}: onset {onset:g} s is outside the recording "
                                f"({t0:g} to {t1:g} s): nothing to compare before and after it")
     try:
-        table, chosen, groups = _run(rec, m, channels, lag_values, win_values, ov_values, rule,
-                                     onset, chunk, mode)
-    except ValueError as exc:  # the selection rule in the command's words, not its repr
-        msg = str(exc).replace(f"the rule {rule}", f"the rule (at least --min-chunks "
-                               f"{min_chunks} whole RMS chunks of --chunk {chunk} feature values "
-                               f"on each side of the onset {onset:g} s)")
-        if msg != str(exc):
-            msg += "; lower --min-chunks or --chunk, or check --onset"
-        raise ValueError(f"{file}: {msg}") from None
+        table, chosen, groups, failed = _run(rec, m, channels, lag_values, win_values,
+                                             ov_values, rule, onset, chunk, mode)
+    except ValueError as exc:
+        raise ValueError(f"{file}: {exc}") from None
     skipped = ""
     if mode == "grid":
         n_all = len(lag_values) * len(win_values) * len(ov_values)
         if n_all > len(table):
             skipped = (f"; {n_all - len(table)} of {n_all} skipped: a lag not smaller than its "
                        "window, or a window longer than the recording")
+    chans = channels or ",".join(feature_record(m).channels)
     click.echo(f"{file}: {rec.n_samples} samples at {rec.sample_rate:g} Hz, onset {onset:g} s, "
-               f"{m} {channels or ','.join(feature_record(m).channels)}, {len(table)} settings "
-               f"({mode}){skipped}")
+               f"{m} {chans}, {len(table)} settings ({mode}){skipped}")
     click.echo(format_table(table))
-    click.echo(f"preferred (max |% change|, >= {min_chunks} chunks per side, tolerance "
-               f"{tolerance:g}): lag {chosen['lag']}, window {chosen['window']}, overlap "
-               f"{chosen['overlap']:g}%")
+    _warn_nan_windows(file, m, chans, table)
+    if chosen is not None:
+        click.echo(f"preferred (max |% change|, >= {min_chunks} chunks per side, tolerance "
+                   f"{tolerance:g}): lag {chosen['lag']}, window {chosen['window']}, overlap "
+                   f"{chosen['overlap']:g}%")
     if out:
         o = Path(out)
         o.mkdir(parents=True, exist_ok=True)
         table.to_csv(o / "sweep.csv", index=False)
         table.astype({"lag_ratio": "string"}).to_parquet(o / "sweep.parquet", index=False)
         written = ["sweep.csv", "sweep.parquet"]
-        if not no_figures:
+        if not no_figures and chosen is not None:
             written += [p.name for p in _figures(rec, table, m, channels, onset, o, groups)]
             if mode == "grid" and len(win_values) > 1 and len(ov_values) > 1:
                 from leakdiag.report.figures import save_figure
@@ -173,24 +173,73 @@ def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, chan
 
                 save_figure(plot_grid_heatmap(table, chosen["lag"]), o / "grid_heatmap.png")
                 written.append("grid_heatmap.png")
-        click.echo(f"wrote {o}/: {', '.join(written)}")
+        click.echo(f"wrote {o}/: {', '.join(written)}"
+                   + (" (no figures: no setting was chosen)"
+                      if chosen is None and not no_figures else ""))
+    if failed is not None:  # the table is printed (and written): then the error, exit code 2
+        stage = f" at the {failed.stage} stage" if failed.stage else ""
+        msg = str(failed).replace(f"the rule {rule}", f"the rule (at least --min-chunks "
+                                  f"{min_chunks} whole RMS chunks of --chunk {chunk} feature "
+                                  f"values on each side of the onset {onset:g} s){stage}")
+        later = [v for v in ("window", "overlap") if failed.stage and v not in failed.tables]
+        if later:
+            msg += (f" (the {' and '.join(later)} stage{'s' if len(later) > 1 else ''} could "
+                    "not run)")
+        kept = "; the table is printed above" + (f" and in {Path(out) / 'sweep.csv'}"
+                                                  if out else "")
+        raise ValueError(f"{file}: {msg}; lower --min-chunks or --chunk, or check --onset{kept}")
+
+
+def _warn_nan_windows(file, method, channels, table) -> None:
+    """Say that windows had zero variance (NaN values), as ``leakdiag analyze`` does."""
+    import warnings
+
+    from leakdiag.features import DegenerateWindowWarning
+
+    hit = table[table["n_nan_windows"] > 0]
+    if not len(hit):
+        return
+    in_chunks = hit["n_windows"] - hit["n_windows_dropped"]
+    r = hit.loc[(hit["n_nan_windows"] / in_chunks).idxmax()]
+    lag = r["lag_ratio"] if isinstance(r["lag_ratio"], str) else int(r["lag"])
+    n_in = int(r["n_windows"] - r["n_windows_dropped"])
+    empty = int(r["n_chunks_empty"])
+    warnings.warn(
+        f"{file}: {method} {channels}: in {len(hit)} of {len(table)} settings, windows have "
+        f"zero variance; their values are NaN (skipped inside their chunk's RMS, column "
+        f"n_nan_windows; a chunk of NaN values only is left out, column n_chunks_empty); "
+        f"the most at lag {lag}, window {int(r['window'])}, overlap {r['overlap']:g}%: "
+        f"{int(r['n_nan_windows'])} of the {n_in} windows in whole chunks, {empty} "
+        f"chunk{'' if empty == 1 else 's'} of NaN values only", DegenerateWindowWarning,
+        stacklevel=2)
 
 
 def _run(rec, m, channels, lag_values, win_values, ov_values, rule, onset, chunk, mode):
+    """The sweep: ``(table, chosen, groups, None)``, or ``(table, None, [], error)`` when no
+    setting meets the rule (the table holds every setting computed)."""
+    import pandas as pd
+
     from leakdiag.studies.grid import grid
-    from leakdiag.studies.select import preferred_setting
-    from leakdiag.studies.sweep import ofat_sweep
+    from leakdiag.studies.select import NoEligibleSettingError, preferred_setting
+    from leakdiag.studies.sweep import VARIED, ofat_sweep
 
     if mode == "ofat":
-        res = ofat_sweep(rec, m, channels, lag_values, win_values, ov_values, rule=rule,
-                         onset=onset, chunk=chunk)
+        try:
+            res = ofat_sweep(rec, m, channels, lag_values, win_values, ov_values, rule=rule,
+                             onset=onset, chunk=chunk)
+        except NoEligibleSettingError as exc:
+            tables = [exc.tables[k] for k in VARIED if k in exc.tables]
+            return pd.concat(tables, ignore_index=True), None, [], exc
         table = res.table()
         chosen = res.chosen
         groups = [(k, res.tables[k]) for k in ("lag", "window", "overlap")]
     else:
         table = grid(rec, m, channels, lag_values, win_values, ov_values, onset=onset,
                      chunk=chunk)
-        best = preferred_setting(table, rule)
+        try:
+            best = preferred_setting(table, rule)
+        except NoEligibleSettingError as exc:
+            return table, None, [], exc
         chosen = {"lag": best["lag_ratio"] if isinstance(best["lag_ratio"], str)
                   else int(best["lag"]), "window": int(best["window"]),
                   "overlap": float(best["overlap"])}
@@ -198,7 +247,7 @@ def _run(rec, m, channels, lag_values, win_values, ov_values, rule, onset, chunk
                                 & (table.overlap == chosen["overlap"])]),
                   ("window", _at_lag(table, chosen["lag"]).query("overlap == @chosen['overlap']")),
                   ("overlap", _at_lag(table, chosen["lag"]).query("window == @chosen['window']"))]
-    return table, chosen, groups
+    return table, chosen, groups, None
 
 
 def _check_input(file, rec, method, channels, windows) -> None:

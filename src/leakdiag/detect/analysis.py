@@ -1,13 +1,14 @@
-"""Analyse a recording with one or more thesis methods: feature series plus the Sec. 5.2 verdict."""
+"""Analyse a recording with one or more thesis methods: feature series, Sec. 5.2 verdict."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
-from leakdiag.detect.measure import (Decision, chunk_rms, decide_change,
-                                     rms_change)
+from leakdiag.detect.measure import (Decision, TooFewChunksError, chunk_rms, chunks_in_words,
+                                     decide_change, rms_change)
 from leakdiag.features.spec import MethodSpec, compute_feature
 from leakdiag.features.series import FeatureSeries
 
@@ -39,7 +40,8 @@ class Analysis:
     series : list of FeatureSeries
         The feature series, in table order.
     results : list of RMSChange or None
-        Sec. 5.2 results in table order (None when no onset was given).
+        Sec. 5.2 results in table order (None when no onset was given, or when the onset leaves
+        no whole chunk on a side: the row's reason says so and its counts are filled).
     onset : float or None
         Onset used, in seconds.
     """
@@ -72,26 +74,69 @@ def _series_of(out) -> tuple[FeatureSeries, ...]:
     return out if isinstance(out, tuple) else (out,)
 
 
-def _healthy_chunks(healthy, spec: MethodSpec, chunk: int) -> dict[str, np.ndarray]:
+@dataclass(frozen=True)
+class _Reference:
+    """Pooled chunk RMS values of one feature over the healthy recordings, and how many."""
+
+    rms: np.ndarray
+    windows: tuple[int, ...]  # windows per recording
+    names: tuple[str, ...]  # file names (``meta['source']``)
+    chunk: int
+
+    def in_words(self) -> str:
+        n_empty = int(np.count_nonzero(~np.isfinite(self.rms)))
+        if not self.windows:
+            return "no healthy reference gives this feature"
+        if len(self.windows) == 1:
+            name = f" {self.names[0]}" if self.names[0] else ""
+            return (f"the healthy reference{name} has "
+                    f"{chunks_in_words(self.windows[0], self.chunk, n_empty=n_empty)}")
+        k = len(self.rms)
+        empty = f", {n_empty} of NaN values only" if n_empty else ""
+        return (f"the {len(self.windows)} healthy references make {k} whole "
+                f"chunk{'' if k == 1 else 's'} of {self.chunk}{empty} from "
+                f"{sum(self.windows)} windows (at most {max(self.windows)} per file)")
+
+
+def _healthy_chunks(healthy, spec: MethodSpec, chunk: int) -> dict[str, _Reference]:
     """Pooled chunk RMS values of each feature series of ``spec`` over the healthy recordings."""
     pooled: dict[str, list] = {}
     for rec in healthy:
         out = compute_feature(rec, spec)
+        source = rec.meta.get("source")
+        name = Path(str(source)).name if source else ""
         for fs in _series_of(out):
-            pooled.setdefault(fs.name, []).append(chunk_rms(fs.values, chunk)[0])
-    return {k: np.concatenate(v) for k, v in pooled.items()}
+            pooled.setdefault(fs.name, []).append((chunk_rms(fs.values, chunk)[0], len(fs), name))
+    return {k: _Reference(np.concatenate([r for r, _, _ in v]), tuple(w for _, w, _ in v),
+                          tuple(n for _, _, n in v), chunk) for k, v in pooled.items()}
 
 
-def _decide(res, fs, spec, ref_chunks, false_alarm_rate, chunk) -> Decision:
+def _tested_in_words(res, fs, chunk) -> str:
+    """The tested part of the file (after the onset, or all of it) in chunks, in words."""
+    if res is None:
+        n_empty = int(np.count_nonzero(~np.isfinite(chunk_rms(fs.values, chunk)[0])))
+        return f"the file has {chunks_in_words(len(fs), chunk, n_empty=n_empty)}"
+    layout = chunks_in_words(res.n_windows, chunk, res.n_chunks_straddling, res.n_chunks_empty)
+    return (f"the file has {res.n_chunks_after} whole chunk"
+            f"{'' if res.n_chunks_after == 1 else 's'} of {chunk} after the onset "
+            f"({res.onset:g} s; {layout})")
+
+
+def _decide(res, fs, spec, ref, false_alarm_rate, chunk) -> Decision:
     direction = spec.record.direction or "both"
-    if ref_chunks is not None:
-        ref = ref_chunks.get(fs.name, np.empty(0))
+    if ref is not None:
         if res is not None:
             tested = res.chunk_rms[res.chunk_side == 1]
         else:
             tested = chunk_rms(fs.values, chunk)[0]
-        return decide_change(ref, tested, false_alarm_rate=false_alarm_rate, direction=direction,
-                             basis="healthy")
+        d = decide_change(ref.rms, tested, false_alarm_rate=false_alarm_rate,
+                          direction=direction, basis="healthy")
+        if d.n_reference == 0 or d.n_test == 0:  # say why, in the file's windows and chunks
+            d = replace(d, reason=(
+                f"too few chunks to test ({d.n_reference} reference, {d.n_test} tested): "
+                f"{_tested_in_words(res, fs, chunk)}; {ref.in_words()}; use a smaller chunk "
+                "(--chunk), or more windows (a smaller --window or a larger --overlap)"))
+        return d
     if res is None:
         return Decision("inconclusive", "none", "", float("nan"), false_alarm_rate, 0, 0,
                         float("nan"), "no onset and no healthy reference: give --onset or "
@@ -137,8 +182,13 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
     ------
     RecordingError
         Missing channel (unless ``skip_missing``) or a recording shorter than one window.
-    ValueError
-        If the onset leaves no whole chunk on one side.
+
+    Notes
+    -----
+    An onset that leaves no whole chunk on one side is no error: that row has no measure (its
+    chunk counts are filled), and its decision is ``inconclusive`` with the reason (the counts,
+    and what to change) -- for one method as for several. With ``healthy`` the decision needs
+    only the chunks after the onset and is taken as usual.
 
     Examples
     --------
@@ -172,27 +222,26 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
                    "setting": spec.setting, "window": spec.window, "overlap": spec.overlap,
                    "n_windows": len(fs),
                    "n_nan_windows": int(np.count_nonzero(~np.isfinite(fs.values)))}
-            res = None
+            res = None  # the measure, or what rms_change found when it had none
             no_measure = None
             if onset is not None:
                 try:
                     res = rms_change(fs, onset=onset, chunk=chunk)
-                except ValueError as exc:  # too short for this method: say so, keep the others
-                    if len(specs) == 1:
-                        raise
-                    no_measure = str(exc)
-                else:
-                    row.update({k: v for k, v in res.as_dict().items() if k in VERDICT_COLUMNS
-                                and k not in ("n_windows", "n_nan_windows")})
-            if no_measure is None:
-                row.update(_decide(res, fs, spec, ref_chunks, false_alarm_rate, chunk).as_dict())
+                except TooFewChunksError as exc:  # too short for this setting: say so
+                    res, no_measure = exc.partial, str(exc)
+                row.update({k: v for k, v in res.as_dict().items() if k in VERDICT_COLUMNS
+                            and k not in ("n_windows", "n_nan_windows")})
+            ref = ref_chunks.get(fs.name, _Reference(np.empty(0), (), (), chunk)) \
+                if ref_chunks is not None else None
+            if no_measure is None or ref is not None:  # healthy references need no "before"
+                row.update(_decide(res, fs, spec, ref, false_alarm_rate, chunk).as_dict())
             else:
                 row.update(Decision("inconclusive", "before-after", "", float("nan"),
                                     false_alarm_rate, 0, 0, float("nan"),
                                     no_measure).as_dict())
             rows.append(row)
             series.append(fs)
-            results.append(res)
+            results.append(res if no_measure is None else None)  # no partial: NaN means
     table = pd.DataFrame(rows).reindex(columns=VERDICT_COLUMNS)
     return Analysis(table=table, series=series, results=results, onset=onset)
 

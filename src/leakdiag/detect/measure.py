@@ -11,9 +11,8 @@ from leakdiag._validation import check_int
 from leakdiag.features.registry import feature_names, feature_record
 from leakdiag.features.series import FeatureSeries
 
-__all__ = ["RMSChange", "rms_change", "pct_change", "chunk_rms", "Decision", "decide_change",
-           "EXPECTED_DIRECTION", "DECISIONS"]
-
+__all__ = ["RMSChange", "TooFewChunksError", "rms_change", "pct_change", "chunk_rms",
+           "chunks_in_words", "Decision", "decide_change", "EXPECTED_DIRECTION", "DECISIONS"]
 
 
 class _Directions(Mapping):
@@ -111,6 +110,60 @@ class RMSChange:
             "n_windows_dropped", "n_nan_windows", "chunk", "onset")}
 
 
+class TooFewChunksError(ValueError):
+    """No whole chunk on one side of the onset: :func:`rms_change` has no measure to give.
+
+    Attributes
+    ----------
+    partial : RMSChange
+        What :func:`rms_change` did find: the means and % changes are NaN, every count
+        (``n_chunks_before``, ``n_chunks_after``, ``n_chunks_straddling``, ``n_chunks_empty``,
+        ``n_windows``, ``n_windows_dropped``, ``n_nan_windows``) and the per-chunk arrays are
+        as for a measured series. A table row of an unmeasurable setting takes its counts from
+        here, so that they mean the same as in a measured row.
+    """
+
+    def __init__(self, message: str, partial: "RMSChange | None" = None) -> None:
+        super().__init__(message)  # args = (message,): picklable across worker processes
+        self.partial = partial
+
+
+def chunks_in_words(n_windows: int, chunk: int, n_straddling: int = 0,
+                    n_empty: int = 0) -> str:
+    """How a feature series falls into chunks, in words (for messages).
+
+    Parameters
+    ----------
+    n_windows : int
+        Feature values (windows) in the series.
+    chunk : int
+        Chunk length in feature values.
+    n_straddling, n_empty : int, default 0
+        Whole chunks straddling the onset, and whole chunks of NaN values only.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> chunks_in_words(6, 10)
+    '6 windows, fewer than one chunk of 10'
+    >>> chunks_in_words(15, 10, n_straddling=1)
+    '15 windows, 1 whole chunk of 10: 1 straddling the onset, 5 windows left over'
+    """
+    k = n_windows // chunk
+    left = n_windows - k * chunk
+    win = f"{n_windows} window{'' if n_windows == 1 else 's'}"
+    if k == 0:
+        return f"{win}, fewer than one chunk of {chunk}"
+    notes = ([f"{n_straddling} straddling the onset"] if n_straddling else []) + (
+        [f"{n_empty} of NaN values only (zero-variance windows)"] if n_empty else []) + (
+        [f"{left} window{'' if left == 1 else 's'} left over"] if left else [])
+    return (f"{win}, {k} whole chunk{'' if k == 1 else 's'} of {chunk}"
+            + (f": {', '.join(notes)}" if notes else ""))
+
+
 def pct_change(before, after):
     """Percentage change of Eq. 5-3, ``(after - before) / before * 100`` (signed).
 
@@ -201,8 +254,9 @@ def rms_change(fs: FeatureSeries, onset: float, chunk: int = 10) -> RMSChange:
 
     Raises
     ------
-    ValueError
-        If there is no whole chunk before or after the onset.
+    TooFewChunksError
+        A ``ValueError``: there is no whole chunk before or after the onset. The message gives
+        the counts; its ``partial`` attribute holds them (and the chunk RMS values).
 
     Notes
     -----
@@ -239,25 +293,27 @@ def rms_change(fs: FeatureSeries, onset: float, chunk: int = 10) -> RMSChange:
     usable = n_valid > 0
     side = np.where(~usable, 2, np.where(before_w, -1, np.where(after_w, 1, 0))).astype(np.int8)
     nb, na = int((side == -1).sum()), int((side == 1).sum())
+    ns, ne = int((side == 0).sum()), int((side == 2).sum())
+    n_nan = int(np.count_nonzero(~np.isfinite(np.asarray(fs.values)[: k * chunk])))
+    t_chunk = t_last[: k * chunk].reshape(k, chunk)[:, -1] if k else np.empty(0)
+    counts = dict(n_chunks_before=nb, n_chunks_after=na, n_chunks_straddling=ns,
+                  n_chunks_empty=ne, n_windows=m, n_windows_dropped=m - k * chunk,
+                  n_nan_windows=n_nan, chunk=chunk, onset=onset, chunk_time=t_chunk,
+                  chunk_rms=rms, chunk_side=side)
     if nb == 0 or na == 0:
-        raise ValueError(
+        nan = float("nan")
+        raise TooFewChunksError(
             f"the Sec. 5.2 measure needs at least one whole chunk on each side of the onset "
-            f"({onset:g} s): got {nb} before and {na} after ({m} windows, chunks of {chunk}); "
-            f"use a smaller chunk (--chunk) or check the onset (--onset)"
-        )
+            f"({onset:g} s): got {nb} before and {na} after "
+            f"({chunks_in_words(m, chunk, ns, ne)}); use a smaller chunk (--chunk), more "
+            f"windows (a smaller window or a larger overlap), or check the onset (--onset)",
+            RMSChange(mean_rms_before=nan, mean_rms_after=nan, pct_change=nan,
+                      pct_change_signed=nan, **counts))
     before = float(rms[side == -1].mean())
     after = float(rms[side == 1].mean())
     signed = pct_change(before, after)
-    n_nan = int(np.count_nonzero(~np.isfinite(np.asarray(fs.values)[: k * chunk])))
-    t_chunk = t_last[: k * chunk].reshape(k, chunk)[:, -1] if k else np.empty(0)
-    return RMSChange(
-        mean_rms_before=before, mean_rms_after=after, pct_change=abs(signed),
-        pct_change_signed=signed, n_chunks_before=nb, n_chunks_after=na,
-        n_chunks_straddling=int((side == 0).sum()), n_chunks_empty=int((side == 2).sum()),
-        n_windows=m, n_windows_dropped=m - k * chunk,
-        n_nan_windows=n_nan, chunk=chunk, onset=onset, chunk_time=t_chunk, chunk_rms=rms,
-        chunk_side=side,
-    )
+    return RMSChange(mean_rms_before=before, mean_rms_after=after, pct_change=abs(signed),
+                     pct_change_signed=signed, **counts)
 
 
 @dataclass(frozen=True)
@@ -312,9 +368,11 @@ class Decision:
 
 
 def _lag1(x: np.ndarray) -> float:
+    if len(x) < 3:  # checked first: the mean of an empty array is a numpy warning
+        return float("nan")
     x = x - x.mean()
     den = float(x @ x)
-    return float(x[1:] @ x[:-1]) / den if len(x) > 2 and den > 0 else float("nan")
+    return float(x[1:] @ x[:-1]) / den if den > 0 else float("nan")
 
 
 def decide_change(reference, test, *, false_alarm_rate: float = 0.01, direction: str = "both",
@@ -346,8 +404,9 @@ def decide_change(reference, test, *, false_alarm_rate: float = 0.01, direction:
     Notes
     -----
     ``leak`` when the one-sided test in the expected direction gives ``p < alpha`` (two-sided for
-    ``"both"``). ``inconclusive`` when the chunk counts cannot reach alpha at all (the smallest
-    exact p-value, ``1 / C(n_ref + n_test, n_test)``, doubled two-sided, is above alpha), or when
+    ``"both"``). ``inconclusive`` when a side has no finite value, when the chunk counts cannot
+    reach alpha at all (the smallest exact p-value, ``1 / C(n_ref + n_test, n_test)``, doubled
+    two-sided, is above alpha), or when
     the feature moved significantly (``p < alpha``) the *opposite* way to a leak's. Otherwise
     ``no-leak``. The test treats chunks as independent and exchangeable under no leak; the
     lag-1 autocorrelation of the reference chunks is reported to check it (docs/measure.md).
@@ -380,7 +439,12 @@ def decide_change(reference, test, *, false_alarm_rate: float = 0.01, direction:
             "both": "two-sided"}[direction]
     test_name = f"Mann-Whitney U, {name}"
     rho = _lag1(ref)
-    min_p = sides / comb(n1 + n2, n2) if n1 and n2 else 1.0
+    if n1 == 0 or n2 == 0:
+        return Decision("inconclusive", basis, test_name, float("nan"), alpha, n1, n2, rho,
+                        f"nothing to test ({n1} reference, {n2} tested chunk RMS values): the "
+                        "test needs at least one on each side (a chunk of NaN values only has "
+                        "none)")
+    min_p = sides / comb(n1 + n2, n2)
     if min_p >= alpha:
         return Decision("inconclusive", basis, test_name, float("nan"), alpha, n1, n2, rho,
                         f"too few chunks ({n1} reference, {n2} tested): the smallest p-value the "

@@ -18,7 +18,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from leakdiag._validation import check_int
-from leakdiag.detect.measure import rms_change
+from leakdiag.detect.measure import TooFewChunksError, pct_change, rms_change
 from leakdiag.features import DegenerateWindowWarning
 from leakdiag.features.registry import feature_names, feature_record, values_at
 from leakdiag.features.series import FeatureSeries
@@ -35,10 +35,14 @@ __all__ = ["MEASURE_COLUMNS", "SETTING_COLUMNS", "parse_lag", "lag_label", "grid
 
 #: Setting columns of every sweep table (one row per setting).
 SETTING_COLUMNS = ["method", "channels", "lag", "lag_ratio", "window", "overlap"]
-#: Measure columns (thesis: mean RMS before, after, % change) plus counts.
+#: Measure columns (thesis: mean RMS before, after, % change) plus counts. Every count means
+#: what the field of that name of :class:`leakdiag.detect.RMSChange` means (also in a row
+#: without a measure): ``n_nan_windows`` counts the NaN values inside whole chunks, a chunk of
+#: NaN values only is ``n_chunks_empty`` (not straddling), trailing values that do not fill a
+#: chunk are ``n_windows_dropped``.
 MEASURE_COLUMNS = ["mean_rms_before", "mean_rms_after", "pct_change", "pct_change_signed",
-                   "n_windows", "n_chunks_before", "n_chunks_after", "n_chunks_straddling",
-                   "n_nan_windows", "chunk"]
+                   "n_windows", "n_windows_dropped", "n_chunks_before", "n_chunks_after",
+                   "n_chunks_straddling", "n_chunks_empty", "n_nan_windows", "chunk"]
 
 
 @contextlib.contextmanager
@@ -143,7 +147,8 @@ def measure_row(fs: FeatureSeries, onset: float, chunk: int, method: str, channe
     -------
     dict
         Keys :data:`SETTING_COLUMNS` + :data:`MEASURE_COLUMNS`; measure values are NaN when
-        there is no whole chunk on one side of the onset.
+        there is no whole chunk on one side of the onset (the counts are then those that
+        :func:`~leakdiag.detect.rms_change` found, :attr:`TooFewChunksError.partial`).
 
     Raises
     ------
@@ -154,12 +159,8 @@ def measure_row(fs: FeatureSeries, onset: float, chunk: int, method: str, channe
     row = _setting_row(method, channels, lag, window, overlap)
     try:
         res = rms_change(fs, onset, chunk=chunk)
-    except ValueError:
-        row.update({k: np.nan for k in MEASURE_COLUMNS[:4]})
-        row.update(n_windows=len(fs), n_chunks_before=0, n_chunks_after=0,
-                   n_chunks_straddling=0, n_nan_windows=int(np.isnan(fs.values).sum()),
-                   chunk=chunk)
-        return row
+    except TooFewChunksError as exc:  # no measure: NaN, with the counts that say why
+        res = exc.partial
     d = res.as_dict()
     row.update({k: d[k] for k in MEASURE_COLUMNS})
     return row
@@ -267,8 +268,8 @@ def grid(recording, method: str, channels: Sequence[str] | str | None,
         plans = {}
         for ov, st in per_ov.items():
             t_last = window_times(st, window, rate, t0)
-            plans[ov] = (st, pos[st], _chunk_sides(t_last, window_first_times(t_last, window, rate),
-                                                   onset, chunk))
+            t_first = window_first_times(t_last, window, rate)
+            plans[ov] = (st, pos[st], _chunk_sides(t_last, t_first, onset, chunk))
         for li, lag in enumerate(lag_values):
             top = lag[0] if isinstance(lag, tuple) else lag
             if top >= window:
@@ -301,29 +302,31 @@ def _chunk_sides(t_last, t_first, onset, chunk):
 
 
 def _fast_measure(values, sides, chunk) -> dict:
-    """The Sec. 5.2 measure of :func:`leakdiag.detect.rms_change`, vectorised for a grid."""
+    """The Sec. 5.2 measure of :func:`leakdiag.detect.rms_change`, vectorised for a grid.
+
+    Every value, counts included, equals that of ``rms_change`` on the same series (and, where
+    it raises :class:`TooFewChunksError`, that of its ``partial``): NaN means, same counts.
+    """
     m, k, side0 = sides
     blocks = values[: k * chunk].reshape(k, chunk)
     finite = np.isfinite(blocks)
     n_valid = finite.sum(axis=1)
     sq = np.where(finite, blocks, 0.0) ** 2
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rms = np.sqrt(sq.sum(axis=1) / np.maximum(n_valid, 1))
-    side = np.where(n_valid > 0, side0, 0)
+    rms = np.sqrt(sq.sum(axis=1) / np.maximum(n_valid, 1))  # as chunk_rms (all-NaN: not used)
+    side = np.where(n_valid > 0, side0, 2)  # 2: NaN values only, "empty" as in rms_change
     nb, na = int((side == -1).sum()), int((side == 1).sum())
-    n_nan = int(k * chunk - finite.sum())
+    out = {"n_windows": m, "n_windows_dropped": m - k * chunk, "n_chunks_before": nb,
+           "n_chunks_after": na, "n_chunks_straddling": int((side == 0).sum()),
+           "n_chunks_empty": int((side == 2).sum()),
+           "n_nan_windows": int(k * chunk - finite.sum()), "chunk": chunk}
     if nb == 0 or na == 0:
         return {"mean_rms_before": np.nan, "mean_rms_after": np.nan, "pct_change": np.nan,
-                "pct_change_signed": np.nan, "n_windows": m, "n_chunks_before": 0,
-                "n_chunks_after": 0, "n_chunks_straddling": 0,
-                "n_nan_windows": int(np.isnan(values).sum()), "chunk": chunk}
+                "pct_change_signed": np.nan, **out}
     before = float(rms[side == -1].mean())
     after = float(rms[side == 1].mean())
-    signed = (after - before) / before * 100.0 if before != 0 else np.nan
+    signed = pct_change(before, after)
     return {"mean_rms_before": before, "mean_rms_after": after, "pct_change": abs(signed),
-            "pct_change_signed": signed, "n_windows": m, "n_chunks_before": nb,
-            "n_chunks_after": na, "n_chunks_straddling": k - nb - na, "n_nan_windows": n_nan,
-            "chunk": chunk}
+            "pct_change_signed": signed, **out}
 
 
 def _feature(recording, method, chans, lag, window, overlap) -> FeatureSeries:

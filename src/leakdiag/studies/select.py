@@ -15,7 +15,8 @@ import numpy as np
 
 from leakdiag._validation import check_int
 
-__all__ = ["SelectionRule", "preferred_setting", "THESIS_CHOICES", "VARIED_COLUMN"]
+__all__ = ["SelectionRule", "NoEligibleSettingError", "preferred_setting", "THESIS_CHOICES",
+           "VARIED_COLUMN"]
 
 #: Column of a sweep table holding each varied parameter.
 VARIED_COLUMN = {"lag": "lag", "lag_ratio": "lag_ratio", "window": "window", "overlap": "overlap"}
@@ -87,6 +88,33 @@ class SelectionRule:
         object.__setattr__(self, "tolerance_pct", tol)
 
 
+class NoEligibleSettingError(ValueError):
+    """No row of a sweep table meets the selection rule.
+
+    Parameters
+    ----------
+    message : str
+        What failed, with the counts.
+    tables : dict, optional
+        Sweep tables computed before the rule failed, by stage (``"lag"``, ``"window"``,
+        ``"overlap"``), the failing stage last (:func:`~leakdiag.studies.sweep.ofat_sweep`).
+    stage : str, optional
+        The stage whose table had no eligible row.
+
+    Attributes
+    ----------
+    tables : dict
+        As given (empty from :func:`preferred_setting`, which has the table already).
+    stage : str or None
+        As given.
+    """
+
+    def __init__(self, message: str, tables: dict | None = None, stage: str | None = None):
+        super().__init__(message)
+        self.tables = dict(tables or {})
+        self.stage = stage
+
+
 def _lag_key(df):
     import pandas as pd
 
@@ -116,8 +144,8 @@ def preferred_setting(table, rule: SelectionRule = SelectionRule()):
 
     Raises
     ------
-    ValueError
-        If no row meets the rule (the message gives the counts).
+    NoEligibleSettingError
+        A ``ValueError``: no row meets the rule (the message gives the counts).
 
     Notes
     -----
@@ -142,7 +170,7 @@ def preferred_setting(table, rule: SelectionRule = SelectionRule()):
         ok &= np.sign(df["pct_change_signed"].to_numpy(dtype=float)) == rule.direction
     n_ok = int(ok.sum())
     if n_ok == 0:
-        raise ValueError(
+        raise NoEligibleSettingError(
             f"no setting meets the rule {rule}: {len(df)} row(s), "
             f"{int(np.isfinite(df['pct_change'].to_numpy(dtype=float)).sum())} with a finite % change"
         )

@@ -16,7 +16,7 @@ import numpy as np
 
 from leakdiag.features.registry import feature_record
 from leakdiag.studies.grid import grid, lag_label, parse_lag
-from leakdiag.studies.select import SelectionRule, preferred_setting
+from leakdiag.studies.select import NoEligibleSettingError, SelectionRule, preferred_setting
 
 __all__ = ["parse_values", "one_factor_sweep", "OFATResult", "ofat_sweep", "VARIED"]
 
@@ -197,22 +197,30 @@ def ofat_sweep(recording, method: str, channels, lags: Sequence, windows: Sequen
 
     Raises
     ------
-    ValueError
-        If a stage has no eligible setting.
+    NoEligibleSettingError
+        A ``ValueError``: a stage has no eligible setting. Its ``tables`` hold the stages run
+        so far (the failing one last) and ``stage`` names it: the later stages are not run.
     """
     start_window = int(windows[0] if start_window is None else start_window)
     start_overlap = float(overlaps[0] if start_overlap is None else start_overlap)
     kw = dict(onset=onset, chunk=chunk)
     tables, chosen = {}, {}
+
+    def pick(stage):
+        try:
+            chosen[stage] = _value(preferred_setting(tables[stage], rule), stage, method)
+        except NoEligibleSettingError as exc:  # keep what was computed
+            raise NoEligibleSettingError(str(exc), tables, stage) from None
+
     tables["lag"] = one_factor_sweep(recording, method, channels, "lag", lags,
                                      window=start_window, overlap=start_overlap, **kw)
-    chosen["lag"] = _value(preferred_setting(tables["lag"], rule), "lag", method)
+    pick("lag")
     tables["window"] = one_factor_sweep(recording, method, channels, "window", windows,
                                         lag=chosen["lag"], overlap=start_overlap, **kw)
-    chosen["window"] = _value(preferred_setting(tables["window"], rule), "window", method)
+    pick("window")
     tables["overlap"] = one_factor_sweep(recording, method, channels, "overlap", overlaps,
                                          lag=chosen["lag"], window=chosen["window"], **kw)
-    chosen["overlap"] = _value(preferred_setting(tables["overlap"], rule), "overlap", method)
+    pick("overlap")
     config = {"method": method, "channels": channels if isinstance(channels, str) else
               ",".join(channels or ()), "lags": [lag_label(parse_lag(method, v)) for v in lags],
               "windows": [int(w) for w in windows], "overlaps": [float(o) for o in overlaps],
