@@ -24,8 +24,23 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-__all__ = ["GLRThreshold", "glr_scan", "glr_profile", "glr_alarm_count", "calibrate_glr",
-           "change_point"]
+__all__ = ["GLRThreshold", "TargetBeyondNullError", "glr_scan", "glr_profile",
+           "glr_alarm_count", "calibrate_glr", "change_point"]
+
+
+class TargetBeyondNullError(ValueError):
+    """The false-alarm target is at least the null's alarm-episode rate at its lowest level.
+
+    Such a level would lie below the simulated grid; :func:`calibrate_glr` used to extrapolate
+    the tail's log-linear fit down to it, which gave levels that were not monotone in the
+    target (and negative ones). ``largest_per_hour`` is the null's rate at the lowest level
+    ``lowest_level`` (z scale): every accepted target is below it.
+    """
+
+    def __init__(self, message: str, largest_per_hour: float, lowest_level: float):
+        super().__init__(message)
+        self.largest_per_hour = float(largest_per_hour)
+        self.lowest_level = float(lowest_level)
 
 
 @numba.njit(cache=True)
@@ -427,6 +442,14 @@ def calibrate_glr(runs: list[tuple], window_s: float, max_span: int, target_per_
         Simulated null hours.
     maxima : numpy.ndarray
         Per-replicate GLR maxima (one replicate = one healthy recording's length).
+
+    Raises
+    ------
+    TargetBeyondNullError
+        If ``target_per_hour`` is at least the null's rate at the lowest level of the grid
+        (z = 0.5): the level would be an extrapolation below the simulated levels.
+    ValueError
+        If no healthy window has a leak-law term, or the null has too few alarms.
     """
     rng = np.random.default_rng(seed)
     runs = [r for r in runs if len(r[0])]
@@ -450,6 +473,11 @@ def calibrate_glr(runs: list[tuple], window_s: float, max_span: int, target_per_
         _count_upcrossings(g, grid, counts)
         hours += len(phi) * window_s / 3600.0
     rate = counts / hours
+    if not rate[0] > target_per_hour:
+        raise TargetBeyondNullError(
+            f"calibrate_glr: target_per_hour={target_per_hour:g} is at least the null's "
+            f"alarm-episode rate at its lowest level (z = {grid[0]:g}: {rate[0]:.4g} per "
+            "hour); the level would be extrapolated below the simulated ones", rate[0], grid[0])
     ok = np.flatnonzero(counts >= 3)
     below = np.flatnonzero(rate <= target_per_hour)
     if len(below) and counts[below[0]] >= 3 and below[0] > 0:

@@ -11,6 +11,7 @@ or pump (EHA) of each machine is identified on its healthy recordings in :meth:`
 from __future__ import annotations
 
 import functools
+import hashlib
 import math
 from dataclasses import dataclass, replace
 
@@ -26,6 +27,7 @@ from leakdiag.detect._flow_balance_offset import profile_offset
 from leakdiag.detect._flow_balance_size import band_words, size_band
 from leakdiag.detect._flow_balance_search import (
     GLRThreshold,
+    TargetBeyondNullError,
     calibrate_glr,
     change_point,
     glr_alarm_count,
@@ -66,11 +68,71 @@ OPERATION_MARGIN = 1.0
 #: Wider margins for channels that the leak itself moves: the VCA's servo opens the valve to
 #: feed the leak, so ``u`` left its healthy range by up to 18.5 ranges at 2 L/min (no load).
 OPERATION_MARGINS = {"u": 100.0}
+#: How many times longer than in the healthy recordings a channel may hold one exact value in a
+#: judged recording before it is refused as frozen (leakdiag choice). A hold at the recording's
+#: own smallest or largest value of the channel (a rail: a saturated command) is not counted.
+#: Measured on drawn units 17, 23 and 101, both loads, fits on 4 healthy runs of 60 s, judged
+#: runs with leaks up to 2 L/min (VCA) and 1.6 L/min (EHA), a 10 K temperature rise and (VCA)
+#: 0.3 MPa supply ripple: a judged run's longest hold was at most 1.48 times the healthy
+#: recordings' (VCA ``u``; pressures 1.4, EHA ``speed`` 1.1). Freezing a healthy run's channel
+#: gave a false LEAK from a 0.1-s hold of ``u`` (VCA) or ``speed`` (EHA) and a 0.3-s hold of
+#: a VCA pressure: 3-10 times the healthy holds (18-22, 9-23 and 10-14 samples at 1 kHz). The
+#: limit is an extreme of the healthy data and grows with it (``u`` of unit 17: 54 ms from 4
+#: runs of 60 s, 108 ms from 20 runs of 120 s), and a shorter freeze of ``u`` across a command
+#: step can still alarm (docs/detect.md 8.4, "Stuck sensors").
+HOLD_FACTOR = 3.0
+#: Channels without the hold check: the position is counted by an encoder, which holds its
+#: count whenever the piston rests or creeps (VCA healthy runs: holds of up to 3.4 s; EHA: 21
+#: ms healthy, 59 ms under a 1.6 L/min leak without load), so its holds measure the motion,
+#: not the sensor. Only a position constant over the whole judged part is refused.
+HOLD_EXEMPT = ("x",)
 
 
 def _after(rec, c: str, skip_s: float) -> np.ndarray:
     """Channel ``c`` of ``rec`` after its first ``skip_s`` seconds (the burn-in)."""
     return np.asarray(rec[c], dtype=np.float64)[int(round(skip_s * rec.sample_rate)):]
+
+
+def _longest_hold(v: np.ndarray) -> tuple[int, int]:
+    """Longest run of one exact value in ``v`` that is not at ``v``'s smallest or largest value.
+
+    Returns ``(samples, first index)``; ``(0, 0)`` when every run is at an extreme.
+
+    Examples
+    --------
+    >>> _longest_hold(np.array([0.0, 2.0, 2.0, 2.0, 1.0, 1.0, 3.0, 3.0, 3.0, 3.0]))
+    (3, 1)
+    """
+    v = np.asarray(v, dtype=np.float64)
+    if len(v) == 0:
+        return 0, 0
+    starts = np.flatnonzero(np.concatenate(([True], v[1:] != v[:-1])))
+    lengths = np.diff(np.append(starts, len(v)))
+    inner = np.where((v[starts] != v.min()) & (v[starts] != v.max()), lengths, 0)
+    i = int(np.argmax(inner))
+    return (int(inner[i]), int(starts[i])) if inner[i] else (0, 0)
+
+
+def _meta_leak(rec) -> float | None:
+    """The leak (L/min) that a recording's metadata state (``leak_lpm``), None when they state
+    none or no number."""
+    q = rec.meta.get("leak_lpm")
+    if q is None or isinstance(q, bool):
+        return None
+    try:
+        q = float(q)
+    except (TypeError, ValueError):
+        return None
+    return q if math.isfinite(q) else None
+
+
+def _digest(rec, channels) -> str:
+    """Digest of the samples of ``channels`` (what the balance reads of a recording)."""
+    h = hashlib.blake2b(digest_size=16)
+    for c in channels:
+        h.update(c.encode())
+        h.update(np.ascontiguousarray(rec[c], dtype=np.float64).tobytes())
+    return h.hexdigest()
 
 
 def _operation(recs, channels, skip_s: float = 0.0) -> dict:
@@ -230,7 +292,9 @@ class FlowBalanceDetector(Detector):
         Rig: valve-controlled (Eqs. 2-1, 2-2; channels ``p1 p2 x u``) or electrohydrostatic
         (Eqs. 3-6, 3-16 to 3-19; channels ``p1 p2 x speed pa pb``).
     false_alarms_per_hour : float, default 1.0
-        Target false alarms (alarm episodes) per hour of healthy operation.
+        Target false alarms (alarm episodes) per hour of healthy operation; below one per
+        segment (``segment_s``), and below the GLR null's rate at its lowest level, which
+        :meth:`fit` says when refused.
     window_s : float, default 1.0
         Window over which the balance is integrated (s).
     max_span_s : float, default 30.0
@@ -250,9 +314,12 @@ class FlowBalanceDetector(Detector):
         Pressure difference at which the leak flow is also reported.
     interval_level : float, default 0.95
         Coverage of the leak-size interval.
-    alarm : Alarm, optional
-        Accepted for the benchmark registry; only its ``false_alarms_per_hour`` is not used
-        (this detector's own parameter is).
+    alarm : None
+        Not used, and refused when given (:meth:`fit` raises): the flow balance takes its
+        false-alarm target, burn-in, segment and confidence from its own parameters above and
+        always estimates the onset from the GLR; ``leakdiag.bench.registry.make_detector``
+        copies an :class:`~leakdiag.detect.base.Alarm`'s settings into them. Kept in the
+        signature for parameter-compatible construction (``alarm=None``).
     quiet_boundaries : bool, default True
         VCA: move each window boundary, within a quarter window of its nominal place, to where
         the modelled spool (from ``u``) is at rest, so that command-step transients never
@@ -376,6 +443,12 @@ class FlowBalanceDetector(Detector):
             raise ValueError(f"confidence={self.confidence!r} must be in (0, 1) or None")
         if self.max_span_s < self.window_s:
             raise ValueError(f"max_span_s={self.max_span_s!r} must be >= window_s={self.window_s!r}")
+        if self.alarm is not None:
+            raise ValueError(
+                f"alarm is not used by FlowBalanceDetector (given: {type(self.alarm).__name__}): "
+                "give its settings as the detector's own false_alarms_per_hour, burn_in_s, "
+                "segment_s and confidence (leakdiag.bench.registry.make_detector("
+                "'flow-balance', system, alarm) does); the onset is always the GLR's")
 
     def _backend(self):
 
@@ -440,6 +513,111 @@ class FlowBalanceDetector(Detector):
                     f"on ({lo:.4g} to {hi:.4g}, allowed {margin:g}x that span beyond either "
                     "end): another unit (Pa, m, V, rad/s expected; see --col CH=COL:UNIT), "
                     "another rig, or operation the detector was not fitted for")
+
+    def _check_constant(self, rec, where: str, name: str | None = None) -> None:
+        """Refuse a recording in which a channel the balance reads is constant after the
+        burn-in (zero variance: a stuck sensor or a channel that was not recorded). Read as a
+        measurement, a constant pressure, position, command or speed is flow that is not
+        there: a healthy run with ``p1`` held at its median was judged LEAK at p = 8e-5."""
+        name = name or rec.meta.get("source", "<recording>")
+        burn = float(self.burn_in_s)
+        first = int(round(burn * rec.sample_rate))
+        for c in self._backend().CHANNELS:
+            x = _after(rec, c, burn)
+            if len(x) and x.min() == x.max():
+                raise RecordingError(
+                    f"{where}: {name}: channel {c!r} is constant (stuck sensor?): all "
+                    f"{len(x)} samples after the {burn:g}-s burn-in (rows {first} to "
+                    f"{first + len(x) - 1}) are {x[0]:.6g}; the flow balance reads it as a "
+                    "measurement and cannot use a recording without one")
+
+    def _check_holds(self, rec, where: str) -> None:
+        """Refuse a recording in which a channel holds one exact value for longer than
+        ``HOLD_FACTOR`` times the longest the healthy recordings held one (after the burn-in,
+        not counting holds at the channel's smallest or largest value in the recording, nor
+        the position: ``HOLD_EXEMPT``): a sensor that froze part-way."""
+        limits = getattr(self, "hold_limits_s_", None)  # None: a file saved before the check
+        if not limits:
+            return
+        source = rec.meta.get("source", "<recording>")
+        burn = float(self.burn_in_s)
+        first = int(round(burn * rec.sample_rate))
+        for c, limit in limits.items():
+            if c not in rec.channels:
+                continue
+            x = _after(rec, c, burn)
+            n, i = _longest_hold(x)
+            if n > limit * rec.sample_rate + 1e-6:  # in samples: a hold of the limit is kept
+                raise RecordingError(
+                    f"{where}: {source}: channel {c!r} holds one value ({x[i]:.6g}) for "
+                    f"{n / rec.sample_rate:.4g} s, rows {first + i} to {first + i + n - 1} "
+                    f"(stuck sensor?): longer than the {limit:.3g} s allowed, {HOLD_FACTOR:g}x "
+                    f"the longest the healthy recordings held one value of it "
+                    f"({self.longest_hold_s_[c]:.3g} s, not counting their smallest and "
+                    "largest values)")
+
+    def _monitored_windows(self, rec) -> int:
+        """Windows after the burn-in, counted before the balance is computed: fixed and quiet
+        boundaries alike cut ``(n - 1) // window`` windows of ``n`` samples, the first
+        ``_skip`` of them the burn-in."""
+        n_win = max(0, (rec.n_samples - 1) // self._window(rec))
+        return n_win - min(self._skip(rec), n_win)
+
+    def _too_short(self, rec, n_win: int) -> str:
+        """Why a recording of ``n_win`` monitored windows cannot be tested (words)."""
+        return (f"{rec.duration:.4g} s gives {n_win} window(s) of {self.window_s:g} s after the "
+                f"{self.burn_in_s:g}-s burn-in, and the flow-balance test starts at the "
+                f"{self._MIN_HISTORY}th (a recording longer than about "
+                f"{self.burn_in_s + self._MIN_HISTORY * self.window_s:.3g} s)")
+
+    def _check_healthy(self, recs: list) -> None:
+        """Refuse healthy recordings that cannot be tested, hold a constant channel, leak by
+        their metadata, or repeat one another (``fit``)."""
+        def name(i):
+            return f"healthy recording {i + 1} ({recs[i].meta.get('source', '<recording>')})"
+
+        for i, r in enumerate(recs):
+            n_win = self._monitored_windows(r)
+            if n_win < self._MIN_HISTORY:
+                raise RecordingError(
+                    f"fit: {name(i)} is too short to use: {self._too_short(r, n_win)}; "
+                    "untested, it would add GLR maxima of 0 to the level")
+            self._check_constant(r, "fit", name(i))
+            q = _meta_leak(r)
+            if q is not None and q > 0:
+                onset = r.meta.get("onset")
+                since = f" from {float(onset):g} s" if onset is not None else ""
+                raise RecordingError(
+                    f"fit: {name(i)} leaks by its metadata (leak_lpm={q:g} L/min{since}): the "
+                    "flow balance learns its healthy recordings' flows as the machine's own "
+                    "and its level from their GLR, so a leak among them blinds it; fit on "
+                    "healthy recordings only")
+        seen: dict[str, int] = {}
+        chans = tuple(self._backend().CHANNELS)
+        for i, r in enumerate(recs):
+            j = seen.setdefault(_digest(r, chans), i)
+            if j != i and all(np.array_equal(r[c], recs[j][c]) for c in chans):
+                raise RecordingError(
+                    f"fit: {name(i)} holds the same {', '.join(chans)} samples as {name(j)}: "
+                    "a recording given twice would count as two independent healthy runs "
+                    "(twice in the identification, its GLR maxima twice in the level)")
+
+    def _check_target(self, recs: list) -> float:
+        """The segment (s) of the level; refuses a target of one false alarm or more per
+        segment (``false_alarms_per_hour * segment_s / 3600 >= 1``)."""
+        seg = self._fixed_segment()
+        n_win = min(self._monitored_windows(r) for r in recs)
+        segment_s = n_win * float(self.window_s) if seg is None else seg
+        what = (f"the shortest healthy recording's {n_win} monitored windows of "
+                f"{self.window_s:g} s" if seg is None else "segment_s")
+        per_segment = float(self.false_alarms_per_hour) * segment_s / 3600.0
+        if per_segment >= 1.0:
+            raise ValueError(
+                f"fit: false_alarms_per_hour={self.false_alarms_per_hour:g} is {per_segment:.4g} "
+                f"false alarms per {segment_s:g}-s segment ({what}), the unit of the level: "
+                "one or more per segment sets no level; the largest accepted value is below "
+                f"{3600.0 / segment_s:.6g} per hour")
+        return segment_s
 
     def _window(self, rec) -> int:
         w = int(round(self.window_s * rec.sample_rate))
@@ -617,11 +795,15 @@ class FlowBalanceDetector(Detector):
         Raises
         ------
         leakdiag.io.RecordingError
-            If a recording lacks a channel the balance needs (the message names it) or holds
-            a non-finite value.
+            If a recording lacks a channel the balance needs (the message names it), holds a
+            non-finite value, has a channel that is constant after the burn-in, is too short
+            to be tested (fewer than 5 windows after the burn-in), leaks by its metadata
+            (``meta["leak_lpm"] > 0``), or holds the same samples as another one.
         ValueError
-            For a bad setting, no recordings, a recording of another system, too little
-            healthy data, or reference maxima made with other settings.
+            For a bad setting (also a given ``alarm``), no recordings, a recording of another
+            system, too little healthy data, reference maxima made with other settings, or a
+            ``false_alarms_per_hour`` of one alarm or more per segment or at least the GLR
+            null's rate at its lowest level (the message gives the largest accepted value).
         TypeError
             If ``reference_maxima`` is not a ReferenceMaxima.
         """
@@ -636,6 +818,9 @@ class FlowBalanceDetector(Detector):
             raise ValueError("fit needs at least one healthy recording, got none")
         for r in recs:
             self._check_recording(r, "fit")
+        if not _no_cross:  # a cross-fit half holds recordings fit has checked
+            self._check_healthy(recs)
+            segment_s = self._check_target(recs)
         self.operation_ = _operation(recs, self._backend().CHANNELS, float(self.burn_in_s))
         be = self._backend()
         nominal = self._nominal()
@@ -665,11 +850,28 @@ class FlowBalanceDetector(Detector):
         self.dispersion_ = self._dispersion(terms)
         if _no_cross:  # a cross-fit half: only the model and error model score the other half
             return self
+        # the longest hold of one value per channel: a longer one in a judged recording is a
+        # frozen sensor (_check_holds; HOLD_FACTOR)
+        self.longest_hold_s_ = {
+            c: max(_longest_hold(_after(r, c, float(self.burn_in_s)))[0] / r.sample_rate
+                   for r in recs)
+            for c in be.CHANNELS if c not in HOLD_EXEMPT}
+        self.hold_limits_s_ = {c: HOLD_FACTOR * v for c, v in self.longest_hold_s_.items()
+                               if v > 0}
         runs = [(t["phi"], self._sigma(t), t["nuisance"]) for t in terms]
         pool = np.concatenate([self._profiled(t) / self._sigma(t) for t in terms])
-        h, grid, rate, hours, null_max = calibrate_glr(
-            runs, self.window_s, self._max_span(), float(self.false_alarms_per_hour),
-            self._MIN_HISTORY, pool=pool)
+        try:
+            h, grid, rate, hours, null_max = calibrate_glr(
+                runs, self.window_s, self._max_span(), float(self.false_alarms_per_hour),
+                self._MIN_HISTORY, pool=pool)
+        except TargetBeyondNullError as exc:
+            raise ValueError(
+                f"fit: false_alarms_per_hour={self.false_alarms_per_hour:g} is at least the "
+                f"rate of alarm episodes of the GLR's healthy null at its lowest level (z = "
+                f"{exc.lowest_level:g}: {exc.largest_per_hour:.4g} per hour for these healthy "
+                "recordings), so its level would be extrapolated below the simulated ones; the "
+                "largest accepted value is below "
+                f"{min(exc.largest_per_hour, 3600.0 / segment_s):.4g} per hour") from None
         self.healthy_hours_ = float(sum(len(t["residual"]) for t in terms) * self.window_s / 3600)
         gs = [self._glr(t)[0] for t in terms]
         self.healthy_maxima_ = np.array([float(g.max()) if len(g) else 0.0 for g in gs])
@@ -691,8 +893,6 @@ class FlowBalanceDetector(Detector):
         # one segment = the shortest run's monitored windows (one segment per run when equal)
         # or segment_s of monitored time (windows by their end), as the Alarm's segment_s
         self.segment_windows_ = max(1, min(len(t["residual"]) for t in terms))
-        seg = self._fixed_segment()
-        segment_s = self.segment_windows_ * float(self.window_s) if seg is None else seg
         own = (np.concatenate([self._maxima(g, t, r) for g, t, r in zip(cross, terms, recs)])
                if cross else np.zeros(0))
         self.threshold_basis_ = self._threshold_basis(own, segment_s, reference_maxima, h)
@@ -741,16 +941,15 @@ class FlowBalanceDetector(Detector):
     def _scan(self, rec, where: str):
         self._check_fitted()
         self._check_recording(rec, where)
-        self._check_operation(rec, where)
-        t = self._terms(rec)
-        n_win = len(t["end"])
+        n_win = self._monitored_windows(rec)
         if n_win < self._MIN_HISTORY:  # the GLR tests from its _MIN_HISTORY-th window on
             source = rec.meta.get("source", "<recording>")
             raise RecordingError(
-                f"{where}: {source}: too short to judge: {rec.duration:.4g} s gives {n_win} "
-                f"window(s) of {self.window_s:g} s after the {self.burn_in_s:g}-s burn-in, "
-                f"and the flow-balance test starts at the {self._MIN_HISTORY}th (a recording "
-                f"longer than about {self.burn_in_s + self._MIN_HISTORY * self.window_s:.3g} s)")
+                f"{where}: {source}: too short to judge: {self._too_short(rec, n_win)}")
+        self._check_constant(rec, where)
+        self._check_operation(rec, where)
+        self._check_holds(rec, where)
+        t = self._terms(rec)
         a, b = self._ab(t)
         g, arg = self._glr(t)
         return t, a, b, g, arg
