@@ -289,6 +289,25 @@ def test_a_fleet_fit_says_its_size_band_is_no_promise():
     assert "no promise here" in v.leak_lpm_interval_holds
 
 
+def test_fleet_band_misses_are_those_of_the_committed_fleet_benchmark():
+    """FLEET_BAND_MISSES (quoted by a fleet fit's verdict) recomputed from the committed v5
+    fleet runs: each sized leaking run's interval widened by the band (a no-op where the run
+    recorded it already) against the run's achieved mean leak."""
+    import pandas as pd
+
+    from leakdiag.detect._flow_balance_size import FLEET_BAND_MISSES, SIZE_RATIO_RANGE
+
+    runs = pd.read_csv(Path(__file__).resolve().parents[2] / "docs" / "benchmark" / "v5"
+                       / "fleet-conditional" / "runs.csv.gz")
+    f = runs[(runs.method == "flow-balance") & (runs.leak_lpm > 0) & runs.leak_lpm_low.notna()]
+    r_lo = [SIZE_RATIO_RANGE[s][ld_][0] for s, ld_ in zip(f.system, f.load)]
+    r_hi = [SIZE_RATIO_RANGE[s][ld_][1] for s, ld_ in zip(f.system, f.load)]
+    lo = np.minimum(f.leak_lpm_low, f.leak_lpm_est / np.array(r_hi))
+    hi = np.maximum(f.leak_lpm_high, f.leak_lpm_est / np.array(r_lo))
+    held = (lo <= f.leak_lpm_achieved) & (f.leak_lpm_achieved <= hi)
+    assert FLEET_BAND_MISSES == (int((~held).sum()), len(f))
+
+
 def test_model_based_p_value_stops_at_the_null_resolution(machine17):
     """The log-linear tail beyond the Monte-Carlo grid gave p = 1e-286 and 0 on strong leaks:
     the p-value is floored at one episode in the null's simulated hours."""

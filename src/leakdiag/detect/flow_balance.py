@@ -24,7 +24,7 @@ from leakdiag._validation import check_positive
 from leakdiag.detect import _flow_balance_eha as eha
 from leakdiag.detect import _flow_balance_vca as vca
 from leakdiag.detect._flow_balance_offset import profile_offset
-from leakdiag.detect._flow_balance_size import band_words, size_band
+from leakdiag.detect._flow_balance_size import FLEET_BAND_MISSES, band_words, size_band
 from leakdiag.detect._flow_balance_search import (
     GLRThreshold,
     TargetBeyondNullError,
@@ -1097,8 +1097,9 @@ class FlowBalanceDetector(Detector):
         n_units = (getattr(self, "operation_", None) or {}).get("n_machines", 0)
         if n_units > 1:
             holds += (f"; measured with each machine's own fit, while this detector was fitted "
-                      f"on {n_units} machines: with such fleet fits 11 of 188 benchmark runs "
-                      "fell outside it, so it is no promise here")
+                      f"on {n_units} machines: with such fleet fits {FLEET_BAND_MISSES[0]} of "
+                      f"{FLEET_BAND_MISSES[1]} benchmark runs fell outside it, so it is no "
+                      "promise here")
         return FlowBalanceVerdict(
             leak=True, onset_s=onset, alarm_time_s=alarm,
             leak_lpm=float(lpm), leak_lpm_interval=(float(interval[0]), float(interval[1])),
