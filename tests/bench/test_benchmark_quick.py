@@ -118,17 +118,28 @@ def test_full_budget_lifts_the_reduced_budget_through_the_cli(tmp_path, monkeypa
     assert s_r["reduced_budget"] == {"acf-p1": [19, 5, 1]} and s_f["reduced_budget"] == {}
 
 
-def test_every_fit_failing_gives_a_report_of_errors_not_a_crash(tmp_path, monkeypatch):
-    """10 calibration runs cannot support 5 % per run (k < 1): the fit fails, and the run still
-    ends with its fits table naming the error (it crashed with 'No objects to concatenate')."""
+def test_every_fit_failing_is_an_error_with_a_report_of_the_fits(tmp_path, monkeypatch):
+    """10 calibration runs cannot support 5 % per run (k < 1): the fit fails, and the run ends
+    with an error naming it, after writing the fits table that lists it (it crashed with 'No
+    objects to concatenate', then ended with exit 0 and a report of files it had not written)."""
     import leakdiag.bench.v5_run as v5_run
+    from leakdiag.bench.outputs import NothingJudgedError
     from leakdiag.bench.v5_report import run_benchmark_v5
 
     monkeypatch.setattr(v5_run, "REDUCED_BUDGET", {"acf-p1": (10, 5, 1)})
-    res = run_benchmark_v5(tmp_path / "out", quick=True, systems=["vca"], methods=["acf-p1"],
-                           cache_dir=str(tmp_path / "cache"), progress=False)
-    assert len(res["runs"]) == 0
-    assert res["fits"].error.str.contains("InsufficientHealthyDataError").all()
+    with pytest.raises(NothingJudgedError) as err:
+        run_benchmark_v5(tmp_path / "out", quick=True, systems=["vca"], methods=["acf-p1"],
+                         cache_dir=str(tmp_path / "cache"), progress=False)
+    msg = str(err.value)
+    assert msg.startswith(f"no held-out run was judged: 1 of 1 fits failed (listed in "
+                          f"{tmp_path / 'out' / 'fits.csv'}); first: acf-p1 on vca none "
+                          "operating: InsufficientHealthyDataError: 10 healthy maxima")
+    assert msg.endswith(". The thresholds rest on 10 calibration runs per group: give "
+                        "--full-budget with --n-cal 19 or more (acf-p1 is fitted on at most 10 "
+                        "calibration runs without it), or a larger --false-alarm-rate (now "
+                        "0.05)")
+    fits = pd.read_csv(tmp_path / "out" / "fits.csv")
+    assert fits.error.str.contains("InsufficientHealthyDataError").all()
 
 
 def test_confidence_sets_calibration_conditional_levels_through_the_cli(tmp_path):
@@ -145,7 +156,7 @@ def test_confidence_sets_calibration_conditional_levels_through_the_cli(tmp_path
     assert settings["threshold_confidence"] == 0.6
     assert "with probability 60 % over its healthy data" in (tmp_path / "c60" / "report.md").read_text()
     assert main([*common, "-o", str(tmp_path / "c70"), "--work-dir", str(tmp_path / "w2"),
-                 "--confidence", "0.7"]) == 0
+                 "--confidence", "0.7"]) == 2  # no level at 70 %: nothing judged, an error
     fits = pd.read_csv(tmp_path / "c70" / "fits.csv")
     assert fits.error.str.contains("at 70 % confidence needs at least 24 maxima").all()
     assert main(["benchmark", "--suite", "v4", "-o", str(tmp_path / "v4"),

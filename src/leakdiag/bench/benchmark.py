@@ -3,19 +3,21 @@
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, replace
-from pathlib import Path
+import math
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import leakdiag.sim as sim
-from leakdiag.bench.registry import DEFAULT_METHODS, METHODS
+from leakdiag.bench.outputs import NothingJudgedError, prepare_folder, remove_previous_outputs
+from leakdiag.bench.registry import DEFAULT_METHODS, METHODS, make_detector
 from leakdiag.bench.report import build_report
-from leakdiag.bench.run import run_suite
+from leakdiag.bench.run import per_run_target_per_hour, run_suite
 from leakdiag.bench.scoring import minimum_detectable, summarise
-from leakdiag.bench.suite import EXCITATIONS, QUICK_SUITES, SUITES
+from leakdiag.bench.suite import EXCITATIONS, QUICK_FAR, QUICK_SUITES, SUITES
 from leakdiag.detect.base import Alarm
+from leakdiag.runtime.cache import resolve_cache_dir
 
-__all__ = ["run_benchmark", "BenchmarkResult"]
+__all__ = ["run_benchmark", "BenchmarkResult", "console_table_v4", "check_target_supported"]
 
 
 @dataclass
@@ -34,6 +36,8 @@ class BenchmarkResult:
         ``runs.csv``: one row per method and held-out run.
     paths : dict
         Name -> written file.
+    removed : list of str
+        Files of an earlier benchmark run removed from the output folder before the run.
     """
 
     results: Any
@@ -41,6 +45,7 @@ class BenchmarkResult:
     by_condition: Any
     runs: Any
     paths: dict
+    removed: list = field(default_factory=list)
 
 
 def _by_condition(runs, rated):
@@ -72,7 +77,7 @@ def _summary_by_condition(by_cond, rated, target):
 
 def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
                   excitations=None, max_test_runs: int | None = None,
-                  false_alarm_per_run: float = 0.01, onset_method: str = "binseg",
+                  false_alarm_per_run: float | None = None, onset_method: str = "binseg",
                   scheduler: str = "serial", n_workers: int | None = None,
                   cache_dir: str | None = None, progress: bool = True,
                   command: str = "leakdiag benchmark") -> BenchmarkResult:
@@ -97,8 +102,9 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
         Reduced suite: at most this many held-out healthy runs and leaking runs per size in
         every group (the first ones of the full suite, same seeds); fitting and calibration
         runs are unchanged. Default: the full suite.
-    false_alarm_per_run : float, default 0.01
-        Target false-alarm probability per healthy run.
+    false_alarm_per_run : float, optional
+        Target false-alarm probability per healthy run (default 0.01; ``quick``:
+        :data:`~leakdiag.bench.suite.QUICK_FAR`, what its 8 fitting runs per group support).
     onset_method : {"binseg", "pelt", "cusum"}, default "binseg"
         Onset estimator.
     scheduler : str, default "serial"
@@ -119,7 +125,16 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
     Raises
     ------
     ValueError
-        Unknown method or system.
+        Unknown method, system or excitation; a target the suite's fitting runs cannot support
+        (:func:`check_target_supported`); an output or cache folder that cannot be written.
+        All checked before any work.
+    NothingJudgedError
+        No method could be fitted on any group (the first reason, with the option to change).
+
+    Notes
+    -----
+    Before any work the files an earlier benchmark run wrote into ``out_dir`` are removed
+    (:func:`~leakdiag.bench.outputs.remove_previous_outputs`; other files stay).
     """
     methods = list(methods or DEFAULT_METHODS)
     for m in methods:
@@ -144,19 +159,33 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
         m = int(max_test_runs)
         suites = {k: replace(v, n_test_healthy=min(v.n_test_healthy, m),
                               n_test_leak=min(v.n_test_leak, m)) for k, v in suites.items()}
+    if false_alarm_per_run is None:
+        false_alarm_per_run = QUICK_FAR if quick else 0.01
     alarm = Alarm(onset_method=onset_method)
+    check_target_supported(suites, methods, false_alarm_per_run, alarm.burn_in_s)
+    out = prepare_folder(out_dir, "--out")
+    prepare_folder(resolve_cache_dir(cache_dir),
+                   "--cache-dir" if cache_dir else "simulation cache")
+    removed = remove_previous_outputs(out)
     sr = run_suite(suites, methods, false_alarm_per_run=false_alarm_per_run, alarm=alarm,
                    scheduler=scheduler, n_workers=n_workers, cache_dir=cache_dir,
                    progress=progress)
     if len(sr.runs) == 0 or (sr.runs.role == "error").all():
-        first = sr.runs.error.iloc[0] if len(sr.runs) else "no runs"
-        raise ValueError(f"no method could be fitted on any group; first reason: {first}")
+        if not len(sr.runs):
+            raise NothingJudgedError("no method could be fitted on any group: no runs")
+        r = sr.runs.iloc[0]
+        s = suites[r.system]
+        low, give = _smallest_target(s, alarm.burn_in_s)
+        hint = (f". Suite v4 fits each threshold on {s.n_fit} healthy fitting runs per group, "
+                f"which support a false-alarm target of at least {low:.3g} per run: give "
+                f"--false-alarm-rate {give:.2f} or more" if "maxima" in str(r.error) else "")
+        raise NothingJudgedError(
+            f"no method could be fitted on any group; first reason: {r.method} on {r.system} "
+            f"{r.load} {r.noise_level} {r.excitation}: {r.error}{hint}")
     results = summarise(sr.runs[sr.runs.role != "error"], sr.rated_flow_lpm)
     summary = minimum_detectable(results, sr.rated_flow_lpm, false_alarm_per_run)
     by_cond = _by_condition(sr.runs, sr.rated_flow_lpm)
     summary_cond = _summary_by_condition(by_cond, sr.rated_flow_lpm, false_alarm_per_run)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     paths = build_report(sr, results, summary, by_cond, command, summary_cond).write(out)
     for name, df in (("results", results), ("summary", summary),
                      ("summary_by_condition", summary_cond),
@@ -170,7 +199,105 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
                 "rated_flow_lpm": sr.rated_flow_lpm}
     paths["settings"] = out / "settings.json"
     paths["settings"].write_text(json.dumps(settings, indent=2, sort_keys=True), encoding="utf-8")
-    return BenchmarkResult(results, summary, by_cond, sr.runs, paths)
+    return BenchmarkResult(results, summary, by_cond, sr.runs, paths, removed)
+
+
+def check_target_supported(suites, methods, per_run: float, burn_in_s: float = 5.0) -> None:
+    """Refuse, before any simulation, a target the suite's fitting runs cannot support.
+
+    A method with the detectors' common fit (``Detector.fit``) sets its threshold from one
+    CUSUM maximum per healthy fitting run (the segment is the run's monitored span), so a
+    group's ``n_fit`` runs support a per-run target ``p`` only if ``n_fit >=
+    min_maxima(-log(1 - p))``. Methods with their own fit (combined, flow balance) are not
+    checked here; when none of them can be fitted either, the run ends with
+    :class:`~leakdiag.bench.outputs.NothingJudgedError`.
+
+    Parameters
+    ----------
+    suites : dict
+        Rig -> :class:`~leakdiag.bench.suite.SystemSuite`.
+    methods : sequence of str
+        Registry names.
+    per_run : float
+        Target false-alarm probability per healthy run.
+    burn_in_s : float, default 5.0
+        Leading seconds of a run not monitored.
+
+    Raises
+    ------
+    ValueError
+        Naming the fitting runs, the smallest target they support and the
+        ``--false-alarm-rate`` to give.
+
+    Examples
+    --------
+    >>> check_target_supported(QUICK_SUITES, ["acf-p1"], 0.12)
+    >>> check_target_supported(QUICK_SUITES, ["acf-p1"], 0.05)
+    Traceback (most recent call last):
+    ...
+    ValueError: suite v4 fits each threshold on 8 healthy fitting runs per group (vca), one \
+maximum each: they support a false-alarm target of at least 0.105 per run, and \
+--false-alarm-rate 0.05 needs 19 such runs; give --false-alarm-rate 0.11 or more
+    """
+    from leakdiag.bench.v5_run import shares_fit
+    from leakdiag.detect.threshold import min_maxima
+
+    for name, s in suites.items():
+        common = [m for m in methods if shares_fit(make_detector(m, name, Alarm()))]
+        need = min_maxima(_segment_target(per_run, s, burn_in_s))
+        if not common or s.n_fit >= need:
+            continue
+        low, give = _smallest_target(s, burn_in_s)
+        raise ValueError(f"suite v4 fits each threshold on {s.n_fit} healthy fitting runs per "
+                         f"group ({name}), one maximum each: they support a false-alarm target "
+                         f"of at least {low:.3g} per run, and --false-alarm-rate {per_run:g} "
+                         f"needs {need} such runs; give --false-alarm-rate {give:.2f} or more")
+
+
+def _segment_target(per_run: float, s, burn_in_s: float) -> float:
+    """The fit's target per segment for a per-run target (one segment per run)."""
+    seg = s.duration_s - burn_in_s
+    return per_run_target_per_hour(per_run, s.duration_s, burn_in_s) * seg / 3600.0
+
+
+def _smallest_target(s, burn_in_s: float) -> tuple[float, float]:
+    """The smallest per-run target ``n_fit`` maxima support, and it rounded up to 0.01."""
+    from leakdiag.detect.threshold import min_maxima
+
+    low = -math.expm1(-1.0 / (s.n_fit + 1))  # target per segment 1 / (n + 1)
+    give = math.ceil(100 * low) / 100
+    while min_maxima(_segment_target(give, s, burn_in_s)) > s.n_fit:
+        give += 0.01
+    return low, give
+
+
+def console_table_v4(summary) -> str:
+    """The v4 summary for the console: false alarms with count, n and 95 % interval.
+
+    Parameters
+    ----------
+    summary : pandas.DataFrame
+        :func:`~leakdiag.bench.scoring.minimum_detectable` of the run.
+
+    Returns
+    -------
+    str
+        One row per method, rig and input; ``--`` where a value is undefined (minimum
+        detectable leak not reached).
+    """
+    import pandas as pd
+
+    from leakdiag.bench.v5_scoring import rate_text
+
+    def num(x):
+        return "--" if x is None or not math.isfinite(float(x)) else f"{float(x):.3g}"
+
+    rows = [{"method": r.method, "rig": r.system, "input": r.excitation,
+             "false alarms [95 % CI]": rate_text(r.false_alarms, r.n_test_healthy),
+             "MDL (L/min)": num(r.min_detectable_lpm),
+             "MDL (% rated)": num(r.min_detectable_pct_rated),
+             "CPU s per hour": num(r.cpu_s_per_hour)} for _, r in summary.iterrows()]
+    return pd.DataFrame(rows).to_string(index=False)
 
 
 def _jsonable(d):

@@ -113,7 +113,7 @@ def _roc_figure(runs, system):
     return fig
 
 
-def _rate_figure(results, system, rated):
+def _rate_figure(results, system, rated, target=0.01):
     import matplotlib.pyplot as plt
 
     sub = results[results.system == system]
@@ -123,7 +123,7 @@ def _rate_figure(results, system, rated):
     ax.axhline(0.9, color="0.5", lw=0.8, ls=":")
     ax.set_xscale("log")
     ax.set_xlabel("leak (L/min)")
-    ax.set_ylabel("detection rate at the 1 % per-run false-alarm threshold")
+    ax.set_ylabel(f"detection rate at the {100 * target:g} % per-run false-alarm threshold")
     ax.set_ylim(-0.03, 1.03)
     if system in rated:
         sec = ax.secondary_xaxis("top", functions=(lambda q: 100 * q / rated[system],
@@ -219,7 +219,8 @@ def build_report(suite_run, results, summary, by_condition, command: str,
     rep.table(results, "One row per method, rig and leak size")
     for system in dict.fromkeys(results.system):
         rep.heading(system.upper(), level=3)
-        rep.figure(_rate_figure(results, system, suite_run.rated_flow_lpm),
+        rep.figure(_rate_figure(results, system, suite_run.rated_flow_lpm,
+                                s["false_alarm_per_run"]),
                    f"{system.upper()}: detection rate against leak size")
         rep.figure(_roc_figure(suite_run.runs, system), f"{system.upper()}: ROC curves per method")
         rep.figure(_onset_figure(suite_run.runs, system),

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from leakdiag.detect.rates import clopper_pearson
+
 __all__ = ["roc_auc", "roc_curve", "summarise", "minimum_detectable", "RESULT_COLUMNS",
            "SUMMARY_COLUMNS", "DETECTION_RATE_REQUIRED"]
 
@@ -107,9 +109,10 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None):
     -------
     pandas.DataFrame
         :data:`RESULT_COLUMNS` then ``leak_pct_rated, false_alarms_per_hour, n_test_healthy,
-        excitation``, the size-estimate scores and ``cpu_s_per_hour`` (median over the
-        method's held-out runs of the rig and excitation of CPU seconds per hour of signal;
-        NaN if the runs carry no timing).
+        excitation``, the size-estimate scores, ``cpu_s_per_hour`` (median over the method's
+        held-out runs of the rig and excitation of CPU seconds per hour of signal; NaN if the
+        runs carry no timing) and the false alarms' count with their 95 % Clopper-Pearson
+        interval, ``false_alarms, far_low, far_high``.
 
     Examples
     --------
@@ -133,6 +136,8 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None):
                                                         sort=False):
         healthy = g[g.role == "test_healthy"]
         far = float(healthy.alarm.astype(bool).mean()) if len(healthy) else float("nan")
+        n_fa = int(healthy.alarm.astype(bool).sum())
+        far_lo, far_hi = clopper_pearson(n_fa, len(healthy))
         hours = float(healthy.duration_s.mean()) / 3600.0 if len(healthy) else float("nan")
         far_h = -np.log1p(-min(far, 1 - 1e-12)) / hours if len(healthy) else float("nan")
         leak = g[g.role == "test_leak"]
@@ -153,11 +158,13 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None):
                 "leak_pct_rated": (100.0 * q / rated[system]) if system in rated else float("nan"),
                 "false_alarms_per_hour": far_h, "n_test_healthy": len(healthy),
                 "excitation": excitation, **_size_scores(lk, det, q),
-                "cpu_s_per_hour": cpu_h,
+                "cpu_s_per_hour": cpu_h, "false_alarms": n_fa, "far_low": far_lo,
+                "far_high": far_hi,
             })
     return pd.DataFrame(rows, columns=RESULT_COLUMNS + ["leak_pct_rated", "false_alarms_per_hour",
                                                         "n_test_healthy", "excitation",
-                                                        *_SIZE_COLUMNS, "cpu_s_per_hour"])
+                                                        *_SIZE_COLUMNS, "cpu_s_per_hour",
+                                                        *_FAR_COLUMNS])
 
 
 def _cpu_per_hour(g) -> float:
@@ -169,6 +176,8 @@ def _cpu_per_hour(g) -> float:
     return _q(pd.to_numeric(g.cpu_s_per_hour, errors="coerce").dropna().to_numpy(), 0.5)
 
 
+#: False alarms of the held-out healthy runs: count and 95 % Clopper-Pearson interval.
+_FAR_COLUMNS = ("false_alarms", "far_low", "far_high")
 #: Leak-size estimation columns of the results (detected runs with a calibration).
 _SIZE_COLUMNS = ("leak_lpm_est_median", "leak_interval_coverage", "n_size_estimates")
 
@@ -206,8 +215,9 @@ def minimum_detectable(results, rated_flow_lpm: dict[str, float] | None = None,
     pandas.DataFrame
         :data:`SUMMARY_COLUMNS` then ``excitation``, ``auc_max_leak`` (AUC at the largest
         leak size), ``onset_error_median_s`` and ``detection_delay_median_s`` (medians over
-        the leak sizes of the per-size medians) and ``cpu_s_per_hour``: the one comparison
-        table of issue 6.
+        the leak sizes of the per-size medians), ``cpu_s_per_hour`` and, when ``results``
+        has them, ``false_alarms, far_low, far_high`` (count and 95 % interval): the one
+        comparison table of issue 6.
 
     Examples
     --------
@@ -238,10 +248,12 @@ def minimum_detectable(results, rated_flow_lpm: dict[str, float] | None = None,
                      "auc_max_leak": float(g.auc.iloc[-1]) if "auc" in g else float("nan"),
                      "onset_error_median_s": _median_col(g, "onset_error_median_s"),
                      "detection_delay_median_s": _median_col(g, "detection_delay_median_s"),
-                     "cpu_s_per_hour": _median_col(g, "cpu_s_per_hour")})
+                     "cpu_s_per_hour": _median_col(g, "cpu_s_per_hour"),
+                     **{c: g[c].iloc[0] for c in _FAR_COLUMNS if c in g}})
+    far_cols = [c for c in _FAR_COLUMNS if c in results]
     return pd.DataFrame(rows, columns=SUMMARY_COLUMNS + [
         "excitation", "auc_max_leak", "onset_error_median_s", "detection_delay_median_s",
-        "cpu_s_per_hour"])
+        "cpu_s_per_hour", *far_cols])
 
 
 def _median_col(g, col: str) -> float:

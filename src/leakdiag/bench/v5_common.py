@@ -17,7 +17,8 @@ import leakdiag.sim as sim
 from leakdiag.bench.run import _recording, simulator_kwargs
 from leakdiag.detect.base import Alarm
 
-__all__ = ["LazyRecordings", "Plan", "v5_alarm", "run_row", "error_row", "write_shard"]
+__all__ = ["LazyRecordings", "Plan", "v5_alarm", "run_row", "error_row", "write_shard",
+           "shard_rows", "FINGERPRINT_PARTS", "FINGERPRINT_EXCLUDED"]
 
 
 class LazyRecordings(Sequence):
@@ -75,13 +76,42 @@ def v5_alarm(false_alarm_per_run: float, duration_s: float, onset_method: str = 
     return replace(base, segment_s=seg, false_alarms_per_hour=false_alarm_per_run * 3600.0 / seg)
 
 
-def _fingerprint() -> str:
+#: What the resume key of a v5 result hashes: every part of the package whose code can change
+#: a result -- the simulators (held-out runs are simulated afresh, calibration runs are read
+#: through the cache), the recording type and readers, the cache and executor, the argument
+#: checks, the detectors, features, literature methods and the benchmark itself. Subfolders
+#: count too (``sim/vca``, ``features/_kernels``).
+FINGERPRINT_PARTS = ("_validation.py", "bench", "detect", "features", "io", "literature",
+                     "runtime", "sim")
+#: Parts the v5 pipeline imports that cannot change a result (checked by the tests).
+FINGERPRINT_EXCLUDED = {"report": "HTML pages and figure styles (bench.report.method_style)",
+                        "_version": "the version number, not code"}
+
+
+def _part_fingerprint(part: str) -> str:
+    """SHA-256 (16 hex digits) of one part of the package (a module file or a folder)."""
     root = Path(__file__).resolve().parents[1]  # the leakdiag package
     h = hashlib.sha256()
-    for sub in ("detect", "features", "literature", "bench"):  # subfolders too (_kernels/)
-        for f in sorted((root / sub).rglob("*.py")):
-            h.update(str(f.relative_to(root)).encode())
-            h.update(f.read_bytes())
+    p = root / part
+    files = [p] if p.is_file() else sorted(p.rglob("*.py"))
+    for f in files:
+        h.update(f.relative_to(root).as_posix().encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _fingerprint() -> str:
+    """Code fingerprint of a v5 result: every part of :data:`FINGERPRINT_PARTS`, in order.
+
+    Returns
+    -------
+    str
+        16 hex digits; part of every fit, reference and shard key, so that a change to any of
+        that code (a simulator edit included) never reads a result of the former code.
+    """
+    h = hashlib.sha256()
+    for part in FINGERPRINT_PARTS:
+        h.update(f"{part}={_part_fingerprint(part)};".encode())
     return h.hexdigest()[:16]
 
 
@@ -176,6 +206,24 @@ def write_shard(rows: list, path) -> int:
     df.to_parquet(tmp, index=False)
     tmp.replace(path)
     return len(df)
+
+
+def shard_rows(path) -> int:
+    """Rows of a written shard, from its Parquet metadata (an empty shard has no columns).
+
+    Parameters
+    ----------
+    path : path-like
+        Shard file.
+
+    Returns
+    -------
+    int
+        Rows in the shard (0 for a chunk none of whose methods could judge).
+    """
+    import pyarrow.parquet as pq
+
+    return int(pq.ParquetFile(path).metadata.num_rows)
 
 
 @dataclass(frozen=True)

@@ -9,14 +9,17 @@ from pathlib import Path
 
 import numpy as np
 
+from leakdiag.bench.outputs import NothingJudgedError, prepare_folder, remove_previous_outputs
 from leakdiag.bench.registry import METHODS, thesis_methods
 from leakdiag.bench.report import method_style
-from leakdiag.bench.v5_run import run_v5
-from leakdiag.bench.v5_scoring import false_alarm_table, size_table, summary_v5
+from leakdiag.bench.suite import EXCITATIONS
+from leakdiag.bench.v5_run import run_v5, work_lines
+from leakdiag.bench.v5_scoring import false_alarm_table, rate_text, size_table, summary_v5
 from leakdiag.bench.v5_suite import V5_DEFAULT_FAR, V5_QUICK_FAR, V5_QUICK_SUITES, V5_SUITES
 from leakdiag.runtime.cache import resolve_cache_dir
 
-__all__ = ["run_benchmark_v5", "write_v5_report"]
+__all__ = ["run_benchmark_v5", "write_v5_report", "console_table", "nothing_judged_message",
+           "failure_warnings"]
 
 
 def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None,
@@ -65,12 +68,23 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     -------
     dict
         ``summary``, ``detection``, ``false_alarms``, ``fits``, ``runs`` (DataFrames), ``paths``,
-        ``settings``.
+        ``settings`` (``settings["work"]``: what was reused from ``work_dir`` and what was
+        computed now, :func:`~leakdiag.bench.v5_run.work_summary`), ``removed`` (files of an
+        earlier run removed from ``out_dir``).
 
     Raises
     ------
     ValueError
-        Unknown method, system, load or excitation.
+        Unknown method, system, load or excitation; ``out_dir``, ``work_dir`` or the cache
+        folder cannot be written (checked before any work).
+    NothingJudgedError
+        No held-out run was judged (every fit failed): the report of the fits is written, and
+        the message names the first error and the option that changes it.
+
+    Notes
+    -----
+    Before any work the files an earlier benchmark run wrote into ``out_dir`` are removed
+    (:func:`~leakdiag.bench.outputs.remove_previous_outputs`; other files stay).
     """
 
     base = V5_QUICK_SUITES if quick else V5_SUITES
@@ -92,6 +106,9 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
                 raise ValueError(f"unknown load {bad[0]!r}; known: {list(V5_SUITES[s].loads)}")
             v = replace(v, loads=tuple(x for x in v.loads if x in loads) or tuple(loads))
         if excitations is not None:
+            bad = [x for x in excitations if x not in EXCITATIONS]
+            if bad:
+                raise ValueError(f"unknown excitation {bad[0]!r}; known: {list(EXCITATIONS)}")
             v = replace(v, excitations=tuple(excitations))
         for name, val in (("n_cal", n_cal), ("n_test_healthy", n_test_healthy),
                           ("n_test_leak", n_test_leak)):
@@ -101,6 +118,12 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     far = false_alarm_per_run if false_alarm_per_run is not None else (
         V5_QUICK_FAR if quick else V5_DEFAULT_FAR)
     work = Path(work_dir) if work_dir else resolve_cache_dir(cache_dir) / "bench-v5"
+    # every folder written to is checked before any work; then the earlier run's files go
+    out = prepare_folder(out_dir, "--out")
+    prepare_folder(work, "--work-dir")
+    prepare_folder(resolve_cache_dir(cache_dir),
+                   "--cache-dir" if cache_dir else "simulation cache")
+    removed = remove_previous_outputs(out)
     t0 = time.time()
     runs, fits, settings = run_v5(suites, methods, work, false_alarm_per_run=far,
                                   onset_method=onset_method, scheduler=scheduler,
@@ -110,13 +133,143 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     settings.update(command=command, quick=quick, wall_total_s=time.time() - t0,
                     suites={k: _jsonable(asdict(v)) for k, v in suites.items()},
                     scheduler=scheduler, n_workers=n_workers)
-    summary, det = summary_v5(runs) if len(runs) else (None, None)
-
-    far_tab = false_alarm_table(runs) if len(runs) else None
-    out = Path(out_dir)
+    judged = runs[runs.role != "error"] if len(runs) else runs
+    if not len(judged):
+        failure = nothing_judged_message(fits, runs, suites, settings, out / "fits.csv")
+        write_v5_report(out, runs, fits, None, None, None, settings, failure=failure)
+        raise NothingJudgedError(failure)
+    summary, det = summary_v5(runs)
+    far_tab = false_alarm_table(runs)
     paths = write_v5_report(out, runs, fits, summary, det, far_tab, settings)
     return {"summary": summary, "detection": det, "false_alarms": far_tab, "fits": fits,
-            "runs": runs, "paths": paths, "settings": settings}
+            "runs": runs, "paths": paths, "settings": settings, "removed": removed}
+
+
+def nothing_judged_message(fits, runs, suites, settings, fits_path) -> str:
+    """Why no held-out run was judged: the first error and the option that changes it.
+
+    Parameters
+    ----------
+    fits : pandas.DataFrame
+        Fit (or reference-maxima) rows, ``error`` column.
+    runs : pandas.DataFrame
+        Per-run rows (error rows only, or empty).
+    suites : dict
+        Rig -> suite (run counts).
+    settings : dict
+        Settings of the run (target, confidence, per-unit mode, reduced budget).
+    fits_path : pathlib.Path
+        Where the fits table is written.
+
+    Returns
+    -------
+    str
+        One line: ``no held-out run was judged: ...; first: <method> on <rig> <load> <input>:
+        <error>`` and, for too few healthy maxima, which of ``--n-cal``,
+        ``--false-alarm-rate``, ``--confidence`` or ``--full-budget`` would give enough.
+    """
+    errs = fits[fits["error"].notna()] if "error" in fits else fits.iloc[0:0]
+    label = settings.get("work", {}).get("fit_label", "fits")
+    if len(errs):
+        where = f"{len(errs)} of {len(fits)} {label} failed (listed in {fits_path})"
+        row = errs.iloc[0]
+    elif len(runs):
+        where = (f"every method failed on all {len(runs)} held-out runs (listed in "
+                 f"{fits_path.parent / 'runs.csv.gz'})")
+        row = runs.iloc[0]
+    else:
+        return "no held-out run was judged and no method reported an error"
+    first = str(row["error"])
+    msg = (f"no held-out run was judged: {where}; first: {row['method']} on {row['system']} "
+           f"{row['load']} {row['excitation']}: {first}")
+    return msg + _hint(first, row, suites, settings)
+
+
+def _hint(error: str, row, suites, settings) -> str:
+    """The options that would give a threshold enough healthy maxima (or "")."""
+    import re
+
+    got = re.search(r"needs at least (\d+) maxima", error)
+    if not got:
+        return ""
+    need, n_cal = int(got.group(1)), suites[row["system"]].n_cal
+    own = int(settings.get("unit_fit") or 0)
+    cap = (settings.get("reduced_budget") or {}).get(row["method"])
+    basis = (f"{n_cal} training units' reference maxima and {own} own runs per unit" if own
+             else f"{min(n_cal, cap[0]) if cap else n_cal} calibration runs per group")
+    opts = [f"--n-cal {max(need - own, 1)} or more"]
+    if cap and cap[0] < need - own:
+        opts = [f"--full-budget with --n-cal {max(need - own, 1)} or more ({row['method']} "
+                f"is fitted on at most {cap[0]} calibration runs without it)"]
+    opts.append(f"a larger --false-alarm-rate (now {settings['false_alarm_per_run']:g})")
+    conf = settings.get("threshold_confidence")
+    if conf is not None:
+        opts.append(f"a lower --confidence (now {conf:g})")
+    return f". The thresholds rest on {basis}: give {', '.join(opts[:-1])}, or {opts[-1]}"
+
+
+def failure_warnings(fits, runs, out) -> list[str]:
+    """What failed in a run that judged some held-out runs: fits and verdicts that are errors.
+
+    Parameters
+    ----------
+    fits, runs : pandas.DataFrame
+        Fit (or reference-maxima) rows and per-run rows of the run.
+    out : pathlib.Path
+        Report folder (where ``fits.csv`` and ``runs.csv.gz`` are).
+
+    Returns
+    -------
+    list of str
+        Up to two lines (none when nothing failed): ``"N of M fits failed (listed in ...);
+        first: ..."`` and ``"N of M verdicts are errors (listed in ...); first: ..."``.
+    """
+    lines = []
+    for df, what, name in ((fits, "fits", "fits.csv"), (runs, "verdicts", "runs.csv.gz")):
+        if "error" not in df or not len(df):
+            continue
+        bad = df[df["error"].notna()]
+        if len(bad):
+            r = bad.iloc[0]
+            lines.append(f"{len(bad)} of {len(df)} {what} failed (listed in {out / name}); "
+                         f"first: {r['method']} on {r['system']} {r['load']} "
+                         f"{r['excitation']}: {r['error']}")
+    return lines
+
+
+def console_table(summary, det) -> str:
+    """The summary for the console: every rate with its count, n and 95 % interval.
+
+    Parameters
+    ----------
+    summary : pandas.DataFrame
+        :func:`~leakdiag.bench.v5_scoring.summary_v5`.
+    det : pandas.DataFrame
+        :func:`~leakdiag.bench.v5_scoring.detection_table` (counts at the minimum detectable
+        leak).
+
+    Returns
+    -------
+    str
+        One row per method, rig, load and input; ``--`` where a value is undefined (no
+        minimum detectable leak, no onset error).
+    """
+    import pandas as pd
+
+    rows = []
+    for _, r in summary.iterrows():
+        mdl = r["min_detectable_lpm_10s"]
+        at = det[(det.method == r.method) & (det.system == r.system) & (det.load == r.load)
+                 & (det.excitation == r.excitation) & (det.leak_lpm == mdl)]
+        rows.append({"method": r.method, "rig": r.system, "load": r.load, "input": r.excitation,
+                     "false alarms [95 % CI]": rate_text(r.false_alarms, r.n_healthy),
+                     "MDL 10 s (L/min)": _fmt(mdl),
+                     "detected at MDL [95 % CI]": (rate_text(at.iloc[0]["detected_10s"],
+                                                            at.iloc[0]["n_leak"])
+                                                  if len(at) else "--"),
+                     "onset error median (s)": _fmt(r.onset_error_median_s),
+                     "goal met": _fmt(bool(r.goal_met))})
+    return pd.DataFrame(rows).to_string(index=False)
 
 
 def _threshold_words(confidence) -> str:
@@ -178,7 +331,8 @@ def _figures(det, out: Path) -> list[str]:
     return names
 
 
-def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings) -> dict:
+def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings,
+                    failure: str | None = None) -> dict:
     """Write the v5 report files (see :func:`run_benchmark_v5`).
 
     Parameters
@@ -188,12 +342,14 @@ def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings) -> d
     runs, fits, summary, det, far_tab : pandas.DataFrame or None
         Tables of :func:`run_benchmark_v5`.
     settings : dict
-        Settings (command, timing, suites).
+        Settings (command, timing, work reused and computed, suites).
+    failure : str, optional
+        Why no held-out run was judged (:func:`nothing_judged_message`): said first.
 
     Returns
     -------
     dict
-        Name -> written path.
+        Name -> written path; ``report.md`` lists exactly these files.
     """
     out.mkdir(parents=True, exist_ok=True)
     paths = {}
@@ -215,13 +371,20 @@ def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings) -> d
     figs = _figures(det, out) if det is not None and len(det) else []
     w = settings.get("wall_s", {})
     md = [f"# Benchmark v5 (suite {settings['suite_version']})", "",
-          f"Command: `{settings['command']}`", "",
-          f"Wall time: {settings['wall_total_s']:.0f} s (simulate calibration runs "
-          f"{w.get('simulate_calibration', 0):.0f} s, fit {w.get('fit', 0):.0f} s, score "
-          f"{w.get('score', 0):.0f} s; scheduler {settings['scheduler']}, workers "
-          f"{settings['n_workers']}). Target: {100 * settings['false_alarm_per_run']:g} % false "
-          f"alarms per healthy run ({_threshold_words(settings.get('threshold_confidence'))}, "
-          "one segment per run).", "",
+          f"Command: `{settings['command']}`", ""]
+    if failure is not None:
+        md += ["## No held-out run was judged", "", failure + ".", ""]
+    if settings.get("work"):
+        md += [f"Work (resumable state in `{settings['work']['work_dir']}`):", "",
+               *[f"* {line}" for line in work_lines(settings["work"])], ""]
+    md += [f"Wall time of this run: {settings['wall_total_s']:.0f} s (simulate calibration "
+           f"runs {w.get('simulate_calibration', 0):.0f} s, fit {w.get('fit', 0):.0f} s, score "
+           f"{w.get('score', 0):.0f} s; scheduler {settings['scheduler']}, workers "
+           f"{settings['n_workers']}); work reused from an earlier run is not in it (its CPU "
+           "time, recorded when it was computed, is listed above). Target: "
+           f"{100 * settings['false_alarm_per_run']:g} % false alarms per healthy run "
+           f"({_threshold_words(settings.get('threshold_confidence'))}, one segment per run).",
+           "",
           f"Virtual machines in the simulator: {settings['virtual_machines']} (False: machine "
           "ids recorded, the nominal unit simulated). Reduced budget (calibration, healthy, "
           f"leaking per size): {settings['reduced_budget'] or 'none'}.", ""]
@@ -268,9 +431,11 @@ def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings) -> d
         md += ["## Thresholds (conformal basis per method and group)", "",
                _md_table(fits, cols, cols), ""]
     md += [f"![{f}]({f})" for f in figs]
-    md += ["", "Files: summary.csv, detection.csv (per size: detection within 5/10/30 s, early "
-           "alarms, each with its interval), size.csv (leak-size estimates and interval "
-           "coverage), false_alarms.csv, fits.csv, runs.csv.gz, settings.json."]
+    described = {"detection": "detection.csv (per size: detection within 5/10/30 s, early "
+                              "alarms, each with its interval)",
+                 "size": "size.csv (leak-size estimates and interval coverage)"}
+    files = [described.get(k, p.name) for k, p in paths.items()]
+    md += ["", f"Files: {', '.join(files)}."]
     paths["report"] = out / "report.md"
     paths["report"].write_text("\n".join(md) + "\n", encoding="utf-8")
     return paths

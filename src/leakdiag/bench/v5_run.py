@@ -5,15 +5,17 @@ Three stages of pure ``run_case(config)`` calls (serial or Dask,
 
 1. :func:`simulate_case` -- each calibration run into the simulation cache;
 2. :func:`fit_method` -- one method on one group's calibration runs (read lazily from the
-   cache), saved with joblib under ``work/fits/<key>.joblib``;
+   cache), saved with joblib under ``work/fits/<key>.joblib`` (:func:`save_fit`);
 3. :func:`score_chunk` -- a chunk of held-out runs, each simulated **once** (not cached) and
    judged by every method of its group; one row per (method, run) in
    ``work/shards/<key>.parquet``. The per-run verdict (alarm time, onset estimate) gives every
    deadline (5, 10, 30 s) without recomputation.
 
-Keys hash everything that shapes the result (suite version, cases, method, alarm, code of the
-detection packages), so a cut run resumes where it stopped and a changed setting never reads a
-stale file.
+Keys hash everything that shapes the result (suite version, cases, method, alarm, and the code
+of every package that can change a result: simulators, recordings, cache, detectors, features,
+literature methods, the benchmark; :data:`~leakdiag.bench.v5_common.FINGERPRINT_PARTS`), so a
+cut run resumes where it stopped and a changed setting or edited code never reads a stale file.
+A fit keeps the CPU time it took; a resumed run says what it reused (:func:`work_summary`).
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from leakdiag.bench.v5_common import (
     _simulate,
     error_row,
     run_row,
+    shard_rows,
     v5_alarm,
     write_shard,
 )
@@ -43,7 +46,8 @@ from leakdiag.runtime.executor import run_cases
 
 __all__ = ["LazyRecordings", "FitConfig", "ChunkConfig", "Plan", "fit_method", "fit_shared",
            "score_chunk", "run_v5", "REDUCED_BUDGET", "v5_alarm", "shares_fit", "run_row",
-           "error_row", "write_shard"]
+           "error_row", "write_shard", "save_fit", "load_fit", "work_summary",
+           "work_lines"]
 
 #: Reduced budget of the slow literature methods (calibration runs, held-out healthy runs,
 #: leaking runs per size, per group): EMD ~12 and the EKF ~50 CPU s per hour of signal would
@@ -72,6 +76,47 @@ class ChunkConfig:
     path: str
 
 
+def save_fit(path, det, error: str | None, cpu_s: float) -> None:
+    """Save one fit atomically: the fitted detector (or None and its error) and its CPU time.
+
+    Parameters
+    ----------
+    path : path-like
+        Fit file (joblib).
+    det : Detector or None
+        Fitted detector; None when the fit failed.
+    error : str or None
+        ``"<ErrorType>: <message>"`` of a failed fit.
+    cpu_s : float
+        CPU seconds the fit took (kept, so that a resumed run reports the work it reuses).
+    """
+    import joblib
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    joblib.dump({"detector": det, "error": error, "cpu_s": float(cpu_s)}, tmp)
+    tmp.replace(path)
+
+
+def load_fit(path) -> dict:
+    """Read a fit saved by :func:`save_fit`.
+
+    Parameters
+    ----------
+    path : path-like
+        Fit file.
+
+    Returns
+    -------
+    dict
+        ``detector`` (None for a failed fit), ``error``, ``cpu_s``.
+    """
+    import joblib
+
+    return joblib.load(path)
+
+
 def fit_method(config: FitConfig) -> dict:
     """Fit one method on its calibration runs (or read the saved fit).
 
@@ -83,35 +128,30 @@ def fit_method(config: FitConfig) -> dict:
     Returns
     -------
     dict
-        ``method``, the group, ``error`` (or None), ``cpu_s`` and the threshold basis
+        ``method``, the group, ``error`` (or None), ``cpu_s`` (as recorded when the fit was
+        computed), ``reused`` (read from the work folder) and the threshold basis
         (``threshold_basis_.as_dict()``) of the fitted detector.
     """
-    import joblib
-
     c0 = config.cases[0]
     base = {"method": config.method, "system": c0.system, "load": c0.load,
             "excitation": c0.excitation}
     path = Path(config.path)
     if path.is_file():
-        det = joblib.load(path)
-        if isinstance(det, dict):  # a saved failure
-            return {**base, **det}
-        return {**base, "error": None, "cpu_s": float("nan"), **_basis(det)}
+        saved = load_fit(path)
+        det = saved["detector"]
+        return {**base, "error": saved["error"], "cpu_s": saved["cpu_s"], "reused": True,
+                **(_basis(det) if det is not None else {})}
     det = make_detector(config.method, c0.system, config.alarm)
     cpu0 = time.process_time()
     try:
         det.fit(LazyRecordings(config.cases, config.cache_dir))
     except (ValueError, NotImplementedError) as exc:
-        out = {"error": f"{type(exc).__name__}: {exc}", "cpu_s": time.process_time() - cpu0}
-        path.parent.mkdir(parents=True, exist_ok=True)
-        joblib.dump(out, path)
-        return {**base, **out}
+        err, cpu = f"{type(exc).__name__}: {exc}", time.process_time() - cpu0
+        save_fit(path, None, err, cpu)
+        return {**base, "error": err, "cpu_s": cpu, "reused": False}
     cpu = time.process_time() - cpu0
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    joblib.dump(det, tmp)
-    tmp.replace(path)
-    return {**base, "error": None, "cpu_s": cpu, **_basis(det)}
+    save_fit(path, det, None, cpu)
+    return {**base, "error": None, "cpu_s": cpu, "reused": False, **_basis(det)}
 
 
 def _fit_task(task) -> list[dict]:
@@ -164,8 +204,6 @@ def fit_shared(configs: tuple) -> list[dict]:
     list of dict
         One :func:`fit_method`-like row per method.
     """
-    import joblib
-
     todo, rows = [], []
     for cfg in configs:
         if Path(cfg.path).is_file():
@@ -195,7 +233,6 @@ def fit_shared(configs: tuple) -> list[dict]:
         base = {"method": cfg.method, "system": c0.system, "load": c0.load,
                 "excitation": c0.excitation}
         path = Path(cfg.path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         err = errors.get(cfg.method)
         if err is None:
             t0 = time.process_time()
@@ -205,17 +242,16 @@ def fit_shared(configs: tuple) -> list[dict]:
                 err = f"{type(exc).__name__}: {exc}"
             cpu[cfg.method] += time.process_time() - t0
         if err is not None:
-            joblib.dump({"error": err, "cpu_s": cpu[cfg.method]}, path)
-            rows.append({**base, "error": err, "cpu_s": cpu[cfg.method]})
+            save_fit(path, None, err, cpu[cfg.method])
+            rows.append({**base, "error": err, "cpu_s": cpu[cfg.method], "reused": False})
             continue
-        tmp = path.with_suffix(".tmp")
-        joblib.dump(det, tmp)
-        tmp.replace(path)
-        rows.append({**base, "error": None, "cpu_s": cpu[cfg.method], **_basis(det)})
+        save_fit(path, det, None, cpu[cfg.method])
+        rows.append({**base, "error": None, "cpu_s": cpu[cfg.method], "reused": False,
+                     **_basis(det)})
     return rows
 
 
-def score_chunk(config: ChunkConfig) -> int:
+def score_chunk(config: ChunkConfig) -> dict:
     """Judge a chunk of held-out runs with every fitted method; write one Parquet shard.
 
     Parameters
@@ -225,19 +261,16 @@ def score_chunk(config: ChunkConfig) -> int:
 
     Returns
     -------
-    int
-        Rows in the shard (read back, not recomputed, when the shard exists).
+    dict
+        ``rows`` in the shard and ``reused`` (the shard existed: read back, not recomputed).
     """
-    import joblib
-    import pandas as pd
-
     path = Path(config.path)
     if path.is_file():
-        return len(pd.read_parquet(path, columns=["method"]))
+        return {"rows": shard_rows(path), "reused": True}
     dets = []
     for method, fpath, caps in config.fits:
-        det = joblib.load(fpath)
-        if not isinstance(det, dict):
+        det = load_fit(fpath)["detector"]
+        if det is not None:
             dets.append((method, det, caps))
     rows = []
     for c in config.cases:
@@ -257,7 +290,7 @@ def score_chunk(config: ChunkConfig) -> int:
                 rows.append(error_row(c, m, exc))
                 continue
             rows.append(run_row(c, m, rec, v, time.process_time() - cpu0, sim_cpu))
-    return write_shard(rows, path)
+    return {"rows": write_shard(rows, path), "reused": False}
 
 
 def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_method: str = "binseg",
@@ -328,8 +361,8 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
         results.append(run_cases(fn, cfgs, scheduler=scheduler, n_workers=n_workers, desc=desc,
                                  progress=progress))
         walls.append(time.time() - t0)
-    shards = [pd.read_parquet(c.path) for c in plan.chunks if Path(c.path).is_file()]
-    rows = [x for x in shards if len(x)]  # none when every method failed to fit: say so below
+    shards = [pd.read_parquet(c.path) for c in plan.chunks]
+    rows = [x for x in shards if len(x)]  # none when every method failed to fit: said later
     runs = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
     fits = pd.DataFrame([row for r in results[1] for row in r.result])
     settings = {"suite_version": V5_VERSION, "methods": list(methods),
@@ -339,10 +372,116 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
                 "virtual_machines": {s: simulator_has_machines(s) for s in suites},
                 "code_fingerprint": fp,
                 "wall_s": dict(zip(("simulate_calibration", "fit", "score"), walls)),
-                "n_fit_tasks": plan.n_fit_tasks, "n_chunks": len(plan.chunks)}
+                "n_fit_tasks": plan.n_fit_tasks, "n_chunks": len(plan.chunks),
+                "work": work_summary(work, results[0], fits, [r.result for r in results[2]],
+                                     shards, "reference maxima" if unit_fit else "fits")}
     if unit_fit:
         settings["unit_fit"] = unit_fit
     return runs, fits, settings
+
+
+def _scoring_cpu(df) -> float:
+    """CPU seconds recorded in a shard: judging every row plus simulating every run once."""
+    import pandas as pd
+
+    if not len(df):
+        return 0.0
+    judge = pd.to_numeric(df["cpu_s"], errors="coerce").sum() if "cpu_s" in df else 0.0
+    sim = (pd.to_numeric(df.drop_duplicates("seed")["sim_cpu_s"], errors="coerce").sum()
+           if "sim_cpu_s" in df else 0.0)
+    return float(judge + sim)
+
+
+def work_summary(work, sims, fits, chunks, shards, fit_label: str = "fits") -> dict:
+    """What a v5 run reused from its work folder and what it computed now.
+
+    Parameters
+    ----------
+    work : pathlib.Path
+        Work folder.
+    sims : list of CaseResult
+        Stage 1 (calibration simulations; ``cache_hit`` in each result).
+    fits : pandas.DataFrame
+        Stage 2 rows (``reused``, ``cpu_s``).
+    chunks : list of dict
+        Stage 3 results (``rows``, ``reused``).
+    shards : list of pandas.DataFrame
+        The shards, in the order of ``chunks``.
+    fit_label : str, default "fits"
+        Name of stage 2's results ("fits", or "reference maxima" in per-unit mode).
+
+    Returns
+    -------
+    dict
+        ``work_dir``; ``calibration_cached`` / ``calibration_simulated``;
+        ``fit_label``, ``fits_reused`` / ``fits_computed`` and their recorded CPU seconds
+        ``fit_cpu_s_reused`` / ``fit_cpu_s_computed``; ``shards_reused`` /
+        ``shards_computed``, ``runs_reused`` / ``runs_computed`` (verdicts: rows of the
+        shards), ``score_cpu_s_reused`` /
+        ``score_cpu_s_computed``.
+    """
+    import pandas as pd
+
+    hit = [bool(r.result.get("cache_hit")) for r in sims]
+    reused = (fits["reused"].astype(bool) if "reused" in fits
+              else pd.Series(False, index=fits.index))
+    cpu = pd.to_numeric(fits["cpu_s"], errors="coerce") if "cpu_s" in fits else reused * 0.0
+    out = {"work_dir": str(work), "calibration_cached": sum(hit),
+           "calibration_simulated": len(hit) - sum(hit), "fit_label": fit_label,
+           "fits_reused": int(reused.sum()), "fits_computed": int((~reused).sum()),
+           "fit_cpu_s_reused": float(cpu[reused].sum()),
+           "fit_cpu_s_computed": float(cpu[~reused].sum())}
+    for tag, want in (("reused", True), ("computed", False)):
+        sel = [(c, df) for c, df in zip(chunks, shards) if bool(c["reused"]) is want]
+        out[f"shards_{tag}"] = len(sel)
+        out[f"runs_{tag}"] = int(sum(c["rows"] for c, _ in sel))
+        out[f"score_cpu_s_{tag}"] = float(sum(_scoring_cpu(df) for _, df in sel))
+    return out
+
+
+def work_lines(w: dict) -> list[str]:
+    """The work of a v5 run in words: one line per stage (console and report).
+
+    Parameters
+    ----------
+    w : dict
+        :func:`work_summary`.
+
+    Returns
+    -------
+    list of str
+        Calibration runs, fits (or reference maxima) and result shards: "N reused from WORK
+        (computed earlier), M computed now".
+
+    Examples
+    --------
+    >>> w = {"work_dir": "/w", "calibration_cached": 20, "calibration_simulated": 0,
+    ...      "fit_label": "fits", "fits_reused": 2, "fits_computed": 0, "fit_cpu_s_reused": 1.0,
+    ...      "fit_cpu_s_computed": 0.0, "shards_reused": 2, "shards_computed": 1,
+    ...      "runs_reused": 48, "runs_computed": 0, "score_cpu_s_reused": 3.0,
+    ...      "score_cpu_s_computed": 0.0}
+    >>> work_lines(w)[1]
+    'fits: 2 reused from /w (computed earlier, 1 CPU s), 0 computed now'
+    >>> work_lines(w)[2]
+    'result shards: 2 reused from /w (computed earlier, 48 verdicts, 3 CPU s), 1 computed now \
+(0 verdicts, 0 CPU s)'
+    """
+    d = w["work_dir"]
+
+    def part(n, tag, what):  # "N reused from D (computed earlier, ...)" / "M computed now (...)"
+        head = f"{n} reused from {d}" if tag == "reused" else f"{n} computed now"
+        if not n:
+            return head
+        return f"{head} ({'computed earlier, ' if tag == 'reused' else ''}{what})"
+
+    fit = {t: part(w[f"fits_{t}"], t, f"{w[f'fit_cpu_s_{t}']:.3g} CPU s")
+           for t in ("reused", "computed")}
+    score = {t: part(w[f"shards_{t}"], t, f"{w[f'runs_{t}']} verdicts, "
+                     f"{w[f'score_cpu_s_{t}']:.3g} CPU s") for t in ("reused", "computed")}
+    return [f"calibration runs: {w['calibration_cached']} read from the simulation cache, "
+            f"{w['calibration_simulated']} simulated now",
+            f"{w['fit_label']}: {fit['reused']}, {fit['computed']}",
+            f"result shards: {score['reused']}, {score['computed']}"]
 
 
 def _plan_fleet(suites, methods, work, groups, fp, far, onset_method, cache_dir, budget,

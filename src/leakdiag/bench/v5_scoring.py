@@ -16,7 +16,7 @@ import numpy as np
 from leakdiag.detect.rates import clopper_pearson
 
 __all__ = ["false_alarm_table", "detection_table", "size_table", "minimum_detectable_v5",
-           "summary_v5", "GOALS", "REQUIRED_RATE"]
+           "summary_v5", "rate_text", "GOALS", "REQUIRED_RATE"]
 
 #: Detection rate that defines the minimum detectable leak.
 REQUIRED_RATE = 0.9
@@ -29,6 +29,31 @@ _GROUP = ["method", "system", "load", "excitation"]
 def _rate(k: int, n: int) -> dict:
     lo, hi = clopper_pearson(k, n)
     return {"rate": k / n if n else float("nan"), "low": lo, "high": hi}
+
+
+def rate_text(k, n) -> str:
+    """A rate as printed: count, number of runs, rate and 95 % Clopper-Pearson interval.
+
+    Parameters
+    ----------
+    k, n : int or float
+        Events and runs; NaN or ``n = 0``: undefined.
+
+    Returns
+    -------
+    str
+        ``"k/n = rate [low, high]"`` (3 significant digits), or ``"--"`` when undefined.
+
+    Examples
+    --------
+    >>> rate_text(3, 20), rate_text(0, 20), rate_text(0, 0)
+    ('3/20 = 0.15 [0.0321, 0.379]', '0/20 = 0 [0, 0.168]', '--')
+    """
+    if k is None or n is None or not (np.isfinite(k) and np.isfinite(n)) or int(n) < 1:
+        return "--"
+    k, n = int(round(k)), int(n)
+    lo, hi = clopper_pearson(k, n)
+    return f"{k}/{n} = {k / n:.3g} [{lo:.3g}, {hi:.3g}]"
 
 
 def false_alarm_table(runs):

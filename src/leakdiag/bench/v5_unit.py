@@ -33,6 +33,7 @@ from leakdiag.bench.v5_common import (
     _simulate,
     error_row,
     run_row,
+    shard_rows,
     v5_alarm,
     write_shard,
 )
@@ -144,13 +145,14 @@ def reference_group(config: UnitRefConfig) -> list[dict]:
     Returns
     -------
     list of dict
-        Per method: ``n_reference`` maxima, ``n_units``, ``error`` (first failure) and CPU s.
+        Per method: ``n_reference`` maxima, ``n_units``, ``error`` (first failure), CPU s (as
+        recorded when computed) and ``reused`` (read back from the work folder).
     """
     import joblib
 
     path = Path(config.path)
     if path.is_file():
-        return joblib.load(path)["rows"]
+        return [{**r, "reused": True} for r in joblib.load(path)["rows"]]
     c0 = config.cases[0]
     build = replace(config.alarm, on_insufficient="warn")  # the own-only threshold is not used here
     maxima = {m: [] for m in config.methods}
@@ -190,11 +192,13 @@ def reference_group(config: UnitRefConfig) -> list[dict]:
                      "excitation": c0.excitation, "n_reference": int(got.size),
                      "n_units": len(maxima[m]), "error": errors.get(m), "cpu_s": cpu[m]})
     path.parent.mkdir(parents=True, exist_ok=True)
-    joblib.dump({"refs": refs, "rows": rows}, path)
-    return rows
+    tmp = path.with_suffix(".tmp")
+    joblib.dump({"refs": refs, "rows": rows}, tmp)
+    tmp.replace(path)
+    return [{**r, "reused": False} for r in rows]
 
 
-def score_chunk_unit(config: UnitChunkConfig) -> int:
+def score_chunk_unit(config: UnitChunkConfig) -> dict:
     """Judge held-out runs, each method fitted on the run's unit's own healthy runs.
 
     Parameters
@@ -204,15 +208,14 @@ def score_chunk_unit(config: UnitChunkConfig) -> int:
 
     Returns
     -------
-    int
-        Rows written (read back when the shard exists).
+    dict
+        ``rows`` in the shard and ``reused`` (the shard existed: read back, not recomputed).
     """
     import joblib
-    import pandas as pd
 
     path = Path(config.path)
     if path.is_file():
-        return len(pd.read_parquet(path, columns=["method"]))
+        return {"rows": shard_rows(path), "reused": True}
     refs = joblib.load(config.ref_path)["refs"]
     rows = []
     for c in config.cases:
@@ -244,7 +247,7 @@ def score_chunk_unit(config: UnitChunkConfig) -> int:
                          "threshold_method": getattr(basis, "method", None),
                          "threshold_k": getattr(basis, "k", np.nan),
                          "threshold_n": getattr(basis, "n", np.nan)})
-    return write_shard(rows, path)
+    return {"rows": write_shard(rows, path), "reused": False}
 
 
 def plan_units(suites, methods, work, groups, fp, n_own, far, onset_method, cache_dir, budget,

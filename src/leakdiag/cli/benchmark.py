@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
+from click.core import ParameterSource
 
 from leakdiag.cli._options import scheduler_option
 
@@ -24,7 +27,8 @@ def _command_line() -> str:
 
 @click.command("benchmark", epilog="Example: leakdiag benchmark --quick -o bench/")
 @click.option("-o", "--out", "out_dir", default=None, type=click.Path(file_okay=False),
-              help="Output folder of the report.")
+              help="Output folder of the report; the files an earlier benchmark run wrote "
+                   "there are removed first, nothing else.")
 @click.option("--suite", default="v5", show_default=True, type=click.Choice(["v5", "v4"]),
               help="v5: training and test units disjoint, >= 300 calibration, 1000 held-out "
                    "healthy and 50 leaking runs per size per load; v4: the former suite.")
@@ -50,8 +54,8 @@ def _command_line() -> str:
               help="v4 only: at most N held-out healthy and leaking runs per size per group.")
 @click.option("--false-alarm-rate", "far", default=None, type=click.FloatRange(0, 1, min_open=True,
                                                                                max_open=True),
-              help="Target false-alarm probability per healthy run (default 0.01; v5 --quick "
-                   "0.05).")
+              help="Target false-alarm probability per healthy run (default 0.01; --quick: v5 "
+                   "0.05, v4 0.12, what its 8 fitting runs support).")
 @click.option("--confidence", default=None, type=click.FloatRange(0, 1, min_open=True,
                                                                   max_open=True),
               help="v5: calibration-conditional thresholds: each fitted level holds the target "
@@ -80,10 +84,15 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
         raise click.UsageError("--out DIR is required")
     split = lambda s: [v.strip() for v in s.split(",") if v.strip()] if s else None  # noqa: E731
     command = _command_line()
-    if confidence is not None and suite != "v5":
-        raise click.UsageError("--confidence is for --suite v5")
+    ctx = click.get_current_context()
+    given = [flag for name, flag in _V5_ONLY if ctx.get_parameter_source(name)
+             not in (None, ParameterSource.DEFAULT)]
+    if suite == "v4" and given:
+        raise click.UsageError(f"{', '.join(given)} {'is' if len(given) == 1 else 'are'} for "
+                               "--suite v5 only")
     if suite == "v5":
-        from leakdiag.bench.v5_report import run_benchmark_v5
+        from leakdiag.bench.v5_report import console_table, failure_warnings, run_benchmark_v5
+        from leakdiag.bench.v5_run import work_lines
 
         if max_test_runs is not None:
             raise click.UsageError("--max-test-runs is for --suite v4; use --n-healthy/--n-leak")
@@ -99,23 +108,38 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
                                    confidence=confidence)
         except ValueError as exc:
             raise click.UsageError(str(exc)) from None
-        if res["summary"] is not None:
-            cols = ["method", "system", "load", "false_alarm_rate", "far_high",
-                    "min_detectable_lpm_10s", "onset_error_median_s", "goal_met"]
-            click.echo(res["summary"][cols].to_string(index=False))
+        _echo_removed(res["removed"], out_dir)
+        for line in work_lines(res["settings"]["work"]):
+            click.echo(line)
+        for line in failure_warnings(res["fits"], res["runs"], Path(out_dir)):
+            click.echo(f"leakdiag: warning: {line}", err=True)
+        click.echo(console_table(res["summary"], res["detection"]))
         click.echo(f"report: {res['paths']['report']}")
         return
-    from leakdiag.bench.benchmark import run_benchmark
+    from leakdiag.bench.benchmark import console_table_v4, run_benchmark
 
     try:
         res = run_benchmark(out_dir, quick=quick, methods=split(methods), systems=split(systems),
                             excitations=split(excitations), max_test_runs=max_test_runs,
-                            false_alarm_per_run=far if far is not None else 0.01,
-                            onset_method=onset_method, scheduler=scheduler, n_workers=n_workers,
-                            cache_dir=cache_dir, progress=not no_progress, command=command)
+                            false_alarm_per_run=far, onset_method=onset_method,
+                            scheduler=scheduler, n_workers=n_workers, cache_dir=cache_dir,
+                            progress=not no_progress, command=command)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
-    cols = ["method", "system", "excitation", "min_detectable_lpm", "min_detectable_pct_rated",
-            "false_alarm_rate", "cpu_s_per_hour"]
-    click.echo(res.summary[cols].to_string(index=False))
+    _echo_removed(res.removed, out_dir)
+    click.echo(console_table_v4(res.summary))
     click.echo(f"report: {res.paths['html']}")
+
+
+#: Options of suite v5 only (parameter name, flag): refused with --suite v4.
+_V5_ONLY = (("loads", "--loads"), ("n_cal", "--n-cal"), ("n_test_healthy", "--n-healthy"),
+            ("n_test_leak", "--n-leak"), ("unit_fit", "--unit-fit"),
+            ("full_budget", "--full-budget"), ("confidence", "--confidence"),
+            ("work_dir", "--work-dir"))
+
+
+def _echo_removed(removed, out_dir) -> None:
+    """Say which files of an earlier run were removed from --out (none: nothing said)."""
+    if removed:
+        click.echo(f"removed from {out_dir} the {len(removed)} file(s) an earlier benchmark "
+                   f"run wrote there: {', '.join(removed)}")
