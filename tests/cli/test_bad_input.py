@@ -250,14 +250,79 @@ def test_simulate_unknown_params_field(tmp_path, capsys):
     _one_error_line(capsys, code, "p.toml", "unknown VCA parameter(s) ['bogus_field']")
 
 
-@pytest.mark.parametrize("args,needles", [
-    (["--duration", "-5"], ["duration=-5.0", "> 0"]),
-    (["--duration", "10", "--onset", "20"], ["onset=20.0", "[0, duration=10.0)"]),
-    (["--sample-rate", "0"], ["sample_rate=0.0"]),
+@pytest.mark.parametrize("args,message", [
+    (["--duration", "-5"], "Error: Invalid value for '--duration': -5.0 is not in the range x>0."),
+    (["--duration", "10", "--onset", "20"],
+     "leakdiag: error: onset=20.0 s must lie in [0, duration=10.0) s"),
+    (["--sample-rate", "0"],
+     "Error: Invalid value for '--sample-rate': 0.0 is not in the range x>0."),
+    # audit 2026-11-29: inf was a bare OverflowError traceback, nan "cannot convert float NaN
+    # to integer"; --leak -1 said "must be > 0" while --leak 0 (no leak) is accepted
+    (["--duration", "inf", "--onset", "30"],
+     "Error: Invalid value for '--duration': inf is not a finite number."),
+    (["--duration", "nan"], "Error: Invalid value for '--duration': nan is not a finite number."),
+    (["--onset", "nan"], "Error: Invalid value for '--onset': nan is not a finite number."),
+    (["--onset", "-1"], "Error: Invalid value for '--onset': -1.0 is not in the range x>=0."),
+    (["--leak", "-1"], "Error: Invalid value for '--leak': -1.0 is not in the range x>=0."),
+    (["--leak", "inf"], "Error: Invalid value for '--leak': inf is not a finite number."),
+    (["--sample-rate", "inf"],
+     "Error: Invalid value for '--sample-rate': inf is not a finite number."),
+    (["--leak-kind", "ramp", "--ramp-duration", "nan"],
+     "Error: Invalid value for '--ramp-duration': nan is not a finite number."),
+    (["--seed", "-1"], "Error: Invalid value for '--seed': -1 is not in the range x>=0."),
+    (["--duration", "1e308", "--sample-rate", "1e10"],
+     "Error: --duration 1e+308 s at --sample-rate 1e+10 Hz: too many samples to count"),
 ])
-def test_simulate_bad_numbers(tmp_path, capsys, args, needles):
+def test_simulate_bad_numbers(tmp_path, capsys, args, message):
     code = main(["simulate", "vca", *args, "--out", str(tmp_path / "s.parquet")])
-    _one_error_line(capsys, code, *needles)
+    assert _one_error_line(capsys, code) == message
+    assert not (tmp_path / "s.parquet").exists()
+
+
+@pytest.mark.parametrize("system", ["vca", "eha"])
+def test_simulate_default_onset_is_half_the_duration(tmp_path, capsys, system):
+    """`simulate vca --duration 60` failed: the default onset stayed at 200 s."""
+    import leakdiag as ld
+
+    out = tmp_path / "s.parquet"
+    assert main(["simulate", system, "--duration", "16", "--no-progress", "--out",
+                 str(out)]) == 0
+    assert ld.io.read_recording(out).meta["onset"] == 8.0
+    assert ", onset 8 s" in capsys.readouterr().out
+    # no leak: the default onset is not "ignored" (it was not given); a given one is said
+    assert main(["simulate", system, "--duration", "4", "--leak", "0", "--no-progress",
+                 "--out", str(out)]) == 0
+    assert capsys.readouterr().out.rstrip().endswith("load none); no leak")
+    assert main(["simulate", system, "--duration", "4", "--leak", "0", "--onset", "2",
+                 "--no-progress", "--out", str(out)]) == 0
+    assert capsys.readouterr().out.rstrip().endswith("no leak (--onset 2 ignored: no leak to "
+                                                     "start)")
+
+
+def test_simulate_help_shows_the_default_onset(capsys):
+    assert main(["simulate", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--onset FLOAT Leak onset in s [default: half of --duration, as in Secs. 4.5, 4.6: " \
+           "200 for vca, 90 for eha]. [x>=0]" in text
+    assert "(0 = none) [default: 0.1 for vca, 1.2 for eha]. [x>=0]" in text
+
+
+# ---- benchmark: --workers --------------------------------------------------------------------
+
+@pytest.mark.parametrize("workers", ["0", "-1"])
+def test_benchmark_workers_below_one_is_refused_not_a_hang(tmp_path, capsys, monkeypatch,
+                                                           workers):
+    """Audit 2026-11-29: a local cluster of 0 workers waited at 0 % until killed."""
+    import leakdiag.runtime.executor as ex
+
+    monkeypatch.setattr(ex, "_run_dask", lambda *a: pytest.fail("a cluster was started"))
+    code = main(["benchmark", "--quick", "--workers", workers, "--scheduler", "local", "-o",
+                 str(tmp_path / "b"), "--cache-dir", str(tmp_path / "c"), "--work-dir",
+                 str(tmp_path / "w"), "--no-progress"])
+    assert _one_error_line(capsys, code) == (
+        f"Error: n_workers={workers} must be >= 1 (--workers at the command line): a local "
+        "Dask cluster without workers never runs a case")
+    assert not any((tmp_path / "b").glob("*"))  # nothing run, no report
 
 
 # ---- options ---------------------------------------------------------------------------------
@@ -284,7 +349,8 @@ def test_analyze_bad_option_values(files, capsys, args, needle):
 def test_sweep_chunk_zero(files, capsys):
     code = main(["sweep", str(files["good"]), "-c", "p1", "--onset", "1", "--chunk", "0",
                  "--no-figures"])
-    _one_error_line(capsys, code, "good.csv", "chunk=0 must be >= 1")
+    assert _one_error_line(capsys, code) == \
+        "Error: Invalid value for '--chunk': 0 is not in the range x>=1."
 
 
 def test_reproduce_chunk_zero_is_a_usage_error(tmp_path, capsys):

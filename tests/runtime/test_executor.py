@@ -64,3 +64,23 @@ def test_on_error_turns_a_failed_case_into_its_result(scheduler):
 
 def test_no_cases_no_cluster():
     assert run_cases(square_plus_seed, [], scheduler="local", progress=False) == []
+
+
+@pytest.mark.parametrize("n, exc, message", [
+    (0, ValueError, "n_workers=0 must be >= 1 (--workers at the command line): a local Dask "
+                    "cluster without workers never runs a case"),
+    (-1, ValueError, "n_workers=-1 must be >= 1 (--workers at the command line): a local Dask "
+                     "cluster without workers never runs a case"),
+    (2.5, TypeError, "n_workers=2.5 must be an integer >= 1 (--workers at the command line)"),
+    (True, TypeError, "n_workers=True must be an integer >= 1 (--workers at the command line)"),
+])
+def test_a_cluster_without_workers_is_refused_before_it_starts(monkeypatch, n, exc, message):
+    """Audit 2026-11-29: LocalCluster(n_workers=0 or -1) waited at 0 % until killed."""
+    import leakdiag.runtime.executor as ex
+
+    monkeypatch.setattr(ex, "_run_dask", lambda *a: pytest.fail("a cluster was started"))
+    for scheduler in ("local", "serial"):  # refused whatever the scheduler: never a valid count
+        with pytest.raises(exc) as info:
+            run_cases(square_plus_seed, CONFIGS, scheduler=scheduler, n_workers=n,
+                      progress=False)
+        assert str(info.value) == message

@@ -160,3 +160,50 @@ def test_audit_sweep_on_a_rotary_actuator_file(shared_dir, tmp_path, capsys):
             rec, "cross-correlation", "p1,p2", 1, 100, r.overlap, 1.0, 2)
     assert t.loc[0, ["n_chunks_straddling", "n_chunks_empty", "n_nan_windows"]].tolist() == [
         0, 6, 13]
+
+
+# ------------------------------------------ audit of the commands' options, 2026-11-29
+@pytest.mark.parametrize("args, message", [
+    (["--windows", "0"], "Error: Invalid value for '--windows': 0: a window must be >= 2 samples"),
+    (["--windows", "-100"],
+     "Error: Invalid value for '--windows': -100: a window must be >= 2 samples"),
+    (["--windows", "100,1"],
+     "Error: Invalid value for '--windows': 1 in '100,1': a window must be >= 2 samples"),
+    (["--windows", ""],
+     "Error: Invalid value for '--windows': '' is an empty list; give e.g. 100:800:100"),
+    (["--windows", "400:100:100"],
+     "Error: Invalid value for '--windows': range '400:100:100' is empty (start > stop)"),
+    (["--lags", "0"], "Error: Invalid value for '--lags': 0: lag=0 must be >= 1"),
+    (["--lags", "1,-2"], "Error: Invalid value for '--lags': -2 in '1,-2': lag=-2 must be >= 1"),
+    (["--lags", ","], "Error: Invalid value for '--lags': ',' is an empty list; give e.g. "
+                      "1,2,4,8"),
+    (["-m", "metric-length", "--lags", "0:3"], "Error: Invalid value for '--lags': '0:3': "
+                                               "lag_ratio='0:3' needs l > k >= 1, got l=0, k=3"),
+    (["--overlaps", "100"],
+     "Error: Invalid value for '--overlaps': 100.0: an overlap must be in [0, 100) percent"),
+    (["--overlaps", "5,nan"],
+     "Error: Invalid value for '--overlaps': nan in '5,nan': an overlap must be in [0, 100) "
+     "percent"),
+    (["--lags", "1,200", "--windows", "100,300"],
+     "Error: Invalid value for '--lags': 200 does not fit window 100 (the smallest of "
+     "--windows): in ofat mode every lag must be smaller than every window (the chosen lag is "
+     "held while the window varies)"),
+    (["--lags", "1000", "--windows", "100,300", "--mode", "grid"],
+     "Error: Invalid value for '--lags': no value of '1000' is smaller than a window of "
+     "'100,300': no setting to compute"),
+    (["--chunk", "0"], "Error: Invalid value for '--chunk': 0 is not in the range x>=1."),
+    (["--min-chunks", "0"], "Error: Invalid value for '--min-chunks': 0 is not in the range "
+                            "x>=1."),
+    (["--tolerance", "-1"], "Error: Invalid value for '--tolerance': -1.0 is not in the range "
+                            "x>=0."),
+    (["--tolerance", "nan"], "Error: Invalid value for '--tolerance': nan is not a finite "
+                             "number."),
+])
+def test_sweep_refuses_bad_settings_before_reading_the_file(tmp_path, capsys, args, message):
+    """`--windows 0` printed an empty table, then "no setting meets the rule ... 0 row(s)".
+    The settings are checked before FILE is read: a missing file is not even looked at."""
+    code = main(["sweep", str(tmp_path / "never-read.csv"), "-c", "p1", "--onset", "1",
+                 *args])
+    err = capsys.readouterr()
+    assert code == 2 and err.out == "" and "Traceback" not in err.err
+    assert err.err.splitlines()[-1] == message

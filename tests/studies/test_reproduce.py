@@ -1,6 +1,10 @@
 """The quick reproduction (CI version of `leakdiag reproduce all --quick`): outputs contract."""
 
+import os
+import pickle
 import re
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -16,20 +20,26 @@ SYSTEMS = [s for s, fn in (("vca", "simulate_vca"), ("eha", "simulate_eha")) if 
 WHICH = "all" if len(SYSTEMS) == 2 else (SYSTEMS[0] if SYSTEMS else None)
 
 
+REPO = Path(__file__).resolve().parents[2]
+COMMITTED_TABLES = REPO / "docs" / "reproduction" / "tables.csv"
+
+
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
     if WHICH is None:
         pytest.skip("no simulator available")
     out = tmp_path_factory.mktemp("repro")
     cache = tmp_path_factory.mktemp("cache")
+    pkl = tmp_path_factory.mktemp("saved") / "not-yet" / "results.pkl"  # folder made up front
     code = main(["reproduce", WHICH, "--quick", "--out", str(out), "--scheduler", "serial",
-                 "--cache-dir", str(cache), "--no-progress"])
+                 "--cache-dir", str(cache), "--no-progress", "--save-results", str(pkl),
+                 "--previous", str(COMMITTED_TABLES)])
     assert code == 0
-    return out, cache
+    return out, cache, pkl
 
 
 def test_tables_csv_has_every_thesis_row(quick_run, shared_dir):
-    out, _ = quick_run
+    out, *_ = quick_run
     ours = pd.read_csv(out / "tables.csv", dtype={"table": str, "lag": str})
     thesis = pd.read_csv(shared_dir / "thesis" / "tables.csv", dtype={"table": str, "lag": str})
     thesis = thesis[thesis.system.str.lower().isin(SYSTEMS)].reset_index(drop=True)
@@ -48,7 +58,7 @@ def test_tables_csv_has_every_thesis_row(quick_run, shared_dir):
 
 
 def test_html_and_markdown_complete(quick_run):
-    out, _ = quick_run
+    out, *_ = quick_run
     page = (out / "index.html").read_text()
     check_html(page)
     md = (out / "report.md").read_text()
@@ -80,7 +90,7 @@ def test_html_and_markdown_complete(quick_run):
 
 
 def test_second_run_is_all_cache_hits(quick_run, tmp_path):
-    _, cache = quick_run
+    _, cache, _ = quick_run
     from leakdiag.studies.protocol import QUICK, build_cases, run_case
     import dataclasses
 
@@ -103,3 +113,184 @@ def test_assemble_tables_hand_case():
     assert out.trend_ours.tolist() == [-1] * 4 and out.trend_thesis.tolist() == [-1] * 4
     assert out.trend_agrees.all()
     assert out.thesis_pct_change_signed.iloc[0] == pytest.approx(-42.5222)
+
+
+def test_saved_results_and_previous_comparison(quick_run):
+    out, _, pkl = quick_run
+    umask = os.umask(0)
+    os.umask(umask)
+    assert pkl.stat().st_mode & 0o777 == 0o666 & ~umask  # as open() makes it
+    with open(pkl, "rb") as fh:
+        rep, command = pickle.load(fh)
+    assert command.startswith("leakdiag reproduce")
+    assert len(rep.tables) == len(pd.read_csv(out / "tables.csv"))
+    assert "What changed against the previous run" in (out / "report.md").read_text()
+    assert not list(pkl.parent.glob(".leakdiag-*"))  # no temporary file left beside it
+
+
+# ------------------------------------------ audit of the commands' options, 2026-11-29
+@pytest.fixture
+def no_run(monkeypatch):
+    """Everything refused below is refused before the first experiment."""
+    import importlib
+
+    rp = importlib.import_module("leakdiag.studies.reproduce")
+    monkeypatch.setattr(rp, "reproduce", lambda *a, **k: pytest.fail("the run was started"))
+
+
+def _last_error(capsys, code):
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err, err
+    return err.splitlines()[-1]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--workers", "0", "--scheduler", "local"],  # used to wait at 0 % until killed
+     "Error: Invalid value for '--workers': 0 is not in the range x>=1."),
+    (["--workers", "-1", "--scheduler", "local"],
+     "Error: Invalid value for '--workers': -1 is not in the range x>=1."),
+    (["--workers", "2", "--scheduler", "serial"],  # used to be ignored
+     "Error: --workers 2 is for --scheduler local (serial runs every case in this process): "
+     "drop --workers or give --scheduler local"),
+    (["--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"],
+     "Error: --workers 2 is for --scheduler local (the scheduler at tcp://127.0.0.1:8786 has "
+     "the workers of its own cluster): drop --workers or give --scheduler local"),
+    (["--scheduler", "fast"],
+     "Error: Invalid value for '--scheduler': 'fast' must be 'serial', 'local' or the address "
+     "of a Dask scheduler such as tcp://127.0.0.1:8786"),
+])
+def test_reproduce_workers_and_scheduler_refused_up_front(no_run, tmp_path, capsys, args,
+                                                          message):
+    code = main(["reproduce", "vca", "--quick", "--out", str(tmp_path / "rep"), *args])
+    assert _last_error(capsys, code) == message
+    assert not (tmp_path / "rep").exists()
+
+
+def test_reproduce_output_paths_checked_before_the_run(no_run, tmp_path, capsys):
+    """`--out /proc/x` and `--save-results /proc/x/r.pkl` failed after all the work."""
+    (tmp_path / "afile").write_text("")
+    bad = tmp_path / "afile" / "rep"
+    code = main(["reproduce", "vca", "--quick", "--scheduler", "serial", "--out", str(bad)])
+    assert _last_error(capsys, code) == (f"leakdiag: error: --out {bad}: cannot create the "
+                                         "folder: Not a directory")
+    pkl = tmp_path / "afile" / "r.pkl"
+    code = main(["reproduce", "vca", "--quick", "--scheduler", "serial", "--out",
+                 str(tmp_path / "rep"), "--save-results", str(pkl)])
+    assert _last_error(capsys, code) == (f"leakdiag: error: --save-results {pkl}: "
+                                         f"{pkl.parent} is a file, not a folder")
+    if Path("/proc/self").is_dir():  # the audit's paths
+        code = main(["reproduce", "vca", "--quick", "--scheduler", "serial", "--out", "/proc/x"])
+        assert _last_error(capsys, code) == ("leakdiag: error: --out /proc/x: cannot create the "
+                                             "folder: No such file or directory")
+        code = main(["reproduce", "vca", "--quick", "--scheduler", "serial", "--out",
+                     str(tmp_path / "rep2"), "--save-results", "/proc/x/r.pkl"])
+        assert _last_error(capsys, code) == (
+            "leakdiag: error: --save-results /proc/x/r.pkl: cannot create its folder /proc/x: "
+            "No such file or directory")
+
+
+def _committed():
+    return pd.read_csv(COMMITTED_TABLES)
+
+
+@pytest.mark.parametrize("name, table, message", [
+    ("junk.csv", "a,b\n1,2\n",  # used to fail as "leakdiag: error: pct_change" after the run
+     "no column system, table, method, signals, varied, direction_agrees, trend_ours, "
+     "trend_thesis, trend_agrees, pct_change, thesis_pct_change: not a tables.csv written by "
+     "leakdiag reproduce (its columns: a, b)"),
+    ("empty.csv", "", "cannot read it as a CSV table (No columns to parse from file)"),
+    ("header.csv", lambda: _committed().iloc[:0].to_csv(index=False),
+     "no rows: nothing to compare with"),
+    ("nopct.csv", lambda: _committed().drop(columns="pct_change").to_csv(index=False),
+     "no column pct_change: not a tables.csv written by leakdiag reproduce (its columns: table, "
+     "system, case_study, leak_lpm, method, signals, ...)"),
+    ("textpct.csv", lambda: _committed().assign(pct_change="x").to_csv(index=False),
+     "column pct_change must be numeric (empty for no measure)"),
+    ("agree.csv", lambda: _committed().assign(direction_agrees="yes").to_csv(index=False),
+     "column direction_agrees must hold True or False in every row"),
+    ("eha.csv", lambda: _committed().query("system == 'EHA'").to_csv(index=False),
+     "its rows are of EHA, this run is of VCA: nothing to compare"),
+    ("trend.csv", lambda: _committed().assign(trend_agrees="maybe").to_csv(index=False),
+     "cannot compare with it: Need to pass bool-like values"),
+])
+def test_reproduce_previous_checked_before_the_run(no_run, tmp_path, capsys, name, table,
+                                                   message):
+    prev = tmp_path / name
+    prev.write_text(table() if callable(table) else table)
+    code = main(["reproduce", "vca", "--quick", "--scheduler", "serial", "--out",
+                 str(tmp_path / "rep"), "--previous", str(prev)])
+    assert _last_error(capsys, code) == f"leakdiag: error: --previous {prev}: {message}"
+    assert not (tmp_path / "rep").exists()  # nothing written either
+
+
+@pytest.mark.skipif(WHICH != "all", reason="needs both simulators")
+def test_vca_over_an_all_run_removes_the_eha_figures_only(quick_run, tmp_path, monkeypatch,
+                                                          capsys):
+    """`reproduce vca --out mix` over an `all` run kept 33 EHA figures beside the VCA report.
+    Reproduce's own figures that the new run does not make are removed; other files stay."""
+    import importlib
+
+    out, _, pkl = quick_run
+    mix = tmp_path / "mix"
+    shutil.copytree(out, mix)
+    (mix / "notes.txt").write_text("mine")
+    (mix / "figures" / "mine.png").write_bytes(b"mine")
+    (mix / "figures" / "table-notes.txt").write_text("mine")
+    with open(pkl, "rb") as fh:
+        rep, _ = pickle.load(fh)
+    # the VCA half of the `all` run, as `reproduce vca` would compute it
+    vca = rep.tables.system == "VCA"
+    rep.systems = ("vca",)
+    rep.series = {k: v for k, v in rep.series.items() if k in set(rep.tables.row_id[vca])}
+    rep.tables = rep.tables[vca].reset_index(drop=True)
+    rep.preferred = rep.preferred[rep.preferred.system == "VCA"].reset_index(drop=True)
+    rep.ofat = [o for o in rep.ofat if o["system"] == "vca"]
+    rep.sensitivity = rep.sensitivity[rep.sensitivity.system == "vca"].reset_index(drop=True)
+    rep.stationarity = {"vca": rep.stationarity["vca"]}
+    rep.previous = None
+    monkeypatch.setattr(importlib.import_module("leakdiag.studies.reproduce"), "reproduce",
+                        lambda *a, **k: rep)
+    before = sorted(p.name for p in (mix / "figures").iterdir())
+    eha = [n for n in before if "-eha" in n or n.startswith("table-6-")]
+    assert len(eha) > 10
+    code = main(["reproduce", "vca", "--quick", "--scheduler", "serial", "--out", str(mix),
+                 "--no-progress"])
+    assert code == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert f"removed {len(eha)} figure(s) of an earlier run from {mix / 'figures'} (this run " \
+           f"does not make them): {', '.join(eha[:3])}, ..." in lines
+    after = sorted(p.name for p in (mix / "figures").iterdir())
+    assert after == sorted(set(before) - set(eha))  # the VCA figures rewritten, the rest kept
+    assert {"mine.png", "table-notes.txt"} <= set(after)
+    assert (mix / "notes.txt").read_text() == "mine"
+    md = (mix / "report.md").read_text()
+    assert sorted(re.findall(r"\]\(figures/([\w.-]+\.png)\)", md)) == \
+        sorted(set(after) - {"mine.png", "table-notes.txt"})
+    # a second run over its own output removes nothing and says nothing about it
+    assert main(["reproduce", "vca", "--quick", "--scheduler", "serial", "--out", str(mix),
+                 "--no-progress"]) == 0
+    assert "removed" not in capsys.readouterr().out
+
+
+def test_a_report_that_fails_to_build_leaves_the_earlier_files(quick_run, tmp_path,
+                                                                monkeypatch):
+    """The report is built before any file is written (the CSVs used to be written first)."""
+    import leakdiag.report.reproduction as rr
+
+    out, _, pkl = quick_run
+    old = tmp_path / "old"
+    shutil.copytree(out, old)
+    with open(pkl, "rb") as fh:
+        rep, _ = pickle.load(fh)
+    rep.tables = rep.tables.assign(pct_change=0.0)  # would change tables.csv
+
+    def broken(*a, **k):
+        raise ValueError("broken report")
+
+    monkeypatch.setattr(rr, "build_report", broken)
+    with pytest.raises(ValueError, match="broken report"):
+        rr.write_outputs(rep, old)
+    for f in rr.OUTPUT_FILES:
+        assert (old / f).read_bytes() == (out / f).read_bytes(), f
+    assert sorted(p.name for p in (old / "figures").iterdir()) == \
+        sorted(p.name for p in (out / "figures").iterdir())

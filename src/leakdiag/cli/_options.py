@@ -8,13 +8,18 @@ suspect recording (sample rate, system, channels, units).
 
 from __future__ import annotations
 
+import math
+import os
+import tempfile
 import warnings
+from pathlib import Path
 
 import click
 
 __all__ = ["recording_options", "resample_option", "column_map_from", "read_with", "read_healthy",
            "false_alarm_option", "healthy_option", "no_progress_option", "scheduler_option",
-           "warn_low_rate",
+           "workers_option", "check_workers", "FiniteFloat", "prepare_out_dir",
+           "prepare_out_file", "list_option_values", "warn_low_rate",
            "TIME_UNIT_CHOICES"]
 
 #: Below this rate (Hz) a time column is probably not in seconds (ms, sample counter): warned.
@@ -122,6 +127,15 @@ def no_progress_option(f):
     return click.option("--no-progress", is_flag=True, help="Hide progress messages and bars.")(f)
 
 
+def _check_scheduler(ctx, param, value):
+    """``--scheduler`` is refused at parse time when it is no name nor address (the executor's
+    rule, :func:`leakdiag.runtime.executor.run_cases`), before any work."""
+    if value is None or value in ("serial", "local") or ":" in str(value):
+        return value
+    raise click.BadParameter(f"{value!r} must be 'serial', 'local' or the address of a Dask "
+                             "scheduler such as tcp://127.0.0.1:8786")
+
+
 def scheduler_option(default: str = "local"):
     """Decorator factory: ``--scheduler serial|local|ADDRESS`` (one definition for every command
     that runs on Dask: batch, reproduce, sensitivity, benchmark).
@@ -136,9 +150,205 @@ def scheduler_option(default: str = "local"):
     callable
     """
     return click.option("--scheduler", default=default, show_default=True,
-                        metavar="serial|local|ADDRESS",
+                        metavar="serial|local|ADDRESS", callback=_check_scheduler,
                         help="serial: in this process; local: a Dask cluster on this machine; or "
                              "the address of a Dask scheduler (tcp://host:8786).")
+
+
+def workers_option(f):
+    """Decorator: ``--workers N`` (N >= 1; worker processes of the local Dask cluster).
+
+    Zero or a negative number is refused at parse time: a local cluster without workers never
+    runs a case (the command used to wait at 0 % until killed). Pair it with
+    :func:`check_workers`, which refuses ``--workers`` with another scheduler than ``local``.
+
+    Parameters
+    ----------
+    f : callable
+        The click command function (receives ``workers``, an int or None).
+
+    Returns
+    -------
+    callable
+    """
+    return click.option("--workers", type=click.IntRange(min=1), default=None,
+                        help="Worker processes of the local Dask cluster (with --scheduler local "
+                             "only; default: one per core).")(f)
+
+
+def check_workers(scheduler: str, workers: int | None) -> None:
+    """Refuse ``--workers`` with a scheduler that does not start a local cluster.
+
+    With ``--scheduler serial`` every case runs in this process, and a scheduler address has
+    the workers of its own cluster: ``--workers`` would be ignored, so it is refused.
+
+    Parameters
+    ----------
+    scheduler : str
+        ``--scheduler``.
+    workers : int or None
+        ``--workers`` (None: not given).
+
+    Raises
+    ------
+    click.UsageError
+        When ``workers`` is given and ``scheduler`` is not ``"local"``.
+    """
+    if workers is None or scheduler == "local":
+        return
+    why = ("serial runs every case in this process" if scheduler == "serial" else
+           f"the scheduler at {scheduler} has the workers of its own cluster")
+    raise click.UsageError(f"--workers {workers} is for --scheduler local ({why}): drop "
+                           "--workers or give --scheduler local")
+
+
+class FiniteFloat(click.FloatRange):
+    """A float option that refuses ``nan`` and ``inf`` (and values out of its range).
+
+    :class:`click.FloatRange` lets ``nan`` through (no comparison is true) and accepts ``inf``
+    when there is no upper bound; this type refuses both with a one-line usage error.
+
+    Parameters
+    ----------
+    min, max : float, optional
+        Bounds.
+    min_open, max_open : bool, default False
+        Exclude the bound.
+
+    Examples
+    --------
+    >>> FiniteFloat(min=0, min_open=True).convert("2.5", None, None)
+    2.5
+    """
+
+    name = "float"
+
+    def convert(self, value, param, ctx):  # noqa: D102 - click's ParamType.convert
+        rv = click.FLOAT.convert(value, param, ctx)
+        if not math.isfinite(rv):
+            self.fail(f"{value} is not a finite number.", param, ctx)
+        return super().convert(rv, param, ctx)
+
+
+def list_option_values(option: str, text: str, kind: type, example: str, check=None,
+                       rule: str = "") -> tuple:
+    """The values of a list option (``1,2,3`` or ``start:stop:step``), each one checked.
+
+    Parameters
+    ----------
+    option : str
+        Option name for the messages, e.g. ``"--windows"``.
+    text : str
+        What was given.
+    kind : type
+        ``int``, ``float`` or ``str`` (as :func:`leakdiag.studies.sweep.parse_values`).
+    example : str
+        A valid value, shown when the list is empty.
+    check : callable, optional
+        ``check(value) -> bool``; a value for which it is false is refused with ``rule``.
+    rule : str
+        What ``check`` requires, in words.
+
+    Returns
+    -------
+    tuple
+
+    Raises
+    ------
+    click.BadParameter
+        For an empty list (it is never taken to mean the defaults), an unreadable item or
+        range, or a value that ``check`` refuses; the message names the option.
+    """
+    from leakdiag.studies.sweep import parse_values
+
+    if not str(text).replace(",", "").strip():
+        raise click.BadParameter(f"{text!r} is an empty list; give e.g. {example}",
+                                 param_hint=f"'{option}'")
+    try:
+        vals = parse_values(text, kind)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint=f"'{option}'") from None
+    where = "" if len(vals) == 1 else f" in {text!r}"
+    for v in vals:
+        if check is not None and not check(v):
+            raise click.BadParameter(f"{v!r}{where}: {rule}", param_hint=f"'{option}'")
+    return tuple(vals)
+
+
+def _probe(folder: Path, option: str, path) -> None:
+    """Write and remove an empty file in ``folder``: a folder we cannot write in is said now."""
+    try:
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=".leakdiag-probe-")
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as exc:
+        raise OSError(f"{option} {path}: cannot write in {folder}: "
+                      f"{exc.strerror or exc}") from None
+
+
+def prepare_out_dir(path, option: str = "--out") -> Path:
+    """Create an output folder and check that it can be written, before the long work.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The folder (created with its parents when missing).
+    option : str, default "--out"
+        Option name for the message.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    OSError
+        One line naming the option and the path when the folder cannot be created or written.
+    """
+    p = Path(path)
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OSError(f"{option} {path}: cannot create the folder: "
+                      f"{exc.strerror or exc}") from None
+    _probe(p, option, path)
+    return p
+
+
+def prepare_out_file(path, option: str) -> Path:
+    """Check, before the long work, that a file can be written at ``path`` (its folder is
+    created when missing; an existing file is left as it is until it is written).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+    option : str
+        Option name for the message.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    OSError
+        One line naming the option and the path when the file cannot be written there.
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise OSError(f"{option} {path}: is a folder; give a file name")
+    if p.parent.exists() and not p.parent.is_dir():
+        raise OSError(f"{option} {path}: {p.parent} is a file, not a folder")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OSError(f"{option} {path}: cannot create its folder {p.parent}: "
+                      f"{exc.strerror or exc}") from None
+    _probe(p.parent, option, path)
+    if p.exists() and not os.access(p, os.W_OK):
+        raise OSError(f"{option} {path}: the file exists and cannot be written")
+    return p
 
 
 def column_map_from(column_map, cols, time_unit=None):

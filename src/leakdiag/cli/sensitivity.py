@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
+import math
 
 import click
 
-from leakdiag.cli._options import scheduler_option
+from leakdiag.cli._options import (check_workers, list_option_values, prepare_out_dir,
+                                   scheduler_option, workers_option)
 
 __all__ = ["sensitivity"]
+
+#: Loads of the case-study-3 experiments (``--loads``).
+LOADS = ("spring", "none")
 
 
 @click.command(epilog="Example: leakdiag sensitivity vca --quick --scheduler serial -o sens/")
@@ -17,15 +21,18 @@ __all__ = ["sensitivity"]
 @click.option("--quick", is_flag=True, help="Short experiments, two leak sizes, one seed.")
 @click.option("--leaks", default=None, help="Leak sizes in L/min, e.g. 0.047,0.1,0.5.")
 @click.option("--seeds", default=None, help="Seeds, e.g. 1,2,3.")
-@click.option("--durations", default=None, help="Experiment lengths in s (VCA), e.g. 300,400,600.")
-@click.option("--loads", default=None, help="Loads: spring,none.")
+@click.option("--durations", default=None,
+              help="Run lengths in s of the VCA's experiments, e.g. 300,400,600 (the EHA's are "
+                   "fixed: 180 s, 40 s with --quick; refused for eha).")
+@click.option("--loads", default=None, help="Loads: spring,none (either or both).")
 @scheduler_option()
-@click.option("--workers", type=int, default=None, help="Workers of the local cluster.")
+@workers_option
 @click.option("--cache-dir", type=click.Path(file_okay=False), default=None,
               help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")
 @click.option("--no-progress", is_flag=True, help="Hide the progress bar.")
 @click.option("--out", "-o", type=click.Path(file_okay=False), default=None,
-              help="Folder for sensitivity.csv, sensitivity_summary.csv and figures.")
+              help="Folder for sensitivity.csv, sensitivity_summary.csv and figures (created "
+                   "before the experiments run).")
 def sensitivity(system, quick, leaks, seeds, durations, loads, scheduler, workers, cache_dir,
                 no_progress, out):
     """Run case study 3 on the simulator(s) and print the range of % change per method."""
@@ -33,27 +40,39 @@ def sensitivity(system, quick, leaks, seeds, durations, loads, scheduler, worker
     from leakdiag.report.study_plots import plot_sensitivity
     from leakdiag.studies.protocol import FULL, QUICK
     from leakdiag.studies.sensitivity import run_sensitivity
-    from leakdiag.studies.sweep import parse_values
 
+    # every option is checked here, before the first experiment: none fails late
+    check_workers(scheduler, workers)
     systems = ("vca", "eha") if system == "all" else (system,)
     cfg = QUICK if quick else FULL
     changes = {"cache_dir": cache_dir}
-    if leaks:
-        vals = tuple(parse_values(leaks, float))
+    if leaks is not None:
+        vals = list_option_values("--leaks", leaks, float, "0.047,0.1,0.5",
+                                  lambda v: math.isfinite(v) and v >= 0,
+                                  "a leak size must be a finite number of L/min >= 0 (0: no leak)")
         changes.update(vca_sensitivity_lpm=vals, eha_sensitivity_lpm=vals)
-    if seeds:
-        changes["sensitivity_seeds"] = tuple(parse_values(seeds, int))
-    if durations:
-        changes["vca_sensitivity_durations_s"] = tuple(parse_values(durations, float))
-    if loads:
-        changes["loads"] = tuple(parse_values(loads, str))
+    if seeds is not None:
+        changes["sensitivity_seeds"] = list_option_values("--seeds", seeds, int, "1,2,3",
+                                                          lambda v: v >= 0, "a seed must be >= 0")
+    if durations is not None:
+        if system == "eha":
+            raise click.UsageError(
+                f"--durations sets the VCA's run lengths only; the EHA's case-study-3 runs last "
+                f"{cfg.eha_sensitivity_duration_s:g} s{' with --quick' if quick else ''}: drop "
+                "--durations for eha")
+        changes["vca_sensitivity_durations_s"] = list_option_values(
+            "--durations", durations, float, "300,400,600",
+            lambda v: math.isfinite(v) and v > 0, "a run length must be a finite number of s > 0")
+    if loads is not None:
+        changes["loads"] = list_option_values("--loads", loads, str, "spring,none",
+                                              lambda v: v in LOADS,
+                                              f"a load must be one of {', '.join(LOADS)}")
     cfg = dataclasses.replace(cfg, **changes)
+    o = prepare_out_dir(out) if out else None  # a folder that cannot be written: said now
     rows, summary = run_sensitivity(systems, cfg, scheduler=scheduler, n_workers=workers,
                                     progress=not no_progress)
     click.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
-    if out:
-        o = Path(out)
-        o.mkdir(parents=True, exist_ok=True)
+    if o is not None:
         rows.to_csv(o / "sensitivity.csv", index=False)
         summary.to_csv(o / "sensitivity_summary.csv", index=False)
         for s, g in rows.groupby("system"):

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import click
 
+from leakdiag.cli._options import FiniteFloat
 from leakdiag.sim.leak import LPM_PER_M3S
 
 __all__ = ["simulate", "plot_simulation"]
@@ -71,11 +73,12 @@ def plot_simulation(rec, path):
 @click.command(epilog="Example: leakdiag simulate vca --duration 400 --onset 200 --leak 0.1 "
                       "--seed 1 -o run.parquet --plot")
 @click.argument("system", type=click.Choice(["vca", "eha"]))
-@click.option("--duration", type=float, default=None,
+@click.option("--duration", type=FiniteFloat(min=0, min_open=True), default=None,
               help="Run length in s [default: 400 for vca, 180 for eha (Secs. 4.5, 4.6)].")
-@click.option("--onset", type=float, default=None,
-              help="Leak onset in s [default: 200 for vca, 90 for eha].")
-@click.option("--leak", "leak_lpm", type=float, default=None,
+@click.option("--onset", type=FiniteFloat(min=0), default=None,
+              help="Leak onset in s [default: half of --duration, as in Secs. 4.5, 4.6: 200 "
+                   "for vca, 90 for eha].")
+@click.option("--leak", "leak_lpm", type=FiniteFloat(min=0), default=None,
               help="Target mean leak after onset in L/min (0 = none) "
                    "[default: 0.1 for vca, 1.2 for eha].")
 @click.option("--leak-model", type=click.Choice(["turbulent", "laminar"]), default="turbulent",
@@ -83,18 +86,19 @@ def plot_simulation(rec, path):
 @click.option("--leak-kind", type=click.Choice(["step", "ramp"]), default="step",
               show_default=True, help="Leak switched on at the onset, or ramped up over "
                                       "--ramp-duration.")
-@click.option("--ramp-duration", type=float, default=None,
+@click.option("--ramp-duration", type=FiniteFloat(min=0, min_open=True), default=None,
               help="Ramp length in s (with --leak-kind ramp) [default: 100 for vca, 30 for eha].")
 @click.option("--load", type=click.Choice(["spring", "none"]), default="none", show_default=True,
               help="Load on the piston: a spring (Table 2-1 stiffness) or none.")
-@click.option("--seed", type=int, default=1, show_default=True,
+@click.option("--seed", type=click.IntRange(min=0), default=1, show_default=True,
               help="Seed of the sensor noise and the VCA's reference sequence (the EHA's "
                    "open-loop input is the fixed 3 sin 4t).")
 @click.option("--machine", type=click.IntRange(min=0), default=None,
               help="Draw virtual machine unit N (its tolerances: valve or pump, supply, bulk "
                    "modulus, transducers; docs/models.md); default: the nominal Table 2-1 / 3-1 "
                    "unit. The same N is the same unit whatever --seed.")
-@click.option("--sample-rate", type=float, default=1000.0, show_default=True,
+@click.option("--sample-rate", type=FiniteFloat(min=0, min_open=True), default=1000.0,
+              show_default=True,
               help="Sample rate of the recording (Hz).")
 @click.option("--no-sensors", is_flag=True, help="Record true, noise-free states.")
 @click.option("--params", "params_file", type=click.Path(exists=True, dir_okay=False),
@@ -108,6 +112,8 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
              seed, machine, sample_rate, no_sensors, params_file, out, plot, no_progress):
     """Simulate a VCA or EHA experiment with a leak and write the recording.
 
+    Without --onset the leak starts at half of the run (--duration), as in the thesis's
+    experiments (400 s / 200 s on the VCA, 180 s / 90 s on the EHA).
     """
     from tqdm import tqdm
 
@@ -124,6 +130,16 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     # passed, every other argument keeps the rig's own default.
     kwargs = dict(seed=seed, sensors=not no_sensors, sample_rate=sample_rate, load=load,
                   leak_kind=leak_kind, leak_model=leak_model)
+    run_s = duration if duration is not None else (
+        VCA_DURATION_S if system == "vca" else EHA_DURATION_S)
+    if not math.isfinite(run_s * sample_rate):
+        raise click.UsageError(f"--duration {run_s:g} s at --sample-rate {sample_rate:g} Hz: "
+                               "too many samples to count")
+    if onset is None:  # the default onset follows the run length (the thesis's half time)
+        onset = run_s / 2
+        onset_given = False
+    else:
+        onset_given = True
     for name, value in (("duration", duration), ("onset", onset), ("leak_lpm", leak_lpm),
                         ("ramp_duration", ramp_duration), ("machine", machine)):
         if value is not None:
@@ -133,8 +149,7 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
         cls = ld.sim.VCAParams if system == "vca" else ld.sim.EHAParams
         kwargs["params"] = _params_from_toml(cls, params_file)
 
-    default_duration = VCA_DURATION_S if system == "vca" else EHA_DURATION_S
-    total = int(round(kwargs.get("duration", default_duration) * sample_rate))
+    total = int(round(run_s * sample_rate))
     bar = tqdm(total=total, unit="sample", desc=f"{system} run 1", leave=False,
                disable=no_progress)
     runs = [1]
@@ -157,7 +172,7 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     what = (f"leak target {m.get('leak_lpm', 0):.4g} L/min, achieved "
             f"{m.get('leak_lpm_achieved', 0):.4g} L/min, onset {m.get('onset'):g} s"
             if m.get("onset") is not None else "no leak")
-    if m.get("onset") is None and onset is not None:
+    if m.get("onset") is None and onset_given:
         what += f" (--onset {onset:g} ignored: no leak to start)"
     if m.get("leak_kind") == "ramp" and m.get("onset") is not None \
             and m["onset"] + m["ramp_duration"] > rec.duration:

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import click
 
 from leakdiag.cli._features import FeatureChoice
-from leakdiag.cli._options import recording_options, resample_option
+from leakdiag.cli._options import (FiniteFloat, list_option_values, recording_options,
+                                   resample_option)
 from leakdiag.features.registry import feature_record
 
 __all__ = ["sweep", "format_table"]
@@ -107,11 +109,11 @@ def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> l
 @click.option("--mode", type=click.Choice(["ofat", "grid"]), default="ofat", show_default=True,
               help="ofat: Sec. 4.4 (vary lag, keep the best; window; overlap). grid: all combos.")
 @click.option("--onset", type=float, default=None, help="Leak onset (s); default: file metadata.")
-@click.option("--chunk", type=int, default=10, show_default=True,
+@click.option("--chunk", type=click.IntRange(min=1), default=10, show_default=True,
               help="Feature values per RMS chunk (Sec. 5.2).")
-@click.option("--min-chunks", type=int, default=3, show_default=True,
+@click.option("--min-chunks", type=click.IntRange(min=1), default=3, show_default=True,
               help="Selection rule: whole RMS chunks needed on each side of the onset.")
-@click.option("--tolerance", type=float, default=0.0, show_default=True,
+@click.option("--tolerance", type=FiniteFloat(min=0), default=0.0, show_default=True,
               help="Selection rule: % points within the best that count as ties.")
 @click.option("--out", "-o", type=click.Path(file_okay=False), default=None,
               help="Folder for sweep.csv, sweep.parquet and the figures.")
@@ -120,12 +122,9 @@ def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, chan
           windows, overlaps, mode, onset, chunk, min_chunks, tolerance, out, no_figures):
     """Sweep lag, window and overlap on FILE; print the table of the Sec. 5.2 measure."""
     from leakdiag.studies.select import SelectionRule
-    from leakdiag.studies.sweep import parse_values
 
     m = method
-    lag_values = parse_values(lags, str if feature_record(m).setting == "lag_ratio" else int)
-    win_values = parse_values(windows, int)
-    ov_values = parse_values(overlaps, float)
+    lag_values, win_values, ov_values = _check_settings(m, lags, windows, overlaps, mode)
     from leakdiag.cli._options import column_map_from, read_with
 
     rec = read_with(file, column_map_from(column_map, cols, time_unit), sample_rate, resample)
@@ -248,6 +247,55 @@ def _run(rec, m, channels, lag_values, win_values, ov_values, rule, onset, chunk
                   ("window", _at_lag(table, chosen["lag"]).query("overlap == @chosen['overlap']")),
                   ("overlap", _at_lag(table, chosen["lag"]).query("window == @chosen['window']"))]
     return table, chosen, groups, None
+
+
+def _fits(record, lag, window) -> bool:
+    try:
+        record.check_setting(lag, window)
+    except (ValueError, TypeError):
+        return False
+    return True
+
+
+def _check_settings(method, lags, windows, overlaps, mode):
+    """``--lags``, ``--windows`` and ``--overlaps`` read and checked before the file is read:
+    ``(lags, windows, overlaps)``, or a usage error naming the option and the value.
+
+    Every window must be >= 2 samples, every overlap in [0, 100) %, every lag (or lag ratio) one
+    the method takes. In ofat mode every lag must also be smaller than every window (the lag
+    stage holds the first window, the window stage the chosen lag: a setting that does not fit
+    would be left out without a word); in grid mode the combinations that do not fit are left
+    out and counted, and at least one must fit.
+    """
+    record = feature_record(method)
+    is_ratio = record.setting == "lag_ratio"
+    win_values = list_option_values("--windows", windows, int, "100:800:100",
+                                    lambda w: w >= 2, "a window must be >= 2 samples")
+    ov_values = list_option_values("--overlaps", overlaps, float, "5,25,50",
+                                   lambda o: math.isfinite(o) and 0 <= o < 100,
+                                   "an overlap must be in [0, 100) percent")
+    lag_values = list_option_values("--lags", lags, str if is_ratio else int,
+                                    "83:3,57:3" if is_ratio else "1,2,4,8")
+    if record.setting is None:
+        return list(lag_values), list(win_values), list(ov_values)
+    where = "" if len(lag_values) == 1 else f" in {lags!r}"
+    for v in lag_values:
+        try:
+            record.check_setting(v)
+        except (ValueError, TypeError) as exc:
+            raise click.BadParameter(f"{v!r}{where}: {exc}", param_hint="'--lags'") from None
+    if mode == "ofat":
+        w_min = min(win_values)
+        for v in lag_values:
+            if not _fits(record, v, w_min):
+                raise click.BadParameter(
+                    f"{v} does not fit window {w_min} (the smallest of --windows): in ofat mode "
+                    "every lag must be smaller than every window (the chosen lag is held while "
+                    "the window varies)", param_hint="'--lags'")
+    elif not any(_fits(record, v, w) for v in lag_values for w in win_values):
+        raise click.BadParameter(f"no value of {lags!r} is smaller than a window of "
+                                 f"{windows!r}: no setting to compute", param_hint="'--lags'")
+    return list(lag_values), list(win_values), list(ov_values)
 
 
 def _check_input(file, rec, method, channels, windows) -> None:

@@ -8,6 +8,7 @@ object, i.e. computed in the same run. :func:`write_outputs` writes it with the 
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,14 @@ from leakdiag.studies.reproduce import (Reproduction, compare_runs, per_table_ag
                                         sensitivity_summary)
 from leakdiag.studies.thesis import row_sign, varied_value
 
-__all__ = ["build_report", "direction_word", "trend_word", "write_outputs"]
+__all__ = ["build_report", "direction_word", "trend_word", "write_outputs", "FIGURE_NAMES",
+           "OUTPUT_FILES"]
+
+#: Files ``write_outputs`` writes at the top of its folder (every run writes all of them).
+OUTPUT_FILES = ("tables.csv", "sensitivity.csv", "preferred.csv", "index.html", "report.md")
+#: Names of the figures a reproduction writes into ``figures/`` (the ``fig-NNN.png`` of runs
+#: before the figures were named after their table included); any other file there is kept.
+FIGURE_NAMES = re.compile(r"(?:(?:table|stationarity)-[A-Za-z0-9_.-]+|fig-\d{3})\.png")
 
 _SETTING_LABEL = {"lag": "lag", "lag_ratio": "lag ratio", "window": "window (samples)",
                   "overlap": "overlap (%)", "signal": "signal"}
@@ -399,8 +407,17 @@ def build_report(rep, command: str = "", figures: bool = True) -> Report:
     return r
 
 
-def write_outputs(rep: Reproduction, out_dir, command: str = "") -> dict[str, Path]:
-    """Write ``tables.csv``, ``sensitivity.csv``, ``preferred.csv``, ``index.html``, ``report.md``.
+def _stale_figures(fig_dir: Path, keep) -> list[Path]:
+    """Figures of an earlier reproduction in ``fig_dir`` that this run did not write."""
+    if not fig_dir.is_dir():
+        return []
+    return sorted(p for p in fig_dir.iterdir() if p.is_file() and p.name not in keep
+                  and FIGURE_NAMES.fullmatch(p.name))
+
+
+def write_outputs(rep: Reproduction, out_dir, command: str = "") -> dict:
+    """Write ``tables.csv``, ``sensitivity.csv``, ``preferred.csv``, ``index.html``, ``report.md``
+    and ``figures/``; remove the figures an earlier reproduction left in ``figures/``.
 
     Parameters
     ----------
@@ -414,18 +431,32 @@ def write_outputs(rep: Reproduction, out_dir, command: str = "") -> dict[str, Pa
     Returns
     -------
     dict
-        Name -> path of every file written.
+        Name -> path of every file written (``"figures"``: the folder), and ``"removed"``: the
+        list of stale figures removed.
+
+    Notes
+    -----
+    The report is built before any file is written: a failure leaves an earlier run's files
+    as they were. The files of :data:`OUTPUT_FILES` are overwritten. In ``figures/``, a file
+    named as a reproduction names its figures (:data:`FIGURE_NAMES`) that this run did not
+    write is removed, after the new files are written, so that the folder holds this run's
+    report only (a ``vca`` run over an earlier ``all`` run used to keep the EHA's figures
+    beside the VCA report). Every other file in the folder is kept.
     """
+    report = build_report(rep, command=command)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = {}
+    paths: dict = {}
     rep.tables.drop(columns=["row_id"]).to_csv(out / "tables.csv", index=False)
     paths["tables"] = out / "tables.csv"
     rep.sensitivity.to_csv(out / "sensitivity.csv", index=False)
     paths["sensitivity"] = out / "sensitivity.csv"
     rep.preferred.to_csv(out / "preferred.csv", index=False)
     paths["preferred"] = out / "preferred.csv"
-    report = build_report(rep, command=command)
     written = report.write(out)
     paths.update(written)
+    stale = _stale_figures(Path(written["figures"]), set(report.figures))
+    for p in stale:
+        p.unlink()
+    paths["removed"] = stale
     return paths

@@ -15,6 +15,7 @@ each recording's rows as soon as it finishes: ``on_result`` is called in complet
 
 from __future__ import annotations
 
+import numbers
 import time
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
@@ -104,6 +105,18 @@ def _run_dask(run_case, configs, scheduler, n_workers, on_done, on_error):
             cluster.close()
 
 
+def _check_n_workers(n_workers) -> None:
+    """Refuse a worker count that would start a cluster that never runs a case."""
+    if n_workers is None:
+        return
+    if isinstance(n_workers, bool) or not isinstance(n_workers, numbers.Integral):
+        raise TypeError(f"n_workers={n_workers!r} must be an integer >= 1 (--workers at the "
+                        "command line)")
+    if n_workers < 1:
+        raise ValueError(f"n_workers={n_workers} must be >= 1 (--workers at the command line): "
+                         "a local Dask cluster without workers never runs a case")
+
+
 def run_cases(run_case: Callable[[Any], Any], configs: Sequence[Any], *,
               scheduler: str | None = SERIAL, n_workers: int | None = None,
               desc: str = "cases", progress: bool = True,
@@ -124,7 +137,8 @@ def run_cases(run_case: Callable[[Any], Any], configs: Sequence[Any], *,
         ``"tcp://host:port"`` (any address a ``dask.distributed.Client`` accepts): an existing
         scheduler.
     n_workers : int, optional
-        Workers of the local cluster (default: Dask's choice, one per core).
+        Workers of the local cluster, >= 1 (default: Dask's choice, one per core). Ignored by
+        the serial executor and by an existing scheduler (its cluster has its own workers).
     desc : str, default "cases"
         Label of the tqdm progress bar.
     progress : bool, default True
@@ -146,7 +160,10 @@ def run_cases(run_case: Callable[[Any], Any], configs: Sequence[Any], *,
     Raises
     ------
     ValueError
-        For an unknown scheduler name.
+        For an unknown scheduler name, or ``n_workers`` below 1 (a local cluster without
+        workers never runs a case: the call would wait forever).
+    TypeError
+        For an ``n_workers`` that is not an integer.
     Exception
         Whatever a case raised, when ``on_error`` is None.
 
@@ -171,6 +188,7 @@ def run_cases(run_case: Callable[[Any], Any], configs: Sequence[Any], *,
             f"scheduler={scheduler!r} must be 'serial', 'local' or a Dask scheduler address "
             f"such as 'tcp://127.0.0.1:8786'"
         )
+    _check_n_workers(n_workers)
     results: list[CaseResult | None] = [None] * len(configs)
     if not configs:
         return []

@@ -27,8 +27,8 @@ from leakdiag.studies.thesis import (load_sensitivity, load_tables, row_sign, sp
                                      varied_value)
 
 __all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings",
-           "sensitivity_summary", "CONTRACT_COLUMNS", "per_table_agreement",
-           "compare_runs", "code_fingerprints"]
+           "sensitivity_summary", "CONTRACT_COLUMNS", "PREVIOUS_COLUMNS", "per_table_agreement",
+           "compare_runs", "read_previous", "code_fingerprints"]
 
 #: Columns of ``tables.csv`` written by :func:`leakdiag.report.reproduction.write_outputs`
 #: (the outside contract).
@@ -40,6 +40,12 @@ CONTRACT_COLUMNS = [
     "trend_ours", "trend_thesis", "trend_agrees", "n_windows", "n_chunks_before",
     "n_chunks_after", "n_chunks_straddling", "chunk", "note",
 ]
+
+#: Columns of an earlier run's ``tables.csv`` that :func:`compare_runs` reads
+#: (``leakdiag reproduce --previous``).
+PREVIOUS_COLUMNS = ["system", "table", "method", "signals", "varied", "direction_agrees",
+                    "trend_ours", "trend_thesis", "trend_agrees", "pct_change",
+                    "thesis_pct_change"]
 
 
 @dataclass
@@ -343,6 +349,62 @@ def compare_runs(new, old):
                                         how="right", suffixes=("_old", "_new"))
     return m[keys + ["rows", "median_pct_thesis"] + [f"{c}_{s}" for c in cols
                                                      for s in ("old", "new")]]
+
+
+def read_previous(path, systems=None):
+    """Read and check the ``tables.csv`` of an earlier run, for :func:`compare_runs`.
+
+    ``leakdiag reproduce --previous`` calls it before the long run, so that a file it cannot
+    compare with is refused before anything is computed or written.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The earlier run's ``tables.csv``.
+    systems : sequence of str, optional
+        Systems of this run (``"vca"``, ``"eha"``): the file must have rows of at least one.
+
+    Returns
+    -------
+    pandas.DataFrame
+
+    Raises
+    ------
+    ValueError
+        One line naming ``path``: not a CSV table, no rows, a column of :data:`PREVIOUS_COLUMNS`
+        missing, ``direction_agrees`` not True/False, a % change column not numeric, or no row
+        of the systems of this run.
+    """
+    import pandas as pd
+
+    try:
+        t = pd.read_csv(path)
+    except ValueError as exc:  # EmptyDataError, ParserError, UnicodeDecodeError
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ValueError(f"{path}: cannot read it as a CSV table ({first})") from None
+    missing = [c for c in PREVIOUS_COLUMNS if c not in t.columns]
+    if missing:
+        cols = ", ".join(map(str, t.columns[:6])) + (", ..." if len(t.columns) > 6 else "")
+        raise ValueError(f"{path}: no column {', '.join(missing)}: not a tables.csv written by "
+                         f"leakdiag reproduce (its columns: {cols})")
+    if t.empty:
+        raise ValueError(f"{path}: no rows: nothing to compare with")
+    if not pd.api.types.is_bool_dtype(t["direction_agrees"]):
+        raise ValueError(f"{path}: column direction_agrees must hold True or False in every "
+                         "row")
+    for c in ("pct_change", "thesis_pct_change"):
+        if not pd.api.types.is_numeric_dtype(t[c]) or pd.api.types.is_bool_dtype(t[c]):
+            raise ValueError(f"{path}: column {c} must be numeric (empty for no measure)")
+    if systems is not None:
+        have = set(t["system"].astype(str).str.lower())
+        if not have & {str(s).lower() for s in systems}:
+            raise ValueError(f"{path}: its rows are of {', '.join(sorted(have)).upper()}, this "
+                             f"run is of {', '.join(systems).upper()}: nothing to compare")
+    try:  # what the report computes from it: fails now, not after the run
+        per_table_agreement(t)
+    except (ValueError, TypeError, KeyError) as exc:
+        raise ValueError(f"{path}: cannot compare with it: {exc}") from None
+    return t
 
 
 def code_fingerprints() -> dict[str, str]:
