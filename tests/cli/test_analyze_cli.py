@@ -291,7 +291,7 @@ def test_method_all_states_whose_settings_it_uses(run_file, capsys):
     assert capsys.readouterr().out.splitlines()[0].endswith("at the thesis's EHA settings")
 
 
-# --------------------- found by an audit on real recordings (2026-11-28): too few chunks
+# --------------------- found by an audit on real recordings (2026-11-27): too few chunks
 @pytest.fixture(scope="module")
 def three_seconds(tmp_path_factory):
     """3000 samples at 1 kHz (as the rotary-actuator files): 6 metric-length windows of 500."""

@@ -256,7 +256,7 @@ def test_simulate_unknown_params_field(tmp_path, capsys):
      "leakdiag: error: onset=20.0 s must lie in [0, duration=10.0) s"),
     (["--sample-rate", "0"],
      "Error: Invalid value for '--sample-rate': 0.0 is not in the range x>0."),
-    # audit 2026-11-29: inf was a bare OverflowError traceback, nan "cannot convert float NaN
+    # audit 2026-11-27: inf was a bare OverflowError traceback, nan "cannot convert float NaN
     # to integer"; --leak -1 said "must be > 0" while --leak 0 (no leak) is accepted
     (["--duration", "inf", "--onset", "30"],
      "Error: Invalid value for '--duration': inf is not a finite number."),
@@ -312,7 +312,7 @@ def test_simulate_help_shows_the_default_onset(capsys):
 @pytest.mark.parametrize("workers", ["0", "-1"])
 def test_benchmark_workers_below_one_is_refused_not_a_hang(tmp_path, capsys, monkeypatch,
                                                            workers):
-    """Audit 2026-11-29: a local cluster of 0 workers waited at 0 % until killed."""
+    """Audit 2026-11-27: a local cluster of 0 workers waited at 0 % until killed."""
     import leakdiag.runtime.executor as ex
 
     monkeypatch.setattr(ex, "_run_dask", lambda *a: pytest.fail("a cluster was started"))
@@ -320,9 +320,22 @@ def test_benchmark_workers_below_one_is_refused_not_a_hang(tmp_path, capsys, mon
                  str(tmp_path / "b"), "--cache-dir", str(tmp_path / "c"), "--work-dir",
                  str(tmp_path / "w"), "--no-progress"])
     assert _one_error_line(capsys, code) == (
-        f"Error: n_workers={workers} must be >= 1 (--workers at the command line): a local "
-        "Dask cluster without workers never runs a case")
-    assert not any((tmp_path / "b").glob("*"))  # nothing run, no report
+        f"Error: Invalid value for '--workers': {workers} is not in the range x>=1.")
+    assert not (tmp_path / "b").exists()  # refused before any folder is made
+
+
+@pytest.mark.parametrize("cmd", ["benchmark", "batch"])
+def test_workers_with_the_serial_scheduler_is_refused_not_ignored(tmp_path, capsys, cmd):
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    args = (["benchmark", "--quick", "-o", str(tmp_path / "b")] if cmd == "benchmark" else
+            ["batch", str(tmp_path / "*.parquet"), "--config", str(job), "-o",
+             str(tmp_path / "res")])
+    code = main(args + ["--scheduler", "serial", "--workers", "4"])
+    assert _one_error_line(capsys, code) == (
+        "Error: --workers 4 is for --scheduler local (serial runs every case in this process): "
+        "drop --workers or give --scheduler local")
+    assert not (tmp_path / "b").exists() and not (tmp_path / "res").exists()
 
 
 # ---- options ---------------------------------------------------------------------------------

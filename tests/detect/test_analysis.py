@@ -171,7 +171,7 @@ def _noise(n, seed, rate=1000.0, source=None):
 
 def test_one_method_too_short_for_the_measure_is_inconclusive_not_an_error():
     """It raised for a single method and was INCONCLUSIVE among several (found by an audit,
-    2026-11-28). 3000 samples, N=200, 5 %: 15 windows; onset 1.5 s: one whole chunk of 10,
+    2026-11-27). 3000 samples, N=200, 5 %: 15 windows; onset 1.5 s: one whole chunk of 10,
     straddling the onset."""
     from leakdiag.detect.measure import TooFewChunksError
 

@@ -75,7 +75,7 @@ def test_no_cases_no_cluster():
     (True, TypeError, "n_workers=True must be an integer >= 1 (--workers at the command line)"),
 ])
 def test_a_cluster_without_workers_is_refused_before_it_starts(monkeypatch, n, exc, message):
-    """Audit 2026-11-29: LocalCluster(n_workers=0 or -1) waited at 0 % until killed."""
+    """Audit 2026-11-27: LocalCluster(n_workers=0 or -1) waited at 0 % until killed."""
     import leakdiag.runtime.executor as ex
 
     monkeypatch.setattr(ex, "_run_dask", lambda *a: pytest.fail("a cluster was started"))

@@ -26,7 +26,7 @@ def test_sensitivity_cli_one_experiment(tmp_path, capsys):
     assert "thesis_min_pct" in capsys.readouterr().out
 
 
-# ------------------------------------------ audit of the commands' options, 2026-11-29
+# ------------------------------------------ audit of the commands' options, 2026-11-27
 @pytest.fixture
 def no_run(monkeypatch):
     """Any option refused below is refused before the first experiment."""

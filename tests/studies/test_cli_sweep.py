@@ -57,7 +57,7 @@ def test_sweep_says_which_grid_settings_it_skipped_and_refuses_an_onset_outside(
     assert f"onset {end + 10:g} s is outside the recording" in capsys.readouterr().err
 
 
-# ------------------------------------------ found by an audit on real recordings, 2026-11-28
+# ------------------------------------------ found by an audit on real recordings, 2026-11-27
 import pytest  # noqa: E402
 
 from leakdiag.detect.measure import TooFewChunksError, rms_change  # noqa: E402
@@ -162,7 +162,7 @@ def test_audit_sweep_on_a_rotary_actuator_file(shared_dir, tmp_path, capsys):
         0, 6, 13]
 
 
-# ------------------------------------------ audit of the commands' options, 2026-11-29
+# ------------------------------------------ audit of the commands' options, 2026-11-27
 @pytest.mark.parametrize("args, message", [
     (["--windows", "0"], "Error: Invalid value for '--windows': 0: a window must be >= 2 samples"),
     (["--windows", "-100"],

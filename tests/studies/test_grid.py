@@ -111,7 +111,7 @@ def test_bad_chunk_is_an_error_not_a_nan_row():
 
 
 # ------------------------------------------------- the fast path's counts equal rms_change's
-# Found by an audit (2026-11-28): the fast path filed all-NaN chunks as straddling, so sweep.csv
+# Found by an audit (2026-11-27): the fast path filed all-NaN chunks as straddling, so sweep.csv
 # said n_chunks_straddling=6 where rms_change says 0 straddling and 6 empty.
 from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402

@@ -128,7 +128,7 @@ def test_saved_results_and_previous_comparison(quick_run):
     assert not list(pkl.parent.glob(".leakdiag-*"))  # no temporary file left beside it
 
 
-# ------------------------------------------ audit of the commands' options, 2026-11-29
+# ------------------------------------------ audit of the commands' options, 2026-11-27
 @pytest.fixture
 def no_run(monkeypatch):
     """Everything refused below is refused before the first experiment."""

@@ -64,7 +64,9 @@ def _command_line() -> str:
 @click.option("--onset-method", "onset_method", default="binseg", show_default=True,
               type=click.Choice(["binseg", "pelt", "cusum"]), help="Onset estimator.")
 @scheduler_option(default="serial")
-@click.option("--workers", "n_workers", default=None, type=int, help="Dask workers.")
+@click.option("--workers", "n_workers", default=None, type=click.IntRange(min=1),
+              help="Worker processes of the local Dask cluster (with --scheduler local only; "
+                   "default: one per core).")
 @click.option("--cache-dir", default=None, type=click.Path(file_okay=False),
               help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")
 @click.option("--work-dir", default=None, type=click.Path(file_okay=False),
@@ -82,6 +84,9 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
         return
     if out_dir is None:
         raise click.UsageError("--out DIR is required")
+    from leakdiag.cli._options import check_workers
+
+    check_workers(scheduler, n_workers)  # ignored otherwise: refused before any folder is made
     split = lambda s: [v.strip() for v in s.split(",") if v.strip()] if s else None  # noqa: E731
     command = _command_line()
     ctx = click.get_current_context()
