@@ -12,6 +12,7 @@ import numpy as np
 from leakdiag._validation import check_int, check_positive
 from leakdiag.io.checks import UNIFORM_TIME_RTOL, infer_sample_rate
 from leakdiag.io.recording import Recording, RecordingError
+from leakdiag.io.table import RawTable
 
 __all__ = ["ChunkSource", "TimeAxis", "recording_chunks", "DEFAULT_CHUNK_SAMPLES", "TIME_COLUMN"]
 
@@ -143,14 +144,139 @@ class TimeAxis:
         self.prev = float(t[-1])
 
 
-def _select(names: Sequence[str], channels: Sequence[str] | None, source: str) -> list[str]:
-    avail = [n for n in names if n != TIME_COLUMN]
+def _select(names: Sequence[str], channels: Sequence[str] | None, source: str,
+            repeated: Sequence[str] = ()) -> list[str]:
+    """The channels to read: ``channels``, or every name but ``time``; ``repeated`` names (more
+    than once in a header, see :func:`_check_unique`) are not readable and are only listed."""
+    avail = [n for n in names if n != TIME_COLUMN and n not in repeated]
     if channels is None:
         return avail
     missing = [c for c in channels if c not in avail]
     if missing:
-        raise RecordingError(f"{source}: missing channel(s) {missing}; available: {sorted(avail)}")
+        also = (f"; in the header more than once (not readable): {list(repeated)}" if repeated
+                else "")
+        raise RecordingError(f"{source}: missing channel(s) {missing}; available: "
+                             f"{sorted(avail)}{also}")
     return list(channels)
+
+
+def _repeated(names: Sequence[str]) -> dict[str, list[int]]:
+    """Names that a header holds more than once -> their 0-based positions."""
+    positions: dict[str, list[int]] = {}
+    for j, name in enumerate(names):
+        positions.setdefault(name, []).append(j)
+    return {name: js for name, js in positions.items() if len(js) > 1}
+
+
+def _check_unique(names: Sequence[str], channels: Sequence[str] | None, source: str) -> dict:
+    """Refuse to read a column whose name a CSV header holds more than once.
+
+    Which of the columns is meant cannot be told, so reading one is an error worded as in
+    :meth:`leakdiag.io.table.RawTable.require_unique`; a repeated name that is not read is
+    harmless. The ``time`` column is read whenever the header has one; without ``channels``
+    every column is read.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The header's names by position (stripped of blanks).
+    channels : sequence of str or None
+        The channels asked for (None: all).
+    source : str
+        File name for messages.
+
+    Returns
+    -------
+    dict of str to list of int
+        The repeated names and their 0-based positions.
+
+    Raises
+    ------
+    RecordingError
+        Naming the column, what it is read as and its positions (counting from 1).
+
+    Examples
+    --------
+    >>> _check_unique(["time", "p1", "junk", "junk"], ["p1"], "a.csv")
+    {'junk': [2, 3]}
+    >>> _check_unique(["time", "p1", "p1"], ["p1"], "a.csv")
+    Traceback (most recent call last):
+    ...
+    leakdiag.io.errors.RecordingError: a.csv: column 'p1' (channel 'p1') appears 2 times in the
+    header, at fields 2 and 3 (counting from 1); which one is meant cannot be told: rename the
+    others
+    """
+    repeated = _repeated(names)
+    table = RawTable({}, source, duplicates=repeated)
+    if channels is None:
+        for name in repeated:
+            try:
+                table.require_unique(name, "time column" if name == TIME_COLUMN
+                                     else f"channel {name!r}")
+            except RecordingError as exc:
+                raise RecordingError(f"{exc}; without a channel list every column is read - "
+                                     f"give the channels to read") from None
+        return repeated
+    for c in channels:
+        table.require_unique(c, f"channel {c!r}")
+    table.require_unique(TIME_COLUMN, "time column")
+    return repeated
+
+
+def _short_row(source: str, where: str, k: int, n: int, read: dict[str, str],
+               pos: dict[str, int], more: str = "") -> RecordingError:
+    """The error for a row of ``k`` of ``n`` fields that ends at or before a column read, worded
+    as :meth:`leakdiag.io.text.TextTable.check_rows` words it.
+
+    Parameters
+    ----------
+    source : str
+        File name.
+    where : str
+        The row (``"row 3"``, 0-based data row of a file) or line (``"line 5"`` of a stream).
+    k, n : int
+        Fields of the row and of the header.
+    read : dict of str to str
+        What a column is read as (``"time column"``, ``"channel 'p1'"``) -> its name.
+    pos : dict of str to int
+        Column name -> 0-based position in the header.
+    more : str, optional
+        Appended (how many rows are short like this).
+
+    Returns
+    -------
+    RecordingError
+        Naming the columns read that the row lacks or cuts (its last field may be cut).
+
+    Examples
+    --------
+    >>> print(_short_row("a.csv", "row 3", 3, 4, {"time column": "time", "channel 'p2'": "p2"},
+    ...                  {"time": 0, "p2": 2}))
+    a.csv: row 3 has 3 of 4 fields (truncated line?); column 'p2' (channel 'p2') is missing or cut
+    """
+    hit = sorted({c for c in read.values() if pos[c] >= k - 1}, key=pos.get)
+    desc = ", ".join(f"{c!r} ({', '.join(lab for lab, col in read.items() if col == c)})"
+                     for c in hit)
+    return RecordingError(
+        f"{source}: {where} has {k} of {n} fields (truncated line?); "
+        f"{'column' if len(hit) == 1 else 'columns'} {desc} "
+        f"{'is' if len(hit) == 1 else 'are'} missing or cut{more}")
+
+
+def _extra_field(source: str, where: str, n: int, field: int, text: str) -> RecordingError:
+    """The error for a row with a non-empty field after the header's ``n`` names (0-based
+    ``field``): which column each of its values belongs to cannot be told.
+
+    Examples
+    --------
+    >>> print(_extra_field("a.csv", "row 0", 3, 3, "7"))  # doctest: +NORMALIZE_WHITESPACE
+    a.csv: row 0 has more fields than the header (3 names): field 4 is '7'; which column each
+    value belongs to cannot be told (a name missing in the header, or two lines run together?)
+    """
+    return RecordingError(
+        f"{source}: {where} has more fields than the header ({n} names): field {field + 1} is "
+        f"{text.strip()[:40]!r}; which column each value belongs to cannot be told (a name "
+        f"missing in the header, or two lines run together?)")
 
 
 def _json_dict(blob) -> dict:

@@ -6,15 +6,18 @@ Memory stays proportional to the chunk size, so a recording of several GB stream
 
 from __future__ import annotations
 
+import csv
+import itertools
 import os
-from typing import Callable, Sequence
+from typing import Callable, Iterator, Sequence
 
 import numpy as np
 
 from leakdiag._validation import check_int
 from leakdiag.io.recording import RecordingError
 from leakdiag.stream.chunks import (DEFAULT_CHUNK_SAMPLES, TIME_COLUMN, ChunkSource, TimeAxis,
-                                    _json_dict, _rate_start, _select)
+                                    _check_unique, _extra_field, _json_dict, _rate_start,
+                                    _select, _short_row)
 
 __all__ = ["open_chunks", "PARQUET_HEADER_KEY", "HDF5_CHANNEL_GROUP"]
 
@@ -111,13 +114,22 @@ def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> C
     return ChunkSource(_checked(gen(), axis), fs, t0, chans, n, path, meta)
 
 
-def _numeric(df, chans: list[str], path: str, row0: int) -> dict:
-    """Channels of a CSV chunk as float64; text names the file, channel and row."""
+#: Options of every pandas read of a CSV file (its header, head and chunks). :class:`_RowFields`
+#: splits the lines into rows the same way: ``#`` starts a comment (outside quotes), blank lines
+#: are skipped. ``index_col=False``: no column is taken as an index when rows end in a separator.
+_CSV_READ = {"sep": ",", "comment": "#", "index_col": False}
+#: Data rows read first, to take the sample rate from the time column.
+_HEAD_ROWS = 4096
+
+
+def _numeric(df, keys: dict[str, str], path: str, row0: int) -> dict:
+    """Columns of a CSV chunk as float64 (``keys``: name -> column of ``df``); text names the
+    file, channel and row."""
     import pandas as pd
 
     out = {}
-    for c in chans:
-        col = df[c]
+    for c, key in keys.items():
+        col = df[key]
         if not pd.api.types.is_numeric_dtype(col.dtype):
             num = pd.to_numeric(col, errors="coerce")
             bad = np.flatnonzero(num.isna().to_numpy() & col.notna().to_numpy())
@@ -130,36 +142,378 @@ def _numeric(df, chans: list[str], path: str, row0: int) -> dict:
     return out
 
 
-def _csv_frames(path: str, chunk_samples: int, chans: list[str]):
-    """Chunks of a CSV; the reader is opened on first use and closed when the generator is closed
-    (also when the consumer stops early on an error), so no file handle leaks."""
-    import pandas as pd
-
-    row0 = 0
-    with pd.read_csv(path, chunksize=chunk_samples, usecols=chans, comment="#") as frames:
-        for df in frames:
-            yield _numeric(df, chans, path, row0)
-            row0 += len(df)
+def _parse_error(path: str, exc: Exception) -> RecordingError:
+    """A pandas parse error (e.g. a row with more fields than the first ones), worded as
+    :func:`leakdiag.io.text.read_text` words it."""
+    text = str(exc).strip()
+    msg = text.splitlines()[-1] if text else type(exc).__name__
+    return RecordingError(f"{path}: cannot parse as delimited text (separator "
+                          f"{_CSV_READ['sep']!r}): {msg}")
 
 
-def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
+def _cut_comment(line: str, quoted: bool) -> tuple[str, bool, bool]:
+    """``line`` without its comment, cut where pandas' C parser cuts it: at the first ``#``
+    outside a quoted field; whether a quoted field goes on to the next line (``quoted``: whether
+    the line starts inside one); and whether a comment was cut off."""
+    state = 2 if quoted else 0  # 0 field start, 1 plain field, 2 quoted, 3 after a quote
+    for i, c in enumerate(line):
+        if state == 2:
+            if c == '"':
+                state = 3
+        elif state == 3 and c == '"':
+            state = 2  # a doubled quote inside the quoted field
+        elif c == "#":
+            return line[:i], False, True
+        elif c == ",":
+            state = 0
+        elif state == 0:
+            state = 2 if c == '"' else 1
+    return line, state == 2, False
+
+
+def _field_counts(lines: Iterator[str], width: int, extras: dict) -> Iterator[int]:
+    """The number of fields of each row (the header first), as pandas' C parser splits them.
+
+    A line without quotes or ``#`` is one row of ``line.count(",") + 1`` fields (blank lines
+    are skipped); other lines go through the ``csv`` module (the C parser's dialect), with their
+    comment cut off and a quoted field that goes on over several lines joined (as pandas reads
+    them, a line of only blanks and a comment is a row of one field, and so is a line ``""``).
+    A row with a non-empty field after the first ``width`` is yielded negated, and
+    ``extras[row]`` is set to ``(field, text)`` (0-based data row, the header being row -1;
+    0-based field).
+    """
+    row = -2
+    for line in lines:
+        if '"' not in line and "#" not in line:
+            if line.isspace():
+                continue
+            k = line.count(",") + 1
+            row += 1
+            if k > width:
+                fields = line.rstrip("\r\n").split(",")
+                j = next((j for j in range(width, k) if fields[j].strip()), None)
+                if j is not None:
+                    extras[row] = (j, fields[j])
+                    k = -k
+            yield k
+            continue
+        record, quoted, cut = [], False, False
+        while True:
+            text, quoted, cut = _cut_comment(line, quoted)
+            record.append(text)
+            if not quoted:
+                break
+            line = next(lines, None)
+            if line is None:
+                break
+        text = "".join(record)
+        if not (text.strip() if not cut else text.rstrip("\r\n")):
+            continue  # a blank line or a comment line; blanks before a comment are a field
+        for fields in csv.reader(record, strict=False):
+            row += 1
+            k = len(fields)
+            j = next((j for j in range(width, k) if fields[j].strip()), None)
+            if j is not None:
+                extras[row] = (j, fields[j])
+                k = -k
+            yield k
+
+
+class _RowFields:
+    """The number of fields of each data row of a CSV file, counted line by line.
+
+    pandas fills a missing field with NaN, as it fills an empty one; only a count of the fields
+    tells them apart. The file is read again (:func:`_field_counts`), only as far as asked:
+    :meth:`counts` moves forward with the chunks and starts again from the top only when asked
+    for rows before its position. Rows that pandas and the count split differently are found
+    at the end of the file (:meth:`rest`, then :meth:`_CsvRows.finish`).
+
+    Parameters
+    ----------
+    path : str
+        The CSV file.
+    width : int
+        Number of header names: fields after them are extra.
+    """
+
+    def __init__(self, path: str, width: int):
+        self.path = path
+        self.width = width
+        self.pos = 0  # data rows already counted
+        self.header = 0  # fields of the header row
+        self._fh = None
+        self._counts: Iterator[int] | None = None
+        self._extras: dict[int, tuple[int, str]] = {}
+
+    def _open(self) -> None:
+        self.close()
+        self._fh = open(self.path, encoding="utf-8", errors="replace", newline="")
+        self._counts = _field_counts(iter(self._fh), self.width, self._extras)
+        self.header = abs(next(self._counts, 0))
+        self.pos = 0
+
+    @property
+    def active(self) -> bool:
+        """Whether the file is open (rows were counted)."""
+        return self._counts is not None
+
+    def _take(self, n: int) -> np.ndarray:
+        try:
+            return np.fromiter(itertools.islice(self._counts, n), dtype=np.int64)
+        except csv.Error as exc:
+            raise RecordingError(f"{self.path}: cannot check the rows for missing fields: "
+                                 f"{exc}") from None
+
+    def counts(self, row0: int, n: int) -> tuple[np.ndarray, tuple | None]:
+        """Fields of data rows ``row0`` to ``row0 + n - 1`` (0-based).
+
+        Parameters
+        ----------
+        row0, n : int
+            First data row and number of rows.
+
+        Returns
+        -------
+        counts : numpy.ndarray of int
+            Fields per row; shorter than ``n`` if the file has fewer rows.
+        extra : tuple or None
+            ``(row, field, text)`` of the first of these rows with a non-empty field after the
+            header's names (0-based field), or None.
+        """
+        if self._counts is None or row0 < self.pos:
+            self._open()
+        while self.pos < row0:
+            skipped = len(self._take(min(row0 - self.pos, 1 << 16)))
+            self._extras.clear()
+            if not skipped:
+                break
+            self.pos += skipped
+        counts = self._take(n)
+        extra = None
+        neg = np.flatnonzero(counts < 0)
+        if len(neg):
+            row = self.pos + int(neg[0])
+            extra = (row, *self._extras[row])
+            counts = np.abs(counts)
+        self._extras.clear()
+        self.pos += len(counts)
+        return counts, extra
+
+    def rest(self) -> int:
+        """Count (and consume) the rows after the position."""
+        n = 0
+        while True:
+            k = len(self._take(1 << 16))
+            self._extras.clear()
+            if not k:
+                break
+            n += k
+        self.pos += n
+        return n
+
+    def close(self) -> None:
+        """Close the file."""
+        if self._fh is not None:
+            self._fh.close()
+        self._fh = self._counts = None
+
+
+class _CsvRows:
+    """Checks that the rows of a CSV file hold the columns read from them, chunk by chunk.
+
+    The same rules as :meth:`leakdiag.io.text.TextTable.check_rows`, with the same messages: a
+    data row with fewer fields than the header is refused if it ends at or before the last
+    column read (its last field may be cut: ``53`` written as ``5``); a row lacking only later,
+    unread columns is read. A row with more fields than the header is refused unless its extra
+    fields are empty (separators at the end of rows are ignored).
+
+    Parameters
+    ----------
+    path : str
+        The file.
+    names : list of str
+        The header's names by position.
+    read : dict of str to str
+        What a column is read as (``"time column"``, ``"channel 'p1'"``) -> its name.
+
+    Notes
+    -----
+    A missing field reads as NaN, so only a chunk whose column after the last one read (the
+    *probe*; the last column if that one is read) holds a NaN has its fields counted
+    (:class:`_RowFields`): free for a file without empty cells there, otherwise the file is read
+    a second time, once, as the chunks go.
+    """
+
+    def __init__(self, path: str, names: list[str], read: dict[str, str]):
+        self.path = path
+        self.n = len(names)
+        self.read = read
+        self.pos = {col: names.index(col) for col in read.values()}
+        self.probe = min(max(self.pos.values(), default=-1) + 1, self.n - 1)
+        self.fields = _RowFields(path, self.n)
+
+    def first_row(self) -> int:
+        """Check data row 0 for extra fields; return the fields of the widest rows pandas will
+        take (the header's, or more when row 0 ends in separators)."""
+        try:
+            counts, extra = self.fields.counts(0, 1)
+        finally:
+            self.fields.close()
+        if self.fields.header != self.n:
+            raise RecordingError(
+                f"{self.path}: cannot check the rows for missing fields: pandas reads {self.n} "
+                f"header names, counting fields line by line finds {self.fields.header}; look "
+                f"for odd lines (only quotes or blanks)")
+        if extra is not None:
+            raise self._extra(*extra)
+        return max(self.n, int(counts[0])) if len(counts) else self.n
+
+    def _extra(self, row: int, field: int, text: str) -> RecordingError:
+        return _extra_field(self.path, f"row {row}", self.n, field, text)
+
+    def check(self, df, row0: int, last: bool) -> None:
+        """Raise if a row of the chunk ``df`` (data rows from ``row0``) is short or too long.
+
+        Parameters
+        ----------
+        df : pandas.DataFrame
+            The chunk, columns named by their 0-based position (``"0"``, ``"1"``, ...).
+        row0 : int
+            Data row of its first row.
+        last : bool
+            Whether it is the file's last chunk (for the count of short rows).
+
+        Raises
+        ------
+        RecordingError
+            Naming the file, the first short row, its field count and the columns read that
+            it lacks or cuts; or the first row with a non-empty field after the header's.
+        """
+        if not self.read:
+            return
+        wide = [c for c in df.columns if int(c) >= self.n]  # fields of rows ending in separators
+        extra_rows = (np.flatnonzero(df[wide].notna().to_numpy().any(axis=1)) if wide
+                      else np.empty(0, dtype=np.int64))
+        blank = df[str(self.probe)].isna().to_numpy()
+        if not blank.any() and not len(extra_rows):
+            return
+        counts, extra = self.fields.counts(row0, len(df))
+        if len(counts) != len(df):
+            raise RecordingError(
+                f"{self.path}: cannot check the rows for missing fields: pandas reads "
+                f"{'' if last else 'at least '}{row0 + len(df)} data rows, counting fields line "
+                f"by line finds {row0 + len(counts)}; look for odd lines (only quotes or blanks)")
+        short = np.flatnonzero(counts <= self.probe)
+        first_short = row0 + int(short[0]) if len(short) else None
+        if extra is not None and (first_short is None or extra[0] < first_short):
+            raise self._extra(*extra)
+        if first_short is None:
+            if len(extra_rows):  # pandas saw a field that the count did not: name its value
+                i = int(extra_rows[0])
+                col = next(c for c in wide if df[c].notna().iloc[i])
+                raise self._extra(row0 + i, int(col), str(df[col].iloc[i]))
+            return
+        more = ("" if len(short) == 1 else f"; {len(short)} rows are short like this" if last
+                else f"; at least {len(short)} rows are short like this")
+        raise _short_row(self.path, f"row {first_short}", int(counts[short[0]]), self.n,
+                         self.read, self.pos, more)
+
+    def finish(self, n_rows: int) -> None:
+        """At the end of the file: if rows were counted, pandas and the count must agree."""
+        if self.fields.active:
+            self.fields.rest()
+            if self.fields.pos != n_rows:
+                raise RecordingError(
+                    f"{self.path}: cannot check the rows for missing fields: pandas reads "
+                    f"{n_rows} data rows, counting fields line by line finds "
+                    f"{self.fields.pos}; look for odd lines (only quotes or blanks)")
+
+    def close(self) -> None:
+        """Close the file of the field count."""
+        self.fields.close()
+
+
+def _csv_names(path: str) -> list[str]:
+    """The header's names by position as written (stripped of blanks; an empty name at 0-based
+    position ``j`` is ``Unnamed: j``), as :func:`leakdiag.io.text.read_text` names them:
+    pandas' renaming of repeated names (``PG_1`` -> ``PG_1.1``) is not used."""
     import pandas as pd
 
     try:
-        head = pd.read_csv(path, nrows=4096, comment="#")
+        raw = pd.read_csv(path, header=None, nrows=1, dtype=str, keep_default_na=False,
+                          **_CSV_READ).iloc[0].tolist()
     except pd.errors.EmptyDataError:
         raise RecordingError(f"{path}: empty file: no header line and no data") from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-        raise RecordingError(f"{path}: unreadable as CSV: {exc}") from None
+        raise _parse_error(path, exc) from None
+    return [str(r).strip() or f"Unnamed: {j}" for j, r in enumerate(raw)]
+
+
+def _csv_read(path: str, width: int, usecols, **options):
+    """``pandas.read_csv`` of the data rows, columns named by position ("0", "1", ...)."""
+    import pandas as pd
+
+    try:
+        return pd.read_csv(path, header=0, names=[str(j) for j in range(width)],
+                           usecols=usecols, **_CSV_READ, **options)
+    except pd.errors.EmptyDataError:
+        raise RecordingError(f"{path}: empty file: no header line and no data") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise _parse_error(path, exc) from None
+
+
+def _csv_frames(path: str, chunk_samples: int, keys: dict[str, str], rows: _CsvRows,
+                width: int, usecols):
+    """Chunks of a CSV, rows checked; the readers are opened on first use and closed when the
+    generator is closed (also when the consumer stops early on an error), so no file handle
+    leaks."""
+    import pandas as pd
+
+    row0 = 0
+    try:
+        with _csv_read(path, width, usecols, chunksize=chunk_samples) as frames:
+            while True:
+                try:
+                    df = next(frames)
+                except StopIteration:
+                    break
+                except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+                    raise _parse_error(path, exc) from None
+                rows.check(df, row0, last=len(df) < chunk_samples)
+                yield _numeric(df, keys, path, row0)
+                row0 += len(df)
+        rows.finish(row0)
+    finally:
+        rows.close()
+
+
+def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
+    names = _csv_names(path)
+    repeated = _check_unique(names, channels, path)
+    chans = _select(names, channels, path, repeated)
+    has_time = TIME_COLUMN in names
+    read = {**({"time column": TIME_COLUMN} if has_time else {}),
+            **{f"channel {c!r}": c for c in chans}}
+    rows = _CsvRows(path, names, read)
+    width = rows.first_row()
+    keys = {c: str(names.index(c)) for c in read.values()}
+    # pandas checks that no row has more fields than the first rows only when every column is
+    # read (not with usecols); the probe column is read for the short-row check
+    needed = {*rows.pos.values(), rows.probe}
+    usecols = None if len(needed) >= len(names) else sorted(needed)
+    head = _csv_read(path, width, usecols, nrows=_HEAD_ROWS)
     if head.empty:
         raise RecordingError(f"{path}: header only, no data rows")
-    chans = _select(list(head.columns), channels, path)
-    t_head = (_numeric(head, [TIME_COLUMN], path, 0)[TIME_COLUMN] if TIME_COLUMN in head
-              else None)
+    try:
+        rows.check(head, 0, last=len(head) < _HEAD_ROWS)
+    finally:
+        rows.close()
+    t_head = (_numeric(head, {TIME_COLUMN: keys[TIME_COLUMN]}, path, 0)[TIME_COLUMN]
+              if has_time else None)
     fs, t0 = _rate_start(t_head, sample_rate, start_time, {}, path)
-    cols = chans + ([TIME_COLUMN] if TIME_COLUMN in head else [])
-    return ChunkSource(_checked(_csv_frames(path, chunk_samples, cols), _axis(
-        TIME_COLUMN in head, fs, path, {})), fs, t0, chans, None, path, {})
+    keys = {c: keys[c] for c in chans + ([TIME_COLUMN] if has_time else [])}
+    return ChunkSource(_checked(_csv_frames(path, chunk_samples, keys, rows, width, usecols),
+                                _axis(has_time, fs, path, {})), fs, t0, chans, None, path, {})
 
 
 def open_chunks(path: str | os.PathLike, channels: Sequence[str] | None = None,
@@ -189,13 +543,22 @@ def open_chunks(path: str | os.PathLike, channels: Sequence[str] | None = None,
     FileNotFoundError
         If the file does not exist.
     RecordingError
-        For an unknown suffix, a missing channel or no way to get the sample rate.
+        For an unknown suffix, a missing channel or no way to get the sample rate. For a CSV
+        also, with the rules and words of :func:`leakdiag.io.read_recording`: a column read
+        whose name the header repeats, and a row cut short at or before the last column read
+        (a truncated line) or with a non-empty field after the header's; rows are 0-based data
+        rows. The first 4096 rows are checked when the file is opened, later rows as their
+        chunk is read.
 
     Notes
     -----
     Parquet is read with ``pyarrow.parquet.ParquetFile.iter_batches``, HDF5 by slicing the
     channel datasets (at the root or in a ``channels`` group), CSV with ``pandas.read_csv``
-    and ``chunksize``; memory stays proportional to ``chunk_samples``.
+    and ``chunksize``; memory stays proportional to ``chunk_samples``. CSV header names are
+    taken as written (stripped of blanks), ``#`` starts a comment and rows ending in a
+    separator are read in their columns. See ``docs/operations.md``, "CSV rows and header",
+    for the checks, their cost and their known limit (with some columns left out, a later row
+    with extra fields is not seen).
 
     Examples
     --------

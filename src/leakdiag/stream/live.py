@@ -14,7 +14,8 @@ import numpy as np
 
 from leakdiag._validation import check_int, check_positive
 from leakdiag.io.recording import RecordingError
-from leakdiag.stream.chunks import TIME_COLUMN, ChunkSource, TimeAxis, _rate_start, _select
+from leakdiag.stream.chunks import (TIME_COLUMN, ChunkSource, TimeAxis, _check_unique,
+                                    _extra_field, _rate_start, _select, _short_row)
 
 __all__ = ["csv_lines", "tail_csv", "paced", "stdin_source"]
 
@@ -23,15 +24,50 @@ __all__ = ["csv_lines", "tail_csv", "paced", "stdin_source"]
 HEAD_LINES = 64
 
 
-def _parse_lines(lines: list[tuple[int, str]], header: list[str], cols: list[int],
+class _LineFields:
+    """Checks that a stream's line holds the columns read from it, with the rules and messages of
+    :func:`leakdiag.stream.files.open_chunks` (and :func:`leakdiag.io.read_recording`): a line
+    with fewer fields than the header is refused if it ends at or before the last column read
+    (its last field may be cut); a line lacking only later, unread columns is read; extra
+    fields are ignored if empty (separators at the end of lines), refused otherwise.
+
+    Parameters
+    ----------
+    header : list of str
+        The header's names.
+    read : dict of str to str
+        What a column is read as (``"time column"``, ``"channel 'p1'"``) -> its name.
+    source : str
+        Name of the stream for messages.
+    """
+
+    def __init__(self, header: list[str], read: dict[str, str], source: str):
+        self.n = len(header)
+        self.read = read
+        self.pos = {c: header.index(c) for c in read.values()}
+        self.last = max(self.pos.values(), default=-1)
+        self.source = source
+
+    def check(self, fields: list[str], lineno: int) -> None:
+        """Raise if the line ``lineno`` split into ``fields`` is short or has extra fields."""
+        k = len(fields)
+        if k == self.n:
+            return
+        if k > self.n:
+            j = next((j for j in range(self.n, k) if fields[j].strip()), None)
+            if j is not None:
+                raise _extra_field(self.source, f"line {lineno}", self.n, j, fields[j])
+        elif k <= self.last + 1:
+            raise _short_row(self.source, f"line {lineno}", k, self.n, self.read, self.pos)
+
+
+def _parse_lines(lines: list[tuple[int, str]], shape: _LineFields, cols: list[int],
                  chans: list[str], source: str = "<stdin>", axis: TimeAxis | None = None,
                  i_time: int | None = None) -> dict:
     rows = []
     for lineno, line in lines:
         fields = line.split(",")
-        if len(fields) != len(header):
-            raise RecordingError(f"{source}: line {lineno}: {len(fields)} fields, header has "
-                                 f"{len(header)}: {line.strip()[:80]!r}")
+        shape.check(fields, lineno)
         row = []
         for i, c in zip(cols, chans):
             try:
@@ -55,7 +91,12 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
               batch_lines: int = 1) -> ChunkSource:
     """CSV lines from a text stream (e.g. stdin): a header line, then one sample per line.
 
-    Blank lines and lines starting with ``#`` are skipped.
+    Blank lines and lines starting with ``#`` are skipped. Lines are checked as
+    :func:`leakdiag.stream.open_chunks` checks the rows of a CSV file: a line cut short before
+    the last column read (a truncated line) is refused, naming the line (1: the header) and the
+    columns missing or cut; a line lacking only later, unread columns is read; empty fields
+    after the header's (separators at the end of lines) are ignored, other extra fields refused.
+    A column read whose name the header holds more than once is refused.
 
     Parameters
     ----------
@@ -75,7 +116,9 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
     Raises
     ------
     RecordingError
-        If the stream is empty or the rate cannot be known.
+        If the stream is empty, the rate cannot be known, or a channel (or ``time``) is a name
+        the header repeats; while iterating, for a line that is short, has extra fields, holds
+        text or breaks the time axis.
 
     Examples
     --------
@@ -89,10 +132,13 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
     header_line = stream.readline()
     if not header_line.strip():
         raise RecordingError(f"{source}: empty input; expected a CSV header line")
-    header = [h.strip() for h in header_line.split(",")]
-    chans = _select(header, channels, source)
+    header = [h.strip() or f"Unnamed: {j}" for j, h in enumerate(header_line.split(","))]
+    repeated = _check_unique(header, channels, source)
+    chans = _select(header, channels, source, repeated)
     cols = [header.index(c) for c in chans]
     i_time = header.index(TIME_COLUMN) if TIME_COLUMN in header else None
+    shape = _LineFields(header, {**({"time column": TIME_COLUMN} if i_time is not None else {}),
+                                 **{f"channel {c!r}": c for c in chans}}, source)
     lineno = 1
     pending: list[tuple[int, str]] = []
     if sample_rate is None or i_time is not None:
@@ -108,9 +154,10 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
         t_head = []
         for n, p in pending:
             fields = p.split(",")
+            shape.check(fields, n)
             try:
                 t_head.append(float(fields[i_time]))
-            except (ValueError, IndexError):
+            except ValueError:
                 raise RecordingError(f"{source}: line {n}, column 'time': not a number: "
                                      f"{p.strip()[:80]!r}") from None
         t_head = np.array(t_head)
@@ -122,10 +169,10 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
         for item in itertools.chain(pending, _numbered(stream)):
             buf.append(item)
             if len(buf) >= batch_lines:
-                yield _parse_lines(buf, header, cols, chans, source, axis, i_time)
+                yield _parse_lines(buf, shape, cols, chans, source, axis, i_time)
                 buf = []
         if buf:
-            yield _parse_lines(buf, header, cols, chans, source, axis, i_time)
+            yield _parse_lines(buf, shape, cols, chans, source, axis, i_time)
 
     def _numbered(st):
         nonlocal lineno
@@ -187,7 +234,11 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
         def readline(self) -> str:
             return wait_line()
 
-    src = csv_lines(_Lines(), channels, sample_rate, batch_lines)
+    try:
+        src = csv_lines(_Lines(), channels, sample_rate, batch_lines)
+    except BaseException:  # e.g. a short line among the first ones: no file handle leaks
+        f.close()
+        raise
     src.source = path
 
     inner = src.chunks
