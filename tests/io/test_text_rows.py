@@ -209,3 +209,18 @@ def test_missing_column_message_names_the_repeated_ones(tmp_path):
     path = _write(tmp_path, ["time,PG_1,PG_1", "0.0,1,2", "0.1,3,4"])
     _raises(path, "missing column 'PG_1.1' for channel 'p1'; available columns: ['time']; in the "
                   "header more than once (not readable): ['PG_1']", {"p1": "PG_1.1"})
+
+
+def test_a_non_empty_field_beyond_the_header_is_refused_not_dropped(tmp_path):
+    """Found when the streaming reader was fixed (2026-11-27): pandas dropped a value after the
+    header's last column with only a warning (its index_col=False 'loss of data')."""
+    p = _write(tmp_path, ["time,p1,p2", "0.0,1,50,7", "0.1,2,51,8"])
+    tail = ("which column each value belongs to cannot be told (a name missing in the header, "
+            "or two lines run together?)")
+    _raises(p, f"row 0 has more fields than the header (3 names): field 4 is '7'; {tail}")
+    p = _write(tmp_path, ["time\tp1\tp2", "0.0\t1\t50\t\t", "0.1\t2\t51\t\t9"], sep="\t",
+               name="late.txt")
+    _raises(p, f"row 1 has more fields than the header (3 names): field 5 is '9'; {tail}")
+    p = _write(tmp_path, ["time\tp1\tp2", "0.0\t1\t50\t\t", "0.1\t2\t51\t\t"], sep="\t",
+               name="tabs.txt")  # trailing separators only: ignored, as documented
+    assert read_recording(p).channels["p2"].tolist() == [50.0, 51.0]

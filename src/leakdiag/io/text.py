@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
@@ -91,6 +92,42 @@ def _field_counts(path: Path, sep: str, encoding: str) -> np.ndarray:
         counts = np.fromiter((len(r) for r in rows if len(r) > 1 or (r and r[0].strip())),
                              dtype=np.int64)
     return counts[1:]
+
+
+def extra_field_error(source: str, where: str, n: int, field: int, text: str
+                      ) -> RecordingError:
+    """The error for a row with a non-empty field after the header's ``n`` names (0-based
+    ``field``): which column each of its values belongs to cannot be told.
+
+    Examples
+    --------
+    >>> print(extra_field_error("a.csv", "row 0", 3, 3, "7"))  # doctest: +NORMALIZE_WHITESPACE
+    a.csv: row 0 has more fields than the header (3 names): field 4 is '7'; which column each
+    value belongs to cannot be told (a name missing in the header, or two lines run together?)
+    """
+    return RecordingError(
+        f"{source}: {where} has more fields than the header ({n} names): field {field + 1} is "
+        f"{text.strip()[:40]!r}; which column each value belongs to cannot be told (a name "
+        f"missing in the header, or two lines run together?)")
+
+
+def _check_extra_fields(path: Path, source: str, sep: str, encoding: str, n: int,
+                        options: dict) -> None:
+    """Refuse a row whose fields beyond the header's ``n`` are not all empty (pandas drops
+    them with a warning); trailing separators (empty extra fields) are ignored (docs/io.md)."""
+    import pandas as pd
+
+    width = int(_field_counts(path, sep, encoding).max(initial=n))
+    if width <= n:
+        return
+    extra = pd.read_csv(path, header=None, skiprows=1, names=list(range(width)), dtype=str,
+                        keep_default_na=False, **options).iloc[:, n:]
+    filled = extra.apply(lambda col: col.str.strip().ne(""))
+    rows = np.flatnonzero(filled.to_numpy().any(axis=1))
+    if len(rows):
+        i = int(rows[0])
+        j = int(np.flatnonzero(filled.iloc[i].to_numpy())[0])
+        raise extra_field_error(source, f"row {i}", n, n + j, str(extra.iat[i, j]))
 
 
 @dataclass
@@ -241,9 +278,16 @@ def read_text(path: str | os.PathLike, separator: str | None = None) -> TextTabl
         # the header as written: pandas renames repeated names ("PG_1" -> "PG_1.1")
         raw = pd.read_csv(path, header=None, nrows=1, dtype=str, keep_default_na=False,
                           **options).iloc[0].tolist()
-        df = pd.read_csv(path, **options)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", pd.errors.ParserWarning)
+            df = pd.read_csv(path, **options)
+        if any(issubclass(w.category, pd.errors.ParserWarning) for w in caught):
+            # rows with more fields than the header: pandas drops the extra ones
+            _check_extra_fields(path, source, sep, encoding, len(raw), options)
     except pd.errors.EmptyDataError:
         raise RecordingError(f"{source}: file is empty") from None
+    except RecordingError:
+        raise
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as exc:
         msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
         raise RecordingError(f"{source}: cannot parse as delimited text "

@@ -264,19 +264,10 @@ def _short_row(source: str, where: str, k: int, n: int, read: dict[str, str],
 
 
 def _extra_field(source: str, where: str, n: int, field: int, text: str) -> RecordingError:
-    """The error for a row with a non-empty field after the header's ``n`` names (0-based
-    ``field``): which column each of its values belongs to cannot be told.
+    """:func:`leakdiag.io.text.extra_field_error` (one wording for both readers)."""
+    from leakdiag.io.text import extra_field_error
 
-    Examples
-    --------
-    >>> print(_extra_field("a.csv", "row 0", 3, 3, "7"))  # doctest: +NORMALIZE_WHITESPACE
-    a.csv: row 0 has more fields than the header (3 names): field 4 is '7'; which column each
-    value belongs to cannot be told (a name missing in the header, or two lines run together?)
-    """
-    return RecordingError(
-        f"{source}: {where} has more fields than the header ({n} names): field {field + 1} is "
-        f"{text.strip()[:40]!r}; which column each value belongs to cannot be told (a name "
-        f"missing in the header, or two lines run together?)")
+    return extra_field_error(source, where, n, field, text)
 
 
 def _json_dict(blob) -> dict:
