@@ -163,8 +163,8 @@ def test_unwritable_out_is_refused_before_any_work(tmp_path, capsys, suite):
     code, _, err = _run(capsys, [*SMALL[:6], "--suite", suite, "--no-progress",
                                  "-o", str(blocker / "out"), "--cache-dir", str(cache)])
     assert code == 2
-    assert err.splitlines()[-1] == f"Error: --out {blocker / 'out'}: cannot write there (Not a " \
-                                   "directory)"
+    assert err.splitlines()[-1] == f"Error: --out {blocker / 'out'}: cannot create the " \
+                                   "folder: Not a directory"
     assert not cache.exists()  # nothing was simulated
 
 
@@ -175,8 +175,8 @@ def test_unwritable_work_dir_is_refused_before_any_work(tmp_path, capsys):
     code, _, err = _run(capsys, [*SMALL, "-o", str(tmp_path / "out"), "--work-dir",
                                  str(blocker / "w"), "--cache-dir", str(cache)])
     assert code == 2
-    assert err.splitlines()[-1] == f"Error: --work-dir {blocker / 'w'}: cannot write there " \
-                                   "(Not a directory)"
+    assert err.splitlines()[-1] == f"Error: --work-dir {blocker / 'w'}: cannot create the " \
+                                   "folder: Not a directory"
     assert not cache.exists()
 
 

@@ -11,9 +11,7 @@
 
 from __future__ import annotations
 
-import os
 import re
-import tempfile
 from pathlib import Path
 
 __all__ = ["OUTPUT_NAMES", "FIGURE_PATTERNS", "prepare_folder", "remove_previous_outputs",
@@ -36,7 +34,8 @@ class NothingJudgedError(RuntimeError):
 
 
 def prepare_folder(path, option: str) -> Path:
-    """Create a folder the benchmark will write to and check that a file can be written there.
+    """Create a folder the benchmark will write to and check that a file can be written there
+    (:func:`leakdiag.runtime.paths.prepare_out_dir`, as ``reproduce`` does).
 
     Parameters
     ----------
@@ -53,8 +52,7 @@ def prepare_folder(path, option: str) -> Path:
     Raises
     ------
     ValueError
-        ``"<option> <path>: cannot write there (<reason>)"`` when it cannot be created or
-        written.
+        The one-line message of ``prepare_out_dir`` (the benchmark's errors are ValueErrors).
 
     Examples
     --------
@@ -62,16 +60,12 @@ def prepare_folder(path, option: str) -> Path:
     >>> prepare_folder(Path(tempfile.mkdtemp()) / "a" / "b", "--out").is_dir()
     True
     """
-    p = Path(path)
+    from leakdiag.runtime.paths import prepare_out_dir
+
     try:
-        p.mkdir(parents=True, exist_ok=True)
-        fd, probe = tempfile.mkstemp(prefix=".leakdiag-probe-", dir=p)
-        os.close(fd)
-        os.unlink(probe)
+        return prepare_out_dir(path, option)
     except OSError as exc:
-        reason = exc.strerror or type(exc).__name__
-        raise ValueError(f"{option} {p}: cannot write there ({reason})") from None
-    return p
+        raise ValueError(str(exc)) from None
 
 
 def remove_previous_outputs(out) -> list[str]:

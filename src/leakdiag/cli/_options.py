@@ -9,12 +9,11 @@ suspect recording (sample rate, system, channels, units).
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 import warnings
-from pathlib import Path
 
 import click
+
+from leakdiag.runtime.paths import prepare_out_dir, prepare_out_file
 
 __all__ = ["recording_options", "resample_option", "column_map_from", "read_with", "read_healthy",
            "false_alarm_option", "healthy_option", "no_progress_option", "scheduler_option",
@@ -273,82 +272,6 @@ def list_option_values(option: str, text: str, kind: type, example: str, check=N
         if check is not None and not check(v):
             raise click.BadParameter(f"{v!r}{where}: {rule}", param_hint=f"'{option}'")
     return tuple(vals)
-
-
-def _probe(folder: Path, option: str, path) -> None:
-    """Write and remove an empty file in ``folder``: a folder we cannot write in is said now."""
-    try:
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=".leakdiag-probe-")
-        os.close(fd)
-        os.unlink(tmp)
-    except OSError as exc:
-        raise OSError(f"{option} {path}: cannot write in {folder}: "
-                      f"{exc.strerror or exc}") from None
-
-
-def prepare_out_dir(path, option: str = "--out") -> Path:
-    """Create an output folder and check that it can be written, before the long work.
-
-    Parameters
-    ----------
-    path : str or path-like
-        The folder (created with its parents when missing).
-    option : str, default "--out"
-        Option name for the message.
-
-    Returns
-    -------
-    pathlib.Path
-
-    Raises
-    ------
-    OSError
-        One line naming the option and the path when the folder cannot be created or written.
-    """
-    p = Path(path)
-    try:
-        p.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OSError(f"{option} {path}: cannot create the folder: "
-                      f"{exc.strerror or exc}") from None
-    _probe(p, option, path)
-    return p
-
-
-def prepare_out_file(path, option: str) -> Path:
-    """Check, before the long work, that a file can be written at ``path`` (its folder is
-    created when missing; an existing file is left as it is until it is written).
-
-    Parameters
-    ----------
-    path : str or path-like
-        The file.
-    option : str
-        Option name for the message.
-
-    Returns
-    -------
-    pathlib.Path
-
-    Raises
-    ------
-    OSError
-        One line naming the option and the path when the file cannot be written there.
-    """
-    p = Path(path)
-    if p.is_dir():
-        raise OSError(f"{option} {path}: is a folder; give a file name")
-    if p.parent.exists() and not p.parent.is_dir():
-        raise OSError(f"{option} {path}: {p.parent} is a file, not a folder")
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OSError(f"{option} {path}: cannot create its folder {p.parent}: "
-                      f"{exc.strerror or exc}") from None
-    _probe(p.parent, option, path)
-    if p.exists() and not os.access(p, os.W_OK):
-        raise OSError(f"{option} {path}: the file exists and cannot be written")
-    return p
 
 
 def column_map_from(column_map, cols, time_unit=None):

@@ -555,11 +555,7 @@ class EventStore:
         StoreError
             If the actuator is not in the store.
         """
-        with self._read_engine.connect() as conn:
-            aid = conn.execute(select(S.actuators.c.id)
-                               .where(S.actuators.c.name == actuator)).scalar()
-        if aid is None:
-            raise StoreError(f"{self.shown_url}: no actuator named {actuator!r}")
+        aid = self._known_actuator(actuator)
         extra = (S.runs.c.feature, S.runs.c.source)
         summ = self._frame(select(S.chunk_summaries, *extra)
                            .join(S.runs, S.runs.c.id == S.chunk_summaries.c.run_id)
@@ -568,6 +564,15 @@ class EventStore:
         al = self._frame(select(S.alarms, *extra).join(S.runs, S.runs.c.id == S.alarms.c.run_id)
                          .where(S.runs.c.actuator_id == aid).order_by(S.alarms.c.id))
         return summ, al
+
+    def _known_actuator(self, actuator: str) -> int:
+        """The id of an actuator of the store (:class:`StoreError` for an unknown name)."""
+        with self._read_engine.connect() as conn:
+            aid = conn.execute(select(S.actuators.c.id)
+                               .where(S.actuators.c.name == actuator)).scalar()
+        if aid is None:
+            raise StoreError(f"{self.shown_url}: no actuator named {actuator!r}")
+        return int(aid)
 
     def runs_of(self, actuator: str):
         """Every run of one actuator, newest first: command, source, feature, status, error.
@@ -588,11 +593,7 @@ class EventStore:
         StoreError
             If the actuator is not in the store.
         """
-        with self._read_engine.connect() as conn:
-            aid = conn.execute(select(S.actuators.c.id)
-                               .where(S.actuators.c.name == actuator)).scalar()
-        if aid is None:
-            raise StoreError(f"{self.shown_url}: no actuator named {actuator!r}")
+        aid = self._known_actuator(actuator)
         c = S.runs.c
         cols = {col.name: col for col in self._run_columns()}
         return self._frame(select(*(cols[k] for k in (
