@@ -65,13 +65,8 @@ def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | 
                 )
     else:
         time_col = cmap.time_column if cmap is not None and cmap.time_column else "time"
-        for name in table.duplicates:  # without a map every column is read
-            try:
-                table.require_unique(name, "time column" if name == time_col
-                                     else f"channel {name!r}")
-            except RecordingError as exc:
-                raise RecordingError(f"{exc}; without a column map every column is read - "
-                                     f"give a map that selects the columns to read") from None
+        table.require_all_unique(time_col, "without a column map every column is read - "
+                                 "give a map that selects the columns to read")
         specs = {c: ChannelSpec(c) for c in available if c != time_col}
         if not any(c in STANDARD_CHANNELS for c in specs):
             raise RecordingError(

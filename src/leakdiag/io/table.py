@@ -85,6 +85,28 @@ class RawTable:
                 f"be told: rename the others"
             )
 
+    def require_all_unique(self, time_column: str, advice: str) -> None:
+        """Raise if the header repeats any name, when every column is read (no map or list).
+
+        Parameters
+        ----------
+        time_column : str
+            The time column's name (labelled ``time column``, the others as channels).
+        advice : str
+            Appended to the message: how to read fewer columns.
+
+        Raises
+        ------
+        RecordingError
+            :meth:`require_unique`'s message for the first repeated name, then ``advice``.
+        """
+        for name in self.duplicates:
+            try:
+                self.require_unique(name, "time column" if name == time_column
+                                    else f"channel {name!r}")
+            except RecordingError as exc:
+                raise RecordingError(f"{exc}; {advice}") from None
+
     def check_rows(self, columns: Mapping[str, str]) -> None:
         """Raise if a row of the file is too short to hold the columns read from it.
 

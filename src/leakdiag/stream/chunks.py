@@ -209,13 +209,8 @@ def _check_unique(names: Sequence[str], channels: Sequence[str] | None, source: 
     repeated = _repeated(names)
     table = RawTable({}, source, duplicates=repeated)
     if channels is None:
-        for name in repeated:
-            try:
-                table.require_unique(name, "time column" if name == TIME_COLUMN
-                                     else f"channel {name!r}")
-            except RecordingError as exc:
-                raise RecordingError(f"{exc}; without a channel list every column is read - "
-                                     f"give the channels to read") from None
+        table.require_all_unique(TIME_COLUMN, "without a channel list every column is read - "
+                                 "give the channels to read")
         return repeated
     for c in channels:
         table.require_unique(c, f"channel {c!r}")
