@@ -231,7 +231,9 @@ def test_batch_store_rerun_writes_nothing_twice_and_states_failed_and_unjudged(l
     assert fl["state"].to_dict() == {"rig1": "ALARM", "broken": "FAILED", "short": "NOT JUDGED"}
     # the reason is kept (schema version 2) and shown on the fleet page
     assert fl.loc["broken", "error"].startswith(f"batch: {rec / 'broken' / 'bad.parquet'}")
-    assert fl.loc["short", "error"].startswith("det: detector not judged: no window")
+    assert fl.loc["short", "error"] == (
+        f"det: detector not judged: predict: {rec / 'short' / 's.parquet'}: too short to judge: "
+        "4 s leaves no complete window of the feature after the 5-s burn-in")
     assert fl.loc["rig1", "error"] is None or math.isnan(fl.loc["rig1", "error"])  # none
     assert st.runs_of("broken")["status"].tolist() == ["failed"]
     con = sqlite3.connect(db)

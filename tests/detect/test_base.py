@@ -222,9 +222,12 @@ def test_fit_refuses_a_leaking_run_a_repeated_run_and_mixed_rates_or_rigs():
     lowers the threshold's reference and repeated runs are not independent."""
     h = [synthetic(60.0, s) for s in range(3)]
     det = WindowMeanDetector(alarm=Alarm(false_alarms_per_hour=30.0, burn_in_s=0.0))
+    from leakdiag.io import RecordingError
+
     leak = synthetic(60.0, 9, onset=30.0, step=0.5)
-    with pytest.raises(ValueError, match=r"fit: healthy recording 4 \(syn9\) leaks by its "
-                                         r"metadata \(0.5 L/min from 30 s\): fit on healthy"):
+    with pytest.raises(RecordingError, match=r"fit: healthy recording 4 \(syn9\) leaks by its "
+                                             r"metadata \(leak_lpm=0.5 L/min from 30 s\): fit "
+                                             r"on healthy recordings only$"):
         det.fit(h + [leak])
     with pytest.raises(ValueError, match=r"fit: healthy recording 3 \(syn0\) holds the same "
                                          r"samples as healthy recording 1 \(syn0\)"):

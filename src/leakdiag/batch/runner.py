@@ -383,13 +383,13 @@ def _verdict_columns(det, parts: list[FeatureSeries], t: np.ndarray, v: np.ndarr
     from leakdiag.io.errors import RecordingError
 
     cols = {"threshold": float(det.threshold_)}
-    series = parts[0].with_values(v, time=t) if parts else None
+    if not parts:  # no window at all (run_case says why: _unusable)
+        return {**cols, "alarm": None, "error": _not_judged(det, 0, duration_s)}
     try:
-        if series is None:
-            raise RecordingError("no complete window")
-        verdict = det.predict_series(series, duration_s, start_time, source=path)
-    except RecordingError:  # nothing was tested
-        return {**cols, "alarm": None, "error": _not_judged(det, len(v), duration_s)}
+        verdict = det.predict_series(parts[0].with_values(v, time=t), duration_s, start_time,
+                                     source=path)
+    except RecordingError as exc:  # nothing was tested: the detector says why
+        return {**cols, "alarm": None, "error": f"detector not judged: {exc}"}
     d = verdict.as_dict()
     return {**cols, "alarm": bool(verdict.leak), "alarm_time_s": d["alarm_time_s"],
             "score_max": d["score_max"], "p_value": d["confidence"],

@@ -353,14 +353,6 @@ def warn_low_rate(path, rate: float, advice: str = "give --time-unit ms (or samp
                       f"{advice}", UserWarning, stacklevel=3)
 
 
-def _leaks(meta) -> bool:
-    v = meta.get("leak_lpm")
-    try:
-        return v is not None and float(v) > 0
-    except (TypeError, ValueError):
-        return False
-
-
 def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample=None):
     """Read healthy reference recordings and check they agree with the suspect recording.
 
@@ -390,6 +382,8 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
         When a healthy file's sample rate, system, units or channels differ from the suspect's,
         or its metadata records a leak (``leak_lpm`` > 0).
     """
+    from leakdiag.detect.base import meta_leak_lpm
+
     recs = [read_with(p, cmap, sample_rate, resample) for p in paths]
     ref = suspect if suspect is not None else (recs[0] if recs else None)
     if ref is None:
@@ -411,7 +405,7 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
                     r.units.get(c) != ref.units.get(c):
                 raise ValueError(f"--healthy {p}: channel {c!r} is in {r.units.get(c)!r}, "
                                  f"{name} in {ref.units.get(c)!r}")
-        if _leaks(r.meta):  # refused, as Detector.fit refuses it (until 2026-11-27 a warning)
+        if (meta_leak_lpm(r.meta) or 0.0) > 0:  # refused as Detector.fit does (was a warning)
             raise ValueError(f"--healthy {p}: its metadata says it leaks "
                              f"(leak_lpm={r.meta.get('leak_lpm')}); give healthy recordings")
     return recs

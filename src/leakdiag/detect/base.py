@@ -407,11 +407,11 @@ class Detector(BaseEstimator):
         """What :meth:`fit` needs from one healthy recording (lets a caller read it only once
         for several detectors): ``(time, values, t0, feature name, monitored span, info)``
         with ``info`` the recording's source, sample rate, rig, metadata leak and a digest of
-        its samples (:func:`_healthy_info`)."""
+        its samples (:func:`healthy_info`)."""
         a = self._alarm()
         t, _, v, fs = self._series(recording)
         return (t, v, recording.start_time + a.burn_in_s, fs.name,
-                max(0.0, recording.duration - a.burn_in_s), _healthy_info(recording))
+                max(0.0, recording.duration - a.burn_in_s), healthy_info(recording))
 
     def _fit_from_parts(self, parts: list, reference_maxima=None) -> "Detector":
         """The rest of :meth:`fit`, from :meth:`_fit_part` of every healthy recording."""
@@ -419,7 +419,13 @@ class Detector(BaseEstimator):
         series = [p[:4] for p in parts]
         spans = [p[4] for p in parts]
         recs = parts
-        rate, system = _check_healthy([p[5] for p in parts if len(p) > 5])
+        infos = [p[5] for p in parts if len(p) > 5]
+        rate, system = check_healthy(infos)
+        rates = sorted({info["sample_rate"] for info in infos})
+        if len(rates) > 1:
+            raise ValueError(f"fit: the healthy recordings have different sample rates "
+                             f"({', '.join(f'{r:g}' for r in rates)} Hz): windows and lags "
+                             "are in samples; resample them to one rate")
         values = np.concatenate([s[1] for s in series])
         values = values[np.isfinite(values)]
         if len(values) < 2:
@@ -681,61 +687,78 @@ class Detector(BaseEstimator):
         return self
 
 
-def _healthy_info(recording) -> dict:
-    """What :meth:`Detector.fit` checks of a healthy recording besides its feature."""
+def meta_leak_lpm(meta) -> float | None:
+    """The leak (L/min) a recording's metadata states (``leak_lpm``); None when it states none
+    or no finite number.
+
+    Examples
+    --------
+    >>> meta_leak_lpm({"leak_lpm": 0.02}), meta_leak_lpm({"leak_lpm": None}), meta_leak_lpm({})
+    (0.02, None, None)
+    """
+    q = meta.get("leak_lpm")
+    if q is None or isinstance(q, bool):
+        return None
+    try:
+        q = float(q)
+    except (TypeError, ValueError):
+        return None
+    return q if math.isfinite(q) else None
+
+
+def healthy_info(recording, channels=None) -> dict:
+    """What ``fit`` checks of a healthy recording besides its feature (:func:`check_healthy`):
+    its source, sample rate, rig, the leak its metadata states and a digest of the samples of
+    ``channels`` (default: all)."""
     import hashlib
 
     h = hashlib.blake2b(digest_size=16)
-    for name in sorted(recording.channels):
+    for name in (sorted(recording.channels) if channels is None else channels):
         h.update(name.encode())
-        h.update(np.ascontiguousarray(recording.channels[name], dtype=np.float64).tobytes())
+        h.update(np.ascontiguousarray(recording[name], dtype=np.float64).tobytes())
     meta = recording.meta
     return {"source": str(meta.get("source", "<recording>")),
             "sample_rate": float(recording.sample_rate),
             "system": None if meta.get("system") is None else str(meta["system"]).lower(),
-            "leak_lpm": meta.get("leak_lpm"), "onset": meta.get("onset"),
+            "leak_lpm": meta_leak_lpm(meta), "onset": meta.get("onset"),
             "digest": h.hexdigest()}
 
 
-def _check_healthy(infos: list[dict]) -> tuple[float | None, str | None]:
-    """Refuse healthy recordings that leak by their metadata, repeat one another, or differ in
-    sample rate or rig; return the common rate and rig (None when unknown).
+def check_healthy(infos: list[dict]) -> tuple[float | None, str | None]:
+    """Refuse healthy recordings that leak by their metadata or repeat one another
+    (:func:`healthy_info` of each); return their sample rate (None when they differ) and
+    rig (None when unknown).
 
     Raises
     ------
+    leakdiag.io.RecordingError
+        Naming the recording (by position and source) and the problem.
     ValueError
-        Naming the recordings (by position and source) and the problem.
+        If the recordings state different rigs.
     """
     def name(i):
         return f"healthy recording {i + 1} ({infos[i]['source']})"
 
     for i, info in enumerate(infos):
         q = info["leak_lpm"]
-        try:
-            leaks = q is not None and float(q) > 0
-        except (TypeError, ValueError):
-            leaks = False
-        if leaks:
+        if q is not None and q > 0:
             onset = info["onset"]
-            raise ValueError(f"fit: {name(i)} leaks by its metadata ({float(q):g} L/min"
-                             + (f" from {float(onset):g} s" if onset is not None else "")
-                             + "): fit on healthy recordings only")
+            since = f" from {float(onset):g} s" if onset is not None else ""
+            raise RecordingError(f"fit: {name(i)} leaks by its metadata (leak_lpm={q:g} L/min"
+                                 f"{since}): fit on healthy recordings only")
     seen: dict[str, int] = {}
     for i, info in enumerate(infos):
         j = seen.setdefault(info["digest"], i)
         if j != i:
-            raise ValueError(f"fit: {name(i)} holds the same samples as {name(j)}: a run "
-                             "given twice would count as two independent healthy runs")
-    rates = sorted({info["sample_rate"] for info in infos})
-    if len(rates) > 1:
-        raise ValueError(f"fit: the healthy recordings have different sample rates "
-                         f"({', '.join(f'{r:g}' for r in rates)} Hz): windows and lags are in "
-                         "samples; resample them to one rate")
+            raise RecordingError(f"fit: {name(i)} holds the same samples as {name(j)}: a "
+                                 "recording given twice would count as two independent "
+                                 "healthy runs")
+    rates = {info["sample_rate"] for info in infos}
     systems = sorted({info["system"] for info in infos if info["system"] is not None})
     if len(systems) > 1:
         raise ValueError(f"fit: the healthy recordings come from different rigs ({systems}); "
                          "fit one detector per rig")
-    return (rates[0] if rates else None), (systems[0] if systems else None)
+    return (rates.pop() if len(rates) == 1 else None), (systems[0] if systems else None)
 
 
 def _leave_one_out_z(values: list) -> list:

@@ -11,7 +11,6 @@ or pump (EHA) of each machine is identified on its healthy recordings in :meth:`
 from __future__ import annotations
 
 import functools
-import hashlib
 import math
 from dataclasses import dataclass, replace
 
@@ -33,7 +32,7 @@ from leakdiag.detect._flow_balance_search import (
     glr_alarm_count,
     glr_profile,
 )
-from leakdiag.detect.base import Detector, Verdict
+from leakdiag.detect.base import Detector, Verdict, check_healthy, healthy_info
 from leakdiag.detect.threshold import (
     SEGMENT_TOLERANCE,
     InsufficientHealthyDataError,
@@ -111,28 +110,6 @@ def _longest_hold(v: np.ndarray) -> tuple[int, int]:
     inner = np.where((v[starts] != v.min()) & (v[starts] != v.max()), lengths, 0)
     i = int(np.argmax(inner))
     return (int(inner[i]), int(starts[i])) if inner[i] else (0, 0)
-
-
-def _meta_leak(rec) -> float | None:
-    """The leak (L/min) that a recording's metadata state (``leak_lpm``), None when they state
-    none or no number."""
-    q = rec.meta.get("leak_lpm")
-    if q is None or isinstance(q, bool):
-        return None
-    try:
-        q = float(q)
-    except (TypeError, ValueError):
-        return None
-    return q if math.isfinite(q) else None
-
-
-def _digest(rec, channels) -> str:
-    """Digest of the samples of ``channels`` (what the balance reads of a recording)."""
-    h = hashlib.blake2b(digest_size=16)
-    for c in channels:
-        h.update(c.encode())
-        h.update(np.ascontiguousarray(rec[c], dtype=np.float64).tobytes())
-    return h.hexdigest()
 
 
 def _operation(recs, channels, skip_s: float = 0.0) -> dict:
@@ -571,36 +548,19 @@ class FlowBalanceDetector(Detector):
                 f"{self.burn_in_s + self._MIN_HISTORY * self.window_s:.3g} s)")
 
     def _check_healthy(self, recs: list) -> None:
-        """Refuse healthy recordings that cannot be tested, hold a constant channel, leak by
-        their metadata, or repeat one another (``fit``)."""
-        def name(i):
-            return f"healthy recording {i + 1} ({recs[i].meta.get('source', '<recording>')})"
-
+        """Refuse healthy recordings that cannot be tested or hold a constant channel, and
+        (:func:`~leakdiag.detect.base.check_healthy`) those that leak by their metadata or
+        repeat one another on the balance's channels (``fit``)."""
+        chans = tuple(self._backend().CHANNELS)
         for i, r in enumerate(recs):
+            name = f"healthy recording {i + 1} ({r.meta.get('source', '<recording>')})"
             n_win = self._monitored_windows(r)
             if n_win < self._MIN_HISTORY:
                 raise RecordingError(
-                    f"fit: {name(i)} is too short to use: {self._too_short(r, n_win)}; "
+                    f"fit: {name} is too short to use: {self._too_short(r, n_win)}; "
                     "untested, it would add GLR maxima of 0 to the level")
-            self._check_constant(r, "fit", name(i))
-            q = _meta_leak(r)
-            if q is not None and q > 0:
-                onset = r.meta.get("onset")
-                since = f" from {float(onset):g} s" if onset is not None else ""
-                raise RecordingError(
-                    f"fit: {name(i)} leaks by its metadata (leak_lpm={q:g} L/min{since}): the "
-                    "flow balance learns its healthy recordings' flows as the machine's own "
-                    "and its level from their GLR, so a leak among them blinds it; fit on "
-                    "healthy recordings only")
-        seen: dict[str, int] = {}
-        chans = tuple(self._backend().CHANNELS)
-        for i, r in enumerate(recs):
-            j = seen.setdefault(_digest(r, chans), i)
-            if j != i and all(np.array_equal(r[c], recs[j][c]) for c in chans):
-                raise RecordingError(
-                    f"fit: {name(i)} holds the same {', '.join(chans)} samples as {name(j)}: "
-                    "a recording given twice would count as two independent healthy runs "
-                    "(twice in the identification, its GLR maxima twice in the level)")
+            self._check_constant(r, "fit", name)
+        check_healthy([healthy_info(r, chans) for r in recs])
 
     def _check_target(self, recs: list) -> float:
         """The segment (s) of the level; refuses a target of one false alarm or more per
