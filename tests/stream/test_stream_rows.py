@@ -395,3 +395,17 @@ def test_field_counts_agree_with_pandas_on_random_files():
         assert all(a == b for a, b in zip(mine[1:], theirs) if b), text
         compared += 1
     assert compared == 400
+
+
+def test_a_blank_extra_field_is_a_trailing_separator_not_a_value(tmp_path):
+    """A review (2026-11-27) found open_chunks refusing ``1,2,3, `` (a blank after the last
+    separator; pandas keeps it as text) that read_recording and csv_lines read."""
+    from leakdiag.io import read_recording
+    from leakdiag.stream.files import open_chunks
+
+    p = tmp_path / "blank.csv"
+    p.write_text("time,p1,p2\n0,1,2,\n1,2,3, \n2,3,4,\n")
+    for chans in (None, ["p1"]):
+        got = [c for c in open_chunks(p, chans)]
+        assert [c["p1"].tolist() for c in got] == [[1.0, 2.0, 3.0]]
+    assert read_recording(p).channels["p2"].tolist() == [2.0, 3.0, 4.0]

@@ -12,8 +12,6 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from leakdiag._validation import check_int, check_overlap, parse_lag_ratio
 from leakdiag.features._args import plan_windows, signal_1d
 from leakdiag.features.registry import (
@@ -22,8 +20,7 @@ from leakdiag.features.registry import (
     feature_record,
     normalize_method,
 )
-from leakdiag.io.checks import check_length
-from leakdiag.io.errors import RecordingError
+from leakdiag.io.checks import check_channel_finite, check_length
 
 __all__ = [
     "MethodSpec",
@@ -213,12 +210,7 @@ def compute_feature(recording, spec: MethodSpec):
     source = recording.meta.get("source")
     where = f"{source}: " if source else ""
     for c in spec.channels:  # named here: the kernels know their arguments, not the channels
-        x = np.asarray(recording[c], dtype=np.float64)
-        bad = np.flatnonzero(~np.isfinite(x))
-        if len(bad):
-            raise RecordingError(f"{where}channel {c!r} is not finite at row {int(bad[0])} "
-                                 f"({x[bad[0]]}; {len(bad)} non-finite value(s)): "
-                                 f"{spec.label} cannot be computed over it")
+        check_channel_finite(recording[c], c, source or "<recording>")
     # the spec checked window, overlap and setting; the recording its rate and start time
     plan = plan_windows(recording.n_samples, spec.window, spec.overlap, recording.sample_rate,
                         recording.start_time)

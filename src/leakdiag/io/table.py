@@ -17,6 +17,20 @@ from leakdiag.io.errors import RecordingError
 __all__ = ["RawTable", "flatten_arrays"]
 
 
+
+def repeated_names(names) -> dict[str, list[int]]:
+    """Names that a header holds more than once -> their 0-based positions.
+
+    Examples
+    --------
+    >>> repeated_names(["t", "P", "x", "P"])
+    {'P': [1, 3]}
+    """
+    positions: dict[str, list[int]] = {}
+    for j, name in enumerate(names):
+        positions.setdefault(name, []).append(j)
+    return {name: js for name, js in positions.items() if len(js) > 1}
+
 @dataclass
 class RawTable:
     """Columns of a file as read, before mapping and unit conversion.

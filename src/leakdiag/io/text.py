@@ -11,7 +11,7 @@ from typing import Mapping
 import numpy as np
 
 from leakdiag.io.recording import Recording, RecordingError
-from leakdiag.io.table import RawTable
+from leakdiag.io.table import RawTable, repeated_names
 
 __all__ = ["SEPARATOR_CANDIDATES", "TextTable", "detect_separator", "read_text", "write_csv"]
 
@@ -117,17 +117,55 @@ def _check_extra_fields(path: Path, source: str, sep: str, encoding: str, n: int
     them with a warning); trailing separators (empty extra fields) are ignored (docs/io.md)."""
     import pandas as pd
 
-    width = int(_field_counts(path, sep, encoding).max(initial=n))
-    if width <= n:
-        return
-    extra = pd.read_csv(path, header=None, skiprows=1, names=list(range(width)), dtype=str,
-                        keep_default_na=False, **options).iloc[:, n:]
+    # pandas takes the width from the first data row (a wider later row is a parse error)
+    extra = pd.read_csv(path, header=None, skiprows=1, dtype=str, keep_default_na=False,
+                        **options).iloc[:, n:]
     filled = extra.apply(lambda col: col.str.strip().ne(""))
     rows = np.flatnonzero(filled.to_numpy().any(axis=1))
     if len(rows):
         i = int(rows[0])
         j = int(np.flatnonzero(filled.iloc[i].to_numpy())[0])
         raise extra_field_error(source, f"row {i}", n, n + j, str(extra.iat[i, j]))
+
+
+def short_row_error(source: str, where: str, k: int, n: int, read: dict[str, str],
+               pos: dict[str, int], more: str = "") -> RecordingError:
+    """The error for a row of ``k`` of ``n`` fields that ends at or before a column read
+    (:meth:`TextTable.check_rows`, and the streaming readers of :mod:`leakdiag.stream`).
+
+    Parameters
+    ----------
+    source : str
+        File name.
+    where : str
+        The row (``"row 3"``, 0-based data row of a file) or line (``"line 5"`` of a stream).
+    k, n : int
+        Fields of the row and of the header.
+    read : dict of str to str
+        What a column is read as (``"time column"``, ``"channel 'p1'"``) -> its name.
+    pos : dict of str to int
+        Column name -> 0-based position in the header.
+    more : str, optional
+        Appended (how many rows are short like this).
+
+    Returns
+    -------
+    RecordingError
+        Naming the columns read that the row lacks or cuts (its last field may be cut).
+
+    Examples
+    --------
+    >>> print(short_row_error("a.csv", "row 3", 3, 4, {"time column": "time", "channel 'p2'": "p2"},
+    ...                       {"time": 0, "p2": 2}))
+    a.csv: row 3 has 3 of 4 fields (truncated line?); column 'p2' (channel 'p2') is missing or cut
+    """
+    hit = sorted({c for c in read.values() if pos[c] >= k - 1}, key=pos.get)
+    desc = ", ".join(f"{c!r} ({', '.join(lab for lab, col in read.items() if col == c)})"
+                     for c in hit)
+    return RecordingError(
+        f"{source}: {where} has {k} of {n} fields (truncated line?); "
+        f"{'column' if len(hit) == 1 else 'columns'} {desc} "
+        f"{'is' if len(hit) == 1 else 'are'} missing or cut{more}")
 
 
 @dataclass
@@ -218,16 +256,9 @@ class TextTable(RawTable):
         short = np.flatnonzero(counts <= probe)
         if not len(short):
             return
-        row, k = int(short[0]), int(counts[short[0]])
-        hit = sorted({c for c in columns.values() if pos.get(c, -1) >= k - 1}, key=pos.get)
-        desc = ", ".join(f"{c!r} ({', '.join(lab for lab, col in columns.items() if col == c)})"
-                         for c in hit)
         more = f"; {len(short)} rows are short like this" if len(short) > 1 else ""
-        raise RecordingError(
-            f"{self.source}: row {row} has {k} of {n} fields (truncated line?); "
-            f"{'column' if len(hit) == 1 else 'columns'} {desc} "
-            f"{'is' if len(hit) == 1 else 'are'} missing or cut{more}"
-        )
+        raise short_row_error(self.source, f"row {int(short[0])}", int(counts[short[0]]), n,
+                              dict(columns), pos, more)
 
 
 def read_text(path: str | os.PathLike, separator: str | None = None) -> TextTable:
@@ -306,11 +337,8 @@ def read_text(path: str | os.PathLike, separator: str | None = None) -> TextTabl
             by_position.append(s.to_numpy(dtype=np.float64, na_value=np.nan))
         else:
             by_position.append(s.to_numpy(dtype=object, na_value=None))
-    positions: dict[str, list[int]] = {}
-    for j, name in enumerate(names):
-        positions.setdefault(name, []).append(j)
-    columns = {name: by_position[js[0]] for name, js in positions.items() if len(js) == 1}
-    duplicates = {name: js for name, js in positions.items() if len(js) > 1}
+    duplicates = repeated_names(names)
+    columns = {name: by_position[j] for j, name in enumerate(names) if name not in duplicates}
     return TextTable(columns, source, duplicates=duplicates, fields=names, path=path,
                      separator=sep, encoding=encoding, by_position=by_position)
 

@@ -12,7 +12,8 @@ import numpy as np
 from leakdiag._validation import check_int, check_positive
 from leakdiag.io.checks import UNIFORM_TIME_RTOL, infer_sample_rate
 from leakdiag.io.recording import Recording, RecordingError
-from leakdiag.io.table import RawTable
+from leakdiag.io.table import RawTable, repeated_names
+from leakdiag.io.text import extra_field_error, short_row_error
 
 __all__ = ["ChunkSource", "TimeAxis", "recording_chunks", "DEFAULT_CHUNK_SAMPLES", "TIME_COLUMN"]
 
@@ -160,12 +161,7 @@ def _select(names: Sequence[str], channels: Sequence[str] | None, source: str,
     return list(channels)
 
 
-def _repeated(names: Sequence[str]) -> dict[str, list[int]]:
-    """Names that a header holds more than once -> their 0-based positions."""
-    positions: dict[str, list[int]] = {}
-    for j, name in enumerate(names):
-        positions.setdefault(name, []).append(j)
-    return {name: js for name, js in positions.items() if len(js) > 1}
+_repeated = repeated_names  # the header's repeated names, as io reads them
 
 
 def _check_unique(names: Sequence[str], channels: Sequence[str] | None, source: str) -> dict:
@@ -218,51 +214,10 @@ def _check_unique(names: Sequence[str], channels: Sequence[str] | None, source: 
     return repeated
 
 
-def _short_row(source: str, where: str, k: int, n: int, read: dict[str, str],
-               pos: dict[str, int], more: str = "") -> RecordingError:
-    """The error for a row of ``k`` of ``n`` fields that ends at or before a column read, worded
-    as :meth:`leakdiag.io.text.TextTable.check_rows` words it.
-
-    Parameters
-    ----------
-    source : str
-        File name.
-    where : str
-        The row (``"row 3"``, 0-based data row of a file) or line (``"line 5"`` of a stream).
-    k, n : int
-        Fields of the row and of the header.
-    read : dict of str to str
-        What a column is read as (``"time column"``, ``"channel 'p1'"``) -> its name.
-    pos : dict of str to int
-        Column name -> 0-based position in the header.
-    more : str, optional
-        Appended (how many rows are short like this).
-
-    Returns
-    -------
-    RecordingError
-        Naming the columns read that the row lacks or cuts (its last field may be cut).
-
-    Examples
-    --------
-    >>> print(_short_row("a.csv", "row 3", 3, 4, {"time column": "time", "channel 'p2'": "p2"},
-    ...                  {"time": 0, "p2": 2}))
-    a.csv: row 3 has 3 of 4 fields (truncated line?); column 'p2' (channel 'p2') is missing or cut
-    """
-    hit = sorted({c for c in read.values() if pos[c] >= k - 1}, key=pos.get)
-    desc = ", ".join(f"{c!r} ({', '.join(lab for lab, col in read.items() if col == c)})"
-                     for c in hit)
-    return RecordingError(
-        f"{source}: {where} has {k} of {n} fields (truncated line?); "
-        f"{'column' if len(hit) == 1 else 'columns'} {desc} "
-        f"{'is' if len(hit) == 1 else 'are'} missing or cut{more}")
+_short_row = short_row_error  # one wording with io
 
 
-def _extra_field(source: str, where: str, n: int, field: int, text: str) -> RecordingError:
-    """:func:`leakdiag.io.text.extra_field_error` (one wording for both readers)."""
-    from leakdiag.io.text import extra_field_error
-
-    return extra_field_error(source, where, n, field, text)
+_extra_field = extra_field_error  # one wording with io
 
 
 def _json_dict(blob) -> dict:

@@ -392,7 +392,10 @@ class _CsvRows:
         if not self.read:
             return
         wide = [c for c in df.columns if int(c) >= self.n]  # fields of rows ending in separators
-        extra_rows = (np.flatnonzero(df[wide].notna().to_numpy().any(axis=1)) if wide
+        # a field beyond the header's counts when it is not empty after stripping blanks (as the
+        # line counter and io's reader see it); pandas keeps "  " as text
+        filled = df[wide].apply(lambda col: col.notna() & col.astype(str).str.strip().ne(""))
+        extra_rows = (np.flatnonzero(filled.to_numpy().any(axis=1)) if wide
                       else np.empty(0, dtype=np.int64))
         blank = df[str(self.probe)].isna().to_numpy()
         if not blank.any() and not len(extra_rows):
@@ -410,7 +413,7 @@ class _CsvRows:
         if first_short is None:
             if len(extra_rows):  # pandas saw a field that the count did not: name its value
                 i = int(extra_rows[0])
-                col = next(c for c in wide if df[c].notna().iloc[i])
+                col = next(c for c in wide if filled[c].iloc[i])
                 raise self._extra(row0 + i, int(col), str(df[col].iloc[i]))
             return
         more = ("" if len(short) == 1 else f"; {len(short)} rows are short like this" if last
