@@ -47,10 +47,11 @@ def test_simulator_edit_invalidates_resumed_results(tmp_path, cache, capsys, mon
     code, text, _ = _run(capsys, args)
     assert code == 0
     lines = text.splitlines()
+    assert not any(x.startswith("removed from") for x in lines)  # every output rewritten
     assert re.fullmatch(rf"fits: 1 reused from {work} \(computed earlier, [0-9.e-]+ CPU s\), "
-                        r"0 computed now", lines[2]), lines[2]
+                        r"0 computed now", lines[1]), lines[1]
     assert re.fullmatch(rf"result shards: 1 reused from {work} \(computed earlier, 6 verdicts, "
-                        r"[0-9.e-]+ CPU s\), 0 computed now", lines[3]), lines[3]
+                        r"[0-9.e-]+ CPU s\), 0 computed now", lines[2]), lines[2]
     real = common._part_fingerprint
     monkeypatch.setattr(common, "_part_fingerprint",
                         lambda part: "edited" if part == "sim" else real(part))
@@ -247,13 +248,13 @@ def test_out_keeps_none_of_an_earlier_runs_files_and_nothing_else_is_touched(tmp
     mine = ["figures/my-plot.png", "notes.md", "ranks.py", "refs/x.joblib"]
     for name in stale + mine:
         (out / name).write_text("earlier")
+    (out / "settings.json").write_text('{"command": "leakdiag benchmark -o out"}')
     code, text, _ = _run(capsys, [*SMALL, "-o", str(out), "--work-dir", str(tmp_path / "w"),
                                   "--cache-dir", cache])
     assert code == 0
-    assert text.splitlines()[0] == (
-        f"removed from {out} the 4 file(s) an earlier benchmark run wrote there: "
-        "figures/detection_eha_none_operating.png, figures/fig-004.png, results.csv, "
-        "summary.csv")
+    assert (f"removed from {out} the 3 file(s) an earlier benchmark run wrote there: "
+            "figures/detection_eha_none_operating.png, figures/fig-004.png, "
+            "results.csv") in text.splitlines()  # summary.csv: rewritten by this run
     for name in mine:
         assert (out / name).read_text() == "earlier", name
     for name in stale[:3]:
@@ -265,14 +266,33 @@ def test_out_keeps_none_of_an_earlier_runs_files_and_nothing_else_is_touched(tmp
                                    "figures/detection_vca_none_operating.png"}
 
 
-def test_remove_previous_outputs_removes_an_emptied_figures_folder(tmp_path):
-    from leakdiag.bench.outputs import remove_previous_outputs
+def test_stale_outputs_are_removed_only_from_an_earlier_benchmark_and_after_the_write(tmp_path):
+    """A review (2026-11-27) found the removal deleting report.md / index.html of any folder
+    (e.g. a reproduce report) and doing it before the run, so a failed run lost the old
+    report: now only an earlier benchmark's outputs (its settings.json says so), and only
+    those this run did not rewrite, after it wrote."""
+    from leakdiag.bench.outputs import earlier_outputs, remove_stale_outputs
 
-    (tmp_path / "figures").mkdir()
-    (tmp_path / "figures" / "fig-001.png").write_text("x")
-    (tmp_path / "index.html").write_text("x")
-    assert remove_previous_outputs(tmp_path) == ["figures/fig-001.png", "index.html"]
-    assert list(tmp_path.iterdir()) == []
+    other = tmp_path / "other"
+    other.mkdir()
+    for name in ("report.md", "index.html", "settings.json"):
+        (other / name).write_text("{}")  # a reproduce report, say
+    assert earlier_outputs(other) is None and remove_stale_outputs(other, None) == []
+    assert sorted(p.name for p in other.iterdir()) == ["index.html", "report.md",
+                                                        "settings.json"]
+    bench = tmp_path / "bench"
+    (bench / "figures").mkdir(parents=True)
+    (bench / "figures" / "fig-001.png").write_text("x")
+    (bench / "index.html").write_text("x")
+    (bench / "settings.json").write_text('{"command": "leakdiag benchmark -o bench"}')
+    before = earlier_outputs(bench)
+    assert sorted(before) == ["figures/fig-001.png", "index.html", "settings.json"]
+    (bench / "settings.json").write_text('{"command": "leakdiag benchmark -o bench2"}')
+    import os
+
+    os.utime(bench / "settings.json", ns=(1, before["settings.json"] + 10**9))  # rewritten
+    assert remove_stale_outputs(bench, before) == ["figures/fig-001.png", "index.html"]
+    assert [p.name for p in bench.iterdir()] == ["settings.json"]  # figures/ emptied: removed
 
 
 # ----------------------------------------------------------------- 6. unknown excitation

@@ -8,7 +8,8 @@ from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import leakdiag.sim as sim
-from leakdiag.bench.outputs import NothingJudgedError, prepare_folder, remove_previous_outputs
+from leakdiag.bench.outputs import (NothingJudgedError, earlier_outputs, prepare_folder,
+                                    remove_stale_outputs)
 from leakdiag.bench.registry import DEFAULT_METHODS, METHODS, make_detector
 from leakdiag.bench.report import build_report
 from leakdiag.bench.run import per_run_target_per_hour, run_suite
@@ -37,7 +38,7 @@ class BenchmarkResult:
     paths : dict
         Name -> written file.
     removed : list of str
-        Files of an earlier benchmark run removed from the output folder before the run.
+        Files of an earlier benchmark run removed from the output folder (not rewritten).
     """
 
     results: Any
@@ -133,8 +134,9 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
 
     Notes
     -----
-    Before any work the files an earlier benchmark run wrote into ``out_dir`` are removed
-    (:func:`~leakdiag.bench.outputs.remove_previous_outputs`; other files stay).
+    After the report is written, the files an earlier benchmark run wrote into ``out_dir`` and
+    this one did not rewrite are removed (:func:`~leakdiag.bench.outputs.remove_stale_outputs`;
+    other files stay; a run that fails leaves the earlier report whole).
     """
     methods = list(methods or DEFAULT_METHODS)
     for m in methods:
@@ -166,7 +168,7 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
     out = prepare_folder(out_dir, "--out")
     prepare_folder(resolve_cache_dir(cache_dir),
                    "--cache-dir" if cache_dir else "simulation cache")
-    removed = remove_previous_outputs(out)
+    before = earlier_outputs(out)
     sr = run_suite(suites, methods, false_alarm_per_run=false_alarm_per_run, alarm=alarm,
                    scheduler=scheduler, n_workers=n_workers, cache_dir=cache_dir,
                    progress=progress)
@@ -199,6 +201,7 @@ def run_benchmark(out_dir, *, quick: bool = False, methods=None, systems=None,
                 "rated_flow_lpm": sr.rated_flow_lpm}
     paths["settings"] = out / "settings.json"
     paths["settings"].write_text(json.dumps(settings, indent=2, sort_keys=True), encoding="utf-8")
+    removed = remove_stale_outputs(out, before)
     return BenchmarkResult(results, summary, by_cond, sr.runs, paths, removed)
 
 

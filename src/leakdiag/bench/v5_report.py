@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from leakdiag.bench.outputs import NothingJudgedError, prepare_folder, remove_previous_outputs
+from leakdiag.bench.outputs import (NothingJudgedError, earlier_outputs, prepare_folder,
+                                    remove_stale_outputs)
 from leakdiag.bench.registry import METHODS, thesis_methods
 from leakdiag.bench.report import method_style
 from leakdiag.bench.suite import EXCITATIONS
@@ -83,8 +84,9 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
 
     Notes
     -----
-    Before any work the files an earlier benchmark run wrote into ``out_dir`` are removed
-    (:func:`~leakdiag.bench.outputs.remove_previous_outputs`; other files stay).
+    After the report is written, the files an earlier benchmark run wrote into ``out_dir`` and
+    this one did not rewrite are removed (:func:`~leakdiag.bench.outputs.remove_stale_outputs`;
+    other files stay).
     """
 
     base = V5_QUICK_SUITES if quick else V5_SUITES
@@ -118,12 +120,12 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     far = false_alarm_per_run if false_alarm_per_run is not None else (
         V5_QUICK_FAR if quick else V5_DEFAULT_FAR)
     work = Path(work_dir) if work_dir else resolve_cache_dir(cache_dir) / "bench-v5"
-    # every folder written to is checked before any work; then the earlier run's files go
+    # every folder written to is checked before any work
     out = prepare_folder(out_dir, "--out")
     prepare_folder(work, "--work-dir")
     prepare_folder(resolve_cache_dir(cache_dir),
                    "--cache-dir" if cache_dir else "simulation cache")
-    removed = remove_previous_outputs(out)
+    before = earlier_outputs(out)
     t0 = time.time()
     runs, fits, settings = run_v5(suites, methods, work, false_alarm_per_run=far,
                                   onset_method=onset_method, scheduler=scheduler,
@@ -137,10 +139,12 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     if not len(judged):
         failure = nothing_judged_message(fits, runs, suites, settings, out / "fits.csv")
         write_v5_report(out, runs, fits, None, None, None, settings, failure=failure)
+        remove_stale_outputs(out, before)  # its report lists fits.csv and settings.json only
         raise NothingJudgedError(failure)
     summary, det = summary_v5(runs)
     far_tab = false_alarm_table(runs)
     paths = write_v5_report(out, runs, fits, summary, det, far_tab, settings)
+    removed = remove_stale_outputs(out, before)
     return {"summary": summary, "detection": det, "false_alarms": far_tab, "fits": fits,
             "runs": runs, "paths": paths, "settings": settings, "removed": removed}
 

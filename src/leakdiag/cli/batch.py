@@ -6,7 +6,7 @@ import os
 
 import click
 
-from leakdiag.cli._options import scheduler_option
+from leakdiag.cli._options import check_workers, scheduler_option, workers_option
 
 __all__ = ["batch"]
 
@@ -31,8 +31,7 @@ def _stderr_is_terminal() -> bool:
 @click.option("--out", "-o", required=True, type=click.Path(),
               help="Results folder, a Parquet dataset (e.g. results.parquet); resumable.")
 @scheduler_option()
-@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True,
-              help="Worker processes of the local cluster (with --scheduler local only).")
+@workers_option
 @click.option("--retry-errors", is_flag=True, help="Re-run recordings whose result is an error.")
 @click.option("--no-progress", is_flag=True,
               help="Hide the progress bar (shown only at a terminal: logs get the summary line).")
@@ -54,11 +53,7 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     from leakdiag.batch import load_config, read_results, run_batch
     from leakdiag.batch.runner import LOCAL, expand_inputs
 
-    from leakdiag.cli._options import check_workers
-
-    ctx = click.get_current_context()
-    given = ctx.get_parameter_source("workers") is click.core.ParameterSource.COMMANDLINE
-    check_workers(scheduler, workers if given else None)  # the default 2 is for local only
+    check_workers(scheduler, workers)  # None: one worker per core (as every command)
     cfg = load_config(config_path, detectors=detectors)
     for ref in cfg.detectors:  # refused before any recording is read, as monitor does
         import warnings

@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 from click.core import ParameterSource
 
-from leakdiag.cli._options import scheduler_option
+from leakdiag.cli._options import check_workers, scheduler_option, workers_option
 
 __all__ = ["benchmark"]
 
@@ -27,8 +27,8 @@ def _command_line() -> str:
 
 @click.command("benchmark", epilog="Example: leakdiag benchmark --quick -o bench/")
 @click.option("-o", "--out", "out_dir", default=None, type=click.Path(file_okay=False),
-              help="Output folder of the report; the files an earlier benchmark run wrote "
-                   "there are removed first, nothing else.")
+              help="Output folder of the report; files an earlier benchmark run wrote there "
+                   "and this run did not rewrite are removed after it, nothing else.")
 @click.option("--suite", default="v5", show_default=True, type=click.Choice(["v5", "v4"]),
               help="v5: training and test units disjoint, >= 300 calibration, 1000 held-out "
                    "healthy and 50 leaking runs per size per load; v4: the former suite.")
@@ -64,9 +64,7 @@ def _command_line() -> str:
 @click.option("--onset-method", "onset_method", default="binseg", show_default=True,
               type=click.Choice(["binseg", "pelt", "cusum"]), help="Onset estimator.")
 @scheduler_option(default="serial")
-@click.option("--workers", "n_workers", default=None, type=click.IntRange(min=1),
-              help="Worker processes of the local Dask cluster (with --scheduler local only; "
-                   "default: one per core).")
+@workers_option
 @click.option("--cache-dir", default=None, type=click.Path(file_okay=False),
               help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")
 @click.option("--work-dir", default=None, type=click.Path(file_okay=False),
@@ -75,7 +73,7 @@ def _command_line() -> str:
 @click.option("--no-progress", is_flag=True, help="No progress bars.")
 def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal, n_test_healthy,
               n_test_leak, unit_fit, full_budget, max_test_runs, far, confidence, onset_method,
-              scheduler, n_workers, cache_dir, work_dir, list_methods, no_progress):
+              scheduler, workers, cache_dir, work_dir, list_methods, no_progress):
     """Run the detection benchmark and write its report to --out."""
     from leakdiag.bench.registry import METHODS
 
@@ -84,9 +82,7 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
         return
     if out_dir is None:
         raise click.UsageError("--out DIR is required")
-    from leakdiag.cli._options import check_workers
-
-    check_workers(scheduler, n_workers)  # ignored otherwise: refused before any folder is made
+    check_workers(scheduler, workers)  # ignored otherwise: refused before any folder is made
     split = lambda s: [v.strip() for v in s.split(",") if v.strip()] if s else None  # noqa: E731
     command = _command_line()
     ctx = click.get_current_context()
@@ -107,7 +103,7 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
                                    loads=split(loads), false_alarm_per_run=far, n_cal=n_cal,
                                    n_test_healthy=n_test_healthy, n_test_leak=n_test_leak,
                                    onset_method=onset_method, scheduler=scheduler,
-                                   n_workers=n_workers, cache_dir=cache_dir, work_dir=work_dir,
+                                   n_workers=workers, cache_dir=cache_dir, work_dir=work_dir,
                                    progress=not no_progress, command=command,
                                    unit_fit=unit_fit, full_budget=full_budget,
                                    confidence=confidence)
@@ -127,7 +123,7 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
         res = run_benchmark(out_dir, quick=quick, methods=split(methods), systems=split(systems),
                             excitations=split(excitations), max_test_runs=max_test_runs,
                             false_alarm_per_run=far, onset_method=onset_method,
-                            scheduler=scheduler, n_workers=n_workers, cache_dir=cache_dir,
+                            scheduler=scheduler, n_workers=workers, cache_dir=cache_dir,
                             progress=not no_progress, command=command)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
