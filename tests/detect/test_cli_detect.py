@@ -147,8 +147,20 @@ def test_detect_refuses_a_healthy_file_that_says_it_leaks(files, capsys):
     healthy, leak = files
     assert main(["detect", healthy[0], "--healthy", leak, "--healthy", healthy[1],
                  "--methods", "acf-p1"]) == 2
-    assert "--healthy " in (err := capsys.readouterr().err)
-    assert "leak.parquet: its metadata says it leaks (leak_lpm=0.5); give healthy " in err
+    err = capsys.readouterr().err
+    assert err.strip().endswith(f"--healthy: healthy recording 1 ({leak}) leaks by its metadata "
+                                "(leak_lpm=0.5 L/min from 15 s): fit on healthy recordings only")
+
+
+def test_analyze_refuses_the_same_healthy_file_twice(files, capsys):
+    """A review (2026-11-27): the same --healthy file twice pooled its chunk RMS values twice
+    in analyze's reference, doubling n_reference behind its p-values."""
+    healthy, leak = files
+    assert main(["analyze", leak, "--healthy", healthy[0], "--healthy", healthy[0]]) == 2
+    assert capsys.readouterr().err.strip().endswith(
+        f"--healthy: healthy recording 2 ({healthy[0]}) holds the same samples as healthy "
+        f"recording 1 ({healthy[0]}): a recording given twice would count as two independent "
+        "healthy runs")
 
 
 def test_a_method_that_cannot_judge_the_file_gets_an_error_row(files):

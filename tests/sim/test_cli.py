@@ -81,12 +81,19 @@ def test_simulate_help_states_each_rigs_defaults(capsys):
 
     assert main(["simulate", "--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
-    for name, flag in (("duration", "Run length"), ("onset", "Leak onset"),
-                       ("leak_lpm", "Target mean leak")):
+    for name, flag in (("duration", "Run length"), ("leak_lpm", "Target mean leak")):
         vca = inspect.signature(ld.sim.simulate_vca).parameters[name].default
         eha = inspect.signature(ld.sim.simulate_eha).parameters[name].default
         part = text[text.index(flag):]
         assert f"{vca:g} for vca, {eha:g} for eha" in part[:160], (name, part[:160])
+    # the onset's default is half the run in the simulators themselves, as the help says
+    for fn in (ld.sim.simulate_vca, ld.sim.simulate_eha):
+        assert inspect.signature(fn).parameters["onset"].default is None
+    dur = {s: inspect.signature(getattr(ld.sim, f"simulate_{s}")).parameters["duration"].default
+           for s in ("vca", "eha")}
+    part = text[text.index("Leak onset"):]
+    assert (f"half of --duration, as in Secs. 4.5, 4.6: {dur['vca'] / 2:g} for vca, "
+            f"{dur['eha'] / 2:g} for eha") in part[:200], part[:200]
 
 
 def test_simulate_says_what_it_did_not_use_and_refuses_what_cannot_be(tmp_path, capsys):
@@ -111,3 +118,12 @@ def test_simulate_says_what_it_did_not_use_and_refuses_what_cannot_be(tmp_path, 
                  "--no-progress", "--out", out]) == 2
     assert "the EHA's leak is the thesis's turbulent needle-valve flow, Eq. 2-4, only" in \
         capsys.readouterr().err
+
+
+def test_the_default_onset_is_half_the_run_in_the_library_as_in_the_cli():
+    """A review (2026-11-27): the CLI's default onset followed --duration, the library's stayed
+    200 / 90 s, so the same arguments leaked from different times."""
+    rec = ld.sim.simulate_vca(duration=30.0, leak_lpm=0.5, seed=1)
+    assert rec.meta["onset"] == 15.0
+    rec = ld.sim.simulate_eha(duration=20.0, leak_lpm=1.2, seed=1)
+    assert rec.meta["onset"] == 10.0

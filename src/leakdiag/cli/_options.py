@@ -380,9 +380,11 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
     ------
     ValueError
         When a healthy file's sample rate, system, units or channels differ from the suspect's,
-        or its metadata records a leak (``leak_lpm`` > 0).
+        its metadata records a leak (``leak_lpm`` > 0), or two files hold the same samples
+        (:func:`leakdiag.detect.base.check_healthy`).
     """
-    from leakdiag.detect.base import meta_leak_lpm
+    from leakdiag.detect.base import check_healthy, healthy_info
+    from leakdiag.io.errors import RecordingError
 
     recs = [read_with(p, cmap, sample_rate, resample) for p in paths]
     ref = suspect if suspect is not None else (recs[0] if recs else None)
@@ -405,7 +407,8 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
                     r.units.get(c) != ref.units.get(c):
                 raise ValueError(f"--healthy {p}: channel {c!r} is in {r.units.get(c)!r}, "
                                  f"{name} in {ref.units.get(c)!r}")
-        if (meta_leak_lpm(r.meta) or 0.0) > 0:  # refused as Detector.fit does (was a warning)
-            raise ValueError(f"--healthy {p}: its metadata says it leaks "
-                             f"(leak_lpm={r.meta.get('leak_lpm')}); give healthy recordings")
+    try:  # leaking by metadata, or one file given twice: the check of every detector's fit
+        check_healthy([healthy_info(r) for r in recs])
+    except RecordingError as exc:
+        raise ValueError(f"--healthy: {str(exc).removeprefix('fit: ')}") from None
     return recs

@@ -14,9 +14,11 @@ _DEFAULT_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 
 
 def _row(m, det, rec, n_healthy):
+    from leakdiag.io.errors import RecordingError
+
     try:
         v = det.predict(rec)
-    except ValueError as exc:  # RecordingError: too short, units, ...: this method cannot judge
+    except RecordingError as exc:  # too short, units, a stuck channel: this method cannot judge
         return {"method": m, "error": in_cli_words(str(exc))}
     basis = getattr(det, "threshold_basis_", None)
     a = det._alarm()

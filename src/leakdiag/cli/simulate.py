@@ -130,16 +130,6 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     # passed, every other argument keeps the rig's own default.
     kwargs = dict(seed=seed, sensors=not no_sensors, sample_rate=sample_rate, load=load,
                   leak_kind=leak_kind, leak_model=leak_model)
-    run_s = duration if duration is not None else (
-        VCA_DURATION_S if system == "vca" else EHA_DURATION_S)
-    if not math.isfinite(run_s * sample_rate):
-        raise click.UsageError(f"--duration {run_s:g} s at --sample-rate {sample_rate:g} Hz: "
-                               "too many samples to count")
-    if onset is None:  # the default onset follows the run length (the thesis's half time)
-        onset = run_s / 2
-        onset_given = False
-    else:
-        onset_given = True
     for name, value in (("duration", duration), ("onset", onset), ("leak_lpm", leak_lpm),
                         ("ramp_duration", ramp_duration), ("machine", machine)):
         if value is not None:
@@ -149,6 +139,11 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
         cls = ld.sim.VCAParams if system == "vca" else ld.sim.EHAParams
         kwargs["params"] = _params_from_toml(cls, params_file)
 
+    run_s = duration if duration is not None else (
+        VCA_DURATION_S if system == "vca" else EHA_DURATION_S)
+    if not math.isfinite(run_s * sample_rate):  # two finite numbers, an infinite product
+        raise click.UsageError(f"--duration {run_s:g} s at --sample-rate {sample_rate:g} Hz: "
+                               "too many samples to count")
     total = int(round(run_s * sample_rate))
     bar = tqdm(total=total, unit="sample", desc=f"{system} run 1", leave=False,
                disable=no_progress)
@@ -172,7 +167,7 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     what = (f"leak target {m.get('leak_lpm', 0):.4g} L/min, achieved "
             f"{m.get('leak_lpm_achieved', 0):.4g} L/min, onset {m.get('onset'):g} s"
             if m.get("onset") is not None else "no leak")
-    if m.get("onset") is None and onset_given:
+    if m.get("onset") is None and onset is not None:
         what += f" (--onset {onset:g} ignored: no leak to start)"
     if m.get("leak_kind") == "ramp" and m.get("onset") is not None \
             and m["onset"] + m["ramp_duration"] > rec.duration:

@@ -444,8 +444,8 @@ class FlowBalanceDetector(Detector):
         source = rec.meta.get("source", "<recording>")
         system = rec.meta.get("system")
         if system is not None and system != self.system:
-            raise ValueError(f"{where}: {source}: recording is system={system!r}, the detector "
-                             f"system={self.system!r}")
+            raise RecordingError(f"{where}: {source}: recording is system={system!r}, the "
+                                 f"detector system={self.system!r}")
         missing = [c for c in self._backend().CHANNELS if c not in rec.channels]
         if missing:
             raise RecordingError(

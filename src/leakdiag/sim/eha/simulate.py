@@ -279,7 +279,7 @@ def simulate_eha(
     *,
     duration: float = DEFAULT_DURATION_S,
     leak_lpm: float | None = 1.2,
-    onset: float = 90.0,
+    onset: float | None = None,
     leak_kind: str = "step",
     ramp_duration: float = 30.0,
     leak_model: str = "turbulent",
@@ -309,8 +309,9 @@ def simulate_eha(
     leak_lpm : float or None, default 1.2
         Target mean leak after the onset in L/min (Sec. 6: 0.77-1.63, case study 1: 1.2);
         0 or None: no leak.
-    onset : float, default 90.0
-        Leak onset in s (Sec. 4.6: at 90 s); must lie inside the run.
+    onset : float, optional
+        Leak onset in s; must lie inside the run. Default: half of ``duration`` (Sec. 4.6: at
+        90 s of the 180 s run).
     seed : int, default 1
         Seed of the sensor noise and of the random operating conditions: same seed, same
         output bit for bit.
@@ -460,6 +461,8 @@ def simulate_eha(
                 f"amplitude={amplitude}); the pump is a flow source, a larger mean leak is not "
                 "physical")
 
+    if onset is None:  # half the run, as the thesis's experiments (and the CLI)
+        onset = duration / 2.0
     plan = plan_leak(leak_lpm, onset, leak_kind, ramp_duration, n=n, sample_rate=fs,
                      duration=duration, check_target=within_pump_flow)
     sched = plan.schedule

@@ -191,7 +191,7 @@ def simulate_vca(
     *,
     duration: float = DEFAULT_DURATION_S,
     leak_lpm: float | None = 0.10,
-    onset: float = 200.0,
+    onset: float | None = None,
     leak_kind: str = "step",
     ramp_duration: float = 100.0,
     leak_model: str = "turbulent",
@@ -219,8 +219,9 @@ def simulate_vca(
         Length of the run in s (Sec. 4.5: 400 s).
     leak_lpm : float or None, default 0.10
         Target mean leak after the onset in L/min (Sec. 5.1: 0.047-0.5); 0 or None: no leak.
-    onset : float, default 200.0
-        Leak onset in s (Sec. 4.5: leak introduced at 200 s); must lie inside the run.
+    onset : float, optional
+        Leak onset in s; must lie inside the run. Default: half of ``duration`` (Sec. 4.5:
+        leak introduced at 200 s of the 400 s run).
     leak_model : {"turbulent", "laminar"}, default "turbulent"
         Eq. 2-4 or Eq. 2-5.
     load : {"none", "spring"}, default "none"
@@ -332,6 +333,8 @@ def simulate_vca(
             raise ValueError(f"leak_lpm={lpm} must be below the rated flow "
                              f"{params.rated_flow_lpm:.1f} L/min")
 
+    if onset is None:  # half the run, as the thesis's experiments (and the CLI)
+        onset = duration / 2.0
     plan = plan_leak(leak_lpm, onset, leak_kind, ramp_duration, n=n, sample_rate=fs,
                      duration=duration, check_target=below_rated_flow)
     sched = plan.schedule
