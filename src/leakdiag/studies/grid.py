@@ -18,7 +18,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from leakdiag._validation import check_int
-from leakdiag.detect.measure import TooFewChunksError, pct_change, rms_change
+from leakdiag.detect.measure import TooFewChunksError, chunk_rms, pct_change, rms_change
 from leakdiag.features import DegenerateWindowWarning
 from leakdiag.features.registry import feature_names, feature_record, values_at
 from leakdiag.features.series import FeatureSeries
@@ -308,17 +308,13 @@ def _fast_measure(values, sides, chunk) -> dict:
     it raises :class:`TooFewChunksError`, that of its ``partial``): NaN means, same counts.
     """
     m, k, side0 = sides
-    blocks = values[: k * chunk].reshape(k, chunk)
-    finite = np.isfinite(blocks)
-    n_valid = finite.sum(axis=1)
-    sq = np.where(finite, blocks, 0.0) ** 2
-    rms = np.sqrt(sq.sum(axis=1) / np.maximum(n_valid, 1))  # as chunk_rms (all-NaN: not used)
+    rms, n_valid = chunk_rms(values, chunk)
     side = np.where(n_valid > 0, side0, 2)  # 2: NaN values only, "empty" as in rms_change
     nb, na = int((side == -1).sum()), int((side == 1).sum())
     out = {"n_windows": m, "n_windows_dropped": m - k * chunk, "n_chunks_before": nb,
            "n_chunks_after": na, "n_chunks_straddling": int((side == 0).sum()),
            "n_chunks_empty": int((side == 2).sum()),
-           "n_nan_windows": int(k * chunk - finite.sum()), "chunk": chunk}
+           "n_nan_windows": int(k * chunk - n_valid.sum()), "chunk": chunk}
     if nb == 0 or na == 0:
         return {"mean_rms_before": np.nan, "mean_rms_after": np.nan, "pct_change": np.nan,
                 "pct_change_signed": np.nan, **out}
