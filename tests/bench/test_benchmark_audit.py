@@ -355,6 +355,26 @@ def test_console_table_v4_prints_false_alarms_with_n_and_interval():
         "0.0413"]
 
 
+
+def test_console_table_v4_prints_the_target_and_the_detections_at_the_mdl():
+    from leakdiag.bench.benchmark import console_table_v4
+
+    summary = pd.DataFrame({"method": ["m", "k"], "system": "vca", "excitation": "operating",
+                            "false_alarms": [0, 2], "n_test_healthy": [8, 8],
+                            "false_alarm_target": [0.12, 0.12],
+                            "min_detectable_lpm": [0.1, np.nan],
+                            "min_detectable_pct_rated": [2.0, np.nan],
+                            "cpu_s_per_hour": [0.04, 0.05]})
+    results = pd.DataFrame({"method": ["m", "m", "k"], "system": "vca",
+                            "excitation": "operating", "leak_lpm": [0.05, 0.1, 0.1],
+                            "n_runs": [4, 4, 4], "detection_rate": [0.5, 1.0, 0.25]})
+    lines = console_table_v4(summary, results).splitlines()
+    assert lines[0] == "false-alarm target: 0.12 per run"
+    assert "detected at MDL [95 % CI]" in lines[1]
+    # 4 of 4 at 0.1 L/min: Clopper-Pearson [0.398, 1]; none reached for k
+    assert "4/4 = 1 [0.398, 1]" in " ".join(lines[2].split())
+    assert lines[3].split()[-2:] == ["--", "0.05"]
+
 # ------------------------------------------------------------------------- 9. the doc
 def test_benchmark_readme_states_the_committed_per_unit_false_alarms():
     far = pd.read_csv(REPO / "docs/benchmark/v5/unit-conditional/false_alarms.csv")

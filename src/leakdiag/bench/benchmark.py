@@ -274,19 +274,22 @@ def _smallest_target(s, burn_in_s: float) -> tuple[float, float]:
     return low, give
 
 
-def console_table_v4(summary) -> str:
-    """The v4 summary for the console: false alarms with count, n and 95 % interval.
+def console_table_v4(summary, results=None) -> str:
+    """The v4 summary for the console: false alarms and detections with n and 95 % intervals.
 
     Parameters
     ----------
     summary : pandas.DataFrame
         :func:`~leakdiag.bench.scoring.minimum_detectable` of the run.
+    results : pandas.DataFrame, optional
+        :func:`~leakdiag.bench.scoring.summarise` of the run (``results.csv``): gives the
+        detections at the minimum detectable leak (count of ``n_runs``, 95 % interval).
 
     Returns
     -------
     str
-        One row per method, rig and input; ``--`` where a value is undefined (minimum
-        detectable leak not reached).
+        The false-alarm target per run (when the summary has it), then one row per method, rig
+        and input; ``--`` where a value is undefined (minimum detectable leak not reached).
     """
     import pandas as pd
 
@@ -295,12 +298,29 @@ def console_table_v4(summary) -> str:
     def num(x):
         return "--" if x is None or not math.isfinite(float(x)) else f"{float(x):.3g}"
 
+    def at_mdl(r):
+        if results is None or not math.isfinite(float(r.min_detectable_lpm)):
+            return "--"
+        g = results[(results.method == r.method) & (results.system == r.system)
+                     & (results.leak_lpm == r.min_detectable_lpm)]
+        if "excitation" in g and "excitation" in r:
+            g = g[g.excitation == r.excitation]
+        if len(g) != 1:
+            return "--"
+        n = int(g.n_runs.iloc[0])
+        return rate_text(int(round(float(g.detection_rate.iloc[0]) * n)), n)
+
     rows = [{"method": r.method, "rig": r.system, "input": r.excitation,
              "false alarms [95 % CI]": rate_text(r.false_alarms, r.n_test_healthy),
              "MDL (L/min)": num(r.min_detectable_lpm),
              "MDL (% rated)": num(r.min_detectable_pct_rated),
+             **({"detected at MDL [95 % CI]": at_mdl(r)} if results is not None else {}),
              "CPU s per hour": num(r.cpu_s_per_hour)} for _, r in summary.iterrows()]
-    return pd.DataFrame(rows).to_string(index=False)
+    table = pd.DataFrame(rows).to_string(index=False)
+    if "false_alarm_target" in summary and len(summary):
+        target = float(summary.false_alarm_target.iloc[0])
+        table = f"false-alarm target: {target:.3g} per run\n" + table
+    return table
 
 
 def _jsonable(d):

@@ -128,7 +128,7 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
     _echo_removed(res.removed, out_dir)
-    click.echo(console_table_v4(res.summary))
+    click.echo(console_table_v4(res.summary, res.results))
     click.echo(f"report: {res.paths['html']}")
 
 
