@@ -394,7 +394,7 @@ def _verdict_columns(det, parts: list[FeatureSeries], t: np.ndarray, v: np.ndarr
     return {**cols, "alarm": bool(verdict.leak), "alarm_time_s": d["alarm_time_s"],
             "score_max": d["score_max"], "p_value": d["confidence"],
             "alarm_onset_s": d["onset_s"], "onset_method": d["onset_method"] if verdict.leak
-            else None, "leak_lpm": d["leak_lpm"], "leak_lpm_low": d["leak_lpm_low"],
+            else None, "alarm_onset_censored": d["onset_censored"] if verdict.leak else None, "leak_lpm": d["leak_lpm"], "leak_lpm_low": d["leak_lpm_low"],
             "leak_lpm_high": d["leak_lpm_high"], "leak_lpm_in_range": d["leak_lpm_in_range"]}
 
 

@@ -31,7 +31,7 @@ RESULT_COLUMNS: dict[str, str] = {
     "pct_change": "float64", "pct_change_signed": "float64",
     "score_max": "float64", "alarm": "bool", "alarm_time_s": "float64",
     "threshold": "float64", "p_value": "float64", "alarm_onset_s": "float64",
-    "onset_method": "string", "leak_lpm": "float64", "leak_lpm_low": "float64",
+    "onset_method": "string", "alarm_onset_censored": "bool", "leak_lpm": "float64", "leak_lpm_low": "float64",
     "leak_lpm_high": "float64", "leak_lpm_in_range": "bool",
     "elapsed_s": "float64", "job_digest": "string", "job_config": "string",
     "leakdiag_version": "string", "recording_sha256": "string",

@@ -346,8 +346,14 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     if dec == "leak":
         sized = tab[tab["leak"].fillna(False).astype(bool)]
         first = sized.sort_values("alarm_time_s").iloc[0]
-        click.echo(f"  onset {first['onset_s']:.4g} s, first alarm {first['alarm_time_s']:.4g} s "
-                   f"({first['method']})")
+        if first.get("onset_censored") in (True, 1):  # the change was there from the start
+            click.echo(f"  onset at or before {first['onset_s']:.4g} s: the change was present "
+                       f"from the first window judged ({first['method']}), so it began before "
+                       f"the recording or within its burn-in; first alarm "
+                       f"{first['alarm_time_s']:.4g} s")
+        else:
+            click.echo(f"  onset {first['onset_s']:.4g} s, first alarm "
+                       f"{first['alarm_time_s']:.4g} s ({first['method']})")
         for r in sized.to_dict("records"):
             holds = r.get("leak_lpm_interval_holds")
             if r.get("leak_lpm") is not None and r["leak_lpm"] == r["leak_lpm"]:

@@ -178,6 +178,11 @@ class Verdict:
         Estimator that produced ``onset_s`` (``"cusum"`` when the offline search found nothing).
     detector : str
         Feature name.
+    onset_censored : bool, default False
+        True when the onset estimate is the first window judged (after the burn-in): the
+        change was there from the start of the judged data, so it began at or before
+        ``onset_s`` (before the recording, or during the burn-in), which is then only an upper
+        bound of the onset, and the leak size is its mean from there on.
     """
 
     leak: bool
@@ -192,6 +197,7 @@ class Verdict:
     shift: float | None
     onset_method: str
     detector: str
+    onset_censored: bool = False
 
     def __str__(self) -> str:
         """The verdict in words (``repr`` keeps every field).
@@ -212,8 +218,11 @@ class Verdict:
         if not self.leak:
             head = f"NO LEAK ({self.detector}): "
         else:
-            head = (f"LEAK ({self.detector}): alarm at {self.alarm_time_s:.4g} s, onset "
-                    f"{self.onset_s:.4g} s ({self.onset_method}); ")
+            at = "at or before " if self.onset_censored else ""
+            head = (f"LEAK ({self.detector}): alarm at {self.alarm_time_s:.4g} s, onset {at}"
+                    f"{self.onset_s:.4g} s ({self.onset_method}"
+                    + (": present from the first window judged" if self.onset_censored else "")
+                    + "); ")
             if self.leak_lpm is not None:
                 head += f"leak {self.leak_lpm:.3g} L/min"
                 if self.leak_lpm_interval is not None:
@@ -237,7 +246,8 @@ class Verdict:
                 "leak_lpm_low": lo, "leak_lpm_high": hi,
                 "leak_lpm_in_range": self.leak_lpm_in_range, "score_max": self.score_max,
                 "threshold": self.threshold, "shift": self.shift,
-                "onset_method": self.onset_method, "detector": self.detector}
+                "onset_method": self.onset_method, "detector": self.detector,
+                "onset_censored": self.onset_censored}
 
 
 @dataclass(frozen=True)
@@ -645,13 +655,14 @@ class Detector(BaseEstimator):
             if cps:
                 j, method = cps[-1], a.onset_method
         onset = float((tr.time[j] + tr.start[j]) / 2.0)
+        censored = j <= int(np.flatnonzero(np.isfinite(tr.z))[0])  # from the first judged window
         shift = _shift(tr, onset)
         lpm = interval = inside = None
         cal = getattr(self, "calibration_", None)
         if cal is not None and np.isfinite(shift):
             lpm, interval, inside = cal.estimate(shift)
         return Verdict(True, onset, float(tr.time[i_alarm]), confidence, lpm, interval, inside,
-                       smax, h, shift, method, tr.name)
+                       smax, h, shift, method, tr.name, censored)
 
     def calibrate(self, recordings, level: float = 0.9, validity: dict | None = None) -> "Detector":
         """Fit ``calibration_``: feature shift at the true onset against the true leak flow.

@@ -1036,6 +1036,7 @@ class FlowBalanceDetector(Detector):
                         (k + zq * se) * mean_phi * LPM_PER_M3S)
             offset = offset_range = None
         onset, alarm = float(t["start"][j]), float(t["end"][i])
+        common["onset_censored"] = j == 0  # the first window judged: onset an upper bound
         if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
             return FlowBalanceVerdict(
                 leak=True, onset_s=onset, alarm_time_s=alarm, leak_lpm=None,
@@ -1088,8 +1089,8 @@ class FlowBalanceDetector(Detector):
         """
         r, nu, w = t["residual"], t["nuisance"], 1.0 / self._sigma(t) ** 2
         p = nu.shape[1]
-        if p:
-            pre = slice(0, min(len(r), max(j_span, p + 1)))
+        if p and j_span > p:  # enough windows the test found leak-free to fit the nuisance on
+            pre = slice(0, j_span)
             sw = np.sqrt(w[pre])
             beta = np.linalg.lstsq(nu[pre] * sw[:, None], r[pre] * sw, rcond=None)[0]
             r = r - nu @ beta
