@@ -486,6 +486,7 @@ def test_a_leakdiag_detector_row_is_its_verdict(tmp_path):
     assert row["alarm"] is True and row["system"] == "vca"
     assert row["alarm_time_s"] == v.alarm_time_s and row["alarm_onset_s"] == v.onset_s
     assert row["onset_method"] == v.onset_method and row["p_value"] == v.confidence
+    assert row["alarm_onset_censored"] is v.onset_censored is False  # a leak from 15 s
     assert row["score_max"] == pytest.approx(v.score_max, rel=1e-12)
     assert row["threshold"] == det.threshold_
     assert (row["leak_lpm"], row["leak_lpm_low"], row["leak_lpm_high"]) == pytest.approx(

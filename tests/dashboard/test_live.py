@@ -43,6 +43,29 @@ def test_states_alarm_onset_and_clearing_by_hand():
     assert snap["time"] == [1.0, 2.0, 3.0, 4.0, 5.0, 6.0] and snap["threshold"] == 2.0
 
 
+def test_an_excursion_from_the_first_window_scored_gives_a_censored_onset():
+    """A leak there when monitoring began: the onset is only an upper bound (the page says
+    "at or before"), as Verdict.onset_censored; a later excursion is not censored."""
+    sc = DetectorScorer(_Det(), window=2, sample_rate=1.0)
+    board = LiveBoard()
+    board.add("a", "feat", sc, window_s=1.0)
+    # S+ by hand: 1.0, 2.5 (alarm at t=2): the branch was never 0
+    t, v = np.array([1.0, 2.0, 3.0]), np.array([1.5, 2.0, -9.0])
+    s = sc.score_windows(v, t)
+    np.testing.assert_allclose(s, [1.0, 2.5, 0.0])
+    board.update("a", t, v, s, s >= 2.0, received_wall=1.0)
+    snap = board.snapshot("a")
+    assert snap["alarm_time_s"] == 2.0 and snap["onset_s"] == 0.5 and snap["onset_censored"]
+    assert snap["events"][-1]["onset_censored"] is True
+    # cleared at t=3; a new excursion from t=4 (S+ 1.0, 2.5): a real onset, 3.5
+    t2, v2 = np.array([4.0, 5.0]), np.array([1.5, 2.0])
+    s2 = sc.score_windows(v2, t2)
+    board.update("a", t2, v2, s2, s2 >= 2.0, received_wall=2.0)
+    snap = board.snapshot("a")
+    assert snap["alarm_time_s"] == 5.0 and snap["onset_s"] == 3.5
+    assert snap["onset_censored"] is False and snap["events"][0]["onset_censored"] is False
+
+
 def test_buffers_are_bounded_and_nan_is_null():
     live = ActuatorLive("x", "f")
     n = MAX_POINTS + 10
@@ -69,6 +92,7 @@ def test_live_equals_offline_verdict(leak_case, chunk):
     assert snap["state"] == "ALARM"
     assert snap["alarm_time_s"] == v.alarm_time_s
     assert snap["onset_s"] == pytest.approx(v.onset_s, abs=1e-12)
+    assert snap["onset_censored"] is v.onset_censored is False
     assert snap["leak_lpm"] == pytest.approx(v.leak_lpm, rel=1e-9)
     assert (snap["leak_lpm_low"], snap["leak_lpm_high"]) == pytest.approx(v.leak_lpm_interval,
                                                                           rel=1e-9)

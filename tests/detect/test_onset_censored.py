@@ -86,8 +86,15 @@ def test_detect_prints_the_censored_onset_as_an_upper_bound(flow_balance_files, 
     assert main(["fit", "--method", "flow-balance", "--system", "vca", *healthy,
                  "--false-alarm-rate", "1", "-o", str(d / "fb.joblib")]) == 0
     capsys.readouterr()
-    assert main(["detect", str(d / "early.parquet"), "--detector", str(d / "fb.joblib")]) == 0
+    assert main(["detect", str(d / "early.parquet"), "--detector", str(d / "fb.joblib"),
+                 "--store", str(d / "e.db"), "--actuator", "rig1"]) == 0
     out = capsys.readouterr().out
     assert "Decision: LEAK" in out
     line = next(x for x in out.splitlines() if "onset" in x and "first alarm" in x)
     assert "onset at or before" in line and "began before the recording or within its burn-in" in line
+    # the store keeps it, and the fleet page will say "at or before"
+    from leakdiag.store import EventStore
+
+    st = EventStore(d / "e.db", create=False)
+    assert st.fleet()["onset_censored"].tolist() == [True]
+    st.close()

@@ -69,7 +69,7 @@ def test_schema_version_mismatch(pg_url):
     with eng.begin() as c:
         c.execute(text("update schema_version set version = 99"))
     eng.dispose()
-    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 2"):
+    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 3"):
         EventStore(pg_url)
 
 
@@ -113,11 +113,12 @@ def test_a_version_1_store_is_upgraded_in_place(pg_url):
     eng = create_engine(pg_url)
     with eng.begin() as c:
         c.execute(text("alter table runs drop column error"))
+        c.execute(text("alter table alarms drop column onset_censored"))
         c.execute(text("update schema_version set version = 1"))
-    with pytest.warns(UserWarning, match="upgraded from schema version 1 to 2"):
+    with pytest.warns(UserWarning, match="upgraded from schema version 1 to 3"):
         st = EventStore(pg_url)
     with eng.connect() as c:
-        assert c.execute(text("select version from schema_version")).all() == [(2,)]
+        assert c.execute(text("select version from schema_version")).all() == [(3,)]
         assert c.execute(text("select status, error from runs")).all() == [("finished", None)]
     eng.dispose()
     run = st.start_run("rig1", command="batch", source="b.csv", feature="acf")

@@ -95,7 +95,7 @@ def test_schema_version_mismatch(tmp_path):
     con.execute("update schema_version set version = 99")
     con.commit()
     con.close()
-    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 2"):
+    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 3"):
         EventStore(db)
 
 
@@ -313,9 +313,11 @@ def test_fleet_shows_the_first_standing_alarm_and_a_size_whatever_the_method_ord
 
 
 def _as_version_1(db):
-    """Make a store file the version-1 layout: ``runs`` without ``error``, version 1."""
+    """Make a store file the version-1 layout: ``runs`` without ``error``, ``alarms`` without
+    ``onset_censored``, version 1."""
     con = sqlite3.connect(db)
     con.execute("alter table runs drop column error")
+    con.execute("alter table alarms drop column onset_censored")
     con.execute("update schema_version set version = 1")
     con.commit()
     con.close()
@@ -337,10 +339,12 @@ def test_a_version_1_store_is_upgraded_in_place(tmp_path):
     assert con.execute("select version from schema_version").fetchall() == [(1,)]
     con.close()
     with pytest.warns(UserWarning, match=r"e.db: event store upgraded from schema version 1 to "
-                                         r"2 \(runs.error added\); leakdiag versions before"):
+                                         r"3 \(runs.error, alarms.onset_censored added\); "
+                                         r"leakdiag versions before"):
         st = EventStore(db)  # a writer upgrades it
     con = sqlite3.connect(db)
-    assert con.execute("select version from schema_version").fetchall() == [(2,)]
+    assert con.execute("select version from schema_version").fetchall() == [(3,)]
+    assert "onset_censored" in [r[1] for r in con.execute("pragma table_info(alarms)")]
     assert "error" in [r[1] for r in con.execute("pragma table_info(runs)")]
     assert con.execute("select status, error from runs").fetchall() == [("finished", None)]
     con.close()
@@ -352,7 +356,37 @@ def test_a_version_1_store_is_upgraded_in_place(tmp_path):
     st.close()
     EventStore(db).close()  # opening a current store changes nothing
     assert sqlite3.connect(db).execute("select version from schema_version").fetchall() == \
-        [(2,)]
+        [(3,)]
+
+
+def test_a_version_2_store_keeps_its_alarms_and_is_upgraded_to_3(tmp_path):
+    db = tmp_path / "e.db"
+    st = EventStore(db)
+    run = st.start_run("rig1", command="detect", source="a.parquet", feature="fb")
+    st.add_chunk(run, None, [AlarmRecord(9.8, onset_s=5.2, detector="fb")])
+    st.end_run(run)
+    st.close()
+    con = sqlite3.connect(db)
+    con.execute("alter table alarms drop column onset_censored")
+    con.execute("update schema_version set version = 2")
+    con.commit()
+    con.close()
+    st = EventStore(db, create=False)  # the fleet page reads it as it is: not known
+    assert st.version == 2
+    fl = st.fleet()
+    assert fl["onset_s"].tolist() == [5.2] and fl["onset_censored"].tolist() == [None]
+    assert st.history("rig1")[1]["onset_censored"].tolist() == [None]
+    st.close()
+    with pytest.warns(UserWarning, match=r"from schema version 2 to 3 \(alarms.onset_censored "
+                                         r"added\)"):
+        st = EventStore(db)
+    run = st.start_run("rig1", command="detect", source="b.parquet", feature="fb")
+    st.add_chunk(run, None, [AlarmRecord(7.1, onset_s=4.85, detector="fb", onset_censored=True)])
+    st.end_run(run)
+    assert st.fleet()[["onset_s", "onset_censored"]].values.tolist() == [[4.85, True]]
+    al = st.history("rig1")[1]
+    assert al["onset_censored"].tolist() == [None, True]
+    st.close()
 
 
 def test_failed_and_unjudged_runs_keep_their_reason(tmp_path):

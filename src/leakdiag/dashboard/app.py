@@ -224,7 +224,8 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                         leak += f' [{r["leak_lpm_low"]:.3g}, {r["leak_lpm_high"]:.3g}]'
                 last = "–" if r["last_alarm_at"] is None else (
                     f'{r["last_alarm_at"][:19].replace("T", " ")} (t={r["last_alarm_time_s"]:.6g} s)')
-                onset = "–" if r["onset_s"] is None else f'{r["onset_s"]:.6g} s'
+                onset = "–" if r["onset_s"] is None else (
+                    ("at or before " if r.get("onset_censored") else "") + f'{r["onset_s"]:.6g} s')
                 why = r.get("error") or ""
                 note = (f'<td class="note" title="{html.escape(why)}">'
                         f'{html.escape(why if len(why) <= 160 else why[:157] + "...")}</td>')

@@ -16,7 +16,10 @@ State of an actuator (decisions, see ``docs/operations.md``):
 * **Onset estimate**: the start of the CUSUM excursion that raised the alarm (the ``cusum``
   onset of :func:`leakdiag.detect.onset.cusum_onset`, taken online: the first window after the
   branch was last 0), at the middle of that window as in ``Detector.predict``. The offline
-  ``leakdiag detect`` may refine it with change points; the live page does not.
+  ``leakdiag detect`` may refine it with change points; the live page does not. When that
+  excursion began at the first window scored (the leak was there when monitoring started, or
+  within the burn-in), the onset is only an upper bound: ``onset_censored`` (the page shows
+  "at or before"), as ``Verdict.onset_censored``.
 * **Leak size**: with a calibrated detector (``calibration_``), ``calibration_.estimate(shift)``
   with ``shift`` the mean standardised feature of the windows that start at or after the onset
   minus that of the windows that end before it (as ``Detector.shift``); it is updated with every
@@ -83,6 +86,8 @@ class ActuatorLive:
         self.n_windows = 0
         self.alarm_on = False
         self.alarm_time_s = self.onset_s = None
+        self.onset_censored = False
+        self._first_scored = None  # time of the first window with a finite CUSUM
         self.leak: tuple | None = None
         self._exc_start = [None, None]  # (time, start) of the first window of each excursion
         self._episode_key = None  # (branch, excursion start) of the current alarm episode
@@ -130,6 +135,10 @@ class ActuatorLive:
             branches = getattr(self.scorer, "branches_", None)
         if branches is None or len(branches[0]) != len(s):
             branches = (s, s)
+        if self._first_scored is None:
+            scored = np.flatnonzero(np.isfinite(branches[0]) | np.isfinite(branches[1]))
+            if len(scored):
+                self._first_scored = float(t[scored[0]])
         z = self._z(v, s)
         fin = np.isfinite(z)
         self._hist_t.append(t[fin])
@@ -194,10 +203,11 @@ class ActuatorLive:
             self._episode_key = (b, start)
             self.alarm_time_s = ti
             self.onset_s = (start[0] + start[1]) / 2.0
+            self.onset_censored = start[0] == self._first_scored  # there from the start
             self.leak = None
         self.events.append({"time_s": ti, "kind": "alarm", "score": _num(s[i]),
-                            "onset_s": self.onset_s, "episode": self.episode,
-                            "again": same})
+                            "onset_s": self.onset_s, "onset_censored": self.onset_censored,
+                            "episode": self.episode, "again": same})
         self.n_events_total += 1
         return not same
 
@@ -235,6 +245,7 @@ class ActuatorLive:
         return {
             "actuator": self.name, "feature": self.feature, "threshold": self.threshold,
             "state": state, "alarm_time_s": self.alarm_time_s, "onset_s": self.onset_s,
+            "onset_censored": self.onset_censored if self.onset_s is not None else None,
             "leak_lpm": leak[0] if leak else None, "leak_lpm_low": leak[1] if leak else None,
             "leak_lpm_high": leak[2] if leak else None,
             "leak_in_range": leak[3] if leak else None,

@@ -121,7 +121,8 @@ class ChunkRecorder:
         for e in fresh:
             if e["kind"] == "alarm" and not e["again"]:
                 new.append(AlarmRecord(e["time_s"], e["score"], live.threshold, e["onset_s"],
-                                       detector=live.feature))
+                                       detector=live.feature,
+                                       onset_censored=e.get("onset_censored")))
                 continue
             cleared = e["time_s"] if e["kind"] == "cleared" else None
             if new:  # the episode's alarm row is written with these chunks

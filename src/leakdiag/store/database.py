@@ -204,8 +204,9 @@ class EventStore:
                 old = rows[0]
                 while rows[0] in S.UPGRADES and rows[0] < S.SCHEMA_VERSION:
                     rows = [self._upgrade(conn, rows[0])]
+                added = ", ".join(S.UPGRADE_NOTES[v] for v in range(old, rows[0]))
                 warnings.warn(f"{self.shown_url}: event store upgraded from schema version "
-                              f"{old} to {rows[0]} (runs.error added); leakdiag versions "
+                              f"{old} to {rows[0]} ({added} added); leakdiag versions "
                               "before this one no longer open it", UserWarning, stacklevel=4)
             if rows and rows != [S.SCHEMA_VERSION]:
                 raise StoreError(
@@ -483,7 +484,7 @@ class EventStore:
 
         act = self._frame(select(S.actuators))
         runs = self._frame(select(*self._run_columns()))
-        al = self._frame(select(S.alarms, S.runs.c.actuator_id).join(
+        al = self._frame(select(*self._alarm_columns(), S.runs.c.actuator_id).join(
             S.runs, S.runs.c.id == S.alarms.c.run_id))
         rows = []
         for a in act.itertuples():
@@ -523,14 +524,15 @@ class EventStore:
             rows.append({"name": a.name, "system": a.system, "state": state,
                          "last_seen_at": a.last_seen_at, "n_runs": len(r),
                          "last_alarm_at": g("raised_at"), "last_alarm_time_s": g("alarm_time_s"),
-                         "onset_s": g("onset_s"), "leak_lpm": g("leak_lpm", size_row),
+                         "onset_s": g("onset_s"), "onset_censored": g("onset_censored"),
+                         "leak_lpm": g("leak_lpm", size_row),
                          "leak_lpm_low": g("leak_lpm_low", size_row),
                          "leak_lpm_high": g("leak_lpm_high", size_row),
                          "feature": None if last is None else last["feature"],
                          "source": None if last is None else last["source"], "error": why})
         cols = ["name", "system", "state", "last_seen_at", "n_runs", "last_alarm_at",
-                "last_alarm_time_s", "onset_s", "leak_lpm", "leak_lpm_low", "leak_lpm_high",
-                "feature", "source", "error"]
+                "last_alarm_time_s", "onset_s", "onset_censored", "leak_lpm", "leak_lpm_low",
+                "leak_lpm_high", "feature", "source", "error"]
         return pd.DataFrame(rows, columns=cols).sort_values("name", kind="stable") \
             .reset_index(drop=True)
 
@@ -561,7 +563,8 @@ class EventStore:
                            .join(S.runs, S.runs.c.id == S.chunk_summaries.c.run_id)
                            .where(S.runs.c.actuator_id == aid)
                            .order_by(S.chunk_summaries.c.recorded_at, S.chunk_summaries.c.id))
-        al = self._frame(select(S.alarms, *extra).join(S.runs, S.runs.c.id == S.alarms.c.run_id)
+        al = self._frame(select(*self._alarm_columns(), *extra).join(
+            S.runs, S.runs.c.id == S.alarms.c.run_id)
                          .where(S.runs.c.actuator_id == aid).order_by(S.alarms.c.id))
         return summ, al
 
@@ -600,6 +603,16 @@ class EventStore:
             "id", "command", "source", "feature", "started_at", "ended_at", "status",
             "n_chunks", "n_windows", "threshold", "error")))
                            .where(c.actuator_id == aid).order_by(c.id.desc()))
+
+    def _alarm_columns(self) -> list:
+        """The columns of ``alarms`` this file has (before version 3 read as it is: no
+        ``onset_censored``, read as unknown)."""
+        from sqlalchemy import null
+
+        if self.version >= 3:
+            return list(S.alarms.c)
+        return [c for c in S.alarms.c if c.name != "onset_censored"] + \
+            [null().label("onset_censored")]
 
     def _run_columns(self) -> list:
         """The columns of ``runs`` this file has (a version-1 file read as it is: no error)."""

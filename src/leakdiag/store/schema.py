@@ -12,16 +12,22 @@ from __future__ import annotations
 from sqlalchemy import (Boolean, Column, DateTime, Float, ForeignKey, Index, Integer, MetaData,
                         String, Table, Text)
 
-__all__ = ["SCHEMA_VERSION", "UPGRADES", "metadata", "schema_version", "actuators", "runs",
+__all__ = ["SCHEMA_VERSION", "UPGRADES", "UPGRADE_NOTES", "metadata", "schema_version", "actuators", "runs",
            "chunk_summaries", "alarms"]
 
 #: Version of the table layout below. 1: the first layout; 2: ``runs.error``, the reason a run
-#: failed or was not judged. A version-1 store is upgraded in place when opened (one added
-#: column, :data:`UPGRADES`); a store of any other version is refused.
-SCHEMA_VERSION = 2
+#: failed or was not judged; 3: ``alarms.onset_censored``, the onset is the first window judged
+#: (the leak was there from the start, the onset is an upper bound). An older store is upgraded
+#: in place when a writer opens it (added columns, :data:`UPGRADES`); a store of any other
+#: version is refused.
+SCHEMA_VERSION = 3
 
 #: The statements that take a store from version ``v`` to ``v + 1``.
-UPGRADES = {1: ("ALTER TABLE runs ADD COLUMN error TEXT",)}
+UPGRADES = {1: ("ALTER TABLE runs ADD COLUMN error TEXT",),
+            2: ("ALTER TABLE alarms ADD COLUMN onset_censored BOOLEAN",)}
+
+#: What each upgrade adds, in words (the writer's warning).
+UPGRADE_NOTES = {1: "runs.error", 2: "alarms.onset_censored"}
 
 metadata = MetaData()
 
@@ -88,6 +94,7 @@ alarms = Table(
     Column("alarm_time_s", Float, nullable=False),
     Column("cleared_time_s", Float),
     Column("onset_s", Float),
+    Column("onset_censored", Boolean),  # onset at the first window judged (schema version 3)
     Column("score", Float),
     Column("threshold", Float),
     Column("leak_lpm", Float),

@@ -61,6 +61,9 @@ class AlarmRecord:
         Detector score at the alarm and its threshold.
     onset_s : float or None
         Estimated leak onset (s).
+    onset_censored : bool or None
+        True when the onset is the first window judged: the leak was there from the start and
+        ``onset_s`` is an upper bound (None: not known, e.g. a store before schema version 3).
     leak_lpm, leak_lpm_low, leak_lpm_high : float or None
         Leak flow estimate and its prediction interval (L/min), when the detector is calibrated.
     cleared_time_s : float or None
@@ -78,6 +81,7 @@ class AlarmRecord:
     leak_lpm_high: float | None = None
     cleared_time_s: float | None = None
     detector: str | None = None
+    onset_censored: bool | None = None
 
 
 def summarize_windows(time, values, scores=None, alarms=None) -> ChunkSummary | None:

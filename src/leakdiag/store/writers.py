@@ -20,6 +20,19 @@ def _num(v) -> float | None:
     return v if math.isfinite(v) else None
 
 
+def _flag(v) -> bool | None:
+    """A result cell as a flag, None for a missing one (None, NaN, pandas.NA).
+
+    Examples
+    --------
+    >>> _flag(True), _flag(0), _flag(float("nan")), _flag(None)
+    (True, False, None, None)
+    """
+    if v is None or (isinstance(v, float) and v != v) or str(v) == "<NA>":
+        return None
+    return bool(v)
+
+
 def _text(v) -> str | None:
     """A result cell as text, None for a missing one (None, NaN, pandas.NA, empty)."""
     if v is None or (isinstance(v, float) and v != v) or str(v) in ("", "<NA>", "nan"):
@@ -154,7 +167,8 @@ def record_batch(store: EventStore, results, job_digest: str,
             alarms.append(AlarmRecord(
                 _num(r["alarm_time_s"]), _num(r.get("score_max")), _num(r.get("threshold")),
                 _num(r.get("alarm_onset_s")), _num(r.get("leak_lpm")),
-                _num(r.get("leak_lpm_low")), _num(r.get("leak_lpm_high")), detector=feature))
+                _num(r.get("leak_lpm_low")), _num(r.get("leak_lpm_high")), detector=feature,
+                onset_censored=_flag(r.get("alarm_onset_censored"))))
         if summ is not None or alarms:
             store.add_chunk(run, summ, alarms)
         unjudged = r.get("kind") == "detector" and not judged
@@ -195,7 +209,8 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
             store.add_chunk(run, None, [AlarmRecord(
                 _num(r["alarm_time_s"]), _num(r.get("score_max")), _num(r.get("threshold")),
                 _num(r.get("onset_s")), _num(r.get("leak_lpm")), _num(r.get("leak_lpm_low")),
-                _num(r.get("leak_lpm_high")), detector=str(r["method"]))])
+                _num(r.get("leak_lpm_high")), detector=str(r["method"]),
+                onset_censored=_flag(r.get("onset_censored")))])
             n += 1
         store.end_run(run, "failed" if failed else "finished", err if failed else None)
     return n

@@ -25,7 +25,8 @@ function render(s) {
   st.className = "state " + s.state;
   document.getElementById("feature").textContent = s.feature;
   document.getElementById("alarm-time").textContent = fmt(s.alarm_time_s, " s");
-  document.getElementById("onset").textContent = fmt(s.onset_s, " s");
+  document.getElementById("onset").textContent = (s.onset_censored ? "at or before " : "") +
+    fmt(s.onset_s, " s") + (s.onset_censored ? " (there when monitoring began)" : "");
   let leak = s.calibrated ? "–" : "no calibration";
   if (s.leak_lpm !== null) {
     leak = fmt(s.leak_lpm, " L/min") + " [" + fmt(s.leak_lpm_low, "") + ", " +
@@ -56,7 +57,8 @@ function render(s) {
     const li = document.createElement("li");
     li.className = e.kind;
     li.textContent = e.kind.toUpperCase() + (e.again ? " again" : "") + " at t=" + fmt(e.time_s, " s") + ", score " +
-      fmt(e.score, "") + (e.onset_s !== undefined && e.onset_s !== null ? ", onset " + fmt(e.onset_s, " s") : "");
+      fmt(e.score, "") + (e.onset_s !== undefined && e.onset_s !== null ? ", onset " +
+      (e.onset_censored ? "at or before " : "") + fmt(e.onset_s, " s") : "");
     ul.appendChild(li);
   }
   if (s.done) {
