@@ -197,10 +197,11 @@ def test_quick_v4_runs_with_its_defaults_and_prints_rates_with_intervals(tmp_pat
     assert (s.far_low, s.far_high) == pytest.approx((lo, hi))
     k = int(s.false_alarms)
     lines = text.splitlines()
-    assert lines[0].split() == ["method", "rig", "input", "false", "alarms", "[95", "%", "CI]",
-                                "MDL", "(L/min)", "MDL", "(%", "rated)", "CPU", "s", "per",
-                                "hour"]
-    assert f"{k}/8 = {k / 8:.3g} [{lo:.3g}, {hi:.3g}]" in lines[1]
+    assert lines[0] == "false-alarm target: 0.12 per run"  # the quick default, said
+    assert lines[1].split() == ["method", "rig", "input", "false", "alarms", "[95", "%", "CI]",
+                                "MDL", "(L/min)", "MDL", "(%", "rated)", "detected", "at", "MDL",
+                                "[95", "%", "CI]", "CPU", "s", "per", "hour"]
+    assert f"{k}/8 = {k / 8:.3g} [{lo:.3g}, {hi:.3g}]" in lines[2]
     assert lines[-1] == f"report: {out / 'index.html'}"
 
 
