@@ -240,6 +240,21 @@ def test_fit_refuses_a_leaking_run_a_repeated_run_and_mixed_rates_or_rigs():
     assert (det.sample_rate_, det.system_) == (RATE, "vca")
 
 
+def test_fit_refuses_healthy_runs_of_different_loads():
+    """Found by an audit (2026-11-27): no-load and spring runs were pooled without a word;
+    the spring run set a flow-balance threshold of 102 (2.4 without it) and a 0.02 L/min leak
+    was judged NO LEAK."""
+    h = [synthetic(60.0, s) for s in range(3)]
+    det = WindowMeanDetector(alarm=Alarm(false_alarms_per_hour=30.0, burn_in_s=0.0))
+    with pytest.raises(ValueError, match=r"fit: the healthy recordings state different loads "
+                                         r"\('none' in healthy recording 1 \(syn0\), 'spring' "
+                                         r"in healthy recording 3 \(syn2\)\); fit one detector "
+                                         r"per load"):
+        det.fit([_with(h[0], meta={"load": "none"}), _with(h[1], meta={"load": "None"}),
+                 _with(h[2], meta={"load": "spring"})])
+    det.fit([_with(h[0], meta={"load": "spring"}), h[1], _with(h[2], meta={"load": "spring"})])
+
+
 def test_predict_refuses_another_rate_or_rig_than_the_healthy_runs():
     """Found by an API audit (2026-11-27): a VCA detector judged a healthy EHA run LEAK
     (score 985 against 54), a run at another rate likewise (windows are in samples)."""

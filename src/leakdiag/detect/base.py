@@ -731,6 +731,7 @@ def healthy_info(recording, channels=None) -> dict:
     return {"source": str(meta.get("source", "<recording>")),
             "sample_rate": float(recording.sample_rate),
             "system": None if meta.get("system") is None else str(meta["system"]).lower(),
+            "load": None if meta.get("load") is None else str(meta["load"]).lower(),
             "leak_lpm": meta_leak_lpm(meta), "onset": meta.get("onset"),
             "digest": h.hexdigest()}
 
@@ -745,7 +746,7 @@ def check_healthy(infos: list[dict]) -> tuple[float | None, str | None]:
     leakdiag.io.RecordingError
         Naming the recording (by position and source) and the problem.
     ValueError
-        If the recordings state different rigs.
+        If the recordings state different rigs or different loads.
     """
     def name(i):
         return f"healthy recording {i + 1} ({infos[i]['source']})"
@@ -769,6 +770,16 @@ def check_healthy(infos: list[dict]) -> tuple[float | None, str | None]:
     if len(systems) > 1:
         raise ValueError(f"fit: the healthy recordings come from different rigs ({systems}); "
                          "fit one detector per rig")
+    loads = sorted({info.get("load") for info in infos if info.get("load") is not None})
+    if len(loads) > 1:  # pooled, the load's own variation set the threshold: a leak was missed
+        first = {ld: next(i for i, info in enumerate(infos) if info.get("load") == ld)
+                 for ld in loads}
+        raise ValueError(
+            "fit: the healthy recordings state different loads ("
+            + ", ".join(f"{ld!r} in {name(i)}" for ld, i in first.items())
+            + "); fit one detector per load (pooled, the difference between the loads sets "
+            "the threshold: a flow balance on no-load and spring runs got 102 against 2.4 and "
+            "missed a 0.02 L/min leak)")
     return (rates.pop() if len(rates) == 1 else None), (systems[0] if systems else None)
 
 
