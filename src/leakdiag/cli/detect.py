@@ -8,7 +8,7 @@ from leakdiag.cli._options import recording_options, resample_option
 from leakdiag.cli.dashboard import actuator_option
 from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
 
-__all__ = ["detect", "verdict_table", "overall_verdict"]
+__all__ = ["detect", "verdict_table", "overall_verdict", "per_run_rate"]
 
 _DEFAULT_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 
@@ -26,15 +26,61 @@ def _row(m, det, rec, n_healthy):
     # flow balance) keep them on the threshold and themselves, not on the default Alarm
     per_hour = float(getattr(det.alarm_threshold_, "target_per_hour", a.false_alarms_per_hour))
     burn_in = float(getattr(det, "burn_in_s", a.burn_in_s))
-    monitored_h = max(rec.duration - burn_in, 0.0) / 3600.0  # the alarm's span in this run
+    span_s = max(rec.duration - burn_in, 0.0)  # the alarm's span in this run
     method = basis.method if basis is not None else det.alarm_threshold_.method
+    per_run, guaranteed = per_run_rate(basis, per_hour, span_s)
     row = {"method": m, **v.as_dict(), "threshold_method": method,
            "threshold_basis": basis if basis is None else threshold_words(basis),
            "n_healthy": n_healthy, "false_alarms_per_hour": per_hour,
-           "false_alarms_per_run": per_hour * monitored_h}
+           "false_alarms_per_run": per_run, "false_alarms_per_run_guaranteed": guaranteed}
     if basis is None:  # only a threshold basis gives a p-value (docs/detect.md, section 2)
         row["confidence"] = None
     return row
+
+
+def per_run_rate(basis, per_hour: float, span_s: float) -> tuple[float, bool]:
+    """The false-alarm rate a threshold promises for one judged run, and whether data back it.
+
+    A distribution-free (conformal, supported) threshold holds ``bound_per_segment`` per
+    healthy segment, so a run spanning ``m`` segments (``m >= 1``: a run shorter than one
+    segment is held to the segment's bound, which cannot be scaled down) is held to
+    ``min(1, m * bound_per_segment)``. Any other threshold (the flow balance's model-based
+    level, a target the healthy runs do not support, no basis) guarantees nothing: the rate is
+    the requested one per hour times the span, and says so.
+
+    Parameters
+    ----------
+    basis : ThresholdBasis or None
+        ``Detector.threshold_basis_``.
+    per_hour : float
+        Requested false alarms per hour.
+    span_s : float
+        Judged span of the run (after the burn-in), s.
+
+    Returns
+    -------
+    rate : float
+    guaranteed : bool
+
+    Examples
+    --------
+    >>> from leakdiag.detect.threshold import conformal_threshold
+    >>> b = conformal_threshold([3.0, 1.0, 2.0, 5.0], 0.2, segment_s=60.0)  # 1/5 per segment
+    >>> per_run_rate(b, 12.0, 7.0)  # 7 s judged: 1 segment, not 12/h x 7 s = 0.023
+    (0.2, True)
+    >>> round(per_run_rate(b, 12.0, 150.0)[0], 9)  # 3 segments
+    0.6
+    >>> per_run_rate(None, 12.0, 150.0)
+    (0.5, False)
+    """
+    import math
+
+    from leakdiag.detect.threshold import SEGMENT_TOLERANCE
+
+    if basis is not None and basis.method == "conformal" and basis.supported:
+        m = max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
+        return min(1.0, float(basis.bound_per_segment) * m), True
+    return per_hour * span_s / 3600.0, False
 
 
 def _cannot_judge(det, rec, file, m):
@@ -108,8 +154,9 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     -------
     pandas.DataFrame
         One row per method: :meth:`Verdict.as_dict` plus ``method``, ``threshold_method``,
-        ``threshold_basis``, ``n_healthy``, ``false_alarms_per_hour`` and
-        ``false_alarms_per_run`` (after the burn-in) (or ``error`` when the
+        ``threshold_basis``, ``n_healthy``, ``false_alarms_per_hour``,
+        ``false_alarms_per_run`` (after the burn-in, :func:`per_run_rate`) and
+        ``false_alarms_per_run_guaranteed`` (or ``error`` when the
         method cannot be fitted on the healthy files, or a channel it reads is constant).
 
     Raises
@@ -227,7 +274,13 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
     per_run = (pd.to_numeric(ok["false_alarms_per_run"]) if "false_alarms_per_run" in ok
                else pd.to_numeric(ok["false_alarms_per_hour"]) * duration_s / 3600.0)
     rate = per_run.sum()
+    unbacked = (ok[ok["false_alarms_per_run_guaranteed"].eq(False)]["method"].tolist()
+                if "false_alarms_per_run_guaranteed" in ok else [])
     fa = f"false-alarm rate for this run at most {rate:.3g} (sum over {len(ok)} method(s))"
+    if unbacked:  # a model-based level or an unsupported target: no data back the number
+        fa = (f"false-alarm rate for this run about {rate:.3g} (sum over {len(ok)} method(s)), "
+              f"not guaranteed: the threshold of {', '.join(unbacked)} is model-based or "
+              "beyond what its healthy runs support (see its threshold line)")
     if rate > 1.0:  # a sum of expected false alarms, not a probability any more
         fa = (f"false alarms expected in this run up to {rate:.3g} (sum over {len(ok)} "
               "method(s)): no useful bound on the chance of one; ask for fewer false alarms "
