@@ -220,6 +220,19 @@ def test_a_run_shorter_than_a_segment_is_held_to_the_segment_bound(files, tmp_pa
     assert "false-alarm rate for this run at most 0.25 (sum over 1 method(s))" in out
 
 
+def test_fit_names_its_option_for_a_target_of_one_alarm_per_segment(files, tmp_path, capsys):
+    """It said 'false_alarms_per_hour=300.0 ... choose a smaller target or segment_s', names of
+    the Python API (no --segment option exists)."""
+    healthy, _, _ = files
+    assert main(["fit", *_h(healthy), "-m", "acf-p1", "--false-alarm-rate", "300",
+                 "--no-progress", "-o", str(tmp_path / "d.joblib")]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert ("--false-alarm-rate 300 (per hour) is one or more alarms per 15 s segment: choose a "
+            "smaller --false-alarm-rate (a segment is a healthy recording after the burn-in)"
+            ) in err
+    assert "segment_s" not in err and "false_alarms_per_hour" not in err
+
+
 def _cut(path, seconds, out):
     from leakdiag.io import read_recording, write_recording
     from leakdiag.io.recording import Recording

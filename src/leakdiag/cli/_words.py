@@ -61,10 +61,19 @@ def in_cli_words(message: str) -> str:
     '3 maxima. Give more --healthy recordings (or longer ones), or a larger --false-alarm-rate'
     >>> in_cli_words("fit: only 0 finite feature values after burn_in_s=5.0")
     'fit: only 0 finite feature values after --burn-in 5.0 s'
+    >>> in_cli_words("false_alarms_per_hour=100.0 is one or more alarms per 85 s segment: "
+    ...              "choose a smaller target or segment_s")  # doctest: +NORMALIZE_WHITESPACE
+    '--false-alarm-rate 100 (per hour) is one or more alarms per 85 s segment: choose a smaller
+    --false-alarm-rate (a segment is a healthy recording after the burn-in)'
     """
     import re
 
     message = message.replace(_API_ADVICE, _CLI_ADVICE)
+    message = message.replace("choose a smaller target or segment_s",
+                              "choose a smaller --false-alarm-rate (a segment is a healthy "
+                              "recording after the burn-in)")
+    message = re.sub(r"false_alarms_per_hour=([0-9.eE+-]+)",
+                     lambda m: f"--false-alarm-rate {float(m.group(1)):g} (per hour)", message)
     return re.sub(r"burn_in_s=([0-9.eE+-]+)", r"--burn-in \1 s", message)
 
 
