@@ -307,3 +307,34 @@ def test_detect_refuses_fitting_options_a_detector_file_would_ignore(files, tmp_
            "files; a --detector file keeps the settings it was fitted with" \
            in capsys.readouterr().err
     assert main(["detect", leak, "--detector", str(det), "--no-progress"]) == 0
+
+
+def test_detect_says_what_a_file_without_rig_or_load_could_not_be_checked_for(files, tmp_path,
+                                                                                capsys):
+    """A CSV keeps no metadata: its rig and load were not checked against the detector's, in
+    silence (an audit found a VCA detector judging a plain-CSV healthy EHA run LEAK). detect
+    says so; a --map stating them is checked (and a wrong one refused)."""
+    from leakdiag.io import read_recording, write_recording
+
+    healthy, leak, _ = files
+    det = tmp_path / "acf.joblib"
+    assert main(["fit", *_h(healthy), "-m", "acf-p1", "--false-alarm-rate", "60",
+                 "--no-progress", "-o", str(det)]) == 0
+    csv = str(write_recording(read_recording(leak), tmp_path / "leak.csv"))
+    capsys.readouterr()
+    assert main(["detect", csv, "--detector", str(det), "--no-progress"]) == 0
+    err = " ".join(capsys.readouterr().err.split())
+    assert ("leakdiag: warning: " + csv + " states no rig in its metadata, so it was not "
+            f"checked against the rig 'vca' of {det} (another rig can look like a leak: state "
+            "it as system in the [file] table of a --map, or in the file's metadata)") in err
+    assert "states no load" in err
+    toml = tmp_path / "map.toml"
+    toml.write_text('[file]\nsystem = "vca"\nload = "none"\n[channels]\np1 = "p1"\np2 = "p2"\n'
+                    'x = "x"\nu = "u"\n')
+    assert main(["detect", csv, "--detector", str(det), "--map", str(toml),
+                 "--no-progress"]) == 0
+    assert "states no" not in capsys.readouterr().err
+    toml.write_text('[file]\nsystem = "eha"\n[channels]\np1 = "p1"\np2 = "p2"\n')
+    assert main(["detect", csv, "--detector", str(det), "--map", str(toml),
+                 "--no-progress"]) == 2
+    assert "was fitted on" in capsys.readouterr().err

@@ -8,7 +8,7 @@ from leakdiag.cli._options import recording_options, resample_option
 from leakdiag.cli.dashboard import actuator_option
 from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
 
-__all__ = ["detect", "verdict_table", "overall_verdict", "per_run_rate"]
+__all__ = ["detect", "verdict_table", "overall_verdict", "per_run_rate", "unchecked_notes"]
 
 _DEFAULT_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 
@@ -36,6 +36,32 @@ def _row(m, det, rec, n_healthy):
     if basis is None:  # only a threshold basis gives a p-value (docs/detect.md, section 2)
         row["confidence"] = None
     return row
+
+
+def unchecked_notes(rec, file: str, fitted_on: str, system, load) -> list[str]:
+    """What of the judged recording could not be checked against the detector's healthy
+    recordings because its metadata do not say it (rig, load): one sentence each.
+
+    A recording of another rig or load than the healthy ones can look like a leak (an audit
+    found a VCA detector judging a plain-CSV healthy EHA run LEAK), so an unchecked one is said.
+
+    Examples
+    --------
+    >>> from leakdiag.io.recording import Recording
+    >>> r = Recording({"p1": [0.0, 1.0]}, 1.0, meta={"system": "vca"})
+    >>> unchecked_notes(r, "x.csv", "d.joblib", "vca", "spring")  # doctest: +NORMALIZE_WHITESPACE
+    ["x.csv states no load in its metadata, so it was not checked against the load 'spring' of
+    d.joblib (another load can look like a leak: state it as load in the [file] table of a
+    --map, or in the file's metadata)"]
+    """
+    out = []
+    for key, what, fitted in (("system", "rig", system), ("load", "load", load)):
+        if fitted is not None and rec.meta.get(key) is None:
+            out.append(f"{file} states no {what} in its metadata, so it was not checked against "
+                       f"the {what} {str(fitted)!r} of {fitted_on} (another {what} can look "
+                       f"like a leak: state it as {key} in the [file] table of a --map, or in "
+                       "the file's metadata)")
+    return out
 
 
 def per_run_rate(basis, per_hour: float, span_s: float) -> tuple[float, bool]:
@@ -178,7 +204,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
 
     say = progress or (lambda msg: None)
     rec = read_with(file, column_map, sample_rate, resample)
-    rows = []
+    rows, notes = [], []
     rig = rec.meta.get("system")  # the file's rig, else the detectors' or the --system
     for path in detectors:
         det, meta = load_detector_file(path)
@@ -186,6 +212,8 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
         check_detector_fits(meta, sample_rate=rec.sample_rate, channels=rec.channels,
                             units=rec.units, system=rec.meta.get("system"), source=str(file),
                             path=str(path), load=rec.meta.get("load"))
+        notes += unchecked_notes(rec, str(file), str(path), getattr(meta, "system", None),
+                                 getattr(meta, "load", None))
         m = meta.method if meta else str(path)
         say(f"judging with {path} ({m})...")
         rows.append(_cannot_judge(det, rec, file, m)
@@ -198,6 +226,9 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
             raise ValueError(f"{file}: load {str(load)!r}, but the --healthy recordings are "
                              f"all load {fitted_load!r}: give healthy recordings under this "
                              "load")
+        systems = {str(r.meta["system"]).lower() for r in train if r.meta.get("system")}
+        notes += unchecked_notes(rec, str(file), "the --healthy recordings",
+                                 systems.pop() if len(systems) == 1 else None, fitted_load)
         system = system_of([rec, *train], system, [str(file), *map(str, healthy)])
         rig = rig or system
         span = rec.duration - burn_in_s  # monitored: the burn-in never alarms
@@ -231,6 +262,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     tab = pd.DataFrame(rows)
     tab.attrs["duration_s"] = float(rec.duration)
     tab.attrs["system"] = None if rig is None else str(rig).lower()
+    tab.attrs["notes"] = list(dict.fromkeys(notes))
     return tab
 
 
@@ -377,6 +409,8 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     # Verdict.confidence is a conformal p-value (small = evidence of a leak): print it by that name
     shown = tab[cols_].astype(object).rename(columns={"confidence": "p_value"})
     click.echo(shown.where(shown.notna(), "-").to_string(index=False))
+    for note in tab.attrs.get("notes", []):
+        click.echo(f"leakdiag: warning: {note}", err=True)
     if st is not None:
         import os
 

@@ -251,6 +251,15 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
     meta.setdefault("source", source)
     if column_map is not None:
         meta["column_map"] = column_map.to_dict()
+        for key, what in (("system", "rig"), ("load", "load")):
+            given = getattr(column_map, key)
+            if given is None:
+                continue
+            own = meta.get(key)
+            if own is not None and str(own).lower() != given:
+                raise RecordingError(f"{source}: the column map says {what} {given!r}, the "
+                                     f"file's own metadata say {str(own)!r}: fix the map")
+            meta[key] = given
     start = float(t[0]) if t is not None else 0.0
     if resample is not None:
         if t is None:

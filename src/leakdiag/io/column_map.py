@@ -34,7 +34,9 @@ __all__ = [
 TIME_UNITS = ("s", "ms", "us", "samples")
 
 #: Keys allowed in the ``[file]`` table.
-FILE_KEYS = ("separator", "sample_rate_hz", "time_column", "time_unit")
+FILE_KEYS = ("separator", "sample_rate_hz", "time_column", "time_unit", "system", "load")
+#: Rigs a map's ``system`` may name.
+SYSTEMS = ("vca", "eha")
 #: Keys allowed in a ``[channels.<name>]`` table.
 CHANNEL_KEYS = ("column", "unit", "gain", "offset", "si_unit")
 #: A channel name is an identifier.
@@ -127,11 +129,18 @@ class ColumnMap:
         Name of the time column (default: a column named ``time`` if present).
     time_unit : {"s", "ms", "us", "samples"}, default "s"
         Unit of the time column; ``samples`` is a sample counter that needs ``sample_rate_hz``.
+    system : {"vca", "eha"}, optional
+        The rig the file comes from, stored as ``meta["system"]`` of the recording (a CSV keeps
+        no metadata): detectors then check it against the rig they were fitted on.
+    load : str, optional
+        The load the file was recorded under (``"none"``, ``"spring"`` or a name of yours,
+        lower-cased), stored as ``meta["load"]``: checked against the detectors' healthy
+        recordings likewise. A file whose own metadata say otherwise is refused.
 
     Raises
     ------
     RecordingError
-        Bad channel name, bad time unit, non-positive sample rate.
+        Bad channel name, bad time unit, non-positive sample rate, unknown rig, empty load.
 
     Examples
     --------
@@ -145,6 +154,8 @@ class ColumnMap:
     sample_rate_hz: float | None = None
     time_column: str | None = None
     time_unit: str = "s"
+    system: str | None = None
+    load: str | None = None
 
     def __post_init__(self) -> None:
         chans = {}
@@ -171,6 +182,16 @@ class ColumnMap:
         if self.separator is not None and (not isinstance(self.separator, str)
                                            or not self.separator):
             raise RecordingError(f"separator={self.separator!r} must be a non-empty string")
+        if self.system is not None:
+            if not isinstance(self.system, str) or self.system.lower() not in SYSTEMS:
+                raise RecordingError(f"system={self.system!r} must be one of "
+                                     f"{', '.join(SYSTEMS)}")
+            object.__setattr__(self, "system", self.system.lower())
+        if self.load is not None:
+            if not isinstance(self.load, str) or not self.load.strip():
+                raise RecordingError(f"load={self.load!r} must be a non-empty name, e.g. "
+                                     "'none' or 'spring'")
+            object.__setattr__(self, "load", self.load.strip().lower())
 
     def to_dict(self) -> dict[str, Any]:
         """The map as a TOML-shaped dict (``{"file": {...}, "channels": {...}}``), Nones dropped.
