@@ -475,6 +475,10 @@ class Detector(BaseEstimator):
         self.healthy_hours_ = float(sum(spans)) / 3600.0
         self.feature_name_ = series[0][3]
         self.sample_rate_, self.system_ = rate, system
+        # the longest run of undefined (NaN) feature windows a judged run may have before its
+        # NO LEAK is refused: a constant channel (a stuck sensor) makes its windows NaN, and
+        # the CUSUM holds its value across them (docs/detect.md, section 2, "Blind spans")
+        self.nan_run_healthy_ = max(longest_nan_run(s[1]) for s in series)
         return self
 
     def segment_maxima(self, recordings) -> np.ndarray:
@@ -642,6 +646,7 @@ class Detector(BaseEstimator):
         confidence = basis.p_value(smax, n_seg)
         above = np.flatnonzero(stat > h)
         if len(above) == 0:
+            self._check_blind_spans(tr, source)  # NO LEAK needs every span looked at
             return Verdict(False, None, None, confidence, None, None, None, smax, h, None,
                            a.onset_method, tr.name)
         i_alarm = int(above[0])
@@ -663,6 +668,25 @@ class Detector(BaseEstimator):
             lpm, interval, inside = cal.estimate(shift)
         return Verdict(True, onset, float(tr.time[i_alarm]), confidence, lpm, interval, inside,
                        smax, h, shift, method, tr.name, censored)
+
+    def _check_blind_spans(self, tr: _Trace, source: str) -> None:
+        """Refuse a NO LEAK over a run of undefined feature windows longer than the healthy
+        recordings had, ``NAN_RUN_FACTOR`` times ``nan_run_healthy_`` (at least
+        ``NAN_RUN_FLOOR``; detectors fitted before it: no check)."""
+        healthy = getattr(self, "nan_run_healthy_", None)
+        if healthy is None:
+            return
+        limit = NAN_RUN_FACTOR * max(healthy, NAN_RUN_FLOOR)
+        n, i = longest_nan_run(tr.z, where=True)
+        if n <= limit:
+            return
+        t0, t1 = float(tr.start[i]), float(tr.time[i + n - 1])
+        raise RecordingError(
+            f"predict: {source}: the feature {tr.name!r} is undefined in {n} consecutive "
+            f"windows from {t0:.6g} to {t1:.6g} s (zero variance: a channel it reads is "
+            f"constant there, a stuck sensor?); the healthy recordings had at most {healthy} "
+            f"such windows in a row (limit {limit}), so no leak can be ruled out over that "
+            "span")
 
     def calibrate(self, recordings, level: float = 0.9, validity: dict | None = None) -> "Detector":
         """Fit ``calibration_``: feature shift at the true onset against the true leak flow.
@@ -696,6 +720,35 @@ class Detector(BaseEstimator):
             flows.append(float(rec.meta["leak_lpm"]))
         self.calibration_ = fit_leak_calibration(shifts, flows, level, validity)
         return self
+
+
+#: A judged run may have this many times the healthy recordings' longest run of undefined
+#: feature windows before its NO LEAK is refused (leakdiag choice, as the flow balance's
+#: ``HOLD_FACTOR`` for held channels).
+NAN_RUN_FACTOR = 3
+#: ... counted from at least one window (healthy recordings without any undefined window).
+NAN_RUN_FLOOR = 1
+
+
+def longest_nan_run(values, where: bool = False):
+    """Length of the longest run of consecutive non-finite values (and its first index).
+
+    Examples
+    --------
+    >>> nan = float("nan")
+    >>> longest_nan_run([1.0, nan, nan, 2.0, nan]), longest_nan_run([nan, 1.0, nan, nan], True)
+    (2, (2, 2))
+    >>> longest_nan_run([1.0, 2.0], where=True)
+    (0, 0)
+    """
+    bad = ~np.isfinite(np.asarray(values, dtype=np.float64))
+    if not bad.any():
+        return (0, 0) if where else 0
+    edges = np.diff(np.concatenate(([0], bad.view(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    k = int(np.argmax(ends - starts))
+    n = int(ends[k] - starts[k])
+    return (n, int(starts[k])) if where else n
 
 
 def meta_leak_lpm(meta) -> float | None:
