@@ -160,3 +160,30 @@ def test_csv_samples_round_trip_property(tmp_path, values):
     rec = Recording({"p1": np.array(values)}, 1000.0)
     back = read_recording(write_recording(rec, tmp_path / "h.csv"))
     np.testing.assert_array_equal(back["p1"], rec["p1"])  # -0.0 may come back as 0.0
+
+
+def test_a_leakdiag_file_whose_rows_were_cut_is_refused(tmp_path):
+    """The header places the samples by its rate; a file with rows removed afterwards (its
+    header kept) was read as continuous data and an EHA run with a 0.2-s gap was judged LEAK
+    (found by an audit, 2026-11-27). The stored time column is now checked."""
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from leakdiag.io import RecordingError, read_recording, write_recording
+    from leakdiag.io.recording import Recording
+
+    rec = Recording({"p1": np.arange(1000.0), "p2": np.arange(1000.0)}, 100.0)
+    path = write_recording(rec, tmp_path / "r.parquet")
+    assert read_recording(path).n_samples == 1000
+    table = pq.read_table(path)
+    keep = np.r_[0:500, 520:1000]
+    pq.write_table(table.take(pa.array(keep)), tmp_path / "cut.parquet")
+    with pytest.raises(RecordingError, match=r"cut.parquet: column 'time' is not uniformly "
+                                             r"sampled: interval before row 500 is 0.21 s"):
+        read_recording(tmp_path / "cut.parquet")
+    every_other = table.take(pa.array(np.arange(0, 1000, 2)))
+    pq.write_table(every_other, tmp_path / "half.parquet")
+    with pytest.raises(RecordingError, match=r"half.parquet: the header says 100 Hz, but the "
+                                             r"file's time column is sampled at 50 Hz"):
+        read_recording(tmp_path / "half.parquet")

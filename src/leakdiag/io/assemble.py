@@ -292,6 +292,16 @@ def _from_header(table: RawTable, header: dict[str, Any], sample_rate: float | N
     if missing:
         raise RecordingError(f"{source}: header lists channel(s) {missing} missing from the "
                              f"file; available columns: {table.names}")
+    if "time" in table.columns and len(table.columns["time"]) >= 2:
+        # the samples are placed by the header's rate, so the stored time column must agree:
+        # rows cut out of (or put into) a leakdiag file leave the header as it was, and a gap
+        # read as continuous data was judged LEAK (found by an audit, 2026-11-27)
+        t = np.asarray(table.columns["time"], dtype=np.float64)
+        own = infer_sample_rate(t, source)
+        if abs(own - float(rate)) > UNIFORM_TIME_RTOL * float(rate):
+            raise RecordingError(f"{source}: the header says {float(rate):g} Hz, but the file's "
+                                 f"time column is sampled at {own:g} Hz: rows were removed or "
+                                 "added after writing; write the recording again")
     channels = {}
     for name in header["channels"]:
         values = np.asarray(table.columns[name], dtype=np.float64)
