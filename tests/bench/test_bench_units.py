@@ -244,6 +244,29 @@ def test_v5_false_alarm_table_counts_healthy_runs_with_interval():
     assert r.far_high == pytest.approx(0.02894, abs=1e-4)  # 95 % CP upper bound of 3/300
 
 
+def test_v5_a_refused_leaking_run_is_not_a_detection_and_a_refused_healthy_run_not_counted():
+    """A method that refuses a held-out run (a sensor-consistency or blind-span refusal) gives
+    the user no LEAK: for a leaking run that is a miss, not a run left out of the rate."""
+    from leakdiag.bench.v5_common import error_row
+    from leakdiag.bench.v5_scoring import detection_table, false_alarm_table
+
+    class Case:
+        system, load, excitation, seed, leak_lpm, onset_s = "vca", "none", "operating", 7, 0.1, 20.0
+        role = "test_leak"
+
+    err = pd.DataFrame([error_row(Case, "m", ValueError("refused"))])
+    det = detection_table(pd.concat([_leak_runs([21.0, 22.0, 23.0]), err])).iloc[0]
+    assert (det.n_leak, det.n_refused, det.detected_10s) == (4, 1, 3)
+    assert det.detection_rate_10s == pytest.approx(0.75)
+    Case.role, Case.leak_lpm, Case.onset_s = "test_healthy", 0.0, None
+    healthy = pd.DataFrame({"method": "m", "system": "vca", "load": "none",
+                            "excitation": "operating", "role": "test_healthy",
+                            "alarm": [True, False, False]})
+    err = pd.DataFrame([error_row(Case, "m", ValueError("refused"))])
+    far = false_alarm_table(pd.concat([healthy, err])).iloc[0]
+    assert (far.n_healthy, far.false_alarms, far.n_refused) == (3, 1, 1)
+
+
 def test_v5_size_table_counts_only_runs_detected_in_time_and_their_coverage():
     from leakdiag.bench.v5_scoring import size_table
     from leakdiag.detect.rates import clopper_pearson

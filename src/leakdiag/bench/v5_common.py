@@ -137,11 +137,14 @@ def error_row(case, method: str, exc: Exception) -> dict:
     Returns
     -------
     dict
-        Role ``"error"`` and the error's type and message.
+        Role ``"error"``, the run's own role as ``refused_role`` (a refused leaking run counts
+        as not detected, :func:`~leakdiag.bench.v5_scoring.detection_table`) and the error's
+        type and message.
     """
     return {"method": method, "system": case.system, "load": case.load,
-            "excitation": case.excitation, "role": "error", "seed": case.seed,
-            "leak_lpm": case.leak_lpm, "error": f"{type(exc).__name__}: {exc}"}
+            "excitation": case.excitation, "role": "error", "refused_role": case.role,
+            "seed": case.seed, "leak_lpm": case.leak_lpm, "onset_true_s": case.onset_s,
+            "error": f"{type(exc).__name__}: {exc}"}
 
 
 def run_row(case, method: str, rec, v, cpu_s: float, sim_cpu_s: float) -> dict:

@@ -67,7 +67,9 @@ def false_alarm_table(runs):
     Returns
     -------
     pandas.DataFrame
-        ``n_healthy, false_alarms, false_alarm_rate, far_low, far_high``.
+        ``n_healthy, false_alarms, false_alarm_rate, far_low, far_high``, ``n_refused``
+        (held-out healthy runs the method refused to judge: not in ``n_healthy``, neither a
+        false alarm nor a NO LEAK).
 
     Examples
     --------
@@ -82,13 +84,23 @@ def false_alarm_table(runs):
 
     rows = []
     h = runs[runs.role == "test_healthy"]
+    refused = _refused(runs, "test_healthy")
     for key, g in h.groupby(_GROUP, sort=False):
         k, n = int(g.alarm.astype(bool).sum()), len(g)
         r = _rate(k, n)
         rows.append({**dict(zip(_GROUP, key)), "n_healthy": n, "false_alarms": k,
-                     "false_alarm_rate": r["rate"], "far_low": r["low"], "far_high": r["high"]})
+                     "false_alarm_rate": r["rate"], "far_low": r["low"], "far_high": r["high"],
+                     "n_refused": int(refused.get(key, 0))})
     return pd.DataFrame(rows, columns=_GROUP + ["n_healthy", "false_alarms", "false_alarm_rate",
-                                                "far_low", "far_high"])
+                                                "far_low", "far_high", "n_refused"])
+
+
+def _refused(runs, role: str, extra=()) -> dict:
+    """Held-out runs of ``role`` a method refused to judge (error rows), per group key."""
+    if "refused_role" not in runs or not len(runs):
+        return {}
+    r = runs[(runs.role == "error") & (runs.refused_role == role)]
+    return r.groupby(_GROUP + list(extra), sort=False).size().to_dict() if len(r) else {}
 
 
 def detection_table(runs, deadlines=(5.0, 10.0, 30.0)):
@@ -104,7 +116,9 @@ def detection_table(runs, deadlines=(5.0, 10.0, 30.0)):
     Returns
     -------
     pandas.DataFrame
-        Per group and size: ``n_leak``, ``early_alarms``, ``early_alarm_rate`` (+ interval),
+        Per group and size: ``n_leak`` (a run the method refused to judge counts, as not
+        detected: the user gets no LEAK), ``n_refused`` (of them), ``early_alarms``,
+        ``early_alarm_rate`` (+ interval),
         for each deadline ``d``: ``detected_<d>s``, ``detection_rate_<d>s``, ``det_low_<d>s``,
         ``det_high_<d>s``; ``onset_error_median_s`` and ``delay_median_s`` (runs detected
         within 10 s).
@@ -125,6 +139,10 @@ def detection_table(runs, deadlines=(5.0, 10.0, 30.0)):
     import pandas as pd
 
     lk = runs[runs.role == "test_leak"]
+    if "refused_role" in runs:  # a leaking run a method refused to judge was not detected
+        lk = pd.concat([lk, runs[(runs.role == "error") & (runs.refused_role == "test_leak")]
+                        .assign(alarm=False)])
+    refused = _refused(runs, "test_leak", ["leak_lpm"])
     rows = []
     for key, g in lk.groupby(_GROUP + ["leak_lpm"], sort=True):
         onset = pd.to_numeric(g.onset_true_s, errors="coerce").to_numpy()
@@ -134,7 +152,7 @@ def detection_table(runs, deadlines=(5.0, 10.0, 30.0)):
         n = len(g)
         early = alarm & (t < onset)
         row = {**dict(zip(_GROUP + ["leak_lpm"], key)), "n_leak": n,
-               "early_alarms": int(early.sum())}
+               "n_refused": int(refused.get(key, 0)), "early_alarms": int(early.sum())}
         r = _rate(int(early.sum()), n)
         row.update(early_alarm_rate=r["rate"], early_low=r["low"], early_high=r["high"])
         for d in deadlines:
