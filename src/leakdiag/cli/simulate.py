@@ -159,6 +159,10 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     kwargs["progress"] = progress
     try:
         rec = fn(**kwargs)
+    except ld.sim.LeakCalibrationError as exc:  # the sim's advice names Python arguments
+        raise ld.sim.LeakCalibrationError(
+            _in_option_words(str(exc), run_s, onset if onset is not None else run_s / 2)
+        ) from None
     finally:
         bar.close()
     path = ld.io.write_recording(rec, out)
@@ -180,6 +184,36 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     if plot:
         fig = plot_simulation(rec, Path(out).with_suffix(".png"))
         click.echo(f"wrote {fig}")
+
+
+#: The simulator's advice for a run too short to calibrate its leak
+#: (:func:`leakdiag.sim.calibration.too_short_to_calibrate`), in Python argument words.
+_PYTHON_ADVICE = ("Make the run longer or the onset earlier, or give leak_coefficient= instead "
+                  "of leak_lpm.")
+
+
+def _in_option_words(message: str, run_s: float, onset_s: float) -> str:
+    """The simulator's calibration message with its advice in this command's options.
+
+    ``simulate_vca/eha(leak_coefficient=...)`` has no option here, so the advice names
+    ``--duration`` and ``--onset`` with the values of this run and the seconds needed after
+    the onset. Other messages are returned as they are.
+
+    Examples
+    --------
+    >>> _in_option_words("too short. " + _PYTHON_ADVICE + " (x)", 3.0, 1.5)  # doctest: +ELLIPSIS
+    'too short. Give a longer --duration or an earlier --onset: at least 10 s must follow ...'
+    """
+    from leakdiag.sim.calibration import MIN_CALIBRATION_WINDOW_S
+
+    if _PYTHON_ADVICE not in message:
+        return message
+    return message.replace(
+        _PYTHON_ADVICE,
+        f"Give a longer --duration or an earlier --onset: at least {MIN_CALIBRATION_WINDOW_S:g} "
+        f"s must follow the onset (now --duration {run_s:g} with the onset at {onset_s:g} s "
+        f"leaves {run_s - onset_s:g} s), e.g. --duration {onset_s + MIN_CALIBRATION_WINDOW_S:g}; "
+        "or --leak 0 for a run without a leak.")
 
 
 def _params_from_toml(cls, path):
