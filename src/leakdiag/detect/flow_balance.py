@@ -22,6 +22,13 @@ from threadpoolctl import ThreadpoolController
 from leakdiag._validation import check_positive
 from leakdiag.detect import _flow_balance_eha as eha
 from leakdiag.detect import _flow_balance_vca as vca
+from leakdiag.detect._flow_balance_checks import (
+    SPIKE_CHANNELS,
+    SPIKE_FACTOR,
+    learn_sum_gate,
+    longest_hold,
+    spike_sizes,
+)
 from leakdiag.detect._flow_balance_offset import profile_offset
 from leakdiag.detect._flow_balance_size import FLEET_BAND_MISSES, band_words, size_band
 from leakdiag.detect._flow_balance_search import (
@@ -80,11 +87,17 @@ OPERATION_MARGINS = {"u": 100.0}
 #: runs of 60 s, 108 ms from 20 runs of 120 s), and a shorter freeze of ``u`` across a command
 #: step can still alarm (docs/detect.md 8.4, "Stuck sensors").
 HOLD_FACTOR = 3.0
-#: Channels without the hold check: the position is counted by an encoder, which holds its
-#: count whenever the piston rests or creeps (VCA healthy runs: holds of up to 3.4 s; EHA: 21
-#: ms healthy, 59 ms under a 1.6 L/min leak without load), so its holds measure the motion,
-#: not the sensor. Only a position constant over the whole judged part is refused.
+#: Channels of the VCA without the hold check: the position is counted by an encoder, which
+#: holds its count whenever the piston rests or creeps (VCA healthy runs: holds of up to 3.4
+#: s), so its holds measure the motion, not the sensor. Only a position constant over the
+#: whole judged part is refused. The EHA's position is held to a limit (``HOLD_FACTORS``).
 HOLD_EXEMPT = ("x",)
+#: Channels without the hold check, per rig.
+HOLD_EXEMPT_BY_SYSTEM = {"vca": HOLD_EXEMPT, "eha": ()}
+#: Hold factors other than ``HOLD_FACTOR`` (leakdiag choice): the EHA's position, whose
+#: encoder holds its count while the piston rests (healthy holds 20-22 ms at 1 kHz, longer
+#: under a large leak without load; docs/detect.md 8.4, "Stuck sensors").
+HOLD_FACTORS = {("eha", "x"): 6.0}
 
 
 def _after(rec, c: str, skip_s: float) -> np.ndarray:
@@ -92,29 +105,23 @@ def _after(rec, c: str, skip_s: float) -> np.ndarray:
     return np.asarray(rec[c], dtype=np.float64)[int(round(skip_s * rec.sample_rate)):]
 
 
-def _longest_hold(v: np.ndarray) -> tuple[int, int]:
-    """Longest run of one exact value in ``v`` that is not at ``v``'s smallest or largest value.
-
-    Returns ``(samples, first index)``; ``(0, 0)`` when every run is at an extreme.
+def _longest_hold(v: np.ndarray, rails=None) -> tuple[int, int]:
+    """Longest run of one exact value in ``v`` that is not a rail (``_flow_balance_checks.
+    longest_hold``: a run at ``v``'s smallest or largest value, when that value lies within
+    ``rails``, the healthy recordings' range).
 
     Examples
     --------
     >>> _longest_hold(np.array([0.0, 2.0, 2.0, 2.0, 1.0, 1.0, 3.0, 3.0, 3.0, 3.0]))
     (3, 1)
     """
-    v = np.asarray(v, dtype=np.float64)
-    if len(v) == 0:
-        return 0, 0
-    starts = np.flatnonzero(np.concatenate(([True], v[1:] != v[:-1])))
-    lengths = np.diff(np.append(starts, len(v)))
-    inner = np.where((v[starts] != v.min()) & (v[starts] != v.max()), lengths, 0)
-    i = int(np.argmax(inner))
-    return (int(inner[i]), int(starts[i])) if inner[i] else (0, 0)
+    return longest_hold(v, rails)
 
 
 def _operation(recs, channels, skip_s: float = 0.0) -> dict:
     """Machine unit and load common to ``recs`` (None when unknown or mixed), and each
-    channel's 1st-99th percentile range over all of them after ``skip_s`` (the burn-in)."""
+    channel's 1st-99th percentile range (``ranges``) and smallest and largest value
+    (``extremes``) over all of them after ``skip_s`` (the burn-in)."""
     out: dict = {}
     machines = set()
     for r in recs:
@@ -127,13 +134,16 @@ def _operation(recs, channels, skip_s: float = 0.0) -> dict:
     out["machine"] = machines.pop() if len(machines) == 1 else None
     loads = {r.meta.get("load") for r in recs}
     out["load"] = loads.pop() if len(loads) == 1 else None
-    ranges = {}
+    ranges, extremes = {}, {}
     for c in channels:
-        q = np.array([np.percentile(_after(r, c, skip_s), [1.0, 99.0])
-                      for r in recs if c in r.channels and len(_after(r, c, skip_s))])
-        if len(q):
+        xs = [_after(r, c, skip_s) for r in recs if c in r.channels]
+        xs = [x for x in xs if len(x)]
+        if xs:
+            q = np.array([np.percentile(x, [1.0, 99.0]) for x in xs])
             ranges[c] = (float(q[:, 0].min()), float(q[:, 1].max()))
+            extremes[c] = (float(min(x.min() for x in xs)), float(max(x.max() for x in xs)))
     out["ranges"] = ranges
+    out["extremes"] = extremes
     return out
 
 
@@ -490,6 +500,23 @@ class FlowBalanceDetector(Detector):
                     f"on ({lo:.4g} to {hi:.4g}, allowed {margin:g}x that span beyond either "
                     "end): another unit (Pa, m, V, rad/s expected; see --col CH=COL:UNIT), "
                     "another rig, or operation the detector was not fitted for")
+        # single samples far outside the healthy recordings' full range: the percentiles above
+        # ignore under 1 % of a run (a dropout, a burst of wrong samples)
+        first = int(round(float(self.burn_in_s) * rec.sample_rate))
+        for c, (lo, hi) in op.get("extremes", {}).items():
+            if c not in rec.channels or not hi > lo:
+                continue
+            x = _after(rec, c, float(self.burn_in_s))
+            span, margin = hi - lo, OPERATION_MARGINS.get(c, OPERATION_MARGIN)
+            out = np.flatnonzero((x < lo - margin * span) | (x > hi + margin * span))
+            if out.size:
+                i = int(out[0])
+                raise RecordingError(
+                    f"{where}: {source}: channel {c!r} reads {x[i]:.6g} at row {first + i} "
+                    f"({out.size} such rows after the burn-in), far outside the healthy "
+                    f"recordings' full range ({lo:.6g} to {hi:.6g}, allowed {margin:g}x that "
+                    "span beyond either end): a dropout, a spike or a wrong unit (sensor or "
+                    "acquisition fault?)")
 
     def _check_constant(self, rec, where: str, name: str | None = None) -> None:
         """Refuse a recording in which a channel the balance reads is constant after the
@@ -519,19 +546,74 @@ class FlowBalanceDetector(Detector):
         source = rec.meta.get("source", "<recording>")
         burn = float(self.burn_in_s)
         first = int(round(burn * rec.sample_rate))
+        # a hold at the recording's own extreme is a rail only at a value the healthy
+        # recordings reached (a file saved before "extremes": every extreme is a rail)
+        extremes = (getattr(self, "operation_", None) or {}).get("extremes", {})
         for c, limit in limits.items():
             if c not in rec.channels:
                 continue
             x = _after(rec, c, burn)
-            n, i = _longest_hold(x)
+            n, i = _longest_hold(x, extremes.get(c))
             if n > limit * rec.sample_rate + 1e-6:  # in samples: a hold of the limit is kept
+                factor = HOLD_FACTORS.get((self.system, c), HOLD_FACTOR)
                 raise RecordingError(
                     f"{where}: {source}: channel {c!r} holds one value ({x[i]:.6g}) for "
                     f"{n / rec.sample_rate:.4g} s, rows {first + i} to {first + i + n - 1} "
-                    f"(stuck sensor?): longer than the {limit:.3g} s allowed, {HOLD_FACTOR:g}x "
+                    f"(stuck sensor?): longer than the {limit:.3g} s allowed, {factor:g}x "
                     f"the longest the healthy recordings held one value of it "
                     f"({self.longest_hold_s_[c]:.3g} s, not counting their smallest and "
                     "largest values)")
+
+    def _check_spikes(self, rec, where: str) -> None:
+        """Refuse a recording with a one-sample outlier of the command or the motor speed
+        (``SPIKE_CHANNELS``) larger than ``SPIKE_FACTOR`` times the largest in the healthy
+        recordings: one sample carries a whole sample interval of valve or pump flow (a
+        single +10 V sample of ``u`` made 11 of 12 healthy VCA runs LEAK)."""
+        limits = getattr(self, "spike_limits_", None)  # None: a file saved before the check
+        if not limits:
+            return
+        source = rec.meta.get("source", "<recording>")
+        burn = float(self.burn_in_s)
+        first = int(round(burn * rec.sample_rate))
+        for c, limit in limits.items():
+            if c not in rec.channels:
+                continue
+            x = _after(rec, c, burn)
+            sz = spike_sizes(x)
+            bad = np.flatnonzero(sz > limit)
+            if bad.size:
+                i = int(bad[0]) + 1
+                raise RecordingError(
+                    f"{where}: {source}: channel {c!r} has a one-sample outlier at row "
+                    f"{first + i}: {x[i]:.6g} between {x[i - 1]:.6g} and {x[i + 1]:.6g}, "
+                    f"{sz[i - 1]:.4g} away from both ({bad.size} such rows after the burn-in); "
+                    f"more than the {limit:.4g} allowed, {SPIKE_FACTOR:g}x the largest in the "
+                    f"healthy recordings ({self.largest_spike_[c]:.4g}): a spike (sensor or "
+                    "acquisition fault?)")
+
+    def _check_sum_gate(self, rec, t: dict, where: str) -> None:
+        """Refuse a recording whose leak-free sum equation (VCA) is off by more than the
+        gate's limit in some window: a sensor or model inconsistency that a leak does not
+        cause (``_flow_balance_checks``; docs/detect.md 8.4)."""
+        gate = getattr(self, "sum_gate_", None)  # None: the EHA, or a file saved before it
+        if gate is None or "balance" not in t:
+            return
+        z = gate.z(t["balance"], t["flow"])
+        bad = np.flatnonzero(np.abs(z) > gate.limit)
+        if not bad.size:
+            return
+        source = rec.meta.get("source", "<recording>")
+        worst = int(bad[np.argmax(np.abs(z[bad]))])
+        a, b = int(bad[0]), int(bad[-1])
+        raise RecordingError(
+            f"{where}: {source}: sensor or model inconsistency from {t['start'][a]:.4g} to "
+            f"{t['end'][b]:.4g} s ({bad.size} window(s)): the leak-free sum of the chamber "
+            f"balances (Q1 - Q2 = (V1 dP1 + V2 dP2)/beta, which a leak does not enter) is off "
+            f"by up to {abs(z[worst]):.3g} healthy spreads ({t['balance'][worst] * 1e9:+.4g} uL "
+            f"in the window {t['start'][worst]:.4g}-{t['end'][worst]:.4g} s), where the "
+            f"healthy recordings reached {gate.healthy_max_z:.3g} and {gate.limit:.3g} is "
+            f"allowed ({gate.factor:g}x): a transducer offset/gain, a command delay or sign, "
+            "or operation the fit did not see; no verdict on a leak")
 
     def _monitored_windows(self, rec) -> int:
         """Windows after the burn-in, counted before the balance is computed: fixed and quiet
@@ -812,12 +894,25 @@ class FlowBalanceDetector(Detector):
             return self
         # the longest hold of one value per channel: a longer one in a judged recording is a
         # frozen sensor (_check_holds; HOLD_FACTOR)
+        exempt = HOLD_EXEMPT_BY_SYSTEM[self.system]
         self.longest_hold_s_ = {
             c: max(_longest_hold(_after(r, c, float(self.burn_in_s)))[0] / r.sample_rate
                    for r in recs)
-            for c in be.CHANNELS if c not in HOLD_EXEMPT}
-        self.hold_limits_s_ = {c: HOLD_FACTOR * v for c, v in self.longest_hold_s_.items()
-                               if v > 0}
+            for c in be.CHANNELS if c not in exempt}
+        self.hold_limits_s_ = {c: HOLD_FACTORS.get((self.system, c), HOLD_FACTOR) * v
+                               for c, v in self.longest_hold_s_.items() if v > 0}
+        # the largest one-sample outlier of the command / speed: a far larger one in a judged
+        # recording is a spike (_check_spikes; SPIKE_FACTOR)
+        self.largest_spike_ = {
+            c: max(float(spike_sizes(_after(r, c, float(self.burn_in_s))).max(initial=0.0))
+                   for r in recs)
+            for c in be.CHANNELS if c in SPIKE_CHANNELS}
+        self.spike_limits_ = {c: SPIKE_FACTOR * v for c, v in self.largest_spike_.items()
+                              if v > 0}
+        # the leak-free sum equation's healthy spread (VCA; _check_sum_gate)
+        self.sum_gate_ = (learn_sum_gate([t["balance"] for t in terms],
+                                         [t["flow"] for t in terms])
+                          if all("balance" in t for t in terms) else None)
         runs = [(t["phi"], self._sigma(t), t["nuisance"]) for t in terms]
         pool = np.concatenate([self._profiled(t) / self._sigma(t) for t in terms])
         try:
@@ -898,7 +993,10 @@ class FlowBalanceDetector(Detector):
         if not hasattr(self, "threshold_"):
             raise ValueError("FlowBalanceDetector is not fitted; call fit(healthy_recordings) first")
 
-    def _scan(self, rec, where: str):
+    def _scan(self, rec, where: str, consistency: bool = True):
+        """Window terms, per-window GLR sums and GLR trace of a checked recording;
+        ``consistency=False`` skips the sum-equation gate (healthy reference runs, whose
+        refusal would stop a benchmark's reference maxima, ``segment_maxima``)."""
         self._check_fitted()
         self._check_recording(rec, where)
         n_win = self._monitored_windows(rec)
@@ -909,7 +1007,10 @@ class FlowBalanceDetector(Detector):
         self._check_constant(rec, where)
         self._check_operation(rec, where)
         self._check_holds(rec, where)
+        self._check_spikes(rec, where)
         t = self._terms(rec)
+        if consistency:
+            self._check_sum_gate(rec, t, where)
         a, b = self._ab(t)
         g, arg = self._glr(t)
         return t, a, b, g, arg
@@ -999,6 +1100,18 @@ class FlowBalanceDetector(Detector):
             up to +-800 kPa while the best is at the edge), and its interval also holds the
             offsets the data allow (docs/detect.md 8.5; ``leak_lpm_interval_holds`` names them
             and flags an offset beyond +-200 kPa).
+
+        Raises
+        ------
+        leakdiag.io.RecordingError
+            When the recording cannot be judged (``leakdiag detect`` shows INCONCLUSIVE):
+            too short, a missing, non-finite or constant channel, another machine or load, a
+            channel outside the healthy range or a sample far outside its full range, a
+            channel holding one value too long (not at a rail the healthy recordings
+            reached), a one-sample outlier of ``u`` / ``speed``, the leak-free sum equation
+            (VCA) off by more than its limit in some window (a sensor or model
+            inconsistency), or an alarm whose leak coefficient since the onset is not
+            positive (docs/detect.md 8.4).
         """
         t, a, b, g, arg = self._scan(recording, "predict")
         h = self.threshold_
@@ -1038,14 +1151,13 @@ class FlowBalanceDetector(Detector):
         onset, alarm = float(t["start"][j]), float(t["end"][i])
         common["onset_censored"] = j == 0  # the first window judged: onset an upper bound
         if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
-            return FlowBalanceVerdict(
-                leak=True, onset_s=onset, alarm_time_s=alarm, leak_lpm=None,
-                leak_lpm_interval=None, shift=float(k / se), leak_coefficient=k,
-                leak_coefficient_se=se, pressure_offset_pa=offset,
-                leak_lpm_interval_holds=(
-                    f"no size: the leak coefficient estimated since the onset is not positive "
-                    f"({k:.3g} +- {se:.2g}), so the flow balance does not describe this "
-                    "recording well (channels' units, machine, operation?)"), **common)
+            raise RecordingError(
+                f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
+                f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g}), but the leak coefficient "
+                f"estimated from the onset ({onset:.4g} s) to the end is not positive "
+                f"({k:.3g} +- {se:.2g}): the flow balance does not describe this recording "
+                "well (a sensor fault, the channels' units, another machine or operation?); "
+                "no verdict on a leak")
         lpm = k * mean_phi * LPM_PER_M3S
         ptr = be.leak_transition_pa(self._nominal())
         at_ref = k * _leak_law_value(float(self.reference_dp_pa), self.leak_law, ptr) * LPM_PER_M3S
@@ -1140,7 +1252,9 @@ class FlowBalanceDetector(Detector):
 
         Use it on healthy runs **not** given to :meth:`fit` to build a
         :class:`~leakdiag.detect.threshold.ReferenceMaxima` for other units (``drift=0``,
-        ``direction=self.reference_direction()``, ``burn_in_s=self.burn_in_s``).
+        ``direction=self.reference_direction()``, ``burn_in_s=self.burn_in_s``). The
+        recordings pass the same checks as in :meth:`predict` except the sum-equation gate
+        (a refused healthy run would stop the benchmark's reference maxima of every unit).
 
         Parameters
         ----------
@@ -1156,7 +1270,7 @@ class FlowBalanceDetector(Detector):
         recs = [recordings] if hasattr(recordings, "channels") else list(recordings)
         out = []
         for r in recs:
-            t, _, _, g, _ = self._scan(r, "segment_maxima")
+            t, _, _, g, _ = self._scan(r, "segment_maxima", consistency=False)
             out.append(self._maxima(g, t, r))
         return np.concatenate(out) if out else np.zeros(0)
 

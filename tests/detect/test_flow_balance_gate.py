@@ -1,0 +1,207 @@
+"""FlowBalanceDetector's sensor-consistency refusals (found by a sensor-fault audit, 2026-11-27).
+
+A healthy actuator with one faulty sensor was judged LEAK with a size: a pressure transducer
+reading +100 kPa (11 of 12 healthy VCA spring runs), a pressure dropping out to 0 for 0.1-1 s,
+a single +10 V sample of the command, a frozen EHA position (0.51 L/min on a healthy run).
+The leak-free sum of the two chamber balances (the leak and the piston flow cancel) catches
+the transducer faults; single samples and holds are checked against the healthy recordings.
+"""
+
+import dataclasses
+import re
+
+import numpy as np
+import pytest
+
+import leakdiag as ld
+from leakdiag.detect import FlowBalanceDetector
+from leakdiag.detect._flow_balance_checks import (
+    SPIKE_FACTOR,
+    SUM_GATE_FACTOR,
+    SumGate,
+    learn_sum_gate,
+    spike_sizes,
+)
+from leakdiag.detect.flow_balance import HOLD_FACTORS
+from leakdiag.io.recording import RecordingError
+
+SRC = "leakdiag.sim.simulate_vca"
+
+
+def _vca(seed, duration=20.0, **kw):
+    kw.setdefault("leak_lpm", 0.0)
+    return ld.sim.simulate_vca(duration=duration, load="spring", machine=17, seed=seed, **kw)
+
+
+def _eha(seed, duration=20.0, load="none", **kw):
+    kw.setdefault("leak_lpm", 0.0)
+    return ld.sim.simulate_eha(duration=duration, load=load, machine=17, seed=seed, **kw)
+
+
+def _with(rec, channel, values):
+    return dataclasses.replace(rec, channels={**rec.channels, channel: values})
+
+
+@pytest.fixture(scope="module")
+def healthy():
+    return [_vca(s) for s in range(4)]
+
+
+@pytest.fixture(scope="module")
+def det(healthy):
+    return FlowBalanceDetector(system="vca").fit(healthy)
+
+
+@pytest.fixture(scope="module")
+def eha():
+    return FlowBalanceDetector(system="eha").fit([_eha(s) for s in range(4)])
+
+
+# ------------------------------------------------------------------ 1. the sum equation
+def test_the_gate_is_learned_on_the_healthy_recordings(det, healthy):
+    """The limit is SUM_GATE_FACTOR times the largest |z| of the healthy windows, with the
+    spread s^2 = c0 + c1 F^2 fitted on the same windows (recomputed here from the terms)."""
+    gate = det.sum_gate_
+    assert isinstance(gate, SumGate) and SUM_GATE_FACTOR == 3.5
+    terms = [det._terms(r) for r in healthy]
+    again = learn_sum_gate([t["balance"] for t in terms], [t["flow"] for t in terms])
+    assert again == gate
+    z = np.concatenate([gate.z(t["balance"], t["flow"]) for t in terms])
+    assert gate.healthy_max_z == pytest.approx(float(np.abs(z).max()), rel=1e-12)
+    assert gate.limit == pytest.approx(3.5 * gate.healthy_max_z, rel=1e-12)
+    assert 2.0 < gate.healthy_max_z < 6.0
+
+
+def test_the_sum_equation_does_not_see_a_leak(det):
+    """The leak leaves chamber 1 and enters chamber 2: the sum equation's window residuals of
+    a run leaking 2 L/min stay within the healthy spread, and the run is judged LEAK with a
+    size (the rated leak of the VCA)."""
+    rec = _vca(60, leak_lpm=2.0, onset=10.0)
+    t = det._terms(rec)
+    assert np.abs(det.sum_gate_.z(t["balance"], t["flow"])).max() < det.sum_gate_.limit
+    v = det.predict(rec)
+    assert v.leak and v.alarm_time_s >= 10.0 and v.leak_lpm > 1.0
+
+
+@pytest.mark.parametrize("fault", ["offset", "gain"])
+def test_a_pressure_transducer_error_is_refused_as_an_inconsistency(det, fault):
+    """p1 reading +100 kPa or +1 % (against the fit runs) made healthy spring runs LEAK
+    (11 and 8 of 12 with 120-s runs); now the recording is refused, naming the time span."""
+    rec = _vca(61)
+    assert not det.predict(rec).leak
+    p1 = rec["p1"] + 1e5 if fault == "offset" else rec["p1"] * 1.01
+    bad = _with(rec, "p1", p1)
+    with pytest.raises(RecordingError, match=(
+            rf"^predict: {re.escape(SRC)}: sensor or model inconsistency from [0-9.]+ to "
+            r"[0-9.]+ s \(\d+ window\(s\)\): the leak-free sum of the chamber balances .* is "
+            r"off by up to [0-9.]+ healthy spreads .* a transducer offset/gain, a command delay "
+            r"or sign, or operation the fit did not see; no verdict on a leak$")):
+        det.predict(bad)
+
+
+def test_a_detector_saved_before_the_gate_skips_it(det):
+    import pickle
+
+    old = pickle.loads(pickle.dumps(det))
+    del old.__dict__["sum_gate_"]  # as unpickled from a file written before the gate
+    bad = _with(_vca(61), "p1", _vca(61)["p1"] + 1e5)
+    old.predict(bad)  # judged as before
+    with pytest.raises(RecordingError, match="sensor or model inconsistency"):
+        det.predict(bad)
+
+
+def test_the_eha_has_no_sum_gate(eha):
+    """The EHA's sum equation holds neither the pump flow nor the position (both cancel), so
+    it cannot check the speed and position the audit's EHA faults were in: no gate."""
+    assert eha.sum_gate_ is None
+
+
+# ------------------------------------------------------------------ 2. EHA position holds
+def test_the_eha_position_is_held_to_six_times_its_longest_healthy_hold(eha):
+    assert HOLD_FACTORS == {("eha", "x"): 6.0}
+    assert eha.hold_limits_s_["x"] == pytest.approx(6.0 * eha.longest_hold_s_["x"], rel=1e-12)
+    assert 0.01 < eha.longest_hold_s_["x"] < 0.05
+    rec = _eha(70)
+    x = rec["x"].copy()
+    x[9000:9300] = x[9000]  # 0.3 s frozen part-way (a false LEAK in 32 of 40 places at 1 s)
+    with pytest.raises(RecordingError, match=re.escape(
+            "predict: leakdiag.sim.simulate_eha: channel 'x' holds one value")):
+        eha.predict(_with(rec, "x", x))
+
+
+def test_a_rated_eha_leak_without_load_is_not_taken_for_a_frozen_position(eha):
+    """Under a 1.63 L/min leak without load the piston creeps: holds of up to 2.9x the
+    healthy ones (docs 8.4), inside the 6x limit."""
+    v = eha.predict(_eha(71, leak_lpm=1.63, onset=8.0))
+    assert v.leak and v.leak_lpm > 1.0
+
+
+# ------------------------------------------------------------------ 3. dropouts and outliers
+def test_a_dropout_to_a_value_the_healthy_recordings_never_reached_is_not_a_rail(det):
+    """p2 at 0 for 0.1 s: 0 is the recording's smallest value, which the hold check skipped
+    as a rail; the healthy recordings never read 0, so it is a hold like any other."""
+    rec = _vca(62)
+    p2 = rec["p2"].copy()
+    p2[9000:9100] = 0.0
+    assert det.operation_["extremes"]["p2"][0] > 0.0
+    with pytest.raises(RecordingError, match=re.escape(
+            f"predict: {SRC}: channel 'p2' holds one value (0) for 0.1 s, rows 9000 to 9099")):
+        det.predict(_with(rec, "p2", p2))
+
+
+def test_a_sample_far_outside_the_healthy_full_range_is_refused_by_row(det):
+    """One sample is under 1 % of a run, which the percentile range check ignores."""
+    rec = _vca(63)
+    lo, hi = det.operation_["extremes"]["p1"]
+    p1 = rec["p1"].copy()
+    p1[12345] = hi + 1.5 * (hi - lo)
+    with pytest.raises(RecordingError, match=re.escape(
+            f"predict: {SRC}: channel 'p1' reads {p1[12345]:.6g} at row 12345 (1 such rows "
+            "after the burn-in), far outside the healthy recordings' full range")):
+        det.predict(_with(rec, "p1", p1))
+    p1[12345] = hi + 0.9 * (hi - lo)  # within the margin (OPERATION_MARGIN = 1 span)
+    det._check_operation(_with(rec, "p1", p1), "predict")
+
+
+def test_spike_sizes_by_hand():
+    # 3 is above 1 and 2 (by 2 and 1), -4 below 2 and 0 (by 6 and 4)
+    assert spike_sizes([1.0, 3.0, 2.0, 2.0, -4.0, 0.0]).tolist() == [1.0, 0.0, 0.0, 4.0]
+    assert spike_sizes([0.0, 10.0, 10.0, 10.0]).tolist() == [0.0, 0.0]  # a step is no spike
+
+
+def test_a_single_command_sample_is_refused_beyond_the_spike_limit(det, healthy):
+    """A single +10 V sample of u made 11 of 12 healthy VCA runs LEAK."""
+    assert SPIKE_FACTOR == 4.0
+    largest = max(float(spike_sizes(r["u"][2000:]).max()) for r in healthy)
+    assert det.largest_spike_["u"] == largest and det.spike_limits_ == {"u": 4.0 * largest}
+    rec = _vca(64)
+    u = rec["u"].copy()
+    u[10300] = u[10299] + 10.0
+    u[10301] = u[10299]
+    with pytest.raises(RecordingError, match=re.escape(
+            f"predict: {SRC}: channel 'u' has a one-sample outlier at row 10300")):
+        det.predict(_with(rec, "u", u))
+
+
+def test_the_eha_speed_is_checked_for_spikes(eha):
+    assert set(eha.spike_limits_) == {"speed"}
+    rec = _eha(72)
+    w = rec["speed"].copy()
+    w[7000] += 20.0 * eha.largest_spike_["speed"]
+    with pytest.raises(RecordingError, match="channel 'speed' has a one-sample outlier at row"):
+        eha.predict(_with(rec, "speed", w))
+
+
+# ------------------------------------------------------------------ 4. an alarm without a leak
+def test_an_alarm_whose_coefficient_since_the_onset_is_not_positive_is_no_leak_verdict(det,
+                                                                                      monkeypatch):
+    """Until 2026-11-27 this was LEAK without a size; it is now refused (INCONCLUSIVE)."""
+    rec = _vca(65, leak_lpm=0.5, onset=8.0)
+    assert det.predict(rec).leak
+    monkeypatch.setattr(type(det), "_estimate", lambda self, t, j: (-2e-13, 1e-13))
+    with pytest.raises(RecordingError, match=(
+            rf"^predict: {re.escape(SRC)}: the test alarmed at [0-9.]+ s \(score [0-9.]+, level "
+            r"[0-9.]+\), but the leak coefficient estimated from the onset \([0-9.]+ s\) to the "
+            r"end is not positive \(-2e-13 \+- 1e-13\): the flow balance does not describe "
+            r"this recording well .*; no verdict on a leak$")):
+        det.predict(rec)
