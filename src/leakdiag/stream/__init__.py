@@ -4,8 +4,9 @@ Given a :class:`~leakdiag.features.spec.MethodSpec`, :class:`StreamingFeature` c
 Eq. 4.1-4.3 incrementally with a state of less than one window per channel; :class:`Monitor`
 combines features with detectors (the :class:`WindowScorer` protocol) into :class:`WindowEvent` s;
 :mod:`leakdiag.stream.files` reads Parquet/HDF5/CSV files in chunks (larger than memory),
-:mod:`leakdiag.stream.live` follows growing files and stdin and paces replays.
-See ``docs/operations.md``.
+:mod:`leakdiag.stream.live` follows growing files and stdin and paces replays;
+:func:`save_detector` and :func:`load_detector_file` write and read the detector files of
+``leakdiag fit`` (pickles: load only files you trust). See ``docs/operations.md``.
 """
 
 from leakdiag.stream.feature import StreamingFeature, stream_methods
@@ -15,6 +16,8 @@ from leakdiag.stream.chunks import ChunkSource, recording_chunks
 from leakdiag.stream.files import open_chunks
 from leakdiag.stream.live import csv_lines, paced, tail_csv
 from leakdiag.stream.summary import stream_feature
+from leakdiag.stream.detector_file import (DetectorFileWarning, DetectorMeta, check_detector_fits,
+                                           load_detector_file, save_detector)
 
 __all__ = [
     "stream_methods",
@@ -31,4 +34,9 @@ __all__ = [
     "tail_csv",
     "paced",
     "stream_feature",
+    "DetectorMeta",
+    "DetectorFileWarning",
+    "save_detector",
+    "load_detector_file",
+    "check_detector_fits",
 ]
