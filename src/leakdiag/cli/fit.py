@@ -2,14 +2,72 @@
 
 from __future__ import annotations
 
+import os
+
 import click
 
 from leakdiag.cli._options import no_progress_option, recording_options, resample_option
 
-__all__ = ["fit", "fit_detector", "detector_channels", "system_of", "common_load"]
+__all__ = ["fit", "fit_detector", "detector_channels", "system_of", "common_load",
+           "check_out_path"]
 
 #: Channels a detector without a ``channels`` attribute may read (e.g. the EKF).
 _ALL_CHANNELS = ("p1", "p2", "x", "u")
+#: Suffixes of recordings (``leakdiag.io``): ``-o`` with one of them is refused unless the file
+#: is already a detector file (``fit ... -o a.parquet`` overwrote a healthy input).
+_RECORDING_SUFFIXES = (".parquet", ".pq", ".csv", ".h5", ".hdf5", ".txt")
+
+
+def _same_file(a: str, b: str) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one does not exist (yet)
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def check_out_path(out: str, inputs) -> None:
+    """Refuse an ``-o`` that would overwrite an input or a recording.
+
+    Parameters
+    ----------
+    out : str
+        The detector file to write.
+    inputs : iterable of (option, path)
+        The recordings read (``--healthy``, ``--calibrate``).
+
+    Raises
+    ------
+    click.BadParameter
+        When ``out`` is (the same file as) one of ``inputs``, or has a recording's suffix and is
+        not already a detector file.
+
+    Examples
+    --------
+    >>> check_out_path("h1.parquet", [("--healthy", "h1.parquet")])
+    Traceback (most recent call last):
+    ...
+    click.exceptions.BadParameter: h1.parquet is the --healthy recording h1.parquet: writing the detector would overwrite it; give a new file, e.g. det.joblib
+    """
+    from leakdiag.stream.detector_file import sniff_detector_file
+
+    for opt, p in inputs:
+        if _same_file(out, p):
+            raise click.BadParameter(f"{out} is the {opt} recording {p}: writing the detector "
+                                     "would overwrite it; give a new file, e.g. det.joblib",
+                                     param_hint="--out")
+    suffix = os.path.splitext(out)[1].lower()
+    if suffix in _RECORDING_SUFFIXES:
+        try:
+            is_detector = os.path.isfile(out) and sniff_detector_file(out) is None
+        except OSError:
+            is_detector = False
+        if not is_detector:
+            stem = os.path.splitext(out)[0]
+            raise click.BadParameter(
+                f"{out}: a recording's suffix ({suffix}), "
+                + ("and the file is not a detector file: writing would overwrite it"
+                   if os.path.exists(out) else "but a detector file is a joblib pickle")
+                + f"; give e.g. {stem}.joblib", param_hint="--out")
 
 
 def detector_channels(det, recording=None) -> tuple[str, ...]:
@@ -209,15 +267,18 @@ class _LazyChoice(click.Choice):
               help="Recording with a known leak (metadata onset and leak_lpm, e.g. simulated), "
                    "repeatable, at least 3: detect then gives the leak size with an interval.")
 @click.option("--out", "-o", required=True, type=click.Path(dir_okay=False),
-              help="Detector file to write (joblib), e.g. det.joblib.")
+              help="Detector file to write (joblib), e.g. det.joblib; written whole or not at "
+                   "all, never over a --healthy/--calibrate input. It is a pickle: loading it "
+                   "(detect, monitor, batch) runs code, so load only files you trust.")
 @no_progress_option
 def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resample,
         false_alarm_rate, burn_in_s, confidence, calibration, out, no_progress):
     """Fit a detector on healthy recordings and save it for detect, monitor and batch.
 
-    The file holds the fitted detector and a record of what it was fitted on (leakdiag version,
-    method, system, sample rate, channels, units); detect, monitor and batch refuse recordings
-    that disagree with it. flow-balance judges whole recordings: its file is for detect only
+    The file holds the fitted detector and a record of what it was fitted on (leakdiag version
+    and a fingerprint of its code, method, system, sample rate, channels, units); detect, monitor
+    and batch refuse recordings that disagree with it and warn when other code loads it. The file is a pickle, as every joblib file: load only files you
+    trust. flow-balance judges whole recordings: its file is for detect only
     (monitor and batch run window-by-window detectors), and it sizes leaks from physics
     (no --calibrate).
     """
@@ -229,6 +290,8 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
         raise click.BadParameter("flow-balance sizes a leak from the flow balance itself, not "
                                  "from leaking examples: --calibrate does not apply",
                                  param_hint="--calibrate")
+    check_out_path(out, [*(("--healthy", h) for h in healthy),
+                         *(("--calibrate", c) for c in calibration)])
     cmap = column_map_from(column_map, cols, time_unit)
     recs = read_healthy(healthy, None, cmap, sample_rate, resample=resample)
     system = system_of(recs, system, healthy)

@@ -217,7 +217,8 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=())
               show_default=True, help="Overlap (%).")
 @click.option("--detector", "detector_path", type=click.Path(exists=True, dir_okay=False),
               help="Detector file from leakdiag fit (its feature settings are used unless "
-                   "--method); its threshold holds its false-alarm rate per hour of monitoring.")
+                   "--method); its threshold holds its false-alarm rate per hour of monitoring. "
+                   "It is a pickle: loading it runs code, so load only files you trust.")
 @recording_options
 @click.option("--chunk", type=click.IntRange(min=1), default=65536, show_default=True,
               help="Samples per file chunk.")
