@@ -26,7 +26,7 @@ import hashlib
 import itertools
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from leakdiag._validation import check_int
@@ -57,11 +57,15 @@ class DetectorRef:
         Absolute path of the detector file.
     sha256 : str
         Digest of the file, so that a re-fitted detector invalidates finished results.
+    origin : str, default ""
+        Where the job names it, for messages: ``"job.toml: [[detector]] #2 (path =
+        'det.joblib')"`` or ``"--detector"`` (not part of the job's digest).
     """
 
     name: str
     path: str
     sha256: str
+    origin: str = field(default="", compare=False)
 
 
 @dataclass(frozen=True)
@@ -169,7 +173,8 @@ def _expand(entry: Mapping[str, Any], i: int) -> list[MethodSpec]:
     return specs
 
 
-def detector_ref(path: str | os.PathLike, name: str | None = None) -> DetectorRef:
+def detector_ref(path: str | os.PathLike, name: str | None = None,
+                 origin: str = "") -> DetectorRef:
     """A :class:`DetectorRef` for a detector file (digest of its bytes).
 
     Parameters
@@ -178,6 +183,8 @@ def detector_ref(path: str | os.PathLike, name: str | None = None) -> DetectorRe
         Detector file (``leakdiag fit -o ...``).
     name : str, optional
         Name in the results (default: the file name without suffix).
+    origin : str, default ""
+        Where the job names it (:attr:`DetectorRef.origin`).
 
     Returns
     -------
@@ -191,20 +198,24 @@ def detector_ref(path: str | os.PathLike, name: str | None = None) -> DetectorRe
     path = os.path.abspath(os.fspath(path))
     with open(path, "rb") as f:
         digest = hashlib.sha256(f.read()).hexdigest()
-    return DetectorRef(name or os.path.splitext(os.path.basename(path))[0], path, digest)
+    return DetectorRef(name or os.path.splitext(os.path.basename(path))[0], path, digest,
+                       origin)
 
 
-def _detector(entry: Mapping[str, Any], i: int, base_dir: str) -> DetectorRef:
+def _detector(entry: Mapping[str, Any], i: int, base_dir: str, where: str) -> DetectorRef:
     if "path" not in entry:
         raise ValueError(f"[[detector]] #{i + 1}: needs a path to a detector file (leakdiag fit)")
     path = os.path.abspath(os.path.join(base_dir, entry["path"]))
+    origin = f"{where}[[detector]] #{i + 1} (path = {str(entry['path'])!r})"
     try:
-        return detector_ref(path, None if "name" not in entry else str(entry["name"]))
+        return detector_ref(path, None if "name" not in entry else str(entry["name"]), origin)
     except OSError as exc:
-        raise ValueError(f"[[detector]] #{i + 1}: cannot read {path}: {exc}") from None
+        raise ValueError(f"[[detector]] #{i + 1}: cannot read {path} (path = "
+                         f"{str(entry['path'])!r}): {exc.strerror or exc}") from None
 
 
-def config_from_dict(d: Mapping[str, Any], base_dir: str = ".") -> BatchConfig:
+def config_from_dict(d: Mapping[str, Any], base_dir: str = ".", *, source: str | None = None,
+                     extra_detectors: tuple[DetectorRef, ...] = ()) -> BatchConfig:
     """Build a :class:`BatchConfig` from the parsed TOML (sweeps expanded).
 
     Parameters
@@ -213,6 +224,10 @@ def config_from_dict(d: Mapping[str, Any], base_dir: str = ".") -> BatchConfig:
         Tables ``job`` (optional), ``analysis`` (list), ``detector`` (list).
     base_dir : str, default "."
         Directory that relative detector paths are relative to.
+    source : str, optional
+        The job file's name, for the entries' :attr:`DetectorRef.origin`.
+    extra_detectors : tuple of DetectorRef, default ()
+        Detectors added to the ``[[detector]]`` entries (``leakdiag batch --detector``).
 
     Returns
     -------
@@ -231,7 +246,9 @@ def config_from_dict(d: Mapping[str, Any], base_dir: str = ".") -> BatchConfig:
     if bad:
         raise ValueError(f"[job]: unknown key(s) {sorted(bad)}")
     specs = [s for i, e in enumerate(d.get("analysis", [])) for s in _expand(e, i)]
-    dets = [_detector(e, i, base_dir) for i, e in enumerate(d.get("detector", []))]
+    where = f"{source}: " if source else ""
+    dets = [_detector(e, i, base_dir, where) for i, e in enumerate(d.get("detector", []))]
+    dets += list(extra_detectors)
     onset = job.get("onset_s")
     cmap = cmap_sha = None
     if job.get("column_map") is not None:
@@ -276,10 +293,12 @@ def load_config(path: str | os.PathLike, detectors=()) -> BatchConfig:
             d = tomllib.load(f)
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{path}: invalid TOML: {exc}") from None
-    if detectors:
-        d = {**d, "detector": [*d.get("detector", []),
-                               *({"path": os.path.abspath(os.fspath(p))} for p in detectors)]}
     try:
-        return config_from_dict(d, os.path.dirname(os.path.abspath(path)))
+        extra = tuple(detector_ref(p, origin="--detector") for p in detectors)
+    except OSError as exc:
+        raise ValueError(f"--detector: cannot read {exc.filename}: {exc.strerror}") from None
+    try:
+        return config_from_dict(d, os.path.dirname(os.path.abspath(path)), source=path,
+                                extra_detectors=extra)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None

@@ -33,7 +33,8 @@ from leakdiag.stream.detector import as_scorer
 from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
 from leakdiag.stream.feature import StreamingFeature
 
-__all__ = ["run_case", "run_batch", "expand_inputs", "BatchSummary", "LOCAL"]
+__all__ = ["run_case", "run_batch", "expand_inputs", "warn_job_detectors", "BatchSummary",
+           "LOCAL"]
 
 #: Suffixes read in chunks (others are loaded whole with :func:`leakdiag.io.read_recording`).
 _CHUNKED_SUFFIXES = (".parquet", ".pq", ".h5", ".hdf5", ".csv")
@@ -108,6 +109,51 @@ def _in_job_words(msg: str) -> str:
                   "(sample_rate_hz in the job's column_map)", msg)
 
 
+def _load_job_detector(ref):
+    """A job's detector file, loaded for one recording with its warnings silenced:
+    :func:`run_batch` shows them once per file (here they would repeat for every recording,
+    or vanish into a Dask worker's log)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            return load_detector_file(ref.path)
+        except ValueError as exc:
+            if ref.origin and ref.origin != "--detector":
+                raise ValueError(f"{ref.origin}: {exc}") from None
+            raise
+
+
+def warn_job_detectors(config: BatchConfig) -> list:
+    """Load every detector file of a job once, letting its warnings through.
+
+    Parameters
+    ----------
+    config : BatchConfig
+        The job.
+
+    Returns
+    -------
+    list of DetectorRef
+        The bare pickles among them (no record: nothing is checked against the recordings).
+
+    Warns
+    -----
+    DetectorFileWarning
+        Once per file: other code fitted it, the code that fitted it is unknown, or it is a
+        bare pickle (:func:`leakdiag.stream.detector_file.load_detector_file`). A file that
+        cannot be loaded is left to the recordings' error rows.
+    """
+    bare = []
+    for ref in config.detectors:
+        try:
+            _, meta = load_detector_file(ref.path)
+        except ValueError:
+            continue
+        if meta is None:
+            bare.append(ref)
+    return bare
+
+
 def run_case(path: str, config: BatchConfig) -> list[dict]:
     """Run every analysis and detector of ``config`` on one recording, in one streaming pass.
 
@@ -146,9 +192,7 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
     try:
         dets = []
         for ref in config.detectors:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")  # a bare pickle: nothing to check, still usable
-                det, meta = load_detector_file(ref.path)
+            det, meta = _load_job_detector(ref)
             if not callable(getattr(det, "spec", None)):
                 raise ValueError(f"detector {ref.name} ({ref.path}) judges whole recordings and "
                                  "cannot be streamed; use a single-feature detector")
@@ -300,6 +344,12 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
     ValueError
         For a scheduler that is neither None, ``"serial"``, ``"local"`` nor an address.
 
+    Warns
+    -----
+    DetectorFileWarning
+        Once per detector file of the job, before the recordings are run
+        (:func:`warn_job_detectors`).
+
     Notes
     -----
     Each recording's rows are written as soon as it finishes (atomic rename), so a killed run
@@ -310,6 +360,8 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
 
     paths = expand_inputs(inputs)
     todo, keys, shas = _todo(paths, config, out_dir, retry_errors)
+    if todo:
+        warn_job_detectors(config)  # once per detector file; run_case silences them
     n_err = 0
     bar = tqdm(total=len(todo), unit="rec", desc="batch", disable=not progress, leave=True,
                dynamic_ncols=True, mininterval=0.5)

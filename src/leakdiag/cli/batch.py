@@ -18,6 +18,37 @@ def _stderr_is_terminal() -> bool:
     return bool(getattr(sys.stderr, "isatty", lambda: False)())
 
 
+def _check_detectors(cfg) -> list:
+    """Load every detector file of the job once, before any recording is read: refuse one
+    that cannot be loaded or streamed (naming the option or the job file's entry), let its
+    warnings through once, and return the bare pickles among them (nothing is checked)."""
+    import warnings
+
+    from leakdiag.cli.monitor import check_streamable
+    from leakdiag.stream.detector_file import load_detector_file
+
+    bare = []
+    for ref in cfg.detectors:
+        given = ref.origin == "--detector"
+        try:
+            try:
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always")  # once per file, whatever ran before
+                    det, meta = load_detector_file(ref.path)
+            except ValueError as exc:
+                raise click.BadParameter(str(exc), param_hint="--detector") from None
+            check_streamable(det, meta, ref.path)
+        except click.BadParameter as exc:
+            if given:
+                raise
+            raise ValueError(f"{ref.origin or 'job file'}: {exc.message}") from None
+        for w in caught:
+            click.echo(f"leakdiag: warning: {w.message}", err=True)
+        if meta is None:
+            bare.append(ref)
+    return bare
+
+
 @click.command(epilog="Example: leakdiag batch 'recordings/**/*.parquet' --config job.toml "
                       "-o results.parquet --scheduler serial")
 @click.argument("inputs", nargs=-1, required=True)
@@ -27,7 +58,8 @@ def _stderr_is_terminal() -> bool:
                    "(docs/operations.md).")
 @click.option("--detector", "detectors", multiple=True, type=click.Path(exists=True, dir_okay=False),
               help="Detector file from leakdiag fit, run on every recording (repeatable; adds "
-                   "to the job's [[detector]] entries).")
+                   "to the job's [[detector]] entries). It is a pickle: loading it runs code, "
+                   "so load only files you trust.")
 @click.option("--out", "-o", required=True, type=click.Path(),
               help="Results folder, a Parquet dataset (e.g. results.parquet); resumable.")
 @scheduler_option()
@@ -55,16 +87,7 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
 
     check_workers(scheduler, workers)  # None: one worker per core (as every command)
     cfg = load_config(config_path, detectors=detectors)
-    for ref in cfg.detectors:  # refused before any recording is read, as monitor does
-        import warnings
-
-        from leakdiag.cli.monitor import check_streamable, load_detector
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # a bare pickle: the runner says what it can
-            det, meta = load_detector(ref.path)
-        check_streamable(det, meta, ref.path, "--detector" if ref.path in {
-            os.path.abspath(d) for d in detectors} else f"[[detector]] in {config_path}")
+    bare = _check_detectors(cfg)
     st = None
     if store:  # opened before the work: a store that cannot be opened stops the job first
         from leakdiag.store import EventStore
@@ -74,8 +97,15 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     sched = None if scheduler == "serial" else scheduler
     if sched == "local":
         sched = LOCAL
-    s = run_batch(list(inputs), cfg, out, scheduler=sched, n_workers=workers,
-                  progress=not no_progress and _stderr_is_terminal(), retry_errors=retry_errors)
+    import warnings
+
+    from leakdiag.stream.detector_file import DetectorFileWarning
+
+    with warnings.catch_warnings():  # shown once per file above, not again by run_batch
+        warnings.simplefilter("ignore", DetectorFileWarning)
+        s = run_batch(list(inputs), cfg, out, scheduler=sched, n_workers=workers,
+                      progress=not no_progress and _stderr_is_terminal(),
+                      retry_errors=retry_errors)
     if s.n_inputs == 0:
         raise click.UsageError(f"no recording matches {' '.join(inputs)}")
 
@@ -99,6 +129,10 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
                    "is low for actuator pressures; if the time column is in milliseconds or a "
                    "sample counter, give the job a column map ([job] column_map = \"map.toml\" "
                    "with [file] time_unit = \"ms\")", err=True)
+    for ref in bare:  # after the bar and the rows' count, where the warning above scrolled
+        click.echo(f"leakdiag: warning: detector {ref.name}: {ref.path} is a bare pickle "
+                   "without a record: its rows were not checked against the recordings' "
+                   "sample rate, channels, units, system or load", err=True)
     bad = mine[mine["status"] == "error"]
     for _, r in bad.iterrows():
         click.echo(f"  error: {r['recording']}: {r['error']}", err=True)
