@@ -4,6 +4,8 @@ import pickle
 
 import pytest
 
+from leakdiag.stream.detector_file import DetectorFileWarning
+
 from _batch_helpers import SlowScorer, make_recording
 from leakdiag.batch import config_from_dict, read_results, run_batch
 from leakdiag.io.parquet import write_parquet
@@ -26,12 +28,15 @@ def test_local_cluster_equals_serial(tmp_path):
                       "window": 100}],
         "detector": [{"name": "slow", "path": str(det)}]})
     pattern = [str(rec_dir / "*.parquet")]
-    run_batch(pattern, cfg, tmp_path / "serial", progress=False)
+    bare = "a bare pickled detector without a metadata record"  # said once per run
+    with pytest.warns(DetectorFileWarning, match=bare):
+        run_batch(pattern, cfg, tmp_path / "serial", progress=False)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                       dashboard_address=":0") as cluster:
         assert len(cluster.workers) == 2
-        s = run_batch(pattern, cfg, tmp_path / "dask", scheduler=cluster.scheduler_address,
-                      progress=False)
+        with pytest.warns(DetectorFileWarning, match=bare):
+            s = run_batch(pattern, cfg, tmp_path / "dask", scheduler=cluster.scheduler_address,
+                          progress=False)
     assert (s.n_run, s.n_errors) == (5, 1)
     a = read_results(tmp_path / "serial").drop(columns="elapsed_s")
     b = read_results(tmp_path / "dask").drop(columns="elapsed_s")

@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+
+from leakdiag.stream.detector_file import DetectorFileWarning
 from click.testing import CliRunner
 
 from _batch_helpers import BurnInScorer, SlowScorer, make_recording
@@ -226,7 +228,8 @@ def test_killed_run_loses_no_finished_result(recordings, tmp_path):
     assert 2 <= len(kept) < 9, "the run was not interrupted mid-way"
     assert len(read_results(out)) == len(kept)  # every kept file is complete and readable
     cfg = load_config(job)
-    s = run_batch([str(tmp / "recordings" / "**" / "*.parquet")], cfg, out, progress=False)
+    with pytest.warns(DetectorFileWarning, match="a bare pickled detector"):
+        s = run_batch([str(tmp / "recordings" / "**" / "*.parquet")], cfg, out, progress=False)
     assert s.n_skipped == len(kept) and s.n_run == 9 - len(kept)
     df = read_results(out)
     assert len(df) == 9 and df["path"].is_unique
@@ -408,7 +411,11 @@ def test_cli_job_of_detector_files_alone_and_whole_recording_detectors_refused(r
     assert r.exit_code == 0, r.output
     assert "3 recording(s): 3 run" in r.output
     whole = tmp_path / "whole.pkl"
-    whole.write_bytes(pickle.dumps(object()))  # no spec(), no score_windows(): whole recordings
+    # a real detector that judges whole recordings only: fit/predict, no spec()/score_windows()
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm
+
+    whole.write_bytes(pickle.dumps(make_detector("fft-p1", "vca", Alarm())))
     r = _cli_batch(tmp, job, tmp_path / "res2", "--detector", str(whole))
     assert r.exit_code == 2
     assert "judges whole recordings and cannot run window by window" in r.output

@@ -45,6 +45,20 @@ def unchecked_notes(rec, file: str, fitted_on: str, system, load) -> list[str]:
     A recording of another rig or load than the healthy ones can look like a leak (an audit
     found a VCA detector judging a plain-CSV healthy EHA run LEAK), so an unchecked one is said.
 
+    Parameters
+    ----------
+    rec : Recording
+        The judged recording.
+    file, fitted_on : str
+        Its name and what the detector was fitted on (a detector file, the --healthy files).
+    system, load : str or None
+        The rig and load of the detector's healthy recordings (None: unknown, not said).
+
+    Returns
+    -------
+    list of str
+        One sentence per unchecked property.
+
     Examples
     --------
     >>> from leakdiag.io.recording import Recording
@@ -333,7 +347,8 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
               help="Healthy recording to fit --methods on (repeat the option for several).")
 @click.option("--detector", "detectors", multiple=True,
               type=click.Path(exists=True, dir_okay=False),
-              help="Detector file written by leakdiag fit (repeatable); no --healthy needed.")
+              help="Detector file written by leakdiag fit (repeatable); no --healthy needed. "
+                   "It is a pickle: loading runs code, so load only files you trust.")
 @click.option("--methods", default=None,
               help=f"Comma-separated methods fitted on --healthy (leakdiag benchmark "
                    f"--list-methods; default {_DEFAULT_METHODS}).")
