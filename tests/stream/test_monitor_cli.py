@@ -311,3 +311,40 @@ def test_monitor_stdin_checks_the_time_axis_like_file_mode(where, value, needle)
     r = CliRunner().invoke(cli, ["monitor", "-i", "-", "-c", "p1", "-w", "50", "-q"],
                            input="\n".join(lines) + "\n")
     assert r.exit_code != 0 and needle in str(r.exception), str(r.exception)
+
+
+def test_monitor_says_when_a_stuck_sensor_blinds_the_detector(tmp_path):
+    """A stuck p1 makes acf windows undefined; the CUSUM holds across them, so '0 alarm(s)'
+    said nothing there (an audit: 325 degenerate windows, state OK). The monitor says BLIND
+    when the run passes the detector's healthy limit, and warns at the end."""
+    import leakdiag as ld
+
+    d = tmp_path
+    healthy = []
+    for s in range(3):
+        healthy += ["--healthy", str(ld.io.write_recording(
+            ld.sim.simulate_vca(duration=30, leak_lpm=0.0, seed=s), d / f"h{s}.parquet"))]
+    r = CliRunner().invoke(cli, ["fit", *healthy, "-m", "acf-p1", "--false-alarm-rate", "60",
+                                 "--no-progress", "-o", str(d / "acf.joblib")])
+    assert r.exit_code == 0, r.output
+    rec = ld.sim.simulate_vca(duration=30, leak_lpm=0.0, seed=9)
+    p1 = rec["p1"].copy()
+    p1[15000:] = p1[15000]  # stuck from 15 s
+    stuck = Recording({**rec.channels, "p1": p1}, rec.sample_rate, meta=dict(rec.meta))
+    path = ld.io.write_recording(stuck, d / "stuck.parquet")
+    r = CliRunner().invoke(cli, ["monitor", str(path), "--detector", str(d / "acf.joblib"),
+                                 "--replay", "fast"])
+    assert r.exit_code == 0, r.output
+    blind = [x for x in r.output.splitlines() if x.startswith("BLIND")]
+    assert len(blind) == 1 and "undefined in 4 windows in a row" in blind[0]
+    t = float(blind[0].split("t=")[1].split(" s")[0])
+    assert 15.0 < t < 16.5  # the 4th undefined window after the freeze
+    assert "leakdiag: warning: " in r.output
+    text = " ".join(r.output.split())
+    assert "the detector's healthy recordings had at most 0 in a row (limit 3), so no alarm " \
+           "there rules nothing out" in text
+    # the same run with its sensor working: no BLIND, no warning
+    ok = ld.io.write_recording(rec, d / "ok.parquet")
+    r = CliRunner().invoke(cli, ["monitor", str(ok), "--detector", str(d / "acf.joblib"),
+                                 "--replay", "fast"])
+    assert r.exit_code == 0 and "BLIND" not in r.output and "warning" not in r.output

@@ -16,6 +16,7 @@ from leakdiag.features.spec import MethodSpec
 from leakdiag.cli._features import FeatureChoice, check_setting_options, spec_from_options
 from leakdiag.cli._options import recording_options
 from leakdiag.cli.dashboard import live_options, open_monitor_hooks
+from leakdiag.stream.blind import BlindSpans
 
 __all__ = ["monitor", "build_source", "load_detector", "parse_replay"]
 
@@ -291,6 +292,8 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     say = (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=out is sys.stdout))
     n_win = n_alarm = 0
     alarm_on = False
+    healthy_run = getattr(detector, "nan_run_healthy_", None)  # None: fitted before the check
+    blind = BlindSpans(healthy_run) if healthy_run is not None else None
     live = {**live, "system": source.meta.get("system") or getattr(meta, "system", None)}
     hooks = open_monitor_hooks(live, spec, mon, source, say)  # --store / --dashboard
     t0 = time.perf_counter()
@@ -317,6 +320,10 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                     say(f"cleared t={e.time:.6g} s  score={e.score:.6g}")
                 if e.alarm is not None:
                     alarm_on = e.alarm
+                    if blind is not None and blind.add(e.time, e.value):
+                        say(f"BLIND   t={e.time:.6g} s  {spec.label}: undefined in "
+                            f"{blind.limit + 1} windows in a row (a stuck sensor?); no alarm "
+                            "is possible until it is defined again")
     finally:
         if out is not None and out is not sys.stdout:
             out.close()
@@ -331,6 +338,8 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
               "no alarm possible (features only: give --detector FILE from leakdiag fit)")
     say(f"{source.source}: {n} samples at {source.sample_rate:g} Hz, {n_win} windows "
         f"({spec.label}), {alarms}, {mon.features[0].n_degenerate} degenerate, in {dt:.3g} s")
+    if blind is not None and blind.blind and n_alarm == 0:
+        click.echo(f"leakdiag: warning: {blind.words(source.source, spec.label)}", err=True)
     basis = getattr(detector, "threshold_basis_", None)
     if basis is not None:  # the basis of "alarm" / "no alarm", as detect prints it
         from leakdiag.cli._words import threshold_words
