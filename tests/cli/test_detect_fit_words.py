@@ -338,3 +338,27 @@ def test_detect_says_what_a_file_without_rig_or_load_could_not_be_checked_for(fi
     assert main(["detect", csv, "--detector", str(det), "--map", str(toml),
                  "--no-progress"]) == 2
     assert "was fitted on" in capsys.readouterr().err
+
+
+def test_fit_needs_in_every_healthy_file_only_the_channels_its_method_reads(files, tmp_path,
+                                                                             capsys):
+    """A healthy file without p2 was refused for acf-p1 ('no channel p2, which h0 has'), a
+    method that reads only p1; a file without the p1 it reads is refused by that name."""
+    from leakdiag.io import read_recording, write_recording
+    from leakdiag.io.recording import Recording
+
+    healthy, _, _ = files
+    r = read_recording(healthy[2])
+    no_p2 = str(write_recording(Recording({c: r[c] for c in r.channels if c != "p2"},
+                                          r.sample_rate, r.start_time, dict(r.units),
+                                          dict(r.meta)), tmp_path / "no_p2.parquet"))
+    no_p1 = str(write_recording(Recording({c: r[c] for c in r.channels if c != "p1"},
+                                          r.sample_rate, r.start_time, dict(r.units),
+                                          dict(r.meta)), tmp_path / "no_p1.parquet"))
+    assert main(["fit", *_h(healthy[:2] + [no_p2]), "-m", "acf-p1", "--false-alarm-rate", "60",
+                 "--no-progress", "-o", str(tmp_path / "a.joblib")]) == 0
+    capsys.readouterr()
+    assert main(["fit", *_h(healthy[:2] + [no_p1]), "-m", "acf-p1", "--false-alarm-rate", "60",
+                 "--no-progress", "-o", str(tmp_path / "b.joblib")]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert f"--healthy {no_p1}: no channel 'p1', which acf-p1 reads; available:" in err

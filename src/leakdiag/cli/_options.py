@@ -353,7 +353,8 @@ def warn_low_rate(path, rate: float, advice: str = "give --time-unit ms (or samp
                       f"{advice}", UserWarning, stacklevel=3)
 
 
-def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample=None):
+def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample=None,
+                 recordings=None, reads=None):
     """Read healthy reference recordings and check they agree with the suspect recording.
 
     Parameters
@@ -371,6 +372,10 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
         Channels the methods need (checked in every file).
     resample : float, optional
         ``--resample`` (Hz).
+    recordings : list of Recording, optional
+        The files already read (only checked again, e.g. for the channels a method reads).
+    reads : str, optional
+        What needs ``channels`` (a method name), for the message of a missing one.
 
     Returns
     -------
@@ -386,7 +391,8 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
     from leakdiag.detect.base import check_healthy, healthy_info
     from leakdiag.io.errors import RecordingError
 
-    recs = [read_with(p, cmap, sample_rate, resample) for p in paths]
+    recs = (list(recordings) if recordings is not None else
+            [read_with(p, cmap, sample_rate, resample) for p in paths])
     ref = suspect if suspect is not None else (recs[0] if recs else None)
     if ref is None:
         return recs
@@ -401,12 +407,17 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
             raise ValueError(f"--healthy {p}: system {sys_r!r} differs from {name}'s {sys_s!r}: "
                              "healthy references must come from the same kind of machine")
         for c in (channels if channels is not None else ref.channels):
+            if c not in r.channels and reads is not None:
+                raise ValueError(f"--healthy {p}: no channel {c!r}, which {reads} reads; "
+                                 f"available: {sorted(r.channels)}")
             if c in ref.channels and c not in r.channels:
                 raise ValueError(f"--healthy {p}: no channel {c!r}, which {name} has")
             if c in ref.channels and c in r.channels and \
                     r.units.get(c) != ref.units.get(c):
                 raise ValueError(f"--healthy {p}: channel {c!r} is in {r.units.get(c)!r}, "
                                  f"{name} in {ref.units.get(c)!r}")
+    if recordings is not None:  # checked when they were read
+        return recs
     try:  # leaking by metadata, or one file given twice: the check of every detector's fit
         check_healthy([healthy_info(r) for r in recs])
     except RecordingError as exc:

@@ -293,8 +293,16 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
     check_out_path(out, [*(("--healthy", h) for h in healthy),
                          *(("--calibrate", c) for c in calibration)])
     cmap = column_map_from(column_map, cols, time_unit)
-    recs = read_healthy(healthy, None, cmap, sample_rate, resample=resample)
+    recs = read_healthy(healthy, None, cmap, sample_rate, channels=(), resample=resample)
     system = system_of(recs, system, healthy)
+    # the channels the method reads must be in every healthy file, with one unit; others may
+    # differ (a file without p2 was refused for acf-p1, which reads only p1)
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm
+
+    needed = detector_channels(make_detector(method, system, Alarm()), recs[0])
+    read_healthy(healthy, None, cmap, sample_rate, channels=needed, resample=resample,
+                 recordings=recs, reads=method)
     say = (lambda msg: None) if no_progress else (lambda msg: click.echo(msg, err=True))
     say(f"fitting {method} ({system.upper()}) on {len(recs)} healthy recording(s)...")
     check_longer_than_burn_in(recs, healthy, burn_in_s)
