@@ -217,8 +217,9 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=())
 @click.option("--overlap", type=click.FloatRange(0, 100, max_open=True), default=5.0,
               show_default=True, help="Overlap (%).")
 @click.option("--detector", "detector_path", type=click.Path(exists=True, dir_okay=False),
-              help="Detector file from leakdiag fit (its feature settings are used unless "
-                   "--method); its threshold holds its false-alarm rate per hour of monitoring. "
+              help="Detector file from leakdiag fit: its feature settings are used (a "
+                   "different --method, --channels, --lag, --window or --overlap is refused); "
+                   "its threshold holds its false-alarm rate per hour of monitoring. "
                    "It is a pickle: loading it runs code, so load only files you trust.")
 @recording_options
 @click.option("--chunk", type=click.IntRange(min=1), default=65536, show_default=True,
