@@ -8,7 +8,10 @@ no I/O). The web server reads :meth:`LiveBoard.snapshot` at a few Hz and sends i
 State of an actuator (decisions, see ``docs/operations.md``):
 
 * ``WAITING`` before the first window, then ``OK`` or ``ALARM`` as the detector says; without a
-  detector ``NO DETECTOR``.
+  detector ``NO DETECTOR``. ``BLIND`` instead of ``OK`` while the latest scored windows are a
+  run of undefined feature values longer than the detector's healthy limit
+  (:class:`~leakdiag.stream.blind.BlindSpans`: a stuck sensor; the CUSUM cannot move, so OK
+  would say nothing).
 * **Alarm time**: time of the first window in alarm (as :class:`leakdiag.detect.base.Verdict`).
   A CUSUM near its threshold may dip below it and cross again; while its excursion has not
   returned to 0 this is the same alarm *episode*: the state goes OK and ALARM again (and the
@@ -88,6 +91,14 @@ class ActuatorLive:
         self.alarm_time_s = self.onset_s = None
         self.onset_censored = False
         self._first_scored = None  # time of the first window with a finite CUSUM
+        det = getattr(scorer, "detector", None)
+        healthy_run = getattr(det, "nan_run_healthy_", None)  # None: fitted before the check
+        self.blind_limit = None
+        if healthy_run is not None:
+            from leakdiag.stream.blind import BlindSpans
+
+            self.blind_limit = BlindSpans(healthy_run).limit
+        self._nan_run = 0  # undefined scored windows at the end of the stream so far
         self.leak: tuple | None = None
         self._exc_start = [None, None]  # (time, start) of the first window of each excursion
         self._episode_key = None  # (branch, excursion start) of the current alarm episode
@@ -139,6 +150,11 @@ class ActuatorLive:
             scored = np.flatnonzero(np.isfinite(branches[0]) | np.isfinite(branches[1]))
             if len(scored):
                 self._first_scored = float(t[scored[0]])
+        if self.blind_limit is not None:  # the trailing run of undefined scored windows
+            scored_v = v[np.isfinite(s)]
+            ok = np.flatnonzero(np.isfinite(scored_v))
+            self._nan_run = (self._nan_run + len(scored_v) if not len(ok) else
+                             len(scored_v) - 1 - int(ok[-1]))
         z = self._z(v, s)
         fin = np.isfinite(z)
         self._hist_t.append(t[fin])
@@ -241,10 +257,14 @@ class ActuatorLive:
             state = "WAITING"
         else:
             state = "ALARM" if self.alarm_on else "OK"
+            if state == "OK" and self.blind_limit is not None and \
+                    self._nan_run > self.blind_limit:
+                state = "BLIND"  # undefined feature: the detector cannot see
         leak = self.leak
         return {
             "actuator": self.name, "feature": self.feature, "threshold": self.threshold,
-            "state": state, "alarm_time_s": self.alarm_time_s, "onset_s": self.onset_s,
+            "state": state, "blind_windows": self._nan_run,
+            "alarm_time_s": self.alarm_time_s, "onset_s": self.onset_s,
             "onset_censored": self.onset_censored if self.onset_s is not None else None,
             "leak_lpm": leak[0] if leak else None, "leak_lpm_low": leak[1] if leak else None,
             "leak_lpm_high": leak[2] if leak else None,
