@@ -68,30 +68,33 @@ def test_an_excursion_from_the_first_window_scored_gives_a_censored_onset():
 
 def test_a_run_of_undefined_windows_beyond_the_healthy_limit_is_blind_not_ok():
     """A stuck sensor makes the feature NaN and the CUSUM holds: the page said OK. With a
-    detector fitted with its healthy count (0 here: limit 3) it says BLIND until a defined
-    window comes back; an alarm stays ALARM."""
+    detector fitted with its healthy span (0 s here: limit 10 s) it says BLIND while the
+    latest windows are undefined for longer, until a defined window comes back; an alarm stays
+    ALARM."""
     class _Counted(_Det):
-        nan_run_healthy_ = 0
+        nan_span_healthy_s_ = 0.0
 
     sc = DetectorScorer(_Counted(), window=2, sample_rate=1.0)
     board = LiveBoard()
     board.add("a", "feat", sc, window_s=1.0)
     nan = float("nan")
-    t, v = np.arange(1.0, 7.0), np.array([0.0, 0.1, nan, nan, nan, nan])
-    s = sc.score_windows(v[:5], t[:5])
-    board.update("a", t[:5], v[:5], s, s >= 2.0, received_wall=1.0)
+    t = np.arange(1.0, 14.0)  # windows 1 s apart
+    v = np.r_[0.0, 0.1, np.full(11, nan)]
+    s = sc.score_windows(v[:12], t[:12])
+    board.update("a", t[:12], v[:12], s, s >= 2.0, received_wall=1.0)
     snap = board.snapshot("a")
-    assert (snap["state"], snap["blind_windows"]) == ("OK", 3)  # 3 in a row: at the limit
-    s = sc.score_windows(v[5:], t[5:])
-    board.update("a", t[5:], v[5:], s, s >= 2.0, received_wall=2.0)
-    assert (board.snapshot("a")["state"], board.snapshot("a")["blind_windows"]) == ("BLIND", 4)
-    s = sc.score_windows(np.array([0.2]), np.array([7.0]))
-    board.update("a", np.array([7.0]), np.array([0.2]), s, s >= 2.0, received_wall=3.0)
+    assert (snap["state"], snap["blind_windows"]) == ("OK", 10)  # 10 s: at the limit
+    s = sc.score_windows(v[12:], t[12:])
+    board.update("a", t[12:], v[12:], s, s >= 2.0, received_wall=2.0)
+    snap = board.snapshot("a")
+    assert (snap["state"], snap["blind_windows"]) == ("BLIND", 11)
+    s = sc.score_windows(np.array([0.2]), np.array([14.0]))
+    board.update("a", np.array([14.0]), np.array([0.2]), s, s >= 2.0, received_wall=3.0)
     assert board.snapshot("a")["state"] == "OK"
-    # a detector fitted before the count: never BLIND
+    # a detector fitted before the check: never BLIND
     old = LiveBoard()
     old.add("b", "feat", DetectorScorer(_Det(), window=2, sample_rate=1.0), window_s=1.0)
-    old.update("b", t, v, np.zeros(6), np.zeros(6, bool), received_wall=1.0)
+    old.update("b", t, v, np.zeros(13), np.zeros(13, bool), received_wall=1.0)
     assert old.snapshot("b")["state"] == "OK"
 
 

@@ -16,6 +16,7 @@ from leakdiag.features.spec import MethodSpec
 from leakdiag.cli._features import FeatureChoice, check_setting_options, spec_from_options
 from leakdiag.cli._options import recording_options
 from leakdiag.cli.dashboard import live_options, open_monitor_hooks
+from leakdiag.features.windowing import window_step
 from leakdiag.stream.blind import BlindSpans
 
 __all__ = ["monitor", "build_source", "load_detector", "parse_replay"]
@@ -293,8 +294,9 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     say = (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=out is sys.stdout))
     n_win = n_alarm = 0
     alarm_on = False
-    healthy_run = getattr(detector, "nan_run_healthy_", None)  # None: fitted before the check
-    blind = BlindSpans(healthy_run) if healthy_run is not None else None
+    healthy_span = getattr(detector, "nan_span_healthy_s_", None)  # None: fitted before it
+    blind = (BlindSpans(healthy_span, window_step(spec.window, spec.overlap)
+                        / source.sample_rate) if healthy_span is not None else None)
     live = {**live, "system": source.meta.get("system") or getattr(meta, "system", None)}
     hooks = open_monitor_hooks(live, spec, mon, source, say)  # --store / --dashboard
     t0 = time.perf_counter()
@@ -322,9 +324,10 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                 if e.alarm is not None:
                     alarm_on = e.alarm
                     if blind is not None and blind.add(e.time, e.value):
-                        say(f"BLIND   t={e.time:.6g} s  {spec.label}: undefined in "
-                            f"{blind.limit + 1} windows in a row (a stuck sensor?); no alarm "
-                            "is possible until it is defined again")
+                        say(f"BLIND   t={e.time:.6g} s  {spec.label}: undefined for "
+                            f"{blind.windows * blind.step_s:.3g} s, more than the "
+                            f"{blind.limit_s:.3g} s allowed (a stuck sensor?); no alarm is "
+                            "possible until it is defined again")
     finally:
         if out is not None and out is not sys.stdout:
             out.close()

@@ -92,13 +92,14 @@ class ActuatorLive:
         self.onset_censored = False
         self._first_scored = None  # time of the first window with a finite CUSUM
         det = getattr(scorer, "detector", None)
-        healthy_run = getattr(det, "nan_run_healthy_", None)  # None: fitted before the check
-        self.blind_limit = None
-        if healthy_run is not None:
-            from leakdiag.stream.blind import BlindSpans
+        healthy_span = getattr(det, "nan_span_healthy_s_", None)  # None: fitted before it
+        self.blind_limit_s = None
+        if healthy_span is not None:
+            from leakdiag.detect.base import blind_limit_s
 
-            self.blind_limit = BlindSpans(healthy_run).limit
+            self.blind_limit_s = blind_limit_s(healthy_span)
         self._nan_run = 0  # undefined scored windows at the end of the stream so far
+        self._step = None  # time between windows (s), from the first two
         self.leak: tuple | None = None
         self._exc_start = [None, None]  # (time, start) of the first window of each excursion
         self._episode_key = None  # (branch, excursion start) of the current alarm episode
@@ -150,7 +151,9 @@ class ActuatorLive:
             scored = np.flatnonzero(np.isfinite(branches[0]) | np.isfinite(branches[1]))
             if len(scored):
                 self._first_scored = float(t[scored[0]])
-        if self.blind_limit is not None:  # the trailing run of undefined scored windows
+        if self.blind_limit_s is not None:  # the trailing run of undefined scored windows
+            if self._step is None and len(self.time) > 1:
+                self._step = self.time[1] - self.time[0]
             scored_v = v[np.isfinite(s)]
             ok = np.flatnonzero(np.isfinite(scored_v))
             self._nan_run = (self._nan_run + len(scored_v) if not len(ok) else
@@ -257,8 +260,8 @@ class ActuatorLive:
             state = "WAITING"
         else:
             state = "ALARM" if self.alarm_on else "OK"
-            if state == "OK" and self.blind_limit is not None and \
-                    self._nan_run > self.blind_limit:
+            if state == "OK" and self.blind_limit_s is not None and self._step and \
+                    self._nan_run * self._step > self.blind_limit_s:
                 state = "BLIND"  # undefined feature: the detector cannot see
         leak = self.leak
         return {

@@ -478,7 +478,7 @@ class Detector(BaseEstimator):
         # the longest run of undefined (NaN) feature windows a judged run may have before its
         # NO LEAK is refused: a constant channel (a stuck sensor) makes its windows NaN, and
         # the CUSUM holds its value across them (docs/detect.md, section 2, "Blind spans")
-        self.nan_run_healthy_ = max(longest_nan_run(s[1]) for s in series)
+        self.nan_span_healthy_s_ = max(longest_nan_span(s[0], s[1]) for s in series)
         return self
 
     def segment_maxima(self, recordings) -> np.ndarray:
@@ -670,23 +670,24 @@ class Detector(BaseEstimator):
                        smax, h, shift, method, tr.name, censored)
 
     def _check_blind_spans(self, tr: _Trace, source: str) -> None:
-        """Refuse a NO LEAK over a run of undefined feature windows longer than the healthy
-        recordings had, ``NAN_RUN_FACTOR`` times ``nan_run_healthy_`` (at least
-        ``NAN_RUN_FLOOR``; detectors fitted before it: no check)."""
-        healthy = getattr(self, "nan_run_healthy_", None)
+        """Refuse a NO LEAK whose recording ends in a span of undefined feature windows longer
+        than :func:`blind_limit_s` of the healthy recordings' longest (``nan_span_healthy_s_``;
+        detectors fitted before it: no check). A span that ends before the recording does is
+        no reason: a leak is lasting, so one that began inside it is seen after it."""
+        healthy = getattr(self, "nan_span_healthy_s_", None)
         if healthy is None:
             return
-        limit = NAN_RUN_FACTOR * max(healthy, NAN_RUN_FLOOR)
-        n, i = longest_nan_run(tr.z, where=True)
-        if n <= limit:
+        limit = blind_limit_s(healthy)
+        n, span = trailing_nan_span(tr.time, tr.z)
+        if span <= limit:
             return
-        t0, t1 = float(tr.start[i]), float(tr.time[i + n - 1])
+        t0, t1 = float(tr.start[len(tr.z) - n]), float(tr.time[-1])
         raise RecordingError(
-            f"predict: {source}: the feature {tr.name!r} is undefined in {n} consecutive "
-            f"windows from {t0:.6g} to {t1:.6g} s (zero variance: a channel it reads is "
-            f"constant there, a stuck sensor?); the healthy recordings had at most {healthy} "
-            f"such windows in a row (limit {limit}), so no leak can be ruled out over that "
-            "span")
+            f"predict: {source}: the feature {tr.name!r} is undefined in its last {n} windows, "
+            f"from {t0:.6g} to {t1:.6g} s (zero variance: a channel it reads is constant there, "
+            f"a stuck sensor?); the healthy recordings had undefined spans of at most "
+            f"{healthy:.3g} s (limit {limit:.3g} s), so no leak can be ruled out at the end of "
+            "this recording")
 
     def calibrate(self, recordings, level: float = 0.9, validity: dict | None = None) -> "Detector":
         """Fit ``calibration_``: feature shift at the true onset against the true leak flow.
@@ -722,33 +723,98 @@ class Detector(BaseEstimator):
         return self
 
 
-#: A judged run may have this many times the healthy recordings' longest run of undefined
-#: feature windows before its NO LEAK is refused (leakdiag choice, as the flow balance's
-#: ``HOLD_FACTOR`` for held channels).
-NAN_RUN_FACTOR = 3
-#: ... counted from at least one window (healthy recordings without any undefined window).
-NAN_RUN_FLOOR = 1
+#: A judged recording may end in an undefined feature span this many times the healthy
+#: recordings' longest before its NO LEAK is refused (leakdiag choice, as the flow balance's
+#: ``HOLD_FACTOR`` for held channels) ...
+NAN_SPAN_FACTOR = 3.0
+#: ... and at least this long (s): an undefined span shorter than a detection delay changes
+#: little, and few short healthy runs may show none (an encoder holding its count while the
+#: piston rests makes u-x windows undefined for seconds).
+NAN_SPAN_FLOOR_S = 10.0
 
 
-def longest_nan_run(values, where: bool = False):
-    """Length of the longest run of consecutive non-finite values (and its first index).
+def blind_limit_s(healthy_span_s: float) -> float:
+    """Longest undefined span (s) a judged run may end in: ``max(NAN_SPAN_FACTOR *
+    healthy_span_s, NAN_SPAN_FLOOR_S)``.
+
+    Parameters
+    ----------
+    healthy_span_s : float
+        Longest undefined span of the healthy recordings (``nan_span_healthy_s_``).
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> blind_limit_s(0.0), blind_limit_s(4.0)
+    (10.0, 12.0)
+    """
+    return max(NAN_SPAN_FACTOR * float(healthy_span_s), NAN_SPAN_FLOOR_S)
+
+
+def _window_step(time) -> float:
+    t = np.asarray(time, dtype=np.float64)
+    return float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+
+
+def longest_nan_span(time, values) -> float:
+    """Longest time (s) covered by consecutive undefined (non-finite) windows: from the end of
+    the last defined window before them to the end of the last of them (n windows: n steps).
+
+    Parameters
+    ----------
+    time : array_like
+        Window times (their last samples, s), increasing.
+    values : array_like
+        Feature values.
+
+    Returns
+    -------
+    float
+        0.0 without undefined windows.
 
     Examples
     --------
     >>> nan = float("nan")
-    >>> longest_nan_run([1.0, nan, nan, 2.0, nan]), longest_nan_run([nan, 1.0, nan, nan], True)
-    (2, (2, 2))
-    >>> longest_nan_run([1.0, 2.0], where=True)
-    (0, 0)
+    >>> longest_nan_span([1.0, 2.0, 3.0, 4.0, 5.0], [0.0, nan, nan, 1.0, nan])
+    2.0
     """
     bad = ~np.isfinite(np.asarray(values, dtype=np.float64))
     if not bad.any():
-        return (0, 0) if where else 0
+        return 0.0
     edges = np.diff(np.concatenate(([0], bad.view(np.int8), [0])))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    k = int(np.argmax(ends - starts))
-    n = int(ends[k] - starts[k])
-    return (n, int(starts[k])) if where else n
+    return float((ends - starts).max()) * _window_step(time)
+
+
+def trailing_nan_span(time, values) -> tuple[int, float]:
+    """The undefined windows a recording ends in: ``(count, span in s)`` as
+    :func:`longest_nan_span` counts a span.
+
+    Parameters
+    ----------
+    time, values : array_like
+        As :func:`longest_nan_span`.
+
+    Returns
+    -------
+    count : int
+    span : float
+
+    Examples
+    --------
+    >>> nan = float("nan")
+    >>> trailing_nan_span([1.0, 2.0, 3.0, 4.0], [nan, 1.0, nan, nan])
+    (2, 2.0)
+    >>> trailing_nan_span([1.0, 2.0], [nan, 1.0])
+    (0, 0.0)
+    """
+    v = np.asarray(values, dtype=np.float64)
+    ok = np.flatnonzero(np.isfinite(v))
+    n = len(v) - 1 - int(ok[-1]) if len(ok) else len(v)
+    return n, n * _window_step(time)
 
 
 def meta_leak_lpm(meta) -> float | None:

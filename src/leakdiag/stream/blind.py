@@ -1,11 +1,12 @@
-"""Blind spans of a monitored stream: runs of undefined feature windows a detector cannot see.
+"""Blind spans of a monitored stream: undefined feature windows a detector cannot see through.
 
 A window whose feature is undefined (zero variance: a channel it reads is constant, e.g. a stuck
-sensor) is NaN, and the CUSUM holds its value across it, so "no alarm" over such a span says
-nothing. :class:`~leakdiag.detect.base.Detector` refuses a NO LEAK over a run of undefined
-windows longer than ``NAN_RUN_FACTOR`` times its healthy recordings' longest
-(``nan_run_healthy_``, docs/detect.md section 2, "Blind spans"); :class:`BlindSpans` applies the
-same limit window by window to a stream, for ``leakdiag monitor``.
+sensor) is NaN, and the CUSUM holds its value across it, so "no alarm" during such a span says
+nothing. :class:`~leakdiag.detect.base.Detector` refuses a NO LEAK for a recording that ends in
+an undefined span longer than :func:`~leakdiag.detect.base.blind_limit_s` of its healthy
+recordings' longest (``nan_span_healthy_s_``, docs/detect.md section 2, "Blind spans"; a span
+that ends is no reason: a lasting leak is seen after it). :class:`BlindSpans` applies the same
+limit window by window to a stream, for ``leakdiag monitor``.
 """
 
 from __future__ import annotations
@@ -16,39 +17,42 @@ __all__ = ["BlindSpans"]
 
 
 class BlindSpans:
-    """Runs of undefined (NaN) scored windows, against a detector's healthy limit.
+    """The current span of undefined (NaN) scored windows, against a detector's healthy limit.
 
     Parameters
     ----------
-    healthy_run : int
-        Longest run of undefined windows in the detector's healthy recordings
-        (``Detector.nan_run_healthy_``).
+    healthy_span_s : float
+        Longest undefined span of the detector's healthy recordings
+        (``Detector.nan_span_healthy_s_``).
+    step_s : float
+        Time between consecutive windows (s): a span of n windows is ``n * step_s``.
 
     Attributes
     ----------
-    limit : int
-        ``NAN_RUN_FACTOR * max(healthy_run, NAN_RUN_FLOOR)``: longer runs are blind spans.
-    longest : tuple of (int, float, float)
-        ``(windows, first time, last time)`` of the longest run seen (times of the windows' last
-        samples), ``(0, nan, nan)`` before any.
+    limit_s : float
+        :func:`~leakdiag.detect.base.blind_limit_s` of ``healthy_span_s``.
+    windows : int
+        Undefined windows in a row up to the latest one (0 after a defined window).
+    since : float
+        Time of the first of them (NaN when ``windows`` is 0).
 
     Examples
     --------
-    >>> b = BlindSpans(0)  # limit 3
-    >>> [b.add(t, v) for t, v in [(1.0, 0.5), (2.0, float("nan")), (3.0, float("nan")),
-    ...                           (4.0, float("nan")), (5.0, float("nan")), (6.0, 0.1)]]
-    [False, False, False, False, True, False]
-    >>> b.longest
-    (4, 2.0, 5.0)
+    >>> b = BlindSpans(0.0, step_s=4.0)  # limit 10 s: 3 windows of 4 s
+    >>> nan = float("nan")
+    >>> [b.add(t, v) for t, v in [(4.0, 0.5), (8.0, nan), (12.0, nan), (16.0, nan), (20.0, nan)]]
+    [False, False, False, True, False]
+    >>> b.blind, b.windows, b.since
+    (True, 4, 8.0)
     """
 
-    def __init__(self, healthy_run: int):
-        from leakdiag.detect.base import NAN_RUN_FACTOR, NAN_RUN_FLOOR
+    def __init__(self, healthy_span_s: float, step_s: float):
+        from leakdiag.detect.base import blind_limit_s
 
-        self.healthy_run = int(healthy_run)
-        self.limit = NAN_RUN_FACTOR * max(self.healthy_run, NAN_RUN_FLOOR)
-        self._n, self._t0 = 0, math.nan
-        self.longest = (0, math.nan, math.nan)
+        self.healthy_span_s = float(healthy_span_s)
+        self.step_s = float(step_s)
+        self.limit_s = blind_limit_s(self.healthy_span_s)
+        self.windows, self.since = 0, math.nan
 
     def add(self, time: float, value: float) -> bool:
         """Take one scored window.
@@ -63,26 +67,24 @@ class BlindSpans:
         Returns
         -------
         bool
-            True when this window makes the current run a blind span (once per run: at the
-            window that first exceeds the limit).
+            True when this window makes the current span longer than the limit (once per
+            span: at the window that first exceeds it).
         """
         if math.isfinite(value):
-            self._n = 0
+            self.windows, self.since = 0, math.nan
             return False
-        if self._n == 0:
-            self._t0 = time
-        self._n += 1
-        if self._n > self.longest[0]:
-            self.longest = (self._n, self._t0, time)
-        return self._n == self.limit + 1
+        if self.windows == 0:
+            self.since = time
+        self.windows += 1
+        return self.windows * self.step_s > self.limit_s >= (self.windows - 1) * self.step_s
 
     @property
     def blind(self) -> bool:
-        """Whether the longest run seen is a blind span."""
-        return self.longest[0] > self.limit
+        """Whether the stream is now in an undefined span longer than the limit."""
+        return self.windows * self.step_s > self.limit_s
 
     def words(self, source: str, label: str) -> str:
-        """The longest run as a sentence for the monitor's summary.
+        """The span the stream ends in, as a sentence for the monitor's summary.
 
         Parameters
         ----------
@@ -93,9 +95,9 @@ class BlindSpans:
         -------
         str
         """
-        n, t0, t1 = self.longest
-        return (f"{source}: the feature {label!r} was undefined in {n} consecutive windows "
-                f"ending {t0:.6g} to {t1:.6g} s (zero variance: a channel it reads is constant "
-                f"there, a stuck sensor?); the detector's healthy recordings had at most "
-                f"{self.healthy_run} in a row (limit {self.limit}), so no alarm there rules "
-                "nothing out")
+        return (f"{source}: the feature {label!r} was undefined in its last {self.windows} "
+                f"windows, from the one ending {self.since:.6g} s on ({self.windows * self.step_s:.3g}"
+                f" s; zero variance: a channel it reads is constant there, a stuck sensor?); the "
+                f"detector's healthy recordings had undefined spans of at most "
+                f"{self.healthy_span_s:.3g} s (limit {self.limit_s:.3g} s), so no alarm there "
+                "rules nothing out")
