@@ -1,6 +1,5 @@
 """A change present from the first window judged: the onset is an upper bound, and says so."""
 
-import numpy as np
 import pytest
 
 import leakdiag as ld
