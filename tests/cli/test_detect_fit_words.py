@@ -362,3 +362,54 @@ def test_fit_needs_in_every_healthy_file_only_the_channels_its_method_reads(file
                  "--no-progress", "-o", str(tmp_path / "b.joblib")]) == 2
     err = " ".join(capsys.readouterr().err.split())
     assert f"--healthy {no_p1}: no channel 'p1', which acf-p1 reads; available:" in err
+
+
+def test_per_run_rate_of_an_unsupported_conformal_level_is_its_achieved_bound():
+    """A review (2026-11-27): a threshold at the largest of too few maxima holds 1/(n+1) per
+    segment, far above the target; the decision printed the requested rate times the span
+    ('about 0.00403') instead."""
+    import warnings
+
+    from leakdiag.cli.detect import per_run_rate
+    from leakdiag.detect.threshold import conformal_threshold
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        b = conformal_threshold([3.0, 1.0], 0.01, segment_s=60.0, on_insufficient="warn")
+    assert b.method == "conformal-unsupported" and b.bound_per_segment == pytest.approx(1 / 3)
+    assert per_run_rate(b, 0.6, 30.0) == (pytest.approx(1 / 3), True)
+    assert per_run_rate(b, 0.6, 150.0) == (1.0, True)  # 3 segments: capped at 1
+
+
+def test_the_flow_balance_run_rate_counts_the_segments_its_p_value_counts(tmp_path):
+    """A review (2026-11-27): a run as long as a healthy run spans one of the flow balance's
+    window-count segments (its p-value's m = 1), but the decision counted 2 from the time."""
+    import leakdiag as ld
+    from leakdiag.cli.detect import per_run_rate
+    from leakdiag.detect import FlowBalanceDetector
+
+    h = [ld.sim.simulate_vca(duration=40, leak_lpm=0.0, load="spring", seed=s) for s in range(6)]
+    det = FlowBalanceDetector(system="vca", false_alarms_per_hour=30.0).fit(h)
+    b = det.threshold_basis_
+    assert b.method == "conformal" and det.segment_s is None
+    v = det.predict(ld.sim.simulate_vca(duration=40, leak_lpm=0.0, load="spring", seed=30))
+    assert v.n_segments == 1
+    assert per_run_rate(b, 30.0, 40.0 - det.burn_in_s, v.n_segments) == (
+        pytest.approx(b.bound_per_segment), True)
+
+
+def test_loads_compare_case_and_blank_insensitively_everywhere():
+    """A review (2026-11-27): fit accepted 'Spring' and 'spring' as one load but recorded none
+    (so later files went unchecked), and a map's 'Spring' (read as 'spring') was refused
+    against a detector fitted on 'Spring' files."""
+    from leakdiag.cli.fit import common_load
+    from leakdiag.io.recording import Recording
+    from leakdiag.stream.detector_file import DetectorMeta, check_detector_fits
+
+    r = lambda load: Recording({"p1": [0.0, 1.0]}, 1.0, meta={"load": load})  # noqa: E731
+    assert common_load([r("Spring"), r(" spring")]) == "spring"
+    assert common_load([r("spring"), r("none")]) is None
+    m = DetectorMeta("acf-p1", "vca", 1.0, ("p1",), load="Spring")
+    check_detector_fits(m, sample_rate=1.0, load="spring")  # the same load: no error
+    with pytest.raises(ValueError, match="load 'none'"):
+        check_detector_fits(m, sample_rate=1.0, load="None")

@@ -66,6 +66,45 @@ def test_an_excursion_from_the_first_window_scored_gives_a_censored_onset():
     assert snap["onset_censored"] is False and snap["events"][0]["onset_censored"] is False
 
 
+def test_censored_onset_on_the_board_equals_the_library_when_the_first_windows_are_undefined():
+    """A review (2026-11-27): with the first judged windows undefined the board compared the
+    excursion with the first scored window (held CUSUM) and said not censored; Verdict says
+    censored (the first window with a defined feature)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "detect"))
+    from _detect_helpers import RATE, WINDOW, WindowMeanDetector, synthetic
+
+    from leakdiag.detect.base import Alarm
+    from leakdiag.features.series import FeatureSeries
+    from leakdiag.io.recording import Recording
+
+    class NanMean(WindowMeanDetector):  # NaN where the window is constant (a stuck sensor)
+        def _feature_series(self, rec):
+            fs = super()._feature_series(rec)
+            x, m = rec["p1"], len(fs.values)
+            sd = x[: m * self.window].reshape(m, self.window).std(axis=1)
+            return FeatureSeries(fs.time, np.where(sd > 0, fs.values, np.nan), "window-mean",
+                                 window=self.window, sample_rate=rec.sample_rate)
+
+    det = NanMean(alarm=Alarm(false_alarms_per_hour=1.0, burn_in_s=0.0,
+                              onset_method="cusum")).fit([synthetic(600.0, s) for s in range(6)])
+    p1 = synthetic(300.0, 99, onset=0.0, step=0.5)["p1"].copy()
+    p1[:2 * WINDOW] = 3.0  # the first 2 windows constant: undefined
+    v = det.predict(Recording({"p1": p1}, RATE, meta={"source": "nanfirst"}))
+    assert v.leak and v.onset_censored and v.onset_s == pytest.approx(1.245)
+    fs = det._feature_series(Recording({"p1": p1}, RATE))
+    sc = DetectorScorer(det, WINDOW, RATE)
+    live = ActuatorLive("rig", "wm", sc, window_s=(WINDOW - 1) / RATE)
+    t, vals = np.asarray(fs.time), np.asarray(fs.values)
+    for i0 in range(0, len(t), 50):
+        s = sc.score_windows(vals[i0:i0 + 50], t[i0:i0 + 50])
+        live.update(t[i0:i0 + 50], vals[i0:i0 + 50], s, sc.alarm_windows(s), 0.0)
+    snap = live.snapshot()
+    assert (snap["onset_s"], snap["onset_censored"]) == (pytest.approx(1.245), True)
+
+
 def test_a_run_of_undefined_windows_beyond_the_healthy_limit_is_blind_not_ok():
     """A stuck sensor makes the feature NaN and the CUSUM holds: the page said OK. With a
     detector fitted with its healthy span (0 s here: limit 10 s) it says BLIND while the

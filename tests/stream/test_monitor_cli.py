@@ -341,8 +341,18 @@ def test_monitor_says_when_a_stuck_sensor_blinds_the_detector(tmp_path):
     assert 25.0 < t < 26.5  # 10 s of undefined windows after the freeze at 15 s
     assert "leakdiag: warning: " in r.output
     text = " ".join(r.output.split())
+    assert "was undefined in 78 consecutive windows ending 15.209 to 29.839 s (14.8 s;" in text
     assert "the detector's healthy recordings had undefined spans of at most 0 s (limit 10 s), " \
            "so no alarm there rules nothing out" in text
+    # stuck from 0 to 12 s, 7 s of it after the 5-s burn-in: under the 10-s limit (the
+    # burn-in's windows are not judged, so they were counted by mistake before a review)
+    p1 = rec["p1"].copy()
+    p1[:12000] = p1[0]
+    early = ld.io.write_recording(Recording({**rec.channels, "p1": p1}, rec.sample_rate,
+                                            meta=dict(rec.meta)), d / "early.parquet")
+    r = CliRunner().invoke(cli, ["monitor", str(early), "--detector", str(d / "acf.joblib"),
+                                 "--replay", "fast"])
+    assert r.exit_code == 0 and "BLIND" not in r.output and "warning" not in r.output
     # the same run with its sensor working: no BLIND, no warning
     ok = ld.io.write_recording(rec, d / "ok.parquet")
     r = CliRunner().invoke(cli, ["monitor", str(ok), "--detector", str(d / "acf.joblib"),

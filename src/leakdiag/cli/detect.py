@@ -28,7 +28,7 @@ def _row(m, det, rec, n_healthy):
     burn_in = float(getattr(det, "burn_in_s", a.burn_in_s))
     span_s = max(rec.duration - burn_in, 0.0)  # the alarm's span in this run
     method = basis.method if basis is not None else det.alarm_threshold_.method
-    per_run, guaranteed = per_run_rate(basis, per_hour, span_s)
+    per_run, guaranteed = per_run_rate(basis, per_hour, span_s, v.n_segments)
     row = {"method": m, **v.as_dict(), "threshold_method": method,
            "threshold_basis": basis if basis is None else threshold_words(basis),
            "n_healthy": n_healthy, "false_alarms_per_hour": per_hour,
@@ -78,15 +78,17 @@ def unchecked_notes(rec, file: str, fitted_on: str, system, load) -> list[str]:
     return out
 
 
-def per_run_rate(basis, per_hour: float, span_s: float) -> tuple[float, bool]:
+def per_run_rate(basis, per_hour: float, span_s: float,
+                 n_segments: int | None = None) -> tuple[float, bool]:
     """The false-alarm rate a threshold promises for one judged run, and whether data back it.
 
-    A distribution-free (conformal, supported) threshold holds ``bound_per_segment`` per
-    healthy segment, so a run spanning ``m`` segments (``m >= 1``: a run shorter than one
-    segment is held to the segment's bound, which cannot be scaled down) is held to
-    ``min(1, m * bound_per_segment)``. Any other threshold (the flow balance's model-based
-    level, a target the healthy runs do not support, no basis) guarantees nothing: the rate is
-    the requested one per hour times the span, and says so.
+    A distribution-free (conformal) threshold holds ``bound_per_segment`` per healthy segment
+    (``k / (n + 1)``; when the healthy runs do not support the target, the largest maximum's
+    ``1 / (n + 1)``, above the target but still a bound), so a run spanning ``m`` segments
+    (``m >= 1``: a run shorter than one segment is held to the segment's bound, which cannot
+    be scaled down) is held to ``min(1, m * bound_per_segment)``. A model-based level (the
+    flow balance's) or no basis guarantees nothing: the rate is the requested one per hour
+    times the span, and says so.
 
     Parameters
     ----------
@@ -96,6 +98,9 @@ def per_run_rate(basis, per_hour: float, span_s: float) -> tuple[float, bool]:
         Requested false alarms per hour.
     span_s : float
         Judged span of the run (after the burn-in), s.
+    n_segments : int, optional
+        Segments the span covers as the detector counted them for its p-value
+        (``Verdict.n_segments``); default: ``span_s`` over the basis's ``segment_s``.
 
     Returns
     -------
@@ -117,8 +122,10 @@ def per_run_rate(basis, per_hour: float, span_s: float) -> tuple[float, bool]:
 
     from leakdiag.detect.threshold import SEGMENT_TOLERANCE
 
-    if basis is not None and basis.method == "conformal" and basis.supported:
-        m = max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
+    if basis is not None and basis.method.startswith("conformal") and \
+            math.isfinite(basis.bound_per_segment):
+        m = n_segments if n_segments is not None else \
+            max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
         return min(1.0, float(basis.bound_per_segment) * m), True
     return per_hour * span_s / 3600.0, False
 
@@ -235,8 +242,10 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     if healthy:
         train = read_healthy(healthy, rec, column_map, sample_rate, resample=resample)
         check_longer_than_burn_in(train, healthy, burn_in_s)
-        fitted_load, load = common_load(train), rec.meta.get("load")
-        if fitted_load is not None and load is not None and str(load) != fitted_load:
+        from leakdiag.io.recording import load_name
+
+        fitted_load, load = common_load(train), load_name(rec.meta.get("load"))
+        if fitted_load is not None and load is not None and load != fitted_load:
             raise ValueError(f"{file}: load {str(load)!r}, but the --healthy recordings are "
                              f"all load {fitted_load!r}: give healthy recordings under this "
                              "load")

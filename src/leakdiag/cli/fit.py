@@ -125,9 +125,10 @@ def common_load(recordings) -> str | None:
     >>> common_load([r("spring"), r("spring")]), common_load([r("spring"), r("none")])
     ('spring', None)
     """
-    loads = {r.meta.get("load") for r in recordings}
-    load = loads.pop() if len(loads) == 1 else None
-    return None if load is None else str(load)
+    from leakdiag.io.recording import load_name
+
+    loads = {load_name(r.meta.get("load")) for r in recordings}
+    return loads.pop() if len(loads) == 1 else None
 
 
 def system_of(recordings, given: str | None, names) -> str:

@@ -323,7 +323,8 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                     say(f"cleared t={e.time:.6g} s  score={e.score:.6g}")
                 if e.alarm is not None:
                     alarm_on = e.alarm
-                    if blind is not None and blind.add(e.time, e.value):
+                    if blind is not None and e.score == e.score and \
+                            blind.add(e.time, e.value):  # scored windows only (no burn-in)
                         say(f"BLIND   t={e.time:.6g} s  {spec.label}: undefined for "
                             f"{blind.windows * blind.step_s:.3g} s, more than the "
                             f"{blind.limit_s:.3g} s allowed (a stuck sensor?); no alarm is "

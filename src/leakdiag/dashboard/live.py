@@ -147,8 +147,9 @@ class ActuatorLive:
             branches = getattr(self.scorer, "branches_", None)
         if branches is None or len(branches[0]) != len(s):
             branches = (s, s)
-        if self._first_scored is None:
-            scored = np.flatnonzero(np.isfinite(branches[0]) | np.isfinite(branches[1]))
+        if self._first_scored is None:  # the first window judged: scored, feature defined
+            scored = np.flatnonzero((np.isfinite(branches[0]) | np.isfinite(branches[1]))
+                                    & np.isfinite(v))
             if len(scored):
                 self._first_scored = float(t[scored[0]])
         if self.blind_limit_s is not None:  # the trailing run of undefined scored windows

@@ -61,6 +61,7 @@ from leakdiag.detect.threshold import (
 )
 from leakdiag.features.series import FeatureSeries
 from leakdiag.io.errors import RecordingError
+from leakdiag.io.recording import load_name
 
 __all__ = ["Alarm", "Verdict", "Detector"]
 
@@ -183,6 +184,9 @@ class Verdict:
         change was there from the start of the judged data, so it began at or before
         ``onset_s`` (before the recording, or during the burn-in), which is then only an upper
         bound of the onset, and the leak size is its mean from there on.
+    n_segments : int or None, default None
+        Healthy segments (of the threshold basis) the judged span covers, at least 1: the
+        ``m`` of the p-value and of the run's false-alarm bound (None: not known).
     """
 
     leak: bool
@@ -198,6 +202,7 @@ class Verdict:
     onset_method: str
     detector: str
     onset_censored: bool = False
+    n_segments: int | None = None
 
     def __str__(self) -> str:
         """The verdict in words (``repr`` keeps every field).
@@ -247,7 +252,7 @@ class Verdict:
                 "leak_lpm_in_range": self.leak_lpm_in_range, "score_max": self.score_max,
                 "threshold": self.threshold, "shift": self.shift,
                 "onset_method": self.onset_method, "detector": self.detector,
-                "onset_censored": self.onset_censored}
+                "onset_censored": self.onset_censored, "n_segments": self.n_segments}
 
 
 @dataclass(frozen=True)
@@ -478,7 +483,7 @@ class Detector(BaseEstimator):
         # the longest run of undefined (NaN) feature windows a judged run may have before its
         # NO LEAK is refused: a constant channel (a stuck sensor) makes its windows NaN, and
         # the CUSUM holds its value across them (docs/detect.md, section 2, "Blind spans")
-        self.nan_span_healthy_s_ = max(longest_nan_span(s[0], s[1]) for s in series)
+        self.nan_span_healthy_s_ = max(longest_nan_run(s[0], s[1])[2] for s in series)
         return self
 
     def segment_maxima(self, recordings) -> np.ndarray:
@@ -648,7 +653,7 @@ class Detector(BaseEstimator):
         if len(above) == 0:
             self._check_blind_spans(tr, source)  # NO LEAK needs every span looked at
             return Verdict(False, None, None, confidence, None, None, None, smax, h, None,
-                           a.onset_method, tr.name)
+                           a.onset_method, tr.name, n_segments=n_seg)
         i_alarm = int(above[0])
         branch = tr.s_up if tr.s_up[i_alarm] > h else tr.s_down
         j = cusum_onset(branch, i_alarm)
@@ -667,27 +672,27 @@ class Detector(BaseEstimator):
         if cal is not None and np.isfinite(shift):
             lpm, interval, inside = cal.estimate(shift)
         return Verdict(True, onset, float(tr.time[i_alarm]), confidence, lpm, interval, inside,
-                       smax, h, shift, method, tr.name, censored)
+                       smax, h, shift, method, tr.name, censored, n_seg)
 
     def _check_blind_spans(self, tr: _Trace, source: str) -> None:
-        """Refuse a NO LEAK whose recording ends in a span of undefined feature windows longer
-        than :func:`blind_limit_s` of the healthy recordings' longest (``nan_span_healthy_s_``;
-        detectors fitted before it: no check). A span that ends before the recording does is
-        no reason: a leak is lasting, so one that began inside it is seen after it."""
+        """Refuse a NO LEAK over a span of undefined feature windows longer than
+        :func:`blind_limit_s` of the healthy recordings' longest (``nan_span_healthy_s_``;
+        detectors fitted before it: no check). Anywhere in the recording: after a span that
+        ends, the defined part may be too short for a leak that began inside it to show."""
         healthy = getattr(self, "nan_span_healthy_s_", None)
         if healthy is None:
             return
         limit = blind_limit_s(healthy)
-        n, span = trailing_nan_span(tr.time, tr.z)
+        n, i, span = longest_nan_run(tr.time, tr.z)
         if span <= limit:
             return
-        t0, t1 = float(tr.start[len(tr.z) - n]), float(tr.time[-1])
+        t0, t1 = float(tr.start[i]), float(tr.time[i + n - 1])
         raise RecordingError(
-            f"predict: {source}: the feature {tr.name!r} is undefined in its last {n} windows, "
-            f"from {t0:.6g} to {t1:.6g} s (zero variance: a channel it reads is constant there, "
-            f"a stuck sensor?); the healthy recordings had undefined spans of at most "
-            f"{healthy:.3g} s (limit {limit:.3g} s), so no leak can be ruled out at the end of "
-            "this recording")
+            f"predict: {source}: the feature {tr.name!r} is undefined in {n} consecutive "
+            f"windows from {t0:.6g} to {t1:.6g} s (zero variance: a channel it reads is "
+            f"constant there, a stuck sensor?); the healthy recordings had undefined spans of "
+            f"at most {healthy:.3g} s (limit {limit:.3g} s), so no leak can be ruled out over "
+            "that span")
 
     def calibrate(self, recordings, level: float = 0.9, validity: dict | None = None) -> "Detector":
         """Fit ``calibration_``: feature shift at the true onset against the true leak flow.
@@ -759,9 +764,9 @@ def _window_step(time) -> float:
     return float(np.median(np.diff(t))) if len(t) > 1 else 0.0
 
 
-def longest_nan_span(time, values) -> float:
-    """Longest time (s) covered by consecutive undefined (non-finite) windows: from the end of
-    the last defined window before them to the end of the last of them (n windows: n steps).
+def longest_nan_run(time, values) -> tuple[int, int, float]:
+    """The longest run of consecutive undefined (non-finite) windows: ``(count, first index,
+    span in s)``, a run of n windows spanning n window steps.
 
     Parameters
     ----------
@@ -772,49 +777,24 @@ def longest_nan_span(time, values) -> float:
 
     Returns
     -------
-    float
-        0.0 without undefined windows.
+    count, first : int
+    span : float
+        ``(0, 0, 0.0)`` without undefined windows.
 
     Examples
     --------
     >>> nan = float("nan")
-    >>> longest_nan_span([1.0, 2.0, 3.0, 4.0, 5.0], [0.0, nan, nan, 1.0, nan])
-    2.0
+    >>> longest_nan_run([1.0, 2.0, 3.0, 4.0, 5.0], [0.0, nan, nan, 1.0, nan])
+    (2, 1, 2.0)
     """
     bad = ~np.isfinite(np.asarray(values, dtype=np.float64))
     if not bad.any():
-        return 0.0
+        return 0, 0, 0.0
     edges = np.diff(np.concatenate(([0], bad.view(np.int8), [0])))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    return float((ends - starts).max()) * _window_step(time)
-
-
-def trailing_nan_span(time, values) -> tuple[int, float]:
-    """The undefined windows a recording ends in: ``(count, span in s)`` as
-    :func:`longest_nan_span` counts a span.
-
-    Parameters
-    ----------
-    time, values : array_like
-        As :func:`longest_nan_span`.
-
-    Returns
-    -------
-    count : int
-    span : float
-
-    Examples
-    --------
-    >>> nan = float("nan")
-    >>> trailing_nan_span([1.0, 2.0, 3.0, 4.0], [nan, 1.0, nan, nan])
-    (2, 2.0)
-    >>> trailing_nan_span([1.0, 2.0], [nan, 1.0])
-    (0, 0.0)
-    """
-    v = np.asarray(values, dtype=np.float64)
-    ok = np.flatnonzero(np.isfinite(v))
-    n = len(v) - 1 - int(ok[-1]) if len(ok) else len(v)
-    return n, n * _window_step(time)
+    k = int(np.argmax(ends - starts))
+    n = int(ends[k] - starts[k])
+    return n, int(starts[k]), n * _window_step(time)
 
 
 def meta_leak_lpm(meta) -> float | None:
@@ -850,7 +830,7 @@ def healthy_info(recording, channels=None) -> dict:
     return {"source": str(meta.get("source", "<recording>")),
             "sample_rate": float(recording.sample_rate),
             "system": None if meta.get("system") is None else str(meta["system"]).lower(),
-            "load": None if meta.get("load") is None else str(meta["load"]).lower(),
+            "load": load_name(meta.get("load")),
             "leak_lpm": meta_leak_lpm(meta), "onset": meta.get("onset"),
             "digest": h.hexdigest()}
 

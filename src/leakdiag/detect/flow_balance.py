@@ -50,7 +50,7 @@ from leakdiag.detect.threshold import (
     min_maxima,
 )
 from leakdiag.features.series import FeatureSeries
-from leakdiag.io.recording import RecordingError
+from leakdiag.io.recording import RecordingError, load_name
 from leakdiag.sim.leak import LPM_PER_M3S
 
 __all__ = ["FlowBalanceDetector", "FlowBalanceVerdict", "LEAK_LAWS", "SYSTEMS",
@@ -132,7 +132,7 @@ def _operation(recs, channels, skip_s: float = 0.0) -> dict:
             machines.add(None)
     out["n_machines"] = len(machines - {None})  # distinct known units (a fleet fit: > 1)
     out["machine"] = machines.pop() if len(machines) == 1 else None
-    loads = {r.meta.get("load") for r in recs}
+    loads = {load_name(r.meta.get("load")) for r in recs}
     out["load"] = loads.pop() if len(loads) == 1 else None
     ranges, extremes = {}, {}
     for c in channels:
@@ -1121,6 +1121,7 @@ class FlowBalanceDetector(Detector):
         confidence = self._p_value(smax, t, recording)
         common = dict(confidence=confidence, leak_lpm_in_range=None, score_max=smax, threshold=h,
                       onset_method="glr", detector="flow_balance",
+                      n_segments=self._n_segments(t, recording),
                       reference_dp_pa=float(self.reference_dp_pa), leak_law=self.leak_law)
         above = np.flatnonzero(g >= h)
         if len(above) == 0:
@@ -1184,7 +1185,7 @@ class FlowBalanceDetector(Detector):
 
     def _load_of(self, rec) -> str | None:
         """The recording's load (its metadata, else the healthy recordings'), or None."""
-        load = rec.meta.get("load")
+        load = load_name(rec.meta.get("load"))
         if load is None:
             load = (getattr(self, "operation_", None) or {}).get("load")
         return None if load is None else str(load)
@@ -1225,6 +1226,18 @@ class FlowBalanceDetector(Detector):
 
         return profile_offset(evaluate, self.interval_level)
 
+    def _n_segments(self, t: dict, rec) -> int | None:
+        """Healthy segments the judged span covers (at least 1): whole windows per
+        ``segment_windows_``, or the monitored time per ``segment_s`` (None for a detector
+        saved before segments were recorded)."""
+        seg = self._fixed_segment()
+        per = getattr(self, "segment_windows_", None)
+        if seg is None and per is None:
+            return None
+        m = (math.ceil(len(t["end"]) / per) if seg is None else
+             math.ceil((rec.duration - float(self.burn_in_s)) / seg - SEGMENT_TOLERANCE))
+        return max(1, m)
+
     def _p_value(self, smax: float, t: dict, rec) -> float:
         """Probability that healthy operation of this span scores at least ``smax``.
 
@@ -1237,10 +1250,7 @@ class FlowBalanceDetector(Detector):
         basis = getattr(self, "threshold_basis_", None)  # None: a file saved before bases
         n_win = len(t["end"])
         if basis is not None and basis.supported:
-            seg = self._fixed_segment()
-            m = (math.ceil(n_win / self.segment_windows_) if seg is None else
-                 math.ceil((rec.duration - float(self.burn_in_s)) / seg - SEGMENT_TOLERANCE))
-            return basis.p_value(smax, max(1, m))
+            return basis.p_value(smax, self._n_segments(t, rec))
         hours = n_win * float(self.window_s) / 3600.0
         th = self.alarm_threshold_
         # no smaller than the Monte-Carlo null resolves (one episode in its simulated hours):

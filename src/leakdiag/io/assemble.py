@@ -8,7 +8,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from leakdiag._validation import check_positive
-from leakdiag.io.checks import UNIFORM_TIME_RTOL, check_channel_finite, infer_sample_rate
+from leakdiag.io.checks import (RESAMPLE_ADVICE, UNIFORM_TIME_RTOL, check_channel_finite,
+                                infer_sample_rate)
 from leakdiag.io.column_map import ChannelSpec, ColumnMap
 from leakdiag.io.recording import STANDARD_CHANNELS, Recording, RecordingError
 from leakdiag.io.resample import resample_linear
@@ -256,7 +257,7 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
             if given is None:
                 continue
             own = meta.get(key)
-            if own is not None and str(own).lower() != given:
+            if own is not None and str(own).strip().lower() != given:
                 raise RecordingError(f"{source}: the column map says {what} {given!r}, the "
                                      f"file's own metadata say {str(own)!r}: fix the map")
             meta[key] = given
@@ -297,7 +298,13 @@ def _from_header(table: RawTable, header: dict[str, Any], sample_rate: float | N
         # rows cut out of (or put into) a leakdiag file leave the header as it was, and a gap
         # read as continuous data was judged LEAK (found by an audit, 2026-11-27)
         t = np.asarray(table.columns["time"], dtype=np.float64)
-        own = infer_sample_rate(t, source)
+        try:
+            own = infer_sample_rate(t, source)
+        except RecordingError as exc:  # not the --resample advice: that would hide the gap
+            raise RecordingError(f"{str(exc).split('; ' + RESAMPLE_ADVICE)[0]}; this file was "
+                                 f"written by leakdiag at {float(rate):g} Hz (its header), so "
+                                 "rows were removed or added after writing: write the "
+                                 "recording again") from None
         if abs(own - float(rate)) > UNIFORM_TIME_RTOL * float(rate):
             raise RecordingError(f"{source}: the header says {float(rate):g} Hz, but the file's "
                                  f"time column is sampled at {own:g} Hz: rows were removed or "

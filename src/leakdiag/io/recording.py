@@ -12,7 +12,7 @@ from leakdiag._validation import check_positive
 from leakdiag.io.checks import infer_sample_rate
 from leakdiag.io.errors import RecordingError
 
-__all__ = ["Recording", "STANDARD_CHANNELS", "RecordingError"]
+__all__ = ["Recording", "STANDARD_CHANNELS", "RecordingError", "load_name"]
 
 #: Standard channels and their SI units (thesis notation: P1, P2, X, U).
 STANDARD_CHANNELS: dict[str, str] = {
@@ -24,6 +24,31 @@ STANDARD_CHANNELS: dict[str, str] = {
     "leak_flow": "m^3/s",  # true internal leakage flow (simulations)
     "speed": "rad/s",  # motor/pump shaft speed (pump-driven EHA)
 }
+
+
+
+def load_name(value) -> str | None:
+    """A load as recordings, maps and detectors compare it: stripped and lower-cased (None for
+    no load stated).
+
+    Parameters
+    ----------
+    value : object
+        ``meta["load"]`` or a map's / detector file's load.
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> load_name(" Spring "), load_name(None), load_name("")
+    ('spring', None, None)
+    """
+    if value is None:
+        return None
+    name = str(value).strip().lower()
+    return name or None
 
 
 @dataclass

@@ -2,11 +2,10 @@
 
 A window whose feature is undefined (zero variance: a channel it reads is constant, e.g. a stuck
 sensor) is NaN, and the CUSUM holds its value across it, so "no alarm" during such a span says
-nothing. :class:`~leakdiag.detect.base.Detector` refuses a NO LEAK for a recording that ends in
-an undefined span longer than :func:`~leakdiag.detect.base.blind_limit_s` of its healthy
-recordings' longest (``nan_span_healthy_s_``, docs/detect.md section 2, "Blind spans"; a span
-that ends is no reason: a lasting leak is seen after it). :class:`BlindSpans` applies the same
-limit window by window to a stream, for ``leakdiag monitor``.
+nothing. :class:`~leakdiag.detect.base.Detector` refuses a NO LEAK over an undefined span longer
+than :func:`~leakdiag.detect.base.blind_limit_s` of its healthy recordings' longest
+(``nan_span_healthy_s_``, docs/detect.md section 2, "Blind spans"). :class:`BlindSpans` applies
+the same limit window by window to a stream, for ``leakdiag monitor``.
 """
 
 from __future__ import annotations
@@ -35,6 +34,8 @@ class BlindSpans:
         Undefined windows in a row up to the latest one (0 after a defined window).
     since : float
         Time of the first of them (NaN when ``windows`` is 0).
+    longest : tuple of (int, float, float)
+        ``(windows, first time, last time)`` of the longest span so far.
 
     Examples
     --------
@@ -42,8 +43,8 @@ class BlindSpans:
     >>> nan = float("nan")
     >>> [b.add(t, v) for t, v in [(4.0, 0.5), (8.0, nan), (12.0, nan), (16.0, nan), (20.0, nan)]]
     [False, False, False, True, False]
-    >>> b.blind, b.windows, b.since
-    (True, 4, 8.0)
+    >>> b.blind, b.windows, b.since, b.longest
+    (True, 4, 8.0, (4, 8.0, 20.0))
     """
 
     def __init__(self, healthy_span_s: float, step_s: float):
@@ -53,6 +54,7 @@ class BlindSpans:
         self.step_s = float(step_s)
         self.limit_s = blind_limit_s(self.healthy_span_s)
         self.windows, self.since = 0, math.nan
+        self.longest = (0, math.nan, math.nan)
 
     def add(self, time: float, value: float) -> bool:
         """Take one scored window.
@@ -76,15 +78,17 @@ class BlindSpans:
         if self.windows == 0:
             self.since = time
         self.windows += 1
+        if self.windows > self.longest[0]:
+            self.longest = (self.windows, self.since, time)
         return self.windows * self.step_s > self.limit_s >= (self.windows - 1) * self.step_s
 
     @property
     def blind(self) -> bool:
-        """Whether the stream is now in an undefined span longer than the limit."""
-        return self.windows * self.step_s > self.limit_s
+        """Whether the longest span so far is longer than the limit."""
+        return self.longest[0] * self.step_s > self.limit_s
 
     def words(self, source: str, label: str) -> str:
-        """The span the stream ends in, as a sentence for the monitor's summary.
+        """The longest span as a sentence for the monitor's summary.
 
         Parameters
         ----------
@@ -95,9 +99,9 @@ class BlindSpans:
         -------
         str
         """
-        return (f"{source}: the feature {label!r} was undefined in its last {self.windows} "
-                f"windows, from the one ending {self.since:.6g} s on ({self.windows * self.step_s:.3g}"
-                f" s; zero variance: a channel it reads is constant there, a stuck sensor?); the "
-                f"detector's healthy recordings had undefined spans of at most "
-                f"{self.healthy_span_s:.3g} s (limit {self.limit_s:.3g} s), so no alarm there "
-                "rules nothing out")
+        n, t0, t1 = self.longest
+        return (f"{source}: the feature {label!r} was undefined in {n} consecutive windows "
+                f"ending {t0:.6g} to {t1:.6g} s ({n * self.step_s:.3g} s; zero variance: a "
+                f"channel it reads is constant there, a stuck sensor?); the detector's healthy "
+                f"recordings had undefined spans of at most {self.healthy_span_s:.3g} s (limit "
+                f"{self.limit_s:.3g} s), so no alarm there rules nothing out")

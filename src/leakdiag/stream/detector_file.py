@@ -26,6 +26,7 @@ from dataclasses import MISSING, asdict, dataclass, field, fields, replace
 from typing import Any
 
 from leakdiag._version import __version__
+from leakdiag.io.recording import load_name
 
 __all__ = ["DetectorMeta", "save_detector", "load_detector_file", "check_detector_fits",
            "sniff_detector_file", "detector_code_fingerprint", "DetectorFileWarning",
@@ -584,8 +585,8 @@ def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
     if system and str(system).lower() != meta.system:
         raise ValueError(f"{source}: system {str(system).lower()!r}, but {path} was fitted on "
                          f"{meta.system!r} recordings")
-    fitted_load = getattr(meta, "load", None)
-    if load is not None and fitted_load is not None and str(load) != fitted_load:
+    fitted_load, load = load_name(getattr(meta, "load", None)), load_name(load)
+    if load is not None and fitted_load is not None and load != fitted_load:
         raise ValueError(f"{source}: load {str(load)!r}, but {path} was fitted on healthy "
                          f"recordings with load {fitted_load!r}; fit one on healthy recordings "
                          "under this load")
