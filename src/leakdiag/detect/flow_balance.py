@@ -1204,8 +1204,12 @@ class FlowBalanceDetector(Detector):
         """
         r, nu, w = t["residual"], t["nuisance"], 1.0 / self._sigma(t) ** 2
         p = nu.shape[1]
-        if p and j_span > p:  # enough windows the test found leak-free to fit the nuisance on
-            pre = slice(0, j_span)
+        # the nuisance is fitted on the windows before the span (at least p + 1 of them),
+        # except when the test alarmed within the first 2p + 2 windows with its span from the
+        # first p: then those windows are the alarm's own evidence (a leak there from the
+        # start), and the step is searched without the per-recording correction
+        if p and (j_span > p or i > 2 * p + 1):
+            pre = slice(0, min(len(r), max(j_span, p + 1)))
             sw = np.sqrt(w[pre])
             beta = np.linalg.lstsq(nu[pre] * sw[:, None], r[pre] * sw, rcond=None)[0]
             r = r - nu @ beta
