@@ -323,8 +323,10 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                     say(f"cleared t={e.time:.6g} s  score={e.score:.6g}")
                 if e.alarm is not None:
                     alarm_on = e.alarm
-                    if blind is not None and e.score == e.score and \
-                            blind.add(e.time, e.value):  # scored windows only (no burn-in)
+                    # scored windows only (no burn-in); a defined window costs a compare
+                    # unless it ends an undefined span
+                    if blind is not None and (e.value != e.value or blind.windows) and \
+                            e.score == e.score and blind.add(e.time, e.value):
                         say(f"BLIND   t={e.time:.6g} s  {spec.label}: undefined for "
                             f"{blind.windows * blind.step_s:.3g} s, more than the "
                             f"{blind.limit_s:.3g} s allowed (a stuck sensor?); no alarm is "
