@@ -137,8 +137,7 @@ def test_detect_with_a_flow_balance_file_states_its_own_rate_and_its_p_value(fil
     # takes from fit like every method): 0.125 per run, but from a model-based level, so no
     # "at most" (an audit found the decision promising a bound its threshold line disowned)
     assert ("false-alarm rate for this run about 0.125 (sum over 1 method(s)), not guaranteed: "
-            "the threshold of flow-balance is model-based or beyond what its healthy runs "
-            "support (see its threshold line)") in out
+            "the threshold of flow-balance is model-based (see its threshold line)") in out
     assert "at most 0.125" not in out
     # the VCA's size interval says what it holds (docs/detect.md 8.5)
     size = next(x for x in lines if "leak size (flow-balance)" in x)

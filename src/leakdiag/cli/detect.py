@@ -332,10 +332,10 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
     unbacked = (ok[ok["false_alarms_per_run_guaranteed"].eq(False)]["method"].tolist()
                 if "false_alarms_per_run_guaranteed" in ok else [])
     fa = f"false-alarm rate for this run at most {rate:.3g} (sum over {len(ok)} method(s))"
-    if unbacked:  # a model-based level or an unsupported target: no data back the number
+    if unbacked:  # a model-based level (or no basis): no data back the number
         fa = (f"false-alarm rate for this run about {rate:.3g} (sum over {len(ok)} method(s)), "
-              f"not guaranteed: the threshold of {', '.join(unbacked)} is model-based or "
-              "beyond what its healthy runs support (see its threshold line)")
+              f"not guaranteed: the threshold of {', '.join(unbacked)} is model-based (see "
+              "its threshold line)")
     if rate > 1.0:  # a sum of expected false alarms, not a probability any more
         fa = (f"false alarms expected in this run up to {rate:.3g} (sum over {len(ok)} "
               "method(s)): no useful bound on the chance of one; ask for fewer false alarms "

@@ -90,16 +90,11 @@ class ActuatorLive:
         self.alarm_on = False
         self.alarm_time_s = self.onset_s = None
         self.onset_censored = False
-        self._first_scored = None  # time of the first window with a finite CUSUM
+        self._first_scored = None  # time of the first window judged (scored and defined)
         det = getattr(scorer, "detector", None)
-        healthy_span = getattr(det, "nan_span_healthy_s_", None)  # None: fitted before it
-        self.blind_limit_s = None
-        if healthy_span is not None:
-            from leakdiag.detect.base import blind_limit_s
-
-            self.blind_limit_s = blind_limit_s(healthy_span)
-        self._nan_run = 0  # undefined scored windows at the end of the stream so far
-        self._step = None  # time between windows (s), from the first two
+        # None: fitted before the healthy span was recorded (no BLIND state)
+        self._healthy_span_s = getattr(det, "nan_span_healthy_s_", None)
+        self._blind = None  # BlindSpans, made when the window step is known
         self.leak: tuple | None = None
         self._exc_start = [None, None]  # (time, start) of the first window of each excursion
         self._episode_key = None  # (branch, excursion start) of the current alarm episode
@@ -152,13 +147,14 @@ class ActuatorLive:
                                     & np.isfinite(v))
             if len(scored):
                 self._first_scored = float(t[scored[0]])
-        if self.blind_limit_s is not None:  # the trailing run of undefined scored windows
-            if self._step is None and len(self.time) > 1:
-                self._step = self.time[1] - self.time[0]
-            scored_v = v[np.isfinite(s)]
-            ok = np.flatnonzero(np.isfinite(scored_v))
-            self._nan_run = (self._nan_run + len(scored_v) if not len(ok) else
-                             len(scored_v) - 1 - int(ok[-1]))
+        if self._healthy_span_s is not None:  # undefined scored windows (no burn-in)
+            if self._blind is None and len(self.time) > 1:
+                from leakdiag.stream.blind import BlindSpans
+
+                self._blind = BlindSpans(self._healthy_span_s, self.time[1] - self.time[0])
+            if self._blind is not None:
+                scored = np.isfinite(s)
+                self._blind.add_block(t[scored], v[scored])
         z = self._z(v, s)
         fin = np.isfinite(z)
         self._hist_t.append(t[fin])
@@ -261,13 +257,12 @@ class ActuatorLive:
             state = "WAITING"
         else:
             state = "ALARM" if self.alarm_on else "OK"
-            if state == "OK" and self.blind_limit_s is not None and self._step and \
-                    self._nan_run * self._step > self.blind_limit_s:
+            if state == "OK" and self._blind is not None and self._blind.current_blind:
                 state = "BLIND"  # undefined feature: the detector cannot see
         leak = self.leak
         return {
             "actuator": self.name, "feature": self.feature, "threshold": self.threshold,
-            "state": state, "blind_windows": self._nan_run,
+            "state": state, "blind_windows": self._blind.windows if self._blind is not None else 0,
             "alarm_time_s": self.alarm_time_s, "onset_s": self.onset_s,
             "onset_censored": self.onset_censored if self.onset_s is not None else None,
             "leak_lpm": leak[0] if leak else None, "leak_lpm_low": leak[1] if leak else None,

@@ -480,9 +480,10 @@ class Detector(BaseEstimator):
         self.healthy_hours_ = float(sum(spans)) / 3600.0
         self.feature_name_ = series[0][3]
         self.sample_rate_, self.system_ = rate, system
-        # the longest run of undefined (NaN) feature windows a judged run may have before its
-        # NO LEAK is refused: a constant channel (a stuck sensor) makes its windows NaN, and
-        # the CUSUM holds its value across them (docs/detect.md, section 2, "Blind spans")
+        # the longest undefined (NaN) feature span of the healthy recordings, which sets how
+        # long one a judged run may have before its NO LEAK is refused: a constant channel (a
+        # stuck sensor) makes windows NaN and the CUSUM holds across them (docs/detect.md,
+        # section 2, "Blind spans")
         self.nan_span_healthy_s_ = max(longest_nan_run(s[0], s[1])[2] for s in series)
         return self
 
@@ -728,7 +729,7 @@ class Detector(BaseEstimator):
         return self
 
 
-#: A judged recording may end in an undefined feature span this many times the healthy
+#: A judged recording may hold an undefined feature span this many times the healthy
 #: recordings' longest before its NO LEAK is refused (leakdiag choice, as the flow balance's
 #: ``HOLD_FACTOR`` for held channels) ...
 NAN_SPAN_FACTOR = 3.0

@@ -535,24 +535,26 @@ class FlowBalanceDetector(Detector):
                     f"{first + len(x) - 1}) are {x[0]:.6g}; the flow balance reads it as a "
                     "measurement and cannot use a recording without one")
 
+    def _limited_channels(self, rec, attribute: str):
+        """``(channel, limit, samples after the burn-in, row of the first)`` for each channel
+        of ``rec`` with a limit in the fitted ``attribute`` (none for a file saved before it)."""
+        limits = getattr(self, attribute, None) or {}
+        burn = float(self.burn_in_s)
+        first = int(round(burn * rec.sample_rate))
+        for c, limit in limits.items():
+            if c in rec.channels:
+                yield c, limit, _after(rec, c, burn), first
+
     def _check_holds(self, rec, where: str) -> None:
         """Refuse a recording in which a channel holds one exact value for longer than
         ``HOLD_FACTOR`` times the longest the healthy recordings held one (after the burn-in,
         not counting holds at the channel's smallest or largest value in the recording, nor
         the position: ``HOLD_EXEMPT``): a sensor that froze part-way."""
-        limits = getattr(self, "hold_limits_s_", None)  # None: a file saved before the check
-        if not limits:
-            return
-        source = rec.meta.get("source", "<recording>")
-        burn = float(self.burn_in_s)
-        first = int(round(burn * rec.sample_rate))
         # a hold at the recording's own extreme is a rail only at a value the healthy
         # recordings reached (a file saved before "extremes": every extreme is a rail)
         extremes = (getattr(self, "operation_", None) or {}).get("extremes", {})
-        for c, limit in limits.items():
-            if c not in rec.channels:
-                continue
-            x = _after(rec, c, burn)
+        source = rec.meta.get("source", "<recording>")
+        for c, limit, x, first in self._limited_channels(rec, "hold_limits_s_"):
             n, i = _longest_hold(x, extremes.get(c))
             if n > limit * rec.sample_rate + 1e-6:  # in samples: a hold of the limit is kept
                 factor = HOLD_FACTORS.get((self.system, c), HOLD_FACTOR)
@@ -569,16 +571,8 @@ class FlowBalanceDetector(Detector):
         (``SPIKE_CHANNELS``) larger than ``SPIKE_FACTOR`` times the largest in the healthy
         recordings: one sample carries a whole sample interval of valve or pump flow (a
         single +10 V sample of ``u`` made 11 of 12 healthy VCA runs LEAK)."""
-        limits = getattr(self, "spike_limits_", None)  # None: a file saved before the check
-        if not limits:
-            return
         source = rec.meta.get("source", "<recording>")
-        burn = float(self.burn_in_s)
-        first = int(round(burn * rec.sample_rate))
-        for c, limit in limits.items():
-            if c not in rec.channels:
-                continue
-            x = _after(rec, c, burn)
+        for c, limit, x, first in self._limited_channels(rec, "spike_limits_"):
             sz = spike_sizes(x)
             bad = np.flatnonzero(sz > limit)
             if bad.size:

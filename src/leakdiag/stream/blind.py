@@ -45,6 +45,10 @@ class BlindSpans:
     [False, False, False, True, False]
     >>> b.blind, b.windows, b.since, b.longest
     (True, 4, 8.0, (4, 8.0, 20.0))
+    >>> c = BlindSpans(0.0, step_s=4.0)  # the same windows in two blocks
+    >>> c.add_block([4.0, 8.0, 12.0], [0.5, nan, nan]); c.add_block([16.0, 20.0], [nan, nan])
+    >>> c.current_blind, c.windows, c.since, c.longest
+    (True, 4, 8.0, (4, 8.0, 20.0))
     """
 
     def __init__(self, healthy_span_s: float, step_s: float):
@@ -81,6 +85,43 @@ class BlindSpans:
         if self.windows > self.longest[0]:
             self.longest = (self.windows, self.since, time)
         return self.windows * self.step_s > self.limit_s >= (self.windows - 1) * self.step_s
+
+    def add_block(self, times, values) -> None:
+        """Take consecutive scored windows at once (:meth:`add` for each, vectorised: the
+        live board's per-chunk update).
+
+        Parameters
+        ----------
+        times, values : numpy.ndarray
+            Window times (s) and feature values (NaN: undefined), in order.
+        """
+        import numpy as np
+
+        bad = ~np.isfinite(np.asarray(values, dtype=np.float64))
+        if not bad.any():
+            if len(bad):
+                self.windows, self.since = 0, math.nan
+            return
+        edges = np.diff(np.concatenate(([0], bad.view(np.int8), [0])))
+        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+        lengths = ends - starts
+        if starts[0] == 0 and self.windows:  # the span before this block goes on
+            lengths[0] += self.windows
+        else:
+            self.since = math.nan
+        since = [self.since if (k == 0 and starts[0] == 0 and self.windows) else
+                 float(times[st]) for k, st in enumerate(starts)]
+        k = int(np.argmax(lengths))
+        if lengths[k] > self.longest[0]:
+            self.longest = (int(lengths[k]), since[k], float(times[ends[k] - 1]))
+        trailing = ends[-1] == len(bad)
+        self.windows = int(lengths[-1]) if trailing else 0
+        self.since = since[-1] if trailing else math.nan
+
+    @property
+    def current_blind(self) -> bool:
+        """Whether the windows taken last are an undefined span longer than the limit."""
+        return self.windows * self.step_s > self.limit_s
 
     @property
     def blind(self) -> bool:
