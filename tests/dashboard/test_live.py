@@ -137,6 +137,25 @@ def test_a_run_of_undefined_windows_beyond_the_healthy_limit_is_blind_not_ok():
     assert old.snapshot("b")["state"] == "OK"
 
 
+def test_blind_windows_count_the_windows_of_a_first_chunk_of_one_window():
+    """The board learns the window step from its second window; an undefined window that came
+    alone in the first chunk was not counted (11 undefined windows of 1 s read OK, 10)."""
+    class _Counted(_Det):
+        nan_span_healthy_s_ = 0.0
+
+    nan = float("nan")
+    t, v = np.arange(1.0, 12.0), np.full(11, nan)
+    for split in ([1], [1, 2], [3], []):
+        sc = DetectorScorer(_Counted(), window=2, sample_rate=1.0)
+        board = LiveBoard()
+        board.add("a", "feat", sc, window_s=1.0)
+        for tb, vb in zip(np.split(t, split), np.split(v, split)):
+            s = sc.score_windows(vb, tb)
+            board.update("a", tb, vb, s, s >= 2.0, received_wall=1.0)
+        snap = board.snapshot("a")
+        assert (snap["state"], snap["blind_windows"]) == ("BLIND", 11), split
+
+
 def test_buffers_are_bounded_and_nan_is_null():
     live = ActuatorLive("x", "f")
     n = MAX_POINTS + 10

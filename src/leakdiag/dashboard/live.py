@@ -95,6 +95,7 @@ class ActuatorLive:
         # None: fitted before the healthy span was recorded (no BLIND state)
         self._healthy_span_s = getattr(det, "nan_span_healthy_s_", None)
         self._blind = None  # BlindSpans, made when the window step is known
+        self._blind_wait: list = []  # scored windows taken before that (a 1-window chunk)
         self.leak: tuple | None = None
         self._exc_start = [None, None]  # (time, start) of the first window of each excursion
         self._episode_key = None  # (branch, excursion start) of the current alarm episode
@@ -148,12 +149,17 @@ class ActuatorLive:
             if len(scored):
                 self._first_scored = float(t[scored[0]])
         if self._healthy_span_s is not None:  # undefined scored windows (no burn-in)
-            if self._blind is None and len(self.time) > 1:
-                from leakdiag.stream.blind import BlindSpans
+            scored = np.isfinite(s)
+            if self._blind is None:  # the step is known from the second window on
+                self._blind_wait.append((t[scored], v[scored]))
+                if len(self.time) > 1:
+                    from leakdiag.stream.blind import BlindSpans
 
-                self._blind = BlindSpans(self._healthy_span_s, self.time[1] - self.time[0])
-            if self._blind is not None:
-                scored = np.isfinite(s)
+                    self._blind = BlindSpans(self._healthy_span_s, self.time[1] - self.time[0])
+                    for bt, bv in self._blind_wait:
+                        self._blind.add_block(bt, bv)
+                    self._blind_wait = []
+            else:
                 self._blind.add_block(t[scored], v[scored])
         z = self._z(v, s)
         fin = np.isfinite(z)
