@@ -253,7 +253,15 @@ def test_simulate_unknown_params_field(tmp_path, capsys):
 @pytest.mark.parametrize("args,message", [
     (["--duration", "-5"], "Error: Invalid value for '--duration': -5.0 is not in the range x>0."),
     (["--duration", "10", "--onset", "20"],
-     "leakdiag: error: onset=20.0 s must lie in [0, duration=10.0) s"),
+     "leakdiag: error: --onset 20.0 s must lie in [0, --duration 10.0) s"),
+    (["--leak", "50"], "leakdiag: error: --leak 50.0 must be below the rated flow 43.3 L/min"),
+    # a 10-Hz run was refused as "leak coefficient 0 ... short-circuits the actuator", and a
+    # 20-Hz one was written: the controller's loop at that rate is unstable
+    (["--sample-rate", "45", "--leak", "0"],
+     "leakdiag: error: --sample-rate 45 Hz is too low for the fixed-gain controller, which "
+     "runs at the sample rate: its position loop (gain K_p k_v K_q / A = 91.2 1/s) is a sampled "
+     "integrator, unstable at gain x period >= 2; give a rate above 45.6 Hz (the thesis's rig: "
+     "1000 Hz), or, in Python, a lower position_gain_v_per_m or a controller of your own"),
     (["--sample-rate", "0"],
      "Error: Invalid value for '--sample-rate': 0.0 is not in the range x>0."),
     # audit 2026-11-27: inf was a bare OverflowError traceback, nan "cannot convert float NaN

@@ -160,9 +160,11 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     try:
         rec = fn(**kwargs)
     except ld.sim.LeakCalibrationError as exc:  # the sim's advice names Python arguments
-        raise ld.sim.LeakCalibrationError(
-            _in_option_words(str(exc), run_s, onset if onset is not None else run_s / 2)
+        raise ld.sim.LeakCalibrationError(_option_names(
+            _in_option_words(str(exc), run_s, onset if onset is not None else run_s / 2))
         ) from None
+    except ValueError as exc:
+        raise ValueError(_option_names(str(exc))) from None
     finally:
         bar.close()
     path = ld.io.write_recording(rec, out)
@@ -214,6 +216,28 @@ def _in_option_words(message: str, run_s: float, onset_s: float) -> str:
         f"s must follow the onset (now --duration {run_s:g} with the onset at {onset_s:g} s "
         f"leaves {run_s - onset_s:g} s), e.g. --duration {onset_s + MIN_CALIBRATION_WINDOW_S:g}; "
         "or --leak 0 for a run without a leak.")
+
+
+#: The simulators' keyword arguments that are options of this command.
+_OPTION_OF = {"duration": "--duration", "onset": "--onset", "leak_lpm": "--leak",
+              "ramp_duration": "--ramp-duration", "sample_rate": "--sample-rate",
+              "machine": "--machine", "seed": "--seed"}
+
+
+def _option_names(message: str) -> str:
+    """A simulator message with its ``name=value`` arguments written as this command's options.
+
+    Examples
+    --------
+    >>> _option_names("onset=20.0 s must lie in [0, duration=10.0) s")
+    '--onset 20.0 s must lie in [0, --duration 10.0) s'
+    >>> _option_names("leak_lpm=50.0 must be below the rated flow; ramp_duration=3")
+    '--leak 50.0 must be below the rated flow; --ramp-duration 3'
+    """
+    import re
+
+    return re.sub(r"\b(" + "|".join(_OPTION_OF) + r")=",
+                  lambda m: _OPTION_OF[m.group(1)] + " ", message)
 
 
 def _params_from_toml(cls, path):

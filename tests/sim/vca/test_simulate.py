@@ -187,6 +187,39 @@ def test_huge_leak_coefficient_is_refused_not_integrated_forever():
         simulate_vca(leak_lpm=0.1, leak_coefficient=1e-5, duration=1.0, onset=0.5)
 
 
+def test_position_loop_gain_by_hand_and_the_lowest_sample_rate():
+    """K = K_p k_v K_v w sqrt(Ps/2) / A by hand (Table 2-1); the sampled integrator loop is
+    unstable at K T >= 2, so rates at or below K/2 are refused (measured: 40 Hz limit-cycles
+    at 2.9 mm RMS, 20 Hz 26 mm; docs/models.md), and just above it a run is made."""
+    from leakdiag.sim.vca.control import FixedGainController
+
+    k = 800.0 * 4.06e-5 * 0.0292 * 0.02075 * np.sqrt(17.2e6 / 2) / 6.33e-4
+    assert FixedGainController().position_loop_gain_per_s() == pytest.approx(k, rel=1e-12)
+    assert k == pytest.approx(91.2, abs=0.05)
+    with pytest.raises(ValueError, match=r"^sample_rate=45 Hz is too low .* above 45.6 Hz"):
+        simulate_vca(duration=10.0, leak_lpm=0.0, sample_rate=45.0)
+    rec = simulate_vca(duration=20.0, leak_lpm=0.0, sample_rate=46.0, sensors=False)
+    err = rec["x"] - rec["x_ref"]
+    assert np.sqrt(np.mean(err[len(err) // 2:] ** 2)) < 3e-3  # tracks (a 20-Hz run: 26 mm)
+    slow = FixedGainController(position_gain_v_per_m=400.0)  # half the gain: half the limit
+    simulate_vca(duration=10.0, leak_lpm=0.0, sample_rate=30.0, controller=slow)
+
+
+def test_a_leak_at_a_low_sample_rate_is_not_refused_for_the_base_step():
+    """The leak's step limit (MIN_LEAK_STEP_S) was a count per sample, 64: at 50 Hz the base
+    step alone is 80 per sample, so every leak, and a healthy run, was refused as one that
+    "short-circuits the actuator". The same coefficient is refused at every rate."""
+    from leakdiag.sim.vca.simulate import MIN_LEAK_STEP_S
+
+    rec = simulate_vca(duration=40.0, onset=20.0, leak_lpm=0.1, sample_rate=50.0, seed=1)
+    assert rec.meta["leak_lpm_achieved"] == pytest.approx(0.1, rel=0.02)
+    assert MIN_LEAK_STEP_S == pytest.approx(2.5e-4 / 16)
+    for fs in (50.0, 1000.0):
+        with pytest.raises(LeakCalibrationError, match="RK4 steps per sample"):
+            simulate_vca(leak_lpm=0.1, leak_coefficient=1e-5, duration=1.0, onset=0.5,
+                         sample_rate=fs)
+
+
 def test_impossible_tolerance_raises_calibration_error():
     with pytest.raises(LeakCalibrationError, match="did not reach"):
         simulate_vca(leak_lpm=0.1, duration=1.0, onset=0.5, calibration_rtol=1e-12)

@@ -67,6 +67,36 @@ class FixedGainController:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
                 raise ValueError(f"{name}={v!r} must be a finite number >= 0")
 
+    def position_loop_gain_per_s(self, params: VCAParams | None = None) -> float:
+        r"""Gain of the sampled position loop, :math:`K_p k_v K_q / A` (1/s).
+
+        The valve's spool gain :math:`k_v` and flow gain :math:`K_q = K_v w \sqrt{(P_s -
+        P_t)/2}` (Eq. 2-2 at :math:`P_1 = P_2` mid-way, as :func:`linearized_position_plant`)
+        over the piston area make the actuator an integrator from volts to position; with the
+        proportional gain the loop is that integrator sampled at the control period :math:`T`
+        through a zero-order hold, whose pole :math:`z = 1 - K T` leaves the unit circle at
+        :math:`K T = 2`. :func:`~leakdiag.sim.simulate_vca` refuses sample rates at or below
+        :math:`K/2` (the controller runs at the sample rate; docs/models.md, "Sample rate").
+
+        Parameters
+        ----------
+        params : VCAParams, optional
+            Table 2-1 by default.
+
+        Returns
+        -------
+        float
+
+        Examples
+        --------
+        >>> round(FixedGainController().position_loop_gain_per_s(), 1)  # stable above 45.6 Hz
+        91.2
+        """
+        p = VCAParams() if params is None else params
+        kq = p.valve_flow_gain_m1_5_per_kg0_5 * p.orifice_area_gradient_m * math.sqrt(
+            max(p.supply_pressure_pa - p.tank_pressure_pa, 0.0) / 2.0)
+        return self.position_gain_v_per_m * p.spool_gain_m_per_v * kq / p.piston_area_m2
+
     def to_array(self) -> np.ndarray:
         """``[K_p, K_i, K_dp]`` as float64.
 

@@ -45,8 +45,11 @@ DEFAULT_MAX_STEP_S = 2.5e-4
 #: Typical |P1 - P2| used only for the first guess of the leak coefficient (Pa).
 _TYPICAL_LOAD_PRESSURE_PA = {"none": 3e4, "spring": 8e5}
 _CHUNK_S = 10.0  # progress granularity (s of simulated time)
-#: Most RK4 steps per sample a (huge) leak coefficient may demand before the run is refused.
-MAX_SUBSTEPS = 64
+#: Smallest RK4 step (s) that a (huge) leak coefficient may demand before the run is refused:
+#: 1/16 of the default step, 64 steps per sample at the thesis's 1 kHz. A step, not a count per
+#: sample, so that a healthy run at a low sample rate (10 Hz: 400 base steps per sample) is not
+#: refused as a leak that short-circuits the actuator.
+MIN_LEAK_STEP_S = DEFAULT_MAX_STEP_S / 16
 
 
 def initial_leak_coefficient(leak_lpm: float, leak_model: str, load: str) -> float:
@@ -281,10 +284,12 @@ def simulate_vca(
     Raises
     ------
     ValueError
-        If an argument is out of range (the message names it), e.g. an onset outside the run.
+        If an argument is out of range (the message names it), e.g. an onset outside the run,
+        or a sample rate at which the fixed-gain controller's loop is unstable
+        (:meth:`FixedGainController.position_loop_gain_per_s`: below 45.6 Hz for Table 2-1).
     leakdiag.sim.leak.LeakCalibrationError
-        If the leak cannot be calibrated to the target, or a coefficient would need more than
-        :data:`MAX_SUBSTEPS` RK4 steps per sample to stay stable; when the run after the
+        If the leak cannot be calibrated to the target, or a coefficient would need an RK4
+        step below :data:`MIN_LEAK_STEP_S` to stay stable; when the run after the
         onset is shorter than :data:`~leakdiag.sim.leak.MIN_CALIBRATION_WINDOW_S` the message
         says the run is too short to calibrate.
 
@@ -369,18 +374,27 @@ def simulate_vca(
         raise TypeError("controller must be a FixedGainController or a callable")
     loop = None
     if fixed:
+        gain = ctrl.position_loop_gain_per_s(params)
+        if gain / fs >= 2.0:
+            raise ValueError(
+                f"sample_rate={fs:g} Hz is too low for the fixed-gain controller, which runs at "
+                f"the sample rate: its position loop (gain K_p k_v K_q / A = {gain:.3g} 1/s) is "
+                f"a sampled integrator, unstable at gain x period >= 2; give a rate above "
+                f"{gain / 2.0:.3g} Hz (the thesis's rig: 1000 Hz), or, in Python, a lower "
+                "position_gain_v_per_m or a controller of your own")
         loop = _SegmentedLoop(x_ref, fs, prm, ctrl.to_array(), params.control_limit_v,
                               sched.to_array(), cond, s0, noise[0], noise[1], sens_arr, sos)
 
     def substeps(k_leak: float) -> int:
-        n_sub_k = max(n_sub, _leak_stable_substeps(k_leak, leak_model, params, fs))
-        if n_sub_k > MAX_SUBSTEPS:
+        n_leak = _leak_stable_substeps(k_leak, leak_model, params, fs)
+        if n_leak * fs * MIN_LEAK_STEP_S > 1.0 + 1e-9:
             raise LeakCalibrationError(
-                f"leak coefficient {k_leak:.4g} ({leak_model}) would need {n_sub_k} RK4 steps per "
-                f"sample (> {MAX_SUBSTEPS}); such a leak short-circuits the actuator (rated flow "
-                f"{params.rated_flow_lpm:.1f} L/min)"
+                f"leak coefficient {k_leak:.4g} ({leak_model}) would need {n_leak} RK4 steps per "
+                f"sample at {fs:g} Hz (steps of {1e6 / (n_leak * fs):.3g} us, below the "
+                f"{MIN_LEAK_STEP_S * 1e6:.3g} us allowed); such a leak short-circuits the "
+                f"actuator (rated flow {params.rated_flow_lpm:.1f} L/min)"
             )
-        return n_sub_k
+        return max(n_sub, n_leak)
 
     i_on = plan.onset_index
     # samples [0, split) carry no leak, whatever the coefficient (split = onset sample - 1, so
