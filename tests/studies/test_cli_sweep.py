@@ -207,3 +207,25 @@ def test_sweep_refuses_bad_settings_before_reading_the_file(tmp_path, capsys, ar
     err = capsys.readouterr()
     assert code == 2 and err.out == "" and "Traceback" not in err.err
     assert err.err.splitlines()[-1] == message
+
+
+# ------------------------------------------ audit of sweep, sensitivity, analyze, 2026-11-27
+def test_sweep_figure_titles_name_the_default_channels(tmp_path, monkeypatch):
+    """Without -c the % change figures were titled 'autocorrelation None: ...'."""
+    import leakdiag.report.study_plots as study_plots
+
+    titles = []
+    plot = study_plots.plot_pct_vs_parameter
+
+    def spy(*args, **kwargs):
+        titles.append(kwargs["title"])
+        return plot(*args, **kwargs)
+
+    monkeypatch.setattr(study_plots, "plot_pct_vs_parameter", spy)
+    path = tmp_path / "rec.csv"
+    ar_recording().to_pandas().to_csv(path, index=False)
+    assert main(["sweep", str(path), "--mode", "grid", "--lags", "1,3", "--windows", "60,120",
+                 "--overlaps", "5", "--onset", "30", "--chunk", "5", "-o",
+                 str(tmp_path / "o")]) == 0
+    assert titles == [f"autocorrelation p1: % change against {v}"
+                      for v in ("lag", "window", "overlap")]

@@ -46,6 +46,8 @@ def format_table(table) -> str:
 
 
 def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> list[Path]:
+    """The stacked panels and % change curves per varied parameter; ``channels`` is the
+    resolved ``"p1,p2"`` (the feature's own channels when ``--channels`` is not given)."""
     from leakdiag.features.spec import compute_feature
     from leakdiag.report.figures import save_figure
     from leakdiag.report.study_plots import plot_pct_vs_parameter, plot_stacked
@@ -165,7 +167,7 @@ def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, chan
         table.astype({"lag_ratio": "string"}).to_parquet(o / "sweep.parquet", index=False)
         written = ["sweep.csv", "sweep.parquet"]
         if not no_figures and chosen is not None:
-            written += [p.name for p in _figures(rec, table, m, channels, onset, o, groups)]
+            written += [p.name for p in _figures(rec, table, m, chans, onset, o, groups)]
             if mode == "grid" and len(win_values) > 1 and len(ov_values) > 1:
                 from leakdiag.report.figures import save_figure
                 from leakdiag.report.study_plots import plot_grid_heatmap
