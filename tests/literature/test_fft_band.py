@@ -71,3 +71,20 @@ def test_default_band_brackets_natural_frequency_and_feature_params():
     fs = fft_band_feature(rec, FFTBandParams(("p1", "p2"), overlap=0))
     np.testing.assert_allclose(fs.values, 1 / np.sqrt(2), rtol=1e-12)  # p2 is out of band
     assert fs.params["band_hz"] == (lo, hi)
+
+
+def test_band_above_nyquist_is_refused_not_cut():
+    # at 100 Hz the default band 34.85-104.56 Hz (0.5-1.5 x 69.7 Hz) would be computed only up
+    # to the 50-Hz Nyquist bin; it is refused instead, as wavelet-p1 refuses its level
+    x = np.random.default_rng(3).standard_normal(1000)
+    band = FFTBandParams().resolved_band_hz
+    with pytest.raises(ValueError, match=r"band_hz=\(34\.8544, 104\.563\) must lie below the "
+                                         r"Nyquist frequency 50 Hz \(sample_rate=100 Hz\).*"
+                                         r"50-104\.563 Hz of the band would not be computed"):
+        fft_band_rms(x, 100.0, 100, 0, band)
+    rec = Recording({"p1": x}, 100.0)
+    with pytest.raises(ValueError, match="must lie below the Nyquist frequency 50 Hz"):
+        fft_band_feature(rec, FFTBandParams(window=100))
+    # a band ending exactly at Nyquist keeps every bin (the Nyquist bin counted once)
+    assert fft_band_rms(np.tile([1.0, -1.0], 50), 100.0, 100, 0, (40.0, 50.0)).tolist() == \
+        pytest.approx([1.0])

@@ -39,8 +39,8 @@ def fft_band_rms(x, sample_rate: float, window: int, overlap: float, band_hz: tu
     overlap : float
         Overlap in percent, ``[0, 100)``.
     band_hz : (float, float)
-        Band edges ``(low, high)`` in Hz, ``0 <= low < high``; bins with ``low <= f <= high``
-        count. At least one FFT bin must fall in the band.
+        Band edges ``(low, high)`` in Hz, ``0 <= low < high <= sample_rate / 2``; bins with
+        ``low <= f <= high`` count. At least one FFT bin must fall in the band.
 
     Returns
     -------
@@ -50,7 +50,9 @@ def fft_band_rms(x, sample_rate: float, window: int, overlap: float, band_hz: tu
     Raises
     ------
     ValueError
-        If the band is empty, inverted, or holds no FFT bin at this window size.
+        If the band is empty or inverted, reaches above the Nyquist frequency (the spectrum
+        has no bin there: part of the band would be dropped silently), or holds no FFT bin at
+        this window size.
 
     Notes
     -----
@@ -80,6 +82,10 @@ def fft_band_rms(x, sample_rate: float, window: int, overlap: float, band_hz: tu
     low, high = (float(b) for b in band_hz)
     if not (0.0 <= low < high):
         raise ValueError(f"band_hz={band_hz!r} must satisfy 0 <= low < high")
+    if high > fs / 2:
+        raise ValueError(f"band_hz=({low:g}, {high:g}) must lie below the Nyquist frequency "
+                         f"{fs / 2:g} Hz (sample_rate={fs:g} Hz): the spectrum ends there, so "
+                         f"{max(low, fs / 2):g}-{high:g} Hz of the band would not be computed")
     freqs = np.fft.rfftfreq(window, 1.0 / fs)
     sel = (freqs >= low) & (freqs <= high)
     if not sel.any():
@@ -164,6 +170,9 @@ def fft_band_feature(recording, params: FFTBandParams = FFTBandParams()) -> Feat
     ------
     leakdiag.io.RecordingError
         If a channel is missing.
+    ValueError
+        If the band reaches above the recording's Nyquist frequency (the default band's upper
+        edge, 104.6 Hz, needs a sample rate of at least 209.1 Hz).
 
     Notes
     -----
