@@ -50,7 +50,7 @@ def test_sweep_says_which_grid_settings_it_skipped_and_refuses_an_onset_outside(
     assert code == 0
     head = capsys.readouterr().out.splitlines()[0]
     assert head.endswith("3 settings (grid); 1 of 4 skipped: a lag not smaller than its "
-                         "window, or a window longer than the recording")
+                         "window")
     end = rec.start_time + rec.duration
     code = main(["sweep", str(path), "-c", "p1", "--onset", str(end + 10)])
     assert code == 2
@@ -229,3 +229,59 @@ def test_sweep_figure_titles_name_the_default_channels(tmp_path, monkeypatch):
                  str(tmp_path / "o")]) == 0
     assert titles == [f"autocorrelation p1: % change against {v}"
                       for v in ("lag", "window", "overlap")]
+
+
+@pytest.mark.parametrize("windows, which", [("100,1000000", "window 1000000"),
+                                            ("1000000,100", "window 1000000"),
+                                            ("8000,100,7000", "windows 8000 and 7000")])
+def test_ofat_sweep_refuses_a_window_longer_than_the_recording(tmp_path, capsys, windows, which):
+    """ofat dropped window 1000000 without a word ('8 settings'); held first, it emptied the
+    lag stage and the error blamed --min-chunks and --onset."""
+    path = tmp_path / "rec.csv"
+    ar_recording().to_pandas().to_csv(path, index=False)  # 6000 samples
+    code = main(["sweep", str(path), "-c", "p1", "--windows", windows, "--no-figures"])
+    err = capsys.readouterr()
+    verb = "are" if "and" in which else "is"
+    assert code == 2 and err.out == ""
+    assert err.err == (f"leakdiag: error: {path}: {which} of --windows {windows!r} {verb} "
+                       "longer than the recording (6000 samples): in ofat mode every window is "
+                       "computed (the first is held while the lag varies) and none is skipped; "
+                       "give windows of at most 6000 samples\n")
+
+
+@pytest.mark.parametrize("lags, windows, said", [
+    ("1", "60,1000000", "1 settings (grid); 1 of 2 skipped: window 1000000 is longer than the "
+                        "recording (6000 samples)"),
+    ("1,80", "60,7000,8000", "1 settings (grid); 5 of 6 skipped: 1 with a lag not smaller than "
+                             "its window, 4 with windows 7000 and 8000 longer than the "
+                             "recording (6000 samples)"),
+    ("80", "60,7000", "error: {path}: no setting to compute: the lags of --lags '80' fit only "
+                      "window 7000 of --windows '60,7000', longer than the recording (6000 "
+                      "samples)"),
+    ("1", "7000,8000", "error: {path}: every window of --windows '7000,8000' is longer than the "
+                       "recording (6000 samples): no setting to compute; give windows of at "
+                       "most 6000 samples"),
+])
+def test_grid_sweep_names_why_it_skipped_settings(tmp_path, capsys, lags, windows, said):
+    path = tmp_path / "rec.csv"
+    ar_recording().to_pandas().to_csv(path, index=False)
+    code = main(["sweep", str(path), "-c", "p1", "--lags", lags, "--windows", windows,
+                 "--overlaps", "0", "--mode", "grid", "--onset", "30", "--chunk", "5",
+                 "--no-figures"])
+    err = capsys.readouterr()
+    if said.startswith("error"):
+        assert code == 2 and err.err == f"leakdiag: {said.format(path=path)}\n"
+    else:
+        assert code == 0 and err.out.splitlines()[0].endswith(said)
+
+
+def test_ofat_sweep_function_refuses_a_window_longer_than_the_recording():
+    from leakdiag.studies.sweep import ofat_sweep
+
+    rec = ar_recording()
+    with pytest.raises(ValueError, match=r"^window 7000 is longer than the recording \(6000 "
+                                         r"samples\): ofat_sweep computes every window \(the "
+                                         r"first is held while the lag varies\) and skips none$"):
+        ofat_sweep(rec, "autocorrelation", "p1", [1], [100, 7000], [0], onset=30)
+    with pytest.raises(ValueError, match="^window 9000 is longer"):
+        ofat_sweep(rec, "autocorrelation", "p1", [1], [100], [0], start_window=9000, onset=30)

@@ -106,7 +106,8 @@ def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> l
 @click.option("--lags", default="1,2,4,8", show_default=True,
               help="Lags (1,2,4 or 1:30:1) or lag ratios (83:3,57:3).")
 @click.option("--windows", default="100:800:100", show_default=True,
-              help="Window sizes in samples (list or start:stop:step).")
+              help="Window sizes in samples (list or start:stop:step). ofat mode refuses a "
+                   "window longer than the recording; grid mode skips it and says so.")
 @click.option("--overlaps", default="5,25,50", show_default=True, help="Overlaps in percent.")
 @click.option("--mode", type=click.Choice(["ofat", "grid"]), default="ofat", show_default=True,
               help="ofat: Sec. 4.4 (vary lag, keep the best; window; overlap). grid: all combos.")
@@ -130,7 +131,7 @@ def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, chan
     from leakdiag.cli._options import column_map_from, read_with
 
     rec = read_with(file, column_map_from(column_map, cols, time_unit), sample_rate, resample)
-    _check_input(file, rec, m, channels, win_values)
+    _check_input(file, rec, m, channels, lags, lag_values, windows, win_values, mode)
     rule = SelectionRule(min_chunks_per_side=min_chunks, tolerance_pct=tolerance)
     onset = onset if onset is not None else rec.onset
     if onset is None:
@@ -145,12 +146,8 @@ def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, chan
                                              ov_values, rule, onset, chunk, mode)
     except ValueError as exc:
         raise ValueError(f"{file}: {exc}") from None
-    skipped = ""
-    if mode == "grid":
-        n_all = len(lag_values) * len(win_values) * len(ov_values)
-        if n_all > len(table):
-            skipped = (f"; {n_all - len(table)} of {n_all} skipped: a lag not smaller than its "
-                       "window, or a window longer than the recording")
+    skipped = _skipped_words(m, rec.n_samples, lag_values, win_values, ov_values, len(table)) \
+        if mode == "grid" else ""
     chans = channels or ",".join(feature_record(m).channels)
     click.echo(f"{file}: {rec.n_samples} samples at {rec.sample_rate:g} Hz, onset {onset:g} s, "
                f"{m} {chans}, {len(table)} settings ({mode}){skipped}")
@@ -267,7 +264,8 @@ def _check_settings(method, lags, windows, overlaps, mode):
     the method takes. In ofat mode every lag must also be smaller than every window (the lag
     stage holds the first window, the window stage the chosen lag: a setting that does not fit
     would be left out without a word); in grid mode the combinations that do not fit are left
-    out and counted, and at least one must fit.
+    out and counted, and at least one must fit. Windows longer than the recording are checked
+    once it is read (:func:`_check_input`).
     """
     record = feature_record(method)
     is_ratio = record.setting == "lag_ratio"
@@ -300,13 +298,59 @@ def _check_settings(method, lags, windows, overlaps, mode):
     return list(lag_values), list(win_values), list(ov_values)
 
 
-def _check_input(file, rec, method, channels, windows) -> None:
-    """One clear error naming FILE for inputs no setting can use (too short, constant channel)."""
+def _skipped_words(method, n, lag_values, win_values, ov_values, n_rows) -> str:
+    """What a grid left out and why, e.g. ``"; 2 of 6 skipped: window 1000000 is longer than the
+    recording (60000 samples)"``; ``""`` when nothing was."""
+    record = feature_record(method)
+    n_ov = len(ov_values)
+    n_all = len(lag_values) * len(win_values) * n_ov
+    if n_all == n_rows:
+        return ""
+    long = [w for w in win_values if w > n]
+    n_long = len(long) * len(lag_values) * n_ov
+    n_lag = sum(not _fits(record, v, w) for v in lag_values for w in win_values if w <= n) * n_ov
+    lag_why = "a lag not smaller than its window"
+    if not n_long:
+        return f"; {n_all - n_rows} of {n_all} skipped: {lag_why}"
+    windows = f"window{'s' if len(long) > 1 else ''} {_and(long)}"
+    long_why = f"longer than the recording ({n} samples)"
+    if not n_lag:
+        why = f"{windows} {'are' if len(long) > 1 else 'is'} {long_why}"
+    else:
+        why = f"{n_lag} with {lag_why}, {n_long} with {windows} {long_why}"
+    return f"; {n_all - n_rows} of {n_all} skipped: {why}"
+
+
+def _and(values) -> str:
+    """``[1]`` -> ``"1"``; ``[1, 2, 3]`` -> ``"1, 2 and 3"``."""
+    v = [str(x) for x in values]
+    return v[0] if len(v) == 1 else f"{', '.join(v[:-1])} and {v[-1]}"
+
+
+def _check_input(file, rec, method, channels, lags, lag_values, windows, win_values, mode
+                 ) -> None:
+    """One clear error naming FILE for inputs no setting can use (too short, constant channel),
+    or for a window longer than the recording in ofat mode (grid mode skips and counts it)."""
     import numpy as np
 
-    if rec.n_samples < min(windows):
-        raise ValueError(f"{file}: {rec.n_samples} samples is shorter than the smallest window "
-                         f"({min(windows)}); pass shorter --windows or a longer recording")
+    n = rec.n_samples
+    long = [w for w in win_values if w > n]
+    if mode == "ofat" and long:
+        raise ValueError(
+            f"{file}: window{'s' if len(long) > 1 else ''} {_and(long)} of --windows {windows!r} "
+            f"{'are' if len(long) > 1 else 'is'} longer than the recording ({n} samples): in "
+            "ofat mode every window is computed (the first is held while the lag varies) and "
+            f"none is skipped; give windows of at most {n} samples")
+    if len(long) == len(win_values):  # grid mode from here: long windows are skipped
+        raise ValueError(f"{file}: every window of --windows {windows!r} is longer than the "
+                         f"recording ({n} samples): no setting to compute; give windows of at "
+                         f"most {n} samples")
+    record = feature_record(method)
+    fitted = [w for w in win_values if any(_fits(record, v, w) for v in lag_values)]
+    if record.setting is not None and all(w > n for w in fitted):
+        raise ValueError(f"{file}: no setting to compute: the lags of --lags {lags!r} fit only "
+                         f"window{'s' if len(fitted) > 1 else ''} {_and(fitted)} of --windows "
+                         f"{windows!r}, longer than the recording ({n} samples)")
     for ch in feature_record(method).check_channels(channels):
         x = rec[ch]
         if x.size and np.all(x == x[0]):

@@ -217,7 +217,8 @@ def grid(recording, method: str, channels: Sequence[str] | str | None,
     Returns
     -------
     pandas.DataFrame
-        One row per valid setting (a lag not smaller than the window is skipped), columns
+        One row per valid setting (a lag not smaller than its window, and a window longer
+        than the recording, are skipped: compare the row count with the settings), columns
         :data:`SETTING_COLUMNS` + :data:`MEASURE_COLUMNS`, ordered lag, window, overlap.
 
     Raises

@@ -197,10 +197,21 @@ def ofat_sweep(recording, method: str, channels, lags: Sequence, windows: Sequen
 
     Raises
     ------
+    ValueError
+        If a window (or ``start_window``) is longer than the recording: every window is
+        computed, none is left out (:func:`~leakdiag.studies.grid.grid` would skip it without
+        a row, and a first window held through stage 1 would leave that stage empty).
     NoEligibleSettingError
         A ``ValueError``: a stage has no eligible setting. Its ``tables`` hold the stages run
         so far (the failing one last) and ``stage`` names it: the later stages are not run.
     """
+    n = recording.n_samples
+    long = [int(w) for w in [*windows, *([] if start_window is None else [start_window])]
+            if int(w) > n]
+    if long:
+        raise ValueError(f"window {long[0]} is longer than the recording ({n} samples): "
+                         "ofat_sweep computes every window (the first is held while the lag "
+                         "varies) and skips none")
     start_window = int(windows[0] if start_window is None else start_window)
     start_overlap = float(overlaps[0] if start_overlap is None else start_overlap)
     kw = dict(onset=onset, chunk=chunk)
