@@ -12,7 +12,8 @@ from leakdiag._validation import as_1d_float, check_int
 from leakdiag.features.series import FeatureSeries
 from leakdiag.features.windowing import window_starts, window_step, window_times
 
-__all__ = ["windowed_rms", "windowed_mean", "check_channels", "channel_rms_feature"]
+__all__ = ["windowed_rms", "windowed_mean", "check_channels", "channel_rms_feature",
+           "check_finite_channels"]
 
 
 def _window_sums(x: np.ndarray, window: int, overlap: float) -> tuple[np.ndarray, np.ndarray]:
@@ -123,6 +124,54 @@ def check_channels(channels) -> tuple[str, ...]:
     return tuple(channels)
 
 
+def check_finite_channels(recording, channels, what: str) -> None:
+    """Refuse a recording whose channels hold NaN or inf, naming the recording, the channel and
+    the first bad sample.
+
+    One non-finite sample would otherwise spread: a prefix sum or an EMD block carries it into
+    every later window, which then reads as undefined (and is blamed on a stuck sensor).
+
+    Parameters
+    ----------
+    recording : leakdiag.io.Recording
+        Holds ``channels``.
+    channels : sequence of str
+        Channels the method reads.
+    what : str
+        The method, for the message (e.g. ``"the wavelet feature"``).
+
+    Raises
+    ------
+    leakdiag.io.RecordingError
+        For the first channel with a non-finite sample: its name, count, the first index and
+        its time.
+
+    Examples
+    --------
+    >>> from leakdiag.io.recording import Recording
+    >>> rec = Recording({"p1": [1.0, 2.0, float("nan"), 4.0]}, sample_rate=10.0,
+    ...                 meta={"source": "run.csv"})
+    >>> check_finite_channels(rec, ("p1",), "the FFT band feature")
+    Traceback (most recent call last):
+    ...
+    leakdiag.io.errors.RecordingError: run.csv: channel 'p1' holds 1 non-finite value(s) (NaN), \
+the first at sample 2 (t = 0.2 s); the FFT band feature needs finite samples: fill or cut the gap
+    """
+    from leakdiag.io.errors import RecordingError
+
+    for ch in channels:
+        x = np.asarray(recording[ch], dtype=np.float64)
+        bad = ~np.isfinite(x)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            kind = "NaN" if np.isnan(x[i]) else "inf"
+            t = recording.start_time + i / recording.sample_rate
+            raise RecordingError(
+                f"{recording.meta.get('source', '<recording>')}: channel {ch!r} holds "
+                f"{int(bad.sum())} non-finite value(s) ({kind}), the first at sample {i} "
+                f"(t = {t:.6g} s); {what} needs finite samples: fill or cut the gap")
+
+
 def channel_rms_feature(recording, channels, window: int, overlap: float, rms_of, name: str,
                         params: dict) -> FeatureSeries:
     """Root of the per-window mean squares summed over channels, as a feature series.
@@ -150,6 +199,11 @@ def channel_rms_feature(recording, channels, window: int, overlap: float, rms_of
         :math:`\\sqrt{\\sum_c \\mathrm{rms}_c^2}` per window, timestamped at each window's
         last sample.
 
+    Raises
+    ------
+    leakdiag.io.RecordingError
+        If a channel holds NaN or inf (:func:`check_finite_channels`).
+
     Examples
     --------
     >>> from leakdiag.io.recording import Recording
@@ -159,6 +213,7 @@ def channel_rms_feature(recording, channels, window: int, overlap: float, rms_of
     >>> channel_rms_feature(rec, ("p1", "p2"), 2, 0.0, rms, "demo", {}).values.tolist()
     [5.0, 5.0]
     """
+    check_finite_channels(recording, channels, f"the {name} feature")
     ms = None
     for ch in channels:
         r = rms_of(recording[ch])

@@ -13,11 +13,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from leakdiag._validation import check_finite, check_int, check_overlap, check_positive
+from leakdiag._validation import check_int, check_overlap, check_positive
 from leakdiag.features.series import FeatureSeries
 from leakdiag.features.windowing import window_starts, window_step, window_times
 from leakdiag.literature._ekf_kernel import ekf_vca_kernel
-from leakdiag.literature._windowed import windowed_mean
+from leakdiag.literature._windowed import check_finite_channels, windowed_mean
 from leakdiag.sim.leak import LPM_PER_M3S
 from leakdiag.sim.vca.params import VCAParams
 
@@ -207,10 +207,10 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
     Raises
     ------
     leakdiag.io.RecordingError
-        If a channel is missing.
+        If a channel is missing or holds NaN or inf (the message names the recording, the
+        channel and the first bad sample).
     ValueError
-        If a channel holds NaN or inf, the recording has fewer than 2 samples, or its
-        ``meta['system']`` is not ``"vca"``.
+        If the recording has fewer than 2 samples or its ``meta['system']`` is not ``"vca"``.
 
     Notes
     -----
@@ -253,9 +253,9 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
     recording.require("u", "x", "p1", "p2")
     n = recording.n_samples
     if n < 2:
-        raise ValueError(f"recording has {n} samples; the EKF needs at least 2")
-    for ch in ("u", "x", "p1", "p2"):
-        check_finite(recording[ch], ch)
+        raise ValueError(f"{recording.meta.get('source', '<recording>')}: {n} sample(s); the "
+                         "EKF needs at least 2")
+    check_finite_channels(recording, ("u", "x", "p1", "p2"), "the EKF")
     dt = 1.0 / recording.sample_rate
     prm = params.model.to_array(params.leak_model, params.load)
     u = np.ascontiguousarray(recording["u"], dtype=np.float64)

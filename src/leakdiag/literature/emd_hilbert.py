@@ -156,7 +156,8 @@ def emd_hilbert_feature(recording, params: EMDHilbertParams = EMDHilbertParams()
     Raises
     ------
     leakdiag.io.RecordingError
-        If a channel is missing.
+        If a channel is missing, or holds NaN or inf (named with the recording and the first
+        bad sample: one would spread into every later window).
 
     Notes
     -----

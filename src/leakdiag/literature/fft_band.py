@@ -169,7 +169,8 @@ def fft_band_feature(recording, params: FFTBandParams = FFTBandParams()) -> Feat
     Raises
     ------
     leakdiag.io.RecordingError
-        If a channel is missing.
+        If a channel is missing, or holds NaN or inf (named with the recording and the first
+        bad sample: one would spread into every later window).
     ValueError
         If the band reaches above the recording's Nyquist frequency (the default band's upper
         edge, 104.6 Hz, needs a sample rate of at least 209.1 Hz).

@@ -221,7 +221,8 @@ def wavelet_feature(recording, params: WaveletParams = WaveletParams()) -> Featu
     Raises
     ------
     leakdiag.io.RecordingError
-        If a channel is missing.
+        If a channel is missing, or holds NaN or inf (named with the recording and the first
+        bad sample: one would spread into every later window).
 
     Notes
     -----
