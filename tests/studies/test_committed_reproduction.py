@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 from leakdiag.studies.protocol import THESIS, build_cases
-from leakdiag.studies.reproduce import per_table_agreement
+from leakdiag.studies.reproduce import per_table_agreement, preferred_settings
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "reproduction"
 
@@ -61,6 +61,18 @@ def test_readme_summary_is_the_committed_tables(committed):
                    if ln.startswith(f"| {system} median"))
         ours = tables.loc[tables.system == system, "pct_change"].abs().median()
         assert f"{ours:.3g} %" in row.rstrip(" |").split("|")[-1]
+    # the rule against the thesis's choice, settings compared as numbers (an audit,
+    # 2026-11-27: a window of 100.0 against a choice of 100 read "disagrees" as text)
+    pref = preferred_settings(pd.read_csv(DOCS / "tables.csv", dtype={"table": str,
+                                                                       "lag": str}))
+    committed_pref = pd.read_csv(DOCS / "preferred.csv", dtype={"table": str})
+    assert committed_pref.ours_agrees_with_thesis_choice.tolist() == \
+        pref.ours_agrees_with_thesis_choice.tolist()
+    row = next(ln for ln in summary.splitlines()
+               if ln.startswith("| rule picks the thesis's own choice"))
+    assert row.rstrip(" |").split("|")[-1].strip() == \
+        f"{int(pref.ours_agrees_with_thesis_choice.sum())} / {len(pref)}" == "10 / 24"
+    assert int(pref.thesis_values_rule_agrees.sum()) == 17
     ratio = (tables["pct_change"].abs() / tables["thesis_pct_change"].abs()).median()
     row = next(ln for ln in summary.splitlines() if ln.startswith("| median over rows"))
     assert f"{ratio:.3f}" in row.rstrip(" |").split("|")[-1]

@@ -72,9 +72,13 @@ def test_html_and_markdown_complete(quick_run):
     # issue 15: figures named after their table, wide enough to read
     import matplotlib.image as mpimg
 
-    assert all(p.startswith(("table-", "stationarity-")) for p in pngs), pngs
+    assert all(p.startswith(("table-", "stationarity-", "sec-")) for p in pngs), pngs
     for t in tables:
         assert f"table-{t}-series.png" in pngs
+    # Table 5-17 is the VCA's sensitivity summary; the EHA's are Secs. 6.1.5-6.4.5 (an audit)
+    assert "table-5-17-sensitivity-eha.png" not in pngs
+    if "eha" in SYSTEMS:
+        assert "sec-6-x-5-sensitivity-eha.png" in pngs
     assert min(mpimg.imread(out / "figures" / p).shape[1] for p in pngs) >= 900
     for section in ("Summary", "Main disagreements", "Preferred settings", "sensitivity",
                     "Stationarity"):
@@ -124,7 +128,11 @@ def test_saved_results_and_previous_comparison(quick_run):
         rep, command = pickle.load(fh)
     assert command.startswith("leakdiag reproduce")
     assert len(rep.tables) == len(pd.read_csv(out / "tables.csv"))
-    assert "What changed against the previous run" in (out / "report.md").read_text()
+    md = (out / "report.md").read_text()
+    assert "What changed against the previous run" in md
+    # the committed run is a full one: the quick run's report says the settings differ
+    assert "**The previous run was made with other settings**, so these changes are not the " \
+           "code's alone: windows per experiment differ in" in md
     assert not list(pkl.parent.glob(".leakdiag-*"))  # no temporary file left beside it
 
 
@@ -264,6 +272,7 @@ def test_vca_over_an_all_run_removes_the_eha_figures_only(quick_run, tmp_path, m
     assert {"mine.png", "table-notes.txt"} <= set(after)
     assert (mix / "notes.txt").read_text() == "mine"
     md = (mix / "report.md").read_text()
+    assert "Experiments: VCA leaks" in md and "EHA leaks" not in md  # no EHA run described
     assert sorted(re.findall(r"\]\(figures/([\w.-]+\.png)\)", md)) == \
         sorted(set(after) - {"mine.png", "table-notes.txt"})
     # a second run over its own output removes nothing and says nothing about it

@@ -17,7 +17,7 @@ from leakdiag.report.html import Report
 from leakdiag.report.study_plots import (plot_moments, plot_pct_vs_parameter, plot_sensitivity,
                                          plot_stacked)
 from leakdiag.studies.reproduce import (Reproduction, compare_runs, per_table_agreement,
-                                        sensitivity_summary)
+                                        sensitivity_summary, setting_differences)
 from leakdiag.studies.thesis import row_sign, varied_value
 
 __all__ = ["build_report", "direction_word", "trend_word", "write_outputs", "FIGURE_NAMES",
@@ -26,8 +26,9 @@ __all__ = ["build_report", "direction_word", "trend_word", "write_outputs", "FIG
 #: Files ``write_outputs`` writes at the top of its folder (every run writes all of them).
 OUTPUT_FILES = ("tables.csv", "sensitivity.csv", "preferred.csv", "index.html", "report.md")
 #: Names of the figures a reproduction writes into ``figures/`` (the ``fig-NNN.png`` of runs
-#: before the figures were named after their table included); any other file there is kept.
-FIGURE_NAMES = re.compile(r"(?:(?:table|stationarity)-[A-Za-z0-9_.-]+|fig-\d{3})\.png")
+#: before the figures were named after their table included; ``sec-``: the EHA's sensitivity,
+#: Secs. 6.1.5-6.4.5, which have no table); any other file there is kept.
+FIGURE_NAMES = re.compile(r"(?:(?:table|stationarity|sec)-[A-Za-z0-9_.-]+|fig-\d{3})\.png")
 
 _SETTING_LABEL = {"lag": "lag", "lag_ratio": "lag ratio", "window": "window (samples)",
                   "overlap": "overlap (%)", "signal": "signal"}
@@ -202,7 +203,7 @@ def _summary(rep, r: Report) -> None:
                      f"side) applied to our values picks the thesis's own choice in "
                      f"{int(p.ours_agrees_with_thesis_choice.sum())} of {len(p)} sweep tables; "
                      f"applied to the thesis's own values it picks the thesis's choice in "
-                     f"{int((p.thesis_values_rule.astype(str) == p.thesis_choice.astype(str)).sum())}"
+                     f"{int(p.thesis_values_rule_agrees.sum())}"
                      f" of {len(p)} (the thesis often chose for visual reasons).")
     r.bullets(items)
     r.table(per_table_agreement(t), "Agreement per table: direction (rows agreeing), trend "
@@ -253,6 +254,10 @@ def _changes_section(rep, r: Report) -> None:
         f"ratio of our |% change| to the thesis's "
         f"{np.nanmedian(old['pct_change'] / old['thesis_pct_change']):.3g} before, "
         f"{np.nanmedian(new['pct_change'] / new['thesis_pct_change']):.3g} now.")
+    diff = setting_differences(new, old)
+    if diff:
+        r.paragraph("**The previous run was made with other settings**, so these changes are "
+                    "not the code's alone: " + "; ".join(diff) + ".")
     r.table(c, "Per table: previous run (_old) and this run (_new)")
 
 
@@ -313,11 +318,14 @@ def _sensitivity_section(rep, r: Report, figures: bool) -> None:
     r.heading("Case study 3: sensitivity to leak size (Table 5-17, Sec. 6.x.5)")
     s = rep.sensitivity
     cfg = rep.config
-    r.paragraph(f"Experiments: VCA leaks {list(cfg.vca_sensitivity_lpm)} L/min, durations "
-                f"{list(cfg.vca_sensitivity_durations_s)} s; EHA leaks "
-                f"{list(cfg.eha_sensitivity_lpm)} L/min, {cfg.eha_sensitivity_duration_s:g} s; "
-                f"loads {list(cfg.loads)}; seeds {list(cfg.sensitivity_seeds)}; leak at half "
-                f"time; each method at the thesis's preferred setting.")
+    ran = set(s["system"].str.lower())  # a VCA-only run describes no EHA experiments
+    what = ([f"VCA leaks {list(cfg.vca_sensitivity_lpm)} L/min, durations "
+             f"{list(cfg.vca_sensitivity_durations_s)} s"] if "vca" in ran else []) + (
+        [f"EHA leaks {list(cfg.eha_sensitivity_lpm)} L/min, "
+         f"{cfg.eha_sensitivity_duration_s:g} s"] if "eha" in ran else [])
+    r.paragraph(f"Experiments: {'; '.join(what)}; loads {list(cfg.loads)}; seeds "
+                f"{list(cfg.sensitivity_seeds)}; leak at half time; each method at the thesis's "
+                f"preferred setting.")
     summ = sensitivity_summary(s)
     r.paragraph("rho_pct_vs_leak: Spearman rank correlation of |% change| with the leak size "
                 "within each operating condition (load and duration), averaged; "
@@ -326,9 +334,13 @@ def _sensitivity_section(rep, r: Report, figures: bool) -> None:
     r.table(summ, "Range of |% change| per method, ours beside the thesis's")
     if figures:
         for system, g in s.groupby("system", sort=False):
+            # Table 5-17 is the VCA's summary; the EHA's results are Secs. 6.1.5-6.4.5 (no table)
+            vca = system.lower() == "vca"
             r.figure(plot_sensitivity(g, system, summ[summ.system == system]),
-                     f"{system.upper()}: % change against mean leak size (thesis range shaded).",
-                     name=f"table-5-17-sensitivity-{system}")
+                     f"{system.upper()}: % change against mean leak size (thesis range shaded; "
+                     f"{'Table 5-17' if vca else 'Secs. 6.1.5-6.4.5'}).",
+                     name="table-5-17-sensitivity-vca" if vca else
+                     f"sec-6-x-5-sensitivity-{system.lower()}")
 
 
 def _stationarity_section(rep, r: Report, figures: bool) -> None:

@@ -26,9 +26,9 @@ from leakdiag.studies.select import THESIS_CHOICES, SelectionRule, preferred_set
 from leakdiag.studies.thesis import (load_sensitivity, load_tables, row_sign, spearman, trend_sign,
                                      varied_value)
 
-__all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings",
+__all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings", "same_setting",
            "sensitivity_summary", "CONTRACT_COLUMNS", "PREVIOUS_COLUMNS", "per_table_agreement",
-           "compare_runs", "read_previous", "code_fingerprints"]
+           "compare_runs", "read_previous", "setting_differences", "code_fingerprints"]
 
 #: Columns of ``tables.csv`` written by :func:`leakdiag.report.reproduction.write_outputs`
 #: (the outside contract).
@@ -162,7 +162,8 @@ def preferred_settings(tables, rule=None):
     pandas.DataFrame
         Columns ``table``, ``system``, ``method``, ``signals``, ``varied``, ``ours_rule``,
         ``ours_rule_pct``, ``thesis_values_rule``, ``thesis_choice``, ``thesis_choice_pct``,
-        ``ours_agrees_with_thesis_choice``.
+        ``ours_agrees_with_thesis_choice``, ``thesis_values_rule_agrees`` (settings compared by
+        :func:`same_setting`).
     """
     import pandas as pd
 
@@ -195,19 +196,36 @@ def preferred_settings(tables, rule=None):
             ours_v, ours_pct = None, float("nan")
         th_v = preferred_setting(th, rule)["value"]
         choice = THESIS_CHOICES.get(tab)
-        match = g[g[col].astype(str) == str(choice)]
-        if match.empty and col == "overlap_pct":
-            match = g[g[col].astype(float) == float(choice)]
+        match = g[[same_setting(x, choice) for x in g[col]]]
         out.append({"table": tab, "system": g.system.iloc[0], "method": g.method.iloc[0],
                     "signals": g.signals.iloc[0], "varied": v, "ours_rule": ours_v,
                     "ours_rule_pct": ours_pct, "thesis_values_rule": th_v,
                     "thesis_choice": choice,
                     "thesis_choice_pct": float(match.thesis_pct_change.iloc[0]) if len(match)
                     else float("nan"),
-                    "ours_agrees_with_thesis_choice": str(ours_v) == str(choice)
-                    or (col == "overlap_pct" and ours_v is not None
-                        and float(ours_v) == float(choice))})
+                    "ours_agrees_with_thesis_choice": same_setting(ours_v, choice),
+                    "thesis_values_rule_agrees": same_setting(th_v, choice)})
     return pd.DataFrame(out)
+
+
+def same_setting(a, b) -> bool:
+    """Whether two settings of a sweep table are the same: as numbers when both are (a window
+    picked from an all-numeric row comes back as ``100.0``, the thesis's choice is ``100``),
+    else as text (lag ratios ``"1:4"``); None is never the same.
+
+    Examples
+    --------
+    >>> same_setting(100.0, 100), same_setting("100", 100.0), same_setting("1:4", "1:4")
+    (True, True, True)
+    >>> same_setting(None, 100), same_setting("1:4", "1:8"), same_setting(12.5, 12)
+    (False, False, False)
+    """
+    if a is None or b is None:
+        return False
+    try:
+        return float(a) == float(b)
+    except (TypeError, ValueError):
+        return str(a) == str(b)
 
 
 def sensitivity_summary(sens, thesis_ranges=None):
@@ -349,6 +367,49 @@ def compare_runs(new, old):
                                         how="right", suffixes=("_old", "_new"))
     return m[keys + ["rows", "median_pct_thesis"] + [f"{c}_{s}" for c in cols
                                                      for s in ("old", "new")]]
+
+
+def setting_differences(new, old) -> list[str]:
+    """How an earlier run's tables were made otherwise than this run's (sentences; empty when
+    alike): the RMS chunk (``chunk``) and, per table, the number of windows (``n_windows``:
+    another run length, e.g. a ``--quick`` run against a full one). A comparison of two such
+    runs mixes those changes with the code's, so the report says so.
+
+    Parameters
+    ----------
+    new, old : pandas.DataFrame
+        ``tables.csv`` of this run and of the earlier one.
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> a = pd.DataFrame({"table": ["5-1", "5-2"], "chunk": 10, "n_windows": [2105, 2105]})
+    >>> setting_differences(a, a)
+    []
+    >>> setting_differences(a.assign(chunk=5, n_windows=[309, 2105]), a)  # doctest: +ELLIPSIS
+    ['RMS chunk: 10 feature values before, 5 now', 'windows per experiment differ in 1 of 2 ...']
+    """
+    out = []
+    if "chunk" in new and "chunk" in old:
+        a, b = sorted(set(old["chunk"].dropna())), sorted(set(new["chunk"].dropna()))
+        if a != b:
+            out.append(f"RMS chunk: {', '.join(f'{x:g}' for x in a)} feature values before, "
+                       f"{', '.join(f'{x:g}' for x in b)} now")
+    if "n_windows" in new and "n_windows" in old:
+        m = new[["table", "n_windows"]].reset_index().merge(
+            old[["table", "n_windows"]].reset_index(), on=["table", "index"],
+            suffixes=("_new", "_old"))
+        diff = m[m.n_windows_new != m.n_windows_old]
+        if len(diff):
+            tabs = list(dict.fromkeys(diff.table.astype(str)))
+            out.append(f"windows per experiment differ in {len(diff)} of {len(m)} rows shared "
+                       f"(tables {', '.join(tabs[:4])}{', ...' if len(tabs) > 4 else ''}): "
+                       "other run lengths, e.g. a --quick run against a full one")
+    return out
 
 
 def read_previous(path, systems=None):
