@@ -285,3 +285,21 @@ def test_ofat_sweep_function_refuses_a_window_longer_than_the_recording():
         ofat_sweep(rec, "autocorrelation", "p1", [1], [100, 7000], [0], onset=30)
     with pytest.raises(ValueError, match="^window 9000 is longer"):
         ofat_sweep(rec, "autocorrelation", "p1", [1], [100], [0], start_window=9000, onset=30)
+
+
+def test_metric_length_sweep_defaults_to_the_thesis_lag_ratios(tmp_path, capsys):
+    """`-m metric-length` without --lags said "'1' in '1,2,4,8': lag_ratio='1' must look like
+    'l:k'": the correlations' default. Its own default: Table 5-13's lag ratios."""
+    path = tmp_path / "rec.csv"
+    ar_recording().to_pandas().to_csv(path, index=False)
+    assert main(["sweep", str(path), "-m", "metric-length", "--windows", "100,200",
+                 "--overlaps", "5", "--onset", "30", "--chunk", "5", "--no-figures",
+                 "-o", str(tmp_path / "o")]) == 0
+    t = pd.read_csv(tmp_path / "o" / "sweep.csv")
+    assert t.loc[t.varied == "lag", "lag_ratio"].tolist() == [
+        "83:3", "57:3", "43:3", "28:3", "23:3", "16:3"]
+    assert main(["sweep", str(path), "-m", "metric-length", "--windows", "50"]) == 2
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "Error: Invalid value for '--lags': 83:3 (the default --lags of metric-length) does not "
+        "fit window 50 (the smallest of --windows): in ofat mode every lag must be smaller than "
+        "every window (the chosen lag is held while the window varies)")

@@ -12,7 +12,15 @@ from leakdiag.cli._options import (FiniteFloat, list_option_values, recording_op
                                    resample_option)
 from leakdiag.features.registry import feature_record
 
-__all__ = ["sweep", "format_table"]
+__all__ = ["sweep", "format_table", "DEFAULT_LAGS", "DEFAULT_LAG_RATIOS"]
+
+#: ``--lags`` of the correlations when not given: the first four lags of the thesis's lag sweep,
+#: Table 5-1 (Sec. 5.3.1: 1, 2, 4, 8, 12, 18; Table 6-1, the EHA's: 1, 2, 4).
+DEFAULT_LAGS = "1,2,4,8"
+#: ``--lags`` of metric-length when not given: the lag ratios of the thesis's lag-ratio sweep,
+#: Table 5-13 (Sec. 5.6.1, VCA, window 500); they span the EHA's Table 6-13 (43:3, 40:3, 37:3,
+#: Sec. 6.4.1) and hold both preferred ratios, 83:3 (VCA) and 43:3 (EHA). All fit a window of 100.
+DEFAULT_LAG_RATIOS = "83:3,57:3,43:3,28:3,23:3,16:3"
 
 
 def format_table(table) -> str:
@@ -103,8 +111,11 @@ def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> l
               type=FeatureChoice(single=True),
               help="A single-valued feature of the registry (thesis spellings too).")
 @click.option("--channels", "-c", default=None, help="Channels, e.g. p1 | p1,p2 | u,x.")
-@click.option("--lags", default="1,2,4,8", show_default=True,
-              help="Lags (1,2,4 or 1:30:1) or lag ratios (83:3,57:3).")
+@click.option("--lags", default=None,
+              help=f"Lags (1,2,4 or 1:30:1), or lag ratios l:k for metric-length (83:3,57:3). "
+                   f"Default: {DEFAULT_LAGS} (from the thesis's lag sweep, Table 5-1); for "
+                   f"metric-length {DEFAULT_LAG_RATIOS} (its lag-ratio sweep, Table 5-13, "
+                   "Sec. 5.6.1).")
 @click.option("--windows", default="100:800:100", show_default=True,
               help="Window sizes in samples (list or start:stop:step). ofat mode refuses a "
                    "window longer than the recording; grid mode skips it and says so.")
@@ -269,6 +280,9 @@ def _check_settings(method, lags, windows, overlaps, mode):
     """
     record = feature_record(method)
     is_ratio = record.setting == "lag_ratio"
+    given = lags is not None
+    if not given:
+        lags = DEFAULT_LAG_RATIOS if is_ratio else DEFAULT_LAGS
     win_values = list_option_values("--windows", windows, int, "100:800:100",
                                     lambda w: w >= 2, "a window must be >= 2 samples")
     ov_values = list_option_values("--overlaps", overlaps, float, "5,25,50",
@@ -278,7 +292,8 @@ def _check_settings(method, lags, windows, overlaps, mode):
                                     "83:3,57:3" if is_ratio else "1,2,4,8")
     if record.setting is None:
         return list(lag_values), list(win_values), list(ov_values)
-    where = "" if len(lag_values) == 1 else f" in {lags!r}"
+    note = "" if given else f" (the default --lags of {method})"
+    where = ("" if len(lag_values) == 1 else f" in {lags!r}") + note
     for v in lag_values:
         try:
             record.check_setting(v)
@@ -289,11 +304,11 @@ def _check_settings(method, lags, windows, overlaps, mode):
         for v in lag_values:
             if not _fits(record, v, w_min):
                 raise click.BadParameter(
-                    f"{v} does not fit window {w_min} (the smallest of --windows): in ofat mode "
-                    "every lag must be smaller than every window (the chosen lag is held while "
-                    "the window varies)", param_hint="'--lags'")
+                    f"{v}{note} does not fit window {w_min} (the smallest of --windows): in "
+                    "ofat mode every lag must be smaller than every window (the chosen lag is "
+                    "held while the window varies)", param_hint="'--lags'")
     elif not any(_fits(record, v, w) for v in lag_values for w in win_values):
-        raise click.BadParameter(f"no value of {lags!r} is smaller than a window of "
+        raise click.BadParameter(f"no value of {lags!r}{note} is smaller than a window of "
                                  f"{windows!r}: no setting to compute", param_hint="'--lags'")
     return list(lag_values), list(win_values), list(ov_values)
 
