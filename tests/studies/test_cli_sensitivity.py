@@ -11,6 +11,9 @@ from leakdiag.studies.protocol import SENSITIVITY_METHODS
 @pytest.mark.skipif(not hasattr(sim, "simulate_vca"), reason="no VCA simulator")
 def test_sensitivity_cli_one_experiment(tmp_path, capsys):
     out = tmp_path / "s"
+    out.mkdir()
+    for name in ("sensitivity_eha.png", "sensitivity_other.png"):  # an earlier run's, the user's
+        (out / name).write_bytes(b"old")
     code = main(["sensitivity", "vca", "--quick", "--leaks", "0.3", "--seeds", "3",
                  "--durations", "24", "--loads", "none", "--scheduler", "serial",
                  "--cache-dir", str(tmp_path / "cache"), "--out", str(out)])
@@ -23,7 +26,17 @@ def test_sensitivity_cli_one_experiment(tmp_path, capsys):
     assert (summ.n_runs <= 1).all()
     assert (summ.min_pct.dropna() == summ.max_pct.dropna()).all()  # one run: min == max
     assert (out / "sensitivity_vca.png").stat().st_size > 1000
-    assert "thesis_min_pct" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "thesis_min_pct" in text
+    # the EHA figure of an earlier run no longer sits beside tables without EHA rows (audit
+    # 2026-11-27: it stayed, and the command said it wrote "sensitivity_*.png")
+    assert sorted(p.name for p in out.iterdir()) == [
+        "sensitivity.csv", "sensitivity_other.png", "sensitivity_summary.csv",
+        "sensitivity_vca.png"]
+    assert text.splitlines()[-2:] == [
+        f"wrote {out}/: sensitivity.csv, sensitivity_summary.csv, sensitivity_vca.png",
+        f"removed sensitivity_eha.png from {out}/ (an earlier run's figure of a system this run "
+        "does not measure)"]
 
 
 # ------------------------------------------ audit of the commands' options, 2026-11-27

@@ -14,6 +14,8 @@ __all__ = ["sensitivity"]
 
 #: Loads of the case-study-3 experiments (``--loads``).
 LOADS = ("spring", "none")
+#: Systems of the command; each measured one gets a figure ``sensitivity_<system>.png``.
+SYSTEMS = ("vca", "eha")
 
 
 @click.command(epilog="Example: leakdiag sensitivity vca --quick --scheduler serial -o sens/")
@@ -31,19 +33,19 @@ LOADS = ("spring", "none")
               help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")
 @click.option("--no-progress", is_flag=True, help="Hide the progress bar.")
 @click.option("--out", "-o", type=click.Path(file_okay=False), default=None,
-              help="Folder for sensitivity.csv, sensitivity_summary.csv and figures (created "
-                   "before the experiments run).")
+              help="Folder for sensitivity.csv, sensitivity_summary.csv and one figure per "
+                   "system, sensitivity_vca.png and/or sensitivity_eha.png (created before the "
+                   "experiments run). These files of an earlier run are replaced: its figure of "
+                   "a system this run does not measure is removed, other files are kept.")
 def sensitivity(system, quick, leaks, seeds, durations, loads, scheduler, workers, cache_dir,
                 no_progress, out):
     """Run case study 3 on the simulator(s) and print the range of % change per method."""
-    from leakdiag.report.figures import save_figure
-    from leakdiag.report.study_plots import plot_sensitivity
     from leakdiag.studies.protocol import FULL, QUICK
     from leakdiag.studies.sensitivity import run_sensitivity
 
     # every option is checked here, before the first experiment: none fails late
     check_workers(scheduler, workers)
-    systems = ("vca", "eha") if system == "all" else (system,)
+    systems = SYSTEMS if system == "all" else (system,)
     cfg = QUICK if quick else FULL
     changes = {"cache_dir": cache_dir}
     if leaks is not None:
@@ -73,9 +75,28 @@ def sensitivity(system, quick, leaks, seeds, durations, loads, scheduler, worker
                                     progress=not no_progress)
     click.echo(summary.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
     if o is not None:
-        rows.to_csv(o / "sensitivity.csv", index=False)
-        summary.to_csv(o / "sensitivity_summary.csv", index=False)
-        for s, g in rows.groupby("system"):
-            save_figure(plot_sensitivity(g, s, summary[summary.system == s]),
-                        o / f"sensitivity_{s}.png")
-        click.echo(f"wrote {o}/sensitivity.csv, sensitivity_summary.csv, sensitivity_*.png")
+        _write(o, rows, summary)
+
+
+def _write(o, rows, summary) -> None:
+    """Write the tables and one figure per system measured, remove this command's figures of
+    an earlier run for other systems (they would sit beside tables without their rows), and
+    say exactly which files were written and removed."""
+    from leakdiag.report.figures import save_figure
+    from leakdiag.report.study_plots import plot_sensitivity
+
+    rows.to_csv(o / "sensitivity.csv", index=False)
+    summary.to_csv(o / "sensitivity_summary.csv", index=False)
+    written = ["sensitivity.csv", "sensitivity_summary.csv"]
+    for s, g in rows.groupby("system"):
+        save_figure(plot_sensitivity(g, s, summary[summary.system == s]),
+                    o / f"sensitivity_{s}.png")
+        written.append(f"sensitivity_{s}.png")
+    stale = [o / f"sensitivity_{s}.png" for s in SYSTEMS
+             if f"sensitivity_{s}.png" not in written and (o / f"sensitivity_{s}.png").is_file()]
+    for p in stale:
+        p.unlink()
+    click.echo(f"wrote {o}/: {', '.join(written)}")
+    if stale:
+        click.echo(f"removed {', '.join(p.name for p in stale)} from {o}/ (an earlier run's "
+                   "figure of a system this run does not measure)")
