@@ -116,3 +116,26 @@ def test_sensitivity_all_durations_set_the_vca_only(monkeypatch, capsys):
     assert seen["systems"] == ("vca", "eha") and seen["kw"]["n_workers"] == 2
     assert cfg.vca_sensitivity_durations_s == (80.0,) and cfg.eha_sensitivity_duration_s == 40.0
     assert cfg.loads == ("none",)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--durations", "1e9", "--scheduler", "serial"],
+     "Error: Invalid value for '--durations': 1e+09: a 1e+09-s run is 1e+12 samples at 1000 Hz "
+     "and needs about 182 TiB of memory (200 bytes per sample); one run may use 16 GiB (this "
+     "machine's memory): give run lengths of at most 85899 s"),
+    (["--durations", "60,1e6", "--scheduler", "local", "--workers", "2"],
+     "Error: Invalid value for '--durations': 1e+06: a 1e+06-s run is 1e+09 samples at 1000 Hz "
+     "and needs about 186 GiB of memory (200 bytes per sample); one run may use 8 GiB (16 GiB "
+     "of memory / 2 local workers): give run lengths of at most 42949 s"),
+])
+def test_sensitivity_refuses_a_run_longer_than_memory_holds(no_run, monkeypatch, capsys, args,
+                                                            message):
+    """--durations 1e9 gave numpy's _ArrayMemoryError traceback ('Unable to allocate 7.28
+    TiB'), exit 1, after the first simulation had started."""
+    import leakdiag.cli.sensitivity as cli_sens
+
+    monkeypatch.setattr(cli_sens, "_memory_bytes", lambda: 16 * 2**30)
+    code = main(["sensitivity", "vca", "--quick", "--leaks", "0.1", "--loads", "none", *args])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err
+    assert err.splitlines()[-1] == message

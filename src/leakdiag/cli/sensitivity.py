@@ -16,6 +16,61 @@ __all__ = ["sensitivity"]
 LOADS = ("spring", "none")
 #: Systems of the command; each measured one gets a figure ``sensitivity_<system>.png``.
 SYSTEMS = ("vca", "eha")
+#: Peak memory of one case-study-3 VCA experiment per sample, bytes (simulation with its leak
+#: calibration, then the six methods' features): 184-185 B measured with ``tracemalloc`` over
+#: ``protocol.run_case`` on 20-, 40- and 80-s runs at 1000 Hz (2026-11-27), rounded up.
+VCA_BYTES_PER_SAMPLE = 200
+
+
+def _memory_bytes() -> int:
+    """Physical memory of this machine in bytes."""
+    import os
+
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):  # not POSIX: psutil comes with dask
+        import psutil
+
+        return int(psutil.virtual_memory().total)
+
+
+def _size(n_bytes: float) -> str:
+    """``12.5 GiB``, ``7.28 TiB``: three significant digits, binary units."""
+    units = ["B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"]
+    i = 0
+    while n_bytes >= 1024 and i < len(units) - 1:
+        n_bytes /= 1024
+        i += 1
+    return f"{n_bytes:.3g} {units[i]}"
+
+
+def _check_run_memory(durations, scheduler, workers) -> None:
+    """Refuse a ``--durations`` run that cannot fit in memory, before any experiment.
+
+    One run needs about :data:`VCA_BYTES_PER_SAMPLE` bytes per sample at the simulator's rate;
+    the runs that share this machine at once (``--scheduler local``: one per worker, by default
+    one per core) share its physical memory, as Dask's local workers do (each gets its share).
+    """
+    import inspect
+    import os
+
+    from leakdiag.sim import simulate_vca
+
+    rate = float(inspect.signature(simulate_vca).parameters["sample_rate"].default)
+    total = _memory_bytes()
+    at_once = (workers or os.cpu_count() or 1) if scheduler == "local" else 1
+    budget = total / at_once
+    max_s = budget / VCA_BYTES_PER_SAMPLE / rate
+    for d in durations:
+        n = d * rate
+        if n * VCA_BYTES_PER_SAMPLE > budget:
+            share = (f"{_size(total)} of memory / {at_once} local workers" if at_once > 1
+                     else "this machine's memory")
+            raise click.BadParameter(
+                f"{d:g}: a {d:g}-s run is {n:.3g} samples at {rate:g} Hz and needs about "
+                f"{_size(n * VCA_BYTES_PER_SAMPLE)} of memory ({VCA_BYTES_PER_SAMPLE} bytes per "
+                f"sample); one run may use {_size(budget)} ({share}): give run lengths of at "
+                f"most {math.floor(max_s):d} s", param_hint="'--durations'")
 
 
 @click.command(epilog="Example: leakdiag sensitivity vca --quick --scheduler serial -o sens/")
@@ -25,7 +80,9 @@ SYSTEMS = ("vca", "eha")
 @click.option("--seeds", default=None, help="Seeds, e.g. 1,2,3.")
 @click.option("--durations", default=None,
               help="Run lengths in s of the VCA's experiments, e.g. 300,400,600 (the EHA's are "
-                   "fixed: 180 s, 40 s with --quick; refused for eha).")
+                   "fixed: 180 s, 40 s with --quick; refused for eha). A run must fit in memory: "
+                   f"about {VCA_BYTES_PER_SAMPLE} bytes per sample at 1000 Hz, within this "
+                   "machine's memory divided by the local workers running at once.")
 @click.option("--loads", default=None, help="Loads: spring,none (either or both).")
 @scheduler_option()
 @workers_option
@@ -65,6 +122,7 @@ def sensitivity(system, quick, leaks, seeds, durations, loads, scheduler, worker
         changes["vca_sensitivity_durations_s"] = list_option_values(
             "--durations", durations, float, "300,400,600",
             lambda v: math.isfinite(v) and v > 0, "a run length must be a finite number of s > 0")
+        _check_run_memory(changes["vca_sensitivity_durations_s"], scheduler, workers)
     if loads is not None:
         changes["loads"] = list_option_values("--loads", loads, str, "spring,none",
                                               lambda v: v in LOADS,
