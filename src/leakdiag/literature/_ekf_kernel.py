@@ -121,13 +121,17 @@ def _inv3(s, out):
 
 
 @numba.njit(cache=True)
-def ekf_vca_kernel(y, u, dt, n_sub, prm, scale, z0, p0, qd, r, states, innov, nis, leak, kvar):
-    """Run the EKF over all samples; write states (physical units), innovations, NIS, leak flow
-    and the variance of the leak coefficient.
+def ekf_vca_kernel(y, use, u, dt, n_sub, prm, scale, z0, p0, qd, r, states, innov, nis, sdiag,
+                   leak, kvar):
+    """Run the EKF over all samples; write states (physical units), innovations, NIS, the
+    diagonal of the innovation covariance (scaled units), leak flow and the variance of the
+    leak coefficient.
 
-    ``y`` is ``(n, 3)`` scaled measurements of (x, p1, p2); ``u`` the control signal, held
-    constant over each sample interval (zero-order hold of the previous sample). Returns the
-    number of samples whose innovation covariance was singular (update skipped).
+    ``y`` is ``(n, 3)`` scaled measurements of (x, p1, p2); ``use`` ``(n, 3)`` says which of
+    them the update takes (a measurement not used -- a frozen sensor -- gets zero gain, zero
+    innovation and no NIS term); ``u`` the control signal, held constant over each sample
+    interval (zero-order hold of the previous sample). Returns the number of samples whose
+    innovation covariance was singular (update skipped).
     """
     n = y.shape[0]
     ns = N_STATE
@@ -176,8 +180,18 @@ def ekf_vca_kernel(y, u, dt, n_sub, prm, scale, z0, p0, qd, r, states, innov, ni
             for b_ in range(3):
                 s[a_, b_] = p[meas[a_], meas[b_]]
             s[a_, a_] += r[a_]
+            sdiag[k, a_] = s[a_, a_]
             for i in range(ns):
                 pht[i, a_] = p[i, meas[a_]]
+        for a_ in range(3):
+            if not use[k, a_]:  # decoupled: S block-diagonal with 1, P H^T column 0 -> no gain
+                e[a_] = 0.0
+                for b_ in range(3):
+                    s[a_, b_] = 0.0
+                    s[b_, a_] = 0.0
+                s[a_, a_] = 1.0
+                for i in range(ns):
+                    pht[i, a_] = 0.0
         if _inv3(s, s_inv):
             _matmul(pht, s_inv, gain)
             for i in range(ns):
@@ -195,7 +209,7 @@ def ekf_vca_kernel(y, u, dt, n_sub, prm, scale, z0, p0, qd, r, states, innov, ni
                 for j in range(ns):
                     acc = 0.0
                     for a_ in range(3):
-                        acc += gain[i, a_] * r[a_] * gain[j, a_]
+                        acc += gain[i, a_] * r[a_] * gain[j, a_]  # 0 for an unused one
                     p[i, j] = f2[i, j] + acc
             for a_ in range(3):
                 acc = 0.0
@@ -208,7 +222,11 @@ def ekf_vca_kernel(y, u, dt, n_sub, prm, scale, z0, p0, qd, r, states, innov, ni
             nis[k] = np.nan
         # no projection onto k_l >= 0: a negative estimate shows model bias and is kept
         for a_ in range(3):
-            innov[k, a_] = e[a_] * scale[meas[a_]]
+            if use[k, a_]:
+                innov[k, a_] = e[a_] * scale[meas[a_]]
+            else:  # not used: no innovation
+                innov[k, a_] = np.nan
+                sdiag[k, a_] = np.nan
         for i in range(ns):
             states[k, i] = z[i] * scale[i]
         leak[k] = vca_leak_flow(states[k, 2], states[k, 3], states[k, 6], prm)

@@ -9,11 +9,12 @@ from __future__ import annotations
 import numpy as np
 
 from leakdiag._validation import as_1d_float, check_int
+from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
 from leakdiag.features.windowing import window_starts, window_step, window_times
 
 __all__ = ["windowed_rms", "windowed_mean", "check_channels", "channel_rms_feature",
-           "check_finite_channels"]
+           "check_finite_channels", "frozen_windows"]
 
 
 def _window_sums(x: np.ndarray, window: int, overlap: float) -> tuple[np.ndarray, np.ndarray]:
@@ -96,6 +97,60 @@ def windowed_mean(x, window: int, overlap: float) -> np.ndarray:
     return sums / window + offset
 
 
+def frozen_windows(x, window: int, overlap: float, reach: int = 0) -> np.ndarray:
+    """Windows overlapping a hold of one exact value at least a window long (a frozen channel).
+
+    Parameters
+    ----------
+    x : array_like
+        One channel, shape ``(n,)``.
+    window : int
+        Window size N in samples (>= 2); also the shortest hold that counts.
+    overlap : float
+        Overlap in percent, ``[0, 100)``.
+    reach : int, default 0
+        Samples by which a method's value at one sample depends on its neighbours (a filter's
+        support): the hold counts as that much longer on each side.
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        Per window of the Sec. 4.4 grid, shape ``(n_windows,)``.
+
+    Notes
+    -----
+    A window whose samples are all equal (zero variance) lies in such a hold; so do the
+    windows on either side that reach into it. Those are undefined too: part of their samples
+    is a frozen value, not a measurement (a window half frozen has about 0.7 times the band
+    RMS, dozens of healthy standard deviations under a structured excitation). A channel
+    with noise never holds one value for a whole window (the simulator's 12-bit pressure
+    channels hold at most 15 samples at 1 kHz), so no healthy window is lost.
+
+    Examples
+    --------
+    >>> frozen_windows([1.0, 2.0, 3.0, 3.0, 3.0, 3.0, 4.0, 5.0], window=4, overlap=50).tolist()
+    [True, True, True]
+    >>> frozen_windows([1.0, 2.0, 3.0, 3.0, 3.0, 4.0, 5.0, 6.0], window=4, overlap=50).tolist()
+    [False, False, False]
+    >>> frozen_windows([3.0, 3.0, 3.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0], 4, 50).tolist()
+    [True, True, False, False]
+    >>> frozen_windows([3.0, 3.0, 3.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0], 4, 50, reach=2).tolist()
+    [True, True, True, False]
+    """
+    x = as_1d_float(x)
+    window = check_int(window, "window", 2)
+    starts = window_starts(len(x), window, overlap)
+    if len(x) == 0:
+        return np.zeros(len(starts), dtype=bool)
+    run0 = np.flatnonzero(np.concatenate(([True], x[1:] != x[:-1])))
+    lengths = np.diff(np.append(run0, len(x)))
+    mark = np.zeros(len(x) + 1)
+    for i0, m in zip(run0[lengths >= window], lengths[lengths >= window]):
+        mark[max(0, i0 - reach) + 1:min(len(x), i0 + m + reach) + 1] = 1.0
+    hits = np.cumsum(mark)
+    return hits[starts + window] - hits[starts] > 0
+
+
 def check_channels(channels) -> tuple[str, ...]:
     """Pressure channel names of a method's parameters as a non-empty tuple.
 
@@ -173,7 +228,7 @@ the first at sample 2 (t = 0.2 s); the FFT band feature needs finite samples: fi
 
 
 def channel_rms_feature(recording, channels, window: int, overlap: float, rms_of, name: str,
-                        params: dict) -> FeatureSeries:
+                        params: dict, reach: int = 0) -> FeatureSeries:
     """Root of the per-window mean squares summed over channels, as a feature series.
 
     Parameters
@@ -192,12 +247,16 @@ def channel_rms_feature(recording, channels, window: int, overlap: float, rms_of
         Feature name.
     params : dict
         The feature's ``params``.
+    reach : int, default 0
+        Samples by which ``rms_of`` looks beyond a sample (:func:`frozen_windows`).
 
     Returns
     -------
     FeatureSeries
         :math:`\\sqrt{\\sum_c \\mathrm{rms}_c^2}` per window, timestamped at each window's
-        last sample.
+        last sample; NaN in a window that overlaps a hold of one exact value at least a window
+        long in any channel (:func:`frozen_windows`), with one counted
+        :class:`~leakdiag.features.DegenerateWindowWarning`.
 
     Raises
     ------
@@ -207,7 +266,7 @@ def channel_rms_feature(recording, channels, window: int, overlap: float, rms_of
     Examples
     --------
     >>> from leakdiag.io.recording import Recording
-    >>> rec = Recording({"p1": [3.0, -3.0, 3.0, -3.0], "p2": [4.0, 4.0, 4.0, 4.0]},
+    >>> rec = Recording({"p1": [3.0, -3.0, 3.0, -3.0], "p2": [4.0, -4.0, 4.0, -4.0]},
     ...                 sample_rate=1.0)
     >>> rms = lambda x: windowed_rms(x, 2, 0.0)
     >>> channel_rms_feature(rec, ("p1", "p2"), 2, 0.0, rms, "demo", {}).values.tolist()
@@ -215,11 +274,18 @@ def channel_rms_feature(recording, channels, window: int, overlap: float, rms_of
     """
     check_finite_channels(recording, channels, f"the {name} feature")
     ms = None
+    frozen = None
     for ch in channels:
         r = rms_of(recording[ch])
         ms = r**2 if ms is None else ms + r**2
+        f = frozen_windows(recording[ch], window, overlap, reach)
+        frozen = f if frozen is None else frozen | f
+    values = np.where(frozen, np.nan, np.sqrt(ms))
+    warn_degenerate(int(frozen.sum()), len(values),
+                    "a channel frozen (one value held for at least a window, e.g. a stuck sensor)",
+                    stacklevel=4)
     starts = window_starts(recording.n_samples, window, overlap)
     times = window_times(starts, window, recording.sample_rate, recording.start_time)
-    return FeatureSeries(times, np.sqrt(ms), name, params, window=window, overlap=overlap,
+    return FeatureSeries(times, values, name, params, window=window, overlap=overlap,
                          step=window_step(window, overlap), channels=tuple(channels),
                          sample_rate=recording.sample_rate, start_time=recording.start_time)

@@ -7,18 +7,33 @@ verbatim in ``__init__`` (scikit-learn convention) and validated when the featur
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from leakdiag.detect.base import Detector
+from leakdiag.features._degenerate import DegenerateWindowWarning
 from leakdiag.features.series import FeatureSeries
 from leakdiag.literature._physics import DEFAULT_NATURAL_FREQUENCY_HZ
-from leakdiag.literature.ekf import EKFParams, ekf_feature, run_vca_ekf
+from leakdiag.literature.ekf import (HOLD_FACTOR, MEASURED, EKFParams, ekf_feature,
+                                    longest_holds_s, run_vca_ekf)
 from leakdiag.literature.emd_hilbert import EMDHilbertParams, emd_hilbert_feature
 from leakdiag.literature.fft_band import FFTBandParams, fft_band_feature
 from leakdiag.literature.wavelet import WaveletParams, wavelet_feature
 from leakdiag.sim.vca.params import VCAParams
 
 __all__ = ["WaveletDetector", "FFTBandDetector", "EMDHilbertDetector", "EKFDetector"]
+
+
+def _quiet(feature, recording, params) -> FeatureSeries:
+    """The feature with its undefined windows counted in ``settings['n_nan_windows']`` instead
+    of a warning: they are NaN, and the detector's alarm skips them (a NO LEAK over a long
+    span of them is refused, docs/detect.md, "Blind spans")."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DegenerateWindowWarning)
+        fs = feature(recording, params)
+    n_nan = int(np.count_nonzero(~np.isfinite(fs.values)))
+    return fs.with_values(fs.values, fs.name, {**fs.settings, "n_nan_windows": n_nan})
 
 
 class WaveletDetector(Detector):
@@ -63,7 +78,7 @@ class WaveletDetector(Detector):
         self.alarm = alarm
 
     def _feature_series(self, recording) -> FeatureSeries:
-        return wavelet_feature(recording, WaveletParams(
+        return _quiet(wavelet_feature, recording, WaveletParams(
             tuple(self.channels), self.wavelet, self.level, self.natural_frequency_hz,
             self.window, self.overlap))
 
@@ -107,7 +122,7 @@ class FFTBandDetector(Detector):
         self.alarm = alarm
 
     def _feature_series(self, recording) -> FeatureSeries:
-        return fft_band_feature(recording, FFTBandParams(
+        return _quiet(fft_band_feature, recording, FFTBandParams(
             tuple(self.channels), self.band_hz, self.natural_frequency_hz, self.window,
             self.overlap))
 
@@ -154,7 +169,7 @@ class EMDHilbertDetector(Detector):
         self.alarm = alarm
 
     def _feature_series(self, recording) -> FeatureSeries:
-        return emd_hilbert_feature(recording, EMDHilbertParams(
+        return _quiet(emd_hilbert_feature, recording, EMDHilbertParams(
             tuple(self.channels), self.window, self.overlap, self.block, self.margin,
             self.sifting_iterations))
 
@@ -226,11 +241,20 @@ class EKFDetector(Detector):
         return EKFParams(model=self.model if self.model is not None else VCAParams(),
                          load=load, leak_model=self.leak_model,
                          pressure_noise_std_pa=self.pressure_noise_std_pa,
-                         leak_coefficient_walk=self.leak_coefficient_walk, window=self.window,
+                         leak_coefficient_walk=self.leak_coefficient_walk,
+                         max_hold_s=getattr(self, "max_hold_s_", None), window=self.window,
                          overlap=self.overlap, feature=self.feature)
 
+    def _fit_features(self, recordings) -> None:
+        """The longest hold of each measured channel in the healthy recordings
+        (``longest_hold_s_``, s) and the limit beyond which a judged recording's channel is
+        frozen (``max_hold_s_``, :data:`~leakdiag.literature.ekf.HOLD_FACTOR` times it)."""
+        longest = np.max([longest_holds_s(r) for r in recordings], axis=0)
+        self.longest_hold_s_ = dict(zip(MEASURED, (float(v) for v in longest)))
+        self.max_hold_s_ = tuple(HOLD_FACTOR * float(v) for v in longest)
+
     def _feature_series(self, recording) -> FeatureSeries:
-        return ekf_feature(recording, self.ekf_params(recording))
+        return _quiet(ekf_feature, recording, self.ekf_params(recording))
 
     def leak_size_lpm(self, recording, onset_s: float) -> float:
         """Leak size from the filter alone: mean estimated flow after minus before ``onset_s``.

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from leakdiag._validation import check_int, check_overlap, check_positive
+from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
 from leakdiag.features.windowing import window_starts, window_step, window_times
 from leakdiag.literature._ekf_kernel import ekf_vca_kernel
@@ -34,6 +35,13 @@ _SCALE = np.array([1e-3, 1e-2, 1e5, 1e5, 1e-5, 1e-2, 1e-9, 1e2])
 #: Floor of a pressure noise estimated from the data (Pa): a noise-free (simulated) recording
 #: would otherwise get R = 0 and an overconfident filter (leakdiag choice).
 NOISE_FLOOR_PA = 1e3
+#: Measured channels, in the filter's measurement order.
+MEASURED = ("x", "p1", "p2")
+#: How many times longer than the healthy recordings' longest a measured channel may hold one
+#: exact value before the filter treats it as frozen (leakdiag choice, the flow balance's
+#: ``HOLD_FACTOR``): the encoder holds its count whenever the piston rests (healthy VCA runs:
+#: up to 1.5 s), a noisy pressure transducer for about 15 samples at most.
+HOLD_FACTOR = 3.0
 
 
 @dataclass(frozen=True)
@@ -66,6 +74,12 @@ class EKFParams:
         0.025 L/min at 4 MPa pressure difference).
     substeps : int, default 4
         RK4 substeps per sample for the prediction.
+    max_hold_s : tuple of 3 float or None, default None
+        Longest hold of one exact value (s) of ``x``, ``p1``, ``p2`` taken as measured; a
+        channel holding one value for longer is frozen there (a stuck sensor): the filter does
+        not use its samples over the hold, and every window overlapping it is NaN. None: no
+        limit. :class:`~leakdiag.literature.detectors.EKFDetector` sets ``HOLD_FACTOR`` times
+        its healthy recordings' longest holds.
     window : int, default 1000
         Window size N in samples for the windowed features.
     overlap : float, default 50
@@ -92,6 +106,7 @@ class EKFParams:
     leak_coefficient_walk: float = 2e-10
     force_disturbance_walk_n: float = 200.0
     substeps: int = 4
+    max_hold_s: tuple | None = None
     window: int = 1000
     overlap: float = 50.0
     feature: str = "leak_flow"
@@ -107,6 +122,12 @@ class EKFParams:
         if self.pressure_noise_std_pa is not None:
             check_positive(self.pressure_noise_std_pa, "pressure_noise_std_pa")
         check_int(self.substeps, "substeps", 1)
+        if self.max_hold_s is not None:
+            if len(self.max_hold_s) != len(MEASURED):
+                raise ValueError(f"max_hold_s={self.max_hold_s!r} must give one limit (s) per "
+                                 f"measured channel {MEASURED}")
+            object.__setattr__(self, "max_hold_s", tuple(
+                check_positive(v, f"max_hold_s[{c!r}]") for c, v in zip(MEASURED, self.max_hold_s)))
         check_int(self.window, "window", 2)
         check_overlap(self.overlap)
         if self.feature not in EKF_FEATURES:
@@ -137,6 +158,14 @@ class EKFResult:
         Filter variance of :math:`\\hat k_l` per sample.
     pressure_noise_std_pa : tuple of float or None
         Measurement noise used for ``p1`` and ``p2`` (given or estimated).
+    innovation_var : numpy.ndarray or None
+        Diagonal of the innovation covariance :math:`S` of ``x`` (m^2), ``p1``, ``p2`` (Pa^2),
+        shape ``(n, 3)``: :math:`e_i^2 / S_{ii}` has mean 1 when the filter's noise model
+        fits.
+    frozen : tuple of (str, int, int)
+        Holds of a measured channel longer than ``EKFParams.max_hold_s``: ``(channel, first
+        sample, last sample)``. Their samples were not used (innovation and ``innovation_var``
+        NaN there).
     """
 
     time: np.ndarray
@@ -147,6 +176,8 @@ class EKFResult:
     n_skipped: int = 0
     leak_coefficient_var: np.ndarray | None = None
     pressure_noise_std_pa: tuple | None = None
+    innovation_var: np.ndarray | None = None
+    frozen: tuple = ()
 
     @property
     def leak_coefficient(self) -> np.ndarray:
@@ -157,6 +188,72 @@ class EKFResult:
     def load_force_disturbance_n(self) -> np.ndarray:
         """Estimated load-force disturbance per sample, N."""
         return self.states[:, 7]
+
+
+def holds(v) -> tuple[np.ndarray, np.ndarray]:
+    """Runs of one exact value in ``v``: their first samples and lengths (samples).
+
+    Parameters
+    ----------
+    v : array_like
+        One channel, shape ``(n,)``.
+
+    Returns
+    -------
+    starts, lengths : numpy.ndarray of int
+        One entry per run, in order; the lengths add up to ``n``.
+
+    Examples
+    --------
+    >>> [a.tolist() for a in holds([1.0, 2.0, 2.0, 2.0, 3.0, 3.0])]
+    [[0, 1, 4], [1, 3, 2]]
+    """
+    v = np.asarray(v, dtype=np.float64)
+    if len(v) == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    starts = np.flatnonzero(np.concatenate(([True], v[1:] != v[:-1])))
+    return starts, np.diff(np.append(starts, len(v)))
+
+
+def longest_holds_s(recording) -> tuple[float, float, float]:
+    """Longest hold of one exact value of each measured channel (``x``, ``p1``, ``p2``), s.
+
+    Parameters
+    ----------
+    recording : leakdiag.io.Recording
+        Holds the measured channels.
+
+    Returns
+    -------
+    tuple of 3 float
+        Seconds (samples / sample rate).
+
+    Examples
+    --------
+    >>> from leakdiag.io.recording import Recording
+    >>> rec = Recording({"x": [0.0, 0.0, 0.0, 1.0], "p1": [1.0, 2.0, 3.0, 4.0],
+    ...                  "p2": [5.0, 5.0, 6.0, 7.0]}, sample_rate=10.0)
+    >>> longest_holds_s(rec)
+    (0.3, 0.1, 0.2)
+    """
+    return tuple(float(holds(recording[c])[1].max(initial=0)) / recording.sample_rate
+                 for c in MEASURED)
+
+
+def _frozen_holds(recording, max_hold_s) -> tuple[np.ndarray, tuple]:
+    """The measurement-use mask ``(n, 3)`` and the holds longer than ``max_hold_s``."""
+    n = recording.n_samples
+    use = np.ones((n, len(MEASURED)), dtype=np.bool_)
+    found = []
+    if max_hold_s is None:
+        return use, ()
+    for j, (c, limit) in enumerate(zip(MEASURED, max_hold_s)):
+        starts, lengths = holds(recording[c])
+        for i0, m in zip(starts, lengths):
+            if m > limit * recording.sample_rate + 1e-6:  # a hold of the limit is kept
+                use[i0:i0 + m, j] = False
+                found.append((c, int(i0), int(i0 + m - 1)))
+    return use, tuple(sorted(found, key=lambda h: h[1]))
 
 
 def estimate_pressure_noise(p, floor_pa: float = NOISE_FLOOR_PA) -> float:
@@ -281,15 +378,18 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
         sig = (float(params.pressure_noise_std_pa),) * 2
     r = np.array([(params.position_noise_std_m / _SCALE[0]) ** 2,
                   (sig[0] / _SCALE[2]) ** 2, (sig[1] / _SCALE[3]) ** 2])
+    use, frozen = _frozen_holds(recording, params.max_hold_s)
     states = np.empty((n, 8))
     innov = np.empty((n, 3))
     nis = np.empty(n)
+    sdiag = np.empty((n, 3))
     leak = np.empty(n)
     kvar = np.empty(n)
-    skipped = ekf_vca_kernel(y, u, dt, params.substeps, prm, _SCALE, z0, p0, qd, r, states,
-                             innov, nis, leak, kvar)
+    skipped = ekf_vca_kernel(y, use, u, dt, params.substeps, prm, _SCALE, z0, p0, qd, r, states,
+                             innov, nis, sdiag, leak, kvar)
+    meas_scale = _SCALE[[0, 2, 3]]
     return EKFResult(recording.time, states, innov, nis, leak * LPM_PER_M3S, int(skipped), kvar,
-                     sig)
+                     sig, sdiag * meas_scale**2, frozen)
 
 
 def ekf_feature(recording, params: EKFParams = EKFParams()) -> FeatureSeries:
@@ -330,6 +430,7 @@ def ekf_feature(recording, params: EKFParams = EKFParams()) -> FeatureSeries:
     [0.0, 0.0, 0.0]
     """
     res = run_vca_ekf(recording, params)
+    starts = window_starts(recording.n_samples, params.window, params.overlap)
     if params.feature == "leak_flow":
         values = windowed_mean(np.abs(res.leak_flow_lpm), params.window, params.overlap)
     elif params.feature == "coefficient":
@@ -338,7 +439,18 @@ def ekf_feature(recording, params: EKFParams = EKFParams()) -> FeatureSeries:
         values = k / np.sqrt(var)
     else:
         values = np.sqrt(windowed_mean(res.nis / 3.0, params.window, params.overlap))
-    starts = window_starts(recording.n_samples, params.window, params.overlap)
+    if res.frozen:  # windows overlapping a frozen hold are undefined (counted warning)
+        hit = np.zeros(recording.n_samples + 1)
+        for _, i0, i1 in res.frozen:
+            hit[i0 + 1:i1 + 2] = 1.0
+        hits = np.cumsum(hit)
+        bad = hits[starts + params.window] - hits[starts] > 0
+        values = np.where(bad, np.nan, values)
+        warn_degenerate(int(bad.sum()), len(values), "a measured channel frozen (held one value "
+                        "longer than max_hold_s; " + ", ".join(
+                            f"{c} from {recording.start_time + i0 / recording.sample_rate:.6g} "
+                            f"to {recording.start_time + i1 / recording.sample_rate:.6g} s"
+                            for c, i0, i1 in res.frozen) + ")")
     times = window_times(starts, params.window, recording.sample_rate, recording.start_time)
     return FeatureSeries(times, values, f"ekf_{params.feature}",
                          {"feature": params.feature, "leak_model": params.leak_model,

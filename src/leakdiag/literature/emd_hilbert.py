@@ -23,8 +23,8 @@ DEFAULT_SIFTING_ITERATIONS = 10  # fixed sifting count (Wu & Huang 2009 suggest 
 
 
 def first_imf_amplitude(x, block: int = DEFAULT_BLOCK, margin: int = DEFAULT_MARGIN,
-                        sifting_iterations: int | None = DEFAULT_SIFTING_ITERATIONS
-                        ) -> np.ndarray:
+                        sifting_iterations: int | None = DEFAULT_SIFTING_ITERATIONS,
+                        min_hold: int | None = None) -> np.ndarray:
     """Instantaneous amplitude of the first IMF of ``x``, computed block by block.
 
     Parameters
@@ -39,6 +39,10 @@ def first_imf_amplitude(x, block: int = DEFAULT_BLOCK, margin: int = DEFAULT_MAR
     sifting_iterations : int or None, default 10
         Fixed number of sifting iterations for the first IMF (>= 1); None uses PyEMD's
         default stopping criteria (up to 1000 iterations).
+    min_hold : int or None, default None
+        Runs of one exact value of at least this many samples (>= 2) are gaps (a frozen
+        sensor): each stretch between them is decomposed as a recording of its own, and the
+        amplitude is 0 over the gaps. None: no gaps.
 
     Returns
     -------
@@ -65,6 +69,11 @@ def first_imf_amplitude(x, block: int = DEFAULT_BLOCK, margin: int = DEFAULT_MAR
     can still leave a small discontinuity in the first IMF; the margin keeps it within the
     accuracy of the sifting. A constant block has no extrema and gives amplitude 0.
 
+    A frozen stretch inside a block's context is not a signal: the splines bridge it and its
+    edges leave a false oscillation in the IMF beyond the margin (a p1 frozen for 6 s read as a
+    leak in the windows after it, ``tests/literature/test_frozen.py``). With ``min_hold`` the
+    stretches between such holds are decomposed apart, so no context reaches across a hold.
+
     Examples
     --------
     The first IMF of a fast sine on top of a slow one is the fast sine; its amplitude is 1:
@@ -88,15 +97,26 @@ def first_imf_amplitude(x, block: int = DEFAULT_BLOCK, margin: int = DEFAULT_MAR
     emd = EMD()
     if sifting_iterations is not None:
         emd.FIXE = sifting_iterations
-    for s in range(0, n, block):
-        e = min(n, s + block)
-        lo, hi = max(0, s - margin), min(n, e + margin)
-        seg = x[lo:hi]
-        if hi - lo < 4 or np.ptp(seg) == 0.0:
-            continue  # too short or constant: no oscillation, amplitude 0
-        imfs = emd.emd(seg, max_imf=1)
-        imf1 = imfs[0] if imfs.ndim == 2 and len(imfs) > 1 else np.zeros_like(seg)
-        out[s:e] = np.abs(hilbert(imf1))[s - lo:e - lo]
+    stretches = [(0, n)]
+    if min_hold is not None:
+        min_hold = check_int(min_hold, "min_hold", 2)
+        run0 = np.flatnonzero(np.concatenate(([True], x[1:] != x[:-1]))) 
+        lengths = np.diff(np.append(run0, n))
+        edges = [0]
+        for i0, m in zip(run0[lengths >= min_hold], lengths[lengths >= min_hold]):
+            edges += [int(i0), int(i0 + m)]
+        edges.append(n)
+        stretches = [(a, b) for a, b in zip(edges[::2], edges[1::2]) if b > a]
+    for a, b in stretches:
+        for s in range(a, b, block):
+            e = min(b, s + block)
+            lo, hi = max(a, s - margin), min(b, e + margin)
+            seg = x[lo:hi]
+            if hi - lo < 4 or np.ptp(seg) == 0.0:
+                continue  # too short or constant: no oscillation, amplitude 0
+            imfs = emd.emd(seg, max_imf=1)
+            imf1 = imfs[0] if imfs.ndim == 2 and len(imfs) > 1 else np.zeros_like(seg)
+            out[s:e] = np.abs(hilbert(imf1))[s - lo:e - lo]
     return out
 
 
@@ -164,6 +184,9 @@ def emd_hilbert_feature(recording, params: EMDHilbertParams = EMDHilbertParams()
     With :math:`a(t) = |c_1(t) + j\\,\\mathcal{H}\\{c_1\\}(t)|` the instantaneous amplitude of the
     first IMF :math:`c_1`, the value of window :math:`W` is
     :math:`\\sqrt{\\frac{1}{N}\\sum_{i \\in W} a[i]^2}` (summed in mean square over channels).
+    A hold of one exact value at least a window long (a frozen sensor) is a gap: the stretches
+    between gaps are decomposed apart, and the windows overlapping it are NaN (one counted
+    ``DegenerateWindowWarning``).
     Assumptions where the paper is not specific: PyEMD's cubic splines with a fixed count of 10
     sifting iterations instead of its default stopping criteria, the block/margin processing
     (the paper treats short records whole), chamber 1 pressure, 1 s windows with 50 % overlap.
@@ -188,7 +211,10 @@ def emd_hilbert_feature(recording, params: EMDHilbertParams = EMDHilbertParams()
     recording.require(*params.channels)
 
     def rms_of(p):
-        amp = first_imf_amplitude(p, params.block, params.margin, params.sifting_iterations)
+        # a hold of a window or longer makes its windows NaN (channel_rms_feature); the EMD
+        # context must not reach across it either
+        amp = first_imf_amplitude(p, params.block, params.margin, params.sifting_iterations,
+                                  min_hold=params.window)
         return windowed_rms(amp, params.window, params.overlap)
 
     return channel_rms_feature(recording, params.channels, params.window, params.overlap,

@@ -178,7 +178,9 @@ def fft_band_feature(recording, params: FFTBandParams = FFTBandParams()) -> Feat
     Notes
     -----
     Per window :math:`W`, :math:`\\sqrt{\\sum_c \\mathrm{RMS}_{band}(p_c, W)^2}` with the
-    band RMS of :func:`fft_band_rms`. Assumptions where the papers are not specific: the band
+    band RMS of :func:`fft_band_rms`; NaN in a window that overlaps a hold of one exact value
+    at least a window long (a frozen sensor; one counted ``DegenerateWindowWarning``).
+    Assumptions where the papers are not specific: the band
     (0.5 to 1.5 times the natural frequency of Eq. 2-6, wide enough to keep the resonance as the
     leak's damping shifts and broadens it), a rectangular window (exact Parseval, no taper
     correction), 1 s windows with 50 % overlap.

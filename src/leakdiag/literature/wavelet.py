@@ -228,6 +228,9 @@ def wavelet_feature(recording, params: WaveletParams = WaveletParams()) -> Featu
     -----
     For channels :math:`c` and detail :math:`d_{j,c}` of level :math:`j` the value of window
     :math:`W` is :math:`\\sqrt{\\sum_c \\frac{1}{N}\\sum_{i \\in W} d_{j,c}[i]^2}`.
+    A window is NaN when a channel holds one exact value for at least a window (a frozen
+    sensor) in it or within the filter's reach of it, ``(filter length - 1) 2^j`` samples
+    (one counted :class:`~leakdiag.features.DegenerateWindowWarning`).
 
     Assumptions where the papers are not specific: the mother wavelet (Daubechies-4, a common
     choice for transients with compact support and 4 vanishing moments), the undecimated
@@ -251,11 +254,17 @@ def wavelet_feature(recording, params: WaveletParams = WaveletParams()) -> Featu
     >>> fs.time.tolist()
     [0.999, 1.999, 2.999, 3.999]
     """
+    import pywt
+
     recording.require(*params.channels)
     fs_hz = recording.sample_rate
     level = params.resolved_level(fs_hz)
+    # a detail sample depends on (filter length - 1) * 2^level neighbours (56 for db4, level 3):
+    # the windows that far from a frozen hold see its edges and are undefined too
+    reach = ((pywt.Wavelet(params.wavelet).dec_len - 1) * 2**level
+             if params.wavelet in pywt.wavelist(kind="discrete") else 0)
     return channel_rms_feature(
         recording, params.channels, params.window, params.overlap,
         lambda p: wavelet_detail_rms(p, params.window, params.overlap, params.wavelet, level),
         "wavelet",
-        {"wavelet": params.wavelet, "level": level})
+        {"wavelet": params.wavelet, "level": level}, reach=reach)
