@@ -26,7 +26,8 @@ __all__ = ["reproduce"]
 @scheduler_option()
 @workers_option
 @click.option("--cache-dir", type=click.Path(file_okay=False), default=None,
-              help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")
+              help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag); "
+                   "created and checked writable before the run.")
 @click.option("--chunk", type=click.IntRange(min=1), default=10, show_default=True,
               help="Feature values per RMS chunk (Sec. 5.2; not stated in the thesis).")
 @click.option("--protocol", type=click.Choice(["thesis", "v1"]), default="thesis",
@@ -52,6 +53,7 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol
 
     t0 = time.perf_counter()
     from leakdiag.report.reproduction import write_outputs
+    from leakdiag.runtime.cache import prepare_cache_dir
 
     systems = ("vca", "eha") if system == "all" else (system,)
     # every option and path is checked before the run: nothing fails after the long work
@@ -62,6 +64,7 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol
             previous = read_previous(previous, systems)
         except ValueError as exc:
             raise ValueError(f"--previous {exc}") from None
+    prepare_cache_dir(cache_dir, "--cache-dir")
     prepare_out_dir(out)
     if save_results:
         prepare_out_file(save_results, "--save-results")

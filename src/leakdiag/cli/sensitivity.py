@@ -87,7 +87,8 @@ def _check_run_memory(durations, scheduler, workers) -> None:
 @scheduler_option()
 @workers_option
 @click.option("--cache-dir", type=click.Path(file_okay=False), default=None,
-              help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag).")
+              help="Simulation cache (default $LEAKDIAG_CACHE or ~/.cache/leakdiag); "
+                   "created and checked writable before the experiments run.")
 @click.option("--no-progress", is_flag=True, help="Hide the progress bar.")
 @click.option("--out", "-o", type=click.Path(file_okay=False), default=None,
               help="Folder for sensitivity.csv, sensitivity_summary.csv and one figure per "
@@ -97,6 +98,7 @@ def _check_run_memory(durations, scheduler, workers) -> None:
 def sensitivity(system, quick, leaks, seeds, durations, loads, scheduler, workers, cache_dir,
                 no_progress, out):
     """Run case study 3 on the simulator(s) and print the range of % change per method."""
+    from leakdiag.runtime.cache import prepare_cache_dir
     from leakdiag.studies.protocol import FULL, QUICK
     from leakdiag.studies.sensitivity import run_sensitivity
 
@@ -128,6 +130,7 @@ def sensitivity(system, quick, leaks, seeds, durations, loads, scheduler, worker
                                               lambda v: v in LOADS,
                                               f"a load must be one of {', '.join(LOADS)}")
     cfg = dataclasses.replace(cfg, **changes)
+    prepare_cache_dir(cache_dir, "--cache-dir")  # as --out: said now, not after a simulation
     o = prepare_out_dir(out) if out else None  # a folder that cannot be written: said now
     rows, summary = run_sensitivity(systems, cfg, scheduler=scheduler, n_workers=workers,
                                     progress=not no_progress)

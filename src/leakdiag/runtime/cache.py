@@ -34,6 +34,7 @@ __all__ = [
     "CACHE_ENV",
     "SIMULATORS",
     "resolve_cache_dir",
+    "prepare_cache_dir",
     "canonical",
     "cache_key",
     "code_fingerprint",
@@ -78,6 +79,54 @@ def resolve_cache_dir(cache_dir: str | os.PathLike | None = None) -> Path:
     if env:
         return Path(env).expanduser()
     return Path.home() / ".cache" / "leakdiag"
+
+
+def prepare_cache_dir(cache_dir: str | os.PathLike | None = None,
+                      option: str = "cache_dir") -> Path:
+    """Create the cache folder and check that it can be written, before the long work.
+
+    A cache folder that cannot be made or written used to fail after the first simulation
+    (when its entry is written), with the operating system's bare message.
+
+    Parameters
+    ----------
+    cache_dir : path-like, optional
+        Explicit folder (see :func:`resolve_cache_dir`).
+    option : str, default "cache_dir"
+        What names ``cache_dir`` in the message (``"--cache-dir"`` on the command line).
+
+    Returns
+    -------
+    pathlib.Path
+        The folder, created with its parents when missing.
+
+    Raises
+    ------
+    OSError
+        One line naming ``option`` (or ``$LEAKDIAG_CACHE``, or the default folder, when
+        ``cache_dir`` is None) and the path, when the folder cannot be created or written.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = tempfile.mkdtemp()
+    >>> prepare_cache_dir(f"{d}/a/b").is_dir()
+    True
+    >>> open(f"{d}/f", "w").close()
+    >>> prepare_cache_dir(f"{d}/f/c", "--cache-dir")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    OSError: --cache-dir .../f/c: cannot create the folder: Not a directory
+    """
+    from leakdiag.runtime.paths import prepare_out_dir
+
+    folder = resolve_cache_dir(cache_dir)
+    if cache_dir is not None:
+        label = option
+    elif os.environ.get(CACHE_ENV):
+        label = f"${CACHE_ENV}"
+    else:
+        label = "the default cache folder"
+    return prepare_out_dir(folder, label)
 
 
 def canonical(value: Any) -> Any:
