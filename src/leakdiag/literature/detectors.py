@@ -257,7 +257,9 @@ class EKFDetector(Detector):
         return _quiet(ekf_feature, recording, self.ekf_params(recording))
 
     def leak_size_lpm(self, recording, onset_s: float) -> float:
-        """Leak size from the filter alone: mean estimated flow after minus before ``onset_s``.
+        """Leak size from the filter alone: the mean of :math:`\\hat k_l |g(\\Delta \\hat P)|`
+        (``EKFResult.leak_size_lpm``, the sign of :math:`\\hat k_l` kept) after minus before
+        ``onset_s``.
 
         Parameters
         ----------
@@ -272,7 +274,7 @@ class EKFDetector(Detector):
             L/min; NaN when one side of the onset has no sample.
         """
         res = run_vca_ekf(recording, self.ekf_params(recording))
-        q = np.abs(res.leak_flow_lpm)
+        q = res.leak_size_lpm  # a negative k_l (model bias) stays negative
         before, after = res.time < onset_s, res.time >= onset_s
         if not before.any() or not after.any():
             return float("nan")
