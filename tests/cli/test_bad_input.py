@@ -105,7 +105,8 @@ def test_analyze_zero_variance_in_one_method_only_warns(files, capsys):
     ("nan", ["nan.csv", "row 500"]),
     ("nonuni", ["nonuni.csv", "not uniformly sampled"]),
     ("missing", ["missing.csv", "no channel 'p1'", "available"]),
-    ("short", ["short.csv", "50 samples", "smallest window (100)"]),
+    ("short", ["short.csv", "windows 100, 200, 300, 400, 500, 600, 700 and 800 of --windows "
+                            "'100:800:100' are longer than the recording (50 samples)"]),
     ("const", ["const.csv", "channel 'p1' is constant", "zero variance"]),
     ("nope", ["nope.csv", "file not found"]),
 ])
