@@ -370,3 +370,33 @@ def test_audit_commands_on_the_rotary_actuator_files(shared_dir, capsys):
     out = capsys.readouterr().out
     assert out.startswith(str(leak)) and "metric-length p1: INCONCLUSIVE (before vs after the " \
         "onset; the Sec. 5.2 measure needs at least one whole chunk" in out
+
+
+# --------------------- audit of the commands' options (2026-11-27): messages name the options
+@pytest.mark.parametrize("args, message", [
+    (["--window", "1"], "--window 1 must be >= 2"),
+    (["--overlap", "100"], "--overlap 100.0 must be in [0, 100) percent"),
+    (["--lag", "0"], "--lag 0 must be in [1, --window 200)"),
+    (["--lag", "300", "--window", "250"], "--lag 300 must be in [1, --window 250)"),
+    (["-m", "metric-length", "--lag-ratio", "300:3"],
+     "--lag-ratio '300:3': l=300 must be < --window 200"),
+    (["--window", "20000"], "{path}: recording has 12000 samples (12 s), shorter than one "
+                            "window (--window 20000); use a smaller window or a longer "
+                            "recording"),
+])
+def test_analyze_messages_name_the_options(run_file, capsys, args, message):
+    """`--window 1` said 'window=1 must be >= 2', the Python argument, not the option."""
+    path, _ = run_file
+    assert main(["analyze", str(path), "-c", "p1", "--onset", "6", *args]) == 2
+    assert capsys.readouterr().err == f"leakdiag: error: {message.format(path=path)}\n"
+
+
+def test_analyze_method_all_keeps_the_thesis_settings_words(tmp_path, capsys):
+    """--method all runs the thesis's settings, not options: its messages keep their names."""
+    path = tmp_path / "short.csv"
+    ld.Recording({"p1": np.sin(np.arange(150.0)), "p2": np.cos(np.arange(150.0))},
+                 1000.0).to_pandas().to_csv(path, index=False)
+    assert main(["analyze", str(path), "-m", "all", "--onset", "0.07"]) == 2
+    assert capsys.readouterr().err == (
+        f"leakdiag: error: {path}: recording has 150 samples (0.15 s), shorter than one window "
+        "(window=200); use a smaller window or a longer recording\n")

@@ -65,7 +65,7 @@ def _one_error_line(capsys, code, *needles, expect_code=2):
     ("nan", ["nan.csv", "channel 'p1'", "1 non-finite", "row 500"]),
     ("nonuni", ["nonuni.csv", "not uniformly sampled", "row 1000", "--resample"]),
     ("missing", ["missing.csv", "missing channel(s) ['p1']", "available"]),
-    ("short", ["short.csv", "50 samples", "shorter than one window", "window=200"]),
+    ("short", ["short.csv", "50 samples", "shorter than one window", "(--window 200)"]),
     ("const", ["const.csv", "every window is NaN", "autocorrelation p1", "zero variance"]),
     ("nope", ["nope.csv", "file not found"]),
 ])
@@ -357,10 +357,10 @@ def test_monitor_garbage_detector_file(files, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("args,needle", [
-    (["-w", "0"], "window=0 must be >= 2"),
-    (["--overlap", "100"], "overlap=100.0 must be in [0, 100) percent"),
-    (["--lag", "500"], "lag=500 must be in [1, 200)"),
-    (["-m", "metric-length", "--lag-ratio", "83-3"], "lag_ratio='83-3' must look like 'l:k'"),
+    (["-w", "0"], "--window 0 must be >= 2"),
+    (["--overlap", "100"], "--overlap 100.0 must be in [0, 100) percent"),
+    (["--lag", "500"], "--lag 500 must be in [1, --window 200)"),
+    (["-m", "metric-length", "--lag-ratio", "83-3"], "--lag-ratio '83-3' must look like 'l:k'"),
     (["--sample-rate", "-5"], "sample_rate=-5.0 must be a finite number > 0"),
 ])
 def test_analyze_bad_option_values(files, capsys, args, needle):

@@ -1,17 +1,55 @@
-"""What the detectors report, in the command line's words (options, not Python keywords).
+"""What the library reports, in the command line's words (options, not Python keywords).
 
 The detectors' messages are written for the Python API (``burn_in_s=``, ``ReferenceMaxima``);
-``fit`` and ``detect`` say the same in terms of their own options.
+``fit`` and ``detect`` say the same in terms of their own options. :func:`option_names` writes
+a message's ``name=value`` arguments as a command's options (``simulate``, ``analyze``).
 """
 
 from __future__ import annotations
 
-__all__ = ["threshold_words", "in_cli_words", "check_longer_than_burn_in"]
+__all__ = ["threshold_words", "in_cli_words", "check_longer_than_burn_in", "option_names"]
 
 #: The detectors' advice when healthy data cannot support a rate (detect/threshold.py), and
 #: what a command-line user can do instead (reference maxima are a Python-API feature).
 _API_ADVICE = "Give more healthy recordings, reference maxima from other units, or a larger target"
 _CLI_ADVICE = ("Give more --healthy recordings (or longer ones), or a larger --false-alarm-rate")
+
+
+def option_names(message: str, options: dict[str, str]) -> str:
+    """A library message with its ``name=value`` arguments written as a command's options.
+
+    The library's messages name the offending value as Python writes it (``window=1 must be
+    >= 2``, house style); a command-line user gave an option. Only whole argument names are
+    replaced (``start_window=`` is not ``window=``; ``lag=`` is not ``lag_ratio=``).
+
+    Parameters
+    ----------
+    message : str
+        The message.
+    options : dict of str to str
+        Python argument name -> option, e.g. ``{"window": "--window"}``.
+
+    Returns
+    -------
+    str
+        ``message`` with every ``name=`` of ``options`` written ``option `` (a space instead
+        of ``=``).
+
+    Examples
+    --------
+    >>> option_names("window=1 must be >= 2", {"window": "--window"})
+    '--window 1 must be >= 2'
+    >>> option_names("lag_ratio='9:3': l=9 must be < window=5; start_window=3",
+    ...              {"lag": "--lag", "lag_ratio": "--lag-ratio", "window": "--window"})
+    "--lag-ratio '9:3': l=9 must be < --window 5; start_window=3"
+    """
+    import re
+
+    if not options:
+        return message
+    names = sorted(options, key=len, reverse=True)  # the longest first: lag_ratio before lag
+    return re.sub(r"\b(" + "|".join(map(re.escape, names)) + r")=",
+                  lambda m: options[m.group(1)] + " ", message)
 
 
 def threshold_words(basis) -> str:

@@ -13,6 +13,10 @@ from leakdiag.features.spec import thesis_defaults
 
 __all__ = ["analyze", "format_verdict", "decision_words"]
 
+#: The feature settings that are options of this command: messages name the option.
+_OPTION_OF = {"window": "--window", "overlap": "--overlap", "lag": "--lag",
+              "lag_ratio": "--lag-ratio"}
+
 
 def format_verdict(table) -> str:
     """Render the verdict table for the terminal.
@@ -52,6 +56,24 @@ def format_verdict(table) -> str:
     return show[cols].to_string(index=False)
 
 
+def _in_option_words(exc: Exception) -> Exception:
+    """The same error with the settings' Python names written as this command's options
+    (``window=1 must be >= 2`` -> ``--window 1 must be >= 2``; the window a lag must be below
+    is named too)."""
+    import re
+
+    from leakdiag.cli._words import option_names
+
+    msg = option_names(str(exc), _OPTION_OF)
+    msg = re.sub(r"^(--lag \S+ must be in \[1, )(\d+)\)", r"\1--window \2)", msg)
+    if msg == str(exc):
+        return exc
+    try:
+        return type(exc)(msg)
+    except Exception:  # noqa: BLE001 - an error class that takes more than a message
+        return (TypeError if isinstance(exc, TypeError) else ValueError)(msg)
+
+
 def _specs(method, channels, lag, lag_ratio, window, overlap, system):
     if "all" in method:
         given = [name for name, v in (("--channels", channels), ("--lag", lag),
@@ -65,8 +87,11 @@ def _specs(method, channels, lag, lag_ratio, window, overlap, system):
                 "autocorrelation ...)")
         return list(thesis_defaults(system))
     check_setting_options(method, lag, lag_ratio)
-    return [spec_from_options(m, channels, lag, lag_ratio, 200 if window is None else window,
-                              5.0 if overlap is None else overlap) for m in method]
+    try:
+        return [spec_from_options(m, channels, lag, lag_ratio, 200 if window is None else window,
+                                  5.0 if overlap is None else overlap) for m in method]
+    except (ValueError, TypeError) as exc:
+        raise _in_option_words(exc) from None
 
 
 def decision_words(table, false_alarm_rate: float) -> str:
@@ -152,9 +177,14 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
     refs = read_healthy(healthy, rec, cmap, sample_rate, needed) if healthy else None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = analyze_recording(rec, specs, onset=onset, chunk=chunk, healthy=refs,
-                                   false_alarm_rate=false_alarm_rate,
-                                   skip_missing="all" in method)
+        try:
+            result = analyze_recording(rec, specs, onset=onset, chunk=chunk, healthy=refs,
+                                       false_alarm_rate=false_alarm_rate,
+                                       skip_missing="all" in method)
+        except (ValueError, TypeError) as exc:  # e.g. a --window longer than the recording
+            if "all" in method:  # the thesis's settings, not options given
+                raise
+            raise _in_option_words(exc) from None
     _fail_if_nothing_computed(file, result.table)
     for w in caught:  # re-issued only when there is a result to qualify
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)

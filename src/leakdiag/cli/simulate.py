@@ -234,10 +234,9 @@ def _option_names(message: str) -> str:
     >>> _option_names("leak_lpm=50.0 must be below the rated flow; ramp_duration=3")
     '--leak 50.0 must be below the rated flow; --ramp-duration 3'
     """
-    import re
+    from leakdiag.cli._words import option_names
 
-    return re.sub(r"\b(" + "|".join(_OPTION_OF) + r")=",
-                  lambda m: _OPTION_OF[m.group(1)] + " ", message)
+    return option_names(message, _OPTION_OF)
 
 
 def _params_from_toml(cls, path):
