@@ -213,6 +213,15 @@ def same_setting(a, b) -> bool:
     picked from an all-numeric row comes back as ``100.0``, the thesis's choice is ``100``),
     else as text (lag ratios ``"1:4"``); None is never the same.
 
+    Parameters
+    ----------
+    a, b : object
+        Settings (numbers, numeric text, lag ratios ``"l:k"``, or None).
+
+    Returns
+    -------
+    bool
+
     Examples
     --------
     >>> same_setting(100.0, 100), same_setting("100", 100.0), same_setting("1:4", "1:4")
