@@ -391,3 +391,16 @@ def test_sweep_no_setting_meets_the_rule_speaks_options(files, capsys):
     assert "no setting meets the rule (at least --min-chunks 50 whole RMS chunks of --chunk 10 " \
            "feature values on each side of the onset 1 s)" in err
     assert "lower --min-chunks or --chunk, or check --onset" in err
+
+
+@pytest.mark.parametrize("command", ["analyze", "sweep"])
+def test_reader_options_are_named_as_options(tmp_path, capsys, command):
+    """The reader's own message said 'resample=-5.0 must be ...' (a Python argument); the
+    commands name the option (found after an audit, 2026-11-27)."""
+    import leakdiag as ld
+
+    f = tmp_path / "r.csv"
+    ld.io.write_recording(ld.io.Recording({"p1": np.arange(200.0) % 7}, 100.0), f)
+    code = main([command, str(f), "--resample", "-5"])
+    assert _one_error_line(capsys, code) == \
+        f"leakdiag: error: {f}: --resample -5.0 must be a finite number > 0"

@@ -298,6 +298,10 @@ def column_map_from(column_map, cols, time_unit=None):
     return lio.build_column_map(list(cols), base=column_map, time_unit=time_unit)
 
 
+#: The reader's arguments that are options of the commands reading files.
+_READ_OPTIONS = {"resample": "--resample", "sample_rate": "--sample-rate"}
+
+
 def read_with(path, cmap, sample_rate=None, resample=None):
     """Read ``path`` and make messages name it.
 
@@ -315,11 +319,19 @@ def read_with(path, cmap, sample_rate=None, resample=None):
     Recording
     """
     import leakdiag.io as lio
+    from leakdiag.cli._words import option_names
 
-    if resample is None:
-        rec = lio.read_recording(path, column_map=cmap, sample_rate=sample_rate)
-    else:
-        rec = lio.read_recording(path, column_map=cmap, sample_rate=sample_rate, resample=resample)
+    try:
+        if resample is None:
+            rec = lio.read_recording(path, column_map=cmap, sample_rate=sample_rate)
+        else:
+            rec = lio.read_recording(path, column_map=cmap, sample_rate=sample_rate,
+                                     resample=resample)
+    except ValueError as exc:  # the reader names its arguments as Python does (resample=-5.0)
+        named = option_names(str(exc), _READ_OPTIONS)
+        if named == str(exc):
+            raise
+        raise type(exc)(named) from None
     if rec.meta.get("source") != str(path):
         rec.meta["origin"] = rec.meta.get("source")
         rec.meta["source"] = str(path)
