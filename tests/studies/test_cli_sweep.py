@@ -231,6 +231,27 @@ def test_sweep_figure_titles_name_the_default_channels(tmp_path, monkeypatch):
                       for v in ("lag", "window", "overlap")]
 
 
+def test_a_sweep_over_an_earlier_one_removes_its_figures_only(tmp_path, capsys):
+    """A grid run's heatmap and panels stayed beside a later --no-figures run's table (an
+    audit helper, 2026-11-27); files that are not sweep figures are kept."""
+    path = tmp_path / "rec.csv"
+    ar_recording().to_pandas().to_csv(path, index=False)
+    o = tmp_path / "o"
+    args = ["sweep", str(path), "--mode", "grid", "--lags", "1,3", "--windows", "60,120",
+            "--overlaps", "5,25", "--onset", "30", "--chunk", "5", "-o", str(o)]
+    assert main(args) == 0
+    figs = {"grid_heatmap.png", "panels_lag.png", "panels_window.png", "panels_overlap.png",
+            "pct_vs_lag.png", "pct_vs_window.png", "pct_vs_overlap.png"}
+    assert figs <= {p.name for p in o.iterdir()}
+    (o / "notes.png").write_bytes(b"mine")
+    capsys.readouterr()
+    assert main(args + ["--no-figures"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert {p.name for p in o.iterdir()} == {"sweep.csv", "sweep.parquet", "notes.png"}
+    assert out[-1] == (f"removed {', '.join(sorted(figs))} from {o}/ (an earlier sweep's "
+                       "figures, which this run did not draw)")
+
+
 @pytest.mark.parametrize("windows, which", [("100,1000000", "window 1000000"),
                                             ("1000000,100", "window 1000000"),
                                             ("8000,100,7000", "windows 8000 and 7000")])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import click
@@ -51,6 +52,10 @@ def format_table(table) -> str:
         show[c] = show[c].map(lambda v, fmt=fmt: fmt.format(v) if v == v else "-")
     show["overlap"] = show["overlap"].map(lambda v: f"{v:g}")
     return show[cols].to_string(index=False)
+
+
+#: Names of the figures ``sweep -o`` draws (any other file in the folder is kept).
+_SWEEP_FIGURES = re.compile(r"(?:panels|pct_vs)_(?:lag|window|overlap)\.png|grid_heatmap\.png")
 
 
 def _figures(rec, table, method, channels, onset, out: Path, varied_groups) -> list[Path]:
@@ -182,9 +187,17 @@ def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, chan
 
                 save_figure(plot_grid_heatmap(table, chosen["lag"]), o / "grid_heatmap.png")
                 written.append("grid_heatmap.png")
+        # an earlier sweep's figures this run did not draw would sit beside this run's table
+        stale = sorted(p for p in o.iterdir() if p.name not in written and p.is_file()
+                       and _SWEEP_FIGURES.fullmatch(p.name))
+        for p in stale:
+            p.unlink()
         click.echo(f"wrote {o}/: {', '.join(written)}"
                    + (" (no figures: no setting was chosen)"
                       if chosen is None and not no_figures else ""))
+        if stale:
+            click.echo(f"removed {', '.join(p.name for p in stale)} from {o}/ (an earlier "
+                       "sweep's figures, which this run did not draw)")
     if failed is not None:  # the table is printed (and written): then the error, exit code 2
         stage = f" at the {failed.stage} stage" if failed.stage else ""
         msg = str(failed).replace(f"the rule {rule}", f"the rule (at least --min-chunks "
