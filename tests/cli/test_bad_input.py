@@ -361,7 +361,7 @@ def test_monitor_garbage_detector_file(files, tmp_path, capsys):
     (["--overlap", "100"], "--overlap 100.0 must be in [0, 100) percent"),
     (["--lag", "500"], "--lag 500 must be in [1, --window 200)"),
     (["-m", "metric-length", "--lag-ratio", "83-3"], "--lag-ratio '83-3' must look like 'l:k'"),
-    (["--sample-rate", "-5"], "sample_rate=-5.0 must be a finite number > 0"),
+    (["--sample-rate", "-5"], "--sample-rate -5.0 must be a finite number > 0"),
 ])
 def test_analyze_bad_option_values(files, capsys, args, needle):
     code = main(["analyze", str(files["good"]), *args])
@@ -404,3 +404,21 @@ def test_reader_options_are_named_as_options(tmp_path, capsys, command):
     code = main([command, str(f), "--resample", "-5"])
     assert _one_error_line(capsys, code) == \
         f"leakdiag: error: {f}: --resample -5.0 must be a finite number > 0"
+
+
+def test_simulate_refuses_a_run_that_cannot_fit_in_memory(tmp_path, capsys, monkeypatch):
+    """A 10-s EHA run at 10 MHz worked for minutes towards 40 GiB; it is refused up front,
+    against this machine's memory (here set to 1 GiB), with the longest run that fits."""
+    import leakdiag.runtime.memory as memory
+
+    monkeypatch.setattr(memory, "memory_bytes", lambda: 2**30)
+    code = main(["simulate", "eha", "--duration", "10", "--sample-rate", "1e6", "--out",
+                 str(tmp_path / "s.parquet")])
+    assert _one_error_line(capsys, code) == (
+        "Error: --duration 10 s at --sample-rate 1e+06 Hz is 1e+07 samples, which need about "
+        "3.86 GiB of memory (414 bytes per sample); this machine has 1 GiB: give at most 2 s at "
+        "this rate")
+    assert not (tmp_path / "s.parquet").exists()
+    code = main(["simulate", "vca", "--duration", "10", "--sample-rate", "1e6", "--out",
+                 str(tmp_path / "s.parquet")])
+    assert "(248 bytes per sample)" in _one_error_line(capsys, code)

@@ -134,7 +134,7 @@ def test_sensitivity_refuses_a_run_longer_than_memory_holds(no_run, monkeypatch,
     TiB'), exit 1, after the first simulation had started."""
     import leakdiag.cli.sensitivity as cli_sens
 
-    monkeypatch.setattr(cli_sens, "_memory_bytes", lambda: 16 * 2**30)
+    monkeypatch.setattr(cli_sens, "memory_bytes", lambda: 16 * 2**30)
     code = main(["sensitivity", "vca", "--quick", "--leaks", "0.1", "--loads", "none", *args])
     err = capsys.readouterr().err
     assert code == 2 and "Traceback" not in err

@@ -9,6 +9,7 @@ import click
 
 from leakdiag.cli._options import (check_workers, list_option_values, prepare_out_dir,
                                    scheduler_option, workers_option)
+from leakdiag.runtime.memory import memory_bytes, size_words
 
 __all__ = ["sensitivity"]
 
@@ -20,28 +21,6 @@ SYSTEMS = ("vca", "eha")
 #: calibration, then the six methods' features): 184-185 B measured with ``tracemalloc`` over
 #: ``protocol.run_case`` on 20-, 40- and 80-s runs at 1000 Hz (2026-11-27), rounded up.
 VCA_BYTES_PER_SAMPLE = 200
-
-
-def _memory_bytes() -> int:
-    """Physical memory of this machine in bytes."""
-    import os
-
-    try:
-        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, ValueError, OSError):  # not POSIX: psutil comes with dask
-        import psutil
-
-        return int(psutil.virtual_memory().total)
-
-
-def _size(n_bytes: float) -> str:
-    """``12.5 GiB``, ``7.28 TiB``: three significant digits, binary units."""
-    units = ["B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"]
-    i = 0
-    while n_bytes >= 1024 and i < len(units) - 1:
-        n_bytes /= 1024
-        i += 1
-    return f"{n_bytes:.3g} {units[i]}"
 
 
 def _check_run_memory(durations, scheduler, workers) -> None:
@@ -57,20 +36,20 @@ def _check_run_memory(durations, scheduler, workers) -> None:
     from leakdiag.sim import simulate_vca
 
     rate = float(inspect.signature(simulate_vca).parameters["sample_rate"].default)
-    total = _memory_bytes()
+    total = memory_bytes()
     at_once = (workers or os.cpu_count() or 1) if scheduler == "local" else 1
     budget = total / at_once
     max_s = budget / VCA_BYTES_PER_SAMPLE / rate
     for d in durations:
         n = d * rate
         if n * VCA_BYTES_PER_SAMPLE > budget:
-            share = (f"{_size(total)} of memory / {at_once} local workers" if at_once > 1
+            share = (f"{size_words(total)} of memory / {at_once} local workers" if at_once > 1
                      else "this machine's memory")
             raise click.BadParameter(
                 f"{d:g}: a {d:g}-s run is {n:.3g} samples at {rate:g} Hz and needs about "
-                f"{_size(n * VCA_BYTES_PER_SAMPLE)} of memory ({VCA_BYTES_PER_SAMPLE} bytes per "
-                f"sample); one run may use {_size(budget)} ({share}): give run lengths of at "
-                f"most {math.floor(max_s):d} s", param_hint="'--durations'")
+                f"{size_words(n * VCA_BYTES_PER_SAMPLE)} of memory ({VCA_BYTES_PER_SAMPLE} bytes "
+                f"per sample); one run may use {size_words(budget)} ({share}): give run lengths "
+                f"of at most {math.floor(max_s):d} s", param_hint="'--durations'")
 
 
 @click.command(epilog="Example: leakdiag sensitivity vca --quick --scheduler serial -o sens/")

@@ -145,6 +145,7 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
         raise click.UsageError(f"--duration {run_s:g} s at --sample-rate {sample_rate:g} Hz: "
                                "too many samples to count")
     total = int(round(run_s * sample_rate))
+    _check_memory(system, run_s, sample_rate, total)
     bar = tqdm(total=total, unit="sample", desc=f"{system} run 1", leave=False,
                disable=no_progress)
     runs = [1]
@@ -186,6 +187,26 @@ def simulate(system, duration, onset, leak_lpm, leak_model, leak_kind, ramp_dura
     if plot:
         fig = plot_simulation(rec, Path(out).with_suffix(".png"))
         click.echo(f"wrote {fig}")
+
+
+#: Peak memory of one simulated run per sample, bytes: 168-169 (VCA, 6 channels) and 272-309
+#: (EHA, 8 channels; with a leak the most) measured with ``tracemalloc`` on 20- and 40-s runs at
+#: 1000 Hz (2026-11-27), rounded up, plus the writer's copy of the channels (8 bytes each).
+BYTES_PER_SAMPLE = {"vca": 200 + 6 * 8, "eha": 350 + 8 * 8}
+
+
+def _check_memory(system: str, run_s: float, rate: float, n: int) -> None:
+    """Refuse a run that cannot fit in this machine's memory before it starts (a 10-s EHA
+    run at 10 MHz worked for minutes towards 4 GiB, a longer one towards a MemoryError)."""
+    from leakdiag.runtime.memory import memory_bytes, size_words
+
+    need, have = n * BYTES_PER_SAMPLE[system], memory_bytes()
+    if need > have:
+        raise click.UsageError(
+            f"--duration {run_s:g} s at --sample-rate {rate:g} Hz is {n:.3g} samples, which "
+            f"need about {size_words(need)} of memory ({BYTES_PER_SAMPLE[system]} bytes per "
+            f"sample); this machine has {size_words(have)}: give at most "
+            f"{math.floor(have / BYTES_PER_SAMPLE[system] / rate):d} s at this rate")
 
 
 #: The simulator's advice for a run too short to calibrate its leak
