@@ -197,6 +197,45 @@ def test_the_eha_speed_is_checked_for_spikes(eha):
         eha.predict(_with(rec, "speed", w))
 
 
+# ------------------------------------------------------------------ 3b. the command's sign
+def test_piston_valve_ratio_by_hand():
+    """1 - sum(r G) / sum(G^2) from window j on; None without valve volumes or flow."""
+    from leakdiag.detect.flow_balance import _piston_valve_ratio
+
+    t = {"valve_volume": np.array([9.0, 1.0, 2.0]), "residual": np.array([4.0, 0.5, 1.0])}
+    assert _piston_valve_ratio(t, 1) == pytest.approx(1.0 - (0.5 + 2.0) / (1.0 + 4.0))
+    assert _piston_valve_ratio(t, 0) == pytest.approx(1.0 - (36.0 + 2.5) / 86.0)
+    assert _piston_valve_ratio({"residual": t["residual"]}, 0) is None  # the EHA
+    assert _piston_valve_ratio({"valve_volume": np.zeros(2), "residual": np.ones(2)}, 0) is None
+
+
+@pytest.mark.parametrize("channel", ["u", "x"])
+def test_a_reversed_command_or_position_sign_is_no_leak_verdict(det, channel):
+    """A sensor-fault audit (2026-11-27): the command's sign reversed from 50 s of 120-s runs
+    of unit 17 read LEAK in 5 of 12 healthy spring runs and 12 of 12 without load. The piston
+    then moves against the valve model's flow (ratio about -0.75; a leak only takes part of
+    the valve's flow, 0 to 1), which is refused; a large leak is still LEAK (ratio ~0.04)."""
+    from leakdiag.detect.flow_balance import MIN_PISTON_VALVE_RATIO, _piston_valve_ratio
+
+    rec = _vca(71)
+    flipped = rec[channel].copy()
+    flipped[len(flipped) // 2:] *= -1.0
+    with pytest.raises(RecordingError, match=(
+            rf"^predict: {re.escape(SRC)}: the test alarmed at [0-9.]+ s, but after the onset "
+            r"\([0-9.]+ s\) the piston moved against the valve's flow: the piston's volume is "
+            r"-[0-9]\.[0-9]+ times the valve model's \(1 on a healthy recording; a leak takes part of "
+            r"the valve's flow, between 0 and 1; below -0\.25 no leak explains it\): the "
+            r"command's or the position's sign is reversed against the fit runs; no verdict on "
+            r"a leak$")):
+        det.predict(_with(rec, channel, flipped))
+    assert MIN_PISTON_VALVE_RATIO == -0.25
+    big = _vca(72, leak_lpm=2.0, onset=10.0)
+    v = det.predict(big)
+    t = det._terms(big)
+    j = int(np.flatnonzero(t["start"] >= v.onset_s)[0])
+    assert v.leak and 0.0 - 0.1 < _piston_valve_ratio(t, j) < 0.5
+
+
 # ------------------------------------------------------------------ 4. an alarm without a leak
 def test_an_alarm_whose_coefficient_since_the_onset_is_not_positive_is_no_leak_verdict(det,
                                                                                       monkeypatch):

@@ -264,6 +264,29 @@ def glr_segment_maxima(g, per_segment: int) -> np.ndarray:
     return g[:m * int(per_segment)].reshape(m, int(per_segment)).max(axis=1) if m else np.zeros(0)
 
 
+#: Smallest ratio of the piston's volume to the valve model's, since an alarm's onset, that a
+#: verdict accepts (VCA; leakdiag choice, docs/detect.md 8.4, "Command sign"): 1 on healthy
+#: recordings, between 0 and 1 with a leak (the valve feeds it: measured 0.003-0.95 for 0.1-4
+#: L/min on unit 17, both loads), -0.74 to -0.77 with the command's sign reversed from 50 s of
+#: 120-s runs; a quarter below the physical bound of 0.
+MIN_PISTON_VALVE_RATIO = -0.25
+#: Windows after the alarm that its own ratio needs (leakdiag choice: the GLR's history minimum).
+PISTON_VALVE_MIN_WINDOWS = 5
+
+
+def _piston_valve_ratio(t: dict, j: int) -> float | None:
+    """Least-squares ratio of the piston's and compressibility volumes to the valve model's
+    volume over windows ``j`` on: ``1 - sum(r G) / sum(G^2)`` with ``G`` the model's valve
+    volume of the difference equation and ``r`` the window residual (``G - r`` is what the
+    piston and the compressibility took). None without the valve volume (EHA) or any flow."""
+    vol = t.get("valve_volume")
+    if vol is None:
+        return None
+    g, r = vol[j:], t["residual"][j:]
+    den = float(g @ g)
+    return None if not den > 0.0 else 1.0 - float(r @ g) / den
+
+
 def _leak_law_value(dp: float, law: str, ptr: float) -> float:
     if law == "laminar":
         return dp
@@ -685,6 +708,8 @@ class FlowBalanceDetector(Detector):
         psi = terms.pop("nuisance", None)
         gain = terms.pop("gain_sensitivity", None)
         mid = 0.5 * (terms["start"] + terms["end"])
+        if gain is not None:  # the model's valve volume per window (_piston_valve_ratio)
+            terms["valve_volume"] = self.model_.flow_gain_factor * gain
         cols = [] if psi is None else [psi, psi * (mid - mid.mean())]
         # a file saved before the option existed did not profile the gain
         if gain is not None and getattr(self, "profile_flow_gain", False):
@@ -1106,8 +1131,9 @@ class FlowBalanceDetector(Detector):
             channel holding one value too long (not at a rail the healthy recordings
             reached), a one-sample outlier of ``u`` / ``speed``, the leak-free sum equation
             (VCA) off by more than its limit in some window (a sensor or model
-            inconsistency), or an alarm whose leak coefficient since the onset is not
-            positive (docs/detect.md 8.4).
+            inconsistency), an alarm since whose onset the piston moved against the valve's
+            flow (VCA: a reversed command or position sign), or an alarm whose leak
+            coefficient since the onset is not positive (docs/detect.md 8.4).
         """
         t, a, b, g, arg = self._scan(recording, "predict")
         h = self.threshold_
@@ -1147,6 +1173,20 @@ class FlowBalanceDetector(Detector):
             offset = offset_range = None
         onset, alarm = float(t["start"][j]), float(t["end"][i])
         common["onset_censored"] = j == 0  # the first window judged: onset an upper bound
+        # since the onset, and since the alarm (an onset placed before a sign change dilutes
+        # the first; the second needs windows enough to mean anything)
+        ratios = [_piston_valve_ratio(t, j)] + (
+            [_piston_valve_ratio(t, i)] if len(g) - i >= PISTON_VALVE_MIN_WINDOWS else [])
+        ratio = min((x for x in ratios if x is not None), default=None)
+        if ratio is not None and ratio < MIN_PISTON_VALVE_RATIO:
+            raise RecordingError(
+                f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
+                f"{alarm:.4g} s, but after the onset ({onset:.4g} s) the piston moved against "
+                f"the valve's flow: the piston's volume is {ratio:.2f} times the valve "
+                f"model's (1 on a healthy recording; a leak takes part of the valve's flow, "
+                f"between 0 and 1; below {MIN_PISTON_VALVE_RATIO:g} no leak explains it): the "
+                "command's or the position's sign is reversed against the fit runs; no "
+                "verdict on a leak")
         if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
             raise RecordingError(
                 f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
