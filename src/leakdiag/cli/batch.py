@@ -86,10 +86,14 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     from leakdiag.batch.runner import LOCAL, expand_inputs
 
     check_workers(scheduler, workers)  # None: one worker per core (as every command)
+    st = None
+    if store is not None:  # refused before the work: '', an in-memory database, 'sqlite:/x'
+        from leakdiag.store import store_url
+
+        store_url(store)
     cfg = load_config(config_path, detectors=detectors)
     bare = _check_detectors(cfg)
-    st = None
-    if store:  # opened before the work: a store that cannot be opened stops the job first
+    if store is not None:  # opened before the work: a store that cannot be opened stops it
         from leakdiag.store import EventStore
 
         st = EventStore(store)

@@ -396,7 +396,8 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     from leakdiag.cli._options import column_map_from
 
     st = None
-    if store:  # opened before the work: a store that cannot be opened stops the command first
+    if store is not None:  # opened before the work: a store that cannot be opened ('', an
+        # in-memory database, 'sqlite:/x.db', a file that is not a database) stops it first
         from leakdiag.store import EventStore
 
         st = EventStore(store)

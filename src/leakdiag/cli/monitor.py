@@ -251,6 +251,10 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     from leakdiag.stream import Monitor, paced
     from leakdiag.stream.detector_file import check_detector_fits
 
+    if live.get("store") is not None:  # '', an in-memory database, 'sqlite:/x': refused first
+        from leakdiag.store import store_url
+
+        store_url(live["store"])
     detector, meta = load_detector(detector_path) if detector_path else (None, None)
     if detector is not None:
         check_streamable(detector, meta, detector_path)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import time
 import uuid
 import warnings
@@ -54,7 +55,10 @@ def store_url(target: str | os.PathLike) -> str:
     Raises
     ------
     ValueError
-        If ``target`` is empty.
+        If ``target`` is empty, an in-memory SQLite database (``sqlite://``, ``sqlite:///``,
+        ``sqlite:///:memory:``: it ends with the connection, so nothing would be kept and the
+        store's reader would see another, empty one), or looks like a URL without ``//``
+        (``sqlite:/x.db`` is not the file ``x.db``).
 
     Examples
     --------
@@ -62,12 +66,37 @@ def store_url(target: str | os.PathLike) -> str:
     'postgresql+psycopg://u@h/leaks'
     >>> store_url("/data/events.db")
     'sqlite:////data/events.db'
+    >>> store_url("sqlite:///")
+    Traceback (most recent call last):
+    ...
+    ValueError: --store sqlite:///: an in-memory SQLite database ends with the connection that made it: nothing would be kept, and every other connection (the page, another command) sees an empty one; give a file, e.g. --store events.db
     """
     t = os.fspath(target)
     if not t.strip():
         raise ValueError("--store needs a file path or a database URL, got ''")
     if "://" in t:
+        from sqlalchemy.engine import make_url
+
+        try:
+            url = make_url(t)
+        except Exception:  # noqa: BLE001 - not parseable: create_engine will say why
+            return t
+        db = url.database or ""
+        if url.get_backend_name() == "sqlite" and (
+                db in ("", ":memory:") or db.startswith("file::memory:")
+                or url.query.get("mode") == "memory"):
+            raise ValueError(f"--store {t}: an in-memory SQLite database ends with "
+                             "the connection that made it: nothing would be kept, and every "
+                             "other connection (the page, another command) sees an empty one; "
+                             "give a file, e.g. --store events.db")
         return t
+    scheme = re.match(r"([A-Za-z][A-Za-z0-9+.\-]+):", t)
+    if scheme:  # two letters at least: C:\\events.db is a Windows path
+        shown = t if "@" not in t else f"{scheme.group(1)}:***"
+        raise ValueError(f"--store {shown}: looks like a database URL, but a URL needs '//' "
+                         f"after '{scheme.group(1)}:' (sqlite:///events.db is the file "
+                         "events.db, sqlite:////data/events.db an absolute path); for a file "
+                         f"of this name write ./{shown if shown == t else 'NAME'}")
     return f"sqlite:///{os.path.abspath(t)}"
 
 
