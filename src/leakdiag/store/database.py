@@ -511,6 +511,7 @@ class EventStore:
         """
         import pandas as pd
 
+        self._refresh_version()
         act = self._frame(select(S.actuators))
         runs = self._frame(select(*self._run_columns()))
         al = self._frame(select(*self._alarm_columns(), S.runs.c.actuator_id).join(
@@ -586,6 +587,7 @@ class EventStore:
         StoreError
             If the actuator is not in the store.
         """
+        self._refresh_version()
         aid = self._known_actuator(actuator)
         extra = (S.runs.c.feature, S.runs.c.source)
         summ = self._frame(select(S.chunk_summaries, *extra)
@@ -625,6 +627,7 @@ class EventStore:
         StoreError
             If the actuator is not in the store.
         """
+        self._refresh_version()
         aid = self._known_actuator(actuator)
         c = S.runs.c
         cols = {col.name: col for col in self._run_columns()}
@@ -632,6 +635,18 @@ class EventStore:
             "id", "command", "source", "feature", "started_at", "ended_at", "status",
             "n_chunks", "n_windows", "threshold", "error")))
                            .where(c.actuator_id == aid).order_by(c.id.desc()))
+
+    def _refresh_version(self) -> None:
+        """Read the file's schema version again when it is older than this code's: another
+        process (a writer) may have upgraded it in place since this store was opened, and
+        its new columns (``runs.error``, ``alarms.onset_censored``) are read from then on.
+        One single-row query per page while the file is old, none once it is current."""
+        if self.version >= S.SCHEMA_VERSION:
+            return
+        with self._read_engine.connect() as conn:
+            rows = conn.execute(select(S.schema_version.c.version)).scalars().all()
+        if len(rows) == 1 and rows[0] > self.version:
+            self.version = min(int(rows[0]), S.SCHEMA_VERSION)
 
     def _alarm_columns(self) -> list:
         """The columns of ``alarms`` this file has (before version 3 read as it is: no
