@@ -1,14 +1,19 @@
 """``leakdiag batch`` (and ``monitor``, ``detect`` where they share it) after the batch/store
-audit of 2026-11-27: --store values that cannot be a store (finding 10)."""
+audit of 2026-11-27: --store values that cannot be a store (finding 10), an actuator of two rigs
+(3)."""
 
 import os
+import sqlite3
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
 from leakdiag.cli.main import main
 from leakdiag.io import write_recording
+from leakdiag.io.recording import Recording
 from leakdiag.sim import simulate_vca
+from leakdiag.store import EventStore
 
 
 def _run(args, cwd=None):
@@ -73,3 +78,34 @@ def test_store_values_that_cannot_be_a_store_are_refused_before_the_work(case, t
                            "--store", store], cwd=tmp_path)
     assert code == 2 and out == "" and err.endswith(f"leakdiag: error: {why}\n")
     assert sorted(os.listdir(tmp_path)) == []  # no file of any name
+
+
+def test_an_actuator_of_two_rigs_is_not_stored_and_named(case, tmp_path):
+    """Finding 3 through the command: rigM holds a VCA and an EHA recording. The other
+    actuator is stored, rigM not at all, the message names both files, exit code 2."""
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    rng = np.random.default_rng(1)
+    paths = {}
+    for folder, name, rig in (("rigM", "a_vca", "vca"), ("rigM", "b_eha", "eha"),
+                              ("rigN", "c_vca", "vca")):
+        (tmp_path / "rec" / folder).mkdir(parents=True, exist_ok=True)
+        p = tmp_path / "rec" / folder / f"{name}.parquet"
+        write_recording(Recording({"p1": 1e7 + 1e5 * rng.normal(size=3000)}, 1000.0,
+                                  meta={"system": rig}), p)
+        paths[name] = p
+    db = tmp_path / "ev.db"
+    code, out, err = _run(["batch", tmp_path / "rec" / "**" / "*.parquet", "--config", job,
+                           "-o", tmp_path / "res", "--scheduler", "serial", "--no-progress",
+                           "--store", db])
+    assert code == 2
+    assert "1 run(s) written to" in out
+    assert err == (f"  not stored: actuator 'rigM': its recordings disagree on the rig "
+                   f"({paths['a_vca']} says vca, {paths['b_eha']} says eha): give them "
+                   "different actuator names\n")
+    st = EventStore(db)
+    assert st.actuator_names() == ["rigN"] and st.count("runs") == 1
+    st.close()
+    con = sqlite3.connect(db)
+    assert con.execute("select status from runs").fetchall() == [("finished",)]
+    con.close()

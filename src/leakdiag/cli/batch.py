@@ -80,7 +80,8 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     One row per recording and analysis/detector goes to --out; a bad file becomes a row with its
     error; a re-run skips recordings whose content is unchanged and replaces the rows of edited
     ones. Exit code 1 when any matched recording's current result is an error or gives no usable
-    feature value (shorter than a window, constant channel).
+    feature value (shorter than a window, constant channel); 2 when --store refuses an actuator
+    (its recordings say another rig).
     """
     from leakdiag.batch import load_config, read_results, run_batch
     from leakdiag.batch.runner import LOCAL, expand_inputs
@@ -120,11 +121,14 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     click.echo(f"{s.n_inputs} recording(s): {s.n_run} run, {s.n_skipped} already done, "
                f"{s.n_errors} error(s) in this run; {n_rows} current row(s) for job {cfg.digest} "
                f"in {out}")
+    refused = ()
     if st is not None:
         from leakdiag.store.writers import record_batch
 
-        n_runs = record_batch(st, mine, cfg.digest, actuator_from)
-        click.echo(f"{n_runs} run(s) written to {st.shown_url}")
+        w = record_batch(st, mine, cfg.digest, actuator_from)
+        click.echo(f"{w.n_runs} run(s) written to {st.shown_url}"
+                   + (f" ({w.n_stored} already there)" if w.n_stored else ""))
+        refused = w.refused
     from leakdiag.cli._options import LOW_RATE_HZ
 
     low = mine[(mine["status"] == "ok") & (mine["sample_rate"] < LOW_RATE_HZ)]
@@ -150,5 +154,9 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
                if int(r["n_windows"]) == 0 else
                f"all {int(r['n_windows'])} windows degenerate (zero variance: constant channel?)")
         click.echo(f"  unusable: {r['recording']}: {r['name']}: {why}", err=True)
+    for msg in refused:  # the results are complete; these actuators are not in the store
+        click.echo(f"  not stored: {msg}", err=True)
+    if refused:  # as detect and monitor refuse a run of another rig (exit code 2)
+        raise click.exceptions.Exit(2)
     if len(bad) or len(empty):  # scripts must see that not every recording was analysed
         raise click.exceptions.Exit(1)

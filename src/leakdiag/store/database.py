@@ -431,6 +431,118 @@ class EventStore:
 
         return self._write(fn)
 
+    def add_finished_runs(self, actuator: str, runs, invocation: str | None = None) -> list:
+        """Write runs judged as a whole (batch rows, detect's methods) in one transaction.
+
+        Each run goes in with its summary, its alarms and its end (status, ``ended_at``): all
+        of them or none, so an interruption leaves no run ``running`` and loses no alarm of a
+        run it stored. The actuator's row is locked first (``SELECT ... FOR UPDATE``; SQLite's
+        ``BEGIN IMMEDIATE`` locks the file), so two writers of one actuator take turns, and a
+        run whose :attr:`FinishedRun.key` the actuator already has is skipped *inside* the
+        transaction: each batch result row is stored once whatever runs at the same time.
+
+        Parameters
+        ----------
+        actuator : str
+            Actuator name (created if new).
+        runs : sequence of FinishedRun
+            The runs, in order.
+        invocation : str, optional
+            Id shared by the runs (default: a new one).
+
+        Returns
+        -------
+        list of int or None
+            Run id of each run, None for a run skipped because its key is stored.
+
+        Raises
+        ------
+        StoreError
+            If the runs' rigs disagree with each other or with the actuator's rig in the store
+            (the message names the recordings); nothing is written then.
+        ValueError
+            If ``actuator`` is empty.
+        """
+        from sqlalchemy.exc import IntegrityError
+
+        check_actuator_name(actuator)
+        runs = list(runs)
+        inv = invocation or uuid.uuid4().hex
+        for attempt in range(2):
+            try:
+                return self._write(lambda conn: self._add_finished(conn, str(actuator), runs,
+                                                                   inv))
+            except IntegrityError:  # another writer created the actuator first (PostgreSQL)
+                if attempt:
+                    raise
+        raise AssertionError("unreachable")  # pragma: no cover
+
+    def _add_finished(self, conn, name: str, runs: list, inv: str) -> list:
+        a = S.actuators.c
+        row = conn.execute(select(a.id, a.system).where(a.name == name)
+                           .with_for_update()).first()
+        stored = set()  # rows of this actuator already in the store, read under the lock
+        if row is not None and any(r.key is not None for r in runs):
+            for c in conn.execute(select(S.runs.c.config).where(
+                    S.runs.c.actuator_id == row[0])).scalars():
+                key = _row_key(c)
+                if key is not None:
+                    stored.add(key)
+        new, skip = [], []
+        for r in runs:
+            skip.append(r.key is not None and r.key in stored)
+            if not skip[-1]:
+                new.append(r)
+                if r.key is not None:
+                    stored.add(r.key)  # the same row twice in one call: once
+        if not new:  # nothing to write: no write, no commit to wait for
+            return [None] * len(runs)
+        said = {}  # rig -> first recording that says it
+        for r in new:
+            if r.system is not None:
+                said.setdefault(str(r.system).lower(), str(r.source))
+        have = None if row is None else row[1]
+        other = [(k, src) for k, src in said.items() if have is not None and k != have]
+        if other:
+            raise StoreError(f"{self.shown_url}: actuator {name!r} is a {have} in the store, "
+                             f"{other[0][1]} says {other[0][0]}: give it another name")
+        if len(said) > 1:
+            words = ", ".join(f"{src} says {k}" for k, src in said.items())
+            raise StoreError(f"{self.shown_url}: actuator {name!r}: its recordings disagree on "
+                             f"the rig ({words}): give them different actuator names")
+        now = _now()
+        system = have or next(iter(said), None)
+        if row is None:
+            aid = int(conn.execute(insert(S.actuators).values(
+                name=name, system=system, first_seen_at=now,
+                last_seen_at=now)).inserted_primary_key[0])
+        else:
+            aid = int(row[0])
+            conn.execute(update(S.actuators).where(a.id == aid).values(
+                last_seen_at=now, system=system))
+        ids = iter([self._insert_finished(conn, aid, r, inv, now) for r in new])
+        return [None if sk else next(ids) for sk in skip]
+
+    @staticmethod
+    def _insert_finished(conn, aid: int, r, inv: str, now) -> int:
+        """One finished run with its summary and alarms, in the open transaction."""
+        config = dict(r.config or {})
+        if r.key is not None:
+            config["row"] = r.key
+        rid = int(conn.execute(insert(S.runs).values(
+            actuator_id=aid, command=r.command, invocation=inv, source=str(r.source),
+            feature=r.feature, sample_rate_hz=r.sample_rate_hz, threshold=r.threshold,
+            started_at=now, ended_at=now, status=r.status,
+            n_chunks=0 if r.summary is None else 1,
+            n_windows=0 if r.summary is None else int(r.summary.n_windows),
+            config=json.dumps(config, default=str) if config else None,
+            leakdiag_version=__version__, error=r.error)).inserted_primary_key[0])
+        if r.summary is not None:
+            _insert_summaries(conn, rid, 0, now, [r.summary])
+        for al in r.alarms:
+            conn.execute(insert(S.alarms).values(run_id=rid, raised_at=now, **asdict(al)))
+        return rid
+
     def end_run(self, run_id: int, status: str = "finished", error: str | None = None) -> None:
         """Mark a run as ended (``finished``, ``failed`` or ``unjudged``).
 
@@ -471,15 +583,7 @@ class EventStore:
         with self._read_engine.connect() as conn:
             configs = conn.execute(select(S.runs.c.config).where(
                 S.runs.c.command == "batch")).scalars().all()
-        keys = set()
-        for c in configs:
-            try:
-                row = json.loads(c).get("row") if c else None
-            except (ValueError, AttributeError):
-                row = None
-            if row:
-                keys.add(str(row))
-        return keys
+        return {k for k in map(_row_key, configs) if k is not None}
 
     def actuator_names(self) -> list[str]:
         """Names of every actuator in the store, sorted.
@@ -688,6 +792,21 @@ class EventStore:
             raise ValueError(f"table={table!r} must be one of {sorted(S.metadata.tables)}")
         with self._read_engine.connect() as conn:
             return int(conn.execute(select(func.count()).select_from(t)).scalar())
+
+
+def _row_key(config: str | None) -> str | None:
+    """The batch result row a stored run came from (``config["row"]``), None for other runs.
+
+    Examples
+    --------
+    >>> _row_key('{"row": "job|a.parquet|sha|detector|det"}'), _row_key(None), _row_key("[1]")
+    ('job|a.parquet|sha|detector|det', None, None)
+    """
+    try:
+        row = json.loads(config).get("row") if config else None
+    except (ValueError, AttributeError):
+        row = None
+    return str(row) if row else None
 
 
 _SUMMARY_FIELDS = tuple(f.name for f in fields(ChunkSummary))

@@ -1,4 +1,5 @@
-"""What the store keeps of a chunk: :class:`ChunkSummary` and :class:`AlarmRecord`."""
+"""What the store keeps of a chunk: :class:`ChunkSummary` and :class:`AlarmRecord`; of a whole
+run judged at once (``batch``, ``detect``): :class:`FinishedRun`."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ChunkSummary", "AlarmRecord", "summarize_windows", "summarize_chunks",
+__all__ = ["ChunkSummary", "AlarmRecord", "FinishedRun", "summarize_windows", "summarize_chunks",
            "merge_summaries"]
 
 
@@ -82,6 +83,52 @@ class AlarmRecord:
     cleared_time_s: float | None = None
     detector: str | None = None
     onset_censored: bool | None = None
+
+
+@dataclass(frozen=True)
+class FinishedRun:
+    """A run judged as a whole (a ``batch`` result row, one method of ``detect``), written with
+    its summary, alarms and end in one transaction (:meth:`EventStore.add_finished_runs`).
+
+    Attributes
+    ----------
+    command : str
+        ``batch`` or ``detect``.
+    source : str
+        The judged recording (named in messages, e.g. a rig that disagrees with the store's).
+    feature : str
+        Feature, method or detector name.
+    status : str, default "finished"
+        ``finished``, ``failed`` or ``unjudged``.
+    error : str or None
+        Why it failed or was not judged.
+    sample_rate_hz, threshold : float or None
+        Sample rate (Hz) and detector threshold.
+    system : str or None
+        The recording's rig (``vca``/``eha``), None when not known.
+    config : dict or None
+        Settings stored as JSON.
+    summary : ChunkSummary or None
+        The whole recording's windows as one summary.
+    alarms : tuple of AlarmRecord
+        Alarms raised.
+    key : str or None
+        Identity of a batch result row: a run whose key the actuator already has in the store is
+        not written again (stored as ``config["row"]``).
+    """
+
+    command: str
+    source: str
+    feature: str
+    status: str = "finished"
+    error: str | None = None
+    sample_rate_hz: float | None = None
+    threshold: float | None = None
+    system: str | None = None
+    config: dict | None = None
+    summary: ChunkSummary | None = None
+    alarms: tuple = ()
+    key: str | None = None
 
 
 def summarize_windows(time, values, scores=None, alarms=None) -> ChunkSummary | None:

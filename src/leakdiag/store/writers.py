@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import math
 import uuid
+from dataclasses import dataclass
 from pathlib import Path
 
 from leakdiag.store.database import EventStore
-from leakdiag.store.summary import AlarmRecord, ChunkSummary
+from leakdiag.store.summary import AlarmRecord, ChunkSummary, FinishedRun
 
-__all__ = ["record_batch", "record_verdicts"]
+__all__ = ["record_batch", "record_verdicts", "BatchWrite"]
 
 
 def _num(v) -> float | None:
@@ -95,8 +96,64 @@ def actuator_names(paths, actuator_from: str = "folder") -> dict[str, str]:
     return out
 
 
+@dataclass(frozen=True)
+class BatchWrite:
+    """What :func:`record_batch` wrote.
+
+    Attributes
+    ----------
+    n_runs : int
+        Runs written.
+    n_stored : int
+        Result rows skipped because the store already had them.
+    refused : tuple of str
+        One message per actuator whose rows were not written (its recordings say another rig
+        than the store, or than each other); the other actuators' rows are written.
+    """
+
+    n_runs: int
+    n_stored: int
+    refused: tuple = ()
+
+
+def _batch_run(r: dict, job_digest: str) -> FinishedRun:
+    """One batch result row as a stored run: its summary, its alarm, its end."""
+    feature = str(r["name"]) if r.get("name") is not None and r["name"] == r["name"] \
+        else "batch"
+    # one stored run per result row: a re-run of a finished job writes nothing again
+    key = "|".join(str(r.get(c)) for c in ("job_digest", "path", "recording_sha256",
+                                            "kind", "name"))
+    common = {"command": "batch", "source": str(r["path"]), "feature": feature,
+              "sample_rate_hz": _num(r.get("sample_rate")),
+              "threshold": _num(r.get("threshold")), "system": _text(r.get("system")),
+              "config": {"job_digest": job_digest, "kind": r.get("kind")}, "key": key}
+    if r["status"] != "ok":
+        return FinishedRun(**common, status="failed", error=_text(r.get("error")))
+    n_win = int(r["n_windows"]) if _num(r.get("n_windows")) is not None else 0
+    judged = r.get("kind") == "detector" and r.get("alarm") is not None \
+        and r.get("alarm") == r.get("alarm")  # None / NaN: the detector was not judged
+    summ = None
+    if n_win:
+        summ = ChunkSummary(0.0, _num(r.get("duration_s")) or 0.0, n_win,
+                            int(_num(r.get("n_degenerate")) or 0), _num(r.get("value_mean")),
+                            _num(r.get("value_min")), _num(r.get("value_max")), None,
+                            _num(r.get("score_max")), None,
+                            bool(r.get("alarm")) if judged else None)
+    alarms = ()
+    if judged and bool(r.get("alarm")) and _num(r.get("alarm_time_s")) is not None:
+        alarms = (AlarmRecord(
+            _num(r["alarm_time_s"]), _num(r.get("score_max")), _num(r.get("threshold")),
+            _num(r.get("alarm_onset_s")), _num(r.get("leak_lpm")),
+            _num(r.get("leak_lpm_low")), _num(r.get("leak_lpm_high")), detector=feature,
+            onset_censored=_flag(r.get("alarm_onset_censored"))),)
+    unjudged = r.get("kind") == "detector" and not judged
+    return FinishedRun(**common, status="unjudged" if unjudged else "finished",
+                       error=_text(r.get("error")) if unjudged else None, summary=summ,
+                       alarms=alarms)
+
+
 def record_batch(store: EventStore, results, job_digest: str,
-                 actuator_from: str = "folder") -> int:
+                 actuator_from: str = "folder") -> BatchWrite:
     """Store the rows of one batch job: a run per recording and row, one summary per row.
 
     The actuator is the recording's folder name (``actuator_from="folder"``: one folder per
@@ -105,8 +162,15 @@ def record_batch(store: EventStore, results, job_digest: str,
     recording (``t_start_s`` 0, ``t_end_s`` its duration, the row's value statistics); detector
     rows also carry the score maximum, and an alarm at ``alarm_time_s`` when one was raised.
     Error rows become a run with status ``failed``, a detector row that was not judged (no
-    alarm value: too short for the burn-in) one with status ``unjudged``. A row already in the
-    store (same job, recording path and content, kind and name) is not written again.
+    alarm value: too short for the burn-in) one with status ``unjudged``.
+
+    Each actuator's rows are written in one transaction
+    (:meth:`~leakdiag.store.database.EventStore.add_finished_runs`): each run with its summary,
+    alarm and end, all or none. A row already in the store (same job, recording path and
+    content, kind and name) is not written again, checked inside that transaction, so two
+    batch runs writing at once store each row once. An actuator whose recordings say another
+    rig than the store (or than each other) is not written at all and is reported; the other
+    actuators are written.
 
     Parameters
     ----------
@@ -121,64 +185,42 @@ def record_batch(store: EventStore, results, job_digest: str,
 
     Returns
     -------
-    int
-        Runs written.
+    BatchWrite
+        Runs written, rows already stored, actuators refused (with the reason).
 
     Raises
     ------
     ValueError
         From :func:`actuator_names` (nothing is written then).
     """
+    from leakdiag.store.database import StoreError
+
     rows = results[results["job_digest"] == job_digest]
     names = actuator_names(rows["path"].astype(str), actuator_from)
     inv = uuid.uuid4().hex
-    stored = store.batch_row_keys()
-    n = 0
+    per_actuator: dict[str, list[FinishedRun]] = {}
     for r in rows.to_dict("records"):
-        actuator = names[str(r["path"])]
-        feature = str(r["name"]) if r.get("name") is not None and r["name"] == r["name"] \
-            else "batch"
-        # one stored run per result row: a re-run of a finished job writes nothing again
-        key = "|".join(str(r.get(c)) for c in ("job_digest", "path", "recording_sha256",
-                                                "kind", "name"))
-        if key in stored:
+        per_actuator.setdefault(names[str(r["path"])], []).append(_batch_run(r, job_digest))
+    n = skipped = 0
+    refused = []
+    for actuator, runs in per_actuator.items():
+        try:
+            ids = store.add_finished_runs(actuator, runs, invocation=inv)
+        except StoreError as exc:  # another rig: none of this actuator's rows, say why
+            msg = str(exc)
+            refused.append(msg.split(": ", 1)[1] if msg.startswith(store.shown_url) else msg)
             continue
-        run = store.start_run(actuator, command="batch", source=str(r["path"]), feature=feature,
-                              sample_rate_hz=_num(r.get("sample_rate")), invocation=inv,
-                              threshold=_num(r.get("threshold")), system=_text(r.get("system")),
-                              config={"job_digest": job_digest, "kind": r.get("kind"),
-                                      "row": key})
-        n += 1
-        if r["status"] != "ok":
-            store.end_run(run, "failed", _text(r.get("error")))
-            continue
-        n_win = int(r["n_windows"]) if _num(r.get("n_windows")) is not None else 0
-        judged = r.get("kind") == "detector" and r.get("alarm") is not None \
-            and r.get("alarm") == r.get("alarm")  # None / NaN: the detector was not judged
-        summ = None
-        if n_win:
-            summ = ChunkSummary(0.0, _num(r.get("duration_s")) or 0.0, n_win,
-                                int(_num(r.get("n_degenerate")) or 0), _num(r.get("value_mean")),
-                                _num(r.get("value_min")), _num(r.get("value_max")), None,
-                                _num(r.get("score_max")), None,
-                                bool(r.get("alarm")) if judged else None)
-        alarms = []
-        if judged and bool(r.get("alarm")) and _num(r.get("alarm_time_s")) is not None:
-            alarms.append(AlarmRecord(
-                _num(r["alarm_time_s"]), _num(r.get("score_max")), _num(r.get("threshold")),
-                _num(r.get("alarm_onset_s")), _num(r.get("leak_lpm")),
-                _num(r.get("leak_lpm_low")), _num(r.get("leak_lpm_high")), detector=feature,
-                onset_censored=_flag(r.get("alarm_onset_censored"))))
-        if summ is not None or alarms:
-            store.add_chunk(run, summ, alarms)
-        unjudged = r.get("kind") == "detector" and not judged
-        store.end_run(run, "unjudged" if unjudged else "finished",
-                      _text(r.get("error")) if unjudged else None)
-    return n
+        n += sum(i is not None for i in ids)
+        skipped += sum(i is None for i in ids)
+    return BatchWrite(n, skipped, tuple(refused))
 
 
 def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
     """Store the verdicts of ``leakdiag detect``: one run per method, an alarm per leak found.
+
+    Every method's run goes in with its alarm and its end in one transaction
+    (:meth:`~leakdiag.store.database.EventStore.add_finished_runs`): an interruption stores all
+    of them or none, never a run left ``running``.
 
     Parameters
     ----------
@@ -195,22 +237,27 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
     -------
     int
         Alarms written.
+
+    Raises
+    ------
+    StoreError
+        If the file says another rig than the actuator's in the store (nothing is written).
     """
-    inv = uuid.uuid4().hex
-    n = 0
     system = _text(table.attrs.get("system"))
+    runs = []
     for r in table.to_dict("records"):
         err = r.get("error")
         failed = isinstance(err, str) and bool(err)
-        run = store.start_run(actuator, command="detect", source=str(file), feature=str(r["method"]),
-                              threshold=_num(r.get("threshold")), invocation=inv, system=system,
-                              config={"method": r["method"]})
+        alarms = ()
         if not failed and bool(r.get("leak")) and _num(r.get("alarm_time_s")) is not None:
-            store.add_chunk(run, None, [AlarmRecord(
+            alarms = (AlarmRecord(
                 _num(r["alarm_time_s"]), _num(r.get("score_max")), _num(r.get("threshold")),
                 _num(r.get("onset_s")), _num(r.get("leak_lpm")), _num(r.get("leak_lpm_low")),
                 _num(r.get("leak_lpm_high")), detector=str(r["method"]),
-                onset_censored=_flag(r.get("onset_censored")))])
-            n += 1
-        store.end_run(run, "failed" if failed else "finished", err if failed else None)
-    return n
+                onset_censored=_flag(r.get("onset_censored"))),)
+        runs.append(FinishedRun("detect", str(file), str(r["method"]),
+                                "failed" if failed else "finished", err if failed else None,
+                                threshold=_num(r.get("threshold")), system=system,
+                                config={"method": r["method"]}, alarms=alarms))
+    store.add_finished_runs(actuator, runs)  # one transaction: no run left 'running'
+    return sum(len(r.alarms) for r in runs)
