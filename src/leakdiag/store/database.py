@@ -598,72 +598,103 @@ class EventStore:
     def fleet(self):
         """One row per actuator: state, last alarm, leak estimate, last seen.
 
-        The state is ``ALARM`` when a run of the actuator's latest invocation has an alarm that
-        was not cleared; else ``FAILED`` when every run of it failed, ``NOT JUDGED`` when one
-        failed or was not judged (a detector on a recording too short for its burn-in), and
-        ``OK`` otherwise (``NO DATA`` while its latest runs are running and have neither a
-        chunk nor an alarm).
+        The runs of one command invocation (``detect``'s methods, a ``batch`` job's rows) are
+        judged together. An invocation's *activity* is the latest of its runs' start, end, last
+        chunk and last alarm (wall clock); its verdict is ``ALARM`` when a run of it has an
+        alarm that was not cleared, ``NO DATA`` while its runs are running without a chunk or
+        an alarm, ``FAILED`` when every run failed, ``NOT JUDGED`` when one failed or was not
+        judged, else ``OK``.
+
+        The state is ``ALARM`` while an invocation with that verdict stands: until an
+        invocation that *started after* its last activity judged the actuator ``OK`` (a
+        healthy run started before that alarm, or a failed or unjudged one, does not clear
+        it). Otherwise the state is the verdict of the invocation with the latest activity.
+        So a ``detect`` of a healthy file started while a long ``monitor`` runs does not hide
+        the monitor's later alarm, and a live monitor's alarm stands while it keeps sending
+        chunks in alarm.
+
+        The alarm shown (time, onset, leak estimate) is the newest alarm by wall clock
+        (``raised_at``; the standing ones when the state is ``ALARM``); of the alarms of its
+        invocation on the same recording (``detect``'s methods, a batch job's detectors), the
+        first in stream time, each run's latest episode; the leak estimate from the first of
+        those that has one.
 
         Returns
         -------
         pandas.DataFrame
             Columns ``name``, ``system``, ``state``, ``last_seen_at``, ``n_runs``,
             ``last_alarm_at``, ``last_alarm_time_s``, ``onset_s``, ``leak_lpm``,
-            ``leak_lpm_low``, ``leak_lpm_high``, ``feature``, ``source`` and ``error`` (for
-            ``FAILED`` and ``NOT JUDGED``: the feature and reason of the first such run of the
-            latest invocation, when it was stored).
+            ``leak_lpm_low``, ``leak_lpm_high``, ``feature``, ``source`` (of the alarm shown
+            when the state is ``ALARM``, else of the latest run) and ``error`` (for ``FAILED``
+            and ``NOT JUDGED``: the feature and reason of the first such run of that
+            invocation, when it was stored).
         """
         import pandas as pd
 
         self._refresh_version()
+        r_, cs = S.runs.c, S.chunk_summaries.c
         act = self._frame(select(S.actuators))
         runs = self._frame(select(*self._run_columns()))
-        al = self._frame(select(*self._alarm_columns(), S.runs.c.actuator_id).join(
-            S.runs, S.runs.c.id == S.alarms.c.run_id))
+        # each run's last chunk: its row with seq = n_chunks - 1 (the unique run/seq index)
+        last_chunk = self._frame(select(cs.run_id, cs.recorded_at).join(
+            S.runs, (r_.id == cs.run_id) & (cs.seq == r_.n_chunks - 1)))
+        al = self._frame(select(*self._alarm_columns(), r_.invocation, r_.source)
+                         .join(S.runs, r_.id == S.alarms.c.run_id))
+        al["raised"] = _utc(al["raised_at"])
+        runs["start"] = _utc(runs["started_at"])
+        chunk_at = dict(zip(last_chunk["run_id"], _utc(last_chunk["recorded_at"])))
+        alarm_at = al.groupby("run_id")["raised"].max().to_dict() if len(al) else {}
+        runs["at"] = pd.DataFrame({
+            "start": runs["start"], "end": _utc(runs["ended_at"]),
+            "chunk": _utc(runs["id"].map(chunk_at)),
+            "alarm": _utc(runs["id"].map(alarm_at))}).max(axis=1)
+        alarms_of: dict = {}
+        for a in al.to_dict("records"):
+            alarms_of.setdefault(a["run_id"], []).append(a)
+        invocations: dict = {}  # actuator id -> invocation -> its runs
+        for r in runs.sort_values("id").to_dict("records"):
+            invocations.setdefault(r["actuator_id"], {}).setdefault(r["invocation"], []) \
+                .append(r)
         rows = []
         for a in act.itertuples():
-            r = runs[runs["actuator_id"] == a.id].sort_values("id")
-            last = r.iloc[-1] if len(r) else None
-            mine = al[al["actuator_id"] == a.id].sort_values("id")
-            inv = r[r["invocation"] == last["invocation"]] if last is not None else r
-            in_last = mine[mine["run_id"].isin(inv["id"])]
-            # the alarm shown: the first standing alarm of the latest invocation (detect's
-            # "first alarm" whatever the order of its methods), with a leak size when one of
-            # them has it; else the actuator's last alarm
-            standing = in_last[in_last["cleared_time_s"].isna()].sort_values(
-                ["alarm_time_s", "id"], kind="stable")
-            sized = standing[standing["leak_lpm"].notna()]
-            la = (standing.iloc[0] if len(standing) else mine.iloc[-1] if len(mine) else None)
-            size_row = sized.iloc[0] if len(sized) else la
-            if last is None or (int(inv["n_chunks"].sum()) == 0 and not len(in_last)
-                                and (inv["status"] == "running").all()):
-                state = "NO DATA"
-            elif in_last["cleared_time_s"].isna().any():
-                state = "ALARM"
-            elif (inv["status"] == "failed").all():
-                state = "FAILED"  # nothing of the latest invocation could be read or judged
-            elif inv["status"].isin(["failed", "unjudged"]).any():
-                state = "NOT JUDGED"  # no alarm, but a run of it was not judged: not an OK
+            invs = [_invocation(rs, [x for r in rs for x in alarms_of.get(r["id"], [])])
+                    for rs in invocations.get(a.id, {}).values()]
+            current = max(invs, key=lambda i: (i["at"], i["last_id"])) if invs else None
+            ok_start = max((i["start"] for i in invs if i["verdict"] == "OK"), default=None)
+            standing = [i for i in invs if i["verdict"] == "ALARM"
+                        and not (ok_start is not None and ok_start > i["at"])]
+            state = "ALARM" if standing else "NO DATA" if current is None else \
+                current["verdict"]
+            if standing:
+                pool = [x for i in standing for x in i["alarms"] if _missing(x["cleared_time_s"])]
             else:
-                state = "OK"
+                pool = [x for i in invs for x in i["alarms"]]
+            la, size_row = _shown_alarm(pool)
             why = None
             if state in ("FAILED", "NOT JUDGED"):
-                bad = inv[inv["status"].isin(["failed", "unjudged"]) & inv["error"].notna()]
-                why = f"{bad.iloc[0]['feature']}: {bad.iloc[0]['error']}" if len(bad) else None
+                bad = [r for r in current["runs"] if r["status"] in ("failed", "unjudged")
+                       and not _missing(r["error"])]
+                why = f"{bad[0]['feature']}: {bad[0]['error']}" if bad else None
+            shown = None
+            if state == "ALARM" and la is not None:
+                shown = next(r for i in standing for r in i["runs"] if r["id"] == la["run_id"])
+            elif current is not None:
+                shown = max(current["runs"], key=lambda r: (r["at"], r["id"]))
 
             def g(k, row=None):
                 row = la if row is None else row
-                return None if row is None or pd.isna(row[k]) else row[k]
+                return None if row is None or _missing(row[k]) else row[k]
 
             rows.append({"name": a.name, "system": a.system, "state": state,
-                         "last_seen_at": a.last_seen_at, "n_runs": len(r),
+                         "last_seen_at": a.last_seen_at,
+                         "n_runs": sum(len(i["runs"]) for i in invs),
                          "last_alarm_at": g("raised_at"), "last_alarm_time_s": g("alarm_time_s"),
                          "onset_s": g("onset_s"), "onset_censored": g("onset_censored"),
                          "leak_lpm": g("leak_lpm", size_row),
                          "leak_lpm_low": g("leak_lpm_low", size_row),
                          "leak_lpm_high": g("leak_lpm_high", size_row),
-                         "feature": None if last is None else last["feature"],
-                         "source": None if last is None else last["source"], "error": why})
+                         "feature": None if shown is None else shown["feature"],
+                         "source": None if shown is None else shown["source"], "error": why})
         cols = ["name", "system", "state", "last_seen_at", "n_runs", "last_alarm_at",
                 "last_alarm_time_s", "onset_s", "onset_censored", "leak_lpm", "leak_lpm_low",
                 "leak_lpm_high", "feature", "source", "error"]
@@ -807,6 +838,60 @@ def _row_key(config: str | None) -> str | None:
     except (ValueError, AttributeError):
         row = None
     return str(row) if row else None
+
+
+def _utc(values):
+    """Wall-clock times as UTC pandas timestamps (SQLite returns them naive, PostgreSQL aware;
+    both are UTC in the store); None becomes NaT."""
+    import pandas as pd
+
+    return pd.to_datetime(pd.Series(values, dtype=object), utc=True)
+
+
+def _missing(v) -> bool:
+    """A cell read from the store that holds nothing (None, NaN, NaT)."""
+    import pandas as pd
+
+    return v is None or bool(pd.isna(v))
+
+
+def _invocation(runs: list[dict], alarms: list[dict]) -> dict:
+    """One invocation's runs and alarms, its start, activity and verdict (:meth:`fleet`)."""
+    status = [r["status"] for r in runs]
+    if any(_missing(a["cleared_time_s"]) for a in alarms):
+        verdict = "ALARM"
+    elif sum(int(r["n_chunks"]) for r in runs) == 0 and not alarms and \
+            all(st == "running" for st in status):
+        verdict = "NO DATA"
+    elif all(st == "failed" for st in status):
+        verdict = "FAILED"  # nothing of it could be read or judged
+    elif any(st in ("failed", "unjudged") for st in status):
+        verdict = "NOT JUDGED"  # no alarm, but a run of it was not judged: not an OK
+    else:
+        verdict = "OK"
+    return {"runs": runs, "alarms": alarms, "start": min(r["start"] for r in runs),
+            "at": max(r["at"] for r in runs), "last_id": max(int(r["id"]) for r in runs),
+            "verdict": verdict}
+
+
+def _shown_alarm(pool: list[dict]):
+    """The alarm a fleet row shows and the one whose leak estimate it shows (:meth:`fleet`).
+
+    The newest of ``pool`` by wall clock (then by id: the order the runs were written in);
+    then, of the alarms of its invocation on the same recording (each run's latest episode),
+    the first in stream time, and the first of those with a leak size.
+    """
+    if not pool:
+        return None, None
+    newest = max(pool, key=lambda x: (x["raised"], x["id"]))
+    latest: dict = {}  # run -> its latest episode
+    for x in pool:
+        if x["invocation"] == newest["invocation"] and x["source"] == newest["source"]:
+            if x["run_id"] not in latest or x["id"] > latest[x["run_id"]]["id"]:
+                latest[x["run_id"]] = x
+    group = sorted(latest.values(), key=lambda x: (x["alarm_time_s"], x["id"]))
+    sized = [x for x in group if not _missing(x["leak_lpm"])]
+    return group[0], (sized[0] if sized else group[0])
 
 
 _SUMMARY_FIELDS = tuple(f.name for f in fields(ChunkSummary))
