@@ -81,17 +81,17 @@ def noisy_spring_run():
                         sensor_params=SensorParams(pressure_noise_std_pa=40e3))
 
 
-def test_measurement_noise_estimated_from_the_data(noisy_spring_run):
-    from leakdiag.literature.ekf import estimate_pressure_noise
+def test_measurement_noise_matched_on_the_filters_own_model(noisy_spring_run):
+    from leakdiag.literature.ekf import match_measurement_noise
 
+    # the nominal actuator is the filter's own model: the matched noise is the sensor's,
     # 40 kPa white noise + 5.05 kPa ADC quantum (uniform: 1.46 kPa) -> 40.03 kPa
-    for ch in ("p1", "p2"):
-        assert estimate_pressure_noise(noisy_spring_run[ch]) == pytest.approx(40e3, rel=0.05)
+    m = match_measurement_noise(noisy_spring_run, EKFParams(load="spring"))
+    assert m.pressure_noise_std_pa == pytest.approx(40e3, rel=0.05)
     res = run_vca_ekf(noisy_spring_run, EKFParams(load="spring", pressure_noise_std_pa=None))
-    assert res.pressure_noise_std_pa[0] == pytest.approx(40e3, rel=0.05)
+    assert res.pressure_noise_std_pa == (m.pressure_noise_std_pa,) * 2
     # with the right R the normalised innovations are about unit size (NIS ~ chi2(3), mean 3)
-    assert 1.5 < np.nanmean(res.nis[2000:]) < 6.0
-    assert estimate_pressure_noise(np.full(100, 8.6e6)) == 1e3  # floor on a flat signal
+    assert 2.7 < np.nanmean(res.nis[2000:]) < 3.3
 
 
 def test_load_force_state_absorbs_an_unmodelled_spring(noisy_spring_run):

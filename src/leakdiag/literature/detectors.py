@@ -15,8 +15,9 @@ from leakdiag.detect.base import Detector
 from leakdiag.features._degenerate import DegenerateWindowWarning
 from leakdiag.features.series import FeatureSeries
 from leakdiag.literature._physics import DEFAULT_NATURAL_FREQUENCY_HZ
-from leakdiag.literature.ekf import (HOLD_FACTOR, MEASURED, EKFParams, ekf_feature,
-                                    longest_holds_s, run_vca_ekf)
+from leakdiag.literature.ekf import (HOLD_FACTOR, MATCH_MAX_SIGNAL_S, MATCH_SKIP_S, MEASURED,
+                                    EKFParams, ekf_feature, longest_holds_s,
+                                    match_measurement_noise, run_vca_ekf)
 from leakdiag.literature.emd_hilbert import EMDHilbertParams, emd_hilbert_feature
 from leakdiag.literature.fft_band import FFTBandParams, fft_band_feature
 from leakdiag.literature.wavelet import WaveletParams, wavelet_feature
@@ -188,8 +189,11 @@ class EKFDetector(Detector):
         load configuration; its stiffness is still the nominal one of ``model``).
     leak_model : {"turbulent", "laminar"}, default "turbulent"
         Leak law of the coefficient state.
-    pressure_noise_std_pa : float, default 10e3
-        Pressure measurement noise.
+    pressure_noise_std_pa : float or None, default 10e3
+        Pressure measurement noise, Pa; None: matched at :meth:`fit` to the filter's
+        innovations on the healthy recordings (``pressure_noise_std_pa_``, ``noise_match_``;
+        :func:`~leakdiag.literature.ekf.match_measurement_noise`) and used for every
+        recording judged (before a fit, each recording is matched on itself).
     leak_coefficient_walk : float, default 2e-10
         Random-walk intensity of the leak coefficient per square-root second.
     window : int, default 1000
@@ -238,20 +242,36 @@ class EKFDetector(Detector):
         load = self.load
         if load == "auto":
             load = recording.meta.get("load", "none") if recording is not None else "none"
+        noise = self.pressure_noise_std_pa
+        if noise is None:  # matched at fit time (None before a fit: on the recording itself)
+            noise = getattr(self, "pressure_noise_std_pa_", None)
         return EKFParams(model=self.model if self.model is not None else VCAParams(),
                          load=load, leak_model=self.leak_model,
-                         pressure_noise_std_pa=self.pressure_noise_std_pa,
+                         pressure_noise_std_pa=noise,
                          leak_coefficient_walk=self.leak_coefficient_walk,
                          max_hold_s=getattr(self, "max_hold_s_", None), window=self.window,
                          overlap=self.overlap, feature=self.feature)
 
     def _fit_features(self, recordings) -> None:
-        """The longest hold of each measured channel in the healthy recordings
+        """From the healthy recordings: the longest hold of each measured channel
         (``longest_hold_s_``, s) and the limit beyond which a judged recording's channel is
-        frozen (``max_hold_s_``, :data:`~leakdiag.literature.ekf.HOLD_FACTOR` times it)."""
-        longest = np.max([longest_holds_s(r) for r in recordings], axis=0)
+        frozen (``max_hold_s_``, :data:`~leakdiag.literature.ekf.HOLD_FACTOR` times it); with
+        ``pressure_noise_std_pa=None`` the pressure noise matched to the filter's innovations
+        on the first ``MATCH_MAX_SIGNAL_S`` seconds of them (``pressure_noise_std_pa_``, Pa,
+        and ``noise_match_``), so that every recording is then filtered alike."""
+        holds, subset, span = [], [], 0.0
+        for r in recordings:  # one pass (a lazy sequence loads each recording once)
+            holds.append(longest_holds_s(r))
+            if span < MATCH_MAX_SIGNAL_S:
+                subset.append(r)
+                span += max(0.0, r.duration - MATCH_SKIP_S)
+        longest = np.max(holds, axis=0)
         self.longest_hold_s_ = dict(zip(MEASURED, (float(v) for v in longest)))
         self.max_hold_s_ = tuple(HOLD_FACTOR * float(v) for v in longest)
+        if self.pressure_noise_std_pa is None:
+            self.pressure_noise_std_pa_ = None  # not the previous fit's while matching
+            self.noise_match_ = match_measurement_noise(subset, self.ekf_params(subset[0]))
+            self.pressure_noise_std_pa_ = self.noise_match_.pressure_noise_std_pa
 
     def _feature_series(self, recording) -> FeatureSeries:
         return _quiet(ekf_feature, recording, self.ekf_params(recording))

@@ -116,8 +116,10 @@ def ekf(system, alarm):
     -------
     EKFDetector
         Standardised leak-coefficient feature (``k_l`` over the root of its filter variance),
-        pressure noise estimated from each recording, load taken from the recording's metadata
-        (``load="auto"``); the filter carries a load-force disturbance state.
+        pressure noise matched at fit time to the filter's innovations on the healthy
+        recordings (``pressure_noise_std_pa=None``; the same for every recording judged), load
+        taken from the recording's metadata (``load="auto"``); the filter carries a load-force
+        disturbance state.
 
     Examples
     --------
