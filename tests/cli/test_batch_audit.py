@@ -1,6 +1,6 @@
 """``leakdiag batch`` (and ``monitor``, ``detect`` where they share it) after the batch/store
 audit of 2026-11-27: --store values that cannot be a store (finding 10), an actuator of two rigs
-(3)."""
+(3), duplicate detector names (9)."""
 
 import os
 import sqlite3
@@ -51,6 +51,26 @@ def case(tmp_path_factory):
 def _batch(case, inputs, tmp_path, *extra, job=None):
     return _run(["batch", *inputs, "--config", job or case["dir"] / "job.toml", "-o",
                  tmp_path / "res", "--scheduler", "serial", "--no-progress", *extra])
+
+
+def test_two_detectors_of_one_name_are_refused_naming_both(case, tmp_path):
+    """Finding 9: their rows could not be told apart and their store keys collided."""
+    job = tmp_path / "job.toml"
+    det = case["det"]
+    job.write_text(f'[[detector]]\nname = "det"\npath = "{det}"\n'
+                   f'[[detector]]\nname = "det"\npath = "{det}"\n')
+    code, out, err = _batch(case, [case["leak_path"]], tmp_path, job=job)
+    assert code == 2
+    assert err == (f"leakdiag: error: {job}: [[detector]] #1 (path = '{det}') and "
+                   f"[[detector]] #2 (path = '{det}') have the same detector name 'det': "
+                   "their rows and stored runs could not be told apart; give each "
+                   "[[detector]] its own name = \"...\" (a --detector file is named after "
+                   "its file stem)\n")
+    job.write_text(f'[[detector]]\npath = "{det}"\n')  # named 'det' after its stem
+    code, out, err = _batch(case, [case["leak_path"]], tmp_path, "--detector", det, job=job)
+    assert code == 2 and f"[[detector]] #1 (path = '{det}') and --detector {det} have the " \
+                         "same detector name 'det'" in err
+    assert not (tmp_path / "res").exists()
 
 
 @pytest.mark.parametrize("store, why", [

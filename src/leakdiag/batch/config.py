@@ -214,6 +214,24 @@ def _detector(entry: Mapping[str, Any], i: int, base_dir: str, where: str) -> De
                          f"{str(entry['path'])!r}): {exc.strerror or exc}") from None
 
 
+def _check_names(dets: list[DetectorRef], where: str) -> None:
+    """Refuse two detectors of one name: their rows, their refusals and their stored runs
+    could not be told apart (a detector's name is its key in the results and the store)."""
+    seen: dict[str, DetectorRef] = {}
+    for d in dets:
+        first = seen.setdefault(d.name, d)
+        if first is not d:
+            def said(ref):
+                if ref.origin == "--detector":
+                    return f"--detector {ref.path}"
+                return ref.origin[len(where):] if where and ref.origin.startswith(where) \
+                    else ref.origin or ref.path
+            raise ValueError(f"{said(first)} and {said(d)} have the same detector name "
+                             f"{d.name!r}: their rows and stored runs could not be told apart; "
+                             "give each [[detector]] its own name = \"...\" (a --detector file "
+                             "is named after its file stem)")
+
+
 def config_from_dict(d: Mapping[str, Any], base_dir: str = ".", *, source: str | None = None,
                      extra_detectors: tuple[DetectorRef, ...] = ()) -> BatchConfig:
     """Build a :class:`BatchConfig` from the parsed TOML (sweeps expanded).
@@ -236,7 +254,8 @@ def config_from_dict(d: Mapping[str, Any], base_dir: str = ".", *, source: str |
     Raises
     ------
     ValueError
-        For unknown tables or keys, bad settings (the message names the entry), or no work.
+        For unknown tables or keys, bad settings (the message names the entry), two detectors
+        of one name (naming both), or no work.
     """
     unknown = set(d) - {"job", "analysis", "detector"}
     if unknown:
@@ -249,6 +268,7 @@ def config_from_dict(d: Mapping[str, Any], base_dir: str = ".", *, source: str |
     where = f"{source}: " if source else ""
     dets = [_detector(e, i, base_dir, where) for i, e in enumerate(d.get("detector", []))]
     dets += list(extra_detectors)
+    _check_names(dets, where)
     onset = job.get("onset_s")
     cmap = cmap_sha = None
     if job.get("column_map") is not None:
