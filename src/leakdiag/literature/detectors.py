@@ -14,6 +14,8 @@ import numpy as np
 from leakdiag.detect.base import Detector
 from leakdiag.features._degenerate import DegenerateWindowWarning
 from leakdiag.features.series import FeatureSeries
+from leakdiag.io.errors import RecordingError
+from leakdiag.io.recording import load_name
 from leakdiag.literature._physics import DEFAULT_NATURAL_FREQUENCY_HZ
 from leakdiag.literature.ekf import (HOLD_FACTOR, MATCH_MAX_SIGNAL_S, MATCH_SKIP_S, MEASURED,
                                     EKFParams, ekf_feature, longest_holds_s,
@@ -21,7 +23,7 @@ from leakdiag.literature.ekf import (HOLD_FACTOR, MATCH_MAX_SIGNAL_S, MATCH_SKIP
 from leakdiag.literature.emd_hilbert import EMDHilbertParams, emd_hilbert_feature
 from leakdiag.literature.fft_band import FFTBandParams, fft_band_feature
 from leakdiag.literature.wavelet import WaveletParams, wavelet_feature
-from leakdiag.sim.vca.params import VCAParams
+from leakdiag.sim.vca.params import LOADS, VCAParams
 
 __all__ = ["WaveletDetector", "FFTBandDetector", "EMDHilbertDetector", "EKFDetector"]
 
@@ -186,7 +188,8 @@ class EKFDetector(Detector):
         Model the filter assumes (None: Table 2-1).
     load : {"none", "spring", "auto"}, default "none"
         Load the filter assumes; ``"auto"`` reads ``recording.meta['load']`` (the rig's known
-        load configuration; its stiffness is still the nominal one of ``model``).
+        load configuration, stripped and lower-cased; not stated: "none"; another load is
+        refused, naming the recording; its stiffness is still the nominal one of ``model``).
     leak_model : {"turbulent", "laminar"}, default "turbulent"
         Leak law of the coefficient state.
     pressure_noise_std_pa : float or None, default 10e3
@@ -233,15 +236,31 @@ class EKFDetector(Detector):
         Parameters
         ----------
         recording : Recording, optional
-            Resolves ``load="auto"`` from ``recording.meta['load']`` (default "none").
+            Resolves ``load="auto"`` from ``recording.meta['load']``, compared stripped and
+            lower-cased (:func:`leakdiag.io.recording.load_name`); a load not stated (absent,
+            None or empty) or no recording: ``"none"``.
 
         Returns
         -------
         EKFParams
+
+        Raises
+        ------
+        leakdiag.io.RecordingError
+            If ``load="auto"`` and the recording states a load the filter's model has no case
+            for (it knows ``"none"`` and ``"spring"``), naming the recording and the load.
         """
-        load = self.load
+        load = load_name(self.load) or "none"
         if load == "auto":
-            load = recording.meta.get("load", "none") if recording is not None else "none"
+            stated = None if recording is None else recording.meta.get("load")
+            load = load_name(stated) or "none"
+            if load not in LOADS:
+                source = recording.meta.get("source", "<recording>")
+                raise RecordingError(
+                    f"{source}: load {stated!r}: the EKF's model has a case for the loads "
+                    f"{list(LOADS)} only (Table 2-1; a spring at its nominal stiffness), so "
+                    "load='auto' cannot filter this recording: correct its meta['load'], or "
+                    "give EKFDetector the load it should assume (load='none' or 'spring')")
         noise = self.pressure_noise_std_pa
         if noise is None:  # matched at fit time (None before a fit: on the recording itself)
             noise = getattr(self, "pressure_noise_std_pa_", None)
