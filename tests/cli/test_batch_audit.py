@@ -1,6 +1,6 @@
 """``leakdiag batch`` (and ``monitor``, ``detect`` where they share it) after the batch/store
 audit of 2026-11-27: --store values that cannot be a store (finding 10), an actuator of two rigs
-(3), duplicate detector names (9)."""
+(3), duplicate detector names (9), a glob that covers --out (11)."""
 
 import os
 import sqlite3
@@ -98,6 +98,26 @@ def test_store_values_that_cannot_be_a_store_are_refused_before_the_work(case, t
                            "--store", store], cwd=tmp_path)
     assert code == 2 and out == "" and err.endswith(f"leakdiag: error: {why}\n")
     assert sorted(os.listdir(tmp_path)) == []  # no file of any name
+
+
+def test_a_glob_that_covers_out_does_not_read_batch_s_results(case, tmp_path):
+    """Finding 11: 'rec/**/*.parquet' with -o rec/results.parquet read the first run's result
+    files as recordings (error rows "missing channel(s) ['p1']", exit 1)."""
+    rec = tmp_path / "rec"
+    (rec / "rigL").mkdir(parents=True)
+    write_recording(case["leak"], rec / "rigL" / "leak.parquet")
+    args = ["batch", rec / "**" / "*.parquet", "--config", case["dir"] / "job.toml", "-o",
+            rec / "results.parquet", "--scheduler", "serial", "--no-progress"]
+    code, out, err = _run(args)
+    assert code == 0 and out.startswith("1 recording(s): 1 run,") and "note" not in err
+    code, out, err = _run(args)
+    assert code == 0, err
+    assert out.startswith("1 recording(s): 0 run, 1 already done, 0 error(s) in this run; 1 "
+                          "current row(s)")
+    assert f"leakdiag: note: 1 file(s) that the inputs match inside --out " \
+           f"{rec / 'results.parquet'} (batch's result files, not recordings) left out" in err
+    code, out, err = _run([*args[:1], rec / "results.parquet" / "*.parquet", *args[2:]])
+    assert code == 2 and "no recording matches" in err and "1 file(s) inside --out" in err
 
 
 def test_an_actuator_of_two_rigs_is_not_stored_and_named(case, tmp_path):

@@ -33,8 +33,8 @@ from leakdiag.stream.detector import as_scorer
 from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
 from leakdiag.stream.feature import StreamingFeature
 
-__all__ = ["run_case", "run_batch", "expand_inputs", "warn_job_detectors", "BatchSummary",
-           "LOCAL"]
+__all__ = ["run_case", "run_batch", "expand_inputs", "batch_inputs", "warn_job_detectors",
+           "BatchSummary", "LOCAL"]
 
 #: Suffixes read in chunks (others are loaded whole with :func:`leakdiag.io.read_recording`).
 _CHUNKED_SUFFIXES = (".parquet", ".pq", ".h5", ".hdf5", ".csv")
@@ -67,6 +67,40 @@ def expand_inputs(patterns: Iterable[str]) -> list[str]:
             hits = [os.fspath(pat)]
         out.update(os.path.abspath(h) for h in hits if not os.path.isdir(h))
     return sorted(out)
+
+
+def batch_inputs(patterns: Iterable[str],
+                 out_dir: str | os.PathLike) -> tuple[list[str], list[str]]:
+    """The recordings of a batch run: :func:`expand_inputs` without batch's own output.
+
+    A glob that covers ``out_dir`` (``'data/**/*.parquet'`` with ``-o data/results.parquet``)
+    would read the result files of earlier runs as recordings (error rows "missing
+    channel(s)"); they are left out.
+
+    Parameters
+    ----------
+    patterns : iterable of str
+        Paths or glob patterns.
+    out_dir : str or path-like
+        The results folder (``--out``).
+
+    Returns
+    -------
+    paths : list of str
+        Recordings, absolute, sorted.
+    own : list of str
+        Matched files inside ``out_dir``, left out.
+
+    Examples
+    --------
+    >>> batch_inputs(["/data/a.parquet", "/data/res/k.parquet"], "/data/res")
+    (['/data/a.parquet'], ['/data/res/k.parquet'])
+    """
+    out = os.path.abspath(os.fspath(out_dir))
+    paths, own = [], []
+    for p in expand_inputs(patterns):
+        (own if p == out or p.startswith(out.rstrip(os.sep) + os.sep) else paths).append(p)
+    return paths, own
 
 
 def _source(path: str, channels: list[str], chunk_samples: int, column_map=None):
@@ -287,6 +321,8 @@ class BatchSummary:
         Of those, recordings that gave an error row.
     out_dir : str
         Results folder.
+    n_own : int, default 0
+        Files the inputs matched inside the results folder (batch's own results), left out.
     """
 
     n_inputs: int
@@ -294,6 +330,7 @@ class BatchSummary:
     n_run: int
     n_errors: int
     out_dir: str
+    n_own: int = 0
 
 
 def _todo(paths, config, out_dir, retry_errors):
@@ -318,7 +355,8 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
     Parameters
     ----------
     inputs : sequence of str
-        Recording paths or glob patterns (``**`` recurses).
+        Recording paths or glob patterns (``**`` recurses). Files inside ``out_dir`` are
+        left out (:func:`batch_inputs`).
     config : BatchConfig
         The job.
     out_dir : str or path-like
@@ -358,7 +396,7 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
     """
     from tqdm.auto import tqdm
 
-    paths = expand_inputs(inputs)
+    paths, own = batch_inputs(inputs, out_dir)  # never batch's own result files
     todo, keys, shas = _todo(paths, config, out_dir, retry_errors)
     if todo:
         warn_job_detectors(config)  # once per detector file; run_case silences them
@@ -381,7 +419,8 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
                   on_error=functools.partial(_lost_case_rows, config=config))
     finally:
         bar.close()
-    return BatchSummary(len(paths), len(paths) - len(todo), len(todo), n_err, os.fspath(out_dir))
+    return BatchSummary(len(paths), len(paths) - len(todo), len(todo), n_err, os.fspath(out_dir),
+                        len(own))
 
 
 def _judges_series(det) -> bool:

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-
 import click
 
 from leakdiag.cli._options import check_workers, scheduler_option, workers_option
@@ -79,12 +77,12 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
 
     One row per recording and analysis/detector goes to --out; a bad file becomes a row with its
     error; a re-run skips recordings whose content is unchanged and replaces the rows of edited
-    ones. Exit code 1 when any matched recording's current result is an error or gives no usable
-    feature value (shorter than a window, constant channel); 2 when --store refuses an actuator
-    (its recordings say another rig).
+    ones. Files inside --out are not inputs. Exit code 1 when any matched recording's current
+    result is an error or gives no usable feature value (shorter than a window, constant
+    channel); 2 when --store refuses an actuator (its recordings say another rig).
     """
     from leakdiag.batch import load_config, read_results, run_batch
-    from leakdiag.batch.runner import LOCAL, expand_inputs
+    from leakdiag.batch.runner import LOCAL, batch_inputs
 
     check_workers(scheduler, workers)  # None: one worker per core (as every command)
     st = None
@@ -112,15 +110,20 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
                       progress=not no_progress and _stderr_is_terminal(),
                       retry_errors=retry_errors)
     if s.n_inputs == 0:
-        raise click.UsageError(f"no recording matches {' '.join(inputs)}")
+        raise click.UsageError(f"no recording matches {' '.join(inputs)}" + (
+            f" ({s.n_own} file(s) inside --out {out}, batch's result files, left out)"
+            if s.n_own else ""))
 
     df = read_results(out)
-    matched = {os.path.abspath(p) for p in expand_inputs(list(inputs))}
-    mine = df[(df["job_digest"] == cfg.digest) & df["path"].isin(matched)]
+    matched, _ = batch_inputs(list(inputs), out)
+    mine = df[(df["job_digest"] == cfg.digest) & df["path"].isin(set(matched))]
     n_rows = len(mine)
     click.echo(f"{s.n_inputs} recording(s): {s.n_run} run, {s.n_skipped} already done, "
                f"{s.n_errors} error(s) in this run; {n_rows} current row(s) for job {cfg.digest} "
                f"in {out}")
+    if s.n_own:  # a glob that covers --out: batch's own result files are not recordings
+        click.echo(f"leakdiag: note: {s.n_own} file(s) that the inputs match inside --out "
+                   f"{out} (batch's result files, not recordings) left out", err=True)
     refused = ()
     if st is not None:
         from leakdiag.store.writers import record_batch
