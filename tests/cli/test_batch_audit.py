@@ -1,6 +1,6 @@
 """``leakdiag batch`` (and ``monitor``, ``detect`` where they share it) after the batch/store
 audit of 2026-11-27: --store values that cannot be a store (finding 10), an actuator of two rigs
-(3), duplicate detector names (9), a glob that covers --out (11)."""
+(3), duplicate detector names (9), a glob that covers --out (11), detector rows not judged (8)."""
 
 import os
 import sqlite3
@@ -51,6 +51,22 @@ def case(tmp_path_factory):
 def _batch(case, inputs, tmp_path, *extra, job=None):
     return _run(["batch", *inputs, "--config", job or case["dir"] / "job.toml", "-o",
                  tmp_path / "res", "--scheduler", "serial", "--no-progress", *extra])
+
+
+def test_a_detector_row_not_judged_is_said_counted_and_exits_1(case, tmp_path):
+    """Finding 8: a recording the detector could not judge (4 s, shorter than its 5-s
+    burn-in): batch printed '0 error(s)' and exited 0."""
+    short = tmp_path / "rigS" / "short.parquet"
+    short.parent.mkdir()
+    write_recording(case["leak"].slice_time(0.0, 4.0), short)
+    code, out, err = _batch(case, [short, case["leak_path"]], tmp_path)
+    assert code == 1
+    assert "2 recording(s): 2 run, 0 already done, 0 error(s) in this run; 2 current row(s) " \
+           "for job" in out and f"in {tmp_path / 'res'}, 1 of them not judged" in out
+    assert f"  not judged: short.parquet: acf: predict: {short}: too short to judge: 4 s " \
+           "leaves no complete window of the feature after the 5-s burn-in" in err
+    code, out, err = _batch(case, [case["leak_path"]], tmp_path)
+    assert code == 0 and "0 of them not judged" in out and "not judged:" not in err
 
 
 def test_two_detectors_of_one_name_are_refused_naming_both(case, tmp_path):

@@ -78,8 +78,9 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     One row per recording and analysis/detector goes to --out; a bad file becomes a row with its
     error; a re-run skips recordings whose content is unchanged and replaces the rows of edited
     ones. Files inside --out are not inputs. Exit code 1 when any matched recording's current
-    result is an error or gives no usable feature value (shorter than a window, constant
-    channel); 2 when --store refuses an actuator (its recordings say another rig).
+    result is an error, gives no usable feature value (shorter than a window, constant
+    channel) or a detector could not judge it ("not judged"); 2 when --store refuses an
+    actuator (its recordings say another rig).
     """
     from leakdiag.batch import load_config, read_results, run_batch
     from leakdiag.batch.runner import LOCAL, batch_inputs
@@ -118,9 +119,12 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     matched, _ = batch_inputs(list(inputs), out)
     mine = df[(df["job_digest"] == cfg.digest) & df["path"].isin(set(matched))]
     n_rows = len(mine)
+    # a detector row that judged nothing (alarm empty: too short, a stuck channel, ...)
+    unjudged = mine[(mine["status"] == "ok") & (mine["kind"] == "detector")
+                    & mine["alarm"].isna()]
     click.echo(f"{s.n_inputs} recording(s): {s.n_run} run, {s.n_skipped} already done, "
                f"{s.n_errors} error(s) in this run; {n_rows} current row(s) for job {cfg.digest} "
-               f"in {out}")
+               f"in {out}, {len(unjudged)} of them not judged")
     if s.n_own:  # a glob that covers --out: batch's own result files are not recordings
         click.echo(f"leakdiag: note: {s.n_own} file(s) that the inputs match inside --out "
                    f"{out} (batch's result files, not recordings) left out", err=True)
@@ -147,6 +151,9 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     bad = mine[mine["status"] == "error"]
     for _, r in bad.iterrows():
         click.echo(f"  error: {r['recording']}: {r['error']}", err=True)
+    for _, r in unjudged.iterrows():
+        click.echo(f"  not judged: {r['recording']}: {r['name']}: "
+                   f"{str(r['error']).removeprefix('detector not judged: ')}", err=True)
     ok = mine[(mine["status"] == "ok") & (mine["kind"] == "analysis")]
     n_win = ok["n_windows"].fillna(0).astype(int)
     n_deg = ok["n_degenerate"].fillna(0).astype(int)
@@ -161,5 +168,5 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
         click.echo(f"  not stored: {msg}", err=True)
     if refused:  # as detect and monitor refuse a run of another rig (exit code 2)
         raise click.exceptions.Exit(2)
-    if len(bad) or len(empty):  # scripts must see that not every recording was analysed
-        raise click.exceptions.Exit(1)
+    if len(bad) or len(empty) or len(unjudged):  # scripts must see that not every recording
+        raise click.exceptions.Exit(1)           # was analysed and judged
