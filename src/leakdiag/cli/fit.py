@@ -274,14 +274,16 @@ class _LazyChoice(click.Choice):
 @no_progress_option
 def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resample,
         false_alarm_rate, burn_in_s, confidence, calibration, out, no_progress):
-    """Fit a detector on healthy recordings and save it for detect, monitor and batch.
+    """Fit a detector on healthy recordings and save it for detect (and monitor, batch).
 
-    The file holds the fitted detector and a record of what it was fitted on (leakdiag version
-    and a fingerprint of its code, method, system, sample rate, channels, units); detect, monitor
-    and batch refuse recordings that disagree with it and warn when other code loads it. The file is a pickle, as every joblib file: load only files you
-    trust. flow-balance judges whole recordings: its file is for detect only
-    (monitor and batch run window-by-window detectors), and it sizes leaks from physics
-    (no --calibrate).
+    Every method's file is for detect. monitor and batch run window by window and take only
+    the single-feature detectors (acf-p1, acf-p2, ccf-p1p2, ccf-ux, mlr-p1); combined,
+    wavelet-p1, wavelet-p1p2, fft-p1, emd-p1, ekf and flow-balance judge whole recordings:
+    their files are for detect only. The file holds the fitted detector and a record of what
+    it was fitted on (leakdiag version and a fingerprint of its code, method, system, sample
+    rate, channels, units); detect, monitor and batch refuse recordings that disagree with it
+    and warn when other code loads it. The file is a pickle, as every joblib file: load only
+    files you trust. flow-balance sizes leaks from physics (no --calibrate).
     """
     from leakdiag.cli._options import column_map_from, read_healthy
     from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words

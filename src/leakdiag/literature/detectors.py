@@ -182,8 +182,11 @@ class EKFDetector(Detector):
 
     Parameters
     ----------
-    feature : {"leak_flow", "residual"}, default "leak_flow"
-        Windowed mean estimated leak flow (L/min) or windowed innovation RMS.
+    feature : {"leak_flow", "residual", "coefficient"}, default "leak_flow"
+        Windowed mean of the leak's size with the sign of :math:`\\hat k_l` (L/min), windowed
+        innovation RMS (:math:`\\sqrt{NIS/3}`), or the windowed mean of :math:`\\hat k_l`
+        over the root of its windowed mean filter variance (dimensionless; the benchmark's
+        ``ekf``).
     model : VCAParams or None, default None
         Model the filter assumes (None: Table 2-1).
     load : {"none", "spring", "auto"}, default "none"

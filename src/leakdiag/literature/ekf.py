@@ -581,7 +581,8 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
 
 
 def ekf_feature(recording, params: EKFParams = EKFParams()) -> FeatureSeries:
-    """Windowed EKF feature of a recording: mean estimated leak flow or innovation RMS.
+    """Windowed EKF feature of a recording: mean leak size, innovation RMS or standardised
+    leak coefficient.
 
     Parameters
     ----------
@@ -603,7 +604,7 @@ def ekf_feature(recording, params: EKFParams = EKFParams()) -> FeatureSeries:
     Raises
     ------
     leakdiag.io.RecordingError
-        If a channel is missing.
+        If a channel is missing or holds NaN or inf (as :func:`run_vca_ekf`).
 
     Notes
     -----

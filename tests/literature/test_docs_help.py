@@ -1,0 +1,45 @@
+"""Docstrings and help that state what the code does (audit: the EKF detector's docstring
+missed its "coefficient" feature and pressure_noise_std_pa=None; ekf_feature's summary missed
+"coefficient"; `leakdiag fit --help` said every file was for detect, monitor and batch)."""
+
+from click.testing import CliRunner
+
+from leakdiag.bench.registry import METHODS, make_detector
+from leakdiag.detect.base import Alarm
+from leakdiag.literature.detectors import EKFDetector
+from leakdiag.literature.ekf import EKF_FEATURES, ekf_feature
+
+
+def test_ekf_docstrings_name_every_feature_and_the_matched_noise():
+    doc = EKFDetector.__doc__
+    assert 'feature : {"leak_flow", "residual", "coefficient"}' in doc
+    assert "pressure_noise_std_pa : float or None" in doc and "matched at :meth:`fit`" in doc
+    summary = ekf_feature.__doc__.split("\n\n")[0]
+    assert "coefficient" in summary
+    assert set(EKF_FEATURES) == {"leak_flow", "residual", "coefficient"}
+
+
+def _streamable(method):
+    d = make_detector(method, "vca", Alarm())
+    return callable(getattr(d, "score_windows", None)) or callable(getattr(d, "spec", None))
+
+
+def test_fit_help_says_which_files_monitor_and_batch_take():
+    from leakdiag.cli.main import cli
+
+    rendered = " ".join(CliRunner().invoke(cli, ["fit", "--help"]).output.split())
+    assert "for detect, monitor and batch" not in rendered
+    assert "save it for detect (and monitor, batch)" in rendered
+    from leakdiag.cli.fit import fit
+
+    text = " ".join(fit.help.split())  # unwrapped (click wraps at hyphens)
+    assert ("monitor and batch run window by window and take only the single-feature "
+            "detectors (acf-p1, acf-p2, ccf-p1p2, ccf-ux, mlr-p1); combined, wavelet-p1, "
+            "wavelet-p1p2, fft-p1, emd-p1, ekf and flow-balance judge whole recordings: their "
+            "files are for detect only") in text
+    # the lists are the registry's streamable and whole-recording detectors (monitor's and
+    # batch's check: a spec() or score_windows(), cli/monitor.py check_streamable)
+    assert sorted(m for m in METHODS if _streamable(m)) == sorted(
+        ["acf-p1", "acf-p2", "ccf-p1p2", "ccf-ux", "mlr-p1"])
+    assert sorted(m for m in METHODS if not _streamable(m)) == sorted(
+        ["combined", "wavelet-p1", "wavelet-p1p2", "fft-p1", "emd-p1", "ekf", "flow-balance"])
