@@ -6,7 +6,9 @@ Definitions (also in ``docs/detect.md``):
 * per-run statistic: the largest CUSUM value after the burn-in (:attr:`Verdict.score_max`);
   held-out healthy runs give its null distribution, leaking runs of one size the alternative;
 * false-alarm rate: fraction of held-out healthy runs with an alarm (**per run** of the suite's
-  duration; also converted to alarms per hour assuming Poisson alarms);
+  duration; also converted to alarms per hour of the monitored span, the run after its
+  burn-in, assuming Poisson alarms, as the thresholds' targets are set:
+  :func:`leakdiag.bench.run.per_run_target_per_hour`);
 * detection: an alarm at or after the true onset (an alarm before it is a false alarm, not a
   detection);
 * minimum detectable leak: the smallest leak size whose detection rate is >= 90 % and stays
@@ -23,6 +25,9 @@ from leakdiag.detect.rates import clopper_pearson
 __all__ = ["roc_auc", "roc_curve", "summarise", "minimum_detectable", "RESULT_COLUMNS",
            "SUMMARY_COLUMNS", "DETECTION_RATE_REQUIRED"]
 
+#: Burn-in of the benchmark's alarm (``Alarm().burn_in_s``, s): the default of
+#: :func:`summarise`.
+DEFAULT_BURN_IN_S = 5.0
 #: Detection rate that defines the minimum detectable leak (issue 5).
 DETECTION_RATE_REQUIRED = 0.9
 #: Columns of results.csv (the contract), in order; extra columns follow.
@@ -94,16 +99,21 @@ def _q(x, q):
     return float(np.quantile(x, q)) if len(x) else float("nan")
 
 
-def summarise(runs, rated_flow_lpm: dict[str, float] | None = None):
+def summarise(runs, rated_flow_lpm: dict[str, float] | None = None,
+              burn_in_s: float = DEFAULT_BURN_IN_S):
     """The results table (one row per method, system and leak size).
 
     Parameters
     ----------
     runs : pandas.DataFrame
         Per-run table with ``method, system, role, leak_lpm, score_max, alarm, alarm_time_s,
-        onset_true_s, onset_est_s, duration_s`` (roles ``test_healthy`` and ``test_leak`` used).
+        onset_true_s, onset_est_s, duration_s`` (roles ``test_healthy`` and ``test_leak`` used;
+        rows of role ``error``, a method that could not be fitted, are left out).
     rated_flow_lpm : dict, optional
         System -> rated flow (L/min) for the ``leak_pct_rated`` column.
+    burn_in_s : float, default 5.0
+        Leading seconds of each run not monitored (``Alarm.burn_in_s``): false alarms per hour
+        are counted over ``duration_s - burn_in_s``, the span the thresholds were set for.
 
     Returns
     -------
@@ -138,7 +148,9 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None):
         far = float(healthy.alarm.astype(bool).mean()) if len(healthy) else float("nan")
         n_fa = int(healthy.alarm.astype(bool).sum())
         far_lo, far_hi = clopper_pearson(n_fa, len(healthy))
-        hours = float(healthy.duration_s.mean()) / 3600.0 if len(healthy) else float("nan")
+        # hours monitored per run: after the burn-in, as per_run_target_per_hour sets targets
+        hours = (float(healthy.duration_s.mean()) - burn_in_s) / 3600.0 if len(healthy) \
+            else float("nan")
         far_h = -np.log1p(-min(far, 1 - 1e-12)) / hours if len(healthy) else float("nan")
         leak = g[g.role == "test_leak"]
         cpu_h = _cpu_per_hour(g)
