@@ -1,6 +1,7 @@
 """``leakdiag batch`` (and ``monitor``, ``detect`` where they share it) after the batch/store
 audit of 2026-11-27: --store values that cannot be a store (finding 10), an actuator of two rigs
-(3), duplicate detector names (9), a glob that covers --out (11), detector rows not judged (8)."""
+(3), duplicate detector names (9), a glob that covers --out (11), detector rows not judged (8),
+units checked like detect and unchecked rig/load said once per file (7)."""
 
 import os
 import sqlite3
@@ -51,6 +52,58 @@ def case(tmp_path_factory):
 def _batch(case, inputs, tmp_path, *extra, job=None):
     return _run(["batch", *inputs, "--config", job or case["dir"] / "job.toml", "-o",
                  tmp_path / "res", "--scheduler", "serial", "--no-progress", *extra])
+
+
+def test_batch_and_monitor_refuse_a_recording_in_other_units(case, tmp_path):
+    """Finding 7: a detector fitted on Pa judged a recording in counts (a column map's unit,
+    or a Parquet file's header) in batch and monitor; detect refused it."""
+    det = case["det"]
+    df = case["leak"].to_pandas()[["time", "p1", "p2"]]
+    df.to_csv(tmp_path / "run.csv", index=False)
+    (tmp_path / "cmap.toml").write_text('[channels.p1]\ncolumn = "p1"\nunit = "counts"\n')
+    counts = Recording({"p1": case["leak"]["p1"], "p2": case["leak"]["p2"]}, 1000.0,
+                       units={"p1": "counts", "p2": "counts"}, meta={"system": "vca"})
+    write_recording(counts, tmp_path / "counts.parquet")
+    job = tmp_path / "job.toml"
+    job.write_text(f'[job]\ncolumn_map = "cmap.toml"\n[[detector]]\nname = "acf"\n'
+                   f'path = "{det}"\n')
+    code, out, err = _batch(case, [tmp_path / "run.csv"], tmp_path, job=job)
+    assert code == 1
+    assert f"  error: run.csv: {tmp_path / 'run.csv'}: channel 'p1' is in 'counts', but " \
+           f"{det} was fitted on 'Pa'" in err
+    code, out, err = _batch(case, [tmp_path / "counts.parquet"], tmp_path / "b")
+    assert code == 1
+    assert f"  error: counts.parquet: {tmp_path / 'counts.parquet'}: channel 'p1' is in " \
+           f"'counts', but {det} was fitted on 'Pa'" in err
+    for args in (["monitor", tmp_path / "run.csv", "--map", tmp_path / "cmap.toml"],
+                 ["monitor", tmp_path / "counts.parquet"]):
+        code, out, err = _run([*args, "--detector", det, "-q"])
+        assert code == 2 and f"channel 'p1' is in 'counts', but {det} was fitted on 'Pa'" \
+            in err
+
+
+def test_batch_says_once_per_file_what_its_metadata_leave_unchecked(case, tmp_path):
+    """Finding 7: detect says that a plain CSV states no rig and no load, so they were not
+    checked; batch said nothing. Two detectors, one line per file; monitor says it too."""
+    df = case["leak"].to_pandas()[["time", "p1", "p2"]]
+    plain = tmp_path / "rigC" / "plain.csv"
+    plain.parent.mkdir()
+    df.to_csv(plain, index=False)
+    det = case["det"]
+    job = tmp_path / "job.toml"
+    job.write_text(f'[[detector]]\nname = "a"\npath = "{det}"\n'
+                   f'[[detector]]\nname = "b"\npath = "{det}"\n')
+    code, out, err = _batch(case, [plain, case["leak_path"]], tmp_path, job=job)
+    assert code == 0, err
+    note = (f"leakdiag: warning: {plain} states no rig and no load in its metadata, so it was "
+            f"not checked against the rig 'vca' and the load 'none' of {det} (another rig or "
+            "load can look like a leak: state them as system and load in the [file] table of "
+            "the job's column map, or in the file's metadata)")
+    assert err.count("states no") == 1 and note in err
+    code, out, err = _run(["monitor", plain, "--detector", det, "-q"])
+    assert code == 0, err
+    assert f"leakdiag: warning: {plain} states no rig in its metadata, so it was not checked " \
+           f"against the rig 'vca' of {det}" in err
 
 
 def test_a_detector_row_not_judged_is_said_counted_and_exits_1(case, tmp_path):

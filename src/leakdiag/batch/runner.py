@@ -27,14 +27,15 @@ from leakdiag.detect.measure import rms_change
 from leakdiag.features.series import FeatureSeries
 from leakdiag.io.api import read_recording
 from leakdiag.io.checks import RESAMPLE_ADVICE
+from leakdiag.io.parquet import HEADER_KEY as PARQUET_HEADER_KEY
 from leakdiag.runtime.executor import LOCAL, run_cases
 from leakdiag.stream import open_chunks, recording_chunks
 from leakdiag.stream.detector import as_scorer
 from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
 from leakdiag.stream.feature import StreamingFeature
 
-__all__ = ["run_case", "run_batch", "expand_inputs", "batch_inputs", "warn_job_detectors",
-           "BatchSummary", "LOCAL"]
+__all__ = ["run_case", "run_batch", "expand_inputs", "batch_inputs", "recording_units",
+           "warn_job_detectors", "BatchSummary", "LOCAL"]
 
 #: Suffixes read in chunks (others are loaded whole with :func:`leakdiag.io.read_recording`).
 _CHUNKED_SUFFIXES = (".parquet", ".pq", ".h5", ".hdf5", ".csv")
@@ -104,11 +105,95 @@ def batch_inputs(patterns: Iterable[str],
 
 
 def _source(path: str, channels: list[str], chunk_samples: int, column_map=None):
+    """The recording's chunks and its channel units (None where the file does not say)."""
     if column_map is None and os.path.splitext(path)[1].lower() in _CHUNKED_SUFFIXES:
-        return open_chunks(path, channels, chunk_samples)
+        return open_chunks(path, channels, chunk_samples), recording_units(path)
     rec = read_recording(path, column_map)
     rec.meta["source"] = path
-    return recording_chunks(rec, chunk_samples, channels)
+    return recording_chunks(rec, chunk_samples, channels), dict(rec.units)
+
+
+def recording_units(path: str | os.PathLike) -> dict | None:
+    """Channel units a Parquet or HDF5 recording's leakdiag header states, read without its data.
+
+    The chunked readers (:func:`leakdiag.stream.open_chunks`) pass the samples on as they are,
+    so a file written in ``counts`` (or any non-SI unit) stays in it; ``leakdiag detect`` reads
+    the same header (:func:`leakdiag.io.read_recording`) and refuses a detector fitted on
+    other units. ``batch`` and ``monitor`` check the units they get here the same way.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Recording file.
+
+    Returns
+    -------
+    dict or None
+        Channel -> unit; None for a CSV (plain text states no units: SI is assumed, as the
+        readers do), a file without a leakdiag header, or one that cannot be read (its reader
+        says why).
+
+    Examples
+    --------
+    >>> recording_units("/no/such/file.parquet") is None
+    True
+    """
+    import json
+
+    p = os.fspath(path)
+    suffix = os.path.splitext(p)[1].lower()
+    try:
+        if suffix in (".parquet", ".pq"):
+            import pyarrow.parquet as pq
+
+            raw = (pq.read_schema(p).metadata or {}).get(PARQUET_HEADER_KEY, b"")
+            units = json.loads(raw).get("units") if raw else None
+        elif suffix in (".h5", ".hdf5"):
+            import h5py
+
+            with h5py.File(p, "r") as f:
+                raw = f.attrs.get("units")
+                units = None if raw is None else json.loads(
+                    raw.decode() if isinstance(raw, bytes) else str(raw))
+        else:
+            return None
+    except Exception:  # noqa: BLE001 - unreadable: the reader names the problem in its row
+        return None
+    return {str(k): str(v) for k, v in units.items()} if isinstance(units, dict) else None
+
+
+def _unchecked(path: str, rec_meta: dict, dets: list) -> str | None:
+    """One sentence naming what of a recording could not be checked against its detectors'
+    healthy recordings because its metadata do not say it (rig, load), in the words of
+    ``detect`` (:func:`leakdiag.cli.detect.unchecked_notes`); None when nothing was left out.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as M
+    >>> _unchecked("x.csv", {"system": "vca"}, [("d", None, M(system="vca", load="none"), "d.j")])
+    ... # doctest: +NORMALIZE_WHITESPACE
+    "x.csv states no load in its metadata, so it was not checked against the load 'none' of
+    d.j (another load can look like a leak: state it as load in the [file] table of the job's
+    column map, or in the file's metadata)"
+    """
+    props = [(key, what) for key, what in (("system", "rig"), ("load", "load"))
+             if rec_meta.get(key) is None]
+    against, missing = [], []
+    for _, _, meta, dpath in dets:
+        said = [(key, what, getattr(meta, key, None)) for key, what in props]
+        said = [(k, w, v) for k, w, v in said if v is not None]
+        phrase = " and ".join(f"the {w} {str(v)!r}" for _, w, v in said) + f" of {dpath}"
+        if said and phrase not in against:  # two entries of one file: said once
+            against.append(phrase)
+            missing += [(k, w) for k, w, _ in said if (k, w) not in missing]
+    if not against:
+        return None
+    whats = [w for _, w in missing]
+    return (f"{path} states {' and '.join('no ' + w for w in whats)} in its metadata, so it "
+            f"was not checked against {'; '.join(against)} (another {' or '.join(whats)} can "
+            f"look like a leak: state {'it' if len(whats) == 1 else 'them'} as "
+            f"{' and '.join(k for k, _ in missing)} in the [file] table of the job's column "
+            "map, or in the file's metadata)")
 
 
 def _summary(values: np.ndarray) -> dict:
@@ -234,18 +319,20 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
         items = [("analysis", s.label, s, None) for s in config.analyses]
         items += [("detector", name, d.spec(), d) for name, d, _, _ in dets]
         channels = sorted({c for _, _, s, _ in items for c in s.channels})
-        src = _source(path, channels, config.chunk_samples, config.column_map)
+        src, units = _source(path, channels, config.chunk_samples, config.column_map)
         # a detector that disagrees with the recording (system, load, rate, units) gets its own
         # error row; the analyses and the other detectors are still computed
         refused = {}
         for name, _, meta, dpath in dets:
             try:
                 check_detector_fits(meta, sample_rate=src.sample_rate, channels=src.channels,
-                                    system=src.meta.get("system"), source=path, path=dpath,
-                                    load=src.meta.get("load"))
+                                    units=units, system=src.meta.get("system"), source=path,
+                                    path=dpath, load=src.meta.get("load"))
             except ValueError as exc:
                 refused[name] = _in_job_words(str(exc))
         items = [it for it in items if not (it[0] == "detector" and it[1] in refused)]
+        # what of the recording its metadata leave unchecked (rig, load): one note per file
+        unchecked = _unchecked(path, src.meta, [d for d in dets if d[0] not in refused])
         feats = [StreamingFeature(s, src.sample_rate, src.start_time) for _, _, s, _ in items]
         # a leakdiag Detector judges the whole streamed feature at the end (predict_series);
         # another scorer (anything with score_windows) scores it chunk by chunk
@@ -287,6 +374,8 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                                             src.start_time, path))
             if unusable is not None and row.get("alarm") is None and kind == "detector":
                 row["error"] = f"detector not judged: {unusable}"
+            if kind == "detector":
+                row["unchecked"] = unchecked
             rows.append(row)
         rows += [{**base, "status": "error", "kind": "detector", "name": name, "error": msg}
                  for name, msg in refused.items()]

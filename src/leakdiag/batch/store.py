@@ -34,7 +34,7 @@ RESULT_COLUMNS: dict[str, str] = {
     "onset_method": "string", "alarm_onset_censored": "bool", "leak_lpm": "float64", "leak_lpm_low": "float64",
     "leak_lpm_high": "float64", "leak_lpm_in_range": "bool",
     "elapsed_s": "float64", "job_digest": "string", "job_config": "string",
-    "leakdiag_version": "string", "recording_sha256": "string",
+    "leakdiag_version": "string", "recording_sha256": "string", "unchecked": "string",
 }
 
 

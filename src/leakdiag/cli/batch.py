@@ -148,6 +148,9 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
         click.echo(f"leakdiag: warning: detector {ref.name}: {ref.path} is a bare pickle "
                    "without a record: its rows were not checked against the recordings' "
                    "sample rate, channels, units, system or load", err=True)
+    notes = mine[mine["unchecked"].notna()].drop_duplicates(["path", "unchecked"])
+    for note in notes["unchecked"]:  # once per recording, not once per detector row
+        click.echo(f"leakdiag: warning: {note}", err=True)
     bad = mine[mine["status"] == "error"]
     for _, r in bad.iterrows():
         click.echo(f"  error: {r['recording']}: {r['error']}", err=True)

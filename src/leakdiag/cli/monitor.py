@@ -152,22 +152,33 @@ def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: in
     click.UsageError
         For a column map with stdin or ``--follow`` (those take CSV with channel names).
     """
+    return _open_input(input_path, channels, follow, sample_rate, chunk, idle_timeout,
+                       batch_lines, column_map)[0]
+
+
+def _open_input(input_path: str, channels, follow: bool, sample_rate, chunk: int,
+                idle_timeout: float | None, batch_lines: int = 1, column_map=None):
+    """:func:`build_source` and the input's channel units: those of the recording read whole
+    (a column map's, e.g. ``counts``), those a Parquet or HDF5 file's header states, None for
+    stdin, ``--follow`` and a plain CSV (SI assumed)."""
+    from leakdiag.batch.runner import recording_units
     from leakdiag.stream import csv_lines, open_chunks, recording_chunks, tail_csv
 
     if column_map is not None and (input_path == "-" or follow):
         raise click.UsageError("--map/--col/--time-unit apply to files; stdin and --follow "
                                "take CSV with a header naming the channels (time, p1, ...)")
     if input_path == "-":
-        return csv_lines(sys.stdin, channels, sample_rate, batch_lines)
+        return csv_lines(sys.stdin, channels, sample_rate, batch_lines), None
     if follow:
         return tail_csv(input_path, channels, sample_rate, idle_timeout_s=idle_timeout,
-                        batch_lines=batch_lines)
+                        batch_lines=batch_lines), None
     if column_map is None and os.path.splitext(input_path)[1].lower() in _CHUNKED_SUFFIXES:
-        return open_chunks(input_path, channels, chunk, sample_rate)
+        return (open_chunks(input_path, channels, chunk, sample_rate),
+                recording_units(input_path))
     import leakdiag.io as lio
 
     rec = lio.read_recording(input_path, column_map, sample_rate=sample_rate)
-    return recording_chunks(rec, chunk, channels)
+    return recording_chunks(rec, chunk, channels), dict(rec.units)
 
 
 def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=()):
@@ -275,8 +286,8 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     spec = _spec(method, channels, lag, lag_ratio, window, overlap, detector, given)
     cmap = column_map_from(column_map, cols, time_unit)
     try:
-        source = build_source(input_path, list(spec.channels), follow, sample_rate, chunk,
-                              idle_timeout, batch_lines, cmap)
+        source, units = _open_input(input_path, list(spec.channels), follow, sample_rate,
+                                    chunk, idle_timeout, batch_lines, cmap)
     except ValueError as exc:  # advise only what monitor has: it streams, it cannot resample
         raise ValueError(str(exc).replace(
             RESAMPLE_ADVICE,
@@ -286,8 +297,16 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
         warn_low_rate(source.source, source.sample_rate,
                       "give --time-unit ms (files; stdin and --follow need the time in s)")
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
-                        system=source.meta.get("system"), source=source.source,
+                        units=units, system=source.meta.get("system"), source=source.source,
                         path=str(detector_path), load=source.meta.get("load"))
+    if meta is not None:  # what the input's metadata leave unchecked, as detect says it
+        from types import SimpleNamespace
+
+        from leakdiag.cli.detect import unchecked_notes
+
+        for note in unchecked_notes(SimpleNamespace(meta=source.meta), str(source.source),
+                                    str(detector_path), meta.system, getattr(meta, "load", None)):
+            click.echo(f"leakdiag: warning: {note}", err=True)
     mon = Monitor(spec, source.sample_rate, source.start_time, scorers=detector)
     speed = None if input_path == "-" or follow else parse_replay(replay)
     out = None
