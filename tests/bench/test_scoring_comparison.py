@@ -3,6 +3,7 @@ guard."""
 
 import math
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -34,3 +35,82 @@ def test_false_alarms_per_hour_over_the_monitored_span():
     assert r.false_alarms_per_hour == pytest.approx(72 * math.log(2), rel=1e-12)
     # none alarmed: 0 per hour
     assert summarise(_runs(65.0, [False, False])).iloc[0].false_alarms_per_hour == 0.0
+
+
+def _error_rows():
+    # what run_suite returns when no fit succeeds: one error row per method and group
+    msg = ("InsufficientHealthyDataError: 5 healthy maxima of 15 s segments (5 own, 0 "
+           "reference) support false-alarm probabilities down to 1/(n+1) = 0.167 per segment")
+    return pd.DataFrame([{"method": "fft-p1", "system": "vca", "load": "none",
+                          "noise_level": "low", "excitation": exc, "role": "error",
+                          "error": msg} for exc in ("operating", "structured")])
+
+
+def test_summarise_all_error_rows_says_why_instead_of_crashing():
+    # before: AttributeError: 'DataFrame' object has no attribute 'alarm'
+    with pytest.raises(ValueError, match=r"summarise: no run was judged: all 2 row\(s\) are "
+                                         r"errors \(a method that could not be fitted on its "
+                                         r"group\); first: fft-p1 on vca none low operating: "
+                                         r"InsufficientHealthyDataError: 5 healthy maxima"):
+        summarise(_error_rows())
+
+
+def test_summarise_leaves_error_rows_out_of_the_scores():
+    judged = _runs(65.0, [True, False]).assign(excitation="operating")
+    mixed = pd.concat([judged, _error_rows()], ignore_index=True)
+    r = summarise(mixed)
+    assert r.method.tolist() == ["m"] and r.false_alarm_rate.tolist() == [0.5]
+    pd.testing.assert_frame_equal(r, summarise(judged))
+
+
+def test_comparison_target_guard_hand_computed():
+    from leakdiag.bench.comparison import (COMPARISON_FAR, COMPARISON_METHODS,
+                                           check_comparison_target, comparison_suite)
+
+    # the defaults support their own target: 19 runs, 1 / (19 + 1) = 0.05 per segment
+    check_comparison_target(comparison_suite(), COMPARISON_METHODS, COMPARISON_FAR)
+    # 1 % per run needs ceil(1 / -ln(0.99)) - 1 = 99 maxima; 5 runs support
+    # 1 - exp(-1/6) = 0.1535 per run at best
+    assert math.ceil(1 / -math.log1p(-0.01)) - 1 == 99
+    with pytest.raises(ValueError, match=r"fits acf-p1's threshold on n_fit=5 healthy runs per "
+                                         r"excitation \(vca\), one CUSUM maximum each: they "
+                                         r"support a false-alarm target of at least 0\.154 per "
+                                         r"run, and false_alarm_per_run=0\.01 needs n_fit=99; "
+                                         r"give n_fit=99 or false_alarm_per_run >= 0\.16"):
+        check_comparison_target(comparison_suite(n_fit=5), COMPARISON_METHODS, 0.01)
+    # the EKF has fit-time learning of its own (_fit_features) but the common threshold: checked
+    with pytest.raises(ValueError, match="fits ekf's threshold on n_fit=5"):
+        check_comparison_target(comparison_suite(n_fit=5), ["ekf"], 0.05)
+    with pytest.raises(ValueError, match=r"false_alarm_per_run=1\.0 must be in \(0, 1\)"):
+        check_comparison_target(comparison_suite(), ["ekf"], 1.0)
+
+
+def test_run_comparison_refuses_an_unsupported_target_before_simulating(monkeypatch):
+    import leakdiag.bench.run as run
+    from leakdiag.bench.comparison import run_comparison
+
+    def no_work(*a, **k):
+        raise AssertionError("simulated before checking the target")
+
+    monkeypatch.setattr(run, "run_suite", no_work)
+    with pytest.raises(ValueError, match="needs n_fit=99"):
+        run_comparison(["fft-p1"], false_alarm_per_run=0.01, n_fit=5)
+
+
+def test_comparison_table_rows_from_results_and_summary():
+    from leakdiag.bench.comparison import comparison_table, table_markdown
+
+    res = pd.DataFrame({"method": ["a"] * 3 + ["b"] * 3, "excitation": "operating",
+                        "leak_lpm": [0.05, 0.2, 1.0] * 2, "auc": [0.6, 0.8, 1.0, 0.5, 0.5, 0.7],
+                        "detection_rate": [0.0, 0.4, 1.0, 0.0, 0.0, 0.2],
+                        "onset_error_median_s": [np.nan, 2.0, 0.5, np.nan, np.nan, 4.0],
+                        "detection_delay_median_s": [np.nan, 8.0, 1.5, np.nan, np.nan, 30.0]})
+    summ = pd.DataFrame({"method": ["a", "b"], "excitation": "operating",
+                         "min_detectable_lpm": [1.0, np.nan], "false_alarms": [0, 2],
+                         "n_test_healthy": [10, 10], "cpu_s_per_hour": [0.03, 38.5]})
+    t = comparison_table(res, summ)
+    assert t["AUC 0.05"].tolist() == [0.6, 0.5] and t["det 1.0"].tolist() == [1.0, 0.2]
+    assert t["false alarms"].tolist() == ["0/10", "2/10"]
+    lines = table_markdown(t).splitlines()
+    assert lines[2] == "| a | operating | 1 | 0.6 | 0.8 | 1 | 0.4 | 1 | 0.5 | 1.5 | 0/10 | 0.03 |"
+    assert lines[3] == "| b | operating |  | 0.5 | 0.5 | 0.7 | 0 | 0.2 | 4 | 30 | 2/10 | 38.5 |"

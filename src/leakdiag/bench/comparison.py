@@ -2,37 +2,52 @@
 
 :func:`comparison_suite` is a mid-size VCA suite (both excitations, leak sizes from 0.02 to
 1 L/min) built from the benchmark's :class:`~leakdiag.bench.suite.SystemSuite`;
-:func:`compute_seconds_per_hour` measures each method's feature cost. ``docs/literature.md``
-reports their numbers.
+:func:`run_comparison` checks that its fitting runs support the false-alarm target, runs it
+and scores it; :func:`comparison_table` is the table of ``docs/literature.md``, which
+``python -m leakdiag.bench.comparison OUT`` writes; :func:`compute_seconds_per_hour` measures
+one method's feature cost.
 """
 
 from __future__ import annotations
 
+import math
 import time
+from dataclasses import dataclass, field
+from typing import Any
 
 from leakdiag._validation import check_int
 from leakdiag.bench.registry import make_detector
 from leakdiag.bench.suite import EXCITATIONS, SystemSuite
-from leakdiag.detect.base import Alarm
+from leakdiag.detect.base import Alarm, Detector
 
-__all__ = ["comparison_suite", "compute_seconds_per_hour", "COMPARISON_METHODS"]
+__all__ = ["comparison_suite", "compute_seconds_per_hour", "COMPARISON_METHODS",
+           "COMPARISON_FAR", "check_comparison_target", "run_comparison", "ComparisonResult",
+           "comparison_table", "table_markdown", "main"]
 
 #: Methods compared in ``docs/literature.md`` (benchmark registry names).
 COMPARISON_METHODS = ("acf-p1", "ccf-p1p2", "ccf-ux", "mlr-p1", "combined", "wavelet-p1",
                       "wavelet-p1p2", "fft-p1", "emd-p1", "ekf")
+#: Default false-alarm target per healthy run (leakdiag choice): what the default 19 fitting
+#: runs per excitation support (a conformal threshold from n maxima promises at best
+#: 1 / (n + 1) per run; 1 % would need 99 runs of 100 s per excitation).
+COMPARISON_FAR = 0.05
+#: Default fitting runs per excitation: the fewest that support :data:`COMPARISON_FAR`.
+COMPARISON_N_FIT = 19
 
 
-def comparison_suite(duration_s: float = 100.0, n_fit: int = 5, n_test_healthy: int = 10,
-                     n_test_leak: int = 5):
+def comparison_suite(duration_s: float = 100.0, n_fit: int = COMPARISON_N_FIT,
+                     n_test_healthy: int = 10, n_test_leak: int = 5):
     """The VCA suite of the comparison: no load, low noise, both excitations.
 
     Parameters
     ----------
     duration_s : float, default 100.0
         Run length in s; onsets uniform in the middle fifth.
-    n_fit, n_test_healthy, n_test_leak : int
-        Healthy fitting runs, held-out healthy runs, held-out leaking runs per leak size
-        (per excitation).
+    n_fit : int, default 19
+        Healthy fitting runs per excitation (19 support a 5 % per-run target,
+        :func:`check_comparison_target`).
+    n_test_healthy, n_test_leak : int, default 10, 5
+        Held-out healthy runs, held-out leaking runs per leak size (per excitation).
 
     Returns
     -------
@@ -42,8 +57,8 @@ def comparison_suite(duration_s: float = 100.0, n_fit: int = 5, n_test_healthy: 
     Examples
     --------
     >>> s = comparison_suite()["vca"]
-    >>> s.excitations, s.leak_lpm
-    (('operating', 'structured'), (0.02, 0.05, 0.1, 0.2, 0.5, 1.0))
+    >>> s.excitations, s.leak_lpm, s.n_fit
+    (('operating', 'structured'), (0.02, 0.05, 0.1, 0.2, 0.5, 1.0), 19)
     """
     return {"vca": SystemSuite(
         system="vca", leak_lpm=(0.02, 0.05, 0.1, 0.2, 0.5, 1.0), loads=("none",),
@@ -51,6 +66,220 @@ def comparison_suite(duration_s: float = 100.0, n_fit: int = 5, n_test_healthy: 
         onset_range_s=(0.4 * duration_s, 0.6 * duration_s), n_fit=n_fit, n_cal=0,
         n_test_healthy=n_test_healthy, n_test_leak=n_test_leak, base_seed=5_000_000,
         excitations=EXCITATIONS)}
+
+
+def check_comparison_target(suites, methods, per_run: float, burn_in_s: float = 5.0) -> None:
+    """Refuse, before any simulation, a false-alarm target the fitting runs cannot support.
+
+    A detector with the common fit (:meth:`leakdiag.detect.base.Detector.fit`, which sets the
+    threshold from one healthy CUSUM maximum per fitting run: the thesis features, wavelet,
+    FFT, EMD and the EKF) needs ``min_maxima(-log(1 - per_run))`` fitting runs, as
+    :func:`leakdiag.bench.benchmark.check_target_supported` requires for the benchmark.
+
+    Parameters
+    ----------
+    suites : dict
+        Rig -> :class:`~leakdiag.bench.suite.SystemSuite` (:func:`comparison_suite`).
+    methods : sequence of str
+        Registry names.
+    per_run : float
+        Target false-alarm probability per healthy run, in (0, 1).
+    burn_in_s : float, default 5.0
+        Leading seconds of a run not monitored.
+
+    Raises
+    ------
+    ValueError
+        Naming the fitting runs, the smallest target they support and the fitting runs the
+        target needs.
+
+    Examples
+    --------
+    >>> check_comparison_target(comparison_suite(), ["acf-p1"], 0.05)
+    >>> check_comparison_target(comparison_suite(n_fit=5), ["fft-p1"], 0.01)
+    Traceback (most recent call last):
+    ...
+    ValueError: the comparison fits fft-p1's threshold on n_fit=5 healthy runs per excitation \
+(vca), one CUSUM maximum each: they support a false-alarm target of at least 0.154 per run, \
+and false_alarm_per_run=0.01 needs n_fit=99; give n_fit=99 or false_alarm_per_run >= 0.16
+    """
+    from leakdiag.bench.run import per_run_target_per_hour
+    from leakdiag.detect.threshold import min_maxima
+
+    if not 0.0 < per_run < 1.0:
+        raise ValueError(f"false_alarm_per_run={per_run!r} must be in (0, 1)")
+
+    def need(p, s):  # one segment per run: the run's monitored span
+        seg = s.duration_s - burn_in_s
+        return min_maxima(per_run_target_per_hour(p, s.duration_s, burn_in_s) * seg / 3600.0)
+
+    for name, s in suites.items():
+        common = [m for m in methods if type(make_detector(m, name, Alarm())).fit is Detector.fit]
+        if not common or s.n_fit >= need(per_run, s):
+            continue
+        low = -math.expm1(-1.0 / (s.n_fit + 1))  # per-segment target 1 / (n + 1)
+        give = math.ceil(100 * low) / 100
+        while need(give, s) > s.n_fit:
+            give += 0.01
+        raise ValueError(
+            f"the comparison fits {common[0]}'s threshold on n_fit={s.n_fit} healthy runs per "
+            f"excitation ({name}), one CUSUM maximum each: they support a false-alarm target "
+            f"of at least {low:.3g} per run, and false_alarm_per_run={per_run:g} needs "
+            f"n_fit={need(per_run, s)}; give n_fit={need(per_run, s)} or "
+            f"false_alarm_per_run >= {give:.2f}")
+
+
+@dataclass
+class ComparisonResult:
+    """Output of :func:`run_comparison`.
+
+    Attributes
+    ----------
+    runs : pandas.DataFrame
+        One row per method and held-out run (:func:`leakdiag.bench.run.run_suite`), error
+        rows included.
+    results : pandas.DataFrame
+        :func:`~leakdiag.bench.scoring.summarise` of the judged runs.
+    summary : pandas.DataFrame
+        :func:`~leakdiag.bench.scoring.minimum_detectable` of ``results``.
+    settings : dict
+        The suite, methods, target and alarm.
+    """
+
+    runs: Any
+    results: Any
+    summary: Any
+    settings: dict = field(default_factory=dict)
+
+
+def run_comparison(methods=COMPARISON_METHODS, *, false_alarm_per_run: float = COMPARISON_FAR,
+                   duration_s: float = 100.0, n_fit: int = COMPARISON_N_FIT,
+                   n_test_healthy: int = 10, n_test_leak: int = 5, alarm: Alarm | None = None,
+                   scheduler: str = "serial", n_workers: int | None = None,
+                   cache_dir: str | None = None, progress: bool = True) -> ComparisonResult:
+    """Run and score the comparison of ``docs/literature.md``.
+
+    Parameters
+    ----------
+    methods : sequence of str, default COMPARISON_METHODS
+        Registry names.
+    false_alarm_per_run : float, default 0.05
+        Target false-alarm probability per healthy run; checked against ``n_fit`` before any
+        simulation (:func:`check_comparison_target`).
+    duration_s, n_fit, n_test_healthy, n_test_leak
+        The suite (:func:`comparison_suite`).
+    alarm : Alarm, optional
+        Other search settings (default ``Alarm()``: binseg onsets, 5-s burn-in).
+    scheduler : str, default "serial"
+        ``"serial"``, ``"local"`` (Dask) or a scheduler address.
+    n_workers : int, optional
+        Dask workers.
+    cache_dir : str, optional
+        Simulation cache folder.
+    progress : bool, default True
+        Progress bars.
+
+    Returns
+    -------
+    ComparisonResult
+
+    Raises
+    ------
+    ValueError
+        An unsupported target (before any work); no method judged on any group (every fit an
+        error: :func:`~leakdiag.bench.scoring.summarise` names the first reason).
+    """
+    from leakdiag.bench.run import run_suite
+    from leakdiag.bench.scoring import minimum_detectable, summarise
+
+    alarm = alarm if alarm is not None else Alarm()
+    suites = comparison_suite(duration_s, n_fit, n_test_healthy, n_test_leak)
+    check_comparison_target(suites, methods, false_alarm_per_run, alarm.burn_in_s)
+    sr = run_suite(suites, list(methods), false_alarm_per_run=false_alarm_per_run, alarm=alarm,
+                   scheduler=scheduler, n_workers=n_workers, cache_dir=cache_dir,
+                   progress=progress)
+    results = summarise(sr.runs, sr.rated_flow_lpm, burn_in_s=alarm.burn_in_s)
+    summary = minimum_detectable(results, sr.rated_flow_lpm, false_alarm_per_run)
+    settings = {**sr.settings, "duration_s": duration_s, "n_fit": n_fit,
+                "n_test_healthy": n_test_healthy, "n_test_leak": n_test_leak}
+    return ComparisonResult(sr.runs, results, summary, settings)
+
+
+def comparison_table(results, summary):
+    """The table of ``docs/literature.md``: one row per method and excitation.
+
+    Parameters
+    ----------
+    results, summary : pandas.DataFrame
+        :attr:`ComparisonResult.results` and :attr:`ComparisonResult.summary`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``method, excitation``, the minimum detectable leak (L/min), the ROC AUC at 0.05, 0.2
+        and 1.0 L/min, the detection rate at 0.2 and 1.0 L/min, the median onset error and
+        detection delay at 1.0 L/min (s), the false alarms of the held-out healthy runs (count
+        of n) and the median CPU seconds per hour of signal of ``predict``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> res = pd.DataFrame({"method": "m", "excitation": "operating", "leak_lpm": [0.2, 1.0],
+    ...     "auc": [0.5, 1.0], "detection_rate": [0.2, 1.0], "onset_error_median_s": [3.0, 1.0],
+    ...     "detection_delay_median_s": [9.0, 2.0]})
+    >>> summ = pd.DataFrame({"method": ["m"], "excitation": ["operating"],
+    ...     "min_detectable_lpm": [1.0], "false_alarms": [1], "n_test_healthy": [10],
+    ...     "cpu_s_per_hour": [0.04]})
+    >>> print(table_markdown(comparison_table(res, summ)))
+    | method | excitation | MDL L/min | AUC 0.05 | AUC 0.2 | AUC 1.0 | det 0.2 | det 1.0 | onset err 1.0 (s) | delay 1.0 (s) | false alarms | CPU s / h |
+    |---|---|---|---|---|---|---|---|---|---|---|---|
+    | m | operating | 1 |  | 0.5 | 1 | 0.2 | 1 | 1 | 2 | 1/10 | 0.04 |
+    """
+    import pandas as pd
+
+    rows = []
+    for _, s in summary.iterrows():
+        g = results[(results.method == s.method) & (results.excitation == s.excitation)]
+
+        def at(col, q, g=g):
+            v = g.loc[(g.leak_lpm - q).abs() < 1e-12, col]
+            return float(v.iloc[0]) if len(v) else float("nan")
+
+        rows.append({
+            "method": s.method, "excitation": s.excitation,
+            "MDL L/min": float(s.min_detectable_lpm),
+            "AUC 0.05": at("auc", 0.05), "AUC 0.2": at("auc", 0.2), "AUC 1.0": at("auc", 1.0),
+            "det 0.2": at("detection_rate", 0.2), "det 1.0": at("detection_rate", 1.0),
+            "onset err 1.0 (s)": at("onset_error_median_s", 1.0),
+            "delay 1.0 (s)": at("detection_delay_median_s", 1.0),
+            "false alarms": f"{int(s.false_alarms)}/{int(s.n_test_healthy)}",
+            "CPU s / h": float(s.cpu_s_per_hour)})
+    return pd.DataFrame(rows)
+
+
+def table_markdown(table) -> str:
+    """A table as Markdown, numbers to 3 significant digits, NaN as an empty cell.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        E.g. :func:`comparison_table`.
+
+    Returns
+    -------
+    str
+        Header, separator and one line per row.
+    """
+    def cell(v):
+        if isinstance(v, float):
+            return "" if math.isnan(v) else f"{v:.3g}"
+        return str(v)
+
+    lines = ["| " + " | ".join(map(str, table.columns)) + " |",
+             "|" + "---|" * len(table.columns)]
+    lines += ["| " + " | ".join(cell(v) for v in row) + " |"
+              for row in table.itertuples(index=False)]
+    return "\n".join(lines)
 
 
 def compute_seconds_per_hour(method: str, recording, system: str = "vca",
@@ -97,3 +326,49 @@ def compute_seconds_per_hour(method: str, recording, system: str = "vca",
         det._feature_series(recording)
         best = min(best, time.process_time() - t0)
     return best * 3600.0 / recording.duration
+
+
+def main(argv=None) -> int:
+    """``python -m leakdiag.bench.comparison OUT [--workers N] [--cache-dir DIR]``: run the
+    comparison with its defaults and write ``runs.csv``, ``results.csv``, ``summary.csv`` and
+    ``table.md`` (the table of ``docs/literature.md``) into ``OUT``.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments (default: the command line).
+
+    Returns
+    -------
+    int
+        0.
+    """
+    import argparse
+    from pathlib import Path
+
+    ap = argparse.ArgumentParser(prog="python -m leakdiag.bench.comparison",
+                                 description=main.__doc__.split("\n\n")[0])
+    ap.add_argument("out", help="output folder")
+    ap.add_argument("--workers", type=int, default=None,
+                    help="Dask local workers (default: serial)")
+    ap.add_argument("--cache-dir", default=None, help="simulation cache folder")
+    ap.add_argument("--false-alarm-rate", type=float, default=COMPARISON_FAR,
+                    help="false-alarm target per healthy run (default %(default)s)")
+    ap.add_argument("--n-fit", type=int, default=COMPARISON_N_FIT,
+                    help="healthy fitting runs per excitation (default %(default)s)")
+    a = ap.parse_args(argv)
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    r = run_comparison(false_alarm_per_run=a.false_alarm_rate, n_fit=a.n_fit,
+                       scheduler="local" if a.workers else "serial", n_workers=a.workers,
+                       cache_dir=a.cache_dir, progress=False)
+    for name, df in (("runs", r.runs), ("results", r.results), ("summary", r.summary)):
+        df.to_csv(out / f"{name}.csv", index=False)
+    table = comparison_table(r.results, r.summary)
+    (out / "table.md").write_text(table_markdown(table) + "\n", encoding="utf-8")
+    print(table.to_string(index=False))
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

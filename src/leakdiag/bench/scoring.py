@@ -124,6 +124,12 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None,
         runs carry no timing) and the false alarms' count with their 95 % Clopper-Pearson
         interval, ``false_alarms, far_low, far_high``.
 
+    Raises
+    ------
+    ValueError
+        If every row is an error (no method could be fitted), naming the first one's method,
+        group and reason.
+
     Examples
     --------
     >>> import pandas as pd
@@ -140,6 +146,17 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None,
 
     rated = rated_flow_lpm or {}
     rows = []
+    if "role" in runs.columns and len(runs):
+        errors = runs[runs.role == "error"]
+        runs = runs[runs.role != "error"]
+        if len(runs) == 0:  # no column of a judged run exists: say why instead of crashing
+            e = errors.iloc[0]
+            where = " ".join(str(e[c]) for c in ("system", "load", "noise_level", "excitation")
+                             if c in e and isinstance(e[c], str))
+            raise ValueError(
+                f"summarise: no run was judged: all {len(errors)} row(s) are errors (a method "
+                f"that could not be fitted on its group); first: {e.method} on {where}: "
+                f"{e.get('error', '')}")
     if "excitation" not in runs.columns:
         runs = runs.assign(excitation="operating")
     for (method, system, excitation), g in runs.groupby(["method", "system", "excitation"],
