@@ -43,3 +43,26 @@ def test_fit_help_says_which_files_monitor_and_batch_take():
         ["acf-p1", "acf-p2", "ccf-p1p2", "ccf-ux", "mlr-p1"])
     assert sorted(m for m in METHODS if not _streamable(m)) == sorted(
         ["combined", "wavelet-p1", "wavelet-p1p2", "fft-p1", "emd-p1", "ekf", "flow-balance"])
+
+
+def test_detect_md_states_the_eha_input_hook_that_exists():
+    from pathlib import Path
+
+    import numpy as np
+
+    from leakdiag.sim.excitation import structured_excitation
+    from leakdiag.sim.eha.simulate import simulate_eha
+
+    text = " ".join((Path(__file__).parents[2] / "docs" / "detect.md").read_text().split())
+    assert "has no input hook" not in text  # it said so while simulate_eha had one
+    assert 'simulate_eha(..., input_signal=structured_excitation("eha"))' in text
+    # the hook as described: the motor command is the +-3 V steps, -3 V for the first
+    # quarter period, +3 V from 0.25 to 0.75 s, then alternating every half period
+    rec = simulate_eha(duration=2.0, leak_lpm=None, seed=1,
+                       input_signal=structured_excitation("eha"))
+    u, t = rec["u"], rec.time
+    q = 1e-3  # the recorded command is the DAC's rounding of +-3 V (3.00049 V)
+    for lo, hi, level in ((0.0, 0.24, -3.0), (0.26, 0.74, 3.0), (0.76, 1.24, -3.0),
+                          (1.26, 1.74, 3.0)):
+        seg = u[(t > lo) & (t < hi)]
+        assert np.all(np.abs(seg - level) <= q), (lo, hi)
