@@ -303,3 +303,19 @@ def test_a_report_that_fails_to_build_leaves_the_earlier_files(quick_run, tmp_pa
         assert (old / f).read_bytes() == (out / f).read_bytes(), f
     assert sorted(p.name for p in (old / "figures").iterdir()) == \
         sorted(p.name for p in (out / "figures").iterdir())
+
+
+def test_setting_differences_match_rows_by_table_and_setting():
+    """A review (2026-11-27): rows were matched by position, so an EHA-only quick run against
+    the committed full run (EHA rows at other positions) matched none and said nothing."""
+    from leakdiag.studies.reproduce import setting_differences
+
+    full = pd.read_csv(COMMITTED_TABLES, dtype={"table": str, "lag": str})
+    eha = full[full.system == "EHA"].reset_index(drop=True)
+    assert setting_differences(eha, full) == []
+    quick = eha.assign(n_windows=eha.n_windows // 5)
+    assert setting_differences(quick, full) == [
+        "windows per experiment differ in 45 of 45 rows shared (tables 6-1, 6-2, 6-3, 6-4, ...)"
+        ": other run lengths, e.g. a --quick run against a full one"]
+    one_more = pd.concat([full.iloc[:1], full], ignore_index=True)  # positions shifted by one
+    assert setting_differences(full, one_more) == []

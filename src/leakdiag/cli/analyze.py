@@ -56,7 +56,7 @@ def format_verdict(table) -> str:
     return show[cols].to_string(index=False)
 
 
-def _in_option_words(exc: Exception) -> Exception:
+def _with_option_names(exc: Exception) -> Exception:
     """The same error with the settings' Python names written as this command's options
     (``window=1 must be >= 2`` -> ``--window 1 must be >= 2``; the window a lag must be below
     is named too)."""
@@ -91,7 +91,7 @@ def _specs(method, channels, lag, lag_ratio, window, overlap, system):
         return [spec_from_options(m, channels, lag, lag_ratio, 200 if window is None else window,
                                   5.0 if overlap is None else overlap) for m in method]
     except (ValueError, TypeError) as exc:
-        raise _in_option_words(exc) from None
+        raise _with_option_names(exc) from None
 
 
 def decision_words(table, false_alarm_rate: float) -> str:
@@ -184,7 +184,7 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
         except (ValueError, TypeError) as exc:  # e.g. a --window longer than the recording
             if "all" in method:  # the thesis's settings, not options given
                 raise
-            raise _in_option_words(exc) from None
+            raise _with_option_names(exc) from None
     _fail_if_nothing_computed(file, result.table)
     for w in caught:  # re-issued only when there is a result to qualify
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)

@@ -197,7 +197,7 @@ BYTES_PER_SAMPLE = {"vca": 200 + 6 * 8, "eha": 350 + 8 * 8}
 
 def _check_memory(system: str, run_s: float, rate: float, n: int) -> None:
     """Refuse a run that cannot fit in this machine's memory before it starts (a 10-s EHA
-    run at 10 MHz worked for minutes towards 4 GiB, a longer one towards a MemoryError)."""
+    run at 10 MHz worked for minutes towards 40 GiB, a longer one towards a MemoryError)."""
     from leakdiag.runtime.memory import memory_bytes, size_words
 
     need, have = n * BYTES_PER_SAMPLE[system], memory_bytes()

@@ -266,9 +266,10 @@ def glr_segment_maxima(g, per_segment: int) -> np.ndarray:
 
 #: Smallest ratio of the piston's volume to the valve model's, since an alarm's onset, that a
 #: verdict accepts (VCA; leakdiag choice, docs/detect.md 8.4, "Command sign"): 1 on healthy
-#: recordings, between 0 and 1 with a leak (the valve feeds it: measured 0.003-0.95 for 0.1-4
-#: L/min on unit 17, both loads), -0.74 to -0.77 with the command's sign reversed from 50 s of
-#: 120-s runs; a quarter below the physical bound of 0.
+#: recordings, between 0 and 1 with a leak (the valve feeds it: measured 0.91-0.98 at 0.1,
+#: 0.35-0.49 at 0.5, -0.04 to 0.05 at 2 and -0.003 to 0.02 at 4 L/min on unit 17, both loads),
+#: -0.74 to -0.77 with the command's sign reversed from 50 s of 120-s runs; a quarter below the
+#: physical bound of 0.
 MIN_PISTON_VALVE_RATIO = -0.25
 #: Windows after the alarm that its own ratio needs (leakdiag choice: the GLR's history minimum).
 PISTON_VALVE_MIN_WINDOWS = 5

@@ -401,6 +401,8 @@ def setting_differences(new, old) -> list[str]:
     []
     >>> setting_differences(a.assign(chunk=5, n_windows=[309, 2105]), a)  # doctest: +ELLIPSIS
     ['RMS chunk: 10 feature values before, 5 now', 'windows per experiment differ in 1 of 2 ...']
+    >>> setting_differences(a.iloc[1:], a)  # one table of the earlier run's two: no difference
+    []
     """
     out = []
     if "chunk" in new and "chunk" in old:
@@ -409,9 +411,16 @@ def setting_differences(new, old) -> list[str]:
             out.append(f"RMS chunk: {', '.join(f'{x:g}' for x in a)} feature values before, "
                        f"{', '.join(f'{x:g}' for x in b)} now")
     if "n_windows" in new and "n_windows" in old:
-        m = new[["table", "n_windows"]].reset_index().merge(
-            old[["table", "n_windows"]].reset_index(), on=["table", "index"],
-            suffixes=("_new", "_old"))
+        # rows are the same row by their table and setting (not by position: an earlier run of
+        # other systems holds its rows elsewhere), the n-th of equal settings with the n-th
+        keys = [c for c in ("table", "lag", "window", "overlap_pct", "leak_lpm")
+                if c in new and c in old]
+
+        def keyed(t):
+            t = t[keys + ["n_windows"]].astype({k: str for k in keys})
+            return t.assign(nth=t.groupby(keys).cumcount())
+
+        m = keyed(new).merge(keyed(old), on=keys + ["nth"], suffixes=("_new", "_old"))
         diff = m[m.n_windows_new != m.n_windows_old]
         if len(diff):
             tabs = list(dict.fromkeys(diff.table.astype(str)))
