@@ -341,7 +341,8 @@ def main(argv=None) -> int:
     Returns
     -------
     int
-        0.
+        0 (an unsupported target exits with status 2 before any work, naming the fitting
+        runs it needs).
     """
     import argparse
     from pathlib import Path
@@ -357,6 +358,11 @@ def main(argv=None) -> int:
     ap.add_argument("--n-fit", type=int, default=COMPARISON_N_FIT,
                     help="healthy fitting runs per excitation (default %(default)s)")
     a = ap.parse_args(argv)
+    try:  # before the output folder is made
+        check_comparison_target(comparison_suite(n_fit=a.n_fit), COMPARISON_METHODS,
+                                a.false_alarm_rate)
+    except ValueError as exc:
+        ap.error(str(exc))
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     r = run_comparison(false_alarm_per_run=a.false_alarm_rate, n_fit=a.n_fit,
