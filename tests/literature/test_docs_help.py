@@ -2,6 +2,7 @@
 missed its "coefficient" feature and pressure_noise_std_pa=None; ekf_feature's summary missed
 "coefficient"; `leakdiag fit --help` said every file was for detect, monitor and batch)."""
 
+import pytest
 from click.testing import CliRunner
 
 from leakdiag.bench.registry import METHODS, make_detector
@@ -66,3 +67,30 @@ def test_detect_md_states_the_eha_input_hook_that_exists():
                           (1.26, 1.74, 3.0)):
         seg = u[(t > lo) & (t < hi)]
         assert np.all(np.abs(seg - level) <= q), (lo, hi)
+
+
+def test_literature_md_ekf_section_is_the_filter_in_the_code():
+    from pathlib import Path
+
+    import numpy as np
+
+    from leakdiag.literature._ekf_kernel import N_STATE
+    from leakdiag.literature.ekf import EKFParams, run_vca_ekf
+    from leakdiag.sim.vca.simulate import simulate_vca
+
+    text = " ".join((Path(__file__).parents[2] / "docs" / "literature.md").read_text().split())
+    ekf_part = text[text.index("### EKF"):text.index("## Structured excitation")]
+    assert N_STATE == 8 and "**State** (8): `[x, v, P1, P2, x_v, v_v, k_l, f_d]`" in ekf_part
+    assert "enforced by projection" not in ekf_part and "7x7" not in ekf_part
+    assert "knows the simulator's exact model" not in text
+    # the honesty caveat's load case, as the section states it: the spring load with a
+    # no-load filter reads the coefficient and the leak right (the 7-state filter: 2.4 x)
+    assert "1.045e-8 against the true 1.044e-8, the leak read 0.500 L/min" in ekf_part
+    rec = simulate_vca(duration=60, leak_lpm=0.5, onset=30, seed=3, load="spring")
+    res = run_vca_ekf(rec, EKFParams(load="none"))
+    late = res.time >= 40
+    assert np.mean(res.leak_coefficient[late]) == pytest.approx(1.045e-8, rel=1e-3)
+    assert rec.meta["leak_coefficient"] == pytest.approx(1.044e-8, rel=1e-3)
+    from leakdiag.literature.detectors import EKFDetector
+
+    assert EKFDetector(load="none").leak_size_lpm(rec, 30.0) == pytest.approx(0.500, abs=0.0005)
