@@ -211,8 +211,9 @@ def check_target_supported(suites, methods, per_run: float, burn_in_s: float = 5
     A method with the detectors' common fit (``Detector.fit``) sets its threshold from one
     CUSUM maximum per healthy fitting run (the segment is the run's monitored span), so a
     group's ``n_fit`` runs support a per-run target ``p`` only if ``n_fit >=
-    min_maxima(-log(1 - p))``. Methods with their own fit (combined, flow balance) are not
-    checked here; when none of them can be fitted either, the run ends with
+    min_maxima(-log(1 - p))``; so does a method whose features have their own fit (combined,
+    EKF). Methods with their own ``fit`` (flow balance) are not checked here; when none of them
+    can be fitted either, the run ends with
     :class:`~leakdiag.bench.outputs.NothingJudgedError`.
 
     Parameters
@@ -242,11 +243,13 @@ def check_target_supported(suites, methods, per_run: float, burn_in_s: float = 5
 maximum each: they support a false-alarm target of at least 0.105 per run, and \
 --false-alarm-rate 0.05 needs 19 such runs; give --false-alarm-rate 0.11 or more
     """
-    from leakdiag.bench.v5_run import shares_fit
+    from leakdiag.detect.base import Detector
     from leakdiag.detect.threshold import min_maxima
 
     for name, s in suites.items():
-        common = [m for m in methods if shares_fit(make_detector(m, name, Alarm()))]
+        # the common fit's threshold, whatever the features' own fit (the EKF learns its
+        # noise and hold limits in _fit_features, then takes one maximum per run as well)
+        common = [m for m in methods if type(make_detector(m, name, Alarm())).fit is Detector.fit]
         need = min_maxima(_segment_target(per_run, s, burn_in_s))
         if not common or s.n_fit >= need:
             continue

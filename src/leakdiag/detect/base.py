@@ -690,8 +690,9 @@ class Detector(BaseEstimator):
         t0, t1 = float(tr.start[i]), float(tr.time[i + n - 1])
         raise RecordingError(
             f"predict: {source}: the feature {tr.name!r} is undefined in {n} consecutive "
-            f"windows from {t0:.6g} to {t1:.6g} s (zero variance: a channel it reads is "
-            f"constant there, a stuck sensor?); the healthy recordings had undefined spans of "
+            f"windows from {t0:.6g} to {t1:.6g} s (a channel it reads is constant there, or "
+            f"holds one value longer than in the healthy recordings: a stuck sensor?); the "
+            f"healthy recordings had undefined spans of "
             f"at most {healthy:.3g} s (limit {limit:.3g} s), so no leak can be ruled out over "
             "that span")
 
