@@ -277,22 +277,58 @@ class EventStore:
                 time.sleep(0.05 * 2 ** attempt)
         raise AssertionError("unreachable")  # pragma: no cover
 
-    def _actuator_id(self, conn, name: str, system: str | None) -> int:
-        now = _now()
-        system = None if system is None else str(system).lower()
-        row = conn.execute(select(S.actuators.c.id, S.actuators.c.system)
-                           .where(S.actuators.c.name == name)).first()
-        if row:
-            if system is not None and row[1] is not None and row[1] != system:
-                raise StoreError(f"{self.shown_url}: actuator {name!r} is a {row[1]} in the "
-                                 f"store, this run says {system}: give it another name")
-            values = {"last_seen_at": now}
-            if system is not None and row[1] is None:
-                values["system"] = system  # first run that knows it
-            conn.execute(update(S.actuators).where(S.actuators.c.id == row[0]).values(**values))
-            return int(row[0])
-        return int(conn.execute(insert(S.actuators).values(
-            name=name, system=system, first_seen_at=now, last_seen_at=now)).inserted_primary_key[0])
+    def _actuator(self, conn, name: str, system: str | None, said_by: str) -> int:
+        """The id of actuator ``name``, its row locked until the transaction ends; created if new.
+
+        The row is read ``SELECT ... FOR UPDATE`` (SQLite: the transaction's ``BEGIN
+        IMMEDIATE`` already holds the file), so a writer that changes the actuator at the same
+        time (another command setting its rig) is waited for and its change read, not
+        overwritten. A new actuator is inserted in a savepoint: when another writer inserted
+        the same name first (PostgreSQL: a unique violation once it commits), its row is read
+        and locked instead. The rig is checked against the store's and set only where the store
+        has none (``WHERE system IS NULL``). ``last_seen_at`` is the caller's: a call that
+        writes no run writes nothing here for a known actuator of a known rig.
+
+        Parameters
+        ----------
+        conn : Connection
+            In the write transaction.
+        name : str
+            Actuator name.
+        system : str or None
+            The rig the runs say (lower case), None if they do not know it.
+        said_by : str
+            Who says it, for the message (``this run``, a recording).
+
+        Raises
+        ------
+        StoreError
+            If the store has the actuator as another rig (nothing is written then).
+        """
+        from sqlalchemy.exc import IntegrityError
+
+        a = S.actuators.c
+        locked = select(a.id, a.system).where(a.name == name).with_for_update()
+        row = conn.execute(locked).first()
+        if row is None:
+            now = _now()
+            try:
+                with conn.begin_nested():
+                    return int(conn.execute(insert(S.actuators).values(
+                        name=name, system=system, first_seen_at=now,
+                        last_seen_at=now)).inserted_primary_key[0])
+            except IntegrityError:  # another writer created it first: take its row
+                row = conn.execute(locked).first()
+                if row is None:
+                    raise
+        aid, have = int(row[0]), row[1]
+        if system is not None and have is not None and have != system:
+            raise StoreError(f"{self.shown_url}: actuator {name!r} is a {have} in the store, "
+                             f"{said_by} says {system}: give it another name")
+        if system is not None and have is None:  # the first run that knows it
+            conn.execute(update(S.actuators).where((a.id == aid) & a.system.is_(None))
+                         .values(system=system))
+        return aid
 
     # -- writing --------------------------------------------------------------------------
     def start_run(self, actuator: str, *, command: str, source: str, feature: str,
@@ -300,6 +336,10 @@ class EventStore:
                   system: str | None = None, config: dict | None = None,
                   invocation: str | None = None) -> int:
         """Register a run (one pass over one input) of an actuator; creates the actuator.
+
+        The actuator is read with its row locked, as :meth:`add_finished_runs` reads it: a
+        writer that sets its rig or creates it at the same time is waited for, and its rig
+        checked against ``system``.
 
         Parameters
         ----------
@@ -330,17 +370,23 @@ class EventStore:
 
         Raises
         ------
+        StoreError
+            If the store has the actuator as another rig than ``system``.
         ValueError
             If ``actuator`` is empty.
         """
         check_actuator_name(actuator)
+        rig = None if system is None else str(system).lower()
 
         def fn(conn):
-            aid = self._actuator_id(conn, str(actuator), system)
+            aid = self._actuator(conn, str(actuator), rig, "this run")
+            now = _now()
+            conn.execute(update(S.actuators).where(S.actuators.c.id == aid)
+                         .values(last_seen_at=now))
             return int(conn.execute(insert(S.runs).values(
                 actuator_id=aid, command=command, invocation=invocation or uuid.uuid4().hex,
                 source=str(source), feature=feature,
-                sample_rate_hz=sample_rate_hz, threshold=threshold, started_at=_now(),
+                sample_rate_hz=sample_rate_hz, threshold=threshold, started_at=now,
                 status="running", n_chunks=0, n_windows=0,
                 config=None if config is None else json.dumps(config, default=str),
                 leakdiag_version=__version__)).inserted_primary_key[0])
@@ -463,28 +509,28 @@ class EventStore:
         ValueError
             If ``actuator`` is empty.
         """
-        from sqlalchemy.exc import IntegrityError
-
         check_actuator_name(actuator)
         runs = list(runs)
+        if not runs:
+            return []
         inv = invocation or uuid.uuid4().hex
-        for attempt in range(2):
-            try:
-                return self._write(lambda conn: self._add_finished(conn, str(actuator), runs,
-                                                                   inv))
-            except IntegrityError:  # another writer created the actuator first (PostgreSQL)
-                if attempt:
-                    raise
-        raise AssertionError("unreachable")  # pragma: no cover
+        return self._write(lambda conn: self._add_finished(conn, str(actuator), runs, inv))
 
     def _add_finished(self, conn, name: str, runs: list, inv: str) -> list:
-        a = S.actuators.c
-        row = conn.execute(select(a.id, a.system).where(a.name == name)
-                           .with_for_update()).first()
-        stored = set()  # rows of this actuator already in the store, read under the lock
-        if row is not None and any(r.key is not None for r in runs):
+        said = {}  # rig -> first recording that says it
+        for r in runs:
+            if r.system is not None:
+                said.setdefault(str(r.system).lower(), str(r.source))
+        if len(said) > 1:
+            words = ", ".join(f"{src} says {k}" for k, src in said.items())
+            raise StoreError(f"{self.shown_url}: actuator {name!r}: its recordings disagree on "
+                             f"the rig ({words}): give them different actuator names")
+        system, said_by = next(iter(said.items()), (None, ""))
+        aid = self._actuator(conn, name, system, said_by)
+        stored = set()  # rows of this actuator already in the store, read under its lock
+        if any(r.key is not None for r in runs):
             for c in conn.execute(select(S.runs.c.config).where(
-                    S.runs.c.actuator_id == row[0])).scalars():
+                    S.runs.c.actuator_id == aid)).scalars():
                 key = _row_key(c)
                 if key is not None:
                     stored.add(key)
@@ -495,31 +541,11 @@ class EventStore:
                 new.append(r)
                 if r.key is not None:
                     stored.add(r.key)  # the same row twice in one call: once
-        if not new:  # nothing to write: no write, no commit to wait for
+        if not new:  # nothing to write: the lock was all (no write for a known actuator)
             return [None] * len(runs)
-        said = {}  # rig -> first recording that says it
-        for r in new:
-            if r.system is not None:
-                said.setdefault(str(r.system).lower(), str(r.source))
-        have = None if row is None else row[1]
-        other = [(k, src) for k, src in said.items() if have is not None and k != have]
-        if other:
-            raise StoreError(f"{self.shown_url}: actuator {name!r} is a {have} in the store, "
-                             f"{other[0][1]} says {other[0][0]}: give it another name")
-        if len(said) > 1:
-            words = ", ".join(f"{src} says {k}" for k, src in said.items())
-            raise StoreError(f"{self.shown_url}: actuator {name!r}: its recordings disagree on "
-                             f"the rig ({words}): give them different actuator names")
         now = _now()
-        system = have or next(iter(said), None)
-        if row is None:
-            aid = int(conn.execute(insert(S.actuators).values(
-                name=name, system=system, first_seen_at=now,
-                last_seen_at=now)).inserted_primary_key[0])
-        else:
-            aid = int(row[0])
-            conn.execute(update(S.actuators).where(a.id == aid).values(
-                last_seen_at=now, system=system))
+        conn.execute(update(S.actuators).where(S.actuators.c.id == aid)
+                     .values(last_seen_at=now))
         ids = iter([self._insert_finished(conn, aid, r, inv, now) for r in new])
         return [None if sk else next(ids) for sk in skip]
 
