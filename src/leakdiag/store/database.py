@@ -597,20 +597,6 @@ class EventStore:
             res = conn.execute(stmt)
             return pd.DataFrame(res.fetchall(), columns=list(res.keys()))
 
-    def batch_row_keys(self) -> set[str]:
-        """Keys of the batch result rows already stored (``config["row"]`` of batch runs).
-
-        Returns
-        -------
-        set of str
-            What :func:`leakdiag.store.writers.record_batch` wrote, so that a re-run of a
-            finished job writes nothing twice.
-        """
-        with self._read_engine.connect() as conn:
-            configs = conn.execute(select(S.runs.c.config).where(
-                S.runs.c.command == "batch")).scalars().all()
-        return {k for k in map(_row_key, configs) if k is not None}
-
     def actuator_names(self) -> list[str]:
         """Names of every actuator in the store, sorted.
 
