@@ -82,9 +82,16 @@ def test_batch_and_monitor_refuse_a_recording_in_other_units(case, tmp_path):
             in err
 
 
+def _states_no(err):
+    return [ln for ln in err.splitlines() if "states no" in ln]
+
+
 def test_batch_says_once_per_file_what_its_metadata_leave_unchecked(case, tmp_path):
     """Finding 7: detect says that a plain CSV states no rig and no load, so they were not
-    checked; batch said nothing. Two detectors, one line per file; monitor says it too."""
+    checked; batch said nothing. Two detectors, one line per file; monitor says it too.
+    Review item 6: the three commands say it in one line built by one function
+    (``unchecked_note``), only the advice differs (monitor and detect printed one line per
+    property, batch one combined line)."""
     df = case["leak"].to_pandas()[["time", "p1", "p2"]]
     plain = tmp_path / "rigC" / "plain.csv"
     plain.parent.mkdir()
@@ -95,15 +102,15 @@ def test_batch_says_once_per_file_what_its_metadata_leave_unchecked(case, tmp_pa
                    f'[[detector]]\nname = "b"\npath = "{det}"\n')
     code, out, err = _batch(case, [plain, case["leak_path"]], tmp_path, job=job)
     assert code == 0, err
-    note = (f"leakdiag: warning: {plain} states no rig and no load in its metadata, so it was "
+    said = (f"leakdiag: warning: {plain} states no rig and no load in its metadata, so it was "
             f"not checked against the rig 'vca' and the load 'none' of {det} (another rig or "
-            "load can look like a leak: state them as system and load in the [file] table of "
-            "the job's column map, or in the file's metadata)")
-    assert err.count("states no") == 1 and note in err
-    code, out, err = _run(["monitor", plain, "--detector", det, "-q"])
-    assert code == 0, err
-    assert f"leakdiag: warning: {plain} states no rig in its metadata, so it was not checked " \
-           f"against the rig 'vca' of {det}" in err
+            "load can look like a leak: state them as system and load in the [file] table of ")
+    assert _states_no(err) == [said + "the job's column map, or in the file's metadata)"]
+    for args in (["monitor", plain, "--detector", det, "-q"],
+                 ["detect", plain, "--detector", det, "--no-progress"]):
+        code, out, err = _run(args)
+        assert code == 0, err
+        assert _states_no(err) == [said + "a --map, or in the file's metadata)"], args[0]
 
 
 def test_a_detector_row_not_judged_is_said_counted_and_exits_1(case, tmp_path):

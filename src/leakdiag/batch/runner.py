@@ -35,7 +35,8 @@ from leakdiag.stream.detector_file import check_detector_fits, load_detector_fil
 from leakdiag.stream.feature import StreamingFeature
 
 __all__ = ["run_case", "run_batch", "expand_inputs", "batch_inputs", "recording_units",
-           "warn_job_detectors", "BatchSummary", "LOCAL"]
+           "warn_job_detectors", "unchecked_note", "ADVICE_MAP", "ADVICE_JOB", "BatchSummary",
+           "LOCAL"]
 
 #: Suffixes read in chunks (others are loaded whole with :func:`leakdiag.io.read_recording`).
 _CHUNKED_SUFFIXES = (".parquet", ".pq", ".h5", ".hdf5", ".csv")
@@ -162,38 +163,69 @@ def recording_units(path: str | os.PathLike) -> dict | None:
     return {str(k): str(v) for k, v in units.items()} if isinstance(units, dict) else None
 
 
-def _unchecked(path: str, rec_meta: dict, dets: list) -> str | None:
-    """One sentence naming what of a recording could not be checked against its detectors'
-    healthy recordings because its metadata do not say it (rig, load), in the words of
-    ``detect`` (:func:`leakdiag.cli.detect.unchecked_notes`); None when nothing was left out.
+#: Where a ``detect`` or ``monitor`` user states a recording's rig and load
+#: (:func:`unchecked_note`).
+ADVICE_MAP = "a --map"
+#: Where a ``batch`` user states them.
+ADVICE_JOB = "the job's column map"
+
+
+def unchecked_note(source: str, meta, fitted, advice: str) -> str | None:
+    """The one sentence ``detect``, ``monitor`` and ``batch`` say about a recording whose
+    metadata do not state what its detectors' healthy recordings did (rig, load), so that it
+    could not be checked against them.
+
+    A recording of another rig or load than the healthy ones can look like a leak (an audit
+    found a VCA detector judging a plain-CSV healthy EHA run LEAK), so an unchecked one is said,
+    once per recording whatever the number of detectors.
+
+    Parameters
+    ----------
+    source : str
+        The recording, as the command names it.
+    meta : mapping
+        Its metadata (``Recording.meta``, ``ChunkSource.meta``).
+    fitted : iterable of (str, str or None, str or None)
+        For each detector judging it: what it was fitted on (a detector file, ``the --healthy
+        recordings``), the rig and the load of its healthy recordings (None: unknown, not said).
+        Two entries that say the same are said once.
+    advice : str
+        Where this command's user states them: :data:`ADVICE_MAP` or :data:`ADVICE_JOB`.
+
+    Returns
+    -------
+    str or None
+        None when nothing was left unchecked.
 
     Examples
     --------
-    >>> from types import SimpleNamespace as M
-    >>> _unchecked("x.csv", {"system": "vca"}, [("d", None, M(system="vca", load="none"), "d.j")])
+    >>> unchecked_note("x.csv", {"system": "vca"}, [("d.joblib", "vca", "none")], ADVICE_JOB)
     ... # doctest: +NORMALIZE_WHITESPACE
     "x.csv states no load in its metadata, so it was not checked against the load 'none' of
-    d.j (another load can look like a leak: state it as load in the [file] table of the job's
-    column map, or in the file's metadata)"
+    d.joblib (another load can look like a leak: state it as load in the [file] table of the
+    job's column map, or in the file's metadata)"
+    >>> unchecked_note("x.csv", {}, [("d.joblib", None, None)], ADVICE_MAP) is None
+    True
     """
     props = [(key, what) for key, what in (("system", "rig"), ("load", "load"))
-             if rec_meta.get(key) is None]
-    against, missing = [], []
-    for _, _, meta, dpath in dets:
-        said = [(key, what, getattr(meta, key, None)) for key, what in props]
-        said = [(k, w, v) for k, w, v in said if v is not None]
-        phrase = " and ".join(f"the {w} {str(v)!r}" for _, w, v in said) + f" of {dpath}"
-        if said and phrase not in against:  # two entries of one file: said once
+             if meta.get(key) is None]
+    against, used = [], set()
+    for fitted_on, system, load in fitted:
+        values = {"system": system, "load": load}
+        said = [(key, what, values[key]) for key, what in props if values[key] is not None]
+        phrase = " and ".join(f"the {w} {str(v)!r}" for _, w, v in said) + f" of {fitted_on}"
+        if said and phrase not in against:
             against.append(phrase)
-            missing += [(k, w) for k, w, _ in said if (k, w) not in missing]
+            used.update(key for key, _, _ in said)
     if not against:
         return None
+    missing = [(key, what) for key, what in props if key in used]
     whats = [w for _, w in missing]
-    return (f"{path} states {' and '.join('no ' + w for w in whats)} in its metadata, so it "
+    return (f"{source} states {' and '.join('no ' + w for w in whats)} in its metadata, so it "
             f"was not checked against {'; '.join(against)} (another {' or '.join(whats)} can "
             f"look like a leak: state {'it' if len(whats) == 1 else 'them'} as "
-            f"{' and '.join(k for k, _ in missing)} in the [file] table of the job's column "
-            "map, or in the file's metadata)")
+            f"{' and '.join(k for k, _ in missing)} in the [file] table of {advice}, or in the "
+            "file's metadata)")
 
 
 def _summary(values: np.ndarray) -> dict:
@@ -332,7 +364,9 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                 refused[name] = _in_job_words(str(exc))
         items = [it for it in items if not (it[0] == "detector" and it[1] in refused)]
         # what of the recording its metadata leave unchecked (rig, load): one note per file
-        unchecked = _unchecked(path, src.meta, [d for d in dets if d[0] not in refused])
+        unchecked = unchecked_note(path, src.meta, [
+            (dpath, getattr(meta, "system", None), getattr(meta, "load", None))
+            for name, _, meta, dpath in dets if name not in refused], ADVICE_JOB)
         feats = [StreamingFeature(s, src.sample_rate, src.start_time) for _, _, s, _ in items]
         # a leakdiag Detector judges the whole streamed feature at the end (predict_series);
         # another scorer (anything with score_windows) scores it chunk by chunk

@@ -8,7 +8,7 @@ from leakdiag.cli._options import recording_options, resample_option
 from leakdiag.cli.dashboard import actuator_option
 from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
 
-__all__ = ["detect", "verdict_table", "overall_verdict", "per_run_rate", "unchecked_notes"]
+__all__ = ["detect", "verdict_table", "overall_verdict", "per_run_rate"]
 
 _DEFAULT_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 
@@ -36,46 +36,6 @@ def _row(m, det, rec, n_healthy):
     if basis is None:  # only a threshold basis gives a p-value (docs/detect.md, section 2)
         row["confidence"] = None
     return row
-
-
-def unchecked_notes(rec, file: str, fitted_on: str, system, load) -> list[str]:
-    """What of the judged recording could not be checked against the detector's healthy
-    recordings because its metadata do not say it (rig, load): one sentence each.
-
-    A recording of another rig or load than the healthy ones can look like a leak (an audit
-    found a VCA detector judging a plain-CSV healthy EHA run LEAK), so an unchecked one is said.
-
-    Parameters
-    ----------
-    rec : Recording
-        The judged recording.
-    file, fitted_on : str
-        Its name and what the detector was fitted on (a detector file, the --healthy files).
-    system, load : str or None
-        The rig and load of the detector's healthy recordings (None: unknown, not said).
-
-    Returns
-    -------
-    list of str
-        One sentence per unchecked property.
-
-    Examples
-    --------
-    >>> from leakdiag.io.recording import Recording
-    >>> r = Recording({"p1": [0.0, 1.0]}, 1.0, meta={"system": "vca"})
-    >>> unchecked_notes(r, "x.csv", "d.joblib", "vca", "spring")  # doctest: +NORMALIZE_WHITESPACE
-    ["x.csv states no load in its metadata, so it was not checked against the load 'spring' of
-    d.joblib (another load can look like a leak: state it as load in the [file] table of a
-    --map, or in the file's metadata)"]
-    """
-    out = []
-    for key, what, fitted in (("system", "rig", system), ("load", "load", load)):
-        if fitted is not None and rec.meta.get(key) is None:
-            out.append(f"{file} states no {what} in its metadata, so it was not checked against "
-                       f"the {what} {str(fitted)!r} of {fitted_on} (another {what} can look "
-                       f"like a leak: state it as {key} in the [file] table of a --map, or in "
-                       "the file's metadata)")
-    return out
 
 
 def per_run_rate(basis, per_hour: float, span_s: float,
@@ -225,7 +185,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
 
     say = progress or (lambda msg: None)
     rec = read_with(file, column_map, sample_rate, resample)
-    rows, notes = [], []
+    rows, fitted = [], []  # fitted: what each detector's healthy recordings said (rig, load)
     rig = rec.meta.get("system")  # the file's rig, else the detectors' or the --system
     for path in detectors:
         det, meta = load_detector_file(path)
@@ -233,8 +193,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
         check_detector_fits(meta, sample_rate=rec.sample_rate, channels=rec.channels,
                             units=rec.units, system=rec.meta.get("system"), source=str(file),
                             path=str(path), load=rec.meta.get("load"))
-        notes += unchecked_notes(rec, str(file), str(path), getattr(meta, "system", None),
-                                 getattr(meta, "load", None))
+        fitted.append((str(path), getattr(meta, "system", None), getattr(meta, "load", None)))
         m = meta.method if meta else str(path)
         say(f"judging with {path} ({m})...")
         rows.append(_cannot_judge(det, rec, file, m)
@@ -250,8 +209,8 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
                              f"all load {fitted_load!r}: give healthy recordings under this "
                              "load")
         systems = {str(r.meta["system"]).lower() for r in train if r.meta.get("system")}
-        notes += unchecked_notes(rec, str(file), "the --healthy recordings",
-                                 systems.pop() if len(systems) == 1 else None, fitted_load)
+        fitted.append(("the --healthy recordings", systems.pop() if len(systems) == 1 else None,
+                       fitted_load))
         system = system_of([rec, *train], system, [str(file), *map(str, healthy)])
         rig = rig or system
         span = rec.duration - burn_in_s  # monitored: the burn-in never alarms
@@ -285,7 +244,11 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     tab = pd.DataFrame(rows)
     tab.attrs["duration_s"] = float(rec.duration)
     tab.attrs["system"] = None if rig is None else str(rig).lower()
-    tab.attrs["notes"] = list(dict.fromkeys(notes))
+    # what the file's metadata leave unchecked (rig, load): one sentence, as monitor and batch
+    from leakdiag.batch.runner import ADVICE_MAP, unchecked_note
+
+    note = unchecked_note(str(file), rec.meta, fitted, ADVICE_MAP)
+    tab.attrs["notes"] = [] if note is None else [note]
     return tab
 
 

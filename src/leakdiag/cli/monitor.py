@@ -299,13 +299,12 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
                         units=units, system=source.meta.get("system"), source=source.source,
                         path=str(detector_path), load=source.meta.get("load"))
-    if meta is not None:  # what the input's metadata leave unchecked, as detect says it
-        from types import SimpleNamespace
+    if meta is not None:  # what the input's metadata leave unchecked, as detect and batch say it
+        from leakdiag.batch.runner import ADVICE_MAP, unchecked_note
 
-        from leakdiag.cli.detect import unchecked_notes
-
-        for note in unchecked_notes(SimpleNamespace(meta=source.meta), str(source.source),
-                                    str(detector_path), meta.system, getattr(meta, "load", None)):
+        note = unchecked_note(str(source.source), source.meta, [
+            (str(detector_path), meta.system, getattr(meta, "load", None))], ADVICE_MAP)
+        if note is not None:
             click.echo(f"leakdiag: warning: {note}", err=True)
     mon = Monitor(spec, source.sample_rate, source.start_time, scorers=detector)
     speed = None if input_path == "-" or follow else parse_replay(replay)
