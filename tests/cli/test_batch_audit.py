@@ -82,6 +82,40 @@ def test_batch_and_monitor_refuse_a_recording_in_other_units(case, tmp_path):
             in err
 
 
+
+def test_the_hdf5_units_batch_and_monitor_read_are_leakdiag_s_header_only(case, tmp_path):
+    """Review item 7: batch and monitor read a file's units with ``leakdiag.io.recording_units``
+    (one shared opening, ``stream.files.open_recording``). A leakdiag HDF5 file in counts is
+    refused against a detector fitted on Pa, as detect refuses it; an HDF5 file that another
+    program wrote claims no units, even with a top-level ``units`` attribute (it was read as
+    leakdiag's: batch and monitor refused the file in Pa that detect judged)."""
+    import json
+
+    import h5py
+
+    det = case["det"]
+    counts = Recording({"p1": case["leak"]["p1"], "p2": case["leak"]["p2"]}, 1000.0,
+                       units={"p1": "counts", "p2": "counts"}, meta={"system": "vca",
+                                                                      "load": "none"})
+    mine = write_recording(counts, tmp_path / "rigH" / "counts.h5")
+    daq = tmp_path / "rigD" / "daq.h5"
+    daq.parent.mkdir()
+    with h5py.File(daq, "w") as f:  # samples in Pa, a DAQ program's own attributes
+        f["time"] = case["leak"].time
+        f["p1"] = case["leak"]["p1"]
+        f["p2"] = case["leak"]["p2"]
+        f.attrs["units"] = json.dumps({"p1": "counts", "p2": "counts"})
+    refused = f"channel 'p1' is in 'counts', but {det} was fitted on 'Pa'"
+    code, out, err = _batch(case, [mine, daq], tmp_path)
+    assert code == 1
+    assert [ln for ln in err.splitlines() if ln.startswith("  error:")] == [
+        f"  error: counts.h5: {mine}: {refused}"]
+    for cmd in ("monitor", "detect"):
+        code, out, err = _run([cmd, mine, "--detector", det])
+        assert code == 2 and refused in err, (cmd, err)
+        code, out, err = _run([cmd, daq, "--detector", det])
+        assert code == 0 and "counts" not in err, (cmd, err)
+
 def _states_no(err):
     return [ln for ln in err.splitlines() if "states no" in ln]
 

@@ -25,21 +25,15 @@ from leakdiag.batch.config import BatchConfig
 from leakdiag.batch.store import content_hash, finished_state, result_key, write_rows
 from leakdiag.detect.measure import rms_change
 from leakdiag.features.series import FeatureSeries
-from leakdiag.io.api import read_recording
 from leakdiag.io.checks import RESAMPLE_ADVICE
-from leakdiag.io.parquet import HEADER_KEY as PARQUET_HEADER_KEY
 from leakdiag.runtime.executor import LOCAL, run_cases
-from leakdiag.stream import open_chunks, recording_chunks
 from leakdiag.stream.detector import as_scorer
 from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
 from leakdiag.stream.feature import StreamingFeature
+from leakdiag.stream.files import open_recording
 
-__all__ = ["run_case", "run_batch", "expand_inputs", "batch_inputs", "recording_units",
-           "warn_job_detectors", "unchecked_note", "ADVICE_MAP", "ADVICE_JOB", "BatchSummary",
-           "LOCAL"]
-
-#: Suffixes read in chunks (others are loaded whole with :func:`leakdiag.io.read_recording`).
-_CHUNKED_SUFFIXES = (".parquet", ".pq", ".h5", ".hdf5", ".csv")
+__all__ = ["run_case", "run_batch", "expand_inputs", "batch_inputs", "warn_job_detectors",
+           "unchecked_note", "ADVICE_MAP", "ADVICE_JOB", "BatchSummary", "LOCAL"]
 
 
 def expand_inputs(patterns: Iterable[str]) -> list[str]:
@@ -103,64 +97,6 @@ def batch_inputs(patterns: Iterable[str],
     for p in expand_inputs(patterns):
         (own if p == out or p.startswith(out.rstrip(os.sep) + os.sep) else paths).append(p)
     return paths, own
-
-
-def _source(path: str, channels: list[str], chunk_samples: int, column_map=None):
-    """The recording's chunks and its channel units (None where the file does not say)."""
-    if column_map is None and os.path.splitext(path)[1].lower() in _CHUNKED_SUFFIXES:
-        return open_chunks(path, channels, chunk_samples), recording_units(path)
-    rec = read_recording(path, column_map)
-    rec.meta["source"] = path
-    return recording_chunks(rec, chunk_samples, channels), dict(rec.units)
-
-
-def recording_units(path: str | os.PathLike) -> dict | None:
-    """Channel units a Parquet or HDF5 recording's leakdiag header states, read without its data.
-
-    The chunked readers (:func:`leakdiag.stream.open_chunks`) pass the samples on as they are,
-    so a file written in ``counts`` (or any non-SI unit) stays in it; ``leakdiag detect`` reads
-    the same header (:func:`leakdiag.io.read_recording`) and refuses a detector fitted on
-    other units. ``batch`` and ``monitor`` check the units they get here the same way.
-
-    Parameters
-    ----------
-    path : str or path-like
-        Recording file.
-
-    Returns
-    -------
-    dict or None
-        Channel -> unit; None for a CSV (plain text states no units: SI is assumed, as the
-        readers do), a file without a leakdiag header, or one that cannot be read (its reader
-        says why).
-
-    Examples
-    --------
-    >>> recording_units("/no/such/file.parquet") is None
-    True
-    """
-    import json
-
-    p = os.fspath(path)
-    suffix = os.path.splitext(p)[1].lower()
-    try:
-        if suffix in (".parquet", ".pq"):
-            import pyarrow.parquet as pq
-
-            raw = (pq.read_schema(p).metadata or {}).get(PARQUET_HEADER_KEY, b"")
-            units = json.loads(raw).get("units") if raw else None
-        elif suffix in (".h5", ".hdf5"):
-            import h5py
-
-            with h5py.File(p, "r") as f:
-                raw = f.attrs.get("units")
-                units = None if raw is None else json.loads(
-                    raw.decode() if isinstance(raw, bytes) else str(raw))
-        else:
-            return None
-    except Exception:  # noqa: BLE001 - unreadable: the reader names the problem in its row
-        return None
-    return {str(k): str(v) for k, v in units.items()} if isinstance(units, dict) else None
 
 
 #: Where a ``detect`` or ``monitor`` user states a recording's rig and load
@@ -351,7 +287,8 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
         items = [("analysis", s.label, s, None) for s in config.analyses]
         items += [("detector", name, d.spec(), d) for name, d, _, _ in dets]
         channels = sorted({c for _, _, s, _ in items for c in s.channels})
-        src, units = _source(path, channels, config.chunk_samples, config.column_map)
+        src, units = open_recording(path, channels, config.chunk_samples,
+                                    column_map=config.column_map)
         # a detector that disagrees with the recording (system, load, rate, units) gets its own
         # error row; the analyses and the other detectors are still computed
         refused = {}

@@ -6,7 +6,6 @@ alarm); alarms are printed as they are raised and cleared.
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 
@@ -20,9 +19,6 @@ from leakdiag.features.windowing import window_step
 from leakdiag.stream.blind import BlindSpans
 
 __all__ = ["monitor", "build_source", "load_detector", "parse_replay"]
-
-#: Suffixes streamed in chunks without loading the file (others go through read_recording).
-_CHUNKED_SUFFIXES = (".parquet", ".pq", ".h5", ".hdf5", ".csv")
 
 
 def parse_replay(replay: str) -> float | None:
@@ -158,11 +154,11 @@ def build_source(input_path: str, channels, follow: bool, sample_rate, chunk: in
 
 def _open_input(input_path: str, channels, follow: bool, sample_rate, chunk: int,
                 idle_timeout: float | None, batch_lines: int = 1, column_map=None):
-    """:func:`build_source` and the input's channel units: those of the recording read whole
-    (a column map's, e.g. ``counts``), those a Parquet or HDF5 file's header states, None for
-    stdin, ``--follow`` and a plain CSV (SI assumed)."""
-    from leakdiag.batch.runner import recording_units
-    from leakdiag.stream import csv_lines, open_chunks, recording_chunks, tail_csv
+    """:func:`build_source` and the input's channel units: a file's as batch reads it
+    (:func:`leakdiag.stream.files.open_recording`), None for stdin and ``--follow`` (CSV: SI
+    assumed)."""
+    from leakdiag.stream import csv_lines, tail_csv
+    from leakdiag.stream.files import open_recording
 
     if column_map is not None and (input_path == "-" or follow):
         raise click.UsageError("--map/--col/--time-unit apply to files; stdin and --follow "
@@ -172,13 +168,7 @@ def _open_input(input_path: str, channels, follow: bool, sample_rate, chunk: int
     if follow:
         return tail_csv(input_path, channels, sample_rate, idle_timeout_s=idle_timeout,
                         batch_lines=batch_lines), None
-    if column_map is None and os.path.splitext(input_path)[1].lower() in _CHUNKED_SUFFIXES:
-        return (open_chunks(input_path, channels, chunk, sample_rate),
-                recording_units(input_path))
-    import leakdiag.io as lio
-
-    rec = lio.read_recording(input_path, column_map, sample_rate=sample_rate)
-    return recording_chunks(rec, chunk, channels), dict(rec.units)
+    return open_recording(input_path, channels, chunk, sample_rate, column_map)
 
 
 def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=()):

@@ -8,14 +8,15 @@ from typing import Any, Mapping
 
 from leakdiag.io.assemble import table_to_recording
 from leakdiag.io.column_map import load_column_map
-from leakdiag.io.hdf5 import read_hdf5, write_hdf5
+from leakdiag.io.hdf5 import read_hdf5, read_hdf5_header, write_hdf5
 from leakdiag.io.header import encode_header
 from leakdiag.io.matlab import read_mat
-from leakdiag.io.parquet import read_parquet, write_parquet
+from leakdiag.io.parquet import read_parquet, read_parquet_header, write_parquet
 from leakdiag.io.recording import Recording, RecordingError
 from leakdiag.io.text import read_text, write_csv
 
-__all__ = ["READ_FORMATS", "WRITE_FORMATS", "read_recording", "write_recording"]
+__all__ = ["READ_FORMATS", "WRITE_FORMATS", "read_recording", "write_recording",
+           "recording_units"]
 
 #: File extension -> format name, for reading.
 READ_FORMATS: dict[str, str] = {
@@ -178,3 +179,55 @@ def write_recording(rec: Recording, path: str | os.PathLike) -> Path:
         if tmp.exists():
             tmp.unlink()
     return path
+
+
+def recording_units(path: str | os.PathLike) -> dict[str, str] | None:
+    """The channel units a recording file's leakdiag header states, read without its samples.
+
+    A file that is read in chunks (:func:`leakdiag.stream.open_chunks`) keeps its samples as
+    they are, so one written in ``counts`` (or any non-SI unit) stays in it; these are the
+    units :func:`read_recording` would give it, for checking against a detector's.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Recording file; the format is chosen by extension (see :data:`READ_FORMATS`).
+
+    Returns
+    -------
+    dict of str to str, or None
+        Channel -> unit from the header of a Parquet or HDF5 file written by
+        :func:`write_recording`. None for a file that states no units: text (a plain CSV;
+        SI is assumed, as :func:`read_recording` assumes it), MATLAB, and Parquet or HDF5 files
+        written by other programs (an HDF5 file is leakdiag's only when its ``format``
+        attribute says so; another program's ``units`` attribute is not read).
+
+    Raises
+    ------
+    RecordingError
+        If the file is missing, of an unknown extension, unreadable as its format, or its
+        leakdiag header is malformed or newer than this leakdiag (as :func:`read_recording`).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, numpy as np
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> rec = Recording({"p1": np.array([1.5, 2.5])}, 1000.0, units={"p1": "counts"})
+    >>> recording_units(write_recording(rec, d / "run.h5"))
+    {'p1': 'counts'}
+    >>> recording_units(write_recording(rec, d / "run.csv")) is None
+    True
+    """
+    path = Path(path)
+    if not path.exists():
+        raise RecordingError(f"{path}: file not found")
+    fmt = _format(path, READ_FORMATS, "read")
+    if fmt == "parquet":
+        header = read_parquet_header(path)
+    elif fmt == "hdf5":
+        header = read_hdf5_header(path)
+    else:
+        return None
+    if header is None or not isinstance(header["units"], dict):
+        return None
+    return {str(k): str(v) for k, v in header["units"].items()}

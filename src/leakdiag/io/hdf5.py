@@ -12,7 +12,7 @@ from leakdiag.io.header import HEADER_FORMAT, decode_header, encode_header
 from leakdiag.io.recording import Recording, RecordingError
 from leakdiag.io.table import RawTable, flatten_arrays
 
-__all__ = ["CHANNEL_GROUP", "read_hdf5", "write_hdf5", "hdf5_tree"]
+__all__ = ["CHANNEL_GROUP", "read_hdf5", "read_hdf5_header", "write_hdf5", "hdf5_tree"]
 
 #: Group holding one dataset per channel.
 CHANNEL_GROUP = "channels"
@@ -152,17 +152,8 @@ def read_hdf5(path: str | os.PathLike, sep: str = "/") -> RawTable:
     except OSError as exc:
         raise RecordingError(f"{source}: unreadable as HDF5: {exc}") from None
     with f:
-        if _attr_text(f.attrs.get("format", b"")) == HEADER_FORMAT:
-            header = {
-                "format": HEADER_FORMAT,
-                "version": int(f.attrs["version"]),
-                "sample_rate": float(f.attrs["sample_rate"]),
-                "start_time": float(f.attrs["start_time"]),
-                "channels": json.loads(_attr_text(f.attrs["channels"])),
-                "units": json.loads(_attr_text(f.attrs["units"])),
-                "meta": json.loads(_attr_text(f.attrs["meta"])),
-            }
-            header = decode_header(json.dumps(header), source)
+        header = _header(f, source)
+        if header is not None:
             group = f[CHANNEL_GROUP]
             missing = [n for n in header["channels"] if n not in group]
             if missing:
@@ -177,3 +168,59 @@ def read_hdf5(path: str | os.PathLike, sep: str = "/") -> RawTable:
     if not columns:
         raise RecordingError(f"{source}: holds no numeric vectors (no channels)")
     return RawTable(columns, source)
+
+
+def _header(f, source: str) -> dict | None:
+    """The leakdiag header of an open HDF5 file: its root attributes when its ``format``
+    attribute says leakdiag wrote it, else None (another program's attributes, even one named
+    ``units``, are not a leakdiag header)."""
+    if _attr_text(f.attrs.get("format", b"")) != HEADER_FORMAT:
+        return None
+    header = {
+        "format": HEADER_FORMAT,
+        "version": int(f.attrs["version"]),
+        "sample_rate": float(f.attrs["sample_rate"]),
+        "start_time": float(f.attrs["start_time"]),
+        "channels": json.loads(_attr_text(f.attrs["channels"])),
+        "units": json.loads(_attr_text(f.attrs["units"])),
+        "meta": json.loads(_attr_text(f.attrs["meta"])),
+    }
+    return decode_header(json.dumps(header), source)
+
+
+def read_hdf5_header(path: str | os.PathLike) -> dict | None:
+    """The leakdiag header of an HDF5 file (its root attributes), read without its data.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+
+    Returns
+    -------
+    dict or None
+        The header (:func:`leakdiag.io.header.decode_header`), or None for a file that
+        :func:`write_hdf5` did not write (no ``format = "leakdiag-recording"`` attribute).
+
+    Raises
+    ------
+    RecordingError
+        If the file is not HDF5, or its leakdiag header is malformed or of a newer version.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.h5"
+    >>> write_hdf5(Recording({"p1": np.array([1.0, 2.0])}, 2.0, units={"p1": "bar"}), p)
+    >>> read_hdf5_header(p)["units"]
+    {'p1': 'bar'}
+    """
+    import h5py
+
+    source = str(path)
+    try:
+        f = h5py.File(Path(path), "r")
+    except OSError as exc:
+        raise RecordingError(f"{source}: unreadable as HDF5: {exc}") from None
+    with f:
+        return _header(f, source)

@@ -11,7 +11,7 @@ from leakdiag.io.header import decode_header, encode_header
 from leakdiag.io.recording import Recording, RecordingError
 from leakdiag.io.table import RawTable
 
-__all__ = ["HEADER_KEY", "read_parquet", "write_parquet"]
+__all__ = ["HEADER_KEY", "read_parquet", "read_parquet_header", "write_parquet"]
 
 #: Schema-metadata key holding the JSON header (see :mod:`leakdiag.io.header`).
 HEADER_KEY = b"leakdiag"
@@ -95,8 +95,7 @@ def read_parquet(path: str | os.PathLike) -> RawTable:
     if table.num_rows == 0:
         raise RecordingError(f"{source}: has columns ({', '.join(table.column_names)}) "
                              f"but no rows")
-    meta = table.schema.metadata or {}
-    header = decode_header(meta[HEADER_KEY], source) if HEADER_KEY in meta else None
+    header = _header(table.schema, source)
     columns: dict[str, np.ndarray] = {}
     for name in table.column_names:
         col = table.column(name)
@@ -107,3 +106,48 @@ def read_parquet(path: str | os.PathLike) -> RawTable:
         else:
             columns[name] = np.array(col.to_pylist(), dtype=object)
     return RawTable(columns, source, header)
+
+
+def _header(schema, source: str) -> dict | None:
+    """The leakdiag header of a Parquet schema (None when another program wrote the file)."""
+    meta = schema.metadata or {}
+    return decode_header(meta[HEADER_KEY], source) if HEADER_KEY in meta else None
+
+
+def read_parquet_header(path: str | os.PathLike) -> dict | None:
+    """The leakdiag header of a Parquet file, read from its footer without its data.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+
+    Returns
+    -------
+    dict or None
+        The header (:func:`leakdiag.io.header.decode_header`), or None for a file that another
+        program wrote (no ``leakdiag`` key in its schema metadata).
+
+    Raises
+    ------
+    RecordingError
+        If the file is not Parquet, or its leakdiag header is malformed or of a newer version
+        (as :func:`read_parquet` says).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.parquet"
+    >>> write_parquet(Recording({"p1": np.array([1.0, 2.0])}, 2.0, units={"p1": "bar"}), p)
+    >>> read_parquet_header(p)["units"]
+    {'p1': 'bar'}
+    """
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    source = str(path)
+    try:
+        schema = pq.read_schema(Path(path))
+    except (pa.ArrowException, OSError) as exc:
+        raise RecordingError(f"{source}: unreadable as Parquet: {exc}") from None
+    return _header(schema, source)

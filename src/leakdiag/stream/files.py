@@ -19,12 +19,15 @@ from leakdiag.stream.chunks import (DEFAULT_CHUNK_SAMPLES, TIME_COLUMN, ChunkSou
                                     _check_unique, _extra_field, _json_dict, _rate_start,
                                     _select, _short_row)
 
-__all__ = ["open_chunks", "PARQUET_HEADER_KEY", "HDF5_CHANNEL_GROUP"]
+__all__ = ["open_chunks", "open_recording", "CHUNKED_SUFFIXES", "PARQUET_HEADER_KEY",
+           "HDF5_CHANNEL_GROUP"]
 
 #: Key of the leakdiag JSON header in Parquet schema metadata (layout of :mod:`leakdiag.io`).
 PARQUET_HEADER_KEY = b"leakdiag"
 #: HDF5 group with one dataset per channel (layout of :mod:`leakdiag.io`).
 HDF5_CHANNEL_GROUP = "channels"
+#: Suffixes :func:`open_chunks` reads in chunks (:func:`open_recording` reads others whole).
+CHUNKED_SUFFIXES = (".parquet", ".pq", ".h5", ".hdf5", ".csv")
 
 
 def _checked(chunks, axis: TimeAxis | None):
@@ -582,3 +585,64 @@ def open_chunks(path: str | os.PathLike, channels: Sequence[str] | None = None,
     if suffix not in readers:
         raise RecordingError(f"{path}: unknown file type {suffix!r}; use one of {sorted(readers)}")
     return readers[suffix](path, channels, chunk_samples, sample_rate, start_time)
+
+
+def open_recording(path: str | os.PathLike, channels: Sequence[str] | None = None,
+                   chunk_samples: int = DEFAULT_CHUNK_SAMPLES, sample_rate: float | None = None,
+                   column_map=None) -> tuple[ChunkSource, dict[str, str] | None]:
+    """A recording file's chunks and the units of its channels, as ``monitor`` and ``batch``
+    judge it.
+
+    Without a column map, a Parquet, HDF5 or CSV file is read in chunks (:func:`open_chunks`)
+    and its samples stay in the units its leakdiag header states
+    (:func:`leakdiag.io.recording_units`). Another file, or any file with a column map, is
+    read whole with :func:`leakdiag.io.read_recording` (in SI units, or ``counts``) and
+    replayed in chunks.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Recording file.
+    channels : sequence of str, optional
+        Channels to read (default: all).
+    chunk_samples : int, default 2**20
+        Samples per chunk.
+    sample_rate : float, optional
+        Sample rate in Hz, when the file has no time column in seconds.
+    column_map : optional
+        Column map (:func:`leakdiag.io.load_column_map` accepts it).
+
+    Returns
+    -------
+    source : ChunkSource
+        Its ``source`` is ``path`` as given.
+    units : dict of str to str, or None
+        Channel -> unit of the samples; None where the file states none (a plain CSV, a
+        file another program wrote: SI is assumed, as the readers assume it).
+
+    Raises
+    ------
+    RecordingError
+        As :func:`open_chunks`, :func:`leakdiag.io.recording_units` and
+        :func:`leakdiag.io.read_recording` raise it.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from leakdiag.io import Recording, write_recording
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "r.parquet"
+    >>> rec = Recording({"p1": np.arange(5.0)}, 100.0, units={"p1": "counts"})
+    >>> src, units = open_recording(write_recording(rec, p), chunk_samples=2)
+    >>> units, [len(c["p1"]) for c in src]
+    ({'p1': 'counts'}, [2, 2, 1])
+    """
+    from leakdiag.io import read_recording, recording_units
+    from leakdiag.stream.chunks import recording_chunks
+
+    path = os.fspath(path)
+    if column_map is None and os.path.splitext(path)[1].lower() in CHUNKED_SUFFIXES:
+        return (open_chunks(path, channels, chunk_samples, sample_rate),
+                recording_units(path))
+    rec = read_recording(path, column_map, sample_rate=sample_rate)
+    rec.meta["source"] = path
+    return recording_chunks(rec, chunk_samples, channels), dict(rec.units)
