@@ -185,6 +185,7 @@ def test_two_detectors_of_one_name_are_refused_naming_both(case, tmp_path):
 
 @pytest.mark.parametrize("store, why", [
     ("", "--store needs a file path or a database URL, got ''"),
+    (" ", "--store needs a file path or a database URL, got ' '"),  # review item 10: "''"
     ("sqlite:///", "--store sqlite:///: an in-memory SQLite database ends with the connection "
                    "that made it: nothing would be kept, and every other connection (the page, "
                    "another command) sees an empty one; give a file, e.g. --store events.db"),

@@ -55,9 +55,10 @@ def store_url(target: str | os.PathLike) -> str:
     Raises
     ------
     ValueError
-        If ``target`` is empty, an in-memory SQLite database (``sqlite://``, ``sqlite:///``,
-        ``sqlite:///:memory:``: it ends with the connection, so nothing would be kept and the
-        store's reader would see another, empty one), or looks like a URL without ``//``
+        If ``target`` is empty or blank (the message shows it as given), an in-memory SQLite
+        database (``sqlite://``, ``sqlite:///``, ``sqlite:///:memory:``: it ends with the
+        connection, so nothing would be kept and the store's reader would see another, empty
+        one), or looks like a URL without ``//``
         (``sqlite:/x.db`` is not the file ``x.db``).
 
     Examples
@@ -73,7 +74,7 @@ def store_url(target: str | os.PathLike) -> str:
     """
     t = os.fspath(target)
     if not t.strip():
-        raise ValueError("--store needs a file path or a database URL, got ''")
+        raise ValueError(f"--store needs a file path or a database URL, got {t!r}")
     if "://" in t:
         from sqlalchemy.engine import make_url
 
