@@ -1,11 +1,64 @@
-"""Batch result rows for the store tests, without running a batch (the columns of
-:data:`leakdiag.batch.store.RESULT_COLUMNS`; the rest null)."""
+"""Shared helpers of the store tests (and of the dashboard's store tests): chunk summaries, batch
+result rows without running a batch (the columns of :data:`leakdiag.batch.store.RESULT_COLUMNS`;
+the rest null), the environment of a writer child process, and a store of an older schema
+version upgraded by a writer."""
+
+import os
+import sqlite3
+from pathlib import Path
 
 import pandas as pd
 
 from leakdiag.batch.store import RESULT_COLUMNS
+from leakdiag.store import AlarmRecord, ChunkSummary, EventStore
 
 JOB = "0123456789abcdef"
+#: The source folder, put first on a child process's PYTHONPATH.
+SRC = str(Path(__file__).resolve().parents[2] / "src")
+#: Why :func:`upgrade_and_write`'s failed run failed.
+WHY_FAILED = "b.csv: line 3, channel 'p1': 'x' is not a number"
+
+
+def child_env():
+    """The environment of a child process that imports this checkout's leakdiag."""
+    return {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
+
+
+def summary(i, alarm=None):
+    """Chunk ``i``'s summary: windows from ``i`` s to ``i + 0.5`` s, 3 windows of which 1
+    degenerate, value mean ``0.1 i`` (min -1, max 1, last 0.5), score max ``2 i``."""
+    return ChunkSummary(float(i), float(i) + 0.5, 3, 1, 0.1 * i, -1.0, 1.0, 0.5, 2.0 * i, 1.5,
+                        alarm)
+
+
+def downgrade(db, version):
+    """Make the SQLite store ``db`` a store of schema ``version`` (1 or 2), as an older leakdiag
+    wrote it."""
+    con = sqlite3.connect(db)
+    if version < 3:
+        con.execute("alter table alarms drop column onset_censored")
+    if version < 2:
+        con.execute("alter table runs drop column error")
+    con.execute(f"update schema_version set version = {version}")
+    con.commit()
+    con.close()
+
+
+def upgrade_and_write(db, version):
+    """Open the store ``db`` of schema ``version`` as a writer in another process would (it is
+    upgraded to 3, with its warning) and write what the columns added since show: rigA a
+    ``detect`` alarm with a censored onset (4.85 s), rigB a failed ``batch`` run with its
+    reason (:data:`WHY_FAILED`)."""
+    import pytest
+
+    with pytest.warns(UserWarning, match=f"upgraded from schema version {version} to 3"):
+        writer = EventStore(db)
+    run = writer.start_run("rigA", command="detect", source="a.parquet", feature="fb")
+    writer.add_chunk(run, None, [AlarmRecord(7.1, onset_s=4.85, onset_censored=True)])
+    writer.end_run(run)
+    bad = writer.start_run("rigB", command="batch", source="b.csv", feature="acf")
+    writer.end_run(bad, "failed", WHY_FAILED)
+    writer.close()
 
 
 def row(path, kind="detector", name="det", alarm=None, alarm_time_s=None, system="vca",

@@ -3,7 +3,6 @@ summary, alarm and end in one transaction, and an actuator of two rigs refused w
 the recordings (audit of 2026-11-27, findings 2, 3, 4)."""
 
 import json
-import os
 import signal
 import sqlite3
 import subprocess
@@ -16,14 +15,9 @@ import pytest
 from leakdiag.store import AlarmRecord, ChunkSummary, EventStore
 from leakdiag.store.writers import record_batch
 
-from ._rows import JOB, fleet_rows, frame, row
+from ._rows import JOB, child_env, fleet_rows, frame, row
 
 CHILD = Path(__file__).with_name("_batch_writer.py")
-SRC = str(Path(__file__).resolve().parents[2] / "src")
-
-
-def _env():
-    return {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
 
 
 def _counts(st):
@@ -34,7 +28,7 @@ def _race(url, tmp_path, n_folders=4, per_folder=3):
     """Two processes store the same job's rows at once (released by one start file)."""
     go = tmp_path / "go"
     procs = [subprocess.Popen([sys.executable, str(CHILD), url, str(go), str(n_folders),
-                               str(per_folder)], env=_env(), stdout=subprocess.PIPE,
+                               str(per_folder)], env=child_env(), stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True) for _ in range(2)]
     for p in procs:  # both have opened the store and built their rows
         assert p.stdout.readline().strip() == "ready", p.stderr.read()
@@ -98,42 +92,83 @@ def test_an_interrupted_batch_write_leaves_no_running_run_and_loses_no_alarm(tmp
     st.close()
 
 
-def test_a_killed_batch_write_keeps_whole_actuators_and_the_rerun_completes(tmp_path):
-    """kill -9 of a process storing 150 actuators' rows (once 42 runs are in: in the middle of
-    an actuator's rows when they were written one by one): every actuator it stored is whole
-    (2 runs per recording, none 'running'), the file is consistent, and storing again adds
-    exactly what is missing."""
-    db = str(tmp_path / "e.db")
+#: Runs in the store when the writer below is killed: in the middle of an actuator's rows when
+#: they were written one by one (each actuator has 4).
+KILL_AT_RUNS = 42
+
+
+def _kill_mid_write(db, tmp_path, n_folders):
+    """Start a process storing ``n_folders`` actuators' batch rows (2 recordings, 4 runs each)
+    into ``db`` and ``kill -9`` it once :data:`KILL_AT_RUNS` runs are in. Returns False when it
+    finished them all first (a fast machine, a slow poll): nothing was killed then."""
     EventStore(db).close()
     go = tmp_path / "go"
     go.write_text("")
-    p = subprocess.Popen([sys.executable, str(CHILD), db, str(go), "150", "2"], env=_env(),
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = subprocess.Popen([sys.executable, str(CHILD), db, str(go), str(n_folders), "2"],
+                         env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True)
     try:
         assert p.stdout.readline().strip() == "ready", p.stderr.read()
         con = sqlite3.connect(db, timeout=30)
-        t_end = time.monotonic() + 120
-        while con.execute("select count(*) from runs").fetchone()[0] < 42 and \
-                time.monotonic() < t_end and p.poll() is None:
-            time.sleep(0.005)
-        os.kill(p.pid, signal.SIGKILL)
+        try:
+            t_end = time.monotonic() + 120
+            while con.execute("select count(*) from runs").fetchone()[0] < KILL_AT_RUNS:
+                if p.poll() is not None or time.monotonic() > t_end:
+                    break
+                time.sleep(0.005)
+        finally:
+            con.close()
+        p.send_signal(signal.SIGKILL)  # nothing if it has ended (no ProcessLookupError)
         p.wait(timeout=30)
     finally:
         if p.poll() is None:
             p.kill()
             p.wait()
+        err = p.stderr.read()
         p.stdout.close()
         p.stderr.close()
-    assert p.returncode == -signal.SIGKILL
+    if p.returncode == 0:
+        return False
+    assert p.returncode == -signal.SIGKILL, f"the writer failed ({p.returncode}): {err}"
+    return True
+
+
+def test_the_kill_helper_says_when_the_writer_finished_first(tmp_path):
+    """Review item 11: a writer that stored all its rows before the poll saw 42 of them made
+    the kill test fail with ProcessLookupError (kill of a process already reaped). 5
+    actuators are 20 runs, fewer than 42: it always finishes first, and that is said."""
+    db = str(tmp_path / "e.db")
+    assert _kill_mid_write(db, tmp_path, 5) is False
+    st = EventStore(db)
+    assert _counts(st) == (20, 5, 20)
+    st.close()
+
+
+def test_a_killed_batch_write_keeps_whole_actuators_and_the_rerun_completes(tmp_path):
+    """kill -9 of a process storing 150 actuators' rows (once 42 runs are in: in the middle of
+    an actuator's rows when they were written one by one): every actuator it stored is whole
+    (2 runs per recording, none 'running'), the file is consistent, and storing again adds
+    exactly what is missing. A writer that finished before it was killed is started again
+    with four times the actuators, twice at most."""
+    for n_folders in (150, 600, 2400):
+        db = str(tmp_path / f"e{n_folders}.db")
+        if _kill_mid_write(db, tmp_path, n_folders):
+            break
+    else:
+        pytest.fail(f"the writer stored all {4 * n_folders} runs before the test saw "
+                    f"{KILL_AT_RUNS} of them, three times (each with 4 times the runs): the "
+                    "polling loop did not run; nothing was killed, so nothing was tested")
+    n_runs = 4 * n_folders
+    con = sqlite3.connect(db, timeout=30)
     assert con.execute("pragma integrity_check").fetchone()[0] == "ok"
     assert con.execute("select count(*) from runs where status = 'running'").fetchone() == (0,)
     per = con.execute("select a.name, count(*) from runs r join actuators a on "
                       "a.id = r.actuator_id group by a.name").fetchall()
-    assert 42 <= sum(n for _, n in per) < 600 and {n for _, n in per} == {4}
+    assert KILL_AT_RUNS <= sum(n for _, n in per) < n_runs and {n for _, n in per} == {4}
     st = EventStore(db)
-    w = record_batch(st, fleet_rows(150, 2), JOB)
-    assert w.n_stored == sum(n for _, n in per) and w.n_runs == 600 - w.n_stored
-    assert _counts(st) == (600, 150, 600)
+    w = record_batch(st, fleet_rows(n_folders, 2), JOB)
+    assert w.n_stored == sum(n for _, n in per) and w.n_runs == n_runs - w.n_stored
+    assert _counts(st) == (n_runs, n_folders, n_runs)
     con.close()
     st.close()
 

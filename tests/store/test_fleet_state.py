@@ -1,20 +1,14 @@
 """The fleet row: its state follows the latest activity, a standing alarm is not hidden by a run
 started before it, and the alarm shown is the newest (audit of 2026-11-27, findings 1, 5, 6)."""
 
-import sqlite3
 import time
 
 import pytest
 
-from leakdiag.store import AlarmRecord, ChunkSummary, EventStore
+from leakdiag.store import AlarmRecord, EventStore
 from leakdiag.store.writers import record_batch
 
-from ._rows import JOB, frame, row
-
-
-def _summary(i, alarm=None):
-    return ChunkSummary(float(i), float(i) + 0.5, 3, 0, 0.1 * i, -1.0, 1.0, 0.5, 2.0 * i, 1.5,
-                        alarm)
+from ._rows import JOB, WHY_FAILED, downgrade, frame, row, summary, upgrade_and_write
 
 
 def _state(st, name="rigA"):
@@ -31,13 +25,13 @@ def test_a_detect_started_during_a_monitor_does_not_hide_its_later_alarm(tmp_pat
     beside "Last alarm 09:44:19" (the state came from the newest-started run)."""
     st = EventStore(tmp_path / "e.db")
     m = st.start_run("rigA", command="monitor", source="live.csv", feature="acf-p1")
-    st.add_chunk(m, _summary(0, False))
+    st.add_chunk(m, summary(0, False))
     _tick()
     d = st.start_run("rigA", command="detect", source="healthy.parquet", feature="acf-p1")
     st.end_run(d)
     _tick()
     assert _state(st)["state"] == "OK"
-    _, (aid,) = st.add_chunk(m, _summary(1, True),
+    _, (aid,) = st.add_chunk(m, summary(1, True),
                              [AlarmRecord(64.229, 33.24, 33.22, onset_s=60.1)])
     row_ = _state(st)
     assert row_["state"] == "ALARM"
@@ -57,11 +51,11 @@ def test_a_detect_started_during_a_monitor_does_not_hide_its_later_alarm(tmp_pat
     assert row_["source"] == "healthy2.parquet"
     # ... until the live monitor sends another chunk in alarm: newer than that judgment
     _tick()
-    st.add_chunk(m, _summary(2, True))
+    st.add_chunk(m, summary(2, True))
     assert _state(st)["state"] == "ALARM"
     # the monitor clears its alarm: OK, the newest activity is its healthy chunk
     _tick()
-    st.add_chunk(m, _summary(3, False), alarm_updates={aid: {"cleared_time_s": 3.4}})
+    st.add_chunk(m, summary(3, False), alarm_updates={aid: {"cleared_time_s": 3.4}})
     row_ = _state(st)
     assert row_["state"] == "OK" and row_["source"] == "live.csv"
     st.close()
@@ -72,10 +66,10 @@ def test_two_monitors_at_once_the_alarm_of_one_is_not_hidden_by_the_other(tmp_pa
     a = st.start_run("rigA", command="monitor", source="p1.csv", feature="acf-p1")
     b = st.start_run("rigA", command="monitor", source="p2.csv", feature="ccf-p1p2")
     assert _state(st)["state"] == "NO DATA"
-    st.add_chunk(a, _summary(0, True), [AlarmRecord(5.0, onset_s=4.0)])
+    st.add_chunk(a, summary(0, True), [AlarmRecord(5.0, onset_s=4.0)])
     for i in range(3):  # the healthy monitor keeps writing after the other's alarm
         _tick()
-        st.add_chunk(b, _summary(i, False))
+        st.add_chunk(b, summary(i, False))
         assert _state(st)["state"] == "ALARM"
     assert _state(st)["source"] == "p1.csv"
     st.close()
@@ -110,25 +104,14 @@ def test_the_alarm_shown_is_the_newest_and_its_size_from_the_same_recording(tmp_
 def test_the_last_alarm_of_an_ok_actuator_is_its_newest_episode(tmp_path):
     st = EventStore(tmp_path / "e.db")
     m = st.start_run("rigA", command="monitor", source="live.csv", feature="acf-p1")
-    _, (a1,) = st.add_chunk(m, _summary(0, True), [AlarmRecord(64.2, onset_s=60.0)])
-    st.add_chunk(m, _summary(1, False), alarm_updates={a1: {"cleared_time_s": 64.9}})
-    _, (a2,) = st.add_chunk(m, _summary(2, True), [AlarmRecord(65.9, onset_s=60.0)])
-    st.add_chunk(m, _summary(3, False), alarm_updates={a2: {"cleared_time_s": 66.8}})
+    _, (a1,) = st.add_chunk(m, summary(0, True), [AlarmRecord(64.2, onset_s=60.0)])
+    st.add_chunk(m, summary(1, False), alarm_updates={a1: {"cleared_time_s": 64.9}})
+    _, (a2,) = st.add_chunk(m, summary(2, True), [AlarmRecord(65.9, onset_s=60.0)])
+    st.add_chunk(m, summary(3, False), alarm_updates={a2: {"cleared_time_s": 66.8}})
     st.end_run(m)
     r = _state(st)
     assert r["state"] == "OK" and r["last_alarm_time_s"] == 65.9
     st.close()
-
-
-def _downgrade(db, version):
-    con = sqlite3.connect(db)
-    if version < 3:
-        con.execute("alter table alarms drop column onset_censored")
-    if version < 2:
-        con.execute("alter table runs drop column error")
-    con.execute(f"update schema_version set version = {version}")
-    con.commit()
-    con.close()
 
 
 @pytest.mark.parametrize("version", [1, 2])
@@ -138,22 +121,14 @@ def test_a_reader_sees_the_columns_of_a_store_another_process_upgraded(tmp_path,
     restarted."""
     db = tmp_path / "e.db"
     EventStore(db).close()
-    _downgrade(db, version)
+    downgrade(db, version)
     reader = EventStore(db, create=False)
     assert reader.version == version
-    with pytest.warns(UserWarning, match=f"upgraded from schema version {version} to 3"):
-        writer = EventStore(db)
-    run = writer.start_run("rigA", command="detect", source="a.parquet", feature="fb")
-    writer.add_chunk(run, None, [AlarmRecord(7.1, onset_s=4.85, onset_censored=True)])
-    writer.end_run(run)
-    bad = writer.start_run("rigB", command="batch", source="b.csv", feature="acf")
-    writer.end_run(bad, "failed", "b.csv: line 3, channel 'p1': 'x' is not a number")
-    writer.close()
+    upgrade_and_write(db, version)
     fl = reader.fleet().set_index("name")
     assert reader.version == 3
     assert fl.loc["rigA", "onset_censored"] is True or fl.loc["rigA", "onset_censored"] == 1
-    assert fl.loc["rigB", "error"] == "acf: b.csv: line 3, channel 'p1': 'x' is not a number"
+    assert fl.loc["rigB", "error"] == f"acf: {WHY_FAILED}"
     assert reader.history("rigA")[1]["onset_censored"].tolist() == [True]
-    assert reader.runs_of("rigB")["error"].tolist() == [
-        "b.csv: line 3, channel 'p1': 'x' is not a number"]
+    assert reader.runs_of("rigB")["error"].tolist() == [WHY_FAILED]
     reader.close()

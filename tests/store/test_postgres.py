@@ -9,7 +9,8 @@ from sqlalchemy import create_engine, inspect, text
 
 from leakdiag.store import SCHEMA_VERSION, AlarmRecord, EventStore, StoreError
 
-from tests.store.test_store import WRITER, _env, _summary
+from tests.store._rows import child_env, summary
+from tests.store.test_store import WRITER
 
 
 def test_schema_and_round_trip(pg_url):
@@ -22,12 +23,12 @@ def test_schema_and_round_trip(pg_url):
             [(SCHEMA_VERSION,)]
     run = st.start_run("rig1", command="monitor", source="a.parquet", feature="ac p1",
                        sample_rate_hz=1000.0, threshold=12.5, system="vca")
-    assert st.add_chunk(run, _summary(0)) == (0, [])
-    seqs, ids = st.add_chunks(run, [_summary(1, True), _summary(2, True)],
+    assert st.add_chunk(run, summary(0)) == (0, [])
+    seqs, ids = st.add_chunks(run, [summary(1, True), summary(2, True)],
                               [AlarmRecord(1.4, 13.0, 12.5, onset_s=0.9, leak_lpm=0.1,
                                            leak_lpm_low=0.05, leak_lpm_high=0.15)])
     assert seqs == [1, 2] and len(ids) == 1
-    st.add_chunks(run, [_summary(3, False)], alarm_updates={ids[0]: {"cleared_time_s": 3.3}})
+    st.add_chunks(run, [summary(3, False)], alarm_updates={ids[0]: {"cleared_time_s": 3.3}})
     st.end_run(run)
     summ, al = st.history("rig1")
     assert summ["seq"].tolist() == [0, 1, 2, 3]
@@ -47,8 +48,9 @@ def test_schema_and_round_trip(pg_url):
 def test_two_processes_write_the_same_database(pg_url):
     EventStore(pg_url).close()
     n = 60
-    procs = [subprocess.Popen([sys.executable, str(WRITER), pg_url, name, str(n)], env=_env(),
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    procs = [subprocess.Popen([sys.executable, str(WRITER), pg_url, name, str(n)],
+                              env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True)
              for name in ("w1", "w2")]
     for p in procs:
         out, err = p.communicate(timeout=240)

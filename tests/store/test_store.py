@@ -13,17 +13,9 @@ import pytest
 from leakdiag.store import (SCHEMA_VERSION, AlarmRecord, ChunkSummary, EventStore, StoreError,
                             store_url, summarize_chunks, summarize_windows)
 
+from ._rows import child_env, summary
+
 WRITER = Path(__file__).with_name("_writer.py")
-SRC = str(Path(__file__).resolve().parents[2] / "src")
-
-
-def _env():
-    return {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
-
-
-def _summary(i, alarm=None):
-    return ChunkSummary(float(i), float(i) + 0.5, 3, 1, 0.1 * i, -1.0, 1.0, 0.5, 2.0 * i, 1.5,
-                        alarm)
 
 
 def test_schema_tables_and_version(tmp_path):
@@ -43,12 +35,12 @@ def test_round_trip(tmp_path):
     st = EventStore(tmp_path / "e.db")
     run = st.start_run("rig1", command="monitor", source="a.parquet", feature="ac p1",
                        sample_rate_hz=1000.0, threshold=12.5, system="vca", config={"window": 200})
-    assert st.add_chunk(run, _summary(0)) == (0, [])
-    seq, ids = st.add_chunk(run, _summary(1, True), [AlarmRecord(1.4, 13.0, 12.5, onset_s=0.9,
+    assert st.add_chunk(run, summary(0)) == (0, [])
+    seq, ids = st.add_chunk(run, summary(1, True), [AlarmRecord(1.4, 13.0, 12.5, onset_s=0.9,
                                                                  leak_lpm=0.1, leak_lpm_low=0.05,
                                                                  leak_lpm_high=0.15)])
     assert seq == 1 and len(ids) == 1
-    st.add_chunk(run, _summary(2, False), alarm_updates={ids[0]: {"cleared_time_s": 2.3}})
+    st.add_chunk(run, summary(2, False), alarm_updates={ids[0]: {"cleared_time_s": 2.3}})
     st.end_run(run)
     st.close()
     st = EventStore(tmp_path / "e.db", create=False)
@@ -72,9 +64,9 @@ def test_round_trip(tmp_path):
 def test_fleet_state_alarm_ok_nodata(tmp_path):
     st = EventStore(tmp_path / "e.db")
     r1 = st.start_run("b-rig", command="monitor", source="b", feature="f")
-    st.add_chunk(r1, _summary(0, True), [AlarmRecord(0.5, 20.0, 12.0)])
+    st.add_chunk(r1, summary(0, True), [AlarmRecord(0.5, 20.0, 12.0)])
     r2 = st.start_run("a-rig", command="monitor", source="a", feature="f")
-    st.add_chunk(r2, _summary(0, False))
+    st.add_chunk(r2, summary(0, False))
     st.start_run("c-rig", command="monitor", source="c", feature="f")
     fl = st.fleet()
     assert fl["name"].tolist() == ["a-rig", "b-rig", "c-rig"]
@@ -82,7 +74,7 @@ def test_fleet_state_alarm_ok_nodata(tmp_path):
     assert fl.loc[1, "last_alarm_time_s"] == 0.5
     # a new run without alarm on b-rig: OK again, its last alarm is still listed
     r3 = st.start_run("b-rig", command="monitor", source="b2", feature="f")
-    st.add_chunk(r3, _summary(0, False))
+    st.add_chunk(r3, summary(0, False))
     fl = st.fleet()
     assert fl.loc[1, "state"] == "OK" and fl.loc[1, "last_alarm_time_s"] == 0.5
     assert fl.loc[1, "n_runs"] == 2
@@ -139,8 +131,9 @@ def test_two_processes_write_the_same_file(tmp_path):
     db = str(tmp_path / "e.db")
     EventStore(db).close()
     n = 150
-    procs = [subprocess.Popen([sys.executable, str(WRITER), db, name, str(n)], env=_env(),
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    procs = [subprocess.Popen([sys.executable, str(WRITER), db, name, str(n)],
+                              env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True)
              for name in ("w1", "w2")]
     for p in procs:
         out, err = p.communicate(timeout=240)
@@ -160,8 +153,9 @@ def test_two_processes_write_the_same_file(tmp_path):
 
 def test_killed_writer_leaves_a_consistent_file(tmp_path):
     db = str(tmp_path / "e.db")
-    with subprocess.Popen([sys.executable, str(WRITER), db, "victim", "-1"], env=_env(),
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as p:
+    with subprocess.Popen([sys.executable, str(WRITER), db, "victim", "-1"],
+                          env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                          text=True) as p:
         try:
             for _ in range(40):  # wait for 40 committed chunks, then kill -9 mid-stream
                 line = p.stdout.readline()
@@ -182,7 +176,7 @@ def test_killed_writer_leaves_a_consistent_file(tmp_path):
     assert n_chunks == n_rows >= 40 and seqs == list(range(n_rows)) and status == "running"
     st = EventStore(db)  # the store is still writable after the crash
     run = st.start_run("victim", command="monitor", source="again", feature="ac p1")
-    assert st.add_chunk(run, _summary(0)) == (0, [])
+    assert st.add_chunk(run, summary(0)) == (0, [])
     assert st.count("chunk_summaries") == n_rows + 1
 
 
@@ -223,7 +217,7 @@ def test_add_chunks_is_one_group_equal_to_single_chunks(tmp_path):
     one, group = EventStore(tmp_path / "one.db"), EventStore(tmp_path / "group.db")
     r1 = one.start_run("rig1", command="monitor", source="a", feature="f")
     r2 = group.start_run("rig1", command="monitor", source="a", feature="f")
-    sums = [_summary(i, i >= 3) for i in range(6)]
+    sums = [summary(i, i >= 3) for i in range(6)]
     for sm in sums[:3]:
         one.add_chunk(r1, sm)
     _, (aid,) = one.add_chunk(r1, sums[3], [AlarmRecord(3.2, 7.0, 6.0, onset_s=2.5)])
@@ -327,7 +321,7 @@ def test_a_version_1_store_is_upgraded_in_place(tmp_path):
     db = tmp_path / "e.db"
     st = EventStore(db)
     run = st.start_run("rig1", command="monitor", source="a.parquet", feature="ac p1")
-    st.add_chunk(run, _summary(0))
+    st.add_chunk(run, summary(0))
     st.end_run(run)
     st.close()
     _as_version_1(db)
