@@ -106,3 +106,47 @@ def test_detector_matches_once_at_fit_and_filters_every_recording_alike(fitted_r
         p = det.ekf_params(rec)
         assert p.pressure_noise_std_pa == det.pressure_noise_std_pa_
         assert run_vca_ekf(rec, p).pressure_noise_std_pa == (det.pressure_noise_std_pa_,) * 2
+
+
+def test_the_match_takes_recordings_by_their_samples_not_their_order(monkeypatch):
+    """A review (2026-11-27): the first MATCH_MAX_SIGNAL_S seconds in the order given were
+    used, so one healthy set gave 75 kPa in one order and 83 kPa reversed. They are now taken
+    in the order of their samples' digest: any order of the same set gives the same value."""
+    import leakdiag.literature.detectors as detectors
+
+    monkeypatch.setattr(detectors, "MATCH_MAX_SIGNAL_S", 12.0)  # 2 of the 3 recordings
+    recs = [_run(10e3, 3, seed=s, duration=8.0) for s in (11, 12, 13)]
+    a = ekf("vca", Alarm(false_alarms_per_hour=200.0, burn_in_s=1.0))  # 3 x 7 s: 1/4 per run
+    values = {clone(a).fit(order).pressure_noise_std_pa_
+              for order in (recs, recs[::-1], recs[1:] + recs[:1])}
+    assert len(values) == 1
+
+
+def test_the_match_filters_only_the_seconds_it_uses():
+    """A review (2026-11-27): each pass filtered every recording whole and then kept its first
+    seconds (a 600-s recording took 40 CPU s per fit). The filter is causal, so filtering only
+    the part used gives the same numbers, bit for bit."""
+    from leakdiag.literature.ekf import _innovation_stats
+
+    rec = _run(10e3, 3, duration=20.0)
+    p = EKFParams()
+    whole = _innovation_stats([rec], p, 10e3, 1.0, 6.0)
+    cut = _innovation_stats([rec.slice_time(None, rec.start_time + 7.0)], p, 10e3, 1.0, 6.0)
+    assert whole[0] == cut[0] and whole[2] == cut[2] and whole[3] == cut[3] == 6.0
+    np.testing.assert_array_equal(whole[1], cut[1])
+
+
+def test_an_ekf_detector_fitted_before_the_hold_limits_is_refused_clearly(fitted_registry_ekf):
+    """A review (2026-11-27): a detector fitted before 2026-11-27 (no max_hold_s_, no matched
+    noise) loaded and judged with the old behaviour (a frozen p1 read LEAK, 11-15 filter
+    passes per recording); it is refused, saying to fit it again."""
+    import copy
+
+    from leakdiag.io.errors import RecordingError
+
+    old = copy.deepcopy(fitted_registry_ekf[0])
+    del old.max_hold_s_, old.pressure_noise_std_pa_, old.longest_hold_s_
+    with pytest.raises(RecordingError, match=r"^this EKF detector was fitted before the EKF "
+                                             r"learned its channels' hold limits .*fit it "
+                                             r"again \(leakdiag fit\)$"):
+        old.predict(_run(10e3, 3, seed=21, duration=8.0))

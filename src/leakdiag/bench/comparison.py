@@ -54,12 +54,22 @@ def comparison_suite(duration_s: float = 100.0, n_fit: int = COMPARISON_N_FIT,
     dict
         ``{"vca": SystemSuite}`` for :func:`leakdiag.bench.run.run_suite`.
 
+    Raises
+    ------
+    ValueError
+        If ``n_fit`` is not an integer >= 1.
+
     Examples
     --------
     >>> s = comparison_suite()["vca"]
     >>> s.excitations, s.leak_lpm, s.n_fit
     (('operating', 'structured'), (0.02, 0.05, 0.1, 0.2, 0.5, 1.0), 19)
+    >>> comparison_suite(n_fit=0)
+    Traceback (most recent call last):
+    ...
+    ValueError: n_fit=0 must be >= 1
     """
+    n_fit = check_int(n_fit, "n_fit", 1)  # no healthy run supports no threshold
     return {"vca": SystemSuite(
         system="vca", leak_lpm=(0.02, 0.05, 0.1, 0.2, 0.5, 1.0), loads=("none",),
         noise_levels={"low": 10e3}, duration_s=float(duration_s),

@@ -177,6 +177,27 @@ class EMDHilbertDetector(Detector):
             self.sifting_iterations))
 
 
+def _match_subset(kept: list, rec) -> list:
+    """The recordings whose first ``MATCH_MAX_SIGNAL_S`` seconds the noise is matched on,
+    chosen by the digest of their samples, not their order (the same healthy set in another
+    order gave 75 and 83 kPa when the first given were used): ``kept`` holds ``(digest,
+    recording)`` in digest order, trimmed to the fewest that reach the signal length."""
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=16)
+    for c in sorted(rec.channels):
+        h.update(c.encode())
+        h.update(np.ascontiguousarray(rec[c], dtype=np.float64).tobytes())
+    kept = sorted(kept + [(h.digest(), rec)], key=lambda x: x[0])
+    span, out = 0.0, []
+    for d, r in kept:
+        if span >= MATCH_MAX_SIGNAL_S:
+            break
+        out.append((d, r))
+        span += max(0.0, r.duration - MATCH_SKIP_S)
+    return out
+
+
 class EKFDetector(Detector):
     """Leak detector on the VCA extended Kalman filter (An & Sepehri 2005).
 
@@ -264,6 +285,13 @@ class EKFDetector(Detector):
                     f"{list(LOADS)} only (Table 2-1; a spring at its nominal stiffness), so "
                     "load='auto' cannot filter this recording: correct its meta['load'], or "
                     "give EKFDetector the load it should assume (load='none' or 'spring')")
+        if hasattr(self, "threshold_") and not hasattr(self, "max_hold_s_"):
+            # fitted by the code before 2026-11-27: no hold limits, its noise estimated per
+            # recording; judged now it would be filtered otherwise than it was fitted
+            raise RecordingError(
+                "this EKF detector was fitted before the EKF learned its channels' hold limits "
+                "and matched its pressure noise on its healthy recordings (2026-11-27): its "
+                "threshold belongs to another filter; fit it again (leakdiag fit)")
         noise = self.pressure_noise_std_pa
         if noise is None:  # matched at fit time (None before a fit: on the recording itself)
             noise = getattr(self, "pressure_noise_std_pa_", None)
@@ -279,14 +307,15 @@ class EKFDetector(Detector):
         (``longest_hold_s_``, s) and the limit beyond which a judged recording's channel is
         frozen (``max_hold_s_``, :data:`~leakdiag.literature.ekf.HOLD_FACTOR` times it); with
         ``pressure_noise_std_pa=None`` the pressure noise matched to the filter's innovations
-        on the first ``MATCH_MAX_SIGNAL_S`` seconds of them (``pressure_noise_std_pa_``, Pa,
-        and ``noise_match_``), so that every recording is then filtered alike."""
-        holds, subset, span = [], [], 0.0
+        on ``MATCH_MAX_SIGNAL_S`` seconds of them, the recordings taken in the order of their
+        samples' digest, not as given (``pressure_noise_std_pa_``, Pa, and ``noise_match_``),
+        so that every recording is then filtered alike."""
+        holds, kept = [], []
         for r in recordings:  # one pass (a lazy sequence loads each recording once)
             holds.append(longest_holds_s(r))
-            if span < MATCH_MAX_SIGNAL_S:
-                subset.append(r)
-                span += max(0.0, r.duration - MATCH_SKIP_S)
+            if self.pressure_noise_std_pa is None:
+                kept = _match_subset(kept, r)
+        subset = [r for _, r in kept]
         longest = np.max(holds, axis=0)
         self.longest_hold_s_ = dict(zip(MEASURED, (float(v) for v in longest)))
         self.max_hold_s_ = tuple(HOLD_FACTOR * float(v) for v in longest)

@@ -9,6 +9,7 @@ estimate, multiplied by :math:`\\sqrt{|P_1 - P_2|}`, gives the leak flow in L/mi
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,7 +43,8 @@ MATCH_SKIP_S = 1.0
 #: Most seconds of healthy signal the noise matching runs the filter over per pass (leakdiag
 #: choice: bounds a fit's cost, about 15 passes).
 MATCH_MAX_SIGNAL_S = 120.0
-#: Largest pressure noise the matching tries (Pa): beyond it the filter is refused.
+#: Bound of the matching's doubling (Pa): a noise that would pass it is refused (the last one
+#: tried is 65.5 MPa).
 NOISE_CEILING_PA = 1e8
 #: Median of the chi-square distribution with 1 degree of freedom, ``(Phi^-1(3/4))^2``: the
 #: median of ``e^2 / S`` for a Gaussian innovation whose variance the filter knows.
@@ -52,7 +54,8 @@ MEASURED = ("x", "p1", "p2")
 #: How many times longer than the healthy recordings' longest a measured channel may hold one
 #: exact value before the filter treats it as frozen (leakdiag choice, the flow balance's
 #: ``HOLD_FACTOR``): the encoder holds its count whenever the piston rests (healthy VCA runs:
-#: up to 1.5 s), a noisy pressure transducer for about 15 samples at most.
+#: up to about 3 s under the pseudorandom steps, 1.9-3.1 s on nominal 60-s runs), a noisy
+#: pressure transducer for about 15 samples at most.
 HOLD_FACTOR = 3.0
 
 
@@ -326,13 +329,13 @@ def _innovation_stats(recs, params, sigma, skip_s, max_signal_s):
     """One filter pass over ``recs`` (up to ``max_signal_s`` s after ``skip_s`` in each) with
     pressure noise ``sigma``: the median of the pressures' ``e_i^2 / S_ii`` over its value for
     Gaussian innovations, the mean ``e_i^2 / S_ii`` per channel, the mean NIS, seconds used."""
-    from dataclasses import replace
-
-    p = replace(params, pressure_noise_std_pa=float(sigma), max_hold_s=None)
+    p = dataclasses.replace(params, pressure_noise_std_pa=float(sigma), max_hold_s=None)
     ratio, nis, n, used_s, pressure = np.zeros(3), 0.0, 0, 0.0, []
     for rec in recs:
         if used_s >= max_signal_s:
             break
+        # the filter is causal: the part after what is used changes nothing, so it is not run
+        rec = rec.slice_time(None, rec.start_time + skip_s + max_signal_s - used_s)
         res = run_vca_ekf(rec, p)
         t = res.time - rec.start_time
         keep = (t >= skip_s) & (t < skip_s + max_signal_s - used_s) & np.isfinite(res.nis)
@@ -362,7 +365,7 @@ def match_measurement_noise(recordings, params: "EKFParams | None" = None, *,
     smallest pressure noise :math:`\\sigma` (the same for ``p1`` and ``p2``) at which the
     median of the pressures' :math:`e_i^2 / S_{ii}` is at most that: searched on a factor-2
     grid from ``NOISE_FLOOR_PA`` up, then by bisection (in :math:`\\log\\sigma`) to a
-    relative width ``rtol``; one filter pass per value tried (11-15). The position's noise
+    relative width ``rtol``; one filter pass per value tried (11-17). The position's noise
     (``params.position_noise_std_m``, the encoder's) is kept.
 
     Parameters
@@ -385,7 +388,8 @@ def match_measurement_noise(recordings, params: "EKFParams | None" = None, *,
     Raises
     ------
     ValueError
-        If no recording has a sample after ``skip_s``, or no noise up to 100 MPa makes the
+        If no recording has a sample after ``skip_s``, or no noise the doubling reaches below
+        ``NOISE_CEILING_PA`` (100 MPa; the last tried is 65.5 MPa) makes the
         innovations consistent.
 
     Notes
