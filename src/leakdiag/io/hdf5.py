@@ -115,6 +115,16 @@ def hdf5_tree(group) -> dict:
     return out
 
 
+def _open(path):
+    """The file open for reading; a file that is not HDF5 is a RecordingError naming it."""
+    import h5py
+
+    try:
+        return h5py.File(Path(path), "r")
+    except OSError as exc:
+        raise RecordingError(f"{path}: unreadable as HDF5: {exc}") from None
+
+
 def read_hdf5(path: str | os.PathLike, sep: str = "/") -> RawTable:
     """Read an HDF5 file into a :class:`RawTable`.
 
@@ -144,13 +154,8 @@ def read_hdf5(path: str | os.PathLike, sep: str = "/") -> RawTable:
     >>> read_hdf5(p).names
     ['time', 'p1']
     """
-    import h5py
-
     source = str(path)
-    try:
-        f = h5py.File(Path(path), "r")
-    except OSError as exc:
-        raise RecordingError(f"{source}: unreadable as HDF5: {exc}") from None
+    f = _open(path)
     with f:
         header = _header(f, source)
         if header is not None:
@@ -215,12 +220,7 @@ def read_hdf5_header(path: str | os.PathLike) -> dict | None:
     >>> read_hdf5_header(p)["units"]
     {'p1': 'bar'}
     """
-    import h5py
-
     source = str(path)
-    try:
-        f = h5py.File(Path(path), "r")
-    except OSError as exc:
-        raise RecordingError(f"{source}: unreadable as HDF5: {exc}") from None
+    f = _open(path)
     with f:
         return _header(f, source)

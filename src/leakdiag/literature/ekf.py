@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from leakdiag._validation import check_int, check_overlap, check_positive
+from leakdiag.detect.flow_balance import HOLD_FACTOR
 from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
 from leakdiag.features.windowing import window_starts, window_step, window_times
@@ -51,12 +52,11 @@ NOISE_CEILING_PA = 1e8
 CHI2_1_MEDIAN = 0.4549364231195724
 #: Measured channels, in the filter's measurement order.
 MEASURED = ("x", "p1", "p2")
-#: How many times longer than the healthy recordings' longest a measured channel may hold one
-#: exact value before the filter treats it as frozen (leakdiag choice, the flow balance's
-#: ``HOLD_FACTOR``): the encoder holds its count whenever the piston rests (healthy VCA runs:
-#: up to about 3 s under the pseudorandom steps, 1.9-3.1 s on nominal 60-s runs), a noisy
-#: pressure transducer for about 15 samples at most.
-HOLD_FACTOR = 3.0
+# HOLD_FACTOR (imported): how many times longer than the healthy recordings' longest a measured
+# channel may hold one exact value before the filter treats it as frozen, the flow balance's
+# own factor (one leakdiag choice for both): the encoder holds its count whenever the piston
+# rests (healthy VCA runs: up to about 3 s under the pseudorandom steps, 1.9-3.1 s on nominal
+# 60-s runs), a noisy pressure transducer for about 15 samples at most.
 
 
 @dataclass(frozen=True)
