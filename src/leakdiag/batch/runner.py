@@ -28,12 +28,13 @@ from leakdiag.features.series import FeatureSeries
 from leakdiag.io.checks import RESAMPLE_ADVICE
 from leakdiag.runtime.executor import LOCAL, run_cases
 from leakdiag.stream.detector import as_scorer
-from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
+from leakdiag.stream.detector_file import (ADVICE_JOB, check_detector_fits,
+                                            load_detector_file, unchecked_note)
 from leakdiag.stream.feature import StreamingFeature
 from leakdiag.stream.files import open_recording
 
 __all__ = ["run_case", "run_batch", "expand_inputs", "batch_inputs", "warn_job_detectors",
-           "unchecked_note", "ADVICE_MAP", "ADVICE_JOB", "BatchSummary", "LOCAL"]
+           "BatchSummary", "LOCAL"]
 
 
 def expand_inputs(patterns: Iterable[str]) -> list[str]:
@@ -97,71 +98,6 @@ def batch_inputs(patterns: Iterable[str],
     for p in expand_inputs(patterns):
         (own if p == out or p.startswith(out.rstrip(os.sep) + os.sep) else paths).append(p)
     return paths, own
-
-
-#: Where a ``detect`` or ``monitor`` user states a recording's rig and load
-#: (:func:`unchecked_note`).
-ADVICE_MAP = "a --map"
-#: Where a ``batch`` user states them.
-ADVICE_JOB = "the job's column map"
-
-
-def unchecked_note(source: str, meta, fitted, advice: str) -> str | None:
-    """The one sentence ``detect``, ``monitor`` and ``batch`` say about a recording whose
-    metadata do not state what its detectors' healthy recordings did (rig, load), so that it
-    could not be checked against them.
-
-    A recording of another rig or load than the healthy ones can look like a leak (an audit
-    found a VCA detector judging a plain-CSV healthy EHA run LEAK), so an unchecked one is said,
-    once per recording whatever the number of detectors.
-
-    Parameters
-    ----------
-    source : str
-        The recording, as the command names it.
-    meta : mapping
-        Its metadata (``Recording.meta``, ``ChunkSource.meta``).
-    fitted : iterable of (str, str or None, str or None)
-        For each detector judging it: what it was fitted on (a detector file, ``the --healthy
-        recordings``), the rig and the load of its healthy recordings (None: unknown, not said).
-        Two entries that say the same are said once.
-    advice : str
-        Where this command's user states them: :data:`ADVICE_MAP` or :data:`ADVICE_JOB`.
-
-    Returns
-    -------
-    str or None
-        None when nothing was left unchecked.
-
-    Examples
-    --------
-    >>> unchecked_note("x.csv", {"system": "vca"}, [("d.joblib", "vca", "none")], ADVICE_JOB)
-    ... # doctest: +NORMALIZE_WHITESPACE
-    "x.csv states no load in its metadata, so it was not checked against the load 'none' of
-    d.joblib (another load can look like a leak: state it as load in the [file] table of the
-    job's column map, or in the file's metadata)"
-    >>> unchecked_note("x.csv", {}, [("d.joblib", None, None)], ADVICE_MAP) is None
-    True
-    """
-    props = [(key, what) for key, what in (("system", "rig"), ("load", "load"))
-             if meta.get(key) is None]
-    against, used = [], set()
-    for fitted_on, system, load in fitted:
-        values = {"system": system, "load": load}
-        said = [(key, what, values[key]) for key, what in props if values[key] is not None]
-        phrase = " and ".join(f"the {w} {str(v)!r}" for _, w, v in said) + f" of {fitted_on}"
-        if said and phrase not in against:
-            against.append(phrase)
-            used.update(key for key, _, _ in said)
-    if not against:
-        return None
-    missing = [(key, what) for key, what in props if key in used]
-    whats = [w for _, w in missing]
-    return (f"{source} states {' and '.join('no ' + w for w in whats)} in its metadata, so it "
-            f"was not checked against {'; '.join(against)} (another {' or '.join(whats)} can "
-            f"look like a leak: state {'it' if len(whats) == 1 else 'them'} as "
-            f"{' and '.join(k for k, _ in missing)} in the [file] table of {advice}, or in the "
-            "file's metadata)")
 
 
 def _summary(values: np.ndarray) -> dict:

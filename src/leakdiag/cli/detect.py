@@ -245,7 +245,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     tab.attrs["duration_s"] = float(rec.duration)
     tab.attrs["system"] = None if rig is None else str(rig).lower()
     # what the file's metadata leave unchecked (rig, load): one sentence, as monitor and batch
-    from leakdiag.batch.runner import ADVICE_MAP, unchecked_note
+    from leakdiag.stream.detector_file import ADVICE_MAP, unchecked_note
 
     note = unchecked_note(str(file), rec.meta, fitted, ADVICE_MAP)
     tab.attrs["notes"] = [] if note is None else [note]

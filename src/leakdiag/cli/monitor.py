@@ -290,7 +290,7 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                         units=units, system=source.meta.get("system"), source=source.source,
                         path=str(detector_path), load=source.meta.get("load"))
     if meta is not None:  # what the input's metadata leave unchecked, as detect and batch say it
-        from leakdiag.batch.runner import ADVICE_MAP, unchecked_note
+        from leakdiag.stream.detector_file import ADVICE_MAP, unchecked_note
 
         note = unchecked_note(str(source.source), source.meta, [
             (str(detector_path), meta.system, getattr(meta, "load", None))], ADVICE_MAP)
