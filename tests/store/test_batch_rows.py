@@ -220,11 +220,3 @@ def test_add_finished_runs_is_one_transaction(tmp_path):
     assert st.actuator_names() == ["rig1"] and st.count("runs") == 2
     con.close()
     st.close()
-
-
-def test_the_stored_rows_are_read_only_inside_the_writing_transaction():
-    """Review item 5: ``EventStore.batch_row_keys`` read the stored row keys outside any write
-    transaction, the pattern that stored rows twice when two writers ran at once (finding 2),
-    and its docstring still said ``record_batch`` used it. Nothing did: it is gone, and which
-    rows are stored is decided only by ``add_finished_runs`` under the actuator's lock."""
-    assert not hasattr(EventStore, "batch_row_keys")
