@@ -18,7 +18,8 @@ from leakdiag.bench.suite import EXCITATIONS, QUICK_FAR, QUICK_SUITES, SUITES
 from leakdiag.detect.base import Alarm
 from leakdiag.runtime.cache import resolve_cache_dir
 
-__all__ = ["run_benchmark", "BenchmarkResult", "console_table_v4", "check_target_supported"]
+__all__ = ["run_benchmark", "BenchmarkResult", "console_table_v4", "check_target_supported",
+           "unsupported_target"]
 
 
 @dataclass
@@ -243,21 +244,49 @@ def check_target_supported(suites, methods, per_run: float, burn_in_s: float = 5
 maximum each: they support a false-alarm target of at least 0.105 per run, and \
 --false-alarm-rate 0.05 needs 19 such runs; give --false-alarm-rate 0.11 or more
     """
-    from leakdiag.detect.base import Detector
-    from leakdiag.detect.threshold import min_maxima
-
     for name, s in suites.items():
-        # the common fit's threshold, whatever the features' own fit (the EKF learns its
-        # noise and hold limits in _fit_features, then takes one maximum per run as well)
-        common = [m for m in methods if type(make_detector(m, name, Alarm())).fit is Detector.fit]
-        need = min_maxima(_segment_target(per_run, s, burn_in_s))
-        if not common or s.n_fit >= need:
+        short = unsupported_target(name, s, methods, per_run, burn_in_s)
+        if short is None:
             continue
-        low, give = _smallest_target(s, burn_in_s)
+        _, need, low, give = short
         raise ValueError(f"suite v4 fits each threshold on {s.n_fit} healthy fitting runs per "
                          f"group ({name}), one maximum each: they support a false-alarm target "
                          f"of at least {low:.3g} per run, and --false-alarm-rate {per_run:g} "
                          f"needs {need} such runs; give --false-alarm-rate {give:.2f} or more")
+
+
+def unsupported_target(system: str, s, methods, per_run: float, burn_in_s: float = 5.0):
+    """Whether one suite's fitting runs fall short of a per-run target for the methods whose
+    threshold is one CUSUM maximum per fitting run (``Detector.fit``; whatever their features'
+    own fit: the EKF learns its noise and hold limits in ``_fit_features``).
+
+    Parameters
+    ----------
+    system : str
+        The suite's rig (``"vca"``, ``"eha"``).
+    s : SystemSuite
+        The suite.
+    methods : sequence of str
+        Registry names.
+    per_run : float
+        Target false-alarm probability per healthy run.
+    burn_in_s : float, default 5.0
+        Leading seconds of a run not monitored.
+
+    Returns
+    -------
+    tuple or None
+        None when the runs suffice (or no method takes the common threshold); else
+        ``(method, runs_needed, smallest_supported_target, that_target_rounded_up_to_0.01)``.
+    """
+    from leakdiag.detect.base import Detector
+    from leakdiag.detect.threshold import min_maxima
+
+    common = [m for m in methods if type(make_detector(m, system, Alarm())).fit is Detector.fit]
+    need = min_maxima(_segment_target(per_run, s, burn_in_s))
+    if not common or s.n_fit >= need:
+        return None
+    return (common[0], need, *_smallest_target(s, burn_in_s))
 
 
 def _segment_target(per_run: float, s, burn_in_s: float) -> float:

@@ -18,7 +18,7 @@ from typing import Any
 from leakdiag._validation import check_int
 from leakdiag.bench.registry import make_detector
 from leakdiag.bench.suite import EXCITATIONS, SystemSuite
-from leakdiag.detect.base import Alarm, Detector
+from leakdiag.detect.base import Alarm
 
 __all__ = ["comparison_suite", "compute_seconds_per_hour", "COMPARISON_METHODS",
            "COMPARISON_FAR", "check_comparison_target", "run_comparison", "ComparisonResult",
@@ -113,30 +113,20 @@ def check_comparison_target(suites, methods, per_run: float, burn_in_s: float = 
 (vca), one CUSUM maximum each: they support a false-alarm target of at least 0.154 per run, \
 and false_alarm_per_run=0.01 needs n_fit=99; give n_fit=99 or false_alarm_per_run >= 0.16
     """
-    from leakdiag.bench.run import per_run_target_per_hour
-    from leakdiag.detect.threshold import min_maxima
+    from leakdiag.bench.benchmark import unsupported_target
 
     if not 0.0 < per_run < 1.0:
         raise ValueError(f"false_alarm_per_run={per_run!r} must be in (0, 1)")
-
-    def need(p, s):  # one segment per run: the run's monitored span
-        seg = s.duration_s - burn_in_s
-        return min_maxima(per_run_target_per_hour(p, s.duration_s, burn_in_s) * seg / 3600.0)
-
     for name, s in suites.items():
-        common = [m for m in methods if type(make_detector(m, name, Alarm())).fit is Detector.fit]
-        if not common or s.n_fit >= need(per_run, s):
+        short = unsupported_target(name, s, methods, per_run, burn_in_s)
+        if short is None:
             continue
-        low = -math.expm1(-1.0 / (s.n_fit + 1))  # per-segment target 1 / (n + 1)
-        give = math.ceil(100 * low) / 100
-        while need(give, s) > s.n_fit:
-            give += 0.01
+        method, need, low, give = short
         raise ValueError(
-            f"the comparison fits {common[0]}'s threshold on n_fit={s.n_fit} healthy runs per "
+            f"the comparison fits {method}'s threshold on n_fit={s.n_fit} healthy runs per "
             f"excitation ({name}), one CUSUM maximum each: they support a false-alarm target "
             f"of at least {low:.3g} per run, and false_alarm_per_run={per_run:g} needs "
-            f"n_fit={need(per_run, s)}; give n_fit={need(per_run, s)} or "
-            f"false_alarm_per_run >= {give:.2f}")
+            f"n_fit={need}; give n_fit={need} or false_alarm_per_run >= {give:.2f}")
 
 
 @dataclass
