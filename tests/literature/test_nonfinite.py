@@ -30,24 +30,24 @@ def _rec(channel, bad_index, value=np.nan, start_time=0.0):
 ])
 def test_signal_features_refuse_nan_naming_recording_channel_sample(feature, params, name):
     rec = _rec("p1", 2345)
-    msg = (r"rig7/run3\.csv: channel 'p1' holds 2 non-finite value\(s\) \(NaN\), the first at "
-           rf"sample 2345 \(t = 2\.345 s\); the {name} feature needs finite samples")
+    msg = (r"^rig7/run3\.csv: channel 'p1' has 2 non-finite value\(s\); first NaN at row 2345; "
+           rf"the {name} feature needs finite samples: fill or cut the gap$")
     with pytest.raises(RecordingError, match=msg):
         feature(rec, params)
 
 
 def test_two_channel_feature_names_the_bad_channel_and_inf():
     rec = _rec("p2", 10, value=np.inf, start_time=100.0)
-    with pytest.raises(RecordingError, match=r"channel 'p2' holds 2 non-finite value\(s\) "
-                                             r"\(inf\), the first at sample 10 \(t = 100\.01 s\)"):
+    with pytest.raises(RecordingError, match=r"channel 'p2' has 2 non-finite value\(s\); "
+                                             r"first inf at row 10; "):
         wavelet_feature(rec, WaveletParams(channels=("p1", "p2")))
 
 
 @pytest.mark.parametrize("channel", ["u", "x", "p1", "p2"])
 def test_ekf_refuses_nan_naming_recording(channel):
     rec = _rec(channel, 1500)
-    msg = (rf"rig7/run3\.csv: channel '{channel}' holds 2 non-finite value\(s\) \(NaN\), the "
-           r"first at sample 1500 \(t = 1\.5 s\); the EKF needs finite samples")
+    msg = (rf"^rig7/run3\.csv: channel '{channel}' has 2 non-finite value\(s\); first NaN at "
+           r"row 1500; the EKF needs finite samples: fill or cut the gap$")
     with pytest.raises(RecordingError, match=msg):
         run_vca_ekf(rec)
     with pytest.raises(RecordingError, match=msg):

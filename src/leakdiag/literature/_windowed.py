@@ -209,22 +209,19 @@ def check_finite_channels(recording, channels, what: str) -> None:
     >>> check_finite_channels(rec, ("p1",), "the FFT band feature")
     Traceback (most recent call last):
     ...
-    leakdiag.io.errors.RecordingError: run.csv: channel 'p1' holds 1 non-finite value(s) (NaN), \
-the first at sample 2 (t = 0.2 s); the FFT band feature needs finite samples: fill or cut the gap
+    leakdiag.io.errors.RecordingError: run.csv: channel 'p1' has 1 non-finite value(s); \
+first NaN at row 2; the FFT band feature needs finite samples: fill or cut the gap
     """
+    from leakdiag.io.checks import check_channel_finite
     from leakdiag.io.errors import RecordingError
 
+    source = recording.meta.get("source", "<recording>")
     for ch in channels:
-        x = np.asarray(recording[ch], dtype=np.float64)
-        bad = ~np.isfinite(x)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            kind = "NaN" if np.isnan(x[i]) else "inf"
-            t = recording.start_time + i / recording.sample_rate
-            raise RecordingError(
-                f"{recording.meta.get('source', '<recording>')}: channel {ch!r} holds "
-                f"{int(bad.sum())} non-finite value(s) ({kind}), the first at sample {i} "
-                f"(t = {t:.6g} s); {what} needs finite samples: fill or cut the gap")
+        try:  # io's check and wording (file, channel, count, first row)
+            check_channel_finite(np.asarray(recording[ch], dtype=np.float64), ch, source)
+        except RecordingError as exc:
+            raise RecordingError(f"{exc}; {what} needs finite samples: fill or cut the "
+                                 "gap") from None
 
 
 def channel_rms_feature(recording, channels, window: int, overlap: float, rms_of, name: str,
