@@ -64,7 +64,9 @@ def test_errors():
         run_vca_ekf(rec)
     bad = Recording({"u": np.zeros(n), "x": np.zeros(n), "p1": np.zeros(n),
                      "p2": np.r_[np.zeros(n - 1), np.nan]}, 1000.0)
-    with pytest.raises(RecordingError, match="channel .p2. holds 1 non-finite"):
+    with pytest.raises(RecordingError, match=r"^<recording>: channel .p2. has 1 non-finite "
+                                             r"value\(s\); first NaN at row 9; the EKF needs "
+                                             r"finite samples: fill or cut the gap$"):
         run_vca_ekf(bad)
     with pytest.raises(ValueError, match="feature='x' must be one of"):
         EKFParams(feature="x")
