@@ -227,7 +227,7 @@ def test_bench_throughput_with_and_without_page(capsys, tmp_path, chunk):
     n = len(rec["p1"]) * LOOPS
     _run(_recording(5.0))  # compile / warm caches
     gc.collect()
-    gc.freeze()  # as `leakdiag monitor` does once its hooks are set up
+    gc.freeze()  # as `leakdiag monitor` does before its loop (runtime.collector)
     have_browser = os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)
     srv = {"bind": Bind("127.0.0.1", 0)}
     cases = [("monitor alone", None, None),

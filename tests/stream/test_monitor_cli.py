@@ -358,3 +358,36 @@ def test_monitor_says_when_a_stuck_sensor_blinds_the_detector(tmp_path):
     r = CliRunner().invoke(cli, ["monitor", str(ok), "--detector", str(d / "acf.joblib"),
                                  "--replay", "fast"])
     assert r.exit_code == 0 and "BLIND" not in r.output and "warning" not in r.output
+
+
+@pytest.mark.parametrize("frozen_before", [False, True])
+def test_monitor_keeps_what_it_loaded_out_of_the_collector_while_it_runs(run_file, monkeypatch,
+                                                                          frozen_before):
+    """The loop runs with the objects loaded before it frozen (gc.freeze) and gives them back
+    when it ends, with or without --store/--dashboard; someone else's freeze is left alone."""
+    import gc
+
+    from leakdiag.stream import monitor as stream_monitor
+
+    path, _ = run_file
+    seen = []
+    push = stream_monitor.Monitor.push
+
+    def spy(self, chunk):
+        seen.append(gc.get_freeze_count())
+        return push(self, chunk)
+
+    monkeypatch.setattr(stream_monitor.Monitor, "push", spy)
+    if frozen_before:
+        gc.freeze()
+    try:
+        outside = gc.get_freeze_count()
+        r = CliRunner().invoke(cli, ["monitor", str(path), "--chunk", "4000"])
+        assert r.exit_code == 0, r.output
+        assert len(seen) == 3 and min(seen) > 0
+        assert gc.get_freeze_count() == outside  # unfrozen by whoever froze
+        if frozen_before:
+            assert set(seen) == {outside}  # nothing frozen on top of the caller's freeze
+    finally:
+        if frozen_before:
+            gc.unfreeze()

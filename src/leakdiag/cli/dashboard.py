@@ -115,10 +115,8 @@ def open_monitor_hooks(live: dict, spec, monitor, source, say):
     src = str(source.source)
     name = live.get("actuator") or (
         "stdin" if src in ("<stdin>", "-") else os.path.splitext(os.path.basename(src))[0])
-    hooks = MonitorHooks(name, spec, monitor, src, source.sample_rate, live.get("store"), bind,
-                         live.get("refresh_hz", 5.0), say, system=live.get("system"))
-    hooks.freeze_gc()  # until hooks.close(): see MonitorHooks.freeze_gc
-    return hooks
+    return MonitorHooks(name, spec, monitor, src, source.sample_rate, live.get("store"), bind,
+                        live.get("refresh_hz", 5.0), say, system=live.get("system"))
 
 
 @click.command("dashboard", epilog="Example: leakdiag dashboard --store events.db --bind 8050")

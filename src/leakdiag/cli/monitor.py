@@ -249,6 +249,7 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                                "'-' reads CSV lines from stdin)")
     from leakdiag.cli._options import column_map_from, warn_low_rate
     from leakdiag.io.checks import RESAMPLE_ADVICE
+    from leakdiag.runtime.collector import frozen_collector
     from leakdiag.stream import Monitor, paced
     from leakdiag.stream.detector_file import check_detector_fits
 
@@ -312,45 +313,47 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     live = {**live, "system": source.meta.get("system") or getattr(meta, "system", None)}
     hooks = open_monitor_hooks(live, spec, mon, source, say)  # --store / --dashboard
     t0 = time.perf_counter()
-    try:
-        for chunk_ in paced(source, speed):
-            try:
-                evs = mon.push(chunk_)
-            except ValueError as exc:  # e.g. a NaN sample: name the input
-                msg = str(exc)
-                raise ValueError(msg if msg.startswith(source.source) else
-                                 f"{source.source}: {msg}") from None
+    # what is loaded by now stays out of the collector's way (runtime.collector)
+    with frozen_collector():
+        try:
+            for chunk_ in paced(source, speed):
+                try:
+                    evs = mon.push(chunk_)
+                except ValueError as exc:  # e.g. a NaN sample: name the input
+                    msg = str(exc)
+                    raise ValueError(msg if msg.startswith(source.source) else
+                                     f"{source.source}: {msg}") from None
+                if hooks:
+                    hooks.push(evs)
+                if out is not None and evs:
+                    out.write("".join(e.to_json() + "\n" for e in evs))
+                    out.flush()
+                n_win += len(evs)
+                for e in evs:
+                    if e.alarm and not alarm_on:
+                        n_alarm += 1
+                        say(f"ALARM   t={e.time:.6g} s  {spec.label}  value={e.value:.6g}  "
+                            f"score={e.score:.6g}")
+                    elif alarm_on and e.alarm is False:
+                        say(f"cleared t={e.time:.6g} s  score={e.score:.6g}")
+                    if e.alarm is not None:
+                        alarm_on = e.alarm
+                        # scored windows only (no burn-in); a defined window costs a compare
+                        # unless it ends an undefined span
+                        if blind is not None and (e.value != e.value or blind.windows) and \
+                                e.score == e.score and blind.add(e.time, e.value):
+                            say(f"BLIND   t={e.time:.6g} s  {spec.label}: undefined for "
+                                f"{blind.windows * blind.step_s:.3g} s, more than the "
+                                f"{blind.limit_s:.3g} s allowed (a stuck sensor?); no alarm is "
+                                "possible until it is defined again")
+        finally:
+            if out is not None and out is not sys.stdout:
+                out.close()
             if hooks:
-                hooks.push(evs)
-            if out is not None and evs:
-                out.write("".join(e.to_json() + "\n" for e in evs))
-                out.flush()
-            n_win += len(evs)
-            for e in evs:
-                if e.alarm and not alarm_on:
-                    n_alarm += 1
-                    say(f"ALARM   t={e.time:.6g} s  {spec.label}  value={e.value:.6g}  "
-                        f"score={e.score:.6g}")
-                elif alarm_on and e.alarm is False:
-                    say(f"cleared t={e.time:.6g} s  score={e.score:.6g}")
-                if e.alarm is not None:
-                    alarm_on = e.alarm
-                    # scored windows only (no burn-in); a defined window costs a compare
-                    # unless it ends an undefined span
-                    if blind is not None and (e.value != e.value or blind.windows) and \
-                            e.score == e.score and blind.add(e.time, e.value):
-                        say(f"BLIND   t={e.time:.6g} s  {spec.label}: undefined for "
-                            f"{blind.windows * blind.step_s:.3g} s, more than the "
-                            f"{blind.limit_s:.3g} s allowed (a stuck sensor?); no alarm is "
-                            "possible until it is defined again")
-    finally:
-        if out is not None and out is not sys.stdout:
-            out.close()
-        if hooks:
-            exc = sys.exc_info()[1]
-            hooks.close(exc is None, live["linger"], say, None if exc is None else
-                        "interrupted (Ctrl-C)" if isinstance(exc, KeyboardInterrupt) else
-                        f"{type(exc).__name__}: {exc}")
+                exc = sys.exc_info()[1]
+                hooks.close(exc is None, live["linger"], say, None if exc is None else
+                            "interrupted (Ctrl-C)" if isinstance(exc, KeyboardInterrupt) else
+                            f"{type(exc).__name__}: {exc}")
     dt = time.perf_counter() - t0
     n = mon.n_samples_seen
     alarms = (f"{n_alarm} alarm(s)" if detector is not None else

@@ -14,7 +14,6 @@ it starts.
 
 from __future__ import annotations
 
-import gc
 import sys
 import time
 from typing import Any, Callable
@@ -85,7 +84,6 @@ class MonitorHooks:
         self.scorer = monitor.scorers[0]
         self.monitor = monitor
         self.store = self.run_id = None
-        self._froze_gc = False
         self._closed = False
         if store is not None:
             from leakdiag.store import EventStore
@@ -146,21 +144,6 @@ class MonitorHooks:
             Without ``--dashboard``.
         """
         return self.sidecar.page_url(path)
-
-    def freeze_gc(self) -> None:
-        """Move every object loaded so far out of the cyclic garbage collector's way until close.
-
-        The modules and the detector are loaded by now; frozen (``gc.freeze``), the
-        collections that the monitor's own allocations trigger no longer traverse them
-        (measured when the store was written by a thread of the monitor's process: the
-        monitor's own CPU time with ``--store`` in a fast replay rose by a quarter without
-        this). :meth:`close` unfreezes them, so that a monitor run inside a longer-lived process
-        (tests, a notebook) leaves the collector as it found it. Nothing is done when someone
-        else has frozen objects already.
-        """
-        if gc.get_freeze_count() == 0:
-            gc.freeze()
-            self._froze_gc = True
 
     def push(self, events: list) -> None:
         """Hand the events of one chunk (from ``Monitor.push``) to the sidecar.
@@ -224,9 +207,6 @@ class MonitorHooks:
             Or any other error the sidecar met, when ``ok`` (otherwise the monitor's own error
             is the one to report).
         """
-        if self._froze_gc:
-            self._froze_gc = False
-            gc.unfreeze()
         if self._closed:
             return
         self._closed = True
