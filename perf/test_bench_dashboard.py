@@ -6,7 +6,8 @@
   against the chunk's ``received_wall``); goal <= 1 s. Real-time replay at
   1 kHz in 50-sample chunks, a headless Chromium on the live page.
 * the monitor's throughput (replay as fast as possible, 3.6 M samples replayed ``LOOPS`` = 8
-  times in 1,000- and 65,536-sample chunks): the monitor alone against ``--dashboard`` with
+  times in 1,000- and 65,536-sample chunks, with a fixed-threshold scorer and with a fitted
+  detector's CUSUM, whose frames carry S+/S- too: ``SCORERS``): the monitor alone against ``--dashboard`` with
   a client process reading the event stream, ``--store`` (SQLite), both, and ``--dashboard``
   with the page open in Chromium. The cases run interleaved in one process (ABBA order),
   ``REPEATS`` times each, and their medians are compared: the loop's wall time (the monitor's
@@ -113,6 +114,25 @@ class _Scorer:
         return np.abs(values)
 
 
+def _cusum_scorer(rate: float):
+    """What a detector file from ``leakdiag fit`` runs in the monitor: a DetectorScorer (Page's
+    CUSUM on the standardised feature, with its S+/S- branches handed to the page), here with
+    a threshold that the synthetic recording never reaches."""
+    from types import SimpleNamespace
+
+    from leakdiag.stream.detector import DetectorScorer
+
+    det = SimpleNamespace(mean_=0.9, std_=0.05, threshold_=1e12,
+                          alarm=SimpleNamespace(drift=0.5, direction="both", burn_in_s=0.0))
+    return DetectorScorer(det, SPEC.window, rate)
+
+
+#: The scorers of the throughput runs: the fixed threshold (the cheapest detector work, where
+#: the hand-off weighs most) and a fitted detector's CUSUM (frames with S+/S-, as `leakdiag
+#: monitor --detector FILE` hands them over).
+SCORERS = {"fixed threshold": lambda rate: _Scorer(), "CUSUM detector": _cusum_scorer}
+
+
 def _recording(seconds: float, seed: int = 0) -> Recording:
     rng = np.random.default_rng(seed)
     n = int(seconds * 1000)
@@ -151,7 +171,8 @@ def _sse_client(url):
                             stderr=subprocess.DEVNULL)
 
 
-def _run(rec, hooks_kw=None, page=None, chunk=1000, speed=None, loops=1, hooks_cls=None):
+def _run(rec, hooks_kw=None, page=None, chunk=1000, speed=None, loops=1, hooks_cls=None,
+         scorer="fixed threshold"):
     """Replay ``rec`` (``loops`` times, back to back, when ``speed`` is None); ``page``: None,
     "sse" (a client process) or "chromium" (the live page); ``hooks_cls``: default
     :class:`MonitorHooks`.
@@ -163,7 +184,7 @@ def _run(rec, hooks_kw=None, page=None, chunk=1000, speed=None, loops=1, hooks_c
     if loops > 1 and speed is None:
         src = itertools.chain.from_iterable(recording_chunks(rec, chunk, ["p1"])
                                             for _ in range(loops))
-    mon = Monitor(SPEC, rec.sample_rate, 0.0, scorers=_Scorer())
+    mon = Monitor(SPEC, rec.sample_rate, 0.0, scorers=SCORERS[scorer](rec.sample_rate))
     hooks = None if hooks_kw is None else (hooks_cls or MonitorHooks)(
         "bench", SPEC, mon, "synthetic", rec.sample_rate, say=lambda m: None, **hooks_kw)
     drv = prof = client = None
@@ -220,12 +241,13 @@ def test_bench_latency_sample_to_page(capsys, tmp_path, store):
          f"{'met' if lat.max() <= LATENCY_GOAL_S else 'NOT met'} at the max)")
 
 
+@pytest.mark.parametrize("scorer", list(SCORERS))
 @pytest.mark.parametrize("chunk", [1000, 65536])
-def test_bench_throughput_with_and_without_page(capsys, tmp_path, chunk):
+def test_bench_throughput_with_and_without_page(capsys, tmp_path, chunk, scorer):
     """Each case against the monitor alone, in the same process, interleaved (ABBA order)."""
     rec = _recording(3600.0, seed=1)  # 3.6 M samples: one hour at 1 kHz, replayed LOOPS times
     n = len(rec["p1"]) * LOOPS
-    _run(_recording(5.0))  # compile / warm caches
+    _run(_recording(5.0), scorer=scorer)  # compile / warm caches
     gc.collect()
     gc.freeze()  # as `leakdiag monitor` does before its loop (runtime.collector)
     have_browser = os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)
@@ -249,14 +271,15 @@ def test_bench_throughput_with_and_without_page(capsys, tmp_path, chunk):
             elif kw == "both":
                 kw = {"store": str(tmp_path / f"b{r}-{k}.db"), **srv}
             cls = before if name.endswith(", before") else None
-            out = _run(rec, kw, page, chunk=chunk, loops=LOOPS, hooks_cls=cls)
+            out = _run(rec, kw, page, chunk=chunk, loops=LOOPS, hooks_cls=cls, scorer=scorer)
             res[name].append(out[:3] + out[4:])
     base = np.median(np.array(res["monitor alone"]), axis=0)
-    _say(capsys, f"throughput, {chunk}-sample chunks: load {load0:.1f} -> "
+    _say(capsys, f"throughput, {chunk}-sample chunks, {scorer}: load {load0:.1f} -> "
          f"{os.getloadavg()[0]:.1f} (1-min average)")
     for name, _, _ in cases:
         m = np.median(np.array(res[name]), axis=0)
-        _say(capsys, f"throughput, {chunk}-sample chunks, {name}: {n / m[0]:.3g} samples/s "
+        _say(capsys, f"throughput, {chunk}-sample chunks, {scorer}, {name}: {n / m[0]:.3g} "
+             f"samples/s "
              f"(median of {reps}: loop {m[0]:.3f} s, {base[0] / m[0]:.0%} of the monitor alone; "
              f"monitor-thread CPU {m[1]:.3f} s, {base[1] / m[1]:.0%}; with the hooks' final "
              f"flush {m[2]:.3f} s, {base[2] / m[2]:.0%}; CPU outside the monitor's thread "
