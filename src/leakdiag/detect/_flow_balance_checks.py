@@ -33,6 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import nnls
 
+from leakdiag._holds import holds
+
 __all__ = ["SumGate", "learn_sum_gate", "spike_sizes", "longest_hold", "SUM_GATE_FACTOR",
            "SPIKE_FACTOR", "SPIKE_CHANNELS"]
 
@@ -217,8 +219,7 @@ def longest_hold(v, rails=None) -> tuple[int, int]:
     v = np.asarray(v, dtype=np.float64)
     if len(v) == 0:
         return 0, 0
-    starts = np.flatnonzero(np.concatenate(([True], v[1:] != v[:-1])))
-    lengths = np.diff(np.append(starts, len(v)))
+    starts, lengths = holds(v)
     at = v[starts]
     rail = (at == v.min()) | (at == v.max())
     if rails is not None:

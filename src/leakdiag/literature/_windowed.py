@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from leakdiag._holds import holds
 from leakdiag._validation import as_1d_float, check_int
 from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
@@ -142,8 +143,7 @@ def frozen_windows(x, window: int, overlap: float, reach: int = 0) -> np.ndarray
     starts = window_starts(len(x), window, overlap)
     if len(x) == 0:
         return np.zeros(len(starts), dtype=bool)
-    run0 = np.flatnonzero(np.concatenate(([True], x[1:] != x[:-1])))
-    lengths = np.diff(np.append(run0, len(x)))
+    run0, lengths = holds(x)
     mark = np.zeros(len(x) + 1)
     for i0, m in zip(run0[lengths >= window], lengths[lengths >= window]):
         mark[max(0, i0 - reach) + 1:min(len(x), i0 + m + reach) + 1] = 1.0

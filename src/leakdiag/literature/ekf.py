@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from leakdiag._holds import holds
 from leakdiag._validation import check_int, check_overlap, check_positive
 from leakdiag.detect.flow_balance import HOLD_FACTOR
 from leakdiag.features._degenerate import warn_degenerate
@@ -25,7 +26,7 @@ from leakdiag.sim.leak import LPM_PER_M3S
 from leakdiag.sim.vca.params import VCAParams
 
 __all__ = ["EKFParams", "EKFResult", "run_vca_ekf", "ekf_feature", "EKF_FEATURES",
-           "match_measurement_noise", "NoiseMatch", "longest_holds_s", "holds", "HOLD_FACTOR",
+           "match_measurement_noise", "NoiseMatch", "longest_holds_s", "HOLD_FACTOR",
            "MEASURED"]
 
 #: Features the EKF detector can score: mean estimated leak flow, innovation RMS, or the
@@ -225,31 +226,6 @@ class EKFResult:
     def load_force_disturbance_n(self) -> np.ndarray:
         """Estimated load-force disturbance per sample, N."""
         return self.states[:, 7]
-
-
-def holds(v) -> tuple[np.ndarray, np.ndarray]:
-    """Runs of one exact value in ``v``: their first samples and lengths (samples).
-
-    Parameters
-    ----------
-    v : array_like
-        One channel, shape ``(n,)``.
-
-    Returns
-    -------
-    starts, lengths : numpy.ndarray of int
-        One entry per run, in order; the lengths add up to ``n``.
-
-    Examples
-    --------
-    >>> [a.tolist() for a in holds([1.0, 2.0, 2.0, 2.0, 3.0, 3.0])]
-    [[0, 1, 4], [1, 3, 2]]
-    """
-    v = np.asarray(v, dtype=np.float64)
-    if len(v) == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    starts = np.flatnonzero(np.concatenate(([True], v[1:] != v[:-1])))
-    return starts, np.diff(np.append(starts, len(v)))
 
 
 def longest_holds_s(recording) -> tuple[float, float, float]:

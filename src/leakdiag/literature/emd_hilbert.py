@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from leakdiag._holds import holds
 from leakdiag._validation import as_1d_float, check_int, check_overlap
 from leakdiag.features.series import FeatureSeries
 from leakdiag.literature._windowed import channel_rms_feature, check_channels, windowed_rms
@@ -100,8 +101,7 @@ def first_imf_amplitude(x, block: int = DEFAULT_BLOCK, margin: int = DEFAULT_MAR
     stretches = [(0, n)]
     if min_hold is not None:
         min_hold = check_int(min_hold, "min_hold", 2)
-        run0 = np.flatnonzero(np.concatenate(([True], x[1:] != x[:-1]))) 
-        lengths = np.diff(np.append(run0, n))
+        run0, lengths = holds(x)
         edges = [0]
         for i0, m in zip(run0[lengths >= min_hold], lengths[lengths >= min_hold]):
             edges += [int(i0), int(i0 + m)]
