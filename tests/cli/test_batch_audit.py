@@ -183,6 +183,28 @@ def test_two_detectors_of_one_name_are_refused_naming_both(case, tmp_path):
     assert not (tmp_path / "res").exists()
 
 
+def test_a_feature_given_twice_is_refused_naming_the_entries(case, tmp_path):
+    """Two [[analysis]] entries (or one sweep) that make the same feature gave two result rows
+    of one name and one store key; refused before any work, naming the entries."""
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nlag = [1, 2]\n'
+                   '[[analysis]]\nmethod = "autocorrelation"\nchannels = "p1"\nlag = 2\n')
+    code, out, err = _batch(case, [case["leak_path"]], tmp_path, job=job)
+    assert code == 2
+    assert err == (f"leakdiag: error: {job}: [[analysis]] #2 repeats [[analysis]] #1: "
+                   "autocorrelation p1 2 N=200 5% would be computed twice, with two result "
+                   "rows of one name; give each setting once\n")
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nlag = [3, 3]\n')
+    code, out, err = _batch(case, [case["leak_path"]], tmp_path, job=job)
+    assert code == 2 and f"{job}: [[analysis]] #1 repeats a setting of its own: " \
+                         "autocorrelation p1 3 N=200 5%" in err
+    assert not (tmp_path / "res").exists()
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nlag = [1, 2]\n'
+                   '[[analysis]]\nmethod = "autocorrelation"\nchannels = "p2"\nlag = 2\n')
+    code, out, err = _batch(case, [case["leak_path"]], tmp_path, job=job)
+    assert code == 0, err  # other channels: another feature
+
+
 @pytest.mark.parametrize("store, why", [
     ("", "--store needs a file path or a database URL, got ''"),
     (" ", "--store needs a file path or a database URL, got ' '"),  # review item 10: "''"

@@ -173,6 +173,20 @@ def _expand(entry: Mapping[str, Any], i: int) -> list[MethodSpec]:
     return specs
 
 
+def _check_repeats(made: list[tuple[MethodSpec, str]]) -> None:
+    """Refuse a feature that the job computes twice (its rows and store keys would be one);
+    ``made``: each setting with the entry that made it."""
+    first: dict = {}
+    for spec, entry in made:
+        if spec in first:
+            was = first[spec]
+            raise ValueError(
+                f"{entry} repeats " + ("a setting of its own" if was == entry else was)
+                + f": {spec.label} would be computed twice, with two result rows of one name; "
+                "give each setting once")
+        first[spec] = entry
+
+
 def detector_ref(path: str | os.PathLike, name: str | None = None,
                  origin: str = "") -> DetectorRef:
     """A :class:`DetectorRef` for a detector file (digest of its bytes).
@@ -255,7 +269,7 @@ def config_from_dict(d: Mapping[str, Any], base_dir: str = ".", *, source: str |
     ------
     ValueError
         For unknown tables or keys, bad settings (the message names the entry), two detectors
-        of one name (naming both), or no work.
+        of one name (naming both), a feature made twice (naming the entries), or no work.
     """
     unknown = set(d) - {"job", "analysis", "detector"}
     if unknown:
@@ -264,8 +278,11 @@ def config_from_dict(d: Mapping[str, Any], base_dir: str = ".", *, source: str |
     bad = set(job) - {"chunk_samples", "rms_chunk", "onset_s", "column_map"}
     if bad:
         raise ValueError(f"[job]: unknown key(s) {sorted(bad)}")
-    specs = [s for i, e in enumerate(d.get("analysis", [])) for s in _expand(e, i)]
     where = f"{source}: " if source else ""
+    made = [(s, f"[[analysis]] #{i + 1}") for i, e in enumerate(d.get("analysis", []))
+            for s in _expand(e, i)]
+    _check_repeats(made)
+    specs = [s for s, _ in made]
     dets = [_detector(e, i, base_dir, where) for i, e in enumerate(d.get("detector", []))]
     dets += list(extra_detectors)
     _check_names(dets, where)
