@@ -377,6 +377,10 @@ def test_audit_commands_on_the_rotary_actuator_files(shared_dir, capsys):
     (["--window", "1"], "--window 1 must be >= 2"),
     (["--overlap", "100"], "--overlap 100.0 must be in [0, 100) percent"),
     (["--lag", "0"], "--lag 0 must be in [1, --window 200)"),
+    # the cross-correlation too (an audit: analyze alone took lag 0 as Pearson's correlation,
+    # -46 %, LEAK, where the docs, sweep and monitor refuse it)
+    (["-m", "cross-correlation", "-c", "p1,p2", "--lag", "0"],
+     "--lag 0 must be in [1, --window 200)"),
     (["--lag", "300", "--window", "250"], "--lag 300 must be in [1, --window 250)"),
     (["-m", "metric-length", "--lag-ratio", "300:3"],
      "--lag-ratio '300:3': l=300 must be < --window 200"),
@@ -387,7 +391,8 @@ def test_audit_commands_on_the_rotary_actuator_files(shared_dir, capsys):
 def test_analyze_messages_name_the_options(run_file, capsys, args, message):
     """`--window 1` said 'window=1 must be >= 2', the Python argument, not the option."""
     path, _ = run_file
-    assert main(["analyze", str(path), "-c", "p1", "--onset", "6", *args]) == 2
+    extra = [] if "-c" in args else ["-c", "p1"]
+    assert main(["analyze", str(path), *extra, "--onset", "6", *args]) == 2
     assert capsys.readouterr().err == f"leakdiag: error: {message.format(path=path)}\n"
 
 

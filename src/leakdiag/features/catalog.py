@@ -55,7 +55,7 @@ CROSS_CORRELATION = register_feature(FeatureRecord(
     "cross-correlation",
     kernel=lambda s, lag, window, starts: cross_correlation_sorted(s[0], s[1], lag, window,
                                                                    starts),
-    channels=("p1", "p2"), n_channels=2, setting="lag", default_setting=1, min_lag=0,
+    channels=("p1", "p2"), n_channels=2, setting="lag", default_setting=1, min_lag=1,
     aliases=("crosscorrelation", "ccf"), direction="down", equation="Eq. 4.2",
     thesis_name="cross_correlation",
     batch=lambda s, lag, plan, chans: cross_correlation_planned(s[0], s[1], lag, plan, chans),
