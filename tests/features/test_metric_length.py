@@ -153,3 +153,17 @@ def test_all_starts_then_slice_equals_overlap_call():
             np.testing.assert_allclose(fs.values, every[::step], rtol=1e-13)
         else:
             np.testing.assert_array_equal(every[::step], fs.values)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+@pytest.mark.parametrize("where", [5, 16])
+def test_a_bad_sample_that_eq_4_3_never_reads_is_refused(bad, where):
+    """With 2l - k > N, Eq. 4.3 reads [s, s+N-l+k) and [s+l, s+N) of a window only: samples
+    3-7 of each 10-sample window (l=8, k=1) were never read, so the kernel's sums stayed finite
+    and a NaN or inf there passed unseen (an audit); the docs promise an error wherever it is."""
+    x = np.arange(40, dtype=float) ** 1.5
+    x[where] = bad
+    with pytest.raises(ValueError, match=f"x holds 1 non-finite value.*first at sample {where}"):
+        metric_length_ratio(x, lag_ratio="8:1", window=10, overlap=0)
+    x[where] = 1.0  # a finite value there is simply not read
+    assert np.isfinite(metric_length_ratio(x, lag_ratio="8:1", window=10, overlap=0).values).all()

@@ -243,7 +243,9 @@ def metric_length_planned(x2: np.ndarray, lag_ratio: tuple[int, int], plan: _arg
         values, time, n_bad, n_nonfinite = _metric_regular(
             x2, l_step, k_step, window, plan.step, plan.n_windows, plan.sample_rate,
             plan.start_time)
-    _args.finish_finite_check(x2, "x", n_nonfinite, plan)
+    # Eq. 4.3 reads [s, s + N - l + k) and [s + l, s + N) of a window: a gap when 2l - k > N
+    _args.finish_finite_check(x2, "x", n_nonfinite, plan,
+                              reads_every_sample=2 * l_step - k_step <= window)
     warn_degenerate(n_bad, len(values), _DEGENERATE, stacklevel=4)
     settings = {"lag_ratio": f"{l_step}:{k_step}", "l": l_step, "k": k_step}
     return FeatureSeries(time, values, "metric-length", settings, **plan.geometry(channels))
