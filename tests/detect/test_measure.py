@@ -3,9 +3,12 @@
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from leakdiag.detect import chunk_rms, pct_change, rms_change
-from leakdiag.features import FeatureSeries
+from leakdiag.features import FeatureSeries, autocorrelation
+from leakdiag.features.windowing import window_first_times, window_times
 
 
 def _fs(values, window=None, rate=1.0):
@@ -178,3 +181,25 @@ def test_decision_with_an_empty_side_says_so_without_numpy_warnings():
         assert d.reason == (f"nothing to test ({n1} reference, {n2} tested chunk RMS values): "
                             "the test needs at least one on each side (a chunk of NaN values "
                             "only has none)")
+
+
+@settings(max_examples=200, deadline=None)
+@given(rate=st.sampled_from([100.0, 500.0, 1000.0, 1024.0, 2048.0]),
+       window=st.integers(2, 600), first=st.integers(0, 400_000),
+       t0=st.sampled_from([0.0, 0.5, 1234.5, -3.0]))
+def test_a_window_first_sample_is_placed_where_the_recording_places_that_sample(rate, window,
+                                                                                 first, t0):
+    """window_first_times with the start time gives start_time + i / fs exactly (the sample's
+    own time): subtracting (N-1)/fs from the timestamp could land one rounding below it."""
+    t_last = window_times(np.array([first]), window, rate, t0)
+    assert window_first_times(t_last, window, rate, t0)[0] == t0 + first / rate
+
+
+def test_a_window_starting_at_the_onset_sample_counts_after_it():
+    """An audit: 1 kHz, N = 100, onset 12.3 s: the window whose first sample is sample 12300
+    (t = 12.3 s) had window_start 12.299999999999999 and was dropped as straddling."""
+    x = np.random.default_rng(0).normal(size=20000)
+    f = autocorrelation(x, lag=1, window=100, overlap=0, sample_rate=1000.0)
+    assert f.window_start[123] == 12.3
+    r = rms_change(f, 12.3, chunk=1)
+    assert (r.n_chunks_before, r.n_chunks_after, r.n_chunks_straddling) == (123, 77, 0)

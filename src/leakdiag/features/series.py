@@ -147,12 +147,13 @@ class FeatureSeries:
     def window_start(self) -> np.ndarray:
         """Time of each window's first sample in seconds, shape ``(m,)``.
 
-        ``time - (window - 1) / sample_rate`` (Sec. 4.4); equal to ``time`` when the series
-        has no window (instantaneous values).
+        ``time - (window - 1) / sample_rate`` (Sec. 4.4), on the recording's sample grid when
+        the series knows its ``start_time`` (:func:`~leakdiag.features.windowing.\
+window_first_times`); equal to ``time`` when the series has no window (instantaneous values).
         """
         if self.window is None:
             return np.array(self.time, dtype=np.float64)
-        return window_first_times(self.time, self.window, self.sample_rate)
+        return window_first_times(self.time, self.window, self.sample_rate, self.start_time)
 
     @property
     def params(self) -> Mapping[str, Any]:

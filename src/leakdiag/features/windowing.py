@@ -132,10 +132,11 @@ def window_times(starts: np.ndarray, window: int, sample_rate: float = 1.0,
     return start_time + (np.asarray(starts, dtype=np.float64) + (window - 1)) / sample_rate
 
 
-def window_first_times(times, window: int, sample_rate: float) -> np.ndarray:
+def window_first_times(times, window: int, sample_rate: float,
+                       start_time: float | None = None) -> np.ndarray:
     """Time of each window's first sample from its timestamp (its last sample's time).
 
-    The one place of ``time - (window - 1) / sample_rate`` (Sec. 4.4):
+    The one place where a window's first sample is placed in time (Sec. 4.4):
     :attr:`FeatureSeries.window_start` and the sweep grids use it, so that a window counts as
     before or after a leak onset the same way everywhere.
 
@@ -147,6 +148,13 @@ def window_first_times(times, window: int, sample_rate: float) -> np.ndarray:
         Window size N in samples.
     sample_rate : float
         Sample rate in Hz.
+    start_time : float, optional
+        Time of the recording's first sample, s. Given, each first sample's time is
+        ``start_time + i / sample_rate`` with its sample index ``i`` (the timestamp's index,
+        rounded, minus ``window - 1``): the time of that sample exactly as the recording
+        places it, so that a window whose first sample is the onset's counts as after it.
+        None: ``times - (window - 1) / sample_rate``, which can land one rounding below that
+        sample (12.399 - 0.099 = 12.299999999999999 for a window starting at 12.3 s).
 
     Returns
     -------
@@ -157,5 +165,13 @@ def window_first_times(times, window: int, sample_rate: float) -> np.ndarray:
     --------
     >>> window_first_times(np.array([1.5, 2.5]), 4, sample_rate=2.0).tolist()
     [0.0, 1.0]
+    >>> float(window_first_times(np.array([12.399]), 100, 1000.0)[0])
+    12.299999999999999
+    >>> float(window_first_times(np.array([12.399]), 100, 1000.0, start_time=0.0)[0])
+    12.3
     """
-    return np.asarray(times, dtype=np.float64) - (window - 1) / sample_rate
+    times = np.asarray(times, dtype=np.float64)
+    if start_time is None:
+        return times - (window - 1) / sample_rate
+    first = np.rint((times - start_time) * sample_rate) - (window - 1)
+    return start_time + first / sample_rate

@@ -269,7 +269,7 @@ def grid(recording, method: str, channels: Sequence[str] | str | None,
         plans = {}
         for ov, st in per_ov.items():
             t_last = window_times(st, window, rate, t0)
-            t_first = window_first_times(t_last, window, rate)
+            t_first = window_first_times(t_last, window, rate, t0)
             plans[ov] = (st, pos[st], _chunk_sides(t_last, t_first, onset, chunk))
         for li, lag in enumerate(lag_values):
             top = lag[0] if isinstance(lag, tuple) else lag
