@@ -190,3 +190,25 @@ def test_live_equals_offline_verdict(leak_case, chunk):
     # this CUSUM dips below its threshold and crosses again: one episode, one onset
     kinds = [(e["kind"], e["episode"]) for e in snap["events"][::-1]]
     assert kinds[0] == ("alarm", 1) and {ep for _, ep in kinds} == {1}
+
+
+def test_the_sidecars_board_turns_blind_too():
+    """The monitor's sidecar builds its board from a pickled ScorerFacts, which did not carry
+    the detector's healthy span: `monitor --dashboard` said OK while the monitor printed BLIND
+    (an audit). The same chunks through the sidecar's recorder now say BLIND."""
+    import pickle
+
+    from leakdiag.dashboard.recorder import ChunkRecorder, ScorerFacts
+
+    class _Counted(_Det):
+        nan_span_healthy_s_ = 0.0
+
+    sc = DetectorScorer(_Counted(), window=2, sample_rate=1.0)
+    rec = ChunkRecorder(None, None, "a", "feat", pickle.loads(pickle.dumps(ScorerFacts(sc))),
+                        window_s=1.0)
+    t = np.arange(1.0, 14.0)
+    v = np.r_[0.0, 0.1, np.full(11, float("nan"))]
+    s = sc.score_windows(v, t)
+    rec.apply([(t, v, s, s >= 2.0, sc.branches_, 1.0)])
+    snap = rec.board.snapshot("a")
+    assert (snap["state"], snap["blind_windows"]) == ("BLIND", 11)

@@ -57,6 +57,12 @@ def _num(v) -> float | None:
     return v if math.isfinite(v) else None
 
 
+#: What :class:`ActuatorLive` reads of a scorer, and of its ``detector``: a picklable copy
+#: (:class:`leakdiag.dashboard.recorder.ScorerFacts`, the monitor's sidecar) carries these.
+SCORER_FACTS = ("threshold_", "mean_", "std_")
+DETECTOR_FACTS = ("calibration_", "nan_span_healthy_s_")
+
+
 class ActuatorLive:
     """Bounded live state of one actuator (see the module docstring).
 
@@ -81,6 +87,7 @@ class ActuatorLive:
         det = getattr(scorer, "detector", None)
         self.calibration = getattr(det, "calibration_", None)
         self.mean, self.std = getattr(scorer, "mean_", None), getattr(scorer, "std_", None)
+        # what is read above and below: the facts a sidecar's copy must carry (ScorerFacts)
         self.time: deque = deque(maxlen=MAX_POINTS)
         self.value: deque = deque(maxlen=MAX_POINTS)
         self.score: deque = deque(maxlen=MAX_POINTS)
@@ -91,7 +98,6 @@ class ActuatorLive:
         self.alarm_time_s = self.onset_s = None
         self.onset_censored = False
         self._first_scored = None  # time of the first window judged (scored and defined)
-        det = getattr(scorer, "detector", None)
         # None: fitted before the healthy span was recorded (no BLIND state)
         self._healthy_span_s = getattr(det, "nan_span_healthy_s_", None)
         self._blind = None  # BlindSpans, made when the window step is known

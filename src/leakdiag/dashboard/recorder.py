@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from leakdiag.dashboard.live import LiveBoard
+from leakdiag.dashboard.live import DETECTOR_FACTS, SCORER_FACTS, LiveBoard
 from leakdiag.store import AlarmRecord, EventStore, summarize_chunks
 
 __all__ = ["ChunkRecorder", "ScorerFacts"]
@@ -29,15 +29,19 @@ class ScorerFacts:
     scorer : object
         The monitor's scorer (``threshold_``; a
         :class:`~leakdiag.stream.detector.DetectorScorer` also has ``mean_``, ``std_`` and the
-        detector's ``calibration_``).
+        detector's ``calibration_`` and ``nan_span_healthy_s_``): the names that
+        :class:`~leakdiag.dashboard.live.ActuatorLive` reads (``SCORER_FACTS`` and
+        ``DETECTOR_FACTS``), so that the sidecar's board is the monitor's (without the
+        detector's healthy span it had no BLIND state).
     """
 
     def __init__(self, scorer: Any):
-        self.threshold_ = getattr(scorer, "threshold_", None)
-        self.mean_ = getattr(scorer, "mean_", None)
-        self.std_ = getattr(scorer, "std_", None)
-        self.calibration_ = getattr(getattr(scorer, "detector", None), "calibration_", None)
-        self.detector = self  # ActuatorLive reads detector.calibration_
+        det = getattr(scorer, "detector", None)
+        for name in SCORER_FACTS:
+            setattr(self, name, getattr(scorer, name, None))
+        for name in DETECTOR_FACTS:
+            setattr(self, name, getattr(det, name, None))
+        self.detector = self  # ActuatorLive reads detector.calibration_, ...
 
 
 class ChunkRecorder:
