@@ -405,3 +405,26 @@ def test_analyze_method_all_keeps_the_thesis_settings_words(tmp_path, capsys):
     assert capsys.readouterr().err == (
         f"leakdiag: error: {path}: recording has 150 samples (0.15 s), shorter than one window "
         "(window=200); use a smaller window or a longer recording\n")
+
+
+def test_analyze_tests_an_ehas_change_two_sided(tmp_path, capsys):
+    """--system eha (or the file's word) makes the decision two-sided: a rise of the
+    cross-correlation, as in the thesis's EHA tables, reads LEAK there and INCONCLUSIVE on a
+    rig that is not said (one-sided, the VCA's direction)."""
+    from scipy.signal import lfilter
+
+    from leakdiag.io import Recording, write_recording
+
+    rng = np.random.default_rng(3)
+    n = 20000
+    z = lfilter([1.0], [1.0, -0.99], rng.normal(size=n))
+    w = np.where(np.arange(n) < n // 2, 0.6, 1.2) / z.std()
+    rec = Recording({"p1": w * z + rng.normal(size=n), "p2": w * z + rng.normal(size=n)}, 100.0)
+    path = tmp_path / "rise.parquet"
+    write_recording(rec, path)
+    args = ["analyze", str(path), "-m", "cross-correlation", "-c", "p1,p2", "--onset", "100",
+            "--overlap", "0"]
+    assert main(args) == 0
+    assert "cross-correlation p1,p2: INCONCLUSIVE" in capsys.readouterr().out
+    assert main([*args, "--system", "eha"]) == 0
+    assert "cross-correlation p1,p2: LEAK" in capsys.readouterr().out

@@ -257,3 +257,38 @@ def test_a_row_without_a_measure_has_no_result_to_draw():
     want = ld.detect.rms_change(fs, onset=1.5, chunk=10)
     assert a.results[1].mean_rms_before == want.mean_rms_before
     assert a.table.loc[1, "pct_change_signed"] == want.pct_change_signed
+
+
+def _ccf_rises(system):
+    """P1 and P2 sharing more of one slow signal after 100 s: their cross-correlation's RMS
+    rises, as in the thesis's EHA tables (Table 6-8: 0.470 -> 0.515)."""
+    from scipy.signal import lfilter
+
+    from leakdiag.io import Recording
+
+    rng = np.random.default_rng(3)
+    n = 20000
+    z = lfilter([1.0], [1.0, -0.99], rng.normal(size=n))
+    z /= z.std()
+    w = np.where(np.arange(n) < n // 2, 0.6, 1.2)
+    p1 = w * z + rng.normal(size=n)
+    p2 = w * z + rng.normal(size=n)
+    meta = {} if system is None else {"system": system}
+    return Recording({"p1": p1, "p2": p2}, 100.0, meta=meta)
+
+
+@pytest.mark.parametrize("system, expected", [("vca", "inconclusive"), (None, "inconclusive"),
+                                              ("eha", "leak")])
+def test_the_decision_direction_follows_the_rig(system, expected):
+    """The VCA's tables (Ch. 5) have the cross-correlation fall after a leak; the EHA's
+    (Ch. 6) have it rise in 22 of 23 rows, and this package's EHA simulator has it fall: an
+    EHA's features are tested two-sided, the VCA's (and an unknown rig's) one-sided, where a
+    rise reads 'inconclusive' (an audit: a Table 6-8-like rise was 'inconclusive' on the EHA)."""
+    spec = MethodSpec("cross-correlation", ("p1", "p2"), lag=1, window=200, overlap=0)
+    rec = _ccf_rises(system)
+    row = analyze_recording(rec, spec, onset=100.0).table.iloc[0]
+    assert row["pct_change_signed"] > 10
+    assert row["decision"] == expected
+    # the rig given to the call wins over the recording's word
+    assert analyze_recording(rec, spec, onset=100.0, system="eha").table.iloc[0]["decision"] \
+        == "leak"

@@ -137,7 +137,9 @@ def decision_words(table, false_alarm_rate: float) -> str:
               help="Method(s); 'all' runs the four thesis methods at the thesis's preferred "
                    "settings and skips those whose channels the file lacks.")
 @click.option("--system", type=click.Choice(["vca", "eha"]), default=None,
-              help="Whose preferred settings 'all' uses (default: the recording's meta, else vca).")
+              help="The rig: whose preferred settings 'all' uses (default: the recording's "
+                   "meta, else vca), and the decision's direction (one-sided on the VCA and an "
+                   "unknown rig, two-sided on the EHA; docs/measure.md).")
 @click.option("--channels", "-c", default=None, help="Channels, e.g. p1 | p1,p2 | u,x.")
 @click.option("--lag", type=int, default=None, help="Lag tau in samples (correlations; default 1).")
 @click.option("--lag-ratio", default=None, help="Metric-length lag ratio l:k (default 83:3).")
@@ -180,7 +182,8 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
         try:
             result = analyze_recording(rec, specs, onset=onset, chunk=chunk, healthy=refs,
                                        false_alarm_rate=false_alarm_rate,
-                                       skip_missing="all" in method)
+                                       skip_missing="all" in method,
+                                       system=None if said is None else system)
         except (ValueError, TypeError) as exc:  # e.g. a --window longer than the recording
             if "all" in method:  # the thesis's settings, not options given
                 raise

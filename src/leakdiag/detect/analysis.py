@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from leakdiag.detect.measure import (Decision, TooFewChunksError, chunk_rms, chunks_in_words,
-                                     decide_change, rms_change)
+                                     decide_change, leak_direction, rms_change)
 from leakdiag.features.spec import MethodSpec, compute_feature
 from leakdiag.features.series import FeatureSeries
 
@@ -122,8 +122,8 @@ def _tested_in_words(res, fs, chunk) -> str:
             f"({res.onset:g} s; {layout})")
 
 
-def _decide(res, fs, spec, ref, false_alarm_rate, chunk) -> Decision:
-    direction = spec.record.direction or "both"
+def _decide(res, fs, spec, ref, false_alarm_rate, chunk, system) -> Decision:
+    direction = leak_direction(spec.record.name, system)
     if ref is not None:
         if res is not None:
             tested = res.chunk_rms[res.chunk_side == 1]
@@ -147,7 +147,7 @@ def _decide(res, fs, spec, ref, false_alarm_rate, chunk) -> Decision:
 
 def analyze_recording(recording, specs, onset: float | None = None, chunk: int = 10,
                       healthy=None, false_alarm_rate: float = 0.01,
-                      skip_missing: bool = False) -> Analysis:
+                      skip_missing: bool = False, system: str | None = None) -> Analysis:
     """Compute each method's feature series and, with an onset, the Sec. 5.2 measure.
 
     Each row also gets a decision (leak / no-leak / inconclusive) from
@@ -172,6 +172,10 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
     skip_missing : bool, default False
         Skip a method whose channels the recording lacks (row with ``skipped`` = the reason)
         instead of raising.
+    system : {"vca", "eha"}, optional
+        The rig, which sets the direction the decision tests
+        (:func:`~leakdiag.detect.measure.leak_direction`: one-sided on the VCA, two-sided on the
+        EHA); default: the recording's ``meta["system"]``, if any.
 
     Returns
     -------
@@ -206,6 +210,8 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
         specs = [specs]
     if onset is None:
         onset = recording.onset
+    if system is None:
+        system = recording.meta.get("system")
     rows, series, results = [], [], []
     for spec in specs:
         missing = [c for c in spec.channels if c not in recording.channels]
@@ -234,7 +240,8 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
             ref = ref_chunks.get(fs.name, _Reference(np.empty(0), (), (), chunk)) \
                 if ref_chunks is not None else None
             if no_measure is None or ref is not None:  # healthy references need no "before"
-                row.update(_decide(res, fs, spec, ref, false_alarm_rate, chunk).as_dict())
+                row.update(_decide(res, fs, spec, ref, false_alarm_rate, chunk,
+                                   system).as_dict())
             else:
                 row.update(Decision("inconclusive", "before-after", "", float("nan"),
                                     false_alarm_rate, 0, 0, float("nan"),

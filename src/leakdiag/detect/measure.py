@@ -12,7 +12,8 @@ from leakdiag.features.registry import feature_names, feature_record
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["RMSChange", "TooFewChunksError", "rms_change", "pct_change", "chunk_rms",
-           "chunks_in_words", "Decision", "decide_change", "EXPECTED_DIRECTION", "DECISIONS"]
+           "chunks_in_words", "Decision", "decide_change", "EXPECTED_DIRECTION", "DECISIONS",
+           "leak_direction"]
 
 
 class _Directions(Mapping):
@@ -40,6 +41,49 @@ class _Directions(Mapping):
 #: rise after a leak (Ch. 5, Tables 5-1 to 5-12); the moments have no stated direction. See
 #: docs/measure.md, "Decisions".
 EXPECTED_DIRECTION: Mapping[str, str] = _Directions()
+
+
+def leak_direction(feature: str, system: str | None = None) -> str:
+    """How a leak moves a feature's chunk RMS, as the Sec. 5.2 decision tests it.
+
+    Parameters
+    ----------
+    feature : str
+        Feature name (a registry name, e.g. ``"cross-correlation"``).
+    system : {"vca", "eha"} or None
+        The rig, when known.
+
+    Returns
+    -------
+    str
+        ``"down"`` or ``"up"`` (one-sided, :data:`EXPECTED_DIRECTION`) on the VCA and when the
+        rig is not known; ``"both"`` (two-sided) on the EHA, and for a feature without a
+        stated direction.
+
+    Notes
+    -----
+    Decision (docs/measure.md, "The test"): the directions come from the VCA's tables (Ch. 5,
+    Tables 5-1 to 5-12: 63 of 64 rows of the thesis's data move as stated). The EHA's tables
+    (Ch. 6) disagree: its cross-correlations' RMS *rose* after the leak in 22 of 23 rows
+    (Table 6-8: 0.470 -> 0.515; Table 6-12: 0.058 -> 0.076), its P2 autocorrelation rose and
+    its P2 metric-length ratio fell (one row each), while this package's EHA simulator shows
+    the cross-correlation of P1, P2 falling (-12 % at 0.1 L/min). With the sources disagreeing,
+    an EHA's features are tested two-sided: a significant change either way reads "leak". An
+    unknown rig keeps the one-sided test, whose opposite change reads "inconclusive" rather
+    than "leak".
+
+    Examples
+    --------
+    >>> leak_direction("cross-correlation", "vca"), leak_direction("cross-correlation", "eha")
+    ('down', 'both')
+    >>> leak_direction("metric-length"), leak_direction("moments", "vca")
+    ('up', 'both')
+    """
+    if system is not None and str(system).lower() == "eha":
+        return "both"
+    return EXPECTED_DIRECTION.get(feature, "both")
+
+
 #: The three decision words, as written in ``verdict.csv``.
 DECISIONS = ("leak", "no-leak", "inconclusive")
 
