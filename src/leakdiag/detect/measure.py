@@ -67,7 +67,7 @@ def leak_direction(feature: str, system: str | None = None) -> str:
     (Ch. 6) disagree: its cross-correlations' RMS *rose* after the leak in 22 of 23 rows
     (Table 6-8: 0.470 -> 0.515; Table 6-12: 0.058 -> 0.076), its P2 autocorrelation rose and
     its P2 metric-length ratio fell (one row each), while this package's EHA simulator shows
-    the cross-correlation of P1, P2 falling (-12 % at 0.1 L/min). With the sources disagreeing,
+    the cross-correlation of P1, P2 falling (-9.7 % at 1.2 L/min). With the sources disagreeing,
     an EHA's features are tested two-sided: a significant change either way reads "leak". An
     unknown rig keeps the one-sided test, whose opposite change reads "inconclusive" rather
     than "leak".
