@@ -22,6 +22,13 @@ __all__ = [
 ]
 
 
+def _refuse_complex(x, name: str) -> None:
+    """A signal is real: complex values would lose their imaginary part in float64."""
+    if np.iscomplexobj(x):
+        raise TypeError(f"{name} must be real numbers, got complex values (their imaginary "
+                        "part would be dropped)")
+
+
 def as_1d_float(x, name: str = "x") -> np.ndarray:
     """Coerce ``x`` (array-like or pandas Series) to a C-contiguous 1-D float64 array.
 
@@ -40,7 +47,7 @@ def as_1d_float(x, name: str = "x") -> np.ndarray:
     Raises
     ------
     TypeError
-        If ``x`` is not numeric.
+        If ``x`` is not numeric, or complex.
     ValueError
         If ``x`` is not one-dimensional.
 
@@ -49,6 +56,7 @@ def as_1d_float(x, name: str = "x") -> np.ndarray:
     >>> as_1d_float([1, 2, 3]).dtype
     dtype('float64')
     """
+    _refuse_complex(x, name)
     try:
         arr = np.ascontiguousarray(np.asarray(x, dtype=np.float64))
     except (TypeError, ValueError) as exc:
@@ -78,7 +86,7 @@ def as_2d_float(x, name: str = "x") -> np.ndarray:
     Raises
     ------
     TypeError
-        If ``x`` is not numeric.
+        If ``x`` is not numeric, or complex.
     ValueError
         If ``x`` has more than two dimensions.
 
@@ -87,6 +95,7 @@ def as_2d_float(x, name: str = "x") -> np.ndarray:
     >>> as_2d_float([1.0, 2.0]).shape
     (2, 1)
     """
+    _refuse_complex(x, name)
     try:
         arr = np.asarray(x, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -190,6 +199,8 @@ def check_overlap(overlap) -> float:
 
     Raises
     ------
+    TypeError
+        If not a number (a bool, ``True`` reading as 1 %, included).
     ValueError
         If outside ``[0, 100)``.
 
@@ -198,6 +209,8 @@ def check_overlap(overlap) -> float:
     >>> check_overlap(5)
     5.0
     """
+    if isinstance(overlap, (bool, np.bool_)):  # float(True) is 1.0: not an overlap
+        raise TypeError(f"overlap={overlap!r} must be a number (percent)")
     try:
         v = float(overlap)
     except (TypeError, ValueError):

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import inspect
 
+import numpy as np
 import pytest
 
 import leakdiag.features as features
+from leakdiag.features import autocorrelation
 
 PUBLIC_FUNCTIONS = ["autocorrelation", "cross_correlation", "metric_length_ratio", "moments",
                     "autocorrelation_at", "cross_correlation_at", "metric_length_ratio_at",
@@ -46,3 +48,17 @@ def test_contract_signatures():
     assert list(sig.parameters)[:2] == ["y", "x"]
     sig = inspect.signature(features.metric_length_ratio)
     assert list(sig.parameters)[:2] == ["x", "lag_ratio"]
+
+
+@pytest.mark.parametrize("kwargs, error, match", [
+    ({"x": np.arange(100) + 1j}, TypeError, "x must be real numbers, got complex values"),
+    ({"overlap": True}, TypeError, r"overlap=True must be a number \(percent\)"),
+    ({"overlap": np.bool_(False)}, TypeError, r"overlap=np.False_ must be a number"),
+])
+def test_a_complex_signal_or_a_bool_overlap_is_refused(kwargs, error, match):
+    """An audit: complex input lost its imaginary part with only NumPy's ComplexWarning, and
+    overlap=True was taken as 1 %."""
+    args = {"x": np.random.default_rng(0).normal(size=100), "lag": 1, "window": 10,
+            "overlap": 5.0, **kwargs}
+    with pytest.raises(error, match=match):
+        autocorrelation(**args)
