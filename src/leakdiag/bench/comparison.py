@@ -4,8 +4,8 @@
 1 L/min) built from the benchmark's :class:`~leakdiag.bench.suite.SystemSuite`;
 :func:`run_comparison` checks that its fitting runs support the false-alarm target, runs it
 and scores it; :func:`comparison_table` is the table of ``docs/literature.md``, which
-``python -m leakdiag.bench.comparison OUT`` writes; :func:`compute_seconds_per_hour` measures
-one method's feature cost.
+:func:`write_comparison` (``leakdiag benchmark --suite comparison -o OUT``) writes;
+:func:`compute_seconds_per_hour` measures one method's feature cost.
 """
 
 from __future__ import annotations
@@ -16,13 +16,15 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from leakdiag._validation import check_int
+from leakdiag.bench.outputs import prepare_folder
 from leakdiag.bench.registry import make_detector
 from leakdiag.bench.suite import EXCITATIONS, SystemSuite
 from leakdiag.detect.base import Alarm
+from leakdiag.runtime.cache import resolve_cache_dir
 
 __all__ = ["comparison_suite", "compute_seconds_per_hour", "COMPARISON_METHODS",
            "COMPARISON_FAR", "check_comparison_target", "run_comparison", "ComparisonResult",
-           "comparison_table", "table_markdown", "main"]
+           "comparison_table", "table_markdown", "write_comparison"]
 
 #: Methods compared in ``docs/literature.md`` (benchmark registry names).
 COMPARISON_METHODS = ("acf-p1", "ccf-p1p2", "ccf-ux", "mlr-p1", "combined", "wavelet-p1",
@@ -328,53 +330,60 @@ def compute_seconds_per_hour(method: str, recording, system: str = "vca",
     return best * 3600.0 / recording.duration
 
 
-def main(argv=None) -> int:
-    """``python -m leakdiag.bench.comparison OUT [--workers N] [--cache-dir DIR]``: run the
-    comparison with its defaults and write ``runs.csv``, ``results.csv``, ``summary.csv`` and
-    ``table.md`` (the table of ``docs/literature.md``) into ``OUT``.
+def write_comparison(out_dir, *, false_alarm_per_run: float = COMPARISON_FAR,
+                     n_fit: int = COMPARISON_N_FIT, scheduler: str = "serial",
+                     n_workers: int | None = None, cache_dir: str | None = None,
+                     progress: bool = True):
+    """Run the comparison with its defaults and write its files (``leakdiag benchmark --suite
+    comparison``).
+
+    The false-alarm target is checked against ``n_fit`` before any folder is made
+    (:func:`check_comparison_target`); then ``out_dir`` and the simulation cache are created
+    and checked writable (:func:`leakdiag.bench.outputs.prepare_folder`), and
+    :func:`run_comparison` runs. ``out_dir`` receives ``runs.csv``, ``results.csv``,
+    ``summary.csv`` (:class:`ComparisonResult`) and ``table.md`` (:func:`comparison_table` as
+    :func:`table_markdown`, the table of ``docs/literature.md``); other files there are left
+    alone.
 
     Parameters
     ----------
-    argv : list of str, optional
-        Arguments (default: the command line).
+    out_dir : str or path-like
+        Output folder (created with its parents).
+    false_alarm_per_run : float, default 0.05
+        Target false-alarm probability per healthy run.
+    n_fit : int, default 19
+        Healthy fitting runs per excitation (:func:`comparison_suite`).
+    scheduler : str, default "serial"
+        ``"serial"``, ``"local"`` (Dask) or a scheduler address.
+    n_workers : int, optional
+        Dask workers.
+    cache_dir : str, optional
+        Simulation cache folder (default: :func:`leakdiag.runtime.cache.resolve_cache_dir`).
+    progress : bool, default True
+        Progress bars.
 
     Returns
     -------
-    int
-        0 (an unsupported target exits with status 2 before any work, naming the fitting
-        runs it needs).
-    """
-    import argparse
-    from pathlib import Path
+    pandas.DataFrame
+        The table written to ``table.md`` (:func:`comparison_table`).
 
-    ap = argparse.ArgumentParser(prog="python -m leakdiag.bench.comparison",
-                                 description=main.__doc__.split("\n\n")[0])
-    ap.add_argument("out", help="output folder")
-    ap.add_argument("--workers", type=int, default=None,
-                    help="Dask local workers (default: serial)")
-    ap.add_argument("--cache-dir", default=None, help="simulation cache folder")
-    ap.add_argument("--false-alarm-rate", type=float, default=COMPARISON_FAR,
-                    help="false-alarm target per healthy run (default %(default)s)")
-    ap.add_argument("--n-fit", type=int, default=COMPARISON_N_FIT,
-                    help="healthy fitting runs per excitation (default %(default)s)")
-    a = ap.parse_args(argv)
-    try:  # before the output folder is made
-        check_comparison_target(comparison_suite(n_fit=a.n_fit), COMPARISON_METHODS,
-                                a.false_alarm_rate)
-    except ValueError as exc:
-        ap.error(str(exc))
-    out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
-    r = run_comparison(false_alarm_per_run=a.false_alarm_rate, n_fit=a.n_fit,
-                       scheduler="local" if a.workers else "serial", n_workers=a.workers,
-                       cache_dir=a.cache_dir, progress=False)
+    Raises
+    ------
+    ValueError
+        An unsupported target or ``n_fit`` (before any folder is made or work done), a folder
+        that cannot be written (before any work), no method judged on any group
+        (:func:`run_comparison`).
+    """
+    check_comparison_target(comparison_suite(n_fit=n_fit), COMPARISON_METHODS,
+                            false_alarm_per_run)
+    out = prepare_folder(out_dir, "--out")
+    prepare_folder(resolve_cache_dir(cache_dir),
+                   "--cache-dir" if cache_dir else "simulation cache")
+    r = run_comparison(false_alarm_per_run=false_alarm_per_run, n_fit=n_fit,
+                       scheduler=scheduler, n_workers=n_workers, cache_dir=cache_dir,
+                       progress=progress)
     for name, df in (("runs", r.runs), ("results", r.results), ("summary", r.summary)):
         df.to_csv(out / f"{name}.csv", index=False)
     table = comparison_table(r.results, r.summary)
     (out / "table.md").write_text(table_markdown(table) + "\n", encoding="utf-8")
-    print(table.to_string(index=False))
-    return 0
-
-
-if __name__ == "__main__":  # pragma: no cover
-    raise SystemExit(main())
+    return table

@@ -1,4 +1,5 @@
-"""``leakdiag benchmark``: the detection benchmark (suite v5 by default; v4 on request)."""
+"""``leakdiag benchmark``: the detection benchmark (suite v5 by default; v4 on request) and the
+literature comparison of ``docs/literature.md`` (``--suite comparison``)."""
 
 from __future__ import annotations
 
@@ -28,10 +29,15 @@ def _command_line() -> str:
 @click.command("benchmark", epilog="Example: leakdiag benchmark --quick -o bench/")
 @click.option("-o", "--out", "out_dir", default=None, type=click.Path(file_okay=False),
               help="Output folder of the report; files an earlier benchmark run wrote there "
-                   "and this run did not rewrite are removed after it, nothing else.")
-@click.option("--suite", default="v5", show_default=True, type=click.Choice(["v5", "v4"]),
+                   "and this run did not rewrite are removed after it, nothing else (v5, v4; "
+                   "--suite comparison rewrites its four files and removes nothing).")
+@click.option("--suite", default="v5", show_default=True,
+              type=click.Choice(["v5", "v4", "comparison"]),
               help="v5: training and test units disjoint, >= 300 calibration, 1000 held-out "
-                   "healthy and 50 leaking runs per size per load; v4: the former suite.")
+                   "healthy and 50 leaking runs per size per load; v4: the former suite; "
+                   "comparison: the literature comparison of docs/literature.md (VCA, both "
+                   "excitations, its 10 methods; writes runs.csv, results.csv, summary.csv, "
+                   "table.md).")
 @click.option("--quick", is_flag=True, help="Small CI suite: short runs, few seeds, large leaks.")
 @click.option("--methods", default=None, help="Comma-separated method names (default: all).")
 @click.option("--systems", default=None, help="Comma-separated rigs (vca, eha).")
@@ -52,10 +58,15 @@ def _command_line() -> str:
                    "calibration, 100 healthy and 10 leaking runs per size for those two).")
 @click.option("--max-test-runs", default=None, type=click.IntRange(min=1),
               help="v4 only: at most N held-out healthy and leaking runs per size per group.")
+@click.option("--n-fit", default=None, type=click.IntRange(min=1),
+              help="comparison only: healthy fitting runs per excitation, one CUSUM maximum "
+                   "each for the threshold (default 19, the fewest that support its 5 % "
+                   "target).")
 @click.option("--false-alarm-rate", "far", default=None, type=click.FloatRange(0, 1, min_open=True,
                                                                                max_open=True),
               help="Target false-alarm probability per healthy run (default 0.01; --quick: v5 "
-                   "0.05, v4 0.12, what its 8 fitting runs support).")
+                   "0.05, v4 0.12, what its 8 fitting runs support; --suite comparison: 0.05, "
+                   "what its 19 fitting runs per excitation support).")
 @click.option("--confidence", default=None, type=click.FloatRange(0, 1, min_open=True,
                                                                   max_open=True),
               help="v5: calibration-conditional thresholds: each fitted level holds the target "
@@ -72,9 +83,10 @@ def _command_line() -> str:
 @click.option("--list-methods", is_flag=True, help="Print the registered methods and exit.")
 @click.option("--no-progress", is_flag=True, help="No progress bars.")
 def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal, n_test_healthy,
-              n_test_leak, unit_fit, full_budget, max_test_runs, far, confidence, onset_method,
-              scheduler, workers, cache_dir, work_dir, list_methods, no_progress):
-    """Run the detection benchmark and write its report to --out."""
+              n_test_leak, unit_fit, full_budget, max_test_runs, n_fit, far, confidence,
+              onset_method, scheduler, workers, cache_dir, work_dir, list_methods, no_progress):
+    """Run the detection benchmark and write its report to --out (--suite comparison: the
+    literature comparison's tables)."""
     from leakdiag.bench.registry import METHODS
 
     if list_methods:
@@ -86,8 +98,18 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
     split = lambda s: [v.strip() for v in s.split(",") if v.strip()] if s else None  # noqa: E731
     command = _command_line()
     ctx = click.get_current_context()
-    given = [flag for name, flag in _V5_ONLY if ctx.get_parameter_source(name)
-             not in (None, ParameterSource.DEFAULT)]
+
+    def given_of(options):
+        return [flag for name, flag in options if ctx.get_parameter_source(name)
+                not in (None, ParameterSource.DEFAULT)]
+
+    if suite == "comparison":
+        _comparison(given_of(_NOT_COMPARISON), out_dir, n_fit, far, scheduler, workers,
+                    cache_dir, no_progress)
+        return
+    if n_fit is not None:
+        raise click.UsageError("--n-fit is for --suite comparison only")
+    given = given_of(_V5_ONLY)
     if suite == "v4" and given:
         raise click.UsageError(f"{', '.join(given)} {'is' if len(given) == 1 else 'are'} for "
                                "--suite v5 only")
@@ -137,6 +159,35 @@ _V5_ONLY = (("loads", "--loads"), ("n_cal", "--n-cal"), ("n_test_healthy", "--n-
             ("n_test_leak", "--n-leak"), ("unit_fit", "--unit-fit"),
             ("full_budget", "--full-budget"), ("confidence", "--confidence"),
             ("work_dir", "--work-dir"))
+
+
+#: Options that do not apply to --suite comparison (parameter name, flag): refused with it.
+_NOT_COMPARISON = (("quick", "--quick"), ("methods", "--methods"), ("systems", "--systems"),
+                   ("loads", "--loads"), ("excitations", "--excitations"), ("n_cal", "--n-cal"),
+                   ("n_test_healthy", "--n-healthy"), ("n_test_leak", "--n-leak"),
+                   ("unit_fit", "--unit-fit"), ("full_budget", "--full-budget"),
+                   ("max_test_runs", "--max-test-runs"), ("confidence", "--confidence"),
+                   ("onset_method", "--onset-method"), ("work_dir", "--work-dir"))
+
+
+def _comparison(given, out_dir, n_fit, far, scheduler, workers, cache_dir,
+                no_progress) -> None:
+    """--suite comparison: refuse the options it has no use for, then run and write it
+    (:func:`leakdiag.bench.comparison.write_comparison`; its target check comes before any
+    folder) and print its table."""
+    from leakdiag.bench.comparison import COMPARISON_FAR, COMPARISON_N_FIT, write_comparison
+
+    if given:
+        raise click.UsageError(f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} not "
+                               "apply to --suite comparison")
+    try:
+        table = write_comparison(
+            out_dir, false_alarm_per_run=COMPARISON_FAR if far is None else far,
+            n_fit=COMPARISON_N_FIT if n_fit is None else n_fit, scheduler=scheduler,
+            n_workers=workers, cache_dir=cache_dir, progress=not no_progress)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
+    click.echo(table.to_string(index=False))
 
 
 def _echo_removed(removed, out_dir) -> None:
