@@ -212,3 +212,28 @@ def test_the_sidecars_board_turns_blind_too():
     rec.apply([(t, v, s, s >= 2.0, sc.branches_, 1.0)])
     snap = rec.board.snapshot("a")
     assert (snap["state"], snap["blind_windows"]) == ("BLIND", 11)
+
+
+@pytest.mark.parametrize("n_stuck, censored", [(12, True), (9, False)])
+def test_the_live_onset_across_a_blind_span_is_at_or_before_its_end(n_stuck, censored):
+    """As Detector.predict: an excursion that began before an undefined span longer than the
+    limit (10 s here) and alarms after it has its onset at the first window after the span,
+    'at or before' (a streaming audit: the page said 29.2 s for a leak from 60 s, p1 stuck
+    30-70 s); a span within the limit is looked through."""
+    class _Counted(_Det):
+        nan_span_healthy_s_ = 0.0
+
+    sc = DetectorScorer(_Counted(), window=2, sample_rate=1.0)
+    board = LiveBoard()
+    board.add("a", "feat", sc, window_s=1.0)
+    v = np.r_[0.0, 0.0, np.full(2, 1.0), np.full(n_stuck, np.nan), np.full(3, 1.0)]
+    t = np.arange(1.0, len(v) + 1.0)  # S+ grows 0.5 a defined window: 2.0 at the 4th
+    for i0 in range(0, len(t), 5):  # in chunks, as the sidecar takes them
+        s = sc.score_windows(v[i0:i0 + 5], t[i0:i0 + 5])
+        board.update("a", t[i0:i0 + 5], v[i0:i0 + 5], s, sc.alarm_windows(s),
+                     received_wall=1.0)
+    snap = board.snapshot("a")
+    first_after = t[4 + n_stuck]
+    assert snap["state"] == "ALARM" and snap["alarm_time_s"] == first_after + 1.0
+    assert snap["onset_censored"] is censored
+    assert snap["onset_s"] == (first_after - 0.5 if censored else t[2] - 0.5)

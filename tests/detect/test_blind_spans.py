@@ -82,3 +82,44 @@ def test_detectors_fitted_before_the_check_skip_it(acf):
     stuck = _freeze(ld.sim.simulate_vca(duration=40, leak_lpm=0.0, seed=20), "p1", 20.0)
     v = old.predict(stuck)  # as before: judged, without the check
     assert not v.leak and np.isfinite(v.score_max)
+
+
+def _series(acf, z_values, burn_windows):
+    """The detector's feature over windows whose standardised values are ``z_values``, after
+    ``burn_windows`` windows at the healthy mean (the burn-in), 190-sample steps at 1 kHz."""
+    from leakdiag.features.series import FeatureSeries
+
+    spec = acf.spec()
+    z = np.r_[np.zeros(burn_windows), z_values]
+    step = 190
+    time = (np.arange(len(z)) * step + spec.window - 1) / 1000.0
+    return FeatureSeries(time, acf.mean_ + acf.std_ * z, spec.label, window=spec.window,
+                         overlap=spec.overlap, step=step, channels=spec.channels,
+                         sample_rate=1000.0, start_time=0.0)
+
+
+def test_an_onset_across_a_blind_span_is_at_or_before_its_end(acf):
+    """A streaming audit (2026-11-27): a healthy fluctuation raised the CUSUM before p1 stuck
+    for 40 s, the CUSUM held across the undefined windows, and the leak's windows after them
+    continued the same excursion: onset 29.2 s reported as a plain value, the leak began at
+    60 s. The onset is now the first window after the span, 'at or before', with the reason;
+    the same excursion without the span keeps its own onset."""
+    burn = int(np.ceil(acf.alarm.burn_in_s / 0.19)) + 5
+    h = acf.threshold_
+    rise = np.full(10, -(h / 20.0 + acf.alarm.drift))  # S- grows by h/20 a window: 0.5 h
+    stuck = np.full(80, np.nan)  # 80 windows of 0.19 s: 15.2 s > the 10-s limit
+    leak = np.full(40, -(h / 20.0 + acf.alarm.drift))  # the same level: one change, before
+    series = _series(acf, np.r_[rise, stuck, leak], burn)
+    v = acf.predict_series(series, duration_s=float(series.time[-1]) + 0.01)
+    after = burn + 10 + 80  # the first window after the span
+    first_after = (series.time[after] + series.time[after] - 0.199) / 2.0
+    assert v.leak and v.alarm_time_s > series.time[after - 1]
+    assert v.onset_censored and v.onset_s == pytest.approx(first_after)
+    span0 = series.time[burn + 10] - 0.199  # the first undefined window's first sample
+    assert v.onset_why.startswith(f"the feature was undefined from {span0:.6g} to "
+                                  f"{series.time[after - 1]:.6g} s, longer than the healthy")
+    assert "at or before" in str(v)
+    # a span within the limit (40 windows: 7.6 s) is looked through: the excursion's own onset
+    short = _series(acf, np.r_[rise, np.full(40, np.nan), leak], burn)
+    w = acf.predict_series(short, duration_s=float(short.time[-1]) + 0.01)
+    assert w.leak and not w.onset_censored and w.onset_s < short.time[burn + 10]

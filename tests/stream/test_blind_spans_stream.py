@@ -13,7 +13,7 @@ from leakdiag.stream.blind import BlindSpans
 def _state(b):
     return (b.windows, b.longest[0], b.current_blind, b.blind,
             None if math.isnan(b.since) else b.since,
-            None if math.isnan(b.longest[1]) else b.longest[1:])
+            None if math.isnan(b.longest[1]) else b.longest[1:], list(b.ended))
 
 
 @settings(max_examples=200, deadline=None)
@@ -28,3 +28,14 @@ def test_blocks_equal_single_windows(undefined, cuts):
     for a, b in zip(edges[:-1], edges[1:]):
         blocks.add_block(t[a:b], v[a:b])
     assert _state(blocks) == _state(one)
+    # ended spans by hand: runs of more than 10 undefined windows (of 1 s; limit 10 s) that a
+    # defined window ends, as (first window's time, the defined window's time)
+    ended, run = [], 0
+    for i, u in enumerate(undefined):
+        if u:
+            run += 1
+        else:
+            if run > 10:
+                ended.append((t[i - run], t[i]))
+            run = 0
+    assert list(one.ended) == ended

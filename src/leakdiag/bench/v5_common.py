@@ -81,8 +81,8 @@ def v5_alarm(false_alarm_per_run: float, duration_s: float, onset_method: str = 
 #: through the cache), the recording type and readers, the cache and executor, the argument
 #: checks, the detectors, features, literature methods and the benchmark itself. Subfolders
 #: count too (``sim/vca``, ``features/_kernels``).
-FINGERPRINT_PARTS = ("_validation.py", "_holds.py", "bench", "detect", "features", "io", "literature",
-                     "runtime", "sim")
+FINGERPRINT_PARTS = ("_validation.py", "_holds.py", "bench", "detect", "features", "io",
+                     "literature", "runtime", "sim")
 #: Parts the v5 pipeline imports that cannot change a result (checked by the tests).
 FINGERPRINT_EXCLUDED = {"report": "HTML pages and figure styles (bench.report.method_style)",
                         "_version": "the version number, not code"}

@@ -421,7 +421,11 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     if dec == "leak":
         sized = tab[tab["leak"].fillna(False).astype(bool)]
         first = sized.sort_values("alarm_time_s").iloc[0]
-        if first.get("onset_censored") in (True, 1):  # the change was there from the start
+        why = first.get("onset_why")
+        if first.get("onset_censored") in (True, 1) and isinstance(why, str) and why:
+            click.echo(f"  onset at or before {first['onset_s']:.4g} s ({first['method']}): "
+                       f"{why}; first alarm {first['alarm_time_s']:.4g} s")
+        elif first.get("onset_censored") in (True, 1):  # the change was there from the start
             click.echo(f"  onset at or before {first['onset_s']:.4g} s: the change was present "
                        f"from the first window judged ({first['method']}), so it began before "
                        f"the recording or within its burn-in; first alarm "

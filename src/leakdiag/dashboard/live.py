@@ -230,8 +230,14 @@ class ActuatorLive:
             self.episode += 1
             self._episode_key = (b, start)
             self.alarm_time_s = ti
-            self.onset_s = (start[0] + start[1]) / 2.0
             self.onset_censored = start[0] == self._first_scored  # there from the start
+            # an undefined span beyond the limit inside the excursion (the CUSUM held across
+            # it): the onset is at or before the first window after it, as Detector.predict
+            ended = [e for _, e in (self._blind.ended if self._blind is not None else ())
+                     if start[0] < e <= ti]
+            if ended:
+                start, self.onset_censored = (ended[-1], ended[-1] - self.window_s), True
+            self.onset_s = (start[0] + start[1]) / 2.0
             self.leak = None
         self.events.append({"time_s": ti, "kind": "alarm", "score": _num(s[i]),
                             "onset_s": self.onset_s, "onset_censored": self.onset_censored,

@@ -187,6 +187,10 @@ class Verdict:
     n_segments : int or None, default None
         Healthy segments (of the threshold basis) the judged span covers, at least 1: the
         ``m`` of the p-value and of the run's false-alarm bound (None: not known).
+    onset_why : str, default ""
+        Why a censored onset is only an upper bound, when it is not the start of the judged
+        data: e.g. the alarming excursion crossed an undefined span longer than the healthy
+        recordings allow (a stuck sensor), and ``onset_s`` is the first window after it.
     """
 
     leak: bool
@@ -203,6 +207,19 @@ class Verdict:
     detector: str
     onset_censored: bool = False
     n_segments: int | None = None
+    onset_why: str = ""
+
+    @property
+    def onset_bound_words(self) -> str:
+        """Why the onset is "at or before" (empty when it is not censored).
+
+        Returns
+        -------
+        str
+        """
+        if not self.onset_censored:
+            return ""
+        return self.onset_why or "present from the first window judged"
 
     def __str__(self) -> str:
         """The verdict in words (``repr`` keeps every field).
@@ -226,7 +243,7 @@ class Verdict:
             at = "at or before " if self.onset_censored else ""
             head = (f"LEAK ({self.detector}): alarm at {self.alarm_time_s:.4g} s, onset {at}"
                     f"{self.onset_s:.4g} s ({self.onset_method}"
-                    + (": present from the first window judged" if self.onset_censored else "")
+                    + (f": {self.onset_bound_words}" if self.onset_censored else "")
                     + "); ")
             if self.leak_lpm is not None:
                 head += f"leak {self.leak_lpm:.3g} L/min"
@@ -252,7 +269,8 @@ class Verdict:
                 "leak_lpm_in_range": self.leak_lpm_in_range, "score_max": self.score_max,
                 "threshold": self.threshold, "shift": self.shift,
                 "onset_method": self.onset_method, "detector": self.detector,
-                "onset_censored": self.onset_censored, "n_segments": self.n_segments}
+                "onset_censored": self.onset_censored, "n_segments": self.n_segments,
+                "onset_why": self.onset_why}
 
 
 @dataclass(frozen=True)
@@ -665,15 +683,49 @@ class Detector(BaseEstimator):
             cps = [int(finite[c]) for c in cps if finite[c] <= i_alarm]
             if cps:
                 j, method = cps[-1], a.onset_method
-        onset = float((tr.time[j] + tr.start[j]) / 2.0)
         censored = j <= int(np.flatnonzero(np.isfinite(tr.z))[0])  # from the first judged window
+        why = ""
+        blind = self._after_blind_span(tr, j, i_alarm)
+        if blind is not None:  # the excursion crossed a blind span: at or before its end
+            j, censored = blind[0], True
+            why = (f"the feature was undefined from {blind[1]:.6g} to {blind[2]:.6g} s, longer "
+                   "than the healthy recordings allow (a stuck sensor?), and the change was "
+                   "there from the first window after it: the leak may have begun inside that "
+                   "span or before it")
+        onset = float((tr.time[j] + tr.start[j]) / 2.0)
         shift = _shift(tr, onset)
         lpm = interval = inside = None
         cal = getattr(self, "calibration_", None)
         if cal is not None and np.isfinite(shift):
             lpm, interval, inside = cal.estimate(shift)
         return Verdict(True, onset, float(tr.time[i_alarm]), confidence, lpm, interval, inside,
-                       smax, h, shift, method, tr.name, censored, n_seg)
+                       smax, h, shift, method, tr.name, censored, n_seg, why)
+
+    def _after_blind_span(self, tr: _Trace, j: int, i_alarm: int) -> tuple | None:
+        """``(index, span start s, span end s)``: the first defined window after the last
+        undefined span longer than :func:`blind_limit_s` between the onset window ``j`` and the
+        alarm ``i_alarm``, and that span's first window start and last window time; or None.
+
+        The CUSUM holds its value across undefined windows, so an excursion that began before
+        such a span (a healthy fluctuation) and alarms after it (a leak that began inside it)
+        dates the onset before the span, where nothing ties it to the leak. What the data say
+        is that the leak's signature is there from the first window after the span: the onset
+        is *at or before* that window (docs/detect.md, section 3).
+        """
+        healthy = getattr(self, "nan_span_healthy_s_", None)
+        if healthy is None or i_alarm <= j:
+            return None
+        bad = ~np.isfinite(tr.z[j:i_alarm + 1])
+        if not bad.any():
+            return None
+        edges = np.diff(np.concatenate(([0], bad.view(np.int8), [0])))
+        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+        long_ = np.flatnonzero((ends - starts) * _window_step(tr.time) > blind_limit_s(healthy))
+        if not len(long_):
+            return None
+        k = int(long_[-1])  # the alarm window is defined: ends[k] <= i_alarm - j
+        return (j + int(ends[k]), float(tr.start[j + int(starts[k])]),
+                float(tr.time[j + int(ends[k]) - 1]))
 
     def _check_blind_spans(self, tr: _Trace, source: str) -> None:
         """Refuse a NO LEAK over a span of undefined feature windows longer than

@@ -11,8 +11,12 @@ the same limit window by window to a stream, for ``leakdiag monitor``.
 from __future__ import annotations
 
 import math
+from collections import deque
 
-__all__ = ["BlindSpans"]
+__all__ = ["BlindSpans", "MAX_ENDED"]
+
+#: Ended spans longer than the limit that :attr:`BlindSpans.ended` keeps (the latest).
+MAX_ENDED = 64
 
 
 class BlindSpans:
@@ -36,6 +40,11 @@ class BlindSpans:
         Time of the first of them (NaN when ``windows`` is 0).
     longest : tuple of (int, float, float)
         ``(windows, first time, last time)`` of the longest span so far.
+    ended : collections.deque of (float, float)
+        ``(first window time, time of the first defined window after it)`` of the latest spans
+        longer than the limit that have ended (at most :data:`MAX_ENDED`): an alarm whose CUSUM
+        excursion began before one of them dates its onset after it
+        (:class:`~leakdiag.dashboard.live.ActuatorLive`, as ``Detector.predict``).
 
     Examples
     --------
@@ -49,6 +58,8 @@ class BlindSpans:
     >>> c.add_block([4.0, 8.0, 12.0], [0.5, nan, nan]); c.add_block([16.0, 20.0], [nan, nan])
     >>> c.current_blind, c.windows, c.since, c.longest
     (True, 4, 8.0, (4, 8.0, 20.0))
+    >>> c.add_block([24.0, 28.0], [0.3, 0.4]); list(c.ended)   # the span ends at 24 s
+    [(8.0, 24.0)]
     """
 
     def __init__(self, healthy_span_s: float, step_s: float):
@@ -59,6 +70,7 @@ class BlindSpans:
         self.limit_s = blind_limit_s(self.healthy_span_s)
         self.windows, self.since = 0, math.nan
         self.longest = (0, math.nan, math.nan)
+        self.ended: deque = deque(maxlen=MAX_ENDED)
 
     def add(self, time: float, value: float) -> bool:
         """Take one scored window.
@@ -77,6 +89,8 @@ class BlindSpans:
             span: at the window that first exceeds it).
         """
         if math.isfinite(value):
+            if self.windows * self.step_s > self.limit_s:
+                self.ended.append((self.since, float(time)))
             self.windows, self.since = 0, math.nan
             return False
         if self.windows == 0:
@@ -100,17 +114,23 @@ class BlindSpans:
         bad = ~np.isfinite(np.asarray(values, dtype=np.float64))
         if not bad.any():
             if len(bad):
+                if self.windows * self.step_s > self.limit_s:
+                    self.ended.append((self.since, float(times[0])))
                 self.windows, self.since = 0, math.nan
             return
         edges = np.diff(np.concatenate(([0], bad.view(np.int8), [0])))
         starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
         lengths = ends - starts
+        if starts[0] > 0 and self.windows * self.step_s > self.limit_s:  # ended at times[0]
+            self.ended.append((self.since, float(times[0])))
         if starts[0] == 0 and self.windows:  # the span before this block goes on
             lengths[0] += self.windows
         else:
             self.since = math.nan
         since = [self.since if (k == 0 and starts[0] == 0 and self.windows) else
                  float(times[st]) for k, st in enumerate(starts)]
+        for r in np.flatnonzero((lengths * self.step_s > self.limit_s) & (ends < len(bad))):
+            self.ended.append((since[r], float(times[ends[r]])))
         k = int(np.argmax(lengths))
         if lengths[k] > self.longest[0]:
             self.longest = (int(lengths[k]), since[k], float(times[ends[k] - 1]))
