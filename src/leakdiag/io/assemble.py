@@ -9,7 +9,7 @@ import numpy as np
 
 from leakdiag._validation import check_positive
 from leakdiag.io.checks import (RESAMPLE_ADVICE, UNIFORM_TIME_RTOL, check_channel_finite,
-                                infer_sample_rate)
+                                check_same_length, infer_sample_rate)
 from leakdiag.io.column_map import ChannelSpec, ColumnMap
 from leakdiag.io.recording import STANDARD_CHANNELS, Recording, RecordingError
 from leakdiag.io.resample import resample_linear
@@ -122,10 +122,8 @@ def _time_column(table: RawTable, cmap: ColumnMap | None) -> str | None:
 
 
 def _check_lengths(table: RawTable, columns: dict[str, str]) -> None:
-    lengths = {label: len(table.columns[col]) for label, col in columns.items()}
-    if len(set(lengths.values())) > 1:
-        desc = ", ".join(f"{label}={n}" for label, n in lengths.items())
-        raise RecordingError(f"{table.source}: channels have different lengths ({desc})")
+    check_same_length({label: len(table.columns[col]) for label, col in columns.items()},
+                      table.source)
 
 
 def _time_axis(table: RawTable, cmap: ColumnMap | None, col: str | None,

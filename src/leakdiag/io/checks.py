@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+from typing import Mapping
+
 import numpy as np
 
 from leakdiag._validation import check_int
 from leakdiag._validation import check_length as check_samples
 from leakdiag.io.errors import RecordingError
 
-__all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "UNIFORM_TIME_RTOL",
-           "RESAMPLE_ADVICE"]
+__all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "check_same_length",
+           "UNIFORM_TIME_RTOL", "RESAMPLE_ADVICE"]
 
 #: Relative tolerance on sample intervals for a time axis to count as uniform.
 UNIFORM_TIME_RTOL = 1e-3
@@ -106,6 +108,39 @@ def check_channel_finite(x: np.ndarray, channel: str, source: str = "<input>") -
             f"{source}: channel {channel!r} has {len(bad)} non-finite value(s); "
             f"first {kind} at row {int(bad[0])}"
         )
+
+
+def check_same_length(lengths: Mapping[str, int], source: str = "<input>") -> None:
+    """Raise if the columns read from a file differ in length, naming each with its length.
+
+    One wording for every reader: :func:`leakdiag.io.read_recording` (time column and the
+    channels read), :class:`~leakdiag.io.recording.Recording` and the chunked HDF5 reader of
+    :func:`leakdiag.stream.open_chunks`, which checks before the first chunk.
+
+    Parameters
+    ----------
+    lengths : mapping of str to int
+        What each column is, as the message names it (``"time column 'time'"``, ``"p1"``) ->
+        its number of samples, in the order to list them.
+    source : str
+        File name.
+
+    Raises
+    ------
+    RecordingError
+        If the lengths are not all equal.
+
+    Examples
+    --------
+    >>> check_same_length({"p1": 3, "p2": 3}, "run.h5")
+    >>> check_same_length({"time column 'time'": 2, "p1": 3}, "run.h5")
+    Traceback (most recent call last):
+    ...
+    leakdiag.io.errors.RecordingError: run.h5: channels have different lengths (time column 'time'=2, p1=3)
+    """
+    if len(set(lengths.values())) > 1:
+        desc = ", ".join(f"{label}={n}" for label, n in lengths.items())
+        raise RecordingError(f"{source}: channels have different lengths ({desc})")
 
 
 def check_length(rec, window: int, channel: str | None = None) -> None:

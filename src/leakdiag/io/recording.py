@@ -9,7 +9,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from leakdiag._validation import check_positive
-from leakdiag.io.checks import infer_sample_rate
+from leakdiag.io.checks import check_same_length, infer_sample_rate
 from leakdiag.io.errors import RecordingError
 
 __all__ = ["Recording", "STANDARD_CHANNELS", "RecordingError", "load_name"]
@@ -106,9 +106,7 @@ class Recording:
                 )
             chans[name] = arr
             lengths[name] = len(arr)
-        if len(set(lengths.values())) > 1:
-            desc = ", ".join(f"{k}={v}" for k, v in lengths.items())
-            raise RecordingError(f"{source}: channels have different lengths ({desc})")
+        check_same_length(lengths, source)
         self.channels = chans
         units = {k: STANDARD_CHANNELS[k] for k in chans if k in STANDARD_CHANNELS}
         units.update(self.units)

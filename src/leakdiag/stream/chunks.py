@@ -235,12 +235,17 @@ def _rate_start(t_head: np.ndarray | None, sample_rate: float | None, start_time
     """Sample rate and start time: explicit argument, else the file header, else the time column.
 
     An explicit rate that contradicts the header or the time column is refused (as
-    :func:`leakdiag.io.read_recording` does), never silently preferred.
+    :func:`leakdiag.io.read_recording` does), never silently preferred. A time column with
+    fewer than 2 values and no rate from elsewhere is refused in io's words (``column 'time'
+    has 1 sample(s); need at least 2``), not as a missing time column.
     """
     own = header.get("sample_rate")
     what = "header"
-    if own is None and t_head is not None and len(t_head) >= 2:
-        own, what = infer_sample_rate(t_head, source=source), "time column"
+    if own is None and t_head is not None:
+        if len(t_head) >= 2:
+            own, what = infer_sample_rate(t_head, source=source), "time column"
+        elif sample_rate is None:
+            infer_sample_rate(t_head, source=source)  # raises: too few values for a rate
     if sample_rate is not None and own is not None and \
             abs(float(sample_rate) - float(own)) > 1e-6 * float(own):
         raise RecordingError(f"{source}: a sample rate of {float(sample_rate):g} Hz was given, but "

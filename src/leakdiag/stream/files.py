@@ -14,6 +14,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from leakdiag._validation import check_int
+from leakdiag.io.checks import check_same_length
 from leakdiag.io.recording import RecordingError
 from leakdiag.stream.chunks import (DEFAULT_CHUNK_SAMPLES, TIME_COLUMN, ChunkSource, TimeAxis,
                                     _check_unique, _extra_field, _json_dict, _rate_start,
@@ -62,9 +63,10 @@ def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time) -
     chans = _select(names, channels, path)
     header = _json_dict((pf.schema_arrow.metadata or {}).get(PARQUET_HEADER_KEY, b""))
     t_head = None
-    if TIME_COLUMN in names and pf.metadata.num_rows >= 2 and "sample_rate" not in header:
-        first = next(pf.iter_batches(batch_size=4096, columns=[TIME_COLUMN]))
-        t_head = first.column(0).to_numpy(zero_copy_only=False).astype(np.float64)
+    if TIME_COLUMN in names and "sample_rate" not in header:
+        first = next(pf.iter_batches(batch_size=4096, columns=[TIME_COLUMN]), None)
+        t_head = (np.empty(0) if first is None else
+                  first.column(0).to_numpy(zero_copy_only=False).astype(np.float64))
     fs, t0 = _rate_start(t_head, sample_rate, start_time, header, path)
 
     cols = chans + ([TIME_COLUMN] if TIME_COLUMN in names else [])
@@ -94,12 +96,17 @@ def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> C
             raise RecordingError(f"{path}: no 1-D channel datasets found")
         header = {k: float(f.attrs[k]) for k in ("sample_rate", "start_time") if k in f.attrs}
         meta = _json_dict(f.attrs["meta"]) if "meta" in f.attrs else {}
+        has_time = isinstance(f.get(TIME_COLUMN), h5py.Dataset)
+        # every dataset read is as long as the others, checked before any chunk in the words
+        # of read_recording (detect); the chunks run to the first channel's end
+        check_same_length({**({f"time column {TIME_COLUMN!r}": len(f[TIME_COLUMN])}
+                              if has_time else {}),
+                           **{c: len(group[c]) for c in chans}}, path)
         t_head = None
-        if "sample_rate" not in header and TIME_COLUMN in f:
+        if "sample_rate" not in header and has_time:
             t_head = np.asarray(f[TIME_COLUMN][:4096], dtype=np.float64)
         n = len(group[chans[0]])
         gname = group.name
-        has_time = isinstance(f.get(TIME_COLUMN), h5py.Dataset)
     fs, t0 = _rate_start(t_head, sample_rate, start_time, header, path)
 
     def gen():

@@ -3,11 +3,11 @@ pacing of a replay."""
 
 from __future__ import annotations
 
-import io  # the doctests' text streams
 import itertools
 import os
 import sys
 import time
+import warnings
 from typing import Callable, Iterator, Sequence
 
 import numpy as np
@@ -17,11 +17,24 @@ from leakdiag.io.recording import RecordingError
 from leakdiag.stream.chunks import (TIME_COLUMN, ChunkSource, TimeAxis, _check_unique,
                                     _extra_field, _rate_start, _select, _short_row)
 
-__all__ = ["csv_lines", "tail_csv", "paced", "stdin_source"]
+__all__ = ["csv_lines", "tail_csv", "paced", "stdin_source", "IncompleteLineWarning"]
 
 #: Data lines read before the first chunk of a stream with a time column, to infer and check
 #: the sample rate over more than one interval.
 HEAD_LINES = 64
+#: Characters of an incomplete line quoted in the warning about it.
+_PREVIEW = 80
+
+
+class IncompleteLineWarning(UserWarning):
+    """A followed file's last line had no newline when the idle timeout ended the stream (a
+    write cut short): it was left out, not read as a sample (see :func:`tail_csv`)."""
+
+
+def _header_only(source: str) -> RecordingError:
+    """The error for a stream with a header and no data line, in the words of the file reader
+    (``run.csv: header only, no data rows``)."""
+    return RecordingError(f"{source}: header only, no data lines")
 
 
 class _LineFields:
@@ -96,7 +109,9 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
     the last column read (a truncated line) is refused, naming the line (1: the header) and the
     columns missing or cut; a line lacking only later, unread columns is read; empty fields
     after the header's (separators at the end of lines) are ignored, other extra fields refused.
-    A column read whose name the header holds more than once is refused.
+    A column read whose name the header holds more than once is refused. A last line without a
+    newline at the end of the stream is read, as the last row of a file is (the end of input
+    ends it); :func:`tail_csv` hands over complete lines only.
 
     Parameters
     ----------
@@ -116,12 +131,15 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
     Raises
     ------
     RecordingError
-        If the stream is empty, the rate cannot be known, or a channel (or ``time``) is a name
-        the header repeats; while iterating, for a line that is short, has extra fields, holds
-        text or breaks the time axis.
+        If the stream is empty, holds a header and no data line (``header only, no data
+        lines``; when the rate is given and there is no time column, at the end of the
+        iteration), the rate cannot be known, or a channel (or ``time``) is a name the header
+        repeats; while iterating, for a line that is short, has extra fields, holds text or
+        breaks the time axis.
 
     Examples
     --------
+    >>> import io
     >>> s = io.StringIO("time,p1\\n0.0,1\\n0.5,2\\n1.0,4\\n")
     >>> src = csv_lines(s)
     >>> src.sample_rate, [c["p1"].tolist() for c in src]
@@ -149,6 +167,8 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
             lineno += 1
             if line.strip() and not line.startswith("#"):
                 pending.append((lineno, line))
+        if not pending:
+            raise _header_only(source)
     t_head = None
     if i_time is not None and len(pending) >= 1:
         t_head = []
@@ -166,13 +186,17 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
 
     def gen():
         buf: list[tuple[int, str]] = []
+        seen = bool(pending)
         for item in itertools.chain(pending, _numbered(stream)):
+            seen = True
             buf.append(item)
             if len(buf) >= batch_lines:
                 yield _parse_lines(buf, shape, cols, chans, source, axis, i_time)
                 buf = []
         if buf:
             yield _parse_lines(buf, shape, cols, chans, source, axis, i_time)
+        if not seen:  # the rate was given and there is no time column: nothing read ahead
+            raise _header_only(source)
 
     def _numbered(st):
         nonlocal lineno
@@ -208,12 +232,53 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
     -------
     ChunkSource
         One chunk per batch of complete lines read; a partial last line waits for its newline.
+
+    Raises
+    ------
+    RecordingError
+        As :func:`csv_lines`; also when the idle timeout comes while the header line has no
+        newline yet (nothing can be read without the header).
+
+    Warns
+    -----
+    IncompleteLineWarning
+        When the idle timeout comes while the last line has no newline (a write cut short, a
+        writer that stopped mid-line): that line is left out, not read as a sample. The
+        warning names the file, the line (1: the header) and the text left unread. A blank or
+        comment line without its newline is left out without a word (it holds no sample).
+
+    Notes
+    -----
+    In a followed file a line is complete only with its newline: a writer may be between two
+    writes of one line, and ``0.999,86`` may be the start of ``0.999,8630229.6``. So a partial
+    line is never handed over. Each piece of a line that arrives starts the idle time again, so
+    a line written in pieces with pauses is read whole as long as no pause lasts the timeout.
+    stdin (:func:`csv_lines`) differs: its end of input ends the last line, which is read.
     """
     path = os.fspath(path)
     poll_s = check_positive(poll_s, "poll_s")
     f = open(path, encoding="utf-8")
+    done = [0]  # complete lines handed over (the header is line 1)
+    ended = [False]  # the idle timeout ended the stream: later reads find nothing
+
+    def left_out(partial: str) -> str:
+        """The line left unread at the idle timeout; a warning, or an error for the header."""
+        lineno = done[0] + 1
+        shown = (repr(partial) if len(partial) <= _PREVIEW
+                 else f"{partial[:_PREVIEW]!r}... ({len(partial)} characters)")
+        waited = (f"no newline after {idle_timeout_s:g} s without new data (a write cut short, "
+                  "or a writer that stopped mid-line?)")
+        if lineno == 1:
+            raise RecordingError(f"{path}: line 1 (the header) is incomplete: {waited}: "
+                                 f"{shown}; no data lines")
+        if partial.strip() and not partial.startswith("#"):
+            warnings.warn(f"{path}: line {lineno} is incomplete: {waited}: {shown} was left "
+                          "out, not read as a sample", IncompleteLineWarning, stacklevel=2)
+        return ""
 
     def wait_line() -> str:
+        if ended[0]:
+            return ""
         idle = 0.0
         partial = ""
         while True:
@@ -221,10 +286,13 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
             if line:
                 partial += line
                 if partial.endswith("\n"):
+                    done[0] += 1
                     return partial
+                idle = 0.0  # part of a line arrived: the writer is alive
                 continue
             if idle_timeout_s is not None and idle >= idle_timeout_s:
-                return partial
+                ended[0] = True
+                return left_out(partial) if partial else ""
             time.sleep(poll_s)
             idle += poll_s
 
