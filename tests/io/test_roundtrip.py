@@ -191,3 +191,25 @@ def test_a_leakdiag_file_whose_rows_were_cut_is_refused(tmp_path):
     with pytest.raises(RecordingError, match=r"half.parquet: the header says 100 Hz, but the "
                                              r"file's time column is sampled at 50 Hz"):
         read_recording(tmp_path / "half.parquet")
+
+
+def test_a_leakdiag_hdf5_file_whose_time_dataset_was_cut_is_refused(tmp_path):
+    """HDF5 keeps each column as its own dataset: a leakdiag file whose /time was cut short (or
+    a channel) was read by its header's rate without a word, while `monitor` refuses the same
+    file (an audit, 2026-11-27). The lengths are now compared, in io's words."""
+    import h5py
+    import numpy as np
+
+    from leakdiag.io import RecordingError, read_recording, write_recording
+    from leakdiag.io.recording import Recording
+
+    rec = Recording({"p1": np.arange(1000.0), "p2": np.arange(1000.0)}, 100.0)
+    path = write_recording(rec, tmp_path / "r.h5")
+    assert read_recording(path).n_samples == 1000
+    with h5py.File(path, "a") as f:
+        t = f["time"][()]
+        del f["time"]
+        f["time"] = t[:10]
+    with pytest.raises(RecordingError, match=r"r.h5: channels have different lengths \(time "
+                                             r"column 'time'=10, p1=1000, p2=1000\)$"):
+        read_recording(path)

@@ -291,6 +291,11 @@ def _from_header(table: RawTable, header: dict[str, Any], sample_rate: float | N
     if missing:
         raise RecordingError(f"{source}: header lists channel(s) {missing} missing from the "
                              f"file; available columns: {table.names}")
+    # the time column and the channels hold one value per sample: a time dataset cut short (or
+    # a channel) is refused as in a file without a header, as monitor refuses it (an audit)
+    check_same_length({**({"time column 'time'": len(table.columns["time"])}
+                          if "time" in table.columns else {}),
+                       **{c: len(table.columns[c]) for c in header["channels"]}}, source)
     if "time" in table.columns and len(table.columns["time"]) >= 2:
         # the samples are placed by the header's rate, so the stored time column must agree:
         # rows cut out of (or put into) a leakdiag file leave the header as it was, and a gap
