@@ -299,6 +299,42 @@ def test_monitor_warns_when_a_time_column_reads_as_a_low_rate(tmp_path):
     assert r.exit_code == 0 and "3000 samples at 1000 Hz" in r.output
 
 
+def test_monitor_accepts_the_detectors_own_method(tmp_path):
+    """--method naming the detector's own feature (or an alias of it) is harmless, like its
+    other settings given again; before, a ccf detector (N=100) was refused against a spec
+    built from the option defaults ("... N=200 5%", a window the user did not give). Another
+    method is refused as before."""
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
+    h = [str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, seed=s,
+                                          reference_seed=40 + s), tmp_path / f"h{s}.parquet"))
+         for s in (1, 2)]
+    run = str(write_recording(simulate_vca(duration=10.0, leak_lpm=None, seed=3,
+                                           reference_seed=43), tmp_path / "run.parquet"))
+    det = tmp_path / "ccf.joblib"
+    r = CliRunner().invoke(cli, ["fit", "--healthy", h[0], "--healthy", h[1], "-m", "ccf-p1p2",
+                                 "--false-alarm-rate", "100", "-o", str(det)])
+    assert r.exit_code == 0, r.output
+    ref = tmp_path / "ref.jsonl"
+    r = CliRunner().invoke(cli, ["monitor", run, "--detector", str(det), "-q", "--events",
+                                 str(ref)])
+    assert r.exit_code == 0, r.output
+    label = "cross-correlation p1,p2 1 N=100 5%"
+    for method in ("cross-correlation", "ccf"):
+        ev = tmp_path / f"{method}.jsonl"
+        r = CliRunner().invoke(cli, ["monitor", run, "--detector", str(det), "--method", method,
+                                     "--events", str(ev)])
+        assert r.exit_code == 0, r.output
+        assert f"windows ({label})" in r.output
+        assert ev.read_text() == ref.read_text()
+    r = CliRunner().invoke(cli, ["monitor", run, "--detector", str(det), "--method",
+                                 "metric-length", "-c", "p1,p2", "-q"])
+    assert r.exit_code != 0
+    assert f"detector feature '{label}' differs from the monitored 'metric-length p1,p2 83:3 " \
+           "N=200 5%'" in str(r.exception)
+
+
 @pytest.mark.parametrize("where,value,needle", [
     (1, 1 / 1101, "not uniformly sampled: interval before row 1"),  # the rate was 1101 Hz
     (150, 0.4, "<stdin>: line 152: time 0.4 s after 0.149 s is a gap"),

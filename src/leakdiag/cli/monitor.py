@@ -173,9 +173,14 @@ def _open_input(input_path: str, channels, follow: bool, sample_rate, chunk: int
 
 def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=()):
     """The monitored feature; ``given`` lists the feature options given on the command line,
-    refused where they would be ignored (a detector's own feature, the other lag kind)."""
-    if detector is not None and callable(getattr(detector, "spec", None)) and method is None:
-        spec = detector.spec()
+    refused where they would be ignored (a detector's own feature, the other lag kind).
+    ``method`` is a canonical name (:class:`~leakdiag.cli._features.FeatureChoice`): the
+    detector's own is harmless, like its other settings; another one is refused by the scorer
+    (:func:`leakdiag.stream.detector.as_scorer`: "differs from the monitored")."""
+    own = detector.spec() if detector is not None and \
+        callable(getattr(detector, "spec", None)) else None
+    if own is not None and method in (None, own.method):
+        spec = own
         try:  # the same values as the detector's are harmless
             mine = MethodSpec(spec.method, tuple(c.strip() for c in channels.split(","))
                               if channels else spec.channels, lag=lag or spec.lag,
