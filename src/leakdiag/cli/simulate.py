@@ -89,7 +89,7 @@ def plot_simulation(rec, path):
 @click.option("--ramp-duration", type=FiniteFloat(min=0, min_open=True), default=None,
               help="Ramp length in s (with --leak-kind ramp) [default: 100 for vca, 30 for eha].")
 @click.option("--load", type=click.Choice(["spring", "none"]), default="none", show_default=True,
-              help="Load on the piston: a spring (Table 2-1 stiffness) or none.")
+              help="Load on the piston: a spring (Sec. 4.5; its stiffness is a choice, docs/models.md: Table 2-1 gives none) or none.")
 @click.option("--seed", type=click.IntRange(min=0), default=1, show_default=True,
               help="Seed of the sensor noise and the VCA's reference sequence (the EHA's "
                    "open-loop input is the fixed 3 sin 4t).")

@@ -181,7 +181,7 @@ def measure_motor_speed(speed, sample_rate: float,
     \\omega_{k-1})/2f_s`, the count :math:`c_k = \\mathrm{round}(\\theta_k/\\Delta)` with
     :math:`\\Delta = 2\\pi/N`, and the speed the backward difference of the counts (the
     "M method" of a DAQ without a speed input). Its quantum is :math:`\\Delta f_s`: 0.314 rad/s
-    (3 rpm) at 1 kHz with 20,000 counts/rev, 0.025 % of the 1257 rad/s (1200 rpm) peak of
+    (3 rpm) at 1 kHz with 20,000 counts/rev, 0.25 % of the 125.7 rad/s (1200 rpm) peak of
     ``3 sin 4t``; it lags the true speed by half a sample. The sum of the measured speeds
     over a span equals the counted angle, within one count of the true angle.
 

@@ -2,8 +2,9 @@
 
 At each output sample the kernel records the true state, measures (encoder, ADC), computes the
 control signal from the *measured* signals, and integrates ``n_sub`` RK4 steps with the control
-held (zero-order hold). The leak schedule and the operating conditions are evaluated at every
-RK4 stage time.
+held (zero-order hold). The leak schedule and the operating conditions are evaluated once per
+output sample and held over its RK4 steps, except a supply ripple, which is evaluated at every
+stage time (docs/models.md, "Inputs").
 
 The Numba functions of the integration path (here, ``model``, ``control``, ``conditions``,
 ``orifice``, ``leak`` and the EHA's model and kernel) are compiled with
