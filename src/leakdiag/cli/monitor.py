@@ -6,10 +6,14 @@ alarm); alarms are printed as they are raised and cleared.
 
 from __future__ import annotations
 
+import math
+import signal
 import sys
+import threading
 import time
 
 import click
+import numpy as np
 
 from leakdiag.features.spec import MethodSpec
 from leakdiag.cli._features import FeatureChoice, check_setting_options, spec_from_options
@@ -18,7 +22,8 @@ from leakdiag.cli.dashboard import live_options, open_monitor_hooks
 from leakdiag.features.windowing import window_step
 from leakdiag.stream.blind import BlindSpans
 
-__all__ = ["monitor", "build_source", "load_detector", "parse_replay"]
+__all__ = ["monitor", "build_source", "load_detector", "parse_replay", "AlarmEpisodes",
+           "StopSignals", "Stopped"]
 
 
 def parse_replay(replay: str) -> float | None:
@@ -202,6 +207,163 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=())
     return spec_from_options(method, channels, lag, lag_ratio, window, overlap)
 
 
+class Stopped(KeyboardInterrupt):
+    """The user stopped the monitor with a signal: SIGINT (Ctrl-C) or SIGTERM (``kill PID``).
+
+    Parameters
+    ----------
+    signum : int
+        The signal's number.
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(int(signum))
+        self.signum = int(signum)
+
+    @property
+    def name(self) -> str:
+        """The signal's name, e.g. ``SIGTERM``."""
+        return signal.Signals(self.signum).name
+
+
+def _signal_name(exc: BaseException) -> str:
+    """The signal of a :class:`Stopped` (a bare ``KeyboardInterrupt`` is Python's SIGINT)."""
+    return exc.name if isinstance(exc, Stopped) else "SIGINT"
+
+
+def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignals") -> None:
+    """End the run of the hooks after the loop, which ``exc`` ended (None: the end of the
+    input). A signal meanwhile (in the hand-over of the last chunks, the store's end of the run,
+    ``--linger``) shortens that end and changes nothing else."""
+    stop.busy = False
+    try:
+        if isinstance(exc, KeyboardInterrupt):  # the user stopped it: not a failure
+            hooks.close(True, 0.0, say, f"stopped by {_signal_name(exc)} after {n_win} windows",
+                        stopped=True)
+        else:
+            hooks.close(exc is None, linger_s, say,
+                        None if exc is None else f"{type(exc).__name__}: {exc}")
+    except KeyboardInterrupt:
+        pass
+    finally:
+        stop.busy = True
+
+
+class StopSignals:
+    """SIGINT and SIGTERM stop the monitor with :class:`Stopped`, between two chunks.
+
+    A signal that arrives while a chunk is handled (``busy``: computed, handed to the sidecar,
+    printed) is kept until :meth:`check` at the chunk's end, so that every chunk is handled
+    whole or not at all; one that arrives while the monitor waits (for data, for a paced
+    replay's next chunk, in the sidecar's hand-over or ``--linger``) stops it at once. A signal
+    that this process was started with ignored (SIGINT of a background job) stays ignored.
+    Outside the main thread nothing is installed. Used as a context manager, which gives the
+    previous handlers back.
+    """
+
+    def __init__(self):
+        self.busy = False
+        self.pending: int | None = None
+        self._old: dict = {}
+
+    def __enter__(self) -> "StopSignals":
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                if signal.getsignal(sig) is not signal.SIG_IGN:
+                    self._old[sig] = signal.signal(sig, self._on_signal)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for sig, old in self._old.items():
+            signal.signal(sig, signal.SIG_DFL if old is None else old)
+        self._old = {}
+
+    def _on_signal(self, signum, frame) -> None:
+        if self.busy:
+            self.pending = signum
+        else:
+            raise Stopped(signum)
+
+    def check(self) -> None:
+        """End of a chunk: raise :class:`Stopped` for a signal that came while it was handled.
+
+        Raises
+        ------
+        Stopped
+            If a signal came.
+        """
+        self.busy = False
+        if self.pending is not None:
+            signum, self.pending = self.pending, None
+            raise Stopped(signum)
+
+
+class AlarmEpisodes:
+    """Count the alarm episodes of a stream as the live page and the event store do.
+
+    An alarm raised by the CUSUM branch (S+, else S-: the branch at the threshold) that raised
+    the previous one continues that episode while the branch has not been back at 0 since; any
+    other raising starts a new episode (docs/operations.md, "Alarm time";
+    :class:`leakdiag.dashboard.live.ActuatorLive`, whose episodes are the store's alarm rows).
+    The count does not depend on how the windows are split into chunks.
+
+    Parameters
+    ----------
+    threshold : float, optional
+        The scorer's ``threshold_``; None (or not finite): the raising window's score.
+
+    Attributes
+    ----------
+    n : int
+        Episodes so far.
+    open : bool
+        Whether the branch of the last episode has not been back at 0 since it was raised
+        (only then does a chunk without a raising need :meth:`add`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ep = AlarmEpisodes(2.0)
+    >>> s = np.array([1.0, 2.0, 1.5, 2.5, 0.0, 3.0])  # raised at 1, 3 (same excursion) and 5
+    >>> ep.add([1, 3, 5], s, (s, np.zeros(6)))
+    >>> ep.n
+    2
+    """
+
+    def __init__(self, threshold: float | None = None):
+        ok = threshold is not None and math.isfinite(float(threshold))
+        self.threshold = float(threshold) if ok else None
+        self.n = 0
+        self.open = False
+        self._branch: int | None = None
+
+    def add(self, raised, scores, branches=None) -> None:
+        """Take one chunk's windows.
+
+        Parameters
+        ----------
+        raised : sequence of int
+            Indices of the windows where the alarm was raised (it was off before), ascending.
+        scores : numpy.ndarray
+            The windows' scores.
+        branches : tuple of numpy.ndarray, optional
+            CUSUM branches (S+, S-) of the windows (a ``DetectorScorer``'s ``branches_``);
+            default, or of another length: the score for both.
+        """
+        if branches is None or len(branches[0]) != len(scores):
+            branches = (scores, scores)
+        start = 0
+        for i in raised:
+            thr = self.threshold if self.threshold is not None else scores[i]
+            b = 0 if branches[0][i] >= thr else 1
+            if not (self.open and b == self._branch and
+                    not (np.asarray(branches[b][start:i]) <= 0.0).any()):
+                self.n += 1
+            self._branch, self.open, start = b, True, i + 1
+        if self.open:
+            self.open = not (np.asarray(branches[self._branch][start:]) <= 0.0).any()
+
+
 @click.command(epilog="Example: leakdiag monitor run.parquet --detector det.joblib "
                       "--events events.jsonl")
 @click.argument("file", required=False, metavar="[FILE]")
@@ -243,7 +405,8 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     """Monitor a stream: feature value per window, detector score and alarm, as soon as known.
 
     FILE (or --input FILE) is a recording file, or '-' for CSV lines on stdin. Without
-    --detector only the feature is computed: no alarm is possible.
+    --detector only the feature is computed: no alarm is possible. Ctrl-C or SIGTERM stops it
+    cleanly (the run stored as stopped, the summary printed; exit code 130 or 143).
     """
     if file is not None and input_path is not None:
         raise click.UsageError(f"give the recording once: FILE ({file}) or --input "
@@ -310,61 +473,80 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     elif events:
         out = open(events, "w", encoding="utf-8")
     say = (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=out is sys.stdout))
-    n_win = n_alarm = 0
+    n_win = n_alarm = 0  # windows; alarm raisings (OK -> ALARM)
     alarm_on = False
+    scorer = mon.scorers[0]
+    episodes = AlarmEpisodes(getattr(scorer, "threshold_", None))  # as the store counts them
     healthy_span = getattr(detector, "nan_span_healthy_s_", None)  # None: fitted before it
     blind = (BlindSpans(healthy_span, window_step(spec.window, spec.overlap)
                         / source.sample_rate) if healthy_span is not None else None)
     live = {**live, "system": source.meta.get("system") or getattr(meta, "system", None)}
-    hooks = open_monitor_hooks(live, spec, mon, source, say)  # --store / --dashboard
+    hooks = stopped = None  # stopped: the Stopped of a SIGINT or SIGTERM
     t0 = time.perf_counter()
-    # what is loaded by now stays out of the collector's way (runtime.collector)
-    with frozen_collector():
+    # SIGINT and SIGTERM stop the monitor cleanly, between chunks, with or without hooks
+    with StopSignals() as stop:
         try:
-            for chunk_ in paced(source, speed):
+            hooks = open_monitor_hooks(live, spec, mon, source, say)  # --store / --dashboard
+            t0 = time.perf_counter()
+            # what is loaded by now stays out of the collector's way (runtime.collector)
+            with frozen_collector():
                 try:
-                    evs = mon.push(chunk_)
-                except ValueError as exc:  # e.g. a NaN sample: name the input
-                    msg = str(exc)
-                    raise ValueError(msg if msg.startswith(source.source) else
-                                     f"{source.source}: {msg}") from None
-                if hooks:
-                    hooks.push(evs)
-                if out is not None and evs:
-                    out.write("".join(e.to_json() + "\n" for e in evs))
-                    out.flush()
-                n_win += len(evs)
-                for e in evs:
-                    if e.alarm and not alarm_on:
-                        n_alarm += 1
-                        say(f"ALARM   t={e.time:.6g} s  {spec.label}  value={e.value:.6g}  "
-                            f"score={e.score:.6g}")
-                    elif alarm_on and e.alarm is False:
-                        say(f"cleared t={e.time:.6g} s  score={e.score:.6g}")
-                    if e.alarm is not None:
-                        alarm_on = e.alarm
-                        # scored windows only (no burn-in); a defined window costs a compare
-                        # unless it ends an undefined span
-                        if blind is not None and (e.value != e.value or blind.windows) and \
-                                e.score == e.score and blind.add(e.time, e.value):
-                            say(f"BLIND   t={e.time:.6g} s  {spec.label}: undefined for "
-                                f"{blind.windows * blind.step_s:.3g} s, more than the "
-                                f"{blind.limit_s:.3g} s allowed (a stuck sensor?); no alarm is "
-                                "possible until it is defined again")
+                    for chunk_ in paced(source, speed):
+                        stop.busy = True  # a signal now waits until the chunk is handled
+                        try:
+                            evs = mon.push(chunk_)
+                        except ValueError as exc:  # e.g. a NaN sample: name the input
+                            msg = str(exc)
+                            raise ValueError(msg if msg.startswith(source.source) else
+                                             f"{source.source}: {msg}") from None
+                        if hooks:
+                            hooks.push(evs)
+                        if out is not None and evs:
+                            out.write("".join(e.to_json() + "\n" for e in evs))
+                            out.flush()
+                        n_win += len(evs)
+                        raised = []
+                        for i, e in enumerate(evs):
+                            if e.alarm and not alarm_on:
+                                n_alarm += 1
+                                raised.append(i)
+                                say(f"ALARM   t={e.time:.6g} s  {spec.label}  "
+                                    f"value={e.value:.6g}  score={e.score:.6g}")
+                            elif alarm_on and e.alarm is False:
+                                say(f"cleared t={e.time:.6g} s  score={e.score:.6g}")
+                            if e.alarm is not None:
+                                alarm_on = e.alarm
+                                # scored windows only (no burn-in); a defined window costs a
+                                # compare unless it ends an undefined span
+                                if blind is not None and (e.value != e.value or blind.windows) \
+                                        and e.score == e.score and blind.add(e.time, e.value):
+                                    say(f"BLIND   t={e.time:.6g} s  {spec.label}: undefined for "
+                                        f"{blind.windows * blind.step_s:.3g} s, more than the "
+                                        f"{blind.limit_s:.3g} s allowed (a stuck sensor?); no "
+                                        "alarm is possible until it is defined again")
+                        if raised or episodes.open and evs:  # (an excursion not ended yet)
+                            episodes.add(raised, mon.last_arrays[0][2],
+                                         getattr(scorer, "branches_", None))
+                        stop.check()  # a signal that came meanwhile stops the monitor here
+                finally:
+                    stop.busy = True  # the input ended, or the loop stopped: this ends it
+                    if out is not None and out is not sys.stdout:
+                        out.close()
+                    if hooks:
+                        _close_hooks(hooks, sys.exc_info()[1], n_win, live["linger"], say, stop)
+        except KeyboardInterrupt as exc:  # Ctrl-C or kill PID: how a --follow run ends
+            stopped = exc if isinstance(exc, Stopped) else Stopped(signal.SIGINT)
         finally:
             if out is not None and out is not sys.stdout:
-                out.close()
-            if hooks:
-                exc = sys.exc_info()[1]
-                hooks.close(exc is None, live["linger"], say, None if exc is None else
-                            "interrupted (Ctrl-C)" if isinstance(exc, KeyboardInterrupt) else
-                            f"{type(exc).__name__}: {exc}")
+                out.close()  # (also when the hooks did not start)
     dt = time.perf_counter() - t0
     n = mon.n_samples_seen
-    alarms = (f"{n_alarm} alarm(s)" if detector is not None else
-              "no alarm possible (features only: give --detector FILE from leakdiag fit)")
+    alarms = (f"{n_alarm} alarm raising(s) in {episodes.n} episode(s)" if detector is not None
+              else "no alarm possible (features only: give --detector FILE from leakdiag fit)")
+    end = "" if stopped is None else f"; stopped by {stopped.name}"
     say(f"{source.source}: {n} samples at {source.sample_rate:g} Hz, {n_win} windows "
-        f"({spec.label}), {alarms}, {mon.features[0].n_degenerate} degenerate, in {dt:.3g} s")
+        f"({spec.label}), {alarms}, {mon.features[0].n_degenerate} degenerate, in {dt:.3g} s"
+        f"{end}")
     if blind is not None and blind.blind and n_alarm == 0:
         click.echo(f"leakdiag: warning: {blind.words(source.source, spec.label)}", err=True)
     basis = getattr(detector, "threshold_basis_", None)
@@ -372,6 +554,8 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
         from leakdiag.cli._words import threshold_words
 
         say(f"  threshold: {threshold_words(basis)}")
+    if stopped is not None:  # 128 + the signal's number, as a shell reports a signal's end
+        ctx.exit(128 + stopped.signum)
     n_bad = mon.features[0].n_degenerate
     if n_win == 0:
         raise ValueError(f"{source.source}: {n} samples is shorter than one window "

@@ -106,8 +106,12 @@ class MonitorHooks:
         except BaseException:
             if self.store is not None:
                 exc = sys.exc_info()[1]
-                self.store.end_run(self.run_id, "failed",
-                                   f"the page or store sidecar did not start: {exc}")
+                if isinstance(exc, KeyboardInterrupt):  # Ctrl-C or kill PID while it started
+                    self.store.end_run(self.run_id, "stopped", f"stopped by "
+                                       f"{getattr(exc, 'name', 'SIGINT')} before the first chunk")
+                else:
+                    self.store.end_run(self.run_id, "failed",
+                                       f"the page or store sidecar did not start: {exc}")
                 self.store.close()
             raise
         self._write = self.sidecar.ring.write  # Sidecar.push without its layers
@@ -120,10 +124,7 @@ class MonitorHooks:
         # push checks that the sidecar runs when the wall clock leaves [_alive_from, _alive_to)
         self._alive_from = time.time()
         self._alive_to = self._alive_from + ALIVE_CHECK_S
-        if bind is not None:
-            from leakdiag.dashboard.server import stop_on_sigterm
-
-            stop_on_sigterm()  # `kill PID` stops a served monitor like Ctrl-C
+        if bind is not None:  # (leakdiag monitor stops on SIGINT and SIGTERM alike, page or not)
             say(f"dashboard: {self.page_url('live/' + quote(actuator))}")
 
     def page_url(self, path: str) -> str:
@@ -186,45 +187,60 @@ class MonitorHooks:
         self.sidecar.flush()
 
     def close(self, ok: bool, linger_s: float = 0.0, say: Callable[[str], None] = print,
-              reason: str | None = None) -> None:
+              reason: str | None = None, stopped: bool = False) -> None:
         """Take what is queued, end the run in the store; keep serving, then stop the sidecar.
 
         Parameters
         ----------
         ok : bool
-            Whether the monitor finished without error.
+            Whether the monitor ended without error (at the end of its input, or stopped).
         linger_s : float, default 0.0
             Seconds to keep the page up after the input ended (``inf``: until Ctrl-C or
-            SIGTERM).
+            SIGTERM); not after a stop.
         say : callable, optional
             Prints a message for the user.
         reason : str, optional
-            Why the monitor did not finish (stored with the failed run).
+            Why the monitor did not finish: its error (stored with the failed run), or with
+            ``stopped`` what stopped it (e.g. "stopped by SIGTERM after 1263 windows").
+        stopped : bool, default False
+            The user stopped the monitor before the end of its input (a signal): the run ends
+            as ``stopped`` with ``reason``, every chunk pushed stored.
 
         Raises
         ------
         leakdiag.store.StoreError
             Or any other error the sidecar met, when ``ok`` (otherwise the monitor's own error
             is the one to report).
+
+        Notes
+        -----
+        A ``KeyboardInterrupt`` (Ctrl-C, or the monitor's SIGTERM) while the last chunks are
+        handed over ends the wait for them, not the run: the sidecar takes every chunk pushed
+        when its pipe ends, so the run ends as it would have (``finished`` at the end of the
+        input), and the page is not kept up.
         """
         if self._closed:
             return
         self._closed = True
-        error = None
+        error = interrupted = None
         try:
             self.sidecar.finish()
             self.sidecar.flush()
         except (StoreError, OSError) as exc:
             error = exc
+        except KeyboardInterrupt as exc:  # the ring is taken when the pipe ends all the same
+            interrupted = exc
         try:
             if self.store is not None:
-                failed = not ok or error is not None
-                why = reason if not ok else (None if error is None else
-                                             f"{type(error).__name__}: {error}")
-                self.store.end_run(self.run_id, "failed" if failed else "finished",
-                                   why if failed else None)
+                if not ok or error is not None:
+                    status, why = "failed", reason if not ok else \
+                        f"{type(error).__name__}: {error}"
+                else:
+                    status, why = ("stopped", reason) if stopped else ("finished", None)
+                self.store.end_run(self.run_id, status, why)
                 self.store.close()
-            if ok and error is None and linger_s > 0 and self.sidecar.page_base is not None:
+            if ok and error is None and interrupted is None and not stopped and linger_s > 0 \
+                    and self.sidecar.page_base is not None:
                 say(f"dashboard: input ended; serving for {linger_s:g} s more (Ctrl-C stops)")
                 t_end = time.monotonic() + linger_s
                 try:

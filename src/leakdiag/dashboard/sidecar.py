@@ -283,9 +283,17 @@ class Sidecar:
                 raise
 
 
+def _tell(line: bytes) -> None:
+    """Write a line to the monitor; nothing once it has ended (it reads no more answers)."""
+    try:
+        os.write(1, line)
+    except BrokenPipeError:  # the monitor has ended (stopped, killed): its pipe is closed
+        pass
+
+
 def _report(exc: BaseException) -> None:
     msg = json.dumps({"type": type(exc).__name__, "message": str(exc)})
-    os.write(1, f"error {msg}\n".encode())
+    _tell(f"error {msg}\n".encode())
 
 
 def _read_exact(fd: int, n: int) -> bytes:
@@ -359,7 +367,7 @@ def main() -> int:
 
     gc.freeze()  # the modules loaded by now stay out of the collector's way
     page = "" if server is None else " " + server.page_url("")
-    os.write(1, f"ready{page}\n".encode())
+    _tell(f"ready{page}\n".encode())
     lost = None
     try:
         taken = time.monotonic()
@@ -372,7 +380,7 @@ def main() -> int:
                 if c == FINISH[0]:
                     rec.board.finish(cfg["actuator"])
                 else:
-                    os.write(1, b"flushed\n")
+                    _tell(b"flushed\n")
             taken = time.monotonic()
             if control == b"":  # the monitor has closed the pipe or ended
                 break
@@ -388,5 +396,5 @@ def main() -> int:
     if lost:  # the monitor ended while writing a chunk that it had not printed yet
         print(f"leakdiag monitor sidecar: the monitor ended while writing a chunk: {lost}; "
               "incomplete, not stored", file=sys.stderr)
-    os.write(1, b"done\n")
+    _tell(b"done\n")
     return 0

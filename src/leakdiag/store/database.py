@@ -571,16 +571,18 @@ class EventStore:
         return rid
 
     def end_run(self, run_id: int, status: str = "finished", error: str | None = None) -> None:
-        """Mark a run as ended (``finished``, ``failed`` or ``unjudged``).
+        """Mark a run as ended (``finished``, ``failed``, ``unjudged`` or ``stopped``).
 
         Parameters
         ----------
         run_id : int
             From :meth:`start_run`.
         status : str, default "finished"
-            Final status.
+            Final status; ``stopped``: the user stopped a monitor before the end of its input
+            (Ctrl-C, SIGTERM), what it judged until then is stored.
         error : str, optional
-            Why the run failed or was not judged (the message the user saw).
+            Why the run failed or was not judged (the message the user saw), or what stopped
+            it ("stopped by SIGTERM after 1263 windows").
         """
         self._write(lambda c: c.execute(update(S.runs).where(S.runs.c.id == run_id)
                                         .values(ended_at=_now(), status=status, error=error)))
@@ -614,9 +616,10 @@ class EventStore:
         The runs of one command invocation (``detect``'s methods, a ``batch`` job's rows) are
         judged together. An invocation's *activity* is the latest of its runs' start, end, last
         chunk and last alarm (wall clock); its verdict is ``ALARM`` when a run of it has an
-        alarm that was not cleared, ``NO DATA`` while its runs are running without a chunk or
-        an alarm, ``FAILED`` when every run failed, ``NOT JUDGED`` when one failed or was not
-        judged, else ``OK``.
+        alarm that was not cleared, ``NO DATA`` while its runs are running (or were stopped)
+        without a chunk or an alarm, ``FAILED`` when every run failed, ``NOT JUDGED`` when one
+        failed or was not judged, else ``OK`` (a monitor ``stopped`` by the user is judged by
+        what it stored, like a ``finished`` one).
 
         The state is ``ALARM`` while an invocation with that verdict stands: until an
         invocation that *started after* its last activity judged the actuator ``OK`` (a
@@ -874,8 +877,8 @@ def _invocation(runs: list[dict], alarms: list[dict]) -> dict:
     if any(_missing(a["cleared_time_s"]) for a in alarms):
         verdict = "ALARM"
     elif sum(int(r["n_chunks"]) for r in runs) == 0 and not alarms and \
-            all(st == "running" for st in status):
-        verdict = "NO DATA"
+            all(st in ("running", "stopped") for st in status):
+        verdict = "NO DATA"  # (a monitor stopped before its first window judged nothing)
     elif all(st == "failed" for st in status):
         verdict = "FAILED"  # nothing of it could be read or judged
     elif any(st in ("failed", "unjudged") for st in status):
