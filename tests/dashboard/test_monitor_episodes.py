@@ -11,7 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from leakdiag.cli.main import main
-from leakdiag.cli.monitor import AlarmEpisodes
+from leakdiag.stream.episodes import AlarmEpisodes
 from leakdiag.dashboard.live import ActuatorLive
 
 

@@ -6,24 +6,22 @@ alarm); alarms are printed as they are raised and cleared.
 
 from __future__ import annotations
 
-import math
 import signal
 import sys
-import threading
 import time
 
 import click
-import numpy as np
 
 from leakdiag.features.spec import MethodSpec
 from leakdiag.cli._features import FeatureChoice, check_setting_options, spec_from_options
 from leakdiag.cli._options import recording_options
 from leakdiag.cli.dashboard import live_options, open_monitor_hooks
 from leakdiag.features.windowing import window_step
+from leakdiag.cli._signals import StopSignals, Stopped, signal_name
 from leakdiag.stream.blind import BlindSpans
+from leakdiag.stream.episodes import AlarmEpisodes
 
-__all__ = ["monitor", "build_source", "load_detector", "parse_replay", "AlarmEpisodes",
-           "StopSignals", "Stopped"]
+__all__ = ["monitor", "build_source", "load_detector", "parse_replay"]
 
 
 def parse_replay(replay: str) -> float | None:
@@ -207,30 +205,6 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=())
     return spec_from_options(method, channels, lag, lag_ratio, window, overlap)
 
 
-class Stopped(KeyboardInterrupt):
-    """The user stopped the monitor with a signal: SIGINT (Ctrl-C) or SIGTERM (``kill PID``).
-
-    Parameters
-    ----------
-    signum : int
-        The signal's number.
-    """
-
-    def __init__(self, signum: int):
-        super().__init__(int(signum))
-        self.signum = int(signum)
-
-    @property
-    def name(self) -> str:
-        """The signal's name, e.g. ``SIGTERM``."""
-        return signal.Signals(self.signum).name
-
-
-def _signal_name(exc: BaseException) -> str:
-    """The signal of a :class:`Stopped` (a bare ``KeyboardInterrupt`` is Python's SIGINT)."""
-    return exc.name if isinstance(exc, Stopped) else "SIGINT"
-
-
 def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignals") -> None:
     """End the run of the hooks after the loop, which ``exc`` ended (None: the end of the
     input). A signal meanwhile (in the hand-over of the last chunks, the store's end of the run,
@@ -238,7 +212,7 @@ def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignal
     stop.busy = False
     try:
         if isinstance(exc, KeyboardInterrupt):  # the user stopped it: not a failure
-            hooks.close(True, 0.0, say, f"stopped by {_signal_name(exc)} after {n_win} windows",
+            hooks.close(True, 0.0, say, f"stopped by {signal_name(exc)} after {n_win} windows",
                         stopped=True)
         else:
             hooks.close(exc is None, linger_s, say,
@@ -247,121 +221,6 @@ def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignal
         pass
     finally:
         stop.busy = True
-
-
-class StopSignals:
-    """SIGINT and SIGTERM stop the monitor with :class:`Stopped`, between two chunks.
-
-    A signal that arrives while a chunk is handled (``busy``: computed, handed to the sidecar,
-    printed) is kept until :meth:`check` at the chunk's end, so that every chunk is handled
-    whole or not at all; one that arrives while the monitor waits (for data, for a paced
-    replay's next chunk, in the sidecar's hand-over or ``--linger``) stops it at once. A signal
-    that this process was started with ignored (SIGINT of a background job) stays ignored.
-    Outside the main thread nothing is installed. Used as a context manager, which gives the
-    previous handlers back.
-    """
-
-    def __init__(self):
-        self.busy = False
-        self.pending: int | None = None
-        self._old: dict = {}
-
-    def __enter__(self) -> "StopSignals":
-        if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                if signal.getsignal(sig) is not signal.SIG_IGN:
-                    self._old[sig] = signal.signal(sig, self._on_signal)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        for sig, old in self._old.items():
-            signal.signal(sig, signal.SIG_DFL if old is None else old)
-        self._old = {}
-
-    def _on_signal(self, signum, frame) -> None:
-        if self.busy:
-            self.pending = signum
-        else:
-            raise Stopped(signum)
-
-    def check(self) -> None:
-        """End of a chunk: raise :class:`Stopped` for a signal that came while it was handled.
-
-        Raises
-        ------
-        Stopped
-            If a signal came.
-        """
-        self.busy = False
-        if self.pending is not None:
-            signum, self.pending = self.pending, None
-            raise Stopped(signum)
-
-
-class AlarmEpisodes:
-    """Count the alarm episodes of a stream as the live page and the event store do.
-
-    An alarm raised by the CUSUM branch (S+, else S-: the branch at the threshold) that raised
-    the previous one continues that episode while the branch has not been back at 0 since; any
-    other raising starts a new episode (docs/operations.md, "Alarm time";
-    :class:`leakdiag.dashboard.live.ActuatorLive`, whose episodes are the store's alarm rows).
-    The count does not depend on how the windows are split into chunks.
-
-    Parameters
-    ----------
-    threshold : float, optional
-        The scorer's ``threshold_``; None (or not finite): the raising window's score.
-
-    Attributes
-    ----------
-    n : int
-        Episodes so far.
-    open : bool
-        Whether the branch of the last episode has not been back at 0 since it was raised
-        (only then does a chunk without a raising need :meth:`add`).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> ep = AlarmEpisodes(2.0)
-    >>> s = np.array([1.0, 2.0, 1.5, 2.5, 0.0, 3.0])  # raised at 1, 3 (same excursion) and 5
-    >>> ep.add([1, 3, 5], s, (s, np.zeros(6)))
-    >>> ep.n
-    2
-    """
-
-    def __init__(self, threshold: float | None = None):
-        ok = threshold is not None and math.isfinite(float(threshold))
-        self.threshold = float(threshold) if ok else None
-        self.n = 0
-        self.open = False
-        self._branch: int | None = None
-
-    def add(self, raised, scores, branches=None) -> None:
-        """Take one chunk's windows.
-
-        Parameters
-        ----------
-        raised : sequence of int
-            Indices of the windows where the alarm was raised (it was off before), ascending.
-        scores : numpy.ndarray
-            The windows' scores.
-        branches : tuple of numpy.ndarray, optional
-            CUSUM branches (S+, S-) of the windows (a ``DetectorScorer``'s ``branches_``);
-            default, or of another length: the score for both.
-        """
-        if branches is None or len(branches[0]) != len(scores):
-            branches = (scores, scores)
-        start = 0
-        for i in raised:
-            thr = self.threshold if self.threshold is not None else scores[i]
-            b = 0 if branches[0][i] >= thr else 1
-            if not (self.open and b == self._branch and
-                    not (np.asarray(branches[b][start:i]) <= 0.0).any()):
-                self.n += 1
-            self._branch, self.open, start = b, True, i + 1
-        if self.open:
-            self.open = not (np.asarray(branches[self._branch][start:]) <= 0.0).any()
 
 
 @click.command(epilog="Example: leakdiag monitor run.parquet --detector det.joblib "
