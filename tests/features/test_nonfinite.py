@@ -81,17 +81,17 @@ def test_cross_correlation_names_the_bad_signal(feature):
 
 
 @pytest.mark.parametrize("overlap", OVERLAPS)
-def test_huge_finite_values_are_not_an_error(overlap):
+def test_huge_finite_values_are_not_called_non_finite(overlap):
     # sums that overflow to inf make a window "non-finite" for the kernel, but the full scan then
-    # finds every sample finite, so nothing is raised; the squares overflow, so float64 gives
-    # -inf / inf = NaN in every window, as a direct evaluation would
+    # finds every sample finite, so no sample is called NaN or inf; the squares overflow
+    # (float64 would give -inf / inf = NaN in every window), which is refused by its magnitude
+    # (until 2026-11-27 the NaN values were returned without a word: a features audit)
     x = np.full(N, 1e200)
     x[::2] = -1e200
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        fs = autocorrelation(x, 1, WINDOW, overlap)
-    assert len(fs) == n_windows(N, WINDOW, overlap)
-    assert np.isnan(fs.values).all()
+    with np.errstate(all="ignore"), pytest.raises(ValueError, match=r"^x: its largest "
+                                                  r"magnitude, 1e\+200, is beyond what float64 "
+                                                  r"sums of squares"):
+        autocorrelation(x, 1, WINDOW, overlap)
 
 
 def test_compute_feature_names_the_file_channel_and_row():
@@ -110,3 +110,33 @@ def test_compute_feature_names_the_file_channel_and_row():
     with pytest.raises(RecordingError, match=r"^run7.parquet: channel 'p2' has 2 non-finite "
                                              r"value\(s\); first NaN at row 70$"):
         compute_feature(rec, spec)
+
+
+@pytest.mark.parametrize("scale, power_words", [(1e80, "fourth powers"), (1e160, "squares"),
+                                                (1e-170, "squares")])
+def test_a_signal_beyond_float64s_range_for_the_sums_is_refused(scale, power_words):
+    """A features audit: finite samples too large or too small for the window sums gave NaN
+    or inf without a word (kurtosis NaN at 1e80, an autocorrelation of inf at 1e152) or a
+    false 'zero variance' warning (1e160, 1e-170). Refused now, naming the magnitude; the
+    values at ordinary scales are unchanged."""
+    import leakdiag as ld
+    from leakdiag.features.spec import MethodSpec
+    from leakdiag.stream.feature import StreamingFeature
+
+    x = np.array([1.0, 2.0, 3.0, 10.0])
+    calls = [lambda: ld.features.moments(x * scale, window=4),
+             lambda: ld.features.moments_at(x * scale, [0], 4)]
+    if power_words == "squares":
+        calls += [lambda: ld.features.autocorrelation(x * scale, lag=1, window=4),
+                  lambda: ld.features.cross_correlation(x * scale, x[::-1] * scale, 1, 4),
+                  lambda: ld.features.autocorrelation_at(x * scale, 1, [0], 4),
+                  lambda: StreamingFeature(MethodSpec("autocorrelation", ("p1",), lag=1,
+                                                      window=4, overlap=0)).push({"p1": x * scale})]
+    for call in calls:
+        with pytest.raises(ValueError, match=r"its largest magnitude, \d(\.\d+)?e[+-]\d+, is "
+                                             r"beyond what float64 sums of (fourth powers|"
+                                             r"squares) over 4 samples hold"):
+            call()
+    assert ld.features.autocorrelation(x * 1e60, lag=1, window=4).values[0] == \
+        pytest.approx(0.04)
+    assert ld.features.moments(x * 1e60, window=4)[3].values[0] == pytest.approx(1.6728, 1e-4)

@@ -70,6 +70,7 @@ METRIC_LENGTH = register_feature(FeatureRecord(
     channels=("p1",), n_channels=None, setting="lag_ratio", default_setting=(83, 3),
     aliases=("metric-length-ratio", "ratio-of-metric-lengths"), direction="up",
     equation="Eq. 4.3-4.4", degenerate=_DEGENERATE, thesis_name="ratio_of_metric_lengths",
+    sum_power=1,
     batch=lambda s, lr, plan, chans: metric_length_planned(_columns(s), lr, plan, chans),
     at=lambda s, lr, starts, window: metric_length_ratio_at(_one(s), lr, starts, window),
 ))
@@ -80,7 +81,7 @@ MOMENTS = register_feature(FeatureRecord(
     kernel=lambda s, _, window, starts: _moments_sorted(s[0], window, starts),
     channels=("p1",), n_channels=1, setting=None, outputs=MOMENT_NAMES, direction=None,
     equation="Eq. 4.11-4.14", degenerate="zero variance (skewness and kurtosis)",
-    thesis_name="moments",
+    thesis_name="moments", sum_power=4,
     batch=lambda s, _, plan, chans: moments_planned(s[0], plan, chans),
     at=lambda s, _, starts, window: moments_at(s[0], starts, window).T,
     streamable=False,

@@ -11,7 +11,7 @@ from leakdiag.features._kernels.blocksums import (
     cross_correlation_regular,
     cross_correlation_sorted,
 )
-from leakdiag.features._degenerate import warn_degenerate
+from leakdiag.features._degenerate import check_magnitude, warn_degenerate
 from leakdiag.features._kernels.stepsums import (
     autocorrelation_steps_regular,
     cross_correlation_steps_regular,
@@ -25,6 +25,7 @@ __all__ = ["autocorrelation", "cross_correlation", "autocorrelation_at", "cross_
 def _auto_values(x: np.ndarray, lag: int, starts: np.ndarray, window: int) -> np.ndarray:
     starts, order = _args.sort_starts(starts)
     values, n_bad = autocorrelation_sorted(x, lag, window, starts)
+    check_magnitude(values, n_bad, [x], ["x"], 2, window)
     warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return _args.unsort(values, order)
 
@@ -33,6 +34,7 @@ def _cross_values(y: np.ndarray, x: np.ndarray, lag: int, starts: np.ndarray,
                   window: int) -> np.ndarray:
     starts, order = _args.sort_starts(starts)
     values, n_bad = cross_correlation_sorted(y, x, lag, window, starts)
+    check_magnitude(values, n_bad, [y, x], ["y", "x"], 2, window)
     warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return _args.unsort(values, order)
 
@@ -146,6 +148,7 @@ def autocorrelation_planned(x_arr: np.ndarray, lag: int, plan: _args.WindowPlan,
     values, time, n_bad, n_nonfinite = regular(
         x_arr, lag, plan.window, plan.step, plan.n_windows, plan.sample_rate, plan.start_time)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
+    check_magnitude(values, n_bad, [x_arr], channels, 2, plan.window)
     warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return FeatureSeries(time, values, "autocorrelation", {"lag": lag},
                          **plan.geometry(channels))
@@ -251,6 +254,7 @@ def cross_correlation_planned(y_arr: np.ndarray, x_arr: np.ndarray, lag: int,
         plan.start_time)
     _args.finish_finite_check(y_arr, "y", n_nonfinite, plan)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
+    check_magnitude(values, n_bad, [y_arr, x_arr], channels, 2, plan.window)
     warn_degenerate(n_bad, len(values), "zero variance", stacklevel=4)
     return FeatureSeries(time, values, "cross-correlation", {"lag": lag},
                          **plan.geometry(channels))

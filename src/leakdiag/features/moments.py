@@ -7,7 +7,7 @@ import numpy as np
 
 from leakdiag.features import _args
 from leakdiag.features._kernels.chunks import CHUNK, NO_STARTS, UINT, fill_times
-from leakdiag.features._degenerate import warn_degenerate
+from leakdiag.features._degenerate import check_magnitude, warn_degenerate
 from leakdiag.features._kernels.stepsums import moments_steps_regular, use_step_kernels
 from leakdiag.features._kernels.values import moment_values
 from leakdiag.features.series import FeatureSeries
@@ -157,6 +157,7 @@ def _moments_sorted(x, window, starts):  # pragma: no cover - compiled
 def _moment_rows(x: np.ndarray, starts: np.ndarray, window: int) -> np.ndarray:
     starts, order = _args.sort_starts(starts)
     rows, n_bad = _moments_sorted(x, window, starts)
+    check_magnitude(rows, n_bad, [x], ["x"], 4, window)
     warn_degenerate(n_bad, len(starts), "zero variance (skewness and kurtosis)", stacklevel=4)
     return _args.unsort(rows, order)
 
@@ -253,6 +254,7 @@ def moments_planned(x_arr: np.ndarray, plan: _args.WindowPlan, channels: tuple[s
     buf, n_bad, n_nonfinite = regular(x_arr, window, plan.step, plan.n_windows,
                                       plan.sample_rate, plan.start_time)
     _args.finish_finite_check(x_arr, "x", n_nonfinite, plan)
+    check_magnitude(buf, n_bad, [x_arr], channels, 4, window)
     warn_degenerate(n_bad, plan.n_windows, "zero variance (skewness and kurtosis)", stacklevel=4)
     # one (5, m) block: row 0 the times, rows 1-4 the moments (views, no copy)
     geometry = plan.geometry(channels)

@@ -94,6 +94,10 @@ class FeatureRecord:
     thesis_name : str, default ""
         The feature's spelling in the thesis's result tables (``studies/thesis_data``), for
         the reproduction's comparisons; empty for a feature the thesis does not have.
+    sum_power : int, default 2
+        Highest power of a sample in the feature's window sums (2: variances and products; 4:
+        the kurtosis; 1: metric lengths): the magnitude a signal may have before they overflow
+        float64 (:func:`~leakdiag.features._degenerate.check_magnitude`).
 
     Raises
     ------
@@ -118,6 +122,7 @@ class FeatureRecord:
     at: Callable | None = field(default=None, repr=False)
     streamable: bool = True
     thesis_name: str = ""
+    sum_power: int = 2
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():

@@ -14,6 +14,7 @@ from typing import Mapping
 import numpy as np
 
 from leakdiag._validation import as_1d_float, check_positive
+from leakdiag.features._degenerate import check_magnitude
 from leakdiag.features.registry import feature_names
 from leakdiag.features.series import FeatureSeries
 from leakdiag.features.spec import MethodSpec
@@ -184,7 +185,11 @@ class StreamingFeature:
         self.n_windows += n_win
         self.n_samples_seen += c
         if n_win:
-            self.n_degenerate += int(np.count_nonzero(np.isnan(values)))
+            bad = int(np.count_nonzero(np.isnan(values)))
+            if bad or not np.isfinite(values).all():  # degenerate, or out of float64's range
+                check_magnitude(values, bad, work[:, :total], self.spec.channels,
+                                self.spec.record.sum_power, self.spec.window)
+            self.n_degenerate += bad
         starts = (first + np.arange(n_win, dtype=np.float64)) * self._step
         times = self.start_time + (starts + (self.spec.window - 1)) / self.sample_rate
         return FeatureSeries._trusted(times, values, self.spec.method, self._settings,
