@@ -292,3 +292,26 @@ def test_the_decision_direction_follows_the_rig(system, expected):
     # the rig given to the call wins over the recording's word
     assert analyze_recording(rec, spec, onset=100.0, system="eha").table.iloc[0]["decision"] \
         == "leak"
+
+
+def test_no_leak_needs_a_method_that_could_reach_the_split_level():
+    """A statistics audit: three methods, each with 8 reference and 2 tested chunks, all at the
+    smallest p the test can give (1/C(10, 2) = 0.0222, 'leak' at 0.05 alone); the split level
+    0.05/3 = 0.0167 cannot be reached, yet the overall decision read NO LEAK."""
+    from leakdiag.detect.analysis import overall_decision
+    from leakdiag.detect.measure import decide_change
+
+    ref, low = np.linspace(1.0, 1.2, 8), np.array([0.1, 0.2])
+    rows = [{"method": m, **decide_change(ref, low, false_alarm_rate=0.05,
+                                          direction="down").as_dict()}
+            for m in ("acf-p1", "ccf-p1p2", "mlr-p1")]
+    dec, why = overall_decision(pd.DataFrame(rows), 0.05)
+    assert dec == "inconclusive"
+    assert why.startswith("too few chunks for the split level: the smallest p-value acf-p1, "
+                          "ccf-p1p2, mlr-p1 can give (0.0222 at best) is not below 0.0167")
+    # one method with enough chunks that saw nothing: its NO LEAK stands
+    ref2 = np.linspace(1.0, 1.2, 30)
+    rows[0] = {"method": "acf-p1", **decide_change(ref2, ref2[::3] + 0.001,
+                                                   false_alarm_rate=0.05,
+                                                   direction="down").as_dict()}
+    assert overall_decision(pd.DataFrame(rows), 0.05)[0] == "no-leak"

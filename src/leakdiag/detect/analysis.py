@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from leakdiag.detect.measure import (Decision, TooFewChunksError, chunk_rms, chunks_in_words,
-                                     decide_change, leak_direction, rms_change)
+                                     decide_change, leak_direction, rms_change,
+                                     smallest_p_value)
 from leakdiag.features.spec import MethodSpec, compute_feature
 from leakdiag.features.series import FeatureSeries
 
@@ -300,6 +301,19 @@ def overall_decision(table, false_alarm_rate: float = 0.01) -> tuple[str, str]:
         names = ", ".join(f"{r['method']} {r.get('channels', '')}".strip()
                           for r in hit.to_dict("records"))
         return "leak", f"{names} (p < {level:.3g}); {split}"
+    # a row whose chunks cannot give a p-value below the split level had no say in "no leak"
+    # (an audit: three rows each at their smallest p, 0.022 < 0.05 alone, read NO LEAK at 0.0167)
+    tested = judged[judged["decision"] != "inconclusive"]
+    if len(tested) and {"n_reference", "n_test", "test"} <= set(tested.columns):
+        mins = np.array([smallest_p_value(r["n_reference"], r["n_test"],
+                                          "two-sided" in str(r["test"]))
+                         for r in tested.to_dict("records")])
+        if (mins >= level).all():
+            names = ", ".join(f"{r['method']} {r.get('channels', '')}".strip()
+                              for r in tested.to_dict("records"))
+            return "inconclusive", (f"too few chunks for the split level: the smallest p-value "
+                                    f"{names} can give ({min(mins):.3g} at best) is not below "
+                                    f"{level:.3g}; {split}")
     inc = weak = judged[judged["decision"] == "inconclusive"]
     if len(inc) and "p_value_opposite" in inc:  # (a table from before the column: as it says)
         opp = inc["p_value_opposite"].to_numpy(dtype=float)

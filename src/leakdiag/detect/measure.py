@@ -13,7 +13,7 @@ from leakdiag.features.series import FeatureSeries
 
 __all__ = ["RMSChange", "TooFewChunksError", "rms_change", "pct_change", "chunk_rms",
            "chunks_in_words", "Decision", "decide_change", "EXPECTED_DIRECTION", "DECISIONS",
-           "leak_direction"]
+           "leak_direction", "smallest_p_value"]
 
 
 class _Directions(Mapping):
@@ -411,6 +411,32 @@ class Decision:
             "chunk_autocorr", "reason", "p_value_opposite")}
 
 
+def smallest_p_value(n_reference: int, n_test: int, two_sided: bool = False) -> float:
+    """The smallest p-value the exact Mann-Whitney test can give with these counts.
+
+    Parameters
+    ----------
+    n_reference, n_test : int
+        Chunk RMS values on each side (at least one each).
+    two_sided : bool, default False
+        A two-sided test (the one-sided bound doubled, at most 1).
+
+    Returns
+    -------
+    float
+        ``1 / C(n_reference + n_test, n_test)``, doubled two-sided: no ordering of the values
+        gives less, so a level at or below it cannot be reached.
+
+    Examples
+    --------
+    >>> round(smallest_p_value(8, 2), 4), round(smallest_p_value(8, 2, two_sided=True), 4)
+    (0.0222, 0.0444)
+    """
+    from math import comb
+
+    return min(1.0, (2 if two_sided else 1) / comb(int(n_reference) + int(n_test), int(n_test)))
+
+
 def _lag1(x: np.ndarray) -> float:
     if len(x) < 3:  # checked first: the mean of an empty array is a numpy warning
         return float("nan")
@@ -465,8 +491,6 @@ def decide_change(reference, test, *, false_alarm_rate: float = 0.01, direction:
     >>> decide_change(before[:2], before[:2] - 0.5, direction="down").decision
     'inconclusive'
     """
-    from math import comb
-
     from scipy.stats import mannwhitneyu
 
     alpha = float(false_alarm_rate)
@@ -478,7 +502,6 @@ def decide_change(reference, test, *, false_alarm_rate: float = 0.01, direction:
     tst = np.asarray(test, dtype=np.float64)
     ref, tst = ref[np.isfinite(ref)], tst[np.isfinite(tst)]
     n1, n2 = len(ref), len(tst)
-    sides = 1 if direction != "both" else 2
     name = {"down": "one-sided (feature falls)", "up": "one-sided (feature rises)",
             "both": "two-sided"}[direction]
     test_name = f"Mann-Whitney U, {name}"
@@ -488,7 +511,7 @@ def decide_change(reference, test, *, false_alarm_rate: float = 0.01, direction:
                         f"nothing to test ({n1} reference, {n2} tested chunk RMS values): the "
                         "test needs at least one on each side (a chunk of NaN values only has "
                         "none)")
-    min_p = sides / comb(n1 + n2, n2)
+    min_p = smallest_p_value(n1, n2, two_sided=direction == "both")
     if min_p >= alpha:
         return Decision("inconclusive", basis, test_name, float("nan"), alpha, n1, n2, rho,
                         f"too few chunks ({n1} reference, {n2} tested): the smallest p-value the "
