@@ -44,11 +44,13 @@ def per_run_rate(basis, per_hour: float, span_s: float,
 
     A distribution-free (conformal) threshold holds ``bound_per_segment`` per healthy segment
     (``k / (n + 1)``; when the healthy runs do not support the target, the largest maximum's
-    ``1 / (n + 1)``, above the target but still a bound), so a run spanning ``m`` segments
-    (``m >= 1``: a run shorter than one segment is held to the segment's bound, which cannot
-    be scaled down) is held to ``min(1, m * bound_per_segment)``. A model-based level (the
-    flow balance's) or no basis guarantees nothing: the rate is the requested one per hour
-    times the span, and says so.
+    ``1 / (n + 1)``, above the target but still a bound), so a run of one segment (or shorter:
+    held to the segment's bound, which cannot be scaled down) is held to it. A run spanning
+    ``m > 1`` segments gets ``min(1, m * bound_per_segment)``, **not guaranteed**: the healthy
+    maxima come from fresh segments, while its later segments start with the CUSUM carried
+    over (docs/detect.md section 2, found by a statistics audit: 10-25 % measured against a
+    stated 10 %). A model-based level (the flow balance's) or no basis guarantees nothing: the
+    rate is the requested one per hour times the span, and says so.
 
     Parameters
     ----------
@@ -73,8 +75,9 @@ def per_run_rate(basis, per_hour: float, span_s: float,
     >>> b = conformal_threshold([3.0, 1.0, 2.0, 5.0], 0.2, segment_s=60.0)  # 1/5 per segment
     >>> per_run_rate(b, 12.0, 7.0)  # 7 s judged: 1 segment, not 12/h x 7 s = 0.023
     (0.2, True)
-    >>> round(per_run_rate(b, 12.0, 150.0)[0], 9)  # 3 segments
-    0.6
+    >>> r = per_run_rate(b, 12.0, 150.0)  # 3 segments: the union bound, not guaranteed
+    >>> round(r[0], 9), r[1]
+    (0.6, False)
     >>> per_run_rate(None, 12.0, 150.0)
     (0.5, False)
     """
@@ -86,7 +89,7 @@ def per_run_rate(basis, per_hour: float, span_s: float,
             math.isfinite(basis.bound_per_segment):
         m = n_segments if n_segments is not None else \
             max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
-        return min(1.0, float(basis.bound_per_segment) * m), True
+        return min(1.0, float(basis.bound_per_segment) * m), m <= 1
     return per_hour * span_s / 3600.0, False
 
 
@@ -292,13 +295,24 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
     per_run = (pd.to_numeric(ok["false_alarms_per_run"]) if "false_alarms_per_run" in ok
                else pd.to_numeric(ok["false_alarms_per_hour"]) * duration_s / 3600.0)
     rate = per_run.sum()
-    unbacked = (ok[ok["false_alarms_per_run_guaranteed"].eq(False)]["method"].tolist()
-                if "false_alarms_per_run_guaranteed" in ok else [])
+    unbacked = (ok[ok["false_alarms_per_run_guaranteed"].eq(False)]
+                if "false_alarms_per_run_guaranteed" in ok else ok.iloc[:0])
     fa = f"false-alarm rate for this run at most {rate:.3g} (sum over {len(ok)} method(s))"
-    if unbacked:  # a model-based level (or no basis): no data back the number
+    if len(unbacked):  # no data back the number: why, per method
+        conformal = unbacked["threshold_method"].astype(str).str.startswith("conformal") \
+            if "threshold_method" in unbacked else pd.Series(False, index=unbacked.index)
+        long_, model = unbacked[conformal]["method"].tolist(), \
+            unbacked[~conformal]["method"].tolist()
+        why = []
+        if model:
+            why.append(f"the threshold of {', '.join(model)} is model-based (see its threshold "
+                       "line)")
+        if long_:
+            why.append(f"the run is longer than one healthy segment of {', '.join(long_)}, whose "
+                       "threshold covers a recording's first segment only (its statistic carries "
+                       "its state over into the next; docs/detect.md section 2)")
         fa = (f"false-alarm rate for this run about {rate:.3g} (sum over {len(ok)} method(s)), "
-              f"not guaranteed: the threshold of {', '.join(unbacked)} is model-based (see "
-              "its threshold line)")
+              f"not guaranteed: {'; '.join(why)}")
     if rate > 1.0:  # a sum of expected false alarms, not a probability any more
         fa = (f"false alarms expected in this run up to {rate:.3g} (sum over {len(ok)} "
               "method(s)): no useful bound on the chance of one; ask for fewer false alarms "
