@@ -6,7 +6,9 @@
 * minimum detectable leak per (method, rig, load, excitation) -- loads never pooled: the
   smallest size with detection rate >= 90 % within the deadline such that every larger size of
   the suite also reaches 90 % (NaN when none);
-* onset error: ``|onset estimate - true onset|`` of runs detected within 10 s.
+* onset error: ``|onset estimate - true onset|`` of runs detected within 10 s; per leak size
+  its median, and in the summary the median of those per-size medians over the sizes at or
+  above the 10-s minimum detectable leak (every size weighs alike; docs/detect.md section 5).
 """
 
 from __future__ import annotations
