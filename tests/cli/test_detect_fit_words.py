@@ -246,8 +246,8 @@ def test_detect_per_run_rate_holds_for_runs_shorter_or_longer_than_the_healthy(f
                                                                             capsys):
     """The threshold comes from healthy segments as long as the judged run: a 10-s run against
     20-s healthy files uses 3 segments of 5 s from each (9 maxima support 0.1 per run); a 20-s
-    run against 10-s healthy files spans 3 of their 5-s segments, each held to a third, which
-    is not guaranteed beyond the first."""
+    run against 10-s healthy files spans 3 of their 5-s segments, each held to a third (the
+    CUSUM restarts at each segment unless in alarm, so each is judged as a healthy one)."""
     healthy, leak, _ = files
     short = _cut(healthy[0], 10.0, tmp_path / "short_run.parquet")
     assert main(["detect", short, *_h(healthy), "--methods", "acf-p1", "--false-alarm-rate",
@@ -262,12 +262,9 @@ def test_detect_per_run_rate_holds_for_runs_shorter_or_longer_than_the_healthy(f
     out = capsys.readouterr().out
     assert "of 3 healthy CUSUM maxima (3 own; 5-s segments): at most 0.25 false alarm(s) per " \
            "segment" in out
-    # three segments: the union bound, but not guaranteed (a statistics audit, 2026-11-27: the
-    # later segments start with the CUSUM carried over, the healthy maxima from fresh ones)
-    assert "false-alarm rate for this run about 0.75 (sum over 1 method(s)), not guaranteed: " \
-           "the run is longer than one healthy segment of acf-p1, whose threshold covers a " \
-           "recording's first segment only (its statistic carries its state over into the " \
-           "next; docs/detect.md section 2)" in out
+    # three segments: the union bound, guaranteed because the CUSUM restarts at each segment
+    # unless in alarm (a statistics audit, 2026-11-27: carried over, it was not)
+    assert "false-alarm rate for this run at most 0.75 (sum over 1 method(s))" in out
 
 
 @pytest.mark.parametrize("args,needle", [
@@ -384,8 +381,9 @@ def test_per_run_rate_of_an_unsupported_conformal_level_is_its_achieved_bound():
         b = conformal_threshold([3.0, 1.0], 0.01, segment_s=60.0, on_insufficient="warn")
     assert b.method == "conformal-unsupported" and b.bound_per_segment == pytest.approx(1 / 3)
     assert per_run_rate(b, 0.6, 30.0) == (pytest.approx(1 / 3), True)
-    assert per_run_rate(b, 0.6, 150.0) == (1.0, False)  # 3 segments: capped at 1, and only the
-    # first is covered (the CUSUM carries over: docs/detect.md section 2)
+    assert per_run_rate(b, 0.6, 150.0) == (1.0, True)  # 3 segments: capped at 1
+    # a statistic that carries over between segments (the flow balance's) is not guaranteed
+    assert per_run_rate(b, 0.6, 150.0, restarts=False) == (1.0, False)
 
 
 def test_the_flow_balance_run_rate_counts_the_segments_its_p_value_counts(tmp_path):

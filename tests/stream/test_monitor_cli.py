@@ -204,18 +204,14 @@ def test_monitor_with_a_fitted_detector_file(tmp_path):
                                  "--false-alarm-rate", "100",
                                  "-o", str(det)])
     assert r.exit_code == 0, r.output
-    # the rate's promise covers a recording's first healthy segment (a statistics audit)
-    assert "  the rate holds for a recording's first 15-s segment; a longer recording (or " \
-           "monitoring) carries the statistic over into the next segments" in r.output
+    # the CUSUM restarts at each healthy segment: no caveat on the rate (the flow balance has)
+    assert "the rate holds for a recording's first" not in r.output
     r = CliRunner().invoke(cli, ["monitor", "-i", leak, "--detector", str(det)])
     assert r.exit_code == 0, r.output
     alarm = [ln for ln in r.output.splitlines() if ln.startswith("ALARM")]
     assert alarm and float(alarm[0].split("t=")[1].split()[0]) >= 15.0
     assert "1 alarm raising(s) in 1 episode(s)" in r.output
-    # 30 s - 5 s of burn-in = 25 s: more than one 15-s healthy segment, said so
-    assert "  the stream spanned 1.67 healthy segments of 15 s: the rate holds for the first " \
-           "only, later ones carry the statistic over (not guaranteed; docs/detect.md " \
-           "section 2)" in r.output
+
     # a whole-recording detector cannot be streamed: said so
     comb = tmp_path / "comb.joblib"
     assert CliRunner().invoke(cli, ["fit", "--healthy", h[0], "-m", "combined",
@@ -424,13 +420,13 @@ def test_monitor_keeps_what_it_loaded_out_of_the_collector_while_it_runs(run_fil
     if frozen_before:
         gc.freeze()
     try:
-        outside = gc.get_freeze_count()
         r = CliRunner().invoke(cli, ["monitor", str(path), "--chunk", "4000"])
         assert r.exit_code == 0, r.output
         assert len(seen) == 3 and min(seen) > 0
-        assert gc.get_freeze_count() == outside  # unfrozen by whoever froze
-        if frozen_before:
-            assert set(seen) == {outside}  # nothing frozen on top of the caller's freeze
+        if frozen_before:  # the caller's freeze is the caller's: still there afterwards
+            assert gc.get_freeze_count() > 0
+        else:  # unfrozen by the monitor, which froze
+            assert gc.get_freeze_count() == 0
     finally:
         if frozen_before:
             gc.unfreeze()

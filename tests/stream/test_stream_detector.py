@@ -65,3 +65,42 @@ def test_fitted_feature_detector_streams_like_batch():
     with pytest.raises(ValueError, match="differs from the monitored"):
         Monitor(MethodSpec("autocorrelation", ("p1",), lag=2, window=200, overlap=5), 1000.0,
                 scorers=det)
+
+
+def test_the_cusum_restarts_at_each_healthy_segment_unless_in_alarm_batch_and_stream_alike():
+    """A statistics audit (2026-11-27): the healthy maxima come from fresh segments, so a long
+    recording's later segments, carried over, alarmed at 1.5-4.8 times the bound. Predict and
+    the monitor now restart the CUSUM at every healthy-segment boundary unless it is in alarm;
+    the stream equals the batch score, and the restarts are where the segments begin."""
+    from leakdiag.detect.base import Alarm
+    from leakdiag.detect.methods import FeatureDetector
+    from leakdiag.detect.threshold import segment_index
+
+    healthy = [Recording({"p1": _ar(20000, 0.9, s)}, 1000.0) for s in range(12)]
+    det = FeatureDetector("autocorrelation", ("p1",), lag=1, window=200, overlap=5,
+                          alarm=Alarm(false_alarms_per_hour=30.0)).fit(healthy)
+    seg = det.threshold_basis_.segment_s
+    assert seg == pytest.approx(15.0, abs=0.3)  # 20-s runs after the 5-s burn-in
+    rec = Recording({"p1": np.r_[_ar(60000, 0.9, 30), _ar(30000, 0.5, 31)]}, 1000.0,
+                    start_time=2.0)
+    tr = det._trace(rec)
+    idx = segment_index(tr.time, 2.0 + det.alarm.burn_in_s, seg)
+    k, h = det.alarm.drift, det.threshold_
+    starts = np.flatnonzero(np.diff(idx)) + 1
+    assert len(starts) >= 5  # 85 s judged: six segments
+    for i in starts:
+        z = tr.z[i]
+        if max(tr.s_up[i - 1], tr.s_down[i - 1]) > h:  # in alarm: carried
+            assert tr.s_up[i] == pytest.approx(max(0.0, tr.s_up[i - 1] + z - k)) or \
+                tr.s_down[i] == pytest.approx(max(0.0, tr.s_down[i - 1] - z - k))
+        else:  # fresh
+            assert tr.s_up[i] == pytest.approx(max(0.0, z - k))
+            assert tr.s_down[i] == pytest.approx(max(0.0, -z - k))
+    assert any(max(tr.s_up[i - 1], tr.s_down[i - 1]) > 0 for i in starts)  # a real restart
+    batch = det.score(rec)
+    events = list(Monitor(det.spec(), 1000.0, 2.0, scorers=det).run(recording_chunks(rec, 777)))
+    scored = [e for e in events if not np.isnan(e.score)]
+    np.testing.assert_allclose([e.score for e in scored], batch.values, rtol=1e-9, atol=1e-9)
+    verdict = det.predict(rec)
+    assert verdict.leak and next(e.time for e in events if e.alarm) == pytest.approx(
+        verdict.alarm_time_s)

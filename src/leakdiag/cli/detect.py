@@ -28,7 +28,8 @@ def _row(m, det, rec, n_healthy):
     burn_in = float(getattr(det, "burn_in_s", a.burn_in_s))
     span_s = max(rec.duration - burn_in, 0.0)  # the alarm's span in this run
     method = basis.method if basis is not None else det.alarm_threshold_.method
-    per_run, guaranteed = per_run_rate(basis, per_hour, span_s, v.n_segments)
+    per_run, guaranteed = per_run_rate(basis, per_hour, span_s, v.n_segments,
+                                       getattr(det, "restarts_per_segment", False))
     row = {"method": m, **v.as_dict(), "threshold_method": method,
            "threshold_basis": basis if basis is None else threshold_words(basis),
            "n_healthy": n_healthy, "false_alarms_per_hour": per_hour,
@@ -38,19 +39,22 @@ def _row(m, det, rec, n_healthy):
     return row
 
 
-def per_run_rate(basis, per_hour: float, span_s: float,
-                 n_segments: int | None = None) -> tuple[float, bool]:
+def per_run_rate(basis, per_hour: float, span_s: float, n_segments: int | None = None,
+                 restarts: bool = True) -> tuple[float, bool]:
     """The false-alarm rate a threshold promises for one judged run, and whether data back it.
 
     A distribution-free (conformal) threshold holds ``bound_per_segment`` per healthy segment
     (``k / (n + 1)``; when the healthy runs do not support the target, the largest maximum's
     ``1 / (n + 1)``, above the target but still a bound), so a run of one segment (or shorter:
-    held to the segment's bound, which cannot be scaled down) is held to it. A run spanning
-    ``m > 1`` segments gets ``min(1, m * bound_per_segment)``, **not guaranteed**: the healthy
-    maxima come from fresh segments, while its later segments start with the CUSUM carried
-    over (docs/detect.md section 2, found by a statistics audit: 10-25 % measured against a
-    stated 10 %). A model-based level (the flow balance's) or no basis guarantees nothing: the
-    rate is the requested one per hour times the span, and says so.
+    held to the segment's bound, which cannot be scaled down) is held to it, and a run spanning
+    ``m > 1`` segments to ``min(1, m * bound_per_segment)`` (union bound): the healthy maxima
+    come from fresh segments, and a detector whose statistic restarts at each segment boundary
+    unless in alarm (``restarts``, :attr:`Detector.restarts_per_segment`) judges every segment
+    as one. Without restarts (the flow balance's GLR) the later segments start with the
+    statistic carried over, and the bound is **not guaranteed** beyond the first (docs/detect.md
+    section 2; a statistics audit measured 10-25 % against a stated 10 % before the restarts).
+    A model-based level (the flow balance's) or no basis guarantees nothing: the rate is the
+    requested one per hour times the span, and says so.
 
     Parameters
     ----------
@@ -63,6 +67,8 @@ def per_run_rate(basis, per_hour: float, span_s: float,
     n_segments : int, optional
         Segments the span covers as the detector counted them for its p-value
         (``Verdict.n_segments``); default: ``span_s`` over the basis's ``segment_s``.
+    restarts : bool, default True
+        Whether the detector's statistic restarts at each segment boundary unless in alarm.
 
     Returns
     -------
@@ -75,9 +81,11 @@ def per_run_rate(basis, per_hour: float, span_s: float,
     >>> b = conformal_threshold([3.0, 1.0, 2.0, 5.0], 0.2, segment_s=60.0)  # 1/5 per segment
     >>> per_run_rate(b, 12.0, 7.0)  # 7 s judged: 1 segment, not 12/h x 7 s = 0.023
     (0.2, True)
-    >>> r = per_run_rate(b, 12.0, 150.0)  # 3 segments: the union bound, not guaranteed
+    >>> r = per_run_rate(b, 12.0, 150.0)  # 3 segments: the union bound
     >>> round(r[0], 9), r[1]
-    (0.6, False)
+    (0.6, True)
+    >>> per_run_rate(b, 12.0, 150.0, restarts=False)[1]  # carried over: not guaranteed
+    False
     >>> per_run_rate(None, 12.0, 150.0)
     (0.5, False)
     """
@@ -89,7 +97,7 @@ def per_run_rate(basis, per_hour: float, span_s: float,
             math.isfinite(basis.bound_per_segment):
         m = n_segments if n_segments is not None else \
             max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
-        return min(1.0, float(basis.bound_per_segment) * m), m <= 1
+        return min(1.0, float(basis.bound_per_segment) * m), m <= 1 or restarts
     return per_hour * span_s / 3600.0, False
 
 

@@ -254,8 +254,8 @@ class _LazyChoice(click.Choice):
 @click.option("--false-alarm-rate", type=click.FloatRange(min=0, min_open=True), default=1.0,
               show_default=True,
               help="False alarms per hour of healthy operation the detector's threshold is set "
-                   "for; guaranteed for a recording's first healthy segment (a longer one "
-                   "carries the statistic over: not guaranteed, docs/detect.md section 2).")
+                   "for (continuous monitoring: the CUSUM restarts at every healthy segment "
+                   "unless in alarm; the flow balance's GLR does not, docs/detect.md section 2).")
 @click.option("--burn-in", "burn_in_s", type=click.FloatRange(min=0), default=5.0,
               show_default=True,
               help="Seconds ignored at the start of every recording.")
@@ -347,8 +347,9 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
                + ("; the flow balance's own GLR maxima come from two-fold cross-fitting of at "
                   f"least 4 healthy recordings (got {len(recs)}, so none)"
                   if method == "flow-balance" and len(recs) < 4 else ""))
-    if basis is not None and basis.method.startswith("conformal"):
+    if basis is not None and basis.method.startswith("conformal") and \
+            not getattr(det, "restarts_per_segment", False):
         click.echo(f"  the rate holds for a recording's first {basis.segment_s:g}-s segment; a "
-                   "longer recording (or monitoring) carries the statistic over into the next "
-                   "segments, which the healthy maxima do not cover: not guaranteed there "
-                   "(docs/detect.md section 2)")
+                   "longer recording carries the statistic over into the next segments, which "
+                   "the healthy maxima do not cover: not guaranteed there (docs/detect.md "
+                   "section 2)")

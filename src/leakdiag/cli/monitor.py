@@ -247,8 +247,8 @@ def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignal
 @click.option("--detector", "detector_path", type=click.Path(exists=True, dir_okay=False),
               help="Detector file from leakdiag fit: its feature settings are used (a "
                    "different --method, --channels, --lag, --window or --overlap is refused); "
-                   "its threshold holds its false-alarm rate in the first healthy segment of "
-                   "the stream (later ones: not guaranteed, docs/detect.md section 2). "
+                   "its threshold holds its false-alarm rate per hour of monitoring (the CUSUM "
+                   "restarts at every healthy segment unless in alarm). "
                    "It is a pickle: loading it runs code, so load only files you trust.")
 @recording_options
 @click.option("--chunk", type=click.IntRange(min=1), default=65536, show_default=True,
@@ -414,12 +414,6 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
         from leakdiag.cli._words import threshold_words
 
         say(f"  threshold: {threshold_words(basis)}")
-        span = n / source.sample_rate - float(getattr(getattr(detector, "alarm", None),
-                                                      "burn_in_s", 0.0) or 0.0)
-        if basis.method.startswith("conformal") and span > basis.segment_s * 1.001:
-            say(f"  the stream spanned {span / basis.segment_s:.3g} healthy segments of "
-                f"{basis.segment_s:g} s: the rate holds for the first only, later ones carry "
-                "the statistic over (not guaranteed; docs/detect.md section 2)")
     if stopped is not None:  # 128 + the signal's number, as a shell reports a signal's end
         ctx.exit(128 + stopped.signum)
     n_bad = mon.features[0].n_degenerate

@@ -49,7 +49,7 @@ import numpy as np
 from sklearn.base import BaseEstimator
 
 from leakdiag._validation import check_int, check_positive
-from leakdiag.detect.cusum import DIRECTIONS, cusum
+from leakdiag.detect.cusum import DIRECTIONS, cusum, segmented_cusum
 from leakdiag.detect.leaksize import fit_leak_calibration
 from leakdiag.detect.onset import ONSET_METHODS, best_split_gain, change_points, cusum_onset
 from leakdiag.detect.threshold import (
@@ -57,6 +57,7 @@ from leakdiag.detect.threshold import (
     ReferenceMaxima,
     ThresholdBasis,
     conformal_threshold,
+    segment_index,
     segment_maxima,
 )
 from leakdiag.features.series import FeatureSeries
@@ -310,6 +311,10 @@ class Detector(BaseEstimator):
     """
 
     alarm: Alarm | None = None
+    #: The alarm statistic restarts at every healthy-segment boundary unless in alarm
+    #: (:meth:`_trace_of`), so the threshold's per-segment guarantee holds in every segment of
+    #: a longer recording (union bound); a detector with a statistic of its own says False.
+    restarts_per_segment: bool = True
 
     # -------------------------------------------------------------- subclass hooks
     def _feature_series(self, recording) -> FeatureSeries:  # pragma: no cover - abstract
@@ -360,7 +365,8 @@ class Detector(BaseEstimator):
         self._check_fitted()
         self._check_like_healthy(recording.sample_rate, recording.meta.get("system"),
                                  recording.meta.get("source", "<recording>"))
-        return self._trace_of(*self._series(recording))
+        return self._trace_of(*self._series(recording),
+                              t0=recording.start_time + self._alarm().burn_in_s)
 
     def _check_like_healthy(self, sample_rate, system, source: str) -> None:
         """Refuse a recording of another sample rate or rig than the healthy ones of ``fit``
@@ -379,10 +385,20 @@ class Detector(BaseEstimator):
                 f"{source}: a {str(system).lower()!r} recording, but {type(self).__name__} was "
                 f"fitted on {fitted!r} recordings; fit it on healthy recordings of this rig")
 
-    def _trace_of(self, t, start, v, fs) -> _Trace:
+    def _trace_of(self, t, start, v, fs, t0: float | None = None) -> _Trace:
+        """The standardised feature and its CUSUM. With the span's start ``t0`` (recording
+        start + burn-in) and a threshold basis, the CUSUM restarts at every healthy-segment
+        boundary unless it is in alarm (:func:`~leakdiag.detect.cusum.segmented_cusum`), so
+        that each segment of a long recording is judged as the healthy maxima were made."""
         z = (v - self.mean_) / self.std_
         a = self._alarm()
-        s_up, s_down = cusum(z, a.drift, a.direction)
+        basis = getattr(self, "threshold_basis_", None)
+        seg = getattr(basis, "segment_s", None)
+        if t0 is None or seg is None or not np.isfinite(seg) or seg <= 0:
+            s_up, s_down = cusum(z, a.drift, a.direction)
+        else:
+            s_up, s_down = segmented_cusum(z, segment_index(t, t0, seg), a.drift, a.direction,
+                                           keep_above=float(getattr(self, "threshold_", np.inf)))
         return _Trace(t, start, z, s_up, s_down, fs)
 
     # -------------------------------------------------------------- public API
@@ -649,7 +665,8 @@ class Detector(BaseEstimator):
                                  f"{spec.label!r} over N={spec.window}")
             series = series.with_values(series.values, spec.label)  # the verdict's name
         self._check_like_healthy(series.sample_rate, None, source)
-        tr = self._trace_of(*self._after_burn_in(series, float(start_time)))
+        tr = self._trace_of(*self._after_burn_in(series, float(start_time)),
+                            t0=float(start_time) + self._alarm().burn_in_s)
         return self._verdict(tr, float(duration_s), source)
 
     def _verdict(self, tr: _Trace, duration_s: float, source: str) -> Verdict:

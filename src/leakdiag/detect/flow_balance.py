@@ -411,6 +411,10 @@ class FlowBalanceDetector(Detector):
     1.0
     """
 
+    #: Its GLR is not restarted at segment boundaries: beyond a recording's first healthy
+    #: segment its per-segment rate is not guaranteed (docs/detect.md section 2).
+    restarts_per_segment = False
+
     def __init__(self, system="vca", false_alarms_per_hour=1.0, window_s=1.0, max_span_s=30.0,
                  leak_law="turbulent", params=None, fit_bandwidth=False, fit_bulk_modulus=False,
                  burn_in_s=2.0, reference_dp_pa=1e6, interval_level=0.95, alarm=None,

@@ -33,12 +33,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from leakdiag._validation import check_positive
-from leakdiag.detect.cusum import cusum
+from leakdiag.detect.cusum import segmented_cusum
 from leakdiag.detect.rates import clopper_pearson
 
 __all__ = ["ThresholdBasis", "ReferenceMaxima", "InsufficientHealthyDataError",
            "InsufficientHealthyDataWarning", "conformal_threshold", "conditional_rank",
-           "min_maxima", "segment_maxima",
+           "min_maxima", "segment_maxima", "segment_index",
            "binned_maxima", "clopper_pearson", "SEGMENT_TOLERANCE"]
 
 #: Relative tolerance when counting complete segments in a run (a run of 59.99 s holds one
@@ -328,8 +328,35 @@ def segment_maxima(z, time, segment_s: float, t0: float, span_s: float, drift: f
     check_positive(segment_s, "segment_s")
     if len(z) == 0:
         return np.zeros(0)
-    up, dn = cusum(z, drift, direction)
+    # every segment fresh: the CUSUM restarts at each boundary (segmented_cusum), as a judged
+    # recording's does unless in alarm, so that its segments match these maxima
+    up, dn = segmented_cusum(z, segment_index(time, t0, segment_s), drift, direction)
     return binned_maxima(np.maximum(up, dn), time, segment_s, t0, span_s)
+
+
+def segment_index(time, t0: float, segment_s: float) -> np.ndarray:
+    """Healthy segment of each window: ``floor((time - t0) / segment_s)``, at least 0.
+
+    Parameters
+    ----------
+    time : array_like
+        Window timestamps (s, last sample).
+    t0 : float
+        Start of the monitored span (s): recording start + burn-in.
+    segment_s : float
+        Segment duration (s).
+
+    Returns
+    -------
+    numpy.ndarray of int64
+
+    Examples
+    --------
+    >>> segment_index([1.0, 2.0, 2.6, 4.9], 0.5, 2.0).tolist()
+    [0, 0, 1, 2]
+    """
+    idx = np.floor((np.asarray(time, dtype=np.float64) - t0) / segment_s).astype(np.int64)
+    return np.clip(idx, 0, None)
 
 
 def binned_maxima(stat, time, segment_s: float, t0: float, span_s: float) -> np.ndarray:
@@ -371,8 +398,7 @@ def binned_maxima(stat, time, segment_s: float, t0: float, span_s: float) -> np.
     n_seg = int(math.floor(span_s / segment_s + SEGMENT_TOLERANCE))
     if n_seg < 1 or len(stat) == 0:
         return np.zeros(0)
-    idx = np.floor((time - t0) / segment_s).astype(np.int64)
-    idx = np.clip(idx, 0, None)
+    idx = segment_index(time, t0, segment_s)
     keep = idx < n_seg
     out = np.zeros(n_seg)
     np.maximum.at(out, idx[keep], stat[keep])

@@ -3,13 +3,16 @@
 :class:`DetectorScorer` implements the monitor's :class:`~leakdiag.stream.monitor.WindowScorer`
 protocol from the detector's fitted state only (``mean_``, ``std_``, ``threshold_`` and its
 ``alarm`` settings ``drift``, ``direction``, ``burn_in_s``), so that streamed scores equal
-``detector.score(recording)`` on the same data: ``z = (f - mean_) / std_``, Page's CUSUM without
-restart, score ``max(S+, S-)``, alarm when it reaches ``threshold_``; windows that start within
-the burn-in are not scored (NaN, no alarm); NaN features leave the statistics unchanged.
+``detector.score(recording)`` on the same data: ``z = (f - mean_) / std_``, Page's CUSUM
+restarted at every healthy-segment boundary (``threshold_basis_.segment_s`` from the end of the
+burn-in) unless it is in alarm (docs/detect.md section 2), score ``max(S+, S-)``, alarm when it
+reaches ``threshold_``; windows that start within the burn-in are not scored (NaN, no alarm);
+NaN features leave the statistics unchanged.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -70,6 +73,12 @@ class DetectorScorer:
         self._span = (int(window) - 1) / check_positive(sample_rate, "sample_rate")
         self._s_up = 0.0
         self._s_down = 0.0
+        # the CUSUM restarts at every healthy-segment boundary unless in alarm, as
+        # Detector.predict's does (detect.cusum.segmented_cusum); None: no basis, no restarts
+        seg = getattr(getattr(detector, "threshold_basis_", None), "segment_s", None)
+        self._segment_s = float(seg) if seg is not None and np.isfinite(seg) and seg > 0 \
+            else None
+        self._segment = None  # segment of the last window scored
 
     def score_windows(self, values: np.ndarray, time: np.ndarray) -> np.ndarray:
         """CUSUM score ``max(S+, S-)`` after each window (NaN within the burn-in).
@@ -89,9 +98,16 @@ class DetectorScorer:
         out = np.full(len(values), np.nan)
         s_up, s_down = np.full(len(values), np.nan), np.full(len(values), np.nan)
         up, down = self.direction in ("up", "both"), self.direction in ("down", "both")
+        h = self.threshold_
         for i, (v, t) in enumerate(zip(values, time)):
             if t - self._span < self._burn_in_end:
                 continue
+            if self._segment_s is not None:
+                seg = max(0, math.floor((t - self._burn_in_end) / self._segment_s))
+                if self._segment is not None and seg != self._segment and \
+                        not (self._s_up > h or self._s_down > h):
+                    self._s_up = self._s_down = 0.0
+                self._segment = seg
             z = (v - self.mean_) / self.std_
             if not np.isnan(z):
                 if up:
