@@ -19,36 +19,15 @@ DIRECTIONS: dict[str, int] = {"up": 1, "down": -1, "both": 0}
 
 
 @numba.njit(cache=True)
-def _cusum(z, drift, direction, threshold):  # pragma: no cover - compiled
+def _cusum(z, segment, drift, direction, keep_above, restart_at):  # pragma: no cover - compiled
+    # segment boundaries restart both statistics unless one is above keep_above; a statistic
+    # reaching restart_at counts an alarm and restarts both (cusum_alarm_count)
     n = z.shape[0]
     s_up = np.empty(n)
     s_dn = np.empty(n)
     sp = 0.0
     sn = 0.0
     count = 0
-    for i in range(n):
-        v = z[i]
-        if not np.isnan(v):
-            if direction >= 0:
-                sp = max(0.0, sp + v - drift)
-            if direction <= 0:
-                sn = max(0.0, sn - v - drift)
-        s_up[i] = sp
-        s_dn[i] = sn
-        if sp >= threshold or sn >= threshold:
-            count += 1
-            sp = 0.0
-            sn = 0.0
-    return s_up, s_dn, count
-
-
-@numba.njit(cache=True)
-def _segmented(z, segment, drift, direction, keep_above):  # pragma: no cover - compiled
-    n = z.shape[0]
-    s_up = np.empty(n)
-    s_dn = np.empty(n)
-    sp = 0.0
-    sn = 0.0
     for i in range(n):
         if i > 0 and segment[i] != segment[i - 1] and not (sp > keep_above or sn > keep_above):
             sp = 0.0
@@ -61,7 +40,11 @@ def _segmented(z, segment, drift, direction, keep_above):  # pragma: no cover - 
                 sn = max(0.0, sn - v - drift)
         s_up[i] = sp
         s_dn[i] = sn
-    return s_up, s_dn
+        if sp >= restart_at or sn >= restart_at:
+            count += 1
+            sp = 0.0
+            sn = 0.0
+    return s_up, s_dn, count
 
 
 def _check(z, drift, direction):
@@ -114,7 +97,7 @@ def cusum(z, drift: float = 0.5, direction: str = "both") -> tuple[np.ndarray, n
     ([0.0, 1.5, 3.0, 1.5], [0.0, 0.0, 0.0, 0.5])
     """
     z, drift, code = _check(z, drift, direction)
-    s_up, s_dn, _ = _cusum(z, drift, code, np.inf)
+    s_up, s_dn, _ = _cusum(z, np.zeros(len(z), np.int64), drift, code, np.inf, np.inf)
     return s_up, s_dn
 
 
@@ -143,7 +126,7 @@ def cusum_alarm_count(z, threshold: float, drift: float = 0.5, direction: str = 
     2
     """
     z, drift, code = _check(z, drift, direction)
-    return int(_cusum(z, drift, code, float(threshold))[2])
+    return int(_cusum(z, np.zeros(len(z), np.int64), drift, code, np.inf, float(threshold))[2])
 
 
 def segmented_cusum(z, segment, drift: float = 0.5, direction: str = "both",
@@ -199,4 +182,4 @@ def segmented_cusum(z, segment, drift: float = 0.5, direction: str = "both",
     seg = np.ascontiguousarray(np.asarray(segment, dtype=np.int64))
     if seg.shape != z.shape:
         raise ValueError(f"segment has shape {seg.shape}, z {z.shape}")
-    return _segmented(z, seg, drift, code, float(keep_above))
+    return _cusum(z, seg, drift, code, float(keep_above), np.inf)[:2]
