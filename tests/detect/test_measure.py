@@ -203,3 +203,29 @@ def test_a_window_starting_at_the_onset_sample_counts_after_it():
     assert f.window_start[123] == 12.3
     r = rms_change(f, 12.3, chunk=1)
     assert (r.n_chunks_before, r.n_chunks_after, r.n_chunks_straddling) == (123, 77, 0)
+
+
+def test_tied_chunk_values_get_the_exact_permutation_p_value():
+    """A statistics audit: with ties SciPy's Mann-Whitney falls back to the normal
+    approximation, whose p (0.058 for one tested value below ten tied ones) lies below anything
+    a permutation can give (1/11 = 0.091), so the guard's smallest-p rule did not describe the
+    test that ran. Tied samples small enough are now enumerated exactly."""
+    from scipy.stats import PermutationMethod, mannwhitneyu
+
+    from leakdiag.detect.measure import decide_change
+
+    ref = np.array([1.0] * 5 + [2.0] * 5)
+    d = decide_change(ref, np.array([0.5]), false_alarm_rate=0.1, direction="down")
+    assert d.p_value == pytest.approx(1 / 11) and d.decision == "leak"  # 0.0909 < 0.1
+    d = decide_change(ref, np.array([0.5]), false_alarm_rate=0.09, direction="down")
+    assert d.decision == "inconclusive"  # the guard: 1/11 cannot go below 0.09
+    rng = np.random.default_rng(4)
+    for _ in range(20):  # the same as SciPy's exact permutation test where it applies (n >= 2)
+        a = rng.integers(0, 4, 4).astype(float)
+        b = rng.integers(0, 4, 7).astype(float)
+        for alt, direction in (("less", "down"), ("greater", "up"), ("two-sided", "both")):
+            want = mannwhitneyu(a, b, alternative=alt,
+                                method=PermutationMethod(n_resamples=np.inf)).pvalue
+            got = decide_change(b, a, false_alarm_rate=0.5, direction=direction).p_value
+            if got == got:  # a decision with a p-value (not refused by the smallest-p guard)
+                assert got == pytest.approx(want)
