@@ -227,13 +227,13 @@ def test_the_live_onset_across_a_blind_span_is_at_or_before_its_end(n_stuck, cen
     board = LiveBoard()
     board.add("a", "feat", sc, window_s=1.0)
     v = np.r_[0.0, 0.0, np.full(2, 1.0), np.full(n_stuck, np.nan), np.full(3, 1.0)]
-    t = np.arange(1.0, len(v) + 1.0)  # S+ grows 0.5 a defined window: 2.0 at the 4th
+    t = np.arange(1.0, len(v) + 1.0)  # S+ grows 0.5 a defined window: above 2.0 at the 5th
     for i0 in range(0, len(t), 5):  # in chunks, as the sidecar takes them
         s = sc.score_windows(v[i0:i0 + 5], t[i0:i0 + 5])
         board.update("a", t[i0:i0 + 5], v[i0:i0 + 5], s, sc.alarm_windows(s),
                      received_wall=1.0)
     snap = board.snapshot("a")
     first_after = t[4 + n_stuck]
-    assert snap["state"] == "ALARM" and snap["alarm_time_s"] == first_after + 1.0
+    assert snap["state"] == "ALARM" and snap["alarm_time_s"] == first_after + 2.0
     assert snap["onset_censored"] is censored
     assert snap["onset_s"] == (first_after - 0.5 if censored else t[2] - 0.5)

@@ -26,7 +26,10 @@ def test_cusum_by_hand_and_burn_in():
     s = sc.score_windows(np.array([5.0, 5.0, 5.0, -3.0]), np.array([1.0, 2.0, 3.0, 4.0]))
     # S+: 1.5, 3.0, then 3 - 2 - .5 = 0.5; S-: 0, 0, then 2 - .5 = 1.5 -> max = 1.5
     np.testing.assert_allclose(s, [np.nan, 1.5, 3.0, 1.5])
-    assert sc.alarm_windows(s).tolist() == [False, False, True, False]
+    # alarm above the threshold (3.0), as Detector.predict: a score equal to it is not one (a
+    # review, 2026-11-27: the stream alarmed at >=, and a restart kept only what was above)
+    assert sc.alarm_windows(s).tolist() == [False, False, False, False]
+    assert sc.alarm_windows(np.array([3.0 + 1e-9])).tolist() == [True]
 
 
 def test_direction_up_ignores_falls():
@@ -104,3 +107,44 @@ def test_the_cusum_restarts_at_each_healthy_segment_unless_in_alarm_batch_and_st
     verdict = det.predict(rec)
     assert verdict.leak and next(e.time for e in events if e.alarm) == pytest.approx(
         verdict.alarm_time_s)
+
+
+def test_an_excursion_dropped_at_a_restart_does_not_date_the_onset():
+    """A review (2026-11-27): a restart below the threshold leaves no 0 in the CUSUM (the
+    boundary window's value already holds its z), so the CUSUM onset of an alarm in the next
+    segment walked back into the dropped excursion (18.9 s for a change at 24.2 s, restart at
+    20.2 s). predict and the live page now date it from the restart at the latest."""
+    from leakdiag.dashboard.live import LiveBoard
+    from leakdiag.detect.base import Alarm
+    from leakdiag.detect.methods import FeatureDetector
+    from leakdiag.detect.threshold import segment_index
+
+    healthy = [Recording({"p1": _ar(20000, 0.9, s)}, 1000.0) for s in range(12)]
+    det = FeatureDetector("autocorrelation", ("p1",), lag=1, window=200, overlap=0,
+                          alarm=Alarm(false_alarms_per_hour=30.0, onset_method="cusum")
+                          ).fit(healthy)
+    h, k = det.threshold_, det.alarm.drift
+    seg, burn = det.threshold_basis_.segment_s, det.alarm.burn_in_s
+    rec = Recording({"p1": _ar(60000, 0.9, 5)}, 1000.0)
+    fsr = det._feature_series(rec)
+    t = np.asarray(fsr.time)
+    first1 = int(np.flatnonzero(segment_index(t, burn, seg) == 1)[0])
+    z = np.zeros(len(t))
+    z[first1 - 6:first1] = k + 0.8 * h / 6  # an excursion to 0.8 h, dropped at the restart
+    z[first1:first1 + 20] = k + 0.01  # the next segment: just above 0 for 20 windows
+    z[first1 + 20:] = k + 0.25 * h  # the change
+    series = fsr.with_values(det.mean_ + det.std_ * z)
+    v = det.predict_series(series, rec.duration, 0.0)
+    restart_onset = (t[first1] + t[first1] - 0.199) / 2.0
+    assert v.leak and v.onset_s == pytest.approx(restart_onset)  # was t[first1 - 6]'s
+    # the live page, given the scorer's windows in chunks, dates it the same
+    sc = DetectorScorer(det, 200, 1000.0)
+    board = LiveBoard()
+    board.add("a", "acf", sc, window_s=0.199)
+    vals = np.asarray(series.values)
+    for i0 in range(0, len(t), 37):
+        s = sc.score_windows(vals[i0:i0 + 37], t[i0:i0 + 37])
+        board.update("a", t[i0:i0 + 37], vals[i0:i0 + 37], s, sc.alarm_windows(s), 1.0,
+                     sc.branches_)
+    snap = board.snapshot("a")
+    assert snap["state"] == "ALARM" and snap["onset_s"] == pytest.approx(restart_onset)

@@ -59,7 +59,7 @@ def _num(v) -> float | None:
 
 #: What :class:`ActuatorLive` reads of a scorer, and of its ``detector``: a picklable copy
 #: (:class:`leakdiag.dashboard.recorder.ScorerFacts`, the monitor's sidecar) carries these.
-SCORER_FACTS = ("threshold_", "mean_", "std_")
+SCORER_FACTS = ("threshold_", "mean_", "std_", "segment_s_", "segment_origin_s_")
 DETECTOR_FACTS = ("calibration_", "nan_span_healthy_s_")
 
 
@@ -100,6 +100,12 @@ class ActuatorLive:
         self._first_scored = None  # time of the first window judged (scored and defined)
         # None: fitted before the healthy span was recorded (no BLIND state)
         self._healthy_span_s = getattr(det, "nan_span_healthy_s_", None)
+        # the scorer's CUSUM restarts at healthy-segment boundaries unless in alarm: where it
+        # dropped an excursion, a later one starts (as Detector.predict dates its onset)
+        self._seg_s = getattr(scorer, "segment_s_", None)
+        self._seg0 = getattr(scorer, "segment_origin_s_", None)
+        self._prev_seg, self._prev_stat = None, 0.0
+        self._restarts: deque = deque(maxlen=MAX_EVENTS)
         self._blind = None  # BlindSpans, made when the window step is known
         self._blind_wait: list = []  # scored windows taken before that (a 1-window chunk)
         self.leak: tuple | None = None
@@ -167,6 +173,8 @@ class ActuatorLive:
                     self._blind_wait = []
             else:
                 self._blind.add_block(t[scored], v[scored])
+        if self._seg_s is not None and self._seg0 is not None:
+            self._note_restarts(t, s, branches)
         z = self._z(v, s)
         fin = np.isfinite(z)
         self._hist_t.append(t[fin])
@@ -199,6 +207,23 @@ class ActuatorLive:
             self._after[1] += int(after.sum())
         if self.onset_s is not None and self.calibration is not None:
             self._estimate()
+
+    def _note_restarts(self, t: np.ndarray, s: np.ndarray, branches) -> None:
+        """Times of the scored windows where the scorer restarted an excursion below the
+        threshold (a new segment; :class:`~leakdiag.stream.detector.DetectorScorer`)."""
+        scored = np.flatnonzero(np.isfinite(s))
+        if not len(scored):
+            return
+        seg = np.maximum(np.floor((t[scored] - self._seg0) / self._seg_s), 0.0)
+        stat = np.maximum(np.asarray(branches[0], float)[scored],
+                          np.asarray(branches[1], float)[scored])
+        prev_seg = np.concatenate(([np.nan if self._prev_seg is None else self._prev_seg],
+                                   seg[:-1]))
+        prev_stat = np.concatenate(([self._prev_stat], stat[:-1]))
+        thr = self.threshold if self.threshold is not None else np.inf
+        hit = (seg != prev_seg) & ~np.isnan(prev_seg) & (prev_stat > 0.0) & (prev_stat <= thr)
+        self._restarts.extend(t[scored][hit].tolist())
+        self._prev_seg, self._prev_stat = float(seg[-1]), float(stat[-1])
 
     def _start_at(self, b: int, i: int, t: np.ndarray, branches) -> tuple | None:
         """(time, start) of the first window of branch ``b``'s excursion at window ``i``."""
@@ -237,6 +262,10 @@ class ActuatorLive:
                      if start[0] < e <= ti]
             if ended:
                 start, self.onset_censored = (ended[-1], ended[-1] - self.window_s), True
+            # an excursion the scorer restarted at a segment boundary starts again there
+            dropped = [r for r in self._restarts if start[0] < r <= ti]
+            if dropped:
+                start = (dropped[-1], dropped[-1] - self.window_s)
             self.onset_s = (start[0] + start[1]) / 2.0
             self.leak = None
         self.events.append({"time_s": ti, "kind": "alarm", "score": _num(s[i]),

@@ -282,6 +282,7 @@ class _Trace:
     s_up: np.ndarray
     s_down: np.ndarray
     series: FeatureSeries  # the feature series the trace was computed from
+    restarted: np.ndarray | None = None  # windows where an excursion was dropped (segmented)
 
     @property
     def name(self) -> str:
@@ -394,12 +395,14 @@ class Detector(BaseEstimator):
         a = self._alarm()
         basis = getattr(self, "threshold_basis_", None)
         seg = getattr(basis, "segment_s", None)
+        restarted = None
         if t0 is None or seg is None or not np.isfinite(seg) or seg <= 0:
             s_up, s_down = cusum(z, a.drift, a.direction)
         else:
-            s_up, s_down = segmented_cusum(z, segment_index(t, t0, seg), a.drift, a.direction,
-                                           keep_above=float(getattr(self, "threshold_", np.inf)))
-        return _Trace(t, start, z, s_up, s_down, fs)
+            s_up, s_down, restarted = segmented_cusum(
+                z, segment_index(t, t0, seg), a.drift, a.direction,
+                keep_above=float(getattr(self, "threshold_", np.inf)), return_restarts=True)
+        return _Trace(t, start, z, s_up, s_down, fs, restarted)
 
     # -------------------------------------------------------------- public API
     def _reference_maxima(self) -> ReferenceMaxima | None:
@@ -693,6 +696,10 @@ class Detector(BaseEstimator):
         i_alarm = int(above[0])
         branch = tr.s_up if tr.s_up[i_alarm] > h else tr.s_down
         j = cusum_onset(branch, i_alarm)
+        if tr.restarted is not None:  # the excursion starts at or after its last restart
+            dropped = np.flatnonzero(tr.restarted[:i_alarm + 1])
+            if len(dropped) and dropped[-1] > j:
+                j = int(dropped[-1])
         method = "cusum"
         if a.onset_method != "cusum":
             finite = np.flatnonzero(np.isfinite(tr.z))

@@ -25,11 +25,13 @@ def _cusum(z, segment, drift, direction, keep_above, restart_at):  # pragma: no 
     n = z.shape[0]
     s_up = np.empty(n)
     s_dn = np.empty(n)
+    restarted = np.zeros(n, dtype=np.bool_)
     sp = 0.0
     sn = 0.0
     count = 0
     for i in range(n):
         if i > 0 and segment[i] != segment[i - 1] and not (sp > keep_above or sn > keep_above):
+            restarted[i] = sp > 0.0 or sn > 0.0  # an excursion dropped here
             sp = 0.0
             sn = 0.0
         v = z[i]
@@ -44,7 +46,7 @@ def _cusum(z, segment, drift, direction, keep_above, restart_at):  # pragma: no 
             count += 1
             sp = 0.0
             sn = 0.0
-    return s_up, s_dn, count
+    return s_up, s_dn, count, restarted
 
 
 def _check(z, drift, direction):
@@ -97,7 +99,7 @@ def cusum(z, drift: float = 0.5, direction: str = "both") -> tuple[np.ndarray, n
     ([0.0, 1.5, 3.0, 1.5], [0.0, 0.0, 0.0, 0.5])
     """
     z, drift, code = _check(z, drift, direction)
-    s_up, s_dn, _ = _cusum(z, np.zeros(len(z), np.int64), drift, code, np.inf, np.inf)
+    s_up, s_dn, _, _ = _cusum(z, np.zeros(len(z), np.int64), drift, code, np.inf, np.inf)
     return s_up, s_dn
 
 
@@ -130,7 +132,7 @@ def cusum_alarm_count(z, threshold: float, drift: float = 0.5, direction: str = 
 
 
 def segmented_cusum(z, segment, drift: float = 0.5, direction: str = "both",
-                    keep_above: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
+                    keep_above: float = np.inf, return_restarts: bool = False) -> tuple:
     """Page's CUSUM restarted at every segment boundary, unless it is above ``keep_above``.
 
     Parameters
@@ -148,11 +150,17 @@ def segmented_cusum(z, segment, drift: float = 0.5, direction: str = "both",
         An excursion above this level (an alarm: the detector's threshold) is carried into the
         next segment instead; ``inf``: every segment starts fresh (the healthy maxima of
         :func:`~leakdiag.detect.threshold.segment_maxima`).
+    return_restarts : bool, default False
+        Also return where an excursion in progress was dropped.
 
     Returns
     -------
     s_up, s_down : numpy.ndarray
         Shape ``(m,)``.
+    restarted : numpy.ndarray of bool
+        With ``return_restarts``: True at the first window of a segment where a statistic
+        above 0 was restarted (an excursion's start lies at or after it: the value recorded
+        there already holds that window's ``z``, so no 0 marks the restart).
 
     Raises
     ------
@@ -182,4 +190,5 @@ def segmented_cusum(z, segment, drift: float = 0.5, direction: str = "both",
     seg = np.ascontiguousarray(np.asarray(segment, dtype=np.int64))
     if seg.shape != z.shape:
         raise ValueError(f"segment has shape {seg.shape}, z {z.shape}")
-    return _cusum(z, seg, drift, code, float(keep_above), np.inf)[:2]
+    s_up, s_dn, _, restarted = _cusum(z, seg, drift, code, float(keep_above), np.inf)
+    return (s_up, s_dn, restarted) if return_restarts else (s_up, s_dn)

@@ -6,7 +6,8 @@ protocol from the detector's fitted state only (``mean_``, ``std_``, ``threshold
 ``detector.score(recording)`` on the same data: ``z = (f - mean_) / std_``, Page's CUSUM
 restarted at every healthy-segment boundary (``threshold_basis_.segment_s`` from the end of the
 burn-in) unless it is in alarm (docs/detect.md section 2), score ``max(S+, S-)``, alarm when it
-reaches ``threshold_``; windows that start within the burn-in are not scored (NaN, no alarm);
+exceeds ``threshold_`` (as ``predict``); windows that start within the burn-in are not scored
+(NaN, no alarm; their first sample placed on the sample grid as ``predict`` places it);
 NaN features leave the statistics unchanged.
 """
 
@@ -19,6 +20,7 @@ import numpy as np
 
 from leakdiag._validation import check_positive
 from leakdiag.detect.base import Alarm
+from leakdiag.features.windowing import window_first_times
 
 __all__ = ["DetectorScorer", "as_scorer"]
 
@@ -71,6 +73,8 @@ class DetectorScorer:
         self.direction = str(alarm.direction)
         self._burn_in_end = float(start_time) + float(alarm.burn_in_s)
         self._span = (int(window) - 1) / check_positive(sample_rate, "sample_rate")
+        self._window, self._rate = int(window), float(sample_rate)
+        self._start = float(start_time)
         self._s_up = 0.0
         self._s_down = 0.0
         # the CUSUM restarts at every healthy-segment boundary unless in alarm, as
@@ -79,6 +83,8 @@ class DetectorScorer:
         self._segment_s = float(seg) if seg is not None and np.isfinite(seg) and seg > 0 \
             else None
         self._segment = None  # segment of the last window scored
+        #: Segment length and origin of the restarts (s; None: no restarts), for the live page
+        self.segment_s_, self.segment_origin_s_ = self._segment_s, self._burn_in_end
 
     def score_windows(self, values: np.ndarray, time: np.ndarray) -> np.ndarray:
         """CUSUM score ``max(S+, S-)`` after each window (NaN within the burn-in).
@@ -99,8 +105,12 @@ class DetectorScorer:
         s_up, s_down = np.full(len(values), np.nan), np.full(len(values), np.nan)
         up, down = self.direction in ("up", "both"), self.direction in ("down", "both")
         h = self.threshold_
+        # each window's first sample on the sample grid, as Detector.predict places it
+        # (features.windowing.window_first_times): t - (N-1)/fs can land one rounding below
+        first = window_first_times(np.asarray(time, dtype=np.float64), self._window, self._rate,
+                                   self._start)
         for i, (v, t) in enumerate(zip(values, time)):
-            if t - self._span < self._burn_in_end:
+            if first[i] < self._burn_in_end:
                 continue
             if self._segment_s is not None:
                 seg = max(0, math.floor((t - self._burn_in_end) / self._segment_s))
@@ -120,7 +130,8 @@ class DetectorScorer:
         return out
 
     def alarm_windows(self, scores: np.ndarray) -> np.ndarray:
-        """Alarm where the score reaches ``threshold_`` (never within the burn-in).
+        """Alarm where the score exceeds ``threshold_``, as ``Detector.predict`` (never within the
+        burn-in).
 
         Parameters
         ----------
@@ -133,7 +144,7 @@ class DetectorScorer:
             Boolean, shape of ``scores``.
         """
         s = np.asarray(scores, dtype=np.float64)
-        return np.where(np.isnan(s), False, s >= self.threshold_)
+        return np.where(np.isnan(s), False, s > self.threshold_)
 
 
 def as_scorer(obj: Any, spec: Any, sample_rate: float, start_time: float = 0.0) -> Any:
