@@ -453,7 +453,7 @@ def _mann_whitney_p(test: np.ndarray, reference: np.ndarray, alternative: str) -
     midrank statistic: the share of the ``C(n, n_test)`` choices of tested chunks whose rank
     sum is at least as extreme (two-sided: twice the smaller tail, at most 1).
     """
-    from itertools import combinations
+    from itertools import chain, combinations
     from math import comb
 
     from scipy.stats import mannwhitneyu, rankdata
@@ -464,8 +464,9 @@ def _mann_whitney_p(test: np.ndarray, reference: np.ndarray, alternative: str) -
         return float(mannwhitneyu(test, reference, alternative=alternative).pvalue)
     ranks = 2.0 * rankdata(pooled)  # midranks, doubled: whole numbers
     observed = ranks[:k].sum()
-    sums = np.fromiter((ranks[list(c)].sum() for c in combinations(range(n), k)), float,
-                       comb(n, k))
+    m = comb(n, k)  # every choice of the tested chunks' positions, one row each
+    chosen = np.fromiter(chain.from_iterable(combinations(range(n), k)), np.int64, m * k)
+    sums = ranks[chosen.reshape(m, k)].sum(axis=1)
     less, greater = float(np.mean(sums <= observed)), float(np.mean(sums >= observed))
     if alternative == "less":
         return less
