@@ -113,6 +113,28 @@ def test_size_interval_is_the_union_of_the_statistical_one_and_the_measured_mode
     assert lo <= rec.meta["leak_lpm_achieved"] <= hi
 
 
+def test_interval_level_is_said_to_set_the_statistical_part_only(fitted):
+    """The audit (2026-11-27, F6) found the same interval at interval_level 0.5, 0.8, 0.95 and
+    0.999: the measured model-error band dominates. The words say the level is the
+    statistical part's and that the band's probability is the interval's promise."""
+    import copy
+
+    from leakdiag.detect._flow_balance_size import SIZE_RATIO_RANGE
+
+    rec = _with_offset(ld.sim.simulate_vca(duration=60, leak_lpm=0.05, onset=30, load="spring",
+                                           params=UNIT, seed=12))
+    r_lo, r_hi, n = SIZE_RATIO_RANGE["vca"]["spring"]
+    for level in (0.5, 0.999):
+        det = copy.deepcopy(fitted)
+        det.interval_level = level
+        v = det.predict(rec)
+        assert (f"interval_level {level:g} is the level of the statistical part only"
+                in v.leak_lpm_interval_holds)
+        assert f"probability >= {(n - 1) / (n + 1):.2f}" in v.leak_lpm_interval_holds
+        lo, hi = v.leak_lpm_interval  # never narrower than the band
+        assert lo <= v.leak_lpm / r_hi * (1 + 1e-12) and hi >= v.leak_lpm / r_lo * (1 - 1e-12)
+
+
 def test_size_band_constants_are_the_committed_study_s_extremes():
     """SIZE_RATIO_RANGE is what perf/flow_balance_size_band.py measured (its CSV in docs)."""
     import pandas as pd

@@ -325,3 +325,25 @@ def test_windows_counted_before_the_balance_are_the_balance_s_windows(det, syste
         assert probe._monitored_windows(part) == len(probe._terms(part)["residual"])
     assert probe._monitored_windows(
         dataclasses.replace(rec, channels={c: v[:7001] for c, v in rec.channels.items()})) == 5
+
+
+def test_a_recording_at_another_sample_rate_is_refused_as_the_cli_does(det, healthy):
+    """The spike, hold and sum-gate limits and the level are learned at the fit's rate: a
+    1-kHz fit refused 4 of 6 healthy 600-Hz runs as "spikes" (a misleading reason) and took
+    2-kHz runs (audit 2026-11-27, F5). Refused by rate, in predict and in fit; a detector
+    saved before the rate was recorded (no ``sample_rate_``) still judges."""
+    import copy
+
+    assert det.sample_rate_ == 1000.0
+    rec = _vca(60, duration=12.0, sample_rate=600.0)
+    for where, call in (("predict", det.predict), ("score", det.score)):
+        with pytest.raises(RecordingError, match=rf"{where}: {re.escape(SRC)}: sample rate 600 "
+                           r"Hz, but the detector was fitted at 1000 Hz"):
+            call(rec)
+    with pytest.raises(RecordingError, match=r"fit: .*: sample rate 600 Hz, but the first "
+                       r"healthy recording is sampled at 1000 Hz"):
+        FlowBalanceDetector(system="vca").fit([healthy[0], rec])
+    old = copy.deepcopy(det)
+    del old.sample_rate_  # as pickled before 2026-11-27
+    same = _vca(61, duration=12.0)
+    assert old.predict(same).score_max == det.predict(same).score_max

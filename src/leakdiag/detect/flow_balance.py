@@ -324,7 +324,12 @@ class FlowBalanceDetector(Detector):
     reference_dp_pa : float, default 1e6
         Pressure difference at which the leak flow is also reported.
     interval_level : float, default 0.95
-        Coverage of the leak-size interval.
+        Level of the *statistical* part of the leak-size interval (the coefficient's standard
+        error; EHA: and the transducers' zero error). The reported interval is its union with
+        the model-error band measured on virtual machines (``_flow_balance_size``), whose own
+        probability (>= 0.97 for a machine like them) is what the interval holds whatever this
+        level: a level above it does not make the interval hold more, one below it does not
+        make it narrower than the band (docs/detect.md 8.5, "Size interval").
     alarm : None
         Not used, and refused when given (:meth:`fit` raises): the flow balance takes its
         false-alarm target, burn-in, segment and confidence from its own parameters above and
@@ -388,6 +393,9 @@ class FlowBalanceDetector(Detector):
         The model-based level of the healthy-residual bootstrap and its simulated null.
     n_healthy_, healthy_hours_ : int, float
         Healthy data used.
+    sample_rate_ : float
+        Sample rate (Hz) of the healthy recordings; a recording at another rate is refused
+        (absent from detectors saved before 2026-11-27, which do not check it).
 
     Notes
     -----
@@ -478,12 +486,29 @@ class FlowBalanceDetector(Detector):
         be = self._backend()
         return be.default_params() if self.params is None else be.check_params(self.params)
 
-    def _check_recording(self, rec, where: str) -> None:
+    def _check_recording(self, rec, where: str, rate: float | None = None) -> None:
+        """Refuse a recording of another system, without a channel the balance needs, with a
+        non-finite sample, or sampled at another rate than ``rate`` (fit: the first healthy
+        recording's) or, when fitted, the fit's ``sample_rate_``: the spike, hold and sum-gate
+        limits and the false-alarm level were learned at that rate (a 1-kHz fit refused 4 of
+        6 healthy 600-Hz runs as "spikes" and scored 2-kHz ones above its healthy maxima;
+        docs/detect.md 8.4, "Sample rate")."""
         source = rec.meta.get("source", "<recording>")
         system = rec.meta.get("system")
         if system is not None and system != self.system:
             raise RecordingError(f"{where}: {source}: recording is system={system!r}, the "
                                  f"detector system={self.system!r}")
+        fitted = rate if rate is not None else getattr(self, "sample_rate_", None)
+        # None: a detector saved before the rate was recorded (no check)
+        if fitted is not None and not math.isclose(float(rec.sample_rate), float(fitted),
+                                                   rel_tol=1e-9):
+            what = ("the first healthy recording is sampled at" if rate is not None
+                    else "the detector was fitted at")
+            raise RecordingError(
+                f"{where}: {source}: sample rate {float(rec.sample_rate):g} Hz, but {what} "
+                f"{float(fitted):g} Hz: the flow balance's spike, hold and consistency limits "
+                "and its false-alarm level are learned at one rate; resample the recording or "
+                "fit on healthy recordings at this rate")
         missing = [c for c in self._backend().CHANNELS if c not in rec.channels]
         if missing:
             raise RecordingError(
@@ -885,7 +910,7 @@ class FlowBalanceDetector(Detector):
         if not recs:
             raise ValueError("fit needs at least one healthy recording, got none")
         for r in recs:
-            self._check_recording(r, "fit")
+            self._check_recording(r, "fit", rate=float(recs[0].sample_rate))
         if not _no_cross:  # a cross-fit half holds recordings fit has checked
             self._check_healthy(recs)
             segment_s = self._check_target(recs)
@@ -979,6 +1004,7 @@ class FlowBalanceDetector(Detector):
         self.threshold_basis_ = self._threshold_basis(own, segment_s, reference_maxima, h)
         self.threshold_ = float(self.threshold_basis_.threshold)
         self.n_healthy_ = len(recs)
+        self.sample_rate_ = float(recs[0].sample_rate)  # _check_recording refuses other rates
         self.feature_name_ = "flow_balance"
         return self
 
@@ -1208,7 +1234,10 @@ class FlowBalanceDetector(Detector):
         load = self._load_of(recording)
         r_lo, r_hi, _, _ = size_band(self.system, load)
         interval = (min(interval[0], lpm / r_hi), max(interval[1], lpm / r_lo))
-        holds = f"{be.size_interval_holds(offset, offset_range)}, {band_words(self.system, load)}"
+        holds = (f"{be.size_interval_holds(offset, offset_range)}, {band_words(self.system, load)}"
+                 f"; interval_level {float(self.interval_level):g} is the level of the "
+                 "statistical part only, which knows no model error: the band's probability is "
+                 "what the whole interval is promised to hold")
         n_units = (getattr(self, "operation_", None) or {}).get("n_machines", 0)
         if n_units > 1:
             holds += (f"; measured with each machine's own fit, while this detector was fitted "
