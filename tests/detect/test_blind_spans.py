@@ -123,3 +123,31 @@ def test_an_onset_across_a_blind_span_is_at_or_before_its_end(acf):
     short = _series(acf, np.r_[rise, np.full(40, np.nan), leak], burn)
     w = acf.predict_series(short, duration_s=float(short.time[-1]) + 0.01)
     assert w.leak and not w.onset_censored and w.onset_s < short.time[burn + 10]
+
+
+def test_a_short_run_mostly_undefined_is_not_judged_no_leak(acf):
+    """Audit of users' recordings (2026-11-27, finding 2): a 3-s file with p1 stuck from 0.2 s
+    had 13 of its 15 windows undefined and read NO LEAK: no span of a 3-s file can exceed the
+    10-s floor. More than half of the judged windows undefined now refuses NO LEAK."""
+    from leakdiag.detect.base import MAX_UNDEFINED_FRACTION, blind_rule
+
+    burn = int(np.ceil(acf.alarm.burn_in_s / 0.19))  # the windows before it: burn-in
+    z = np.r_[0.1, -0.2, np.full(13, np.nan)]  # 15 judged windows: 2.85 s, under 10 s
+    series = _series(acf, z, burn)
+    assert blind_rule(acf.nan_span_healthy_s_, 15, 13, 13 * 0.19) == "fraction"
+    with pytest.raises(RecordingError, match=r"predict: <series>: the feature 'autocorrelation "
+                                             r"p1 .*' is undefined in 13 of the 15 windows "
+                                             r"judged \(more than 50%; the longest span 13 "
+                                             r"windows from .*so no NO LEAK can rest on the 2 "
+                                             r"defined window\(s\)"):
+        acf.predict_series(series, duration_s=float(series.time[-1]) + 0.01)
+    # half of them undefined: judged, and the verdict says on how many windows
+    half = _series(acf, np.r_[np.zeros(8), np.full(7, np.nan)], burn)
+    v = acf.predict_series(half, duration_s=float(half.time[-1]) + 0.01)
+    assert MAX_UNDEFINED_FRACTION == 0.5 and not v.leak
+    assert (v.n_windows, v.n_undefined) == (15, 7)
+    assert v.as_dict()["windows_undefined"] == "7 of 15 windows undefined"
+    assert str(v).endswith("; 7 of 15 windows undefined")
+    # none undefined: nothing said
+    full = acf.predict_series(_series(acf, np.zeros(15), burn), duration_s=float(half.time[-1]))
+    assert full.n_undefined == 0 and full.undefined_words == "" and "undefined" not in str(full)

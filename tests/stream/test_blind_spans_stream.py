@@ -39,3 +39,30 @@ def test_blocks_equal_single_windows(undefined, cuts):
                 ended.append((t[i - run], t[i]))
             run = 0
     assert list(one.ended) == ended
+
+
+def test_every_window_applies_the_fraction_rule_of_predict():
+    """Audit 2026-11-27, finding 2: on a 3-s stream no span reaches the 10-s limit; with every
+    judged window given, more than half undefined is blind, as Detector.predict refuses it."""
+    nan = float("nan")
+    t = 0.2 * np.arange(1, 16)
+    v = np.r_[0.5, 0.6, np.full(13, nan)]
+    b = BlindSpans(0.0, step_s=0.2, every_window=True)
+    b.add_block(t, v)
+    assert (b.judged, b.undefined, b.rule, b.blind) == (15, 13, "fraction", True)
+    assert b.words("stuck.csv", "acf p1") == (
+        "stuck.csv: the feature 'acf p1' was undefined in 13 of the 15 windows judged (more "
+        "than half; the longest span 13 windows from 0.6 to 3 s: a channel it reads is constant "
+        "there, a stuck sensor?), so the absence of an alarm rules nothing out: it rests on 2 "
+        "defined window(s)")
+    one = BlindSpans(0.0, step_s=0.2, every_window=True)
+    for ti, vi in zip(t, v):
+        one.add(ti, vi)
+    assert (one.judged, one.undefined, one.rule) == (15, 13, "fraction")
+    half = BlindSpans(0.0, step_s=0.2, every_window=True)
+    half.add_block(t[:14], np.r_[np.zeros(7), np.full(7, nan)])
+    assert not half.blind  # 7 of 14: not more than half
+    # a caller that gives only the undefined windows: the span limit only
+    partial = BlindSpans(0.0, step_s=0.2)
+    partial.add_block(t[2:], v[2:])
+    assert partial.rule is None and not partial.blind

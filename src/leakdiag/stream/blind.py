@@ -4,8 +4,10 @@ A window whose feature is undefined (zero variance: a channel it reads is consta
 sensor) is NaN, and the CUSUM holds its value across it, so "no alarm" during such a span says
 nothing. :class:`~leakdiag.detect.base.Detector` refuses a NO LEAK over an undefined span longer
 than :func:`~leakdiag.detect.base.blind_limit_s` of its healthy recordings' longest
-(``nan_span_healthy_s_``, docs/detect.md section 2, "Blind spans"). :class:`BlindSpans` applies
-the same limit window by window to a stream, for ``leakdiag monitor``.
+(``nan_span_healthy_s_``, docs/detect.md section 2, "Blind spans"), and one with more than half
+of its judged windows undefined (:func:`~leakdiag.detect.base.blind_rule`). :class:`BlindSpans`
+applies the same rule window by window to a stream, for ``leakdiag monitor``: the span limit
+always, the fraction when it is given every judged window (``every_window=True``).
 """
 
 from __future__ import annotations
@@ -29,6 +31,13 @@ class BlindSpans:
         (``Detector.nan_span_healthy_s_``).
     step_s : float
         Time between consecutive windows (s): a span of n windows is ``n * step_s``.
+    every_window : bool, default False
+        Whether the caller gives every judged (scored) window to :meth:`add` /
+        :meth:`add_block`, defined or not: only then are :attr:`judged` and :attr:`undefined`
+        the run's counts, and :attr:`blind` applies the fraction rule
+        (:data:`~leakdiag.detect.base.MAX_UNDEFINED_FRACTION`) as ``Detector.predict`` does.
+        A caller that gives only the undefined windows and the first defined one after each
+        span gets the span limit only.
 
     Attributes
     ----------
@@ -45,6 +54,8 @@ class BlindSpans:
         longer than the limit that have ended (at most :data:`MAX_ENDED`): an alarm whose CUSUM
         excursion began before one of them dates its onset after it
         (:class:`~leakdiag.dashboard.live.ActuatorLive`, as ``Detector.predict``).
+    judged, undefined : int
+        Windows taken, and of them undefined ones.
 
     Examples
     --------
@@ -60,17 +71,24 @@ class BlindSpans:
     (True, 4, 8.0, (4, 8.0, 20.0))
     >>> c.add_block([24.0, 28.0], [0.3, 0.4]); list(c.ended)   # the span ends at 24 s
     [(8.0, 24.0)]
+    >>> d = BlindSpans(0.0, step_s=0.2, every_window=True)  # a 3-s run: no span can reach 10 s
+    >>> d.add_block([0.2, 0.4], [0.5, 0.6]); d.add_block([0.6 + 0.2 * k for k in range(13)],
+    ...                                                    [nan] * 13)
+    >>> d.current_blind, d.blind, d.judged, d.undefined
+    (False, True, 15, 13)
     """
 
-    def __init__(self, healthy_span_s: float, step_s: float):
+    def __init__(self, healthy_span_s: float, step_s: float, every_window: bool = False):
         from leakdiag.detect.base import blind_limit_s
 
         self.healthy_span_s = float(healthy_span_s)
         self.step_s = float(step_s)
         self.limit_s = blind_limit_s(self.healthy_span_s)
+        self.every_window = bool(every_window)
         self.windows, self.since = 0, math.nan
         self.longest = (0, math.nan, math.nan)
         self.ended: deque = deque(maxlen=MAX_ENDED)
+        self.judged = self.undefined = 0
 
     def add(self, time: float, value: float) -> bool:
         """Take one scored window.
@@ -88,11 +106,13 @@ class BlindSpans:
             True when this window makes the current span longer than the limit (once per
             span: at the window that first exceeds it).
         """
+        self.judged += 1
         if math.isfinite(value):
             if self.windows * self.step_s > self.limit_s:
                 self.ended.append((self.since, float(time)))
             self.windows, self.since = 0, math.nan
             return False
+        self.undefined += 1
         if self.windows == 0:
             self.since = time
         self.windows += 1
@@ -112,6 +132,8 @@ class BlindSpans:
         import numpy as np
 
         bad = ~np.isfinite(np.asarray(values, dtype=np.float64))
+        self.judged += len(bad)
+        self.undefined += int(bad.sum())
         if not bad.any():
             if len(bad):
                 if self.windows * self.step_s > self.limit_s:
@@ -144,9 +166,24 @@ class BlindSpans:
         return self.windows * self.step_s > self.limit_s
 
     @property
+    def rule(self) -> str | None:
+        """The rule that refuses a NO LEAK over the windows so far
+        (:func:`~leakdiag.detect.base.blind_rule`: ``"span"``, ``"fraction"``; None: none).
+        The fraction only with ``every_window``."""
+        from leakdiag.detect.base import blind_rule
+
+        if self.longest[0] * self.step_s > self.limit_s:
+            return "span"
+        if not self.every_window:
+            return None
+        return blind_rule(self.healthy_span_s, self.judged, self.undefined,
+                          self.longest[0] * self.step_s)
+
+    @property
     def blind(self) -> bool:
-        """Whether the longest span so far is longer than the limit."""
-        return self.longest[0] * self.step_s > self.limit_s
+        """Whether NO LEAK is refused over the windows so far: the longest span is longer than
+        the limit, or (``every_window``) more than half of the windows are undefined."""
+        return self.rule is not None
 
     def words(self, source: str, label: str) -> str:
         """The longest span as a sentence for the monitor's summary.
@@ -161,6 +198,12 @@ class BlindSpans:
         str
         """
         n, t0, t1 = self.longest
+        if self.rule == "fraction":
+            return (f"{source}: the feature {label!r} was undefined in {self.undefined} of the "
+                    f"{self.judged} windows judged (more than half; the longest span {n} windows "
+                    f"from {t0:.6g} to {t1:.6g} s: a channel it reads is constant there, a "
+                    f"stuck sensor?), so the absence of an alarm rules nothing out: it rests on "
+                    f"{self.judged - self.undefined} defined window(s)")
         return (f"{source}: the feature {label!r} was undefined in {n} consecutive windows "
                 f"ending {t0:.6g} to {t1:.6g} s ({n * self.step_s:.3g} s; zero variance: a "
                 f"channel it reads is constant there, a stuck sensor?); the detector's healthy "
