@@ -397,8 +397,9 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
     ------
     ValueError
         When a healthy file's sample rate, system, units or channels differ from the suspect's,
-        its metadata records a leak (``leak_lpm`` > 0), or two files hold the same samples
-        (:func:`leakdiag.detect.base.check_healthy`).
+        its metadata records a leak (``leak_lpm`` > 0), two files hold the same samples
+        (:func:`leakdiag.detect.base.check_healthy`), or a healthy file holds the suspect's
+        samples (the judged file, or a copy of it, given as its own reference).
     """
     from leakdiag.detect.base import check_healthy, healthy_info
     from leakdiag.io.errors import RecordingError
@@ -434,4 +435,12 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
         check_healthy([healthy_info(r) for r in recs])
     except RecordingError as exc:
         raise ValueError(f"--healthy: {str(exc).removeprefix('fit: ')}") from None
+    if suspect is not None:  # the judged file (or a copy) as its own reference: in-sample
+        mine = healthy_info(suspect)["digest"]
+        for p, r in zip(paths, recs):
+            if healthy_info(r)["digest"] == mine:
+                raise ValueError(
+                    f"--healthy {p}: holds the same samples as {name}, the recording judged: a "
+                    "recording cannot be its own healthy reference (compared with itself, a "
+                    "leak reads NO LEAK); give healthy recordings other than the one judged")
     return recs
