@@ -66,9 +66,11 @@ def client():
 @pytest.fixture
 def store(tmp_path):
     st = EventStore(tmp_path / "e.db")
-    r = st.start_run("rig-a", command="monitor", source="a.parquet", feature="ac p1")
+    r = st.start_run("rig-a", command="monitor", source="a.parquet", feature="ac p1",
+                     threshold=20.0)
     st.add_chunk(r, ChunkSummary(0.2, 9.8, 50, 0, 0.4, 0.1, 0.9, 0.3, 1.0, 1.0, False))
-    r = st.start_run("rig-b", command="monitor", source="b.parquet", feature="ac p1")
+    r = st.start_run("rig-b", command="monitor", source="b.parquet", feature="ac p1",
+                     threshold=20.0)
     st.add_chunk(r, ChunkSummary(0.2, 9.8, 50, 0, 0.1, -0.1, 0.3, 0.0, 30.0, 30.0, True),
                  [AlarmRecord(6.5, 21.0, 20.0, onset_s=4.25, leak_lpm=0.2, leak_lpm_low=0.1,
                               leak_lpm_high=0.3)])

@@ -163,7 +163,7 @@ def test_the_fleet_judges_a_stopped_run_by_what_it_stored(tmp_path):
     st = EventStore(tmp_path / "ev.db")
     empty = st.start_run("a", command="monitor", source="a.csv", feature="f")
     st.end_run(empty, "stopped", "stopped by SIGINT before the first chunk")
-    run = st.start_run("b", command="monitor", source="b.csv", feature="f")
+    run = st.start_run("b", command="monitor", source="b.csv", feature="f", threshold=3.0)
     st.add_chunk(run, ChunkSummary(t_start_s=0.2, t_end_s=1.0, n_windows=5, n_degenerate=0,
                                    value_mean=0.5, value_min=0.1, value_max=0.9, value_last=0.4,
                                    score_max=1.0, score_last=0.5, alarm=False))

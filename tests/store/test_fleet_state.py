@@ -24,7 +24,8 @@ def test_a_detect_started_during_a_monitor_does_not_hide_its_later_alarm(tmp_pat
     --store`` runs; the monitor raises its alarm after the detect ended. The row showed OK
     beside "Last alarm 09:44:19" (the state came from the newest-started run)."""
     st = EventStore(tmp_path / "e.db")
-    m = st.start_run("rigA", command="monitor", source="live.csv", feature="acf-p1")
+    m = st.start_run("rigA", command="monitor", source="live.csv", feature="acf-p1",
+                     threshold=33.22)
     st.add_chunk(m, summary(0, False))
     _tick()
     d = st.start_run("rigA", command="detect", source="healthy.parquet", feature="acf-p1")
@@ -63,8 +64,10 @@ def test_a_detect_started_during_a_monitor_does_not_hide_its_later_alarm(tmp_pat
 
 def test_two_monitors_at_once_the_alarm_of_one_is_not_hidden_by_the_other(tmp_path):
     st = EventStore(tmp_path / "e.db")
-    a = st.start_run("rigA", command="monitor", source="p1.csv", feature="acf-p1")
-    b = st.start_run("rigA", command="monitor", source="p2.csv", feature="ccf-p1p2")
+    a = st.start_run("rigA", command="monitor", source="p1.csv", feature="acf-p1",
+                     threshold=3.0)
+    b = st.start_run("rigA", command="monitor", source="p2.csv", feature="ccf-p1p2",
+                     threshold=3.0)
     assert _state(st)["state"] == "NO DATA"
     st.add_chunk(a, summary(0, True), [AlarmRecord(5.0, onset_s=4.0)])
     for i in range(3):  # the healthy monitor keeps writing after the other's alarm
@@ -103,7 +106,8 @@ def test_the_alarm_shown_is_the_newest_and_its_size_from_the_same_recording(tmp_
 
 def test_the_last_alarm_of_an_ok_actuator_is_its_newest_episode(tmp_path):
     st = EventStore(tmp_path / "e.db")
-    m = st.start_run("rigA", command="monitor", source="live.csv", feature="acf-p1")
+    m = st.start_run("rigA", command="monitor", source="live.csv", feature="acf-p1",
+                     threshold=33.22)
     _, (a1,) = st.add_chunk(m, summary(0, True), [AlarmRecord(64.2, onset_s=60.0)])
     st.add_chunk(m, summary(1, False), alarm_updates={a1: {"cleared_time_s": 64.9}})
     _, (a2,) = st.add_chunk(m, summary(2, True), [AlarmRecord(65.9, onset_s=60.0)])

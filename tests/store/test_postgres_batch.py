@@ -29,7 +29,8 @@ def test_two_batch_writers_at_once_store_each_row_once_on_postgresql(pg_url, tmp
 
 def test_fleet_state_on_postgresql(pg_url):
     st = EventStore(pg_url)
-    m = st.start_run("rigA", command="monitor", source="live.csv", feature="acf-p1")
+    m = st.start_run("rigA", command="monitor", source="live.csv", feature="acf-p1",
+                     threshold=33.22)
     st.add_chunk(m, summary(0, False))
     d = st.start_run("rigA", command="detect", source="healthy.parquet", feature="acf-p1")
     st.end_run(d)

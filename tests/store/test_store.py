@@ -63,17 +63,17 @@ def test_round_trip(tmp_path):
 
 def test_fleet_state_alarm_ok_nodata(tmp_path):
     st = EventStore(tmp_path / "e.db")
-    r1 = st.start_run("b-rig", command="monitor", source="b", feature="f")
+    r1 = st.start_run("b-rig", command="monitor", source="b", feature="f", threshold=12.0)
     st.add_chunk(r1, summary(0, True), [AlarmRecord(0.5, 20.0, 12.0)])
-    r2 = st.start_run("a-rig", command="monitor", source="a", feature="f")
+    r2 = st.start_run("a-rig", command="monitor", source="a", feature="f", threshold=12.0)
     st.add_chunk(r2, summary(0, False))
-    st.start_run("c-rig", command="monitor", source="c", feature="f")
+    st.start_run("c-rig", command="monitor", source="c", feature="f", threshold=12.0)
     fl = st.fleet()
     assert fl["name"].tolist() == ["a-rig", "b-rig", "c-rig"]
     assert fl["state"].tolist() == ["OK", "ALARM", "NO DATA"]
     assert fl.loc[1, "last_alarm_time_s"] == 0.5
     # a new run without alarm on b-rig: OK again, its last alarm is still listed
-    r3 = st.start_run("b-rig", command="monitor", source="b2", feature="f")
+    r3 = st.start_run("b-rig", command="monitor", source="b2", feature="f", threshold=12.0)
     st.add_chunk(r3, summary(0, False))
     fl = st.fleet()
     assert fl.loc[1, "state"] == "OK" and fl.loc[1, "last_alarm_time_s"] == 0.5
@@ -320,7 +320,8 @@ def _as_version_1(db):
 def test_a_version_1_store_is_upgraded_in_place(tmp_path):
     db = tmp_path / "e.db"
     st = EventStore(db)
-    run = st.start_run("rig1", command="monitor", source="a.parquet", feature="ac p1")
+    run = st.start_run("rig1", command="monitor", source="a.parquet", feature="ac p1",
+                       threshold=3.0)
     st.add_chunk(run, summary(0))
     st.end_run(run)
     st.close()

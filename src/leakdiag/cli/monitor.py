@@ -21,7 +21,7 @@ from leakdiag.cli._signals import StopSignals, Stopped, signal_name
 from leakdiag.stream.blind import BlindSpans
 from leakdiag.stream.episodes import AlarmEpisodes
 
-__all__ = ["monitor", "build_source", "load_detector", "parse_replay"]
+__all__ = ["monitor", "build_source", "load_detector", "parse_replay", "unjudged_reason"]
 
 
 def parse_replay(replay: str) -> float | None:
@@ -205,18 +205,66 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=())
     return spec_from_options(method, channels, lag, lag_ratio, window, overlap)
 
 
-def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignals") -> None:
+def unjudged_reason(has_detector: bool, n_win: int, n_scored: int, blind, source: str,
+                    label: str, window: int) -> str | None:
+    """Why a monitor run with a detector judged nothing, or None (it judged, or has none).
+
+    Parameters
+    ----------
+    has_detector : bool
+        Whether the monitor had a detector (without one nothing is judged by design: the
+        store marks that run itself, ``NO DETECTOR``).
+    n_win, n_scored : int
+        Windows completed, and of them windows with a finite detector score (after the
+        detector's burn-in).
+    blind : BlindSpans or None
+        The blind-span tracker (None: the detector predates it).
+    source, label : str
+        The input and the feature, for the message.
+    window : int
+        Window length (samples).
+
+    Returns
+    -------
+    str or None
+        The reason stored with the run (status ``unjudged``).
+
+    Examples
+    --------
+    >>> unjudged_reason(True, 21, 0, None, "short.parquet", "acf p1", 200)[:52]
+    'short.parquet: no window was scored: all 21 windows '
+    >>> unjudged_reason(True, 300, 280, None, "ok.parquet", "acf p1", 200) is None
+    True
+    """
+    if not has_detector:
+        return None
+    if n_win == 0:
+        return (f"{source}: shorter than one window (window={window}) of {label}: no window "
+                "was scored, nothing was judged")
+    if n_scored == 0:
+        return (f"{source}: no window was scored: all {n_win} windows lie in the detector's "
+                "burn-in (the stream is shorter than the burn-in plus one window), nothing "
+                "was judged")
+    if blind is not None and blind.blind:
+        return f"BLIND: {blind.words(source, label)}"
+    return None
+
+
+def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignals",
+                 unjudged: str | None = None) -> None:
     """End the run of the hooks after the loop, which ``exc`` ended (None: the end of the
     input). A signal meanwhile (in the hand-over of the last chunks, the store's end of the run,
-    ``--linger``) shortens that end and changes nothing else."""
+    ``--linger``) shortens that end and changes nothing else. ``unjudged``: why the run judged
+    nothing (:func:`unjudged_reason`); not for a run stopped before its first window."""
     stop.busy = False
     try:
         if isinstance(exc, KeyboardInterrupt):  # the user stopped it: not a failure
             hooks.close(True, 0.0, say, f"stopped by {signal_name(exc)} after {n_win} windows",
-                        stopped=True)
+                        stopped=True, unjudged=unjudged if n_win else None)
         else:
             hooks.close(exc is None, linger_s, say,
-                        None if exc is None else f"{type(exc).__name__}: {exc}")
+                        None if exc is None else f"{type(exc).__name__}: {exc}",
+                        unjudged=unjudged)
     except KeyboardInterrupt:
         pass
     finally:
@@ -275,6 +323,8 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     if input_path is None:
         raise click.UsageError("give the recording: leakdiag monitor FILE (or --input FILE; "
                                "'-' reads CSV lines from stdin)")
+    import numpy as np
+
     from leakdiag.cli._options import column_map_from, warn_low_rate
     from leakdiag.io.checks import RESAMPLE_ADVICE
     from leakdiag.runtime.collector import frozen_collector
@@ -333,7 +383,7 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     elif events:
         out = open(events, "w", encoding="utf-8")
     say = (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=out is sys.stdout))
-    n_win = n_alarm = 0  # windows; alarm raisings (OK -> ALARM)
+    n_win = n_alarm = n_scored = 0  # windows; alarm raisings (OK -> ALARM); scored windows
     alarm_on = False
     scorer = mon.scorers[0]
     episodes = AlarmEpisodes(getattr(scorer, "threshold_", None))  # as the store counts them
@@ -384,6 +434,9 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                                         f"{blind.windows * blind.step_s:.3g} s, more than the "
                                         f"{blind.limit_s:.3g} s allowed (a stuck sensor?); no "
                                         "alarm is possible until it is defined again")
+                        if not n_scored and evs and detector is not None:  # burn-in over?
+                            sc = mon.last_arrays[0][2]
+                            n_scored = 0 if sc is None else int(np.isfinite(sc).sum())
                         if raised or episodes.open and evs:  # (an excursion not ended yet)
                             episodes.add(raised, mon.last_arrays[0][2],
                                          getattr(scorer, "branches_", None))
@@ -393,7 +446,10 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                     if out is not None and out is not sys.stdout:
                         out.close()
                     if hooks:
-                        _close_hooks(hooks, sys.exc_info()[1], n_win, live["linger"], say, stop)
+                        _close_hooks(hooks, sys.exc_info()[1], n_win, live["linger"], say, stop,
+                                     unjudged_reason(detector is not None, n_win, n_scored,
+                                                     blind, str(source.source), spec.label,
+                                                     spec.window))
         except KeyboardInterrupt as exc:  # Ctrl-C or kill PID: how a --follow run ends
             stopped = exc if isinstance(exc, Stopped) else Stopped(signal.SIGINT)
         finally:

@@ -97,7 +97,8 @@ class MonitorHooks:
                 threshold=_num(getattr(self.scorer, "threshold_", None)),
                 system=system if isinstance(system, str) else None,
                 config={"method": spec.method, "channels": list(spec.channels),
-                        "window": spec.window, "overlap": spec.overlap})
+                        "window": spec.window, "overlap": spec.overlap,
+                        "detector": self.scorer is not None})
         try:
             self.sidecar = Sidecar(actuator, spec.label, self.scorer,
                                    (spec.window - 1) / sample_rate,
@@ -187,7 +188,8 @@ class MonitorHooks:
         self.sidecar.flush()
 
     def close(self, ok: bool, linger_s: float = 0.0, say: Callable[[str], None] = print,
-              reason: str | None = None, stopped: bool = False) -> None:
+              reason: str | None = None, stopped: bool = False,
+              unjudged: str | None = None) -> None:
         """Take what is queued, end the run in the store; keep serving, then stop the sidecar.
 
         Parameters
@@ -205,6 +207,12 @@ class MonitorHooks:
         stopped : bool, default False
             The user stopped the monitor before the end of its input (a signal): the run ends
             as ``stopped`` with ``reason``, every chunk pushed stored.
+        unjudged : str, optional
+            Why the run, though it ended without error, judged nothing: no window was scored
+            (all in the detector's burn-in), or the feature was undefined longer than the
+            detector's healthy recordings allow (``BLIND``). The run then ends ``unjudged``
+            with this reason (and a stop's ``reason`` after it), so that the fleet page does
+            not show ``OK`` for it.
 
         Raises
         ------
@@ -235,6 +243,9 @@ class MonitorHooks:
                 if not ok or error is not None:
                     status, why = "failed", reason if not ok else \
                         f"{type(error).__name__}: {error}"
+                elif unjudged is not None:
+                    status, why = "unjudged", unjudged if not stopped else \
+                        f"{unjudged}; {reason}"
                 else:
                     status, why = ("stopped", reason) if stopped else ("finished", None)
                 self.store.end_run(self.run_id, status, why)

@@ -619,7 +619,12 @@ class EventStore:
         alarm that was not cleared, ``NO DATA`` while its runs are running (or were stopped)
         without a chunk or an alarm, ``FAILED`` when every run failed, ``NOT JUDGED`` when one
         failed or was not judged, else ``OK`` (a monitor ``stopped`` by the user is judged by
-        what it stored, like a ``finished`` one).
+        what it stored, like a ``finished`` one). Runs that cannot judge take no part
+        (:func:`_judgment`: a ``monitor`` without a detector, a ``batch`` analysis row): an
+        invocation of such runs only is ``NO DETECTOR``, which gives the state only while the
+        actuator has no other invocation and never clears an alarm. A monitor with a
+        detector that ended without scoring a window (every window in the burn-in) counts as
+        not judged, one still running in its burn-in as without data.
 
         The state is ``ALARM`` while an invocation with that verdict stands: until an
         invocation that *started after* its last activity judged the actuator ``OK`` (a
@@ -641,16 +646,20 @@ class EventStore:
             Columns ``name``, ``system``, ``state``, ``last_seen_at``, ``n_runs``,
             ``last_alarm_at``, ``last_alarm_time_s``, ``onset_s``, ``leak_lpm``,
             ``leak_lpm_low``, ``leak_lpm_high``, ``feature``, ``source`` (of the alarm shown
-            when the state is ``ALARM``, else of the latest run) and ``error`` (for ``FAILED``
-            and ``NOT JUDGED``: the feature and reason of the first such run of that
-            invocation, when it was stored).
+            when the state is ``ALARM``, else of the latest run) and ``error`` (for ``FAILED``,
+            ``NOT JUDGED`` and ``NO DETECTOR``: the feature and reason of the first such run of
+            that invocation).
         """
         import pandas as pd
 
         self._refresh_version()
         r_, cs = S.runs.c, S.chunk_summaries.c
         act = self._frame(select(S.actuators))
-        runs = self._frame(select(*self._run_columns()))
+        # whether a run scored a window: a chunk with a score (the run_id/seq index finds a
+        # judging monitor's first scored chunk right after its burn-in)
+        scored = select(cs.id).where((cs.run_id == r_.id) & cs.score_max.isnot(None)) \
+            .exists().label("scored")
+        runs = self._frame(select(*self._run_columns(), scored))
         # each run's last chunk: its row with seq = n_chunks - 1 (the unique run/seq index)
         last_chunk = self._frame(select(cs.run_id, cs.recorded_at).join(
             S.runs, (r_.id == cs.run_id) & (cs.seq == r_.n_chunks - 1)))
@@ -669,13 +678,17 @@ class EventStore:
             alarms_of.setdefault(a["run_id"], []).append(a)
         invocations: dict = {}  # actuator id -> invocation -> its runs
         for r in runs.sort_values("id").to_dict("records"):
+            r.update(_judgment(r, bool(alarms_of.get(r["id"]))))
             invocations.setdefault(r["actuator_id"], {}).setdefault(r["invocation"], []) \
                 .append(r)
         rows = []
         for a in act.itertuples():
             invs = [_invocation(rs, [x for r in rs for x in alarms_of.get(r["id"], [])])
                     for rs in invocations.get(a.id, {}).values()]
-            current = max(invs, key=lambda i: (i["at"], i["last_id"])) if invs else None
+            # an invocation without a detector judged nothing: it gives the state only while
+            # the actuator has nothing else (NO DETECTOR), and never clears an alarm
+            judging = [i for i in invs if i["judging"]] or invs
+            current = max(judging, key=lambda i: (i["at"], i["last_id"])) if invs else None
             ok_start = max((i["start"] for i in invs if i["verdict"] == "OK"), default=None)
             standing = [i for i in invs if i["verdict"] == "ALARM"
                         and not (ok_start is not None and ok_start > i["at"])]
@@ -687,10 +700,11 @@ class EventStore:
                 pool = [x for i in invs for x in i["alarms"]]
             la, size_row = _shown_alarm(pool)
             why = None
-            if state in ("FAILED", "NOT JUDGED"):
-                bad = [r for r in current["runs"] if r["status"] in ("failed", "unjudged")
-                       and not _missing(r["error"])]
-                why = f"{bad[0]['feature']}: {bad[0]['error']}" if bad else None
+            if state in ("FAILED", "NOT JUDGED", "NO DETECTOR"):
+                bad = [r for r in current["runs"] if r["effective"] in ("failed", "unjudged",
+                                                                        "no detector")
+                       and not _missing(r["why"])]
+                why = f"{bad[0]['feature']}: {bad[0]['why']}" if bad else None
             shown = None
             if state == "ALARM" and la is not None:
                 shown = next(r for i in standing for r in i["runs"] if r["id"] == la["run_id"])
@@ -871,13 +885,87 @@ def _missing(v) -> bool:
     return v is None or bool(pd.isna(v))
 
 
+#: Why a run without a detector judged nothing (the fleet page's "Why not judged").
+NO_DETECTOR_WHY = {
+    "monitor": "no detector: monitor without --detector computes the feature only, nothing "
+               "was judged",
+    "batch": "no detector: a batch analysis entry computes the feature only, nothing was "
+             "judged"}
+#: Why a monitor run with a detector that scored no window judged nothing.
+NOT_SCORED_WHY = ("no window was scored: every window lay in the detector's burn-in (the "
+                  "stream was shorter than the burn-in and one window), nothing was judged")
+
+
+def _config(text) -> dict:
+    """A run's stored ``config`` JSON as a dict ({} for none or a bad one)."""
+    try:
+        c = json.loads(text) if isinstance(text, str) and text else {}
+    except ValueError:
+        return {}
+    return c if isinstance(c, dict) else {}
+
+
+def _judgment(run: dict, has_alarm: bool) -> dict:
+    """Whether a stored run judged the actuator, as :meth:`EventStore.fleet` counts it.
+
+    Returns ``effective``: the run's status, ``no detector`` for a run that could not judge
+    (``monitor`` without a detector: ``config["detector"]`` false, or for runs stored before
+    that key no ``threshold``; a ``batch`` analysis row), ``unjudged`` for a monitor with a
+    detector that ended (finished, or stopped after a chunk) without scoring a window,
+    ``waiting`` for one still running in its burn-in; and ``why``: the stored error or the
+    reason for these. A run with an alarm judged, whatever else it says; a failed run is
+    ``failed`` with or without a detector (its input could not be read: worth showing).
+
+    Examples
+    --------
+    >>> _judgment({"command": "monitor", "status": "finished", "threshold": None,
+    ...            "config": None, "error": None, "scored": 0, "n_chunks": 2},
+    ...           False)["effective"]
+    'no detector'
+    >>> _judgment({"command": "monitor", "status": "finished", "threshold": 3.0,
+    ...            "config": None, "error": None, "scored": 0, "n_chunks": 2},
+    ...           False)["effective"]
+    'unjudged'
+    >>> _judgment({"command": "batch", "status": "finished", "threshold": None,
+    ...            "config": '{"kind": "detector"}', "error": None, "scored": 1},
+    ...           False)["effective"]
+    'finished'
+    """
+    status, why = run["status"], None if _missing(run.get("error")) else run.get("error")
+    if has_alarm or status == "failed":  # an alarm judged; a failure is shown whatever ran
+        return {"effective": status, "why": why}
+    cmd, cfg = run["command"], _config(run.get("config"))
+    if cmd == "monitor":
+        detector = bool(cfg["detector"]) if "detector" in cfg else \
+            not _missing(run.get("threshold"))
+        if not detector:
+            return {"effective": "no detector", "why": why or NO_DETECTOR_WHY["monitor"]}
+        if not bool(run.get("scored")) and status in ("finished", "stopped", "running"):
+            if status == "running":
+                return {"effective": "waiting", "why": why}
+            if status == "stopped" and not int(run.get("n_chunks") or 0):
+                return {"effective": status, "why": why}  # stopped before its first window
+            return {"effective": "unjudged", "why": why or NOT_SCORED_WHY}
+    elif cmd == "batch" and cfg.get("kind") == "analysis":
+        return {"effective": "no detector", "why": why or NO_DETECTOR_WHY["batch"]}
+    return {"effective": status, "why": why}
+
+
 def _invocation(runs: list[dict], alarms: list[dict]) -> dict:
-    """One invocation's runs and alarms, its start, activity and verdict (:meth:`fleet`)."""
-    status = [r["status"] for r in runs]
+    """One invocation's runs and alarms, its start, activity and verdict (:meth:`fleet`).
+
+    Runs without a detector (:func:`_judgment`) do not take part in the verdict; an
+    invocation of such runs only is ``NO DETECTOR``.
+    """
+    judging = [r for r in runs if r["effective"] != "no detector"]
+    status = [r["effective"] for r in judging]
     if any(_missing(a["cleared_time_s"]) for a in alarms):
         verdict = "ALARM"
-    elif sum(int(r["n_chunks"]) for r in runs) == 0 and not alarms and \
-            all(st in ("running", "stopped") for st in status):
+    elif not judging:  # features only: nothing was judged (NO DATA before its first chunk)
+        verdict = "NO DATA" if sum(int(r["n_chunks"]) for r in runs) == 0 and \
+            all(r["status"] in ("running", "stopped") for r in runs) else "NO DETECTOR"
+    elif sum(int(r["n_chunks"]) for r in judging if r["effective"] != "waiting") == 0 \
+            and not alarms and all(st in ("running", "stopped", "waiting") for st in status):
         verdict = "NO DATA"  # (a monitor stopped before its first window judged nothing)
     elif all(st == "failed" for st in status):
         verdict = "FAILED"  # nothing of it could be read or judged
@@ -887,7 +975,7 @@ def _invocation(runs: list[dict], alarms: list[dict]) -> dict:
         verdict = "OK"
     return {"runs": runs, "alarms": alarms, "start": min(r["start"] for r in runs),
             "at": max(r["at"] for r in runs), "last_id": max(int(r["id"]) for r in runs),
-            "verdict": verdict}
+            "verdict": verdict, "judging": bool(judging or alarms)}
 
 
 def _shown_alarm(pool: list[dict]):

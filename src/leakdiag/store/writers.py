@@ -218,6 +218,11 @@ def record_batch(store: EventStore, results, job_digest: str,
 def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
     """Store the verdicts of ``leakdiag detect``: one run per method, an alarm per leak found.
 
+    A method that could not judge the file (its row has an ``error``, or no verdict) is stored
+    ``unjudged`` with the reason, as ``batch`` stores such a row: the fleet page shows
+    ``NOT JUDGED``. (``detect`` reads the file before it stores anything, so a failure to read
+    it never reaches the store.)
+
     Every method's run goes in with its alarm and its end in one transaction
     (:meth:`~leakdiag.store.database.EventStore.add_finished_runs`): an interruption stores all
     of them or none, never a run left ``running``.
@@ -248,6 +253,11 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
     for r in table.to_dict("records"):
         err = r.get("error")
         failed = isinstance(err, str) and bool(err)
+        if not failed and (_flag(r.get("leak")) is None or
+                           ("score_max" in r and _num(r["score_max"]) is None)):
+            # no verdict, or no window scored (detect stops with "no finite score"): say so
+            failed, err = True, (f"{file}: {r['method']} scored no window (no finite score: "
+                                 "every feature value undefined, a constant channel?)")
         alarms = ()
         if not failed and bool(r.get("leak")) and _num(r.get("alarm_time_s")) is not None:
             alarms = (AlarmRecord(
@@ -255,8 +265,10 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
                 _num(r.get("onset_s")), _num(r.get("leak_lpm")), _num(r.get("leak_lpm_low")),
                 _num(r.get("leak_lpm_high")), detector=str(r["method"]),
                 onset_censored=_flag(r.get("onset_censored"))),)
+        # a method that could not judge the file (it was read: detect stops before storing
+        # otherwise) is not judged, as batch stores the same row: NOT JUDGED, not FAILED
         runs.append(FinishedRun("detect", str(file), str(r["method"]),
-                                "failed" if failed else "finished", err if failed else None,
+                                "unjudged" if failed else "finished", err if failed else None,
                                 threshold=_num(r.get("threshold")), system=system,
                                 config={"method": r["method"]}, alarms=alarms))
     store.add_finished_runs(actuator, runs)  # one transaction: no run left 'running'
