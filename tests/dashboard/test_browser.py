@@ -127,7 +127,8 @@ def test_fleet_page_lists_actuators_and_history(browser, leak_case, tmp_path):
     db = tmp_path / "ev.db"
     st = EventStore(db)
     for name, alarm in (("rig1", False), ("rig2", True)):
-        run = st.start_run(name, command="monitor", source=f"{name}.parquet", feature="ac p1")
+        run = st.start_run(name, command="monitor", source=f"{name}.parquet", feature="ac p1",
+                           threshold=20.0)
         for i in range(20):
             al = [AlarmRecord(i + 0.5, 25.0, 20.0, onset_s=i - 2.0, leak_lpm=0.2,
                               leak_lpm_low=0.1, leak_lpm_high=0.3)] if alarm and i == 15 else []

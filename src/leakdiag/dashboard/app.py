@@ -45,6 +45,7 @@ from starlette.responses import (
 from starlette.routing import Route
 
 from leakdiag.dashboard.live import LiveBoard
+from leakdiag.dashboard.server import url_segment as _seg
 from leakdiag.store import StoreError, merge_summaries
 
 __all__ = ["make_app", "plotly_js_path"]
@@ -185,7 +186,7 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
 
     def tok_q(request: Request) -> str:
         t = request.query_params.get("token")
-        return f"?token={quote(t)}" if token is not None and t else ""
+        return f"?token={quote(t, safe='')}" if token is not None and t else ""
 
     def live_json(name: str) -> tuple[int, str] | None:
         if board is None:
@@ -207,7 +208,7 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
         if board is not None:
             names = board.names()
             items = "".join(
-                f'<li><a href="/live/{quote(n)}{tq}">{html.escape(n)}</a> '
+                f'<li><a href="/live/{_seg(n)}{tq}">{html.escape(n)}</a> '
                 f'<span class="state" data-actuator="{html.escape(n)}">'
                 f'{html.escape(board.snapshot(n)["state"])}</span></li>' for n in names)
             parts.append(f'<h2>Live</h2><ul id="live-list">{items or "<li>none</li>"}</ul>')
@@ -230,7 +231,7 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                 note = (f'<td class="note" title="{html.escape(why)}">'
                         f'{html.escape(why if len(why) <= 160 else why[:157] + "...")}</td>')
                 rows.append(
-                    f'<tr data-actuator="{html.escape(n)}"><td><a href="/history/{quote(n)}{tq}">'
+                    f'<tr data-actuator="{html.escape(n)}"><td><a href="/history/{_seg(n)}{tq}">'
                     f'{html.escape(n)}</a></td><td class="state {html.escape(r["state"])}">'
                     f'{html.escape(r["state"])}</td><td>{html.escape(last)}</td>'
                     f'<td>{html.escape(onset)}</td><td>{html.escape(leak)}</td>'
@@ -248,7 +249,7 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
         if board is None or board.snapshot(name) is None:
             return PlainTextResponse(f"404: no live actuator named {name!r}", status_code=404)
         tq = tok_q(request)
-        body = (_cfg({"name": name, "stream": f"/stream/{quote(name)}{tq}"}) +
+        body = (_cfg({"name": name, "stream": f"/stream/{_seg(name)}{tq}"}) +
                 '<h1>leakdiag live: <span id="name"></span></h1>'
                 '<div id="status"><div id="state" class="state WAITING">WAITING</div>'
                 '<dl><dt>Feature</dt><dd id="feature">–</dd>'
@@ -299,7 +300,7 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
             return PlainTextResponse(f"404: no actuator named {name!r} in the store",
                                      status_code=404)
         tq = tok_q(request)
-        body = (_cfg({"name": name, "api": f"/api/history/{quote(name)}{tq}"}) +
+        body = (_cfg({"name": name, "api": f"/api/history/{_seg(name)}{tq}"}) +
                 '<h1>leakdiag history: <span id="name"></span></h1>'
                 '<div id="summary-plot" class="plot"></div><div id="score-plot" class="plot"></div>'
                 '<h2>Alarms</h2><table id="alarms"><tr><th>Raised (UTC)</th><th>Alarm time</th>'

@@ -17,7 +17,6 @@ from __future__ import annotations
 import sys
 import time
 from typing import Any, Callable
-from urllib.parse import quote
 
 import numpy as np
 
@@ -126,7 +125,9 @@ class MonitorHooks:
         self._alive_from = time.time()
         self._alive_to = self._alive_from + ALIVE_CHECK_S
         if bind is not None:  # (leakdiag monitor stops on SIGINT and SIGTERM alike, page or not)
-            say(f"dashboard: {self.page_url('live/' + quote(actuator))}")
+            from leakdiag.dashboard.server import page_path
+
+            say(f"dashboard: {self.page_url(page_path('live', actuator))}")
 
     def page_url(self, path: str) -> str:
         """Address of a page of the live server (with the token, if any).

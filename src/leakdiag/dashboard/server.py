@@ -7,8 +7,10 @@ import secrets
 import threading
 import time
 from dataclasses import dataclass
+from urllib.parse import quote
 
-__all__ = ["Bind", "parse_bind", "DashboardServer", "LOCALHOST", "stop_on_sigterm"]
+__all__ = ["Bind", "parse_bind", "DashboardServer", "LOCALHOST", "stop_on_sigterm", "url_segment",
+           "page_path"]
 
 LOCALHOST = "127.0.0.1"
 
@@ -93,6 +95,51 @@ def parse_bind(text: str, allow_remote: bool = False, token: str | None = None) 
             raise ValueError(f"--dashboard {text} binds an address other machines can reach; "
                              f"add {need}")
     return b
+
+
+def url_segment(name: str) -> str:
+    """An actuator name as one URL path segment: every ``/`` percent-encoded (``%2F``), so that
+    a browser never resolves a ``.``/``..`` segment inside it to another actuator's page (the
+    server decodes the path before the routes read the name; a name that is ``.`` or ``..``
+    itself is refused by :func:`leakdiag.store.database.check_actuator_name`).
+
+    Parameters
+    ----------
+    name : str
+        Actuator name.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> url_segment("x/../rig 1")
+    'x%2F..%2Frig%201'
+    """
+    return quote(name, safe="")
+
+
+def page_path(kind: str, name: str) -> str:
+    """Path of an actuator's page, e.g. ``live/NAME`` (the name one encoded segment).
+
+    Parameters
+    ----------
+    kind : str
+        ``live``, ``history``, ``api/live``...
+    name : str
+        Actuator name.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> page_path("live", "site A/pump 1")
+    'live/site%20A%2Fpump%201'
+    """
+    return f"{kind}/{url_segment(name)}"
 
 
 def _interrupt(signum, frame):
@@ -204,7 +251,7 @@ class DashboardServer:
         str
         """
         host = f"[{self.bind.host}]" if ":" in self.bind.host else self.bind.host
-        q = f"?token={self.bind.token}" if self.bind.token else ""
+        q = f"?token={quote(self.bind.token, safe='')}" if self.bind.token else ""
         return f"http://{host}:{self.port}/{path}{q}"
 
     def stop(self) -> None:

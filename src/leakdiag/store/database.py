@@ -116,21 +116,29 @@ def check_actuator_name(name: str) -> str:
     Raises
     ------
     ValueError
-        If it is empty or blank, or is ``.`` or ``..`` (its page is ``/history/NAME``, which a
-        browser resolves to another address).
+        If it is empty or blank, or has a ``.`` or ``..`` path segment (``.``, ``..``,
+        ``site A/../pump 1``, ``a/./b``: its page is ``/history/NAME``, which a browser or an
+        HTTP client resolves to another address, another actuator's page).
 
     Examples
     --------
     >>> check_actuator_name("Presse 3")
     'Presse 3'
+    >>> check_actuator_name("x/../rig 1")
+    Traceback (most recent call last):
+    ...
+    ValueError: actuator name 'x/../rig 1': must not have a '.' or '..' segment between slashes (it names the actuator's page, /history/NAME, which a browser would resolve to another address: another actuator's page); e.g. 'x/rig 1'
     """
     text = str(name)
     if not text.strip():
         raise ValueError("actuator name must not be empty")
-    if text.strip() in (".", ".."):
-        raise ValueError(f"actuator name {text!r}: must not be '.' or '..' (it names the "
-                         "actuator's page, /history/NAME, which a browser would resolve "
-                         "elsewhere)")
+    segments = text.split("/")
+    if any(seg.strip() in (".", "..") for seg in segments):
+        fixed = "/".join(seg for seg in segments if seg.strip() not in (".", "..")) or "rig1"
+        raise ValueError(f"actuator name {text!r}: must not have a '.' or '..' segment "
+                         "between slashes (it names the actuator's page, /history/NAME, "
+                         "which a browser would resolve to another address: another "
+                         f"actuator's page); e.g. {fixed!r}")
     return text
 
 
