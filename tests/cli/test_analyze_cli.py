@@ -235,8 +235,30 @@ def test_no_time_column_and_no_rate_advises_the_option(tmp_path, capsys):
     pd.DataFrame({"p1": np.sin(np.arange(3000.0))}).to_csv(path, index=False)
     assert main(["analyze", str(path), "-c", "p1", "--onset", "1.5"]) == 2
     err = capsys.readouterr().err
-    assert "no sample rate; give the sample rate (--sample-rate, or sample_rate_hz in the map)" \
-        in err and "give sample_rate" not in err
+    assert ("no sample rate; name the file's time column (--col time=NAME, or time_column in "
+            "the map), or, if it has none, give the sample rate (--sample-rate, or "
+            "sample_rate_hz in the map)") in err and "give sample_rate" not in err
+
+
+@pytest.mark.parametrize("name", ["Time", "t", "time_s", "Time [s]"])
+def test_a_time_column_not_named_time_is_not_ignored_for_a_sample_rate(tmp_path, capsys, name):
+    """Audit of users' recordings (2026-11-27, finding 3): a 500-Hz file with a 'Time' column
+    and --sample-rate 1000 read as '3000 samples at 1000 Hz' and its time column as a channel;
+    the error without a rate suggested --sample-rate only."""
+    path = tmp_path / "T500.csv"
+    pd.DataFrame({name: np.arange(3000) * 0.002, "p1": np.sin(np.arange(3000.0))}).to_csv(
+        path, index=False)
+    said = (f"{path}: column {name!r} looks like a time column, but only a column named exactly "
+            "'time' is the time axis of a file read without a map (it would be read as a "
+            "channel, and a sample rate would place the samples instead of it): say it is the "
+            f"time column with --col time={name} (")
+    for rate in ([], ["--sample-rate", "1000"]):
+        assert main(["analyze", str(path), "-c", "p1", *rate]) == 2
+        assert said in capsys.readouterr().err
+    assert main(["monitor", str(path), "-c", "p1", "--sample-rate", "1000", "-w", "200"]) == 2
+    assert said in capsys.readouterr().err
+    assert main(["analyze", str(path), "-c", "p1", "--col", f"time={name}"]) == 0
+    assert "3000 samples at 500 Hz (6 s)" in capsys.readouterr().out
 
 
 def test_time_unit_contradicting_a_leakdiag_header_is_refused(tmp_path, capsys):

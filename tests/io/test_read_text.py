@@ -38,7 +38,8 @@ def test_detect_separator_prefers_consistent_candidate():
 def test_no_time_column_needs_sample_rate(tmp_path):
     path = _write(tmp_path, "p1,p2\n1,2\n3,4\n")
     with pytest.raises(RecordingError, match=r"run.csv: no time column .* and no sample rate; "
-                                             r"give the sample rate \(--sample-rate, or "
+                                             r"name the file's time column .*, or, if it has "
+                                             r"none, give the sample rate \(--sample-rate, or "
                                              r"sample_rate_hz in the map\)"):
         read_recording(path)
     rec = read_recording(path, sample_rate=50)

@@ -88,8 +88,9 @@ def test_row_ending_at_the_last_mapped_column_is_refused(tmp_path):
 
 def test_one_column_read_as_two_channels_is_named_once(tmp_path):
     path = _write(tmp_path, ["time,P,junk", "0.0,1,a", "0.1,2"])
+    # (with another gain: the same offset and gain is refused, a signal read twice)
     _raises(path, "row 1 has 2 of 3 fields (truncated line?); column 'P' (channel 'p1', "
-                  "channel 'p2') is missing or cut", {"p1": "P", "p2": "P"})
+                  "channel 'p2') is missing or cut", {"p1": "P", "p2": "P:Pa*2"})
 
 
 def test_rows_ending_in_tabs_with_empty_junk_fields_are_complete(tmp_path):

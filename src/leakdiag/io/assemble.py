@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import copy
+import warnings
 from typing import Any, Mapping
 
 import numpy as np
 
 from leakdiag._validation import check_positive
 from leakdiag.io.checks import (RESAMPLE_ADVICE, UNIFORM_TIME_RTOL, check_channel_finite,
-                                check_same_length, infer_sample_rate)
+                                check_same_length, infer_sample_rate, refuse_time_like)
 from leakdiag.io.column_map import ChannelSpec, ColumnMap
 from leakdiag.io.recording import STANDARD_CHANNELS, Recording, RecordingError
 from leakdiag.io.resample import resample_linear
@@ -51,6 +52,28 @@ def _available(table: RawTable) -> str:
     return text
 
 
+def _check_one_column_each(specs: Mapping[str, ChannelSpec], source: str) -> None:
+    """Refuse two standard channels read from one column with the same offset and gain (a
+    ``--col p1=PG_2`` over a map whose ``p2`` is ``PG_2``: the P1-P2 cross-correlation became
+    P2's autocorrelation, and NO LEAK was read on it; audit of users' recordings, 2026-11-27,
+    finding 5). Two non-standard channels so are only warned about (a copy may be meant)."""
+    seen: dict[tuple, str] = {}
+    for name, spec in specs.items():
+        key = (spec.column, spec.offset, spec.gain)
+        other = seen.setdefault(key, name)
+        if other == name:
+            continue
+        if other in STANDARD_CHANNELS and name in STANDARD_CHANNELS:
+            raise RecordingError(
+                f"{source}: channels {other!r} and {name!r} are both read from column "
+                f"{spec.column!r} (same offset and gain), so they would be one signal twice "
+                f"and a feature comparing them meaningless; map each channel to its own column "
+                f"(a --col given with --map replaces that channel only: check the other)")
+        warnings.warn(f"{source}: channels {other!r} and {name!r} are both read from column "
+                      f"{spec.column!r} (same offset and gain): one signal twice", UserWarning,
+                      stacklevel=5)
+
+
 def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | None
             ) -> dict[str, ChannelSpec]:
     """Channel -> spec: the map's channels, or every non-time column when there is no map."""
@@ -64,6 +87,7 @@ def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | 
                     f"{table.source}: missing column {spec.column!r} for channel {name!r}; "
                     f"{_available(table)}"
                 )
+        _check_one_column_each(specs, table.source)
     else:
         time_col = cmap.time_column if cmap is not None and cmap.time_column else "time"
         table.require_all_unique(time_col, "without a column map every column is read - "
@@ -75,6 +99,8 @@ def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | 
                 f"({', '.join(STANDARD_CHANNELS)}); available columns: {available}; "
                 f"give a column map (--map FILE or --col p1=COLUMN:UNIT)"
             )
+        if time_col == "time" and "time" not in table.columns:  # before: refused as a channel
+            refuse_time_like(available, table.source)
         bad = [c for c in specs if not c.isidentifier()]
         if bad:
             raise RecordingError(
@@ -113,7 +139,11 @@ def _time_column(table: RawTable, cmap: ColumnMap | None) -> str | None:
     col = cmap.time_column if cmap is not None and cmap.time_column else None
     if col is None:
         table.require_unique("time", "time column")
-        return "time" if "time" in table.columns else None
+        if "time" in table.columns:
+            return "time"
+        if cmap is None or not cmap.channels:  # every column read: refuse, guess nothing
+            refuse_time_like(table.names, table.source)
+        return None  # (a map that selects channels reads only the columns it names)
     table.require_unique(col, "time column")
     if col not in table.columns:
         raise RecordingError(f"{table.source}: missing time column {col!r}; "
@@ -273,8 +303,9 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
     if rate is None:
         raise RecordingError(
             f"{source}: no time column (no column named 'time'; columns: {table.names}) and "
-            f"no sample rate; give the sample rate (--sample-rate, or sample_rate_hz in the "
-            f"map) or a time column in the map"
+            f"no sample rate; name the file's time column (--col time=NAME, or time_column in "
+            f"the map), or, if it has none, give the sample rate (--sample-rate, or "
+            f"sample_rate_hz in the map)"
         )
     return Recording(channels, rate, start, out_units, meta)
 

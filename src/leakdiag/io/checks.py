@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Mapping
+import re
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -11,7 +12,7 @@ from leakdiag._validation import check_length as check_samples
 from leakdiag.io.errors import RecordingError
 
 __all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "check_same_length",
-           "UNIFORM_TIME_RTOL", "RESAMPLE_ADVICE"]
+           "UNIFORM_TIME_RTOL", "RESAMPLE_ADVICE", "time_like_column", "refuse_time_like"]
 
 #: Relative tolerance on sample intervals for a time axis to count as uniform.
 UNIFORM_TIME_RTOL = 1e-3
@@ -184,3 +185,86 @@ def check_length(rec, window: int, channel: str | None = None) -> None:
         check_samples(rec.n_samples, window, f"{source}: {what}", rec.sample_rate)
     except ValueError as exc:
         raise RecordingError(f"{exc}; use a smaller window or a longer recording") from None
+
+
+#: A column name that reads as a time column although it is not exactly ``time``: ``Time``,
+#: ``TIME``, ``t``, ``time_s``, ``Time [s]``, ``time (ms)``, ``t_s`` (audit of users'
+#: recordings, 2026-11-27, finding 3). A lone upper-case ``T`` is left out (a temperature).
+_TIME_LIKE = re.compile(r"^(?:time|t)(?:[\s_\[(].*)?$", re.IGNORECASE)
+
+
+def time_like_column(names: Sequence[str]) -> str | None:
+    """The first column name that reads as a time column but is not exactly ``time``.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Column names of a file.
+
+    Returns
+    -------
+    str or None
+        None when a column is named exactly ``time`` (it is the time axis) or none reads as one.
+
+    Examples
+    --------
+    >>> time_like_column(["Time", "p1"]), time_like_column(["p1", "Time [s]"])
+    ('Time', 'Time [s]')
+    >>> time_like_column(["time", "Time"]), time_like_column(["T", "p1", "timer"])
+    (None, None)
+    """
+    names = [str(n).strip() for n in names]
+    if "time" in names:
+        return None
+    for n in names:
+        if n != "T" and _TIME_LIKE.match(n):
+            return n
+    return None
+
+
+def time_advice(column: str) -> str:
+    """How to make ``column`` the time axis, in CLI words and in a map's."""
+    return (f"--col time={column} (--col time={column}:ms in milliseconds, "
+            f"--col time={column}:samples for a sample counter with --sample-rate), or "
+            f"time_column = {column!r} in a --map")
+
+
+def refuse_time_like(names: Sequence[str], source: str) -> None:
+    """Refuse a file read without a column map whose time column is not named exactly ``time``.
+
+    Such a column is not the time axis: it would be read as a channel, and a ``--sample-rate``
+    would place the samples instead of it, its own rate, gaps and jitter unchecked (a 500-Hz
+    file was read at 1000 Hz without a word). Nothing is guessed: the message says how to name
+    it the time column.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Column names.
+    source : str
+        File name for the message.
+
+    Raises
+    ------
+    RecordingError
+        When :func:`time_like_column` finds one.
+
+    Examples
+    --------
+    >>> refuse_time_like(["time", "p1"], "a.csv")
+    >>> refuse_time_like(["Time", "p1"], "a.csv")
+    Traceback (most recent call last):
+    ...
+    leakdiag.io.errors.RecordingError: a.csv: column 'Time' looks like a time column, but only a
+    column named exactly 'time' is the time axis of a file read without a map (it would be read
+    as a channel, and a sample rate would place the samples instead of it): say it is the time
+    column with --col time=Time (--col time=Time:ms in milliseconds, --col time=Time:samples for
+    a sample counter with --sample-rate), or time_column = 'Time' in a --map
+    """
+    col = time_like_column(names)
+    if col is not None:
+        raise RecordingError(
+            f"{source}: column {col!r} looks like a time column, but only a column named exactly "
+            "'time' is the time axis of a file read without a map (it would be read as a "
+            "channel, and a sample rate would place the samples instead of it): say it is the "
+            f"time column with {time_advice(col)}")

@@ -10,7 +10,7 @@ from typing import Iterable, Iterator, Sequence
 import numpy as np
 
 from leakdiag._validation import check_int, check_positive
-from leakdiag.io.checks import UNIFORM_TIME_RTOL, infer_sample_rate
+from leakdiag.io.checks import UNIFORM_TIME_RTOL, infer_sample_rate, refuse_time_like
 from leakdiag.io.recording import Recording, RecordingError
 from leakdiag.io.table import RawTable, repeated_names
 from leakdiag.io.text import extra_field_error, short_row_error
@@ -149,6 +149,8 @@ def _select(names: Sequence[str], channels: Sequence[str] | None, source: str,
             repeated: Sequence[str] = ()) -> list[str]:
     """The channels to read: ``channels``, or every name but ``time``; ``repeated`` names (more
     than once in a header, see :func:`_check_unique`) are not readable and are only listed."""
+    if TIME_COLUMN not in names:  # a 'Time' column is not ignored for a sample rate (as io)
+        refuse_time_like(names, source)
     avail = [n for n in names if n != TIME_COLUMN and n not in repeated]
     if channels is None:
         return avail
