@@ -242,7 +242,7 @@ def test_an_alarm_whose_coefficient_since_the_onset_is_not_positive_is_no_leak_v
     """Until 2026-11-27 this was LEAK without a size; it is now refused (INCONCLUSIVE)."""
     rec = _vca(65, leak_lpm=0.5, onset=8.0)
     assert det.predict(rec).leak
-    monkeypatch.setattr(type(det), "_estimate", lambda self, t, j: (-2e-13, 1e-13))
+    monkeypatch.setattr(type(det), "_estimate", lambda self, t, j, sigma=None: (-2e-13, 1e-13))
     with pytest.raises(RecordingError, match=(
             rf"^predict: {re.escape(SRC)}: the test alarmed at [0-9.]+ s \(score [0-9.]+, level "
             r"[0-9.]+\), but the leak coefficient estimated from the onset \([0-9.]+ s\) to the "

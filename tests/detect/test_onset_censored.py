@@ -70,13 +70,18 @@ def test_flow_balance_leak_from_the_start_is_censored_at_its_first_window(flow_b
 
 def test_flow_balance_onset_soon_after_the_burn_in_is_found():
     """A leak from 3 s (the second window): the nuisance is no longer fitted on leaking
-    windows, which had put the onset at 6.2 s."""
+    windows, which had put the onset at 6.2 s. It is reported "at or before": leaks present
+    from the start were placed up to the 6th window judged (2026-11-27: 48 of 48 VCA runs,
+    docs/detect.md 8.5), so an onset this early cannot be told from one."""
+    from leakdiag.detect.flow_balance import CENSOR_WINDOWS
+
     healthy = [ld.sim.simulate_vca(duration=40, leak_lpm=0.0, load="spring", seed=s)
                for s in range(4)]
     det = FlowBalanceDetector(system="vca", false_alarms_per_hour=1.0).fit(healthy)
     v = det.predict(ld.sim.simulate_vca(duration=40, leak_lpm=0.05, onset=3.0, load="spring",
                                         seed=24))
-    assert v.leak and not v.onset_censored and abs(v.onset_s - 3.0) <= 1.0
+    assert v.leak and abs(v.onset_s - 3.0) <= 1.0
+    assert v.onset_censored and f"within the first {CENSOR_WINDOWS} windows judged" in v.onset_why
 
 
 def test_detect_prints_the_censored_onset_as_an_upper_bound(flow_balance_files, capsys):

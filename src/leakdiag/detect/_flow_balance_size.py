@@ -81,4 +81,5 @@ def band_words(system: str, load: str | None) -> str:
     lo, hi, n, basis = size_band(system, load)
     return (f"and the model error measured on {n} virtual machines ({basis}: sizes "
             f"{lo:.2f}-{hi:.2f}x the truth; probability >= {(n - 1) / (n + 1):.2f} if this "
-            "machine is like them, docs/detect.md 8.5)")
+            "machine is like them and the leak, like theirs, a step that began after the "
+            "first windows judged, docs/detect.md 8.5)")

@@ -286,7 +286,9 @@ def vca_terms(raw: np.ndarray, params: VCAParams, model: VCAValveModel) -> dict[
         baseline leak volume; the leak volume plus errors), ``balance`` (m^3, leak-free sum
         equation), ``phi`` (integral of the leak-law pressure term), ``phi_abs``, ``flow``
         (m^3 through the valve), ``duration`` (s), ``edge_flow2`` (sum of the squared valve
-        flows at the two end samples, m^6/s^2), ``compressibility`` (m^3, the
+        flows at the two end samples, m^6/s^2), ``edge_flows`` (those two flows, m^3/s,
+        shape ``(n, 2)``: the size's weights remove the leak's feed from them),
+        ``compressibility`` (m^3, the
         compressibility volume of the difference equation) and ``gain_sensitivity`` (m^3: the
         change of ``residual`` per unit of ``flow_gain_factor``, the valve volume of the
         difference equation; ``residual`` is linear in the gain).
@@ -310,6 +312,7 @@ def vca_terms(raw: np.ndarray, params: VCAParams, model: VCAValveModel) -> dict[
             "phi_abs": raw[:, _PHIABS].copy(), "flow": g * raw[:, _F],
             "duration": raw[:, _T].copy(),
             "edge_flow2": g * g * (raw[:, _QA] ** 2 + raw[:, _QB] ** 2),
+            "edge_flows": g * raw[:, [_QA, _QB]],
             "compressibility": (raw[:, _C1] - raw[:, _C2]) / (2.0 * beta)}
 
 
