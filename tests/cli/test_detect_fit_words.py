@@ -21,6 +21,18 @@ def files(tmp_path_factory):
             str(write_recording(short, d / "short.parquet")))
 
 
+@pytest.fixture(scope="module")
+def judged(tmp_path_factory):
+    """A healthy recording that is not one of the healthy references (a recording cannot be its
+    own reference: ``detect`` refuses it)."""
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
+    d = tmp_path_factory.mktemp("judged")
+    return str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, seed=63,
+                                            reference_seed=163), d / "h3.parquet"))
+
+
 def _h(paths):
     return [a for p in paths for a in ("--healthy", p)]
 
@@ -43,7 +55,8 @@ def test_fit_and_detect_state_the_threshold_in_words(files, tmp_path, capsys):
             "(3 own; 15-s segments): at most 0.5 false alarm(s) per segment" in out), out
 
 
-def test_fit_confidence_makes_the_rate_a_promise_about_this_threshold(files, tmp_path, capsys):
+def test_fit_confidence_makes_the_rate_a_promise_about_this_threshold(files, judged, tmp_path,
+                                                                     capsys):
     healthy, _, _ = files
     # 0.25 per 15-s segment over 3 maxima: P(Bin(3, .25) = 0) = 0.42 <= 0.5, so k = 1 at 50 %
     assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", "--false-alarm-rate", "60",
@@ -60,7 +73,7 @@ def test_fit_confidence_makes_the_rate_a_promise_about_this_threshold(files, tmp
                  "-o", str(tmp_path / "d3.joblib")]) == 2
     assert "--confidence" in capsys.readouterr().err
     # detect fits its --methods the same way; with a --detector file the option is refused
-    assert main(["detect", healthy[0], *_h(healthy), "--methods", "ccf-p1p2",
+    assert main(["detect", judged, *_h(healthy), "--methods", "ccf-p1p2",
                  "--false-alarm-rate", "0.25", "--confidence", "0.5", "--no-progress"]) == 0
     assert "with probability 50 % over the healthy data" in capsys.readouterr().out
     assert main(["detect", healthy[0], "--detector", str(tmp_path / "det.joblib"),
@@ -68,12 +81,12 @@ def test_fit_confidence_makes_the_rate_a_promise_about_this_threshold(files, tmp
     assert "--confidence" in capsys.readouterr().err
 
 
-def test_detect_p_value_of_a_healthy_run_is_never_below_the_resolution(files, capsys):
-    """An identical or healthy score reads a p-value >= 1/(n+1), never 1e-133 (issue 15); a per-run
+def test_detect_p_value_of_a_healthy_run_is_never_below_the_resolution(files, judged, capsys):
+    """A healthy score reads a p-value >= 1/(n+1), never 1e-133 (issue 15); a per-run
     rate of 1/(n+1) per method is supported: the run is mapped onto the monitored span after the
     burn-in, as the healthy segments are (it was refused when mapped onto the whole file)."""
     healthy, _, _ = files
-    assert main(["detect", healthy[0], *_h(healthy), "--methods", "ccf-p1p2,acf-p1",
+    assert main(["detect", judged, *_h(healthy), "--methods", "ccf-p1p2,acf-p1",
                  "--false-alarm-rate", "0.5", "--no-progress"]) == 0
     lines = capsys.readouterr().out.splitlines()
     col = lines[0].split().index("p_value")
