@@ -421,7 +421,12 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     click.echo(shown.where(shown.notna(), "-").to_string(index=False))
     for note in tab.attrs.get("notes", []):
         click.echo(f"leakdiag: warning: {note}", err=True)
-    if st is not None:
+
+    def store_verdicts() -> None:
+        # after the decision is printed: a store that refuses the run (e.g. another rig) must
+        # not swallow the decision (store audit 2026-11-27, finding 10)
+        if st is None:
+            return
         import os
 
         from leakdiag.store.writers import record_verdicts
@@ -429,10 +434,12 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
         name = actuator or os.path.splitext(os.path.basename(file))[0]
         click.echo(f"{record_verdicts(st, name, file, tab)} alarm(s) for {name} written to "
                    f"{st.shown_url}")
+
     scores = tab["score_max"] if "score_max" in tab else pd.Series(float("nan"), index=tab.index)
     if not np.isfinite(scores.to_numpy(dtype=float)).any():  # no method could judge FILE
         why = (tab["error"].dropna().iloc[0] if "error" in tab and tab["error"].notna().any()
                else "every feature value is NaN (zero variance: constant channel?)")
+        store_verdicts()  # the methods' reasons are kept in the store (not judged)
         raise ValueError(f"{file}: no method gave a finite score; first reason: {why}")
     if "threshold_basis" in tab:
         for r in tab[tab["threshold_basis"].notna()].to_dict("records"):
@@ -473,3 +480,4 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
                 and sized["leak_lpm_interval_holds"].map(lambda v: isinstance(v, str)).any()):
             click.echo("  leak size: not estimated (no detector here is calibrated on known "
                        "leaks)")
+    store_verdicts()
