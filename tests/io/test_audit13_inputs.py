@@ -67,3 +67,44 @@ def test_implausible_si_names_file_channel_range_and_likely_unit():
                                            "another unit, or counts whose gain is missing?")
     counts = ld.Recording({"p1": np.array([5.0, 6.0])}, 1000.0, units={"p1": "counts"})
     assert implausible_si(counts) == []
+
+
+def _k3(path, drop=None):
+    t = np.round(np.arange(3000) / 3000.0, 6)  # uniform 3 kHz, timestamps to the microsecond
+    p1 = 1e6 + np.sin(np.arange(3000.0))
+    keep = np.ones(3000, bool)
+    if drop is not None:
+        keep[drop] = False
+    pd.DataFrame({"time": t[keep], "p1": p1[keep]}).to_csv(path, index=False, float_format="%.6f")
+    return path
+
+
+def test_a_uniform_3khz_file_with_microsecond_timestamps_is_accepted(tmp_path, capsys):
+    """Finding 7: intervals of 333 and 334 us (0.3 % apart) were refused as not uniformly
+    sampled, in analyze and in monitor (file and stdin)."""
+    path = _k3(tmp_path / "k3.csv")
+    assert ld.io.read_recording(path).sample_rate == pytest.approx(3000.0, rel=1e-6)
+    assert main(["monitor", str(path), "-c", "p1", "-w", "200"]) == 0
+    assert "3000 samples at 3000 Hz" in capsys.readouterr().out
+    # a missing row is still a gap, whole or streamed
+    gap = _k3(tmp_path / "gap.csv", drop=1500)
+    with pytest.raises(RecordingError, match="not uniformly sampled: interval before row 1500"):
+        ld.io.read_recording(gap)
+    assert main(["monitor", str(gap), "-c", "p1", "-w", "200"]) == 2
+    assert "not uniformly sampled: interval before row 1500" in capsys.readouterr().err
+
+
+def test_time_axis_allows_the_print_resolution_of_a_line_stream():
+    from leakdiag.stream.chunks import TimeAxis
+
+    ax = TimeAxis(3000.0, "<stdin>", resolution=1e-6)
+    for i, t in enumerate(np.round(np.arange(10) / 3000.0, 6)):
+        ax.check(float(t), i + 2)
+    with pytest.raises(RecordingError, match="line 12: time 0.003667 s after 0.003 s is a gap"):
+        ax.check(0.003667, 12)
+    blocks = TimeAxis(3000.0, "k3.csv")  # a file's chunks: the resolution found per block
+    t = np.round(np.arange(6000) / 3000.0, 6)
+    blocks.check_block(t[:4096], 0)
+    blocks.check_block(t[4096:5000], 4096)
+    with pytest.raises(RecordingError, match="row 5000: time 1.667 s after 1.666333 s is a gap"):
+        blocks.check_block(t[5001:], 5000)

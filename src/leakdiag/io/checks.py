@@ -13,7 +13,7 @@ from leakdiag.io.errors import RecordingError
 
 __all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "check_same_length",
            "UNIFORM_TIME_RTOL", "RESAMPLE_ADVICE", "time_like_column", "refuse_time_like",
-           "implausible_si", "MAX_POSITION_M", "MIN_PRESSURE_PA", "MAX_PRESSURE_PA"]
+           "implausible_si", "print_resolution", "MAX_POSITION_M", "MIN_PRESSURE_PA", "MAX_PRESSURE_PA"]
 
 #: Relative tolerance on sample intervals for a time axis to count as uniform.
 UNIFORM_TIME_RTOL = 1e-3
@@ -49,10 +49,21 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
         If ``t`` has fewer than 2 samples, NaN, is not strictly increasing, or is not uniform
         (the message suggests ``--resample``).
 
+    Notes
+    -----
+    Each interval may differ from the median (or, when the timestamps are printed more coarsely
+    than ``rtol`` of an interval, from the mean of the intervals near it) by ``rtol`` of it
+    plus the timestamps' print resolution (:func:`print_resolution`, when at most
+    :data:`MAX_PRINT_RESOLUTION` of an interval): a uniform 3-kHz file
+    with timestamps to the microsecond has intervals of 333 and 334 us, 0.3 % apart, and was
+    refused as non-uniform before 2026-11-27 (audit of users' recordings, finding 7).
+
     Examples
     --------
     >>> infer_sample_rate(np.arange(5) / 1000.0)
     1000.0
+    >>> infer_sample_rate(np.round(np.arange(3000) / 3000.0, 6))  # 333 or 334 us
+    3000.0
     """
     t = np.asarray(t, dtype=np.float64)
     if len(t) < 2:
@@ -69,7 +80,14 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
             f"(t[{i - 1}]={float(t[i - 1])!r}, t[{i}]={float(t[i])!r})"
         )
     med = float(np.median(dt))
-    dev = np.flatnonzero(np.abs(dt - med) > rtol * med)
+    q = print_resolution(t)
+    if q > MAX_PRINT_RESOLUTION * med:  # too coarse to tell a gap from rounding: no allowance
+        q = 0.0
+    ref = med
+    if q > rtol * med:  # intervals printed coarsely (333 or 334 us): their mean is the interval
+        near = dt[np.abs(dt - med) <= 2.0 * q + rtol * med]
+        ref = float(near.mean())
+    dev = np.flatnonzero(np.abs(dt - ref) > rtol * ref + q * (1.0 + 1e-6))
     if len(dev):
         i = int(dev[0]) + 1
         raise RecordingError(
@@ -80,6 +98,43 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
     # Over a uniform axis the mean interval (span / intervals) is the most accurate estimate:
     # the median of differences of large time values carries their rounding error.
     return round(float((len(t) - 1) / (t[-1] - t[0])), 9)
+
+
+#: The print resolution allowed for in a time column is at most this fraction of an interval:
+#: coarser (ms timestamps at 600 Hz) cannot tell a missing row from rounding, and is checked
+#: without the allowance (leakdiag choice, 2026-11-27).
+MAX_PRINT_RESOLUTION = 0.25
+
+
+def print_resolution(t) -> float:
+    """The decimal resolution the times were printed at: the largest ``10**-k`` (k = 0..9) of
+    which every time is a whole multiple, or 0.0 when none is (binary or finer times).
+
+    Parameters
+    ----------
+    t : array_like
+        Times (s).
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> print_resolution([0.0, 0.000333, 0.000667]), print_resolution([0.0, 0.5, 1.0])
+    (1e-06, 0.1)
+    >>> print_resolution(np.arange(4) / 3.0)
+    0.0
+    """
+    t = np.asarray(t, dtype=np.float64)
+    if not len(t) or not np.isfinite(t).all():
+        return 0.0
+    slack = 1e-13 * float(np.abs(t).max())  # the float error of a printed decimal, s
+    for k in range(10):
+        q = 10.0 ** -k
+        if np.all(np.abs(t / q - np.round(t / q)) <= 1e-6 + slack / q):
+            return q
+    return 0.0
 
 
 def check_channel_finite(x: np.ndarray, channel: str, source: str = "<input>") -> None:

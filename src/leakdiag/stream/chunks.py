@@ -10,7 +10,8 @@ from typing import Iterable, Iterator, Sequence
 import numpy as np
 
 from leakdiag._validation import check_int, check_positive
-from leakdiag.io.checks import UNIFORM_TIME_RTOL, infer_sample_rate, refuse_time_like
+from leakdiag.io.checks import (MAX_PRINT_RESOLUTION, UNIFORM_TIME_RTOL, infer_sample_rate,
+                                print_resolution, refuse_time_like)
 from leakdiag.io.recording import Recording, RecordingError
 from leakdiag.io.table import RawTable, repeated_names
 from leakdiag.io.text import extra_field_error, short_row_error
@@ -72,16 +73,28 @@ class TimeAxis:
         Tolerated relative deviation of an interval from ``1 / fs``.
     basis : str, default "from the first lines"
         Where ``fs`` came from (for messages).
+    resolution : float, optional
+        Print resolution of the times (s, :func:`leakdiag.io.checks.print_resolution`), allowed
+        for in each interval as :func:`leakdiag.io.checks.infer_sample_rate` allows it (at most
+        ``MAX_PRINT_RESOLUTION`` of an interval); default: found in each block of
+        :meth:`check_block`, none for :meth:`check`.
     """
 
     def __init__(self, fs: float, source: str, rtol: float = UNIFORM_TIME_RTOL,
-                 basis: str = "from the first lines"):
+                 basis: str = "from the first lines", resolution: float | None = None):
         self.dt = 1.0 / fs
         self.fs = fs
         self.source = source
         self.rtol = rtol
         self.basis = basis
+        self.resolution = resolution
         self.prev: float | None = None
+
+    def _allowance(self, q: float | None) -> float:
+        """Tolerated deviation of an interval from ``dt`` (s): ``rtol`` of it plus the print
+        resolution ``q`` when at most ``MAX_PRINT_RESOLUTION`` of an interval."""
+        q = 0.0 if q is None or q > MAX_PRINT_RESOLUTION * self.dt else q
+        return self.rtol * self.dt + q * (1.0 + 1e-6)
 
     def _error(self, t: float, prev: float, where: str) -> RecordingError:
         step = t - prev
@@ -109,7 +122,8 @@ class TimeAxis:
         """
         if not np.isfinite(t):
             raise RecordingError(f"{self.source}: line {lineno}: time {t!r} is not finite")
-        if self.prev is not None and abs(t - self.prev - self.dt) > self.rtol * self.dt:
+        if self.prev is not None and abs(t - self.prev - self.dt) > self._allowance(
+                self.resolution):
             raise self._error(t, self.prev, f"line {lineno}")
         self.prev = t
 
@@ -138,7 +152,8 @@ class TimeAxis:
                                  f"{float(t[bad[0]])!r} is not finite")
         full = t if self.prev is None else np.concatenate(([self.prev], t))
         off = 0 if self.prev is None else 1  # full[i] is data row row0 + i - off
-        dev = np.flatnonzero(np.abs(np.diff(full) - self.dt) > self.rtol * self.dt)
+        q = self.resolution if self.resolution is not None else print_resolution(full)
+        dev = np.flatnonzero(np.abs(np.diff(full) - self.dt) > self._allowance(q))
         if len(dev):
             i = int(dev[0]) + 1
             raise self._error(float(full[i]), float(full[i - 1]), f"row {row0 + i - off}")

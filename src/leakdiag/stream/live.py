@@ -13,6 +13,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from leakdiag._validation import check_int, check_positive
+from leakdiag.io.checks import print_resolution
 from leakdiag.io.recording import RecordingError
 from leakdiag.stream.chunks import (TIME_COLUMN, ChunkSource, TimeAxis, _check_unique,
                                     _extra_field, _rate_start, _select, _short_row)
@@ -182,7 +183,8 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
                                      f"{p.strip()[:80]!r}") from None
         t_head = np.array(t_head)
     fs, t0 = _rate_start(t_head, sample_rate, None, {}, source)
-    axis = TimeAxis(fs, source) if i_time is not None else None
+    axis = (TimeAxis(fs, source, resolution=print_resolution(t_head)) if i_time is not None
+            else None)
 
     def gen():
         buf: list[tuple[int, str]] = []
