@@ -127,3 +127,28 @@ def test_a_version_1_store_is_upgraded_in_place(pg_url):
     st.end_run(run, "failed", "b.csv: unreadable")
     assert st.fleet()["error"].tolist() == ["acf: b.csv: unreadable"]
     st.close()
+
+
+def test_times_are_utc_whatever_the_servers_time_zone(pg_url):
+    """Store audit of 2026-11-27, finding 4: with the database's TimeZone Europe/Berlin the
+    fleet page showed wall-clock times one hour off under "(UTC)"."""
+    from datetime import datetime, timedelta, timezone
+
+    eng = create_engine(pg_url, isolation_level="AUTOCOMMIT")
+    with eng.connect() as c:
+        name = c.execute(text("select current_database()")).scalar()
+        c.execute(text(f"ALTER DATABASE \"{name}\" SET timezone TO 'Europe/Berlin'"))
+    eng.dispose()
+    before = datetime.now(timezone.utc)
+    st = EventStore(pg_url)
+    with st.engine.connect() as c:
+        assert c.execute(text("show timezone")).scalar() == "UTC"
+    run = st.start_run("rig1", command="monitor", source="a.parquet", feature="ac p1",
+                       threshold=1.0)
+    st.add_chunk(run, summary(0, True), [AlarmRecord(0.5, 2.0, 1.0)])
+    row = st.fleet().iloc[0]
+    for t in (row["last_seen_at"], row["last_alarm_at"], st.history("rig1")[0].loc[0,
+                                                                                   "recorded_at"]):
+        assert t.utcoffset() == timedelta(0)
+        assert before - timedelta(seconds=1) <= t <= datetime.now(timezone.utc)
+    st.close()

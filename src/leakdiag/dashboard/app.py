@@ -25,6 +25,7 @@ import json
 import math
 import threading
 import time
+from datetime import timezone
 from pathlib import Path
 from typing import Any
 from urllib.parse import quote
@@ -94,7 +95,9 @@ def _clean(v: Any) -> Any:
 
     if v is None or (not isinstance(v, (list, tuple, dict, str)) and pd.isna(v)):
         return None
-    if hasattr(v, "isoformat"):
+    if hasattr(v, "isoformat"):  # a wall-clock time: shown in UTC whatever its zone
+        if getattr(v, "tzinfo", None) is not None:
+            v = v.astimezone(timezone.utc)
         return v.isoformat()
     if isinstance(v, float):
         return v if math.isfinite(v) else None

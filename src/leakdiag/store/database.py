@@ -158,6 +158,29 @@ def _shown_url(url: str) -> str:
         return url
 
 
+def _sqlite_path(url: str) -> str:
+    """The file of an SQLite URL ('' for none), also of a ``file:`` URI (``?uri=true``).
+
+    Examples
+    --------
+    >>> _sqlite_path("sqlite:////data/e.db")
+    '/data/e.db'
+    >>> _sqlite_path("sqlite:///file:/d/e.db?mode=ro&uri=true")
+    '/d/e.db'
+    """
+    from urllib.parse import unquote
+
+    from sqlalchemy.engine import make_url
+
+    try:
+        db = make_url(url).database or ""
+    except Exception:  # noqa: BLE001 - not parseable: create_engine will say why
+        return ""
+    if db.startswith("file:"):
+        db = unquote(db[5:].split("?", 1)[0])
+    return db
+
+
 def _now() -> datetime:
     return datetime.now(timezone.utc)
 
@@ -203,7 +226,7 @@ class EventStore:
         #: The URL as messages show it: a password in it is hidden (``***``).
         self.shown_url = _shown_url(self.url)
         self.is_sqlite = self.url.startswith("sqlite")
-        path = self.url.split(":///", 1)[1] if self.is_sqlite and ":///" in self.url else ""
+        path = _sqlite_path(self.url) if self.is_sqlite else ""
         if not create and path and path != ":memory:" and not os.path.exists(path):
             raise StoreError(f"{path}: no such event store file")
         try:
@@ -212,21 +235,70 @@ class EventStore:
             raise StoreError(f"--store {self.shown_url}: cannot open: "
                              f"{type(exc).__name__}: {exc}") from None
         self._read_engine: Engine = self.engine
+        self._path = path
         if self.is_sqlite:
             event.listen(self.engine, "connect", _sqlite_connect)
             event.listen(self.engine, "begin", _sqlite_begin)
             self._read_engine = create_engine(self.url)  # readers: deferred BEGIN, no write lock
-            event.listen(self._read_engine, "connect", _sqlite_connect)
+            event.listen(self._read_engine, "connect", _sqlite_connect_read)
             event.listen(self._read_engine, "begin", _sqlite_begin_read)
+        elif self.engine.dialect.name == "postgresql":
+            event.listen(self.engine, "connect", _pg_connect)
         try:
-            self._write(lambda c: self._check_schema(c, create))
-        except DatabaseError as exc:  # OperationalError, or a file that is not a database
+            if create:
+                self._write(lambda c: self._check_schema(c, create), opening=True)
+            else:  # a reader (the fleet page) opens without a write lock
+                self._open_reader()
+        except DatabaseError as exc:  # a file that is not a database
             self.close()
             raise StoreError(f"{self.shown_url}: cannot open the event store: "
-                             f"{exc.orig}") from None
+                             f"{exc.orig}{self._read_only_hint()}") from None
         except BaseException:
             self.close()  # no pooled connection left open behind a refused store
             raise
+
+    def _read_only_hint(self) -> str:
+        """``; the file or its folder is read-only ...`` when that is why SQLite failed, else ''."""
+        if not self._path or not os.path.exists(self._path):
+            return ""
+        folder = os.path.dirname(os.path.abspath(self._path))
+        if os.access(self._path, os.W_OK) and os.access(folder, os.W_OK):
+            return ""
+        return (f" ({self._path} or its folder is read-only: a writing command needs write "
+                "access to both, SQLite writes its -wal and -shm files beside the store)")
+
+    def _open_reader(self) -> None:
+        """Check the schema as a reader: a deferred transaction, no pragma that writes. A
+        store that cannot be opened so (its folder read-only, where SQLite cannot create the
+        shared-memory file of a WAL store) is opened read-only (``mode=ro``), else refused with
+        the reason; never ``immutable`` (another process may be writing it)."""
+        try:
+            with self._read_engine.begin() as conn:
+                self._check_schema(conn, False)
+            return
+        except OperationalError as exc:
+            if not (self.is_sqlite and self._path):
+                raise StoreError(f"{self.shown_url}: cannot open the event store: "
+                                 f"{exc.orig}") from None
+            first = exc
+        from urllib.parse import quote
+
+        self._read_engine.dispose()
+        ro = f"sqlite:///file:{quote(os.path.abspath(self._path))}?mode=ro&uri=true"
+        self._read_engine = create_engine(ro)
+        event.listen(self._read_engine, "connect", _sqlite_connect_read)
+        event.listen(self._read_engine, "begin", _sqlite_begin_read)
+        try:
+            with self._read_engine.begin() as conn:
+                self._check_schema(conn, False)
+        except OperationalError:
+            why = f"{self.shown_url}: cannot open the event store: {first.orig}"
+            if self._read_only_hint():
+                why += (f"; {self._path} or its folder is read-only, and to read a WAL store "
+                        f"SQLite must create {self._path}-shm beside it (it cannot open it "
+                        "read-only while no writer has it open); give the page write access "
+                        "to the folder, or serve a copy of the file from a writable folder")
+            raise StoreError(why) from None
 
     # -- internals ------------------------------------------------------------------------
     def _check_schema(self, conn, create: bool) -> None:
@@ -260,10 +332,14 @@ class EventStore:
                              f"{sorted(have)} but no schema_version table")
         if not create and not have:
             raise StoreError(f"{self.shown_url}: empty database, no event store in it")
+        if not create:
+            return
         S.metadata.create_all(conn)
         if not conn.execute(select(S.schema_version.c.version)).first():
             conn.execute(insert(S.schema_version).values(version=S.SCHEMA_VERSION,
                                                           created_at=_now()))
+        else:  # a no-op write: a store this process cannot write is refused now, not later
+            conn.execute(update(S.schema_version).values(version=S.schema_version.c.version))
 
     @staticmethod
     def _upgrade(conn, version: int) -> int:
@@ -275,15 +351,32 @@ class EventStore:
         conn.execute(update(S.schema_version).values(version=version + 1))
         return version + 1
 
-    def _write(self, fn: Callable[[Any], Any]) -> Any:
+    def _write(self, fn: Callable[[Any], Any], opening: bool = False) -> Any:
+        """Run ``fn(conn)`` in a write transaction; retried while the database is locked.
+
+        Raises
+        ------
+        StoreError
+            For any other database error (read-only, disk full, connection lost), or a lock
+            that outlasted every attempt, naming the store and saying what went wrong.
+        """
         for attempt in range(WRITE_ATTEMPTS):
             try:
                 with self.engine.begin() as conn:
                     return fn(conn)
             except OperationalError as exc:
-                if not _locked(exc) or attempt == WRITE_ATTEMPTS - 1:
-                    raise
-                time.sleep(0.05 * 2 ** attempt)
+                if _locked(exc) and attempt < WRITE_ATTEMPTS - 1:
+                    time.sleep(0.05 * 2 ** attempt)
+                    continue
+                what = "cannot open the event store" if opening else \
+                    "cannot write to the event store"
+                msg = str(exc.orig)
+                if "readonly" in msg.replace("-", "").replace(" ", "").lower():
+                    what += " (it is read-only)"
+                elif _locked(exc):
+                    what += f" (still locked after {WRITE_ATTEMPTS} attempts)"
+                raise StoreError(f"{self.shown_url}: {what}: {msg}"
+                                 f"{self._read_only_hint()}") from None
         raise AssertionError("unreachable")  # pragma: no cover
 
     def _actuator(self, conn, name: str, system: str | None, said_by: str) -> int:
@@ -1079,6 +1172,27 @@ def _sqlite_connect(dbapi_conn, _record) -> None:
     cur.execute("PRAGMA synchronous = FULL")
     cur.execute("PRAGMA foreign_keys = ON")
     cur.close()
+
+
+def _sqlite_connect_read(dbapi_conn, _record) -> None:
+    """A reader's connection: the busy timeout, no pragma that writes (journal mode)."""
+    dbapi_conn.isolation_level = None
+    cur = dbapi_conn.cursor()
+    cur.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT_S * 1000)}")
+    cur.close()
+
+
+def _pg_connect(dbapi_conn, _record) -> None:
+    """Every PostgreSQL session in UTC: ``timestamptz`` values come back in UTC whatever the
+    server's ``TimeZone`` (a German host's cluster: Europe/Berlin)."""
+    autocommit = dbapi_conn.autocommit
+    dbapi_conn.autocommit = True
+    try:
+        cur = dbapi_conn.cursor()
+        cur.execute("SET TIME ZONE 'UTC'")
+        cur.close()
+    finally:
+        dbapi_conn.autocommit = autocommit
 
 
 def _sqlite_begin(conn) -> None:
