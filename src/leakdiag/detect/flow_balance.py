@@ -39,6 +39,7 @@ from leakdiag.detect._flow_balance_search import (
     glr_alarm_count,
     glr_profile,
 )
+from leakdiag.detect._rig_units import check_rig_units
 from leakdiag.detect.base import Detector, Verdict, check_healthy, healthy_info
 from leakdiag.detect.threshold import (
     SEGMENT_TOLERANCE,
@@ -614,6 +615,12 @@ class FlowBalanceDetector(Detector):
             if bad.size:
                 raise RecordingError(f"{where}: {source}: channel {c!r} is not finite at row "
                                      f"{int(bad[0])} ({bad.size} such rows)")
+        # a position or pressures that cannot be metres and pascals for the modelled rig (a
+        # unit left unstated: mm read as m gave 330 L/min for 0.3; detect/_rig_units.py)
+        nominal = self._nominal()
+        check_rig_units(rec, where, float(nominal.stroke_m), float(
+            nominal.supply_pressure_pa if self.system == "vca"
+            else nominal.accumulator_pressure_pa), f"the flow balance ({self.system})")
 
     def _check_operation(self, rec, where: str) -> None:
         """Refuse a recording that the fitted flow balance does not describe: another machine

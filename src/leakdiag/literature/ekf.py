@@ -16,6 +16,7 @@ import numpy as np
 
 from leakdiag._holds import holds
 from leakdiag._validation import check_int, check_overlap, check_positive
+from leakdiag.detect._rig_units import check_rig_units
 from leakdiag.detect.flow_balance import HOLD_FACTOR
 from leakdiag.features._degenerate import warn_degenerate
 from leakdiag.features.series import FeatureSeries
@@ -518,6 +519,10 @@ def run_vca_ekf(recording, params: EKFParams = EKFParams()) -> EKFResult:
         raise ValueError(f"{recording.meta.get('source', '<recording>')}: {n} sample(s); the "
                          "EKF needs at least 2")
     check_finite_channels(recording, ("u", "x", "p1", "p2"), "the EKF")
+    # a position or pressures that cannot be metres and pascals for the modelled rig (a unit
+    # left unstated: detect/_rig_units.py)
+    check_rig_units(recording, "the EKF", float(params.model.stroke_m),
+                    float(params.model.supply_pressure_pa), "the EKF's VCA model")
     dt = 1.0 / recording.sample_rate
     prm = params.model.to_array(params.leak_model, params.load)
     u = np.ascontiguousarray(recording["u"], dtype=np.float64)
