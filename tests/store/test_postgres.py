@@ -152,3 +152,67 @@ def test_times_are_utc_whatever_the_servers_time_zone(pg_url):
         assert t.utcoffset() == timedelta(0)
         assert before - timedelta(seconds=1) <= t <= datetime.now(timezone.utc)
     st.close()
+
+
+
+@pytest.mark.parametrize("version", [None, 1], ids=["new", "version-1"])
+def test_a_writer_waits_for_another_creating_or_upgrading_the_schema(pg_url, version):
+    """Store audit of 2026-11-27, finding 6: writers opening a new database at one instant
+    failed with a duplicate pg_type row (concurrent CREATE TABLE), writers opening a version-1
+    store with 'column "error" of relation "runs" already exists' (each read the version
+    before the other's upgrade committed). Here the test's connection is the other writer, held
+    in the middle of its transaction: it took the schema lock and created (or upgraded) the
+    tables, not yet committed; the store opened meanwhile must wait and then find them."""
+    import threading
+    import time
+    import warnings
+
+    from leakdiag.store import schema as S
+    from leakdiag.store.database import SCHEMA_LOCK_KEY
+
+    eng = create_engine(pg_url)
+    if version == 1:
+        EventStore(pg_url).close()
+        with eng.begin() as c:
+            c.execute(text("alter table runs drop column error"))
+            c.execute(text("alter table alarms drop column onset_censored"))
+            c.execute(text("update schema_version set version = 1"))
+    out = []
+
+    def open_store():
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # (the upgrade's warning, if it upgraded)
+                st = EventStore(pg_url)
+            st.start_run("rigX", command="detect", source="x", feature="f")
+            out.append((st.version, st.count("schema_version"), st.count("runs")))
+            st.close()
+        except BaseException as exc:  # noqa: BLE001 - reported below
+            out.append(f"{type(exc).__name__}: {exc}")
+
+    with eng.connect() as c:
+        tx = c.begin()
+        c.execute(text("SELECT pg_advisory_xact_lock(:k)"), {"k": SCHEMA_LOCK_KEY})
+        if version == 1:
+            for v in (1, 2):
+                for stmt in S.UPGRADES[v]:
+                    c.execute(text(stmt))
+            c.execute(text(f"update schema_version set version = {S.SCHEMA_VERSION}"))
+        else:
+            S.metadata.create_all(c)
+            c.execute(S.schema_version.insert().values(version=S.SCHEMA_VERSION,
+                                                       created_at=_utc_now()))
+        t = threading.Thread(target=open_store)
+        t.start()
+        time.sleep(1.0)  # the other writer is now at its first statement
+        assert t.is_alive() and not out  # it waits for the lock (old code: for a table lock)
+        tx.commit()
+    t.join(timeout=60)
+    eng.dispose()
+    assert out == [(SCHEMA_VERSION, 1, 1)]  # the schema as the other writer left it
+
+
+def _utc_now():
+    from datetime import datetime, timezone
+
+    return datetime.now(timezone.utc)

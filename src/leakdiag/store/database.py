@@ -34,6 +34,9 @@ __all__ = ["EventStore", "StoreError", "store_url"]
 BUSY_TIMEOUT_S = 30.0
 #: Attempts of a write transaction that meets a locked database (after the busy timeout).
 WRITE_ATTEMPTS = 5
+#: PostgreSQL advisory lock taken by a writer while it checks, creates or upgrades the schema
+#: (any constant of this program's own; "leakdiag" in ASCII).
+SCHEMA_LOCK_KEY = 0x6C65616B64696167
 
 
 class StoreError(RuntimeError):
@@ -302,8 +305,12 @@ class EventStore:
 
     # -- internals ------------------------------------------------------------------------
     def _check_schema(self, conn, create: bool) -> None:
-        from sqlalchemy import inspect
+        from sqlalchemy import inspect, text
 
+        if create and conn.dialect.name == "postgresql":
+            # writers opening a new or an older store at once take turns (SQLite: BEGIN
+            # IMMEDIATE); the lock ends with the transaction, the version is read after it
+            conn.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": SCHEMA_LOCK_KEY})
         have = set(inspect(conn).get_table_names())
         if "schema_version" in have:
             rows = conn.execute(select(S.schema_version.c.version)).scalars().all()
