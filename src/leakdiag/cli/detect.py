@@ -447,6 +447,11 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     dec, why = overall_verdict(tab, tab.attrs["duration_s"])
     words = {"leak": "LEAK", "no-leak": "NO LEAK", "inconclusive": "INCONCLUSIVE"}
     click.echo(f"Decision: {words[dec]} -- {why}.")
+    if "windows_undefined" in tab:  # a verdict that rests on fewer windows than were judged
+        for r in tab[tab["windows_undefined"].map(lambda v: isinstance(v, str) and v != "")
+                     ].to_dict("records"):
+            click.echo(f"  {r['method']}: {r['windows_undefined']} (a feature undefined there: "
+                       "a constant or stuck channel?); its verdict rests on the others")
     if dec == "leak":
         sized = tab[tab["leak"].fillna(False).astype(bool)]
         first = sized.sort_values("alarm_time_s").iloc[0]
