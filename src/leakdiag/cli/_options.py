@@ -13,6 +13,7 @@ import warnings
 
 import click
 
+from leakdiag.io.checks import same_rate
 from leakdiag.runtime.paths import prepare_out_dir, prepare_out_file
 
 __all__ = ["recording_options", "resample_option", "column_map_from", "read_with", "read_healthy",
@@ -411,7 +412,7 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
         return recs
     name = ref.meta.get("source", "<recording>")
     for p, r in zip(paths, recs):
-        if abs(r.sample_rate - ref.sample_rate) > 1e-9 * ref.sample_rate:
+        if not same_rate(r.sample_rate, ref.sample_rate):
             raise ValueError(f"--healthy {p}: sample rate {r.sample_rate:g} Hz differs from "
                              f"{name}'s {ref.sample_rate:g} Hz: references must be recorded at the "
                              "same rate (--map, --col and --time-unit apply to every file)")

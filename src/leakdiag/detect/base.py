@@ -61,6 +61,7 @@ from leakdiag.detect.threshold import (
     segment_maxima,
 )
 from leakdiag.features.series import FeatureSeries
+from leakdiag.io.checks import same_rate
 from leakdiag.io.errors import RecordingError
 from leakdiag.io.recording import load_name
 
@@ -394,7 +395,7 @@ class Detector(BaseEstimator):
         (windows and lags are in samples; a feature's healthy level is the rig's)."""
         rate = getattr(self, "sample_rate_", None)  # None: fitted before 2026-11-27
         if rate is not None and sample_rate is not None and \
-                not math.isclose(float(sample_rate), rate, rel_tol=1e-9):
+                not same_rate(sample_rate, rate):
             raise RecordingError(
                 f"{source}: sampled at {float(sample_rate):g} Hz, but {type(self).__name__} was "
                 f"fitted on healthy recordings at {rate:g} Hz: its windows and lags are in "
@@ -494,7 +495,7 @@ class Detector(BaseEstimator):
         infos = [p[5] for p in parts if len(p) > 5]
         rate, system = check_healthy(infos)
         rates = sorted({info["sample_rate"] for info in infos})
-        if len(rates) > 1:
+        if infos and rate is None:  # not one rate within io's tolerance (check_healthy)
             raise ValueError(f"fit: the healthy recordings have different sample rates "
                              f"({', '.join(f'{r:g}' for r in rates)} Hz): windows and lags "
                              "are in samples; resample them to one rate")
@@ -1015,7 +1016,12 @@ def check_healthy(infos: list[dict]) -> tuple[float | None, str | None]:
             raise RecordingError(f"fit: {name(i)} holds the same samples as {name(j)}: a "
                                  "recording given twice would count as two independent "
                                  "healthy runs")
-    rates = {info["sample_rate"] for info in infos}
+    # one rate when all are within io's tolerance of the first (timestamp jitter moves a
+    # rate estimated from a time column: audit 2026-11-27, finding 6); else None
+    rates = [info["sample_rate"] for info in infos]
+    rate = rates[0] if rates and all(
+        r is not None and rates[0] is not None and same_rate(r, rates[0]) for r in rates) \
+        else None
     systems = sorted({info["system"] for info in infos if info["system"] is not None})
     if len(systems) > 1:
         raise ValueError(f"fit: the healthy recordings come from different rigs ({systems}); "
@@ -1030,7 +1036,7 @@ def check_healthy(infos: list[dict]) -> tuple[float | None, str | None]:
             + "); fit one detector per load (pooled, the difference between the loads sets "
             "the threshold: a flow balance on no-load and spring runs got 102 against 2.4 and "
             "missed a 0.02 L/min leak)")
-    return (rates.pop() if len(rates) == 1 else None), (systems[0] if systems else None)
+    return rate, (systems[0] if systems else None)
 
 
 def _leave_one_out_z(values: list) -> list:

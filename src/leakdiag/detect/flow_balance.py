@@ -51,6 +51,7 @@ from leakdiag.detect.threshold import (
     min_maxima,
 )
 from leakdiag.features.series import FeatureSeries
+from leakdiag.io.checks import same_rate
 from leakdiag.io.recording import RecordingError, load_name
 from leakdiag.sim.leak import LPM_PER_M3S
 
@@ -595,8 +596,7 @@ class FlowBalanceDetector(Detector):
                                  f"detector system={self.system!r}")
         fitted = rate if rate is not None else getattr(self, "sample_rate_", None)
         # None: a detector saved before the rate was recorded (no check)
-        if fitted is not None and not math.isclose(float(rec.sample_rate), float(fitted),
-                                                   rel_tol=1e-9):
+        if fitted is not None and not same_rate(rec.sample_rate, fitted):
             what = ("the first healthy recording is sampled at" if rate is not None
                     else "the detector was fitted at")
             raise RecordingError(

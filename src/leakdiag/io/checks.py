@@ -13,10 +13,39 @@ from leakdiag.io.errors import RecordingError
 
 __all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "check_same_length",
            "UNIFORM_TIME_RTOL", "RESAMPLE_ADVICE", "time_like_column", "refuse_time_like",
-           "implausible_si", "print_resolution", "MAX_POSITION_M", "MIN_PRESSURE_PA", "MAX_PRESSURE_PA"]
+           "implausible_si", "print_resolution", "MAX_POSITION_M", "MIN_PRESSURE_PA", "MAX_PRESSURE_PA",
+           "SAME_RATE_RTOL", "same_rate"]
 
 #: Relative tolerance on sample intervals for a time axis to count as uniform.
 UNIFORM_TIME_RTOL = 1e-3
+#: Relative difference within which two sample rates are one rate: the tolerance at which a
+#: time column and a given sample rate agree (docs/io.md). Rates estimated from time columns
+#: carry their timestamps' jitter and print resolution: sub-microsecond jitter gave 1000.000067
+#: Hz, which every rate check compared at 1e-9 refused as "1000 Hz differs from 1000 Hz"
+#: (audit of users' recordings, 2026-11-27, finding 6). Windows and lags are counted in
+#: samples, so a 0.1 % difference of rate does not change what a feature means.
+SAME_RATE_RTOL = UNIFORM_TIME_RTOL
+
+
+def same_rate(a: float, b: float) -> bool:
+    """Whether two sample rates are one rate (within :data:`SAME_RATE_RTOL` of the larger).
+
+    Parameters
+    ----------
+    a, b : float
+        Sample rates, Hz.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> same_rate(1000.0, 1000.000066689), same_rate(1000.0, 1002.0), same_rate(500.0, 1000.0)
+    (True, False, False)
+    """
+    a, b = float(a), float(b)
+    return abs(a - b) <= SAME_RATE_RTOL * max(abs(a), abs(b))
 #: End of the non-uniform time message; commands without ``--resample`` (monitor, batch) replace
 #: it with advice they can follow.
 RESAMPLE_ADVICE = "resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess"

@@ -11,7 +11,7 @@ import numpy as np
 
 from leakdiag._validation import check_int, check_positive
 from leakdiag.io.checks import (MAX_PRINT_RESOLUTION, UNIFORM_TIME_RTOL, infer_sample_rate,
-                                print_resolution, refuse_time_like)
+                                print_resolution, refuse_time_like, same_rate)
 from leakdiag.io.recording import Recording, RecordingError
 from leakdiag.io.table import RawTable, repeated_names
 from leakdiag.io.text import extra_field_error, short_row_error
@@ -263,8 +263,7 @@ def _rate_start(t_head: np.ndarray | None, sample_rate: float | None, start_time
             own, what = infer_sample_rate(t_head, source=source), "time column"
         elif sample_rate is None:
             infer_sample_rate(t_head, source=source)  # raises: too few values for a rate
-    if sample_rate is not None and own is not None and \
-            abs(float(sample_rate) - float(own)) > 1e-6 * float(own):
+    if sample_rate is not None and own is not None and not same_rate(sample_rate, own):
         raise RecordingError(f"{source}: a sample rate of {float(sample_rate):g} Hz was given, but "
                              f"the file's {what} says {float(own):g} Hz; leave the sample rate "
                              "out (it is known) or fix the file")

@@ -26,6 +26,7 @@ from dataclasses import MISSING, asdict, dataclass, field, fields, replace
 from typing import Any
 
 from leakdiag._version import __version__
+from leakdiag.io.checks import same_rate
 from leakdiag.io.recording import load_name
 
 __all__ = ["DetectorMeta", "save_detector", "load_detector_file", "check_detector_fits",
@@ -580,7 +581,7 @@ def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
     """
     if meta is None:
         return
-    if abs(float(sample_rate) - meta.sample_rate_hz) > 1e-9 * meta.sample_rate_hz:
+    if not same_rate(sample_rate, meta.sample_rate_hz):
         raise ValueError(f"{source}: sample rate {sample_rate:g} Hz, but {path} was fitted at "
                          f"{meta.sample_rate_hz:g} Hz")
     if system and str(system).lower() != meta.system:
