@@ -235,6 +235,13 @@ def test_sse_stream_is_throttled_to_refresh_hz(refresh_hz, speed, lo, hi):
     assert versions == sorted(set(versions)) and versions[-1] - versions[0] > 50
 
 
+def _points(s):
+    """The history's points without the rows that break its line (no chunk in them), and how
+    many of those there were."""
+    keep = [i for i, k in enumerate(s["n_chunks"]) if k is not None]
+    return {c: [v[i] for i in keep] for c, v in s.items()}, len(s["n_chunks"]) - len(keep)
+
+
 def test_history_of_days_is_merged_to_at_most_history_points(tmp_path, client):
     """Two days of 1-s chunks would be 172,800 rows; 5,000 here, sent as blocks of 3 chunks."""
     from leakdiag.dashboard.app import HISTORY_POINTS
@@ -247,7 +254,8 @@ def test_history_of_days_is_merged_to_at_most_history_points(tmp_path, client):
     st.add_chunks(run, rows, [AlarmRecord(4001.5, 6.0, 5.0)])
     c = client(make_app(store=st))
     h = c.get("/api/history/rig-a").json()
-    s = h["summaries"]
+    s, breaks = _points(h["summaries"])
+    assert breaks == 0  # one run: one stretch of line
     assert HISTORY_POINTS == 2000 and (h["n_chunks"], h["chunks_per_point"]) == (5000, 3)
     assert len(s["recorded_at"]) == 1667 and sum(s["n_chunks"]) == n
     # block 0 = chunks 0, 1, 2 with 5, 4, 3 finite windows: mean (0*5 + 1*4 + 2*3) / 12
@@ -285,7 +293,8 @@ def test_history_keeps_features_apart(tmp_path, client):
     b = st.start_run("rig-a", command="batch", source="b.csv", feature="metric-length")
     st.add_chunk(b, ChunkSummary(0.0, 30.0, 31, 2, -0.3, -0.5, 0.1, None, 4.0, None, False))
     h = client(make_app(store=st)).get("/api/history/rig-a").json()
-    s = h["summaries"]
+    s, breaks = _points(h["summaries"])
+    assert breaks == 0  # one run per feature, each feature its own trace
     assert h["features"] == ["ac p1", "metric-length"] and h["n_chunks"] == 3001
     ac = [i for i, f in enumerate(s["feature"]) if f == "ac p1"]
     ml = [i for i, f in enumerate(s["feature"]) if f == "metric-length"]

@@ -11,6 +11,7 @@ episode keeps its own leak estimate) and, with a store, the chunk summaries
 from __future__ import annotations
 
 from dataclasses import replace
+from datetime import datetime, timezone
 from typing import Any
 
 import numpy as np
@@ -112,7 +113,12 @@ class ChunkRecorder:
         if self.store is None:
             return
         summaries = summarize_chunks(t, v, s, a, [len(c[0]) for c in chunks])
-        _, ids = self.store.add_chunks(self.run_id, summaries, new, updates)
+        # each summary stamped with its chunk's hand-off time (a sidecar that lags behind a
+        # fast replay would stamp a whole take with its commit time)
+        handed = [c[5] for c in chunks if len(c[0])]
+        at = [datetime.fromtimestamp(w, timezone.utc) for w in handed] \
+            if len(handed) == len(summaries) and all(w > 0 for w in handed) else None
+        _, ids = self.store.add_chunks(self.run_id, summaries, new, updates, recorded_at=at)
         if ids:
             self._alarm_id = ids[-1]
 

@@ -531,7 +531,8 @@ class EventStore:
 
     def add_chunks(self, run_id: int, summaries: list[ChunkSummary] | tuple[ChunkSummary, ...],
                    new_alarms: tuple[AlarmRecord, ...] | list[AlarmRecord] = (),
-                   alarm_updates: dict[int, dict] | None = None) -> tuple[list[int], list[int]]:
+                   alarm_updates: dict[int, dict] | None = None,
+                   recorded_at: list[datetime] | None = None) -> tuple[list[int], list[int]]:
         """Write consecutive chunks in one transaction: their summaries, new and changed alarms.
 
         A group commit: all the rows are committed together or not at all, and the run's
@@ -548,6 +549,9 @@ class EventStore:
             Alarms raised in these chunks.
         alarm_updates : dict of int to dict, optional
             Alarm id -> columns to change (e.g. ``cleared_time_s``, ``leak_lpm``).
+        recorded_at : list of datetime, optional
+            Wall-clock time (aware, UTC) of each summary's chunk: when the monitor handed it
+            over. Default: the time of this transaction for all of them.
 
         Returns
         -------
@@ -560,8 +564,13 @@ class EventStore:
         ------
         StoreError
             If the run is not in the store.
+        ValueError
+            If ``recorded_at`` is not one time per summary.
         """
         summaries = list(summaries)
+        if recorded_at is not None and len(recorded_at) != len(summaries):
+            raise ValueError(f"recorded_at has {len(recorded_at)} times for {len(summaries)} "
+                             "summaries")
 
         def fn(conn):
             run = conn.execute(select(S.runs.c.actuator_id, S.runs.c.n_chunks)
@@ -571,7 +580,7 @@ class EventStore:
             now = _now()
             seq0 = int(run.n_chunks)
             if summaries:
-                _insert_summaries(conn, run_id, seq0, now, summaries)
+                _insert_summaries(conn, run_id, seq0, now, summaries, recorded_at)
                 conn.execute(update(S.runs).where(S.runs.c.id == run_id).values(
                     n_chunks=S.runs.c.n_chunks + len(summaries),
                     n_windows=S.runs.c.n_windows + sum(sm.n_windows for sm in summaries)))
@@ -1112,7 +1121,7 @@ _COMPILED: dict = {}  # dialect name -> compiled INSERT of chunk_summaries
 
 
 def _insert_summaries(conn, run_id: int, seq0: int, now: datetime,
-                      summaries: list[ChunkSummary]) -> None:
+                      summaries: list[ChunkSummary], times: list | None = None) -> None:
     """One ``executemany`` of the summary rows, past SQLAlchemy's per-row parameter handling.
 
     The statement is compiled by SQLAlchemy for the connection's dialect (its paramstyle and
@@ -1126,13 +1135,14 @@ def _insert_summaries(conn, run_id: int, seq0: int, now: datetime,
         comp = _COMPILED[dialect.name] = insert(S.chunk_summaries).compile(
             dialect=dialect, column_keys=list(_SUMMARY_COLUMNS))
     n = len(summaries)
-    cols = {"run_id": [run_id] * n, "seq": list(range(seq0, seq0 + n)), "recorded_at": [now] * n}
+    cols = {"run_id": [run_id] * n, "seq": list(range(seq0, seq0 + n)),
+            "recorded_at": [now] * n if times is None else list(times)}
     for f in _SUMMARY_FIELDS:
         cols[f] = [getattr(sm, f) for sm in summaries]
     for c in _SUMMARY_COLUMNS:
         proc = S.chunk_summaries.c[c].type._cached_bind_processor(dialect)
         if proc is not None:
-            if c == "recorded_at":  # the same value in every row
+            if c == "recorded_at" and times is None:  # the same value in every row
                 cols[c] = [proc(now)] * n
             else:
                 cols[c] = [None if v is None else proc(v) for v in cols[c]]

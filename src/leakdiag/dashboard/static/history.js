@@ -46,11 +46,12 @@ fetch(cfg.api).then((r) => r.json()).then((h) => {
     " chunks (" + h.n_chunks + " chunks, UTC)" : "per chunk (UTC)";
   Plotly.newPlot("summary-plot", traces,
     {title: {text: (feats.length > 1 ? feats.length + " features " : "feature ") + per},
-     shapes: shapes, margin: {t: 40, r: 20, b: 40, l: 60},
+     shapes: shapes, margin: {t: 40, r: 20, b: 40, l: 60}, xaxis: {type: "date"},
      legend: {orientation: "h", x: 0, y: 1.12}},
     {displaylogo: false});
   Plotly.newPlot("score-plot", scores,
-    {title: {text: "largest detector score per point"}, shapes: shapes, margin: {t: 40, r: 20, b: 40, l: 60}},
+    {title: {text: "largest detector score per point"}, shapes: shapes,
+     margin: {t: 40, r: 20, b: 40, l: 60}, xaxis: {type: "date"}},
     {displaylogo: false});
   const table = document.getElementById("alarms");
   for (const a of h.alarms) {
