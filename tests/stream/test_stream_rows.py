@@ -409,3 +409,30 @@ def test_a_blank_extra_field_is_a_trailing_separator_not_a_value(tmp_path):
         got = [c for c in open_chunks(p, chans)]
         assert [c["p1"].tolist() for c in got] == [[1.0, 2.0, 3.0]]
     assert read_recording(p).channels["p2"].tolist() == [2.0, 3.0, 4.0]
+
+
+# --- the separator and encoding, found as leakdiag.io finds them (audit 13, finding 10) -------
+
+
+@pytest.mark.parametrize("sep", [";", "\t", "|"])
+def test_separator_found_as_io_finds_it_and_rows_checked_with_it(tmp_path, sep):
+    lines = [line.replace(",", sep) for line in CUT]
+    path = _write(tmp_path, lines, newline=False)
+    _raises(path, "row 3 has 3 of 4 fields (truncated line?); column 'p2' (channel 'p2') is "
+                  "missing or cut", ["p1", "p2"])
+    with pytest.raises(RecordingError, match="row 3 has 3 of 4 fields"):
+        read_recording(path)
+    assert _read(path, ["p1"], chunk_samples=2) == {"p1": [1.0, 2.0, 3.0, 4.0]}
+
+
+def test_latin1_semicolon_file_and_blank_separated_file(tmp_path):
+    from leakdiag.stream.files import open_recording
+
+    path = tmp_path / "eu.csv"
+    path.write_bytes("time;p1;T [\xb5s]\n0,0;1;5\n0,1;2;6\n".replace(",", ".").encode("latin-1"))
+    assert _read(path, ["p1"]) == {"p1": [1.0, 2.0]}
+    blank = _write(tmp_path, ["time p1", "0.0 1", "0.1 2"], name="blank.csv")
+    _raises(blank, "fields separated by blanks, not by one of ['\\t', ',', ';', '|']; the "
+                   "chunked CSV reader needs one (leakdiag.io.read_recording reads it whole)")
+    src, _ = open_recording(blank)
+    assert np.concatenate([c["p1"] for c in src]).tolist() == [1.0, 2.0]

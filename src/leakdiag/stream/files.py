@@ -16,6 +16,7 @@ import numpy as np
 from leakdiag._validation import check_int
 from leakdiag.io.checks import check_same_length
 from leakdiag.io.recording import RecordingError
+from leakdiag.io.text import SEPARATOR_CANDIDATES
 from leakdiag.stream.chunks import (DEFAULT_CHUNK_SAMPLES, TIME_COLUMN, ChunkSource, TimeAxis,
                                     _check_unique, _extra_field, _json_dict, _rate_start,
                                     _select, _short_row)
@@ -124,10 +125,49 @@ def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> C
     return ChunkSource(_checked(gen(), axis), fs, t0, chans, n, path, meta)
 
 
-#: Options of every pandas read of a CSV file (its header, head and chunks). :class:`_RowFields`
-#: splits the lines into rows the same way: ``#`` starts a comment (outside quotes), blank lines
-#: are skipped. ``index_col=False``: no column is taken as an index when rows end in a separator.
-_CSV_READ = {"sep": ",", "comment": "#", "index_col": False}
+#: Options of every pandas read of a CSV file (its header, head and chunks), with the file's
+#: separator and encoding (:func:`_csv_format`). :class:`_RowFields` splits the lines into rows
+#: the same way: ``#`` starts a comment (outside quotes), blank lines are skipped.
+#: ``index_col=False``: no column is taken as an index when rows end in a separator.
+_CSV_READ = {"comment": "#", "index_col": False}
+
+
+def _sniff_separator(path: str) -> tuple[str, str]:
+    """Separator and encoding of a text file, as :func:`leakdiag.io.text.read_text` finds them
+    (the separator is runs of blanks, ``r"\\s+"``; ``","`` for one column)."""
+    from pathlib import Path
+
+    from leakdiag.io.text import _sniff, detect_separator
+
+    lines, encoding = _sniff(Path(path), path)
+    lines = [line for line in lines if not line.startswith("#")]  # comment lines (_CSV_READ)
+    if not lines:
+        raise RecordingError(f"{path}: empty file: no header line and no data")
+    sep = detect_separator(lines)
+    if len(sep) != 1 and all(len(line.split()) == 1 for line in lines):
+        sep = ","  # one column: no separator at all
+    return sep, encoding
+
+
+def _csv_format(path: str) -> dict:
+    """The separator and encoding of a CSV file, found as :func:`leakdiag.io.read_recording`
+    finds them (:func:`leakdiag.io.text.detect_separator` on the first lines; UTF-8 with or
+    without a BOM, else Latin-1), so that ``monitor`` and ``batch`` read the ``;`` or tab
+    separated ``.csv`` that ``analyze`` and ``detect`` read (audit of users' recordings
+    2026-11-27, finding 10).
+
+    Raises
+    ------
+    RecordingError
+        For fields separated by runs of blanks: the chunked reader splits on one character
+        (:func:`open_recording` reads such a file whole instead).
+    """
+    sep, encoding = _sniff_separator(path)
+    if len(sep) != 1:
+        raise RecordingError(f"{path}: fields separated by blanks, not by one of "
+                             f"{list(SEPARATOR_CANDIDATES)}; the chunked CSV reader needs one "
+                             f"(leakdiag.io.read_recording reads it whole)")
+    return {"sep": sep, "encoding": encoding}
 #: Data rows read first, to take the sample rate from the time column.
 _HEAD_ROWS = 4096
 
@@ -152,16 +192,16 @@ def _numeric(df, keys: dict[str, str], path: str, row0: int) -> dict:
     return out
 
 
-def _parse_error(path: str, exc: Exception) -> RecordingError:
+def _parse_error(path: str, exc: Exception, sep: str) -> RecordingError:
     """A pandas parse error (e.g. a row with more fields than the first ones), worded as
     :func:`leakdiag.io.text.read_text` words it."""
     text = str(exc).strip()
     msg = text.splitlines()[-1] if text else type(exc).__name__
     return RecordingError(f"{path}: cannot parse as delimited text (separator "
-                          f"{_CSV_READ['sep']!r}): {msg}")
+                          f"{sep!r}): {msg}")
 
 
-def _cut_comment(line: str, quoted: bool) -> tuple[str, bool, bool]:
+def _cut_comment(line: str, quoted: bool, sep: str = ",") -> tuple[str, bool, bool]:
     """``line`` without its comment, cut where pandas' C parser cuts it: at the first ``#``
     outside a quoted field; whether a quoted field goes on to the next line (``quoted``: whether
     the line starts inside one); and whether a comment was cut off."""
@@ -174,17 +214,18 @@ def _cut_comment(line: str, quoted: bool) -> tuple[str, bool, bool]:
             state = 2  # a doubled quote inside the quoted field
         elif c == "#":
             return line[:i], False, True
-        elif c == ",":
+        elif c == sep:
             state = 0
         elif state == 0:
             state = 2 if c == '"' else 1
     return line, state == 2, False
 
 
-def _field_counts(lines: Iterator[str], width: int, extras: dict) -> Iterator[int]:
+def _field_counts(lines: Iterator[str], width: int, extras: dict, sep: str = ","
+                  ) -> Iterator[int]:
     """The number of fields of each row (the header first), as pandas' C parser splits them.
 
-    A line without quotes or ``#`` is one row of ``line.count(",") + 1`` fields (blank lines
+    A line without quotes or ``#`` is one row of ``line.count(sep) + 1`` fields (blank lines
     are skipped); other lines go through the ``csv`` module (the C parser's dialect), with their
     comment cut off and a quoted field that goes on over several lines joined (as pandas reads
     them, a line of only blanks and a comment is a row of one field, and so is a line ``""``).
@@ -197,10 +238,10 @@ def _field_counts(lines: Iterator[str], width: int, extras: dict) -> Iterator[in
         if '"' not in line and "#" not in line:
             if line.isspace():
                 continue
-            k = line.count(",") + 1
+            k = line.count(sep) + 1
             row += 1
             if k > width:
-                fields = line.rstrip("\r\n").split(",")
+                fields = line.rstrip("\r\n").split(sep)
                 j = next((j for j in range(width, k) if fields[j].strip()), None)
                 if j is not None:
                     extras[row] = (j, fields[j])
@@ -209,7 +250,7 @@ def _field_counts(lines: Iterator[str], width: int, extras: dict) -> Iterator[in
             continue
         record, quoted, cut = [], False, False
         while True:
-            text, quoted, cut = _cut_comment(line, quoted)
+            text, quoted, cut = _cut_comment(line, quoted, sep)
             record.append(text)
             if not quoted:
                 break
@@ -219,7 +260,7 @@ def _field_counts(lines: Iterator[str], width: int, extras: dict) -> Iterator[in
         text = "".join(record)
         if not (text.strip() if not cut else text.rstrip("\r\n")):
             continue  # a blank line or a comment line; blanks before a comment are a field
-        for fields in csv.reader(record, strict=False):
+        for fields in csv.reader(record, delimiter=sep, strict=False):
             row += 1
             k = len(fields)
             j = next((j for j in range(width, k) if fields[j].strip()), None)
@@ -244,11 +285,14 @@ class _RowFields:
         The CSV file.
     width : int
         Number of header names: fields after them are extra.
+    fmt : dict
+        Separator and encoding (:func:`_csv_format`).
     """
 
-    def __init__(self, path: str, width: int):
+    def __init__(self, path: str, width: int, fmt: dict):
         self.path = path
         self.width = width
+        self.fmt = fmt
         self.pos = 0  # data rows already counted
         self.header = 0  # fields of the header row
         self._fh = None
@@ -257,8 +301,8 @@ class _RowFields:
 
     def _open(self) -> None:
         self.close()
-        self._fh = open(self.path, encoding="utf-8", errors="replace", newline="")
-        self._counts = _field_counts(iter(self._fh), self.width, self._extras)
+        self._fh = open(self.path, encoding=self.fmt["encoding"], errors="replace", newline="")
+        self._counts = _field_counts(iter(self._fh), self.width, self._extras, self.fmt["sep"])
         self.header = abs(next(self._counts, 0))
         self.pos = 0
 
@@ -345,6 +389,8 @@ class _CsvRows:
         The header's names by position.
     read : dict of str to str
         What a column is read as (``"time column"``, ``"channel 'p1'"``) -> its name.
+    fmt : dict
+        Separator and encoding (:func:`_csv_format`).
 
     Notes
     -----
@@ -354,13 +400,13 @@ class _CsvRows:
     a second time, once, as the chunks go.
     """
 
-    def __init__(self, path: str, names: list[str], read: dict[str, str]):
+    def __init__(self, path: str, names: list[str], read: dict[str, str], fmt: dict):
         self.path = path
         self.n = len(names)
         self.read = read
         self.pos = {col: names.index(col) for col in read.values()}
         self.probe = min(max(self.pos.values(), default=-1) + 1, self.n - 1)
-        self.fields = _RowFields(path, self.n)
+        self.fields = _RowFields(path, self.n, fmt)
 
     def first_row(self) -> int:
         """Check data row 0 for extra fields; return the fields of the widest rows pandas will
@@ -446,7 +492,7 @@ class _CsvRows:
         self.fields.close()
 
 
-def _csv_names(path: str) -> list[str]:
+def _csv_names(path: str, fmt: dict) -> list[str]:
     """The header's names by position as written (stripped of blanks; an empty name at 0-based
     position ``j`` is ``Unnamed: j``), as :func:`leakdiag.io.text.read_text` names them:
     pandas' renaming of repeated names (``PG_1`` -> ``PG_1.1``) is not used."""
@@ -454,28 +500,28 @@ def _csv_names(path: str) -> list[str]:
 
     try:
         raw = pd.read_csv(path, header=None, nrows=1, dtype=str, keep_default_na=False,
-                          **_CSV_READ).iloc[0].tolist()
+                          **_CSV_READ, **fmt).iloc[0].tolist()
     except pd.errors.EmptyDataError:
         raise RecordingError(f"{path}: empty file: no header line and no data") from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-        raise _parse_error(path, exc) from None
+        raise _parse_error(path, exc, fmt["sep"]) from None
     return [str(r).strip() or f"Unnamed: {j}" for j, r in enumerate(raw)]
 
 
-def _csv_read(path: str, width: int, usecols, **options):
+def _csv_read(path: str, fmt: dict, width: int, usecols, **options):
     """``pandas.read_csv`` of the data rows, columns named by position ("0", "1", ...)."""
     import pandas as pd
 
     try:
         return pd.read_csv(path, header=0, names=[str(j) for j in range(width)],
-                           usecols=usecols, **_CSV_READ, **options)
+                           usecols=usecols, **_CSV_READ, **fmt, **options)
     except pd.errors.EmptyDataError:
         raise RecordingError(f"{path}: empty file: no header line and no data") from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-        raise _parse_error(path, exc) from None
+        raise _parse_error(path, exc, fmt["sep"]) from None
 
 
-def _csv_frames(path: str, chunk_samples: int, keys: dict[str, str], rows: _CsvRows,
+def _csv_frames(path: str, fmt: dict, chunk_samples: int, keys: dict[str, str], rows: _CsvRows,
                 width: int, usecols):
     """Chunks of a CSV, rows checked; the readers are opened on first use and closed when the
     generator is closed (also when the consumer stops early on an error), so no file handle
@@ -484,14 +530,14 @@ def _csv_frames(path: str, chunk_samples: int, keys: dict[str, str], rows: _CsvR
 
     row0 = 0
     try:
-        with _csv_read(path, width, usecols, chunksize=chunk_samples) as frames:
+        with _csv_read(path, fmt, width, usecols, chunksize=chunk_samples) as frames:
             while True:
                 try:
                     df = next(frames)
                 except StopIteration:
                     break
                 except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-                    raise _parse_error(path, exc) from None
+                    raise _parse_error(path, exc, fmt["sep"]) from None
                 rows.check(df, row0, last=len(df) < chunk_samples)
                 yield _numeric(df, keys, path, row0)
                 row0 += len(df)
@@ -501,20 +547,21 @@ def _csv_frames(path: str, chunk_samples: int, keys: dict[str, str], rows: _CsvR
 
 
 def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
-    names = _csv_names(path)
+    fmt = _csv_format(path)
+    names = _csv_names(path, fmt)
     repeated = _check_unique(names, channels, path)
     chans = _select(names, channels, path, repeated)
     has_time = TIME_COLUMN in names
     read = {**({"time column": TIME_COLUMN} if has_time else {}),
             **{f"channel {c!r}": c for c in chans}}
-    rows = _CsvRows(path, names, read)
+    rows = _CsvRows(path, names, read, fmt)
     width = rows.first_row()
     keys = {c: str(names.index(c)) for c in read.values()}
     # pandas checks that no row has more fields than the first rows only when every column is
     # read (not with usecols); the probe column is read for the short-row check
     needed = {*rows.pos.values(), rows.probe}
     usecols = None if len(needed) >= len(names) else sorted(needed)
-    head = _csv_read(path, width, usecols, nrows=_HEAD_ROWS)
+    head = _csv_read(path, fmt, width, usecols, nrows=_HEAD_ROWS)
     if head.empty:
         raise RecordingError(f"{path}: header only, no data rows")
     try:
@@ -525,7 +572,7 @@ def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time) -> Ch
               if has_time else None)
     fs, t0 = _rate_start(t_head, sample_rate, start_time, {}, path)
     keys = {c: keys[c] for c in chans + ([TIME_COLUMN] if has_time else [])}
-    return ChunkSource(_checked(_csv_frames(path, chunk_samples, keys, rows, width, usecols),
+    return ChunkSource(_checked(_csv_frames(path, fmt, chunk_samples, keys, rows, width, usecols),
                                 _axis(has_time, fs, path, {})), fs, t0, chans, None, path, {})
 
 
@@ -567,8 +614,9 @@ def open_chunks(path: str | os.PathLike, channels: Sequence[str] | None = None,
     -----
     Parquet is read with ``pyarrow.parquet.ParquetFile.iter_batches``, HDF5 by slicing the
     channel datasets (at the root or in a ``channels`` group), CSV with ``pandas.read_csv``
-    and ``chunksize``; memory stays proportional to ``chunk_samples``. CSV header names are
-    taken as written (stripped of blanks), ``#`` starts a comment and rows ending in a
+    and ``chunksize``; memory stays proportional to ``chunk_samples``. A CSV's separator (tab,
+    ``,``, ``;`` or ``|``) and encoding are found as :func:`leakdiag.io.read_recording` finds
+    them; fields separated by runs of blanks are refused. CSV header names are taken as written (stripped of blanks), ``#`` starts a comment and rows ending in a
     separator are read in their columns. See ``docs/operations.md``, "CSV rows and header",
     for the checks, their cost and their known limit (with some columns left out, a later row
     with extra fields is not seen).
@@ -594,13 +642,25 @@ def open_chunks(path: str | os.PathLike, channels: Sequence[str] | None = None,
     return readers[suffix](path, channels, chunk_samples, sample_rate, start_time)
 
 
+def _blank_separated(path: str) -> bool:
+    """Whether ``path`` is a ``.csv`` whose fields are separated by runs of blanks (read whole,
+    as :func:`leakdiag.io.read_recording` reads it, not in chunks)."""
+    if os.path.splitext(path)[1].lower() != ".csv" or not os.path.exists(path):
+        return False
+    try:
+        return len(_sniff_separator(path)[0]) != 1
+    except RecordingError:
+        return False  # open_chunks says what is wrong
+
+
 def open_recording(path: str | os.PathLike, channels: Sequence[str] | None = None,
                    chunk_samples: int = DEFAULT_CHUNK_SAMPLES, sample_rate: float | None = None,
                    column_map=None) -> tuple[ChunkSource, dict[str, str] | None]:
     """A recording file's chunks and the units of its channels, as ``monitor`` and ``batch``
     judge it.
 
-    Without a column map, a Parquet, HDF5 or CSV file is read in chunks (:func:`open_chunks`)
+    Without a column map, a Parquet, HDF5 or CSV file (separated by one character) is read in
+    chunks (:func:`open_chunks`)
     and its samples stay in the units its leakdiag header states
     (:func:`leakdiag.io.recording_units`). Another file, or any file with a column map, is
     read whole with :func:`leakdiag.io.read_recording` (in SI units, or ``counts``) and
@@ -647,7 +707,8 @@ def open_recording(path: str | os.PathLike, channels: Sequence[str] | None = Non
     from leakdiag.stream.chunks import recording_chunks
 
     path = os.fspath(path)
-    if column_map is None and os.path.splitext(path)[1].lower() in CHUNKED_SUFFIXES:
+    if (column_map is None and os.path.splitext(path)[1].lower() in CHUNKED_SUFFIXES
+            and not _blank_separated(path)):
         return (open_chunks(path, channels, chunk_samples, sample_rate),
                 recording_units(path))
     rec = read_recording(path, column_map, sample_rate=sample_rate)

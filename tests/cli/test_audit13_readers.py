@@ -1,0 +1,45 @@
+"""The readers of every command read a user's file by one set of rules (audit of users'
+recordings, 2026-11-27, findings 10-12 and 9): the separator of a ``.csv``, a BOM on stdin, what
+``#`` means, and what a time column in samples must hold. Through the CLI entry point."""
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from leakdiag.cli.main import main
+
+
+def _run(args, stdin=None):
+    with CliRunner().isolation(input=stdin) as (out, err, _):
+        code = main(args)
+        return code, out.getvalue().decode(), err.getvalue().decode()
+
+
+def _lines(n=600, rate=1000.0):
+    rng = np.random.default_rng(3)
+    p1 = 1e7 + rng.normal(0, 1e5, n)
+    p2 = 5e6 + rng.normal(0, 1e5, n)
+    return ["time,p1,p2"] + [f"{k / rate:.3f},{a:.1f},{b:.1f}" for k, (a, b) in enumerate(zip(p1, p2))]
+
+
+def _summary(out):
+    """monitor's summary line without the file name and the run time."""
+    last = out.strip().splitlines()[-1]
+    return last.split(": ", 1)[1].rsplit(", in ", 1)[0]
+
+
+# --- finding 10: the separator of a .csv -----------------------------------------------------
+
+
+@pytest.mark.parametrize("sep", [";", "\t", "|", " "])
+def test_monitor_reads_the_csv_separators_that_analyze_reads(tmp_path, sep):
+    comma = tmp_path / "comma.csv"
+    comma.write_text("\n".join(_lines()) + "\n")
+    other = tmp_path / "other.csv"
+    other.write_text("\n".join(line.replace(",", sep) for line in _lines()) + "\n")
+    code, ref, err = _run(["monitor", str(comma), "-c", "p1", "-w", "100"])
+    assert code == 0, err
+    code, out, err = _run(["monitor", str(other), "-c", "p1", "-w", "100"])
+    assert code == 0, err
+    assert _summary(out) == _summary(ref)
+    assert out.splitlines()[:-1] == ref.splitlines()[:-1]
