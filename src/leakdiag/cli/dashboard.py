@@ -113,9 +113,23 @@ def open_monitor_hooks(live: dict, spec, monitor, source, say):
         except ValueError as exc:
             raise click.BadParameter(str(exc)) from None
     src = str(source.source)
-    name = live.get("actuator") or (
-        "stdin" if src in ("<stdin>", "-") else os.path.splitext(os.path.basename(src))[0])
-    return MonitorHooks(name, spec, monitor, src, source.sample_rate, live.get("store"), bind,
+    stdin = src in ("<stdin>", "-")
+    name = live.get("actuator")
+    if name is None and live.get("store") is not None:  # a stem that merges no two actuators
+        from leakdiag.store import EventStore, StoreError
+        from leakdiag.store.writers import default_actuator
+
+        st = EventStore(live["store"])
+        try:
+            name = default_actuator(st, src)
+        except StoreError as exc:
+            raise click.UsageError(str(exc)) from None
+        finally:
+            st.close()
+    if name is None:
+        name = "stdin" if stdin else os.path.splitext(os.path.basename(src))[0]
+    return MonitorHooks(name, spec, monitor, src if stdin else os.path.abspath(src),
+                        source.sample_rate, live.get("store"), bind,
                         live.get("refresh_hz", 5.0), say, system=live.get("system"))
 
 

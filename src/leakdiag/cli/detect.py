@@ -429,11 +429,11 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
             return
         import os
 
-        from leakdiag.store.writers import record_verdicts
+        from leakdiag.store.writers import default_actuator, record_verdicts
 
-        name = actuator or os.path.splitext(os.path.basename(file))[0]
-        click.echo(f"{record_verdicts(st, name, file, tab)} alarm(s) for {name} written to "
-                   f"{st.shown_url}")
+        name = actuator or default_actuator(st, file)
+        click.echo(f"{record_verdicts(st, name, os.path.abspath(file), tab)} alarm(s) for "
+                   f"{name} written to {st.shown_url}")
 
     scores = tab["score_max"] if "score_max" in tab else pd.Series(float("nan"), index=tab.index)
     if not np.isfinite(scores.to_numpy(dtype=float)).any():  # no method could judge FILE

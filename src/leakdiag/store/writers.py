@@ -10,7 +10,7 @@ from pathlib import Path
 from leakdiag.store.database import EventStore
 from leakdiag.store.summary import AlarmRecord, ChunkSummary, FinishedRun
 
-__all__ = ["record_batch", "record_verdicts", "BatchWrite"]
+__all__ = ["record_batch", "record_verdicts", "BatchWrite", "default_actuator"]
 
 
 def _num(v) -> float | None:
@@ -213,6 +213,55 @@ def record_batch(store: EventStore, results, job_digest: str,
         n += sum(i is not None for i in ids)
         skipped += sum(i is None for i in ids)
     return BatchWrite(n, skipped, tuple(refused))
+
+
+def default_actuator(store: EventStore, source: str) -> str:
+    """The actuator of a ``detect`` or ``monitor`` run given no ``--actuator``: the file's stem,
+    unless that would merge two actuators.
+
+    The stem alone merged ``rigA/run1.parquet`` (a leak) and ``rigB/run1.parquet`` (healthy)
+    into one actuator ``run1``, shown OK: the later run hid the leak (store audit 2026-11-27,
+    finding 2). So the stem is refused when the store already holds it with a run of a file in
+    another folder (the runs' sources, stored as absolute paths since then; older relative ones
+    are not compared), and standard input, which has no name, needs ``--actuator``.
+
+    Parameters
+    ----------
+    store : EventStore
+        Open store.
+    source : str
+        The input: a file path, or ``-`` / ``<stdin>``.
+
+    Returns
+    -------
+    str
+        The file's stem.
+
+    Raises
+    ------
+    StoreError
+        For standard input, or a stem that the store holds for a file in another folder.
+    """
+    from leakdiag.store.database import StoreError
+
+    if source in ("-", "<stdin>"):
+        raise StoreError("--store with standard input needs --actuator NAME: every run from "
+                         "standard input would otherwise be one actuator 'stdin'")
+    here = Path(source).resolve()
+    name = here.stem
+    try:
+        runs = store.runs_of(name)
+    except StoreError:  # not in the store yet
+        return name
+    for other in runs["source"].dropna():
+        o = Path(str(other))
+        if o.is_absolute() and o.parent != here.parent:
+            raise StoreError(
+                f"{store.shown_url}: actuator {name!r} (the file's stem) already holds runs of "
+                f"{o}, a file in another folder than {here}: stored under one name their runs "
+                "would merge into one actuator (a healthy run hiding another's leak); give "
+                f"--actuator NAME (e.g. --actuator {here.parent.name}) to name the actuator")
+    return name
 
 
 def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
