@@ -43,3 +43,26 @@ def test_monitor_reads_the_csv_separators_that_analyze_reads(tmp_path, sep):
     assert code == 0, err
     assert _summary(out) == _summary(ref)
     assert out.splitlines()[:-1] == ref.splitlines()[:-1]
+
+
+# --- finding 12: a BOM on the stdin header ----------------------------------------------------
+
+
+@pytest.mark.parametrize("first", ["time,p1,p2", "p1,p2"])
+def test_monitor_stdin_strips_a_bom_from_the_header_as_a_file_read_does(tmp_path, first):
+    lines = _lines()
+    if first == "p1,p2":
+        lines = ["p1,p2"] + [line.split(",", 1)[1] for line in lines[1:]]
+    extra = [] if first.startswith("time") else ["--sample-rate", "1000"]
+    code, ref, err = _run(["monitor", "-", "-c", "p1", "-w", "100", *extra],
+                          stdin="\n".join(lines) + "\n")
+    assert code == 0, err
+    code, out, err = _run(["monitor", "-", "-c", "p1", "-w", "100", *extra],
+                          stdin="\ufeff" + "\n".join(lines) + "\n")
+    assert code == 0, err
+    assert out.splitlines()[:-1] == ref.splitlines()[:-1] and _summary(out) == _summary(ref)
+    path = tmp_path / "bom.csv"
+    path.write_text("\ufeff" + "\n".join(lines) + "\n", encoding="utf-8")
+    code, out, err = _run(["monitor", str(path), "-c", "p1", "-w", "100", *extra])
+    assert code == 0, err
+    assert out.splitlines()[:-1] == ref.splitlines()[:-1] and _summary(out) == _summary(ref)

@@ -105,7 +105,8 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
               batch_lines: int = 1) -> ChunkSource:
     """CSV lines from a text stream (e.g. stdin): a header line, then one sample per line.
 
-    Blank lines and lines starting with ``#`` are skipped. Lines are checked as
+    A UTF-8 byte-order mark before the header is removed. Blank lines and lines starting with
+    ``#`` are skipped. Lines are checked as
     :func:`leakdiag.stream.open_chunks` checks the rows of a CSV file: a line cut short before
     the last column read (a truncated line) is refused, naming the line (1: the header) and the
     columns missing or cut; a line lacking only later, unread columns is read; empty fields
@@ -148,7 +149,9 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
     """
     batch_lines = check_int(batch_lines, "batch_lines", 1)
     source = getattr(stream, "source_name", "<stdin>")
-    header_line = stream.readline()
+    # a UTF-8 byte-order mark is not part of the first name, as leakdiag.io reads a file (audit of
+    # users' recordings 2026-11-27, finding 12: "available: ['p2', '\ufeffp1']")
+    header_line = stream.readline().removeprefix("\ufeff")
     if not header_line.strip():
         raise RecordingError(f"{source}: empty input; expected a CSV header line")
     header = [h.strip() or f"Unnamed: {j}" for j, h in enumerate(header_line.split(","))]
