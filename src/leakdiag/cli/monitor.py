@@ -388,8 +388,11 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     scorer = mon.scorers[0]
     episodes = AlarmEpisodes(getattr(scorer, "threshold_", None))  # as the store counts them
     healthy_span = getattr(detector, "nan_span_healthy_s_", None)  # None: fitted before it
+    # every judged window counted (every_window): NO LEAK is refused as Detector.predict
+    # refuses it, over a long undefined span or more than half of the windows undefined
     blind = (BlindSpans(healthy_span, window_step(spec.window, spec.overlap)
-                        / source.sample_rate) if healthy_span is not None else None)
+                        / source.sample_rate, every_window=True)
+             if healthy_span is not None else None)
     live = {**live, "system": source.meta.get("system") or getattr(meta, "system", None)}
     hooks = stopped = None  # stopped: the Stopped of a SIGINT or SIGTERM
     t0 = time.perf_counter()
@@ -427,9 +430,13 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                             if e.alarm is not None:
                                 alarm_on = e.alarm
                                 # scored windows only (no burn-in); a defined window costs a
-                                # compare unless it ends an undefined span
-                                if blind is not None and (e.value != e.value or blind.windows) \
-                                        and e.score == e.score and blind.add(e.time, e.value):
+                                # count unless it ends an undefined span (BlindSpans.add's
+                                # no-op for it)
+                                if blind is None or e.score != e.score:
+                                    pass
+                                elif e.value == e.value and not blind.windows:
+                                    blind.judged += 1
+                                elif blind.add(e.time, e.value):
                                     say(f"BLIND   t={e.time:.6g} s  {spec.label}: undefined for "
                                         f"{blind.windows * blind.step_s:.3g} s, more than the "
                                         f"{blind.limit_s:.3g} s allowed (a stuck sensor?); no "

@@ -1,0 +1,46 @@
+"""``leakdiag monitor`` refuses a NO LEAK as ``detect`` does when more than half of the judged
+windows are undefined, also where no undefined span reaches the 10-s limit (audit of users'
+recordings, 2026-11-27, finding 2: the monitor counted only spans)."""
+
+import dataclasses
+
+import numpy as np
+from click.testing import CliRunner
+
+from leakdiag.cli.main import main
+
+
+def _run(args):
+    with CliRunner().isolation() as (out, err, _):
+        code = main(args)
+        return code, out.getvalue().decode(), err.getvalue().decode()
+
+
+def test_monitor_and_detect_refuse_no_leak_on_mostly_undefined_windows(tmp_path):
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
+    healthy = [str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, seed=70 + s,
+                                                reference_seed=170 + s),
+                                   tmp_path / f"h{s}.parquet")) for s in range(3)]
+    det = tmp_path / "d.joblib"
+    code, _, err = _run(["fit", *[a for h in healthy for a in ("--healthy", h)], "-m", "acf-p1",
+                         "--false-alarm-rate", "100", "-o", str(det)])
+    assert code == 0, err
+    rec = simulate_vca(duration=16.0, leak_lpm=None, seed=80, reference_seed=180)
+    p1 = np.array(rec["p1"])
+    p1[7000:] = p1[7000]  # stuck 7-16 s: 9 s, under the 10-s span limit; most windows after
+    path = write_recording(dataclasses.replace(rec, channels={**rec.channels, "p1": p1}),
+                           tmp_path / "stuck.parquet")  # the 5-s burn-in undefined
+    code, out, err = _run(["detect", str(path), "--detector", str(det), "--no-progress"])
+    assert code == 2 and "windows judged (more than 50%" in err, (out, err)
+    code, out, err = _run(["monitor", "--input", str(path), "--detector", str(det)])
+    assert code == 0, err
+    warn = [ln for ln in err.splitlines() if ln.startswith("leakdiag: warning:")]
+    assert len(warn) == 1 and "windows judged (more than half; the longest span" in warn[0] \
+        and "the absence of an alarm rules nothing out" in warn[0], err
+    assert "BLIND   t=" not in err  # no span beyond the limit: no BLIND line while it ran
+    # the same file without the stuck sensor: no warning
+    clean = write_recording(rec, tmp_path / "clean.parquet")
+    code, out, err = _run(["monitor", "--input", str(clean), "--detector", str(det)])
+    assert code == 0 and "warning" not in err, err
