@@ -145,7 +145,9 @@ def test_fleet_page_lists_actuators_and_history(browser, leak_case, tmp_path):
         rows = browser.find_elements("css selector", "#fleet tr[data-actuator]")
         cells = [[c.text for c in r.find_elements("tag name", "td")] for r in rows]
         assert [c[0] for c in cells] == ["rig1", "rig2"]
-        assert [c[1] for c in cells] == ["OK", "ALARM"]
+        # the state, and under it the run that gave it (store audit 2026-11-27, finding 8)
+        assert [c[1].splitlines() for c in cells] == [["OK", "monitor finished, 100 windows"],
+                                                      ["ALARM", "monitor finished, 100 windows"]]
         assert cells[1][4] == "0.2 L/min [0.1, 0.3]" and "t=15.5 s" in cells[1][2]
         rows[1].find_element("tag name", "a").click()
         t_end = time.monotonic() + 60

@@ -312,7 +312,9 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                 rows.append(
                     f'<tr data-actuator="{html.escape(n)}"><td><a href="/history/{_seg(n)}{tq}">'
                     f'{html.escape(n)}</a></td><td class="state {html.escape(r["state"])}">'
-                    f'{html.escape(r["state"])}</td><td>{html.escape(last)}</td>'
+                    f'{html.escape(r["state"])}'
+                    + (f'<div class="note run">{html.escape(r["run"])}</div>'
+                       if r.get("run") else "") + f'</td><td>{html.escape(last)}</td>'
                     f'<td>{html.escape(onset)}</td><td>{html.escape(leak)}</td>'
                     f'<td>{html.escape(str(r["last_seen_at"])[:19].replace("T", " "))}</td>'
                     f'<td>{html.escape(str(r["feature"]))}</td>{note}</tr>')

@@ -757,10 +757,16 @@ class EventStore:
         first in stream time, each run's latest episode; the leak estimate from the first of
         those that has one.
 
+        The row also says which run gave the state and how it stands (``run``,
+        :func:`_run_words`): "monitor stopped after 57 windows", or for a monitor still marked
+        running but silent for :data:`SILENT_S` and 20 of its mean chunk intervals (killed, or
+        its input stalled) "monitor running, silent since ...": a dead monitor's last OK is
+        told from a live one's (store audit 2026-11-27, finding 8).
+
         Returns
         -------
         pandas.DataFrame
-            Columns ``name``, ``system``, ``state``, ``last_seen_at``, ``n_runs``,
+            Columns ``name``, ``system``, ``state``, ``run``, ``last_seen_at``, ``n_runs``,
             ``last_alarm_at``, ``last_alarm_time_s``, ``onset_s``, ``leak_lpm``,
             ``leak_lpm_low``, ``leak_lpm_high``, ``feature``, ``source`` (of the alarm shown
             when the state is ``ALARM``, else of the latest run) and ``error`` (for ``FAILED``,
@@ -790,6 +796,12 @@ class EventStore:
             "start": runs["start"], "end": _utc(runs["ended_at"]),
             "chunk": _utc(runs["id"].map(chunk_at)),
             "alarm": _utc(runs["id"].map(alarm_at))}).max(axis=1)
+        # the latest sign of life of a running monitor: its last chunk or alarm, else its start
+        runs["data_at"] = pd.DataFrame({
+            "chunk": _utc(runs["id"].map(chunk_at)), "alarm": _utc(runs["id"].map(alarm_at))}
+        ).max(axis=1).astype("datetime64[ns, UTC]").fillna(
+            runs["start"].astype("datetime64[ns, UTC]"))
+        now = pd.Timestamp(_now())
         alarms_of: dict = {}
         for a in al.to_dict("records"):
             alarms_of.setdefault(a["run_id"], []).append(a)
@@ -833,6 +845,7 @@ class EventStore:
                 return None if row is None or _missing(row[k]) else row[k]
 
             rows.append({"name": a.name, "system": a.system, "state": state,
+                         "run": None if shown is None else _run_words(shown, now),
                          "last_seen_at": a.last_seen_at,
                          "n_runs": sum(len(i["runs"]) for i in invs),
                          "last_alarm_at": g("raised_at"), "last_alarm_time_s": g("alarm_time_s"),
@@ -842,7 +855,7 @@ class EventStore:
                          "leak_lpm_high": g("leak_lpm_high", size_row),
                          "feature": None if shown is None else shown["feature"],
                          "source": None if shown is None else shown["source"], "error": why})
-        cols = ["name", "system", "state", "last_seen_at", "n_runs", "last_alarm_at",
+        cols = ["name", "system", "state", "run", "last_seen_at", "n_runs", "last_alarm_at",
                 "last_alarm_time_s", "onset_s", "onset_censored", "leak_lpm", "leak_lpm_low",
                 "leak_lpm_high", "feature", "source", "error"]
         return pd.DataFrame(rows, columns=cols).sort_values("name", kind="stable") \
@@ -1020,6 +1033,50 @@ def _config(text) -> dict:
     except ValueError:
         return {}
     return c if isinstance(c, dict) else {}
+
+
+#: Seconds without a chunk after which a running monitor is said to be silent on the fleet
+#: page (also at least 20 of its own mean chunk intervals; leakdiag choice: a live monitor at
+#: 1 kHz in 1,000-sample chunks sends one a second).
+SILENT_S = 60.0
+
+
+def _run_words(run: dict, now) -> str:
+    """How the run that gave an actuator's state stands, in words (:meth:`EventStore.fleet`).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> t = pd.Timestamp("2026-11-27 09:00:00", tz="UTC")
+    >>> _run_words({"command": "monitor", "status": "stopped", "n_windows": 57,
+    ...             "start": t, "at": t, "n_chunks": 3}, t)
+    'monitor stopped after 57 windows'
+    >>> _run_words({"command": "monitor", "status": "running", "n_windows": 78,
+    ...             "start": t, "at": t + pd.Timedelta(seconds=10), "n_chunks": 10},
+    ...            t + pd.Timedelta(minutes=5))
+    'monitor running, silent since 2026-11-27 09:00:10 UTC (78 windows)'
+    >>> _run_words({"command": "detect", "status": "finished", "n_windows": None,
+    ...             "start": t, "at": t, "n_chunks": 0}, t)
+    'detect finished'
+    """
+    cmd, status = str(run["command"]), str(run["status"])
+    n = run.get("n_windows")
+    n = None if _missing(n) else int(n)
+    if cmd != "monitor":
+        return f"{cmd} {status}"
+    if status == "running":
+        at, start = run.get("data_at", run.get("at")), run.get("start")
+        chunks = int(run.get("n_chunks") or 0)
+        if at is not None and not _missing(at) and start is not None and not _missing(start):
+            interval = max((at - start).total_seconds(), 0.0) / max(chunks, 1)
+            silent = (now - at).total_seconds()
+            if silent > max(SILENT_S, 20.0 * interval):
+                return (f"monitor running, silent since {at.strftime('%Y-%m-%d %H:%M:%S')} UTC"
+                        + (f" ({n} windows)" if n is not None else ""))
+        return "monitor running" + (f", {n} windows" if n is not None else "")
+    if status == "stopped":
+        return "monitor stopped" + (f" after {n} windows" if n is not None else "")
+    return f"monitor {status}" + (f", {n} windows" if n is not None else "")
 
 
 def _judgment(run: dict, has_alarm: bool) -> dict:
