@@ -66,3 +66,27 @@ def test_monitor_stdin_strips_a_bom_from_the_header_as_a_file_read_does(tmp_path
     code, out, err = _run(["monitor", str(path), "-c", "p1", "-w", "100", *extra])
     assert code == 0, err
     assert out.splitlines()[:-1] == ref.splitlines()[:-1] and _summary(out) == _summary(ref)
+
+
+# --- finding 11: '#' is data in every reader --------------------------------------------------
+
+
+def test_hash_is_data_in_every_command(tmp_path):
+    lines = _lines()
+    note = tmp_path / "note.csv"
+    note.write_text("\n".join(lines[:301] + ["# operator note"] + lines[301:]) + "\n")
+    hint = ("has 1 of 3 fields (truncated line?); columns 'time' (time column), 'p1' (channel "
+            "'p1') are missing or cut; it starts with '#', and leakdiag reads no comment lines")
+    for args in (["monitor", str(note)], ["analyze", str(note), "-m", "autocorrelation"]):
+        code, out, err = _run([*args, "-c", "p1", "-w", "100"])
+        assert code != 0 and f"{note}: row 300 " in err and "it starts with '#'" in err, err
+    code, out, err = _run(["monitor", "-", "-c", "p1", "-w", "100"], stdin=note.read_text())
+    assert code != 0 and f"<stdin>: line 302 {hint}" in err, err
+    na = tmp_path / "na.csv"
+    t, _, p2 = lines[301].split(",")
+    na.write_text("\n".join(lines[:301] + [f"{t},#N/A,{p2}"] + lines[302:]) + "\n")
+    for args in (["monitor", str(na)], ["analyze", str(na), "-m", "autocorrelation"],
+                 ["monitor", "-"]):
+        code, out, err = _run([*args, "-c", "p1", "-w", "100"],
+                              stdin=na.read_text() if args[-1] == "-" else None)
+        assert code != 0 and "'p1'" in err and "truncated" not in err, (args, err)

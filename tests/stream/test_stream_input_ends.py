@@ -123,7 +123,7 @@ def test_stdin_reads_a_last_line_without_newline_as_the_end_of_input():
 
 
 # ------------------------------------------------------------ finding 6: header only
-@pytest.mark.parametrize("text,rate", [("time,p1\n", None), ("time,p1\n# note\n\n", None),
+@pytest.mark.parametrize("text,rate", [("time,p1\n", None), ("time,p1\n\n \n", None),
                                        ("p1\n", "100")])
 def test_stdin_with_a_header_only_says_so(text, rate):
     r = _monitor("-", "-c", "p1", "-q", *(["--sample-rate", rate] if rate else []), input=text)

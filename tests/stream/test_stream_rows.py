@@ -139,15 +139,39 @@ def test_long_file_with_empty_cells_after_the_read_columns_is_read(tmp_path):
     assert data["p2"] == [k + 50.0 for k in range(5000)]
 
 
-def test_quoted_separators_comments_and_blank_lines_keep_the_row_numbers(tmp_path):
-    lines = ["# exported by the rig", "time,p1,note,p2", '0.0,1,"a,b",50', "",
-             '0.1,2,"c#d"', "# a comment line", '0.2,3,"e,f",52']
+def test_quoted_separators_hashes_and_blank_lines_keep_the_row_numbers(tmp_path):
+    lines = ["time,p1,note,p2", '0.0,1,"a,b",50', "", '0.1,2,"c#d"', '0.2,3,"e,f",52']
     path = _write(tmp_path, lines)
     _raises(path, "row 1 has 3 of 4 fields (truncated line?); column 'p2' (channel 'p2') is "
                   "missing or cut", ["p1", "p2"])
-    lines[4] = '0.1,2,"c#d",51'
+    lines[3] = '0.1,2,"c#d",51'
     assert _read(_write(tmp_path, lines), ["p1", "p2"]) == {"p1": [1.0, 2.0, 3.0],
                                                             "p2": [50.0, 51.0, 52.0]}
+
+
+def test_hash_is_data_as_in_io_not_a_comment(tmp_path):
+    """Audit of users' recordings (2026-11-27, finding 11): monitor and batch skipped '# note'
+    lines that analyze refused, and called a complete row with an Excel '#N/A' cell truncated.
+    '#' is data in every reader (docs/io.md)."""
+    lines = ["time,p1,p2"] + [f"0.{k},{k},{50 + k}" for k in range(8)]
+    path = _write(tmp_path, lines[:7] + ["# operator note"] + lines[7:])
+    msg = ("row 6 has 1 of 3 fields (truncated line?); columns 'time' (time column), 'p1' "
+           "(channel 'p1'), 'p2' (channel 'p2') are missing or cut; it starts with '#', and "
+           "leakdiag reads no comment lines ('#' is data, as in an Excel '#N/A' cell): remove "
+           "the line")
+    _raises(path, msg)
+    with pytest.raises(RecordingError, match=re.escape(f"{path}: {msg}") + "$"):
+        read_recording(path)
+    path = _write(tmp_path, ["# exported by the rig"] + lines, name="top.csv")
+    with pytest.raises(RecordingError, match=r"missing channel|fields|not a number"):
+        _read(path, ["p1"])
+    path = _write(tmp_path, lines[:7] + ["0.6,#N/A,56"] + lines[8:], name="na.csv")
+    p1 = _read(path, ["p1"])["p1"]  # a complete row: its cell is NaN, as io reads it
+    assert np.isnan(p1[6]) and p1[:6] == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0] and p1[7] == 7.0
+    with pytest.raises(RecordingError, match="channel 'p1' has 1 non-finite value"):
+        read_recording(path)
+    assert _read(_write(tmp_path, ["time,p1,note", "0.0,1,a#b", "0.1,2,#c"], name="h.csv"),
+                 ["p1"]) == {"p1": [1.0, 2.0]}
 
 
 def test_known_limit_cut_inside_the_last_field_of_a_full_row(tmp_path):
@@ -366,7 +390,7 @@ def test_field_counts_agree_with_pandas_on_random_files():
 
     rng = random.Random(0)
     fields = ["7", "12", '"a,b"', '"x#y"', '"l1\nl2"', '"q""q"', " 5", '5"x', ' "a,b"', "ab"]
-    odd = ["", "   ", "# a, comment", "  # indented", '""', '"  "', '"" # c']
+    odd = ["", "   ", "# a, hash", "  # indented", '""', '"  "', '"" # c']
     compared = 0
     for _ in range(400):
         width = rng.randint(1, 5)
@@ -382,7 +406,7 @@ def test_field_counts_agree_with_pandas_on_random_files():
         text = end.join(lines) + (end if rng.random() < 0.7 else "")
         for n_names in range(2 * width + 4, 0, -1):  # as many names as the widest row has
             try:  # (usecols: pandas reads rows longer than the first ones, as open_chunks does)
-                df = pd.read_csv(io.StringIO(text), header=0, index_col=False, comment="#",
+                df = pd.read_csv(io.StringIO(text), header=0, index_col=False,
                                  names=[f"c{j}" for j in range(n_names)], dtype=str,
                                  na_filter=False, usecols=range(n_names))
                 break

@@ -96,10 +96,21 @@ def test_recording_chunks_are_views():
 
 
 def test_csv_lines_one_chunk_per_line():
-    s = io.StringIO("time,p1,p2\n0.0,1,5\n# note\n0.1,2,6\n\n0.2,3,7\n")
+    s = io.StringIO("time,p1,p2\n0.0,1,5\n\n0.1,2,6\n\n0.2,3,7\n")
     src = csv_lines(s, channels=["p2"])
     assert src.sample_rate == pytest.approx(10.0)
     assert [c["p2"].tolist() for c in src] == [[5.0], [6.0], [7.0]]
+
+
+def test_csv_lines_reads_no_comment_lines():
+    # '#' is data in every reader (docs/io.md, decision 2026-11-27, audit 13 finding 11): a
+    # line '# note' is a short line, refused, saying why
+    s = io.StringIO("time,p1,p2\n0.0,1,5\n# note\n0.1,2,6\n")
+    with pytest.raises(RecordingError, match=re.escape(
+            "<stdin>: line 3 has 1 of 3 fields (truncated line?); columns 'time' (time column), "
+            "'p2' (channel 'p2') are missing or cut; it starts with '#', and leakdiag reads no "
+            "comment lines")):
+        list(csv_lines(s, channels=["p2"]))
 
 
 def test_csv_lines_errors():

@@ -128,8 +128,15 @@ def _check_extra_fields(path: Path, source: str, sep: str, encoding: str, n: int
         raise extra_field_error(source, f"row {i}", n, n + j, str(extra.iat[i, j]))
 
 
+#: Appended to the error for a short row whose first field starts with ``#``: no reader of
+#: leakdiag takes ``#`` as a comment (docs/io.md, decision 2026-11-27).
+COMMENT_HINT = ("; it starts with '#', and leakdiag reads no comment lines ('#' is data, as in "
+                "an Excel '#N/A' cell): remove the line")
+
+
 def short_row_error(source: str, where: str, k: int, n: int, read: dict[str, str],
-               pos: dict[str, int], more: str = "") -> RecordingError:
+                    pos: dict[str, int], more: str = "", first: object = None
+                    ) -> RecordingError:
     """The error for a row of ``k`` of ``n`` fields that ends at or before a column read
     (:meth:`TextTable.check_rows`, and the streaming readers of :mod:`leakdiag.stream`).
 
@@ -147,6 +154,8 @@ def short_row_error(source: str, where: str, k: int, n: int, read: dict[str, str
         Column name -> 0-based position in the header.
     more : str, optional
         Appended (how many rows are short like this).
+    first : optional
+        The row's first field: text starting with ``#`` adds :data:`COMMENT_HINT`.
 
     Returns
     -------
@@ -165,7 +174,8 @@ def short_row_error(source: str, where: str, k: int, n: int, read: dict[str, str
     return RecordingError(
         f"{source}: {where} has {k} of {n} fields (truncated line?); "
         f"{'column' if len(hit) == 1 else 'columns'} {desc} "
-        f"{'is' if len(hit) == 1 else 'are'} missing or cut{more}")
+        f"{'is' if len(hit) == 1 else 'are'} missing or cut{more}"
+        f"{COMMENT_HINT if isinstance(first, str) and first.lstrip().startswith('#') else ''}")
 
 
 @dataclass
@@ -257,8 +267,9 @@ class TextTable(RawTable):
         if not len(short):
             return
         more = f"; {len(short)} rows are short like this" if len(short) > 1 else ""
-        raise short_row_error(self.source, f"row {int(short[0])}", int(counts[short[0]]), n,
-                              dict(columns), pos, more)
+        i = int(short[0])
+        raise short_row_error(self.source, f"row {i}", int(counts[i]), n, dict(columns), pos,
+                              more, first=self.by_position[0][i])
 
 
 def read_text(path: str | os.PathLike, separator: str | None = None) -> TextTable:

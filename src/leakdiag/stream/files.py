@@ -127,9 +127,10 @@ def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> C
 
 #: Options of every pandas read of a CSV file (its header, head and chunks), with the file's
 #: separator and encoding (:func:`_csv_format`). :class:`_RowFields` splits the lines into rows
-#: the same way: ``#`` starts a comment (outside quotes), blank lines are skipped.
-#: ``index_col=False``: no column is taken as an index when rows end in a separator.
-_CSV_READ = {"comment": "#", "index_col": False}
+#: the same way: blank lines are skipped; ``#`` is data, as in :mod:`leakdiag.io` (no comments:
+#: decision 2026-11-27, docs/io.md). ``index_col=False``: no column is taken as an index when
+#: rows end in a separator.
+_CSV_READ = {"index_col": False}
 
 
 def _sniff_separator(path: str) -> tuple[str, str]:
@@ -140,7 +141,6 @@ def _sniff_separator(path: str) -> tuple[str, str]:
     from leakdiag.io.text import _sniff, detect_separator
 
     lines, encoding = _sniff(Path(path), path)
-    lines = [line for line in lines if not line.startswith("#")]  # comment lines (_CSV_READ)
     if not lines:
         raise RecordingError(f"{path}: empty file: no header line and no data")
     sep = detect_separator(lines)
@@ -201,41 +201,38 @@ def _parse_error(path: str, exc: Exception, sep: str) -> RecordingError:
                           f"{sep!r}): {msg}")
 
 
-def _cut_comment(line: str, quoted: bool, sep: str = ",") -> tuple[str, bool, bool]:
-    """``line`` without its comment, cut where pandas' C parser cuts it: at the first ``#``
-    outside a quoted field; whether a quoted field goes on to the next line (``quoted``: whether
-    the line starts inside one); and whether a comment was cut off."""
+def _ends_quoted(line: str, quoted: bool, sep: str = ",") -> bool:
+    """Whether a quoted field goes on to the next line after ``line`` (``quoted``: whether the
+    line starts inside one), as pandas' C parser reads it."""
     state = 2 if quoted else 0  # 0 field start, 1 plain field, 2 quoted, 3 after a quote
-    for i, c in enumerate(line):
+    for c in line:
         if state == 2:
             if c == '"':
                 state = 3
         elif state == 3 and c == '"':
             state = 2  # a doubled quote inside the quoted field
-        elif c == "#":
-            return line[:i], False, True
         elif c == sep:
             state = 0
         elif state == 0:
             state = 2 if c == '"' else 1
-    return line, state == 2, False
+    return state == 2
 
 
 def _field_counts(lines: Iterator[str], width: int, extras: dict, sep: str = ","
                   ) -> Iterator[int]:
     """The number of fields of each row (the header first), as pandas' C parser splits them.
 
-    A line without quotes or ``#`` is one row of ``line.count(sep) + 1`` fields (blank lines
-    are skipped); other lines go through the ``csv`` module (the C parser's dialect), with their
-    comment cut off and a quoted field that goes on over several lines joined (as pandas reads
-    them, a line of only blanks and a comment is a row of one field, and so is a line ``""``).
+    A line without quotes is one row of ``line.count(sep) + 1`` fields (blank lines are
+    skipped); other lines go through the ``csv`` module (the C parser's dialect), a quoted field
+    that goes on over several lines joined (as pandas reads them, a line ``""`` is a row of one
+    field). ``#`` is data (no comments).
     A row with a non-empty field after the first ``width`` is yielded negated, and
     ``extras[row]`` is set to ``(field, text)`` (0-based data row, the header being row -1;
     0-based field).
     """
     row = -2
     for line in lines:
-        if '"' not in line and "#" not in line:
+        if '"' not in line:
             if line.isspace():
                 continue
             k = line.count(sep) + 1
@@ -248,18 +245,15 @@ def _field_counts(lines: Iterator[str], width: int, extras: dict, sep: str = ","
                     k = -k
             yield k
             continue
-        record, quoted, cut = [], False, False
+        record, quoted = [], False
         while True:
-            text, quoted, cut = _cut_comment(line, quoted, sep)
-            record.append(text)
+            quoted = _ends_quoted(line, quoted, sep)
+            record.append(line)
             if not quoted:
                 break
             line = next(lines, None)
             if line is None:
                 break
-        text = "".join(record)
-        if not (text.strip() if not cut else text.rstrip("\r\n")):
-            continue  # a blank line or a comment line; blanks before a comment are a field
         for fields in csv.reader(record, delimiter=sep, strict=False):
             row += 1
             k = len(fields)
@@ -474,8 +468,9 @@ class _CsvRows:
             return
         more = ("" if len(short) == 1 else f"; {len(short)} rows are short like this" if last
                 else f"; at least {len(short)} rows are short like this")
+        first = df["0"].iloc[int(short[0])] if "0" in df.columns else None
         raise _short_row(self.path, f"row {first_short}", int(counts[short[0]]), self.n,
-                         self.read, self.pos, more)
+                         self.read, self.pos, more, first=first)
 
     def finish(self, n_rows: int) -> None:
         """At the end of the file: if rows were counted, pandas and the count must agree."""
@@ -616,8 +611,9 @@ def open_chunks(path: str | os.PathLike, channels: Sequence[str] | None = None,
     channel datasets (at the root or in a ``channels`` group), CSV with ``pandas.read_csv``
     and ``chunksize``; memory stays proportional to ``chunk_samples``. A CSV's separator (tab,
     ``,``, ``;`` or ``|``) and encoding are found as :func:`leakdiag.io.read_recording` finds
-    them; fields separated by runs of blanks are refused. CSV header names are taken as written (stripped of blanks), ``#`` starts a comment and rows ending in a
-    separator are read in their columns. See ``docs/operations.md``, "CSV rows and header",
+    them; fields separated by runs of blanks are refused. CSV header names are taken as written
+    (stripped of blanks), ``#`` is data (no comments, as in :mod:`leakdiag.io`) and rows ending
+    in a separator are read in their columns. See ``docs/operations.md``, "CSV rows and header",
     for the checks, their cost and their known limit (with some columns left out, a later row
     with extra fields is not seen).
 

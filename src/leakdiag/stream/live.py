@@ -72,7 +72,8 @@ class _LineFields:
             if j is not None:
                 raise _extra_field(self.source, f"line {lineno}", self.n, j, fields[j])
         elif k <= self.last + 1:
-            raise _short_row(self.source, f"line {lineno}", k, self.n, self.read, self.pos)
+            raise _short_row(self.source, f"line {lineno}", k, self.n, self.read, self.pos,
+                             first=fields[0])
 
 
 def _parse_lines(lines: list[tuple[int, str]], shape: _LineFields, cols: list[int],
@@ -105,8 +106,8 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
               batch_lines: int = 1) -> ChunkSource:
     """CSV lines from a text stream (e.g. stdin): a header line, then one sample per line.
 
-    A UTF-8 byte-order mark before the header is removed. Blank lines and lines starting with
-    ``#`` are skipped. Lines are checked as
+    A UTF-8 byte-order mark before the header is removed. Blank lines are skipped; ``#`` is
+    data, as in :mod:`leakdiag.io` (a line ``# note`` is a short line). Lines are checked as
     :func:`leakdiag.stream.open_chunks` checks the rows of a CSV file: a line cut short before
     the last column read (a truncated line) is refused, naming the line (1: the header) and the
     columns missing or cut; a line lacking only later, unread columns is read; empty fields
@@ -169,7 +170,7 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
             if not line:
                 break
             lineno += 1
-            if line.strip() and not line.startswith("#"):
+            if line.strip():
                 pending.append((lineno, line))
         if not pending:
             raise _header_only(source)
@@ -207,7 +208,7 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
         nonlocal lineno
         for line in iter(st.readline, ""):
             lineno += 1
-            if line.strip() and not line.startswith("#"):
+            if line.strip():
                 yield lineno, line
 
     return ChunkSource(gen(), fs, t0, chans, None, source, {})
@@ -249,8 +250,8 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
     IncompleteLineWarning
         When the idle timeout comes while the last line has no newline (a write cut short, a
         writer that stopped mid-line): that line is left out, not read as a sample. The
-        warning names the file, the line (1: the header) and the text left unread. A blank or
-        comment line without its newline is left out without a word (it holds no sample).
+        warning names the file, the line (1: the header) and the text left unread. A blank
+        line without its newline is left out without a word (it holds no sample).
 
     Notes
     -----
@@ -276,7 +277,7 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
         if lineno == 1:
             raise RecordingError(f"{path}: line 1 (the header) is incomplete: {waited}: "
                                  f"{shown}; no data lines")
-        if partial.strip() and not partial.startswith("#"):
+        if partial.strip():
             warnings.warn(f"{path}: line {lineno} is incomplete: {waited}: {shown} was left "
                           "out, not read as a sample", IncompleteLineWarning, stacklevel=2)
         return ""
