@@ -124,7 +124,7 @@ def test_a_rig_another_writer_is_setting_is_read_not_overwritten(url, write):
     result, error = join()
     st.close()
     assert isinstance(error, StoreError), (result, error)
-    assert "actuator 'rigX' is a eha in the store" in str(error)
+    assert "actuator 'rigX' is an eha in the store" in str(error)
     assert _actuators(url) == [["rigX", "eha", 1]]
 
 
@@ -158,6 +158,6 @@ def test_an_actuator_another_writer_created_as_another_rig_is_refused(url):
     _, error = join()
     st.close()
     assert isinstance(error, StoreError)
-    assert str(error).endswith("actuator 'rigY' is a eha in the store, this run says vca: give "
+    assert str(error).endswith("actuator 'rigY' is an eha in the store, this run says vca: give "
                                "it another name")
     assert _actuators(url) == [["rigY", "eha", 0]]

@@ -432,8 +432,9 @@ class EventStore:
                     raise
         aid, have = int(row[0]), row[1]
         if system is not None and have is not None and have != system:
-            raise StoreError(f"{self.shown_url}: actuator {name!r} is a {have} in the store, "
-                             f"{said_by} says {system}: give it another name")
+            article = "an" if str(have)[:1].lower() in "aeiou" else "a"  # an eha, a vca
+            raise StoreError(f"{self.shown_url}: actuator {name!r} is {article} {have} in the "
+                             f"store, {said_by} says {system}: give it another name")
         if system is not None and have is None:  # the first run that knows it
             conn.execute(update(S.actuators).where((a.id == aid) & a.system.is_(None))
                          .values(system=system))
