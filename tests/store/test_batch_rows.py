@@ -220,3 +220,23 @@ def test_add_finished_runs_is_one_transaction(tmp_path):
     assert st.actuator_names() == ["rig1"] and st.count("runs") == 2
     con.close()
     st.close()
+
+
+def test_other_store_trouble_stops_the_batch_write_instead_of_reading_as_refused(tmp_path,
+                                                                                 monkeypatch):
+    """Only an actuator of another rig is "refused" (the others are written); any other
+    StoreError met while writing (a store that became read-only during the job) stops the
+    write, where every actuator was listed as "refused" and the command went on (store audit
+    2026-11-27)."""
+    from leakdiag.store import StoreError
+
+    st = EventStore(tmp_path / "e.db")
+    res = frame([row("/d/rigN/c_vca.parquet", alarm=False, system="vca")])
+
+    def read_only(*args, **kwargs):
+        raise StoreError(f"{st.shown_url}: cannot write to the event store (it is read-only)")
+
+    monkeypatch.setattr(st, "add_finished_runs", read_only)
+    with pytest.raises(StoreError, match="it is read-only"):
+        record_batch(st, res, JOB)
+    st.close()

@@ -43,6 +43,11 @@ class StoreError(RuntimeError):
     """The store cannot be used: wrong schema version, unreachable database, unknown actuator."""
 
 
+class ActuatorRigError(StoreError):
+    """A run of another rig than its actuator's in the store: that actuator's rows are refused
+    (``batch`` goes on with the others; any other :class:`StoreError` stops it)."""
+
+
 def store_url(target: str | os.PathLike) -> str:
     """SQLAlchemy URL of ``--store``: a URL as given, a file path as an SQLite URL.
 
@@ -433,8 +438,8 @@ class EventStore:
         aid, have = int(row[0]), row[1]
         if system is not None and have is not None and have != system:
             article = "an" if str(have)[:1].lower() in "aeiou" else "a"  # an eha, a vca
-            raise StoreError(f"{self.shown_url}: actuator {name!r} is {article} {have} in the "
-                             f"store, {said_by} says {system}: give it another name")
+            raise ActuatorRigError(f"{self.shown_url}: actuator {name!r} is {article} {have} in "
+                                   f"the store, {said_by} says {system}: give it another name")
         if system is not None and have is None:  # the first run that knows it
             conn.execute(update(S.actuators).where((a.id == aid) & a.system.is_(None))
                          .values(system=system))
@@ -642,8 +647,8 @@ class EventStore:
                 said.setdefault(str(r.system).lower(), str(r.source))
         if len(said) > 1:
             words = ", ".join(f"{src} says {k}" for k, src in said.items())
-            raise StoreError(f"{self.shown_url}: actuator {name!r}: its recordings disagree on "
-                             f"the rig ({words}): give them different actuator names")
+            raise ActuatorRigError(f"{self.shown_url}: actuator {name!r}: its recordings disagree "
+                                   f"on the rig ({words}): give them different actuator names")
         system, said_by = next(iter(said.items()), (None, ""))
         aid = self._actuator(conn, name, system, said_by)
         stored = set()  # rows of this actuator already in the store, read under its lock

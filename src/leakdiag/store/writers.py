@@ -7,7 +7,7 @@ import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
-from leakdiag.store.database import EventStore
+from leakdiag.store.database import ActuatorRigError, EventStore, StoreError
 from leakdiag.store.summary import AlarmRecord, ChunkSummary, FinishedRun
 
 __all__ = ["record_batch", "record_verdicts", "BatchWrite", "default_actuator"]
@@ -192,9 +192,10 @@ def record_batch(store: EventStore, results, job_digest: str,
     ------
     ValueError
         From :func:`actuator_names` (nothing is written then).
+    StoreError
+        For any other trouble with the store than an actuator of another rig (e.g. a store
+        that became read-only during the job): the job stops, it is not "refused".
     """
-    from leakdiag.store.database import StoreError
-
     rows = results[results["job_digest"] == job_digest]
     names = actuator_names(rows["path"].astype(str), actuator_from)
     inv = uuid.uuid4().hex
@@ -206,7 +207,8 @@ def record_batch(store: EventStore, results, job_digest: str,
     for actuator, runs in per_actuator.items():
         try:
             ids = store.add_finished_runs(actuator, runs, invocation=inv)
-        except StoreError as exc:  # another rig: none of this actuator's rows, say why
+        except ActuatorRigError as exc:  # another rig: none of this actuator's rows, say why
+            # (any other StoreError, e.g. a store that became read-only, stops the job)
             msg = str(exc)
             refused.append(msg.split(": ", 1)[1] if msg.startswith(store.shown_url) else msg)
             continue
@@ -242,8 +244,6 @@ def default_actuator(store: EventStore, source: str) -> str:
     StoreError
         For standard input, or a stem that the store holds for a file in another folder.
     """
-    from leakdiag.store.database import StoreError
-
     if source in ("-", "<stdin>"):
         raise StoreError("--store with standard input needs --actuator NAME: every run from "
                          "standard input would otherwise be one actuator 'stdin'")
