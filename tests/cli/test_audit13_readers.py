@@ -2,6 +2,8 @@
 recordings, 2026-11-27, findings 10-12 and 9): the separator of a ``.csv``, a BOM on stdin, what
 ``#`` means, and what a time column in samples must hold. Through the CLI entry point."""
 
+import re
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -90,3 +92,49 @@ def test_hash_is_data_in_every_command(tmp_path):
         code, out, err = _run([*args, "-c", "p1", "-w", "100"],
                               stdin=na.read_text() if args[-1] == "-" else None)
         assert code != 0 and "'p1'" in err and "truncated" not in err, (args, err)
+
+
+# --- finding 9: a sample counter counts samples; implausibly high rates are warned about ------
+
+
+def _with_time(tmp_path, name, times):
+    lines = _lines()
+    path = tmp_path / name
+    path.write_text("\n".join([lines[0]] + [f"{t},{line.split(',', 1)[1]}"
+                                            for t, line in zip(times, lines[1:])]) + "\n")
+    return str(path)
+
+
+@pytest.mark.parametrize("command", ["analyze", "monitor"])
+def test_time_unit_samples_needs_a_whole_number_counter_stepping_by_one(tmp_path, command):
+    n = len(_lines()) - 1
+    args = ["-c", "p1", "-w", "100", "--time-unit", "samples", "--sample-rate", "1000"]
+    if command == "analyze":
+        args += ["-m", "autocorrelation"]
+    seconds = _with_time(tmp_path, "s.csv", [f"{k / 1000:.3f}" for k in range(n)])
+    code, out, err = _run([command, seconds, *args])
+    assert code != 0 and (f"{seconds}: time column 'time' is declared a sample counter (time "
+                          "unit 'samples'), but row 1 is 0.001, not a whole number") in err, err
+    by10 = _with_time(tmp_path, "c10.csv", [str(10 * k) for k in range(n)])
+    code, out, err = _run([command, by10, *args])
+    assert code != 0 and ("but it steps by 10, not 1: at 1000 counts per second that is a "
+                          "sample every 0.01 s, a rate of 100 Hz, not 1000 Hz") in err, err
+    by1 = _with_time(tmp_path, "c1.csv", [str(k + 1) for k in range(n)])
+    code, out, err = _run([command, by1, *args])
+    assert code == 0 and "1000 Hz" in out, err
+
+
+@pytest.mark.parametrize("unit,rate", [("ms", "1e+06"), ("us", "1e+09")])
+@pytest.mark.parametrize("command", ["analyze", "monitor"])
+def test_a_seconds_column_read_as_ms_or_us_is_warned_about(tmp_path, command, unit, rate):
+    n = len(_lines()) - 1
+    path = _with_time(tmp_path, "s.csv", [f"{k / 1000:.3f}" for k in range(n)])
+    extra = ["-m", "autocorrelation"] if command == "analyze" else []
+    code, out, err = _run([command, path, "-c", "p1", "-w", "100", *extra])
+    assert code == 0 and "high for actuator" not in err, err
+    with pytest.warns(UserWarning, match=re.escape(
+            f"{path}: sample rate {rate} Hz from the time column is high for actuator pressures "
+            "(above 200000 Hz); is the time column in s rather than ms or us?")):
+        code, out, err = _run([command, path, "-c", "p1", "-w", "100", "--time-unit", unit,
+                               *extra])
+    assert code == 0, err

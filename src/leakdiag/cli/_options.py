@@ -24,6 +24,11 @@ __all__ = ["recording_options", "resample_option", "column_map_from", "read_with
 
 #: Below this rate (Hz) a time column is probably not in seconds (ms, sample counter): warned.
 LOW_RATE_HZ = 20.0
+#: Rates above this are warned about too (Hz): a time column in seconds declared in ms or us
+#: (``--time-unit``) reads 1000 or 10**6 times too fast (audit of users' recordings 2026-11-27,
+#: finding 9: 1e+09 Hz without a word). Actuator pressure recordings run at 1-20 kHz (the real
+#: rotary-actuator files at 1 kHz); 200 kHz is ten times above any of them.
+HIGH_RATE_HZ = 200e3
 #: Time units of a time column (as :class:`leakdiag.io.ColumnMap` accepts them).
 TIME_UNIT_CHOICES = ["s", "ms", "us", "samples"]
 
@@ -343,7 +348,8 @@ def read_with(path, cmap, sample_rate=None, resample=None):
 
 def warn_low_rate(path, rate: float, advice: str = "give --time-unit ms (or samples with "
                                                     "--sample-rate)") -> None:
-    """Warn when a rate read from a time column is implausibly low for actuator pressures.
+    """Warn when a rate read from a time column is implausibly low (or high) for actuator
+    pressures.
 
     Parameters
     ----------
@@ -358,12 +364,17 @@ def warn_low_rate(path, rate: float, advice: str = "give --time-unit ms (or samp
     -----
     UserWarning
         Below :data:`LOW_RATE_HZ` (a time column in milliseconds or a sample counter read as
-        seconds).
+        seconds), or above :data:`HIGH_RATE_HZ` (a time column in seconds read as ms or us).
     """
     if rate < LOW_RATE_HZ:
         warnings.warn(f"{path}: sample rate {rate:g} Hz from the time column is low for actuator "
                       "pressures; if the time column is in milliseconds or a sample counter, "
                       f"{advice}", UserWarning, stacklevel=3)
+    elif rate > HIGH_RATE_HZ:
+        warnings.warn(f"{path}: sample rate {rate:g} Hz from the time column is high for "
+                      f"actuator pressures (above {HIGH_RATE_HZ:g} Hz); is the time column in s "
+                      "rather than ms or us? Then give --time-unit s (the default)",
+                      UserWarning, stacklevel=3)
 
 
 def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample=None,

@@ -156,6 +156,29 @@ def _check_lengths(table: RawTable, columns: dict[str, str]) -> None:
                       table.source)
 
 
+def _check_counter(raw: np.ndarray, col: str, rate: float, source: str) -> None:
+    """Refuse a time column declared a sample counter that does not count samples: values
+    that are not whole numbers, or a typical step other than 1 (audit of users' recordings
+    2026-11-27, finding 9: a column in seconds read as a counter gave 1e+06 Hz, a counter
+    stepping by 10 gave 100 Hz at --sample-rate 1000, without a word)."""
+    finite = np.isfinite(raw)
+    frac = np.flatnonzero(finite & (raw != np.round(raw)))
+    if len(frac):
+        i = int(frac[0])
+        raise RecordingError(
+            f"{source}: time column {col!r} is declared a sample counter (time unit 'samples'), "
+            f"but row {i} is {float(raw[i])!r}, not a whole number; a counter counts samples 0, 1, "
+            f"2, ... (is the column in s? then drop the time unit 'samples')")
+    steps = np.diff(raw[finite])
+    if len(steps) and np.median(steps) != 1:
+        step = float(np.median(steps))
+        raise RecordingError(
+            f"{source}: time column {col!r} is declared a sample counter (time unit 'samples'), "
+            f"but it steps by {step:g}, not 1: at {rate:g} counts per second that is a sample "
+            f"every {step / rate:g} s, a rate of {rate / step:g} Hz, not {rate:g} Hz; a sample "
+            f"counter steps by 1 (a counter of clock ticks: give the time in s instead)")
+
+
 def _time_axis(table: RawTable, cmap: ColumnMap | None, col: str | None,
                sample_rate: float | None, resample: float | None
                ) -> tuple[np.ndarray | None, float | None]:
@@ -177,6 +200,7 @@ def _time_axis(table: RawTable, cmap: ColumnMap | None, col: str | None,
                 f"{source}: time column {col!r} is a sample counter; give the sample rate "
                 f"(--sample-rate, or sample_rate_hz in the map)"
             )
+        _check_counter(raw, col, rate, source)
         t = raw / rate
     else:
         t = raw * UNITS[unit][1]
