@@ -541,6 +541,14 @@ def load_detector_file(path: str | os.PathLike) -> tuple[Any, DetectorMeta | Non
     return obj, None
 
 
+def _assumed_si_units(channels) -> dict[str, str]:
+    """The SI unit :func:`leakdiag.io.read_recording` gives each standard channel of a file that
+    states no units (``{"p1": "Pa"}``); other channels have none."""
+    from leakdiag.io.units import CHANNEL_QUANTITY, QUANTITY_SI_UNIT
+
+    return {c: QUANTITY_SI_UNIT[CHANNEL_QUANTITY[c]] for c in channels if c in CHANNEL_QUANTITY}
+
+
 def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
                         channels=None, units: dict | None = None, system: str | None = None,
                         source: str = "<recording>", path: str = "<detector>",
@@ -556,7 +564,11 @@ def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
     channels : iterable of str, optional
         The recording's channels.
     units : dict, optional
-        The recording's channel units.
+        The recording's channel units; None: the file states none (a plain CSV, stdin, another
+        program's file), so its standard channels are taken as SI, as
+        :func:`leakdiag.io.read_recording` takes them (``p1`` in Pa): ``monitor``, ``batch`` and
+        ``detect`` then refuse alike a plain CSV against a detector fitted on counts (audit of
+        users' recordings 2026-11-27, finding 8).
     system : str, optional
         The recording's system (from its metadata).
     source, path : str
@@ -596,8 +608,10 @@ def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
         missing = [c for c in meta.channels if c not in set(channels)]
         if missing:
             raise ValueError(f"{source}: no channel {', '.join(missing)}, which {path} reads")
+    if units is None:
+        units = _assumed_si_units(meta.channels)
     for c in meta.channels:
-        want, got = meta.units.get(c), (units or {}).get(c)
+        want, got = meta.units.get(c), units.get(c)
         if want and got and want != got:
             raise ValueError(f"{source}: channel {c!r} is in {got!r}, but {path} was fitted "
                              f"on {want!r}")
