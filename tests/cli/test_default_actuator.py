@@ -40,6 +40,12 @@ def test_a_stem_of_another_folder_is_refused_and_stdin_needs_a_name(tmp_path):
     code, out, err = _run(["detect", str(tmp_path / "rig1" / "run1.parquet"), *base,
                            "--no-progress"])
     assert code == 0, err  # the same file (folder) again: the same actuator
+    # ... also through a symbolic link to its folder (a review found it refused the second time)
+    (tmp_path / "link").symlink_to(tmp_path)
+    for _ in range(2):
+        code, out, err = _run(["detect", str(tmp_path / "link" / "rig1" / "run1.parquet"),
+                               *base, "--no-progress"])
+        assert code == 0 and "for run1 written to" in out, err
     for cmd in (["detect", str(tmp_path / "rig2" / "run1.parquet"), *base, "--no-progress"],
                 ["monitor", "--input", str(tmp_path / "rig2" / "run1.parquet"), *base]):
         code, out, err = _run(cmd)

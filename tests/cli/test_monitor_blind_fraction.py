@@ -44,3 +44,39 @@ def test_monitor_and_detect_refuse_no_leak_on_mostly_undefined_windows(tmp_path)
     clean = write_recording(rec, tmp_path / "clean.parquet")
     code, out, err = _run(["monitor", "--input", str(clean), "--detector", str(det)])
     assert code == 0 and "warning" not in err, err
+
+
+def test_a_monitor_that_alarmed_before_going_blind_is_stored_as_judged(tmp_path):
+    """A review (2026-11-27): a run that raised an alarm and then went blind was stored
+    'unjudged' with "the absence of an alarm rules nothing out", while detect stored the same
+    file as a finished LEAK. An alarm on the windows looked at judged the run."""
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+    from leakdiag.store import EventStore
+
+    healthy = [str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, seed=70 + s,
+                                                reference_seed=170 + s),
+                                   tmp_path / f"h{s}.parquet")) for s in range(3)]
+    det = tmp_path / "d.joblib"
+    code, _, err = _run(["fit", *[a for h in healthy for a in ("--healthy", h)], "-m", "acf-p1",
+                         "--false-alarm-rate", "100", "-o", str(det)])
+    assert code == 0, err
+    rec = simulate_vca(duration=16.0, leak_lpm=1.0, onset=6.0, seed=82, reference_seed=182)
+    p1 = np.array(rec["p1"])
+    p1[9000:] = p1[9000]  # stuck from 9 s, after the alarm
+    path = write_recording(dataclasses.replace(rec, channels={**rec.channels, "p1": p1}),
+                           tmp_path / "ba.parquet")
+    db = tmp_path / "ev.db"
+    code, out, err = _run(["detect", str(path), "--detector", str(det), "--no-progress",
+                           "--store", str(db), "--actuator", "viaDetect"])
+    assert code == 0 and "Decision: LEAK" in out, err
+    code, out, err = _run(["monitor", "--input", str(path), "--detector", str(det), "--store",
+                           str(db), "--actuator", "viaMonitor"])
+    assert code == 0 and "ALARM   t=" in out, (out, err)
+    st = EventStore(db)
+    for name in ("viaDetect", "viaMonitor"):
+        runs = st.runs_of(name)
+        assert list(runs["status"]) == ["finished"], (name, runs[["status", "error"]])
+    assert set(st.fleet().set_index("name").loc[["viaDetect", "viaMonitor"], "state"]) == \
+        {"ALARM"}
+    st.close()

@@ -128,7 +128,7 @@ def open_monitor_hooks(live: dict, spec, monitor, source, say):
             st.close()
     if name is None:
         name = "stdin" if stdin else os.path.splitext(os.path.basename(src))[0]
-    return MonitorHooks(name, spec, monitor, src if stdin else os.path.abspath(src),
+    return MonitorHooks(name, spec, monitor, src if stdin else os.path.realpath(src),
                         source.sample_rate, live.get("store"), bind,
                         live.get("refresh_hz", 5.0), say, system=live.get("system"))
 

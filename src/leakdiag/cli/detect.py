@@ -432,7 +432,7 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
         from leakdiag.store.writers import default_actuator, record_verdicts
 
         name = actuator or default_actuator(st, file)
-        click.echo(f"{record_verdicts(st, name, os.path.abspath(file), tab)} alarm(s) for "
+        click.echo(f"{record_verdicts(st, name, os.path.realpath(file), tab)} alarm(s) for "
                    f"{name} written to {st.shown_url}")
 
     scores = tab["score_max"] if "score_max" in tab else pd.Series(float("nan"), index=tab.index)

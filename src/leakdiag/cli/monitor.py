@@ -206,7 +206,7 @@ def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=())
 
 
 def unjudged_reason(has_detector: bool, n_win: int, n_scored: int, blind, source: str,
-                    label: str, window: int) -> str | None:
+                    label: str, window: int, n_alarm: int = 0) -> str | None:
     """Why a monitor run with a detector judged nothing, or None (it judged, or has none).
 
     Parameters
@@ -223,6 +223,9 @@ def unjudged_reason(has_detector: bool, n_win: int, n_scored: int, blind, source
         The input and the feature, for the message.
     window : int
         Window length (samples).
+    n_alarm : int, default 0
+        Alarms raised: an alarm on the windows that were looked at judged the run, whatever
+        the blind spans (as ``detect`` reads LEAK then).
 
     Returns
     -------
@@ -245,7 +248,7 @@ def unjudged_reason(has_detector: bool, n_win: int, n_scored: int, blind, source
         return (f"{source}: no window was scored: all {n_win} windows lie in the detector's "
                 "burn-in (the stream is shorter than the burn-in plus one window), nothing "
                 "was judged")
-    if blind is not None and blind.blind:
+    if blind is not None and blind.blind and not n_alarm:
         return f"BLIND: {blind.words(source, label)}"
     return None
 
@@ -456,7 +459,7 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                         _close_hooks(hooks, sys.exc_info()[1], n_win, live["linger"], say, stop,
                                      unjudged_reason(detector is not None, n_win, n_scored,
                                                      blind, str(source.source), spec.label,
-                                                     spec.window))
+                                                     spec.window, n_alarm))
         except KeyboardInterrupt as exc:  # Ctrl-C or kill PID: how a --follow run ends
             stopped = exc if isinstance(exc, Stopped) else Stopped(signal.SIGINT)
         finally:

@@ -255,7 +255,8 @@ def default_actuator(store: EventStore, source: str) -> str:
         return name
     for other in runs["source"].dropna():
         o = Path(str(other))
-        if o.is_absolute() and o.parent != here.parent:
+        # compared resolved (a folder reached through a symbolic link is the same folder)
+        if o.is_absolute() and o.resolve().parent != here.parent:
             raise StoreError(
                 f"{store.shown_url}: actuator {name!r} (the file's stem) already holds runs of "
                 f"{o}, a file in another folder than {here}: stored under one name their runs "
