@@ -158,8 +158,9 @@ def test_detect_with_a_flow_balance_file_states_its_own_rate_and_its_p_value(fil
     onset = next(x for x in lines if "onset" in x and "first alarm" in x)
     assert onset.startswith("  onset at or before ") and "within the first 6 windows" in onset
     size = next(x for x in lines if "leak size (flow-balance)" in x)
-    assert size.startswith("  leak size (flow-balance): no size: the leak was there from the "
-                           "first windows judged, and on the VCA without load")
+    assert size.startswith("  leak size (flow-balance): no size: the onset lies within the "
+                           "first 6 windows judged, where a leak present from the start cannot "
+                           "be told from one that began there, and on the VCA without load")
     assert "L/min, interval" not in size
 
 

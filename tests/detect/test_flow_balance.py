@@ -276,7 +276,7 @@ def test_a_recording_the_fitted_balance_does_not_describe_is_refused(machine17):
                        r"outside the healthy recordings the detector was fitted on"):
         det.predict(in_bar)
     in_mm = dataclasses.replace(rec, channels={**rec.channels, "x": rec["x"] * 1e3})
-    with pytest.raises(RecordingError, match=r"channel 'x' reaches .* beyond the stroke of "
+    with pytest.raises(RecordingError, match=r"channel 'x' travels .* more than the stroke of "
                        r"0\.6 m that the flow balance \(vca\) models"):
         det.score(in_mm)  # (before the rig's units were checked: beyond the healthy range)
     assert not det.predict(rec).leak  # the same recording in SI units is judged

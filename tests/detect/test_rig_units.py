@@ -26,9 +26,13 @@ def runs():
 
 
 def test_limits_by_hand():
-    ok = Recording({"x": [-0.6, 0.6], "p1": [0.0, 172e3], "p2": [0.0, 1.0]}, 1.0)
+    ok = Recording({"x": [-0.3, 0.3], "p1": [0.0, 172e3], "p2": [0.0, 1.0]}, 1.0)
     check_rig_units(ok, "fit", 0.6, 17.2e6, "the rig")  # at the stroke, at 1 % of the level
-    with pytest.raises(RecordingError, match=r"channel 'x' reaches 0\.6001 m from 0"):
+    # a transducer zero elsewhere: the travel counts, not the distance from 0 (a review found
+    # x from 0.68 to 0.72 m refused, though it was sized as without the offset)
+    check_rig_units(Recording({"x": [0.68, 0.72]}, 1.0), "fit", 0.6, 17.2e6, "the rig")
+    with pytest.raises(RecordingError, match=r"channel 'x' travels 0\.6001 m \(from -0\.6001 "
+                                             r"to 0\)"):
         check_rig_units(Recording({"x": [0.0, -0.6001]}, 1.0), "fit", 0.6, 17.2e6, "the rig")
     low = Recording({"p1": [0.0, 171.9e3], "p2": [5.0, 100.0]}, 1.0,
                     meta={"source": "low.csv"})
@@ -40,8 +44,8 @@ def test_limits_by_hand():
 
 def test_flow_balance_fit_refuses_mm_and_bar_read_as_si(runs):
     det = ld.detect.FlowBalanceDetector(system="vca", false_alarms_per_hour=100.0)
-    with pytest.raises(RecordingError, match=r"fit: rig\.csv: channel 'x' reaches \d+\.?\d* m "
-                       r"from 0, beyond the stroke of 0\.6 m .* --col x=NAME:mm"):
+    with pytest.raises(RecordingError, match=r"fit: rig\.csv: channel 'x' travels \d+\.?\d* m "
+                       r"\(from .*\), more than the stroke of 0\.6 m .* --col x=NAME:mm"):
         det.fit([_scaled(r, x=1e3) for r in runs])
     with pytest.raises(RecordingError, match=r"fit: rig\.csv: the chamber pressures \(p1, p2\) "
                        r"stay below .* are they in bar, MPa, kPa or psi"):
@@ -62,6 +66,6 @@ def test_eha_flow_balance_and_ekf_refuse_them_too():
     vca = ld.sim.simulate_vca(duration=2, leak_lpm=0.0, seed=1)
     from leakdiag.literature.ekf import run_vca_ekf
 
-    with pytest.raises(RecordingError, match=r"the EKF: rig\.csv: channel 'x' reaches .* the "
+    with pytest.raises(RecordingError, match=r"the EKF: rig\.csv: channel 'x' travels .* the "
                        r"EKF's VCA model"):
         run_vca_ekf(_scaled(vca, x=1e3))

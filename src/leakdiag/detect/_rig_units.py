@@ -8,7 +8,10 @@ recordings, 2026-11-27, finding 1: 330 L/min for 0.3 L/min). So those detectors 
 recording with the rig they model, in physical terms and with no tuned factor:
 
 * the piston cannot travel further than the cylinder's stroke (Tables 2-1 / 3-1: 0.6 m), so a
-  position beyond ``stroke_m`` from 0 is not in metres for this rig;
+  position whose range (largest minus smallest) exceeds ``stroke_m`` is not in metres for
+  this rig. The range, not the distance from 0: the balance uses displacements, and a
+  transducer whose zero lies elsewhere (x from 0.68 to 0.72 m) was sized as without the offset
+  (a review, 2026-11-27, found a first version refusing it);
 * the chamber pressures of a working actuator reach a sizeable fraction of its pressure level
   (the VCA's supply, Table 2-1; the EHA's charge pressure, which its chambers never fall far
   below): pressures that all stay below a hundredth of it (172 kPa for the VCA, 14 kPa for the
@@ -58,23 +61,24 @@ def check_rig_units(rec, where: str, stroke_m: float, pressure_level_pa: float,
     Examples
     --------
     >>> from leakdiag.io import Recording
-    >>> rec = Recording({"x": [0.0, 12.0], "p1": [5e6, 6e6], "p2": [5e6, 6e6]}, 1.0,
+    >>> rec = Recording({"x": [-8.0, 12.0], "p1": [5e6, 6e6], "p2": [5e6, 6e6]}, 1.0,
     ...                 meta={"source": "rig.csv"})
     >>> check_rig_units(rec, "fit", 0.6, 17.2e6, "the flow balance (vca)")
     Traceback (most recent call last):
     ...
-    leakdiag.io.errors.RecordingError: fit: rig.csv: channel 'x' reaches 12 m from 0, beyond the stroke of 0.6 m that the flow balance (vca) models: is the position in mm (or another unit) read as metres? State its unit (e.g. --col x=NAME:mm, or a column map) or give the rig's own parameters
+    leakdiag.io.errors.RecordingError: fit: rig.csv: channel 'x' travels 20 m (from -8 to 12), more than the stroke of 0.6 m that the flow balance (vca) models: is the position in mm (or another unit) read as metres? State its unit (e.g. --col x=NAME:mm, or a column map; in Python, a rig of other dimensions is given as params=)
     """
     source = rec.meta.get("source", "<recording>")
     if position in rec.channels:
         x = np.asarray(rec[position], dtype=np.float64)
-        reach = float(np.nanmax(np.abs(x))) if x.size else 0.0
-        if reach > stroke_m:
+        travel = float(np.nanmax(x) - np.nanmin(x)) if x.size else 0.0
+        if travel > stroke_m:
             raise RecordingError(
-                f"{where}: {source}: channel {position!r} reaches {reach:.4g} m from 0, beyond "
-                f"the stroke of {stroke_m:g} m that {what} models: is the position in mm (or "
-                "another unit) read as metres? State its unit (e.g. --col x=NAME:mm, or a "
-                "column map) or give the rig's own parameters")
+                f"{where}: {source}: channel {position!r} travels {travel:.4g} m (from "
+                f"{float(np.nanmin(x)):.4g} to {float(np.nanmax(x)):.4g}), more than the stroke "
+                f"of {stroke_m:g} m that {what} models: is the position in mm (or another "
+                "unit) read as metres? State its unit (e.g. --col x=NAME:mm, or a column map; "
+                "in Python, a rig of other dimensions is given as params=)")
     have = [c for c in pressures if c in rec.channels and np.asarray(rec[c]).size]
     if have:
         top = max(float(np.nanmax(np.asarray(rec[c], dtype=np.float64))) for c in have)

@@ -377,11 +377,12 @@ def _size_withheld(system: str, load: str | None, censored: bool) -> str:
     """
     if not censored or system != "vca" or load == "spring":
         return ""
-    return ("no size: the leak was there from the first windows judged, and on the VCA "
-            f"{_load_words(load)} such a leak is sized up to 2.8x its mean (the per-recording "
-            "null offset and gain are then fitted on leaking windows), outside the measured "
-            "model-error band, which was measured on leaks starting mid-run (docs/detect.md "
-            "8.5); a recording that starts before the leak is sized")
+    return (f"no size: the onset lies within the first {CENSOR_WINDOWS} windows judged, where "
+            "a leak present from the start cannot be told from one that began there, and on the "
+            f"VCA {_load_words(load)} a leak present from the start is sized up to 2.8x its mean "
+            "(the per-recording null offset and gain are then fitted on leaking windows), "
+            "outside the model-error band, which was measured on leaks starting mid-run "
+            "(docs/detect.md 8.5); a recording that starts well before the leak is sized")
 
 
 def _leak_law_value(dp: float, law: str, ptr: float) -> float:
