@@ -112,6 +112,8 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
     q = print_resolution(t)
     if q > MAX_PRINT_RESOLUTION * med:  # too coarse to tell a gap from rounding: no allowance
         q = 0.0
+    if q and not rounds(float((t[-1] - t[0]) / (len(t) - 1)), q, 2.0 / (len(t) - 1)):
+        q = 0.0  # the interval is a whole number of q: printing rounds nothing, allow nothing
     ref = med
     if q > rtol * med:  # intervals printed coarsely (333 or 334 us): their mean is the interval
         near = dt[np.abs(dt - med) <= 2.0 * q + rtol * med]
@@ -133,6 +135,29 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
 #: coarser (ms timestamps at 600 Hz) cannot tell a missing row from rounding, and is checked
 #: without the allowance (leakdiag choice, 2026-11-27).
 MAX_PRINT_RESOLUTION = 0.25
+
+
+def rounds(interval: float, q: float, tol: float = 1e-3) -> bool:
+    """Whether times ``interval`` apart, printed at resolution ``q``, are rounded: the interval
+    is not a whole number of ``q`` (a review, 2026-11-27: at 200 Hz with ms timestamps nothing
+    is rounded, and allowing ``q`` there passed 4/6-ms jitter, 20 % of an interval).
+
+    Parameters
+    ----------
+    interval, q : float
+        The estimated sample interval and the print resolution (s).
+    tol : float, default 1e-3
+        How far from a whole number ``interval / q`` may be and still count as one: the
+        interval's own error in units of ``q`` (``2 / (n - 1)`` for the span of ``n`` times
+        printed at ``q``).
+
+    Examples
+    --------
+    >>> rounds(1 / 3000, 1e-6), rounds(0.005, 1e-3), rounds(0.005001, 1e-3, 0.002)
+    (True, False, False)
+    """
+    k = interval / q
+    return abs(k - round(k)) > max(tol, 1e-9)
 
 
 def print_resolution(t) -> float:

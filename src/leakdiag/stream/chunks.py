@@ -11,7 +11,8 @@ import numpy as np
 
 from leakdiag._validation import check_int, check_positive
 from leakdiag.io.checks import (MAX_PRINT_RESOLUTION, UNIFORM_TIME_RTOL, infer_sample_rate,
-                                print_resolution, refuse_time_like, same_rate)
+                                print_resolution, refuse_time_like, rounds,
+                                same_rate)
 from leakdiag.io.recording import Recording, RecordingError
 from leakdiag.io.table import RawTable, repeated_names
 from leakdiag.io.text import extra_field_error, short_row_error
@@ -93,7 +94,9 @@ class TimeAxis:
     def _allowance(self, q: float | None) -> float:
         """Tolerated deviation of an interval from ``dt`` (s): ``rtol`` of it plus the print
         resolution ``q`` when at most ``MAX_PRINT_RESOLUTION`` of an interval."""
-        q = 0.0 if q is None or q > MAX_PRINT_RESOLUTION * self.dt else q
+        # (the rate comes from the first lines: its interval known to a few hundredths of q)
+        q = 0.0 if q is None or q > MAX_PRINT_RESOLUTION * self.dt or not rounds(
+            self.dt, q, 0.02) else q
         return self.rtol * self.dt + q * (1.0 + 1e-6)
 
     def _error(self, t: float, prev: float, where: str) -> RecordingError:
