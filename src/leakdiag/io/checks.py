@@ -13,8 +13,7 @@ from leakdiag.io.errors import RecordingError
 
 __all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "check_same_length",
            "UNIFORM_TIME_RTOL", "RESAMPLE_ADVICE", "time_like_column", "refuse_time_like",
-           "implausible_si", "print_resolution", "MAX_POSITION_M", "MIN_PRESSURE_PA", "MAX_PRESSURE_PA",
-           "SAME_RATE_RTOL", "same_rate"]
+           "print_resolution", "SAME_RATE_RTOL", "same_rate", "rounds"]
 
 #: Relative tolerance on sample intervals for a time axis to count as uniform.
 UNIFORM_TIME_RTOL = 1e-3
@@ -298,9 +297,13 @@ def check_length(rec, window: int, channel: str | None = None) -> None:
 
 
 #: A column name that reads as a time column although it is not exactly ``time``: ``Time``,
-#: ``TIME``, ``t``, ``time_s``, ``Time [s]``, ``time (ms)``, ``t_s`` (audit of users'
-#: recordings, 2026-11-27, finding 3). A lone upper-case ``T`` is left out (a temperature).
-_TIME_LIKE = re.compile(r"^(?:time|t)(?:[\s_\[(].*)?$", re.IGNORECASE)
+#: ``TIME``, ``time_s``, ``Time [s]``, ``time (ms)``, and ``t`` alone or with a time unit
+#: (``t_s``, ``t [s]``, ``t (ms)``) (audit of users' recordings, 2026-11-27, finding 3). A lone
+#: upper-case ``T`` is left out (a temperature), and so is ``t``/``T`` with anything else
+#: (``T_oil``, ``t_amb``, ``T [degC]``: a review found them refused as time columns).
+_TIME_LIKE = re.compile(
+    r"^(?:time(?:[\s_\[(].*)?|t|t[\s_]*[\[(]?\s*(?:s|sec|secs|seconds?|ms|us|µs|ns)\s*[\])]?)$",
+    re.IGNORECASE)
 
 
 def time_like_column(names: Sequence[str]) -> str | None:
@@ -322,6 +325,8 @@ def time_like_column(names: Sequence[str]) -> str | None:
     ('Time', 'Time [s]')
     >>> time_like_column(["time", "Time"]), time_like_column(["T", "p1", "timer"])
     (None, None)
+    >>> time_like_column(["t_s", "p1"]), time_like_column(["T_oil", "t_amb", "T [degC]"])
+    ('t_s', None)
     """
     names = [str(n).strip() for n in names]
     if "time" in names:
@@ -378,67 +383,3 @@ def refuse_time_like(names: Sequence[str], source: str) -> None:
             "'time' is the time axis of a file read without a map (it would be read as a "
             "channel, and a sample rate would place the samples instead of it): say it is the "
             f"time column with {time_advice(col)}")
-
-
-#: Largest plausible ``|x|`` (m) of a hydraulic actuator's piston: the thesis rigs stroke a few
-#: cm (Table 2-1, 3-1); a position beyond 1 m is most likely in mm read as m (audit of users'
-#: recordings, 2026-11-27, finding 1: a stroke of -16..+20 "m").
-MAX_POSITION_M = 1.0
-#: A chamber pressure whose largest ``|p|`` stays below this (Pa, 0.1 bar) is most likely in bar,
-#: MPa, kPa or psi read as Pa (supply 17.2 MPa, Table 2-1; an 86-bar rig read as 85 "Pa") ...
-MIN_PRESSURE_PA = 1e4
-#: ... and one above this (Pa, 10 kbar) is not in Pa at all (counts with a gain missing?).
-MAX_PRESSURE_PA = 1e9
-
-
-def implausible_si(recording) -> list[str]:
-    """Standard channels in SI units whose range is implausible for a hydraulic actuator.
-
-    Checked: ``x`` and ``x_ref`` in m (``max |x|`` above :data:`MAX_POSITION_M`), ``p1`` and
-    ``p2`` in Pa (``max |p|`` below :data:`MIN_PRESSURE_PA` or above :data:`MAX_PRESSURE_PA`).
-    Channels in ``counts`` or other units are not checked. The readers warn with these
-    sentences when the file states no unit (SI assumed); physics-based detectors can refuse
-    through them.
-
-    Parameters
-    ----------
-    recording : Recording
-        The recording (its ``units``, ``meta['source']``).
-
-    Returns
-    -------
-    list of str
-        One sentence per implausible channel, naming the file, channel, range and likely
-        unit; empty when none.
-
-    Examples
-    --------
-    >>> from leakdiag.io.recording import Recording
-    >>> rec = Recording({"p1": np.array([80.0, 86.0]), "x": np.array([-16.0, 20.0])}, 1000.0,
-    ...                 units={"p1": "Pa", "x": "m"}, meta={"source": "rig.csv"})
-    >>> for line in implausible_si(rec):
-    ...     print(line)
-    rig.csv: channel 'p1' in Pa spans 80 to 86 Pa, below 1e+04 Pa for a hydraulic actuator: is it in bar, MPa, kPa or psi (give its unit, e.g. --col p1=p1:bar)?
-    rig.csv: channel 'x' in m spans -16 to 20 m, beyond 1 m for a hydraulic actuator: is it in mm (give its unit, e.g. --col x=x:mm)?
-    >>> implausible_si(Recording({"p1": np.array([1e5, 2e7])}, 1000.0, units={"p1": "Pa"}))
-    []
-    """
-    source = recording.meta.get("source", "<recording>")
-    out = []
-    for name in recording.channels:
-        unit = recording.units.get(name)
-        v = np.asarray(recording.channels[name], dtype=np.float64)
-        if not len(v) or not np.isfinite(v).all():
-            continue
-        lo, hi, big = float(v.min()), float(v.max()), float(np.abs(v).max())
-        span = f"{source}: channel {name!r} in {unit} spans {lo:.3g} to {hi:.3g} {unit}"
-        if name in ("x", "x_ref") and unit == "m" and big > MAX_POSITION_M:
-            out.append(f"{span}, beyond {MAX_POSITION_M:g} m for a hydraulic actuator: is it in "
-                       f"mm (give its unit, e.g. --col {name}={name}:mm)?")
-        elif name in ("p1", "p2") and unit == "Pa" and big < MIN_PRESSURE_PA:
-            out.append(f"{span}, below {MIN_PRESSURE_PA:.0e} Pa for a hydraulic actuator: is it "
-                       f"in bar, MPa, kPa or psi (give its unit, e.g. --col {name}={name}:bar)?")
-        elif name in ("p1", "p2") and unit == "Pa" and big > MAX_PRESSURE_PA:
-            out.append(f"{span}, above {MAX_PRESSURE_PA:.0e} Pa for a hydraulic actuator: is it "
-                       f"in another unit, or counts whose gain is missing?")
-    return out
