@@ -151,3 +151,35 @@ def test_a_short_run_mostly_undefined_is_not_judged_no_leak(acf):
     # none undefined: nothing said
     full = acf.predict_series(_series(acf, np.zeros(15), burn), duration_s=float(half.time[-1]))
     assert full.n_undefined == 0 and full.undefined_words == "" and "undefined" not in str(full)
+
+
+def test_the_fraction_rule_is_relative_to_the_healthy_recordings(acf):
+    """A review (2026-11-27): with a fixed half, a feature undefined in most healthy windows
+    (ccf u,x while an encoder holds its count) refused the detector's own healthy recordings.
+    The limit is ``max(1/2, (1 + healthy share) / 2)``: at least half as many defined windows
+    as the healthy recordings had."""
+    import copy
+
+    from leakdiag.detect.base import undefined_limit
+
+    assert acf.nan_fraction_healthy_ == 0.0  # pressure features: never undefined when healthy
+    assert undefined_limit(0.0) == 0.5 and undefined_limit(0.64) == pytest.approx(0.82)
+    often = copy.deepcopy(acf)
+    often.nan_fraction_healthy_ = 0.64
+    burn = int(np.ceil(acf.alarm.burn_in_s / 0.19))
+    # undefined in short spans, about as often as in the healthy recordings: judged
+    z = np.array([0.1, np.nan, np.nan, 0.0, np.nan, np.nan, 0.2, np.nan, np.nan, 0.0, np.nan,
+                  np.nan, -0.1, np.nan, np.nan])  # 10 of 15 undefined: 67 % < 82 %
+    series = _series(acf, z, burn)
+    v = often.predict_series(series, duration_s=float(series.time[-1]) + 0.01)
+    assert not v.leak and (v.n_windows, v.n_undefined) == (15, 10)
+    with pytest.raises(RecordingError, match=r"undefined in 10 of the 15 windows judged \(more "
+                                             r"than 50%;"):
+        acf.predict_series(series, duration_s=float(series.time[-1]) + 0.01)
+    # 13 of 15 (87 %): refused under either
+    z13 = np.r_[0.1, 0.2, np.full(13, np.nan)]
+    s13 = _series(acf, z13, burn)
+    with pytest.raises(RecordingError, match=r"undefined in 13 of the 15 windows judged \(more "
+                                             r"than 82%, the healthy recordings had at most "
+                                             r"64%;"):
+        often.predict_series(s13, duration_s=float(s13.time[-1]) + 0.01)

@@ -66,3 +66,25 @@ def test_every_window_applies_the_fraction_rule_of_predict():
     partial = BlindSpans(0.0, step_s=0.2)
     partial.add_block(t[2:], v[2:])
     assert partial.rule is None and not partial.blind
+
+
+def test_the_fraction_rule_follows_the_healthy_share_as_predict_does():
+    """The same limit as ``Detector.predict`` (``undefined_limit``): 10 of 15 windows undefined
+    in short spans refuse NO LEAK against healthy recordings that had none, not against ones
+    that had 64 % (a review, 2026-11-27)."""
+    import numpy as np
+
+    from leakdiag.stream.blind import BlindSpans
+
+    v = np.array([0.1, np.nan, np.nan, 0.0, np.nan, np.nan, 0.2, np.nan, np.nan, 0.0, np.nan,
+                  np.nan, -0.1, np.nan, np.nan])
+    t = np.arange(15) * 0.2
+    for fraction, blind in ((0.0, True), (0.64, False)):
+        b = BlindSpans(0.0, 0.2, every_window=True, healthy_fraction=fraction)
+        for ti, vi in zip(t, v):
+            b.add(float(ti), float(vi))
+        assert (b.judged, b.undefined, b.blind) == (15, 10, blind)
+    b = BlindSpans(0.0, 0.2, every_window=True, healthy_fraction=0.64)
+    b.add_block(t, np.r_[0.1, 0.2, np.full(13, np.nan)])
+    assert b.rule == "fraction" and "(more than 82%, the healthy recordings had at most 64%;" \
+        in b.words("s.csv", "acf p1")

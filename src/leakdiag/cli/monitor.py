@@ -394,7 +394,8 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     # every judged window counted (every_window): NO LEAK is refused as Detector.predict
     # refuses it, over a long undefined span or more than half of the windows undefined
     blind = (BlindSpans(healthy_span, window_step(spec.window, spec.overlap)
-                        / source.sample_rate, every_window=True)
+                        / source.sample_rate, every_window=True,
+                        healthy_fraction=getattr(detector, "nan_fraction_healthy_", 0.0))
              if healthy_span is not None else None)
     live = {**live, "system": source.meta.get("system") or getattr(meta, "system", None)}
     hooks = stopped = None  # stopped: the Stopped of a SIGINT or SIGTERM

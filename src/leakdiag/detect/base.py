@@ -543,6 +543,12 @@ class Detector(BaseEstimator):
         # stuck sensor) makes windows NaN and the CUSUM holds across them (docs/detect.md,
         # section 2, "Blind spans")
         self.nan_span_healthy_s_ = max(longest_nan_run(s[0], s[1])[2] for s in series)
+        # ... and the largest share of undefined windows in a healthy recording, which sets the
+        # share a judged run may have (undefined_limit: a feature undefined in most healthy
+        # windows, ccf u,x while an encoder holds its count, is not a stuck sensor)
+        self.nan_fraction_healthy_ = max(
+            float(np.mean(~np.isfinite(np.asarray(s[1], dtype=np.float64)))) if len(s[1])
+            else 0.0 for s in series)
         return self
 
     def segment_maxima(self, recordings) -> np.ndarray:
@@ -786,7 +792,8 @@ class Detector(BaseEstimator):
             return
         n, i, span = longest_nan_run(tr.time, tr.z)
         n_undefined = int((~np.isfinite(tr.z)).sum())
-        rule = blind_rule(healthy, len(tr.z), n_undefined, span)
+        fraction = float(getattr(self, "nan_fraction_healthy_", 0.0))  # 0: fitted before it
+        rule = blind_rule(healthy, len(tr.z), n_undefined, span, fraction)
         if rule is None:
             return
         t0, t1 = float(tr.start[i]), float(tr.time[i + n - 1])
@@ -801,8 +808,9 @@ class Detector(BaseEstimator):
                 f"({counted})")
         raise RecordingError(
             f"predict: {source}: the feature {tr.name!r} is undefined in {n_undefined} of the "
-            f"{len(tr.z)} windows judged (more than {MAX_UNDEFINED_FRACTION:.0%}; the longest "
-            f"span {n} windows from "
+            f"{len(tr.z)} windows judged (more than {undefined_limit(fraction):.0%}"
+            + (f", the healthy recordings had at most {fraction:.0%}" if fraction > 0 else "")
+            + f"; the longest span {n} windows from "
             f"{t0:.6g} to {t1:.6g} s: a channel it reads is constant there, a stuck sensor?), "
             f"so no NO LEAK can rest on the {len(tr.z) - n_undefined} defined window(s)")
 
@@ -856,11 +864,26 @@ NAN_SPAN_FLOOR_S = 10.0
 MAX_UNDEFINED_FRACTION = 0.5
 
 
+def undefined_limit(healthy_fraction: float = 0.0) -> float:
+    """The largest share of undefined judged windows a NO LEAK may rest on:
+    ``max(MAX_UNDEFINED_FRACTION, (1 + healthy_fraction) / 2)``, i.e. at least half as many
+    defined windows as the healthy recordings had (a review, 2026-11-27: with a fixed half, a
+    feature undefined in most healthy windows, ccf u,x while an encoder holds its count, refused
+    the detector's own healthy recordings, 310 of 578 windows undefined).
+
+    Examples
+    --------
+    >>> undefined_limit(0.0), undefined_limit(0.6)
+    (0.5, 0.8)
+    """
+    return max(MAX_UNDEFINED_FRACTION, (1.0 + float(healthy_fraction)) / 2.0)
+
+
 def blind_rule(healthy_span_s: float, n_windows: int, n_undefined: int,
-               longest_span_s: float) -> str | None:
+               longest_span_s: float, healthy_fraction: float = 0.0) -> str | None:
     """Which rule, if any, refuses a NO LEAK over undefined feature windows: ``"span"`` (the
     longest undefined span is longer than :func:`blind_limit_s`), ``"fraction"`` (more than
-    :data:`MAX_UNDEFINED_FRACTION` of the ``n_windows`` judged windows are undefined), or None.
+    :func:`undefined_limit` of the ``n_windows`` judged windows are undefined), or None.
 
     The one rule of ``detect``, ``batch`` (:meth:`Detector.predict`,
     :meth:`Detector.predict_series`) and ``monitor`` (:class:`leakdiag.stream.BlindSpans`).
@@ -873,6 +896,9 @@ def blind_rule(healthy_span_s: float, n_windows: int, n_undefined: int,
         Windows judged (after the burn-in), and of them undefined (non-finite) ones.
     longest_span_s : float
         Longest run of consecutive undefined windows, s (:func:`longest_nan_run`).
+    healthy_fraction : float, default 0.0
+        Largest share of undefined windows in a healthy recording (``nan_fraction_healthy_``;
+        0 for detectors fitted before it).
 
     Returns
     -------
@@ -882,10 +908,11 @@ def blind_rule(healthy_span_s: float, n_windows: int, n_undefined: int,
     --------
     >>> blind_rule(0.0, 15, 13, 2.6), blind_rule(0.0, 15, 7, 1.4), blind_rule(0.0, 400, 60, 12.0)
     ('fraction', None, 'span')
+    >>> blind_rule(6.9, 578, 310, 6.9, healthy_fraction=0.64)  # as often as healthy: judged
     """
     if longest_span_s > blind_limit_s(healthy_span_s):
         return "span"
-    if n_undefined > MAX_UNDEFINED_FRACTION * n_windows:
+    if n_undefined > undefined_limit(healthy_fraction) * n_windows:
         return "fraction"
     return None
 

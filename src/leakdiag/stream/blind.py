@@ -78,13 +78,17 @@ class BlindSpans:
     (False, True, 15, 13)
     """
 
-    def __init__(self, healthy_span_s: float, step_s: float, every_window: bool = False):
+    def __init__(self, healthy_span_s: float, step_s: float, every_window: bool = False,
+                 healthy_fraction: float = 0.0):
         from leakdiag.detect.base import blind_limit_s
 
         self.healthy_span_s = float(healthy_span_s)
         self.step_s = float(step_s)
         self.limit_s = blind_limit_s(self.healthy_span_s)
         self.every_window = bool(every_window)
+        #: Largest share of undefined windows in a healthy recording (the fraction rule's
+        #: reference, :func:`~leakdiag.detect.base.undefined_limit`).
+        self.healthy_fraction = float(healthy_fraction)
         self.windows, self.since = 0, math.nan
         self.longest = (0, math.nan, math.nan)
         self.ended: deque = deque(maxlen=MAX_ENDED)
@@ -177,7 +181,7 @@ class BlindSpans:
         if not self.every_window:
             return None
         return blind_rule(self.healthy_span_s, self.judged, self.undefined,
-                          self.longest[0] * self.step_s)
+                          self.longest[0] * self.step_s, self.healthy_fraction)
 
     @property
     def blind(self) -> bool:
@@ -199,8 +203,13 @@ class BlindSpans:
         """
         n, t0, t1 = self.longest
         if self.rule == "fraction":
+            from leakdiag.detect.base import undefined_limit
+
+            limit = undefined_limit(self.healthy_fraction)
+            more = ("more than half" if limit == 0.5 else f"more than {limit:.0%}, the healthy "
+                    f"recordings had at most {self.healthy_fraction:.0%}")
             return (f"{source}: the feature {label!r} was undefined in {self.undefined} of the "
-                    f"{self.judged} windows judged (more than half; the longest span {n} windows "
+                    f"{self.judged} windows judged ({more}; the longest span {n} windows "
                     f"from {t0:.6g} to {t1:.6g} s: a channel it reads is constant there, a "
                     f"stuck sensor?), so the absence of an alarm rules nothing out: it rests on "
                     f"{self.judged - self.undefined} defined window(s)")
