@@ -14,9 +14,11 @@ _DEFAULT_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 
 
 def _row(m, det, rec, n_healthy):
+    from leakdiag.detect.base import refuse_own_healthy
     from leakdiag.io.errors import RecordingError
 
     try:
+        refuse_own_healthy(det, rec, "detect")  # a file the detector was fitted on
         v = det.predict(rec)
     except RecordingError as exc:  # too short, units, a stuck channel: this method cannot judge
         return {"method": m, "error": in_cli_words(str(exc))}

@@ -484,7 +484,8 @@ class Detector(BaseEstimator):
         a = self._alarm()
         t, _, v, fs = self._series(recording)
         return (t, v, recording.start_time + a.burn_in_s, fs.name,
-                max(0.0, recording.duration - a.burn_in_s), healthy_info(recording))
+                max(0.0, recording.duration - a.burn_in_s),
+                {**healthy_info(recording), "fingerprint": fingerprint(recording)})
 
     def _fit_from_parts(self, parts: list, reference_maxima=None) -> "Detector":
         """The rest of :meth:`fit`, from :meth:`_fit_part` of every healthy recording."""
@@ -543,6 +544,9 @@ class Detector(BaseEstimator):
         # stuck sensor) makes windows NaN and the CUSUM holds across them (docs/detect.md,
         # section 2, "Blind spans")
         self.nan_span_healthy_s_ = max(longest_nan_run(s[0], s[1])[2] for s in series)
+        # the healthy recordings, so that none of them is judged against this threshold
+        self.healthy_fingerprints_ = frozenset(i["fingerprint"] for i in infos
+                                               if "fingerprint" in i)
         # ... and the largest share of undefined windows in a healthy recording, which sets the
         # share a judged run may have (undefined_limit: a feature undefined in most healthy
         # windows, ccf u,x while an encoder holds its count, is not a stuck sensor)
@@ -993,6 +997,57 @@ def meta_leak_lpm(meta) -> float | None:
     except (TypeError, ValueError):
         return None
     return q if math.isfinite(q) else None
+
+
+def fingerprint(recording) -> str:
+    """A cheap fingerprint of a recording's samples: its channel names, length, rate and about
+    4,096 evenly spaced samples of each channel (a few microseconds, where a digest of every
+    sample costs half a ``predict``). Equal for the same file read twice; not a defence against
+    a file built to collide. Used to refuse judging a recording with a detector fitted on it
+    (:meth:`Detector.fit`'s ``healthy_fingerprints_``).
+
+    Examples
+    --------
+    >>> from leakdiag.io import Recording
+    >>> a = Recording({"p1": np.arange(10.0)}, 1.0)
+    >>> fingerprint(a) == fingerprint(Recording({"p1": np.arange(10.0)}, 1.0))
+    True
+    >>> fingerprint(a) == fingerprint(Recording({"p1": np.arange(10.0) + 1}, 1.0))
+    False
+    """
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=16)
+    n = int(recording.n_samples)
+    h.update(f"{n} {float(recording.sample_rate)!r}".encode())
+    step = max(1, n // 4096)
+    for name in sorted(recording.channels):
+        h.update(name.encode())
+        h.update(np.ascontiguousarray(np.asarray(recording[name])[::step],
+                                      dtype=np.float64).tobytes())
+    return h.hexdigest()
+
+
+def refuse_own_healthy(det, recording, where: str) -> None:
+    """Refuse to judge a recording that is one of the healthy recordings ``det`` was fitted on
+    (its threshold set by that very recording: compared with itself a leak reads NO LEAK; a
+    review, 2026-11-27, of the ``--healthy`` refusal, which a detector file got around).
+    ``leakdiag detect`` calls it; ``predict`` and ``score`` do not (in Python, scoring the fit
+    runs is a legitimate in-sample look), nor do ``batch`` and ``monitor``, which read a file
+    in chunks.
+
+    Raises
+    ------
+    leakdiag.io.RecordingError
+        Naming the recording.
+    """
+    own = getattr(det, "healthy_fingerprints_", None)  # None: fitted before 2026-11-27
+    if own and fingerprint(recording) in own:
+        raise RecordingError(
+            f"{where}: {recording.meta.get('source', '<recording>')}: holds the same samples as "
+            f"one of the {len(own)} healthy recordings this {type(det).__name__} was fitted on: "
+            "judged against a threshold it set itself, a leak reads NO LEAK; judge recordings "
+            "other than the healthy ones (or fit without this one)")
 
 
 def healthy_info(recording, channels=None) -> dict:

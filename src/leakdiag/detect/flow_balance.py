@@ -40,7 +40,7 @@ from leakdiag.detect._flow_balance_search import (
     glr_profile,
 )
 from leakdiag.detect._rig_units import check_rig_units
-from leakdiag.detect.base import Detector, Verdict, check_healthy, healthy_info
+from leakdiag.detect.base import Detector, Verdict, check_healthy, fingerprint, healthy_info
 from leakdiag.detect.threshold import (
     SEGMENT_TOLERANCE,
     InsufficientHealthyDataError,
@@ -794,6 +794,8 @@ class FlowBalanceDetector(Detector):
                     "untested, it would add GLR maxima of 0 to the level")
             self._check_constant(r, "fit", name)
         check_healthy([healthy_info(r, chans) for r in recs])
+        # so that none of them is judged against this threshold (refuse_own_healthy)
+        self.healthy_fingerprints_ = frozenset(fingerprint(r) for r in recs)
 
     def _check_target(self, recs: list) -> float:
         """The segment (s) of the level; refuses a target of one false alarm or more per
