@@ -22,7 +22,7 @@ calibration's, so the calibrations, not the recordings, are the independent samp
 1.96 standard errors of the per-calibration rates).
 
 Not collected by pytest (no ``test_`` prefix). ``python perf/restart_false_alarms.py [R [M]]``
-(default 200 calibrations x 100 recordings, about 1.5 min per ``phi`` on one core; the seeds
+(default 200 calibrations x 100 recordings, 10-15 s per ``phi`` on one core; the seeds
 are fixed, so a rerun prints the same numbers).
 """
 

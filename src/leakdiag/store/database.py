@@ -20,7 +20,7 @@ from dataclasses import asdict, fields
 from datetime import datetime, timezone
 from typing import Any, Callable
 
-from sqlalchemy import create_engine, event, func, insert, select, update
+from sqlalchemy import and_, case, create_engine, event, func, insert, select, update
 from sqlalchemy.engine import Engine
 from sqlalchemy.exc import DatabaseError, OperationalError
 
@@ -786,8 +786,15 @@ class EventStore:
         act = self._frame(select(S.actuators))
         # whether a run scored a window: a chunk with a score (the run_id/seq index finds a
         # judging monitor's first scored chunk right after its burn-in)
-        scored = select(cs.id).where((cs.run_id == r_.id) & cs.score_max.isnot(None)) \
-            .exists().label("scored")
+        # ... asked only of monitor runs that had a detector (_judgment's only use of it): on
+        # a monitor without one (start_run's config '"detector": false', json.dumps) it walks
+        # all its chunks, none scored (a review, 2026-11-27: 20 such runs of 100,000 chunks
+        # doubled the page's query time)
+        with_detector = and_(r_.command == "monitor", r_.config.isnot(None),
+                             ~r_.config.contains('"detector": false'))
+        scored = case((with_detector | ((r_.command == "monitor") & r_.config.is_(None)),
+                       select(cs.id).where((cs.run_id == r_.id) & cs.score_max.isnot(None))
+                       .exists()), else_=False).label("scored")
         runs = self._frame(select(*self._run_columns(), scored))
         # each run's last chunk: its row with seq = n_chunks - 1 (the unique run/seq index)
         last_chunk = self._frame(select(cs.run_id, cs.recorded_at).join(
