@@ -150,6 +150,10 @@ def rounds(interval: float, q: float, tol: float = 1e-3) -> bool:
         interval's own error in units of ``q`` (``2 / (n - 1)`` for the span of ``n`` times
         printed at ``q``).
 
+    Returns
+    -------
+    bool
+
     Examples
     --------
     >>> rounds(1 / 3000, 1e-6), rounds(0.005, 1e-3), rounds(0.005001, 1e-3, 0.002)
