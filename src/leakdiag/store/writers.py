@@ -249,11 +249,9 @@ def default_actuator(store: EventStore, source: str) -> str:
                          "standard input would otherwise be one actuator 'stdin'")
     here = Path(source).resolve()
     name = here.stem
-    try:
-        runs = store.runs_of(name)
-    except StoreError:  # not in the store yet
+    if name not in store.actuator_names():  # a new actuator (any other store error raises)
         return name
-    for other in runs["source"].dropna():
+    for other in store.runs_of(name)["source"].dropna():
         o = Path(str(other))
         # compared resolved (a folder reached through a symbolic link is the same folder)
         if o.is_absolute() and o.resolve().parent != here.parent:
