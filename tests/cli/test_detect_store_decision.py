@@ -2,18 +2,8 @@
 store that refuses the run (an actuator of another rig) cannot swallow it (store audit
 2026-11-27, finding 10: the table was printed, then the error, and no Decision line)."""
 
-from click.testing import CliRunner
 
-from leakdiag.cli.main import main
-
-
-def _run(args):
-    with CliRunner().isolation() as (out, err, _):
-        code = main(args)
-        return code, out.getvalue().decode(), err.getvalue().decode()
-
-
-def test_a_store_that_refuses_the_run_keeps_the_decision(tmp_path):
+def test_a_store_that_refuses_the_run_keeps_the_decision(run_cli, tmp_path):
     from leakdiag.io import write_recording
     from leakdiag.sim import simulate_vca
     from leakdiag.store import EventStore
@@ -31,11 +21,11 @@ def test_a_store_that_refuses_the_run_keeps_the_decision(tmp_path):
     args = ["detect", leak, *[a for h in healthy for a in ("--healthy", h)], "--methods",
             "ccf-p1p2", "--false-alarm-rate", "0.5", "--no-progress", "--store", str(db),
             "--actuator", "rig1"]
-    code, out, err = _run(args)
+    code, out, err = run_cli(args)
     assert code == 2
     assert "actuator 'rig1' is a" in err and "give it another name" in err, err
     assert "Decision: LEAK" in out, out  # printed before the store refused the run
     # under another name the same run is stored after the same decision
-    code, out, err = _run(args[:-1] + ["rig2"])
+    code, out, err = run_cli(args[:-1] + ["rig2"])
     assert code == 0, err
     assert out.index("Decision: LEAK") < out.index("alarm(s) for rig2 written to")

@@ -5,36 +5,38 @@ recordings, 2026-11-27, finding 2: the monitor counted only spans)."""
 import dataclasses
 
 import numpy as np
-from click.testing import CliRunner
-
-from leakdiag.cli.main import main
+import pytest
 
 
-def _run(args):
-    with CliRunner().isolation() as (out, err, _):
-        code = main(args)
-        return code, out.getvalue().decode(), err.getvalue().decode()
-
-
-def test_monitor_and_detect_refuse_no_leak_on_mostly_undefined_windows(tmp_path):
+@pytest.fixture(scope="module")
+def det(run_cli, tmp_path_factory):
+    """acf-p1 fitted on 3 healthy 20-s runs (its healthy recordings: no undefined window)."""
     from leakdiag.io import write_recording
     from leakdiag.sim import simulate_vca
 
+    d = tmp_path_factory.mktemp("blind")
     healthy = [str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, seed=70 + s,
                                                 reference_seed=170 + s),
-                                   tmp_path / f"h{s}.parquet")) for s in range(3)]
-    det = tmp_path / "d.joblib"
-    code, _, err = _run(["fit", *[a for h in healthy for a in ("--healthy", h)], "-m", "acf-p1",
-                         "--false-alarm-rate", "100", "-o", str(det)])
+                                   d / f"h{s}.parquet")) for s in range(3)]
+    det = d / "d.joblib"
+    code, _, err = run_cli(["fit", *[a for h in healthy for a in ("--healthy", h)], "-m", "acf-p1",
+                            "--false-alarm-rate", "100", "-o", str(det)])
     assert code == 0, err
+    return det
+
+
+def test_monitor_and_detect_refuse_no_leak_on_mostly_undefined_windows(run_cli, det, tmp_path):
+    from leakdiag.io import write_recording
+    from leakdiag.sim import simulate_vca
+
     rec = simulate_vca(duration=16.0, leak_lpm=None, seed=80, reference_seed=180)
     p1 = np.array(rec["p1"])
     p1[7000:] = p1[7000]  # stuck 7-16 s: 9 s, under the 10-s span limit; most windows after
     path = write_recording(dataclasses.replace(rec, channels={**rec.channels, "p1": p1}),
                            tmp_path / "stuck.parquet")  # the 5-s burn-in undefined
-    code, out, err = _run(["detect", str(path), "--detector", str(det), "--no-progress"])
+    code, out, err = run_cli(["detect", str(path), "--detector", str(det), "--no-progress"])
     assert code == 2 and "windows judged (more than 50%" in err, (out, err)
-    code, out, err = _run(["monitor", "--input", str(path), "--detector", str(det)])
+    code, out, err = run_cli(["monitor", "--input", str(path), "--detector", str(det)])
     assert code == 0, err
     warn = [ln for ln in err.splitlines() if ln.startswith("leakdiag: warning:")]
     assert len(warn) == 1 and "windows judged (more than half; the longest span" in warn[0] \
@@ -42,11 +44,11 @@ def test_monitor_and_detect_refuse_no_leak_on_mostly_undefined_windows(tmp_path)
     assert "BLIND   t=" not in err  # no span beyond the limit: no BLIND line while it ran
     # the same file without the stuck sensor: no warning
     clean = write_recording(rec, tmp_path / "clean.parquet")
-    code, out, err = _run(["monitor", "--input", str(clean), "--detector", str(det)])
+    code, out, err = run_cli(["monitor", "--input", str(clean), "--detector", str(det)])
     assert code == 0 and "warning" not in err, err
 
 
-def test_a_monitor_that_alarmed_before_going_blind_is_stored_as_judged(tmp_path):
+def test_a_monitor_that_alarmed_before_going_blind_is_stored_as_judged(run_cli, det, tmp_path):
     """A review (2026-11-27): a run that raised an alarm and then went blind was stored
     'unjudged' with "the absence of an alarm rules nothing out", while detect stored the same
     file as a finished LEAK. An alarm on the windows looked at judged the run."""
@@ -54,24 +56,17 @@ def test_a_monitor_that_alarmed_before_going_blind_is_stored_as_judged(tmp_path)
     from leakdiag.sim import simulate_vca
     from leakdiag.store import EventStore
 
-    healthy = [str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, seed=70 + s,
-                                                reference_seed=170 + s),
-                                   tmp_path / f"h{s}.parquet")) for s in range(3)]
-    det = tmp_path / "d.joblib"
-    code, _, err = _run(["fit", *[a for h in healthy for a in ("--healthy", h)], "-m", "acf-p1",
-                         "--false-alarm-rate", "100", "-o", str(det)])
-    assert code == 0, err
     rec = simulate_vca(duration=16.0, leak_lpm=1.0, onset=6.0, seed=82, reference_seed=182)
     p1 = np.array(rec["p1"])
     p1[9000:] = p1[9000]  # stuck from 9 s, after the alarm
     path = write_recording(dataclasses.replace(rec, channels={**rec.channels, "p1": p1}),
                            tmp_path / "ba.parquet")
     db = tmp_path / "ev.db"
-    code, out, err = _run(["detect", str(path), "--detector", str(det), "--no-progress",
-                           "--store", str(db), "--actuator", "viaDetect"])
+    code, out, err = run_cli(["detect", str(path), "--detector", str(det), "--no-progress",
+                              "--store", str(db), "--actuator", "viaDetect"])
     assert code == 0 and "Decision: LEAK" in out, err
-    code, out, err = _run(["monitor", "--input", str(path), "--detector", str(det), "--store",
-                           str(db), "--actuator", "viaMonitor"])
+    code, out, err = run_cli(["monitor", "--input", str(path), "--detector", str(det), "--store",
+                              str(db), "--actuator", "viaMonitor"])
     assert code == 0 and "ALARM   t=" in out, (out, err)
     st = EventStore(db)
     for name in ("viaDetect", "viaMonitor"):

@@ -6,17 +6,9 @@ batch judged it). Through the CLI entry point."""
 import numpy as np
 import pandas as pd
 import pytest
-from click.testing import CliRunner
 
-from leakdiag.cli.main import main
 
 REFUSED = "channel 'p1' is in 'Pa', but {det} was fitted on 'counts'"
-
-
-def _run(args, stdin=None):
-    with CliRunner().isolation(input=stdin) as (out, err, _):
-        code = main(args)
-        return code, out.getvalue().decode(), err.getvalue().decode()
 
 
 def _csv(path, seed, level=5000.0, scale=50.0):
@@ -30,37 +22,38 @@ def _csv(path, seed, level=5000.0, scale=50.0):
 
 
 @pytest.fixture(scope="module")
-def counts_detector(tmp_path_factory):
+def counts_detector(run_cli, tmp_path_factory):
     d = tmp_path_factory.mktemp("units")
     healthy = [_csv(d / f"h{s}.csv", s) for s in range(8)]
     det = str(d / "counts.joblib")
-    code, out, err = _run(["fit", *[a for h in healthy for a in ("--healthy", h)],
-                           "--col", "p1=p1:counts", "--col", "p2=p2:counts", "-m", "acf-p1",
-                           "--system", "vca", "--burn-in", "0", "--false-alarm-rate", "1000",
-                           "-o", det])
+    code, out, err = run_cli(["fit", *[a for h in healthy for a in ("--healthy", h)],
+                              "--col", "p1=p1:counts", "--col", "p2=p2:counts", "-m", "acf-p1",
+                              "--system", "vca", "--burn-in", "0", "--false-alarm-rate", "1000",
+                              "-o", det])
     assert code == 0, err
     return d, det, _csv(d / "judged.csv", 99, level=1e7, scale=1e5)
 
 
-def test_detect_monitor_and_batch_refuse_a_plain_csv_against_a_counts_detector(counts_detector):
+def test_detect_monitor_and_batch_refuse_a_plain_csv_against_a_counts_detector(run_cli,
+                                                                              counts_detector):
     d, det, judged = counts_detector
     message = REFUSED.format(det=det)
-    code, out, err = _run(["detect", judged, "--detector", det, "--no-progress"])
+    code, out, err = run_cli(["detect", judged, "--detector", det, "--no-progress"])
     assert code != 0 and f"{judged}: {message}" in err, err
-    code, out, err = _run(["monitor", judged, "--detector", det])
+    code, out, err = run_cli(["monitor", judged, "--detector", det])
     assert code != 0 and f"{judged}: {message}" in err, err
     with open(judged) as fh:
-        code, out, err = _run(["monitor", "-", "--detector", det], stdin=fh.read())
+        code, out, err = run_cli(["monitor", "-", "--detector", det], stdin=fh.read())
     assert code != 0 and f"<stdin>: {message}" in err, err
     job = d / "job.toml"
     job.write_text(f'[[detector]]\npath = "{det}"\n')
     res = d / "res.parquet"
-    code, out, err = _run(["batch", judged, "--config", str(job), "-o", str(res),
-                           "--scheduler", "serial"])
+    code, out, err = run_cli(["batch", judged, "--config", str(job), "-o", str(res),
+                              "--scheduler", "serial"])
     rows = pd.read_parquet(res)
     assert rows["status"].tolist() == ["error"], rows
     assert rows["error"].iloc[0].endswith(message), rows["error"].iloc[0]
     # with the map that says counts, every command judges it
-    code, out, err = _run(["monitor", judged, "--detector", det, "--col", "p1=p1:counts",
-                           "--col", "p2=p2:counts"])
+    code, out, err = run_cli(["monitor", judged, "--detector", det, "--col", "p1=p1:counts",
+                              "--col", "p2=p2:counts"])
     assert code == 0, err

@@ -7,16 +7,8 @@ compared (audit of users' recordings, 2026-11-27, finding 6: sub-microsecond jit
 import numpy as np
 import pandas as pd
 import pytest
-from click.testing import CliRunner
 
-from leakdiag.cli.main import main
 from leakdiag.io.checks import SAME_RATE_RTOL, infer_sample_rate, same_rate
-
-
-def _run(args, stdin=None):
-    with CliRunner().isolation(input=stdin) as (out, err, _):
-        code = main(args)
-        return code, out.getvalue().decode(), err.getvalue().decode()
 
 
 def _csv(rec, path, jitter_s=0.0, seed=0, rate=1000.0):
@@ -47,26 +39,26 @@ def test_jittered_rates_are_one_rate_but_other_rates_are_not(files):
     assert not same_rate(1002.0, 1000.0)
 
 
-def test_fit_detect_and_monitor_take_jittered_timestamps(files, tmp_path):
+def test_fit_detect_and_monitor_take_jittered_timestamps(run_cli, files, tmp_path):
     h = [a for p in files["jittered"] for a in ("--healthy", p)]
     det = tmp_path / "j.joblib"
-    code, out, err = _run(["fit", *h, "-m", "acf-p1", "--system", "vca", "--false-alarm-rate",
-                           "100", "-o", str(det)])
+    code, out, err = run_cli(["fit", *h, "-m", "acf-p1", "--system", "vca", "--false-alarm-rate",
+                              "100", "-o", str(det)])
     assert code == 0, err  # was: "sample rate 1000 Hz differs from ... 1000 Hz"
-    code, out, err = _run(["fit", *[a for p in files["exact"] for a in ("--healthy", p)], "-m",
-                           "acf-p1", "--system", "vca", "--false-alarm-rate", "100", "-o",
-                           str(tmp_path / "e.joblib")])
+    code, out, err = run_cli(["fit", *[a for p in files["exact"] for a in ("--healthy", p)], "-m",
+                              "acf-p1", "--system", "vca", "--false-alarm-rate", "100", "-o",
+                              str(tmp_path / "e.joblib")])
     assert code == 0, err
     for d in (det, tmp_path / "e.joblib"):  # a detector of exact or jittered files, alike
-        code, out, err = _run(["detect", files["judged"], "--detector", str(d),
-                               "--no-progress"])
+        code, out, err = run_cli(["detect", files["judged"], "--detector", str(d),
+                                  "--no-progress"])
         assert code == 0 and "Decision:" in out, err
-        code, out, err = _run(["monitor", "--input", files["judged"], "--detector", str(d)])
+        code, out, err = run_cli(["monitor", "--input", files["judged"], "--detector", str(d)])
         assert code == 0, err
-    code, out, err = _run(["analyze", files["judged"], "--healthy", files["jittered"][0],
-                           "-m", "autocorrelation", "-c", "p1"])
+    code, out, err = run_cli(["analyze", files["judged"], "--healthy", files["jittered"][0],
+                              "-m", "autocorrelation", "-c", "p1"])
     assert code == 0, err
     # a rate 0.2 % off is another rate: refused by name
-    code, out, err = _run(["detect", files["other_rate"], "--detector", str(det),
-                           "--no-progress"])
+    code, out, err = run_cli(["detect", files["other_rate"], "--detector", str(det),
+                              "--no-progress"])
     assert code == 2 and "sample rate 1002 Hz, but" in err and "fitted at 1000 Hz" in err, err
