@@ -1,4 +1,5 @@
-"""Shared test fixtures: the location of the team's shared folder (thesis, real data)."""
+"""Shared test fixtures: the location of the team's shared folder (thesis, real data), and the
+CLI run through its entry point."""
 
 from pathlib import Path
 
@@ -14,3 +15,21 @@ def shared_dir() -> Path:
     if not SHARED.is_dir():
         pytest.skip(f"shared folder not found at {SHARED}")
     return SHARED
+
+
+def _run_cli(args, stdin=None):
+    """Exit code, stdout and stderr of ``leakdiag ARGS`` through the entry point (``stdin``:
+    text on standard input)."""
+    from click.testing import CliRunner
+
+    from leakdiag.cli.main import main
+
+    with CliRunner().isolation(input=stdin) as (out, err, _):
+        code = main(args)
+        return code, out.getvalue().decode(), err.getvalue().decode()
+
+
+@pytest.fixture(scope="session")
+def run_cli():
+    """``run_cli(args, stdin=None) -> (code, stdout, stderr)`` of ``leakdiag ARGS``."""
+    return _run_cli
