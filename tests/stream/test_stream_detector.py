@@ -1,9 +1,12 @@
 """DetectorScorer: a fitted leakdiag detector run online gives the same CUSUM as detector.score."""
 
+import itertools
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.signal import lfilter
 
 from leakdiag.features.spec import MethodSpec
@@ -148,3 +151,45 @@ def test_an_excursion_dropped_at_a_restart_does_not_date_the_onset():
                      sc.branches_)
     snap = board.snapshot("a")
     assert snap["state"] == "ALARM" and snap["onset_s"] == pytest.approx(restart_onset)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.one_of(st.floats(-6, 6), st.just(float("nan"))), min_size=1, max_size=80),
+       st.lists(st.integers(1, 9), min_size=1, max_size=20),
+       st.sampled_from([None, 3.0, 7.5]), st.sampled_from(["both", "up", "down"]),
+       st.sampled_from([0.0, 4.0]))
+def test_scores_in_any_chunks_equal_the_batch_segmented_cusum_bit_for_bit(
+        values, cuts, segment_s, direction, burn_in_s):
+    """The scorer carries S+, S- and the last segment from block to block in the CUSUM kernel
+    (detect.cusum._continued): however the windows are cut into blocks, its scores are the
+    batch segmented CUSUM's over the windows past the burn-in (restarts at the segment
+    boundaries unless above the threshold), exactly, and NaN within the burn-in."""
+    from leakdiag.detect.cusum import segmented_cusum
+    from leakdiag.detect.threshold import segment_index
+
+    det = SimpleNamespace(mean_=0.5, std_=2.0, threshold_=2.5,
+                          threshold_basis_=SimpleNamespace(segment_s=segment_s),
+                          alarm=SimpleNamespace(drift=0.5, direction=direction,
+                                                burn_in_s=burn_in_s))
+    v = np.asarray(values)
+    t = 1.0 + np.arange(len(v), dtype=float)  # window 2 at 1 Hz: first sample at t - 1
+    sc = DetectorScorer(det, window=2, sample_rate=1.0)
+    got, i = [], 0
+    for c in itertools.cycle(cuts):
+        if i >= len(v):
+            break
+        got.append(sc.score_windows(v[i:i + c], t[i:i + c]))
+        i += c
+    got = np.concatenate(got)
+    judged = t - 1.0 >= burn_in_s
+    assert np.isnan(got[~judged]).all()
+    seg = segment_index(t[judged], burn_in_s, segment_s) if segment_s else \
+        np.zeros(judged.sum(), int)
+    up, dn = segmented_cusum((v[judged] - 0.5) / 2.0, seg, 0.5, direction, keep_above=2.5)
+    assert got[judged].tolist() == np.maximum(up, dn).tolist()
+
+
+def test_an_unknown_alarm_direction_is_refused():
+    det = _fake(direction="sideways")
+    with pytest.raises(ValueError, match="direction 'sideways' must be one of"):
+        DetectorScorer(det, window=2, sample_rate=1.0)

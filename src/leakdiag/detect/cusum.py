@@ -7,6 +7,8 @@ statistics unchanged (documented in ``docs/detect.md``).
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -19,21 +21,23 @@ DIRECTIONS: dict[str, int] = {"up": 1, "down": -1, "both": 0}
 
 
 @numba.njit(cache=True)
-def _cusum(z, segment, drift, direction, keep_above, restart_at):  # pragma: no cover - compiled
-    # segment boundaries restart both statistics unless one is above keep_above; a statistic
-    # reaching restart_at counts an alarm and restarts both (cusum_alarm_count)
+def _cusum(z, segment, drift, direction, keep_above, restart_at, sp, sn,
+           prev):  # pragma: no cover - compiled
+    # from the statistics (sp, sn) after a window of segment ``prev`` (prev == segment[0]: no
+    # window before); segment boundaries restart both statistics unless one is above
+    # keep_above; a statistic reaching restart_at counts an alarm and restarts both
+    # (cusum_alarm_count)
     n = z.shape[0]
     s_up = np.empty(n)
     s_dn = np.empty(n)
     restarted = np.zeros(n, dtype=np.bool_)
-    sp = 0.0
-    sn = 0.0
     count = 0
     for i in range(n):
-        if i > 0 and segment[i] != segment[i - 1] and not (sp > keep_above or sn > keep_above):
+        if segment[i] != prev and not (sp > keep_above or sn > keep_above):
             restarted[i] = sp > 0.0 or sn > 0.0  # an excursion dropped here
             sp = 0.0
             sn = 0.0
+        prev = segment[i]
         v = z[i]
         if not np.isnan(v):
             if direction >= 0:
@@ -47,6 +51,37 @@ def _cusum(z, segment, drift, direction, keep_above, restart_at):  # pragma: no 
             sp = 0.0
             sn = 0.0
     return s_up, s_dn, count, restarted
+
+
+@numba.njit(cache=True)
+def _segments(time, t0, segment_s):  # pragma: no cover - compiled
+    # floor((time - t0) / segment_s), at least 0 (threshold.segment_index)
+    out = np.empty(time.shape[0], dtype=np.int64)
+    for i in range(time.shape[0]):
+        out[i] = max(0, int(math.floor((time[i] - t0) / segment_s)))
+    return out
+
+
+@numba.njit(cache=True)
+def _continued(z, time, t0, segment_s, drift, direction, keep_above,
+               state):  # pragma: no cover - compiled
+    # the segmented CUSUM of a block that follows the windows summed up by ``state``
+    # (S+, S-, segment of the last window; a segment < 0: no window yet), which it updates;
+    # segment_s <= 0: no restarts
+    n = z.shape[0]
+    if segment_s > 0.0:
+        seg = _segments(time, t0, segment_s)
+    else:
+        seg = np.zeros(n, dtype=np.int64)
+    if n == 0:
+        return np.empty(0), np.empty(0)
+    prev = seg[0] if state[2] < 0.0 else np.int64(state[2])
+    s_up, s_dn, _, _ = _cusum(z, seg, drift, direction, keep_above, np.inf, state[0], state[1],
+                              prev)
+    state[0] = s_up[n - 1]
+    state[1] = s_dn[n - 1]
+    state[2] = seg[n - 1]
+    return s_up, s_dn
 
 
 def _check(z, drift, direction):
@@ -99,7 +134,8 @@ def cusum(z, drift: float = 0.5, direction: str = "both") -> tuple[np.ndarray, n
     ([0.0, 1.5, 3.0, 1.5], [0.0, 0.0, 0.0, 0.5])
     """
     z, drift, code = _check(z, drift, direction)
-    s_up, s_dn, _, _ = _cusum(z, np.zeros(len(z), np.int64), drift, code, np.inf, np.inf)
+    s_up, s_dn, _, _ = _cusum(z, np.zeros(len(z), np.int64), drift, code, np.inf, np.inf,
+                              0.0, 0.0, 0)
     return s_up, s_dn
 
 
@@ -128,7 +164,8 @@ def cusum_alarm_count(z, threshold: float, drift: float = 0.5, direction: str = 
     2
     """
     z, drift, code = _check(z, drift, direction)
-    return int(_cusum(z, np.zeros(len(z), np.int64), drift, code, np.inf, float(threshold))[2])
+    return int(_cusum(z, np.zeros(len(z), np.int64), drift, code, np.inf, float(threshold),
+                      0.0, 0.0, 0)[2])
 
 
 def segmented_cusum(z, segment, drift: float = 0.5, direction: str = "both",
@@ -190,5 +227,6 @@ def segmented_cusum(z, segment, drift: float = 0.5, direction: str = "both",
     seg = np.ascontiguousarray(np.asarray(segment, dtype=np.int64))
     if seg.shape != z.shape:
         raise ValueError(f"segment has shape {seg.shape}, z {z.shape}")
-    s_up, s_dn, _, restarted = _cusum(z, seg, drift, code, float(keep_above), np.inf)
+    s_up, s_dn, _, restarted = _cusum(z, seg, drift, code, float(keep_above), np.inf, 0.0,
+                                      0.0, seg[0] if len(seg) else 0)
     return (s_up, s_dn, restarted) if return_restarts else (s_up, s_dn)

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from leakdiag._validation import check_positive
-from leakdiag.detect.cusum import segmented_cusum
+from leakdiag.detect.cusum import _segments, segmented_cusum
 from leakdiag.detect.rates import clopper_pearson
 
 __all__ = ["ThresholdBasis", "ReferenceMaxima", "InsufficientHealthyDataError",
@@ -355,8 +355,8 @@ def segment_index(time, t0: float, segment_s: float) -> np.ndarray:
     >>> segment_index([1.0, 2.0, 2.6, 4.9], 0.5, 2.0).tolist()
     [0, 0, 1, 2]
     """
-    idx = np.floor((np.asarray(time, dtype=np.float64) - t0) / segment_s).astype(np.int64)
-    return np.clip(idx, 0, None)
+    return _segments(np.ascontiguousarray(time, dtype=np.float64).reshape(-1), float(t0),
+                     float(segment_s))
 
 
 def binned_maxima(stat, time, segment_s: float, t0: float, span_s: float) -> np.ndarray:

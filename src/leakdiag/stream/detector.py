@@ -13,13 +13,13 @@ NaN features leave the statistics unchanged.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 
 from leakdiag._validation import check_positive
 from leakdiag.detect.base import Alarm
+from leakdiag.detect.cusum import DIRECTIONS, _continued
 from leakdiag.features.windowing import window_first_times
 
 __all__ = ["DetectorScorer", "as_scorer"]
@@ -42,7 +42,7 @@ class DetectorScorer:
     Raises
     ------
     ValueError
-        If the detector is not fitted.
+        If the detector is not fitted, or its alarm direction is unknown.
 
     Notes
     -----
@@ -75,14 +75,19 @@ class DetectorScorer:
         self._span = (int(window) - 1) / check_positive(sample_rate, "sample_rate")
         self._window, self._rate = int(window), float(sample_rate)
         self._start = float(start_time)
-        self._s_up = 0.0
-        self._s_down = 0.0
+        if self.direction not in DIRECTIONS:
+            raise ValueError(f"{type(detector).__name__}: alarm direction {self.direction!r} "
+                             f"must be one of {sorted(DIRECTIONS)}")
+        self._code = DIRECTIONS[self.direction]
+        # S+, S- and the segment of the last window scored (-1: none yet), carried from block to
+        # block by the CUSUM kernel (detect.cusum._continued)
+        self._state = np.array([0.0, 0.0, -1.0])
+        self._judging = False  # a window past the burn-in was scored: all later ones are
         # the CUSUM restarts at every healthy-segment boundary unless in alarm, as
         # Detector.predict's does (detect.cusum.segmented_cusum); None: no basis, no restarts
         seg = getattr(getattr(detector, "threshold_basis_", None), "segment_s", None)
         self._segment_s = float(seg) if seg is not None and np.isfinite(seg) and seg > 0 \
             else None
-        self._segment = None  # segment of the last window scored
         #: Segment length and origin of the restarts (s; None: no restarts), for the live page
         self.segment_s_, self.segment_origin_s_ = self._segment_s, self._burn_in_end
 
@@ -101,33 +106,26 @@ class DetectorScorer:
         numpy.ndarray
             Scores in healthy standard deviations, shape of ``values``.
         """
-        out = np.full(len(values), np.nan)
-        s_up, s_down = np.full(len(values), np.nan), np.full(len(values), np.nan)
-        up, down = self.direction in ("up", "both"), self.direction in ("down", "both")
-        h = self.threshold_
-        # each window's first sample on the sample grid, as Detector.predict places it
-        # (features.windowing.window_first_times): t - (N-1)/fs can land one rounding below
-        first = window_first_times(np.asarray(time, dtype=np.float64), self._window, self._rate,
-                                   self._start)
-        for i, (v, t) in enumerate(zip(values, time)):
-            if first[i] < self._burn_in_end:
-                continue
-            if self._segment_s is not None:
-                seg = max(0, math.floor((t - self._burn_in_end) / self._segment_s))
-                if self._segment is not None and seg != self._segment and \
-                        not (self._s_up > h or self._s_down > h):
-                    self._s_up = self._s_down = 0.0
-                self._segment = seg
-            z = (v - self.mean_) / self.std_
-            if not np.isnan(z):
-                if up:
-                    self._s_up = max(0.0, self._s_up + z - self.drift)
-                if down:
-                    self._s_down = max(0.0, self._s_down - z - self.drift)
-            out[i] = max(self._s_up, self._s_down)
-            s_up[i], s_down[i] = self._s_up, self._s_down
-        self.branches_ = (s_up, s_down)  # S+ and S- of the last block (live onset estimates)
-        return out
+        v = np.asarray(values, dtype=np.float64)
+        t = np.asarray(time, dtype=np.float64)
+        n = len(v)
+        if self._judging:  # past the burn-in (the usual case): every window is scored
+            k = 0
+        else:
+            # each window's first sample on the sample grid, as Detector.predict places it
+            # (features.windowing.window_first_times): t - (N-1)/fs can land one rounding below
+            first = window_first_times(t, self._window, self._rate, self._start)
+            k = int(np.count_nonzero(first < self._burn_in_end))  # times increase: a prefix
+            self._judging = k < n
+        z = (v[k:] - self.mean_) / self.std_
+        up, down = _continued(np.ascontiguousarray(z), np.ascontiguousarray(t[k:]),
+                              self._burn_in_end, self._segment_s or 0.0, self.drift,
+                              self._code, self.threshold_, self._state)
+        if k:
+            pad = np.full(k, np.nan)
+            up, down = np.concatenate((pad, up)), np.concatenate((pad, down))
+        self.branches_ = (up, down)  # S+ and S- of the last block (live onset estimates)
+        return np.maximum(up, down)
 
     def alarm_windows(self, scores: np.ndarray) -> np.ndarray:
         """Alarm where the score exceeds ``threshold_``, as ``Detector.predict`` (never within the
@@ -143,8 +141,7 @@ class DetectorScorer:
         numpy.ndarray
             Boolean, shape of ``scores``.
         """
-        s = np.asarray(scores, dtype=np.float64)
-        return np.where(np.isnan(s), False, s > self.threshold_)
+        return np.asarray(scores, dtype=np.float64) > self.threshold_  # NaN > h is False
 
 
 def as_scorer(obj: Any, spec: Any, sample_rate: float, start_time: float = 0.0) -> Any:
