@@ -95,7 +95,7 @@ class TimeAxis:
         """Tolerated deviation of an interval from ``dt`` (s): ``rtol`` of it plus the print
         resolution ``q`` when at most ``MAX_PRINT_RESOLUTION`` of an interval."""
         # (the rate comes from the first lines: its interval known to a few hundredths of q)
-        q = 0.0 if q is None or q > MAX_PRINT_RESOLUTION * self.dt or not rounds(
+        q = 0.0 if not q or q > MAX_PRINT_RESOLUTION * self.dt or not rounds(
             self.dt, q, 0.02) else q
         return self.rtol * self.dt + q * (1.0 + 1e-6)
 
@@ -155,8 +155,13 @@ class TimeAxis:
                                  f"{float(t[bad[0]])!r} is not finite")
         full = t if self.prev is None else np.concatenate(([self.prev], t))
         off = 0 if self.prev is None else 1  # full[i] is data row row0 + i - off
-        q = self.resolution if self.resolution is not None else print_resolution(full)
-        dev = np.flatnonzero(np.abs(np.diff(full) - self.dt) > self._allowance(q))
+        err = np.abs(np.diff(full) - self.dt)
+        # the allowance with the print resolution is never below the one without: the times'
+        # resolution is looked for only when an interval exceeds that (the usual block passes)
+        dev = np.flatnonzero(err > self._allowance(None))
+        if len(dev):
+            q = self.resolution if self.resolution is not None else print_resolution(full)
+            dev = np.flatnonzero(err > self._allowance(q))
         if len(dev):
             i = int(dev[0]) + 1
             raise self._error(float(full[i]), float(full[i - 1]), f"row {row0 + i - off}")
