@@ -253,6 +253,13 @@ def unjudged_reason(has_detector: bool, n_win: int, n_scored: int, blind, source
     return None
 
 
+def _hook_names(live: dict) -> str:
+    """What the hooks of a run are, for the summary: "store", "page" or "page and store"."""
+    names = [n for n, key in (("page", "dashboard_bind"), ("store", "store"))
+             if live.get(key) is not None]
+    return " and ".join(names) or "hooks"
+
+
 def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignals",
                  unjudged: str | None = None) -> None:
     """End the run of the hooks after the loop, which ``exc`` ended (None: the end of the
@@ -398,7 +405,7 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                         healthy_fraction=getattr(detector, "nan_fraction_healthy_", 0.0))
              if healthy_span is not None else None)
     live = {**live, "system": source.meta.get("system") or getattr(meta, "system", None)}
-    hooks = stopped = None  # stopped: the Stopped of a SIGINT or SIGTERM
+    hooks = stopped = t_loop = None  # stopped: the Stopped of a SIGINT or SIGTERM
     t0 = time.perf_counter()
     # SIGINT and SIGTERM stop the monitor cleanly, between chunks, with or without hooks
     with StopSignals() as stop:
@@ -454,6 +461,7 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                         stop.check()  # a signal that came meanwhile stops the monitor here
                 finally:
                     stop.busy = True  # the input ended, or the loop stopped: this ends it
+                    t_loop = time.perf_counter()
                     if out is not None and out is not sys.stdout:
                         out.close()
                     if hooks:
@@ -466,14 +474,19 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
         finally:
             if out is not None and out is not sys.stdout:
                 out.close()  # (also when the hooks did not start)
-    dt = time.perf_counter() - t0
+    # the loop's time (the monitor's throughput); the hooks' close after it (the sidecar takes
+    # the last chunks, the store ends the run, the page stops) is told apart
+    t_end = time.perf_counter()
+    dt = (t_end if t_loop is None else t_loop) - t0
+    closing = "" if hooks is None or t_loop is None else \
+        f" (then {t_end - t_loop:.2g} s to close the {_hook_names(live)})"
     n = mon.n_samples_seen
     alarms = (f"{n_alarm} alarm raising(s) in {episodes.n} episode(s)" if detector is not None
               else "no alarm possible (features only: give --detector FILE from leakdiag fit)")
     end = "" if stopped is None else f"; stopped by {stopped.name}"
     say(f"{source.source}: {n} samples at {source.sample_rate:g} Hz, {n_win} windows "
         f"({spec.label}), {alarms}, {mon.features[0].n_degenerate} degenerate, in {dt:.3g} s"
-        f"{end}")
+        f"{closing}{end}")
     if blind is not None and blind.blind and n_alarm == 0:
         click.echo(f"leakdiag: warning: {blind.words(source.source, spec.label)}", err=True)
     basis = getattr(detector, "threshold_basis_", None)
