@@ -98,6 +98,10 @@ def test_fleet_page_lists_actuators_and_escapes(store, client):
     row_b = body.split('<tr data-actuator="rig-b">')[1].split("</tr>")[0]
     assert f'<td>{seen["rig-b"].isoformat()[:19].replace("T", " ")}</td>' in row_b
     assert [f["last_seen_at"] for f in fleet[1:]] == [seen[n].isoformat() for n in seen]
+    # the state's badge holds the state alone; the run behind it is a line under the badge
+    # (it was inside the coloured cell, grey on red or green: docs/images/dashboard-fleet.png)
+    assert '<td><span class="state ALARM">ALARM</span><div class="note run">monitor running' \
+        in row_b
 
 
 def test_history_api_and_404(store, client):

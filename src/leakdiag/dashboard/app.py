@@ -311,8 +311,9 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                         f'{html.escape(why if len(why) <= 160 else why[:157] + "...")}</td>')
                 rows.append(
                     f'<tr data-actuator="{html.escape(n)}"><td><a href="/history/{_seg(n)}{tq}">'
-                    f'{html.escape(n)}</a></td><td class="state {html.escape(r["state"])}">'
-                    f'{html.escape(r["state"])}'
+                    f'{html.escape(n)}</a></td><td><span class="state '
+                    f'{html.escape(r["state"])}">{html.escape(r["state"])}</span>'
+                    # the run that gave the state under the badge, not inside its colour
                     + (f'<div class="note run">{html.escape(r["run"])}</div>'
                        if r.get("run") else "") + f'</td><td>{html.escape(last)}</td>'
                     f'<td>{html.escape(onset)}</td><td>{html.escape(leak)}</td>'
