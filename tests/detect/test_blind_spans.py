@@ -6,7 +6,8 @@ import pytest
 
 import leakdiag as ld
 from leakdiag.bench.registry import make_detector
-from leakdiag.detect.base import Alarm, blind_limit_s, longest_nan_run
+from leakdiag.detect.base import Alarm, longest_nan_run
+from leakdiag.detect.blind_rules import blind_limit_s
 from leakdiag.io import RecordingError
 from leakdiag.io.recording import Recording
 
@@ -129,7 +130,7 @@ def test_a_short_run_mostly_undefined_is_not_judged_no_leak(acf):
     """Audit of users' recordings (2026-11-27, finding 2): a 3-s file with p1 stuck from 0.2 s
     had 13 of its 15 windows undefined and read NO LEAK: no span of a 3-s file can exceed the
     10-s floor. More than half of the judged windows undefined now refuses NO LEAK."""
-    from leakdiag.detect.base import MAX_UNDEFINED_FRACTION, blind_rule
+    from leakdiag.detect.blind_rules import MAX_UNDEFINED_FRACTION, blind_rule
 
     burn = int(np.ceil(acf.alarm.burn_in_s / 0.19))  # the windows before it: burn-in
     z = np.r_[0.1, -0.2, np.full(13, np.nan)]  # 15 judged windows: 2.85 s, under 10 s
@@ -160,7 +161,7 @@ def test_the_fraction_rule_is_relative_to_the_healthy_recordings(acf):
     as the healthy recordings had."""
     import copy
 
-    from leakdiag.detect.base import undefined_limit
+    from leakdiag.detect.blind_rules import undefined_limit
 
     assert acf.nan_fraction_healthy_ == 0.0  # pressure features: never undefined when healthy
     assert undefined_limit(0.0) == 0.5 and undefined_limit(0.64) == pytest.approx(0.82)

@@ -39,6 +39,8 @@ from typing import Any
 
 import numpy as np
 
+from leakdiag.stream.blind import BlindSpans
+
 __all__ = ["ActuatorLive", "LiveBoard"]
 
 #: Points of each trace kept for the page.
@@ -165,8 +167,6 @@ class ActuatorLive:
             if self._blind is None:  # the step is known from the second window on
                 self._blind_wait.append((t[scored], v[scored]))
                 if len(self.time) > 1:
-                    from leakdiag.stream.blind import BlindSpans
-
                     self._blind = BlindSpans(self._healthy_span_s, self.time[1] - self.time[0])
                     for bt, bv in self._blind_wait:
                         self._blind.add_block(bt, bv)

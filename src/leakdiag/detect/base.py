@@ -50,6 +50,7 @@ from sklearn.base import BaseEstimator
 
 from leakdiag._validation import check_int, check_positive
 from leakdiag.detect.cusum import DIRECTIONS, cusum, segmented_cusum
+from leakdiag.detect.blind_rules import blind_limit_s, blind_rule, undefined_limit
 from leakdiag.detect.leaksize import fit_leak_calibration
 from leakdiag.detect.onset import ONSET_METHODS, best_split_gain, change_points, cusum_onset
 from leakdiag.detect.threshold import (
@@ -789,7 +790,7 @@ class Detector(BaseEstimator):
         undefined span longer than :func:`blind_limit_s` of the healthy recordings' longest
         (``nan_span_healthy_s_``; detectors fitted before it: no check), anywhere in the
         recording (after a span that ends, the defined part may be too short for a leak that
-        began inside it to show), or more than :data:`MAX_UNDEFINED_FRACTION` of the judged
+        began inside it to show), or more than :data:`~leakdiag.detect.blind_rules.MAX_UNDEFINED_FRACTION` of the judged
         windows undefined (a short recording cannot hold a span beyond the limit's floor)."""
         healthy = getattr(self, "nan_span_healthy_s_", None)
         if healthy is None:
@@ -850,96 +851,6 @@ class Detector(BaseEstimator):
             flows.append(float(rec.meta["leak_lpm"]))
         self.calibration_ = fit_leak_calibration(shifts, flows, level, validity)
         return self
-
-
-#: A judged recording may hold an undefined feature span this many times the healthy
-#: recordings' longest before its NO LEAK is refused (leakdiag choice, as the flow balance's
-#: ``HOLD_FACTOR`` for held channels) ...
-NAN_SPAN_FACTOR = 3.0
-#: ... and at least this long (s): an undefined span shorter than a detection delay changes
-#: little, and few short healthy runs may show none (an encoder holding its count while the
-#: piston rests makes u-x windows undefined for seconds).
-NAN_SPAN_FLOOR_S = 10.0
-#: ... and NO LEAK is refused whatever the spans when more than this fraction of the judged
-#: windows is undefined: on a recording shorter than the floor no span can exceed the limit,
-#: and a stuck sensor over most of a 3-s file read NO LEAK on 2 of 15 windows (audit of users'
-#: recordings, 2026-11-27, finding 2; leakdiag choice: a decision rests on at least half of
-#: the windows it judges).
-MAX_UNDEFINED_FRACTION = 0.5
-
-
-def undefined_limit(healthy_fraction: float = 0.0) -> float:
-    """The largest share of undefined judged windows a NO LEAK may rest on:
-    ``max(MAX_UNDEFINED_FRACTION, (1 + healthy_fraction) / 2)``, i.e. at least half as many
-    defined windows as the healthy recordings had (a review, 2026-11-27: with a fixed half, a
-    feature undefined in most healthy windows, ccf u,x while an encoder holds its count, refused
-    the detector's own healthy recordings, 310 of 578 windows undefined).
-
-    Examples
-    --------
-    >>> undefined_limit(0.0), undefined_limit(0.6)
-    (0.5, 0.8)
-    """
-    return max(MAX_UNDEFINED_FRACTION, (1.0 + float(healthy_fraction)) / 2.0)
-
-
-def blind_rule(healthy_span_s: float, n_windows: int, n_undefined: int,
-               longest_span_s: float, healthy_fraction: float = 0.0) -> str | None:
-    """Which rule, if any, refuses a NO LEAK over undefined feature windows: ``"span"`` (the
-    longest undefined span is longer than :func:`blind_limit_s`), ``"fraction"`` (more than
-    :func:`undefined_limit` of the ``n_windows`` judged windows are undefined), or None.
-
-    The one rule of ``detect``, ``batch`` (:meth:`Detector.predict`,
-    :meth:`Detector.predict_series`) and ``monitor`` (:class:`leakdiag.stream.BlindSpans`).
-
-    Parameters
-    ----------
-    healthy_span_s : float
-        Longest undefined span of the healthy recordings (``nan_span_healthy_s_``), s.
-    n_windows, n_undefined : int
-        Windows judged (after the burn-in), and of them undefined (non-finite) ones.
-    longest_span_s : float
-        Longest run of consecutive undefined windows, s (:func:`longest_nan_run`).
-    healthy_fraction : float, default 0.0
-        Largest share of undefined windows in a healthy recording (``nan_fraction_healthy_``;
-        0 for detectors fitted before it).
-
-    Returns
-    -------
-    str or None
-
-    Examples
-    --------
-    >>> blind_rule(0.0, 15, 13, 2.6), blind_rule(0.0, 15, 7, 1.4), blind_rule(0.0, 400, 60, 12.0)
-    ('fraction', None, 'span')
-    >>> blind_rule(6.9, 578, 310, 6.9, healthy_fraction=0.64)  # as often as healthy: judged
-    """
-    if longest_span_s > blind_limit_s(healthy_span_s):
-        return "span"
-    if n_undefined > undefined_limit(healthy_fraction) * n_windows:
-        return "fraction"
-    return None
-
-
-def blind_limit_s(healthy_span_s: float) -> float:
-    """Longest undefined span (s) a judged run may end in: ``max(NAN_SPAN_FACTOR *
-    healthy_span_s, NAN_SPAN_FLOOR_S)``.
-
-    Parameters
-    ----------
-    healthy_span_s : float
-        Longest undefined span of the healthy recordings (``nan_span_healthy_s_``).
-
-    Returns
-    -------
-    float
-
-    Examples
-    --------
-    >>> blind_limit_s(0.0), blind_limit_s(4.0)
-    (10.0, 12.0)
-    """
-    return max(NAN_SPAN_FACTOR * float(healthy_span_s), NAN_SPAN_FLOOR_S)
 
 
 def _window_step(time) -> float:

@@ -9,15 +9,42 @@ combines features with detectors (the :class:`WindowScorer` protocol) into :clas
 ``leakdiag fit`` (pickles: load only files you trust). See ``docs/operations.md``.
 """
 
-from leakdiag.stream.feature import StreamingFeature, stream_methods
-from leakdiag.stream.detector import DetectorScorer
-from leakdiag.stream.monitor import Monitor, WindowEvent, WindowScorer, check_scorer
-from leakdiag.stream.chunks import ChunkSource, recording_chunks
-from leakdiag.stream.files import open_chunks
-from leakdiag.stream.live import csv_lines, paced, tail_csv
-from leakdiag.stream.summary import stream_feature
-from leakdiag.stream.detector_file import (DetectorFileWarning, DetectorMeta, check_detector_fits,
-                                           load_detector_file, save_detector)
+import importlib
+from typing import Any
+
+#: Where each public name lives: the package imports a submodule when one of its names is first
+#: used, so that importing a light submodule (``leakdiag.stream.blind`` in the monitor's page
+#: sidecar) does not import the detectors and scikit-learn (1 s) with it.
+_WHERE = {
+    "StreamingFeature": "feature", "stream_methods": "feature",
+    "DetectorScorer": "detector",
+    "Monitor": "monitor", "WindowEvent": "monitor", "WindowScorer": "monitor",
+    "check_scorer": "monitor",
+    "ChunkSource": "chunks", "recording_chunks": "chunks",
+    "open_chunks": "files",
+    "csv_lines": "live", "paced": "live", "tail_csv": "live",
+    "stream_feature": "summary",
+    "DetectorFileWarning": "detector_file", "DetectorMeta": "detector_file",
+    "check_detector_fits": "detector_file", "load_detector_file": "detector_file",
+    "save_detector": "detector_file",
+}
+_SUBMODULES = {"blind", "chunks", "detector", "detector_file", "episodes", "feature", "files",
+               "live", "monitor", "summary"}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        value = getattr(importlib.import_module(f"leakdiag.stream.{_WHERE[name]}"), name)
+        globals()[name] = value  # the next lookup is a plain attribute
+        return value
+    if name in _SUBMODULES:
+        return importlib.import_module(f"leakdiag.stream.{name}")
+    raise AttributeError(f"module 'leakdiag.stream' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(__all__) | _SUBMODULES)
+
 
 __all__ = [
     "stream_methods",

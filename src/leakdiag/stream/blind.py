@@ -3,9 +3,9 @@
 A window whose feature is undefined (zero variance: a channel it reads is constant, e.g. a stuck
 sensor) is NaN, and the CUSUM holds its value across it, so "no alarm" during such a span says
 nothing. :class:`~leakdiag.detect.base.Detector` refuses a NO LEAK over an undefined span longer
-than :func:`~leakdiag.detect.base.blind_limit_s` of its healthy recordings' longest
+than :func:`~leakdiag.detect.blind_rules.blind_limit_s` of its healthy recordings' longest
 (``nan_span_healthy_s_``, docs/detect.md section 2, "Blind spans"), and one with more than half
-of its judged windows undefined (:func:`~leakdiag.detect.base.blind_rule`). :class:`BlindSpans`
+of its judged windows undefined (:func:`~leakdiag.detect.blind_rules.blind_rule`). :class:`BlindSpans`
 applies the same rule window by window to a stream, for ``leakdiag monitor``: the span limit
 always, the fraction when it is given every judged window (``every_window=True``).
 """
@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import math
 from collections import deque
+
+from leakdiag.detect.blind_rules import blind_limit_s, blind_rule, undefined_limit
 
 __all__ = ["BlindSpans", "MAX_ENDED"]
 
@@ -35,14 +37,14 @@ class BlindSpans:
         Whether the caller gives every judged (scored) window to :meth:`add` /
         :meth:`add_block`, defined or not: only then are :attr:`judged` and :attr:`undefined`
         the run's counts, and :attr:`blind` applies the fraction rule
-        (:data:`~leakdiag.detect.base.MAX_UNDEFINED_FRACTION`) as ``Detector.predict`` does.
+        (:data:`~leakdiag.detect.blind_rules.MAX_UNDEFINED_FRACTION`) as ``Detector.predict`` does.
         A caller that gives only the undefined windows and the first defined one after each
         span gets the span limit only.
 
     Attributes
     ----------
     limit_s : float
-        :func:`~leakdiag.detect.base.blind_limit_s` of ``healthy_span_s``.
+        :func:`~leakdiag.detect.blind_rules.blind_limit_s` of ``healthy_span_s``.
     windows : int
         Undefined windows in a row up to the latest one (0 after a defined window).
     since : float
@@ -80,14 +82,12 @@ class BlindSpans:
 
     def __init__(self, healthy_span_s: float, step_s: float, every_window: bool = False,
                  healthy_fraction: float = 0.0):
-        from leakdiag.detect.base import blind_limit_s
-
         self.healthy_span_s = float(healthy_span_s)
         self.step_s = float(step_s)
         self.limit_s = blind_limit_s(self.healthy_span_s)
         self.every_window = bool(every_window)
         #: Largest share of undefined windows in a healthy recording (the fraction rule's
-        #: reference, :func:`~leakdiag.detect.base.undefined_limit`).
+        #: reference, :func:`~leakdiag.detect.blind_rules.undefined_limit`).
         self.healthy_fraction = float(healthy_fraction)
         self.windows, self.since = 0, math.nan
         self.longest = (0, math.nan, math.nan)
@@ -172,10 +172,8 @@ class BlindSpans:
     @property
     def rule(self) -> str | None:
         """The rule that refuses a NO LEAK over the windows so far
-        (:func:`~leakdiag.detect.base.blind_rule`: ``"span"``, ``"fraction"``; None: none).
+        (:func:`~leakdiag.detect.blind_rules.blind_rule`: ``"span"``, ``"fraction"``; None: none).
         The fraction only with ``every_window``."""
-        from leakdiag.detect.base import blind_rule
-
         if self.longest[0] * self.step_s > self.limit_s:
             return "span"
         if not self.every_window:
@@ -203,8 +201,6 @@ class BlindSpans:
         """
         n, t0, t1 = self.longest
         if self.rule == "fraction":
-            from leakdiag.detect.base import undefined_limit
-
             limit = undefined_limit(self.healthy_fraction)
             more = ("more than half" if limit == 0.5 else f"more than {limit:.0%}, the healthy "
                     f"recordings had at most {self.healthy_fraction:.0%}")
