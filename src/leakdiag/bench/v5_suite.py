@@ -118,7 +118,8 @@ def build_v5_suite(suites: dict[str, V5Suite]) -> list[BenchCase]:
     Notes
     -----
     Seed of run ``i`` of role ``r``, load ``l``, excitation ``e``, size ``j``:
-    ``base_seed + offset[r] + 500_000 l + 100_000 e + 10_000 j + i`` (offsets cal 0,
+    ``base_seed + offset[r] + 500_000 l + 100_000 e + 10_000 j + i`` (``l`` the load's index
+    in the full suite :data:`V5_SUITES`, ``e`` the excitation's in ``EXCITATIONS``; offsets cal 0,
     test_healthy 2 000 000, test_leak 4 000 000). Training machines are ``1 + i +
     10_000 (2 l + e)``, test machines ``10_000_000 + seed``.
 
@@ -130,7 +131,11 @@ def build_v5_suite(suites: dict[str, V5Suite]) -> list[BenchCase]:
     """
     out: list[BenchCase] = []
     for name, s in suites.items():
-        for li, load in enumerate(s.loads):
+        for load in s.loads:
+            # the load's place in the full suite, not in a restricted one (``--loads spring``
+            # took the seeds, and so the cached results, of load none: an audit, 2026-11-27)
+            full = V5_SUITES[name].loads if name in V5_SUITES else s.loads
+            li = full.index(load) if load in full else s.loads.index(load)
             for exc in s.excitations:
                 e = EXCITATIONS.index(exc)
                 plan = [("cal", 0, 0.0, s.n_cal), ("test_healthy", 0, 0.0, s.n_test_healthy)]
