@@ -61,7 +61,10 @@ def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time) -
     except (pa.ArrowException, OSError) as exc:
         raise RecordingError(f"{path}: unreadable as Parquet: {exc}") from None
     names = pf.schema_arrow.names
-    chans = _select(names, channels, path)
+    # a name twice: arrow returns both columns for it and the chunk's columns, taken by
+    # position, would shift (the second p1 read as p2: an audit, 2026-11-27), as in a CSV
+    repeated = _check_unique(names, channels, path)
+    chans = _select(names, channels, path, repeated)
     header = _json_dict((pf.schema_arrow.metadata or {}).get(PARQUET_HEADER_KEY, b""))
     t_head = None
     if TIME_COLUMN in names and "sample_rate" not in header:
