@@ -14,3 +14,10 @@ def test_a_load_keeps_its_seeds_when_the_suite_is_restricted_to_it():
     assert {(c.load, c.role, c.seed) for c in only} <= full
     none = build_v5_suite({"vca": replace(V5_SUITES["vca"], loads=("none",))})
     assert not {c.seed for c in only} & {c.seed for c in none}
+
+
+def test_a_load_outside_the_suite_is_refused_not_given_another_loads_seeds():
+    import pytest
+
+    with pytest.raises(ValueError, match="load 'rigid' is not in the v5 suite's loads"):
+        build_v5_suite({"vca": replace(V5_SUITES["vca"], loads=("rigid",))})

@@ -115,6 +115,12 @@ def build_v5_suite(suites: dict[str, V5Suite]) -> list[BenchCase]:
         ``noise_level`` is ``"unit"`` (drawn per run); ``nuisance`` holds the drawn conditions
         plus ``machine`` (unit id) and ``index`` (run number within its role and size).
 
+    Raises
+    ------
+    ValueError
+        If a rig of :data:`V5_SUITES` is given a load that its full suite does not have (the
+        seeds follow the load's place in the full suite).
+
     Notes
     -----
     Seed of run ``i`` of role ``r``, load ``l``, excitation ``e``, size ``j``:
@@ -135,7 +141,10 @@ def build_v5_suite(suites: dict[str, V5Suite]) -> list[BenchCase]:
             # the load's place in the full suite, not in a restricted one (``--loads spring``
             # took the seeds, and so the cached results, of load none: an audit, 2026-11-27)
             full = V5_SUITES[name].loads if name in V5_SUITES else s.loads
-            li = full.index(load) if load in full else s.loads.index(load)
+            if load not in full:
+                raise ValueError(f"{name}: load {load!r} is not in the v5 suite's loads "
+                                 f"{list(full)}: its runs would take another load's seeds")
+            li = full.index(load)
             for exc in s.excitations:
                 e = EXCITATIONS.index(exc)
                 plan = [("cal", 0, 0.0, s.n_cal), ("test_healthy", 0, 0.0, s.n_test_healthy)]

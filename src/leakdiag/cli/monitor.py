@@ -257,7 +257,7 @@ def _hook_names(live: dict) -> str:
     """What the hooks of a run are, for the summary: "store", "page" or "page and store"."""
     names = [n for n, key in (("page", "dashboard_bind"), ("store", "store"))
              if live.get(key) is not None]
-    return " and ".join(names) or "hooks"
+    return " and ".join(names)
 
 
 def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignals",

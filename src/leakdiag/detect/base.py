@@ -790,8 +790,9 @@ class Detector(BaseEstimator):
         undefined span longer than :func:`blind_limit_s` of the healthy recordings' longest
         (``nan_span_healthy_s_``; detectors fitted before it: no check), anywhere in the
         recording (after a span that ends, the defined part may be too short for a leak that
-        began inside it to show), or more than :data:`~leakdiag.detect.blind_rules.MAX_UNDEFINED_FRACTION` of the judged
-        windows undefined (a short recording cannot hold a span beyond the limit's floor)."""
+        began inside it to show), or more than
+        :data:`~leakdiag.detect.blind_rules.MAX_UNDEFINED_FRACTION` of the judged windows
+        undefined (a short recording cannot hold a span beyond the limit's floor)."""
         healthy = getattr(self, "nan_span_healthy_s_", None)
         if healthy is None:
             return

@@ -68,7 +68,7 @@ def blind_rule(healthy_span_s: float, n_windows: int, n_undefined: int,
     n_windows, n_undefined : int
         Windows judged (after the burn-in), and of them undefined (non-finite) ones.
     longest_span_s : float
-        Longest run of consecutive undefined windows, s (:func:`longest_nan_run`).
+        Longest run of consecutive undefined windows, s (:func:`~leakdiag.detect.base.longest_nan_run`).
     healthy_fraction : float, default 0.0
         Largest share of undefined windows in a healthy recording (``nan_fraction_healthy_``;
         0 for detectors fitted before it).

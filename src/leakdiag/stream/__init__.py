@@ -46,24 +46,4 @@ def __dir__() -> list[str]:
     return sorted(set(__all__) | _SUBMODULES)
 
 
-__all__ = [
-    "stream_methods",
-    "StreamingFeature",
-    "Monitor",
-    "WindowEvent",
-    "WindowScorer",
-    "check_scorer",
-    "DetectorScorer",
-    "ChunkSource",
-    "open_chunks",
-    "recording_chunks",
-    "csv_lines",
-    "tail_csv",
-    "paced",
-    "stream_feature",
-    "DetectorMeta",
-    "DetectorFileWarning",
-    "save_detector",
-    "load_detector_file",
-    "check_detector_fits",
-]
+__all__ = list(_WHERE)

@@ -72,8 +72,8 @@ class DetectorScorer:
         self.drift = float(alarm.drift)
         self.direction = str(alarm.direction)
         self._burn_in_end = float(start_time) + float(alarm.burn_in_s)
-        self._span = (int(window) - 1) / check_positive(sample_rate, "sample_rate")
-        self._window, self._rate = int(window), float(sample_rate)
+        self._window = int(window)
+        self._rate = check_positive(sample_rate, "sample_rate")
         self._start = float(start_time)
         if self.direction not in DIRECTIONS:
             raise ValueError(f"{type(detector).__name__}: alarm direction {self.direction!r} "
@@ -118,7 +118,7 @@ class DetectorScorer:
             k = int(np.count_nonzero(first < self._burn_in_end))  # times increase: a prefix
             self._judging = k < n
         z = (v[k:] - self.mean_) / self.std_
-        up, down = _continued(np.ascontiguousarray(z), np.ascontiguousarray(t[k:]),
+        up, down = _continued(z, np.ascontiguousarray(t[k:]),
                               self._burn_in_end, self._segment_s or 0.0, self.drift,
                               self._code, self.threshold_, self._state)
         if k:
