@@ -88,8 +88,20 @@ def test_first_run_says_the_kernels_compile_once(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "empty-cache"))
     main(["analyze", str(tmp_path / "nope.csv")])
     assert "first run: compiling the feature kernels" in capsys.readouterr().err
-    (tmp_path / "empty-cache" / "x").mkdir(parents=True)
-    (tmp_path / "empty-cache" / "x" / "k.nbi").write_bytes(b"")
+    from leakdiag._numba_cache import kernel_cache_dir
+
+    # an index of another code's kernels (or of the simulators only) is no cache of these
+    other = tmp_path / "empty-cache" / "leakdiag-0123456789abcdef" / "features_00"
+    other.mkdir(parents=True)
+    (other / "k.nbi").write_bytes(b"")
+    (kernel_cache_dir() / "sim_00").mkdir(parents=True)
+    (kernel_cache_dir() / "sim_00" / "k.nbi").write_bytes(b"")
+    main(["analyze", str(tmp_path / "nope.csv")])
+    assert "first run: compiling the feature kernels" in capsys.readouterr().err
+    mine = kernel_cache_dir() / "features_00"
+    assert mine.parent.parent == tmp_path / "empty-cache"
+    mine.mkdir()
+    (mine / "k.nbi").write_bytes(b"")
     main(["analyze", str(tmp_path / "nope.csv")])
     assert "first run" not in capsys.readouterr().err
     main(["analyze", "--help"])

@@ -101,3 +101,36 @@ def test_code_change_misses(tmp_path, monkeypatch):
     monkeypatch.setattr(C, "code_fingerprint", lambda fn: "edited")
     b = run(tmp_path)
     assert b.meta["cache_hit"] is False and b.meta["cache_key"] != a.meta["cache_key"]
+
+
+def test_a_sidecar_without_a_field_or_a_channel_is_a_miss(tmp_path):
+    import json
+
+    a = run(tmp_path)
+    js = tmp_path / f"{a.meta['cache_key']}.json"
+    side = json.loads(js.read_text())
+    js.write_text(json.dumps({**side, "channels": ["p1", "nope"]}))  # not in the Parquet file
+    b = run(tmp_path)
+    assert b.meta["cache_hit"] is False
+    del side["channels"]
+    js.write_text(json.dumps(side))
+    assert run(tmp_path).meta["cache_hit"] is False
+    assert run(tmp_path).meta["cache_hit"] is True  # rewritten whole
+
+
+def test_clear_cache_removes_the_leftovers_of_cut_writes_once_stale(tmp_path):
+    import os
+    import time
+
+    run(tmp_path)
+    key = "a" * 64
+    stale = tmp_path / f".{key}.x1y2.parquet"
+    fresh = tmp_path / f".{key}.z3w4.json"
+    other = tmp_path / ".not-ours.json"
+    for p in (stale, fresh, other):
+        p.write_bytes(b"")
+    t = time.time() - C.STALE_TEMP_S - 1
+    os.utime(stale, (t, t))
+    os.utime(other, (t, t))
+    assert C.clear_cache(tmp_path) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([fresh.name, other.name])

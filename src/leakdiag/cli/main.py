@@ -41,15 +41,13 @@ _KERNEL_COMMANDS = {"analyze", "demo", "detect", "fit", "monitor", "sweep", "bat
 
 
 def _kernels_cached() -> bool:
-    """True when Numba's on-disk cache of the feature kernels exists (next to the sources, or in
-    ``NUMBA_CACHE_DIR``)."""
-    import os
-    from pathlib import Path
+    """True when Numba's on-disk cache of the feature kernels exists for this code (in the
+    folder :mod:`leakdiag._numba_cache` names by the kernels' source)."""
+    from leakdiag._numba_cache import kernel_cache_dir
 
-    root = os.environ.get("NUMBA_CACHE_DIR")
-    here = Path(__file__).resolve().parents[1] / "features"
-    places = [Path(root)] if root else [here / "__pycache__"]
-    return any(next(p.rglob("*.nbi"), None) is not None for p in places if p.is_dir())
+    d = kernel_cache_dir()
+    return d.is_dir() and any(next(p.glob("*.nbi"), None) is not None
+                              for p in d.glob("features*"))
 
 
 def _stderr_is_terminal() -> bool:

@@ -1,5 +1,9 @@
 """Detection: the Sec. 5.2 measure, detectors with calibrated alarms, onset estimation."""
 
+from leakdiag._numba_cache import configure as _configure_numba_cache
+
+_configure_numba_cache()  # before any kernel is defined (leakdiag._numba_cache)
+
 from leakdiag.detect.analysis import Analysis, analyze_recording
 from leakdiag.detect.measure import RMSChange, chunk_rms, pct_change, rms_change
 

@@ -8,6 +8,10 @@ for sweeps and streaming checks. Every feature has one record in the registry
 feature is one kernel module plus one :func:`register_feature` call. See ``docs/features.md``.
 """
 
+from leakdiag._numba_cache import configure as _configure_numba_cache
+
+_configure_numba_cache()  # before any kernel is defined (leakdiag._numba_cache)
+
 from leakdiag.features._degenerate import DegenerateWindowWarning
 from leakdiag.features.correlation import (
     autocorrelation,

@@ -21,6 +21,10 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from leakdiag._numba_cache import configure as _configure_numba_cache
+
+_configure_numba_cache()  # before any kernel is defined (leakdiag._numba_cache)
+
 __all__ = ["wavelet", "fft_band", "emd_hilbert", "ekf", "detectors", "registry",
            "WaveletDetector",
            "FFTBandDetector", "EMDHilbertDetector", "EKFDetector"]

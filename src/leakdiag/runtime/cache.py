@@ -1,8 +1,10 @@
 """On-disk cache of simulated recordings, keyed by a hash of everything that shapes them.
 
 A simulation is identified by ``(system, every keyword argument, seed, leakdiag version)`` plus a
-fingerprint of the simulator package's source files (so an edited simulator never reads stale
-entries within one version). The
+fingerprint of the source files the simulators run (:data:`SIM_CODE_PARTS`: ``sim/``, and the
+argument checks and recording type they import, so an edit of any of them never reads stale
+entries within one version) and the versions of Python and of the numerical libraries
+(:func:`leakdiag._fingerprint.library_versions`: a new NumPy or SciPy may change the numbers). The
 key is the SHA-256 of a canonical JSON rendering of that tuple, so a changed parameter misses
 and an unchanged one hits. Entries are a Parquet file of the channels plus a JSON sidecar
 (sample rate, start time, units, metadata, the key's inputs), written atomically so that several
@@ -21,11 +23,13 @@ import math
 import os
 import sys
 import tempfile
+import time
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
+from leakdiag._fingerprint import library_versions, parts_fingerprint
 from leakdiag._version import __version__
 from leakdiag.io.recording import Recording
 from leakdiag.sim import simulate_eha, simulate_vca
@@ -38,6 +42,8 @@ __all__ = [
     "canonical",
     "cache_key",
     "code_fingerprint",
+    "SIM_CODE_PARTS",
+    "simulation_code",
     "cached_simulation",
     "clear_cache",
 ]
@@ -50,6 +56,18 @@ SIMULATORS: dict[str, Callable[..., Recording]] = {
     "vca": simulate_vca,
     "eha": simulate_eha,
 }
+
+#: Parts of leakdiag whose code makes a simulated recording: the simulators (``sim/`` with
+#: ``vca/`` and ``eha/``), the argument checks they import (``_validation.py``: a check can
+#: change a value, e.g. refuse or round it) and the recording type (``io/``). Until 2026-11-27
+#: the key covered ``sim/`` only, so an edit of ``_validation.py`` served the former code's
+#: recordings (cache audit of 2026-11-27, finding 3). ``tests/runtime/test_cache.py`` checks
+#: that every leakdiag module the simulators import lies in one of these parts.
+SIM_CODE_PARTS = ("_validation.py", "io", "sim")
+
+#: Age in seconds after which :func:`clear_cache` takes a temporary file for the leftover of a
+#: killed write (a write takes well under a second; an hour leaves room for a slow disk).
+STALE_TEMP_S = 3600.0
 
 #: Version of the on-disk entry layout; part of the key so a layout change never reads stale files.
 _LAYOUT = 1
@@ -253,6 +271,34 @@ def code_fingerprint(fn: Callable) -> str:
     return h.hexdigest()[:16]
 
 
+def simulation_code(fn: Callable) -> dict[str, Any]:
+    """What of the code goes into a simulation's cache key: the source and the libraries.
+
+    Parameters
+    ----------
+    fn : callable
+        The simulator.
+
+    Returns
+    -------
+    dict
+        ``{"code": ..., "libraries": {...}}``: for leakdiag's simulators the fingerprint of
+        :data:`SIM_CODE_PARTS`, for another function that of its package
+        (:func:`code_fingerprint`); the libraries from
+        :func:`leakdiag._fingerprint.library_versions`.
+
+    Examples
+    --------
+    >>> sorted(simulation_code(simulate_vca))
+    ['code', 'libraries']
+    """
+    if str(getattr(fn, "__module__", "")).startswith("leakdiag."):
+        code = parts_fingerprint(SIM_CODE_PARTS)
+    else:
+        code = code_fingerprint(fn)
+    return {"code": code, "libraries": library_versions()}
+
+
 def _json_default(obj):
     try:
         return canonical(obj)
@@ -294,12 +340,15 @@ def _read_entry(folder: Path, key: str) -> Recording | None:
     try:
         side = json.loads(js_path.read_text())
         table = pq.read_table(pq_path)
-    except (OSError, ValueError):
-        return None  # a damaged entry is a miss; it is rewritten
-    chans = {name: table.column(name).to_numpy() for name in side["channels"]}
-    meta = dict(side["meta"])
-    meta["cache_key"] = key
-    return Recording(chans, side["sample_rate"], side["start_time"], dict(side["units"]), meta)
+        chans = {name: table.column(name).to_numpy() for name in side["channels"]}
+        meta = dict(side["meta"])
+        meta["cache_key"] = key
+        return Recording(chans, side["sample_rate"], side["start_time"], dict(side["units"]),
+                         meta)
+    except (OSError, ValueError, KeyError, TypeError):
+        # a damaged entry (cut file, a sidecar without a field, a channel missing from the
+        # Parquet file: KeyError) is a miss; it is rewritten
+        return None
 
 
 def cached_simulation(system: str, *, cache_dir: str | os.PathLike | None = None,
@@ -320,7 +369,8 @@ def cached_simulation(system: str, *, cache_dir: str | os.PathLike | None = None
         Ignore an existing entry and simulate again (the entry is overwritten).
     **kwargs
         Simulator arguments (``duration``, ``leak_lpm``, ``onset``, ``seed``, ``load``, ``params``
-        ...); every one of them, and leakdiag's version, goes into the key.
+        ...); every one of them, leakdiag's version, the code fingerprint and the libraries'
+        versions (:func:`simulation_code`) go into the key.
 
     Returns
     -------
@@ -348,7 +398,7 @@ def cached_simulation(system: str, *, cache_dir: str | os.PathLike | None = None
     """
     fn = simulator if simulator is not None else _resolve_simulator(system)
     name = f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', repr(fn))}"
-    inputs = {"simulator": name, "code": code_fingerprint(fn), **kwargs}
+    inputs = {"simulator": name, **simulation_code(fn), **kwargs}
     key = cache_key(system, inputs)
     folder = resolve_cache_dir(cache_dir)
     if not refresh:
@@ -365,6 +415,10 @@ def cached_simulation(system: str, *, cache_dir: str | os.PathLike | None = None
 
 def clear_cache(cache_dir: str | os.PathLike | None = None) -> int:
     """Delete every cache entry in the folder; return the number of entries removed.
+
+    Also removes the temporary files of writes that were cut (a killed process leaves
+    ``.<key>.XXXX.parquet``/``.json``) once they are :data:`STALE_TEMP_S` old, so that a write
+    in progress in another process is not broken.
 
     Parameters
     ----------
@@ -393,4 +447,13 @@ def clear_cache(cache_dir: str | os.PathLike | None = None) -> int:
             if pq_path.exists():
                 pq_path.unlink()
             n += 1
+    now = time.time()
+    for tmp in folder.glob(".*.*"):
+        parts = tmp.name.split(".")  # "", key, random part, suffix
+        if len(parts) == 4 and len(parts[1]) == 64 and parts[3] in ("json", "parquet"):
+            try:
+                if now - tmp.stat().st_mtime >= STALE_TEMP_S:
+                    tmp.unlink()
+            except FileNotFoundError:  # its writer renamed or removed it meanwhile
+                pass
     return n

@@ -9,6 +9,10 @@ Heavy parts (Numba kernels) compile on first use; ``import leakdiag.sim`` stays 
 
 from __future__ import annotations
 
+from leakdiag._numba_cache import configure as _configure_numba_cache
+
+_configure_numba_cache()  # before any kernel is defined (leakdiag._numba_cache)
+
 from leakdiag.sim.eha.drive import EHAConditions
 from leakdiag.sim.eha.model import eha_rhs
 from leakdiag.sim.eha.params import EHAParams
