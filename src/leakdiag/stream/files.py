@@ -88,21 +88,52 @@ def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time) -
     return ChunkSource(_checked(gen(), axis), fs, t0, chans, pf.metadata.num_rows, path, meta)
 
 
+def _hdf5_names(f, h5py) -> list[str]:
+    """Names of the 1-D datasets of an open HDF5 file not written by leakdiag, those in groups
+    joined with ``/`` as :func:`leakdiag.io.read_recording` names them (``channels/p1``)."""
+    names: list[str] = []
+    f.visititems(lambda name, v: names.append(name) if isinstance(v, h5py.Dataset)
+                 and v.ndim == 1 else None)
+    return names
+
+
 def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
+    """An HDF5 file in chunks, with the rule of :func:`leakdiag.io.read_recording`
+    (:mod:`leakdiag.io.hdf5`): the root attributes are a header (``sample_rate``,
+    ``start_time``, ``meta``) and the channels are the datasets of ``/channels`` only when the
+    ``format`` attribute says leakdiag wrote the file. Any other file's channels are its
+    datasets, named by their path (``p1`` at the root, ``channels/p1`` in a group), and its
+    start and rate come from its ``time`` dataset or from the given sample rate, never from
+    attributes another program wrote (an audit, 2026-11-27, finding 2: ``start_time=0`` on a
+    ``time`` from 100 s moved every alarm by 100 s in monitor and batch, not in detect)."""
     import h5py
 
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise RecordingError(f"{path}: unreadable as HDF5: {exc}") from None
+    from leakdiag.io.hdf5 import read_hdf5_header
+
+    own = read_hdf5_header(path)  # None: not leakdiag's (also: unreadable, malformed, newer)
+    f = h5py.File(path, "r")
     with f:
-        group = f[HDF5_CHANNEL_GROUP] if isinstance(f.get(HDF5_CHANNEL_GROUP), h5py.Group) else f
-        names = [k for k, v in group.items() if isinstance(v, h5py.Dataset) and v.ndim == 1]
-        chans = _select(names, channels, path)
+        if own is not None:
+            group = f[HDF5_CHANNEL_GROUP]
+            names = [k for k, v in group.items() if isinstance(v, h5py.Dataset) and v.ndim == 1]
+            header = {k: float(own[k]) for k in ("sample_rate", "start_time")}
+            meta = dict(own.get("meta") or {})
+        else:
+            group = f
+            names = _hdf5_names(f, h5py)
+            header, meta = {}, {}
+        try:
+            chans = _select(names, channels, path)
+        except RecordingError as exc:
+            if own is None and isinstance(f.get(HDF5_CHANNEL_GROUP), h5py.Group):
+                raise RecordingError(
+                    f"{exc}; the datasets of /{HDF5_CHANNEL_GROUP} are the channels only in a "
+                    f"file leakdiag wrote (root attribute format = 'leakdiag-recording'), which "
+                    f"this file does not say it is: give a column map (--map FILE or --col "
+                    f"p1=COLUMN:UNIT)") from None
+            raise
         if not chans:
             raise RecordingError(f"{path}: no 1-D channel datasets found")
-        header = {k: float(f.attrs[k]) for k in ("sample_rate", "start_time") if k in f.attrs}
-        meta = _json_dict(f.attrs["meta"]) if "meta" in f.attrs else {}
         has_time = isinstance(f.get(TIME_COLUMN), h5py.Dataset)
         # every dataset read is as long as the others, checked before any chunk in the words
         # of read_recording (detect); the chunks run to the first channel's end
@@ -111,7 +142,7 @@ def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> C
                            **{c: len(group[c]) for c in chans}}, path)
         t_head = None
         if "sample_rate" not in header and has_time:
-            t_head = np.asarray(f[TIME_COLUMN][:4096], dtype=np.float64)
+            t_head = np.asarray(f[TIME_COLUMN][:_HEAD_ROWS], dtype=np.float64)
         n = len(group[chans[0]])
         gname = group.name
     fs, t0 = _rate_start(t_head, sample_rate, start_time, header, path)

@@ -1,0 +1,112 @@
+"""One recording, one answer from ``detect`` (whole-file reader, :mod:`leakdiag.io`) and
+``monitor`` / ``batch`` (chunked readers, :mod:`leakdiag.stream`): findings of the streams
+audit of 2026-11-27 (audit 14)."""
+
+import re
+
+import h5py
+import pytest
+
+from leakdiag.io import write_recording
+from leakdiag.sim import simulate_vca
+from leakdiag.stream.files import open_recording
+
+
+@pytest.fixture(scope="module")
+def case(tmp_path_factory, run_cli):
+    """A detector fitted with ``leakdiag fit`` on two healthy 20-s VCA runs (acf-p1, 1 kHz)
+    and a 30-s VCA recording leaking from 15 s."""
+    d = tmp_path_factory.mktemp("audit14")
+    h = [str(write_recording(simulate_vca(duration=20.0, leak_lpm=None, seed=s),
+                             d / f"h{s}.parquet")) for s in (1, 2)]
+    code, out, err = run_cli(["fit", "--healthy", h[0], "--healthy", h[1], "-m", "acf-p1",
+                              "--false-alarm-rate", "100", "--no-progress", "-o",
+                              str(d / "det.joblib")])
+    assert code == 0, err
+    leak = simulate_vca(duration=30.0, leak_lpm=0.5, onset=15.0, seed=3)
+    return {"dir": d, "det": str(d / "det.joblib"), "leak": leak,
+            "parquet": str(write_recording(leak, d / "leak.parquet"))}
+
+
+def _detect_alarm(run_cli, path, det, *extra):
+    """detect's first alarm time (s) of its table, or None."""
+    code, out, err = run_cli(["detect", str(path), "--detector", det, *extra])
+    assert code == 0, err
+    row = next(ln for ln in out.splitlines() if ln.startswith("acf-p1 "))
+    alarm = row.split()[3]
+    return None if alarm == "-" else float(alarm)
+
+
+def _monitor(run_cli, path, det, *extra, stdin=None):
+    code, out, err = run_cli(["monitor", str(path), "--detector", det, *extra], stdin=stdin)
+    return code, out, err
+
+
+def _monitor_alarm(run_cli, path, det, *extra, stdin=None):
+    """monitor's first ALARM time (s), or None; and its summary line."""
+    code, out, err = _monitor(run_cli, path, det, *extra, stdin=stdin)
+    assert code == 0, err
+    m = re.search(r"^ALARM\s+t=(\S+) s", out, re.M)
+    summary = next(ln for ln in out.splitlines() if " samples at " in ln)
+    return (None if m is None else float(m.group(1))), summary
+
+
+# --- finding 2: another program's HDF5 attributes are not a header --------------------------
+
+def _foreign_h5(path, rec, t0=0.0, attrs=None, group=False, with_time=True):
+    """An HDF5 file another program wrote: no ``format`` attribute."""
+    with h5py.File(path, "w") as f:
+        if with_time:
+            f["time"] = rec.time + t0
+        for c in ("p1", "p2"):
+            f[f"channels/{c}" if group else c] = rec[c]
+        for k, v in (attrs or {}).items():
+            f.attrs[k] = v
+    return str(path)
+
+
+def test_foreign_hdf5_start_and_rate_come_from_its_time_dataset(case, run_cli, tmp_path):
+    """Finding 2: root attributes ``start_time`` / ``sample_rate`` of a file leakdiag did not
+    write were used by monitor and batch (alarm 100 s early), ignored by detect."""
+    rec, det = case["leak"], case["det"]
+    ref = _detect_alarm(run_cli, case["parquet"], det)
+    assert ref is not None and 15.0 < ref < 30.0
+    # time from 100 s, a start_time attribute 0
+    f = _foreign_h5(tmp_path / "daq.h5", rec, t0=100.0, attrs={"start_time": 0.0})
+    assert _detect_alarm(run_cli, f, det) == pytest.approx(ref + 100.0, abs=1e-9)
+    alarm, summary = _monitor_alarm(run_cli, f, det)
+    assert alarm == pytest.approx(ref + 100.0, abs=1e-9)
+    # and a sample_rate attribute in kHz (1): monitor refused the file, batch called it jitter
+    f = _foreign_h5(tmp_path / "daq.h5", rec, t0=100.0,
+                    attrs={"start_time": 0.0, "sample_rate": 1.0})
+    alarm, summary = _monitor_alarm(run_cli, f, det)
+    assert alarm == pytest.approx(ref + 100.0, abs=1e-9) and " at 1000 Hz," in summary
+    src, _ = open_recording(f, ["p1"])  # batch's reader
+    assert (src.sample_rate, src.start_time, src.meta) == (1000.0, 100.0, {})
+
+
+def test_foreign_hdf5_without_time_needs_a_given_rate_in_both(case, run_cli, tmp_path):
+    """Finding 2: no ``time`` dataset, a ``sample_rate`` attribute: detect refused, monitor
+    and batch judged at the attribute's rate."""
+    f = _foreign_h5(tmp_path / "notime.h5", case["leak"], attrs={"sample_rate": 1000.0},
+                    with_time=False)
+    for cmd in ("detect", "monitor"):
+        code, out, err = run_cli([cmd, f, "--detector", case["det"]])
+        assert code == 2 and "no sample rate" in err, (cmd, err)
+    ref = _detect_alarm(run_cli, case["parquet"], case["det"])
+    assert _detect_alarm(run_cli, f, case["det"], "--sample-rate", "1000") == ref
+    assert _monitor_alarm(run_cli, f, case["det"], "--sample-rate", "1000")[0] == ref
+
+
+def test_foreign_hdf5_channels_group_is_refused_by_both(case, run_cli, tmp_path):
+    """Finding 2: a ``/channels`` group without the ``format`` attribute was read by monitor
+    and batch, refused by detect (io/hdf5.py's rule: the group is leakdiag's layout only)."""
+    f = _foreign_h5(tmp_path / "group.h5", case["leak"], group=True)
+    code, out, err = run_cli(["detect", f, "--detector", case["det"]])
+    assert code == 2 and "available columns: ['channels/p1', 'channels/p2', 'time']" in err
+    code, out, err = _monitor(run_cli, f, case["det"])
+    assert code == 2, err
+    assert (f"{f}: missing channel(s) ['p1']; available: ['channels/p1', 'channels/p2']; the "
+            "datasets of /channels are the channels only in a file leakdiag wrote") in err
+    with pytest.raises(Exception, match=r"missing channel\(s\) \['p1'\]"):
+        open_recording(f, ["p1"])
