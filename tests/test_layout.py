@@ -18,10 +18,11 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "leakdiag"
 
 #: The data flow, first to last: a folder may import only folders before it. The root modules
-#: ``_version``, ``_validation`` and ``_holds`` come first (everybody may use them); ``leakdiag``
+#: ``_version``, ``_fingerprint``, ``_numba_cache``, ``_validation`` and ``_holds`` come first
+#: (everybody may use them); ``leakdiag``
 #: is the root package's lazy facade (``leakdiag/__init__.py``), which only the command line uses.
-LAYERS = ("_version", "_validation", "_holds", "io", "sim", "features", "detect", "literature",
-          "runtime", "studies", "report", "stream", "batch", "bench", "store", "dashboard",
+LAYERS = ("_version", "_fingerprint", "_numba_cache", "_validation", "_holds", "io", "sim",
+          "features", "detect", "literature", "runtime", "studies", "report", "stream", "batch", "bench", "store", "dashboard",
           "leakdiag", "cli")
 
 _ROOT = "leakdiag"
