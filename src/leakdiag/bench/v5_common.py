@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import leakdiag.sim as sim
+from leakdiag.bench._workfiles import write_atomic
 from leakdiag.bench.run import _recording, simulator_kwargs
 from leakdiag.detect.base import Alarm
 
@@ -203,11 +204,7 @@ def write_shard(rows: list, path) -> int:
                 "leak_lpm_est", "leak_lpm_low", "leak_lpm_high"):
         if col in df:
             df[col] = pd.to_numeric(df[col], errors="coerce")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    df.to_parquet(tmp, index=False)
-    tmp.replace(path)
+    write_atomic(path, lambda tmp: df.to_parquet(tmp, index=False))  # a temp file per writer
     return len(df)
 
 

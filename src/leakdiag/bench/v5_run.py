@@ -25,6 +25,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from leakdiag.bench._workfiles import read_or_discard, write_atomic
 from leakdiag.bench.registry import make_detector
 from leakdiag.bench.run import SimConfig, simulate_case, simulator_has_machines
 from leakdiag.bench.v5_common import (
@@ -92,11 +93,8 @@ def save_fit(path, det, error: str | None, cpu_s: float) -> None:
     """
     import joblib
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    joblib.dump({"detector": det, "error": error, "cpu_s": float(cpu_s)}, tmp)
-    tmp.replace(path)
+    write_atomic(path, lambda tmp: joblib.dump({"detector": det, "error": error,
+                                                "cpu_s": float(cpu_s)}, tmp))
 
 
 def load_fit(path) -> dict:
@@ -111,10 +109,19 @@ def load_fit(path) -> dict:
     -------
     dict
         ``detector`` (None for a failed fit), ``error``, ``cpu_s``.
+
+    Raises
+    ------
+    ValueError
+        If the file holds something else than a saved fit (a cut file raises what joblib
+        raises: ``EOFError``, ``UnpicklingError``, ...).
     """
     import joblib
 
-    return joblib.load(path)
+    saved = joblib.load(path)
+    if not isinstance(saved, dict) or not {"detector", "error", "cpu_s"} <= set(saved):
+        raise ValueError(f"{path}: not a fit saved by save_fit")
+    return saved
 
 
 def fit_method(config: FitConfig) -> dict:
@@ -136,8 +143,8 @@ def fit_method(config: FitConfig) -> dict:
     base = {"method": config.method, "system": c0.system, "load": c0.load,
             "excitation": c0.excitation}
     path = Path(config.path)
-    if path.is_file():
-        saved = load_fit(path)
+    saved = read_or_discard(path, load_fit, "fit")  # a damaged file: warned, removed, refitted
+    if saved is not None:
         det = saved["detector"]
         return {**base, "error": saved["error"], "cpu_s": saved["cpu_s"], "reused": True,
                 **(_basis(det) if det is not None else {})}
@@ -265,8 +272,9 @@ def score_chunk(config: ChunkConfig) -> dict:
         ``rows`` in the shard and ``reused`` (the shard existed: read back, not recomputed).
     """
     path = Path(config.path)
-    if path.is_file():
-        return {"rows": shard_rows(path), "reused": True}
+    n = read_or_discard(path, shard_rows, "result shard")  # damaged: warned, removed, redone
+    if n is not None:
+        return {"rows": n, "reused": True}
     dets = []
     for method, fpath, caps in config.fits:
         det = load_fit(fpath)["detector"]

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from leakdiag.bench._workfiles import read_or_discard, write_atomic
 from leakdiag.bench.registry import make_detector
 from leakdiag.bench.run import _recording, simulator_has_machines
 from leakdiag.bench.v5_common import (
@@ -134,6 +135,16 @@ def _fit_own(det, own, ref):
         return det.fit(own, reference_maxima=ref) if ref is not None else det.fit(own)
 
 
+def _load_refs(path) -> dict:
+    """Read a reference file of :func:`reference_group` (``refs`` and ``rows``)."""
+    import joblib
+
+    saved = joblib.load(path)
+    if not isinstance(saved, dict) or not {"refs", "rows"} <= set(saved):
+        raise ValueError(f"{path}: not a reference file of reference_group")
+    return saved
+
+
 def reference_group(config: UnitRefConfig) -> list[dict]:
     """Reference maxima of each method from the group's training units (or read them back).
 
@@ -151,8 +162,9 @@ def reference_group(config: UnitRefConfig) -> list[dict]:
     import joblib
 
     path = Path(config.path)
-    if path.is_file():
-        return [{**r, "reused": True} for r in joblib.load(path)["rows"]]
+    saved = read_or_discard(path, _load_refs, "reference maxima")  # damaged: removed, redone
+    if saved is not None:
+        return [{**r, "reused": True} for r in saved["rows"]]
     c0 = config.cases[0]
     build = replace(config.alarm, on_insufficient="warn")  # the own-only threshold is not used here
     maxima = {m: [] for m in config.methods}
@@ -191,10 +203,7 @@ def reference_group(config: UnitRefConfig) -> list[dict]:
         rows.append({"method": m, "system": c0.system, "load": c0.load,
                      "excitation": c0.excitation, "n_reference": int(got.size),
                      "n_units": len(maxima[m]), "error": errors.get(m), "cpu_s": cpu[m]})
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    joblib.dump({"refs": refs, "rows": rows}, tmp)
-    tmp.replace(path)
+    write_atomic(path, lambda tmp: joblib.dump({"refs": refs, "rows": rows}, tmp))
     return [{**r, "reused": False} for r in rows]
 
 
@@ -211,12 +220,11 @@ def score_chunk_unit(config: UnitChunkConfig) -> dict:
     dict
         ``rows`` in the shard and ``reused`` (the shard existed: read back, not recomputed).
     """
-    import joblib
-
     path = Path(config.path)
-    if path.is_file():
-        return {"rows": shard_rows(path), "reused": True}
-    refs = joblib.load(config.ref_path)["refs"]
+    n = read_or_discard(path, shard_rows, "result shard")  # damaged: warned, removed, redone
+    if n is not None:
+        return {"rows": n, "reused": True}
+    refs = _load_refs(config.ref_path)["refs"]
     rows = []
     for c in config.cases:
         idx = c.nuisance["index"]
