@@ -139,3 +139,27 @@ def test_a_cut_fit_or_shard_is_recomputed_naming_it(tmp_path, cache, capsys, cut
     assert sorted(p.name for p in work.rglob("*")) == sorted(
         ["fits", "shards", files["fit"].name, files["shard"].name])  # whole, no temp file
     assert shard_rows(files["shard"]) == 6
+
+
+def test_the_work_folder_by_another_path_reuses_every_shard(tmp_path, cache, capsys,
+                                                            monkeypatch):
+    """The same work folder through a relative path and through a symlink: fits and shards
+    all reused, no new file (the shard key hashed the fits' absolute paths: 0 shards reused,
+    one more shard file per spelling; finding 7)."""
+    work = tmp_path / "work"
+    args = [*SMALL, "--cache-dir", cache]
+    assert main([*args, "--work-dir", str(work), "-o", str(tmp_path / "out1")]) == 0
+    capsys.readouterr()
+    (tmp_path / "link").symlink_to(work, target_is_directory=True)
+    monkeypatch.chdir(tmp_path)
+    for spelling in ("work", "link", "link/../work"):
+        assert main([*args, "--work-dir", spelling, "-o", str(tmp_path / "out2")]) == 0
+        lines = capsys.readouterr().out.splitlines()
+        assert re.fullmatch(rf"fits: 1 reused from {re.escape(spelling)} \(computed earlier, [0-9.e-]+ "
+                            r"CPU s\), 0 computed now", lines[1]), lines[1]
+        assert re.fullmatch(rf"result shards: 1 reused from {re.escape(spelling)} \(computed "
+                            r"earlier, 6 verdicts, [0-9.e-]+ CPU s\), 0 computed now",
+                            lines[2]), lines[2]
+        pd.testing.assert_frame_equal(_runs(tmp_path / "out2"), _runs(tmp_path / "out1"))
+    assert len(list((work / "shards").iterdir())) == 1
+    assert len(list((work / "fits").iterdir())) == 1

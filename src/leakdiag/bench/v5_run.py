@@ -501,7 +501,7 @@ def _plan_fleet(suites, methods, work, groups, fp, far, onset_method, cache_dir,
         s = suites[key[0]]
         alarm = v5_alarm(far, s.duration_s, onset_method, confidence)
         cal = [c for c in group if c.role == "cal"]
-        fits = []
+        fits, fit_keys = [], []
         for m in methods:
             caps = budget.get(m)
             mcal = tuple(cal[: caps[0]] if caps else cal)
@@ -510,10 +510,13 @@ def _plan_fleet(suites, methods, work, groups, fp, far, onset_method, cache_dir,
             p = str(work / "fits" / f"{m}-{k}.joblib")
             fit_cfgs.append(FitConfig(m, mcal, alarm, cache_dir, p))
             fits.append((m, p, caps[1:] if caps else None))
+            fit_keys.append(k)
         test = [c for c in group if c.role != "cal"]
         for i in range(0, len(test), s.chunk):
             chunk = tuple(test[i: i + s.chunk])
-            k = _key([V5_VERSION, fp, [c.seed for c in chunk], [f[1] for f in fits],
+            # the fits' keys, not their paths: the work folder reached by another path
+            # (relative, a symlink, moved) reuses its shards
+            k = _key([V5_VERSION, fp, [c.seed for c in chunk], fit_keys,
                       [f[2] for f in fits], simulator_has_machines(key[0])])
             chunk_cfgs.append(ChunkConfig(chunk, tuple(fits), str(work / "shards" / f"{k}.parquet")))
     # methods using the base class's fit share one read of each calibration run per group;
