@@ -226,8 +226,8 @@ def test_analyze_sample_rate_contradicting_a_header_speaks_cli(tmp_path, capsys)
                                  tmp_path / "r.parquet")
     assert main(["analyze", str(path), "-c", "p1", "--sample-rate", "500", "--onset", "1.5"]) == 2
     err = capsys.readouterr().err
-    assert "a sample rate of 500 Hz was given (--sample-rate), but the file's header says " \
-           "1000 Hz" in err and "sample_rate=" not in err
+    assert "a sample rate of 500 Hz was given (--sample-rate, or sample_rate_hz in a column " \
+           "map), but the file's header says 1000 Hz" in err and "sample_rate=" not in err
 
 
 def test_no_time_column_and_no_rate_advises_the_option(tmp_path, capsys):

@@ -110,3 +110,41 @@ def test_foreign_hdf5_channels_group_is_refused_by_both(case, run_cli, tmp_path)
             "datasets of /channels are the channels only in a file leakdiag wrote") in err
     with pytest.raises(Exception, match=r"missing channel\(s\) \['p1'\]"):
         open_recording(f, ["p1"])
+
+
+# --- finding 3: a given sample rate is a cross-check of the file's, in every reader ---------
+
+def test_a_given_rate_within_tolerance_is_checked_not_used(case, run_cli, tmp_path):
+    """Finding 3: ``--sample-rate 1000.9`` (0.09 % off) on a 1-kHz file: monitor stamped its
+    windows at 1000.9 Hz (file and stdin), detect ignored it (time column) or refused it
+    (header, compared exactly). Now the file's rate is used by all and the alarm is one."""
+    det = case["det"]
+    csv = str(write_recording(case["leak"], tmp_path / "leak.csv"))
+    ref = _detect_alarm(run_cli, case["parquet"], det)
+    assert ref is not None
+    for path in (csv, case["parquet"]):
+        assert _detect_alarm(run_cli, path, det, "--sample-rate", "1000.9") == ref, path
+        alarm, summary = _monitor_alarm(run_cli, path, det, "--sample-rate", "1000.9")
+        assert alarm == ref and " at 1000 Hz," in summary, (path, summary)
+    with open(csv) as fh:
+        alarm, summary = _monitor_alarm(run_cli, "-", det, "--sample-rate", "1000.9",
+                                        stdin=fh.read())
+    assert alarm == ref and " at 1000 Hz," in summary
+    src, _ = open_recording(csv, ["p1"], sample_rate=1000.9)  # batch's reader
+    assert src.sample_rate == 1000.0
+
+
+@pytest.mark.parametrize("suffix, what", [(".csv", "time column 'time'"),
+                                          (".parquet", "header")])
+def test_a_given_rate_off_by_more_is_refused_in_one_wording(case, run_cli, tmp_path, suffix,
+                                                             what):
+    """Finding 3: 1002 Hz (0.2 %) given for a 1-kHz file is refused by detect and monitor with
+    the same words."""
+    path = str(write_recording(case["leak"], tmp_path / f"leak{suffix}"))
+    words = (f"{path}: a sample rate of 1002 Hz was given (--sample-rate, or sample_rate_hz in "
+             f"a column map), but the file's {what} says 1000 Hz (more than 0.1 % apart); leave "
+             "the sample rate out (the file's own is used) or fix the file")
+    for cmd in ("detect", "monitor"):
+        code, out, err = run_cli([cmd, path, "--detector", case["det"], "--sample-rate",
+                                  "1002"])
+        assert code == 2 and words in " ".join(err.split()), (cmd, err)

@@ -121,8 +121,8 @@ def test_sample_rate_argument_must_agree_with_stored(tmp_path):
     path = write_recording(_rec(), tmp_path / "r.parquet")
     assert read_recording(path, sample_rate=1000.0).sample_rate == 1000.0
     with pytest.raises(RecordingError, match=r"a sample rate of 500 Hz was given "
-                                             r"\(--sample-rate\), but the file's header says "
-                                             r"1000 Hz"):
+                                             r"\(--sample-rate, or sample_rate_hz in a column "
+                                             r"map\), but the file's header says 1000 Hz"):
         read_recording(path, sample_rate=500.0)
 
 

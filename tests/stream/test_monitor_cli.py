@@ -155,11 +155,13 @@ def test_monitor_sample_rate_conflicting_with_the_file_is_refused(run_file, tmp_
     path, rec = run_file
     r = CliRunner().invoke(cli, ["monitor", "-i", str(path), "-c", "p1", "--sample-rate", "500"])
     assert r.exit_code != 0
-    assert "500 Hz was given, but the file's header says 1000 Hz" in str(r.exception)
+    assert "500 Hz was given (--sample-rate, or sample_rate_hz in a column map), but the " \
+           "file's header says 1000 Hz" in str(r.exception)
     csv = tmp_path / "run.csv"
     rec.to_pandas().to_csv(csv, index=False)
     r = CliRunner().invoke(cli, ["monitor", "-i", str(csv), "-c", "p1", "--sample-rate", "500"])
-    assert "500 Hz was given, but the file's time column says 1000 Hz" in str(r.exception)
+    assert "500 Hz was given (--sample-rate, or sample_rate_hz in a column map), but the " \
+           "file's time column 'time' says 1000 Hz" in str(r.exception)
 
 
 def test_monitor_stdin_time_going_backwards_is_an_error():

@@ -10,7 +10,8 @@ import numpy as np
 
 from leakdiag._validation import check_positive
 from leakdiag.io.checks import (RESAMPLE_ADVICE, UNIFORM_TIME_RTOL, check_channel_finite,
-                                check_same_length, infer_sample_rate, refuse_time_like)
+                                check_same_length, given_rate_check, infer_sample_rate,
+                                refuse_time_like)
 from leakdiag.io.column_map import ChannelSpec, ColumnMap
 from leakdiag.io.recording import STANDARD_CHANNELS, Recording, RecordingError
 from leakdiag.io.resample import resample_linear
@@ -211,11 +212,8 @@ def _time_axis(table: RawTable, cmap: ColumnMap | None, col: str | None,
     if resample is not None:
         return t, rate
     inferred = infer_sample_rate(t, source=source, column=col)
-    if rate is not None and unit != "samples" and abs(inferred - rate) > UNIFORM_TIME_RTOL * rate:
-        raise RecordingError(
-            f"{source}: sample rate {rate!r} Hz disagrees with time column {col!r} "
-            f"({inferred!r} Hz); drop one of them"
-        )
+    if rate is not None and unit != "samples":  # a cross-check: the time column's rate is used
+        given_rate_check(rate, inferred, source, f"time column {col!r}")
     return t, inferred
 
 
@@ -338,10 +336,8 @@ def _from_header(table: RawTable, header: dict[str, Any], sample_rate: float | N
                  ) -> Recording:
     source = table.source
     rate = header["sample_rate"]
-    if sample_rate is not None and sample_rate != rate:
-        raise RecordingError(f"{source}: a sample rate of {float(sample_rate):g} Hz was given "
-                             f"(--sample-rate), but the file's header says {float(rate):g} Hz; "
-                             "leave the sample rate out (it is known) or fix the file")
+    if sample_rate is not None:  # a cross-check within 0.1 %, as a time column's: not exact
+        given_rate_check(sample_rate, rate, source, "header")
     missing = [c for c in header["channels"] if c not in table.columns]
     if missing:
         raise RecordingError(f"{source}: header lists channel(s) {missing} missing from the "

@@ -13,7 +13,7 @@ from leakdiag.io.errors import RecordingError
 
 __all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "check_same_length",
            "UNIFORM_TIME_RTOL", "RESAMPLE_ADVICE", "time_like_column", "refuse_time_like",
-           "print_resolution", "SAME_RATE_RTOL", "same_rate", "rounds"]
+           "print_resolution", "SAME_RATE_RTOL", "same_rate", "given_rate_check", "rounds"]
 
 #: Relative tolerance on sample intervals for a time axis to count as uniform.
 UNIFORM_TIME_RTOL = 1e-3
@@ -45,6 +45,59 @@ def same_rate(a: float, b: float) -> bool:
     """
     a, b = float(a), float(b)
     return abs(a - b) <= SAME_RATE_RTOL * max(abs(a), abs(b))
+
+
+def given_rate_check(given: float, own: float, source: str, what: str) -> float:
+    """The file's own sample rate, once a given one is checked against it.
+
+    One rule for every reader, the whole-file one of ``detect`` and the chunked ones of
+    ``monitor`` and ``batch`` (decision 2026-11-27, streams audit, finding 3; docs/io.md,
+    "Time axis and sample rate"): a file's own rate (its header's, or its time column's) is
+    what the samples are placed by; a given rate (``--sample-rate``, or ``sample_rate_hz`` in
+    a column map) is a cross-check, accepted when it is :func:`same_rate` as the file's and
+    refused otherwise, never preferred. Until then monitor stamped its windows at a given
+    1000.9 Hz (0.09 % off: 3.2 s per hour), detect ignored it for a time column and refused it
+    for a header by an exact comparison.
+
+    Parameters
+    ----------
+    given : float
+        The rate given, Hz.
+    own : float
+        The file's rate, Hz.
+    source : str
+        File name for messages.
+    what : str
+        Where ``own`` comes from (``"header"``, ``"time column 'time'"``).
+
+    Returns
+    -------
+    float
+        ``own``.
+
+    Raises
+    ------
+    RecordingError
+        When the two are not :func:`same_rate`, naming the file, both rates and ``what``.
+
+    Examples
+    --------
+    >>> given_rate_check(1000.9, 1000.0, "a.csv", "time column 'time'")
+    1000.0
+    >>> given_rate_check(500.0, 1000.0, "a.csv", "header")
+    Traceback (most recent call last):
+    ...
+    leakdiag.io.errors.RecordingError: a.csv: a sample rate of 500 Hz was given (--sample-rate,
+    or sample_rate_hz in a column map), but the file's header says 1000 Hz (more than 0.1 %
+    apart); leave the sample rate out (the file's own is used) or fix the file
+    """
+    if not same_rate(given, own):
+        raise RecordingError(
+            f"{source}: a sample rate of {float(given):g} Hz was given (--sample-rate, or "
+            f"sample_rate_hz in a column map), but the file's {what} says {float(own):g} Hz "
+            f"(more than {SAME_RATE_RTOL * 100:g} % apart); leave the sample rate out (the "
+            "file's own is used) or fix the file")
+    return float(own)
 #: End of the non-uniform time message; commands without ``--resample`` (monitor, batch) replace
 #: it with advice they can follow.
 RESAMPLE_ADVICE = "resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess"

@@ -10,9 +10,8 @@ from typing import Iterable, Iterator, Sequence
 import numpy as np
 
 from leakdiag._validation import check_int, check_positive
-from leakdiag.io.checks import (MAX_PRINT_RESOLUTION, UNIFORM_TIME_RTOL, infer_sample_rate,
-                                print_resolution, refuse_time_like, rounds,
-                                same_rate)
+from leakdiag.io.checks import (MAX_PRINT_RESOLUTION, UNIFORM_TIME_RTOL, given_rate_check,
+                                infer_sample_rate, print_resolution, refuse_time_like, rounds)
 from leakdiag.io.recording import Recording, RecordingError
 from leakdiag.io.table import RawTable, repeated_names
 from leakdiag.io.text import extra_field_error, short_row_error
@@ -257,24 +256,27 @@ def _json_dict(blob) -> dict:
 
 def _rate_start(t_head: np.ndarray | None, sample_rate: float | None, start_time: float | None,
                 header: dict, source: str) -> tuple[float, float]:
-    """Sample rate and start time: explicit argument, else the file header, else the time column.
+    """Sample rate and start time: the file header's, else the time column's, else the
+    explicit argument.
 
-    An explicit rate that contradicts the header or the time column is refused (as
-    :func:`leakdiag.io.read_recording` does), never silently preferred. A time column with
-    fewer than 2 values and no rate from elsewhere is refused in io's words (``column 'time'
-    has 1 sample(s); need at least 2``), not as a missing time column.
+    The file's own rate is used; an explicit rate is a cross-check, accepted within 0.1 % of it
+    and refused otherwise, in the words of :func:`leakdiag.io.read_recording`
+    (:func:`leakdiag.io.checks.given_rate_check`), never silently preferred (until 2026-11-27
+    a rate within 0.1 % stamped the windows, 3.2 s an hour off the file's times: streams audit,
+    finding 3). A time column with fewer than 2 values and no rate from elsewhere is refused in
+    io's words (``column 'time' has 1 sample(s); need at least 2``), not as a missing time
+    column.
     """
     own = header.get("sample_rate")
     what = "header"
     if own is None and t_head is not None:
         if len(t_head) >= 2:
-            own, what = infer_sample_rate(t_head, source=source), "time column"
+            own = infer_sample_rate(t_head, source=source)
+            what = f"time column {TIME_COLUMN!r}"
         elif sample_rate is None:
             infer_sample_rate(t_head, source=source)  # raises: too few values for a rate
-    if sample_rate is not None and own is not None and not same_rate(sample_rate, own):
-        raise RecordingError(f"{source}: a sample rate of {float(sample_rate):g} Hz was given, but "
-                             f"the file's {what} says {float(own):g} Hz; leave the sample rate "
-                             "out (it is known) or fix the file")
+    if sample_rate is not None and own is not None:
+        sample_rate = given_rate_check(sample_rate, own, source, what)
     if sample_rate is None:
         sample_rate = own
     if sample_rate is None:
