@@ -86,7 +86,9 @@ FINGERPRINT_PARTS = ("_validation.py", "_holds.py", "bench", "detect", "features
                      "literature", "runtime", "sim")
 #: Parts the v5 pipeline imports that cannot change a result (checked by the tests).
 FINGERPRINT_EXCLUDED = {"report": "HTML pages and figure styles (bench.report.method_style)",
-                        "_version": "the version number, not code"}
+                        "_version": "the version number, not code",
+                        "_fingerprint": "computes this fingerprint (hashes, no result)",
+                        "_numba_cache": "names the folder of Numba's compiled kernels"}
 
 
 def _part_fingerprint(part: str) -> str:
