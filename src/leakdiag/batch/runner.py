@@ -34,7 +34,43 @@ from leakdiag.stream.feature import StreamingFeature
 from leakdiag.stream.files import open_recording
 
 __all__ = ["run_case", "run_batch", "expand_inputs", "batch_inputs", "warn_job_detectors",
-           "BatchSummary", "LOCAL"]
+           "BatchSummary", "LOCAL", "CODE_PARTS", "code_provenance"]
+
+#: The parts of leakdiag whose code a batch result depends on (hashed by
+#: :func:`leakdiag._fingerprint.parts_fingerprint` into each row's ``code_fingerprint``; a
+#: finished recording whose rows hold another fingerprint is computed again): batch itself,
+#: the streaming pass and the recording readers (``stream``, ``io``), the features and the
+#: Sec. 5.2 measure (``features``, ``detect``), the detectors a detector file can hold
+#: (``detect``, ``literature``) and the checks and holds they all use (``_validation.py``,
+#: ``_holds.py``). Left out: ``sim`` (only the whole-recording detectors, flow balance and the
+#: EKF, read simulator parameters, and batch refuses them), ``runtime`` (where a case runs,
+#: not what it computes), ``store``, ``report``, ``cli`` and ``_version`` (no number).
+CODE_PARTS = ("_holds.py", "_validation.py", "batch", "detect", "features", "io", "literature",
+              "stream")
+
+
+def code_provenance() -> dict[str, str]:
+    """What a batch row records of the code that computed it, and is checked against on resume.
+
+    Returns
+    -------
+    dict
+        ``code_fingerprint``: :func:`~leakdiag._fingerprint.parts_fingerprint` of
+        :data:`CODE_PARTS`; ``library_versions``: JSON of
+        :func:`~leakdiag._fingerprint.library_versions` (Python, NumPy, SciPy, Numba, pandas,
+        pyarrow: a new version of any can change a number, so it counts as other code).
+
+    Examples
+    --------
+    >>> sorted(code_provenance())
+    ['code_fingerprint', 'library_versions']
+    """
+    import json
+
+    from leakdiag._fingerprint import library_versions, parts_fingerprint
+
+    return {"code_fingerprint": parts_fingerprint(CODE_PARTS),
+            "library_versions": json.dumps(library_versions(), sort_keys=True)}
 
 
 def expand_inputs(patterns: Iterable[str]) -> list[str]:
@@ -319,6 +355,11 @@ class BatchSummary:
         Results folder.
     n_own : int, default 0
         Files the inputs matched inside the results folder (batch's own results), left out.
+    n_other_code : int, default 0
+        Of ``n_run``: recordings whose finished rows (content unchanged) came from other
+        leakdiag code (another ``code_fingerprint``, or none recorded), computed again.
+    n_other_libraries : int, default 0
+        Of ``n_run``: the same for rows of the same code under other library versions.
     """
 
     n_inputs: int
@@ -327,20 +368,29 @@ class BatchSummary:
     n_errors: int
     out_dir: str
     n_own: int = 0
+    n_other_code: int = 0
+    n_other_libraries: int = 0
 
 
-def _todo(paths, config, out_dir, retry_errors):
-    """Recordings to (re)compute: new, edited since their result (content hash), or errors with
-    ``retry_errors``; their keys and content hashes."""
+def _todo(paths, config, out_dir, retry_errors, code):
+    """Recordings to (re)compute: new, edited since their result (content hash), computed by
+    other code (``code``: :func:`code_provenance`) or errors with ``retry_errors``; their keys,
+    content hashes and the counts of recordings redone for other code / other libraries."""
     done = finished_state(out_dir)
     keys = {p: result_key(p, config.digest) for p in paths}
     shas = {p: content_hash(p) for p in paths}
-    todo = []
+    todo, n_code, n_lib = [], 0, 0
     for p in paths:
         state = done.get(keys[p])
         if state is None or state[0] != shas[p] or (retry_errors and state[1]):
             todo.append(p)
-    return todo, keys, shas
+        elif state[2] != code["code_fingerprint"]:
+            todo.append(p)
+            n_code += 1
+        elif state[3] != code["library_versions"]:
+            todo.append(p)
+            n_lib += 1
+    return todo, keys, shas, n_code, n_lib
 
 
 def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.PathLike, *,
@@ -388,12 +438,15 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
     -----
     Each recording's rows are written as soon as it finishes (atomic rename), so a killed run
     keeps every finished recording and a re-run computes only the rest. A worker that dies
-    turns its recording into an error row.
+    turns its recording into an error row. A finished recording counts only when its rows came
+    from this code and these library versions (:func:`code_provenance`); rows of other code
+    are computed again and replaced, counted in ``n_other_code`` / ``n_other_libraries``.
     """
     from tqdm.auto import tqdm
 
     paths, own = batch_inputs(inputs, out_dir)  # never batch's own result files
-    todo, keys, shas = _todo(paths, config, out_dir, retry_errors)
+    code = code_provenance()
+    todo, keys, shas, n_code, n_lib = _todo(paths, config, out_dir, retry_errors, code)
     if todo:
         warn_job_detectors(config)  # once per detector file; run_case silences them
     n_err = 0
@@ -404,6 +457,7 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
         nonlocal n_err
         for r in rows:
             r["recording_sha256"] = shas[path]
+            r.update(code)
         write_rows(rows, out_dir, keys[path])
         n_err += any(r["status"] == "error" for r in rows)
         bar.update(1)
@@ -416,7 +470,7 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
     finally:
         bar.close()
     return BatchSummary(len(paths), len(paths) - len(todo), len(todo), n_err, os.fspath(out_dir),
-                        len(own))
+                        len(own), n_code, n_lib)
 
 
 def _judges_series(det) -> bool:

@@ -5,8 +5,10 @@ atomic rename, so a killed run leaves only complete files; a re-run skips every 
 The key hashes the recording's absolute path and the job digest, so each recording has exactly one
 current result file per job; the rows record the SHA-256 of the recording's content
 (``recording_sha256``), so an edited recording is computed again and its new rows *replace* the
-old ones (issue 15: one current row set per recording, never an old and a new one side by side). ``pandas.read_parquet(out)`` or
-:func:`read_results` reads the whole table.
+old ones (issue 15: one current row set per recording, never an old and a new one side by side). The
+rows also record the code that computed them (``code_fingerprint``, ``library_versions``:
+:func:`leakdiag.batch.runner.code_provenance`), so rows of other code are computed again too,
+and replaced. ``pandas.read_parquet(out)`` or :func:`read_results` reads the whole table.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ RESULT_COLUMNS: dict[str, str] = {
     "leak_lpm_high": "float64", "leak_lpm_in_range": "bool",
     "elapsed_s": "float64", "job_digest": "string", "job_config": "string",
     "leakdiag_version": "string", "recording_sha256": "string", "unchecked": "string",
+    "code_fingerprint": "string", "library_versions": "string",
 }
 
 
@@ -97,8 +100,9 @@ def content_hash(path: str | os.PathLike) -> str:
     return h.hexdigest()
 
 
-def finished_state(out_dir: str | os.PathLike) -> dict[str, tuple[str | None, bool]]:
-    """Per finished key: the recording's content hash and whether its rows are an error.
+def finished_state(out_dir: str | os.PathLike) -> dict[str, tuple]:
+    """Per finished key: the recording's content hash, whether its rows are an error, and the
+    code that computed them.
 
     Parameters
     ----------
@@ -108,7 +112,8 @@ def finished_state(out_dir: str | os.PathLike) -> dict[str, tuple[str | None, bo
     Returns
     -------
     dict
-        ``key -> (recording_sha256 or None, is_error)``.
+        ``key -> (recording_sha256 or None, is_error, code_fingerprint or None,
+        library_versions or None)`` (None: rows written before these columns existed).
     """
     import pyarrow.parquet as pq
 
@@ -120,10 +125,12 @@ def finished_state(out_dir: str | os.PathLike) -> dict[str, tuple[str | None, bo
         if p.name.startswith((".", "_")):
             continue
         names = set(pq.read_schema(p).names)
-        cols = [c for c in ("recording_sha256", "status") if c in names]
+        cols = [c for c in ("recording_sha256", "status", "code_fingerprint",
+                            "library_versions") if c in names]
         t = pq.read_table(p, columns=cols).to_pydict()
-        sha = (t.get("recording_sha256") or [None])[0]
-        out[p.stem] = (sha, "error" in (t.get("status") or []))
+        first = {c: (t.get(c) or [None])[0] for c in cols}
+        out[p.stem] = (first.get("recording_sha256"), "error" in (t.get("status") or []),
+                       first.get("code_fingerprint"), first.get("library_versions"))
     return out
 
 

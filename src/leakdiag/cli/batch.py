@@ -76,8 +76,8 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     """Run the job in --config on every recording matching INPUTS (quote globs: 'data/**/*.parquet').
 
     One row per recording and analysis/detector goes to --out; a bad file becomes a row with its
-    error; a re-run skips recordings whose content is unchanged and replaces the rows of edited
-    ones. Files inside --out are not inputs. Exit code 1 when any matched recording's current
+    error; a re-run skips recordings whose content is unchanged (rows of the same leakdiag code
+    and library versions) and replaces the rows of edited ones or of other code. Files inside --out are not inputs. Exit code 1 when any matched recording's current
     result is an error, gives no usable feature value (shorter than a window, constant
     channel) or a detector could not judge it ("not judged"); 2 when --store refuses an
     actuator (its recordings say another rig).
@@ -125,6 +125,16 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     click.echo(f"{s.n_inputs} recording(s): {s.n_run} run, {s.n_skipped} already done, "
                f"{s.n_errors} error(s) in this run; {n_rows} current row(s) for job {cfg.digest} "
                f"in {out}, {len(unjudged)} of them not judged")
+    if s.n_other_code or s.n_other_libraries:  # never silently: say what was redone and why
+        from leakdiag.batch.runner import CODE_PARTS
+
+        why = ([f"{s.n_other_code} had rows of other leakdiag code (another fingerprint of "
+                f"{', '.join(CODE_PARTS)})"] if s.n_other_code else []) + (
+            [f"{s.n_other_libraries} had rows of other library versions (Python, NumPy, SciPy, "
+             "Numba, pandas, pyarrow)"] if s.n_other_libraries else [])
+        click.echo(f"leakdiag: note: {s.n_other_code + s.n_other_libraries} finished "
+                   f"recording(s) in {out} computed again, their rows replaced: "
+                   f"{'; '.join(why)}", err=True)
     if s.n_own:  # a glob that covers --out: batch's own result files are not recordings
         click.echo(f"leakdiag: note: {s.n_own} file(s) that the inputs match inside --out "
                    f"{out} (batch's result files, not recordings) left out", err=True)
