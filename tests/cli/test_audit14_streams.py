@@ -148,3 +148,35 @@ def test_a_given_rate_off_by_more_is_refused_in_one_wording(case, run_cli, tmp_p
         code, out, err = run_cli([cmd, path, "--detector", case["det"], "--sample-rate",
                                   "1002"])
         assert code == 2 and words in " ".join(err.split()), (cmd, err)
+
+
+# --- finding 4: a monitor run too short to judge says so and exits 2 -----------------------
+
+def test_monitor_refuses_a_run_too_short_to_judge_in_the_store_s_words(case, run_cli, tmp_path):
+    """Finding 4: 5.3 s against a 5-s burn-in: detect refused ("too short to judge", exit 2),
+    the store recorded the monitor run 'unjudged', and the monitor's console said only
+    "27 windows ..., 0 alarm raising(s)" with exit 0."""
+    from leakdiag.io import Recording
+    from leakdiag.store import EventStore
+
+    rec = case["leak"]
+    short = str(write_recording(Recording({c: v[:5300] for c, v in rec.channels.items()},
+                                          rec.sample_rate, 0.0, rec.units, rec.meta),
+                                tmp_path / "short.parquet"))
+    code, out, err = run_cli(["detect", short, "--detector", case["det"]])
+    assert code == 2 and "too short to judge: 5.3 s leaves no complete window" in err
+    db = str(tmp_path / "ev.db")
+    code, out, err = run_cli(["monitor", short, "--detector", case["det"], "--store", db,
+                              "--actuator", "rigS"])
+    reason = (f"{short}: no window was scored: all 27 windows lie in the detector's burn-in "
+              "(the stream is shorter than the burn-in plus one window), nothing was judged")
+    assert code == 2, (out, err)
+    assert f"{short}: 5300 samples at 1000 Hz, 27 windows" in out  # the summary, then why
+    assert f"leakdiag: error: {reason}" in err
+    st = EventStore(db, create=False)
+    try:
+        row, runs = st.fleet().set_index("name").loc["rigS"].to_dict(), st.runs_of("rigS")
+    finally:
+        st.close()
+    assert runs["status"].tolist() == ["unjudged"] and row["error"].endswith(reason)
+

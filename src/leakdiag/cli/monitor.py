@@ -324,7 +324,10 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
 
     FILE (or --input FILE) is a recording file, or '-' for CSV lines on stdin. Without
     --detector only the feature is computed: no alarm is possible. Ctrl-C or SIGTERM stops it
-    cleanly (the run stored as stopped, the summary printed; exit code 130 or 143).
+    cleanly (the run stored as stopped, the summary printed; exit code 130 or 143). A run
+    with --detector whose windows all lay in the detector's burn-in judged nothing: after the
+    summary it is refused (exit code 2, as detect refuses a file too short to judge), with
+    the reason stored with the run.
     """
     if file is not None and input_path is not None:
         raise click.UsageError(f"give the recording once: FILE ({file}) or --input "
@@ -503,3 +506,10 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     if n_bad == n_win:
         raise ValueError(f"{source.source}: all {n_win} windows of {spec.label} are degenerate "
                          "(zero variance: constant channel?); no feature value was computed")
+    if detector is not None and not n_scored:
+        # every window lay in the detector's burn-in: nothing was judged, and the console said
+        # only "0 alarm raising(s)" with exit 0 while detect refused the file ("too short to
+        # judge", exit 2) and batch marked it "not judged" (streams audit 2026-11-27, finding
+        # 4). A refusal (exit 2) in the words the store records with the run ('unjudged')
+        raise ValueError(unjudged_reason(True, n_win, n_scored, None, str(source.source),
+                                         spec.label, spec.window))
