@@ -180,3 +180,35 @@ def test_monitor_refuses_a_run_too_short_to_judge_in_the_store_s_words(case, run
         st.close()
     assert runs["status"].tolist() == ["unjudged"] and row["error"].endswith(reason)
 
+
+# --- finding 6: a Parquet timestamp column is refused by every reader, in one wording --------
+
+def test_a_parquet_timestamp_time_column_is_refused_alike(case, run_cli, tmp_path):
+    """Finding 6: monitor and batch read a ``timestamp[ns]`` time column as nanoseconds taken
+    as seconds (1e-06 Hz; batch wrote an "ok" row), detect said it "holds text"."""
+    import pandas as pd
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from leakdiag.io import read_recording
+    from leakdiag.io.recording import RecordingError
+
+    rec = case["leak"]
+    ts = pd.Timestamp("2026-11-27 10:00") + pd.to_timedelta(rec.time, unit="s")
+    path = str(tmp_path / "ts.parquet")
+    pq.write_table(pa.table({"time": ts, "p1": rec["p1"], "p2": rec["p2"]}), path)
+    assert pq.read_schema(path).field("time").type == pa.timestamp("ns")
+    words = (f"{path}: column 'time' holds timestamps (dates, times or durations), not "
+             "numbers: leakdiag reads time as seconds (float64); convert the column, e.g. with "
+             "pandas df['time'] = (df['time'] - df['time'].iloc[0]).dt.total_seconds() for "
+             "seconds from the first row")
+    for args in (["detect", path, "--detector", case["det"]],
+                 ["monitor", path, "--detector", case["det"]],
+                 ["monitor", path, "-c", "p1"],
+                 ["analyze", path, "--method", "autocorrelation", "--channels", "p1"]):
+        code, out, err = run_cli(args)
+        assert code == 2 and f"error: {words}\n" in err, (args, err)
+    for read in (lambda: open_recording(path, ["p1"]), lambda: read_recording(path)):
+        with pytest.raises(RecordingError) as exc:  # batch's reader and detect's
+            read()
+        assert str(exc.value) == words

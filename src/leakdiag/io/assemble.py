@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import datetime
 import warnings
 from typing import Any, Mapping
 
@@ -11,7 +12,7 @@ import numpy as np
 from leakdiag._validation import check_positive
 from leakdiag.io.checks import (RESAMPLE_ADVICE, UNIFORM_TIME_RTOL, check_channel_finite,
                                 check_same_length, given_rate_check, infer_sample_rate,
-                                refuse_time_like)
+                                refuse_time_like, timestamps_error)
 from leakdiag.io.column_map import ChannelSpec, ColumnMap
 from leakdiag.io.recording import STANDARD_CHANNELS, Recording, RecordingError
 from leakdiag.io.resample import resample_linear
@@ -24,10 +25,14 @@ _TEXT_PREVIEW = 30
 
 
 def _numeric(table: RawTable, column: str, channel: str) -> np.ndarray:
-    """The column as float64; text in it is an error naming channel, column and row."""
+    """The column as float64; text in it is an error naming channel, column and row, and
+    timestamps (a Parquet ``timestamp`` column) one naming the column."""
     values = table.columns[column]
     if values.dtype != object:
         return np.asarray(values, dtype=np.float64)
+    first = next((v for v in values if v is not None), None)
+    if isinstance(first, (datetime.date, datetime.time, datetime.timedelta)):
+        raise timestamps_error(table.source, column)  # a Parquet timestamp: not text
     import pandas as pd
 
     coerced = pd.to_numeric(pd.Series(values, dtype=object), errors="coerce").to_numpy(

@@ -13,7 +13,7 @@ from leakdiag.io.errors import RecordingError
 
 __all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "check_same_length",
            "UNIFORM_TIME_RTOL", "RESAMPLE_ADVICE", "time_like_column", "refuse_time_like",
-           "print_resolution", "SAME_RATE_RTOL", "same_rate", "given_rate_check", "rounds"]
+           "print_resolution", "SAME_RATE_RTOL", "same_rate", "given_rate_check", "timestamps_error", "rounds"]
 
 #: Relative tolerance on sample intervals for a time axis to count as uniform.
 UNIFORM_TIME_RTOL = 1e-3
@@ -98,6 +98,38 @@ def given_rate_check(given: float, own: float, source: str, what: str) -> float:
             f"(more than {SAME_RATE_RTOL * 100:g} % apart); leave the sample rate out (the "
             "file's own is used) or fix the file")
     return float(own)
+def timestamps_error(source: str, column: str) -> RecordingError:
+    """The refusal of a column of dates, times or durations (a Parquet ``timestamp``,
+    ``date``, ``time`` or ``duration`` column) where numbers are read, in one wording for every
+    reader (decision 2026-11-27, streams audit, finding 6: ``monitor`` and ``batch`` read a
+    ``timestamp[ns]`` time column as nanoseconds taken as seconds, 1e-06 Hz, and ``detect``
+    said it "holds text"). It is not converted: which origin and time zone are meant cannot
+    be told, and seconds since 1970 in float64 keep only about 0.2 us.
+
+    Parameters
+    ----------
+    source : str
+        File name.
+    column : str
+        The column.
+
+    Returns
+    -------
+    RecordingError
+        Naming the file and the column, saying how to convert the column to seconds.
+
+    Examples
+    --------
+    >>> print(timestamps_error("a.parquet", "time"))  # doctest: +ELLIPSIS
+    a.parquet: column 'time' holds timestamps (dates, times or durations), not numbers: ...
+    """
+    return RecordingError(
+        f"{source}: column {column!r} holds timestamps (dates, times or durations), not "
+        f"numbers: leakdiag reads time as seconds (float64); convert the column, e.g. with "
+        f"pandas df[{column!r}] = (df[{column!r}] - df[{column!r}].iloc[0]).dt.total_seconds() "
+        f"for seconds from the first row")
+
+
 #: End of the non-uniform time message; commands without ``--resample`` (monitor, batch) replace
 #: it with advice they can follow.
 RESAMPLE_ADVICE = "resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess"

@@ -14,7 +14,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from leakdiag._validation import check_int
-from leakdiag.io.checks import check_same_length
+from leakdiag.io.checks import check_same_length, timestamps_error
 from leakdiag.io.recording import RecordingError
 from leakdiag.io.text import SEPARATOR_CANDIDATES
 from leakdiag.stream.chunks import (DEFAULT_CHUNK_SAMPLES, TIME_COLUMN, ChunkSource, TimeAxis,
@@ -66,6 +66,9 @@ def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time) -
     repeated = _check_unique(names, channels, path)
     chans = _select(names, channels, path, repeated)
     header = _json_dict((pf.schema_arrow.metadata or {}).get(PARQUET_HEADER_KEY, b""))
+    for c in chans + ([TIME_COLUMN] if TIME_COLUMN in names else []):
+        if pa.types.is_temporal(pf.schema_arrow.field(c).type):  # not nanoseconds as seconds
+            raise timestamps_error(path, c)
     t_head = None
     if TIME_COLUMN in names and "sample_rate" not in header:
         first = next(pf.iter_batches(batch_size=4096, columns=[TIME_COLUMN]), None)
