@@ -10,23 +10,77 @@ benchmark's per-unit mode. For every run detected at or after its onset the rati
 onset) is written to ``DIR/size_ratios.csv``; per group the smallest and largest ratio of the
 detected runs are printed: the
 constants of ``detect/_flow_balance_size.py`` (docs/detect.md 8.5, "Size interval").
-Resumable: rows already in the CSV are not run again.
+
+Resumable: after every run the rows so far are written whole (a temporary file and an atomic
+rename) to ``DIR/rows-<key>.csv``, the key a hash of what a row depends on (the alarm and fit
+settings below, the source of :func:`_run_row`, the code of :data:`CODE_PARTS`, the library
+versions; not ``--per-size``/``--first``, which choose runs, not how a run is judged). A rerun
+reads back only rows of its own key and says how many; ``size_ratios.csv`` holds the rows of
+this key alone. Until 2026-11-27 the whole CSV was rewritten in place after every row and a
+row counted as done by its seed alone, under any code or setting, a half-written row included
+(cache audit 2026-11-27, finding 4).
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
+import inspect
+import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+#: The benchmark's per-unit settings: false alarms per run, the alarm's threshold confidence
+#: and the unit's own healthy runs the detector is fitted on.
+FALSE_ALARM_PER_RUN, CONFIDENCE, N_OWN = 0.01, 0.95, 2
+#: The parts of leakdiag whose code a row depends on: the simulators and what they call,
+#: the flow balance and its features, the benchmark's suite and helpers (``bench``).
+CODE_PARTS = ("_holds.py", "_validation.py", "bench", "detect", "features", "io", "sim")
+#: Columns of a row.
+COLUMNS = ["system", "load", "leak_lpm", "seed", "machine", "detected", "truth_lpm",
+           "leak_lpm_est", "ratio"]
 
-def main(argv=None) -> None:
+
+def _run_row(system, suite, c) -> dict:
+    """Fit the flow balance on the unit's own healthy runs and judge one leaking run."""
     from leakdiag.bench.registry import make_detector
     from leakdiag.bench.v5_common import _simulate, v5_alarm
-    from leakdiag.bench.v5_suite import V5_SUITES, build_v5_suite
     from leakdiag.bench.v5_unit import own_cases
+
+    own = [_simulate(o) for o in own_cases(c, N_OWN, suite.nuisance)]
+    det = make_detector("flow-balance", system,
+                        v5_alarm(FALSE_ALARM_PER_RUN, c.duration_s, confidence=CONFIDENCE))
+    det.fit(own)
+    rec = _simulate(c)
+    v = det.predict(rec)
+    truth = float(rec.meta["leak_lpm_achieved"])
+    ok = bool(v.leak and v.alarm_time_s >= c.onset_s and v.leak_lpm is not None)
+    return {"system": system, "load": c.load, "leak_lpm": c.leak_lpm, "seed": c.seed,
+            "machine": c.nuisance["machine"], "detected": ok, "truth_lpm": truth,
+            "leak_lpm_est": v.leak_lpm, "ratio": v.leak_lpm / truth if ok else np.nan}
+
+
+def rows_key() -> str:
+    """Hash of everything a row depends on (see the module's docstring)."""
+    from leakdiag._fingerprint import library_versions, parts_fingerprint
+
+    obj = [FALSE_ALARM_PER_RUN, CONFIDENCE, N_OWN, inspect.getsource(_run_row),
+           parts_fingerprint(CODE_PARTS), library_versions()]
+    return hashlib.sha256(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def _read_rows(path) -> pd.DataFrame:
+    df = pd.read_csv(path)
+    if list(df.columns) != COLUMNS or df["seed"].isna().any():
+        raise ValueError(f"columns {list(df.columns)}, not {COLUMNS}")
+    return df
+
+
+def main(argv=None) -> None:
+    from leakdiag.bench._workfiles import read_or_discard, write_atomic
+    from leakdiag.bench.v5_suite import V5_SUITES, build_v5_suite
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--per-size", type=int, default=9)
@@ -35,31 +89,27 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    path = out / "size_ratios.csv"
-    done = pd.read_csv(path) if path.exists() else pd.DataFrame(columns=["seed"])
-    rows = done.to_dict("records")
-    seen = set(done["seed"].astype(int))
+    state = out / f"rows-{rows_key()}.csv"
+    done = read_or_discard(state, _read_rows, "size-band rows")
+    rows = [] if done is None else done.to_dict("records")
+    print(f"reused {len(rows)} rows from {state}" if rows else f"no rows to reuse in {state}",
+          flush=True)
+    others = sorted(p.name for p in out.glob("rows-*.csv") if p != state)
+    if others:
+        print(f"not reused (other settings or code): {', '.join(others)}", flush=True)
+    seen = {int(r["seed"]) for r in rows}
     for system, suite in V5_SUITES.items():
         cases = [c for c in build_v5_suite({system: suite}) if c.role == "test_leak"
                  and args.first <= c.nuisance["index"] < args.first + args.per_size]
         for c in cases:
             if c.seed in seen:
                 continue
-            own = [_simulate(o) for o in own_cases(c, 2, suite.nuisance)]
-            det = make_detector("flow-balance", system,
-                                v5_alarm(0.01, c.duration_s, confidence=0.95))
-            det.fit(own)
-            rec = _simulate(c)
-            v = det.predict(rec)
-            truth = float(rec.meta["leak_lpm_achieved"])
-            ok = bool(v.leak and v.alarm_time_s >= c.onset_s and v.leak_lpm is not None)
-            rows.append({"system": system, "load": c.load, "leak_lpm": c.leak_lpm,
-                         "seed": c.seed, "machine": c.nuisance["machine"], "detected": ok,
-                         "truth_lpm": truth, "leak_lpm_est": v.leak_lpm,
-                         "ratio": v.leak_lpm / truth if ok else np.nan})
-            pd.DataFrame(rows).to_csv(path, index=False)
+            rows.append(_run_row(system, suite, c))
+            so_far = pd.DataFrame(rows, columns=COLUMNS)
+            write_atomic(state, lambda tmp: so_far.to_csv(tmp, index=False))
             print(system, c.load, c.leak_lpm, c.seed, rows[-1]["ratio"], flush=True)
-    df = pd.DataFrame(rows)
+    df = pd.DataFrame(rows, columns=COLUMNS)
+    write_atomic(out / "size_ratios.csv", lambda tmp: df.to_csv(tmp, index=False))
     print("group, detected runs, smallest and largest ratio:")
     for (s, ld), g in df[df.detected.astype(bool)].groupby(["system", "load"]):
         r = np.sort(g.ratio.to_numpy())

@@ -15,11 +15,22 @@ Truth: ``meta["leak_lpm_achieved"]`` (the mean leak after the true onset). Print
 design, runs, detections, censored onsets, sized verdicts, intervals holding the truth with
 95 % Clopper-Pearson intervals, size ratios, leaks said to grow, coefficients given.
 
-Resumable: every fitted detector (``det_*.pkl``) and every unit's rows (``rows_*.csv``) are
-kept in the output folder and not recomputed. About 40 CPU-minutes in all.
+Resumable: every fitted detector (``det_<unit>_<load>_<key>.pkl``) and every unit's rows
+(``rows_<unit>_<load>_<key>.csv``) are kept in the output folder, written whole (a temporary
+file and an atomic rename), and read back only under the same key: a hash of the settings they
+depend on, the source of the functions that compute them, the code of the parts of leakdiag
+they run (:data:`CODE_PARTS`) and the library versions (:func:`fit_key`, :func:`rows_key`).
+Every file reused or computed is printed; a file that cannot be read is removed and computed
+again with a warning. Until 2026-11-27 the files were keyed by unit and load alone and written
+in place: a rerun with other sizes or run counts read the former rows back, and a cut CSV or
+pickle was read as valid or stopped every rerun (cache audit 2026-11-27, finding 4).
+About 40 CPU-minutes in all.
 Not collected by pytest (no ``test_`` prefix): ``python perf/flow_balance_verdict_study.py OUT``.
 """
 
+import hashlib
+import inspect
+import json
 import os
 import pickle
 import sys
@@ -29,11 +40,14 @@ import pandas as pd
 from scipy.stats import beta
 
 import leakdiag as ld
+from leakdiag._fingerprint import library_versions, parts_fingerprint
+from leakdiag.bench._workfiles import read_or_discard, write_atomic
 from leakdiag.io.recording import RecordingError
 
 UNITS = (17, 23, 101, 102)
 LOADS = ("spring", "none")
 N_FIT, FIT_S, RUN_S, N_PER = 20, 120.0, 120.0, 6
+FALSE_ALARMS_PER_HOUR = 0.3
 COVERAGE_SIZES = (0.01, 0.02, 0.05, 0.2)
 START_SIZES = (0.02, 0.05, 0.2)
 START_KINDS = (("step@0", 0.0, None), ("step@5", 5.0, None), ("step@10", 10.0, None),
@@ -46,16 +60,45 @@ def clopper_pearson(k: int, n: int) -> str:
     return f"{k}/{n} [{lo:.3f}, {hi:.3f}]"
 
 
+#: The parts of leakdiag whose code the study's files depend on: the simulator and what it
+#: calls (``sim``, ``io``, ``_validation.py``), the flow balance and its features (``detect``,
+#: ``features``, ``_holds.py``).
+CODE_PARTS = ("_holds.py", "_validation.py", "detect", "features", "io", "sim")
+
+
+def _hash(obj) -> str:
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def fit_key(unit: int, load: str) -> str:
+    """Key of a fitted detector: its settings, the fitting code, leakdiag's and the libraries'."""
+    return _hash([unit, load, N_FIT, FIT_S, FALSE_ALARMS_PER_HOUR, inspect.getsource(detector),
+                  parts_fingerprint(CODE_PARTS), library_versions()])
+
+
+def rows_key(unit: int, load: str) -> str:
+    """Key of a unit's rows: its detector's key, both designs and the code that runs them."""
+    return _hash([fit_key(unit, load), RUN_S, N_PER, COVERAGE_SIZES, START_SIZES, START_KINDS,
+                  inspect.getsource(judge), inspect.getsource(unit_rows)])
+
+
+def _read_pickle(path):
+    with open(path, "rb") as f:
+        return pickle.load(f)
+
+
 def detector(out: str, unit: int, load: str):
-    path = os.path.join(out, f"det_{unit}_{load}.pkl")
-    if os.path.exists(path):
-        with open(path, "rb") as f:
-            return pickle.load(f)
+    path = os.path.join(out, f"det_{unit}_{load}_{fit_key(unit, load)}.pkl")
+    det = read_or_discard(path, _read_pickle, "fitted detector")
+    if det is not None:
+        print(f"reused {path}", flush=True)
+        return det
     healthy = [ld.sim.simulate_vca(duration=FIT_S, leak_lpm=0.0, load=load, machine=unit, seed=s)
                for s in range(N_FIT)]
-    det = ld.detect.FlowBalanceDetector(system="vca", false_alarms_per_hour=0.3).fit(healthy)
-    with open(path, "wb") as f:
-        pickle.dump(det, f)
+    det = ld.detect.FlowBalanceDetector(system="vca",
+                                        false_alarms_per_hour=FALSE_ALARMS_PER_HOUR).fit(healthy)
+    write_atomic(path, lambda tmp: tmp.write_bytes(pickle.dumps(det)))
+    print(f"computed {path}", flush=True)
     return det
 
 
@@ -74,10 +117,23 @@ def judge(det, rec, row: dict) -> dict:
     return row
 
 
+def _n_rows() -> int:
+    return len(COVERAGE_SIZES) * N_PER + len(START_SIZES) * 2 * len(START_KINDS)
+
+
+def _read_rows(path) -> pd.DataFrame:
+    df = pd.read_csv(path)
+    if len(df) != _n_rows():  # written whole, so this is a damaged file
+        raise ValueError(f"{len(df)} rows, not {_n_rows()}")
+    return df
+
+
 def unit_rows(out: str, unit: int, load: str) -> pd.DataFrame:
-    path = os.path.join(out, f"rows_{unit}_{load}.csv")
-    if os.path.exists(path):
-        return pd.read_csv(path)
+    path = os.path.join(out, f"rows_{unit}_{load}_{rows_key(unit, load)}.csv")
+    df = read_or_discard(path, _read_rows, "rows")
+    if df is not None:
+        print(f"reused {path} ({len(df)} rows)", flush=True)
+        return df
     det = detector(out, unit, load)
     rows = []
     for size in COVERAGE_SIZES:
@@ -103,7 +159,8 @@ def unit_rows(out: str, unit: int, load: str) -> pd.DataFrame:
                                                  load=load, size=size, seed=seed,
                                                  true_onset=onset)))
     df = pd.DataFrame(rows)
-    df.to_csv(path, index=False)
+    write_atomic(path, lambda tmp: df.to_csv(tmp, index=False))
+    print(f"computed {path} ({len(df)} rows)", flush=True)
     return df
 
 
