@@ -4,7 +4,6 @@
 answers are known (the real study takes 40 CPU-minutes)."""
 
 import math
-import pickle
 import re
 from pathlib import Path
 from types import SimpleNamespace
