@@ -212,3 +212,37 @@ def test_a_parquet_timestamp_time_column_is_refused_alike(case, run_cli, tmp_pat
         with pytest.raises(RecordingError) as exc:  # batch's reader and detect's
             read()
         assert str(exc.value) == words
+
+
+# --- finding 9: a time not increasing is named as detect names it ---------------------------
+
+@pytest.mark.parametrize("suffix", [".parquet", ".csv"])
+@pytest.mark.parametrize("fault", ["swap", "back"])
+def test_time_not_increasing_is_named_as_detect_names_it(case, run_cli, tmp_path, suffix,
+                                                         fault):
+    """Finding 9: two swapped rows were "a gap" at the row before in monitor and batch
+    (detect: not strictly increasing at the second row), and a step back was "is time goes
+    backwards"."""
+    import pandas as pd
+
+    rec = case["leak"]
+    t = rec.time.copy()
+    if fault == "swap":
+        t[[10000, 10001]] = t[[10001, 10000]]
+        row = 10001
+    else:
+        t[20000:] -= 0.0015  # row 20000 half an interval before row 19999
+        row = 20000
+    frame = pd.DataFrame({"time": t, "p1": rec["p1"], "p2": rec["p2"]})
+    path = str(tmp_path / f"{fault}{suffix}")
+    frame.to_parquet(path) if suffix == ".parquet" else frame.to_csv(path, index=False)
+    want = (f"{path}: column 'time' is not strictly increasing at row {row} "
+            f"(t[{row - 1}]={float(t[row - 1])!r}, t[{row}]={float(t[row])!r})")
+    for args in (["detect", path, "--detector", case["det"]],
+                 ["monitor", path, "--detector", case["det"], "--chunk", "4000"]):
+        code, out, err = run_cli(args)
+        assert code == 2 and f"error: {want}\n" in err, (args, err)
+    src, _ = open_recording(path, ["p1"], chunk_samples=4000)  # batch's reader
+    with pytest.raises(Exception) as exc:
+        list(src)
+    assert str(exc.value) == want

@@ -170,7 +170,8 @@ def test_monitor_stdin_time_going_backwards_is_an_error():
     r = CliRunner().invoke(cli, ["monitor", "-i", "-", "-c", "p1", "-w", "50", "-q"],
                            input="\n".join(lines) + "\n")
     assert r.exit_code != 0
-    assert "<stdin>: line 201: time 0.15 s after 0.198 s is time goes backwards" in str(r.exception)
+    assert ("<stdin>: column 'time' is not strictly increasing at line 201 (time 0.15 s after "
+            "0.198 s)") in str(r.exception)
 
 
 def test_monitor_empty_and_text_csv_name_file_channel_row(tmp_path):

@@ -124,7 +124,10 @@ def test_csv_lines_errors():
 
 
 @pytest.mark.parametrize("last,needle", [
-    (0.068, "line 72: time 0.068 s after 0.069 s is time goes backwards"),
+    (0.068, re.escape("column 'time' is not strictly increasing at line 72 (time 0.068 s "
+                      "after 0.069 s)")),
+    (0.069, re.escape("column 'time' is not strictly increasing at line 72 (time 0.069 s "
+                      "after 0.069 s)")),
     (0.075, "line 72: time 0.075 s after 0.069 s is a gap"),
     (0.0701, "line 72: time 0.0701 s after 0.069 s is jitter"),
 ])

@@ -98,10 +98,18 @@ class TimeAxis:
             self.dt, q, 0.02) else q
         return self.rtol * self.dt + q * (1.0 + 1e-6)
 
-    def _error(self, t: float, prev: float, where: str) -> RecordingError:
+    def _error(self, t: float, prev: float, where: str, row: int | None = None
+               ) -> RecordingError:
+        """The error for time ``t`` after ``prev`` at ``where`` (``"line 72"``, or ``"row
+        N"`` with ``row`` N): time not increasing in the words of
+        :func:`leakdiag.io.checks.infer_sample_rate` (detect's), else a gap or jitter."""
         step = t - prev
-        what = ("time goes backwards" if step < 0 else "a repeated time" if step == 0
-                else "a gap" if step > 1.5 * self.dt else "jitter")
+        if step <= 0:  # going backwards or repeated (audit 2026-11-27: "is time goes backwards")
+            at = (f"{where} (time {t!r} s after {prev!r} s)" if row is None
+                  else f"row {row} (t[{row - 1}]={prev!r}, t[{row}]={t!r})")
+            return RecordingError(f"{self.source}: column {TIME_COLUMN!r} is not strictly "
+                                  f"increasing at {at}")
+        what = "a gap" if step > 1.5 * self.dt else "jitter"
         return RecordingError(
             f"{self.source}: {where}: time {t!r} s after {prev!r} s is {what}: interval "
             f"{step:.6g} s, expected {self.dt:.6g} s ({self.fs:g} Hz {self.basis}, tolerance "
@@ -143,7 +151,9 @@ class TimeAxis:
         ------
         RecordingError
             Naming the first data row whose time is not finite or not one sample interval after
-            the previous row's.
+            the previous row's; a time not after the previous one is looked for first and
+            named as :func:`leakdiag.io.read_recording` names it (two swapped rows: "not
+            strictly increasing at row 50001", not "a gap" at row 50000), within the chunk.
         """
         t = np.asarray(t, dtype=np.float64)
         if not len(t):
@@ -154,7 +164,12 @@ class TimeAxis:
                                  f"{float(t[bad[0]])!r} is not finite")
         full = t if self.prev is None else np.concatenate(([self.prev], t))
         off = 0 if self.prev is None else 1  # full[i] is data row row0 + i - off
-        err = np.abs(np.diff(full) - self.dt)
+        step = np.diff(full)
+        back = np.flatnonzero(step <= 0)
+        if len(back):  # first, as io checks the whole column: two swapped rows are not a gap
+            i = int(back[0]) + 1
+            raise self._error(float(full[i]), float(full[i - 1]), "", row0 + i - off)
+        err = np.abs(step - self.dt)
         # the allowance with the print resolution is never below the one without: the times'
         # resolution is looked for only when an interval exceeds that (the usual block passes)
         dev = np.flatnonzero(err > self._allowance(None))
@@ -163,7 +178,8 @@ class TimeAxis:
             dev = np.flatnonzero(err > self._allowance(q))
         if len(dev):
             i = int(dev[0]) + 1
-            raise self._error(float(full[i]), float(full[i - 1]), f"row {row0 + i - off}")
+            raise self._error(float(full[i]), float(full[i - 1]), f"row {row0 + i - off}",
+                              row0 + i - off)
         self.prev = float(t[-1])
 
 
