@@ -86,11 +86,20 @@ def test_html_and_markdown_complete(quick_run):
     agree = pd.read_csv(out / "tables.csv").direction_agrees.sum()
     assert f"agrees with the thesis in {agree} of" in md
     # the code the numbers come from, so that a committed report can be checked against today's
-    from leakdiag.runtime.cache import code_fingerprint
-    from leakdiag.studies.reproduce import code_fingerprints
+    from leakdiag._fingerprint import parts_fingerprint
+    from leakdiag.studies.reproduce import CODE_PARTS, code_fingerprints
     fp = code_fingerprints()
-    assert fp["sim"] == code_fingerprint(sim.simulate_eha) != fp["features"]
-    assert f"Code: simulators `{fp['sim']}`, features `{fp['features']}`" in md
+    assert fp["code"] == parts_fingerprint(CODE_PARTS)
+    assert (f"Code: `{fp['code']}` (leakdiag's {', '.join(CODE_PARTS)}), thesis data "
+            f"`{fp['thesis_data']}`, libraries {fp['libraries']} ") in md
+    # how many simulations the run computed and how many it read from the cache (a fresh
+    # cache: cases that share a simulation read it back)
+    with open(quick_run[2], "rb") as fh:
+        timing = pickle.load(fh)[0].timing
+    n, hits = timing["n_cases"], timing["cache_hits"]
+    assert n > hits
+    assert (f"{n} simulated experiments: {n - hits} simulated in this run, {hits} read from the "
+            "simulation cache" if hits else f"{n} simulated experiments, all simulated") in md
 
 
 def test_second_run_is_all_cache_hits(quick_run, tmp_path):

@@ -16,19 +16,26 @@ from typing import Any
 
 import numpy as np
 
+from leakdiag._fingerprint import library_versions, parts_fingerprint
 from leakdiag.features.registry import feature_record
-from leakdiag.features.spec import compute_feature
-from leakdiag.runtime.cache import code_fingerprint
 from leakdiag.runtime.executor import run_cases
-from leakdiag.sim import simulate_vca
 from leakdiag.studies.protocol import FULL, QUICK, ProtocolConfig, build_cases, run_case
 from leakdiag.studies.select import THESIS_CHOICES, SelectionRule, preferred_setting
-from leakdiag.studies.thesis import (load_sensitivity, load_tables, row_sign, spearman, trend_sign,
-                                     varied_value)
+from leakdiag.studies.thesis import (THESIS_DATA, load_sensitivity, load_tables, row_sign, spearman,
+                                     trend_sign, varied_value)
 
 __all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings", "same_setting",
            "sensitivity_summary", "CONTRACT_COLUMNS", "PREVIOUS_COLUMNS", "per_table_agreement",
-           "compare_runs", "read_previous", "setting_differences", "code_fingerprints"]
+           "compare_runs", "read_previous", "setting_differences", "code_fingerprints",
+           "CODE_PARTS"]
+
+#: The parts of leakdiag a reproduction's numbers depend on (:func:`code_fingerprints`): the
+#: protocol, measures and comparisons (``studies``), the simulators and what they call (``sim``,
+#: ``io``, ``_validation.py``), the features and the Sec. 5.2 measure (``features``,
+#: ``detect``) and the simulation cache the recordings are read back from (``runtime``). Left
+#: out: ``report`` (formats the numbers, computes none), ``_version``, ``_fingerprint`` and
+#: ``_numba_cache`` (no number); the thesis's tables are data, hashed apart (``thesis_data``).
+CODE_PARTS = ("_validation.py", "detect", "features", "io", "runtime", "sim", "studies")
 
 #: Columns of ``tables.csv`` written by :func:`leakdiag.report.reproduction.write_outputs`
 #: (the outside contract).
@@ -487,23 +494,33 @@ def read_previous(path, systems=None):
 
 
 def code_fingerprints() -> dict[str, str]:
-    """Fingerprints of the code a reproduction's numbers come from.
+    """Fingerprints of the code and data a reproduction's numbers come from.
 
-    The simulators' package (the fingerprint that is part of every cache key, see
-    :func:`leakdiag.runtime.cache.code_fingerprint`) and the features' package. A committed
-    report whose values differ from today's was made by other code: rerun it.
+    A committed report whose values differ from today's was made by other code, data or
+    libraries: rerun it.
 
     Returns
     -------
     dict
-        ``{"sim": 16 hex digits, "features": 16 hex digits}``.
+        ``code``: :func:`~leakdiag._fingerprint.parts_fingerprint` of :data:`CODE_PARTS`;
+        ``thesis_data``: SHA-256 (16 hex digits) of the thesis's tables
+        (``studies/thesis_data/*.csv``); ``libraries``: the versions of
+        :func:`~leakdiag._fingerprint.library_versions`, as ``"numba 0.60.0, numpy ..."``.
 
     Examples
     --------
-    >>> sorted(code_fingerprints()), len(code_fingerprints()["sim"])
-    (['features', 'sim'], 16)
+    >>> fp = code_fingerprints()
+    >>> sorted(fp), len(fp["code"]), len(fp["thesis_data"])
+    (['code', 'libraries', 'thesis_data'], 16, 16)
     """
-    return {"sim": code_fingerprint(simulate_vca), "features": code_fingerprint(compute_feature)}
+    import hashlib
+
+    h = hashlib.sha256()
+    for f in sorted(THESIS_DATA.glob("*.csv")):
+        h.update(f.name.encode() + b"\0" + f.read_bytes())
+    libs = ", ".join(f"{k} {v}" for k, v in sorted(library_versions().items()))
+    return {"code": parts_fingerprint(CODE_PARTS), "thesis_data": h.hexdigest()[:16],
+            "libraries": libs}
 
 
 def reproduce(systems=("vca", "eha"), config: ProtocolConfig | None = None, *, quick=False,
