@@ -18,13 +18,12 @@ def _reference(axis: TimeAxis, t: np.ndarray, row0: int) -> None:
     back = np.flatnonzero(np.diff(full) <= 0)  # time not increasing: first (finding 9 of
     if len(back):                                # the streams audit, 2026-11-27)
         i = int(back[0]) + 1
-        raise axis._error(float(full[i]), float(full[i - 1]), "", row0 + i - off)
+        raise axis._error(float(full[i]), float(full[i - 1]), row=row0 + i - off)
     q = axis.resolution if axis.resolution is not None else print_resolution(full)
     dev = np.flatnonzero(np.abs(np.diff(full) - axis.dt) > axis._allowance(q))
     if len(dev):
         i = int(dev[0]) + 1
-        raise axis._error(float(full[i]), float(full[i - 1]), f"row {row0 + i - off}",
-                          row0 + i - off)
+        raise axis._error(float(full[i]), float(full[i - 1]), row=row0 + i - off)
     axis.prev = float(t[-1])
 
 

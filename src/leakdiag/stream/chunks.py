@@ -98,12 +98,13 @@ class TimeAxis:
             self.dt, q, 0.02) else q
         return self.rtol * self.dt + q * (1.0 + 1e-6)
 
-    def _error(self, t: float, prev: float, where: str, row: int | None = None
-               ) -> RecordingError:
-        """The error for time ``t`` after ``prev`` at ``where`` (``"line 72"``, or ``"row
-        N"`` with ``row`` N): time not increasing in the words of
-        :func:`leakdiag.io.checks.infer_sample_rate` (detect's), else a gap or jitter."""
+    def _error(self, t: float, prev: float, *, line: int | None = None,
+               row: int | None = None) -> RecordingError:
+        """The error for time ``t`` after ``prev`` at ``line`` (live) or data ``row`` (file):
+        time not increasing in the words of :func:`leakdiag.io.checks.infer_sample_rate`
+        (detect's), else a gap or jitter."""
         step = t - prev
+        where = f"line {line}" if row is None else f"row {row}"
         if step <= 0:  # going backwards or repeated (audit 2026-11-27: "is time goes backwards")
             at = (f"{where} (time {t!r} s after {prev!r} s)" if row is None
                   else f"row {row} (t[{row - 1}]={prev!r}, t[{row}]={t!r})")
@@ -134,7 +135,7 @@ class TimeAxis:
             raise RecordingError(f"{self.source}: line {lineno}: time {t!r} is not finite")
         if self.prev is not None and abs(t - self.prev - self.dt) > self._allowance(
                 self.resolution):
-            raise self._error(t, self.prev, f"line {lineno}")
+            raise self._error(t, self.prev, line=lineno)
         self.prev = t
 
     def check_block(self, t: np.ndarray, row0: int) -> None:
@@ -168,7 +169,7 @@ class TimeAxis:
         back = np.flatnonzero(step <= 0)
         if len(back):  # first, as io checks the whole column: two swapped rows are not a gap
             i = int(back[0]) + 1
-            raise self._error(float(full[i]), float(full[i - 1]), "", row0 + i - off)
+            raise self._error(float(full[i]), float(full[i - 1]), row=row0 + i - off)
         err = np.abs(step - self.dt)
         # the allowance with the print resolution is never below the one without: the times'
         # resolution is looked for only when an interval exceeds that (the usual block passes)
@@ -178,8 +179,7 @@ class TimeAxis:
             dev = np.flatnonzero(err > self._allowance(q))
         if len(dev):
             i = int(dev[0]) + 1
-            raise self._error(float(full[i]), float(full[i - 1]), f"row {row0 + i - off}",
-                              row0 + i - off)
+            raise self._error(float(full[i]), float(full[i - 1]), row=row0 + i - off)
         self.prev = float(t[-1])
 
 
