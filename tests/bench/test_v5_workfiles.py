@@ -163,3 +163,21 @@ def test_the_work_folder_by_another_path_reuses_every_shard(tmp_path, cache, cap
         pd.testing.assert_frame_equal(_runs(tmp_path / "out2"), _runs(tmp_path / "out1"))
     assert len(list((work / "shards").iterdir())) == 1
     assert len(list((work / "fits").iterdir())) == 1
+
+
+def test_temporary_files_of_killed_writers_are_removed_after_an_hour(tmp_path, cache, capsys):
+    """A writer killed between its temporary file and the rename leaves ``.<name>.<random>.tmp``;
+    a run removes those older than an hour and keeps a fresh one (another run's, at work)."""
+    work = tmp_path / "work"
+    (work / "shards").mkdir(parents=True)
+    (work / "fits").mkdir()
+    old = work / "shards" / ".0f71a1705b4b7ccb93c22b6b.parquet.k3j2x9.tmp"
+    fresh = work / "fits" / ".acf-p1-ad58aaa84db9a3e177ff7685.joblib.p0q1r2.tmp"
+    for f in (old, fresh):
+        f.write_bytes(b"PAR1 half a file")
+    hours_ago = os.stat(old).st_mtime - 7200.0
+    os.utime(old, (hours_ago, hours_ago))
+    assert main([*SMALL, "--work-dir", str(work), "--cache-dir", cache,
+                 "-o", str(tmp_path / "out")]) == 0
+    assert not old.exists() and fresh.read_bytes() == b"PAR1 half a file"
+    assert sorted(p.name for p in (work / "shards").iterdir() if p.name.startswith(".")) == []

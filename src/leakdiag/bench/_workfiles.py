@@ -21,11 +21,17 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+import time
 import warnings
 from pathlib import Path
 from typing import Any, Callable
 
-__all__ = ["DamagedWorkFileWarning", "write_atomic", "read_or_discard"]
+__all__ = ["DamagedWorkFileWarning", "write_atomic", "read_or_discard", "remove_stale_temps",
+           "STALE_TEMP_S"]
+
+#: Age after which a temporary file of :func:`write_atomic` is a leftover of a killed writer (no
+#: work file takes an hour to write; the simulation cache uses the same rule).
+STALE_TEMP_S = 3600.0
 
 
 class DamagedWorkFileWarning(UserWarning):
@@ -121,3 +127,41 @@ def read_or_discard(path, read: Callable[[Path], Any], what: str) -> Any:
         warnings.warn(f"{path}: damaged {what} file ({why}); removed, "
                       "computed again", DamagedWorkFileWarning, stacklevel=2)
         return None
+
+
+def remove_stale_temps(folder, older_than_s: float = STALE_TEMP_S) -> int:
+    """Remove temporary files of :func:`write_atomic` left in ``folder`` by killed writers.
+
+    Only hidden ``.<name>.<random>.tmp`` files last modified more than ``older_than_s`` ago:
+    a writer still at work (another run on the same folder) keeps its file.
+
+    Parameters
+    ----------
+    folder : path-like
+        A work folder (a missing one has nothing to remove).
+    older_than_s : float, default :data:`STALE_TEMP_S`
+        Age in seconds.
+
+    Returns
+    -------
+    int
+        Files removed.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = (d / ".x.parquet.abc123.tmp").write_bytes(b"half")
+    >>> remove_stale_temps(d), remove_stale_temps(d, older_than_s=-1.0)
+    (0, 1)
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        return 0
+    now, n = time.time(), 0
+    for f in folder.glob(".*.tmp"):
+        with contextlib.suppress(OSError):  # gone already, or another run's to remove
+            if now - f.stat().st_mtime > older_than_s:
+                f.unlink()
+                n += 1
+    return n

@@ -25,7 +25,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from leakdiag.bench._workfiles import read_or_discard, write_atomic
+from leakdiag.bench._workfiles import read_or_discard, remove_stale_temps, write_atomic
 from leakdiag.bench.registry import make_detector
 from leakdiag.bench.run import SimConfig, simulate_case, simulator_has_machines
 from leakdiag.bench.v5_common import (
@@ -359,6 +359,8 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
     else:
         plan = _plan_fleet(suites, methods, work, groups, fp, false_alarm_per_run, onset_method,
                            cache_dir, budget, confidence)
+    for sub in ("fits", "shards", "refs", "unit-shards"):  # leftovers of killed writers
+        remove_stale_temps(work / sub)
     # the one skeleton of both modes: simulate, fit (or reference maxima), score, collect
     stages = [(simulate_case, [SimConfig(c, cache_dir) for c in cal_all],
                "simulate calibration runs"), (plan.fit, plan.fit_tasks, plan.fit_desc),
