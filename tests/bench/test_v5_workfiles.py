@@ -165,6 +165,25 @@ def test_the_work_folder_by_another_path_reuses_every_shard(tmp_path, cache, cap
     assert len(list((work / "fits").iterdir())) == 1
 
 
+def test_settings_and_report_record_the_library_versions(tmp_path, cache, capsys):
+    """settings.json and report.md record leakdiag's and the libraries' versions beside the
+    code fingerprint (the fingerprint alone before; cache audit 2026-11-27, finding 8)."""
+    import json
+
+    from leakdiag._fingerprint import library_versions
+
+    out = tmp_path / "out"
+    assert main([*SMALL, "--work-dir", str(tmp_path / "work"), "--cache-dir", cache,
+                 "-o", str(out)]) == 0
+    settings = json.loads((out / "settings.json").read_text())
+    assert settings["library_versions"] == library_versions()
+    assert settings["leakdiag_version"] == "0.1.0"
+    libs = ", ".join(f"{k} {v}" for k, v in sorted(library_versions().items()))
+    assert (f"Code: fingerprint `{settings['code_fingerprint']}` (part of every fit, reference "
+            f"and shard key), leakdiag 0.1.0; libraries {libs} (recorded, not part of the "
+            "keys).") in (out / "report.md").read_text()
+
+
 def test_temporary_files_of_killed_writers_are_removed_after_an_hour(tmp_path, cache, capsys):
     """A writer killed between its temporary file and the rename leaves ``.<name>.<random>.tmp``;
     a run removes those older than an hour and keeps a fresh one (another run's, at work)."""

@@ -392,6 +392,11 @@ def write_v5_report(out: Path, runs, fits, summary, det, far_tab, settings,
           f"Virtual machines in the simulator: {settings['virtual_machines']} (False: machine "
           "ids recorded, the nominal unit simulated). Reduced budget (calibration, healthy, "
           f"leaking per size): {settings['reduced_budget'] or 'none'}.", ""]
+    if "library_versions" in settings:
+        libs = ", ".join(f"{k} {v}" for k, v in sorted(settings["library_versions"].items()))
+        md += [f"Code: fingerprint `{settings['code_fingerprint']}` (part of every fit, "
+               f"reference and shard key), leakdiag {settings['leakdiag_version']}; libraries "
+               f"{libs} (recorded, not part of the keys).", ""]
     if summary is not None:
         md += ["## Summary (per rig, load, excitation; loads never pooled)", "",
                "MDL: minimum detectable leak (L/min), >= 90 % detected within the deadline at "

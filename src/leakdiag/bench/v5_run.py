@@ -25,6 +25,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from leakdiag._fingerprint import library_versions
+from leakdiag._version import __version__
 from leakdiag.bench._workfiles import read_or_discard, remove_stale_temps, write_atomic
 from leakdiag.bench.registry import make_detector
 from leakdiag.bench.run import SimConfig, simulate_case, simulator_has_machines
@@ -380,7 +382,8 @@ def run_v5(suites, methods, work_dir, *, false_alarm_per_run: float, onset_metho
                 "threshold_confidence": confidence,
                 "reduced_budget": {m: list(v) for m, v in budget.items() if m in methods},
                 "virtual_machines": {s: simulator_has_machines(s) for s in suites},
-                "code_fingerprint": fp,
+                "code_fingerprint": fp, "leakdiag_version": __version__,
+                "library_versions": library_versions(),  # a record: not part of the keys
                 "wall_s": dict(zip(("simulate_calibration", "fit", "score"), walls)),
                 "n_fit_tasks": plan.n_fit_tasks, "n_chunks": len(plan.chunks),
                 "work": work_summary(work, results[0], fits, [r.result for r in results[2]],
