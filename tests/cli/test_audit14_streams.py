@@ -112,6 +112,23 @@ def test_foreign_hdf5_channels_group_is_refused_by_both(case, run_cli, tmp_path)
         open_recording(f, ["p1"])
 
 
+
+def test_foreign_hdf5_default_channels_stay_the_root_datasets(tmp_path):
+    """Finding 2's rule names datasets in groups (``cal/v``) for the messages; without a
+    channel list the chunked reader still reads the root's 1-D datasets only."""
+    from leakdiag.stream.files import open_chunks
+
+    path = tmp_path / "a.h5"
+    with h5py.File(path, "w") as f:
+        f["time"], f["p1"] = [k / 100 for k in range(10)], [float(k) for k in range(10)]
+        f["cal/v"] = [1.0, 2.0, 3.0]
+    src = open_chunks(path)
+    assert (src.channels, src.sample_rate, [c["p1"].tolist() for c in src]) == (
+        ["p1"], 100.0, [[float(k) for k in range(10)]])
+    with pytest.raises(Exception, match=r"missing channel\(s\) \['x'\]; available: "
+                                        r"\['cal/v', 'p1'\]$"):
+        open_chunks(path, ["x"])
+
 # --- finding 3: a given sample rate is a cross-check of the file's, in every reader ---------
 
 def test_a_given_rate_within_tolerance_is_checked_not_used(case, run_cli, tmp_path):

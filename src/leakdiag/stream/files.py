@@ -127,6 +127,8 @@ def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> C
             header, meta = {}, {}
         try:
             chans = _select(names, channels, path)
+            if channels is None:  # by default the datasets at the root, as before
+                chans = [c for c in chans if "/" not in c]
         except RecordingError as exc:
             if own is None and isinstance(f.get(HDF5_CHANNEL_GROUP), h5py.Group):
                 raise RecordingError(
