@@ -633,3 +633,22 @@ def test_upcrossing_counts_equal_a_comparison_of_every_sample_with_every_level()
         above = g[None, :] >= grid[:, None]
         expected = above[:, 0] + np.count_nonzero(above[:, 1:] & ~above[:, :-1], axis=1)
         np.testing.assert_array_equal(counts, expected)
+
+
+@pytest.mark.parametrize("seed", [60, 65])
+def test_a_large_leak_does_not_move_the_drift_fit_before_its_onset(machine17, seed):
+    # audit 2026-11-27: the recording's null drift was fitted on all its windows, the leaking
+    # ones too; a 2 L/min leak from 40 s then alarmed at 14.0 s (seed 60) and 30.3 s (seed 65),
+    # sized 0.41 and 1.03 L/min with intervals that missed the truth. The drift is now fitted
+    # again before the alarm's span.
+    det = machine17[1]
+    rec = ld.sim.simulate_vca(duration=60, leak_lpm=2.0, onset=40, load="spring", machine=17,
+                              seed=seed)
+    v = det.predict(rec)
+    truth = rec.meta["leak_lpm_achieved"]
+    assert v.leak and 40.0 <= v.alarm_time_s <= 42.0 and 38.0 <= v.onset_s <= 40.5
+    assert v.leak_lpm == pytest.approx(truth, rel=0.05)
+    assert v.leak_lpm_interval[0] <= truth <= v.leak_lpm_interval[1]
+    # the windows before the onset read as the healthy ones do: no score near the threshold
+    s = det.score(rec)
+    assert s.values[s.time < 38.0].max() < det.threshold_

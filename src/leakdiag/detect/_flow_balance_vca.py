@@ -637,6 +637,9 @@ CHANNELS = VCA_CHANNELS
 #: Gauss-Newton steps of each recording's null drift before the test (leakdiag choice: the null
 #: moves the valve flows nonlinearly near the null, where the metering edge changes).
 DRIFT_ITERATIONS = 2
+#: Fewest windows on which a recording's null drift (V/s) is fitted besides its offset
+#: (leakdiag choice: fewer windows before a test's span fit the offset only).
+DRIFT_MIN_WINDOWS = 20
 #: Identification window when the valve bandwidth or bulk modulus is identified (s): short
 #: enough that the valve and compressibility dynamics are visible (leakdiag choice).
 DYNAMIC_ID_WINDOW_S = 0.02
@@ -660,11 +663,16 @@ def leak_transition_pa(p: VCAParams) -> float:
 
 
 def terms(rec, nominal: VCAParams, model: VCAValveModel, window: int, laminar: bool,
-          quiet: bool = True) -> dict:
+          quiet: bool = True, drift_windows: int | None = None) -> dict:
     """Window terms of one recording with a given model (see :func:`vca_terms`).
 
     ``quiet``: window boundaries moved to where the valve is at rest (:func:`recording_bounds`);
-    the boundaries are returned as ``bounds``.
+    the boundaries are returned as ``bounds``. ``drift_windows``: the recording's null offset
+    and drift (the point the test linearises at) are fitted on its windows before this one
+    only (default: all): a test that alarmed fits them again on the windows before its span,
+    so that a large leak after them does not move them (and with them every earlier window's
+    residual: a 1 L/min leak from 60 s alarmed at 10 s; audit of 2026-11-27). With fewer than
+    :data:`DRIFT_MIN_WINDOWS` windows before it the drift is not fitted, only the offset.
     """
     arrays = _arrays(rec)
     fs = rec.sample_rate
@@ -683,10 +691,15 @@ def terms(rec, nominal: VCAParams, model: VCAValveModel, window: int, laminar: b
         t0 = bounds[:-1] / fs  # window start, s
         x = np.column_stack([psi, psi * t0])
         sk = min(len(psi) - 1, max(1, int(round(1.0 * fs / window))))
-        step, *_ = np.linalg.lstsq(x[sk:], out["residual"][sk:], rcond=None)
+        end = len(psi) if drift_windows is None else min(len(psi), drift_windows)
+        if end - sk < 1:
+            break  # no window to fit on: the model's own null
+        if drift_windows is not None and end - sk < DRIFT_MIN_WINDOWS:
+            x = x[:, :1]  # the offset only (a refit before a span: too few windows for both)
+        step, *_ = np.linalg.lstsq(x[sk:end], out["residual"][sk:end], rcond=None)
         if not np.all(np.isfinite(step)):
             break
-        drift = drift - step
+        drift[:len(step)] = drift[:len(step)] - step
     out["nuisance"] = psi
     out["bounds"] = bounds
     return out
