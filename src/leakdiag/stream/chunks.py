@@ -166,15 +166,17 @@ class TimeAxis:
         full = t if self.prev is None else np.concatenate(([self.prev], t))
         off = 0 if self.prev is None else 1  # full[i] is data row row0 + i - off
         step = np.diff(full)
-        back = np.flatnonzero(step <= 0)
-        if len(back):  # first, as io checks the whole column: two swapped rows are not a gap
-            i = int(back[0]) + 1
-            raise self._error(float(full[i]), float(full[i - 1]), row=row0 + i - off)
         err = np.abs(step - self.dt)
         # the allowance with the print resolution is never below the one without: the times'
         # resolution is looked for only when an interval exceeds that (the usual block passes)
         dev = np.flatnonzero(err > self._allowance(None))
         if len(dev):
+            # a time not after the previous one fails that allowance (rtol < 1), so it is looked
+            # for here only, first, as io checks the whole column: two swapped rows are not a gap
+            back = np.flatnonzero(step <= 0)
+            if len(back):
+                i = int(back[0]) + 1
+                raise self._error(float(full[i]), float(full[i - 1]), row=row0 + i - off)
             q = self.resolution if self.resolution is not None else print_resolution(full)
             dev = np.flatnonzero(err > self._allowance(q))
         if len(dev):
