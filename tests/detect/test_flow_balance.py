@@ -652,3 +652,25 @@ def test_a_large_leak_does_not_move_the_drift_fit_before_its_onset(machine17, se
     # the windows before the onset read as the healthy ones do: no score near the threshold
     s = det.score(rec)
     assert s.values[s.time < 38.0].max() < det.threshold_
+
+
+def _bare(rec):
+    """As a plain CSV export reads: the channels and rate, no metadata (no leak, no rig)."""
+    return Recording(dict(rec.channels), rec.sample_rate, rec.start_time, dict(rec.units),
+                     {"source": f"run{rec.meta['seed']}.csv"})
+
+
+def test_fit_refuses_a_healthy_recording_the_others_read_as_leaking():
+    # audit 2026-11-27: five healthy CSV exports and one leaking 0.01 L/min from the start were
+    # fitted without a word (cross-fit maxima 0.18-3.13 and 63.7, threshold 2.79), and the
+    # detector read 0.005-0.02 L/min leaks NO LEAK
+    runs = [ld.sim.simulate_vca(duration=30, leak_lpm=0.0, load="spring", machine=17, seed=s)
+            for s in range(4)]
+    leaking = ld.sim.simulate_vca(duration=30, leak_lpm=0.02, onset=0.0, load="spring",
+                                  machine=17, seed=7)
+    ok = FlowBalanceDetector(system="vca").fit([_bare(r) for r in runs])
+    assert np.all(ok.cross_fit_maxima_ < ok.threshold_)
+    with pytest.raises(ValueError, match=r"^fit: 1 of the 5 healthy recordings do not read as "
+                       r"healthy .* recording 3 \(run7\.csv\): [0-9.]+\. A leaking recording"):
+        FlowBalanceDetector(system="vca").fit([_bare(r) for r in runs[:2]] + [_bare(leaking)]
+                                              + [_bare(r) for r in runs[2:]])

@@ -276,6 +276,13 @@ def glr_segment_maxima(g, per_segment: int) -> np.ndarray:
     return g[:m * int(per_segment)].reshape(m, int(per_segment)).max(axis=1) if m else np.zeros(0)
 
 
+#: A healthy recording whose cross-fit GLR maximum (judged by the model identified on the other
+#: half of the healthy runs) exceeds this many times the fitted threshold is refused by ``fit``
+#: (leakdiag choice, measured 2026-11-27: the healthy runs of 7 fits of 4-8 runs, VCA and EHA,
+#: with and without load, at 0.48-0.85 times their threshold; a leaking or another rig's run
+#: among healthy ones at 21-29 times, in the audit's fits).
+ODD_ONE_OUT_FACTOR = 5.0
+
 #: Smallest ratio of the piston's volume to the valve model's, since an alarm's onset, that a
 #: verdict accepts (VCA; leakdiag choice, docs/detect.md 8.4, "Command sign"): 1 on healthy
 #: recordings, between 0 and 1 with a leak (the valve feeds it: measured 0.91-0.98 at 0.1,
@@ -1001,7 +1008,8 @@ class FlowBalanceDetector(Detector):
             (``meta["leak_lpm"] > 0``), or holds the same samples as another one.
         ValueError
             For a bad setting (also a given ``alarm``), no recordings, a recording of another
-            system, too little healthy data, reference maxima made with other settings, or a
+            system, a healthy recording that a model fitted on the others reads as leaking
+            (``ODD_ONE_OUT_FACTOR``), too little healthy data, reference maxima made with other settings, or a
             ``false_alarms_per_hour`` of one alarm or more per segment or at least the GLR
             null's rate at its lowest level (the message gives the largest accepted value).
         TypeError
@@ -1110,10 +1118,38 @@ class FlowBalanceDetector(Detector):
                if cross else np.zeros(0))
         self.threshold_basis_ = self._threshold_basis(own, segment_s, reference_maxima, h)
         self.threshold_ = float(self.threshold_basis_.threshold)
+        self._check_odd_one_out(recs)
         self.n_healthy_ = len(recs)
         self.sample_rate_ = float(recs[0].sample_rate)  # _check_recording refuses other rates
         self.feature_name_ = "flow_balance"
         return self
+
+    def _check_odd_one_out(self, recs: list) -> None:
+        """Refuse healthy recordings that a model fitted on the others reads as leaking.
+
+        The cross-fit judges each healthy run with the model identified on the other half
+        (``cross_fit_maxima_``); a run whose GLR maximum there is above
+        :data:`ODD_ONE_OUT_FACTOR` times the threshold is no healthy run of this machine: a
+        leaking one, another machine's or another rig's. Metadata catch such runs only when
+        the files carry them; an audit (2026-11-27) fitted five healthy CSV exports with one
+        leaking 0.01 L/min (cross-fit maxima 0.18-3.13 and 63.7, threshold 2.79), and four
+        with one EHA run (2.07-2.52 and 96.0): both fits were silent, and their detectors read
+        0.005-0.02 L/min leaks NO LEAK that the clean fit detected (scores 31-127).
+        """
+        cm = getattr(self, "cross_fit_maxima_", np.zeros(0))
+        limit = ODD_ONE_OUT_FACTOR * self.threshold_
+        odd = [i for i, m in enumerate(cm) if m > limit]
+        if not odd or len(cm) != len(recs):
+            return
+        rest = [m for i, m in enumerate(cm) if i not in odd]
+        names = "; ".join(f"recording {i + 1} ({recs[i].meta.get('source', '<recording>')}): "
+                          f"{cm[i]:.3g}" for i in odd)
+        others = f"the others at most {max(rest):.3g}" if rest else "no other below it"
+        raise ValueError(
+            f"fit: {len(odd)} of the {len(recs)} healthy recordings do not read as healthy to "
+            f"a model identified on the other half of them (GLR maximum, against the "
+            f"threshold {self.threshold_:.3g}; {others}): {names}. A leaking recording, or one "
+            "of another machine, load or rig? Leave it out of the healthy recordings")
 
     def _fixed_segment(self) -> float | None:
         """``segment_s`` in seconds, or None (also for a detector saved before it existed)."""
