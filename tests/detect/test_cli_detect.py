@@ -193,14 +193,39 @@ def test_fit_with_calibration_gives_the_leak_size_with_interval(files, tmp_path,
     from leakdiag.io import write_recording
     from leakdiag.sim import simulate_vca
 
+    import dataclasses
+
+    import numpy as np
+
     healthy, leak = files
+    # the thesis features do not follow these simulated leaks (shifts 1.42, 1.40, 1.05 std at
+    # 0.1, 0.3, 0.8 L/min): such a calibration is refused (it used to size any leak as noise)
     cal = []
     for i, q in enumerate((0.1, 0.3, 0.8)):
         rec = simulate_vca(duration=30.0, leak_lpm=q, onset=15.0, seed=60 + i, reference_seed=160 + i)
         cal += ["--calibrate", str(write_recording(rec, tmp_path / f"cal{i}.parquet"))]
     det = tmp_path / "det.joblib"
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, *cal, "-o", str(det)]) == 2
+    assert "the feature's shift does not follow the leak flow on these 3 runs" in \
+        capsys.readouterr().err
+
+    # a feature that does follow a "leak": noise in p2 after the onset, in proportion to it,
+    # lowers the cross-correlation of p1 and p2 (recordings made for the test, not physics)
+    def noisy(q, seed, path):
+        rec = simulate_vca(duration=30.0, leak_lpm=None, seed=seed, reference_seed=100 + seed)
+        p2 = rec["p2"].copy()
+        after = rec.time >= 15.0
+        p2[after] += np.random.default_rng(seed).normal(0.0, 3e4 * q, after.sum())
+        meta = {**rec.meta, "onset": 15.0, "leak_lpm": q, "leak_lpm_achieved": q}
+        return str(write_recording(dataclasses.replace(
+            rec, channels={**rec.channels, "p2": p2}, meta=meta), path))
+
+    # (a healthy run's seed: the same operation before the onset, one noise pattern scaled)
+    cal = [a for i, q in enumerate((0.2, 0.5, 1.0, 1.5))
+           for a in ("--calibrate", noisy(q, 20, tmp_path / f"n{i}.parquet"))]
+    leak = noisy(0.8, 21, tmp_path / "nleak.parquet")
     assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, *cal, "-o", str(det)]) == 0
-    assert "leak size calibrated on 3 recording(s)" in capsys.readouterr().out
+    assert "leak size calibrated on 4 recording(s)" in capsys.readouterr().out
     assert main(["detect", leak, "--detector", str(det)]) == 0
     out = capsys.readouterr().out
     line = [ln for ln in out.splitlines() if "leak size (ccf-p1p2)" in ln][0]
@@ -213,7 +238,7 @@ def test_fit_with_calibration_gives_the_leak_size_with_interval(files, tmp_path,
     assert "leak size: not estimated" in capsys.readouterr().out
     assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, *cal[:2], "-o", str(det)]) == 2
     assert "at least 3 recordings with known leaks" in capsys.readouterr().err
-    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, *cal[:4], "--calibrate",
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, *cal[:6], "--calibrate",
                  healthy[0], "-o", str(det)]) == 2
     assert "healthy0.parquet: its metadata does not give the leak onset" in capsys.readouterr().err
 

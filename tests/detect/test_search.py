@@ -86,3 +86,21 @@ def test_leak_calibration_interval_covers_truth():
         fit_leak_calibration([1.0, 1.0, 1.0], [0.1, 0.2, 0.3])
     with pytest.raises(ValueError, match=">= 3"):
         fit_leak_calibration([1.0, 2.0], [0.1, 0.2])
+
+
+def test_a_calibration_whose_shift_does_not_follow_the_leak_is_refused():
+    # audit 2026-11-27: shifts that do not follow the leak (t = 0.2) were accepted and sized
+    # a 0.5 L/min leak 0.04 [0, 0.32] L/min. By hand: shifts 0, 1, 2, 3 against flows
+    # 0.1, 0.3, 0.1, 0.3 give slope 0.04, residual std sqrt(0.032 / 2) = 0.1265, standard error
+    # 0.1265 / sqrt(5) = 0.0566, t = 0.707 < t(0.975, 2) = 4.303
+    with pytest.raises(ValueError, match=r"slope 0\.04 L/min per healthy std, standard error "
+                       r"0\.0566 \(t = 0\.71, below 4\.30, the two-sided 5% level\)"):
+        fit_leak_calibration([0.0, 1.0, 2.0, 3.0], [0.1, 0.3, 0.1, 0.3])
+    with pytest.raises(ValueError, match=r"all 3 runs have the same leak flow \(0 L/min\)"):
+        fit_leak_calibration([0.0, 1.0, 2.0], [0.0, 0.0, 0.0])
+    # flows 0.1, 0.2, 0.4, 0.4 on shifts 0..3: slope 0.11, t = 4.16, still below 4.30; with
+    # 0.1, 0.2, 0.3, 0.41 the slope 0.103 has t = 59.5 and passes
+    with pytest.raises(ValueError, match=r"t = 4\.16, below 4\.30"):
+        fit_leak_calibration([0.0, 1.0, 2.0, 3.0], [0.1, 0.2, 0.4, 0.4])
+    cal = fit_leak_calibration([0.0, 1.0, 2.0, 3.0], [0.1, 0.2, 0.3, 0.41])
+    assert cal.slope_lpm == pytest.approx(0.103)

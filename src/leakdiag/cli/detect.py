@@ -474,7 +474,8 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
             if r.get("leak_lpm") is not None and r["leak_lpm"] == r["leak_lpm"]:
                 in_range = r.get("leak_lpm_in_range")
                 where = ("" if in_range is True or in_range is None or in_range != in_range
-                         else " (feature shift outside the calibrated range: extrapolated)")
+                         else " (feature shift outside the calibrated range: an "
+                         "extrapolation, which the prediction interval does not cover)")
                 kind = "prediction interval"  # of a detector calibrated on known leaks
                 if isinstance(holds, str):  # the detector says what its interval holds
                     where, kind = where + f" (interval: {holds})", "interval"

@@ -826,8 +826,9 @@ class Detector(BaseEstimator):
         Parameters
         ----------
         recordings : list of Recording
-            Simulated runs with ``meta['onset']`` (s) and ``meta['leak_lpm']`` (L/min); disjoint
-            from the runs the detector will be scored on.
+            Simulated runs with ``meta['onset']`` (s) and ``meta['leak_lpm']`` (L/min; the
+            delivered mean since the onset, ``meta['leak_lpm_achieved']``, is used where
+            present); disjoint from the runs the detector will be scored on.
         level : float, default 0.9
             Prediction-interval coverage.
         validity : dict, optional
@@ -841,7 +842,8 @@ class Detector(BaseEstimator):
         Raises
         ------
         ValueError
-            If a recording lacks ``onset`` or ``leak_lpm`` metadata.
+            If a recording lacks ``onset`` or ``leak_lpm`` metadata, or the feature's shift
+            does not follow the leak (:func:`~leakdiag.detect.leaksize.fit_leak_calibration`).
         """
         shifts, flows = [], []
         for rec in _as_recordings(recordings):
@@ -849,7 +851,9 @@ class Detector(BaseEstimator):
                 raise ValueError(f"{rec.meta.get('source', '<recording>')}: calibrate needs "
                                  "meta['onset'] and meta['leak_lpm']")
             shifts.append(self.shift(rec, rec.onset))
-            flows.append(float(rec.meta["leak_lpm"]))
+            # the delivered mean leak since the onset (the thesis's measure, what a size
+            # estimates) where the simulator recorded it; the requested one otherwise
+            flows.append(float(rec.meta.get("leak_lpm_achieved", rec.meta["leak_lpm"])))
         self.calibration_ = fit_leak_calibration(shifts, flows, level, validity)
         return self
 

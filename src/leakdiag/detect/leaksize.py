@@ -18,6 +18,9 @@ __all__ = ["LeakCalibration", "fit_leak_calibration"]
 
 #: Minimum calibration runs (two parameters plus a residual degree of freedom).
 MIN_CALIBRATION_RUNS = 3
+#: Level of the test that the calibration's slope differs from 0 (two-sided, Student's t on
+#: ``n - 2`` degrees of freedom); a calibration that fails it is refused.
+SLOPE_TEST_LEVEL = 0.05
 
 
 @dataclass(frozen=True)
@@ -108,7 +111,9 @@ def fit_leak_calibration(shifts, leak_lpm, level: float = 0.9,
     Raises
     ------
     ValueError
-        Fewer than 3 runs, lengths differ, or all shifts equal.
+        Fewer than 3 runs, lengths differ, all shifts or all flows equal, or a slope that does not differ
+        from 0 at the 5 % level (:data:`SLOPE_TEST_LEVEL`): the feature does not follow the leak
+        on these runs, and a size read from it would be noise.
 
     Notes
     -----
@@ -135,10 +140,28 @@ def fit_leak_calibration(shifts, leak_lpm, level: float = 0.9,
     if ss == 0.0:
         raise ValueError("fit_leak_calibration: all feature shifts are equal; the feature does not "
                          "respond to the leak on these runs")
+    if float(np.ptp(q)) == 0.0:
+        raise ValueError(f"fit_leak_calibration: all {len(q)} runs have the same leak flow "
+                         f"({q[0]:g} L/min); a calibration needs runs of different sizes")
     b = float(np.sum((s - s.mean()) * (q - q.mean())) / ss)
     a = float(q.mean() - b * s.mean())
     resid = q - (a + b * s)
     sd = float(np.sqrt(np.sum(resid ** 2) / (len(s) - 2))) if len(s) > 2 else 0.0
+    # the slope must differ from 0 (audit 2026-11-27: a ccf-p1p2 calibration on 0.005-0.02
+    # L/min runs had t = 0.2 and sized a 0.5 L/min leak 0.04 [0, 0.32] L/min)
+    se_b = sd / np.sqrt(ss)
+    if se_b > 0.0:
+        from scipy import stats
+
+        t_b = abs(b) / se_b
+        crit = float(stats.t.ppf(1.0 - SLOPE_TEST_LEVEL / 2.0, len(s) - 2))
+        if not t_b >= crit:
+            raise ValueError(
+                f"fit_leak_calibration: the feature's shift does not follow the leak flow on "
+                f"these {len(s)} runs: slope {b:.3g} L/min per healthy std, standard error "
+                f"{se_b:.3g} (t = {t_b:.2f}, below {crit:.2f}, the two-sided "
+                f"{SLOPE_TEST_LEVEL:.0%} level): this feature cannot size leaks here; calibrate "
+                "with larger leaks or more runs, or use a detector that sizes them (flow-balance)")
     return LeakCalibration(intercept_lpm=a, slope_lpm=b, residual_std_lpm=sd, n_runs=len(s),
                            shift_mean=float(s.mean()), shift_ss=ss,
                            shift_range=(float(s.min()), float(s.max())), level=level,
