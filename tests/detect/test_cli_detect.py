@@ -295,3 +295,23 @@ def test_detect_eha_flow_balance_states_the_profiled_transducer_offset(tmp_path,
     assert abs(size / rec.meta["leak_lpm_achieved"] - 1) <= 0.03
     assert ("interval: the coefficient's statistical error and the P1-P2 transducer zero "
             "error found on the leak's windows, -3") in line  # -32 kPa
+
+
+def test_a_decision_names_the_methods_that_did_not_alarm():
+    # decision audit 2026-11-27: LEAK from ccf-p1p2 on a healthy file while the flow balance
+    # read p = 0.373, with no word of the disagreement
+    import pandas as pd
+
+    from leakdiag.cli.detect import overall_verdict
+
+    row = {"false_alarms_per_run": 0.01, "false_alarms_per_run_guaranteed": True}
+    tab = pd.DataFrame([{"method": "flow-balance", "leak": False, "confidence": 0.373, **row},
+                        {"method": "ccf-p1p2", "leak": True, "confidence": 0.111, **row},
+                        {"method": "acf-p1", "leak": False, "confidence": 0.9, **row}])
+    assert overall_verdict(tab, 120.0) == (
+        "leak", "alarm from ccf-p1p2, none from flow-balance (p = 0.373), acf-p1 (p = 0.9): the "
+                "methods disagree, and the decision is any method's alarm; false-alarm rate for "
+                "this run at most 0.03 (sum over 3 method(s))")
+    agree = tab.assign(leak=True)
+    assert overall_verdict(agree, 120.0)[1].startswith(
+        "alarm from flow-balance, ccf-p1p2, acf-p1; false-alarm")

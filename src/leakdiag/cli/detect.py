@@ -329,7 +329,18 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
               "per hour or judge a shorter run")
     alarmed = ok[ok["leak"].astype(bool)]
     if len(alarmed):
-        return "leak", f"alarm from {', '.join(alarmed['method'])}; {fa}"
+        quiet = ok[~ok["leak"].astype(bool)]
+        if not len(quiet):
+            return "leak", f"alarm from {', '.join(alarmed['method'])}; {fa}"
+        # the methods disagree: say so, with the p-values of those that did not alarm (a
+        # decision audit, 2026-11-27: a healthy file read LEAK from ccf-p1p2 while the flow
+        # balance gave p = 0.37, with no word of it)
+        ps = quiet["confidence"] if "confidence" in quiet else pd.Series(float("nan"),
+                                                                         index=quiet.index)
+        names = ", ".join(f"{m} (p = {p:.3g})" if isinstance(p, (int, float)) and p == p
+                          else str(m) for m, p in zip(quiet["method"], ps))
+        return "leak", (f"alarm from {', '.join(alarmed['method'])}, none from {names}: the "
+                        f"methods disagree, and the decision is any method's alarm; {fa}")
     if len(failed):
         return "inconclusive", (f"no alarm, but {', '.join(failed['method'])} could not judge "
                                 f"the file; {fa}")
