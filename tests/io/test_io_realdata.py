@@ -154,3 +154,16 @@ def test_repeated_column_name_in_a_real_header(files, tmp_path, capsys):
     rec, original = read_recording(copy, MAP), read_recording(path, MAP)
     for name in original.channels:
         assert rec[name].tobytes() == original[name].tobytes()
+
+
+def test_a_file_read_is_named_by_its_path_and_its_origin_kept(tmp_path):
+    # decision audit 2026-11-27: a simulated recording written and read back kept
+    # meta["source"] = "leakdiag.sim.simulate_eha", so the Python API's errors named the
+    # simulator, not the file (the CLI renamed it itself)
+    import leakdiag as ld
+
+    path = ld.io.write_recording(ld.sim.simulate_vca(duration=2.0, leak_lpm=0.0, seed=1),
+                                 tmp_path / "run.parquet")
+    rec = ld.io.read_recording(path)
+    assert rec.meta["source"] == str(path)
+    assert rec.meta["origin"] == "leakdiag.sim.simulate_vca"

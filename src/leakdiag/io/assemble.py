@@ -248,8 +248,9 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
     Returns
     -------
     Recording
-        Channels in SI units (or ``counts``), ``meta["source"]`` the file name unless the
-        file's own metadata names a source, ``meta["column_map"]`` when a map was used.
+        Channels in SI units (or ``counts``), ``meta["source"]`` the file name (a source the
+        file's own metadata names, e.g. the simulator, is kept as ``meta["origin"]``),
+        ``meta["column_map"]`` when a map was used.
 
     Raises
     ------
@@ -303,8 +304,7 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
         channels[name] = values
         if unit is not None:
             out_units[name] = unit
-    meta: dict[str, Any] = copy.deepcopy(header["meta"]) if header is not None else {}
-    meta.setdefault("source", source)
+    meta = _named_by_file(copy.deepcopy(header["meta"]) if header is not None else {}, source)
     if column_map is not None:
         meta["column_map"] = column_map.to_dict()
         for key, what in (("system", "rig"), ("load", "load")):
@@ -335,6 +335,17 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
             f"sample_rate_hz in the map)"
         )
     return Recording(channels, rate, start, out_units, meta)
+
+
+def _named_by_file(meta: dict[str, Any], source: str) -> dict[str, Any]:
+    """``meta`` with ``source`` the file read; a source its metadata gave (e.g. the simulator)
+    kept as ``origin``. The file is what later messages name: the Python API's errors named
+    "leakdiag.sim.simulate_eha" for a file until 2026-11-27 (a decision audit's finding 6; the
+    commands renamed it themselves)."""
+    if meta.get("source", source) != source:
+        meta["origin"] = meta["source"]
+    meta["source"] = source
+    return meta
 
 
 def _from_header(table: RawTable, header: dict[str, Any], sample_rate: float | None
@@ -374,4 +385,4 @@ def _from_header(table: RawTable, header: dict[str, Any], sample_rate: float | N
         check_channel_finite(values, name, source)
         channels[name] = values
     return Recording(channels, rate, header["start_time"], dict(header["units"]),
-                     copy.deepcopy(header["meta"]))
+                     _named_by_file(copy.deepcopy(header["meta"]), source))
