@@ -156,8 +156,8 @@ def write_recording(rec: Recording, path: str | os.PathLike) -> Path:
     >>> rec = Recording({"p1": np.array([1.5, 2.5])}, 1000.0, units={"p1": "counts"},
     ...                 meta={"onset": 0.001})
     >>> back = read_recording(write_recording(rec, p))
-    >>> back.units, back.meta, back["p1"].tolist()
-    ({'p1': 'counts'}, {'onset': 0.001}, [1.5, 2.5])
+    >>> back.units, back.meta["onset"], back.meta["source"] == str(p), back["p1"].tolist()
+    ({'p1': 'counts'}, 0.001, True, [1.5, 2.5])
     """
     path = Path(path)
     fmt = _format(path, WRITE_FORMATS, "write")
