@@ -1230,8 +1230,7 @@ class FlowBalanceDetector(Detector):
         further refit (on the windows before the new span, more of them) is taken unless its
         alarm comes earlier; at most :attr:`_DRIFT_REFITS` refits. A scan whose first alarm
         stays put keeps the whole-recording fit, the better linearisation when nothing moved
-        it (a 0.2 L/min ramp was sized 0.88x with the offset from the 5 windows before it, and
-        a command whose sign flips at 10 s, refused by the piston's volume check, read LEAK).
+        it (a 0.2 L/min ramp was sized 0.88x with the offset from the 5 windows before it).
         Only a scan that alarmed is redone, and a run can only lose or delay an alarm by this:
         false alarms stay within the rate the threshold was calibrated for.
         """
