@@ -33,7 +33,7 @@ KERNEL_PARTS = ("_holds.py", "_validation.py", "detect", "features", "io", "lite
 
 
 @functools.lru_cache(maxsize=None)
-def parts_fingerprint(parts: tuple[str, ...]) -> str:
+def parts_fingerprint(parts: tuple[str, ...], root: Path | None = None) -> str:
     """SHA-256 (16 hex digits) of the Python source of some parts of the package.
 
     Each part is a module file (``"_validation.py"``) or a folder (``"sim"``: every ``*.py``
@@ -45,7 +45,9 @@ def parts_fingerprint(parts: tuple[str, ...]) -> str:
     Parameters
     ----------
     parts : tuple of str
-        Names relative to the package folder, in the order they are hashed.
+        Names relative to ``root``, in the order they are hashed.
+    root : pathlib.Path, optional
+        The folder the parts lie in (default: the leakdiag package, :data:`PACKAGE_ROOT`).
 
     Returns
     -------
@@ -61,18 +63,19 @@ def parts_fingerprint(parts: tuple[str, ...]) -> str:
     >>> len(parts_fingerprint(("sim", "_validation.py")))
     16
     """
+    root = PACKAGE_ROOT if root is None else root
     h = hashlib.sha256()
     for part in parts:
-        p = PACKAGE_ROOT / part
+        p = root / part
         if p.is_file():
             files = [p]
         elif p.is_dir():
             files = sorted(p.rglob("*.py"))
         else:
-            raise ValueError(f"leakdiag has no module or folder {part!r} to fingerprint")
+            raise ValueError(f"{root} has no module or folder {part!r} to fingerprint")
         h.update(f"<{part}>".encode())
         for f in files:
-            h.update(f.relative_to(PACKAGE_ROOT).as_posix().encode() + b"\0")
+            h.update(f.relative_to(root).as_posix().encode() + b"\0")
             h.update(f.read_bytes())
     return h.hexdigest()[:16]
 

@@ -134,3 +134,25 @@ def test_clear_cache_removes_the_leftovers_of_cut_writes_once_stale(tmp_path):
     os.utime(other, (t, t))
     assert C.clear_cache(tmp_path) == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([fresh.name, other.name])
+
+
+def test_code_fingerprint_hashes_the_package_or_the_folder_of_a_function(tmp_path, monkeypatch):
+    import importlib
+    import sys
+
+    from leakdiag._fingerprint import parts_fingerprint
+    from leakdiag.sim import simulate_vca
+
+    assert C.code_fingerprint(simulate_vca) == parts_fingerprint(("sim",))
+    # a simulator of the user's: its folder, every .py in it, an edit of a sibling counts
+    pkg = tmp_path / "mysims"
+    pkg.mkdir()
+    (pkg / "mysim.py").write_text("def sim(seed):\n    return seed\n")
+    (pkg / "helper.py").write_text("X = 1\n")
+    monkeypatch.syspath_prepend(str(pkg))
+    fn = importlib.import_module("mysim").sim
+    a = C.code_fingerprint(fn)
+    (pkg / "helper.py").write_text("X = 2\n")
+    parts_fingerprint.cache_clear()
+    assert C.code_fingerprint(fn) != a and len(a) == 16
+    sys.modules.pop("mysim", None)

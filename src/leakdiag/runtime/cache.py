@@ -260,15 +260,11 @@ def code_fingerprint(fn: Callable) -> str:
     path = getattr(mod, "__file__", None)
     if not path:
         return ""
-    root = Path(path).parent
     parts = mod.__name__.split(".")
     if parts[0] == "leakdiag" and len(parts) > 2:
-        root = Path(sys.modules["leakdiag"].__file__).parent / parts[1]
-    h = hashlib.sha256()
-    for f in sorted(root.rglob("*.py")):
-        h.update(f.relative_to(root).as_posix().encode())
-        h.update(f.read_bytes())
-    return h.hexdigest()[:16]
+        return parts_fingerprint((parts[1],))
+    folder = Path(path).parent
+    return parts_fingerprint((folder.name,), folder.parent)
 
 
 def simulation_code(fn: Callable) -> dict[str, Any]:
