@@ -343,7 +343,10 @@ def test_monitor_accepts_the_detectors_own_method(tmp_path):
 
 @pytest.mark.parametrize("where,value,needle", [
     (1, 1 / 1101, "not uniformly sampled: interval before row 1"),  # the rate was 1101 Hz
-    (150, 0.4, "<stdin>: line 152: time 0.4 s after 0.149 s is a gap"),
+    # a time far ahead with the next one after it: not increasing at the next, as detect
+    # names it (until 2026-11-28 "line 152: time 0.4 s after 0.149 s is a gap")
+    (150, 0.4, "<stdin>: column 'time' is not strictly increasing at line 153 (time 0.151 s "
+               "after 0.4 s)"),
     (150, 0.1503, "<stdin>: line 152: time 0.1503 s after 0.149 s is jitter"),
 ])
 def test_monitor_stdin_checks_the_time_axis_like_file_mode(where, value, needle):

@@ -58,6 +58,18 @@ class ChunkSource:
         return iter(self.chunks)
 
 
+class _ForwardFault(RecordingError):
+    """A time after the previous one by the wrong interval (a gap or jitter), at time ``t``.
+    Before it is raised, the next time value is looked at (:meth:`TimeAxis.after_fault`): when
+    that one is not after ``t``, the two rows are swapped and are named as
+    :func:`leakdiag.io.read_recording` names them."""
+
+    def __init__(self, message: str, t: float, row: int | None = None):
+        super().__init__(message)
+        self.t = t
+        self.row = row  # data row of a file's fault (None: a line of a stream)
+
+
 class TimeAxis:
     """Checks streamed time values against the uniform grid of the sample rate, as
     :func:`leakdiag.io.read_recording` checks a whole time column: time going backwards, repeated
@@ -111,10 +123,37 @@ class TimeAxis:
             return RecordingError(f"{self.source}: column {TIME_COLUMN!r} is not strictly "
                                   f"increasing at {at}")
         what = "a gap" if step > 1.5 * self.dt else "jitter"
-        return RecordingError(
+        return _ForwardFault(
             f"{self.source}: {where}: time {t!r} s after {prev!r} s is {what}: interval "
             f"{step:.6g} s, expected {self.dt:.6g} s ({self.fs:g} Hz {self.basis}, tolerance "
-            f"{self.rtol:g} relative); the stream must be uniformly sampled")
+            f"{self.rtol:g} relative); the stream must be uniformly sampled", t, row)
+
+    def after_fault(self, fault: RecordingError, t_next: float | None, *,
+                    line: int | None = None, row: int | None = None) -> RecordingError:
+        """The error to raise for ``fault``, once the time after it, ``t_next`` (None: the
+        input ended), is known: a gap or jitter followed by a time not after it is two swapped
+        rows (lines), named at the second as :func:`leakdiag.io.read_recording` names them
+        ("not strictly increasing at row 50001", not "a gap" at row 50000; streams audit
+        2026-11-27, finding 9), also across a chunk boundary and on a stream read line by line.
+
+        Parameters
+        ----------
+        fault : RecordingError
+            The error :meth:`check` or :meth:`check_block` raised.
+        t_next : float or None
+            The next time value (s).
+        line, row : int, optional
+            Line (live) or data row (file) of ``t_next``.
+
+        Returns
+        -------
+        RecordingError
+            ``fault``, or the error naming ``t_next``'s row or line.
+        """
+        if (isinstance(fault, _ForwardFault) and t_next is not None and np.isfinite(t_next)
+                and t_next <= fault.t):
+            return self._error(float(t_next), fault.t, line=line, row=row)
+        return fault
 
     def check(self, t: float, lineno: int) -> None:
         """Check one time value (line ``lineno`` of a live stream).
@@ -154,7 +193,10 @@ class TimeAxis:
             Naming the first data row whose time is not finite or not one sample interval after
             the previous row's; a time not after the previous one is looked for first and
             named as :func:`leakdiag.io.read_recording` names it (two swapped rows: "not
-            strictly increasing at row 50001", not "a gap" at row 50000), within the chunk.
+            strictly increasing at row 50001", not "a gap" at row 50000), within the chunk. A
+            gap or jitter at the chunk's last row is raised as :class:`_ForwardFault`, whose
+            ``row`` lets the reader look at the next chunk's first time
+            (:meth:`after_fault`) for a swap across the boundary.
         """
         t = np.asarray(t, dtype=np.float64)
         if not len(t):

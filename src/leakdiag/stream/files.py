@@ -18,7 +18,7 @@ from leakdiag.io.checks import check_same_length, timestamps_error
 from leakdiag.io.recording import RecordingError
 from leakdiag.io.text import SEPARATOR_CANDIDATES
 from leakdiag.stream.chunks import (DEFAULT_CHUNK_SAMPLES, TIME_COLUMN, ChunkSource, TimeAxis,
-                                    _check_unique, _extra_field, _json_dict, _rate_start,
+                                    _check_unique, _ForwardFault, _extra_field, _json_dict, _rate_start,
                                     _select, _short_row)
 
 __all__ = ["open_chunks", "open_recording", "CHUNKED_SUFFIXES", "PARQUET_HEADER_KEY",
@@ -40,7 +40,20 @@ def _checked(chunks, axis: TimeAxis | None):
         for chunk in chunks:
             t = chunk.pop(TIME_COLUMN, None)
             if axis is not None and t is not None:
-                axis.check_block(t, row0)
+                try:
+                    axis.check_block(t, row0)
+                except _ForwardFault as fault:
+                    if fault.row != row0 + len(t) - 1:
+                        raise
+                    # a gap at a chunk's last row: two rows swapped across the boundary are
+                    # named at the second, as within a chunk (the next chunk's first time)
+                    try:
+                        nxt = next(chunks, None)
+                    except RecordingError:
+                        nxt = None  # the next chunk's own fault comes later in the file
+                    t_next = None if nxt is None else nxt.get(TIME_COLUMN)
+                    raise axis.after_fault(fault, None if t_next is None or not len(t_next)
+                                           else float(t_next[0]), row=row0 + len(t)) from None
                 row0 += len(t)
             yield chunk
     finally:

@@ -16,7 +16,7 @@ from leakdiag._validation import check_int, check_positive
 from leakdiag.io.checks import print_resolution
 from leakdiag.io.recording import RecordingError
 from leakdiag.stream.chunks import (TIME_COLUMN, ChunkSource, TimeAxis, _check_unique,
-                                    _extra_field, _rate_start, _select, _short_row)
+                                    _extra_field, _ForwardFault, _rate_start, _select, _short_row)
 
 __all__ = ["csv_lines", "tail_csv", "paced", "stdin_source", "IncompleteLineWarning"]
 
@@ -76,12 +76,35 @@ class _LineFields:
                              first=fields[0])
 
 
+def _line_time(fields: list[str], i_time: int, lineno: int, source: str) -> float:
+    """The time of a line split into ``fields``; text is refused naming the line."""
+    try:
+        return float(fields[i_time])
+    except ValueError:
+        raise RecordingError(f"{source}: line {lineno}, column 'time': "
+                             f"{fields[i_time].strip()[:40]!r} is not a number") from None
+
+
+def _next_time(item: tuple[int, str] | None, i_time: int, split) -> float | None:
+    """The time of the line after a faulty one (None: no line, or no time in it)."""
+    if item is None:
+        return None
+    fields = split(item[1])
+    try:
+        return float(fields[i_time])
+    except (ValueError, IndexError):
+        return None  # that line's own fault is not the one to name
+
+
 def _parse_lines(lines: list[tuple[int, str]], shape: _LineFields, cols: list[int],
                  chans: list[str], source: str = "<stdin>", axis: TimeAxis | None = None,
-                 i_time: int | None = None) -> dict:
+                 i_time: int | None = None, peek=lambda: None, split=None) -> dict:
+    """The samples of ``lines``; ``peek()`` gives the line after them, if any (blocking until
+    it arrives), to tell a gap from two swapped lines (:meth:`TimeAxis.after_fault`)."""
+    split = split or (lambda line: line.split(","))
     rows = []
-    for lineno, line in lines:
-        fields = line.split(",")
+    for k, (lineno, line) in enumerate(lines):
+        fields = split(line)
         shape.check(fields, lineno)
         row = []
         for i, c in zip(cols, chans):
@@ -91,12 +114,13 @@ def _parse_lines(lines: list[tuple[int, str]], shape: _LineFields, cols: list[in
                 raise RecordingError(f"{source}: line {lineno}, channel {c!r}: "
                                      f"{fields[i].strip()[:40]!r} is not a number") from None
         if axis is not None and i_time is not None:
+            t = _line_time(fields, i_time, lineno, source)
             try:
-                t = float(fields[i_time])
-            except ValueError:
-                raise RecordingError(f"{source}: line {lineno}, column 'time': "
-                                     f"{fields[i_time].strip()[:40]!r} is not a number") from None
-            axis.check(t, lineno)
+                axis.check(t, lineno)
+            except _ForwardFault as fault:
+                nxt = lines[k + 1] if k + 1 < len(lines) else peek()
+                raise axis.after_fault(fault, _next_time(nxt, i_time, split),
+                                       line=None if nxt is None else nxt[0]) from None
         rows.append(row)
     arr = np.array(rows, dtype=np.float64).reshape(len(rows), len(cols))
     return {c: np.ascontiguousarray(arr[:, i]) for i, c in enumerate(chans)}
@@ -193,14 +217,19 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
     def gen():
         buf: list[tuple[int, str]] = []
         seen = bool(pending)
-        for item in itertools.chain(pending, _numbered(stream)):
+        items = itertools.chain(pending, _numbered(stream))
+
+        def peek():  # the line after a faulty one; the stream stops there anyway
+            return next(items, None)
+
+        for item in items:
             seen = True
             buf.append(item)
             if len(buf) >= batch_lines:
-                yield _parse_lines(buf, shape, cols, chans, source, axis, i_time)
+                yield _parse_lines(buf, shape, cols, chans, source, axis, i_time, peek)
                 buf = []
         if buf:
-            yield _parse_lines(buf, shape, cols, chans, source, axis, i_time)
+            yield _parse_lines(buf, shape, cols, chans, source, axis, i_time, peek)
         if not seen:  # the rate was given and there is no time column: nothing read ahead
             raise _header_only(source)
 

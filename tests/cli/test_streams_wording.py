@@ -1,0 +1,69 @@
+"""The words of ``monitor`` (file and stdin) and ``batch`` for bad input, the same as
+``detect``'s (:mod:`leakdiag.io`): the streams audit of 2026-11-27, finding 9."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from leakdiag.io import read_recording
+from leakdiag.io.recording import RecordingError
+
+FS = 1000.0
+N = 6000  # the rate is taken from the first 4096 rows: the faults lie after them
+
+
+def _frame(swap=None):
+    """6 s of white noise at 1 kHz, times printed to the ms; rows ``swap`` and ``swap + 1``
+    swapped."""
+    rng = np.random.default_rng(0)
+    t = np.round(np.arange(N) / FS, 3)
+    if swap is not None:
+        t[[swap, swap + 1]] = t[[swap + 1, swap]]
+    return pd.DataFrame({"time": t, "p1": rng.normal(size=N), "p2": rng.normal(size=N)})
+
+
+# --- 9a: two swapped rows are named at the second, as detect names them --------------------
+
+@pytest.mark.parametrize("suffix", [".parquet", ".csv"])
+def test_swap_across_a_chunk_boundary_is_named_as_detect_names_it(run_cli, tmp_path, suffix):
+    """Rows 5000 and 5001 swapped, the first chunk ending at row 5000: monitor said "row 5000:
+    time 5.001 s after 4.999 s is a gap" (within a chunk it already said what detect says)."""
+    path = str(tmp_path / f"swap{suffix}")
+    frame = _frame(swap=5000)
+    frame.to_parquet(path) if suffix == ".parquet" else frame.to_csv(path, index=False)
+    want = (f"{path}: column 'time' is not strictly increasing at row 5001 "
+            f"(t[5000]=5.001, t[5001]=5.0)")
+    with pytest.raises(RecordingError) as exc:
+        read_recording(path)
+    assert str(exc.value) == want  # detect's words
+    code, out, err = run_cli(["monitor", path, "-c", "p1", "--chunk", "5001"])
+    assert code == 2 and err.endswith(f"error: {want}\n"), err
+
+
+def test_swap_on_stdin_is_named_at_the_second_line(run_cli):
+    """stdin (checked line by line) said "line 5002: time 5.001 s after 4.999 s is a gap";
+    line 5003 is data row 5001 (the header is line 1)."""
+    text = _frame(swap=5000).to_csv(index=False)
+    code, out, err = run_cli(["monitor", "-", "-c", "p1"], stdin=text)
+    assert code == 2, err
+    assert err.endswith("error: <stdin>: column 'time' is not strictly increasing at line 5003 "
+                        "(time 5.0 s after 5.001 s)\n"), err
+
+
+def test_a_gap_is_still_a_gap(run_cli, tmp_path):
+    """A real gap at a chunk's last row and on stdin keeps its words (the next time is after
+    it), also when the gap is the last line of the input."""
+    frame = _frame().drop(index=5001).reset_index(drop=True)
+    path = str(tmp_path / "gap.parquet")
+    frame.to_parquet(path)
+    code, out, err = run_cli(["monitor", path, "-c", "p1", "--chunk", "5001"])
+    assert code == 2 and err.endswith(
+        f"error: {path}: row 5001: time 5.002 s after 5.0 s is a gap: interval 0.002 s, "
+        "expected 0.001 s (1000 Hz from the first rows, tolerance 0.001 relative); the "
+        "stream must be uniformly sampled\n"), err
+    code, out, err = run_cli(["monitor", "-", "-c", "p1"],
+                             stdin=frame.iloc[:5002].to_csv(index=False))
+    assert code == 2 and err.endswith(
+        "error: <stdin>: line 5003: time 5.002 s after 5.0 s is a gap: interval 0.002 s, "
+        "expected 0.001 s (1000 Hz from the first lines, tolerance 0.001 relative); the "
+        "stream must be uniformly sampled\n"), err
