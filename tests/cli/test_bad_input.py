@@ -123,7 +123,7 @@ def test_sweep_without_onset_names_file(files, capsys):
 # ---- monitor ---------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("case,needles", [
-    ("nan", ["nan.csv", "channel 'p1'", "sample 500"]),
+    ("nan", ["nan.csv", "channel 'p1'", "1 non-finite", "row 500"]),  # detect's words
     ("nonuni", ["nonuni.csv", "not uniformly sampled"]),
     ("missing", ["missing.csv", "['p1']"]),
     ("short", ["short.csv", "50 samples", "shorter than one window", "window=200"]),
@@ -138,7 +138,7 @@ def test_monitor_bad_file(files, capsys, case, needles):
 
 def test_monitor_nan_in_later_chunk_names_file_and_sample(files, capsys):
     code = main(["monitor", "-i", str(files["nan"]), "-c", "p1", "-q", "--chunk", "128"])
-    _one_error_line(capsys, code, "nan.csv", "sample 500")
+    _one_error_line(capsys, code, "nan.csv", "first NaN at row 500")
 
 
 # ---- detect ----------------------------------------------------------------------------------
@@ -191,7 +191,8 @@ JOB = ('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\nlag = 1\nwi
 
 
 @pytest.mark.parametrize("case,needles", [
-    ("nan", ["error: nan.csv", "not finite at sample 500"]),
+    ("nan", ["error: nan.csv", "nan.csv: channel 'p1' has 1 non-finite value(s); first NaN at "
+             "row 500"]),  # detect's words (no class name: "ValueError: ... at sample 500")
     ("missing", ["error: missing.csv", "['p1']"]),
     ("short", ["unusable: short.csv", "50 samples is shorter than one window (window=200)"]),
     ("const", ["unusable: const.csv", "all 10 windows degenerate"]),

@@ -67,3 +67,41 @@ def test_a_gap_is_still_a_gap(run_cli, tmp_path):
         "error: <stdin>: line 5003: time 5.002 s after 5.0 s is a gap: interval 0.002 s, "
         "expected 0.001 s (1000 Hz from the first lines, tolerance 0.001 relative); the "
         "stream must be uniformly sampled\n"), err
+
+
+# --- 9b: a non-finite sample is named with the file, in detect's words ----------------------
+
+@pytest.mark.parametrize("suffix", [".parquet", ".csv"])
+def test_a_nan_is_named_as_detect_names_it_by_monitor_and_batch(run_cli, tmp_path, suffix):
+    """NaN at rows 5000 and 5500, read in chunks of 5200: monitor said "channel 'p1' is not
+    finite at sample 5000" (no file), batch "...: ValueError: channel 'p1' is not finite at
+    sample 5000"; both now say what detect says, counting over the whole file."""
+    from leakdiag.batch import read_results
+
+    frame = _frame()
+    frame.loc[[5000, 5500], "p1"] = np.nan
+    path = str(tmp_path / f"nan{suffix}")
+    frame.to_parquet(path) if suffix == ".parquet" else frame.to_csv(path, index=False)
+    want = f"{path}: channel 'p1' has 2 non-finite value(s); first NaN at row 5000"
+    with pytest.raises(RecordingError) as exc:
+        read_recording(path)
+    assert str(exc.value) == want  # detect's words
+    code, out, err = run_cli(["monitor", path, "-c", "p1", "--chunk", "5200"])
+    assert code == 2 and err.endswith(f"error: {want}\n"), err
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    code, out, err = run_cli(["batch", path, "--config", str(job), "-o", str(tmp_path / "res"),
+                              "--scheduler", "serial", "--no-progress"])
+    assert code == 1, err
+    rows = read_results(tmp_path / "res")
+    assert rows["status"].tolist() == ["error"] and rows["error"].tolist() == [want]
+
+
+def test_a_nan_on_stdin_is_named_with_its_line(run_cli):
+    """A literal 'nan' on stdin was "channel 'p1' is not finite at sample 5000" (no stream)."""
+    frame = _frame()
+    frame.loc[5000, "p1"] = np.nan
+    code, out, err = run_cli(["monitor", "-", "-c", "p1"], stdin=frame.to_csv(index=False,
+                                                                               na_rep="nan"))
+    assert code == 2 and err.endswith(
+        "error: <stdin>: line 5002, channel 'p1': 'nan' is not a finite number\n"), err

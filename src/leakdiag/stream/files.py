@@ -18,8 +18,8 @@ from leakdiag.io.checks import check_same_length, timestamps_error
 from leakdiag.io.recording import RecordingError
 from leakdiag.io.text import SEPARATOR_CANDIDATES
 from leakdiag.stream.chunks import (DEFAULT_CHUNK_SAMPLES, TIME_COLUMN, ChunkSource, TimeAxis,
-                                    _check_unique, _ForwardFault, _extra_field, _json_dict, _rate_start,
-                                    _select, _short_row)
+                                    _check_unique, _extra_field, _ForwardFault, _json_dict,
+                                    _rate_start, _select, _short_row)
 
 __all__ = ["open_chunks", "open_recording", "CHUNKED_SUFFIXES", "PARQUET_HEADER_KEY",
            "HDF5_CHANNEL_GROUP"]
@@ -32,29 +32,69 @@ HDF5_CHANNEL_GROUP = "channels"
 CHUNKED_SUFFIXES = (".parquet", ".pq", ".h5", ".hdf5", ".csv")
 
 
-def _checked(chunks, axis: TimeAxis | None):
-    """Yield the channel chunks; each chunk's ``time`` (when the file has one) is checked against
-    the sample rate over the whole file, not only the rows the rate was taken from."""
+def _finite(chunk: dict, chunks: Iterator[tuple[int, dict]], row0: int, path: str) -> None:
+    """Refuse a non-finite sample of a chunk in the words of :func:`leakdiag.io.read_recording`
+    (:func:`leakdiag.io.checks.check_channel_finite`: ``channel 'p1' has 1 non-finite
+    value(s); first NaN at row 50000``): the rest of the file is read to count them, on this
+    error path only. Until 2026-11-28 the stream said ``channel 'p1' is not finite at sample
+    50000`` without the file, and batch added ``ValueError:`` (streams audit, finding 9)."""
+    if all(np.isfinite(np.add.reduce(x)) for x in chunk.values()):
+        return  # fast path: a finite sum means all are finite
+    first: dict[str, tuple[int, float]] = {}  # channel -> first bad row and value
+    count = dict.fromkeys(chunk, 0)
+
+    def add(part: dict, r0: int) -> None:
+        for c, x in part.items():
+            bad = np.flatnonzero(~np.isfinite(x))
+            if len(bad):
+                first.setdefault(c, (r0 + int(bad[0]), float(x[bad[0]])))
+                count[c] += len(bad)
+
+    add(chunk, row0)
+    for r0, rest in chunks:  # a later time or row fault is raised, as detect raises it
+        add(rest, r0)
+    c = next(c for c in chunk if c in first)  # detect names the first channel with one
+    row, value = first[c]
+    kind = "NaN" if np.isnan(value) else "inf"
+    raise RecordingError(f"{path}: channel {c!r} has {count[c]} non-finite value(s); first "
+                         f"{kind} at row {row}")
+
+
+def _time_checked(chunks, axis: TimeAxis | None):
+    """``(row0, chunk)`` of each chunk, its ``time`` (when the file has one) popped and checked
+    against the sample rate over the whole file, not only the rows the rate was taken from."""
     row0 = 0
-    try:
-        for chunk in chunks:
-            t = chunk.pop(TIME_COLUMN, None)
-            if axis is not None and t is not None:
+    for chunk in chunks:
+        t = chunk.pop(TIME_COLUMN, None)
+        n = len(t) if t is not None else len(next(iter(chunk.values()))) if chunk else 0
+        if axis is not None and t is not None:
+            try:
+                axis.check_block(t, row0)
+            except _ForwardFault as fault:
+                if fault.row != row0 + n - 1:
+                    raise
+                # a gap at a chunk's last row: two rows swapped across the boundary are
+                # named at the second, as within a chunk (the next chunk's first time)
                 try:
-                    axis.check_block(t, row0)
-                except _ForwardFault as fault:
-                    if fault.row != row0 + len(t) - 1:
-                        raise
-                    # a gap at a chunk's last row: two rows swapped across the boundary are
-                    # named at the second, as within a chunk (the next chunk's first time)
-                    try:
-                        nxt = next(chunks, None)
-                    except RecordingError:
-                        nxt = None  # the next chunk's own fault comes later in the file
-                    t_next = None if nxt is None else nxt.get(TIME_COLUMN)
-                    raise axis.after_fault(fault, None if t_next is None or not len(t_next)
-                                           else float(t_next[0]), row=row0 + len(t)) from None
-                row0 += len(t)
+                    nxt = next(chunks, None)
+                except RecordingError:
+                    nxt = None  # the next chunk's own fault comes later in the file
+                t_next = None if nxt is None else nxt.get(TIME_COLUMN)
+                raise axis.after_fault(fault, None if t_next is None or not len(t_next)
+                                       else float(t_next[0]), row=row0 + n) from None
+        yield row0, chunk
+        row0 += n
+
+
+def _checked(chunks, axis: TimeAxis | None, path: str, finite: bool):
+    """Yield the channel chunks, their time checked (:func:`_time_checked`) and then their
+    samples, with ``finite``, checked to be finite (:func:`_finite`), in the order of
+    :func:`leakdiag.io.read_recording`."""
+    try:
+        timed = _time_checked(chunks, axis)
+        for row0, chunk in timed:
+            if finite:
+                _finite(chunk, timed, row0, path)
             yield chunk
     finally:
         chunks.close()  # the CSV reader and HDF5 file close also when the consumer stops early
@@ -65,7 +105,8 @@ def _axis(has_time: bool, fs: float, path: str, header: dict) -> TimeAxis | None
     return TimeAxis(fs, path, basis=basis) if has_time else None
 
 
-def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
+def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time,
+             finite: bool = False) -> ChunkSource:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -101,7 +142,8 @@ def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time) -
 
     meta = dict(header.get("meta") or {})
     axis = _axis(TIME_COLUMN in names, fs, path, header)
-    return ChunkSource(_checked(gen(), axis), fs, t0, chans, pf.metadata.num_rows, path, meta)
+    return ChunkSource(_checked(gen(), axis, path, finite), fs, t0, chans, pf.metadata.num_rows,
+                       path, meta)
 
 
 def _hdf5_names(f, h5py) -> list[str]:
@@ -113,7 +155,8 @@ def _hdf5_names(f, h5py) -> list[str]:
     return names
 
 
-def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
+def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time,
+          finite: bool = False) -> ChunkSource:
     """An HDF5 file in chunks, with the rule of :func:`leakdiag.io.read_recording`
     (:mod:`leakdiag.io.hdf5`): the root attributes are a header (``sample_rate``,
     ``start_time``, ``meta``) and the channels are the datasets of ``/channels`` only when the
@@ -177,7 +220,7 @@ def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time) -> C
                 yield out
 
     axis = _axis(has_time, fs, path, header)
-    return ChunkSource(_checked(gen(), axis), fs, t0, chans, n, path, meta)
+    return ChunkSource(_checked(gen(), axis, path, finite), fs, t0, chans, n, path, meta)
 
 
 #: Options of every pandas read of a CSV file (its header, head and chunks), with the file's
@@ -596,7 +639,8 @@ def _csv_frames(path: str, fmt: dict, chunk_samples: int, keys: dict[str, str], 
         rows.close()
 
 
-def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time) -> ChunkSource:
+def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time,
+         finite: bool = False) -> ChunkSource:
     fmt = _csv_format(path)
     names = _csv_names(path, fmt)
     repeated = _check_unique(names, channels, path)
@@ -623,12 +667,13 @@ def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time) -> Ch
     fs, t0 = _rate_start(t_head, sample_rate, start_time, {}, path)
     keys = {c: keys[c] for c in chans + ([TIME_COLUMN] if has_time else [])}
     return ChunkSource(_checked(_csv_frames(path, fmt, chunk_samples, keys, rows, width, usecols),
-                                _axis(has_time, fs, path, {})), fs, t0, chans, None, path, {})
+                                _axis(has_time, fs, path, {}), path, finite), fs, t0, chans, None,
+                       path, {})
 
 
 def open_chunks(path: str | os.PathLike, channels: Sequence[str] | None = None,
                 chunk_samples: int = DEFAULT_CHUNK_SAMPLES, sample_rate: float | None = None,
-                start_time: float | None = None) -> ChunkSource:
+                start_time: float | None = None, finite: bool = False) -> ChunkSource:
     """Open a Parquet (``.parquet``/``.pq``), HDF5 (``.h5``/``.hdf5``) or CSV file in chunks.
 
     Parameters
@@ -643,6 +688,11 @@ def open_chunks(path: str | os.PathLike, channels: Sequence[str] | None = None,
         Sample rate in Hz; default: from the file metadata, else from the ``time`` column.
     start_time : float, optional
         Time of sample 0 in s; default: the first ``time`` value, else 0.
+    finite : bool, default False
+        Refuse a NaN or inf sample of a channel read, while iterating, in the words of
+        :func:`leakdiag.io.read_recording` (``run.csv: channel 'p1' has 2 non-finite
+        value(s); first NaN at row 5000``, the rest of the file read to count them);
+        :func:`open_recording` sets it. Without it an empty CSV cell is a NaN sample.
 
     Returns
     -------
@@ -690,7 +740,7 @@ def open_chunks(path: str | os.PathLike, channels: Sequence[str] | None = None,
                                     ".hdf5": _hdf5, ".csv": _csv}
     if suffix not in readers:
         raise RecordingError(f"{path}: unknown file type {suffix!r}; use one of {sorted(readers)}")
-    return readers[suffix](path, channels, chunk_samples, sample_rate, start_time)
+    return readers[suffix](path, channels, chunk_samples, sample_rate, start_time, finite)
 
 
 def _blank_separated(path: str) -> bool:
@@ -760,7 +810,7 @@ def open_recording(path: str | os.PathLike, channels: Sequence[str] | None = Non
     path = os.fspath(path)
     if (column_map is None and os.path.splitext(path)[1].lower() in CHUNKED_SUFFIXES
             and not _blank_separated(path)):
-        return (open_chunks(path, channels, chunk_samples, sample_rate),
+        return (open_chunks(path, channels, chunk_samples, sample_rate, finite=True),
                 recording_units(path))
     rec = read_recording(path, column_map, sample_rate=sample_rate)
     rec.meta["source"] = path

@@ -113,6 +113,9 @@ def _parse_lines(lines: list[tuple[int, str]], shape: _LineFields, cols: list[in
             except ValueError:
                 raise RecordingError(f"{source}: line {lineno}, channel {c!r}: "
                                      f"{fields[i].strip()[:40]!r} is not a number") from None
+            if not np.isfinite(row[-1]):  # named here: the feature knows no stream or line
+                raise RecordingError(f"{source}: line {lineno}, channel {c!r}: "
+                                     f"{fields[i].strip()[:40]!r} is not a finite number")
         if axis is not None and i_time is not None:
             t = _line_time(fields, i_time, lineno, source)
             try:
