@@ -124,3 +124,28 @@ def test_a_growing_leak_is_said_to_grow_with_its_recent_flow(spring):
     step = spring.predict(_vca("spring", 12, 40.0, leak_lpm=0.2, onset=10.0))
     assert step.leak and step.recent_leak_lpm is None
     assert "growing" not in step.leak_lpm_interval_holds
+
+
+def test_a_no_leak_states_the_smallest_step_leak_it_would_have_seen(spring):
+    """A NO LEAK said nothing of what the test could see (decisions audit 2026-11-27, finding
+    4). The stated size, simulated on the same run from the stated time, is seen at 3x and
+    missed at a fifth of it (on 8 units, 38 of 38 alarmed at 1x: perf/flow_balance_detectable)."""
+    v = spring.predict(_vca("spring", 12, 40.0))
+    assert not v.leak and v.detectable_lpm is not None
+    # the last 30 s (max_span_s) of the 38 judged 1-s windows: from the 9th (burn-in 2 s)
+    assert v.detectable_from_s == pytest.approx(9.0, abs=0.1)
+    assert 1e-4 < v.detectable_lpm < 1e-2  # ~1e-3 L/min: Fig. 4-6's smallest leak is 0.005
+    assert v.as_dict()["detectable_lpm"] == v.detectable_lpm
+    assert "sensitivity: a step leak of " in str(v) and "38 of 38 such leaks" in str(v)
+    for factor, leak in ((3.0, True), (0.2, False)):
+        w = spring.predict(_vca("spring", 12, 40.0, leak_lpm=factor * v.detectable_lpm,
+                                onset=v.detectable_from_s))
+        assert w.leak is leak, (factor, w.score_max, w.threshold)
+
+
+def test_the_smallest_leak_is_not_stated_where_it_was_not_measured_to_hold(no_load):
+    v = no_load.predict(_vca("none", 12))
+    assert not v.leak and v.detectable_lpm is None and v.detectable_from_s is not None
+    assert v.detectable_why.startswith("the smallest leak this test would have seen is not "
+                                       "stated on the VCA without load: there step leaks of the "
+                                       "size its error model gives alarmed in 21 of 38")

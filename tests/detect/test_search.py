@@ -104,3 +104,20 @@ def test_a_calibration_whose_shift_does_not_follow_the_leak_is_refused():
         fit_leak_calibration([0.0, 1.0, 2.0, 3.0], [0.1, 0.2, 0.4, 0.4])
     cal = fit_leak_calibration([0.0, 1.0, 2.0, 3.0], [0.1, 0.2, 0.3, 0.41])
     assert cal.slope_lpm == pytest.approx(0.103)
+
+
+def test_step_information_is_the_inverse_variance_of_the_weighted_least_squares_step():
+    """Reference: the (1, 1) element of (X' W X)^-1 for X = [phi 1(w >= j), nuisance]."""
+    from leakdiag.detect._flow_balance_search import step_information
+
+    rng = np.random.default_rng(4)
+    n = 60
+    phi, w = rng.normal(size=n), rng.uniform(0.5, 2.0, n)
+    t = np.arange(n) / n
+    for nu in (np.zeros((n, 0)), np.ones((n, 1)), np.column_stack([np.ones(n), 1e3 * t])):
+        for j in (10, 45):
+            x = np.column_stack([phi * (np.arange(n) >= j), nu])
+            ref = 1.0 / np.linalg.inv(x.T @ (w[:, None] * x))[0, 0]
+            assert step_information(phi, w, nu, j) == pytest.approx(ref, rel=1e-9)
+    # a step the nuisance spans exactly (a constant from window 0) is not determined
+    assert step_information(np.ones(n), w, np.ones((n, 1)), 0) == 0.0

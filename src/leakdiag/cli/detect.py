@@ -8,9 +8,13 @@ from leakdiag.cli._options import recording_options, resample_option
 from leakdiag.cli.dashboard import actuator_option
 from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
 
-__all__ = ["detect", "verdict_table", "overall_verdict", "per_run_rate"]
+__all__ = ["detect", "verdict_table", "overall_verdict", "per_run_rate", "default_methods",
+           "sensitivity_lines"]
 
-_DEFAULT_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
+#: Methods fitted on --healthy when --methods is not given: the chamber flow balance when every
+#: file has the channels it reads (docs/detect.md section 6, "Default methods"), else these.
+_DEFAULT_METHODS = "flow-balance"
+_FALLBACK_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 
 
 def _row(m, det, rec, n_healthy):
@@ -126,7 +130,51 @@ def _cannot_judge(det, rec, file, m):
     return None
 
 
-def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"), system=None,
+def default_methods(rec, train, system: str, file, healthy) -> tuple[list[str], str | None]:
+    """The methods ``leakdiag detect`` fits on ``--healthy`` when none are named.
+
+    The chamber flow balance (docs/detect.md section 8), the one method that states how large
+    a leak a NO LEAK could have missed, when the judged file and every healthy recording have
+    the channels it reads; otherwise the thesis's features :data:`_FALLBACK_METHODS`, with a
+    note naming the missing channels (decision 2026-11-28, docs/detect.md section 6: an audit
+    found those features reading NO LEAK on 0.2-0.5 L/min spring-load leaks that the flow
+    balance detects at 0.005 L/min).
+
+    Parameters
+    ----------
+    rec : Recording
+        The judged file.
+    train : list of Recording
+        The healthy recordings.
+    system : {"vca", "eha"}
+    file : path-like
+        The judged file's name (for the note).
+    healthy : sequence of path-like
+        The healthy files' names, in the order of ``train``.
+
+    Returns
+    -------
+    methods : list of str
+    note : str or None
+        Why the flow balance was not chosen.
+    """
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.cli.fit import detector_channels
+
+    need = detector_channels(make_detector("flow-balance", system, None))
+    for name, r in [(file, rec), *zip(healthy, train)]:
+        missing = [c for c in need if c not in r.channels]
+        if missing:
+            fallback = _FALLBACK_METHODS.split(",")
+            return fallback, (
+                f"{name} has no channel(s) {missing}, which the flow balance reads: judged "
+                f"with {', '.join(fallback)} instead, feature detectors that cannot say how "
+                "large a leak they would miss (under a spring load an audit found them "
+                "reading NO LEAK on 0.2-0.5 L/min leaks; docs/detect.md section 6)")
+    return _DEFAULT_METHODS.split(","), None
+
+
+def verdict_table(file, healthy=(), *, methods=None, system=None,
                   column_map=None, sample_rate=None, false_alarm_rate=0.01,
                   onset_method="binseg", burn_in_s=5.0, detectors=(), progress=None,
                   resample=None, false_alarms_per_hour=None, confidence=None):
@@ -138,9 +186,10 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
         Recording to judge.
     healthy : sequence of path-like
         Healthy recordings of the same machine and operating conditions.
-    methods : sequence of str
+    methods : sequence of str, optional
         Benchmark registry names (:data:`leakdiag.bench.registry.METHODS`), fitted on
-        ``healthy``.
+        ``healthy``; default :func:`default_methods` (the flow balance when the files have
+        its channels, noted in ``attrs["notes"]`` when not).
     system : {"vca", "eha"}, optional
         Selects the thesis's preferred feature settings; default: the files' metadata (an
         error when they do not say).
@@ -197,6 +246,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
 
     say = progress or (lambda msg: None)
+    notes: list[str] = []
     rec = read_with(file, column_map, sample_rate, resample)
     rows, fitted = [], []  # fitted: what each detector's healthy recordings said (rig, load)
     rig = rec.meta.get("system")  # the file's rig, else the detectors' or the --system
@@ -226,6 +276,10 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
                        fitted_load))
         system = system_of([rec, *train], system, [str(file), *map(str, healthy)])
         rig = rig or system
+        if methods is None:
+            methods, why = default_methods(rec, train, system, file, healthy)
+            if why is not None:
+                notes.append(why)
         span = rec.duration - burn_in_s  # monitored: the burn-in never alarms
         if span <= 0:
             raise ValueError(f"{file}: {rec.duration:g} s long, not longer than --burn-in "
@@ -261,7 +315,7 @@ def verdict_table(file, healthy=(), *, methods=("acf-p1", "ccf-p1p2", "mlr-p1"),
     from leakdiag.stream.detector_file import ADVICE_MAP, unchecked_note
 
     note = unchecked_note(str(file), rec.meta, fitted, ADVICE_MAP)
-    tab.attrs["notes"] = [] if note is None else [note]
+    tab.attrs["notes"] = notes + ([] if note is None else [note])
     return tab
 
 
@@ -347,6 +401,50 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
     return "no-leak", f"no method alarmed; {fa}"
 
 
+def sensitivity_lines(tab) -> list[str]:
+    """How large a leak each method that judged the file without an alarm would have seen.
+
+    A NO LEAK whose only basis is a false-alarm rate reads as "checked, no leak" whatever the
+    method could see (decisions audit 2026-11-27, finding 4). The flow balance states the
+    smallest step leak it would have alarmed on (``detectable_why``, docs/detect.md 8.5); the
+    other methods cannot, and the line says so.
+
+    Parameters
+    ----------
+    tab : pandas.DataFrame
+        Output of :func:`verdict_table`.
+
+    Returns
+    -------
+    list of str
+        One line per method that states its sensitivity (or why not), one for the rest.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> t = pd.DataFrame({"method": ["acf-p1", "mlr-p1"], "leak": [False, False]})
+    >>> sensitivity_lines(t)[0][:60]
+    'sensitivity (acf-p1, mlr-p1): not stated: feature detectors '
+    """
+    if "leak" not in tab:
+        return []
+    quiet = tab[tab["leak"].eq(False)]
+    why = quiet["detectable_why"] if "detectable_why" in quiet else \
+        quiet["method"].map(lambda _: None)
+    lines, rest = [], []
+    for m, w in zip(quiet["method"], why):
+        if isinstance(w, str) and w:
+            lines.append(f"sensitivity ({m}): {w}")
+        else:
+            rest.append(str(m))
+    if rest:
+        lines.append(f"sensitivity ({', '.join(rest)}): not stated: feature detectors cannot say "
+                     "how large a leak they would miss; the flow balance (--methods "
+                     "flow-balance, or leakdiag fit --method flow-balance) states it "
+                     "(docs/detect.md section 6)")
+    return lines
+
+
 @click.command("detect", epilog="Example: leakdiag detect suspect.parquet --detector det.joblib\n\n"
                "         leakdiag detect suspect.parquet --healthy h1.parquet --healthy h2.parquet")
 @click.argument("file", type=click.Path(exists=True, dir_okay=False))
@@ -358,7 +456,8 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
                    "It is a pickle: loading runs code, so load only files you trust.")
 @click.option("--methods", default=None,
               help=f"Comma-separated methods fitted on --healthy (leakdiag benchmark "
-                   f"--list-methods; default {_DEFAULT_METHODS}).")
+                   f"--list-methods; default {_DEFAULT_METHODS} when the files have the "
+                   f"channels it reads, else {_FALLBACK_METHODS}).")
 @click.option("--system", default=None, type=click.Choice(["vca", "eha"]),
               help="Rig whose thesis settings the features use (default: the files' metadata).")
 @recording_options
@@ -420,7 +519,7 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     if not 0.0 < false_alarm_rate < 1.0:
         raise click.BadParameter(f"{false_alarm_rate} must be in (0, 1)",
                                  param_hint="--false-alarm-rate")
-    names = [m.strip() for m in (methods or _DEFAULT_METHODS).split(",") if m.strip()]
+    names = None if methods is None else [m.strip() for m in methods.split(",") if m.strip()]
     say = None if no_progress else (lambda msg: click.echo(msg, err=True))
     cmap = column_map_from(column_map, cols, time_unit)
     tab = verdict_table(file, healthy, methods=names, system=system, column_map=cmap,
@@ -460,6 +559,9 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     dec, why = overall_verdict(tab, tab.attrs["duration_s"])
     words = {"leak": "LEAK", "no-leak": "NO LEAK", "inconclusive": "INCONCLUSIVE"}
     click.echo(f"Decision: {words[dec]} -- {why}.")
+    if dec != "leak":
+        for line in sensitivity_lines(tab):
+            click.echo(f"  {line}")
     if "windows_undefined" in tab:  # a verdict that rests on fewer windows than were judged
         for r in tab[tab["windows_undefined"].map(lambda v: isinstance(v, str) and v != "")
                      ].to_dict("records"):

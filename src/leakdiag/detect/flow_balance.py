@@ -38,6 +38,7 @@ from leakdiag.detect._flow_balance_search import (
     change_point,
     glr_alarm_count,
     glr_profile,
+    step_information,
 )
 from leakdiag.detect._rig_units import check_rig_units
 from leakdiag.detect.base import Detector, Verdict, check_healthy, fingerprint, healthy_info
@@ -179,6 +180,16 @@ class FlowBalanceVerdict(Verdict):
         coefficient's second half since the onset at least ``GROWTH_RATIO`` times its first),
         the mean leak flow over the last ``RECENT_WINDOWS`` windows (L/min), which then exceeds
         the mean since the onset (``leak_lpm``); None otherwise.
+    detectable_lpm : float or None
+        Without an alarm: the smallest step leak (mean L/min) that, begun at
+        ``detectable_from_s`` and lasting to the end, the test reaches its threshold on with
+        probability :data:`DETECTABLE_POWER` under its error model (:func:`step_information`),
+        where that was measured to hold (:data:`DETECTABLE_MEASURED`); None otherwise.
+    detectable_from_s : float or None
+        Start of that step: the last ``max_span_s`` judged (or the first window the test can
+        judge, for a shorter recording).
+    detectable_why : str or None
+        Without an alarm: what ``detectable_lpm`` rests on, or why it is not given.
     """
 
     leak_coefficient: float | None = None
@@ -189,13 +200,19 @@ class FlowBalanceVerdict(Verdict):
     pressure_offset_pa: float | None = None
     leak_lpm_interval_holds: str | None = None
     recent_leak_lpm: float | None = None
+    detectable_lpm: float | None = None
+    detectable_from_s: float | None = None
+    detectable_why: str | None = None
 
     def __str__(self) -> str:
-        """The verdict in words, with what the size interval holds."""
+        """The verdict in words, with what the size interval holds (a NO LEAK: the smallest
+        leak it would have seen)."""
         text = super().__str__()
         if self.leak and self.leak_lpm_interval_holds:
             what = "interval" if self.leak_lpm is not None else "size"
             text += f"\n  {what}: {self.leak_lpm_interval_holds}"
+        elif not self.leak and self.detectable_why:
+            text += f"\n  sensitivity: {self.detectable_why}"
         return text
 
     def as_dict(self) -> dict:
@@ -212,7 +229,10 @@ class FlowBalanceVerdict(Verdict):
                   "reference_dp_pa": self.reference_dp_pa, "leak_law": self.leak_law,
                   "pressure_offset_pa": self.pressure_offset_pa,
                   "leak_lpm_interval_holds": self.leak_lpm_interval_holds,
-                  "recent_leak_lpm": self.recent_leak_lpm})
+                  "recent_leak_lpm": self.recent_leak_lpm,
+                  "detectable_lpm": self.detectable_lpm,
+                  "detectable_from_s": self.detectable_from_s,
+                  "detectable_why": self.detectable_why})
         return d
 
 
@@ -314,6 +334,23 @@ def _piston_valve_ratio(t: dict, j: int) -> float | None:
 #: by size; the coefficient a median of 21-447 of its own standard errors off): the
 #: errors-in-variables bias of the leak law taken on a small, noisy P1 - P2.
 COEFFICIENT_MEASURED = {"vca": ("spring",), "eha": ("none", "spring")}
+#: ``(alarmed, judged)``: step leaks of the size a NO LEAK states
+#: (``FlowBalanceVerdict.detectable_lpm``), simulated on the same runs from
+#: ``detectable_from_s``, that alarmed, per rig and load (2026-11-28: 8 virtual machines, units
+#: 3, 5, 17, 23, 31, 42, 57, 64, 5 seeds each, 120-s runs, each unit fitted on 4 own healthy
+#: runs at 1 false alarm per hour; ``perf/flow_balance_detectable.py``, rows in
+#: docs/flow_balance_study/detectable/detectable.csv; docs/detect.md 8.5). The EHA's seeds
+#: differ only in sensor noise (an open-loop periodic drive), so its runs are closer to 8
+#: independent ones than to 40.
+DETECTABLE_RUNS = {("vca", "spring"): (38, 38), ("vca", "none"): (21, 38),
+                   ("eha", "spring"): (40, 40), ("eha", "none"): (26, 40)}
+#: Rig and load under which the size is stated: where the leaks of that size alarmed at least
+#: as often as :data:`DETECTABLE_POWER` says. Without load (both rigs) the leak term the test
+#: sees is a fraction of the true one on some units (VCA: COEFFICIENT_MEASURED; EHA: the
+#: transducers' differential offset on a small P1 - P2), and units 5 and 23 alarmed on none.
+DETECTABLE_MEASURED = {"vca": ("spring",), "eha": ("spring",)}
+#: Probability of an alarm at which ``detectable_lpm`` is stated (leakdiag choice).
+DETECTABLE_POWER = 0.9
 #: Onset windows (counted from the first judged, after the burn-in) within which an onset is
 #: reported as censored, "at or before" (leakdiag choice, measured 2026-11-27, docs/detect.md
 #: 8.5): leaks present from the start were placed in windows 0-5 (48 of 48 VCA runs, both
@@ -1366,8 +1403,10 @@ class FlowBalanceDetector(Detector):
                       reference_dp_pa=float(self.reference_dp_pa), leak_law=self.leak_law)
         above = np.flatnonzero(g >= h)
         if len(above) == 0:
+            lpm, start, why = self._detectable(t, recording)
             return FlowBalanceVerdict(leak=False, onset_s=None, alarm_time_s=None, leak_lpm=None,
-                                      leak_lpm_interval=None, shift=None, **common)
+                                      leak_lpm_interval=None, shift=None, detectable_lpm=lpm,
+                                      detectable_from_s=start, detectable_why=why, **common)
         i = int(above[0])
         j = self._onset(t, i, int(arg[i]))
         # k from the first window wholly after the onset window (the leak starts somewhere
@@ -1477,6 +1516,46 @@ class FlowBalanceDetector(Detector):
             leak_lpm=float(lpm), leak_lpm_interval=(float(interval[0]), float(interval[1])),
             shift=float(k / se), leak_lpm_interval_holds=holds,
             recent_leak_lpm=None if recent is None else float(recent), **coef, **common)
+
+    def _detectable(self, t: dict, rec) -> tuple[float | None, float | None, str]:
+        """The smallest step leak over the last span that the test would have seen (NO LEAK).
+
+        The step starts at the last ``max_span_s`` judged (the GLR's longest span ending at the
+        last window; no earlier than its first testable window); its coefficient is
+        ``(h + z) / sqrt(I)`` (:func:`step_information`, ``z`` the
+        :data:`DETECTABLE_POWER` quantile), its mean flow that coefficient times the mean
+        ``|phi|`` over the span. Stated only where measured to hold
+        (:data:`DETECTABLE_MEASURED`).
+        """
+        n = len(t["phi"])
+        first = max(self._MIN_HISTORY, n - self._max_span())
+        start = float(t["start"][first]) if first < n else None
+        load = self._load_of(rec)
+        if load not in DETECTABLE_MEASURED[self.system]:
+            hit, n = DETECTABLE_RUNS.get((self.system, load), (None, None))
+            measured = (f"there step leaks of the size its error model gives alarmed in {hit} "
+                        f"of {n} simulated runs, not {DETECTABLE_POWER:.0%}" if n else
+                        "its error model's size was not measured to hold there")
+            return None, start, (
+                f"the smallest leak this test would have seen is not stated on the "
+                f"{self.system.upper()} {_load_words(load)}: {measured} (docs/detect.md 8.5)")
+        info = step_information(t["phi"], 1.0 / self._sigma(t) ** 2, t["nuisance"], first) \
+            if first < n else 0.0
+        dur = float(t["duration"][first:].sum()) if first < n else 0.0
+        if not info > 0.0 or not dur > 0.0:
+            return None, start, ("the smallest leak this test would have seen is not stated: "
+                                 "the windows judged do not determine a leak's step")
+        hit, n = DETECTABLE_RUNS[(self.system, load)]
+        k = (float(self.threshold_) + float(norm.ppf(DETECTABLE_POWER))) / math.sqrt(info)
+        lpm = k * float(t["phi_abs"][first:].sum()) / dur * LPM_PER_M3S
+        span = float(t["end"][-1]) - start
+        return lpm, start, (
+            f"a step leak of {lpm:.3g} L/min or more from {start:.4g} s (the last {span:.3g} s "
+            f"judged) would have alarmed with probability {DETECTABLE_POWER:g} under the "
+            f"test's error model (on 8 virtual machines {hit} of {n} such leaks alarmed, "
+            "docs/detect.md 8.5); the test looks at spans of up to "
+            f"{self.max_span_s:g} s anywhere in the run, so a leak that began earlier needs "
+            "about the same size; a leak present from the start is not covered by this figure")
 
     def _load_of(self, rec) -> str | None:
         """The recording's load (its metadata, else the healthy recordings'), or None."""
