@@ -105,3 +105,46 @@ def test_a_nan_on_stdin_is_named_with_its_line(run_cli):
                                                                                na_rep="nan"))
     assert code == 2 and err.endswith(
         "error: <stdin>: line 5002, channel 'p1': 'nan' is not a finite number\n"), err
+
+
+# --- 9c: the rate warning says where the rate came from --------------------------------------
+
+def test_the_low_rate_warning_names_where_the_rate_came_from(run_cli, tmp_path):
+    """A 1-Hz rate from a leakdiag header, or from a map's sample_rate_hz, was "from the time
+    column" with time-column advice (--time-unit ms); a time column's keeps its words."""
+    from leakdiag.io import Recording, write_recording
+
+    rng = np.random.default_rng(1)
+    p1 = rng.normal(size=400)
+    hdr = str(write_recording(Recording({"p1": p1}, 1.0), tmp_path / "slow.parquet"))
+    notime = tmp_path / "notime.csv"
+    pd.DataFrame({"p1": p1}).to_csv(notime, index=False)
+    cmap = tmp_path / "map.toml"
+    cmap.write_text('[file]\nsample_rate_hz = 1\n[channels]\np1 = "p1"\n')
+    timed = tmp_path / "timed.csv"
+    pd.DataFrame({"time": np.arange(400.0), "p1": p1}).to_csv(timed, index=False)
+    cases = [
+        (["monitor", hdr, "-c", "p1", "-q"],
+         f"{hdr}: sample rate 1 Hz from the file's leakdiag header is low for actuator "
+         "pressures; the header of a file leakdiag wrote gives the rate its samples were "
+         "written at: if that is wrong, write the recording again with its true rate"),
+        (["analyze", hdr, "--method", "autocorrelation", "--channels", "p1"],
+         f"{hdr}: sample rate 1 Hz from the file's leakdiag header is low for actuator "
+         "pressures; the header"),
+        (["monitor", str(notime), "-c", "p1", "-q", "--map", str(cmap)],
+         f"{notime}: sample rate 1 Hz from sample_rate_hz in the column map is low for "
+         "actuator pressures; check sample_rate_hz in the column map (in Hz)"),
+        (["monitor", str(timed), "-c", "p1", "-q"],
+         f"{timed}: sample rate 1 Hz from the time column is low for actuator pressures; if "
+         "the time column is in milliseconds or a sample counter, give --time-unit ms"),
+    ]
+    for args, want in cases:
+        with pytest.warns(UserWarning) as caught:
+            run_cli(args)
+        assert any(str(w.message).startswith(want) for w in caught), (args, caught[0].message)
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    code, out, err = run_cli(["batch", hdr, "--config", str(job), "-o", str(tmp_path / "res"),
+                              "--scheduler", "serial", "--no-progress"])
+    assert ("warning: slow.parquet: sample rate 1 Hz from the file's leakdiag header is low "
+            "for actuator pressures; the header") in err, err

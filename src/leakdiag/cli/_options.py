@@ -19,7 +19,8 @@ from leakdiag.runtime.paths import prepare_out_dir, prepare_out_file
 __all__ = ["recording_options", "resample_option", "column_map_from", "read_with", "read_healthy",
            "false_alarm_option", "healthy_option", "no_progress_option", "scheduler_option",
            "workers_option", "check_workers", "FiniteFloat", "prepare_out_dir",
-           "prepare_out_file", "list_option_values", "warn_low_rate",
+           "prepare_out_file", "list_option_values", "warn_low_rate", "rate_basis",
+           "rate_warning",
            "TIME_UNIT_CHOICES"]
 
 #: Below this rate (Hz) a time column is probably not in seconds (ms, sample counter): warned.
@@ -342,23 +343,69 @@ def read_with(path, cmap, sample_rate=None, resample=None):
         rec.meta["origin"] = rec.meta.get("source")
         rec.meta["source"] = str(path)
     if sample_rate is None:
-        warn_low_rate(path, rec.sample_rate)
+        warn_low_rate(path, rec.sample_rate, basis=rate_basis(path, cmap, rec.sample_rate))
     return rec
 
 
+#: Where a sample rate came from (:func:`rate_basis`), as the rate warnings say it.
+RATE_FROM_TIME = "from the time column"
+RATE_FROM_HEADER = "from the file's leakdiag header"
+RATE_FROM_MAP = "from sample_rate_hz in the column map"
+
+
+def rate_basis(path, cmap, rate: float) -> str:
+    """Where a file's sample rate came from, for the rate warnings: its leakdiag header (a
+    Parquet or HDF5 file leakdiag wrote, read without a map), the column map's
+    ``sample_rate_hz`` (a file without a time column, or a sample counter; a map's rate equal
+    to the time column's is named as the map's), else its time column.
+
+    Parameters
+    ----------
+    path : str
+        File (``"-"``: stdin, whose rate comes from its time column).
+    cmap : ColumnMap, str or None
+        The column map the file was read with (or its TOML file).
+    rate : float
+        The rate (Hz) read.
+
+    Returns
+    -------
+    str
+        :data:`RATE_FROM_HEADER`, :data:`RATE_FROM_MAP` or :data:`RATE_FROM_TIME`.
+    """
+    from leakdiag.io import load_column_map, recording_units
+
+    if cmap is not None:
+        try:
+            given = load_column_map(cmap).sample_rate_hz  # a batch job's map is its file
+        except (OSError, ValueError):
+            given = None
+        return RATE_FROM_MAP if given is not None and float(given) == rate else RATE_FROM_TIME
+    try:
+        header = recording_units(path) is not None
+    except ValueError:  # stdin, a followed file, another format: no header
+        header = False
+    return RATE_FROM_HEADER if header else RATE_FROM_TIME
+
+
 def warn_low_rate(path, rate: float, advice: str = "give --time-unit ms (or samples with "
-                                                    "--sample-rate)") -> None:
-    """Warn when a rate read from a time column is implausibly low (or high) for actuator
-    pressures.
+                                                    "--sample-rate)",
+                  basis: str = RATE_FROM_TIME) -> None:
+    """Warn when a file's sample rate is implausibly low (or high) for actuator pressures,
+    saying where the rate came from (until 2026-11-28 always "from the time column", also for
+    a rate that an attribute gave: streams audit 2026-11-27, finding 9).
 
     Parameters
     ----------
     path : str
         File (for the message).
     rate : float
-        Sample rate (Hz) read from its time column.
+        Sample rate (Hz).
     advice : str
-        What the command lets the user do about it.
+        What the command lets the user do about a time column in other units.
+    basis : str, default RATE_FROM_TIME
+        Where the rate came from (:func:`rate_basis`); the advice is the time column's only
+        for a rate from the time column.
 
     Warns
     -----
@@ -366,15 +413,29 @@ def warn_low_rate(path, rate: float, advice: str = "give --time-unit ms (or samp
         Below :data:`LOW_RATE_HZ` (a time column in milliseconds or a sample counter read as
         seconds), or above :data:`HIGH_RATE_HZ` (a time column in seconds read as ms or us).
     """
+    msg = rate_warning(path, rate, basis, advice)
+    if msg is not None:
+        warnings.warn(msg, UserWarning, stacklevel=3)
+
+
+def rate_warning(path, rate: float, basis: str, advice: str,
+                 high_advice: str = "Then give --time-unit s (the default)") -> str | None:
+    """The words of :func:`warn_low_rate` (None: the rate is plausible); ``batch`` prints them
+    with its own advice."""
+    if LOW_RATE_HZ <= rate <= HIGH_RATE_HZ:
+        return None
+    what = ("low for actuator pressures" if rate < LOW_RATE_HZ else
+            f"high for actuator pressures (above {HIGH_RATE_HZ:g} Hz)")
+    head = f"{path}: sample rate {rate:g} Hz {basis} is {what}"
+    if basis == RATE_FROM_HEADER:
+        return (f"{head}; the header of a file leakdiag wrote gives the rate its samples were "
+                "written at: if that is wrong, write the recording again with its true rate")
+    if basis == RATE_FROM_MAP:
+        return f"{head}; check sample_rate_hz in the column map (in Hz)"
     if rate < LOW_RATE_HZ:
-        warnings.warn(f"{path}: sample rate {rate:g} Hz from the time column is low for actuator "
-                      "pressures; if the time column is in milliseconds or a sample counter, "
-                      f"{advice}", UserWarning, stacklevel=3)
-    elif rate > HIGH_RATE_HZ:
-        warnings.warn(f"{path}: sample rate {rate:g} Hz from the time column is high for "
-                      f"actuator pressures (above {HIGH_RATE_HZ:g} Hz); is the time column in s "
-                      "rather than ms or us? Then give --time-unit s (the default)",
-                      UserWarning, stacklevel=3)
+        return (f"{head}; if the time column is in milliseconds or a sample counter, "
+                f"{advice}")
+    return f"{head}; is the time column in s rather than ms or us? {high_advice}"
 
 
 def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample=None,

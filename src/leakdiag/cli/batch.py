@@ -146,20 +146,17 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
         click.echo(f"{w.n_runs} run(s) written to {st.shown_url}"
                    + (f" ({w.n_stored} already there)" if w.n_stored else ""))
         refused = w.refused
-    from leakdiag.cli._options import HIGH_RATE_HZ, LOW_RATE_HZ
+    from leakdiag.cli._options import HIGH_RATE_HZ, LOW_RATE_HZ, rate_basis, rate_warning
 
-    low = mine[(mine["status"] == "ok") & (mine["sample_rate"] < LOW_RATE_HZ)]
-    for rec_name, rate in low.groupby("recording")["sample_rate"].first().items():
-        click.echo(f"leakdiag: warning: {rec_name}: sample rate {rate:g} Hz from the time column "
-                   "is low for actuator pressures; if the time column is in milliseconds or a "
-                   "sample counter, give the job a column map ([job] column_map = \"map.toml\" "
-                   "with [file] time_unit = \"ms\")", err=True)
-    high = mine[(mine["status"] == "ok") & (mine["sample_rate"] > HIGH_RATE_HZ)]
-    for rec_name, rate in high.groupby("recording")["sample_rate"].first().items():
-        click.echo(f"leakdiag: warning: {rec_name}: sample rate {rate:g} Hz from the time column "
-                   f"is high for actuator pressures (above {HIGH_RATE_HZ:g} Hz); is the time "
-                   "column in s rather than ms or us? Then drop the map's time_unit (s is the "
-                   "default)", err=True)
+    odd = mine[(mine["status"] == "ok") & ((mine["sample_rate"] < LOW_RATE_HZ)
+                                           | (mine["sample_rate"] > HIGH_RATE_HZ))]
+    for (rec_name, rec_path), rate in odd.groupby(["recording", "path"])[
+            "sample_rate"].first().items():  # where the rate came from: the file and the map
+        msg = rate_warning(rec_name, rate, rate_basis(rec_path, cfg.column_map, rate),
+                           'give the job a column map ([job] column_map = "map.toml" with '
+                           '[file] time_unit = "ms")',
+                           "Then drop the map's time_unit (s is the default)")
+        click.echo(f"leakdiag: warning: {msg}", err=True)
     for ref in bare:  # after the bar and the rows' count, where the warning above scrolled
         click.echo(f"leakdiag: warning: detector {ref.name}: {ref.path} is a bare pickle "
                    "without a record: its rows were not checked against the recordings' "

@@ -338,7 +338,8 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                                "'-' reads CSV lines from stdin)")
     import numpy as np
 
-    from leakdiag.cli._options import column_map_from, warn_low_rate
+    from leakdiag.cli._options import (RATE_FROM_TIME, column_map_from, rate_basis,
+                                       warn_low_rate)
     from leakdiag.io.checks import RESAMPLE_ADVICE
     from leakdiag.runtime.collector import frozen_collector
     from leakdiag.stream import Monitor, paced
@@ -375,9 +376,12 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
             RESAMPLE_ADVICE,
             "monitor needs a uniform time axis: resample the file first (e.g. leakdiag analyze "
             "--resample RATE_HZ reads it)")) from None
-    if sample_rate is None:
+    if sample_rate is None:  # stdin and --follow: their time column (no header, no map)
+        basis = (rate_basis(input_path, cmap, source.sample_rate)
+                 if input_path != "-" and not follow else RATE_FROM_TIME)
         warn_low_rate(source.source, source.sample_rate,
-                      "give --time-unit ms (files; stdin and --follow need the time in s)")
+                      "give --time-unit ms (files; stdin and --follow need the time in s)",
+                      basis=basis)
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
                         units=units, system=source.meta.get("system"), source=source.source,
                         path=str(detector_path), load=source.meta.get("load"))
