@@ -148,3 +148,35 @@ def test_the_low_rate_warning_names_where_the_rate_came_from(run_cli, tmp_path):
                               "--scheduler", "serial", "--no-progress"])
     assert ("warning: slow.parquet: sample rate 1 Hz from the file's leakdiag header is low "
             "for actuator pressures; the header") in err, err
+
+
+# --- 9d: a repeated Parquet column name is refused in one line ------------------------------
+
+@pytest.mark.parametrize("header", [False, True])
+def test_a_repeated_parquet_name_is_one_line_naming_file_and_name(run_cli, tmp_path, header):
+    """detect printed arrow's multi-line schema dump ("unreadable as Parquet: Multiple matches
+    for FieldRef.Name(p1) in p1: double | p1: double ... __filename: string"); now the words
+    of a CSV header's repeated name, which monitor also says for this file."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from leakdiag.io import Recording, write_recording
+
+    frame = _frame()
+    path = str(tmp_path / "dup.parquet")
+    table = pa.Table.from_arrays([pa.array(frame["time"]), pa.array(frame["p1"]),
+                                  pa.array(frame["p1"]), pa.array(frame["p2"])],
+                                 names=["time", "p1", "p1", "p2"])
+    if header:  # a leakdiag header (restored exactly, without the repeated-name check before)
+        hdr = tmp_path / "h.parquet"
+        write_recording(Recording({"p1": frame["p1"].to_numpy(), "p2": frame["p2"].to_numpy()},
+                                  FS), hdr)
+        table = table.replace_schema_metadata(pq.read_schema(hdr).metadata)
+    pq.write_table(table, path)
+    want = (f"{path}: column 'p1' (channel 'p1') appears 2 times in the header, at fields 2 "
+            "and 3 (counting from 1); which one is meant cannot be told: rename the others")
+    code, out, err = run_cli(["detect", path, "--healthy", path])
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith(f"leakdiag: error: {want}"), err
+    code, out, err = run_cli(["monitor", path, "-c", "p1"])
+    assert code == 2 and err.endswith(f"error: {want}\n"), err

@@ -9,7 +9,7 @@ import numpy as np
 
 from leakdiag.io.header import decode_header, encode_header
 from leakdiag.io.recording import Recording, RecordingError
-from leakdiag.io.table import RawTable
+from leakdiag.io.table import RawTable, repeated_names
 
 __all__ = ["HEADER_KEY", "read_parquet", "read_parquet_header", "write_parquet"]
 
@@ -76,6 +76,12 @@ def read_parquet(path: str | os.PathLike) -> RawTable:
     RecordingError
         If the file is not Parquet or has no rows.
 
+    Notes
+    -----
+    A column name the file holds more than once is not read: the table lists it in
+    ``duplicates``, and reading it is refused naming the file, the name and its positions, as
+    for a CSV header (:meth:`leakdiag.io.table.RawTable.require_unique`).
+
     Examples
     --------
     >>> import tempfile, pathlib
@@ -89,23 +95,39 @@ def read_parquet(path: str | os.PathLike) -> RawTable:
 
     source = str(path)
     try:
-        table = pq.read_table(Path(path))
+        repeated = repeated_names(pq.read_schema(Path(path)).names)
+        # a name twice: arrow's dataset reader (read_table) refuses it with a multi-line dump
+        # of the schema (streams audit 2026-11-27, finding 9); the file reader reads it, and
+        # the repeated columns are left out as a CSV's are (RawTable.duplicates)
+        table = (pq.ParquetFile(Path(path)).read() if repeated else pq.read_table(Path(path)))
     except (pa.ArrowException, OSError) as exc:
-        raise RecordingError(f"{source}: unreadable as Parquet: {exc}") from None
+        raise RecordingError(f"{source}: unreadable as Parquet: {_first_line(exc)}") from None
     if table.num_rows == 0:
         raise RecordingError(f"{source}: has columns ({', '.join(table.column_names)}) "
                              f"but no rows")
     header = _header(table.schema, source)
     columns: dict[str, np.ndarray] = {}
-    for name in table.column_names:
-        col = table.column(name)
+    for j, name in enumerate(table.column_names):
+        if name in repeated:
+            continue
+        col = table.column(j)
         t = col.type
         if pa.types.is_floating(t) or pa.types.is_integer(t) or pa.types.is_decimal(t):
             values = col.cast(pa.float64()).to_numpy(zero_copy_only=False)
             columns[name] = np.array(values, dtype=np.float64)
         else:
             columns[name] = np.array(col.to_pylist(), dtype=object)
-    return RawTable(columns, source, header)
+    table = RawTable(columns, source, header, duplicates=repeated)
+    if header is not None and repeated:  # a leakdiag header reads its channels and time
+        for name in ("time", *header.get("channels", ())):
+            table.require_unique(name, "time column" if name == "time" else f"channel {name!r}")
+    return table
+
+
+def _first_line(exc: Exception) -> str:
+    """An arrow error in one line: its first (arrow appends the schema, line by line)."""
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
 
 
 def _header(schema, source: str) -> dict | None:
