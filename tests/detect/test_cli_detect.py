@@ -39,6 +39,11 @@ def test_cli_prints_verdict_and_rejects_unknown_method(files, capsys):
     out = capsys.readouterr().out
     assert "ccf-p1p2" in out and "True" in out
     assert "Decision: LEAK -- alarm from ccf-p1p2" in out
+    # a feature's alarm is a change of the feature, which other changes cause too (audit
+    # 2026-11-27, finding 3): said under the decision
+    assert ("\n  cause (ccf-p1p2): its alarm is a change of its statistic since the healthy "
+            "recordings, which a leak or another change (load, reference, temperature, a sensor) "
+            "can cause as well;") in out
     assert main(args[:2] + ["--methods", "nope"] + args[4:]) == 2
     assert "unknown method 'nope'" in capsys.readouterr().err
 

@@ -9,7 +9,7 @@ from leakdiag.cli.dashboard import actuator_option
 from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
 
 __all__ = ["detect", "verdict_table", "overall_verdict", "per_run_rate", "default_methods",
-           "sensitivity_lines"]
+           "sensitivity_lines", "cause_lines"]
 
 #: Methods fitted on --healthy when --methods is not given: the chamber flow balance when every
 #: file has the channels it reads (docs/detect.md section 6, "Default methods"), else these.
@@ -401,6 +401,51 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
     return "no-leak", f"no method alarmed; {fa}"
 
 
+def _is_flow_balance(method, detector) -> bool:
+    return method == "flow-balance" or detector == "flow_balance"
+
+
+def cause_lines(tab) -> list[str]:
+    """What an alarm of methods other than the flow balance can mean (LEAK decisions).
+
+    A feature detector (and the EKF) alarms on a change of its statistic since the healthy
+    recordings, not on the leak as such: a decisions audit (2026-11-27, finding 3) found a
+    calibrated ccf-p1p2 alarming at the same moment with the same score on runs with 0.05, 0.2
+    and 0.5 L/min leaks (a change the leak did not cause). The flow balance's balance of
+    chamber flows cancels the load, reference and friction (docs/detect.md section 8), so its
+    alarm needs no such line.
+
+    Parameters
+    ----------
+    tab : pandas.DataFrame
+        Output of :func:`verdict_table`.
+
+    Returns
+    -------
+    list of str
+        One line when some method alarmed and none of the alarming ones is the flow balance.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> cause_lines(pd.DataFrame({"method": ["acf-p1"], "leak": [True]}))[0][:46]
+    'cause (acf-p1): its alarm is a change of its s'
+    >>> cause_lines(pd.DataFrame({"method": ["flow-balance", "acf-p1"], "leak": [True, True]}))
+    []
+    """
+    if "leak" not in tab:
+        return []
+    alarmed = tab[tab["leak"].eq(True)]
+    dets = alarmed["detector"] if "detector" in alarmed else alarmed["method"].map(lambda _: None)
+    if not len(alarmed) or any(_is_flow_balance(m, d) for m, d in zip(alarmed["method"], dets)):
+        return []
+    return [f"cause ({', '.join(map(str, alarmed['method']))}): its alarm is a change of its "
+            "statistic since the healthy recordings, which a leak or another change (load, "
+            "reference, temperature, a sensor) can cause as well; the flow balance (--methods "
+            "flow-balance) balances the chamber flows, in which load, reference and friction "
+            "do not appear (docs/detect.md sections 6 and 8)"]
+
+
 def sensitivity_lines(tab) -> list[str]:
     """How large a leak each method that judged the file without an alarm would have seen.
 
@@ -601,4 +646,6 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
                 and sized["leak_lpm_interval_holds"].map(lambda v: isinstance(v, str)).any()):
             click.echo("  leak size: not estimated (no detector here is calibrated on known "
                        "leaks)")
+        for line in cause_lines(tab):
+            click.echo(f"  {line}")
     store_verdicts()
