@@ -180,3 +180,47 @@ def test_a_repeated_parquet_name_is_one_line_naming_file_and_name(run_cli, tmp_p
     assert code == 2 and len(lines) == 1 and lines[0].startswith(f"leakdiag: error: {want}"), err
     code, out, err = run_cli(["monitor", path, "-c", "p1"])
     assert code == 2 and err.endswith(f"error: {want}\n"), err
+
+
+# --- 9e: a batch detector row holds the detector's verdict only ------------------------------
+
+class HalfScorer:
+    """A bare scorer of the acf of p1 (lag 1, N=200, 5 %): score 1 - value, alarm at 0.5."""
+
+    threshold_ = 0.5
+
+    def spec(self):
+        from leakdiag.features.spec import MethodSpec
+
+        return MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=5)
+
+    def score_windows(self, values, time_s):
+        return 1.0 - values
+
+
+def test_a_batch_detector_row_has_no_measure_note(run_cli, tmp_path):
+    """A file whose metadata onset (60 s) lies outside it (start 1234.567 s): the ok detector
+    row with an alarm read "Sec. 5.2 measure: ... needs at least one whole chunk on each side
+    of the onset" in its error; the measure is the analysis row's only."""
+    import pickle
+
+    from leakdiag.batch import read_results
+    from leakdiag.io import Recording, write_recording
+
+    frame = _frame()
+    path = str(write_recording(Recording({"p1": frame["p1"].to_numpy()}, FS, 1234.567,
+                                         meta={"onset": 60.0}), tmp_path / "late.parquet"))
+    (tmp_path / "det.pkl").write_bytes(pickle.dumps(HalfScorer()))
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n\n'
+                   '[[detector]]\nname = "half"\npath = "det.pkl"\n')
+    code, out, err = run_cli(["batch", path, "--config", str(job), "-o", str(tmp_path / "res"),
+                              "--scheduler", "serial", "--no-progress"])
+    assert code == 0 and "bare pickle" in err, err
+    rows = read_results(tmp_path / "res").set_index("kind")
+    det, ana = rows.loc["detector"], rows.loc["analysis"]
+    assert det["status"] == "ok" and bool(det["alarm"]) and pd.isna(det["error"]), det["error"]
+    assert np.isnan(det["onset_s"]) and np.isnan(det["pct_change_signed"])
+    assert ana["status"] == "ok" and ana["onset_s"] == 60.0
+    assert ana["error"].startswith("Sec. 5.2 measure: "), ana["error"]
+

@@ -241,8 +241,11 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
     Notes
     -----
     Pure: the rows depend only on the file and the configuration (plus ``elapsed_s``), so serial
-    and Dask runs give the same table. The Sec. 5.2 measure (Eq. 5-1 to 5-3) is computed when an
-    onset is known (``config.onset_s`` or the file's ``meta['onset']``).
+    and Dask runs give the same table. The Sec. 5.2 measure (Eq. 5-1 to 5-3) is computed for the
+    analysis rows when an onset is known (``config.onset_s`` or the file's ``meta['onset']``);
+    a detector row holds the detector's verdict only (until 2026-11-28 it also held the
+    measure, and a measure that could not be computed put its note in the ``error`` of an
+    ``ok`` detector row: streams audit 2026-11-27, finding 9).
     """
     t0 = time.perf_counter()
     base = {"path": os.path.abspath(path), "recording": os.path.basename(path),
@@ -303,8 +306,9 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                    "sample_rate": src.sample_rate, "n_samples": feat.n_samples_seen,
                    "duration_s": feat.n_samples_seen / src.sample_rate,
                    "n_windows": feat.n_windows, "n_degenerate": feat.n_degenerate,
-                   **_summary(v), **_measure(spec, t, v, onset, config.rms_chunk,
-                                             src.sample_rate)}
+                   **_summary(v)}
+            if kind == "analysis":  # a detector row is its verdict, not the Sec. 5.2 measure
+                row.update(_measure(spec, t, v, onset, config.rms_chunk, src.sample_rate))
             unusable = _unusable(feat, spec)
             if unusable is not None:  # kept with the row (and the store), not only printed
                 note = row.get("error")
