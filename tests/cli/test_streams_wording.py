@@ -224,3 +224,40 @@ def test_a_batch_detector_row_has_no_measure_note(run_cli, tmp_path):
     assert ana["status"] == "ok" and ana["onset_s"] == 60.0
     assert ana["error"].startswith("Sec. 5.2 measure: "), ana["error"]
 
+
+# --- 7: stdin reads the separators and quoting that the file readers read --------------------
+
+@pytest.mark.parametrize("sep,quoting", [(";", 0), ("\t", 0), ("|", 0), (",", 2), (";", 2)])
+def test_stdin_reads_what_the_file_reader_reads(run_cli, tmp_path, sep, quoting):
+    """stdin split on ',' only: ';' gave "missing channel(s) ['p1']; available:
+    ['time;p1;p2']", a quoted header "available: ['\\"p1\\"', ...]", tab "column
+    'time\\tp1\\tp2' looks like a time column"; now the same windows as the file."""
+    import csv
+    import json
+
+    frame = _frame().iloc[:1000]
+    path = tmp_path / "run.csv"
+    frame.to_csv(path, sep=sep, index=False, quoting=quoting)  # 2: every field quoted
+    assert quoting != csv.QUOTE_NONNUMERIC or path.read_text().startswith('"time"')
+    got = {}
+    for name, args, stdin in (("file", [str(path)], None),
+                              ("stdin", ["-"], path.read_text())):
+        ev = tmp_path / f"{name}.jsonl"
+        code, out, err = run_cli(["monitor", *args, "-c", "p1", "--events", str(ev)],
+                                 stdin=stdin)
+        assert code == 0, err
+        assert "1000 samples at 1000 Hz, 5 windows (autocorrelation p1 1 N=200 5%)" in out, out
+        got[name] = [json.loads(ln) for ln in ev.read_text().splitlines()]
+    assert [e["time"] for e in got["stdin"]] == [e["time"] for e in got["file"]]
+    np.testing.assert_allclose([e["value"] for e in got["stdin"]],
+                               [e["value"] for e in got["file"]], rtol=1e-12)
+
+
+def test_stdin_refuses_a_quoted_field_across_lines(run_cli):
+    """A newline inside quotes cannot be read line by line: refused naming the line."""
+    text = 'time,p1,note\n' + "".join(f"{k / 1000},{k % 7},x\n" for k in range(300))
+    text = text.replace("0.25,5,x\n", '0.25,5,"two\nlines"\n')
+    code, out, err = run_cli(["monitor", "-", "-c", "p1"], stdin=text)
+    assert code == 2 and err.endswith(
+        "error: <stdin>: line 252: a quoted field goes on past the end of the line (a newline "
+        "inside quotes); a stream is read line by line: '0.25,5,\"two'\n"), err

@@ -236,15 +236,24 @@ def _sniff_separator(path: str) -> tuple[str, str]:
     (the separator is runs of blanks, ``r"\\s+"``; ``","`` for one column)."""
     from pathlib import Path
 
-    from leakdiag.io.text import _sniff, detect_separator
+    from leakdiag.io.text import _sniff
 
     lines, encoding = _sniff(Path(path), path)
     if not lines:
         raise RecordingError(f"{path}: empty file: no header line and no data")
+    return _separator(lines), encoding
+
+
+def _separator(lines: list[str]) -> str:
+    """The separator of text whose first non-blank lines (the header first) are ``lines``, as
+    :func:`leakdiag.io.text.read_text` finds it (:func:`leakdiag.io.text.detect_separator`;
+    ``","`` for one column); also for stdin (:func:`leakdiag.stream.live.csv_lines`)."""
+    from leakdiag.io.text import detect_separator
+
     sep = detect_separator(lines)
     if len(sep) != 1 and all(len(line.split()) == 1 for line in lines):
         sep = ","  # one column: no separator at all
-    return sep, encoding
+    return sep
 
 
 def _csv_format(path: str) -> dict:

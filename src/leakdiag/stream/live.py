@@ -17,6 +17,7 @@ from leakdiag.io.checks import print_resolution
 from leakdiag.io.recording import RecordingError
 from leakdiag.stream.chunks import (TIME_COLUMN, ChunkSource, TimeAxis, _check_unique,
                                     _extra_field, _ForwardFault, _rate_start, _select, _short_row)
+from leakdiag.stream.files import _ends_quoted, _separator
 
 __all__ = ["csv_lines", "tail_csv", "paced", "stdin_source", "IncompleteLineWarning"]
 
@@ -25,6 +26,11 @@ __all__ = ["csv_lines", "tail_csv", "paced", "stdin_source", "IncompleteLineWarn
 HEAD_LINES = 64
 #: Characters of an incomplete line quoted in the warning about it.
 _PREVIEW = 80
+#: Data lines after the header in which the separator is looked for, with
+#: :func:`leakdiag.io.read_recording`'s rule (:func:`leakdiag.io.text.detect_separator`, which
+#: looks at a file's first 4): one, so that a first line that is not a row (``# note``) is
+#: refused as a short line, in the file reader's words, not read as one column of blanks.
+SNIFF_LINES = 1
 
 
 class IncompleteLineWarning(UserWarning):
@@ -76,6 +82,30 @@ class _LineFields:
                              first=fields[0])
 
 
+def _splitter(sep: str, source: str) -> Callable[[str, int], list[str]]:
+    """``split(line, lineno) -> fields`` for the separator ``sep`` found in the stream's first
+    lines (:func:`leakdiag.stream.files._separator`, as the file readers find it): one
+    character, with quoted fields read as the file readers read them (the :mod:`csv` module's
+    dialect, pandas' defaults: ``"`` quotes, a doubled quote inside one); ``r"\\s+"``: runs of
+    blanks. A quoted field that goes on past its line is refused: a stream is read line by
+    line."""
+    import csv
+
+    if len(sep) != 1:
+        return lambda line, lineno: line.split()
+
+    def split(line: str, lineno: int) -> list[str]:
+        if '"' not in line:
+            return line.split(sep)
+        if _ends_quoted(line.rstrip("\r\n"), False, sep):
+            raise RecordingError(f"{source}: line {lineno}: a quoted field goes on past the end "
+                                 "of the line (a newline inside quotes); a stream is read line "
+                                 f"by line: {line.strip()[:_PREVIEW]!r}")
+        return next(csv.reader([line.rstrip("\r\n")], delimiter=sep))
+
+    return split
+
+
 def _line_time(fields: list[str], i_time: int, lineno: int, source: str) -> float:
     """The time of a line split into ``fields``; text is refused naming the line."""
     try:
@@ -89,10 +119,9 @@ def _next_time(item: tuple[int, str] | None, i_time: int, split) -> float | None
     """The time of the line after a faulty one (None: no line, or no time in it)."""
     if item is None:
         return None
-    fields = split(item[1])
     try:
-        return float(fields[i_time])
-    except (ValueError, IndexError):
+        return float(split(item[1], item[0])[i_time])
+    except (ValueError, IndexError):  # (a RecordingError is a ValueError)
         return None  # that line's own fault is not the one to name
 
 
@@ -101,10 +130,10 @@ def _parse_lines(lines: list[tuple[int, str]], shape: _LineFields, cols: list[in
                  i_time: int | None = None, peek=lambda: None, split=None) -> dict:
     """The samples of ``lines``; ``peek()`` gives the line after them, if any (blocking until
     it arrives), to tell a gap from two swapped lines (:meth:`TimeAxis.after_fault`)."""
-    split = split or (lambda line: line.split(","))
+    split = split or (lambda line, lineno: line.split(","))
     rows = []
     for k, (lineno, line) in enumerate(lines):
-        fields = split(line)
+        fields = split(line, lineno)
         shape.check(fields, lineno)
         row = []
         for i, c in zip(cols, chans):
@@ -182,30 +211,42 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
     header_line = stream.readline().removeprefix("\ufeff")
     if not header_line.strip():
         raise RecordingError(f"{source}: empty input; expected a CSV header line")
-    header = [h.strip() or f"Unnamed: {j}" for j, h in enumerate(header_line.split(","))]
-    repeated = _check_unique(header, channels, source)
-    chans = _select(header, channels, source, repeated)
-    cols = [header.index(c) for c in chans]
-    i_time = header.index(TIME_COLUMN) if TIME_COLUMN in header else None
-    shape = _LineFields(header, {**({"time column": TIME_COLUMN} if i_time is not None else {}),
-                                 **{f"channel {c!r}": c for c in chans}}, source)
     lineno = 1
     pending: list[tuple[int, str]] = []
-    if sample_rate is None or i_time is not None:
-        while len(pending) < HEAD_LINES:
+
+    def read_ahead(n: int) -> None:
+        nonlocal lineno
+        while len(pending) < n:
             line = stream.readline()
             if not line:
                 break
             lineno += 1
             if line.strip():
                 pending.append((lineno, line))
+
+    # the separator and quoting of a file (streams audit 2026-11-27, finding 7: stdin split on
+    # ',' only): found by leakdiag.io's rule in the header and the first data line; each later
+    # line is checked as it arrives (a line without the separator is a short line, named)
+    read_ahead(SNIFF_LINES)
+    split = _splitter(_separator([header_line.rstrip("\r\n")]
+                                 + [p.rstrip("\r\n") for _, p in pending[:SNIFF_LINES]]),
+                      source)
+    header = [h.strip() or f"Unnamed: {j}" for j, h in enumerate(split(header_line, 1))]
+    repeated = _check_unique(header, channels, source)
+    chans = _select(header, channels, source, repeated)
+    cols = [header.index(c) for c in chans]
+    i_time = header.index(TIME_COLUMN) if TIME_COLUMN in header else None
+    shape = _LineFields(header, {**({"time column": TIME_COLUMN} if i_time is not None else {}),
+                                 **{f"channel {c!r}": c for c in chans}}, source)
+    if sample_rate is None or i_time is not None:
+        read_ahead(HEAD_LINES)
         if not pending:
             raise _header_only(source)
     t_head = None
     if i_time is not None and len(pending) >= 1:
         t_head = []
         for n, p in pending:
-            fields = p.split(",")
+            fields = split(p, n)
             shape.check(fields, n)
             try:
                 t_head.append(float(fields[i_time]))
@@ -229,10 +270,10 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
             seen = True
             buf.append(item)
             if len(buf) >= batch_lines:
-                yield _parse_lines(buf, shape, cols, chans, source, axis, i_time, peek)
+                yield _parse_lines(buf, shape, cols, chans, source, axis, i_time, peek, split)
                 buf = []
         if buf:
-            yield _parse_lines(buf, shape, cols, chans, source, axis, i_time, peek)
+            yield _parse_lines(buf, shape, cols, chans, source, axis, i_time, peek, split)
         if not seen:  # the rate was given and there is no time column: nothing read ahead
             raise _header_only(source)
 
