@@ -59,7 +59,7 @@ def test_a_gap_is_still_a_gap(run_cli, tmp_path):
     code, out, err = run_cli(["monitor", path, "-c", "p1", "--chunk", "5001"])
     assert code == 2 and err.endswith(
         f"error: {path}: row 5001: time 5.002 s after 5.0 s is a gap: interval 0.002 s, "
-        "expected 0.001 s (1000 Hz from the first rows, tolerance 0.001 relative); the "
+        "expected 0.001 s (1000 Hz from the time column, tolerance 0.001 relative); the "
         "stream must be uniformly sampled\n"), err
     code, out, err = run_cli(["monitor", "-", "-c", "p1"],
                              stdin=frame.iloc[:5002].to_csv(index=False))
@@ -261,3 +261,36 @@ def test_stdin_refuses_a_quoted_field_across_lines(run_cli):
     assert code == 2 and err.endswith(
         "error: <stdin>: line 252: a quoted field goes on past the end of the line (a newline "
         "inside quotes); a stream is read line by line: '0.25,5,\"two'\n"), err
+
+
+# --- 8: a file's streamed sample rate is detect's, from the whole time column -----------------
+
+def test_a_streamed_file_has_detect_s_sample_rate(run_cli, tmp_path):
+    """3 kHz, 6000 rows, times printed to 5 decimals: the last is 1.99967 s, so io's rate is
+    5999 / 1.99967 = 2999.994999175 Hz (9 decimals); the first 4096 rows end at 1.36500 s, and
+    monitor and batch took 4095 / 1.365 = 3000 Hz. stdin keeps its first lines' rate (its
+    end is not known; docs/operations.md)."""
+    import json
+
+    from leakdiag.batch import read_results
+    from leakdiag.stream.files import open_recording
+
+    n, rate = 6000, 2999.994999175
+    path = tmp_path / "r3k.csv"
+    pd.DataFrame({"time": np.arange(n) / 3000.0, "p1": _frame()["p1"]}).to_csv(
+        path, index=False, float_format="%.5f")
+    assert read_recording(path).sample_rate == rate  # detect's
+    assert open_recording(str(path), ["p1"], 1000)[0].sample_rate == rate  # batch's reader
+    for args, stdin, fs in (([str(path)], None, rate), (["-"], path.read_text(), 3000.0)):
+        ev = tmp_path / "ev.jsonl"
+        code, out, err = run_cli(["monitor", *args, "-c", "p1", "--events", str(ev)],
+                                 stdin=stdin)
+        assert code == 0, err
+        first = json.loads(ev.read_text().splitlines()[0])
+        assert first["time"] == 199 / fs, (args, first)
+    job = tmp_path / "job.toml"
+    job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
+    code, out, err = run_cli(["batch", str(path), "--config", str(job), "-o",
+                              str(tmp_path / "res"), "--scheduler", "serial", "--no-progress"])
+    assert code == 0, err
+    assert read_results(tmp_path / "res")["sample_rate"].tolist() == [rate]

@@ -314,10 +314,38 @@ def _json_dict(blob) -> dict:
     return d if isinstance(d, dict) else {}
 
 
+def _span_rate(head_rate: float, t_head: np.ndarray, span: tuple[int, float] | None) -> float:
+    """The rate of a whole time column by :func:`leakdiag.io.checks.infer_sample_rate`'s rule,
+    ``(n - 1) / (t[-1] - t[0])`` rounded to 9 decimals, from its first rows ``t_head`` (whose
+    rate is ``head_rate``) and ``span = (n, t[-1])``: a file streamed in chunks gets the rate
+    ``detect`` reads (until 2026-11-28 the first 4096 rows' own: 3000 Hz where detect read
+    2999.999833 Hz from times printed to 5 decimals; streams audit 2026-11-27, finding 8).
+    The span's rate is taken only when it lies within what the first rows can tell: their
+    largest distance from the grid of their own rate (print rounding, clock jitter), twice,
+    over their span. Otherwise the rest of the column is not on the first rows' grid (a row
+    missing or added, a last time that is not a number): the first rows' rate is kept, and the
+    chunk check names the row (a gap is then "expected 0.001 s (1000 Hz", not the 999.833 Hz
+    of a 6-s file missing one row). A clock whose rate drifts within the tolerances keeps the
+    first rows' rate as before (a difference from detect's in the 7th digit or beyond)."""
+    if span is None:
+        return head_rate
+    n, t_last = span
+    t0 = float(t_head[0])
+    if n <= len(t_head) or not np.isfinite(t_last) or not t_last > t0:
+        return head_rate
+    whole = round(float((n - 1) / (float(t_last) - t0)), 9)
+    head_span = float(t_head[-1]) - t0
+    res = float(np.max(np.abs(t_head - t0 - np.arange(len(t_head)) / head_rate)))
+    tol = 2.0 * res / head_span + 1e-9 / head_rate + 1e-12  # relative; 1e-9 Hz: the rounding
+    return whole if abs(whole - head_rate) <= tol * head_rate else head_rate
+
+
 def _rate_start(t_head: np.ndarray | None, sample_rate: float | None, start_time: float | None,
-                header: dict, source: str) -> tuple[float, float]:
-    """Sample rate and start time: the file header's, else the time column's, else the
-    explicit argument.
+                header: dict, source: str,
+                span: tuple[int, float] | None = None) -> tuple[float, float]:
+    """Sample rate and start time: the file header's, else the time column's (its first rows,
+    checked, and with ``span`` = (rows, last time) the whole column's: :func:`_span_rate`),
+    else the explicit argument.
 
     The file's own rate is used; an explicit rate is a cross-check, accepted within 0.1 % of it
     and refused otherwise, in the words of :func:`leakdiag.io.read_recording`
@@ -331,7 +359,7 @@ def _rate_start(t_head: np.ndarray | None, sample_rate: float | None, start_time
     what = "header"
     if own is None and t_head is not None:
         if len(t_head) >= 2:
-            own = infer_sample_rate(t_head, source=source)
+            own = _span_rate(infer_sample_rate(t_head, source=source), t_head, span)
             what = f"time column {TIME_COLUMN!r}"
         elif sample_rate is None:
             infer_sample_rate(t_head, source=source)  # raises: too few values for a rate

@@ -101,7 +101,7 @@ def _checked(chunks, axis: TimeAxis | None, path: str, finite: bool):
 
 
 def _axis(has_time: bool, fs: float, path: str, header: dict) -> TimeAxis | None:
-    basis = "from the file's header" if "sample_rate" in header else "from the first rows"
+    basis = "from the file's header" if "sample_rate" in header else "from the time column"
     return TimeAxis(fs, path, basis=basis) if has_time else None
 
 
@@ -123,12 +123,13 @@ def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time,
     for c in chans + ([TIME_COLUMN] if TIME_COLUMN in names else []):
         if pa.types.is_temporal(pf.schema_arrow.field(c).type):  # not nanoseconds as seconds
             raise timestamps_error(path, c)
-    t_head = None
+    t_head = span = None
     if TIME_COLUMN in names and "sample_rate" not in header:
-        first = next(pf.iter_batches(batch_size=4096, columns=[TIME_COLUMN]), None)
+        first = next(pf.iter_batches(batch_size=_HEAD_ROWS, columns=[TIME_COLUMN]), None)
         t_head = (np.empty(0) if first is None else
                   first.column(0).to_numpy(zero_copy_only=False).astype(np.float64))
-    fs, t0 = _rate_start(t_head, sample_rate, start_time, header, path)
+        span = _parquet_span(pf, pa)
+    fs, t0 = _rate_start(t_head, sample_rate, start_time, header, path, span)
 
     cols = chans + ([TIME_COLUMN] if TIME_COLUMN in names else [])
 
@@ -144,6 +145,19 @@ def _parquet(path: str, channels, chunk_samples: int, sample_rate, start_time,
     axis = _axis(TIME_COLUMN in names, fs, path, header)
     return ChunkSource(_checked(gen(), axis, path, finite), fs, t0, chans, pf.metadata.num_rows,
                        path, meta)
+
+
+def _parquet_span(pf, pa) -> tuple[int, float] | None:
+    """(rows, last time) of a Parquet file's time column, from its footer and its last row
+    group that holds rows (:func:`leakdiag.stream.chunks._span_rate`); None if unreadable."""
+    for g in range(pf.num_row_groups - 1, -1, -1):
+        if pf.metadata.row_group(g).num_rows:
+            try:
+                col = pf.read_row_group(g, columns=[TIME_COLUMN], use_threads=False).column(0)
+                return pf.metadata.num_rows, float(col[len(col) - 1].as_py())
+            except (pa.ArrowException, TypeError, ValueError):
+                return None  # the chunks name what is wrong with the time column
+    return None
 
 
 def _hdf5_names(f, h5py) -> list[str]:
@@ -201,12 +215,14 @@ def _hdf5(path: str, channels, chunk_samples: int, sample_rate, start_time,
         check_same_length({**({f"time column {TIME_COLUMN!r}": len(f[TIME_COLUMN])}
                               if has_time else {}),
                            **{c: len(group[c]) for c in chans}}, path)
-        t_head = None
+        t_head = span = None
         if "sample_rate" not in header and has_time:
             t_head = np.asarray(f[TIME_COLUMN][:_HEAD_ROWS], dtype=np.float64)
+            n_t = len(f[TIME_COLUMN])
+            span = (n_t, float(f[TIME_COLUMN][n_t - 1])) if n_t else None
         n = len(group[chans[0]])
         gname = group.name
-    fs, t0 = _rate_start(t_head, sample_rate, start_time, header, path)
+    fs, t0 = _rate_start(t_head, sample_rate, start_time, header, path, span)
 
     def gen():
         with h5py.File(path, "r") as h:
@@ -648,6 +664,28 @@ def _csv_frames(path: str, fmt: dict, chunk_samples: int, keys: dict[str, str], 
         rows.close()
 
 
+def _csv_span(path: str, fmt: dict, width: int, key: str,
+              chunk_samples: int) -> tuple[int, float] | None:
+    """(rows, last time) of a CSV's time column, read alone in chunks with the options of the
+    chunks (:func:`leakdiag.stream.chunks._span_rate`): one pass over the file, with memory of
+    one chunk of one column; None when it does not parse (the chunks name what is wrong)."""
+    import pandas as pd
+
+    n, last = 0, None
+    try:  # parsed by pandas as the chunks are (Python's float() can differ in the last bit)
+        with _csv_read(path, fmt, width, [key],
+                       chunksize=max(chunk_samples, 1 << 16)) as frames:
+            for df in frames:
+                if len(df):
+                    n += len(df)
+                    last = df[key].iloc[-1:]
+    except (RecordingError, pd.errors.ParserError, UnicodeDecodeError, ValueError):
+        return None
+    if last is None or not pd.api.types.is_numeric_dtype(last.dtype):
+        return None  # text: the chunks name it
+    return n, float(last.iloc[0])
+
+
 def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time,
          finite: bool = False) -> ChunkSource:
     fmt = _csv_format(path)
@@ -673,7 +711,9 @@ def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time,
         rows.close()
     t_head = (_numeric(head, {TIME_COLUMN: keys[TIME_COLUMN]}, path, 0)[TIME_COLUMN]
               if has_time else None)
-    fs, t0 = _rate_start(t_head, sample_rate, start_time, {}, path)
+    span = (_csv_span(path, fmt, width, keys[TIME_COLUMN], chunk_samples)
+            if has_time and len(head) == _HEAD_ROWS else None)
+    fs, t0 = _rate_start(t_head, sample_rate, start_time, {}, path, span)
     keys = {c: keys[c] for c in chans + ([TIME_COLUMN] if has_time else [])}
     return ChunkSource(_checked(_csv_frames(path, fmt, chunk_samples, keys, rows, width, usecols),
                                 _axis(has_time, fs, path, {}), path, finite), fs, t0, chans, None,
