@@ -1,20 +1,22 @@
 """Does a flow-balance NO LEAK's "smallest leak it would have seen" hold? (virtual machines)
 
-``python -m perf.flow_balance_detectable [--machines 3,5,17,23] [--per-machine 5] [--out DIR]``
+``python -m perf.flow_balance_detectable [--machines 3,5,17,23] [--per-machine 5]
+[--groups vca:spring,vca:none,eha:spring,eha:none] [--factors 1] [--out DIR]``
 
 For each rig and load, each virtual machine (``--machines``) gets a flow-balance detector
 fitted on :data:`N_OWN` of its own healthy runs of :data:`DURATION_S` s (seeds 100..,
 :data:`FALSE_ALARMS_PER_HOUR`). Then, per suspect seed (200..), the healthy run of that seed is
-judged; where it reads NO LEAK, the verdict's ``detectable_lpm`` (the step leak that reaches the
-threshold with probability ``DETECTABLE_POWER`` under the test's error model, from
-``detectable_from_s`` to the end; ``FlowBalanceDetector._detectable``) is simulated on the same
-seed (same reference and noise; the step at ``detectable_from_s``) and judged. A row per
-suspect goes to ``DIR/rows-<key>.csv``; the printed share of alarms per group is what
-``DETECTABLE_MEASURED`` in ``detect/flow_balance.py`` rests on (docs/detect.md 8.5).
+judged; where it reads NO LEAK, the verdict's ``detectable_lpm`` (the smallest step leak it
+states it would have seen, from ``detectable_from_s`` to the end; ``FlowBalanceDetector.
+_detectable``: the error model's size times ``DETECTABLE_FACTOR``) is simulated on the same
+seed (same reference and noise; the step at ``detectable_from_s``) and judged, at each of
+``--factors`` times that size. A row per suspect and factor goes to ``DIR/rows-<key>.csv`` (and
+all rows to ``DIR/detectable.csv``); the printed share of alarms per group is what
+``DETECTABLE_RUNS`` in ``detect/flow_balance.py`` rests on (docs/detect.md 8.5).
 
-The size is computed for every rig and load here, also where the detector withholds it
-(``DETECTABLE_MEASURED`` is widened in this process only), so that the withheld groups are
-measured too.
+``DETECTABLE_FACTOR`` was chosen from a run of this script before the factor existed (the
+stated size was then the model's own, factors 1-4;
+docs/flow_balance_study/detectable/model_size_factors.csv).
 
 Resumable: rows are written whole after each suspect (temporary file, atomic rename), keyed by
 a hash of the settings, :func:`_row`'s source, the code of :data:`CODE_PARTS` and the library
@@ -37,7 +39,7 @@ N_OWN, DURATION_S, FALSE_ALARMS_PER_HOUR = 4, 120.0, 1.0
 CODE_PARTS = ("_holds.py", "_validation.py", "detect", "features", "io", "sim")
 #: Rigs and loads measured.
 GROUPS = (("vca", "spring"), ("vca", "none"), ("eha", "spring"), ("eha", "none"))
-COLUMNS = ["system", "load", "machine", "seed", "healthy_leak", "healthy_error",
+COLUMNS = ["system", "load", "machine", "seed", "factor", "healthy_leak", "healthy_error",
            "detectable_lpm", "detectable_from_s", "truth_lpm", "leak", "score_max",
            "threshold", "leak_error"]
 
@@ -58,8 +60,10 @@ def _fit(system, load, machine):
                                false_alarms_per_hour=FALSE_ALARMS_PER_HOUR).fit(own)
 
 
-def _row(det, system, load, machine, seed) -> dict:
-    """Judge the healthy run of ``seed``; on NO LEAK, the stated detectable leak on that seed."""
+def _row(det, system, load, machine, seed, factors) -> list[dict]:
+    """Judge the healthy run of ``seed``; on NO LEAK, the stated detectable leak on that seed
+    times each of ``factors`` (a row per factor; one row when the healthy run did not read NO
+    LEAK)."""
     from leakdiag.io.errors import RecordingError
 
     row = dict.fromkeys(COLUMNS)
@@ -68,21 +72,25 @@ def _row(det, system, load, machine, seed) -> dict:
         v = det.predict(_sim(system, leak_lpm=0.0, load=load, machine=machine, seed=seed))
     except RecordingError as exc:
         row["healthy_error"] = str(exc)[:200]
-        return row
+        return [row]
     row["healthy_leak"] = bool(v.leak)
     if v.leak or v.detectable_lpm is None:
-        return row
+        return [row]
     row.update(detectable_lpm=v.detectable_lpm, detectable_from_s=v.detectable_from_s)
-    rec = _sim(system, leak_lpm=v.detectable_lpm, onset=v.detectable_from_s, load=load,
-               machine=machine, seed=seed)
-    row["truth_lpm"] = float(rec.meta["leak_lpm_achieved"])
-    try:
-        w = det.predict(rec)
-    except RecordingError as exc:
-        row["leak_error"] = str(exc)[:200]
-        return row
-    row.update(leak=bool(w.leak), score_max=w.score_max, threshold=w.threshold)
-    return row
+    rows = []
+    for f in factors:
+        r = {**row, "factor": f}
+        rec = _sim(system, leak_lpm=f * v.detectable_lpm, onset=v.detectable_from_s, load=load,
+                   machine=machine, seed=seed)
+        r["truth_lpm"] = float(rec.meta["leak_lpm_achieved"])
+        try:
+            w = det.predict(rec)
+        except RecordingError as exc:
+            r["leak_error"] = str(exc)[:200]
+        else:
+            r.update(leak=bool(w.leak), score_max=w.score_max, threshold=w.threshold)
+        rows.append(r)
+    return rows
 
 
 def rows_key() -> str:
@@ -105,16 +113,17 @@ def _read_rows(path) -> pd.DataFrame:
 
 def main(argv=None) -> None:
     from leakdiag.bench._workfiles import read_or_discard, write_atomic
-    from leakdiag.detect import flow_balance as fb
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--machines", default="3,5,17,23")
     ap.add_argument("--per-machine", type=int, default=5)
+    ap.add_argument("--groups", default=",".join(f"{a}:{b}" for a, b in GROUPS))
+    ap.add_argument("--factors", default="1")
     ap.add_argument("--out", default="detectable")
     args = ap.parse_args(argv)
     machines = [int(m) for m in args.machines.split(",")]
-    # measured everywhere, also where the verdict withholds it (this process only)
-    fb.DETECTABLE_MEASURED = {"vca": ("spring", "none"), "eha": ("spring", "none")}
+    groups = [tuple(g.split(":")) for g in args.groups.split(",")]
+    factors = [float(f) for f in args.factors.split(",")]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     state = out / f"rows-{rows_key()}.csv"
@@ -122,33 +131,42 @@ def main(argv=None) -> None:
     rows = [] if done is None else done.to_dict("records")
     print(f"reused {len(rows)} rows from {state}" if rows else f"no rows to reuse in {state}",
           flush=True)
-    seen = {(r["system"], r["load"], int(r["machine"]), int(r["seed"])) for r in rows}
-    for system, load in GROUPS:
+    seen = {(r["system"], r["load"], int(r["machine"]), int(r["seed"]), r["factor"])
+            for r in rows}
+    for system, load in groups:
         for m in machines:
             todo = [s for s in range(200, 200 + args.per_machine)
-                    if (system, load, m, s) not in seen]
+                    if any((system, load, m, s, f) not in seen for f in factors)]
             if not todo:
                 continue
             det = _fit(system, load, m)
             for s in todo:
-                rows.append(_row(det, system, load, m, s))
+                todo_f = [f for f in factors if (system, load, m, s, f) not in seen]
+                new = _row(det, system, load, m, s, todo_f)
+                # a healthy run that did not read NO LEAK is one row, whatever the factors
+                rows = [r for r in rows if not (r["system"] == system and r["load"] == load and
+                        int(r["machine"]) == m and int(r["seed"]) == s and
+                        pd.isna(r["factor"]))] + new
                 so_far = pd.DataFrame(rows, columns=COLUMNS)
                 write_atomic(state, lambda tmp: so_far.to_csv(tmp, index=False))
-                r = rows[-1]
-                print(system, load, m, s, r["detectable_lpm"], r["leak"], r["score_max"],
-                      flush=True)
+                for r in new:
+                    print(system, load, m, s, r["factor"], r["detectable_lpm"], r["leak"],
+                          r["score_max"], flush=True)
     df = pd.DataFrame(rows, columns=COLUMNS)
     write_atomic(out / "detectable.csv", lambda tmp: df.to_csv(tmp, index=False))
-    print("group: healthy runs judged, false alarms, refused; leaks of the stated size "
-          "judged, alarmed")
+    print("group: healthy runs judged, false alarms, refused; per factor, leaks of that "
+          "multiple of the stated size judged, alarmed")
     for (s, ld), g in df.groupby(["system", "load"], sort=False):
-        judged = g[g["leak"].notna()]
-        print(f"{s} {ld}: {int(g['healthy_leak'].notna().sum())} healthy, "
-              f"{int(g['healthy_leak'].eq(True).sum())} false alarm(s), "
-              f"{int(g['healthy_error'].notna().sum())} refused; {len(judged)} leaks, "
-              f"{int(judged['leak'].astype(bool).sum())} alarmed, "
-              f"{int(g['leak_error'].notna().sum())} refused; detectable "
-              f"{g['detectable_lpm'].min():.3g}-{g['detectable_lpm'].max():.3g} L/min")
+        healthy = g.drop_duplicates(["machine", "seed"])
+        line = (f"{s} {ld}: {int(healthy['healthy_leak'].notna().sum())} healthy, "
+                f"{int(healthy['healthy_leak'].eq(True).sum())} false alarm(s), "
+                f"{int(healthy['healthy_error'].notna().sum())} refused; detectable "
+                f"{g['detectable_lpm'].min():.3g}-{g['detectable_lpm'].max():.3g} L/min")
+        for f, gf in g[g["factor"].notna()].groupby("factor"):
+            judged = gf[gf["leak"].notna()]
+            line += (f"; x{f:g}: {len(judged)} leaks, {int(judged['leak'].astype(bool).sum())} "
+                     f"alarmed, {int(gf['leak_error'].notna().sum())} refused")
+        print(line)
 
 
 if __name__ == "__main__":
