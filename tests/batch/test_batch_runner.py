@@ -397,10 +397,11 @@ def test_cli_rows_for_empty_text_and_gapped_csv_name_file_channel_row(tmp_path):
     assert f"{rec_dir / 'gap.csv'}: row 5000: time 5.5 s after 4.999 s is a gap" in r.output
 
 
-def test_cli_job_of_detector_files_alone_and_whole_recording_detectors_refused(recordings,
-                                                                               tmp_path):
-    """A job file with only [job] runs the --detector files given; a detector that judges whole
-    recordings is refused before any recording is read, as monitor refuses it."""
+def test_cli_job_of_detector_files_alone_and_unfitted_whole_recording_detectors_refused(
+        recordings, tmp_path):
+    """A job file with only [job] runs the --detector files given; a whole-recording detector
+    that is not fitted is refused before any recording is read (fitted ones are judged on the
+    file read whole: tests/batch/test_batch_whole.py)."""
     tmp, _ = recordings
     (tmp / "recordings" / "rig0" / "broken.parquet").unlink()
     det = tmp_path / "slow.pkl"
@@ -411,15 +412,15 @@ def test_cli_job_of_detector_files_alone_and_whole_recording_detectors_refused(r
     assert r.exit_code == 0, r.output
     assert "3 recording(s): 3 run" in r.output
     whole = tmp_path / "whole.pkl"
-    # a real detector that judges whole recordings only: fit/predict, no spec()/score_windows()
+    # a real detector that judges whole recordings only, not fitted: fit/predict, no spec()
     from leakdiag.bench.registry import make_detector
     from leakdiag.detect.base import Alarm
 
     whole.write_bytes(pickle.dumps(make_detector("fft-p1", "vca", Alarm())))
     r = _cli_batch(tmp, job, tmp_path / "res2", "--detector", str(whole))
     assert r.exit_code == 2
-    assert "judges whole recordings and cannot run window by window" in r.output
-    assert "use leakdiag detect FILE --detector" in r.output
+    assert f"{whole}: FFTBandDetector is not fitted (no threshold): fit it with leakdiag fit" \
+        in " ".join(r.output.split())
     assert not (tmp_path / "res2").exists()
 
 

@@ -41,12 +41,12 @@ __all__ = ["run_case", "run_batch", "expand_inputs", "batch_inputs", "warn_job_d
 #: finished recording whose rows hold another fingerprint is computed again): batch itself,
 #: the streaming pass and the recording readers (``stream``, ``io``), the features and the
 #: Sec. 5.2 measure (``features``, ``detect``), the detectors a detector file can hold
-#: (``detect``, ``literature``) and the checks and holds they all use (``_validation.py``,
-#: ``_holds.py``). Left out: ``sim`` (only the whole-recording detectors, flow balance and the
-#: EKF, read simulator parameters, and batch refuses them), ``runtime`` (where a case runs,
-#: not what it computes), ``store``, ``report``, ``cli`` and ``_version`` (no number).
+#: (``detect``, ``literature``), the simulator parameters the whole-recording detectors (flow
+#: balance, EKF) read (``sim``) and the checks and holds they all use (``_validation.py``,
+#: ``_holds.py``). Left out: ``runtime`` (where a case runs, not what it computes), ``store``,
+#: ``report``, ``cli`` and ``_version`` (no number).
 CODE_PARTS = ("_holds.py", "_validation.py", "batch", "detect", "features", "io", "literature",
-              "stream")
+              "sim", "stream")
 
 
 def code_provenance() -> dict[str, str]:
@@ -252,15 +252,24 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
             "job_digest": config.digest, "job_config": config.to_json(),
             "leakdiag_version": __version__}
     try:
-        dets = []
+        dets, whole = [], []
         for ref in config.detectors:
             det, meta = _load_job_detector(ref)
-            if not callable(getattr(det, "spec", None)):
-                raise ValueError(f"detector {ref.name} ({ref.path}) judges whole recordings and "
-                                 "cannot be streamed; use a single-feature detector")
-            dets.append((ref.name, det, meta, ref.path))
+            if callable(getattr(det, "spec", None)):
+                dets.append((ref.name, det, meta, ref.path))
+            elif judges_whole(det):  # the flow balance, EKF, combined...: read whole
+                whole.append((ref.name, det, meta, ref.path))
+            else:
+                raise ValueError(f"detector {ref.name} ({ref.path}) can neither be streamed "
+                                 "nor judge a whole recording")
         items = [("analysis", s.label, s, None) for s in config.analyses]
         items += [("detector", name, d.spec(), d) for name, d, _, _ in dets]
+        if not items:  # only whole-recording detectors: no streaming pass
+            rows = _whole_rows(path, config, whole, base)
+            elapsed = time.perf_counter() - t0
+            for r in rows:
+                r["elapsed_s"] = elapsed
+            return rows
         channels = sorted({c for _, _, s, _ in items for c in s.channels})
         src, units = open_recording(path, channels, config.chunk_samples,
                                     column_map=config.column_map)
@@ -326,6 +335,8 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
             rows.append(row)
         rows += [{**base, "status": "error", "kind": "detector", "name": name, "error": msg}
                  for name, msg in refused.items()]
+        if whole:
+            rows += _whole_rows(path, config, whole, base)
     except Exception as exc:  # noqa: BLE001 - a bad file must become a row, not stop the run
         msg = _in_job_words(str(exc))  # leakdiag's messages name file, channel and row
         if config.column_map is None and "missing channel(s)" in msg and "column map" not in msg:
@@ -480,6 +491,65 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
         bar.close()
     return BatchSummary(len(paths), len(paths) - len(todo), len(todo), n_err, os.fspath(out_dir),
                         len(own), n_code, n_lib)
+
+
+def judges_whole(det) -> bool:
+    """Whether a job's detector judges a whole recording (``predict``) but is not streamed
+    (no feature ``spec``): the flow balance, the EKF, the combined and literature detectors."""
+    return (not callable(getattr(det, "spec", None)) and callable(getattr(det, "predict", None))
+            and hasattr(det, "threshold_"))
+
+
+def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list[dict]:
+    """Rows of the whole-recording detectors of a job: the file read whole (as ``leakdiag
+    detect`` reads it) and judged by each detector's ``predict``.
+
+    A detector that disagrees with the recording (system, load, sample rate, units), whose
+    healthy recordings include this very file, or that cannot judge it (``RecordingError``:
+    too short, a stuck or missing channel, the model does not describe it) gets its own row
+    with the reason (``alarm`` null); the file is read once for all of them.
+    """
+    from leakdiag.detect.base import refuse_own_healthy
+    from leakdiag.io import read_recording
+    from leakdiag.io.errors import RecordingError
+
+    rec = read_recording(path, column_map=config.column_map)
+    base = {**base, "system": base.get("system") or rec.meta.get("system")}
+    rows = []
+    for name, det, meta, dpath in whole:
+        chans = tuple(getattr(det, "channels", None) or ())
+        row = {**base, "kind": "detector", "name": name,
+               "method": meta.method if meta is not None else type(det).__name__,
+               "channels": ",".join(chans) or None, "sample_rate": rec.sample_rate,
+               "n_samples": rec.n_samples, "duration_s": rec.duration}
+        try:
+            check_detector_fits(meta, sample_rate=rec.sample_rate, channels=rec.channels,
+                                units=rec.units, system=rec.meta.get("system"), source=path,
+                                path=dpath, load=rec.meta.get("load"))
+        except ValueError as exc:
+            rows.append({**row, "status": "error", "error": _in_job_words(str(exc))})
+            continue
+        row["unchecked"] = unchecked_note(path, rec.meta, [
+            (dpath, getattr(meta, "system", None), getattr(meta, "load", None))], ADVICE_JOB)
+        row["status"], row["threshold"] = "ok", float(det.threshold_)
+        try:
+            refuse_own_healthy(det, rec, "batch")
+            v = det.predict(rec)
+        except RecordingError as exc:  # nothing was judged: the detector says why
+            rows.append({**row, "alarm": None, "error": f"detector not judged: {exc}"})
+            continue
+        d = v.as_dict()
+        rows.append({**row, "alarm": bool(v.leak), "alarm_time_s": d["alarm_time_s"],
+                     "score_max": d["score_max"], "p_value": d["confidence"],
+                     "n_windows": d.get("n_windows"),
+                     "alarm_onset_s": d["onset_s"],
+                     "onset_method": d["onset_method"] if v.leak else None,
+                     "alarm_onset_censored": d["onset_censored"] if v.leak else None,
+                     "leak_lpm": d["leak_lpm"], "leak_lpm_low": d["leak_lpm_low"],
+                     "leak_lpm_high": d["leak_lpm_high"],
+                     "leak_lpm_in_range": d["leak_lpm_in_range"],
+                     "detectable_lpm": d.get("detectable_lpm"), "verdict": str(v)})
+    return rows
 
 
 def _judges_series(det) -> bool:

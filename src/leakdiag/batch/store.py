@@ -38,6 +38,9 @@ RESULT_COLUMNS: dict[str, str] = {
     "elapsed_s": "float64", "job_digest": "string", "job_config": "string",
     "leakdiag_version": "string", "recording_sha256": "string", "unchecked": "string",
     "code_fingerprint": "string", "library_versions": "string",
+    # whole-recording detectors (the flow balance): the smallest leak a NO LEAK would have seen
+    # and the verdict in words (size interval, sensitivity), as leakdiag detect prints it
+    "detectable_lpm": "float64", "verdict": "string",
 }
 
 

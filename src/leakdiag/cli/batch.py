@@ -18,10 +18,12 @@ def _stderr_is_terminal() -> bool:
 
 def _check_detectors(cfg) -> list:
     """Load every detector file of the job once, before any recording is read: refuse one
-    that cannot be loaded or streamed (naming the option or the job file's entry), let its
-    warnings through once, and return the bare pickles among them (nothing is checked)."""
+    that cannot be loaded, streamed or judge a whole recording (naming the option or the job
+    file's entry), let its warnings through once, and return the bare pickles among them
+    (nothing is checked)."""
     import warnings
 
+    from leakdiag.batch.runner import judges_whole
     from leakdiag.cli.monitor import check_streamable
     from leakdiag.stream.detector_file import load_detector_file
 
@@ -35,7 +37,14 @@ def _check_detectors(cfg) -> list:
                     det, meta = load_detector_file(ref.path)
             except ValueError as exc:
                 raise click.BadParameter(str(exc), param_hint="--detector") from None
-            check_streamable(det, meta, ref.path)
+            if not judges_whole(det):  # whole-recording ones read each file whole
+                if callable(getattr(det, "predict", None)) and \
+                        not callable(getattr(det, "spec", None)) and \
+                        not hasattr(det, "threshold_"):
+                    raise click.BadParameter(
+                        f"{ref.path}: {type(det).__name__} is not fitted (no threshold): "
+                        "fit it with leakdiag fit", param_hint="--detector")
+                check_streamable(det, meta, ref.path)
         except click.BadParameter as exc:
             if given:
                 raise

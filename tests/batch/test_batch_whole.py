@@ -1,0 +1,106 @@
+"""``leakdiag batch`` with whole-recording detectors (the flow balance): each file read whole and
+judged by ``predict``, its row what ``leakdiag detect --detector`` says of the file.
+
+Until 2026-11-28 batch refused them ("judges whole recordings and cannot be streamed"), so the
+project's physics-based detector could not judge a fleet's recordings in one job.
+"""
+
+import pytest
+
+import leakdiag as ld
+from leakdiag.batch import config_from_dict, read_results, run_batch, run_case
+from leakdiag.cli.main import main
+from leakdiag.io import write_recording
+
+
+def _vca(seed, **kw):
+    kw.setdefault("leak_lpm", 0.0)
+    return ld.sim.simulate_vca(duration=40.0, load="spring", machine=17, seed=seed, **kw)
+
+
+@pytest.fixture(scope="module")
+def fleet(tmp_path_factory):
+    from leakdiag.stream.detector_file import load_detector_file
+
+    d = tmp_path_factory.mktemp("whole")
+    healthy = [_vca(s) for s in range(3)]
+    hfiles = [str(write_recording(r, d / f"h{i}.parquet")) for i, r in enumerate(healthy)]
+    path = d / "fb.joblib"
+    assert main(["fit", *[a for h in hfiles for a in ("--healthy", h)], "-m", "flow-balance",
+                 "--no-progress", "-o", str(path)]) == 0
+    det, _ = load_detector_file(path)
+    recs = d / "recs"
+    recs.mkdir()
+    files = {"leak": write_recording(_vca(7, leak_lpm=0.05, onset=20.0), recs / "leak.parquet"),
+             "ok": write_recording(_vca(8), recs / "ok.parquet"),
+             "own": write_recording(healthy[0], recs / "own.parquet"),
+             "eha": write_recording(ld.sim.simulate_eha(duration=20.0, leak_lpm=0.0, seed=1),
+                                    recs / "eha.parquet")}
+    return det, path, files
+
+
+def _job(path, analyses=()):
+    return config_from_dict({"detector": [{"path": str(path), "name": "fb"}],
+                             "analysis": list(analyses)})
+
+
+def test_a_flow_balance_row_is_its_predict_on_the_whole_file(fleet):
+    det, path, files = fleet
+    for name in ("leak", "ok"):
+        (row,) = run_case(str(files[name]), _job(path))
+        v = det.predict(ld.io.read_recording(files[name]))
+        assert row["status"] == "ok" and row["kind"] == "detector" and row["name"] == "fb"
+        assert row["method"] == "flow-balance" and row["channels"] == "p1,p2,x,u"
+        assert row["alarm"] is v.leak and row["score_max"] == v.score_max
+        assert row["p_value"] == v.confidence and row["threshold"] == det.threshold_
+        assert row["verdict"] == str(v)
+        if v.leak:
+            assert row["alarm_time_s"] == v.alarm_time_s and row["alarm_onset_s"] == v.onset_s
+            assert row["leak_lpm"] == v.leak_lpm and \
+                (row["leak_lpm_low"], row["leak_lpm_high"]) == v.leak_lpm_interval
+            assert 19.0 <= v.onset_s <= 21.0 and row["detectable_lpm"] is None
+        else:  # a NO LEAK row states what it would have seen
+            assert row["detectable_lpm"] == v.detectable_lpm > 0
+            assert "sensitivity: a step leak of" in row["verdict"]
+    assert name == "ok"
+
+
+def test_rows_the_flow_balance_cannot_judge_say_why(fleet):
+    det, path, files = fleet
+    (own,) = run_case(str(files["own"]), _job(path))  # one of its healthy recordings
+    assert own["status"] == "ok" and own["alarm"] is None
+    assert own["error"].startswith("detector not judged: batch: ") and \
+        "holds the same samples as one of the 3 healthy recordings" in own["error"]
+    (eha,) = run_case(str(files["eha"]), _job(path))  # another rig: refused by name
+    assert eha["status"] == "error" and "eha" in eha["error"] and "vca" in eha["error"]
+
+
+def test_an_analysis_and_a_whole_recording_detector_in_one_job(fleet, tmp_path):
+    _, path, files = fleet
+    ana = {"method": "autocorrelation", "channels": ["p1"], "lag": 1, "window": 200,
+           "overlap": 5}
+    run_batch([str(files["leak"]), str(files["ok"])], _job(path, [ana]), tmp_path / "res",
+              scheduler="serial")
+    res = read_results(tmp_path / "res")
+    assert sorted(zip(res["recording"], res["kind"])) == [
+        ("leak.parquet", "analysis"), ("leak.parquet", "detector"),
+        ("ok.parquet", "analysis"), ("ok.parquet", "detector")]
+    det_rows = res[res["kind"] == "detector"].set_index("recording")
+    assert bool(det_rows.loc["leak.parquet", "alarm"]) and \
+        not bool(det_rows.loc["ok.parquet", "alarm"])
+    assert det_rows.loc["ok.parquet", "detectable_lpm"] > 0
+
+
+def test_the_cli_takes_a_flow_balance_file(fleet, tmp_path, capsys):
+    _, path, files = fleet
+    job = tmp_path / "job.toml"
+    job.write_text("[job]\n")
+    code = main(["batch", str(files["leak"]), str(files["ok"]), "--config", str(job),
+                 "--detector", str(path), "-o", str(tmp_path / "res"), "--scheduler", "serial",
+                 "--no-progress"])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    assert "2 recording(s): 2 run, 0 already done, 0 error(s)" in out.out + out.err
+    res = read_results(tmp_path / "res")
+    assert res.set_index("recording")["alarm"].to_dict() == {"leak.parquet": True,
+                                                             "ok.parquet": False}
