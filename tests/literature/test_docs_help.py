@@ -34,10 +34,11 @@ def test_fit_help_says_which_files_monitor_and_batch_take():
     from leakdiag.cli.fit import fit
 
     text = " ".join(fit.help.split())  # unwrapped (click wraps at hyphens)
-    assert ("monitor runs window by window and takes only the single-feature "
+    assert ("monitor runs window by window with the single-feature "
             "detectors (acf-p1, acf-p2, ccf-p1p2, ccf-ux, mlr-p1); combined, wavelet-p1, "
-            "wavelet-p1p2, fft-p1, emd-p1, ekf and flow-balance judge whole recordings: their "
-            "files are for detect and batch (which reads each file whole for them)") in text
+            "wavelet-p1p2, fft-p1, emd-p1, ekf and flow-balance judge whole recordings: batch "
+            "reads each file whole for them, and monitor judges a stream with them in "
+            "consecutive segments (--segment)") in text
     # the lists are the registry's streamable and whole-recording detectors (monitor's and
     # batch's check: a spec() or score_windows(), cli/monitor.py check_streamable)
     assert sorted(m for m in METHODS if _streamable(m)) == sorted(

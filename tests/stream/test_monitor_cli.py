@@ -215,13 +215,16 @@ def test_monitor_with_a_fitted_detector_file(tmp_path):
     assert alarm and float(alarm[0].split("t=")[1].split()[0]) >= 15.0
     assert "1 alarm raising(s) in 1 episode(s)" in r.output
 
-    # a whole-recording detector cannot be streamed: said so
+    # a whole-recording detector is not streamed: it judges consecutive segments (until
+    # 2026-11-28 refused: "cannot run window by window"; tests/stream/test_monitor_segments.py)
     comb = tmp_path / "comb.joblib"
     assert CliRunner().invoke(cli, ["fit", "--healthy", h[0], "-m", "combined",
                                     "--false-alarm-rate", "150", "-o",
                                     str(comb)]).exit_code == 0
-    r = CliRunner().invoke(cli, ["monitor", "-i", leak, "--detector", str(comb)])
-    assert r.exit_code != 0 and "cannot run window by window" in r.output
+    r = CliRunner().invoke(cli, ["monitor", "-i", leak, "--detector", str(comb),
+                                 "--segment", "10"])
+    assert r.exit_code == 0, r.output
+    assert "segment(s) of up to 10 s judged by combined" in r.output
 
 
 def test_monitor_follow_checks_the_time_axis_like_file_mode(tmp_path):

@@ -32,6 +32,7 @@ from leakdiag.stream.detector_file import (ADVICE_JOB, check_detector_fits,
                                             load_detector_file, unchecked_note)
 from leakdiag.stream.feature import StreamingFeature
 from leakdiag.stream.files import open_recording
+from leakdiag.stream.segments import judges_whole
 
 __all__ = ["run_case", "run_batch", "expand_inputs", "batch_inputs", "warn_job_detectors",
            "BatchSummary", "LOCAL", "CODE_PARTS", "code_provenance"]
@@ -491,13 +492,6 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
         bar.close()
     return BatchSummary(len(paths), len(paths) - len(todo), len(todo), n_err, os.fspath(out_dir),
                         len(own), n_code, n_lib)
-
-
-def judges_whole(det) -> bool:
-    """Whether a job's detector judges a whole recording (``predict``) but is not streamed
-    (no feature ``spec``): the flow balance, the EKF, the combined and literature detectors."""
-    return (not callable(getattr(det, "spec", None)) and callable(getattr(det, "predict", None))
-            and hasattr(det, "threshold_"))
 
 
 def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list[dict]:

@@ -23,7 +23,7 @@ def _check_detectors(cfg) -> list:
     (nothing is checked)."""
     import warnings
 
-    from leakdiag.batch.runner import judges_whole
+    from leakdiag.stream.segments import judges_whole
     from leakdiag.cli.monitor import check_streamable
     from leakdiag.stream.detector_file import load_detector_file
 

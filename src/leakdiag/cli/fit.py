@@ -277,10 +277,11 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
         false_alarm_rate, burn_in_s, confidence, calibration, out, no_progress):
     """Fit a detector on healthy recordings and save it for detect (and monitor, batch).
 
-    Every method's file is for detect and batch. monitor runs window by window and takes only
-    the single-feature detectors (acf-p1, acf-p2, ccf-p1p2, ccf-ux, mlr-p1); combined,
+    Every method's file is for detect and batch. monitor runs window by window with the
+    single-feature detectors (acf-p1, acf-p2, ccf-p1p2, ccf-ux, mlr-p1); combined,
     wavelet-p1, wavelet-p1p2, fft-p1, emd-p1, ekf and flow-balance judge whole recordings:
-    their files are for detect and batch (which reads each file whole for them). The file holds the fitted detector and a record of what
+    batch reads each file whole for them, and monitor judges a stream with them in
+    consecutive segments (--segment). The file holds the fitted detector and a record of what
     it was fitted on (leakdiag version and a fingerprint of its code, method, system, sample
     rate, channels, units); detect, monitor and batch refuse recordings that disagree with it
     and warn when other code loads it. The file is a pickle, as every joblib file: load only

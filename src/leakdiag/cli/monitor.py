@@ -281,6 +281,89 @@ def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignal
         stop.busy = True
 
 
+def column_map_from_options(column_map, cols, time_unit):
+    from leakdiag.cli._options import column_map_from
+
+    return column_map_from(column_map, cols, time_unit)
+
+
+def _monitor_segments(detector, meta, detector_path, input_path, follow, replay, sample_rate,
+                      chunk, idle_timeout, batch_lines, cmap, events, quiet, segment_s):
+    """``monitor`` with a whole-recording detector: the stream judged in consecutive segments
+    (:class:`leakdiag.stream.segments.SegmentJudge`), a line and a JSON event per segment."""
+    from leakdiag.cli.fit import detector_channels
+    from leakdiag.stream import paced
+    from leakdiag.stream.detector_file import (ADVICE_MAP, check_detector_fits,
+                                                unchecked_note)
+    from leakdiag.stream.segments import DEFAULT_SEGMENT_S, SegmentJudge
+
+    chans = list(detector_channels(detector))
+    name = meta.method if meta is not None else type(detector).__name__
+    if not chans:
+        raise click.UsageError(f"{detector_path}: {name} does not say which channels it reads; "
+                               "judge files with leakdiag detect or batch")
+    source, units = _open_input(input_path, chans, follow, sample_rate, chunk, idle_timeout,
+                                batch_lines, cmap)
+    check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
+                        units=units, system=source.meta.get("system"), source=source.source,
+                        path=str(detector_path), load=source.meta.get("load"))
+    if meta is not None:
+        note = unchecked_note(str(source.source), source.meta, [
+            (str(detector_path), meta.system, getattr(meta, "load", None))], ADVICE_MAP)
+        if note is not None:
+            click.echo(f"leakdiag: warning: {note}", err=True)
+    seg = DEFAULT_SEGMENT_S if segment_s is None else float(segment_s)
+    judge = SegmentJudge(detector, chans, source.sample_rate, source.start_time, seg,
+                         units=units, meta=source.meta, source=str(source.source))
+    speed = None if input_path == "-" or follow else parse_replay(replay)
+    out = sys.stdout if events == "-" else (open(events, "w", encoding="utf-8") if events
+                                            else None)
+    say = (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=out is sys.stdout))
+    done: list = []
+
+    def emit(verdicts):
+        for sv in verdicts:
+            done.append(sv)
+            say(sv.words())
+            if out is not None:
+                out.write(sv.to_json() + "\n")
+                out.flush()
+
+    stopped = None
+    t0 = time.perf_counter()
+    with StopSignals() as stop:
+        try:
+            try:
+                for chunk_ in paced(source, speed):
+                    stop.busy = True
+                    emit(judge.push(chunk_))
+                    stop.check()
+                stop.busy = True
+                last = judge.finish()
+                emit([] if last is None else [last])
+            finally:
+                if out is not None and out is not sys.stdout:
+                    out.close()
+        except KeyboardInterrupt as exc:
+            stopped = exc if isinstance(exc, Stopped) else Stopped(signal.SIGINT)
+    dt = time.perf_counter() - t0
+    count = {d: sum(sv.decision == d for sv in done) for d in ("LEAK", "NO LEAK", "NOT JUDGED")}
+    end = "" if stopped is None else f"; stopped by {stopped.name}"
+    say(f"{source.source}: {judge.n_samples_seen} samples at {source.sample_rate:g} Hz, "
+        f"{len(done)} segment(s) of up to {seg:g} s judged by {name}: {count['LEAK']} LEAK, "
+        f"{count['NO LEAK']} NO LEAK, {count['NOT JUDGED']} not judged, in {dt:.3g} s{end}")
+    basis = getattr(detector, "threshold_basis_", None)
+    if basis is not None:
+        from leakdiag.cli._words import threshold_words
+
+        say(f"  threshold: {threshold_words(basis)} (per segment: each is judged as one run)")
+    if stopped is not None:
+        click.get_current_context().exit(128 + stopped.signum)
+    if done and count["NOT JUDGED"] == len(done):
+        raise ValueError(f"{source.source}: no segment could be judged by {name}; first "
+                         f"reason: {done[0].reason}")
+
+
 @click.command(epilog="Example: leakdiag monitor run.parquet --detector det.joblib "
                       "--events events.jsonl")
 @click.argument("file", required=False, metavar="[FILE]")
@@ -306,7 +389,8 @@ def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignal
               help="Detector file from leakdiag fit: its feature settings are used (a "
                    "different --method, --channels, --lag, --window or --overlap is refused); "
                    "its threshold holds its false-alarm rate per hour of monitoring (the CUSUM "
-                   "restarts at every healthy segment unless in alarm). "
+                   "restarts at every healthy segment unless in alarm). A whole-recording "
+                   "detector (the flow balance) judges consecutive --segment segments instead. "
                    "It is a pickle: loading it runs code, so load only files you trust.")
 @recording_options
 @click.option("--chunk", type=click.IntRange(min=1), default=65536, show_default=True,
@@ -316,10 +400,15 @@ def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignal
 @click.option("--events", type=click.Path(dir_okay=False), default=None,
               help="Write one JSON line per window to this file ('-' for stdout).")
 @click.option("--quiet", "-q", is_flag=True, help="Do not print alarms and the summary.")
+@click.option("--segment", "segment_s", type=click.FloatRange(min=0, min_open=True),
+              default=None,
+              help="With a whole-recording detector (the flow balance): judge the stream in "
+                   "consecutive segments of this many seconds, each as detect judges a file "
+                   "(default 60).")
 @live_options
 def monitor(file, input_path, replay, follow, idle_timeout, method, channels, lag, lag_ratio,
             window, overlap, detector_path, column_map, cols, sample_rate, time_unit, chunk,
-            batch_lines, events, quiet, **live):
+            batch_lines, events, quiet, segment_s, **live):
     """Monitor a stream: feature value per window, detector score and alarm, as soon as known.
 
     FILE (or --input FILE) is a recording file, or '-' for CSV lines on stdin. Without
@@ -350,12 +439,33 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
 
         store_url(live["store"])
     detector, meta = load_detector(detector_path) if detector_path else (None, None)
-    if detector is not None:
-        check_streamable(detector, meta, detector_path)
     ctx = click.get_current_context()
     given = [f"--{n.replace('_', '-')}" for n in ("channels", "lag", "lag_ratio", "window",
                                                   "overlap")
              if ctx.get_parameter_source(n) is click.core.ParameterSource.COMMANDLINE]
+    from leakdiag.stream.segments import judges_whole
+
+    if detector is not None and judges_whole(detector):
+        if method is not None or given:
+            raise click.UsageError(f"{', '.join((['--method'] if method else []) + given)}: "
+                                   f"{detector_path} judges whole recordings on its own "
+                                   "channels; leave the feature options out")
+        on = [o for o, k in (("--store", "store"), ("--dashboard", "dashboard_bind"))
+              if live.get(k) is not None]
+        if on:
+            raise click.UsageError(
+                f"{' and '.join(on)}: not available with a whole-recording detector "
+                f"({detector_path}), which judges segments, not windows; leakdiag batch "
+                "--store stores its verdicts on recorded files")
+        return _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
+                                 sample_rate, chunk, idle_timeout, batch_lines,
+                                 column_map_from_options(column_map, cols, time_unit), events,
+                                 quiet, segment_s)
+    if segment_s is not None:
+        raise click.UsageError("--segment applies to a whole-recording detector (the flow "
+                               "balance); a streamed detector judges every window")
+    if detector is not None:
+        check_streamable(detector, meta, detector_path)
     if idle_timeout is not None and not follow:
         raise click.UsageError("--idle-timeout applies to --follow only")
     if ctx.get_parameter_source("replay") is click.core.ParameterSource.COMMANDLINE and \

@@ -27,9 +27,10 @@ _WHERE = {
     "DetectorFileWarning": "detector_file", "DetectorMeta": "detector_file",
     "check_detector_fits": "detector_file", "load_detector_file": "detector_file",
     "save_detector": "detector_file",
+    "SegmentJudge": "segments", "SegmentVerdict": "segments", "judges_whole": "segments",
 }
 _SUBMODULES = {"blind", "chunks", "detector", "detector_file", "episodes", "feature", "files",
-               "live", "monitor", "summary"}
+               "live", "monitor", "segments", "summary"}
 
 
 def __getattr__(name: str) -> Any:

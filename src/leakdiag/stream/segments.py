@@ -1,0 +1,200 @@
+"""A stream judged in consecutive segments by a whole-recording detector (the flow balance).
+
+The chamber flow balance (:class:`~leakdiag.detect.FlowBalanceDetector`) and the other
+whole-recording detectors (EKF, combined, wavelet, FFT, EMD) judge a recording with
+``predict``: they fit the recording's own nuisance (the valve's null offset and drift) on all its
+windows, so they have no window-by-window score a stream could update. :class:`SegmentJudge`
+cuts the stream into consecutive, non-overlapping segments of ``segment_s`` seconds and judges
+each one as ``leakdiag detect`` judges a file (decision 2026-11-28, docs/operations.md,
+"Whole-recording detectors"): a decision reaches the console at most one segment after the
+samples, and every segment is judged afresh, so the detector's false-alarm promise per run
+holds per segment. The last, shorter segment is judged when the input ends (or said to be too
+short).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from leakdiag.io.errors import RecordingError
+from leakdiag.io.recording import Recording
+
+__all__ = ["judges_whole", "SegmentJudge", "SegmentVerdict", "DEFAULT_SEGMENT_S"]
+
+#: Default segment length (s): a decision at most a minute after the samples; the flow
+#: balance's first windows of every segment (its 2-s burn-in and 5 windows of history) then
+#: are about an eighth of it (leakdiag choice).
+DEFAULT_SEGMENT_S = 60.0
+
+
+def judges_whole(det: Any) -> bool:
+    """Whether a detector judges a whole recording (``predict``) but cannot be streamed (no
+    feature ``spec``): the flow balance, the EKF, the combined and literature detectors.
+
+    Examples
+    --------
+    >>> from leakdiag.detect import FlowBalanceDetector
+    >>> judges_whole(FlowBalanceDetector())  # not fitted: no threshold
+    False
+    """
+    return (not callable(getattr(det, "spec", None)) and callable(getattr(det, "predict", None))
+            and hasattr(det, "threshold_"))
+
+
+@dataclass(frozen=True)
+class SegmentVerdict:
+    """The judgement of one segment.
+
+    Attributes
+    ----------
+    start_s, end_s : float
+        Time of the segment's first sample and one sample after its last (s).
+    verdict : Verdict or None
+        The detector's verdict; None when it could not judge the segment.
+    reason : str or None
+        Why not (the detector's ``RecordingError``).
+    """
+
+    start_s: float
+    end_s: float
+    verdict: Any = None
+    reason: str | None = None
+
+    @property
+    def decision(self) -> str:
+        """``"LEAK"``, ``"NO LEAK"`` or ``"NOT JUDGED"``."""
+        if self.verdict is None:
+            return "NOT JUDGED"
+        return "LEAK" if self.verdict.leak else "NO LEAK"
+
+    def to_json(self) -> str:
+        """One JSON line: the segment, its decision and the verdict's fields (NaN as null)."""
+        d = {"segment_start_s": self.start_s, "segment_end_s": self.end_s,
+             "decision": self.decision, "reason": self.reason}
+        if self.verdict is not None:
+            v = self.verdict.as_dict()
+            d.update({k: v.get(k) for k in (
+                "alarm_time_s", "onset_s", "onset_censored", "leak_lpm", "leak_lpm_low",
+                "leak_lpm_high", "confidence", "score_max", "threshold", "detectable_lpm")})
+            d["p_value"] = d.pop("confidence")
+            d["verdict"] = str(self.verdict)
+        return json.dumps({k: (None if isinstance(x, float) and not math.isfinite(x) else x)
+                           for k, x in d.items()})
+
+    def words(self) -> str:
+        """One console line."""
+        span = f"{self.start_s:.6g}-{self.end_s:.6g} s"
+        v = self.verdict
+        if v is None:
+            return f"NOT JUDGED {span}: {self.reason}"
+        if not v.leak:
+            seen = getattr(v, "detectable_lpm", None)
+            return (f"NO LEAK    {span}: score max {v.score_max:.3g} against {v.threshold:.3g}"
+                    + (f"; a step leak of {seen:.3g} L/min or more would have been seen"
+                       if seen is not None else ""))
+        at = "at or before " if v.onset_censored else ""
+        size = ""
+        if v.leak_lpm is not None:
+            size = f", {v.leak_lpm:.3g} L/min"
+            if v.leak_lpm_interval is not None:
+                size += f" ({v.leak_lpm_interval[0]:.3g}-{v.leak_lpm_interval[1]:.3g})"
+        return (f"LEAK       {span}: alarm at {v.alarm_time_s:.6g} s, onset {at}"
+                f"{v.onset_s:.6g} s{size}")
+
+
+class SegmentJudge:
+    """Cut a stream of chunks into segments and judge each with a whole-recording detector.
+
+    Parameters
+    ----------
+    detector : Detector
+        Fitted (:func:`judges_whole`).
+    channels : sequence of str
+        The channels the chunks carry (at least the detector's).
+    sample_rate : float
+        Hz.
+    start_time : float
+        Time of the first sample (s).
+    segment_s : float, default :data:`DEFAULT_SEGMENT_S`
+        Segment length (s); rounded to whole samples.
+    units : dict, optional
+        The channels' units (None: SI, as a plain CSV is read).
+    meta : dict, optional
+        The input's metadata (``system``, ``load``: the detector checks them per segment).
+    source : str, default ``"<stream>"``
+        Input name: each segment is named ``SOURCE [START-END s]`` in the detector's messages.
+
+    Raises
+    ------
+    ValueError
+        For a segment shorter than 2 samples.
+    """
+
+    def __init__(self, detector, channels, sample_rate: float, start_time: float = 0.0,
+                 segment_s: float = DEFAULT_SEGMENT_S, units: dict | None = None,
+                 meta: dict | None = None, source: str = "<stream>"):
+        self.detector = detector
+        self.channels = list(channels)
+        self.sample_rate = float(sample_rate)
+        self.start_time = float(start_time)
+        self.n_segment = int(round(float(segment_s) * self.sample_rate))
+        if not self.n_segment >= 2:
+            raise ValueError(f"segment_s={segment_s!r} is shorter than 2 samples at "
+                             f"{sample_rate:g} Hz")
+        self.units = dict(units) if units else None
+        self.meta = {k: v for k, v in (meta or {}).items() if k in ("system", "load")}
+        self.source = source
+        self.n_samples_seen = 0
+        self._parts: list[dict] = []
+        self._n_buffered = 0
+        self._first = 0  # index of the buffered segment's first sample
+
+    def push(self, chunk: dict) -> list[SegmentVerdict]:
+        """Add a chunk; judge every segment it completes.
+
+        Parameters
+        ----------
+        chunk : dict
+            Channel name -> 1-D array, all of one length.
+
+        Returns
+        -------
+        list of SegmentVerdict
+        """
+        n = len(chunk[self.channels[0]])
+        self.n_samples_seen += n
+        out = []
+        at = 0
+        while at < n:
+            take = min(n - at, self.n_segment - self._n_buffered)
+            self._parts.append({c: np.asarray(chunk[c][at:at + take], dtype=np.float64)
+                                for c in self.channels})
+            self._n_buffered += take
+            at += take
+            if self._n_buffered == self.n_segment:
+                out.append(self._judge())
+        return out
+
+    def finish(self) -> SegmentVerdict | None:
+        """Judge the last, shorter segment (None when nothing is buffered)."""
+        return self._judge() if self._n_buffered else None
+
+    def _judge(self) -> SegmentVerdict:
+        chans = {c: np.concatenate([p[c] for p in self._parts]) for c in self.channels}
+        n = self._n_buffered
+        start = self.start_time + self._first / self.sample_rate
+        end = start + n / self.sample_rate
+        self._first += n
+        self._parts, self._n_buffered = [], 0
+        name = f"{self.source} [{start:.6g}-{end:.6g} s]"
+        try:
+            rec = Recording(chans, self.sample_rate, start, units=dict(self.units or {}),
+                            meta={**self.meta, "source": name})
+            return SegmentVerdict(start, end, verdict=self.detector.predict(rec))
+        except RecordingError as exc:  # too short, a stuck channel, the model does not fit
+            return SegmentVerdict(start, end, reason=str(exc))
