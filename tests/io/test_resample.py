@@ -39,7 +39,7 @@ def test_ramp_is_reproduced_exactly():
 def test_matches_plain_reference(dts, rate):
     t = np.concatenate([[0.0], np.cumsum(dts)])
     y = np.sin(3 * t) + t**2
-    start, out = resample_linear(t, {"y": y}, rate)
+    start, out = resample_linear(t, {"y": y}, rate, max_gap_intervals=None)  # any intervals
     grid = uniform_grid(start, t[-1], rate)
     np.testing.assert_allclose(out["y"], _plain_interp(t, y, grid), rtol=1e-12, atol=1e-12)
 
@@ -88,3 +88,31 @@ def test_resample_fills_dropped_counter_samples(tmp_path):
     np.testing.assert_allclose(rec["p1"], [10, 20, 30, 40, 50], atol=1e-9)
     assert rec.start_time == pytest.approx(0.001)
     assert rec.units == {"p1": "counts"}
+
+
+def test_a_gap_is_refused_not_filled(tmp_path, run_cli):
+    """A flow-balance audit (2026-11-28) resampled healthy runs across a 0.2-s gap, as the
+    non-uniform message advised, and read LEAK in 5 of 6 (the interpolated piston motion and
+    pressures are no measurement). Up to 3 median intervals (two missing samples) is filled."""
+    t = np.arange(2000) / 1000.0
+    t[1000:] += 0.2  # 200 samples missing before row 1000
+    with pytest.raises(RecordingError, match=r"^<input>: cannot resample across a gap of 0.201 "
+                                             r"s before row 1000 \(about 200 missing samples at "
+                                             r"the median interval 0.001 s\) \(more than 3 "
+                                             r"median intervals\): resampling would invent the "
+                                             r"missing samples, which a detector reads as "
+                                             r"measured: cut the recording at the gap"):
+        resample_linear(t, {"x": t}, 1000.0)
+    two = np.delete(np.arange(20) / 1000.0, [5, 6])  # two missing samples: filled
+    start, out = resample_linear(two, {"x": two}, 1000.0)
+    np.testing.assert_allclose(out["x"], np.arange(20) / 1000.0, atol=1e-15)
+    # the reader's message advises cutting, not resampling, and the CLI refuses --resample
+    path = tmp_path / "gap.csv"
+    path.write_text("time,p1\n" + "".join(f"{float(a)!r},{np.sin(k)}\n"
+                                           for k, a in enumerate(t)))
+    with pytest.raises(RecordingError) as err:
+        read_recording(path)
+    assert "it has a gap of 0.201 s before row 1000" in str(err.value)
+    assert "cut the recording at the gap" in str(err.value) and "--resample" not in str(err.value)
+    code, _, stderr = run_cli(["analyze", str(path), "--channels", "p1", "--resample", "1000"])
+    assert code == 2 and "cannot resample across a gap of 0.201 s before row 1000" in stderr

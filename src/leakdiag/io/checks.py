@@ -12,7 +12,7 @@ from leakdiag._validation import check_length as check_samples
 from leakdiag.io.errors import RecordingError
 
 __all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "check_same_length",
-           "UNIFORM_TIME_RTOL", "RESAMPLE_ADVICE", "time_like_column", "refuse_time_like",
+           "UNIFORM_TIME_RTOL", "RESAMPLE_ADVICE", "MAX_GAP_INTERVALS", "GAP_ADVICE", "gap_words", "time_like_column", "refuse_time_like",
            "print_resolution", "SAME_RATE_RTOL", "same_rate", "given_rate_check", "timestamps_error", "rounds"]
 
 #: Relative tolerance on sample intervals for a time axis to count as uniform.
@@ -133,6 +133,47 @@ def timestamps_error(source: str, column: str) -> RecordingError:
 #: End of the non-uniform time message; commands without ``--resample`` (monitor, batch) replace
 #: it with advice they can follow.
 RESAMPLE_ADVICE = "resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess"
+#: Longest interval, in median intervals, that resampling fills (leakdiag choice, 2026-11-28):
+#: up to two missing samples between two kept ones. A longer interval is a gap: interpolating
+#: it invents data that a detector reads as measured (a flow-balance audit, 2026-11-28: healthy
+#: runs with a 0.2-s gap, resampled, read LEAK in 5 of 6; a 10-s gap on the EHA LEAK 1.0
+#: L/min), so resampling refuses it and the non-uniform message advises cutting there instead.
+MAX_GAP_INTERVALS = 3.0
+
+
+def gap_words(dt, med: float, first_row: int = 1) -> str | None:
+    """The first gap of a time axis in words (None without one): an interval longer than
+    :data:`MAX_GAP_INTERVALS` median intervals, which resampling would fill with invented data.
+
+    Parameters
+    ----------
+    dt : numpy.ndarray
+        Intervals ``t[i] - t[i - 1]`` (s).
+    med : float
+        Their median (s).
+    first_row : int, default 1
+        Row of ``dt[0]``'s later sample.
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> gap_words(np.array([1e-3, 1e-3, 0.2, 1e-3]), 1e-3)
+    'a gap of 0.2 s before row 3 (about 199 missing samples at the median interval 0.001 s)'
+    """
+    big = np.flatnonzero(np.asarray(dt) > MAX_GAP_INTERVALS * med)
+    if not len(big):
+        return None
+    i = int(big[0])
+    return (f"a gap of {float(dt[i]):.6g} s before row {i + first_row} (about "
+            f"{int(round(float(dt[i]) / med)) - 1} missing samples at the median interval "
+            f"{med:.6g} s)")
+
+
+GAP_ADVICE = ("resampling would invent the missing samples, which a detector reads as "
+              "measured: cut the recording at the gap and judge the parts")
 
 
 def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIFORM_TIME_RTOL,
@@ -205,10 +246,11 @@ def infer_sample_rate(t: np.ndarray, source: str = "<input>", rtol: float = UNIF
     dev = np.flatnonzero(np.abs(dt - ref) > rtol * ref + q * (1.0 + 1e-6))
     if len(dev):
         i = int(dev[0]) + 1
+        gap = gap_words(dt, med)
         raise RecordingError(
             f"{source}: column {column!r} is not uniformly sampled: interval before row {i} is "
             f"{float(dt[i - 1]):.6g} s, median {med:.6g} s ({len(dev)} irregular interval(s)); "
-            f"{RESAMPLE_ADVICE}"
+            + (RESAMPLE_ADVICE if gap is None else f"it has {gap}: {GAP_ADVICE}")
         )
     # Over a uniform axis the mean interval (span / intervals) is the most accurate estimate:
     # the median of differences of large time values carries their rounding error.

@@ -7,6 +7,7 @@ from typing import Mapping
 import numpy as np
 
 from leakdiag._validation import check_positive
+from leakdiag.io.checks import GAP_ADVICE, MAX_GAP_INTERVALS, gap_words
 from leakdiag.io.recording import RecordingError
 
 __all__ = ["uniform_grid", "resample_linear"]
@@ -40,7 +41,9 @@ def uniform_grid(t_start: float, t_end: float, sample_rate: float) -> np.ndarray
 
 
 def resample_linear(t: np.ndarray, channels: Mapping[str, np.ndarray], sample_rate: float,
-                    source: str = "<input>") -> tuple[float, dict[str, np.ndarray]]:
+                    source: str = "<input>",
+                    max_gap_intervals: float | None = MAX_GAP_INTERVALS
+                    ) -> tuple[float, dict[str, np.ndarray]]:
     """Linearly interpolate channels sampled at times ``t`` onto a uniform grid.
 
     Parameters
@@ -53,6 +56,9 @@ def resample_linear(t: np.ndarray, channels: Mapping[str, np.ndarray], sample_ra
         Target rate in Hz.
     source : str
         File name for messages.
+    max_gap_intervals : float or None, default :data:`~leakdiag.io.checks.MAX_GAP_INTERVALS`
+        Longest source interval, in median intervals, that is interpolated; a longer one (a
+        gap) is refused. None: no limit.
 
     Returns
     -------
@@ -64,8 +70,8 @@ def resample_linear(t: np.ndarray, channels: Mapping[str, np.ndarray], sample_ra
     Raises
     ------
     RecordingError
-        If ``sample_rate`` is not positive, ``t`` has fewer than 2 samples or is not
-        strictly increasing (the row is named).
+        If ``sample_rate`` is not positive, ``t`` has fewer than 2 samples, is not
+        strictly increasing or has a gap (the row is named).
 
     Notes
     -----
@@ -95,6 +101,16 @@ def resample_linear(t: np.ndarray, channels: Mapping[str, np.ndarray], sample_ra
             f"(t[{i - 1}]={float(t[i - 1])!r}, t[{i}]={float(t[i])!r}); "
             f"resampling needs increasing times"
         )
+    if max_gap_intervals is not None:
+        dt = np.diff(t)
+        med = float(np.median(dt))
+        big = np.flatnonzero(dt > max_gap_intervals * med)
+        if len(big):
+            gap = gap_words(dt, med) if max_gap_intervals == MAX_GAP_INTERVALS else (
+                f"an interval of {float(dt[big[0]]):.6g} s before row {int(big[0]) + 1}")
+            raise RecordingError(
+                f"{source}: cannot resample across {gap} (more than {max_gap_intervals:g} "
+                f"median intervals): {GAP_ADVICE}")
     grid = uniform_grid(t[0], t[-1], sample_rate)
     return float(t[0]), {name: np.interp(grid, t, np.asarray(v, dtype=np.float64))
                          for name, v in channels.items()}
