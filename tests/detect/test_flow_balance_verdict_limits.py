@@ -168,3 +168,25 @@ def test_without_load_the_smallest_leak_is_three_times_the_error_model_s(no_load
     u = det.predict(rec)
     assert u.detectable_lpm == pytest.approx(v.detectable_lpm, rel=1e-12)
     assert "on the VCA under an unknown load" in u.detectable_why
+
+
+def test_two_runs_spliced_into_one_file_are_refused_at_the_seam(spring):
+    """A flow-balance audit (2026-11-28, finding 2) put two healthy runs end to end on one time
+    axis: no VCA splice read NO LEAK, 5 of 12 read LEAK with a size (the position's jump at the
+    seam entered the balance as piston volume). The step is refused, naming the rows."""
+    from leakdiag.io import RecordingError
+
+    a, b = _vca("spring", 21, 40.0), _vca("spring", 22, 40.0)
+    half = 20000
+    rec = a.__class__({c: np.concatenate([a[c][:half], b[c][half:]]) for c in a.channels},
+                      a.sample_rate, a.start_time, dict(a.units), dict(a.meta))
+    jump = abs(float(b["x"][half] - a["x"][half - 1]))
+    assert jump > 2 * spring.largest_step_["x"]  # the seam's step, this pair of runs
+    with pytest.raises(RecordingError, match=r"channel 'x' steps by [0-9.e-]+ between rows 19999 "
+                                             r"and 20000 \(at 20 s; 1 such step\(s\) after the "
+                                             r"burn-in\): more than the [0-9.e-]+ allowed, 2x the "
+                                             r"largest step of the healthy recordings .*a stop and "
+                                             r"restart spliced into one file"):
+        spring.predict(rec)
+    assert not spring.predict(a).leak  # each part alone is judged
+    assert 1.6e-3 < spring.largest_step_["x"] < 1.8e-3  # the valve's saturated piston speed

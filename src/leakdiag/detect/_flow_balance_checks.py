@@ -36,7 +36,7 @@ from scipy.optimize import nnls
 from leakdiag._holds import holds
 
 __all__ = ["SumGate", "learn_sum_gate", "spike_sizes", "longest_hold", "SUM_GATE_FACTOR",
-           "SPIKE_FACTOR", "SPIKE_CHANNELS"]
+           "SPIKE_FACTOR", "SPIKE_CHANNELS", "STEP_FACTOR", "STEP_CHANNELS"]
 
 #: Limit of the sum-equation check as a multiple of the largest ``|z|`` of the healthy
 #: recordings' windows (leakdiag choice; docs/detect.md 8.4, "Sensor and model consistency"):
@@ -49,6 +49,16 @@ SPIKE_FACTOR = 4.0
 #: Channels checked for one-sample outliers: the command (VCA) and the motor speed (EHA),
 #: whose single samples carry a whole sample interval of valve or pump flow.
 SPIKE_CHANNELS = ("u", "speed")
+#: Limit of a one-sample step of the position as a multiple of the largest in the healthy
+#: recordings (leakdiag choice, 2026-11-28; docs/detect.md 8.4, "Discontinuities"): the
+#: healthy largest is the valve's saturated piston speed times the sample interval (1.68-1.77 mm
+#: on the VCA, 0.15-0.18 mm on the EHA, 8 healthy 120-s runs each of units 3 and 17, both loads;
+#: 1-1.5 L/min leaks stayed within it), while two runs spliced into one file jumped 3.3-10x
+#: (VCA) and 200x (EHA) at the seam (flow-balance audit 2026-11-28, finding 2).
+STEP_FACTOR = 2.0
+#: Channels checked for one-sample steps: the position, whose step enters the balance as the
+#: volume ``A dx`` of a piston motion that did not happen.
+STEP_CHANNELS = ("x",)
 
 
 @dataclass(frozen=True)
