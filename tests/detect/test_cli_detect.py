@@ -364,3 +364,28 @@ def test_default_methods_fall_back_to_the_features_when_a_channel_is_missing(fil
                      "how large a leak they would miss; the flow balance (--methods "
                      "flow-balance, or leakdiag fit --method flow-balance) states it "
                      "(docs/detect.md section 6)"]
+
+
+def test_an_alarm_expected_by_chance_in_a_long_run_is_no_evidence():
+    """A flow-balance audit (2026-11-28, finding 4): a detector fitted for 20 false alarms per
+    hour judged 30-min runs: about 9 false alarms expected, p = 1, yet LEAK with an onset and a
+    size promised at 0.97 (a healthy run; a 0.1 L/min leak sized 0.0056 from an earlier false
+    alarm). Such an alarm is INCONCLUSIVE; another method's evidence still decides."""
+    import pandas as pd
+
+    from leakdiag.cli.detect import overall_verdict
+
+    row = {"false_alarms_per_run": 1.0, "false_alarms_per_run_guaranteed": False,
+           "threshold_method": "conformal"}
+    tab = pd.DataFrame([{"method": "flow-balance", "leak": True, "confidence": 1.0,
+                         "false_alarms_expected": 9.14, **row}])
+    dec, why = overall_verdict(tab, 1800.0)
+    assert dec == "inconclusive" and why.startswith(
+        "alarm from flow-balance, but about 9.14 false alarms are expected by chance in a run "
+        "this long at its false-alarm rate: the alarm is no evidence of a leak;")
+    both = pd.concat([tab, pd.DataFrame([{"method": "acf-p1", "leak": True, "confidence": 0.01,
+                                          "false_alarms_expected": 0.2, **row}])],
+                     ignore_index=True)
+    dec, why = overall_verdict(both, 1800.0)
+    assert dec == "leak" and why.startswith("alarm from acf-p1; ")
+    assert "; alarm from flow-balance, but about 9.14 false alarms are expected" in why

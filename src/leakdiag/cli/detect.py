@@ -9,7 +9,7 @@ from leakdiag.cli.dashboard import actuator_option
 from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
 
 __all__ = ["detect", "verdict_table", "overall_verdict", "per_run_rate", "default_methods",
-           "sensitivity_lines", "cause_lines"]
+           "sensitivity_lines", "cause_lines", "expected_false_alarms"]
 
 #: Methods fitted on --healthy when --methods is not given: the chamber flow balance when every
 #: file has the channels it reads (docs/detect.md section 6, "Default methods"), else these.
@@ -36,10 +36,12 @@ def _row(m, det, rec, n_healthy):
     method = basis.method if basis is not None else det.alarm_threshold_.method
     per_run, guaranteed = per_run_rate(basis, per_hour, span_s, v.n_segments,
                                        getattr(det, "restarts_per_segment", False))
+    expected = expected_false_alarms(basis, per_hour, span_s, v.n_segments)
     row = {"method": m, **v.as_dict(), "threshold_method": method,
            "threshold_basis": basis if basis is None else threshold_words(basis),
            "n_healthy": n_healthy, "false_alarms_per_hour": per_hour,
-           "false_alarms_per_run": per_run, "false_alarms_per_run_guaranteed": guaranteed}
+           "false_alarms_per_run": per_run, "false_alarms_per_run_guaranteed": guaranteed,
+           "false_alarms_expected": expected}
     if basis is None:  # only a threshold basis gives a p-value (docs/detect.md, section 2)
         row["confidence"] = None
     return row
@@ -105,6 +107,36 @@ def per_run_rate(basis, per_hour: float, span_s: float, n_segments: int | None =
             max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
         return min(1.0, float(basis.bound_per_segment) * m), m <= 1 or restarts
     return per_hour * span_s / 3600.0, False
+
+
+def expected_false_alarms(basis, per_hour: float, span_s: float,
+                          n_segments: int | None = None) -> float:
+    """False alarms a threshold lets through by chance in a judged run, not capped at 1.
+
+    :func:`per_run_rate`'s union bound before its cap (a conformal basis: ``m`` segments times
+    ``bound_per_segment``; otherwise the rate per hour times the span). At 1 or more an alarm is
+    what the threshold expects of a healthy run this long: no evidence of a leak
+    (:func:`overall_verdict`; flow-balance audit 2026-11-28, finding 4).
+
+    Examples
+    --------
+    >>> from leakdiag.detect.threshold import conformal_threshold
+    >>> b = conformal_threshold([3.0, 1.0, 2.0, 5.0], 0.2, segment_s=60.0)  # 1/5 per segment
+    >>> round(expected_false_alarms(b, 12.0, 600.0), 9)  # 10 segments
+    2.0
+    >>> expected_false_alarms(None, 20.0, 1800.0)
+    10.0
+    """
+    import math
+
+    from leakdiag.detect.threshold import SEGMENT_TOLERANCE
+
+    if basis is not None and basis.method.startswith("conformal") and \
+            math.isfinite(basis.bound_per_segment):
+        m = n_segments if n_segments is not None else \
+            max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
+        return float(basis.bound_per_segment) * m
+    return per_hour * span_s / 3600.0
 
 
 def _cannot_judge(det, rec, file, m):
@@ -319,6 +351,25 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
     return tab
 
 
+def _expected(rows, duration_s: float):
+    """The rows' uncapped expected false alarms (``false_alarms_expected``, else the rate
+    per hour times the run)."""
+    import pandas as pd
+
+    if "false_alarms_expected" in rows:
+        return pd.to_numeric(rows["false_alarms_expected"])
+    if "false_alarms_per_hour" in rows:
+        return pd.to_numeric(rows["false_alarms_per_hour"]) * duration_s / 3600.0
+    if "false_alarms_per_run" in rows:  # capped at 1: reaches it only when at least 1
+        return pd.to_numeric(rows["false_alarms_per_run"])
+    return pd.Series(0.0, index=rows.index)
+
+
+def _by_chance(alarmed, duration_s: float):
+    """Which alarmed rows expect at least one false alarm in this run (no evidence)."""
+    return _expected(alarmed, duration_s).fillna(0.0) >= 1.0
+
+
 def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
     """One decision over the methods of a :func:`verdict_table` (union of alarms).
 
@@ -346,8 +397,9 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
     ...                   "false_alarms_per_hour": [0.5, 0.5]})
     >>> overall_verdict(t, 3600.0)[0]
     'leak'
-    >>> overall_verdict(t, 3600.0 * 3)[1].split("; ")[1][:44]  # 3 expected: no probability
-    'false alarms expected in this run up to 3 (s'
+    >>> dec, why = overall_verdict(t, 3600.0 * 3)  # 1.5 false alarms expected of b alone
+    >>> dec, why[:55]
+    ('inconclusive', 'alarm from b, but about 1.5 false alarms are expected b')
     """
     import pandas as pd
 
@@ -382,6 +434,20 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
               "method(s)): no useful bound on the chance of one; ask for fewer false alarms "
               "per hour or judge a shorter run")
     alarmed = ok[ok["leak"].astype(bool)]
+    chance = alarmed[_by_chance(alarmed, duration_s)]
+    if len(chance):  # alarms a healthy run this long is expected to give: no evidence
+        exp = _expected(chance, duration_s)
+        said = "" if len(chance) == 1 else " (" + ", ".join(
+            f"{m}: about {e:.3g}" for m, e in zip(chance["method"], exp)) + ")"
+        note = (f"alarm from {', '.join(chance['method'])}, but about {exp.max():.3g} false "
+                f"alarms are expected by chance in a run this long at its false-alarm "
+                f"rate{said}: the alarm is no evidence of a leak; judge parts as long as the "
+                "healthy recordings (leakdiag monitor FILE --detector DET --segment S), or fit "
+                "for fewer false alarms per hour")
+        alarmed = alarmed.drop(chance.index)
+        if not len(alarmed):
+            return "inconclusive", f"{note}; {fa}"
+        fa = f"{fa}; {note}"
     if len(alarmed):
         quiet = ok[~ok["leak"].astype(bool)]
         if not len(quiet):
@@ -614,6 +680,7 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
                        "a constant or stuck channel?); its verdict rests on the others")
     if dec == "leak":
         sized = tab[tab["leak"].fillna(False).astype(bool)]
+        sized = sized[~_by_chance(sized, tab.attrs["duration_s"])]  # the evidence only
         first = sized.sort_values("alarm_time_s").iloc[0]
         why = first.get("onset_why")
         if first.get("onset_censored") in (True, 1) and isinstance(why, str) and why:
