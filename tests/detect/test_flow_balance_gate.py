@@ -264,3 +264,43 @@ def test_an_alarm_whose_coefficient_since_the_onset_is_not_positive_is_no_leak_v
             r"end is not positive \(-2e-13 \+- 1e-13\): the flow balance does not describe "
             r"this recording well .*; no verdict on a leak$")):
         det.predict(rec)
+
+
+def test_an_eha_recording_that_ends_soon_after_the_onset_gets_no_size(eha):
+    """A flow-balance audit (2026-11-28, finding 6) cut EHA runs 2.5-5 s after a 1 L/min leak
+    began: 0.48 L/min [0.44, 0.49] from 1-2 windows (the transducers' offset, profiled on the
+    leak's windows, took half the leak). Fewer than 10 windows after the onset: no size."""
+    from leakdiag.detect.flow_balance import OFFSET_MIN_WINDOWS
+
+    full = _eha(81, 32.0, leak_lpm=1.0, onset=18.0)
+    for cut, sized in ((22.5, False), (32.0, True)):
+        n = int(cut * 1000)
+        rec = full.__class__({c: v[:n] for c, v in full.channels.items()}, full.sample_rate,
+                             full.start_time, dict(full.units), dict(full.meta))
+        v = eha.predict(rec)
+        assert v.leak and abs(v.onset_s - 18.0) <= 1.0
+        if sized:
+            assert v.leak_lpm == pytest.approx(1.0, rel=0.05)
+        else:
+            assert v.leak_lpm is None and v.leak_coefficient is None
+            assert v.leak_lpm_interval_holds.startswith(
+                "no size: only 3 window(s) follow the onset window before the recording ends, "
+                "and the size profiles the chamber transducers' differential offset on the "
+                f"leak's own windows, which takes at least {OFFSET_MIN_WINDOWS}")
+
+
+def test_a_range_refusal_of_a_longer_run_names_the_drift_of_a_long_run(eha):
+    """A flow-balance audit (2026-11-28, finding 5): 30-min healthy EHA runs were refused as
+    "another unit ..., another rig" while the open-loop position had drifted; a run much longer
+    than the fit runs is now told that too."""
+    rec = _eha(83, 35.0)
+    x = rec["x"] + 3.0 * (rec["x"].max() - rec["x"].min())  # beyond the healthy range
+    with pytest.raises(RecordingError, match=r"channel 'x' spans .* or operation the detector "
+                                             r"was not fitted for, or a slow drift \(an open-loop "
+                                             r"position, a temperature\) that goes further in a "
+                                             r"recording 1.75x as long as the longest healthy "
+                                             r"one: judge parts as long as the healthy"):
+        eha.predict(_with(rec, "x", x))
+    short = _eha(84)
+    with pytest.raises(RecordingError, match="or operation the detector was not fitted for$"):
+        eha.predict(_with(short, "x", short["x"] + 3.0 * (x.max() - x.min())))  # not longer

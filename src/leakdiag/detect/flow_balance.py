@@ -149,6 +149,7 @@ def _operation(recs, channels, skip_s: float = 0.0) -> dict:
             extremes[c] = (float(min(x.min() for x in xs)), float(max(x.max() for x in xs)))
     out["ranges"] = ranges
     out["extremes"] = extremes
+    out["longest_s"] = max((float(r.duration) for r in recs), default=None)
     return out
 
 
@@ -366,6 +367,11 @@ DETECTABLE_POWER = 0.9
 #: The GLR's best span starting at the first window added no from-start run and censored 2 of
 #: 48 no-load leaks from 20 s: not used.
 CENSOR_WINDOWS = 6
+#: Windows after the onset window the EHA's size needs (its transducers' differential offset is
+#: profiled on them; leakdiag choice, 2026-11-28): a flow-balance audit cut EHA runs 2.5-5 s
+#: after a 1 L/min leak began and got 0.48 L/min [0.44, 0.49] from 1-2 windows and 0.98 [0.90,
+#: 0.998] from 4, against 1.0; the size band was measured with 60 s after the onset.
+OFFSET_MIN_WINDOWS = 10
 
 
 #: Rig and load under which the size is weighted by the error model at the valve's leak-free
@@ -691,6 +697,7 @@ class FlowBalanceDetector(Detector):
                     f"fitted on healthy recordings of {what} {fitted!r}: the flow balance is "
                     "identified per machine and operation; fit one on healthy recordings of "
                     "this machine under this load")
+        fit_len = op.get("longest_s")  # None: a file saved before 2026-11-28
         for c, (lo, hi) in op.get("ranges", {}).items():
             if c not in rec.channels or not hi > lo:
                 continue
@@ -705,7 +712,11 @@ class FlowBalanceDetector(Detector):
                     f"percentile after the burn-in), far outside the healthy recordings the detector was fitted "
                     f"on ({lo:.4g} to {hi:.4g}, allowed {margin:g}x that span beyond either "
                     "end): another unit (Pa, m, V, rad/s expected; see --col CH=COL:UNIT), "
-                    "another rig, or operation the detector was not fitted for")
+                    "another rig, or operation the detector was not fitted for"
+                    + (f", or a slow drift (an open-loop position, a temperature) that goes "
+                       f"further in a recording {rec.duration / fit_len:.3g}x as long as the "
+                       "longest healthy one: judge parts as long as the healthy recordings, or "
+                       "fit on longer ones" if fit_len and rec.duration > 1.5 * fit_len else ""))
         # single samples far outside the healthy recordings' full range: the percentiles above
         # ignore under 1 % of a run (a dropout, a burst of wrong samples)
         first = int(round(float(self.burn_in_s) * rec.sample_rate))
@@ -1436,7 +1447,7 @@ class FlowBalanceDetector(Detector):
         confidence = self._p_value(smax, t, recording)
         common = dict(confidence=confidence, leak_lpm_in_range=None, score_max=smax, threshold=h,
                       onset_method="glr", detector="flow_balance",
-                      n_segments=self._n_segments(t, recording),
+                      n_segments=self._n_segments(t, recording), n_windows=len(g),
                       reference_dp_pa=float(self.reference_dp_pa), leak_law=self.leak_law)
         above = np.flatnonzero(g >= h)
         if len(above) == 0:
@@ -1514,6 +1525,15 @@ class FlowBalanceDetector(Detector):
                     leak_lpm_at_reference=None if coef_why else float(at_ref),
                     pressure_offset_pa=offset)
         no_size = _size_withheld(self.system, load, censored)
+        n_after = len(g) - first
+        if not no_size and be.SIZE_PROFILES_PRESSURE_OFFSET and n_after < OFFSET_MIN_WINDOWS:
+            no_size = (
+                f"no size: only {n_after} window(s) follow the onset window before the "
+                f"recording ends, and the size profiles the chamber transducers' differential "
+                f"offset on the leak's own windows, which takes at least {OFFSET_MIN_WINDOWS} "
+                "(docs/detect.md 8.5); a recording that goes on longer after the onset is sized")
+            coef = dict(leak_coefficient=None, leak_coefficient_se=None,
+                        leak_lpm_at_reference=None, pressure_offset_pa=None)
         if no_size:
             return FlowBalanceVerdict(
                 leak=True, onset_s=onset, alarm_time_s=alarm, leak_lpm=None,
