@@ -153,13 +153,13 @@ def test_detect_with_a_flow_balance_file_states_its_own_rate_and_its_p_value(fil
             "the threshold of flow-balance is model-based (see its threshold line)") in out
     assert "at most 0.125" not in out
     # the leak from 10 s is in the 6th window after the 5-s burn-in, where leaks present from
-    # the start were placed too: "at or before", and without load no size, with the reason
+    # the start were placed too (windows 0-9): "at or before", and without load no size
     # (docs/detect.md 8.5, "Leaks present from the start"; until 2026-11-27 sized with the band)
     onset = next(x for x in lines if "onset" in x and "first alarm" in x)
-    assert onset.startswith("  onset at or before ") and "within the first 6 windows" in onset
+    assert onset.startswith("  onset at or before ") and "within the first 10 windows" in onset
     size = next(x for x in lines if "leak size (flow-balance)" in x)
     assert size.startswith("  leak size (flow-balance): no size: the onset lies within the "
-                           "first 6 windows judged, where a leak present from the start cannot "
+                           "first 10 windows judged, where a leak present from the start cannot "
                            "be told from one that began there, and on the VCA without load")
     assert "L/min, interval" not in size
 

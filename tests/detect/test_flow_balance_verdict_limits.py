@@ -64,7 +64,7 @@ def test_a_leak_there_from_the_start_is_censored_and_unsized_without_load(no_loa
         assert v.onset_s < first_judged + CENSOR_WINDOWS * 1.5  # quiet windows: <= 1.5 s
         assert v.leak_lpm is None and v.leak_lpm_interval is None
         assert v.leak_coefficient is None
-        assert v.leak_lpm_interval_holds.startswith("no size: the onset lies within the first 6 "
+        assert v.leak_lpm_interval_holds.startswith("no size: the onset lies within the first 10 "
                                                     "windows judged, where a leak present from")
         assert "onset at or before" in str(v) and "\n  size: no size" in str(v)
     late = no_load.predict(_vca("none", 2, leak_lpm=0.2, onset=15.0))

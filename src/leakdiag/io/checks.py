@@ -12,7 +12,8 @@ from leakdiag._validation import check_length as check_samples
 from leakdiag.io.errors import RecordingError
 
 __all__ = ["infer_sample_rate", "check_channel_finite", "check_length", "check_same_length",
-           "UNIFORM_TIME_RTOL", "RESAMPLE_ADVICE", "MAX_GAP_INTERVALS", "GAP_ADVICE", "gap_words", "time_like_column", "refuse_time_like",
+           "UNIFORM_TIME_RTOL", "RESAMPLE_ADVICE", "MAX_GAP_INTERVALS", "GAP_ADVICE",
+           "gap_words", "time_like_column", "refuse_time_like",
            "print_resolution", "SAME_RATE_RTOL", "same_rate", "given_rate_check", "timestamps_error", "rounds"]
 
 #: Relative tolerance on sample intervals for a time axis to count as uniform.
