@@ -118,6 +118,21 @@ def expected_false_alarms(basis, per_hour: float, span_s: float,
     what the threshold expects of a healthy run this long: no evidence of a leak
     (:func:`overall_verdict`; flow-balance audit 2026-11-28, finding 4).
 
+    Parameters
+    ----------
+    basis : ThresholdBasis or None
+        ``Detector.threshold_basis_``.
+    per_hour : float
+        Requested false alarms per hour.
+    span_s : float
+        Judged span of the run (after the burn-in), s.
+    n_segments : int, optional
+        Segments the span covers (``Verdict.n_segments``).
+
+    Returns
+    -------
+    float
+
     Examples
     --------
     >>> from leakdiag.detect.threshold import conformal_threshold

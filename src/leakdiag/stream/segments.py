@@ -36,6 +36,15 @@ def judges_whole(det: Any) -> bool:
     """Whether a detector judges a whole recording (``predict``) but cannot be streamed (no
     feature ``spec``): the flow balance, the EKF, the combined and literature detectors.
 
+    Parameters
+    ----------
+    det : object
+        A detector (fitted: it has ``threshold_``).
+
+    Returns
+    -------
+    bool
+
     Examples
     --------
     >>> from leakdiag.detect import FlowBalanceDetector
@@ -73,7 +82,12 @@ class SegmentVerdict:
         return "LEAK" if self.verdict.leak else "NO LEAK"
 
     def to_json(self) -> str:
-        """One JSON line: the segment, its decision and the verdict's fields (NaN as null)."""
+        """One JSON line: the segment, its decision and the verdict's fields (NaN as null).
+
+        Returns
+        -------
+        str
+        """
         d = {"segment_start_s": self.start_s, "segment_end_s": self.end_s,
              "decision": self.decision, "reason": self.reason}
         if self.verdict is not None:
@@ -87,7 +101,12 @@ class SegmentVerdict:
                            for k, x in d.items()})
 
     def words(self) -> str:
-        """One console line."""
+        """One console line.
+
+        Returns
+        -------
+        str
+        """
         span = f"{self.start_s:.6g}-{self.end_s:.6g} s"
         v = self.verdict
         if v is None:
@@ -181,7 +200,13 @@ class SegmentJudge:
         return out
 
     def finish(self) -> SegmentVerdict | None:
-        """Judge the last, shorter segment (None when nothing is buffered)."""
+        """Judge the last, shorter segment.
+
+        Returns
+        -------
+        SegmentVerdict or None
+            None when nothing is buffered.
+        """
         return self._judge() if self._n_buffered else None
 
     def _judge(self) -> SegmentVerdict:
