@@ -81,9 +81,35 @@ def test_a_segment_too_short_to_judge_says_why(setup):
 def test_options_that_do_not_apply_are_refused(setup, run_cli):
     d, det_path, path, _ = setup
     for extra, words in ((["--channels", "p1"], "--channels: "),
-                         (["--store", str(d / "ev.db")], "--store: not available with a "
+                         (["--dashboard", "8765"], "--dashboard: not available with a "
                           "whole-recording detector")):
         code, _, err = run_cli(["monitor", str(path), "--detector", str(det_path), *extra])
         assert code == 2 and words in " ".join(err.split()), err
     code, _, err = run_cli(["monitor", str(path), "--segment", "30"])
     assert code == 2 and "--segment applies to a whole-recording detector" in err
+
+
+def test_store_holds_one_judged_run_per_segment(setup, run_cli):
+    """With --store each segment is a finished run with its verdict (as detect stores a
+    file's), committed when it is judged; the fleet page reads the actuator's state."""
+    import warnings
+
+    from leakdiag.store import EventStore
+
+    d, det_path, path, _ = setup
+    db = d / "seg.db"
+    code, _, err = run_cli(["monitor", str(path), "--detector", str(det_path), "--segment",
+                            "30", "--store", str(db), "--actuator", "rig7", "-q"])
+    assert code == 0, err
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        st = EventStore(str(db))
+        runs = st.runs_of("rig7").sort_values("id")
+        fleet = st.fleet()
+        st.close()
+    assert runs["command"].tolist() == ["monitor"] * 4
+    assert [s.rsplit(" [", 1)[1] for s in runs["source"]] == ["0-30 s]", "30-60 s]",
+                                                              "60-90 s]", "90-100 s]"]
+    assert runs["status"].tolist() == ["finished", "finished", "finished", "unjudged"]
+    assert "too short to judge" in runs["error"].iloc[3]
+    assert fleet.set_index("name").loc["rig7", "state"] == "ALARM"

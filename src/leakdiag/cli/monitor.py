@@ -281,6 +281,24 @@ def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignal
         stop.busy = True
 
 
+def _store_segment(st, actuator: str, source: str, method: str, sv, system) -> None:
+    """One judged segment into the store, as ``detect --store`` stores a file's verdict."""
+    import pandas as pd
+
+    from leakdiag.store.writers import record_verdicts
+
+    row = {"method": method, "leak": None, "error": sv.reason}
+    if sv.verdict is not None:
+        d = sv.verdict.as_dict()
+        row.update({k: d.get(k) for k in ("leak", "alarm_time_s", "score_max", "threshold",
+                                            "onset_s", "leak_lpm", "leak_lpm_low",
+                                            "leak_lpm_high", "onset_censored")}, error=None)
+    tab = pd.DataFrame([row])
+    tab.attrs["system"] = system
+    record_verdicts(st, actuator, f"{source} [{sv.start_s:.6g}-{sv.end_s:.6g} s]", tab,
+                    command="monitor")
+
+
 def column_map_from_options(column_map, cols, time_unit):
     from leakdiag.cli._options import column_map_from
 
@@ -288,9 +306,12 @@ def column_map_from_options(column_map, cols, time_unit):
 
 
 def _monitor_segments(detector, meta, detector_path, input_path, follow, replay, sample_rate,
-                      chunk, idle_timeout, batch_lines, cmap, events, quiet, segment_s):
+                      chunk, idle_timeout, batch_lines, cmap, events, quiet, segment_s,
+                      store=None, actuator=None):
     """``monitor`` with a whole-recording detector: the stream judged in consecutive segments
-    (:class:`leakdiag.stream.segments.SegmentJudge`), a line and a JSON event per segment."""
+    (:class:`leakdiag.stream.segments.SegmentJudge`), a line and a JSON event per segment and,
+    with ``store``, each segment stored as a finished run with its verdict as ``detect``
+    stores one (one transaction per segment: a crash loses at most the segment being read)."""
     from leakdiag.cli.fit import detector_channels
     from leakdiag.stream import paced
     from leakdiag.stream.detector_file import (ADVICE_MAP, check_detector_fits,
@@ -312,6 +333,24 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
             (str(detector_path), meta.system, getattr(meta, "load", None))], ADVICE_MAP)
         if note is not None:
             click.echo(f"leakdiag: warning: {note}", err=True)
+    st = None
+    if store is not None:
+        import os
+
+        from leakdiag.store import EventStore, StoreError
+        from leakdiag.store.writers import default_actuator
+
+        st = EventStore(store)
+        src_name = str(source.source)
+        stdin = src_name in ("<stdin>", "-")
+        try:
+            actuator = actuator or default_actuator(st, src_name)
+        except StoreError as exc:
+            st.close()
+            raise click.UsageError(str(exc)) from None
+        if actuator is None:
+            actuator = "stdin" if stdin else os.path.splitext(os.path.basename(src_name))[0]
+        click.get_current_context().call_on_close(st.close)
     seg = DEFAULT_SEGMENT_S if segment_s is None else float(segment_s)
     judge = SegmentJudge(detector, chans, source.sample_rate, source.start_time, seg,
                          units=units, meta=source.meta, source=str(source.source))
@@ -321,6 +360,8 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
     say = (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=out is sys.stdout))
     done: list = []
 
+    system = source.meta.get("system") or getattr(meta, "system", None)
+
     def emit(verdicts):
         for sv in verdicts:
             done.append(sv)
@@ -328,6 +369,8 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
             if out is not None:
                 out.write(sv.to_json() + "\n")
                 out.flush()
+            if st is not None:
+                _store_segment(st, actuator, str(source.source), name, sv, system)
 
     stopped = None
     t0 = time.perf_counter()
@@ -450,17 +493,15 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
             raise click.UsageError(f"{', '.join((['--method'] if method else []) + given)}: "
                                    f"{detector_path} judges whole recordings on its own "
                                    "channels; leave the feature options out")
-        on = [o for o, k in (("--store", "store"), ("--dashboard", "dashboard_bind"))
-              if live.get(k) is not None]
-        if on:
+        if live.get("dashboard_bind") is not None:
             raise click.UsageError(
-                f"{' and '.join(on)}: not available with a whole-recording detector "
-                f"({detector_path}), which judges segments, not windows; leakdiag batch "
-                "--store stores its verdicts on recorded files")
+                f"--dashboard: not available with a whole-recording detector ({detector_path}), "
+                "which judges segments, not windows: give --store, and leakdiag dashboard "
+                "--store shows each segment's verdict on the fleet page")
         return _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
                                  sample_rate, chunk, idle_timeout, batch_lines,
                                  column_map_from_options(column_map, cols, time_unit), events,
-                                 quiet, segment_s)
+                                 quiet, segment_s, live.get("store"), live.get("actuator"))
     if segment_s is not None:
         raise click.UsageError("--segment applies to a whole-recording detector (the flow "
                                "balance); a streamed detector judges every window")

@@ -263,7 +263,8 @@ def default_actuator(store: EventStore, source: str) -> str:
     return name
 
 
-def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
+def record_verdicts(store: EventStore, actuator: str, file: str, table,
+                    command: str = "detect") -> int:
     """Store the verdicts of ``leakdiag detect``: one run per method, an alarm per leak found.
 
     A method that could not judge the file (its row has an ``error``, or no verdict) is stored
@@ -285,6 +286,9 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
         The judged recording.
     table : pandas.DataFrame
         :func:`leakdiag.cli.detect.verdict_table` (its ``attrs["system"]`` names the rig).
+    command : str, default "detect"
+        The command stored with the runs (``monitor`` for a segment judged by a
+        whole-recording detector).
 
     Returns
     -------
@@ -315,7 +319,7 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table) -> int:
                 onset_censored=_flag(r.get("onset_censored"))),)
         # a method that could not judge the file (it was read: detect stops before storing
         # otherwise) is not judged, as batch stores the same row: NOT JUDGED, not FAILED
-        runs.append(FinishedRun("detect", str(file), str(r["method"]),
+        runs.append(FinishedRun(command, str(file), str(r["method"]),
                                 "unjudged" if failed else "finished", err if failed else None,
                                 threshold=_num(r.get("threshold")), system=system,
                                 config={"method": r["method"]}, alarms=alarms))
