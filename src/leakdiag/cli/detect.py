@@ -610,8 +610,11 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
            actuator):
     """Judge FILE: leak or not, onset, alarm time, leak size, and one overall decision.
 
-    Each method is a detector fitted on --healthy recordings (or loaded with --detector); the
-    overall decision is LEAK when any method alarms (docs/measure.md, "Decisions").
+    Each method is a detector fitted on --healthy recordings (by default the physics-based
+    chamber flow balance) or loaded with --detector; the overall decision is LEAK when any
+    method alarms, unless a healthy run this long is expected to give such an alarm
+    (INCONCLUSIVE), and a NO LEAK says how large a leak the flow balance would have seen
+    (docs/detect.md section 6).
     """
     import numpy as np
     import pandas as pd
