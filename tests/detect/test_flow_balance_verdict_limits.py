@@ -190,3 +190,23 @@ def test_two_runs_spliced_into_one_file_are_refused_at_the_seam(spring):
         spring.predict(rec)
     assert not spring.predict(a).leak  # each part alone is judged
     assert 1.6e-3 < spring.largest_step_["x"] < 1.8e-3  # the valve's saturated piston speed
+
+
+def test_an_alarm_whose_leak_since_the_onset_is_not_above_zero_is_no_verdict(spring):
+    """An audit (2026-11-28): a healthy file spliced where the positions matched (the step
+    check cannot see it) read LEAK with an interval reaching below zero. An alarm whose leak
+    since the onset is not significantly above zero now gives no verdict. (Of 8 such splices
+    of these runs: 4 refused as a coefficient not positive, 1 by this rule, 1 a spike, 1 NO
+    LEAK, 2 still LEAK: docs/detect.md 8.4, "Discontinuities".)"""
+    from leakdiag.io import RecordingError
+
+    a, b = _vca("spring", 36, 40.0), _vca("spring", 136, 40.0)
+    k = int(np.argmin(np.abs(b["x"][15000:25000] - a["x"][19999]))) + 15000
+    n = min(len(a["x"]) - 20000, len(b["x"]) - k)
+    rec = a.__class__({c: np.concatenate([a[c][:20000], b[c][k:k + n]]) for c in a.channels},
+                      a.sample_rate, a.start_time, dict(a.units), dict(a.meta))
+    with pytest.raises(RecordingError, match=r"but the leak estimated from the onset \([0-9.]+ "
+                                             r"s\) to the end is not significantly above zero "
+                                             r"\(its interval -[0-9.e-]+ to [0-9.e-]+ L/min "
+                                             r"reaches zero\)"):
+        spring.predict(rec)

@@ -113,3 +113,45 @@ def test_store_holds_one_judged_run_per_segment(setup, run_cli):
     assert runs["status"].tolist() == ["finished", "finished", "finished", "unjudged"]
     assert "too short to judge" in runs["error"].iloc[3]
     assert fleet.set_index("name").loc["rig7", "state"] == "ALARM"
+
+
+def test_a_leak_found_earlier_continues_and_a_no_leak_says_from_when(setup, run_cli):
+    """An audit (2026-11-28): segments after a LEAK segment were given their own onsets 6-26 s
+    into the segment (the leak was present when they began), and the NO LEAK line dropped the
+    stated leak's start time."""
+    d, det_path, path, _ = setup
+    events = d / "ev20.jsonl"
+    code, out, err = run_cli(["monitor", str(path), "--detector", str(det_path), "--segment",
+                              "20", "--events", str(events)])
+    assert code == 0, err
+    ev = [json.loads(ln) for ln in events.read_text().splitlines()]
+    assert [e["decision"] for e in ev] == ["NO LEAK"] * 3 + ["LEAK", "LEAK"]
+    first, later = ev[3], ev[4]
+    assert first["continues_from_onset_s"] is None and 69.0 <= first["onset_s"] <= 71.0
+    assert later["continues_from_onset_s"] == first["onset_s"]
+    assert f"LEAK       80-100 s: the leak continues (found with onset {first['onset_s']:.6g} s)" \
+        in out
+    assert ev[0]["detectable_from_s"] > 0 and "would have alarmed (probability about 0.9)" in out
+
+
+def test_a_segment_that_expects_a_false_alarm_is_refused_and_bad_input_keeps_the_summary(
+        setup, run_cli, tmp_path):
+    from leakdiag.cli.main import main
+
+    d, det_path, path, rec = setup
+    loose = tmp_path / "fb60.joblib"
+    hfiles = [str(d / f"h{s}.parquet") for s in range(3)]
+    assert main(["fit", *[a for h in hfiles for a in ("--healthy", h)], "-m", "flow-balance",
+                 "--false-alarm-rate", "100", "--no-progress", "-o", str(loose)]) == 0
+    code, _, err = run_cli(["monitor", str(path), "--detector", str(loose), "--segment", "60"])
+    assert code == 2 and "expects about" in err and "its LEAK would be no evidence" in err
+    # a NaN at 65 s: the segments before it are judged and the summary printed, then the error
+    bad = dict(rec.channels)
+    bad["p1"] = bad["p1"].copy()
+    bad["p1"][65000] = float("nan")
+    nan_file = write_recording(Recording(bad, rec.sample_rate, rec.start_time, dict(rec.units),
+                                         dict(rec.meta)), tmp_path / "nan.parquet")
+    code, out, err = run_cli(["monitor", str(nan_file), "--detector", str(det_path),
+                              "--segment", "30", "--chunk", "10000"])
+    assert code == 2 and "first NaN at row 65000" in err
+    assert "NO LEAK    30-60 s" in err + out and "the input stopped with an error" in err + out

@@ -352,6 +352,22 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
             actuator = "stdin" if stdin else os.path.splitext(os.path.basename(src_name))[0]
         click.get_current_context().call_on_close(st.close)
     seg = DEFAULT_SEGMENT_S if segment_s is None else float(segment_s)
+    # a segment in which the detector expects a false alarm by chance: its LEAK is no evidence
+    # (detect reads such an alarm INCONCLUSIVE; an audit, 2026-11-28, found monitor reading LEAK
+    # where detect said INCONCLUSIVE)
+    from leakdiag.cli.detect import expected_false_alarms
+
+    basis = getattr(detector, "threshold_basis_", None)
+    alarm_cfg = detector._alarm() if callable(getattr(detector, "_alarm", None)) else None
+    per_hour = float(getattr(getattr(detector, "alarm_threshold_", None), "target_per_hour",
+                             getattr(alarm_cfg, "false_alarms_per_hour", 0.0)) or 0.0)
+    burn = float(getattr(detector, "burn_in_s", getattr(alarm_cfg, "burn_in_s", 0.0)) or 0.0)
+    expected = expected_false_alarms(basis, per_hour, max(seg - burn, 0.0))
+    if expected >= 1.0:
+        raise click.UsageError(
+            f"--segment {seg:g}: {detector_path} expects about {expected:.3g} false alarms in a "
+            f"healthy segment this long, so its LEAK would be no evidence: give a shorter "
+            f"--segment, or fit the detector for fewer false alarms per hour")
     judge = SegmentJudge(detector, chans, source.sample_rate, source.start_time, seg,
                          units=units, meta=source.meta, source=str(source.source))
     speed = None if input_path == "-" or follow else parse_replay(replay)
@@ -372,15 +388,18 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
             if st is not None:
                 _store_segment(st, actuator, str(source.source), name, sv, system)
 
-    stopped = None
+    stopped = failed = None
     t0 = time.perf_counter()
     with StopSignals() as stop:
         try:
             try:
-                for chunk_ in paced(source, speed):
-                    stop.busy = True
-                    emit(judge.push(chunk_))
-                    stop.check()
+                try:
+                    for chunk_ in paced(source, speed):
+                        stop.busy = True
+                        emit(judge.push(chunk_))
+                        stop.check()
+                except ValueError as exc:  # bad input (a NaN, a gap): judge what came before
+                    failed = exc
                 stop.busy = True
                 last = judge.finish()
                 emit([] if last is None else [last])
@@ -391,7 +410,9 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
             stopped = exc if isinstance(exc, Stopped) else Stopped(signal.SIGINT)
     dt = time.perf_counter() - t0
     count = {d: sum(sv.decision == d for sv in done) for d in ("LEAK", "NO LEAK", "NOT JUDGED")}
-    end = "" if stopped is None else f"; stopped by {stopped.name}"
+    end = ("" if stopped is None else f"; stopped by {stopped.name}") + (
+        "" if failed is None else "; the input stopped with an error (below): the samples "
+        "before it were judged")
     say(f"{source.source}: {judge.n_samples_seen} samples at {source.sample_rate:g} Hz, "
         f"{len(done)} segment(s) of up to {seg:g} s judged by {name}: {count['LEAK']} LEAK, "
         f"{count['NO LEAK']} NO LEAK, {count['NOT JUDGED']} not judged, in {dt:.3g} s{end}")
@@ -402,6 +423,10 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
         say(f"  threshold: {threshold_words(basis)} (per segment: each is judged as one run)")
     if stopped is not None:
         click.get_current_context().exit(128 + stopped.signum)
+    if failed is not None:
+        msg = str(failed)
+        raise ValueError(msg if msg.startswith(str(source.source)) else
+                         f"{source.source}: {msg}") from None
     if done and count["NOT JUDGED"] == len(done):
         raise ValueError(f"{source.source}: no segment could be judged by {name}; first "
                          f"reason: {done[0].reason}")

@@ -1508,6 +1508,16 @@ class FlowBalanceDetector(Detector):
                 f"between 0 and 1; below {MIN_PISTON_VALVE_RATIO:g} no leak explains it): the "
                 "command's or the position's sign is reversed against the fit runs; no "
                 "verdict on a leak")
+        if k > 0.0 and not interval[0] > 0.0:  # alarmed, but since the onset no evidence
+            # (an audit, 2026-11-28: a healthy file with a seam where the position matched, and
+            # a healthy CSV resampled from jittered stamps, read LEAK with intervals below 0)
+            raise RecordingError(
+                f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
+                f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g}), but the leak estimated from "
+                f"the onset ({onset:.4g} s) to the end is not significantly above zero (its "
+                f"interval {interval[0]:.3g} to {interval[1]:.3g} L/min reaches zero): the "
+                "alarm is not a leak that lasts (a seam or discontinuity, resampled time "
+                "stamps, a sensor fault?); no verdict on a leak")
         if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
             raise RecordingError(
                 f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
