@@ -217,7 +217,10 @@ def default_methods(rec, train, system: str, file, healthy) -> tuple[list[str], 
                 f"{name} has no channel(s) {missing}, which the flow balance reads: judged "
                 f"with {', '.join(fallback)} instead, feature detectors that cannot say how "
                 "large a leak they would miss (under a spring load an audit found them "
-                "reading NO LEAK on 0.2-0.5 L/min leaks; docs/detect.md section 6)")
+                "reading NO LEAK on 0.2-0.5 L/min leaks; docs/detect.md section 6); record "
+                f"{' and '.join(map(repr, missing))} to use the flow balance. The features' "
+                f"thresholds come from the healthy runs alone: n of them support a false-alarm "
+                f"rate down to 1/(n + 1) per run (give more, or a larger --false-alarm-rate)")
     return _DEFAULT_METHODS.split(","), None
 
 
