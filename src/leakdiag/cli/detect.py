@@ -97,16 +97,23 @@ def per_run_rate(basis, per_hour: float, span_s: float, n_segments: int | None =
     >>> per_run_rate(None, 12.0, 150.0)
     (0.5, False)
     """
+    m = _conformal_segments(basis, span_s, n_segments)
+    if m is not None:
+        return min(1.0, float(basis.bound_per_segment) * m), m <= 1 or restarts
+    return per_hour * span_s / 3600.0, False
+
+
+def _conformal_segments(basis, span_s: float, n_segments: int | None) -> int | None:
+    """Healthy segments a judged span covers under a conformal basis (None for another)."""
     import math
 
     from leakdiag.detect.threshold import SEGMENT_TOLERANCE
 
-    if basis is not None and basis.method.startswith("conformal") and \
-            math.isfinite(basis.bound_per_segment):
-        m = n_segments if n_segments is not None else \
-            max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
-        return min(1.0, float(basis.bound_per_segment) * m), m <= 1 or restarts
-    return per_hour * span_s / 3600.0, False
+    if basis is None or not basis.method.startswith("conformal") or \
+            not math.isfinite(basis.bound_per_segment):
+        return None
+    return n_segments if n_segments is not None else \
+        max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
 
 
 def expected_false_alarms(basis, per_hour: float, span_s: float,
@@ -142,14 +149,8 @@ def expected_false_alarms(basis, per_hour: float, span_s: float,
     >>> expected_false_alarms(None, 20.0, 1800.0)
     10.0
     """
-    import math
-
-    from leakdiag.detect.threshold import SEGMENT_TOLERANCE
-
-    if basis is not None and basis.method.startswith("conformal") and \
-            math.isfinite(basis.bound_per_segment):
-        m = n_segments if n_segments is not None else \
-            max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
+    m = _conformal_segments(basis, span_s, n_segments)
+    if m is not None:
         return float(basis.bound_per_segment) * m
     return per_hour * span_s / 3600.0
 
