@@ -155,3 +155,15 @@ def test_a_segment_that_expects_a_false_alarm_is_refused_and_bad_input_keeps_the
                               "--segment", "30", "--chunk", "10000"])
     assert code == 2 and "first NaN at row 65000" in err
     assert "NO LEAK    30-60 s" in err + out and "the input stopped with an error" in err + out
+
+
+def test_a_stream_of_another_machine_is_refused_per_segment(setup, run_cli, tmp_path):
+    """The segments keep the input's metadata (a first version kept only system and load, so
+    the flow balance's check of the machine unit was skipped in monitor but not in detect)."""
+    d, det_path, _, _ = setup
+    other = write_recording(ld.sim.simulate_vca(duration=40.0, leak_lpm=0.0, load="spring",
+                                                machine=5, seed=9), tmp_path / "unit5.parquet")
+    code, out, err = run_cli(["monitor", str(other), "--detector", str(det_path),
+                              "--segment", "30"])
+    assert code == 2 and "no segment could be judged" in err
+    assert "NOT JUDGED 0-30 s: predict: " in out + err and "machine unit 5" in out + err

@@ -157,7 +157,8 @@ class SegmentJudge:
     units : dict, optional
         The channels' units (None: SI, as a plain CSV is read).
     meta : dict, optional
-        The input's metadata (``system``, ``load``: the detector checks them per segment).
+        The input's metadata (``system``, ``load``, ``machine``: the detector checks them per
+        segment, as it checks a file's).
     source : str, default ``"<stream>"``
         Input name: each segment is named ``SOURCE [START-END s]`` in the detector's messages.
 
@@ -179,7 +180,9 @@ class SegmentJudge:
             raise ValueError(f"segment_s={segment_s!r} is shorter than 2 samples at "
                              f"{sample_rate:g} Hz")
         self.units = dict(units) if units else None
-        self.meta = {k: v for k, v in (meta or {}).items() if k in ("system", "load")}
+        # the input's metadata as a read file carries it (system, load, machine: the detector
+        # checks them), the source named per segment
+        self.meta = {k: v for k, v in (meta or {}).items() if k != "source"}
         self.source = source
         self.n_samples_seen = 0
         self._parts: list[dict] = []
