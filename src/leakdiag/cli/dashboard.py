@@ -74,6 +74,47 @@ def live_options(f):
     return f
 
 
+def monitor_actuator(store: str | None, source: str, given: str | None = None) -> str:
+    """The actuator name a ``monitor`` run is stored and shown under.
+
+    Parameters
+    ----------
+    store : str or None
+        ``--store`` target.
+    source : str
+        The input's name (``<stdin>`` or ``-`` for standard input).
+    given : str, optional
+        ``--actuator``.
+
+    Returns
+    -------
+    str
+        ``given``, else a stem that merges no two actuators of the store
+        (:func:`leakdiag.store.writers.default_actuator`), else ``stdin`` or the file's stem.
+
+    Raises
+    ------
+    click.UsageError
+        When the store's names make the default ambiguous.
+    """
+    name = given
+    if name is None and store is not None:  # a stem that merges no two actuators
+        from leakdiag.store import EventStore, StoreError
+        from leakdiag.store.writers import default_actuator
+
+        st = EventStore(store)
+        try:
+            name = default_actuator(st, source)
+        except StoreError as exc:
+            raise click.UsageError(str(exc)) from None
+        finally:
+            st.close()
+    if name is None:
+        name = ("stdin" if source in ("<stdin>", "-")
+                else os.path.splitext(os.path.basename(source))[0])
+    return name
+
+
 def open_monitor_hooks(live: dict, spec, monitor, source, say):
     """The :class:`~leakdiag.dashboard.hooks.MonitorHooks` of a monitor run, or None.
 
@@ -114,20 +155,7 @@ def open_monitor_hooks(live: dict, spec, monitor, source, say):
             raise click.BadParameter(str(exc)) from None
     src = str(source.source)
     stdin = src in ("<stdin>", "-")
-    name = live.get("actuator")
-    if name is None and live.get("store") is not None:  # a stem that merges no two actuators
-        from leakdiag.store import EventStore, StoreError
-        from leakdiag.store.writers import default_actuator
-
-        st = EventStore(live["store"])
-        try:
-            name = default_actuator(st, src)
-        except StoreError as exc:
-            raise click.UsageError(str(exc)) from None
-        finally:
-            st.close()
-    if name is None:
-        name = "stdin" if stdin else os.path.splitext(os.path.basename(src))[0]
+    name = monitor_actuator(live.get("store"), src, live.get("actuator"))
     return MonitorHooks(name, spec, monitor, src if stdin else os.path.realpath(src),
                         source.sample_rate, live.get("store"), bind,
                         live.get("refresh_hz", 5.0), say, system=live.get("system"))

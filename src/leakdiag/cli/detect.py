@@ -9,7 +9,7 @@ from leakdiag.cli.dashboard import actuator_option
 from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
 
 __all__ = ["detect", "verdict_table", "overall_verdict", "per_run_rate", "default_methods",
-           "sensitivity_lines", "cause_lines", "expected_false_alarms"]
+           "sensitivity_lines", "cause_lines", "expected_false_alarms", "detector_rate"]
 
 #: Methods fitted on --healthy when --methods is not given: the chamber flow balance when every
 #: file has the channels it reads (docs/detect.md section 6, "Default methods"), else these.
@@ -27,11 +27,7 @@ def _row(m, det, rec, n_healthy):
     except RecordingError as exc:  # too short, units, a stuck channel: this method cannot judge
         return {"method": m, "error": in_cli_words(str(exc))}
     basis = getattr(det, "threshold_basis_", None)
-    a = det._alarm()
-    # the rate and burn-in the detector was fitted with: detectors with their own alarm (the
-    # flow balance) keep them on the threshold and themselves, not on the default Alarm
-    per_hour = float(getattr(det.alarm_threshold_, "target_per_hour", a.false_alarms_per_hour))
-    burn_in = float(getattr(det, "burn_in_s", a.burn_in_s))
+    per_hour, burn_in = detector_rate(det)
     span_s = max(rec.duration - burn_in, 0.0)  # the alarm's span in this run
     method = basis.method if basis is not None else det.alarm_threshold_.method
     per_run, guaranteed = per_run_rate(basis, per_hour, span_s, v.n_segments,
@@ -45,6 +41,27 @@ def _row(m, det, rec, n_healthy):
     if basis is None:  # only a threshold basis gives a p-value (docs/detect.md, section 2)
         row["confidence"] = None
     return row
+
+
+def detector_rate(det) -> tuple[float, float]:
+    """The false alarms per hour and the burn-in (s) a fitted detector was fitted with.
+
+    Detectors with their own alarm (the flow balance) keep them on the threshold and on
+    themselves, not on the default ``Alarm``.
+
+    Parameters
+    ----------
+    det : Detector
+        A fitted detector.
+
+    Returns
+    -------
+    per_hour : float
+    burn_in_s : float
+    """
+    a = det._alarm()
+    return (float(getattr(det.alarm_threshold_, "target_per_hour", a.false_alarms_per_hour)),
+            float(getattr(det, "burn_in_s", a.burn_in_s)))
 
 
 def per_run_rate(basis, per_hour: float, span_s: float, n_segments: int | None = None,

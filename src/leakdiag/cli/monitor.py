@@ -299,12 +299,6 @@ def _store_segment(st, actuator: str, source: str, method: str, sv, system) -> N
                     command="monitor")
 
 
-def column_map_from_options(column_map, cols, time_unit):
-    from leakdiag.cli._options import column_map_from
-
-    return column_map_from(column_map, cols, time_unit)
-
-
 def _monitor_segments(detector, meta, detector_path, input_path, follow, replay, sample_rate,
                       chunk, idle_timeout, batch_lines, cmap, events, quiet, segment_s,
                       store=None, actuator=None):
@@ -335,33 +329,20 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
             click.echo(f"leakdiag: warning: {note}", err=True)
     st = None
     if store is not None:
-        import os
+        from leakdiag.cli.dashboard import monitor_actuator
+        from leakdiag.store import EventStore
 
-        from leakdiag.store import EventStore, StoreError
-        from leakdiag.store.writers import default_actuator
-
+        actuator = monitor_actuator(store, str(source.source), actuator)
         st = EventStore(store)
-        src_name = str(source.source)
-        stdin = src_name in ("<stdin>", "-")
-        try:
-            actuator = actuator or default_actuator(st, src_name)
-        except StoreError as exc:
-            st.close()
-            raise click.UsageError(str(exc)) from None
-        if actuator is None:
-            actuator = "stdin" if stdin else os.path.splitext(os.path.basename(src_name))[0]
         click.get_current_context().call_on_close(st.close)
     seg = DEFAULT_SEGMENT_S if segment_s is None else float(segment_s)
     # a segment in which the detector expects a false alarm by chance: its LEAK is no evidence
     # (detect reads such an alarm INCONCLUSIVE; an audit, 2026-11-28, found monitor reading LEAK
     # where detect said INCONCLUSIVE)
-    from leakdiag.cli.detect import expected_false_alarms
+    from leakdiag.cli.detect import detector_rate, expected_false_alarms
 
     basis = getattr(detector, "threshold_basis_", None)
-    alarm_cfg = detector._alarm() if callable(getattr(detector, "_alarm", None)) else None
-    per_hour = float(getattr(getattr(detector, "alarm_threshold_", None), "target_per_hour",
-                             getattr(alarm_cfg, "false_alarms_per_hour", 0.0)) or 0.0)
-    burn = float(getattr(detector, "burn_in_s", getattr(alarm_cfg, "burn_in_s", 0.0)) or 0.0)
+    per_hour, burn = detector_rate(detector)
     expected = expected_false_alarms(basis, per_hour, max(seg - burn, 0.0))
     if expected >= 1.0:
         raise click.UsageError(
@@ -416,7 +397,6 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
     say(f"{source.source}: {judge.n_samples_seen} samples at {source.sample_rate:g} Hz, "
         f"{len(done)} segment(s) of up to {seg:g} s judged by {name}: {count['LEAK']} LEAK, "
         f"{count['NO LEAK']} NO LEAK, {count['NOT JUDGED']} not judged, in {dt:.3g} s{end}")
-    basis = getattr(detector, "threshold_basis_", None)
     if basis is not None:
         from leakdiag.cli._words import threshold_words
 
@@ -525,8 +505,8 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                 "--store shows each segment's verdict on the fleet page")
         return _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
                                  sample_rate, chunk, idle_timeout, batch_lines,
-                                 column_map_from_options(column_map, cols, time_unit), events,
-                                 quiet, segment_s, live.get("store"), live.get("actuator"))
+                                 column_map_from(column_map, cols, time_unit), events, quiet,
+                                 segment_s, live.get("store"), live.get("actuator"))
     if segment_s is not None:
         raise click.UsageError("--segment applies to a whole-recording detector (the flow "
                                "balance); a streamed detector judges every window")

@@ -357,6 +357,9 @@ DETECTABLE_FACTOR = {("vca", "spring"): 1.0, ("vca", "none"): 3.0,
 #: ``(alarmed, judged)`` at the stated size (the factor above), the same runs.
 DETECTABLE_RUNS = {("vca", "spring"): (38, 38), ("vca", "none"): (38, 38),
                    ("eha", "spring"): (40, 40), ("eha", "none"): (40, 40)}
+#: ``(alarmed, judged)`` at the error model's own size (factor 1), the same runs.
+DETECTABLE_MODEL_RUNS = {("vca", "spring"): (38, 38), ("vca", "none"): (21, 38),
+                         ("eha", "spring"): (40, 40), ("eha", "none"): (26, 40)}
 #: Probability of an alarm at which ``detectable_lpm`` is stated (leakdiag choice).
 DETECTABLE_POWER = 0.9
 #: Onset windows (counted from the first judged, after the burn-in) within which an onset is
@@ -1615,10 +1618,12 @@ class FlowBalanceDetector(Detector):
         k = (float(self.threshold_) + float(norm.ppf(DETECTABLE_POWER))) / math.sqrt(info)
         lpm = factor * k * float(t["phi_abs"][first:].sum()) / dur * LPM_PER_M3S
         span = float(t["end"][-1]) - start
+        own = min(keys, key=lambda key: DETECTABLE_MODEL_RUNS[key][0]
+                  / DETECTABLE_MODEL_RUNS[key][1])  # the worst measured
         basis = ("its error model's size" if factor == 1.0 else
                  f"{factor:g} times its error model's size (on the {self.system.upper()} "
                  f"{_load_words(load)} the model's own size alarmed in as few as "
-                 f"{'21 of 38' if self.system == 'vca' else '26 of 40'} runs)")
+                 f"{DETECTABLE_MODEL_RUNS[own][0]} of {DETECTABLE_MODEL_RUNS[own][1]} runs)")
         return lpm, start, (
             f"a step leak of {lpm:.3g} L/min or more from {start:.4g} s (the last {span:.3g} s "
             f"judged) would have alarmed with probability about {DETECTABLE_POWER:g}: "
