@@ -54,6 +54,9 @@ def test_a_flow_balance_row_is_its_predict_on_the_whole_file(fleet):
         assert row["alarm"] is v.leak and row["score_max"] == v.score_max
         assert row["p_value"] == v.confidence and row["threshold"] == det.threshold_
         assert row["verdict"] == str(v)
+        # the decision detect makes with this detector alone (20-s runs: one segment)
+        assert row["decision"] == ("leak" if v.leak else "no-leak")
+        assert 0 < row["false_alarms_expected"] < 1 and row["run_level"] is None
         if v.leak:
             assert row["alarm_time_s"] == v.alarm_time_s and row["alarm_onset_s"] == v.onset_s
             assert row["leak_lpm"] == v.leak_lpm and \

@@ -389,7 +389,7 @@ def test_per_run_rate_of_an_unsupported_conformal_level_is_its_achieved_bound():
     ('about 0.00403') instead."""
     import warnings
 
-    from leakdiag.cli.detect import per_run_rate
+    from leakdiag.detect.decision import per_run_rate
     from leakdiag.detect.threshold import conformal_threshold
 
     with warnings.catch_warnings():
@@ -406,7 +406,7 @@ def test_the_flow_balance_run_rate_counts_the_segments_its_p_value_counts(tmp_pa
     """A review (2026-11-27): a run as long as a healthy run spans one of the flow balance's
     window-count segments (its p-value's m = 1), but the decision counted 2 from the time."""
     import leakdiag as ld
-    from leakdiag.cli.detect import per_run_rate
+    from leakdiag.detect.decision import per_run_rate
     from leakdiag.detect import FlowBalanceDetector
 
     h = [ld.sim.simulate_vca(duration=40, leak_lpm=0.0, load="spring", seed=s) for s in range(6)]

@@ -174,11 +174,21 @@ def test_a_method_that_cannot_judge_the_file_gets_an_error_row(files):
     from leakdiag.cli.detect import _row, overall_verdict
     from leakdiag.io import RecordingError
 
+    from types import SimpleNamespace
+
+    from leakdiag.detect.base import Alarm
+
     class Refuses:
+        alarm_threshold_ = threshold_basis_ = None
+
+        def _alarm(self):
+            return Alarm()
+
         def predict(self, rec):
             raise RecordingError("predict: x.parquet: too short to judge")
 
-    assert _row("flow-balance", Refuses(), None, 3) == {
+    rec = SimpleNamespace(duration=30.0, meta={})
+    assert _row("flow-balance", Refuses(), rec, 3) == {
         "method": "flow-balance", "error": "predict: x.parquet: too short to judge"}
     import pandas as pd
 

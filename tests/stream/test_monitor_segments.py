@@ -143,7 +143,17 @@ def test_a_segment_that_expects_a_false_alarm_is_refused_and_bad_input_keeps_the
     hfiles = [str(d / f"h{s}.parquet") for s in range(3)]
     assert main(["fit", *[a for h in hfiles for a in ("--healthy", h)], "-m", "flow-balance",
                  "--false-alarm-rate", "100", "--no-progress", "-o", str(loose)]) == 0
-    code, _, err = run_cli(["monitor", str(path), "--detector", str(loose), "--segment", "60"])
+    # a segment in which the loose detector expects false alarms is judged at its run level
+    # (before 2026-11-28, session 17, refused); the summary says so
+    det, _ = load_detector_file(loose)
+    level, expected = det.run_level(60.0 - det.burn_in_s)
+    assert level > det.threshold_ and expected < 1.0
+    code, out, err = run_cli(["monitor", str(path), "--detector", str(loose), "--segment", "60"])
+    assert code == 0, err and f"against {level:.3g}" in err + out
+    assert f"full segments are judged at the level {level:.4g}" in err + out
+    # a segment so long that the model-based null cannot resolve its run level is refused
+    assert det.run_level(1e6 - det.burn_in_s) is None
+    code, _, err = run_cli(["monitor", str(path), "--detector", str(loose), "--segment", "1e6"])
     assert code == 2 and "expects about" in err and "its LEAK would be no evidence" in err
     # a NaN at 65 s: the segments before it are judged and the summary printed, then the error
     bad = dict(rec.channels)

@@ -504,6 +504,7 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
     with the reason (``alarm`` null); the file is read once for all of them.
     """
     from leakdiag.detect.base import refuse_own_healthy
+    from leakdiag.detect.decision import judge_run
     from leakdiag.io import read_recording
     from leakdiag.io.errors import RecordingError
 
@@ -528,12 +529,18 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
         row["status"], row["threshold"] = "ok", float(det.threshold_)
         try:
             refuse_own_healthy(det, rec, "batch")
-            v = det.predict(rec)
+            j = judge_run(det, rec)  # a long run at the level that holds it to a segment's rate
         except RecordingError as exc:  # nothing was judged: the detector says why
-            rows.append({**row, "alarm": None, "error": f"detector not judged: {exc}"})
+            rows.append({**row, "alarm": None, "decision": "inconclusive",
+                         "error": f"detector not judged: {exc}"})
             continue
-        d = v.as_dict()
-        rows.append({**row, "alarm": bool(v.leak), "alarm_time_s": d["alarm_time_s"],
+        v, d = j.verdict, j.verdict.as_dict()
+        if j.run_level is not None:
+            row["threshold"] = float(j.run_level)
+        rows.append({**row, "alarm": bool(v.leak), "decision": j.decision,
+                     "false_alarms_expected": j.expected,
+                     "run_level": j.run_level_words(float(det.threshold_)),
+                     "alarm_time_s": d["alarm_time_s"],
                      "score_max": d["score_max"], "p_value": d["confidence"],
                      "n_windows": d.get("n_windows"),
                      "alarm_onset_s": d["onset_s"],
@@ -594,18 +601,26 @@ def _verdict_columns(det, parts: list[FeatureSeries], t: np.ndarray, v: np.ndarr
     calibrated. A recording with no finite window after the burn-in is not judged (``alarm``
     null, the reason in ``error``).
     """
+    from leakdiag.detect.decision import detector_rate, expected_false_alarms, run_decision
     from leakdiag.io.errors import RecordingError
 
     cols = {"threshold": float(det.threshold_)}
     if not parts:  # no window at all (run_case says why: _unusable)
-        return {**cols, "alarm": None, "error": _not_judged(det, 0, duration_s)}
+        return {**cols, "alarm": None, "decision": "inconclusive",
+                "error": _not_judged(det, 0, duration_s)}
     try:
         verdict = det.predict_series(parts[0].with_values(v, time=t), duration_s, start_time,
                                      source=path)
     except RecordingError as exc:  # nothing was tested: the detector says why
-        return {**cols, "alarm": None, "error": f"detector not judged: {exc}"}
+        return {**cols, "alarm": None, "decision": "inconclusive",
+                "error": f"detector not judged: {exc}"}
     d = verdict.as_dict()
-    return {**cols, "alarm": bool(verdict.leak), "alarm_time_s": d["alarm_time_s"],
+    per_hour, burn_in = detector_rate(det)
+    expected = expected_false_alarms(getattr(det, "threshold_basis_", None), per_hour,
+                                     max(duration_s - burn_in, 0.0), verdict.n_segments)
+    return {**cols, "alarm": bool(verdict.leak),
+            "decision": run_decision(bool(verdict.leak), expected),
+            "false_alarms_expected": expected, "alarm_time_s": d["alarm_time_s"],
             "score_max": d["score_max"], "p_value": d["confidence"],
             "alarm_onset_s": d["onset_s"], "onset_method": d["onset_method"] if verdict.leak
             else None, "alarm_onset_censored": d["onset_censored"] if verdict.leak else None, "leak_lpm": d["leak_lpm"], "leak_lpm_low": d["leak_lpm_low"],

@@ -41,6 +41,10 @@ RESULT_COLUMNS: dict[str, str] = {
     # whole-recording detectors (the flow balance): the smallest leak a NO LEAK would have seen
     # and the verdict in words (size interval, sensitivity), as leakdiag detect prints it
     "detectable_lpm": "float64", "verdict": "string",
+    # every leakdiag detector's row: the decision as leakdiag detect makes it (an alarm that a
+    # healthy run this long expects by chance is "inconclusive"), the false alarms expected in
+    # the run at the level judged at, and a long run's raised level in words
+    "decision": "string", "false_alarms_expected": "float64", "run_level": "string",
 }
 
 

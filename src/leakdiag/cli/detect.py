@@ -8,8 +8,8 @@ from leakdiag.cli._options import recording_options, resample_option
 from leakdiag.cli.dashboard import actuator_option
 from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
 
-__all__ = ["detect", "verdict_table", "overall_verdict", "per_run_rate", "default_methods",
-           "sensitivity_lines", "cause_lines", "expected_false_alarms", "detector_rate"]
+__all__ = ["detect", "verdict_table", "overall_verdict", "default_methods", "sensitivity_lines",
+           "cause_lines"]
 
 #: Methods fitted on --healthy when --methods is not given: the chamber flow balance when every
 #: file has the channels it reads (docs/detect.md section 6, "Default methods"), else these.
@@ -19,157 +19,25 @@ _FALLBACK_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 
 def _row(m, det, rec, n_healthy):
     from leakdiag.detect.base import refuse_own_healthy
+    from leakdiag.detect.decision import judge_run
     from leakdiag.io.errors import RecordingError
 
     try:
         refuse_own_healthy(det, rec, "detect")  # a file the detector was fitted on
-        v = det.predict(rec)
+        j = judge_run(det, rec)  # a long run at the level that holds it to a segment's rate
     except RecordingError as exc:  # too short, units, a stuck channel: this method cannot judge
         return {"method": m, "error": in_cli_words(str(exc))}
     basis = getattr(det, "threshold_basis_", None)
-    per_hour, burn_in = detector_rate(det)
-    span_s = max(rec.duration - burn_in, 0.0)  # the alarm's span in this run
     method = basis.method if basis is not None else det.alarm_threshold_.method
-    per_run, guaranteed = per_run_rate(basis, per_hour, span_s, v.n_segments,
-                                       getattr(det, "restarts_per_segment", False))
-    expected = expected_false_alarms(basis, per_hour, span_s, v.n_segments)
-    row = {"method": m, **v.as_dict(), "threshold_method": method,
+    row = {"method": m, **j.verdict.as_dict(), "threshold_method": method,
            "threshold_basis": basis if basis is None else threshold_words(basis),
-           "n_healthy": n_healthy, "false_alarms_per_hour": per_hour,
-           "false_alarms_per_run": per_run, "false_alarms_per_run_guaranteed": guaranteed,
-           "false_alarms_expected": expected}
+           "n_healthy": n_healthy, "false_alarms_per_hour": j.per_hour,
+           "false_alarms_per_run": j.per_run, "false_alarms_per_run_guaranteed": j.guaranteed,
+           "false_alarms_expected": j.expected,
+           "run_level": j.run_level_words(float(det.threshold_))}
     if basis is None:  # only a threshold basis gives a p-value (docs/detect.md, section 2)
         row["confidence"] = None
     return row
-
-
-def detector_rate(det) -> tuple[float, float]:
-    """The false alarms per hour and the burn-in (s) a fitted detector was fitted with.
-
-    Detectors with their own alarm (the flow balance) keep them on the threshold and on
-    themselves, not on the default ``Alarm``.
-
-    Parameters
-    ----------
-    det : Detector
-        A fitted detector.
-
-    Returns
-    -------
-    per_hour : float
-    burn_in_s : float
-    """
-    a = det._alarm()
-    return (float(getattr(det.alarm_threshold_, "target_per_hour", a.false_alarms_per_hour)),
-            float(getattr(det, "burn_in_s", a.burn_in_s)))
-
-
-def per_run_rate(basis, per_hour: float, span_s: float, n_segments: int | None = None,
-                 restarts: bool = True) -> tuple[float, bool]:
-    """The false-alarm rate a threshold promises for one judged run, and whether data back it.
-
-    A distribution-free (conformal) threshold holds ``bound_per_segment`` per healthy segment
-    (``k / (n + 1)``; when the healthy runs do not support the target, the largest maximum's
-    ``1 / (n + 1)``, above the target but still a bound), so a run of one segment (or shorter:
-    held to the segment's bound, which cannot be scaled down) is held to it, and a run spanning
-    ``m > 1`` segments to ``min(1, m * bound_per_segment)`` (union bound): the healthy maxima
-    come from fresh segments, and a detector whose statistic restarts at each segment boundary
-    unless in alarm (``restarts``, :attr:`Detector.restarts_per_segment`) judges every segment
-    as one. Without restarts (the flow balance's GLR) the later segments start with the
-    statistic carried over, and the bound is **not guaranteed** beyond the first (docs/detect.md
-    section 2; a statistics audit measured 10-25 % against a stated 10 % before the restarts).
-    A model-based level (the flow balance's) or no basis guarantees nothing: the rate is the
-    requested one per hour times the span, and says so.
-
-    Parameters
-    ----------
-    basis : ThresholdBasis or None
-        ``Detector.threshold_basis_``.
-    per_hour : float
-        Requested false alarms per hour.
-    span_s : float
-        Judged span of the run (after the burn-in), s.
-    n_segments : int, optional
-        Segments the span covers as the detector counted them for its p-value
-        (``Verdict.n_segments``); default: ``span_s`` over the basis's ``segment_s``.
-    restarts : bool, default True
-        Whether the detector's statistic restarts at each segment boundary unless in alarm.
-
-    Returns
-    -------
-    rate : float
-    guaranteed : bool
-
-    Examples
-    --------
-    >>> from leakdiag.detect.threshold import conformal_threshold
-    >>> b = conformal_threshold([3.0, 1.0, 2.0, 5.0], 0.2, segment_s=60.0)  # 1/5 per segment
-    >>> per_run_rate(b, 12.0, 7.0)  # 7 s judged: 1 segment, not 12/h x 7 s = 0.023
-    (0.2, True)
-    >>> r = per_run_rate(b, 12.0, 150.0)  # 3 segments: the union bound
-    >>> round(r[0], 9), r[1]
-    (0.6, True)
-    >>> per_run_rate(b, 12.0, 150.0, restarts=False)[1]  # carried over: not guaranteed
-    False
-    >>> per_run_rate(None, 12.0, 150.0)
-    (0.5, False)
-    """
-    m = _conformal_segments(basis, span_s, n_segments)
-    if m is not None:
-        return min(1.0, float(basis.bound_per_segment) * m), m <= 1 or restarts
-    return per_hour * span_s / 3600.0, False
-
-
-def _conformal_segments(basis, span_s: float, n_segments: int | None) -> int | None:
-    """Healthy segments a judged span covers under a conformal basis (None for another)."""
-    import math
-
-    from leakdiag.detect.threshold import SEGMENT_TOLERANCE
-
-    if basis is None or not basis.method.startswith("conformal") or \
-            not math.isfinite(basis.bound_per_segment):
-        return None
-    return n_segments if n_segments is not None else \
-        max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
-
-
-def expected_false_alarms(basis, per_hour: float, span_s: float,
-                          n_segments: int | None = None) -> float:
-    """False alarms a threshold lets through by chance in a judged run, not capped at 1.
-
-    :func:`per_run_rate`'s union bound before its cap (a conformal basis: ``m`` segments times
-    ``bound_per_segment``; otherwise the rate per hour times the span). At 1 or more an alarm is
-    what the threshold expects of a healthy run this long: no evidence of a leak
-    (:func:`overall_verdict`; flow-balance audit 2026-11-28, finding 4).
-
-    Parameters
-    ----------
-    basis : ThresholdBasis or None
-        ``Detector.threshold_basis_``.
-    per_hour : float
-        Requested false alarms per hour.
-    span_s : float
-        Judged span of the run (after the burn-in), s.
-    n_segments : int, optional
-        Segments the span covers (``Verdict.n_segments``).
-
-    Returns
-    -------
-    float
-
-    Examples
-    --------
-    >>> from leakdiag.detect.threshold import conformal_threshold
-    >>> b = conformal_threshold([3.0, 1.0, 2.0, 5.0], 0.2, segment_s=60.0)  # 1/5 per segment
-    >>> round(expected_false_alarms(b, 12.0, 600.0), 9)  # 10 segments
-    2.0
-    >>> expected_false_alarms(None, 20.0, 1800.0)
-    10.0
-    """
-    m = _conformal_segments(basis, span_s, n_segments)
-    if m is not None:
-        return float(basis.bound_per_segment) * m
-    return per_hour * span_s / 3600.0
 
 
 def _cannot_judge(det, rec, file, m):
@@ -292,9 +160,12 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
     pandas.DataFrame
         One row per method: :meth:`Verdict.as_dict` plus ``method``, ``threshold_method``,
         ``threshold_basis``, ``n_healthy``, ``false_alarms_per_hour``,
-        ``false_alarms_per_run`` (after the burn-in, :func:`per_run_rate`) and
-        ``false_alarms_per_run_guaranteed`` (or ``error`` when the
-        method cannot be fitted on the healthy files, or a channel it reads is constant).
+        ``false_alarms_per_run`` (after the burn-in,
+        :func:`leakdiag.detect.decision.per_run_rate`),
+        ``false_alarms_per_run_guaranteed``, ``false_alarms_expected`` and ``run_level`` (the
+        raised level of a long run in words, :func:`leakdiag.detect.decision.judge_run`; or
+        ``error`` when the method cannot be fitted on the healthy files, or a channel it reads
+        is constant).
 
     Raises
     ------
@@ -706,6 +577,9 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     if "threshold_basis" in tab:
         for r in tab[tab["threshold_basis"].notna()].to_dict("records"):
             click.echo(f"  {r['method']} threshold: {r['threshold_basis']}")
+    if "run_level" in tab:
+        for r in tab[tab["run_level"].map(lambda x: isinstance(x, str))].to_dict("records"):
+            click.echo(f"  {r['method']} run level: {r['run_level']}")
     dec, why = overall_verdict(tab, tab.attrs["duration_s"])
     words = {"leak": "LEAK", "no-leak": "NO LEAK", "inconclusive": "INCONCLUSIVE"}
     click.echo(f"Decision: {words[dec]} -- {why}.")

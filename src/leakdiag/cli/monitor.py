@@ -338,16 +338,20 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
     seg = DEFAULT_SEGMENT_S if segment_s is None else float(segment_s)
     # a segment in which the detector expects a false alarm by chance: its LEAK is no evidence
     # (detect reads such an alarm INCONCLUSIVE; an audit, 2026-11-28, found monitor reading LEAK
-    # where detect said INCONCLUSIVE)
-    from leakdiag.cli.detect import detector_rate, expected_false_alarms
+    # where detect said INCONCLUSIVE) unless it is judged at a raised level (judge_run), as detect
+    # judges a file
+    from leakdiag.detect.decision import detector_rate, expected_false_alarms
 
     basis = getattr(detector, "threshold_basis_", None)
     per_hour, burn = detector_rate(detector)
-    expected = expected_false_alarms(basis, per_hour, max(seg - burn, 0.0))
-    if expected >= 1.0:
+    span = max(seg - burn, 0.0)
+    expected = expected_false_alarms(basis, per_hour, span)
+    raise_to = getattr(detector, "run_level", None)
+    if expected >= 1.0 and (not callable(raise_to) or raise_to(span) is None):
         raise click.UsageError(
             f"--segment {seg:g}: {detector_path} expects about {expected:.3g} false alarms in a "
-            f"healthy segment this long, so its LEAK would be no evidence: give a shorter "
+            f"healthy segment this long, and its healthy reference cannot hold a segment this "
+            f"long to a healthy segment's rate, so its LEAK would be no evidence: give a shorter "
             f"--segment, or fit the detector for fewer false alarms per hour")
     judge = SegmentJudge(detector, chans, source.sample_rate, source.start_time, seg,
                          units=units, meta=source.meta, source=str(source.source))
@@ -401,6 +405,13 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
         from leakdiag.cli._words import threshold_words
 
         say(f"  threshold: {threshold_words(basis)} (per segment: each is judged as one run)")
+    if expected >= 1.0:  # the full segments were judged at the run level (judge_run)
+        level, at_level = raise_to(span)
+        say(f"  run level: a {seg:g}-s segment expects about {expected:.3g} false alarms at the "
+            f"fitted level {float(detector.threshold_):.4g}, so full segments are judged at the "
+            f"level {level:.4g}, which expects at most {at_level:.3g}, within the "
+            f"{basis.target_per_segment:.3g} requested of one healthy segment (docs/detect.md "
+            "section 2, 'Long runs')")
     if stopped is not None:
         click.get_current_context().exit(128 + stopped.signum)
     if failed is not None:

@@ -430,6 +430,45 @@ class GLRThreshold:
         return float(np.exp(r[-1]))
 
 
+    def tail_rate(self, h: float) -> float:
+        """False-alarm rate per hour at level ``h`` from the null's fitted exponential tail.
+
+        For a long run's level (``FlowBalanceDetector.run_level``), which needs rates below the
+        null's last alarms: the null is interpolated (log-linear) over the levels with at
+        least :data:`TAIL_MIN_EPISODES` alarm episodes, and beyond the last of them it falls
+        with the least-squares slope of the log rate over the last five such levels, anchored
+        at the last. For a Gaussian-like statistic the log rate is concave in the level, so the
+        fitted line lies above it beyond the fit: the rate is over-stated and the level too
+        high (conservative).
+
+        Parameters
+        ----------
+        h : float
+            Level (z scale).
+
+        Returns
+        -------
+        float
+            Alarms per hour; ``inf`` when fewer than two levels have enough episodes, the last
+            rate held flat when the fitted slope does not fall.
+        """
+        h = h / self.scale
+        counts = self.rate_per_hour * self.simulated_hours
+        ok = np.flatnonzero(counts >= TAIL_MIN_EPISODES - 1e-9)
+        if len(ok) < 2:
+            return float("inf")
+        g, r = self.grid[ok], np.log(self.rate_per_hour[ok])
+        if h <= g[-1]:
+            return float(np.exp(np.interp(h, g, r)))
+        slope = min(0.0, float(np.polyfit(g[-5:], r[-5:], 1)[0]))
+        return float(np.exp(r[-1] + slope * (h - g[-1])))
+
+
+#: Alarm episodes a null level needs to count in :meth:`GLRThreshold.tail_rate`'s fit (levels
+#: with 1 or 2 episodes are noise: the null's tail held flat on two of them, 2026-11-28).
+TAIL_MIN_EPISODES = 3
+
+
 @numba.njit(cache=True)
 def _count_upcrossings(g, grid, counts):
     """Add to ``counts[k]`` the alarm episodes of ``g`` at level ``grid[k]`` (ascending): one

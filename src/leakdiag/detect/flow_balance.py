@@ -373,6 +373,11 @@ DETECTABLE_POWER = 0.9
 #: from the first sample in windows 6-9 ("onset 10.8-14.2 s", not flagged). An onset counted
 #: as censored is an upper bound, true for a leak that began there as well.
 CENSOR_WINDOWS = 10
+#: How far below the bootstrap null's resolution (one alarm episode in its simulated hours) a
+#: long run's level may rest on the null's fitted exponential tail (:meth:`run_level`;
+#: leakdiag choice, 2026-11-28: one decade, so that a detector fitted for 1 per hour on 120-s
+#: runs, whose null simulates 120 h, judges runs up to about 40 h; beyond, INCONCLUSIVE).
+RUN_LEVEL_MAX_EXTRAPOLATION = 10.0
 #: Windows after the onset window the EHA's size needs (its transducers' differential offset is
 #: profiled on them; leakdiag choice, 2026-11-28): a flow-balance audit cut EHA runs 2.5-5 s
 #: after a 1 L/min leak began and got 0.48 L/min [0.44, 0.49] from 1-2 windows and 0.98 [0.90,
@@ -1410,13 +1415,89 @@ class FlowBalanceDetector(Detector):
                              "leak_coefficient": k, "leak_coefficient_se": se,
                              "z": k / se, "glr": g})
 
-    def predict(self, recording) -> FlowBalanceVerdict:
+    def run_level(self, span_s: float, n_segments: int | None = None
+                  ) -> tuple[float, float] | None:
+        """The level that holds a run of ``span_s`` to the false-alarm rate of one segment.
+
+        The fitted threshold holds ``alpha = false_alarms_per_hour * segment / 3600`` per
+        healthy segment; a run of ``m`` segments expects ``m`` times as many false alarms at it.
+        The run level expects at most ``alpha`` in the whole run (docs/detect.md section 2,
+        "Long runs"):
+
+        * conformal basis: the ``k'``-th largest healthy maximum, ``k' = floor(alpha (n + 1) /
+          m)`` (union bound ``m k' / (n + 1) <= alpha``), when ``k' >= 1`` and the basis is not
+          calibration-conditional (``confidence`` given: its rank has no run counterpart here);
+        * otherwise, as :meth:`fit` falls back for one segment, the model-based level: the
+          lowest level (on a 0.01 grid) above which the bootstrap null's rate stays at most
+          ``alpha / hours`` (:meth:`GLRThreshold.tail_rate`: beyond the null's last levels
+          with 3 or more alarm episodes, its fitted exponential tail, which over-states the
+          rate of a Gaussian-like statistic), not guaranteed by data; None when that rate is
+          more than :data:`RUN_LEVEL_MAX_EXTRAPOLATION` times below one episode in the null's
+          simulated hours.
+
+        Like the fitted level's, the run level's rate is not guaranteed beyond the first
+        segment (the GLR carries its state over segment boundaries:
+        :func:`leakdiag.detect.decision.per_run_rate`).
+
+        Parameters
+        ----------
+        span_s : float
+            The judged span (duration minus ``burn_in_s``), s.
+        n_segments : int, optional
+            Segments the span covers (``Verdict.n_segments``); default ``span_s`` over the
+            basis's segment.
+
+        Returns
+        -------
+        (level, expected) or None
+            The level (at least ``threshold_``) and the false alarms it expects in the run.
+        """
+        from leakdiag.detect.decision import conformal_segments
+
+        self._check_fitted()
+        basis = self.threshold_basis_
+        alpha = float(basis.target_per_segment)
+        m = conformal_segments(basis, span_s, n_segments)
+        # distribution-free when the healthy maxima support the run (a higher rank of them),
+        # else the model-based level, as fit chooses between them for one segment
+        k = self._run_rank(m)
+        if k >= 1:
+            level = max(float(basis.maxima[k - 1]), float(self.threshold_))
+            return level, m * k / (basis.n + 1)
+        hours = span_s / 3600.0
+        th = self.alarm_threshold_
+        target = alpha / hours if hours > 0 else float("inf")
+        if target < 1.0 / (RUN_LEVEL_MAX_EXTRAPOLATION * th.simulated_hours):
+            return None  # too far beyond the null's resolution for its fitted tail
+        top = float(th.grid[-1]) * th.scale + 10.0
+        hs = np.arange(float(self.threshold_), top, 0.01)
+        rates = np.array([th.tail_rate(h) for h in hs])
+        over = np.flatnonzero(rates > target)
+        if len(over) == len(hs):
+            return None
+        level = float(hs[over[-1] + 1]) if len(over) else float(hs[0])
+        return level, th.tail_rate(level) * hours
+
+    def _run_rank(self, m: int | None) -> int:
+        """Rank ``k'`` of the healthy maxima that holds ``m`` segments to one segment's rate
+        (:meth:`run_level`); 0 when the maxima cannot (or the basis is not conformal)."""
+        basis = self.threshold_basis_
+        if m is None or not basis.supported or basis.conditional:
+            return 0
+        return int(math.floor(float(basis.target_per_segment) * (basis.n + 1) / m + 1e-9))
+
+    def predict(self, recording, level: float | None = None) -> FlowBalanceVerdict:
         """Verdict: leak or not, alarm time, onset, leak size (mean L/min with an interval).
 
         Parameters
         ----------
         recording : Recording
             Recording of the fitted machine.
+        level : float, optional
+            Alarm level to judge at instead of ``threshold_`` (at least ``threshold_``): the
+            :meth:`run_level` of a run that expects a false alarm or more at the threshold.
+            The verdict's p-value (``confidence``) then comes from the basis the run level
+            comes from (the model-based null when the healthy maxima cannot hold the run).
 
         Returns
         -------
@@ -1447,10 +1528,13 @@ class FlowBalanceDetector(Detector):
             flow (VCA: a reversed command or position sign), or an alarm whose leak
             coefficient since the onset is not positive (docs/detect.md 8.4).
         """
+        if level is not None and not (np.isfinite(level) and level >= self.threshold_):
+            raise ValueError(f"predict: level={level!r} must be finite and at least the "
+                             f"threshold {self.threshold_:.4g}")
         t, a, b, g, arg = self._scan(recording, "predict")
-        h = self.threshold_
+        h = self.threshold_ if level is None else float(level)
         smax = float(g.max()) if len(g) else 0.0
-        confidence = self._p_value(smax, t, recording)
+        confidence = self._p_value(smax, t, recording, run=level is not None)
         common = dict(confidence=confidence, leak_lpm_in_range=None, score_max=smax, threshold=h,
                       onset_method="glr", detector="flow_balance",
                       n_segments=self._n_segments(t, recording), n_windows=len(g),
@@ -1695,7 +1779,7 @@ class FlowBalanceDetector(Detector):
              math.ceil((rec.duration - float(self.burn_in_s)) / seg - SEGMENT_TOLERANCE))
         return max(1, m)
 
-    def _p_value(self, smax: float, t: dict, rec) -> float:
+    def _p_value(self, smax: float, t: dict, rec, run: bool = False) -> float:
         """Probability that healthy operation of this span scores at least ``smax``.
 
         Conformal basis: ``m (1 + #{maxima >= smax}) / (n + 1)`` over the ``m`` segments the
@@ -1703,16 +1787,21 @@ class FlowBalanceDetector(Detector):
         least one healthy alarm episode at level ``smax`` (Poisson episodes, rate from the
         bootstrap null, at least one episode in its ``simulated_hours``: the null's
         resolution). Small = evidence of a leak, as ``Verdict.confidence`` everywhere.
+        ``run``: judged at a :meth:`run_level`, whose basis is the conformal one only when
+        the healthy maxima hold the run (:meth:`_run_rank`).
         """
         basis = getattr(self, "threshold_basis_", None)  # None: a file saved before bases
         n_win = len(t["end"])
-        if basis is not None and basis.supported:
-            return basis.p_value(smax, self._n_segments(t, rec))
+        m = self._n_segments(t, rec)
+        if basis is not None and basis.supported and (not run or self._run_rank(m) >= 1):
+            return basis.p_value(smax, m)
         hours = n_win * float(self.window_s) / 3600.0
         th = self.alarm_threshold_
         # no smaller than the Monte-Carlo null resolves (one episode in its simulated hours):
-        # beyond it the log-linear tail is a model, which gave p-values of 1e-286 and 0
-        rate = max(th.rate_at(smax), 1.0 / th.simulated_hours)
+        # beyond it the log-linear tail is a model, which gave p-values of 1e-286 and 0; at a
+        # run level, the fitted tail the level rests on, to the same limit (run_level)
+        rate = (max(th.tail_rate(smax), 1.0 / (RUN_LEVEL_MAX_EXTRAPOLATION * th.simulated_hours))
+                if run else max(th.rate_at(smax), 1.0 / th.simulated_hours))
         return float(-np.expm1(-rate * hours))
 
     def segment_maxima(self, recordings) -> np.ndarray:

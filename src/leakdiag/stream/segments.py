@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from leakdiag.detect.decision import judge_run
 from leakdiag.io.errors import RecordingError
 from leakdiag.io.recording import Recording
 
@@ -237,7 +238,9 @@ class SegmentJudge:
         try:
             rec = Recording(chans, self.sample_rate, start, units=dict(self.units or {}),
                             meta={**self.meta, "source": name})
-            v = self.detector.predict(rec)
+            # a segment longer than the detector's healthy one: judged at its run level, as
+            # leakdiag detect judges a file (leakdiag.detect.decision.judge_run)
+            v = judge_run(self.detector, rec).verdict
         except RecordingError as exc:  # too short, a stuck channel, the model does not fit
             return SegmentVerdict(start, end, reason=str(exc))
         if not v.leak:

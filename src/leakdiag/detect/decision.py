@@ -1,0 +1,306 @@
+"""A fitted detector's decision on one run: its false-alarm rate for the run, and the run level.
+
+A detector's threshold holds a false-alarm rate per healthy segment (or per hour). A run of
+``m`` segments lets ``m`` times as many alarms through by chance (:func:`expected_false_alarms`,
+the union bound); at one or more expected false alarms an alarm at the threshold is no evidence
+of a leak. Detectors that can judge a run at a raised level (``run_level``: the flow balance)
+are then judged at the level that holds the whole run to the rate of one healthy segment
+(:func:`judge_run`); the others' alarms are then INCONCLUSIVE (flow-balance audit 2026-11-28,
+finding 4). ``leakdiag detect`` and ``leakdiag batch`` decide with :func:`judge_run`;
+``leakdiag monitor`` refuses a segment in which the detector expects a false alarm.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["detector_rate", "per_run_rate", "expected_false_alarms", "RunJudgement", "judge_run",
+           "run_decision"]
+
+
+def detector_rate(det) -> tuple[float, float]:
+    """The false alarms per hour and the burn-in (s) a fitted detector was fitted with.
+
+    Detectors with their own alarm (the flow balance) keep them on the threshold and on
+    themselves, not on the default ``Alarm``.
+
+    Parameters
+    ----------
+    det : Detector
+        A fitted detector.
+
+    Returns
+    -------
+    per_hour : float
+    burn_in_s : float
+    """
+    a = det._alarm()
+    return (float(getattr(det.alarm_threshold_, "target_per_hour", a.false_alarms_per_hour)),
+            float(getattr(det, "burn_in_s", a.burn_in_s)))
+
+
+def per_run_rate(basis, per_hour: float, span_s: float, n_segments: int | None = None,
+                 restarts: bool = True) -> tuple[float, bool]:
+    """The false-alarm rate a threshold promises for one judged run, and whether data back it.
+
+    A distribution-free (conformal) threshold holds ``bound_per_segment`` per healthy segment
+    (``k / (n + 1)``; when the healthy runs do not support the target, the largest maximum's
+    ``1 / (n + 1)``, above the target but still a bound), so a run of one segment (or shorter:
+    held to the segment's bound, which cannot be scaled down) is held to it, and a run spanning
+    ``m > 1`` segments to ``min(1, m * bound_per_segment)`` (union bound): the healthy maxima
+    come from fresh segments, and a detector whose statistic restarts at each segment boundary
+    unless in alarm (``restarts``, :attr:`Detector.restarts_per_segment`) judges every segment
+    as one. Without restarts (the flow balance's GLR) the later segments start with the
+    statistic carried over, and the bound is **not guaranteed** beyond the first (docs/detect.md
+    section 2; a statistics audit measured 10-25 % against a stated 10 % before the restarts).
+    A model-based level (the flow balance's) or no basis guarantees nothing: the rate is the
+    requested one per hour times the span, and says so.
+
+    Parameters
+    ----------
+    basis : ThresholdBasis or None
+        ``Detector.threshold_basis_``.
+    per_hour : float
+        Requested false alarms per hour.
+    span_s : float
+        Judged span of the run (after the burn-in), s.
+    n_segments : int, optional
+        Segments the span covers as the detector counted them for its p-value
+        (``Verdict.n_segments``); default: ``span_s`` over the basis's ``segment_s``.
+    restarts : bool, default True
+        Whether the detector's statistic restarts at each segment boundary unless in alarm.
+
+    Returns
+    -------
+    rate : float
+    guaranteed : bool
+
+    Examples
+    --------
+    >>> from leakdiag.detect.threshold import conformal_threshold
+    >>> b = conformal_threshold([3.0, 1.0, 2.0, 5.0], 0.2, segment_s=60.0)  # 1/5 per segment
+    >>> per_run_rate(b, 12.0, 7.0)  # 7 s judged: 1 segment, not 12/h x 7 s = 0.023
+    (0.2, True)
+    >>> r = per_run_rate(b, 12.0, 150.0)  # 3 segments: the union bound
+    >>> round(r[0], 9), r[1]
+    (0.6, True)
+    >>> per_run_rate(b, 12.0, 150.0, restarts=False)[1]  # carried over: not guaranteed
+    False
+    >>> per_run_rate(None, 12.0, 150.0)
+    (0.5, False)
+    """
+    m = conformal_segments(basis, span_s, n_segments)
+    if m is not None:
+        return min(1.0, float(basis.bound_per_segment) * m), m <= 1 or restarts
+    return per_hour * span_s / 3600.0, False
+
+
+def conformal_segments(basis, span_s: float, n_segments: int | None = None) -> int | None:
+    """Healthy segments a judged span covers under a conformal basis (None for another).
+
+    Parameters
+    ----------
+    basis : ThresholdBasis or None
+        ``Detector.threshold_basis_``.
+    span_s : float
+        Judged span of the run (after the burn-in), s.
+    n_segments : int, optional
+        Segments as the detector counted them; default ``ceil(span_s / segment_s)`` (a run
+        within :data:`~leakdiag.detect.threshold.SEGMENT_TOLERANCE` of a whole number of
+        segments holds that number), at least 1.
+
+    Returns
+    -------
+    int or None
+    """
+    from leakdiag.detect.threshold import SEGMENT_TOLERANCE
+
+    if basis is None or not basis.method.startswith("conformal") or \
+            not math.isfinite(basis.bound_per_segment):
+        return None
+    return n_segments if n_segments is not None else \
+        max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
+
+
+def expected_false_alarms(basis, per_hour: float, span_s: float,
+                          n_segments: int | None = None) -> float:
+    """False alarms a threshold lets through by chance in a judged run, not capped at 1.
+
+    :func:`per_run_rate`'s union bound before its cap (a conformal basis: ``m`` segments times
+    ``bound_per_segment``; otherwise the rate per hour times the span). At 1 or more an alarm is
+    what the threshold expects of a healthy run this long: no evidence of a leak
+    (:func:`run_decision`; flow-balance audit 2026-11-28, finding 4).
+
+    Parameters
+    ----------
+    basis : ThresholdBasis or None
+        ``Detector.threshold_basis_``.
+    per_hour : float
+        Requested false alarms per hour.
+    span_s : float
+        Judged span of the run (after the burn-in), s.
+    n_segments : int, optional
+        Segments the span covers (``Verdict.n_segments``).
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> from leakdiag.detect.threshold import conformal_threshold
+    >>> b = conformal_threshold([3.0, 1.0, 2.0, 5.0], 0.2, segment_s=60.0)  # 1/5 per segment
+    >>> round(expected_false_alarms(b, 12.0, 600.0), 9)  # 10 segments
+    2.0
+    >>> expected_false_alarms(None, 20.0, 1800.0)
+    10.0
+    """
+    m = conformal_segments(basis, span_s, n_segments)
+    if m is not None:
+        return float(basis.bound_per_segment) * m
+    return per_hour * span_s / 3600.0
+
+
+def run_decision(leak, expected: float) -> str:
+    """``"leak"``, ``"no-leak"`` or ``"inconclusive"`` for one method's verdict on one run.
+
+    An alarm in a run where its threshold expects one false alarm or more is no evidence of a
+    leak (``"inconclusive"``); no verdict (``leak`` None: the method could not judge) is
+    ``"inconclusive"`` too.
+
+    Parameters
+    ----------
+    leak : bool or None
+        The verdict's alarm.
+    expected : float
+        False alarms expected by chance in the run at the level it was judged at
+        (:func:`expected_false_alarms`; NaN counts as 0).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> run_decision(True, 0.2), run_decision(True, 1.5), run_decision(False, 9.0)
+    ('leak', 'inconclusive', 'no-leak')
+    """
+    if leak is None:
+        return "inconclusive"
+    if not leak:
+        return "no-leak"
+    return "inconclusive" if expected >= 1.0 else "leak"
+
+
+@dataclass(frozen=True)
+class RunJudgement:
+    """One fitted detector's verdict on one run, with the false-alarm rate it was judged at.
+
+    Attributes
+    ----------
+    verdict : Verdict
+        The detector's verdict, at ``level`` (``run_level``) or at its threshold.
+    per_hour : float
+        The false alarms per hour the detector was fitted for.
+    span_s : float
+        The judged span (duration minus the burn-in), s.
+    expected : float
+        False alarms expected by chance in the run at the level judged at (not capped).
+    per_run : float
+        False-alarm rate for the run (``expected`` capped at 1: :func:`per_run_rate`).
+    guaranteed : bool
+        Whether healthy data back ``per_run`` (a conformal level of a one-segment run or of a
+        detector that restarts at each segment).
+    expected_at_threshold : float
+        False alarms expected at the fitted threshold (equal to ``expected`` unless raised).
+    run_level : float or None
+        The raised level the run was judged at (None: the fitted threshold).
+    decision : str
+        :func:`run_decision` of the verdict at the level judged at.
+    segment_target : float
+        The false-alarm rate requested of one healthy segment (``target_per_segment`` of the
+        threshold basis; NaN without one): what a run level holds the whole run to.
+    """
+
+    verdict: object
+    per_hour: float
+    span_s: float
+    expected: float
+    per_run: float
+    guaranteed: bool
+    expected_at_threshold: float
+    run_level: float | None
+    decision: str
+    segment_target: float = float("nan")
+
+    def run_level_words(self, threshold: float) -> str | None:
+        """The raised level in words, or None when the run was judged at the threshold.
+
+        Parameters
+        ----------
+        threshold : float
+            The detector's fitted threshold.
+
+        Returns
+        -------
+        str or None
+        """
+        if self.run_level is None:
+            return None
+        return (f"this {self.span_s:.4g}-s run is judged at the level {self.run_level:.4g} "
+                f"(fitted level {threshold:.4g}, which expects about "
+                f"{self.expected_at_threshold:.3g} false alarms in a run this long), so that it "
+                f"expects at most {self.expected:.3g}, within the {self.segment_target:.3g} "
+                "requested of one healthy segment (docs/detect.md section 2, 'Long runs')")
+
+
+def judge_run(det, rec) -> RunJudgement:
+    """Judge one recording with a fitted detector, holding a long run to a segment's rate.
+
+    The detector's ``predict`` judges ``rec`` at its threshold. When the threshold expects one
+    false alarm or more in a run this long (:func:`expected_false_alarms`) and the detector can
+    judge at a raised level (a ``run_level(span_s)`` method returning the level and the false
+    alarms it expects in the run, or None when its healthy reference cannot resolve one), the
+    run is judged at that level instead: the whole run is then held to the rate requested of
+    one healthy segment. Otherwise an alarm of such a run is ``"inconclusive"``
+    (:func:`run_decision`).
+
+    Parameters
+    ----------
+    det : Detector
+        A fitted detector.
+    rec : Recording
+        The recording to judge.
+
+    Returns
+    -------
+    RunJudgement
+
+    Raises
+    ------
+    leakdiag.io.RecordingError
+        When the detector cannot judge the recording (as its ``predict``).
+    """
+    per_hour, burn_in = detector_rate(det)
+    basis = getattr(det, "threshold_basis_", None)
+    restarts = getattr(det, "restarts_per_segment", False)
+    span_s = max(rec.duration - burn_in, 0.0)
+    raise_to = getattr(det, "run_level", None)
+    # decided before predicting: at the threshold, a long healthy run's false alarm can be
+    # refused as "no lasting leak" where the run level gives a verdict
+    found = (raise_to(span_s) if callable(raise_to) and
+             expected_false_alarms(basis, per_hour, span_s) >= 1.0 else None)
+    if found is not None:
+        level, expected = found
+        v = det.predict(rec, level=level)
+        at_threshold = expected_false_alarms(basis, per_hour, span_s, v.n_segments)
+        per_run, guaranteed = min(1.0, expected), False  # carried-over GLR; see run_level
+    else:
+        level = None
+        v = det.predict(rec)
+        expected = at_threshold = expected_false_alarms(basis, per_hour, span_s, v.n_segments)
+        per_run, guaranteed = per_run_rate(basis, per_hour, span_s, v.n_segments, restarts)
+    return RunJudgement(v, per_hour, span_s, expected, per_run, guaranteed, at_threshold, level,
+                        run_decision(bool(v.leak), expected),
+                        float(getattr(basis, "target_per_segment", float("nan"))))
