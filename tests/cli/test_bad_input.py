@@ -423,3 +423,26 @@ def test_simulate_refuses_a_run_that_cannot_fit_in_memory(tmp_path, capsys, monk
     code = main(["simulate", "vca", "--duration", "10", "--sample-rate", "1e6", "--out",
                  str(tmp_path / "s.parquet")])
     assert "(248 bytes per sample)" in _one_error_line(capsys, code)
+
+
+def test_a_nan_in_a_column_no_method_reads_says_how_to_leave_it_out(files, tmp_path, capsys):
+    """Streams audit (2026-11-27, finding 5): a NaN in a temperature column refused the file
+    for methods that never read it, with no word of how to go on. The refusal stays (without a
+    map every column is read and checked), and now says how to read only the channels needed;
+    with --col the same file is judged."""
+    t = np.arange(N) / RATE_HZ
+    c = _cols()
+    c["temp"] = np.full(N, 40.0)
+    c["temp"][700] = np.nan
+    path = _write(tmp_path / "temp.csv", t, c)
+    code = main(["analyze", str(path), "--onset", "1.0", "-m", "acf", "-c", "p1"])
+    line = _one_error_line(capsys, code, "temp.csv", "channel 'temp'", "first NaN at row 700")
+    assert "'temp' is not a channel leakdiag reads" in line and "--col p1=p1" in line
+    code = main(["analyze", str(path), "--onset", "1.0", "-m", "acf", "-c", "p1",
+                 "--col", "p1=p1"])
+    assert code == 0, capsys.readouterr().err
+    c["p1"][700] = np.nan  # a NaN in a channel leakdiag reads: no such advice
+    code = main(["analyze", str(_write(tmp_path / "p1.csv", t, c)), "--onset", "1.0", "-m",
+                 "acf", "-c", "p1"])
+    line = _one_error_line(capsys, code, "channel 'p1'")
+    assert "not a channel leakdiag reads" not in line

@@ -140,6 +140,23 @@ def _check_all_numeric(table: RawTable, specs: Mapping[str, ChannelSpec]) -> Non
                 ) from None
 
 
+def _check_finite(x: np.ndarray, name: str, source: str, every_column: bool) -> None:
+    """:func:`check_channel_finite`; when every column of the file was read (no map selecting
+    channels) and ``name`` is no channel leakdiag reads, the error says how to leave it out
+    (streams audit 2026-11-27, finding 5: a NaN in a temperature column refused the file for
+    methods that never read it)."""
+    try:
+        check_channel_finite(x, name, source)
+    except RecordingError as exc:
+        if not every_column or name in STANDARD_CHANNELS:
+            raise
+        raise RecordingError(
+            f"{exc}; {name!r} is not a channel leakdiag reads ({', '.join(STANDARD_CHANNELS)}) "
+            "but without a column map every column is read: to leave it out, name the "
+            "channels you need, e.g. --col p1=p1 --col p2=p2 --col x=x --col u=u (or a --map "
+            "file; docs/io.md)") from None
+
+
 def _time_column(table: RawTable, cmap: ColumnMap | None) -> str | None:
     """The time column: the map's ``time_column``, else ``time`` if the file has one."""
     col = cmap.time_column if cmap is not None and cmap.time_column else None
@@ -295,7 +312,7 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
     out_units: dict[str, str] = {}
     for name, spec in specs.items():
         raw = _numeric(table, spec.column, name)
-        check_channel_finite(raw, name, source)
+        _check_finite(raw, name, source, column_map is None or not column_map.channels)
         try:
             values, unit = to_si(raw, spec.unit, gain=spec.gain, offset=spec.offset,
                                  channel=name, si_unit=spec.si_unit)
@@ -382,7 +399,7 @@ def _from_header(table: RawTable, header: dict[str, Any], sample_rate: float | N
     channels = {}
     for name in header["channels"]:
         values = np.asarray(table.columns[name], dtype=np.float64)
-        check_channel_finite(values, name, source)
+        _check_finite(values, name, source, True)
         channels[name] = values
     return Recording(channels, rate, header["start_time"], dict(header["units"]),
                      _named_by_file(copy.deepcopy(header["meta"]), source))
