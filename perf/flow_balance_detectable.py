@@ -104,15 +104,8 @@ def rows_key() -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def _read_rows(path) -> pd.DataFrame:
-    df = pd.read_csv(path)
-    if list(df.columns) != COLUMNS:
-        raise ValueError(f"columns {list(df.columns)}, not {COLUMNS}")
-    return df
-
-
 def main(argv=None) -> None:
-    from leakdiag.bench._workfiles import read_or_discard, write_atomic
+    from perf._rows import resume, save
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--machines", default="3,5,17,23")
@@ -124,13 +117,7 @@ def main(argv=None) -> None:
     machines = [int(m) for m in args.machines.split(",")]
     groups = [tuple(g.split(":")) for g in args.groups.split(",")]
     factors = [float(f) for f in args.factors.split(",")]
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    state = out / f"rows-{rows_key()}.csv"
-    done = read_or_discard(state, _read_rows, "detectable rows")
-    rows = [] if done is None else done.to_dict("records")
-    print(f"reused {len(rows)} rows from {state}" if rows else f"no rows to reuse in {state}",
-          flush=True)
+    state, rows = resume(args.out, rows_key(), COLUMNS, "detectable rows")
     seen = {(r["system"], r["load"], int(r["machine"]), int(r["seed"]), r["factor"])
             for r in rows}
     for system, load in groups:
@@ -147,13 +134,11 @@ def main(argv=None) -> None:
                 rows = [r for r in rows if not (r["system"] == system and r["load"] == load and
                         int(r["machine"]) == m and int(r["seed"]) == s and
                         pd.isna(r["factor"]))] + new
-                so_far = pd.DataFrame(rows, columns=COLUMNS)
-                write_atomic(state, lambda tmp: so_far.to_csv(tmp, index=False))
+                save(state, rows, COLUMNS)
                 for r in new:
                     print(system, load, m, s, r["factor"], r["detectable_lpm"], r["leak"],
                           r["score_max"], flush=True)
-    df = pd.DataFrame(rows, columns=COLUMNS)
-    write_atomic(out / "detectable.csv", lambda tmp: df.to_csv(tmp, index=False))
+    df = save(Path(args.out) / "detectable.csv", rows, COLUMNS)
     print("group: healthy runs judged, false alarms, refused; per factor, leaks of that "
           "multiple of the stated size judged, alarmed")
     for (s, ld), g in df.groupby(["system", "load"], sort=False):

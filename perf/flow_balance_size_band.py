@@ -30,7 +30,6 @@ import json
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 #: The benchmark's per-unit settings: false alarms per run, the alarm's threshold confidence
 #: and the unit's own healthy runs the detector is fitted on.
@@ -71,15 +70,8 @@ def rows_key() -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def _read_rows(path) -> pd.DataFrame:
-    df = pd.read_csv(path)
-    if list(df.columns) != COLUMNS or df["seed"].isna().any():
-        raise ValueError(f"columns {list(df.columns)}, not {COLUMNS}")
-    return df
-
-
 def main(argv=None) -> None:
-    from leakdiag.bench._workfiles import read_or_discard, write_atomic
+    from perf._rows import resume, save
     from leakdiag.bench.v5_suite import V5_SUITES, build_v5_suite
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -87,16 +79,7 @@ def main(argv=None) -> None:
     ap.add_argument("--first", type=int, default=10)
     ap.add_argument("--out", default="size-band")
     args = ap.parse_args(argv)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    state = out / f"rows-{rows_key()}.csv"
-    done = read_or_discard(state, _read_rows, "size-band rows")
-    rows = [] if done is None else done.to_dict("records")
-    print(f"reused {len(rows)} rows from {state}" if rows else f"no rows to reuse in {state}",
-          flush=True)
-    others = sorted(p.name for p in out.glob("rows-*.csv") if p != state)
-    if others:
-        print(f"not reused (other settings or code): {', '.join(others)}", flush=True)
+    state, rows = resume(args.out, rows_key(), COLUMNS, "size-band rows", filled=("seed",))
     seen = {int(r["seed"]) for r in rows}
     for system, suite in V5_SUITES.items():
         cases = [c for c in build_v5_suite({system: suite}) if c.role == "test_leak"
@@ -105,11 +88,9 @@ def main(argv=None) -> None:
             if c.seed in seen:
                 continue
             rows.append(_run_row(system, suite, c))
-            so_far = pd.DataFrame(rows, columns=COLUMNS)
-            write_atomic(state, lambda tmp: so_far.to_csv(tmp, index=False))
+            save(state, rows, COLUMNS)
             print(system, c.load, c.leak_lpm, c.seed, rows[-1]["ratio"], flush=True)
-    df = pd.DataFrame(rows, columns=COLUMNS)
-    write_atomic(out / "size_ratios.csv", lambda tmp: df.to_csv(tmp, index=False))
+    df = save(Path(args.out) / "size_ratios.csv", rows, COLUMNS)
     print("group, detected runs, smallest and largest ratio:")
     for (s, ld), g in df[df.detected.astype(bool)].groupby(["system", "load"]):
         r = np.sort(g.ratio.to_numpy())

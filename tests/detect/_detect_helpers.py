@@ -35,3 +35,12 @@ def synthetic(duration_s, seed, onset=None, step=0.0):
     if onset is not None:
         p1 = p1 + step * (t >= onset)
     return Recording({"p1": p1}, RATE, meta={"onset": onset, "leak_lpm": step, "source": f"syn{seed}"})
+
+
+def healthy_vca(n=6, duration_s=20.0, machine=31):
+    """``n`` healthy spring-load VCA runs of virtual machine ``machine`` (seeds 0..n-1), the
+    flow-balance threshold and run-level tests' healthy recordings."""
+    import leakdiag as ld
+
+    return [ld.sim.simulate_vca(duration=duration_s, leak_lpm=0.0, load="spring",
+                                machine=machine, seed=s) for s in range(n)]

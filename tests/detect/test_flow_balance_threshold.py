@@ -13,6 +13,7 @@ import pytest
 from sklearn.base import clone
 
 import leakdiag as ld
+from _detect_helpers import healthy_vca
 from leakdiag.detect import FlowBalanceDetector
 from leakdiag.detect.flow_balance import glr_segment_maxima
 from leakdiag.detect.threshold import ReferenceMaxima
@@ -22,8 +23,7 @@ DURATION_S = 20.0
 
 @pytest.fixture(scope="module")
 def healthy():
-    return [ld.sim.simulate_vca(duration=DURATION_S, leak_lpm=0.0, load="spring", machine=31,
-                                seed=s) for s in range(6)]
+    return healthy_vca(6, DURATION_S)
 
 
 @pytest.fixture(scope="module")

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import leakdiag as ld
+from _detect_helpers import healthy_vca
 from leakdiag.detect import FlowBalanceDetector
 from leakdiag.detect.decision import judge_run, run_decision
 from leakdiag.detect.threshold import ReferenceMaxima
@@ -23,8 +24,7 @@ DURATION_S = 20.0
 
 @pytest.fixture(scope="module")
 def healthy():
-    return [ld.sim.simulate_vca(duration=DURATION_S, leak_lpm=0.0, load="spring", machine=31,
-                                seed=s) for s in range(6)]
+    return healthy_vca(6, DURATION_S)
 
 
 @pytest.fixture(scope="module")

@@ -414,21 +414,25 @@ class GLRThreshold:
             Alarms per hour; beyond the last level with alarms, the log-linear tail of the
             last two levels with alarms.
         """
-        h = h / self.scale
         ok = self.rate_per_hour > 0
-        g, r = self.grid[ok], np.log(self.rate_per_hour[ok])
-        if len(g) == 0:
+        if not ok.any():
             return 1.0 / self.simulated_hours
+        return self._log_linear(h, np.flatnonzero(ok), 2)
+
+    def _log_linear(self, h: float, levels: np.ndarray, fit: int) -> float:
+        """The null's log rate interpolated over ``levels`` (indices into ``grid``) at
+        ``h / scale``; beyond the last, the least-squares slope of the last ``fit`` of them
+        (held flat, not rising: episode counts need not fall with the level, since one episode
+        above a level can hold several above a higher one; a rising Monte-Carlo tail was
+        extrapolated upwards and overflowed for large statistics), anchored at the last."""
+        h = h / self.scale
+        g, r = self.grid[levels], np.log(self.rate_per_hour[levels])
         if h <= g[-1]:
             return float(np.exp(np.interp(h, g, r)))
-        if len(g) >= 2:
-            # episode counts need not fall with the level (one episode above a level can hold
-            # several above a higher one): a rising Monte-Carlo tail is held flat, not
-            # extrapolated upwards (which overflowed for large statistics)
-            slope = min(0.0, (r[-1] - r[-2]) / (g[-1] - g[-2]))
-            return float(np.exp(r[-1] + slope * (h - g[-1])))
-        return float(np.exp(r[-1]))
-
+        if len(g) < 2:
+            return float(np.exp(r[-1]))
+        slope = min(0.0, float(np.polyfit(g[-fit:], r[-fit:], 1)[0]))
+        return float(np.exp(r[-1] + slope * (h - g[-1])))
 
     def tail_rate(self, h: float) -> float:
         """False-alarm rate per hour at level ``h`` from the null's fitted exponential tail.
@@ -452,16 +456,11 @@ class GLRThreshold:
             Alarms per hour; ``inf`` when fewer than two levels have enough episodes, the last
             rate held flat when the fitted slope does not fall.
         """
-        h = h / self.scale
         counts = self.rate_per_hour * self.simulated_hours
         ok = np.flatnonzero(counts >= TAIL_MIN_EPISODES - 1e-9)
         if len(ok) < 2:
             return float("inf")
-        g, r = self.grid[ok], np.log(self.rate_per_hour[ok])
-        if h <= g[-1]:
-            return float(np.exp(np.interp(h, g, r)))
-        slope = min(0.0, float(np.polyfit(g[-5:], r[-5:], 1)[0]))
-        return float(np.exp(r[-1] + slope * (h - g[-1])))
+        return self._log_linear(h, ok, 5)
 
 
 #: Alarm episodes a null level needs to count in :meth:`GLRThreshold.tail_rate`'s fit (levels

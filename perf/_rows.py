@@ -1,0 +1,85 @@
+"""Resumable rows of the perf studies: one CSV per settings-and-code key, rewritten whole.
+
+A study keys its rows by a hash of everything a row depends on (settings, the source of its row
+functions, the code and library versions); :func:`resume` reads the rows of that key (a file
+with other columns is discarded with a message, :func:`leakdiag.bench._workfiles.
+read_or_discard`) and names the files of other keys, which are not reused; :func:`save`
+rewrites the file after each new row (temporary file, atomic rename), so a cut run loses at
+most the row it was computing.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+
+def resume(out, key: str, columns: list[str], what: str,
+           filled: tuple[str, ...] = ()) -> tuple[Path, list[dict]]:
+    """The state file of ``key`` in folder ``out`` and the rows it already holds.
+
+    Parameters
+    ----------
+    out : str or path-like
+        The study's folder (created).
+    key : str
+        The rows' key (``rows-<key>.csv``).
+    columns : list of str
+        The columns a row file must have (exactly, in order).
+    what : str
+        What the rows are, for the messages.
+    filled : tuple of str, default ()
+        Columns no row may leave empty (a file with one is discarded).
+
+    Returns
+    -------
+    state : pathlib.Path
+    rows : list of dict
+    """
+    from leakdiag.bench._workfiles import read_or_discard
+
+    def read(path) -> pd.DataFrame:
+        df = pd.read_csv(path)
+        if list(df.columns) != list(columns):
+            raise ValueError(f"columns {list(df.columns)}, not {list(columns)}")
+        empty = [c for c in filled if df[c].isna().any()]
+        if empty:
+            raise ValueError(f"empty values in column(s) {empty}")
+        return df
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    state = out / f"rows-{key}.csv"
+    done = read_or_discard(state, read, what)
+    rows = [] if done is None else done.to_dict("records")
+    print(f"reused {len(rows)} {what} from {state}" if rows else
+          f"no {what} to reuse in {state}", flush=True)
+    others = sorted(p.name for p in out.glob("rows-*.csv") if p != state)
+    if others:
+        print(f"not reused (other settings or code): {', '.join(others)}", flush=True)
+    return state, rows
+
+
+def save(path, rows: list[dict], columns: list[str]) -> pd.DataFrame:
+    """Write ``rows`` whole to ``path`` (temporary file, atomic rename).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The CSV file.
+    rows : list of dict
+        The rows.
+    columns : list of str
+        Their columns, in order.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The rows written.
+    """
+    from leakdiag.bench._workfiles import write_atomic
+
+    df = pd.DataFrame(rows, columns=columns)
+    write_atomic(path, lambda tmp: df.to_csv(tmp, index=False))
+    return df
