@@ -27,7 +27,10 @@ def _summary(n_cases, cache_hits):
     rows = [{"row_id": rid, "mean_rms_before": 1.0, "mean_rms_after": a,
              "pct_change": abs(a - 1) * 100, "pct_change_signed": (a - 1) * 100,
              "n_windows": 100, "n_chunks_before": 5, "n_chunks_after": 5,
-             "n_chunks_straddling": 0, "chunk": 10}
+             "n_chunks_straddling": 0, "n_chunks_empty": 0, "n_nan_windows": 0,
+             "n_windows_before": 50, "n_windows_after": 50, "n_nan_windows_before": 0,
+             "n_nan_windows_after": 0, "pct_change_signed_nan_as_0": (a - 1) * 100,
+             "chunk": 10}
             for rid, a in zip(t.row_id, [0.5, 0.6, 1.2, 0.8])]
     tables = reproduce.assemble_tables(t, rows)
     rep = SimpleNamespace(tables=tables, config=QUICK, previous=None,

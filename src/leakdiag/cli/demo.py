@@ -1,4 +1,6 @@
-"""``leakdiag demo``: the main job on built-in defaults (thesis case study 1 on the VCA simulator)."""
+"""``leakdiag demo``: the main job on built-in defaults: thesis case study 1 as the reproduction
+runs it (``leakdiag.studies.protocol.case_simulator_kwargs``), analysed with the thesis's methods.
+"""
 
 from __future__ import annotations
 
@@ -18,22 +20,32 @@ __all__ = ["demo"]
 def demo(system, seed, out):
     """Simulate thesis case study 1 and analyse it with the four thesis methods.
 
-    VCA: a 0.10 L/min internal leak from 200 s of a 400 s run; EHA: 1.2 L/min from 90 s of
-    180 s. Each method runs at the thesis's preferred settings and the Sec. 5.2 verdict (mean RMS
-    before and after the leak, % change) is printed, then the decision in words.
+    Case study 1 as `leakdiag reproduce` runs it (Sec. 5.1, Sec. 6): VCA a 0.10 L/min internal
+    leak from 200 s of a 400 s run, no load, reference steps of 8-20 mm, the rig's sensor
+    chain; EHA 1.2 L/min from 90 s of 180 s, no load, u = 3 sin 4t, the rig's sensor chain.
+    The seed differs from the reproduction's (0) unless --seed 0. Each method runs at the
+    thesis's preferred settings and the Sec. 5.2 verdict (mean RMS before and after the leak,
+    % change) is printed, then the decision in words.
     """
     import leakdiag as ld
     from leakdiag.cli.analyze import _write_outputs, decision_words, format_verdict
     from leakdiag.detect.analysis import analyze_recording
     from leakdiag.features.spec import thesis_defaults
 
+    from leakdiag.studies.protocol import case_simulator_kwargs
+
+    kw = case_simulator_kwargs(system, 1)
     if system == "vca":
-        kw = dict(duration=400.0, leak_lpm=0.10, onset=200.0)
-        click.echo("Simulating the VCA (thesis case study 1: 0.10 L/min leak from 200 s of 400 s)...")
+        ref = kw["reference"]
+        click.echo(f"Simulating the VCA (thesis case study 1, Sec. 5.1: {kw['leak_lpm']:g} L/min "
+                   f"leak from {kw['onset']:g} s of {kw['duration']:g} s, load "
+                   f"'{kw['load']}', reference steps {ref.min_amplitude_m * 1e3:g}-"
+                   f"{ref.max_amplitude_m * 1e3:g} mm, the rig's sensor chain; seed {seed})...")
         rec = ld.sim.simulate_vca(seed=seed, **kw)
     else:
-        kw = dict(duration=180.0, leak_lpm=1.2, onset=90.0)
-        click.echo("Simulating the EHA (thesis case study 1: 1.2 L/min leak from 90 s of 180 s)...")
+        click.echo(f"Simulating the EHA (thesis case study 1, Sec. 6: {kw['leak_lpm']:g} L/min "
+                   f"leak from {kw['onset']:g} s of {kw['duration']:g} s, load '{kw['load']}', "
+                   f"the rig's sensor chain; seed {seed})...")
         rec = ld.sim.simulate_eha(seed=seed, **kw)
     outp = Path(out)
     outp.mkdir(parents=True, exist_ok=True)

@@ -18,7 +18,8 @@ from leakdiag.report.study_plots import (plot_moments, plot_pct_vs_parameter, pl
                                          plot_stacked)
 from leakdiag.studies.reproduce import (Reproduction, compare_runs, per_table_agreement,
                                         sensitivity_summary, setting_differences)
-from leakdiag.studies.thesis import row_sign, varied_value
+from leakdiag.studies.thesis import (PRINTED_MISMATCH_POINTS, printed_mismatch, row_sign,
+                                     varied_value)
 
 __all__ = ["build_report", "direction_word", "trend_word", "write_outputs", "FIGURE_NAMES",
            "OUTPUT_FILES"]
@@ -89,10 +90,21 @@ def _setting_col(g):
     return g["signals"].tolist()
 
 
+def _share(k, n) -> str:
+    """``k`` of ``n`` as a percentage with one decimal ("" when ``n`` is 0 or unknown)."""
+    k, n = float(k), float(n)
+    return f"{100 * k / n:.1f} %" if np.isfinite(n) and n > 0 and np.isfinite(k) else ""
+
+
+def _has_nan_windows(g) -> bool:
+    """Whether any row of a table has undefined (NaN) windows in whole chunks."""
+    return bool((g["n_nan_windows"].fillna(0).astype(float) > 0).any())
+
+
 def _side_by_side(g):
     import pandas as pd
 
-    return pd.DataFrame({
+    out = pd.DataFrame({
         _SETTING_LABEL.get(g["varied"].iloc[0], "setting"): _setting_col(g),
         "ours: mean RMS before": g["mean_rms_before"].to_numpy(),
         "ours: mean RMS after": g["mean_rms_after"].to_numpy(),
@@ -106,6 +118,38 @@ def _side_by_side(g):
                                 zip(g["n_chunks_before"].astype(float),
                                     g["n_chunks_after"].astype(float))],
     })
+    if _has_nan_windows(g):  # disclosed where the result is shown (thesis audit, F1)
+        out["NaN windows before"] = [f"{int(k)} of {int(n)} ({_share(k, n)})" for k, n in
+                                     zip(g["n_nan_windows_before"], g["n_windows_before"])]
+        out["NaN windows after"] = [f"{int(k)} of {int(n)} ({_share(k, n)})" for k, n in
+                                    zip(g["n_nan_windows_after"], g["n_windows_after"])]
+        out["chunks of NaN only"] = g["n_chunks_empty"].astype(int).to_numpy()
+        out["sensitivity: % change, NaN as 0"] = g["pct_change_signed_nan_as_0"].to_numpy()
+    return out
+
+
+def _nan_lines(g) -> list[str]:
+    """What the undefined windows of a table are and how much skipping them matters."""
+    if not _has_nan_windows(g):
+        return []
+    nb = g["n_nan_windows_before"].astype(float) / g["n_windows_before"].astype(float)
+    na = g["n_nan_windows_after"].astype(float) / g["n_windows_after"].astype(float)
+    k = int((g["n_nan_windows"].fillna(0) > 0).sum())
+    ours = g["pct_change_signed"].astype(float)
+    zero = g["pct_change_signed_nan_as_0"].astype(float)
+
+    def span(v, fmt):
+        lo, hi = np.nanmin(v), np.nanmax(v)
+        return fmt.format(lo) if fmt.format(lo) == fmt.format(hi) else \
+            f"{fmt.format(lo)} to {fmt.format(hi)}"
+
+    return [f"Undefined windows: in {k} of {len(g)} rows some windows have zero variance "
+            f"(a correlation is then undefined: NaN); the Sec. 5.2 measure skips them inside "
+            f"their chunk and leaves out chunks of NaN values only. Share of NaN windows before "
+            f"the onset {span(100 * nb, '{:.1f} %')}, after it {span(100 * na, '{:.1f} %')}. "
+            f"The signed % change above skips them ({span(ours, '{:+.3g} %')}); counted as 0 "
+            f"instead, a sensitivity and not the measure, it would read "
+            f"{span(zero, '{:+.3g} %')} (docs/studies.md, 'Degenerate windows')."]
 
 
 def _table_title(g) -> str:
@@ -134,7 +178,7 @@ def _verdict(g) -> list[str]:
                    f"{'agrees' if ok else 'DISAGREES'}.")
     if str(g["note"].iloc[0]):
         txt.append(f"Note on the thesis's settings: {g['note'].iloc[0]}.")
-    return txt
+    return txt + _nan_lines(g)
 
 
 def _panels(rep, g):
@@ -225,6 +269,17 @@ def _summary(rep, r: Report) -> None:
                      f"in ours against {np.nanmedian(g['thesis_pct_change']):.3g} % in the "
                      f"thesis (rows with a measure: {int(g['pct_change'].notna().sum())} of "
                      f"{len(g)}).")
+    nan_tabs = [g for _, g in t.groupby("table", sort=False) if _has_nan_windows(g)]
+    if nan_tabs:
+        b = t[t["table"].isin([g["table"].iloc[0] for g in nan_tabs])]
+        nb = b["n_nan_windows_before"].sum() / b["n_windows_before"].sum()
+        na = b["n_nan_windows_after"].sum() / b["n_windows_after"].sum()
+        items.append(
+            f"Undefined (zero-variance, NaN) windows, skipped by the Sec. 5.2 measure: in "
+            f"{len(nan_tabs)} tables ({', '.join(g['table'].iloc[0] for g in nan_tabs)}); "
+            f"pooled over their rows {100 * nb:.1f} % of the windows before the onset and "
+            f"{100 * na:.1f} % after it. Per row and side in the tables below (columns 'NaN "
+            f"windows before/after'), with the % change they would give if counted as 0.")
     p = rep.preferred
     if len(p):
         items.append(f"The explicit selection rule (maximum |% change|, at least 3 RMS chunks per "
@@ -265,10 +320,26 @@ def _summary(rep, r: Report) -> None:
         "noise and the closed-loop dynamics, which is exactly what those parameters set. "
         "(2) The thesis does not state the RMS chunk length, the exact onset, nor how windows "
         "that straddle the onset are treated; our choices are in docs/studies.md. (3) Several "
-        "thesis tables disagree with their own text (see the notes), and four rows have a "
-        "printed % change that does not match their own RMS columns. (4) Each thesis table is "
-        "one experiment on one rig; ours is one seeded simulation. No model was tuned to the "
-        "printed numbers.")
+        f"thesis tables disagree with their own text (see the notes), and {_mismatch_words(t)}. "
+        "(4) Each thesis table is one experiment on one rig; ours is one seeded simulation. No "
+        "model was tuned to the printed numbers.")
+
+
+def _mismatch_words(t) -> str:
+    """How many thesis rows print a % change their own RMS columns do not give, counted."""
+    bad = t[printed_mismatch(t["thesis_pct_change"], t["thesis_pct_change_recomputed"])]
+    if bad.empty:
+        return "no row prints a % change that disagrees with its own RMS columns"
+    keys = ["system", "case_study", "method", "signals", "lag", "window", "overlap_pct"]
+    distinct = len(bad.drop_duplicates(keys))
+    rows = ", ".join(f"{tab} {label} {value}" for tab, label, value in zip(
+        bad["table"], bad["varied"].map(lambda v: _SETTING_LABEL.get(v, v).split(" (")[0]),
+        [_setting_col(bad.loc[[i]])[0] for i in bad.index]))
+    same = f" ({distinct} distinct settings: a row printed in two tables counts twice)" \
+        if distinct != len(bad) else ""
+    return (f"{len(bad)} rows{same} print a % change more than {PRINTED_MISMATCH_POINTS:g} "
+            f"points from the one their own RMS columns give: {rows}; trends use the "
+            "recomputed values")
 
 
 def _changes_section(rep, r: Report) -> None:
@@ -359,7 +430,12 @@ def _sensitivity_section(rep, r: Report, figures: bool) -> None:
                 "within each operating condition (load and duration), averaged; "
                 "rho_pct_vs_leak_<load>: the same within one load (pooled over loads the "
                 "loads' levels, not the sizes, would order the runs).")
-    r.table(summ, "Range of |% change| per method, ours beside the thesis's")
+    r.table(summ.drop(columns=["thesis_note"], errors="ignore"),
+            "Range of |% change| per method, ours beside the thesis's")
+    if "thesis_note" in summ:
+        for row in summ[summ["thesis_note"].astype(str).str.len() > 0].itertuples():
+            r.paragraph(f"Note on the thesis's range for {row.system.upper()} {row.method} "
+                        f"{row.channels}: {row.thesis_note}.")
     if figures:
         for system, g in s.groupby("system", sort=False):
             # Table 5-17 is the VCA's summary; the EHA's results are Secs. 6.1.5-6.4.5 (no table)
@@ -375,10 +451,16 @@ def _stationarity_section(rep, r: Report, figures: bool) -> None:
     if not rep.stationarity:
         return
     r.heading("Stationarity (Sec. 4.7)")
+    cfg = rep.config
     r.paragraph("Windowed mean, variance, skewness and kurtosis (window 400, overlap 50 %) of each "
-                "signal of the case-study-1 experiment, plus ADF (null: unit root) and KPSS "
+                f"signal of the case-study-1 experiment (load: VCA '{cfg.vca_load}', EHA "
+                f"'{cfg.eha_load}'), plus ADF (null: unit root) and KPSS "
                 "(null: level stationary) tests at 5 %, on the signal block-averaged to at most "
-                "4000 points.")
+                "4000 points. Which experiment is a decision: Secs. 4.5 and 4.6 say the signals "
+                "are tested before they are analysed, and the case studies are analysed, so "
+                "their experiment is used; but Ch. 4 shows its signals from experiments under "
+                "a load emulating a spring (Sec. 4.6 says so for the EHA), and a verdict can "
+                "depend on the load (docs/studies.md, 'Stationarity tests').")
     for system, st in rep.stationarity.items():
         r.heading(f"{system.upper()} stationarity tests", 3)
         r.table(st["tests"])

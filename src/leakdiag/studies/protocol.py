@@ -32,13 +32,15 @@ from leakdiag.runtime.cache import cached_simulation
 from leakdiag.sim.reference import PseudoRandomSteps
 from leakdiag.sim.sensors import THESIS_EHA_SENSORS, THESIS_VCA_SENSORS
 from leakdiag.studies.grid import measure_row, quiet_degenerate
+from leakdiag.studies.nan_windows import nan_windows_by_side, pct_change_nan_as_zero
 from leakdiag.studies.select import SelectionRule
 from leakdiag.studies.stationarity import stationarity
 from leakdiag.studies.sweep import ofat_sweep
 from leakdiag.studies.thesis import channels_of, load_tables
 
 __all__ = ["ProtocolConfig", "QUICK", "FULL", "THESIS", "V1", "PROTOCOLS", "protocol_config",
-           "build_cases", "run_case", "simulate_case", "SENSITIVITY_METHODS"]
+           "build_cases", "run_case", "simulate_case", "case_simulator_kwargs",
+           "SENSITIVITY_METHODS"]
 
 VCA_DURATION_S = 400.0  # Sec. 4.5: 400 s experiments, leak at about 200 s
 VCA_ONSET_S = 200.0  # Sec. 4.5
@@ -287,6 +289,67 @@ def build_cases(cfg: ProtocolConfig, systems=("vca", "eha")) -> list[dict]:
     return cases
 
 
+def case_simulator_kwargs(system: str, case_study: int,
+                          config: ProtocolConfig | None = None) -> dict:
+    """The simulator arguments of case study 1 or 2 as a protocol runs it (seed left out).
+
+    What :func:`build_cases` gives a ``"tables"`` case, in the form ``simulate_vca`` /
+    ``simulate_eha`` take (the reference and sensor chain as objects), so that another caller
+    (``leakdiag demo``) runs the same experiment.
+
+    Parameters
+    ----------
+    system : {"vca", "eha"}
+        Rig.
+    case_study : {1, 2}
+        Case study (Sec. 5.1, Sec. 6).
+    config : ProtocolConfig, optional
+        Protocol (default :data:`THESIS`).
+
+    Returns
+    -------
+    dict
+        ``duration``, ``leak_lpm``, ``onset``, ``load`` and, as the protocol states them,
+        ``reference`` (VCA) and ``sensor_params``.
+
+    Raises
+    ------
+    ValueError
+        For an unknown system or a case study other than 1 and 2.
+
+    Examples
+    --------
+    >>> kw = case_simulator_kwargs("vca", 1)
+    >>> kw["duration"], kw["onset"], kw["leak_lpm"], kw["load"]
+    (400.0, 200.0, 0.1, 'none')
+    >>> kw["reference"].min_amplitude_m, kw["reference"].max_amplitude_m
+    (0.008, 0.02)
+    """
+    cfg = config or THESIS
+    if system not in ("vca", "eha"):
+        raise ValueError(f"unknown system {system!r}; use 'vca' or 'eha'")
+    case = next((c for c in build_cases(cfg, (system,))
+                 if c["kind"] == "tables" and c["case_study"] == case_study), None)
+    if case is None:
+        raise ValueError(f"case_study={case_study!r} must be 1 or 2 (case study 3 is a grid)")
+    sim = _simulator_kwargs(system, case["sim"])
+    sim.pop("seed")
+    return sim
+
+
+def _simulator_kwargs(system: str, sim: dict) -> dict:
+    """A case's plain ``sim`` dict as simulator arguments (reference and sensors as objects)."""
+    sim = dict(sim)
+    if "reference" in sim:
+        sim["reference"] = PseudoRandomSteps(**sim["reference"])
+    chain = sim.pop("sensor_chain", "default")
+    if chain == "thesis":
+        sim["sensor_params"] = THESIS_VCA_SENSORS if system == "vca" else THESIS_EHA_SENSORS
+    elif chain != "default":
+        raise ValueError(f"sensor_chain={chain!r} must be 'thesis' or 'default'")
+    return sim
+
+
 def simulate_case(case: dict):
     """The (cached) simulated recording of a case.
 
@@ -304,15 +367,7 @@ def simulate_case(case: dict):
     ValueError
         For an unknown ``sensor_chain`` in the case's simulator arguments.
     """
-    sim = dict(case["sim"])
-    if "reference" in sim:
-        sim["reference"] = PseudoRandomSteps(**sim["reference"])
-    chain = sim.pop("sensor_chain", "default")
-    if chain == "thesis":
-        sim["sensor_params"] = THESIS_VCA_SENSORS if case["system"] == "vca" \
-            else THESIS_EHA_SENSORS
-    elif chain != "default":
-        raise ValueError(f"sensor_chain={chain!r} must be 'thesis' or 'default'")
+    sim = _simulator_kwargs(case["system"], case["sim"])
     return cached_simulation(case["system"], cache_dir=case.get("cache_dir"), **sim)
 
 
@@ -330,6 +385,10 @@ def _measure(rec, spec, onset, chunk, keep_series=False) -> dict:
     lag = spec.lag_ratio if spec.lag_ratio is not None else spec.lag
     row = measure_row(fs, onset, chunk, spec.method, spec.channels, lag, spec.window,
                       spec.overlap)
+    # disclosed beside the measure (thesis audit 2026-11-28, F1): the undefined windows per
+    # side, and the % change with them counted as 0 (a sensitivity, not the measure)
+    row.update(nan_windows_by_side(fs, onset, chunk))
+    row["pct_change_signed_nan_as_0"] = pct_change_nan_as_zero(fs, onset, chunk)
     if keep_series:
         row["series_time"] = np.asarray(fs.time, dtype=np.float32)
         row["series_values"] = np.asarray(fs.values, dtype=np.float32)

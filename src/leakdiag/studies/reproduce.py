@@ -27,7 +27,7 @@ from leakdiag.studies.thesis import (THESIS_DATA, load_sensitivity, load_tables,
 __all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings", "same_setting",
            "sensitivity_summary", "CONTRACT_COLUMNS", "PREVIOUS_COLUMNS", "per_table_agreement",
            "compare_runs", "read_previous", "setting_differences", "code_fingerprints",
-           "CODE_PARTS"]
+           "CODE_PARTS", "NAN_COLUMNS"]
 
 #: The parts of leakdiag a reproduction's numbers depend on (:func:`code_fingerprints`): the
 #: protocol, measures and comparisons (``studies``), the simulators and what they call (``sim``,
@@ -45,8 +45,18 @@ CONTRACT_COLUMNS = [
     "thesis_mean_rms_before", "thesis_mean_rms_after", "thesis_pct_change",
     "thesis_pct_change_recomputed", "thesis_pct_change_signed", "direction_agrees",
     "trend_ours", "trend_thesis", "trend_agrees", "n_windows", "n_chunks_before",
-    "n_chunks_after", "n_chunks_straddling", "chunk", "note",
+    "n_chunks_after", "n_chunks_straddling", "n_chunks_empty", "n_nan_windows",
+    "n_windows_before", "n_windows_after", "n_nan_windows_before", "n_nan_windows_after",
+    "pct_change_signed_nan_as_0", "chunk", "note",
 ]
+#: The columns of :data:`CONTRACT_COLUMNS` that disclose undefined (NaN, zero-variance) windows
+#: (thesis audit 2026-11-28, F1): the measure's counts (``n_chunks_empty``, ``n_nan_windows``),
+#: the windows in whole chunks and the NaN ones among them per side of the onset
+#: (:func:`leakdiag.studies.nan_windows.nan_windows_by_side`), and the signed % change with the
+#: NaN values counted as 0 (:func:`leakdiag.studies.nan_windows.pct_change_nan_as_zero`; a
+#: sensitivity, not the measure).
+NAN_COLUMNS = ["n_chunks_empty", "n_nan_windows", "n_windows_before", "n_windows_after",
+               "n_nan_windows_before", "n_nan_windows_after", "pct_change_signed_nan_as_0"]
 
 #: Columns of an earlier run's ``tables.csv`` that :func:`compare_runs` reads
 #: (``leakdiag reproduce --previous``).
@@ -128,7 +138,8 @@ def assemble_tables(thesis, rows: list[dict]):
               "window", "overlap_pct"):
         out[c] = t[c]
     for c in ("mean_rms_before", "mean_rms_after", "pct_change", "pct_change_signed",
-              "n_windows", "n_chunks_before", "n_chunks_after", "n_chunks_straddling", "chunk"):
+              "n_windows", "n_chunks_before", "n_chunks_after", "n_chunks_straddling",
+              *NAN_COLUMNS, "chunk"):
         out[c] = ours[c].reindex(t.index)
     out["thesis_mean_rms_before"] = t["mean_rms_before"]
     out["thesis_mean_rms_after"] = t["mean_rms_after"]
@@ -263,7 +274,9 @@ def sensitivity_summary(sens, thesis_ranges=None):
         condition (``load`` and ``duration`` when the rows have them), and
         ``rho_pct_vs_leak_<load>`` the same within one load: pooled over loads it read 0.45 for
         every EHA method, whose runs rise with leak size at 0.96-1.0 within each load, because
-        the loads' levels differ more than the sizes' (an audit, 2026-11-27).
+        the loads' levels differ more than the sizes' (an audit, 2026-11-27). ``thesis_note``:
+        the ``note`` of the thesis's range (empty when none), e.g. where the thesis states the
+        range twice and differently.
     """
     import pandas as pd
 
@@ -298,7 +311,9 @@ def sensitivity_summary(sens, thesis_ranges=None):
                     "share_falling": float((g["pct_change_signed"] < 0).mean()),
                     "thesis_min_pct": np.nan if m is None else float(m.sensitivity_min_pct),
                     "thesis_max_pct": np.nan if m is None else float(m.sensitivity_max_pct),
-                    "thesis_source": "" if m is None else m.source})
+                    "thesis_source": "" if m is None else m.source,
+                    "thesis_note": "" if m is None or "note" not in m or pd.isna(m["note"])
+                    else str(m["note"])})
     return pd.DataFrame(out)
 
 

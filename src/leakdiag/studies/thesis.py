@@ -18,13 +18,19 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["THESIS_DATA", "TREND_FLAT", "SIGNALS", "load_tables", "load_sensitivity",
-           "channels_of", "varied_value", "spearman", "trend_sign", "row_sign"]
+           "channels_of", "varied_value", "spearman", "trend_sign", "row_sign",
+           "PRINTED_MISMATCH_POINTS", "printed_mismatch"]
 
 #: Folder of the shipped thesis tables.
 THESIS_DATA = Path(__file__).with_name("thesis_data")
 
 #: |Spearman rho| below which a trend counts as flat (decision, docs/studies.md).
 TREND_FLAT = 0.2
+
+#: A printed % change further than this (percentage points) from the one recomputed from its
+#: own RMS columns (Eq. 5-3) is inconsistent: the ``consistent`` column of ``tables.csv``
+#: (tests/detect/test_measure.py checks the flags against this rule).
+PRINTED_MISMATCH_POINTS = 0.5
 
 #: Thesis signal names -> channels (P1 -> p1, ...); "P1,P2" = cross-correlation(y=p1, x=p2).
 SIGNALS = {"P1": "p1", "P2": "p2", "U": "u", "X": "x"}
@@ -77,7 +83,7 @@ def load_sensitivity(path: str | Path | None = None):
     Examples
     --------
     >>> load_sensitivity().shape
-    (8, 7)
+    (8, 8)
     """
     import pandas as pd
 
@@ -225,3 +231,28 @@ def row_sign(pct_change_signed) -> np.ndarray:
     """
     v = np.asarray(pct_change_signed, dtype=float)
     return np.where(np.isfinite(v), np.sign(v), 0).astype(int)
+
+
+def printed_mismatch(printed, recomputed) -> np.ndarray:
+    """Which thesis rows print a % change that disagrees with their own RMS columns.
+
+    Parameters
+    ----------
+    printed : array_like
+        The thesis's printed |% change| (``pct_change_reported``).
+    recomputed : array_like
+        |% change| recomputed from the same row's mean RMS before and after (Eq. 5-3).
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        ``|printed - recomputed| > PRINTED_MISMATCH_POINTS``.
+
+    Examples
+    --------
+    >>> printed_mismatch([43.59, 42.52], [83.23, 42.52]).tolist()  # Table 5-1, lags 4 and 1
+    [True, False]
+    """
+    p = np.asarray(printed, dtype=float)
+    r = np.asarray(recomputed, dtype=float)
+    return np.abs(p - r) > PRINTED_MISMATCH_POINTS
