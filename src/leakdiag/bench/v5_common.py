@@ -184,6 +184,53 @@ def run_row(case, method: str, rec, v, cpu_s: float, sim_cpu_s: float) -> dict:
             "threshold": v.threshold, "cpu_s": cpu_s, "sim_cpu_s": sim_cpu_s}
 
 
+def deadline_alarms(det, rec, case, deadlines: Sequence[float] | None = None) -> dict:
+    """Whether a whole-recording detector has a LEAK by each deadline after the onset, from the
+    recording cut there: what the user would know at that moment.
+
+    A whole-recording detector (the flow balance) fits the recording's own nuisance on all of
+    it and refuses alarms from data after them, so its alarm time on the whole recording is not
+    what it would say at the deadline (benchmark audit 2026-11-28, finding 6: 3 of 64 runs
+    "detected within 10 s" got no verdict when cut at onset + 10 s). For a leaking run each
+    deadline ``d`` judges ``rec.slice_time(None, onset + d)``; a LEAK whose alarm is at or
+    after the onset is a detection by ``d`` (a refusal or an earlier alarm is not). Other
+    detectors and runs give an empty dict (their alarm time is causal: the window scores).
+
+    Parameters
+    ----------
+    det : Detector
+        The fitted detector.
+    rec : Recording
+        The whole run.
+    case : BenchCase
+        The run's case (role, onset).
+    deadlines : sequence of float, optional
+        Seconds after the onset (default :data:`~leakdiag.bench.v5_suite.DEADLINES_S`).
+
+    Returns
+    -------
+    dict
+        ``alarm_by_<d>s`` -> bool for each deadline within the run.
+    """
+    from leakdiag.bench.v5_suite import DEADLINES_S
+    from leakdiag.io.errors import RecordingError
+    from leakdiag.stream.segments import judges_whole
+
+    if case.role != "test_leak" or case.onset_s is None or not judges_whole(det):
+        return {}
+    out = {}
+    end = rec.start_time + rec.duration
+    for d in DEADLINES_S if deadlines is None else deadlines:
+        t1 = float(case.onset_s) + float(d)
+        try:
+            v = det.predict(rec if t1 >= end else rec.slice_time(None, t1))
+        except (RecordingError, ValueError, ArithmeticError):
+            out[f"alarm_by_{d:g}s"] = False
+            continue
+        out[f"alarm_by_{d:g}s"] = bool(v.leak) and v.alarm_time_s >= float(case.onset_s)
+    return out
+
+
 def write_shard(rows: list, path) -> int:
     """Write one result shard atomically (Parquet).
 

@@ -31,7 +31,7 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
                      cache_dir: str | None = None, work_dir: str | None = None,
                      progress: bool = True, command: str = "leakdiag benchmark --suite v5",
                      unit_fit: int = 0, full_budget: bool = False,
-                     confidence: float | None = None):
+                     confidence: float | None = None, first_index: int | None = None):
     """Run benchmark v5 and write its report.
 
     Parameters
@@ -64,6 +64,9 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     confidence : float, optional
         Calibration-conditional thresholds: every fitted level holds the target with this
         probability over its healthy data (``Alarm.confidence``). None: the marginal rank.
+    first_index : int, optional
+        First held-out index of each role and size (``V5Suite.first_test_index``): a fresh
+        block of seeds.
 
     Returns
     -------
@@ -113,7 +116,7 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
                 raise ValueError(f"unknown excitation {bad[0]!r}; known: {list(EXCITATIONS)}")
             v = replace(v, excitations=tuple(excitations))
         for name, val in (("n_cal", n_cal), ("n_test_healthy", n_test_healthy),
-                          ("n_test_leak", n_test_leak)):
+                          ("n_test_leak", n_test_leak), ("first_test_index", first_index)):
             if val is not None:
                 v = replace(v, **{name: int(val)})
         suites[s] = v

@@ -36,6 +36,7 @@ from leakdiag.bench.v5_common import (
     _fingerprint,
     _key,
     _simulate,
+    deadline_alarms,
     error_row,
     run_row,
     shard_rows,
@@ -284,7 +285,7 @@ def score_chunk(config: ChunkConfig) -> dict:
             dets.append((method, det, caps))
     rows = []
     for c in config.cases:
-        idx = c.nuisance["index"]
+        idx = c.nuisance.get("position", c.nuisance["index"])  # budget caps
         todo = [(m, d) for m, d, caps in dets
                 if caps is None or idx < (caps[0] if c.role == "test_healthy" else caps[1])]
         if not todo:
@@ -299,7 +300,8 @@ def score_chunk(config: ChunkConfig) -> dict:
             except (ValueError, ArithmeticError) as exc:  # recorded, never dropped
                 rows.append(error_row(c, m, exc))
                 continue
-            rows.append(run_row(c, m, rec, v, time.process_time() - cpu0, sim_cpu))
+            rows.append({**run_row(c, m, rec, v, time.process_time() - cpu0, sim_cpu),
+                         **deadline_alarms(det, rec, c)})
     return {"rows": write_shard(rows, path), "reused": False}
 
 

@@ -66,6 +66,11 @@ class V5Suite:
         ``noise_range_pa``).
     chunk : int
         Test runs per scoring task (one Parquet shard each).
+    first_test_index : int, default 0
+        Index of the first held-out run of each role and size (``--first-index``): a fresh
+        block of seeds for a final measurement. Indexes 0-999 healthy and 0-49 leaking are
+        the full suite's, which the project's development has seen (benchmark audit
+        2026-11-28, findings 3-4); the run counts ``n_test_*`` follow from it.
     """
 
     system: str
@@ -81,6 +86,7 @@ class V5Suite:
     base_seed: int
     nuisance: Nuisance = field(default_factory=Nuisance)
     chunk: int = 25
+    first_test_index: int = 0
 
 
 #: The full v5 suite (60-s runs: onset U[20, 28] s leaves >= 32 s for the 30-s deadline and
@@ -113,7 +119,8 @@ def build_v5_suite(suites: dict[str, V5Suite]) -> list[BenchCase]:
     -------
     list of BenchCase
         ``noise_level`` is ``"unit"`` (drawn per run); ``nuisance`` holds the drawn conditions
-        plus ``machine`` (unit id) and ``index`` (run number within its role and size).
+        plus ``machine`` (unit id), ``index`` (run number within its role and size, from
+        ``first_test_index`` for held-out runs) and ``position`` (``index`` minus that first).
 
     Raises
     ------
@@ -150,7 +157,11 @@ def build_v5_suite(suites: dict[str, V5Suite]) -> list[BenchCase]:
                 plan = [("cal", 0, 0.0, s.n_cal), ("test_healthy", 0, 0.0, s.n_test_healthy)]
                 plan += [("test_leak", j, q, s.n_test_leak) for j, q in enumerate(s.leak_lpm)]
                 for role, j, q, n in plan:
-                    for i in range(n):
+                    first = 0 if role == "cal" else s.first_test_index
+                    if first + n > 10_000:  # the next size's (or load's) seeds
+                        raise ValueError(f"{name}: held-out indexes up to {first + n - 1} "
+                                         "overlap the seeds of the next size (at most 9999)")
+                    for i in range(first, first + n):
                         seed = (s.base_seed + _ROLE_OFFSET[role] + 500_000 * li + 100_000 * e
                                 + 10_000 * j + i)
                         rng = np.random.default_rng(seed)
@@ -159,7 +170,7 @@ def build_v5_suite(suites: dict[str, V5Suite]) -> list[BenchCase]:
                         noise = float(rng.uniform(*s.noise_range_pa))
                         machine = (1 + i + 10_000 * (2 * li + e) if role == "cal"
                                    else TEST_MACHINE_BASE + seed)
-                        nz.update(machine=int(machine), index=i)
+                        nz.update(machine=int(machine), index=i, position=i - first)
                         out.append(BenchCase(name, role, load, "unit", exc, float(q), onset,
                                              seed, s.duration_s, noise, nz))
     return out

@@ -32,6 +32,7 @@ from leakdiag.bench.v5_common import (
     Plan,
     _key,
     _simulate,
+    deadline_alarms,
     error_row,
     run_row,
     shard_rows,
@@ -227,7 +228,7 @@ def score_chunk_unit(config: UnitChunkConfig) -> dict:
     refs = _load_refs(config.ref_path)["refs"]
     rows = []
     for c in config.cases:
-        idx = c.nuisance["index"]
+        idx = c.nuisance.get("position", c.nuisance["index"])  # budget caps
         todo = [m for m, caps in zip(config.methods, config.caps)
                 if caps is None or idx < (caps[0] if c.role == "test_healthy" else caps[1])]
         if not todo:
@@ -252,6 +253,7 @@ def score_chunk_unit(config: UnitChunkConfig) -> dict:
                 continue
             basis = getattr(det, "threshold_basis_", None)
             rows.append({**run_row(c, m, rec, v, time.process_time() - t0, sim_cpu),
+                         **deadline_alarms(det, rec, c),
                          "threshold_method": getattr(basis, "method", None),
                          "threshold_k": getattr(basis, "k", np.nan),
                          "threshold_n": getattr(basis, "n", np.nan)})

@@ -50,6 +50,10 @@ def _command_line() -> str:
               help="v5: held-out healthy runs per group.")
 @click.option("--n-leak", "n_test_leak", default=None, type=click.IntRange(min=1),
               help="v5: leaking runs per size and group.")
+@click.option("--first-index", default=None, type=click.IntRange(min=0),
+              help="v5: first index of the held-out runs of each role and size (a fresh block "
+                   "of seeds for a final measurement: indexes 0-999 healthy and 0-49 leaking "
+                   "are the suite's, which development has seen).")
 @click.option("--unit-fit", default=0, show_default=True, type=click.IntRange(min=0),
               help="v5: fit every unit on N of its own healthy runs, threshold from the training "
                    "units' reference maxima (0: one fit on the training units for all).")
@@ -83,8 +87,9 @@ def _command_line() -> str:
 @click.option("--list-methods", is_flag=True, help="Print the registered methods and exit.")
 @click.option("--no-progress", is_flag=True, help="No progress bars.")
 def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal, n_test_healthy,
-              n_test_leak, unit_fit, full_budget, max_test_runs, n_fit, far, confidence,
-              onset_method, scheduler, workers, cache_dir, work_dir, list_methods, no_progress):
+              n_test_leak, first_index, unit_fit, full_budget, max_test_runs, n_fit, far,
+              confidence, onset_method, scheduler, workers, cache_dir, work_dir, list_methods,
+              no_progress):
     """Run the detection benchmark and write its report to --out (--suite comparison: the
     literature comparison's tables)."""
     from leakdiag.bench.registry import METHODS
@@ -128,7 +133,7 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
                                    n_workers=workers, cache_dir=cache_dir, work_dir=work_dir,
                                    progress=not no_progress, command=command,
                                    unit_fit=unit_fit, full_budget=full_budget,
-                                   confidence=confidence)
+                                   confidence=confidence, first_index=first_index)
         except ValueError as exc:
             raise click.UsageError(str(exc)) from None
         _echo_removed(res["removed"], out_dir)
@@ -156,17 +161,17 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
 
 #: Options of suite v5 only (parameter name, flag): refused with --suite v4.
 _V5_ONLY = (("loads", "--loads"), ("n_cal", "--n-cal"), ("n_test_healthy", "--n-healthy"),
-            ("n_test_leak", "--n-leak"), ("unit_fit", "--unit-fit"),
-            ("full_budget", "--full-budget"), ("confidence", "--confidence"),
-            ("work_dir", "--work-dir"))
+            ("n_test_leak", "--n-leak"), ("first_index", "--first-index"),
+            ("unit_fit", "--unit-fit"), ("full_budget", "--full-budget"),
+            ("confidence", "--confidence"), ("work_dir", "--work-dir"))
 
 
 #: Options that do not apply to --suite comparison (parameter name, flag): refused with it.
 _NOT_COMPARISON = (("quick", "--quick"), ("methods", "--methods"), ("systems", "--systems"),
                    ("loads", "--loads"), ("excitations", "--excitations"), ("n_cal", "--n-cal"),
                    ("n_test_healthy", "--n-healthy"), ("n_test_leak", "--n-leak"),
-                   ("unit_fit", "--unit-fit"), ("full_budget", "--full-budget"),
-                   ("max_test_runs", "--max-test-runs"), ("confidence", "--confidence"),
+                   ("first_index", "--first-index"), ("unit_fit", "--unit-fit"),
+                   ("full_budget", "--full-budget"), ("max_test_runs", "--max-test-runs"), ("confidence", "--confidence"),
                    ("onset_method", "--onset-method"), ("work_dir", "--work-dir"))
 
 
