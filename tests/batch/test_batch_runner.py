@@ -503,6 +503,14 @@ def test_a_leakdiag_detector_row_is_its_verdict(tmp_path):
     assert (row["leak_lpm"], row["leak_lpm_low"], row["leak_lpm_high"]) == pytest.approx(
         (v.leak_lpm, *v.leak_lpm_interval), rel=1e-12)
     assert row["leak_lpm_in_range"] == v.leak_lpm_in_range
+    # the decision leakdiag detect makes with this detector alone (expected false alarms in
+    # this 30-s run at its rate, 2-s burn-in; an alarm expected by chance is inconclusive)
+    from leakdiag.detect.decision import detector_rate, expected_false_alarms
+
+    per_hour, burn = detector_rate(det)
+    exp = expected_false_alarms(det.threshold_basis_, per_hour, 30.0 - burn, v.n_segments)
+    assert row["false_alarms_expected"] == pytest.approx(exp)
+    assert row["decision"] == ("leak" if exp < 1.0 else "inconclusive")
     (row,) = run_case(ok, cfg)
     v = det.predict(read_recording(ok))
     assert row["alarm"] is v.leak and row["score_max"] == pytest.approx(v.score_max, rel=1e-12)
