@@ -83,3 +83,46 @@ def test_committed_report_ran_the_thesis_protocol():
     m = re.search(r"\(protocol '(\w+)', (\d+) simulated experiments", report)
     assert m is not None
     assert m.group(1) == "thesis" and int(m.group(2)) == len(build_cases(THESIS))
+
+
+def _share(row, side):
+    return 100 * row[f"n_nan_windows_{side}"] / row[f"n_windows_{side}"]
+
+
+def test_undefined_window_numbers_in_the_docs_are_the_committed_tables(committed):
+    """docs/reproduction/README.md and README.md quote the U-X rows' NaN shares and the
+    NaN-as-0 sensitivity (thesis audit 2026-11-28, F1): they must be the committed file's."""
+    tables, readme = committed
+    text = " ".join(readme.split())
+    ux = tables[(tables.system == "VCA") & (tables.signals == "U,X")]
+    w100 = ux[(ux.table == "5-10") & (ux.window == 100)].iloc[0]
+    w200 = ux[(ux.table == "5-9") & (ux.lag == "1")].iloc[0]
+    cs2 = ux[ux.table == "5-12"].iloc[0]
+    assert (f"{_share(w200, 'before'):.1f} % before the onset against "
+            f"{_share(w200, 'after'):.1f} % after it at window 200 (Table 5-9), "
+            f"{_share(w100, 'before'):.1f} % against {_share(w100, 'after'):.1f} % at window "
+            f"100 (5-10, 5-11), {_share(cs2, 'before'):.1f} % against "
+            f"{_share(cs2, 'after'):.1f} % in case study 2 (5-12)") in text
+    ov75 = ux[(ux.table == "5-11") & (ux.overlap_pct == 75)].iloc[0]
+    assert (f"uses {int(ov75.n_chunks_before)} chunks before and {int(ov75.n_chunks_after)} "
+            f"after ({int(ov75.n_chunks_empty)} of NaN values only)") in text
+    t510 = ux[ux.table == "5-10"]
+    assert ("5-10's rows read " + ", ".join(f"{v:.1f}" for v in
+                                            t510.pct_change_signed_nan_as_0.iloc[:2])
+            + f" and {t510.pct_change_signed_nan_as_0.iloc[2]:.1f} % instead of "
+            + ", ".join(f"{v:.1f}" for v in t510.pct_change_signed.iloc[:2])
+            + f" and {t510.pct_change_signed.iloc[2]:.1f} %") in text
+    assert f"5-12 {cs2.pct_change_signed_nan_as_0:.1f} % instead of {cs2.pct_change_signed:.1f} %" \
+        in text
+    # README.md: the lag-1 U-X rows, skipped and as 0
+    lag1 = ux[ux.lag == "1"]
+    top = " ".join((DOCS.parents[1] / "README.md").read_text(encoding="utf-8").split())
+    lo0, hi0 = lag1.pct_change_signed_nan_as_0.max(), lag1.pct_change_signed_nan_as_0.min()
+    lo, hi = lag1.pct_change_signed.max(), lag1.pct_change_signed.min()
+    assert (f"read {lo0:.0f} to {hi0:.0f} % instead of {lo:.1f} to {hi:.1f} %") in top
+    assert (f"({_share(w100, 'before'):.1f} % before the onset, {_share(w100, 'after'):.0f} % "
+            "after at window 100)") in top
+    vca = tables[tables.system == "VCA"]
+    assert (f"the median |% change| is {vca['pct_change'].abs().median():.3g} % against the "
+            f"thesis's {vca['thesis_pct_change'].median():.3g} % on the VCA") in top
+    assert f"{int(vca.direction_agrees.sum())} of {len(vca)} VCA rows" in top
