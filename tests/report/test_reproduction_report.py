@@ -70,3 +70,19 @@ def test_share(k, n, want):
     from leakdiag.report.reproduction import _share
 
     assert _share(k, n) == want
+
+
+def test_case_study_3_undefined_windows_per_load():
+    from leakdiag.report.reproduction import _sensitivity_nan_lines
+
+    s = pd.DataFrame({"system": "vca", "method": "cross-correlation", "channels": "u,x",
+                      "load": ["none", "none", "spring"], "pct_change": [2.0, 5.0, 1.0],
+                      "pct_change_signed_nan_as_0": [-20.0, -30.0, -1.5],
+                      "n_nan_windows": [30, 50, 0], "n_windows_before": [100, 100, 100],
+                      "n_windows_after": [100, 100, 100], "n_nan_windows_before": [10, 10, 0],
+                      "n_nan_windows_after": [20, 40, 0]})
+    (line,) = _sensitivity_nan_lines(s)  # the spring run has none: no line for it
+    assert line.startswith("Undefined windows, VCA cross-correlation u,x, load 'none' (2 runs): "
+                           "10.0 % of the windows before the onset and 30.0 % after it are NaN")
+    assert "|% change| 2-5 % as measured, 20-30 % with them counted as 0" in line
+    assert _sensitivity_nan_lines(s.drop(columns=["n_nan_windows_after"])) == []

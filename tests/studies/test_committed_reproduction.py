@@ -126,3 +126,20 @@ def test_undefined_window_numbers_in_the_docs_are_the_committed_tables(committed
     assert (f"the median |% change| is {vca['pct_change'].abs().median():.3g} % against the "
             f"thesis's {vca['thesis_pct_change'].median():.3g} % on the VCA") in top
     assert f"{int(vca.direction_agrees.sum())} of {len(vca)} VCA rows" in top
+
+
+def test_case_study_3_undefined_window_numbers_are_the_committed_files(committed):
+    _, readme = committed
+    text = " ".join(readme.split())
+    s = pd.read_csv(DOCS / "sensitivity.csv")
+    ux = s[(s.system == "vca") & (s.channels == "u,x")]
+    share = {ld: (100 * g.n_nan_windows_before.sum() / g.n_windows_before.sum(),
+                  100 * g.n_nan_windows_after.sum() / g.n_windows_after.sum(), len(g))
+             for ld, g in ux.groupby("load")}
+    none = ux[ux.load == "none"]
+    assert (f"without load {share['none'][0]:.1f} % before and {share['none'][1]:.1f} % after "
+            f"(pooled over {share['none'][2]} runs), under the spring {share['spring'][0]:.1f} % "
+            f"and {share['spring'][1]:.1f} %") in text
+    zero = none.pct_change_signed_nan_as_0.abs()
+    assert (f"range is {none['pct_change'].min():.2f}-{none['pct_change'].max():.1f} % as measured and "
+            f"{zero.min():.1f}-{zero.max():.1f} % with them counted as 0") in text

@@ -436,6 +436,8 @@ def _sensitivity_section(rep, r: Report, figures: bool) -> None:
         for row in summ[summ["thesis_note"].astype(str).str.len() > 0].itertuples():
             r.paragraph(f"Note on the thesis's range for {row.system.upper()} {row.method} "
                         f"{row.channels}: {row.thesis_note}.")
+    for line in _sensitivity_nan_lines(s):
+        r.paragraph(line)
     if figures:
         for system, g in s.groupby("system", sort=False):
             # Table 5-17 is the VCA's summary; the EHA's results are Secs. 6.1.5-6.4.5 (no table)
@@ -445,6 +447,33 @@ def _sensitivity_section(rep, r: Report, figures: bool) -> None:
                      f"{'Table 5-17' if vca else 'Secs. 6.1.5-6.4.5'}).",
                      name="table-5-17-sensitivity-vca" if vca else
                      f"sec-6-x-5-sensitivity-{system.lower()}")
+
+
+def _sensitivity_nan_lines(s) -> list[str]:
+    """Per method and load of case study 3 with undefined windows: their share per side and
+    the |% change| range skipped (the measure) and counted as 0 (a sensitivity)."""
+    cols = ("n_nan_windows", "n_windows_before", "n_windows_after", "n_nan_windows_before",
+            "n_nan_windows_after", "pct_change_signed_nan_as_0")
+    if not all(c in s for c in cols):
+        return []
+    out = []
+    keys = ["system", "method", "channels"] + (["load"] if "load" in s else [])
+    for key, g in s.groupby(keys, sort=False):
+        if not (g["n_nan_windows"].fillna(0) > 0).any():
+            continue
+        nb = 100 * g["n_nan_windows_before"].sum() / g["n_windows_before"].sum()
+        na = 100 * g["n_nan_windows_after"].sum() / g["n_windows_after"].sum()
+        skipped = g["pct_change"].astype(float)
+        zero = g["pct_change_signed_nan_as_0"].astype(float).abs()
+        load = f", load '{key[3]}'" if len(key) > 3 else ""
+        out.append(f"Undefined windows, {key[0].upper()} {key[1]} {key[2]}{load} ({len(g)} runs): "
+                   f"{nb:.1f} % of the windows before the onset and {na:.1f} % after it are "
+                   f"NaN (pooled) and skipped by the measure; |% change| "
+                   f"{np.nanmin(skipped):.3g}-{np.nanmax(skipped):.3g} % as measured, "
+                   f"{np.nanmin(zero):.3g}-{np.nanmax(zero):.3g} % with them counted as 0 (a "
+                   "sensitivity, not the measure; column pct_change_signed_nan_as_0 of "
+                   "sensitivity.csv).")
+    return out
 
 
 def _stationarity_section(rep, r: Report, figures: bool) -> None:
