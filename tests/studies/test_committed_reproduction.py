@@ -143,3 +143,13 @@ def test_case_study_3_undefined_window_numbers_are_the_committed_files(committed
     zero = none.pct_change_signed_nan_as_0.abs()
     assert (f"range is {none['pct_change'].min():.2f}-{none['pct_change'].max():.1f} % as measured and "
             f"{zero.min():.1f}-{zero.max():.1f} % with them counted as 0") in text
+
+
+def test_nan_as_0_size_relative_to_the_thesis_is_the_committed_files(committed):
+    tables, readme = committed
+    u = tables[(tables.system == "VCA") & (tables.signals == "U,X") & (tables.lag == "1")]
+    r = u.pct_change_signed_nan_as_0.abs() / u.thesis_pct_change
+    assert (u.pct_change_signed_nan_as_0 < 0).all()  # the thesis's sign
+    words = f"the thesis's sign and {r.min():.2f}-{r.max():.2f} of its size"
+    models = " ".join((DOCS.parents[0] / "models.md").read_text(encoding="utf-8").split())
+    assert words in " ".join(readme.split()) and words in models
