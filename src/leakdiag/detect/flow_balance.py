@@ -1711,8 +1711,8 @@ class FlowBalanceDetector(Detector):
         return lpm, start, (
             f"a step leak of {lpm:.3g} L/min or more from {start:.4g} s (the last {span:.3g} s "
             f"judged) would have alarmed with probability about {DETECTABLE_POWER:g}: "
-            f"{basis}; on 8 virtual machines {hit} of {runs} such leaks alarmed "
-            "(docs/detect.md 8.5). The test looks at spans of up to "
+            f"{basis}; on 8 virtual machines {hit} of {runs} such leaks alarmed (5 runs "
+            "each, so nearer 8 independent trials; docs/detect.md 8.5). The test looks at spans of up to "
             f"{self.max_span_s:g} s anywhere in the run, so a leak that began earlier needs "
             "about the same size; a leak present from the start is not covered by this figure")
 
