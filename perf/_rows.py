@@ -28,7 +28,7 @@ def resume(out, key: str, columns: list[str], what: str,
     columns : list of str
         The columns a row file must have (exactly, in order).
     what : str
-        What the rows are, for the messages.
+        What the rows are, for the message of a discarded file.
     filled : tuple of str, default ()
         Columns no row may leave empty (a file with one is discarded).
 
@@ -53,8 +53,8 @@ def resume(out, key: str, columns: list[str], what: str,
     state = out / f"rows-{key}.csv"
     done = read_or_discard(state, read, what)
     rows = [] if done is None else done.to_dict("records")
-    print(f"reused {len(rows)} {what} from {state}" if rows else
-          f"no {what} to reuse in {state}", flush=True)
+    print(f"reused {len(rows)} rows from {state}" if rows else f"no rows to reuse in {state}",
+          flush=True)
     others = sorted(p.name for p in out.glob("rows-*.csv") if p != state)
     if others:
         print(f"not reused (other settings or code): {', '.join(others)}", flush=True)
