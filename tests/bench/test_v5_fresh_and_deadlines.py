@@ -77,3 +77,19 @@ def test_deadline_alarms_judge_the_cut_recording(fitted):
     window = SimpleNamespace(spec=lambda: None, predict=det.predict, threshold_=1.0)
     assert deadline_alarms(window, rec, case) == {}
     assert np.isfinite(det.threshold_)
+
+
+def test_refused_healthy_runs_are_counted_among_those_without_a_no_leak():
+    """Finding 5: a refused healthy run is neither a false alarm nor a NO LEAK; the table now
+    also gives the runs without a NO LEAK over all healthy runs (1 alarm + 1 refused of 5)."""
+    from leakdiag.bench.v5_scoring import false_alarm_table
+    from leakdiag.detect.rates import clopper_pearson
+
+    g = {"method": "m", "system": "vca", "load": "none", "excitation": "operating"}
+    runs = pd.DataFrame([{**g, "role": "test_healthy", "alarm": a}
+                         for a in (True, False, False, False)] +
+                        [{**g, "role": "error", "refused_role": "test_healthy", "alarm": None}])
+    r = false_alarm_table(runs).iloc[0]
+    assert (r.n_healthy, r.false_alarms, r.n_refused, r.not_clear) == (4, 1, 1, 2)
+    assert r.not_clear_rate == 0.4
+    assert (r.nc_low, r.nc_high) == pytest.approx(clopper_pearson(2, 5))

@@ -71,7 +71,11 @@ def false_alarm_table(runs):
     pandas.DataFrame
         ``n_healthy, false_alarms, false_alarm_rate, far_low, far_high``, ``n_refused``
         (held-out healthy runs the method refused to judge: not in ``n_healthy``, neither a
-        false alarm nor a NO LEAK).
+        false alarm nor a NO LEAK), and ``not_clear``, ``not_clear_rate``, ``nc_low``,
+        ``nc_high``: the healthy runs without a NO LEAK (false alarms plus refusals, over all
+        held-out healthy runs; what ``detect`` shows as LEAK or INCONCLUSIVE: a benchmark
+        audit, 2026-11-28, found each new refusal rule had taken one of the few false alarms
+        out of the rate).
 
     Examples
     --------
@@ -81,6 +85,8 @@ def false_alarm_table(runs):
     >>> r = false_alarm_table(runs).iloc[0]
     >>> int(r.false_alarms), float(r.false_alarm_rate), round(float(r.far_high), 4)
     (1, 0.1, 0.445)
+    >>> int(r.not_clear), float(r.not_clear_rate)  # no refusal here: the same
+    (1, 0.1)
     """
     import pandas as pd
 
@@ -90,11 +96,15 @@ def false_alarm_table(runs):
     for key, g in h.groupby(_GROUP, sort=False):
         k, n = int(g.alarm.astype(bool).sum()), len(g)
         r = _rate(k, n)
+        nr = int(refused.get(key, 0))
+        c = _rate(k + nr, n + nr)
         rows.append({**dict(zip(_GROUP, key)), "n_healthy": n, "false_alarms": k,
                      "false_alarm_rate": r["rate"], "far_low": r["low"], "far_high": r["high"],
-                     "n_refused": int(refused.get(key, 0))})
+                     "n_refused": nr, "not_clear": k + nr, "not_clear_rate": c["rate"],
+                     "nc_low": c["low"], "nc_high": c["high"]})
     return pd.DataFrame(rows, columns=_GROUP + ["n_healthy", "false_alarms", "false_alarm_rate",
-                                                "far_low", "far_high", "n_refused"])
+                                                "far_low", "far_high", "n_refused", "not_clear",
+                                                "not_clear_rate", "nc_low", "nc_high"])
 
 
 def _refused(runs, role: str, extra=()) -> dict:
