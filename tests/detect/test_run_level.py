@@ -145,3 +145,20 @@ def test_detect_judges_a_long_file_at_its_run_level(healthy, seg, tmp_path, run_
     assert "requested of one healthy segment" in out
     # before: "about 2.4 false alarms are expected by chance ... no evidence of a leak"
     assert "no evidence" not in out
+
+
+def test_judge_run_keeps_a_verdict_without_an_answer_inconclusive(healthy):
+    # judge_run must not turn "could not judge" (leak None) into NO LEAK (audit 17c, finding 2)
+    import dataclasses
+
+    det = FlowBalanceDetector(system="vca").fit(healthy)
+
+    class NoAnswer:
+        def __getattr__(self, name):
+            return getattr(det, name)
+
+        def predict(self, rec, level=None):
+            return dataclasses.replace(det.predict(rec), leak=None)
+
+    assert judge_run(NoAnswer(), healthy[0]).decision == "inconclusive"
+    assert judge_run(det, healthy[0]).decision == "no-leak"
