@@ -177,3 +177,36 @@ def test_a_stream_of_another_machine_is_refused_per_segment(setup, run_cli, tmp_
                               "--segment", "30"])
     assert code == 2 and "no segment could be judged" in err
     assert "NOT JUDGED 0-30 s: predict: " in out + err and "machine unit 5" in out + err
+
+
+def test_an_alarm_the_segment_length_makes_no_evidence_is_not_a_leak(setup, tmp_path):
+    # SegmentJudge (Python API, without monitor's up-front check) keeps judge_run's decision:
+    # an alarm where one false alarm or more is expected and no run level resolves it is not
+    # judged, not LEAK
+    from leakdiag.cli.main import main
+
+    d, det_path, path, rec = setup
+    loose = tmp_path / "fb100.joblib"
+    hfiles = [str(d / f"h{s}.parquet") for s in range(3)]
+    assert main(["fit", *[a for h in hfiles for a in ("--healthy", h)], "-m", "flow-balance",
+                 "--false-alarm-rate", "100", "--no-progress", "-o", str(loose)]) == 0
+    det, _ = load_detector_file(loose)
+
+    class NoRunLevel:  # the detector as it is, but its null cannot resolve a run level
+        def __getattr__(self, name):
+            return getattr(det, name)
+
+        def run_level(self, span_s, n_segments=None):
+            return None
+
+    chans = {c: rec[c] for c in ("p1", "p2", "x", "u")}
+    out = {}
+    for name, d_ in (("as fitted", det), ("no run level", NoRunLevel())):
+        judge = SegmentJudge(d_, list(chans), rec.sample_rate, segment_s=100.0,
+                             units=dict(rec.units), meta={"system": "vca", "load": "spring"})
+        out[name] = judge.push(chans)
+    (leak_as_fitted,), (leak_without,) = out["as fitted"], out["no run level"]
+    assert leak_as_fitted.decision == "LEAK" and leak_as_fitted.verdict.threshold > det.threshold_
+    assert leak_without.decision == "NOT JUDGED" and leak_without.verdict is None
+    assert "false alarms are expected by chance" in leak_without.reason
+    assert "[0-100 s]" in leak_without.reason

@@ -618,8 +618,8 @@ def _verdict_columns(det, parts: list[FeatureSeries], t: np.ndarray, v: np.ndarr
     per_hour, burn_in = detector_rate(det)
     expected = expected_false_alarms(getattr(det, "threshold_basis_", None), per_hour,
                                      max(duration_s - burn_in, 0.0), verdict.n_segments)
-    return {**cols, "alarm": bool(verdict.leak),
-            "decision": run_decision(bool(verdict.leak), expected),
+    leak = None if verdict.leak is None else bool(verdict.leak)
+    return {**cols, "alarm": leak, "decision": run_decision(leak, expected),
             "false_alarms_expected": expected, "alarm_time_s": d["alarm_time_s"],
             "score_max": d["score_max"], "p_value": d["confidence"],
             "alarm_onset_s": d["onset_s"], "onset_method": d["onset_method"] if verdict.leak

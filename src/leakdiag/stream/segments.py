@@ -67,7 +67,9 @@ class SegmentVerdict:
     verdict : Verdict or None
         The detector's verdict; None when it could not judge the segment.
     reason : str or None
-        Why not (the detector's ``RecordingError``).
+        Why not (the detector's ``RecordingError``, or an alarm that the segment's length makes
+        no evidence: one false alarm or more expected by chance and no run level,
+        :func:`leakdiag.detect.decision.judge_run`).
     continues_from_onset_s : float or None
         For a LEAK segment right after a LEAK segment: the onset found when the leak was first
         found. The leak was then present when this segment began, so this segment's own onset
@@ -240,9 +242,17 @@ class SegmentJudge:
                             meta={**self.meta, "source": name})
             # a segment longer than the detector's healthy one: judged at its run level, as
             # leakdiag detect judges a file (leakdiag.detect.decision.judge_run)
-            v = judge_run(self.detector, rec).verdict
+            j = judge_run(self.detector, rec)
         except RecordingError as exc:  # too short, a stuck channel, the model does not fit
             return SegmentVerdict(start, end, reason=str(exc))
+        v = j.verdict
+        if j.decision == "inconclusive":  # an alarm the segment's length makes no evidence
+            return SegmentVerdict(start, end, reason=(
+                f"{name}: the detector alarmed (score {v.score_max:.3g} against "
+                f"{v.threshold:.3g}), but about {j.expected:.3g} false alarms are expected by "
+                "chance in a segment this long at that level and no run level resolves it, so "
+                "the alarm is no evidence of a leak; use a shorter segment or a detector fitted "
+                "for fewer false alarms per hour"))
         if not v.leak:
             self._leak_onset = None
             return SegmentVerdict(start, end, verdict=v)
