@@ -126,25 +126,66 @@ def test_tail_rate_interpolates_the_null_then_falls_with_its_fitted_slope():
     assert flat.tail_rate(5.0) == np.inf
 
 
-def test_detect_judges_a_long_file_at_its_run_level(healthy, seg, tmp_path, run_cli):
+@pytest.fixture(scope="module")
+def long_files(healthy, seg, tmp_path_factory):
+    """A detector fitted through the command for 0.3 false alarms per segment, and 150-s files
+    (8 segments: 2.4 expected at the fitted level) of a healthy run and a leaking one."""
+    from leakdiag.cli.main import main
     from leakdiag.io import write_recording
 
-    files = [str(write_recording(r, tmp_path / f"h{i}.parquet")) for i, r in enumerate(healthy)]
-    det_path = tmp_path / "fb.joblib"
-    code, _, err = run_cli(["fit", *[a for f in files for a in ("--healthy", f)], "-m",
-                            "flow-balance", "--false-alarm-rate", f"{0.3 * 3600.0 / seg:.6g}",
-                            "--no-progress", "-o", str(det_path)])
-    assert code == 0, err
-    leak = write_recording(ld.sim.simulate_vca(duration=150.0, leak_lpm=0.05, onset=100.0,
-                                               load="spring", machine=31, seed=61),
-                           tmp_path / "leak.parquet")
-    code, out, err = run_cli(["detect", str(leak), "--detector", str(det_path)])
+    d = tmp_path_factory.mktemp("long")
+    files = [str(write_recording(r, d / f"h{i}.parquet")) for i, r in enumerate(healthy)]
+    det_path = d / "fb.joblib"
+    assert main(["fit", *[a for f in files for a in ("--healthy", f)], "-m", "flow-balance",
+                 "--false-alarm-rate", f"{0.3 * 3600.0 / seg:.6g}", "--no-progress", "-o",
+                 str(det_path)]) == 0
+    runs = {"leak": dict(leak_lpm=0.05, onset=100.0, seed=61), "ok": dict(leak_lpm=0.0, seed=60)}
+    return det_path, {name: write_recording(
+        ld.sim.simulate_vca(duration=150.0, load="spring", machine=31, **kw),
+        d / f"{name}.parquet") for name, kw in runs.items()}
+
+
+def test_detect_judges_a_long_file_at_its_run_level(long_files, run_cli):
+    det_path, files = long_files
+    code, out, err = run_cli(["detect", str(files["leak"]), "--detector", str(det_path)])
     assert code == 0, err
     assert "Decision: LEAK -- alarm from flow-balance;" in out
     assert "flow-balance run level: this 145-s run is judged at the level" in out
     assert "requested of one healthy segment" in out
     # before: "about 2.4 false alarms are expected by chance ... no evidence of a leak"
     assert "no evidence" not in out
+
+
+def test_detect_batch_and_monitor_judge_a_long_file_alike(long_files, run_cli, tmp_path):
+    # the same file through the three commands: the same decision at the same run level as
+    # judge_run (monitor with one segment spanning the file)
+    import json
+
+    from leakdiag.batch import config_from_dict, run_case
+    from leakdiag.stream.detector_file import load_detector_file
+
+    det_path, files = long_files
+    det, _ = load_detector_file(det_path)
+    job = config_from_dict({"detector": [{"path": str(det_path), "name": "fb"}],
+                            "analysis": []})
+    for name, want in (("leak", "leak"), ("ok", "no-leak")):
+        j = judge_run(det, ld.io.read_recording(files[name]))
+        assert j.decision == want and j.run_level is not None
+        code, out, err = run_cli(["detect", str(files[name]), "--detector", str(det_path)])
+        assert code == 0, err
+        assert f"Decision: {want.upper().replace('-', ' ')}" in out
+        assert f"{j.run_level:.4g}" in out
+        (row,) = run_case(str(files[name]), job)
+        assert row["decision"] == want and row["threshold"] == j.run_level
+        assert row["score_max"] == j.verdict.score_max
+        events = tmp_path / f"{name}.jsonl"
+        code, out, err = run_cli(["monitor", str(files[name]), "--detector", str(det_path),
+                                  "--segment", "150", "--events", str(events)])
+        assert code == 0, err
+        (e,) = [json.loads(ln) for ln in events.read_text().splitlines()]
+        assert e["decision"] == want.upper().replace("-", " ")
+        assert e["threshold"] == j.run_level and e["score_max"] == j.verdict.score_max
+        assert e["alarm_time_s"] == j.verdict.alarm_time_s
 
 
 def test_judge_run_keeps_a_verdict_without_an_answer_inconclusive(healthy):
