@@ -1,10 +1,10 @@
 """Does a long run judged at the flow balance's run level keep its false-alarm promise?
 
 ``python -m perf.run_level_rate [--machines 3,5,17,23] [--per-machine 10]
-[--groups vca:spring,vca:none,eha:spring] [--out DIR]``
+[--groups vca:spring,vca:none,eha:spring] [--own N] [--out DIR]``
 
 For each rig and load, each virtual machine (``--machines``) gets a flow-balance detector fitted
-on :data:`N_OWN` of its own healthy runs of :data:`FIT_S` s (seeds 100..) for
+on :data:`N_OWN` (``--own``) of its own healthy runs of :data:`FIT_S` s (seeds 100..) for
 :data:`FALSE_ALARMS_PER_HOUR` (about 0.1 per 115-s segment). Per suspect seed (300..) a healthy
 run of :data:`RUN_S` s (about 1.5 false alarms expected at the fitted level, so judged at the
 run level: docs/detect.md section 2, "Long runs") and the same seed with a step leak of
@@ -48,11 +48,11 @@ def _sim(system, duration, **kw):
     return fn(duration=duration, **kw)
 
 
-def _fit(system, load, machine):
+def _fit(system, load, machine, n_own=N_OWN):
     from leakdiag.detect import FlowBalanceDetector
 
     own = [_sim(system, FIT_S, leak_lpm=0.0, load=load, machine=machine, seed=s)
-           for s in range(100, 100 + N_OWN)]
+           for s in range(100, 100 + n_own)]
     return FlowBalanceDetector(system=system,
                                false_alarms_per_hour=FALSE_ALARMS_PER_HOUR).fit(own)
 
@@ -81,11 +81,11 @@ def _row(det, system, load, machine, seed, leak) -> dict:
     return row
 
 
-def rows_key() -> str:
+def rows_key(n_own: int = N_OWN) -> str:
     """Hash of everything a row depends on (not ``--machines``/``--per-machine``)."""
     from leakdiag._fingerprint import library_versions, parts_fingerprint
 
-    obj = [N_OWN, FIT_S, FALSE_ALARMS_PER_HOUR, RUN_S, LEAK_LPM, inspect.getsource(_row),
+    obj = [n_own, FIT_S, FALSE_ALARMS_PER_HOUR, RUN_S, LEAK_LPM, inspect.getsource(_row),
            inspect.getsource(_sim), inspect.getsource(_fit), parts_fingerprint(CODE_PARTS),
            library_versions()]
     return hashlib.sha256(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:16]
@@ -140,6 +140,8 @@ def main(argv=None) -> None:
     ap.add_argument("--machines", default="3,5,17,23")
     ap.add_argument("--per-machine", type=int, default=10)
     ap.add_argument("--groups", default=",".join(f"{a}:{b}" for a, b in GROUPS))
+    ap.add_argument("--own", type=int, default=N_OWN,
+                    help="healthy runs each machine's detector is fitted on")
     ap.add_argument("--out", default="run_level")
     ap.add_argument("--report", action="store_true",
                     help="print the summary of OUT/run_level.csv only (no runs)")
@@ -150,7 +152,7 @@ def main(argv=None) -> None:
         return
     machines = [int(m) for m in args.machines.split(",")]
     groups = [tuple(g.split(":")) for g in args.groups.split(",")]
-    state, rows = resume(args.out, rows_key(), COLUMNS, "run-level rows")
+    state, rows = resume(args.out, rows_key(args.own), COLUMNS, "run-level rows")
     seen = {(r["system"], r["load"], int(r["machine"]), int(r["seed"]), float(r["leak_lpm"]))
             for r in rows}
     for system, load in groups:
@@ -159,7 +161,7 @@ def main(argv=None) -> None:
                     for lk in (0.0, LEAK_LPM[system]) if (system, load, m, s, lk) not in seen]
             if not todo:
                 continue
-            det = _fit(system, load, m)
+            det = _fit(system, load, m, args.own)
             for s, lk in todo:
                 r = _row(det, system, load, m, s, lk)
                 rows.append(r)
