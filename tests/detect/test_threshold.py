@@ -54,6 +54,19 @@ def test_rank_and_bound_by_hand():
     # p-values: (1 + #{>= s}) / (n + 1)
     assert b.p_value(4.5) == pytest.approx(2 / 6) and b.p_value(10.0) == pytest.approx(1 / 6)
     assert b.p_value(0.0) == 1.0 and b.p_value(4.5, n_segments=2) == pytest.approx(4 / 6)
+    # the floor: a score above every maximum gets n_segments / (n + 1) however far above
+    assert [b.at_floor(s) for s in (4.5, 5.0, 5.01, 1e9)] == [False, False, True, True]
+    assert b.p_value(5.01, 3) == b.p_value(1e9, 3) == pytest.approx(3 / 6)
+
+
+def test_a_verdict_at_the_p_value_floor_says_so():
+    from leakdiag.detect.base import Verdict
+
+    args = (True, 10.0, 11.0, 0.5, None, None, None, 66.4, 3.3, None, "cusum", "x")
+    assert "p-value 0.5 (the smallest the healthy reference resolves for this span: the " \
+        "score is above every healthy maximum)" in str(Verdict(*args, confidence_floor=True))
+    assert str(Verdict(*args)).endswith("p-value 0.5")
+    assert Verdict(*args, confidence_floor=True).as_dict()["confidence_floor"] is True
 
 
 def test_per_run_target_round_trip_keeps_its_rank():

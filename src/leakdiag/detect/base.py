@@ -194,6 +194,11 @@ class Verdict:
         Why a censored onset is only an upper bound, when it is not the start of the judged
         data: e.g. the alarming excursion crossed an undefined span longer than the healthy
         recordings allow (a stuck sensor), and ``onset_s`` is the first window after it.
+    confidence_floor : bool, default False
+        True when ``confidence`` is the smallest p-value the healthy reference resolves for
+        this span (a conformal p-value with ``score_max`` above every healthy maximum,
+        ``n_segments / (n + 1)``): the score is stronger evidence than the p-value can say,
+        and more healthy recordings resolve smaller p-values.
     """
 
     leak: bool
@@ -213,6 +218,7 @@ class Verdict:
     onset_why: str = ""
     n_windows: int | None = None
     n_undefined: int | None = None
+    confidence_floor: bool = False
 
     @property
     def undefined_words(self) -> str:
@@ -274,6 +280,8 @@ class Verdict:
                 head += "; "
         return (head + f"score max {self.score_max:.3g} against threshold {self.threshold:.3g}"
                 + (f", p-value {self.confidence:.3g}" if self.confidence is not None else "")
+                + (" (the smallest the healthy reference resolves for this span: the score "
+                   "is above every healthy maximum)" if self.confidence_floor else "")
                 + (f"; {self.undefined_words}" if self.undefined_words else ""))
 
     def as_dict(self) -> dict[str, Any]:
@@ -293,7 +301,8 @@ class Verdict:
                 "onset_method": self.onset_method, "detector": self.detector,
                 "onset_censored": self.onset_censored, "n_segments": self.n_segments,
                 "onset_why": self.onset_why, "n_windows": self.n_windows,
-                "n_undefined": self.n_undefined, "windows_undefined": self.undefined_words}
+                "n_undefined": self.n_undefined, "windows_undefined": self.undefined_words,
+                "confidence_floor": self.confidence_floor}
 
 
 @dataclass(frozen=True)
@@ -720,12 +729,13 @@ class Detector(BaseEstimator):
         span = duration_s - a.burn_in_s
         n_seg = max(1, math.ceil(span / basis.segment_s - SEGMENT_TOLERANCE))
         confidence = basis.p_value(smax, n_seg)
+        floor = basis.at_floor(smax)
         above = np.flatnonzero(stat > h)
         if len(above) == 0:
             self._check_blind_spans(tr, source)  # NO LEAK needs every span looked at
             return Verdict(False, None, None, confidence, None, None, None, smax, h, None,
                            a.onset_method, tr.name, n_segments=n_seg, n_windows=len(tr.z),
-                           n_undefined=int((~np.isfinite(tr.z)).sum()))
+                           n_undefined=int((~np.isfinite(tr.z)).sum()), confidence_floor=floor)
         i_alarm = int(above[0])
         branch = tr.s_up if tr.s_up[i_alarm] > h else tr.s_down
         j = cusum_onset(branch, i_alarm)
@@ -757,7 +767,7 @@ class Detector(BaseEstimator):
             lpm, interval, inside = cal.estimate(shift)
         return Verdict(True, onset, float(tr.time[i_alarm]), confidence, lpm, interval, inside,
                        smax, h, shift, method, tr.name, censored, n_seg, why, len(tr.z),
-                       int((~np.isfinite(tr.z)).sum()))
+                       int((~np.isfinite(tr.z)).sum()), floor)
 
     def _after_blind_span(self, tr: _Trace, j: int, i_alarm: int) -> tuple | None:
         """``(index, span start s, span end s)``: the first defined window after the last

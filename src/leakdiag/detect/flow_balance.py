@@ -1546,8 +1546,10 @@ class FlowBalanceDetector(Detector):
         t, a, b, g, arg = self._scan(recording, "predict")
         h = self.threshold_ if level is None else float(level)
         smax = float(g.max()) if len(g) else 0.0
-        confidence = self._p_value(smax, t, recording, run=level is not None)
-        common = dict(confidence=confidence, leak_lpm_in_range=None, score_max=smax, threshold=h,
+        confidence, floor = self._p_value(smax, t, recording, run=level is not None,
+                                          floor=True)
+        common = dict(confidence=confidence, confidence_floor=floor, leak_lpm_in_range=None,
+                      score_max=smax, threshold=h,
                       onset_method="glr", detector="flow_balance",
                       n_segments=self._n_segments(t, recording), n_windows=len(g),
                       reference_dp_pa=float(self.reference_dp_pa), leak_law=self.leak_law)
@@ -1836,7 +1838,7 @@ class FlowBalanceDetector(Detector):
              math.ceil((rec.duration - float(self.burn_in_s)) / seg - SEGMENT_TOLERANCE))
         return max(1, m)
 
-    def _p_value(self, smax: float, t: dict, rec, run: bool = False) -> float:
+    def _p_value(self, smax: float, t: dict, rec, run: bool = False, floor: bool = False):
         """Probability that healthy operation of this span scores at least ``smax``.
 
         Conformal basis: ``m (1 + #{maxima >= smax}) / (n + 1)`` over the ``m`` segments the
@@ -1845,13 +1847,16 @@ class FlowBalanceDetector(Detector):
         bootstrap null, at least one episode in its ``simulated_hours``: the null's
         resolution). Small = evidence of a leak, as ``Verdict.confidence`` everywhere.
         ``run``: judged at a :meth:`run_level`, whose basis is the conformal one only when
-        the healthy maxima hold the run (:meth:`_run_rank`).
+        the healthy maxima hold the run (:meth:`_run_rank`). ``floor``: return ``(p, at its
+        floor)``, the second True when the conformal p-value is the reference's resolution
+        (``ThresholdBasis.at_floor``; never on the model level).
         """
         basis = getattr(self, "threshold_basis_", None)  # None: a file saved before bases
         n_win = len(t["end"])
         m = self._n_segments(t, rec)
         if basis is not None and basis.supported and (not run or self._run_rank(m) >= 1):
-            return basis.p_value(smax, m)
+            p = basis.p_value(smax, m)
+            return (p, basis.at_floor(smax)) if floor else p
         hours = n_win * float(self.window_s) / 3600.0
         th = self.alarm_threshold_
         # no smaller than the Monte-Carlo null resolves (one episode in its simulated hours):
@@ -1859,7 +1864,8 @@ class FlowBalanceDetector(Detector):
         # run level, the fitted tail the level rests on, to the same limit (run_level)
         rate = (max(th.tail_rate(smax), 1.0 / (RUN_LEVEL_MAX_EXTRAPOLATION * th.simulated_hours))
                 if run else max(th.rate_at(smax), 1.0 / th.simulated_hours))
-        return float(-np.expm1(-rate * hours))
+        p = float(-np.expm1(-rate * hours))
+        return (p, False) if floor else p
 
     def segment_maxima(self, recordings) -> np.ndarray:
         """GLR maxima of every complete segment of recordings (``segment_s`` of monitored

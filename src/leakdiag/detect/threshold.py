@@ -277,6 +277,24 @@ class ThresholdBasis:
         ge = int(np.count_nonzero(self.maxima >= score))
         return float(min(1.0, max(1, int(n_segments)) * (1 + ge) / (self.n + 1)))
 
+    def at_floor(self, score: float) -> bool:
+        """Whether :meth:`p_value` of ``score`` is its floor, ``n_segments / (n + 1)``.
+
+        Parameters
+        ----------
+        score : float
+            Largest statistic of the recording judged.
+
+        Returns
+        -------
+        bool
+            True for a data-backed (``supported``) basis when ``score`` is above every
+            healthy maximum: the p-value is then the reference's resolution, not a measure of
+            how far above them the score lies.
+        """
+        return bool(self.supported and self.n > 0
+                    and not np.count_nonzero(self.maxima >= score))
+
     def as_dict(self) -> dict:
         """Flat dict of the basis (without the maxima), for printing and tables.
 
