@@ -30,6 +30,20 @@ def setup(tmp_path_factory):
     return d, det, write_recording(suspect, d / "suspect.parquet"), suspect
 
 
+@pytest.fixture(scope="module")
+def loose(setup):
+    """The same healthy runs fitted for 100 false alarms per hour (one segment of 60 s or more
+    expects one or more at the fitted level)."""
+    from leakdiag.cli.main import main
+
+    d = setup[0]
+    path = d / "fb100.joblib"
+    hfiles = [str(d / f"h{s}.parquet") for s in range(3)]
+    assert main(["fit", *[a for h in hfiles for a in ("--healthy", h)], "-m", "flow-balance",
+                 "--false-alarm-rate", "100", "--no-progress", "-o", str(path)]) == 0
+    return path
+
+
 def test_each_segment_is_judged_as_detect_judges_that_part_of_the_file(setup, run_cli):
     d, det_path, path, rec = setup
     events = d / "events.jsonl"
@@ -135,14 +149,8 @@ def test_a_leak_found_earlier_continues_and_a_no_leak_says_from_when(setup, run_
 
 
 def test_a_segment_that_expects_a_false_alarm_is_refused_and_bad_input_keeps_the_summary(
-        setup, run_cli, tmp_path):
-    from leakdiag.cli.main import main
-
+        setup, loose, run_cli, tmp_path):
     d, det_path, path, rec = setup
-    loose = tmp_path / "fb60.joblib"
-    hfiles = [str(d / f"h{s}.parquet") for s in range(3)]
-    assert main(["fit", *[a for h in hfiles for a in ("--healthy", h)], "-m", "flow-balance",
-                 "--false-alarm-rate", "100", "--no-progress", "-o", str(loose)]) == 0
     # a segment in which the loose detector expects false alarms is judged at its run level
     # (before 2026-11-28, session 17, refused); the summary says so
     det, _ = load_detector_file(loose)
@@ -179,17 +187,11 @@ def test_a_stream_of_another_machine_is_refused_per_segment(setup, run_cli, tmp_
     assert "NOT JUDGED 0-30 s: predict: " in out + err and "machine unit 5" in out + err
 
 
-def test_an_alarm_the_segment_length_makes_no_evidence_is_not_a_leak(setup, tmp_path):
+def test_an_alarm_the_segment_length_makes_no_evidence_is_not_a_leak(setup, loose):
     # SegmentJudge (Python API, without monitor's up-front check) keeps judge_run's decision:
     # an alarm where one false alarm or more is expected and no run level resolves it is not
     # judged, not LEAK
-    from leakdiag.cli.main import main
-
     d, det_path, path, rec = setup
-    loose = tmp_path / "fb100.joblib"
-    hfiles = [str(d / f"h{s}.parquet") for s in range(3)]
-    assert main(["fit", *[a for h in hfiles for a in ("--healthy", h)], "-m", "flow-balance",
-                 "--false-alarm-rate", "100", "--no-progress", "-o", str(loose)]) == 0
     det, _ = load_detector_file(loose)
 
     class NoRunLevel:  # the detector as it is, but its null cannot resolve a run level
