@@ -302,5 +302,5 @@ def judge_run(det, rec) -> RunJudgement:
         expected = at_threshold = expected_false_alarms(basis, per_hour, span_s, v.n_segments)
         per_run, guaranteed = per_run_rate(basis, per_hour, span_s, v.n_segments, restarts)
     return RunJudgement(v, per_hour, span_s, expected, per_run, guaranteed, at_threshold, level,
-                        run_decision(None if v.leak is None else bool(v.leak), expected),
+                        run_decision(v.leak, expected),
                         float(getattr(basis, "target_per_segment", float("nan"))))

@@ -1550,8 +1550,7 @@ class FlowBalanceDetector(Detector):
         t, a, b, g, arg = self._scan(recording, "predict")
         h = self.threshold_ if level is None else float(level)
         smax = float(g.max()) if len(g) else 0.0
-        confidence, floor = self._p_value(smax, t, recording, run=level is not None,
-                                          floor=True)
+        confidence, floor = self._p_value(smax, t, recording, run=level is not None)
         common = dict(confidence=confidence, confidence_floor=floor, leak_lpm_in_range=None,
                       score_max=smax, threshold=h,
                       onset_method="glr", detector="flow_balance",
@@ -1788,12 +1787,8 @@ class FlowBalanceDetector(Detector):
         # that between them, not the same leak (on long no-load runs a true leak's profile is
         # flat enough that a later onset can edge out its own: Z 21.6 against 20.9)
         w = np.arange(len(g))
-        sig = self._size_sigma(t, j + 1, load)
-        x = np.column_stack([np.where((w > j) & (w < j2), t["phi"], 0.0),
-                             np.where(w > j2, t["phi"], 0.0), t["nuisance"]]) / sig[:, None]
-        cov = np.linalg.pinv(x.T @ x)
-        c = cov @ (x.T @ (t["residual"] / sig))
-        var = cov[0, 0] + cov[1, 1] - 2.0 * cov[0, 1]
+        c, var = self._two_part_fit(t, (w > j) & (w < j2), w > j2,
+                                    self._size_sigma(t, j + 1, load))
         if not (var > 0.0 and c[1] >= TRANSIENT_RATIO * max(c[0], 0.0)
                 and c[1] - c[0] >= GROWTH_Z * math.sqrt(var)):
             return i, j, ""
@@ -1864,7 +1859,7 @@ class FlowBalanceDetector(Detector):
              math.ceil((rec.duration - float(self.burn_in_s)) / seg - SEGMENT_TOLERANCE))
         return max(1, m)
 
-    def _p_value(self, smax: float, t: dict, rec, run: bool = False, floor: bool = False):
+    def _p_value(self, smax: float, t: dict, rec, run: bool = False) -> tuple[float, bool]:
         """Probability that healthy operation of this span scores at least ``smax``.
 
         Conformal basis: ``m (1 + #{maxima >= smax}) / (n + 1)`` over the ``m`` segments the
@@ -1873,16 +1868,15 @@ class FlowBalanceDetector(Detector):
         bootstrap null, at least one episode in its ``simulated_hours``: the null's
         resolution). Small = evidence of a leak, as ``Verdict.confidence`` everywhere.
         ``run``: judged at a :meth:`run_level`, whose basis is the conformal one only when
-        the healthy maxima hold the run (:meth:`_run_rank`). ``floor``: return ``(p, at its
-        floor)``, the second True when the conformal p-value is the reference's resolution
+        the healthy maxima hold the run (:meth:`_run_rank`). Returns ``(p, at its floor)``,
+        the second True when the conformal p-value is the reference's resolution
         (``ThresholdBasis.at_floor``; never on the model level).
         """
         basis = getattr(self, "threshold_basis_", None)  # None: a file saved before bases
         n_win = len(t["end"])
         m = self._n_segments(t, rec)
         if basis is not None and basis.supported and (not run or self._run_rank(m) >= 1):
-            p = basis.p_value(smax, m)
-            return (p, basis.at_floor(smax)) if floor else p
+            return basis.p_value(smax, m), basis.at_floor(smax)
         hours = n_win * float(self.window_s) / 3600.0
         th = self.alarm_threshold_
         # no smaller than the Monte-Carlo null resolves (one episode in its simulated hours):
@@ -1890,8 +1884,7 @@ class FlowBalanceDetector(Detector):
         # run level, the fitted tail the level rests on, to the same limit (run_level)
         rate = (max(th.tail_rate(smax), 1.0 / (RUN_LEVEL_MAX_EXTRAPOLATION * th.simulated_hours))
                 if run else max(th.rate_at(smax), 1.0 / th.simulated_hours))
-        p = float(-np.expm1(-rate * hours))
-        return (p, False) if floor else p
+        return float(-np.expm1(-rate * hours)), False
 
     def segment_maxima(self, recordings) -> np.ndarray:
         """GLR maxima of every complete segment of recordings (``segment_s`` of monitored
@@ -1939,6 +1932,18 @@ class FlowBalanceDetector(Detector):
         cov = np.linalg.pinv(x.T @ x)
         return cov @ (x.T @ y), cov
 
+    @staticmethod
+    def _two_part_fit(t: dict, first: np.ndarray, second: np.ndarray,
+                      s: np.ndarray) -> tuple[np.ndarray, float]:
+        """Leak coefficients on two sets of windows (masks ``first``, ``second``) with the
+        nuisance profiled over the recording, weights ``1 / s^2``: ``(coefficients, variance
+        of their difference)`` (``coefficients[:2]`` the two parts, then the nuisance)."""
+        x = np.column_stack([np.where(first, t["phi"], 0.0), np.where(second, t["phi"], 0.0),
+                             t["nuisance"]]) / s[:, None]
+        cov = np.linalg.pinv(x.T @ x)
+        c = cov @ (x.T @ (t["residual"] / s))
+        return c, float(cov[0, 0] + cov[1, 1] - 2.0 * cov[0, 1])
+
     def _growth(self, t: dict, j: int, s: np.ndarray) -> tuple[float, float, float] | None:
         """Is the leak since window ``j`` constant? ``(ratio, z, recent k)``: the coefficient
         on the second half of the windows since ``j`` over that on the first, the z of their
@@ -1951,17 +1956,10 @@ class FlowBalanceDetector(Detector):
             return None
         w = np.arange(n)
         mid = j + (n - j) // 2
-        cols = [np.where((w >= j) & (w < mid), t["phi"], 0.0), np.where(w >= mid, t["phi"], 0.0)]
-        x = np.column_stack([*cols, t["nuisance"]]) / s[:, None]
-        cov = np.linalg.pinv(x.T @ x)
-        c = cov @ (x.T @ (t["residual"] / s))
-        var = cov[0, 0] + cov[1, 1] - 2.0 * cov[0, 1]
+        c, var = self._two_part_fit(t, (w >= j) & (w < mid), w >= mid, s)
         if not (c[0] > 0.0 and var > 0.0):
             return None
-        x = np.column_stack([np.where(w >= j, t["phi"], 0.0),
-                             np.where(w >= n - RECENT_WINDOWS, t["phi"], 0.0),
-                             t["nuisance"]]) / s[:, None]
-        r = np.linalg.pinv(x.T @ x) @ (x.T @ (t["residual"] / s))
+        r, _ = self._two_part_fit(t, w >= j, w >= n - RECENT_WINDOWS, s)
         return float(c[1] / c[0]), float((c[1] - c[0]) / math.sqrt(var)), float(r[0] + r[1])
 
     def _size_sigma(self, t: dict, j: int, load: str | None = "spring") -> np.ndarray:
