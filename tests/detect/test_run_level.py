@@ -1,6 +1,6 @@
-"""Long runs: a run that expects a false alarm or more at the fitted level is judged at the level
-that holds it to one healthy segment's rate (``FlowBalanceDetector.run_level``,
-``leakdiag.detect.decision.judge_run``).
+"""Long runs: a run longer than one healthy segment (until session 19: a run that expects a
+false alarm or more at the fitted level) is judged at the level that holds it to one healthy
+segment's rate (``FlowBalanceDetector.run_level``, ``leakdiag.detect.decision.judge_run``).
 
 Before (session 16's chance rule) such a run's alarm read INCONCLUSIVE whatever its score: a
 30-min run with a 0.05 L/min leak scoring 322 against 2.5 was "no evidence", and a default
@@ -203,3 +203,30 @@ def test_judge_run_keeps_a_verdict_without_an_answer_inconclusive(healthy):
 
     assert judge_run(NoAnswer(), healthy[0]).decision == "inconclusive"
     assert judge_run(det, healthy[0]).decision == "no-leak"
+
+
+def test_a_run_longer_than_a_segment_is_held_to_its_rate_below_one_expected_alarm(healthy, seg):
+    """Session 19 (2026-11-28): the run level applied only from 1 false alarm expected at the
+    fitted level, so a run expecting 0.94 was judged at the fitted level (a LEAK on a 61 %
+    chance) and one expecting 1.0 at one segment's rate. Now every run longer than a healthy
+    segment is held to one segment's rate (``longer_than_a_segment``)."""
+    from leakdiag.detect.decision import longer_than_a_segment, raised_level
+
+    det = FlowBalanceDetector(system="vca",
+                              false_alarms_per_hour=0.3 * 3600.0 / seg).fit(healthy)
+    b = det.threshold_basis_
+    assert b.method == "conformal" and b.n == 6 and b.k == 2  # floor(0.3 * 7)
+    # the fit runs' length is one segment: 19 whole 1-s windows of 20 s, 2 of them burn-in
+    assert seg == 17.0 and det.segments_spanned(20000, 1000.0) == 1.0
+    assert det.segments_spanned(30000, 1000.0) == pytest.approx(27.0 / 17.0)
+    assert raised_level(det, 20000, 1000.0) is None
+    rec = ld.sim.simulate_vca(duration=30.0, leak_lpm=0.0, load="spring", machine=31, seed=60)
+    j = judge_run(det, rec)
+    # 2 segments: 2 x 2/7 = 0.57 false alarms expected at the fitted level, under 1 (the old
+    # rule judged it there); the run level is the largest maximum, 2 x 1/7 <= 0.3
+    assert j.expected_at_threshold == pytest.approx(4.0 / 7.0)
+    assert j.run_level == pytest.approx(float(b.maxima[0])) and j.run_level > det.threshold_
+    assert j.expected == pytest.approx(2.0 / 7.0) and j.verdict.threshold == j.run_level
+    # without the detector's count: by time (18 s after the burn-in is more than 17)
+    assert longer_than_a_segment(b, 0.0, 18.0) and not longer_than_a_segment(b, 0.0, 17.0)
+    assert not longer_than_a_segment(b, 0.0, 18.0, segments=1.0)

@@ -212,3 +212,22 @@ def test_an_alarm_the_segment_length_makes_no_evidence_is_not_a_leak(setup, loos
     assert leak_without.decision == "NOT JUDGED" and leak_without.verdict is None
     assert "false alarms are expected by chance" in leak_without.reason
     assert "[0-100 s]" in leak_without.reason
+
+
+def test_a_segment_longer_than_the_healthy_runs_is_judged_at_its_run_level(setup, run_cli):
+    # the detector of 40-s healthy runs at 1 per hour expects 0.015 false alarms in a 60-s
+    # segment: under 1, so until session 19 it was judged at the fitted level, with twice
+    # the false alarms of a healthy segment; now at the level that holds it to one segment's
+    from leakdiag.detect.decision import raised_level
+
+    d, det_path, path, _ = setup
+    det, _ = load_detector_file(det_path)
+    level, expected = raised_level(det, 60000, 1000.0)
+    assert level > det.threshold_ and expected <= det.threshold_basis_.target_per_segment
+    events = d / "ev60.jsonl"
+    code, out, err = run_cli(["monitor", str(path), "--detector", str(det_path), "--segment",
+                              "60", "--events", str(events)])
+    assert code == 0, err
+    assert f"full segments are judged at the level {level:.4g}" in err + out
+    first = json.loads(events.read_text().splitlines()[0])
+    assert first["segment_end_s"] == 60.0 and first["threshold"] == pytest.approx(level)

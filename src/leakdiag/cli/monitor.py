@@ -340,14 +340,15 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
     # (detect reads such an alarm INCONCLUSIVE; an audit, 2026-11-28, found monitor reading LEAK
     # where detect said INCONCLUSIVE) unless it is judged at a raised level (judge_run), as detect
     # judges a file
-    from leakdiag.detect.decision import detector_rate, expected_false_alarms
+    from leakdiag.detect.decision import detector_rate, expected_false_alarms, raised_level
 
     basis = getattr(detector, "threshold_basis_", None)
     per_hour, burn = detector_rate(detector)
     span = max(seg - burn, 0.0)
     expected = expected_false_alarms(basis, per_hour, span)
-    raise_to = getattr(detector, "run_level", None)
-    if expected >= 1.0 and (not callable(raise_to) or raise_to(span) is None):
+    # a segment longer than the detector's healthy one is judged at its run level (judge_run)
+    raised = raised_level(detector, int(round(seg * source.sample_rate)), source.sample_rate)
+    if expected >= 1.0 and raised is None:
         raise click.UsageError(
             f"--segment {seg:g}: {detector_path} expects about {expected:.3g} false alarms in a "
             f"healthy segment this long, and its healthy reference cannot hold a segment this "
@@ -405,8 +406,8 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
         from leakdiag.cli._words import threshold_words
 
         say(f"  threshold: {threshold_words(basis)} (per segment: each is judged as one run)")
-    if expected >= 1.0:  # the full segments were judged at the run level (judge_run)
-        level, at_level = raise_to(span)
+    if raised is not None:  # the full segments were judged at the run level (judge_run)
+        level, at_level = raised
         say(f"  run level: a {seg:g}-s segment expects about {expected:.3g} false alarms at the "
             f"fitted level {float(detector.threshold_):.4g}, so full segments are judged at the "
             f"level {level:.4g}, which expects at most {at_level:.3g}, within the "

@@ -3,11 +3,13 @@
 A detector's threshold holds a false-alarm rate per healthy segment (or per hour). A run of
 ``m`` segments lets ``m`` times as many alarms through by chance (:func:`expected_false_alarms`,
 the union bound); at one or more expected false alarms an alarm at the threshold is no evidence
-of a leak. Detectors that can judge a run at a raised level (``run_level``: the flow balance)
-are then judged at the level that holds the whole run to the rate of one healthy segment
-(:func:`judge_run`); the others' alarms are then INCONCLUSIVE (flow-balance audit 2026-11-28,
-finding 4). ``leakdiag detect`` and ``leakdiag batch`` decide with :func:`judge_run`;
-``leakdiag monitor`` refuses a segment in which the detector expects a false alarm.
+of a leak (flow-balance audit 2026-11-28, finding 4). A run longer than one healthy segment,
+judged by a detector that can raise its level (``run_level``: the flow balance), is judged at
+the level that holds the whole run to the rate of one healthy segment
+(:func:`longer_than_a_segment`, :func:`judge_run`); the other detectors' alarms are INCONCLUSIVE
+from one expected false alarm on. ``leakdiag detect``, ``leakdiag batch`` and the segments of
+``leakdiag monitor --segment`` decide with :func:`judge_run`; ``monitor`` refuses a segment
+length in which a detector expects a false alarm and cannot raise its level.
 """
 
 from __future__ import annotations
@@ -15,8 +17,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["detector_rate", "per_run_rate", "expected_false_alarms", "RunJudgement", "judge_run",
-           "run_decision"]
+from leakdiag.detect.threshold import SEGMENT_TOLERANCE
+
+__all__ = ["detector_rate", "per_run_rate", "expected_false_alarms", "longer_than_a_segment",
+           "raised_level", "RunJudgement", "judge_run", "run_decision"]
 
 
 def detector_rate(det) -> tuple[float, float]:
@@ -114,8 +118,6 @@ def conformal_segments(basis, span_s: float, n_segments: int | None = None) -> i
     -------
     int or None
     """
-    from leakdiag.detect.threshold import SEGMENT_TOLERANCE
-
     if basis is None or not basis.method.startswith("conformal") or \
             not math.isfinite(basis.bound_per_segment):
         return None
@@ -160,6 +162,57 @@ def expected_false_alarms(basis, per_hour: float, span_s: float,
     if m is not None:
         return float(basis.bound_per_segment) * m
     return per_hour * span_s / 3600.0
+
+
+def longer_than_a_segment(basis, per_hour: float, span_s: float,
+                          segments: float | None = None) -> bool:
+    """Whether a judged run lets more false alarms through at the threshold than one healthy
+    segment: the runs :func:`judge_run` holds to one segment's rate at a raised level.
+
+    Under a threshold basis with a segment, a run covering more than one segment
+    (``segments``, the detector's own count, when given; else :func:`conformal_segments` for a
+    conformal basis, ``span_s / segment_s`` otherwise; each beyond
+    :data:`~leakdiag.detect.threshold.SEGMENT_TOLERANCE`). Without a basis (no
+    segment to compare with), a run whose threshold expects one false alarm or more
+    (:func:`expected_false_alarms`). Until 2026-11-28 (session 19) the rule was the second one
+    for every run, so a run expecting 0.94 false alarms at the fitted level was judged there
+    (LEAK on a 61 % chance of a false alarm) and one expecting 1.0 at one segment's rate
+    (docs/detect.md section 2, "Long runs").
+
+    Parameters
+    ----------
+    basis : ThresholdBasis or None
+        ``Detector.threshold_basis_``.
+    per_hour : float
+        Requested false alarms per hour.
+    span_s : float
+        Judged span of the run (after the burn-in), s.
+    segments : float, optional
+        Healthy segments the run covers as the detector counts them (fractional; the flow
+        balance's ``segments_spanned``).
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> from leakdiag.detect.threshold import conformal_threshold
+    >>> b = conformal_threshold([3.0, 1.0, 2.0, 5.0], 0.2, segment_s=60.0)
+    >>> longer_than_a_segment(b, 12.0, 60.0), longer_than_a_segment(b, 12.0, 61.0)
+    (False, True)
+    >>> longer_than_a_segment(None, 1.0, 1800.0), longer_than_a_segment(None, 1.0, 3600.0)
+    (False, True)
+    """
+    seg = float(getattr(basis, "segment_s", float("nan")))
+    if basis is None or not math.isfinite(seg) or seg <= 0:
+        return expected_false_alarms(basis, per_hour, span_s) >= 1.0
+    if segments is not None:
+        return segments - SEGMENT_TOLERANCE > 1.0
+    m = conformal_segments(basis, span_s)
+    if m is not None:
+        return m > 1
+    return span_s / seg - SEGMENT_TOLERANCE > 1.0
 
 
 def run_decision(leak, expected: float) -> str:
@@ -255,16 +308,52 @@ class RunJudgement:
                 "requested of one healthy segment (docs/detect.md section 2, 'Long runs')")
 
 
+def raised_level(det, n_samples: int, sample_rate_hz: float) -> tuple[float, float] | None:
+    """The level a run of ``n_samples`` is judged at when it is longer than one healthy segment.
+
+    ``det.run_level`` for the run (with the segments the detector counts in it,
+    ``segments_spanned``) when :func:`longer_than_a_segment`; None when the run is one
+    segment or shorter, or the detector cannot raise its level (no ``run_level``, or its
+    healthy reference cannot resolve one).
+
+    Parameters
+    ----------
+    det : Detector
+        A fitted detector.
+    n_samples : int
+        Samples of the run.
+    sample_rate_hz : float
+        Its sample rate, Hz.
+
+    Returns
+    -------
+    (level, expected) or None
+    """
+    raise_to = getattr(det, "run_level", None)
+    if not callable(raise_to):
+        return None
+    per_hour, burn_in = detector_rate(det)
+    basis = getattr(det, "threshold_basis_", None)
+    span_s = max(n_samples / float(sample_rate_hz) - burn_in, 0.0)
+    spanned = getattr(det, "segments_spanned", None)
+    segs = spanned(n_samples, sample_rate_hz) if callable(spanned) else None
+    if not longer_than_a_segment(basis, per_hour, span_s, segs):
+        return None
+    return raise_to(span_s, None if segs is None else
+                    max(1, math.ceil(segs - SEGMENT_TOLERANCE)))
+
+
 def judge_run(det, rec) -> RunJudgement:
     """Judge one recording with a fitted detector, holding a long run to a segment's rate.
 
-    The detector's ``predict`` judges ``rec`` at its threshold. When the threshold expects one
-    false alarm or more in a run this long (:func:`expected_false_alarms`) and the detector can
-    judge at a raised level (a ``run_level(span_s)`` method returning the level and the false
-    alarms it expects in the run, or None when its healthy reference cannot resolve one), the
-    run is judged at that level instead: the whole run is then held to the rate requested of
-    one healthy segment. Otherwise an alarm of such a run is ``"inconclusive"``
-    (:func:`run_decision`).
+    The detector's ``predict`` judges ``rec`` at its threshold. When the run is longer than one
+    healthy segment (:func:`longer_than_a_segment`: its threshold lets more false alarms through
+    in it than in a segment) and the detector can judge at a raised level (a
+    ``run_level(span_s)`` method returning the level and the false alarms it expects in the
+    run, or None when its healthy reference cannot resolve one), the run is judged at that
+    level instead: the whole run is then held to the rate requested of one healthy segment.
+    Otherwise it is judged at the threshold, and its alarm is ``"inconclusive"`` when one false
+    alarm or more is expected there (:func:`run_decision`).
 
     Parameters
     ----------
@@ -286,11 +375,10 @@ def judge_run(det, rec) -> RunJudgement:
     basis = getattr(det, "threshold_basis_", None)
     restarts = getattr(det, "restarts_per_segment", False)
     span_s = max(rec.duration - burn_in, 0.0)
-    raise_to = getattr(det, "run_level", None)
     # decided before predicting: at the threshold, a long healthy run's false alarm can be
     # refused as "no lasting leak" where the run level gives a verdict
-    found = (raise_to(span_s) if callable(raise_to) and
-             expected_false_alarms(basis, per_hour, span_s) >= 1.0 else None)
+    found = (raised_level(det, rec.n_samples, rec.sample_rate)
+             if callable(getattr(det, "run_level", None)) else None)
     if found is not None:
         level, expected = found
         v = det.predict(rec, level=level)

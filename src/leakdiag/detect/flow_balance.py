@@ -1847,6 +1847,40 @@ class FlowBalanceDetector(Detector):
 
         return profile_offset(evaluate, self.interval_level)
 
+    def segments_spanned(self, n_samples: int, sample_rate_hz: float) -> float | None:
+        """Healthy segments a recording of ``n_samples`` covers, as :meth:`predict` counts them.
+
+        With a fixed ``segment_s``, the monitored time ``n_samples / sample_rate_hz -
+        burn_in_s`` over it; otherwise the monitored windows (whole windows after the burn-in,
+        as the balance cuts them) over ``segment_windows_``, the shortest healthy recording's.
+        A recording as long as the shortest healthy one covers exactly 1 (its last partial
+        window is not monitored, so its time after the burn-in is a window longer than the
+        segment). Fractional; :func:`leakdiag.detect.decision.judge_run` compares it with 1.
+
+        Parameters
+        ----------
+        n_samples : int
+            Samples of the recording.
+        sample_rate_hz : float
+            Its sample rate, Hz.
+
+        Returns
+        -------
+        float or None
+            None for a detector saved before segments were recorded.
+        """
+        self._check_fitted()
+        seg = self._fixed_segment()
+        if seg is not None:
+            return max(n_samples / float(sample_rate_hz) - float(self.burn_in_s), 0.0) / seg
+        per = getattr(self, "segment_windows_", None)
+        if per is None:
+            return None
+        w = int(round(self.window_s * float(sample_rate_hz)))
+        n_win = max(0, (int(n_samples) - 1) // max(w, 1))
+        skip = int(math.ceil(self.burn_in_s / self.window_s - 1e-9))
+        return max(0, n_win - min(skip, n_win)) / float(per)
+
     def _n_segments(self, t: dict, rec) -> int | None:
         """Healthy segments the judged span covers (at least 1): whole windows per
         ``segment_windows_``, or the monitored time per ``segment_s`` (None for a detector
