@@ -10,6 +10,8 @@ lowest grid level whose null rate times the run's hours is at most alpha), and o
 """
 
 
+import math
+
 import numpy as np
 import pytest
 
@@ -230,3 +232,43 @@ def test_a_run_longer_than_a_segment_is_held_to_its_rate_below_one_expected_alar
     # without the detector's count: by time (18 s after the burn-in is more than 17)
     assert longer_than_a_segment(b, 0.0, 18.0) and not longer_than_a_segment(b, 0.0, 17.0)
     assert not longer_than_a_segment(b, 0.0, 18.0, segments=1.0)
+
+
+def test_detect_fits_the_flow_balance_for_the_run_rate_its_run_level_holds(long_files):
+    """``detect --healthy`` takes a per-run rate. For a file longer than the healthy ones it
+    held each of its n segments to ``rate / n``; the flow balance is now judged at its run level
+    there (which holds the whole file to one segment's rate), so it is fitted for ``rate`` per
+    segment: otherwise the file would be held to ``rate / n``, n times stricter than asked."""
+    from leakdiag.cli.detect import verdict_table
+
+    det_path, files = long_files
+    healthy_files = sorted(str(p) for p in det_path.parent.glob("h*.parquet"))
+    assert len(healthy_files) == 6
+    for name, leak in (("ok", False), ("leak", True)):
+        row = verdict_table(files[name], healthy_files, methods=["flow-balance"],
+                            false_alarm_rate=0.05).iloc[0]
+        # 145 s after detect's 5-s burn-in over 15-s healthy segments: n = 10
+        assert row["false_alarms_per_hour"] == pytest.approx(0.05 * 3600.0 / 15.0)
+        assert 0.04 < row["false_alarms_expected"] <= 0.05  # not 0.005
+        assert "this 145-s run is judged at the level" in row["run_level"]
+        assert bool(row["leak"]) is leak
+
+
+def test_a_calibration_conditional_level_is_raised_only_from_one_expected_alarm(healthy, seg):
+    # its rank has no run counterpart (the run level would be the model's), so a run of two
+    # segments keeps the conditional guarantee; from 1 expected it is raised as before
+    from leakdiag.detect.decision import raised_level
+
+    det = FlowBalanceDetector(system="vca", false_alarms_per_hour=0.2 * 3600.0 / seg,
+                              confidence=0.9)
+    ref = ReferenceMaxima(np.linspace(1.0, 5.0, 60), seg, 0.0, det.reference_direction(),
+                          det.burn_in_s, "test units", 60)
+    det.fit(healthy[:2], reference_maxima=ref)
+    b = det.threshold_basis_
+    assert b.method == "conformal" and b.conditional and 0 < b.bound_per_segment < 0.2
+    assert det.segments_spanned(30000, 1000.0) > 1.0  # two segments, under 1 expected
+    assert raised_level(det, 30000, 1000.0) is None
+    n = int(math.ceil(1.0 / b.bound_per_segment))  # segments for 1 expected
+    dur = n * seg + det.burn_in_s + 1.0
+    level, expected = raised_level(det, int(dur * 1000), 1000.0)
+    assert level >= det.threshold_ and expected <= b.target_per_segment  # the model-based level

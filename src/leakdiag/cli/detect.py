@@ -138,7 +138,9 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
         (each fitted at ``false_alarm_rate / m`` per run: its threshold is taken from healthy
         segments as long as the file's monitored span after ``burn_in_s``, or, for a file
         longer than the shortest healthy recording, ``1 / n`` of it per segment over the
-        ``n`` segments the file spans).
+        ``n`` segments the file spans; a method that judges such a file at its run level, the
+        flow balance without ``confidence``, at ``false_alarm_rate / m`` per segment, the rate
+        its run level holds the whole file to: :func:`leakdiag.detect.decision.judge_run`).
     onset_method : {"binseg", "pelt", "cusum"}, default "binseg"
         Onset estimator.
     burn_in_s : float, default 5.0
@@ -223,6 +225,7 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
         if span <= 0:
             raise ValueError(f"{file}: {rec.duration:g} s long, not longer than --burn-in "
                              f"{burn_in_s:g} s: nothing of it would be judged")
+        n_seg = 1
         if false_alarms_per_hour is not None:
             alarm = Alarm(false_alarms_per_hour=false_alarms_per_hour,
                           onset_method=onset_method, burn_in_s=burn_in_s,
@@ -230,12 +233,20 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
         else:  # per run: healthy segments as long as the judged run (docs/measure.md)
             seg = min(span, min(r.duration for r in train) - burn_in_s)
             n_seg = math.ceil(span / seg - SEGMENT_TOLERANCE)  # a longer run spans several
-            per_segment = false_alarm_rate / max(len(methods), 1) / n_seg
-            alarm = Alarm(false_alarms_per_hour=per_segment * 3600.0 / seg, segment_s=seg,
-                          onset_method=onset_method, burn_in_s=burn_in_s,
-                          confidence=confidence)
+            per_run = false_alarm_rate / max(len(methods), 1)
+
+            def alarm_at(per_segment):
+                return Alarm(false_alarms_per_hour=per_segment * 3600.0 / seg, segment_s=seg,
+                             onset_method=onset_method, burn_in_s=burn_in_s,
+                             confidence=confidence)
+
+            alarm = alarm_at(per_run / n_seg)
         for i, m in enumerate(methods):
             det = make_detector(m, system, alarm)  # unknown names raise here
+            if n_seg > 1 and confidence is None and callable(getattr(det, "run_level", None)):
+                # judged at its run level (judge_run), which holds the whole run to one
+                # segment's rate: fitted for the run's rate per segment, not a share of it
+                det = make_detector(m, system, alarm_at(per_run))
             why = _cannot_judge(det, rec, file, m)
             if why is not None:
                 rows.append(why)

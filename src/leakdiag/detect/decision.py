@@ -314,7 +314,9 @@ def raised_level(det, n_samples: int, sample_rate_hz: float) -> tuple[float, flo
     ``det.run_level`` for the run (with the segments the detector counts in it,
     ``segments_spanned``) when :func:`longer_than_a_segment`; None when the run is one
     segment or shorter, or the detector cannot raise its level (no ``run_level``, or its
-    healthy reference cannot resolve one).
+    healthy reference cannot resolve one). A calibration-conditional conformal level
+    (``confidence`` given) is raised only from one expected false alarm on: its rank has no
+    run counterpart, so raising it trades its guarantee for the model-based level's.
 
     Parameters
     ----------
@@ -337,10 +339,16 @@ def raised_level(det, n_samples: int, sample_rate_hz: float) -> tuple[float, flo
     span_s = max(n_samples / float(sample_rate_hz) - burn_in, 0.0)
     spanned = getattr(det, "segments_spanned", None)
     segs = spanned(n_samples, sample_rate_hz) if callable(spanned) else None
-    if not longer_than_a_segment(basis, per_hour, span_s, segs):
+    n_seg = None if segs is None else max(1, math.ceil(segs - SEGMENT_TOLERANCE))
+    if getattr(basis, "conditional", False) and getattr(basis, "method", "").startswith(
+            "conformal"):
+        # a calibration-conditional rank has no run counterpart (the run level is then the
+        # model's): its guarantee is kept up to one expected false alarm, as before session 19
+        if expected_false_alarms(basis, per_hour, span_s, n_seg) < 1.0:
+            return None
+    elif not longer_than_a_segment(basis, per_hour, span_s, segs):
         return None
-    return raise_to(span_s, None if segs is None else
-                    max(1, math.ceil(segs - SEGMENT_TOLERANCE)))
+    return raise_to(span_s, n_seg)
 
 
 def judge_run(det, rec) -> RunJudgement:
