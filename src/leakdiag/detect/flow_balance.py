@@ -1564,11 +1564,9 @@ class FlowBalanceDetector(Detector):
                                       detectable_from_s=start, detectable_why=why, **common)
         i = int(above[0])
         j = self._onset(t, i, int(arg[i]))
-        if not self._backend().SIZE_PROFILES_PRESSURE_OFFSET:
-            i, j, transient = self._lasting_alarm(t, g, h, arg, i, j,
-                                                    self._load_of(recording))
-            if transient:
-                common["transient_alarms"] = transient
+        i, j, transient = self._lasting_alarm(t, g, h, arg, i, j, self._load_of(recording))
+        if transient:
+            common["transient_alarms"] = transient
         # k from the first window wholly after the onset window (the leak starts somewhere
         # inside window j; counting all of it as leaking biases k low by the leak-free part);
         # the mean |phi| over the whole time since the onset (the thesis's mean leak)
@@ -1768,7 +1766,8 @@ class FlowBalanceDetector(Detector):
         first alarm stays. A leak that dips below the level and crosses again has about one
         coefficient on both sides and keeps its first alarm (its profile can be flat enough
         that a later onset edges out its own: Z 21.6 against 20.9 on a 30-min no-load run);
-        a single episode (no dip) is never moved.
+        a single episode (no dip) is never moved. Both rigs (the EHA since session 19: its
+        window terms with the healthy weights; its size is then profiled from the new onset).
         """
         starts = np.flatnonzero(np.diff((g >= h).astype(np.int8)) == 1) + 1
         later = []  # onsets nearer than TRANSIENT_MIN_WINDOWS to the last kept: one change
