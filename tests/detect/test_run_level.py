@@ -272,3 +272,68 @@ def test_a_calibration_conditional_level_is_raised_only_from_one_expected_alarm(
     dur = n * seg + det.burn_in_s + 1.0
     level, expected = raised_level(det, int(dur * 1000), 1000.0)
     assert level >= det.threshold_ and expected <= b.target_per_segment  # the model-based level
+
+
+@pytest.fixture(scope="module")
+def acf(healthy):
+    """acf-p1 on the six 20-s runs in 5-s segments (3 per run after the 5-s burn-in: 18
+    maxima) for 0.3 false alarms per segment: k = floor(0.3 x 19) = 5."""
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm
+
+    det = make_detector("acf-p1", "vca", Alarm(false_alarms_per_hour=0.3 * 3600.0 / 5.0,
+                                                segment_s=5.0))
+    return det.fit(healthy)
+
+
+def test_a_feature_detector_judges_a_long_run_at_its_conformal_run_level(acf):
+    """Session 19: the features had no run level, so a run of many segments read INCONCLUSIVE
+    from one expected false alarm on (and LEAK below it, at up to 0.99 expected). Their CUSUM
+    restarts at every segment unless in alarm, so the k'-th largest healthy maximum holds the
+    run, guaranteed."""
+    b = acf.threshold_basis_
+    assert b.method == "conformal" and b.n == 18 and b.k == 5
+    desc = np.sort(b.maxima)[::-1]
+    assert acf.threshold_ == pytest.approx(desc[4])
+    # 3 segments: k' = floor(0.3 x 19 / 3) = 1, 3 x 1/19 expected
+    level, expected = acf.run_level(15.0)
+    assert level == pytest.approx(desc[0]) and expected == pytest.approx(3.0 / 19.0)
+    assert acf.run_level(5.0) == (pytest.approx(acf.threshold_), pytest.approx(5.0 / 19.0))
+    assert acf.run_level(30.0) is None  # 6 segments: floor(5.7 / 6) = 0
+    with pytest.raises(ValueError, match="at least the threshold"):
+        acf.predict(ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="spring",
+                                        machine=31, seed=60), level=acf.threshold_ / 2)
+    # a 20-s run: 15 s judged, 3 segments, 3 x 5/19 = 0.79 expected at the threshold (judged
+    # there before, LEAK on any alarm); now at the largest maximum
+    for leak in (0.0, 0.5):
+        rec = ld.sim.simulate_vca(duration=20.0, leak_lpm=leak, onset=10.0, load="spring",
+                                  machine=31, seed=61)
+        j = judge_run(acf, rec)
+        assert j.run_level == pytest.approx(desc[0]) and j.verdict.threshold == j.run_level
+        assert j.expected_at_threshold == pytest.approx(15.0 / 19.0)
+        assert j.expected == pytest.approx(3.0 / 19.0) and j.guaranteed
+        assert j.verdict.as_dict() == acf.predict(rec, level=j.run_level).as_dict()
+        assert j.decision == ("leak" if j.verdict.leak else "no-leak")
+
+
+def test_batch_judges_a_feature_detector_at_the_run_level_as_detect(acf, tmp_path):
+    from leakdiag.batch import config_from_dict, run_case
+    from leakdiag.io import write_recording
+    from leakdiag.stream.detector_file import DetectorMeta, save_detector
+
+    rec = ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="spring", machine=31, seed=62)
+    path = str(write_recording(rec, tmp_path / "run.parquet"))
+    det_path = tmp_path / "acf.joblib"
+    save_detector(acf, DetectorMeta("acf-p1", "vca", 1000.0, ("p1",), {"p1": "Pa"},
+                                    false_alarms_per_hour=0.3 * 3600.0 / 5.0, n_healthy=6,
+                                    load="spring"), det_path)
+    j = judge_run(acf, ld.io.read_recording(path))
+    assert j.run_level is not None
+    job = config_from_dict({"detector": [{"path": str(det_path), "name": "acf"}],
+                            "analysis": []})
+    (row,) = run_case(path, job)
+    assert row["run_level"].startswith("this 15-s run is judged at the level")
+    assert row["threshold"] == pytest.approx(j.run_level)
+    assert row["false_alarms_expected"] == pytest.approx(j.expected)
+    assert row["decision"] == j.decision and row["score_max"] == pytest.approx(
+        j.verdict.score_max)

@@ -110,6 +110,28 @@ def default_methods(rec, train, system: str, file, healthy) -> tuple[list[str], 
     return _DEFAULT_METHODS.split(","), None
 
 
+def _fit_for_the_run(method, system, alarm, train, rec):
+    """The method fitted for a run's rate per segment, or None when it cannot hold ``rec``
+    to that rate at a run level (too few healthy maxima for the run's segments: ``detect``
+    then fits it for 1/n of the rate per segment, as before session 19)."""
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.decision import raised_level
+
+    import warnings
+
+    with warnings.catch_warnings(record=True) as said:  # said again only if this fit is kept
+        warnings.simplefilter("always")
+        try:
+            det = make_detector(method, system, alarm).fit(train)
+        except ValueError:  # e.g. the rate per segment is not supported: the 1/n fit says why
+            return None
+    if raised_level(det, rec.n_samples, rec.sample_rate) is None:
+        return None
+    for w in said:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return det
+
+
 def verdict_table(file, healthy=(), *, methods=None, system=None,
                   column_map=None, sample_rate=None, false_alarm_rate=0.01,
                   onset_method="binseg", burn_in_s=5.0, detectors=(), progress=None,
@@ -243,17 +265,22 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
             alarm = alarm_at(per_run / n_seg)
         for i, m in enumerate(methods):
             det = make_detector(m, system, alarm)  # unknown names raise here
-            if n_seg > 1 and confidence is None and callable(getattr(det, "run_level", None)):
-                # judged at its run level (judge_run), which holds the whole run to one
-                # segment's rate: fitted for the run's rate per segment, not a share of it
-                det = make_detector(m, system, alarm_at(per_run))
+            # a file of n segments is judged at the run level (judge_run), which holds the
+            # whole run to one segment's rate: fitted for the run's rate per segment, not a
+            # 1/n share of it, where the fitted detector can hold this file to it
+            whole = n_seg > 1 and confidence is None and \
+                callable(getattr(det, "run_level", None))
             why = _cannot_judge(det, rec, file, m)
             if why is not None:
                 rows.append(why)
                 continue
             say(f"method {i + 1}/{len(methods)}: fitting {m} on {len(train)} healthy file(s)...")
             try:
-                det.fit(train)
+                if whole:
+                    det = _fit_for_the_run(m, system, alarm_at(per_run), train, rec)
+                    whole = det is not None
+                if not whole:  # each segment held to 1/n of the run's rate
+                    det = make_detector(m, system, alarm).fit(train)
             except ValueError as exc:
                 rows.append({"method": m, "error": in_cli_words(str(exc))})
                 continue

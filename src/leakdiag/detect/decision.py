@@ -3,11 +3,12 @@
 A detector's threshold holds a false-alarm rate per healthy segment (or per hour). A run of
 ``m`` segments lets ``m`` times as many alarms through by chance (:func:`expected_false_alarms`,
 the union bound); at one or more expected false alarms an alarm at the threshold is no evidence
-of a leak (flow-balance audit 2026-11-28, finding 4). A run longer than one healthy segment,
-judged by a detector that can raise its level (``run_level``: the flow balance), is judged at
-the level that holds the whole run to the rate of one healthy segment
-(:func:`longer_than_a_segment`, :func:`judge_run`); the other detectors' alarms are INCONCLUSIVE
-from one expected false alarm on. ``leakdiag detect``, ``leakdiag batch`` and the segments of
+of a leak (flow-balance audit 2026-11-28, finding 4). A run longer than one healthy segment is
+judged at the level that holds the whole run to the rate of one healthy segment where the
+detector can state one (``run_level``: the flow balance's conformal or model-based level; the
+features' conformal rank, guaranteed by their restarts; :func:`longer_than_a_segment`,
+:func:`judge_run`); otherwise at its threshold, and its alarm is INCONCLUSIVE from one expected
+false alarm on. ``leakdiag detect``, ``leakdiag batch`` and the segments of
 ``leakdiag monitor --segment`` decide with :func:`judge_run`; ``monitor`` refuses a segment
 length in which a detector expects a false alarm and cannot raise its level.
 """
@@ -20,7 +21,7 @@ from dataclasses import dataclass
 from leakdiag.detect.threshold import SEGMENT_TOLERANCE
 
 __all__ = ["detector_rate", "per_run_rate", "expected_false_alarms", "longer_than_a_segment",
-           "raised_level", "RunJudgement", "judge_run", "run_decision"]
+           "raised_level", "level_words", "RunJudgement", "judge_run", "run_decision"]
 
 
 def detector_rate(det) -> tuple[float, float]:
@@ -301,11 +302,34 @@ class RunJudgement:
         """
         if self.run_level is None:
             return None
-        return (f"this {self.span_s:.4g}-s run is judged at the level {self.run_level:.4g} "
-                f"(fitted level {threshold:.4g}, which expects about "
-                f"{self.expected_at_threshold:.3g} false alarms in a run this long), so that it "
-                f"expects at most {self.expected:.3g}, within the {self.segment_target:.3g} "
-                "requested of one healthy segment (docs/detect.md section 2, 'Long runs')")
+        return level_words(self.span_s, self.run_level, threshold, self.expected_at_threshold,
+                           self.expected, self.segment_target)
+
+
+def level_words(span_s: float, level: float, threshold: float, expected_at_threshold: float,
+                expected: float, segment_target: float) -> str:
+    """A run level in words (:meth:`RunJudgement.run_level_words`, ``batch``'s ``run_level``).
+
+    Parameters
+    ----------
+    span_s : float
+        The judged span, s.
+    level, threshold : float
+        The run level and the fitted threshold.
+    expected_at_threshold, expected : float
+        False alarms expected in the run at the threshold and at the level.
+    segment_target : float
+        The rate requested of one healthy segment.
+
+    Returns
+    -------
+    str
+    """
+    return (f"this {span_s:.4g}-s run is judged at the level {level:.4g} "
+            f"(fitted level {threshold:.4g}, which expects about "
+            f"{expected_at_threshold:.3g} false alarms in a run this long), so that it "
+            f"expects at most {expected:.3g}, within the {segment_target:.3g} "
+            "requested of one healthy segment (docs/detect.md section 2, 'Long runs')")
 
 
 def raised_level(det, n_samples: int, sample_rate_hz: float) -> tuple[float, float] | None:
@@ -391,7 +415,9 @@ def judge_run(det, rec) -> RunJudgement:
         level, expected = found
         v = det.predict(rec, level=level)
         at_threshold = expected_false_alarms(basis, per_hour, span_s, v.n_segments)
-        per_run, guaranteed = min(1.0, expected), False  # carried-over GLR; see run_level
+        # guaranteed where the healthy maxima hold the run and the statistic restarts at each
+        # segment (the features' CUSUM); not the flow balance's carried-over GLR (run_level)
+        per_run, guaranteed = min(1.0, expected), bool(restarts)
     else:
         level = None
         v = det.predict(rec)
