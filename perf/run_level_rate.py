@@ -6,8 +6,9 @@
 For each rig and load, each virtual machine (``--machines``) gets a flow-balance detector fitted
 on :data:`N_OWN` (``--own``) of its own healthy runs of :data:`FIT_S` s (seeds 100..) for
 :data:`FALSE_ALARMS_PER_HOUR` (about 0.1 per 115-s segment). Per suspect seed (300..) a healthy
-run of :data:`RUN_S` s (about 1.5 false alarms expected at the fitted level, so judged at the
-run level: docs/detect.md section 2, "Long runs") and the same seed with a step leak of
+run of :data:`RUN_S` s (about 1.5 false alarms expected at the fitted level with 4 fit runs, 0.94
+with 16; longer than one healthy segment, so judged at the run level: docs/detect.md section 2,
+"Long runs" and "Which runs are long") and the same seed with a step leak of
 :data:`LEAK_LPM` from half-way are judged by :func:`leakdiag.detect.decision.judge_run`. The
 healthy runs' alarms, against the run level's promise (``expected`` per run, at most the
 ``alpha`` requested of one segment), are printed with a 95 % Clopper-Pearson interval; so is the
