@@ -182,12 +182,9 @@ def longer_than_a_segment(basis, per_hour: float, span_s: float,
 
     Parameters
     ----------
-    basis : ThresholdBasis or None
-        ``Detector.threshold_basis_``.
-    per_hour : float
-        Requested false alarms per hour.
-    span_s : float
-        Judged span of the run (after the burn-in), s.
+    basis, per_hour, span_s
+        As :func:`expected_false_alarms` (the threshold basis, false alarms per hour, the
+        judged span in s).
     segments : float, optional
         Healthy segments the run covers as the detector counts them (fractional; the flow
         balance's ``segments_spanned``).
