@@ -139,7 +139,8 @@ def test_detect_with_a_flow_balance_file_states_its_own_rate_and_its_p_value(fil
     det = tmp_path / "fb.joblib"
     assert main(["fit", *_h(healthy), "-m", "flow-balance", "--false-alarm-rate", "30",
                  "--no-progress", "-o", str(det)]) == 0
-    capsys.readouterr()
+    # a model-based level: fit says what one did on a unit of the run-level study (session 19)
+    assert "a model-based level can misjudge a unit" in capsys.readouterr().out
     assert main(["detect", leak, "--detector", str(det), "--no-progress"]) == 0
     out = capsys.readouterr().out
     lines = out.splitlines()

@@ -348,6 +348,14 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
                + ("; the flow balance's own GLR maxima come from two-fold cross-fitting of at "
                   f"least 4 healthy recordings (got {len(recs)}, so none)"
                   if method == "flow-balance" and len(recs) < 4 else ""))
+    if basis is not None and basis.method == "glr-model":
+        # what a model-based level did on virtual machines (docs/detect.md section 2)
+        click.echo("  a model-based level can misjudge a unit: on 8 virtual machines each "
+                   "fitted on 4 healthy 120-s no-load runs, one unit's healthy 30-min runs "
+                   "crossed its run level in 6 of 10, against at most 0.097 promised per run "
+                   "(the other 7 units: 0 of 70); fitted on 16 runs, where the level was "
+                   "distribution-free, 0 of 80 (docs/detect.md section 2, 'Does the run level "
+                   "keep its promise?'): give more healthy recordings where the rate matters")
     if basis is not None and basis.method.startswith("conformal") and \
             not getattr(det, "restarts_per_segment", False):
         click.echo(f"  the rate holds for a recording's first {basis.segment_s:g}-s segment; a "
