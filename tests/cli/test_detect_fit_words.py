@@ -184,10 +184,13 @@ def test_fit_flow_balance_refuses_calibrate_and_records_its_own_channels(files, 
                  "-o", str(tmp_path / "e.joblib")]) == 0
     out = capsys.readouterr().out
     assert "channels p1,p2,x,speed,pa,pb," in out  # not p1,p2,x,u
-    # why no own maxima: the cross-fit needs 4 recordings
-    assert out.rstrip().endswith("; the flow balance's own GLR maxima come from two-fold "
-                                 "cross-fitting of at least 4 healthy recordings (got 2, so "
-                                 "none)")
+    # why no own maxima: the cross-fit needs 4 recordings (the summary line; the next says
+    # what a model-based level can do, since session 19)
+    first, *rest = out.splitlines()
+    assert first.rstrip().endswith("; the flow balance's own GLR maxima come from two-fold "
+                                   "cross-fitting of at least 4 healthy recordings (got 2, so "
+                                   "none)")
+    assert rest[0].startswith("  a model-based level can misjudge a unit")
     assert tuple(load_detector_file(tmp_path / "e.joblib")[1].channels) == (
         "p1", "p2", "x", "speed", "pa", "pb")
 
