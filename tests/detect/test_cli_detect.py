@@ -187,7 +187,7 @@ def test_a_method_that_cannot_judge_the_file_gets_an_error_row(files):
         def predict(self, rec):
             raise RecordingError("predict: x.parquet: too short to judge")
 
-    rec = SimpleNamespace(duration=30.0, meta={})
+    rec = SimpleNamespace(duration=30.0, n_samples=30000, sample_rate=1000.0, meta={})
     assert _row("flow-balance", Refuses(), rec, 3) == {
         "method": "flow-balance", "error": "predict: x.parquet: too short to judge"}
     import pandas as pd

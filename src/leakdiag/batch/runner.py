@@ -595,46 +595,39 @@ def _verdict_columns(det, parts: list[FeatureSeries], t: np.ndarray, v: np.ndarr
                      duration_s: float, start_time: float, path: str) -> dict:
     """A detector row's verdict: what ``leakdiag detect --detector`` says of the recording.
 
-    The streamed windows are judged by :meth:`leakdiag.detect.base.Detector.predict_series`:
+    The streamed windows are judged by :meth:`leakdiag.detect.base.Detector.predict_series`
+    through :func:`leakdiag.detect.decision.judge` (a run longer than a healthy segment at its
+    run level, as ``detect`` judges it):
     alarm, alarm time, onset estimate (the detector's own onset method), p-value, CUSUM
     maximum and threshold, and the leak size with its interval when the detector is
     calibrated. A recording with no finite window after the burn-in is not judged (``alarm``
     null, the reason in ``error``).
     """
-    from leakdiag.detect.decision import (detector_rate, expected_false_alarms, level_words,
-                                          raised_level, run_decision)
+    from leakdiag.detect.decision import judge
     from leakdiag.io.errors import RecordingError
 
     cols = {"threshold": float(det.threshold_)}
     if not parts:  # no window at all (run_case says why: _unusable)
         return {**cols, "alarm": None, "decision": "inconclusive",
                 "error": _not_judged(det, 0, duration_s)}
-    # a run longer than a healthy segment at the level that holds it to one segment's rate,
-    # as detect judges it (leakdiag.detect.decision.judge_run)
-    fs = float(parts[0].sample_rate)
-    found = raised_level(det, int(round(duration_s * fs)), fs)
-    level = None if found is None else found[0]
+    # as detect judges a file: a run longer than a healthy segment at the level that holds it
+    # to one segment's rate (leakdiag.detect.decision.judge_run)
+    series = parts[0].with_values(v, time=t)
+    fs = float(series.sample_rate)
     try:
-        verdict = det.predict_series(parts[0].with_values(v, time=t), duration_s, start_time,
-                                     source=path, level=level)
+        j = judge(det, int(round(duration_s * fs)), fs, duration_s,
+                  lambda level: det.predict_series(series, duration_s, start_time,
+                                                   source=path, level=level))
     except RecordingError as exc:  # nothing was tested: the detector says why
         return {**cols, "alarm": None, "decision": "inconclusive",
                 "error": f"detector not judged: {exc}"}
+    verdict, expected = j.verdict, j.expected
     d = verdict.as_dict()
     cols["threshold"] = float(verdict.threshold)  # the level judged at
-    per_hour, burn_in = detector_rate(det)
-    expected = (found[1] if found is not None else
-                expected_false_alarms(getattr(det, "threshold_basis_", None), per_hour,
-                                      max(duration_s - burn_in, 0.0), verdict.n_segments))
+    if j.run_level is not None:
+        cols["run_level"] = j.run_level_words(float(det.threshold_))
     leak = None if verdict.leak is None else bool(verdict.leak)
-    if level is not None:
-        basis = det.threshold_basis_
-        span = max(duration_s - burn_in, 0.0)
-        cols["run_level"] = level_words(
-            span, level, float(det.threshold_),
-            expected_false_alarms(basis, per_hour, span, verdict.n_segments), expected,
-            float(getattr(basis, "target_per_segment", float("nan"))))
-    return {**cols, "alarm": leak, "decision": run_decision(leak, expected),
+    return {**cols, "alarm": leak, "decision": j.decision,
             "false_alarms_expected": expected, "alarm_time_s": d["alarm_time_s"],
             "score_max": d["score_max"], "p_value": d["confidence"],
             "alarm_onset_s": d["onset_s"], "onset_method": d["onset_method"] if verdict.leak

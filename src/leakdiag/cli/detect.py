@@ -276,11 +276,10 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
                 continue
             say(f"method {i + 1}/{len(methods)}: fitting {m} on {len(train)} healthy file(s)...")
             try:
-                if whole:
-                    det = _fit_for_the_run(m, system, alarm_at(per_run), train, rec)
-                    whole = det is not None
-                if not whole:  # each segment held to 1/n of the run's rate
-                    det = make_detector(m, system, alarm).fit(train)
+                for_run = _fit_for_the_run(m, system, alarm_at(per_run), train, rec) \
+                    if whole else None
+                # else each segment held to 1/n of the run's rate
+                det = for_run if for_run is not None else det.fit(train)
             except ValueError as exc:
                 rows.append({"method": m, "error": in_cli_words(str(exc))})
                 continue

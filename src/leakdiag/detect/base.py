@@ -676,18 +676,24 @@ class Detector(BaseEstimator):
         (level, expected) or None
             The level (at least ``threshold_``) and the false alarms it lets through in the run.
         """
+        from leakdiag.detect.decision import conformal_segments
+
         self._check_fitted()
         b = self.threshold_basis_
-        if b is None or not b.method.startswith("conformal") or not b.supported or \
-                b.conditional or not len(b.maxima):
-            return None
-        m = n_segments if n_segments is not None else \
-            max(1, math.ceil(span_s / b.segment_s - SEGMENT_TOLERANCE))
-        k = int(math.floor(float(b.target_per_segment) * (b.n + 1) / m + 1e-9))
+        m = conformal_segments(b, span_s, n_segments)
+        k = self._run_rank(m)
         if k < 1:
             return None
-        kth = float(np.sort(b.maxima)[::-1][k - 1])
-        return max(kth, float(self.threshold_)), m * k / (b.n + 1)
+        return max(float(b.maxima[k - 1]), float(self.threshold_)), m * k / (b.n + 1)
+
+    def _run_rank(self, m: int | None) -> int:
+        """Rank ``k'`` of the healthy maxima (in decreasing order) that holds ``m`` segments to
+        one segment's rate (:meth:`run_level`); 0 when the maxima cannot, the basis is not
+        conformal (``m`` None), not supported, or calibration-conditional."""
+        b = getattr(self, "threshold_basis_", None)
+        if m is None or b is None or not b.supported or b.conditional:
+            return 0
+        return int(math.floor(float(b.target_per_segment) * (b.n + 1) / m + 1e-9))
 
     def predict(self, recording, level: float | None = None) -> Verdict:
         """Verdict on one recording: leak or not, onset, alarm time, confidence, leak size.

@@ -16,12 +16,13 @@ length in which a detector expects a false alarm and cannot raise its level.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from leakdiag.detect.threshold import SEGMENT_TOLERANCE
 
 __all__ = ["detector_rate", "per_run_rate", "expected_false_alarms", "longer_than_a_segment",
-           "raised_level", "level_words", "RunJudgement", "judge_run", "run_decision"]
+           "raised_level", "RunJudgement", "judge_run", "judge", "run_decision"]
 
 
 def detector_rate(det) -> tuple[float, float]:
@@ -299,34 +300,11 @@ class RunJudgement:
         """
         if self.run_level is None:
             return None
-        return level_words(self.span_s, self.run_level, threshold, self.expected_at_threshold,
-                           self.expected, self.segment_target)
-
-
-def level_words(span_s: float, level: float, threshold: float, expected_at_threshold: float,
-                expected: float, segment_target: float) -> str:
-    """A run level in words (:meth:`RunJudgement.run_level_words`, ``batch``'s ``run_level``).
-
-    Parameters
-    ----------
-    span_s : float
-        The judged span, s.
-    level, threshold : float
-        The run level and the fitted threshold.
-    expected_at_threshold, expected : float
-        False alarms expected in the run at the threshold and at the level.
-    segment_target : float
-        The rate requested of one healthy segment.
-
-    Returns
-    -------
-    str
-    """
-    return (f"this {span_s:.4g}-s run is judged at the level {level:.4g} "
-            f"(fitted level {threshold:.4g}, which expects about "
-            f"{expected_at_threshold:.3g} false alarms in a run this long), so that it "
-            f"expects at most {expected:.3g}, within the {segment_target:.3g} "
-            "requested of one healthy segment (docs/detect.md section 2, 'Long runs')")
+        return (f"this {self.span_s:.4g}-s run is judged at the level {self.run_level:.4g} "
+                f"(fitted level {threshold:.4g}, which expects about "
+                f"{self.expected_at_threshold:.3g} false alarms in a run this long), so that it "
+                f"expects at most {self.expected:.3g}, within the {self.segment_target:.3g} "
+                "requested of one healthy segment (docs/detect.md section 2, 'Long runs')")
 
 
 def raised_level(det, n_samples: int, sample_rate_hz: float) -> tuple[float, float] | None:
@@ -400,24 +378,49 @@ def judge_run(det, rec) -> RunJudgement:
     leakdiag.io.RecordingError
         When the detector cannot judge the recording (as its ``predict``).
     """
+    return judge(det, rec.n_samples, rec.sample_rate, rec.duration,
+                 lambda level: det.predict(rec) if level is None else
+                 det.predict(rec, level=level))
+
+
+def judge(det, n_samples: int, sample_rate_hz: float, duration_s: float,
+          predict: Callable[[float | None], object]) -> RunJudgement:
+    """:func:`judge_run` on a run given by its length and a ``predict(level)`` of it.
+
+    ``leakdiag batch`` judges the windows it streamed (``Detector.predict_series``) with it,
+    :func:`judge_run` a whole recording (``predict``).
+
+    Parameters
+    ----------
+    det, n_samples, sample_rate_hz
+        As :func:`raised_level` (the fitted detector, the run's samples and rate in Hz).
+    duration_s : float
+        The run's duration, s.
+    predict : callable
+        ``predict(level)``: the detector's verdict on the run at ``level`` (None: at its
+        threshold).
+
+    Returns
+    -------
+    RunJudgement
+    """
     per_hour, burn_in = detector_rate(det)
     basis = getattr(det, "threshold_basis_", None)
     restarts = getattr(det, "restarts_per_segment", False)
-    span_s = max(rec.duration - burn_in, 0.0)
+    span_s = max(duration_s - burn_in, 0.0)
     # decided before predicting: at the threshold, a long healthy run's false alarm can be
     # refused as "no lasting leak" where the run level gives a verdict
-    found = (raised_level(det, rec.n_samples, rec.sample_rate)
-             if callable(getattr(det, "run_level", None)) else None)
+    found = raised_level(det, n_samples, sample_rate_hz)
     if found is not None:
         level, expected = found
-        v = det.predict(rec, level=level)
+        v = predict(level)
         at_threshold = expected_false_alarms(basis, per_hour, span_s, v.n_segments)
         # guaranteed where the healthy maxima hold the run and the statistic restarts at each
         # segment (the features' CUSUM); not the flow balance's carried-over GLR (run_level)
         per_run, guaranteed = min(1.0, expected), bool(restarts)
     else:
         level = None
-        v = det.predict(rec)
+        v = predict(None)
         expected = at_threshold = expected_false_alarms(basis, per_hour, span_s, v.n_segments)
         per_run, guaranteed = per_run_rate(basis, per_hour, span_s, v.n_segments, restarts)
     return RunJudgement(v, per_hour, span_s, expected, per_run, guaranteed, at_threshold, level,

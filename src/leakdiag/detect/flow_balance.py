@@ -1468,18 +1468,13 @@ class FlowBalanceDetector(Detector):
         (level, expected) or None
             The level (at least ``threshold_``) and the false alarms it expects in the run.
         """
-        from leakdiag.detect.decision import conformal_segments
-
-        self._check_fitted()
-        basis = self.threshold_basis_
-        alpha = float(basis.target_per_segment)
-        m = conformal_segments(basis, span_s, n_segments)
-        # distribution-free when the healthy maxima support the run (a higher rank of them),
-        # else the model-based level, as fit chooses between them for one segment
-        k = self._run_rank(m)
-        if k >= 1:
-            level = max(float(basis.maxima[k - 1]), float(self.threshold_))
-            return level, m * k / (basis.n + 1)
+        # distribution-free when the healthy maxima support the run (a higher rank of them:
+        # Detector.run_level), else the model-based level, as fit chooses between them for
+        # one segment
+        found = super().run_level(span_s, n_segments)
+        if found is not None:
+            return found
+        alpha = float(self.threshold_basis_.target_per_segment)
         hours = span_s / 3600.0
         th = self.alarm_threshold_
         target = alpha / hours if hours > 0 else float("inf")
@@ -1493,14 +1488,6 @@ class FlowBalanceDetector(Detector):
             return None
         level = float(hs[over[-1] + 1]) if len(over) else float(hs[0])
         return level, th.tail_rate(level) * hours
-
-    def _run_rank(self, m: int | None) -> int:
-        """Rank ``k'`` of the healthy maxima that holds ``m`` segments to one segment's rate
-        (:meth:`run_level`); 0 when the maxima cannot (or the basis is not conformal)."""
-        basis = self.threshold_basis_
-        if m is None or not basis.supported or basis.conditional:
-            return 0
-        return int(math.floor(float(basis.target_per_segment) * (basis.n + 1) / m + 1e-9))
 
     def predict(self, recording, level: float | None = None) -> FlowBalanceVerdict:
         """Verdict: leak or not, alarm time, onset, leak size (mean L/min with an interval).
@@ -1544,11 +1531,9 @@ class FlowBalanceDetector(Detector):
             flow (VCA: a reversed command or position sign), or an alarm whose leak
             coefficient since the onset is not positive (docs/detect.md 8.4).
         """
-        if level is not None and not (np.isfinite(level) and level >= self.threshold_):
-            raise ValueError(f"predict: level={level!r} must be finite and at least the "
-                             f"threshold {self.threshold_:.4g}")
+        level = self._check_level(level)
         t, a, b, g, arg = self._scan(recording, "predict")
-        h = self.threshold_ if level is None else float(level)
+        h = self.threshold_ if level is None else level
         smax = float(g.max()) if len(g) else 0.0
         confidence, floor = self._p_value(smax, t, recording, run=level is not None)
         common = dict(confidence=confidence, confidence_floor=floor, leak_lpm_in_range=None,
