@@ -337,3 +337,112 @@ def test_batch_judges_a_feature_detector_at_the_run_level_as_detect(acf, tmp_pat
     assert row["false_alarms_expected"] == pytest.approx(j.expected)
     assert row["decision"] == j.decision and row["score_max"] == pytest.approx(
         j.verdict.score_max)
+
+
+@pytest.fixture(scope="module")
+def acf_no_load():
+    """acf-p1 on six 20-s no-load runs in 5-s segments (18 maxima) for 0.14 false alarms per
+    segment: k = floor(0.14 x 19) = 2, 2/19 per segment; a 20-s run (15 s judged, 3 segments)
+    has no run level (k' = floor(2.66 / 3) = 0) and expects 3 x 2/19 = 0.32 at the threshold."""
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm
+
+    h = [ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="none", machine=31, seed=s)
+         for s in range(6)]
+    return make_detector("acf-p1", "vca", Alarm(false_alarms_per_hour=0.14 * 3600.0 / 5.0,
+                                                 segment_s=5.0)).fit(h)
+
+
+def test_a_long_run_no_run_level_holds_is_inconclusive_on_an_alarm(acf_no_load):
+    """A statistics audit (2026-11-28, finding 1): such a run was judged at the threshold and
+    its alarm read LEAK below one expected false alarm (207 of 400 healthy 120-s files, at
+    "at most 0.762"). The alarm of a run longer than a segment is evidence only at the rate
+    asked of the run (one segment's, as a run level holds it)."""
+    from leakdiag.detect.decision import unheld_long_run
+
+    det = acf_no_load
+    b = det.threshold_basis_
+    assert (b.n, b.k) == (18, 2) and det.run_level(15.0) is None
+    assert unheld_long_run(det, 20000, 1000.0) == (pytest.approx(6.0 / 19.0),
+                                                   pytest.approx(0.14), 3)
+    assert unheld_long_run(det, 10000, 1000.0) is None  # one segment: held at the threshold
+    # a healthy run that alarms by chance, and a leaking one: neither alarm is evidence here
+    for leak, seed in ((0.0, 62), (2.0, 61)):
+        rec = ld.sim.simulate_vca(duration=20.0, leak_lpm=leak, onset=10.0, load="none",
+                                  machine=31, seed=seed)
+        j = judge_run(det, rec)
+        assert j.verdict.leak and j.run_level is None  # the old rule: LEAK at 0.32 expected
+        assert j.expected == pytest.approx(6.0 / 19.0) and j.decision == "inconclusive"
+        assert j.why_inconclusive.startswith("the run covers 3 healthy segments") and \
+            "18 healthy maxima resolve a run of at most 2 segment(s) at 0.14; 21 would " \
+            "resolve 3" in j.why_inconclusive
+        # held to a per-run rate of 0.35 (detect's 1/n split), the same alarm is evidence
+        assert judge_run(det, rec, run_target=0.35).decision == "leak"
+    # 21 maxima do resolve it: floor(0.14 x 22 / 3) = 1
+    assert math.floor(0.14 * 22 / 3) == 1 and math.floor(0.14 * 21 / 3) == 0
+
+
+def test_detect_reads_the_unheld_long_run_inconclusive(acf_no_load, tmp_path, run_cli):
+    from leakdiag.io import write_recording
+    from leakdiag.stream.detector_file import DetectorMeta, save_detector
+
+    rec = ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="none", machine=31, seed=62)
+    path = write_recording(rec, tmp_path / "ok.parquet")
+    det_path = tmp_path / "acf.joblib"
+    save_detector(acf_no_load, DetectorMeta("acf-p1", "vca", 1000.0, ("p1",), {"p1": "Pa"},
+                                            false_alarms_per_hour=0.14 * 3600.0 / 5.0,
+                                            n_healthy=6, load="none"), det_path)
+    code, out, err = run_cli(["detect", str(path), "--detector", str(det_path)])
+    assert code == 0, err
+    assert "Decision: INCONCLUSIVE -- alarm from acf-p1, but the run covers 3 healthy " \
+        "segments" in out
+
+
+def test_a_model_based_run_level_says_so(healthy, seg):
+    """A statistics audit (2026-11-28, finding 2): where the healthy maxima cannot resolve a
+    run, the flow balance's run level is its bootstrap null's, yet it was worded as the
+    conformal one ("at most"); on one virtual machine 10 of 40 healthy runs crossed a stated
+    "at most 0.098"."""
+    from leakdiag.detect.decision import run_level_method
+
+    det = FlowBalanceDetector(system="vca",
+                              false_alarms_per_hour=0.3 * 3600.0 / seg).fit(healthy)
+    b = det.threshold_basis_
+    assert b.method == "conformal" and (b.n, b.k) == (6, 2)
+    # 2 segments: k' = floor(2.1 / 2) = 1, conformal; 4 segments: k' = 0, model-based
+    assert run_level_method(det, 2 * seg, 2) == "conformal"
+    assert run_level_method(det, 4 * seg, 4) == "model-based"
+    for dur, method in ((30.0, "conformal"), (70.0, "model-based")):
+        rec = ld.sim.simulate_vca(duration=dur, leak_lpm=0.0, load="spring", machine=31,
+                                  seed=63)
+        j = judge_run(det, rec)
+        assert j.run_level is not None and j.run_level_method == method
+        words = j.run_level_words(float(det.threshold_))
+        assert ("model-based, not guaranteed" in words) is (method == "model-based")
+        assert ("expects at most" in words) is (method == "conformal")
+        assert not j.guaranteed
+
+
+def test_the_flow_balance_and_the_decision_count_segments_alike(healthy):
+    """A statistics audit (2026-11-28, finding 4): the p-value counted ceil(windows / per)
+    and the decision ceil(segments - 1e-3): 1,001 windows of 1,000 were 2 and 1 segments."""
+    import copy
+
+    from leakdiag.detect.decision import run_segments
+
+    det = copy.deepcopy(FlowBalanceDetector(system="vca").fit(healthy[:2]))
+    det.segment_windows_ = 1000
+    skip = int(math.ceil(det.burn_in_s / det.window_s - 1e-9))
+    for n_win in (999, 1000, 1001, 1002, 2000, 2001, 2003):
+        n_samples = (n_win + skip) * 1000 + 1  # whole 1-s windows, burn-in windows skipped
+        segs, whole = run_segments(det, n_samples, 1000.0)
+        assert segs == pytest.approx(n_win / 1000)
+        assert whole == det._n_segments({"end": np.zeros(n_win)}, None)
+
+
+def test_a_threshold_from_non_finite_maxima_is_refused():
+    from leakdiag.detect.threshold import conformal_threshold
+
+    for bad in (float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="1 of 4 healthy segment maxima are not finite"):
+            conformal_threshold([1.0, bad, 2.0, 3.0], 0.2, segment_s=60.0)

@@ -231,3 +231,32 @@ def test_a_segment_longer_than_the_healthy_runs_is_judged_at_its_run_level(setup
     assert f"full segments are judged at the level {level:.4g}" in err + out
     first = json.loads(events.read_text().splitlines()[0])
     assert first["segment_end_s"] == 60.0 and first["threshold"] == pytest.approx(level)
+
+
+
+def test_a_segment_as_long_as_the_healthy_runs_counts_one_segment_as_judge_run(
+        setup, run_cli):
+    """A statistics audit (2026-11-28, finding 3): monitor's up-front check counted the
+    segments by time (38 s after the 2-s burn-in over the 37-s healthy segment: 2), where the
+    detector and judge_run count the windows (1), so a 40-s segment of 40-s healthy runs was
+    refused as expecting 1.2 false alarms where it expects 0.6."""
+    from leakdiag.detect import FlowBalanceDetector
+    from leakdiag.detect.decision import expected_false_alarms, run_segments
+    from leakdiag.stream.detector_file import DetectorMeta, save_detector
+
+    d, _, path, rec = setup
+    det = FlowBalanceDetector(system="vca", false_alarms_per_hour=64.0).fit(
+        [_vca(s) for s in range(4)])
+    b = det.threshold_basis_
+    assert (b.method, b.n, b.k, b.segment_s, det.burn_in_s) == ("conformal", 4, 3, 37.0, 2.0)
+    assert run_segments(det, 40000, 1000.0) == (pytest.approx(1.0), 1)
+    assert expected_false_alarms(b, 64.0, 38.0) == pytest.approx(1.2)  # by time: 2
+    assert expected_false_alarms(b, 64.0, 38.0, 1) == pytest.approx(0.6)
+    det_path = d / "fb64.joblib"
+    save_detector(det, DetectorMeta("flow-balance", "vca", 1000.0, ("p1", "p2", "x", "u"),
+                                    dict(rec.units), false_alarms_per_hour=64.0, n_healthy=4,
+                                    load="spring"), det_path)
+    code, out, err = run_cli(["monitor", str(path), "--detector", str(det_path),
+                              "--segment", "40"])
+    assert code == 0, err
+    assert "3 segment(s) of up to 40 s judged by flow-balance" in out + err

@@ -538,6 +538,7 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
         if j.run_level is not None:
             row["threshold"] = float(j.run_level)
         rows.append({**row, "alarm": bool(v.leak), "decision": j.decision,
+                     "why_inconclusive": j.why_inconclusive,
                      "false_alarms_expected": j.expected,
                      "run_level": j.run_level_words(float(det.threshold_)),
                      "alarm_time_s": d["alarm_time_s"],
@@ -628,6 +629,7 @@ def _verdict_columns(det, parts: list[FeatureSeries], t: np.ndarray, v: np.ndarr
         cols["run_level"] = j.run_level_words(float(det.threshold_))
     leak = None if verdict.leak is None else bool(verdict.leak)
     return {**cols, "alarm": leak, "decision": j.decision,
+            "why_inconclusive": j.why_inconclusive,
             "false_alarms_expected": expected, "alarm_time_s": d["alarm_time_s"],
             "score_max": d["score_max"], "p_value": d["confidence"],
             "alarm_onset_s": d["onset_s"], "onset_method": d["onset_method"] if verdict.leak

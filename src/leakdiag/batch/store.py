@@ -43,8 +43,10 @@ RESULT_COLUMNS: dict[str, str] = {
     "detectable_lpm": "float64", "verdict": "string",
     # every leakdiag detector's row: the decision as leakdiag detect makes it (an alarm that a
     # healthy run this long expects by chance is "inconclusive"), the false alarms expected in
-    # the run at the level judged at, and a long run's raised level in words
+    # the run at the level judged at, and a long run's raised level in words; why an alarm
+    # is no evidence (an inconclusive decision with an alarm)
     "decision": "string", "false_alarms_expected": "float64", "run_level": "string",
+    "why_inconclusive": "string",
 }
 
 

@@ -340,20 +340,31 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
     # (detect reads such an alarm INCONCLUSIVE; an audit, 2026-11-28, found monitor reading LEAK
     # where detect said INCONCLUSIVE) unless it is judged at a raised level (judge_run), as detect
     # judges a file
-    from leakdiag.detect.decision import detector_rate, expected_false_alarms, raised_level
+    from leakdiag.detect.decision import (detector_rate, expected_false_alarms, raised_level,
+                                          run_level_method, run_segments, unheld_long_run,
+                                          unheld_words)
 
     basis = getattr(detector, "threshold_basis_", None)
     per_hour, burn = detector_rate(detector)
     span = max(seg - burn, 0.0)
-    expected = expected_false_alarms(basis, per_hour, span)
+    n_full = int(round(seg * source.sample_rate))
+    # the segments as the detector counts them, as judge_run does (a statistics audit,
+    # 2026-11-28, finding 3: counted by time here, 2 where the detector counts 1)
+    n_seg = run_segments(detector, n_full, source.sample_rate)[1]
+    expected = expected_false_alarms(basis, per_hour, span, n_seg)
     # a segment longer than the detector's healthy one is judged at its run level (judge_run)
-    raised = raised_level(detector, int(round(seg * source.sample_rate)), source.sample_rate)
+    raised = raised_level(detector, n_full, source.sample_rate)
     if expected >= 1.0 and raised is None:
         raise click.UsageError(
             f"--segment {seg:g}: {detector_path} expects about {expected:.3g} false alarms in a "
             f"healthy segment this long, and its healthy reference cannot hold a segment this "
             f"long to a healthy segment's rate, so its LEAK would be no evidence: give a shorter "
             f"--segment, or fit the detector for fewer false alarms per hour")
+    unheld = unheld_long_run(detector, n_full, source.sample_rate)
+    if unheld is not None:  # every alarm of a full segment would be read inconclusive
+        raise click.UsageError(f"--segment {seg:g}: {detector_path}: "
+                               f"{unheld_words(*unheld, basis)}")
+    method = None if raised is None else run_level_method(detector, span, n_seg)
     judge = SegmentJudge(detector, chans, source.sample_rate, source.start_time, seg,
                          units=units, meta=source.meta, source=str(source.source))
     speed = None if input_path == "-" or follow else parse_replay(replay)
@@ -408,11 +419,16 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
         say(f"  threshold: {threshold_words(basis)} (per segment: each is judged as one run)")
     if raised is not None:  # the full segments were judged at the run level (judge_run)
         level, at_level = raised
+        how = (f"which expects at most {at_level:.3g}, within the "
+               f"{basis.target_per_segment:.3g} requested of one healthy segment (a rank of the "
+               "healthy maxima)" if method == "conformal" else
+               f"which expects about {at_level:.3g} by the bootstrap null's fitted tail, "
+               f"against the {basis.target_per_segment:.3g} requested of one healthy segment: "
+               "model-based, not guaranteed by the healthy data, whose maxima are too few for "
+               "a segment this long")
         say(f"  run level: a {seg:g}-s segment expects about {expected:.3g} false alarms at the "
             f"fitted level {float(detector.threshold_):.4g}, so full segments are judged at the "
-            f"level {level:.4g}, which expects at most {at_level:.3g}, within the "
-            f"{basis.target_per_segment:.3g} requested of one healthy segment (docs/detect.md "
-            "section 2, 'Long runs')")
+            f"level {level:.4g}, {how} (docs/detect.md section 2, 'Long runs')")
     if stopped is not None:
         click.get_current_context().exit(128 + stopped.signum)
     if failed is not None:

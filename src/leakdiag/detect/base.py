@@ -54,10 +54,10 @@ from leakdiag.detect.blind_rules import blind_limit_s, blind_rule, undefined_lim
 from leakdiag.detect.leaksize import fit_leak_calibration
 from leakdiag.detect.onset import ONSET_METHODS, best_split_gain, change_points, cusum_onset
 from leakdiag.detect.threshold import (
-    SEGMENT_TOLERANCE,
     ReferenceMaxima,
     ThresholdBasis,
     conformal_threshold,
+    count_segments,
     segment_index,
     segment_maxima,
 )
@@ -797,7 +797,7 @@ class Detector(BaseEstimator):
         smax = float(stat.max()) if len(stat) else 0.0
         basis = self.threshold_basis_
         span = duration_s - a.burn_in_s
-        n_seg = max(1, math.ceil(span / basis.segment_s - SEGMENT_TOLERANCE))
+        n_seg = count_segments(span / basis.segment_s)
         confidence = basis.p_value(smax, n_seg)
         floor = basis.at_floor(smax)
         above = np.flatnonzero(stat > h)

@@ -8,7 +8,8 @@ judged at the level that holds the whole run to the rate of one healthy segment 
 detector can state one (``run_level``: the flow balance's conformal or model-based level; the
 features' conformal rank, guaranteed by their restarts; :func:`longer_than_a_segment`,
 :func:`judge_run`); otherwise at its threshold, and its alarm is INCONCLUSIVE from one expected
-false alarm on. ``leakdiag detect``, ``leakdiag batch`` and the segments of
+false alarm on, or, in a run longer than a segment, above the rate asked of the run
+(:func:`unheld_long_run`). ``leakdiag detect``, ``leakdiag batch`` and the segments of
 ``leakdiag monitor --segment`` decide with :func:`judge_run`; ``monitor`` refuses a segment
 length in which a detector expects a false alarm and cannot raise its level.
 """
@@ -19,10 +20,11 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from leakdiag.detect.threshold import SEGMENT_TOLERANCE
+from leakdiag.detect.threshold import SEGMENT_TOLERANCE, count_segments
 
 __all__ = ["detector_rate", "per_run_rate", "expected_false_alarms", "longer_than_a_segment",
-           "raised_level", "RunJudgement", "judge_run", "judge", "run_decision"]
+           "raised_level", "RunJudgement", "judge_run", "judge", "run_decision",
+           "run_segments", "run_level_method", "unheld_long_run", "unheld_words"]
 
 
 def detector_rate(det) -> tuple[float, float]:
@@ -124,7 +126,7 @@ def conformal_segments(basis, span_s: float, n_segments: int | None = None) -> i
             not math.isfinite(basis.bound_per_segment):
         return None
     return n_segments if n_segments is not None else \
-        max(1, math.ceil(span_s / basis.segment_s - SEGMENT_TOLERANCE))
+        count_segments(span_s / basis.segment_s)
 
 
 def expected_false_alarms(basis, per_hour: float, span_s: float,
@@ -273,6 +275,13 @@ class RunJudgement:
     segment_target : float
         The false-alarm rate requested of one healthy segment (``target_per_segment`` of the
         threshold basis; NaN without one): what a run level holds the whole run to.
+    run_level_method : {"conformal", "model-based"} or None
+        What backs the run level (None: judged at the threshold): a rank of the healthy maxima
+        (``"conformal"``), or the flow balance's bootstrap null where the maxima cannot resolve
+        the run (``"model-based"``: its expected false alarms are an estimate, not a bound).
+    why_inconclusive : str or None
+        Why an alarm is no evidence of a leak (``decision`` ``"inconclusive"`` with an alarm),
+        in words; None otherwise.
     """
 
     verdict: object
@@ -285,6 +294,8 @@ class RunJudgement:
     run_level: float | None
     decision: str
     segment_target: float = float("nan")
+    run_level_method: str | None = None
+    why_inconclusive: str | None = None
 
     def run_level_words(self, threshold: float) -> str | None:
         """The raised level in words, or None when the run was judged at the threshold.
@@ -300,11 +311,18 @@ class RunJudgement:
         """
         if self.run_level is None:
             return None
-        return (f"this {self.span_s:.4g}-s run is judged at the level {self.run_level:.4g} "
+        head = (f"this {self.span_s:.4g}-s run is judged at the level {self.run_level:.4g} "
                 f"(fitted level {threshold:.4g}, which expects about "
-                f"{self.expected_at_threshold:.3g} false alarms in a run this long), so that it "
-                f"expects at most {self.expected:.3g}, within the {self.segment_target:.3g} "
-                "requested of one healthy segment (docs/detect.md section 2, 'Long runs')")
+                f"{self.expected_at_threshold:.3g} false alarms in a run this long)")
+        if self.run_level_method == "model-based":  # the maxima could not resolve the run
+            return (f"{head}, so that it expects about {self.expected:.3g} by the bootstrap "
+                    f"null's fitted tail, against the {self.segment_target:.3g} requested of "
+                    "one healthy segment: model-based, not guaranteed by the healthy data, "
+                    "whose maxima are too few to hold a run this long to a segment's rate "
+                    "(docs/detect.md section 2, 'Long runs')")
+        return (f"{head}, so that it expects at most {self.expected:.3g}, within the "
+                f"{self.segment_target:.3g} requested of one healthy segment (a rank of the "
+                "healthy maxima; docs/detect.md section 2, 'Long runs')")
 
 
 def raised_level(det, n_samples: int, sample_rate_hz: float) -> tuple[float, float] | None:
@@ -336,9 +354,7 @@ def raised_level(det, n_samples: int, sample_rate_hz: float) -> tuple[float, flo
     per_hour, burn_in = detector_rate(det)
     basis = getattr(det, "threshold_basis_", None)
     span_s = max(n_samples / float(sample_rate_hz) - burn_in, 0.0)
-    spanned = getattr(det, "segments_spanned", None)
-    segs = spanned(n_samples, sample_rate_hz) if callable(spanned) else None
-    n_seg = None if segs is None else max(1, math.ceil(segs - SEGMENT_TOLERANCE))
+    segs, n_seg = run_segments(det, n_samples, sample_rate_hz)
     if getattr(basis, "conditional", False) and getattr(basis, "method", "").startswith(
             "conformal"):
         # a calibration-conditional rank has no run counterpart (the run level is then the
@@ -350,7 +366,155 @@ def raised_level(det, n_samples: int, sample_rate_hz: float) -> tuple[float, flo
     return raise_to(span_s, n_seg)
 
 
-def judge_run(det, rec) -> RunJudgement:
+def run_segments(det, n_samples: int, sample_rate_hz: float
+                 ) -> tuple[float | None, int | None]:
+    """Healthy segments a run of ``n_samples`` covers, as the detector counts them.
+
+    Parameters
+    ----------
+    det : Detector
+        A fitted detector.
+    n_samples : int
+        Samples of the run.
+    sample_rate_hz : float
+        Its sample rate, Hz.
+
+    Returns
+    -------
+    segments : float or None
+        The detector's fractional count (``segments_spanned``; None for a detector without
+        one, which its threshold basis's segment then counts).
+    whole : int or None
+        ``segments`` as whole segments (:func:`~leakdiag.detect.threshold.count_segments`, as
+        the flow balance counts them for its p-value).
+    """
+    spanned = getattr(det, "segments_spanned", None)
+    segs = spanned(n_samples, sample_rate_hz) if callable(spanned) else None
+    return segs, None if segs is None else count_segments(segs)
+
+
+def run_level_method(det, span_s: float, n_segments: int | None = None) -> str:
+    """What backs a detector's run level for a span: ``"conformal"`` (a rank of its healthy
+    maxima, ``Detector._run_rank`` at least 1) or ``"model-based"`` (the flow balance's
+    bootstrap null, where the maxima cannot resolve the run).
+
+    Parameters
+    ----------
+    det : Detector
+        A fitted detector whose ``run_level`` returned a level for the span.
+    span_s : float
+        The judged span, s.
+    n_segments : int, optional
+        Segments the span covers (as :func:`run_segments`).
+
+    Returns
+    -------
+    str
+    """
+    rank = getattr(det, "_run_rank", None)
+    m = conformal_segments(getattr(det, "threshold_basis_", None), span_s, n_segments)
+    return "conformal" if callable(rank) and rank(m) >= 1 else "model-based"
+
+
+def unheld_long_run(det, n_samples: int, sample_rate_hz: float,
+                    run_target: float | None = None) -> tuple[float, float, int] | None:
+    """A run longer than one healthy segment that no run level holds to the run's target.
+
+    Such a run is judged at the detector's threshold, where it expects ``m`` times a
+    segment's false alarms (:func:`expected_false_alarms`). Until session 21 its alarm read
+    LEAK whenever that stayed below one: a statistics audit (2026-11-28, finding 1) fitted
+    acf-p1 for 24 false alarms per hour on 20 healthy 20-s runs (0.133 per segment, whose
+    maxima resolve no run level of 6 segments) and judged healthy 120-s files: 207 of 400 read
+    LEAK "at most 0.762". An alarm is evidence only at the rate asked of the run.
+
+    Parameters
+    ----------
+    det : Detector
+        A fitted detector.
+    n_samples : int
+        Samples of the run.
+    sample_rate_hz : float
+        Its sample rate, Hz.
+    run_target : float, optional
+        The false-alarm rate the run is held to; default the rate requested of one healthy
+        segment (``target_per_segment`` of the threshold basis), as a run level holds it.
+        ``leakdiag detect`` gives its per-run rate where it fitted a method for ``1/m`` of it
+        per segment.
+
+    Returns
+    -------
+    (expected, target, segments) or None
+        The false alarms expected at the threshold in the run, the target it exceeds and
+        the whole segments counted; None when the run is one segment or shorter, a run level
+        holds it, its expected false alarms are within the target (or 1 or more, the case
+        :func:`run_decision` reads inconclusive itself), or there is no target.
+    """
+    if raised_level(det, n_samples, sample_rate_hz) is not None:
+        return None
+    return _unheld(det, n_samples, sample_rate_hz, run_target)
+
+
+def _unheld(det, n_samples: int, sample_rate_hz: float,
+            run_target: float | None) -> tuple[float, float, int] | None:
+    """:func:`unheld_long_run` for a run no run level holds (``raised_level`` None)."""
+    per_hour, burn_in = detector_rate(det)
+    basis = getattr(det, "threshold_basis_", None)
+    target = float(getattr(basis, "target_per_segment", float("nan"))) \
+        if run_target is None else float(run_target)
+    span_s = max(n_samples / float(sample_rate_hz) - burn_in, 0.0)
+    segs, n_seg = run_segments(det, n_samples, sample_rate_hz)
+    if basis is None or not math.isfinite(target) or \
+            not longer_than_a_segment(basis, per_hour, span_s, segs):
+        return None
+    m = conformal_segments(basis, span_s, n_seg)
+    if m is None:  # another basis: its segment counts them (longer_than_a_segment's rule)
+        seg = float(getattr(basis, "segment_s", float("nan")))
+        m = n_seg if n_seg is not None else \
+            count_segments(span_s / seg) if math.isfinite(seg) and seg > 0 else 2
+    expected = expected_false_alarms(basis, per_hour, span_s, n_seg)
+    if expected >= 1.0 or expected <= target * (1.0 + 1e-9):
+        return None
+    return expected, target, m
+
+
+def unheld_words(expected: float, target: float, m: int, basis) -> str:
+    """Why an alarm in a run :func:`unheld_long_run` found is no evidence of a leak.
+
+    Parameters
+    ----------
+    expected, target, m
+        :func:`unheld_long_run`'s answer (false alarms expected at the threshold, the run's
+        target, the segments counted).
+    basis : ThresholdBasis
+        The detector's threshold basis: a conformal one's maxima say how many would resolve
+        the run.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from leakdiag.detect.threshold import conformal_threshold
+    >>> b = conformal_threshold(range(1, 19), 0.14, segment_s=5.0)  # 18 maxima, k = 2
+    >>> unheld_words(3 * 2 / 19, 0.14, 3, b)[:95]
+    'the run covers 3 healthy segments and its healthy reference cannot hold it to the 0.14 false al'
+    """
+    n = getattr(basis, "n", None)
+    fix = ""
+    if n is not None and getattr(basis, "method", "").startswith("conformal") and target > 0:
+        fix = (f" ({n} healthy maxima resolve a run of at most "
+               f"{int(math.floor(target * (n + 1) + 1e-9))} segment(s) at {target:.3g}; "
+               f"{max(n + 1, math.ceil(m / target - 1e-9) - 1)} would resolve {m})")
+    return (f"the run covers {m} healthy segments and its healthy reference cannot hold it to "
+            f"the {target:.3g} false alarms asked of it{fix}: at the threshold about "
+            f"{expected:.3g} false alarms are expected by chance in a run this long, so the "
+            "alarm is no evidence of a leak; judge parts as long as the healthy recordings, "
+            "give more healthy recordings, or fit for more false alarms per segment "
+            "(docs/detect.md section 2, 'Long runs')")
+
+
+def judge_run(det, rec, run_target: float | None = None) -> RunJudgement:
     """Judge one recording with a fitted detector, holding a long run to a segment's rate.
 
     The detector's ``predict`` judges ``rec`` at its threshold. When the run is longer than one
@@ -360,7 +524,9 @@ def judge_run(det, rec) -> RunJudgement:
     run, or None when its healthy reference cannot resolve one), the run is judged at that
     level instead: the whole run is then held to the rate requested of one healthy segment.
     Otherwise it is judged at the threshold, and its alarm is ``"inconclusive"`` when one false
-    alarm or more is expected there (:func:`run_decision`).
+    alarm or more is expected there (:func:`run_decision`), or when the run is longer than one
+    segment and the threshold expects more false alarms in it than ``run_target``
+    (:func:`unheld_long_run`).
 
     Parameters
     ----------
@@ -368,6 +534,9 @@ def judge_run(det, rec) -> RunJudgement:
         A fitted detector.
     rec : Recording
         The recording to judge.
+    run_target : float, optional
+        The false-alarm rate a run judged at the threshold is held to (as
+        :func:`unheld_long_run`; default one healthy segment's).
 
     Returns
     -------
@@ -380,11 +549,12 @@ def judge_run(det, rec) -> RunJudgement:
     """
     return judge(det, rec.n_samples, rec.sample_rate, rec.duration,
                  lambda level: det.predict(rec) if level is None else
-                 det.predict(rec, level=level))
+                 det.predict(rec, level=level), run_target)
 
 
 def judge(det, n_samples: int, sample_rate_hz: float, duration_s: float,
-          predict: Callable[[float | None], object]) -> RunJudgement:
+          predict: Callable[[float | None], object],
+          run_target: float | None = None) -> RunJudgement:
     """:func:`judge_run` on a run given by its length and a ``predict(level)`` of it.
 
     ``leakdiag batch`` judges the windows it streamed (``Detector.predict_series``) with it,
@@ -399,6 +569,8 @@ def judge(det, n_samples: int, sample_rate_hz: float, duration_s: float,
     predict : callable
         ``predict(level)``: the detector's verdict on the run at ``level`` (None: at its
         threshold).
+    run_target : float, optional
+        As :func:`judge_run`.
 
     Returns
     -------
@@ -411,18 +583,31 @@ def judge(det, n_samples: int, sample_rate_hz: float, duration_s: float,
     # decided before predicting: at the threshold, a long healthy run's false alarm can be
     # refused as "no lasting leak" where the run level gives a verdict
     found = raised_level(det, n_samples, sample_rate_hz)
+    method = why = None
     if found is not None:
         level, expected = found
+        method = run_level_method(det, span_s, run_segments(det, n_samples, sample_rate_hz)[1])
         v = predict(level)
         at_threshold = expected_false_alarms(basis, per_hour, span_s, v.n_segments)
         # guaranteed where the healthy maxima hold the run and the statistic restarts at each
-        # segment (the features' CUSUM); not the flow balance's carried-over GLR (run_level)
-        per_run, guaranteed = min(1.0, expected), bool(restarts)
+        # segment (the features' CUSUM); not the flow balance's carried-over GLR (run_level),
+        # nor its model-based level
+        per_run = min(1.0, expected)
+        guaranteed = bool(restarts) and method == "conformal"
+        decision = run_decision(v.leak, expected)
     else:
         level = None
         v = predict(None)
         expected = at_threshold = expected_false_alarms(basis, per_hour, span_s, v.n_segments)
         per_run, guaranteed = per_run_rate(basis, per_hour, span_s, v.n_segments, restarts)
+        decision = run_decision(v.leak, expected)
+        over = _unheld(det, n_samples, sample_rate_hz, run_target) \
+            if decision == "leak" else None
+        if over is not None:  # a long run no run level holds: at its threshold, no evidence
+            decision, why = "inconclusive", unheld_words(*over, basis)
+    if decision == "inconclusive" and v.leak and why is None:
+        why = (f"about {expected:.3g} false alarms are expected by chance in a run this long at "
+               "the level it was judged at, so the alarm is no evidence of a leak")
     return RunJudgement(v, per_hour, span_s, expected, per_run, guaranteed, at_threshold, level,
-                        run_decision(v.leak, expected),
-                        float(getattr(basis, "target_per_segment", float("nan"))))
+                        decision, float(getattr(basis, "target_per_segment", float("nan"))),
+                        method, why)

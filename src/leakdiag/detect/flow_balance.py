@@ -45,12 +45,12 @@ from leakdiag.detect._flow_balance_search import (
 from leakdiag.detect._rig_units import check_rig_units
 from leakdiag.detect.base import Detector, Verdict, check_healthy, fingerprint, healthy_info
 from leakdiag.detect.threshold import (
-    SEGMENT_TOLERANCE,
     InsufficientHealthyDataError,
     ReferenceMaxima,
     ThresholdBasis,
     binned_maxima,
     conformal_threshold,
+    count_segments,
     min_maxima,
 )
 from leakdiag.features.series import FeatureSeries
@@ -1873,9 +1873,9 @@ class FlowBalanceDetector(Detector):
         per = getattr(self, "segment_windows_", None)
         if seg is None and per is None:
             return None
-        m = (math.ceil(len(t["end"]) / per) if seg is None else
-             math.ceil((rec.duration - float(self.burn_in_s)) / seg - SEGMENT_TOLERANCE))
-        return max(1, m)
+        # one count for the p-value, the run level and the decision (count_segments)
+        return count_segments(len(t["end"]) / per if seg is None else
+                              (rec.duration - float(self.burn_in_s)) / seg)
 
     def _p_value(self, smax: float, t: dict, rec, run: bool = False) -> tuple[float, bool]:
         """Probability that healthy operation of this span scores at least ``smax``.

@@ -39,11 +39,38 @@ from leakdiag.detect.rates import clopper_pearson
 __all__ = ["ThresholdBasis", "ReferenceMaxima", "InsufficientHealthyDataError",
            "InsufficientHealthyDataWarning", "conformal_threshold", "conditional_rank",
            "min_maxima", "segment_maxima", "segment_index",
-           "binned_maxima", "clopper_pearson", "SEGMENT_TOLERANCE"]
+           "binned_maxima", "clopper_pearson", "SEGMENT_TOLERANCE", "count_segments"]
 
 #: Relative tolerance when counting complete segments in a run (a run of 59.99 s holds one
 #: 60 s segment): sample-grid rounding must not drop a segment (leakdiag choice).
 SEGMENT_TOLERANCE = 1e-3
+
+
+def count_segments(segments: float) -> int:
+    """Whole healthy segments in a fractional count: a run within :data:`SEGMENT_TOLERANCE`
+    of a whole number of segments holds that number; at least 1.
+
+    One rule for every count (the flow balance's p-value, the run level, the decision; a
+    statistics audit, 2026-11-28, found the flow balance counting ``ceil(windows / per)`` and
+    the decision ``ceil(segments - 1e-3)``, two counts for one run of 1,001 windows of 1,000).
+
+    Parameters
+    ----------
+    segments : float
+        Segments as a fraction (a span over the segment, windows over windows per segment).
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> count_segments(1.0004), count_segments(1.01), count_segments(0.2)
+    (1, 2, 1)
+    """
+    return max(1, math.ceil(float(segments) - SEGMENT_TOLERANCE))
+
+
 #: Rank tolerance: ``alpha (n + 1)`` within this of an integer counts as that integer
 #: (a per-run target converted to per hour and back must not lose one rank to rounding).
 _RANK_TOL = 1e-9
@@ -527,7 +554,9 @@ def conformal_threshold(maxima, target_per_segment: float, *, segment_s: float,
         If ``k < 1`` and ``on_insufficient="raise"``; the message names the number of maxima
         needed.
     ValueError
-        For a target or confidence outside (0, 1), or no maxima at all.
+        For a target or confidence outside (0, 1), no maxima at all, or a maximum that is NaN
+        or infinite (a NaN sorts first and would become the threshold; an infinite one a
+        threshold nothing crosses).
 
     Notes
     -----
@@ -559,6 +588,12 @@ def conformal_threshold(maxima, target_per_segment: float, *, segment_s: float,
         raise ValueError(f"on_insufficient={on_insufficient!r} must be 'raise' or 'warn'")
     own = np.asarray(maxima, dtype=np.float64).ravel()
     ref = reference.maxima if reference is not None else np.zeros(0)
+    for name, vals in (("healthy segment maxima", own), ("reference maxima", ref)):
+        bad = np.flatnonzero(~np.isfinite(vals))
+        if bad.size:  # a statistics audit (2026-11-28, finding 5): a NaN became the threshold
+            raise ValueError(f"{bad.size} of {vals.size} {name} are not finite (first: index "
+                             f"{bad[0]}, {vals[bad[0]]}): a healthy segment whose statistic "
+                             "is undefined or diverged cannot set a threshold")
     pooled = np.sort(np.concatenate([own, ref]))[::-1]
     n = len(pooled)
     if n == 0:

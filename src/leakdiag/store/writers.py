@@ -310,6 +310,14 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table,
             # no verdict, or no window scored (detect stops with "no finite score"): say so
             failed, err = True, (f"{file}: {r['method']} scored no window (no finite score: "
                                  "every feature value undefined, a constant channel?)")
+        if not failed and bool(r.get("leak")) and r.get("decision") == "inconclusive":
+            # an alarm detect reads as no evidence (a run this long expects it by chance): not
+            # judged, with why, as monitor --segment stores such a segment; not an alarm
+            why = r.get("why_inconclusive")
+            failed, err = True, (f"{file}: {r['method']} alarmed at "
+                                 f"{_num(r.get('alarm_time_s'))} s, but " + (
+                                     why if isinstance(why, str) and why else
+                                     "a run this long expects such an alarm by chance"))
         alarms = ()
         if not failed and bool(r.get("leak")) and _num(r.get("alarm_time_s")) is not None:
             alarms = (AlarmRecord(

@@ -249,10 +249,8 @@ class SegmentJudge:
         if j.decision == "inconclusive":  # an alarm the segment's length makes no evidence
             return SegmentVerdict(start, end, reason=(
                 f"{name}: the detector alarmed (score {v.score_max:.3g} against "
-                f"{v.threshold:.3g}), but about {j.expected:.3g} false alarms are expected by "
-                "chance in a segment this long at that level and no run level resolves it, so "
-                "the alarm is no evidence of a leak; use a shorter segment or a detector fitted "
-                "for fewer false alarms per hour"))
+                f"{v.threshold:.3g}), but {j.why_inconclusive}; use a shorter segment or a "
+                "detector fitted for fewer false alarms per hour"))
         if not v.leak:
             self._leak_onset = None
             return SegmentVerdict(start, end, verdict=v)
