@@ -392,10 +392,21 @@ def test_detect_reads_the_unheld_long_run_inconclusive(acf_no_load, tmp_path, ru
     save_detector(acf_no_load, DetectorMeta("acf-p1", "vca", 1000.0, ("p1",), {"p1": "Pa"},
                                             false_alarms_per_hour=0.14 * 3600.0 / 5.0,
                                             n_healthy=6, load="none"), det_path)
-    code, out, err = run_cli(["detect", str(path), "--detector", str(det_path)])
+    db = tmp_path / "ev.db"
+    code, out, err = run_cli(["detect", str(path), "--detector", str(det_path), "--store",
+                              str(db), "--actuator", "unit31"])
     assert code == 0, err
     assert "Decision: INCONCLUSIVE -- alarm from acf-p1, but the run covers 3 healthy " \
         "segments" in out
+    # stored as not judged, with why, not as an alarm (the page would show a leak)
+    from leakdiag.store import EventStore
+
+    assert "0 alarm(s) for unit31 written to" in out
+    st = EventStore(db)
+    (run,) = st.runs_of("unit31").to_dict("records")
+    st.close()
+    assert run["status"] == "unjudged" and "acf-p1 alarmed at" in run["error"]
+    assert "the run covers 3 healthy segments" in run["error"]
 
 
 def test_a_model_based_run_level_says_so(healthy, seg):
