@@ -160,7 +160,7 @@ def test_detect_constant_healthy_file(files, capsys):
     code = main(["detect", str(files["good"]), "--healthy", str(files["const"]), "--burn-in", "0",
                  "--system", "vca",
                  "--methods", "acf-p1"])
-    _one_error_line(capsys, code, "good.csv", "no method gave a finite score",
+    _one_error_line(capsys, code, "good.csv", "no method could judge it (1 tried)",
                     "only 0 finite feature values", "healthy")
 
 
@@ -174,7 +174,7 @@ def test_detect_constant_file_is_not_called_healthy(files, capsys):
     assert "Traceback" not in out.err and "False" not in out.out
     assert out.out.count("channel 'p1' is constant (1e+06)") == 2
     assert out.err.strip().splitlines() == [
-        f"leakdiag: error: {files['const']}: no method gave a finite score; first reason: "
+        f"leakdiag: error: {files['const']}: no method could judge it (2 tried); first reason: "
         f"{files['const']}: channel 'p1' is constant (1e+06): zero variance, acf-p1 cannot "
         "judge it"]
 

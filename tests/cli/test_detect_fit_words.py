@@ -184,13 +184,17 @@ def test_fit_flow_balance_refuses_calibrate_and_records_its_own_channels(files, 
                  "-o", str(tmp_path / "e.joblib")]) == 0
     out = capsys.readouterr().out
     assert "channels p1,p2,x,speed,pa,pb," in out  # not p1,p2,x,u
-    # why no own maxima: the cross-fit needs 4 recordings (the summary line; the next says
-    # what a model-based level can do, since session 19)
+    # why no own maxima, and no check of the runs against each other: the cross-fit needs 4
+    # recordings (the line after the summary, since session 21; the next says what a
+    # model-based level can do, since session 19)
     first, *rest = out.splitlines()
-    assert first.rstrip().endswith("; the flow balance's own GLR maxima come from two-fold "
-                                   "cross-fitting of at least 4 healthy recordings (got 2, so "
-                                   "none)")
-    assert rest[0].startswith("  a model-based level can misjudge a unit")
+    assert rest[0] == ("  the flow balance cross-fits its healthy recordings from 4 on (got 2): "
+                       "its level has no healthy GLR maxima of its own (model-based), and the "
+                       "recordings are not checked against each other, so a leaking run or "
+                       "another machine's among them goes unnoticed and hides leaks of its "
+                       "size; give 4 or more (16 where the false-alarm rate matters)")
+    assert rest[1].startswith("  a model-based level can misjudge a unit")
+    assert "against about 0.097 stated per run by the model" in rest[1]
     assert tuple(load_detector_file(tmp_path / "e.joblib")[1].channels) == (
         "p1", "p2", "x", "speed", "pa", "pb")
 

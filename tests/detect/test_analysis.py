@@ -315,3 +315,18 @@ def test_no_leak_needs_a_method_that_could_reach_the_split_level():
                                                    false_alarm_rate=0.05,
                                                    direction="down").as_dict()}
     assert overall_decision(pd.DataFrame(rows), 0.05)[0] == "no-leak"
+
+
+def test_an_inconclusive_overall_names_a_method_that_reads_leak_alone():
+    """A CLI audit (2026-11-28, finding 3): a method line read LEAK at the full rate while the
+    overall line said INCONCLUSIVE at the split level with no word of it."""
+    import pandas as pd
+
+    from leakdiag.detect.analysis import overall_decision
+
+    t = pd.DataFrame({"method": ["a", "b"], "decision": ["leak", "inconclusive"],
+                      "p_value": [0.008, float("nan")],
+                      "p_value_opposite": [float("nan"), float("nan")]})
+    assert overall_decision(t, 0.01) == (
+        "inconclusive", "inconclusive: b (a below 0.01 alone, not below the split level); 2 "
+        "method(s), each at 0.005 so that the overall false-alarm rate per run is 0.01")

@@ -307,3 +307,14 @@ def test_a_range_refusal_of_a_longer_run_names_the_drift_of_a_long_run(eha):
     short = _eha(84)
     with pytest.raises(RecordingError, match="or operation the detector was not fitted for$"):
         eha.predict(_with(short, "x", short["x"] + 3.0 * (x.max() - x.min())))  # not longer
+
+
+def test_a_refused_alarm_near_its_level_names_a_chance_crossing_first():
+    """A CLI audit (2026-11-28, finding 7): a healthy unit's chance alarm at 25 per hour was
+    refused with only sensor faults and units named as causes."""
+    from leakdiag.detect.flow_balance import CHANCE_SCORE_FACTOR, _chance_words
+
+    assert CHANCE_SCORE_FACTOR == 2.0
+    assert _chance_words(3.1, 2.9).startswith("a false alarm: the score is within 2x the level")
+    assert _chance_words(5.8, 2.9) != "" and _chance_words(5.81, 2.9) == ""
+    assert _chance_words(299.0, 3.75) == ""  # a leak-sized score is no chance crossing

@@ -69,3 +69,38 @@ def test_eha_flow_balance_and_ekf_refuse_them_too():
     with pytest.raises(RecordingError, match=r"the EKF: rig\.csv: channel 'x' travels .* the "
                        r"EKF's VCA model"):
         run_vca_ekf(_scaled(vca, x=1e3))
+
+
+def test_pressures_a_hundredfold_above_the_level_are_refused():
+    # the floor's mirror (a CLI audit, 2026-11-28: pressures 700x the supply were accepted)
+    from leakdiag.detect._rig_units import PRESSURE_CEILING_FACTOR
+
+    assert PRESSURE_CEILING_FACTOR == 100.0
+    check_rig_units(Recording({"p1": [0.0, 1.72e9], "p2": [0.0, 1.0]}, 1.0), "fit", 0.6,
+                    17.2e6, "the rig")  # at the ceiling: kept
+    high = Recording({"p1": [0.0, 1.0, 2.0], "p2": [0.0, 1.21e10, 3.0]}, 1.0,
+                     meta={"source": "kpa.csv"})
+    with pytest.raises(RecordingError, match=r"fit: kpa\.csv: channel 'p2' reaches 1\.21e\+10 Pa "
+                       r"\(data row 1\), 703 times the 17\.2 MPa pressure level"):
+        check_rig_units(high, "fit", 0.6, 17.2e6, "the rig")
+
+
+@pytest.mark.parametrize("system", ["vca", "eha"])
+def test_a_position_in_cm_read_as_mm_is_refused_by_the_identified_flow_scale(system):
+    """A CLI audit (2026-11-28, finding 1): healthy and judged recordings with the position in
+    cm read as mm (a tenth of the travel, 3.9 mm of a 60-cm stroke: as plausible as 3.9 cm)
+    fitted a flow-gain factor of 0.12 and sized a 0.1 L/min leak 0.011 (interval 0.0097-0.015,
+    excluding the truth). The balance's flow scale identifies the error: 1 +- 1 % in SI."""
+    from leakdiag.detect._rig_units import FLOW_SCALE_LIMIT
+
+    sim = ld.sim.simulate_vca if system == "vca" else ld.sim.simulate_eha
+    runs = [sim(duration=30.0, leak_lpm=0.0, load="spring", machine=31, seed=s)
+            for s in range(4)]
+    scale = "flow_gain_factor" if system == "vca" else "displacement_factor"
+    det = ld.detect.FlowBalanceDetector(system=system).fit(runs)
+    assert getattr(det.model_, scale) == pytest.approx(1.0, abs=0.03)
+    name = "flow-gain factor" if system == "vca" else "pump displacement factor"
+    with pytest.raises(ValueError, match=rf"fit: the 4 healthy recording\(s\) give a {name} of "
+                       r"0\.1[0-2]\d? .* a position in cm read as mm gives 0\.1"):
+        ld.detect.FlowBalanceDetector(system=system).fit([_scaled(r, x=0.1) for r in runs])
+    assert FLOW_SCALE_LIMIT == 3.0

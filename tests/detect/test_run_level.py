@@ -457,3 +457,50 @@ def test_a_threshold_from_non_finite_maxima_is_refused():
     for bad in (float("nan"), float("inf")):
         with pytest.raises(ValueError, match="1 of 4 healthy segment maxima are not finite"):
             conformal_threshold([1.0, bad, 2.0, 3.0], 0.2, segment_s=60.0)
+
+
+def test_detect_marks_a_p_value_at_the_floor_the_healthy_maxima_resolve(acf_no_load, tmp_path,
+                                                                        run_cli):
+    """A CLI audit (2026-11-28, finding 4): a p-value that is the smallest the healthy maxima
+    resolve (the score above all 18: 1/19 for one segment) was printed as a plain number."""
+    from leakdiag.io import write_recording
+    from leakdiag.stream.detector_file import DetectorMeta, save_detector
+
+    rec = ld.sim.simulate_vca(duration=10.0, leak_lpm=2.0, onset=6.0, load="none", machine=31,
+                              seed=61)
+    v = acf_no_load.predict(rec)
+    assert v.leak and v.confidence_floor and v.confidence == pytest.approx(1.0 / 19.0)
+    assert v.score_max > acf_no_load.threshold_basis_.maxima.max()
+    path = write_recording(rec, tmp_path / "leak.parquet")
+    det_path = tmp_path / "acf.joblib"
+    save_detector(acf_no_load, DetectorMeta("acf-p1", "vca", 1000.0, ("p1",), {"p1": "Pa"},
+                                            false_alarms_per_hour=0.14 * 3600.0 / 5.0,
+                                            n_healthy=6, load="none"), det_path)
+    code, out, err = run_cli(["detect", str(path), "--detector", str(det_path)])
+    assert code == 0, err
+    row = out.splitlines()[1].split()
+    assert row[:2] == ["acf-p1", "True"] and "<=0.0526316" in row
+
+
+def test_batch_rows_say_a_p_value_at_the_floor_and_why_an_alarm_is_no_evidence(acf_no_load,
+                                                                              tmp_path):
+    from leakdiag.batch import config_from_dict, run_case
+    from leakdiag.io import write_recording
+    from leakdiag.stream.detector_file import DetectorMeta, save_detector
+
+    det_path = tmp_path / "acf.joblib"
+    save_detector(acf_no_load, DetectorMeta("acf-p1", "vca", 1000.0, ("p1",), {"p1": "Pa"},
+                                            false_alarms_per_hour=0.14 * 3600.0 / 5.0,
+                                            n_healthy=6, load="none"), det_path)
+    job = config_from_dict({"detector": [{"path": str(det_path), "name": "acf"}],
+                            "analysis": []})
+    short = ld.sim.simulate_vca(duration=10.0, leak_lpm=2.0, onset=6.0, load="none",
+                                machine=31, seed=61)  # one segment, above every maximum
+    long_ = ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="none", machine=31,
+                                seed=62)  # three segments, no run level, a chance alarm
+    (a,) = run_case(str(write_recording(short, tmp_path / "short.parquet")), job)
+    (b,) = run_case(str(write_recording(long_, tmp_path / "long.parquet")), job)
+    assert a["decision"] == "leak" and a["p_value_floor"] is True
+    assert a["p_value"] == pytest.approx(1.0 / 19.0) and a["why_inconclusive"] is None
+    assert b["alarm"] is True and b["decision"] == "inconclusive"
+    assert b["why_inconclusive"].startswith("the run covers 3 healthy segments")

@@ -40,3 +40,27 @@ def test_sensitivity_panels_per_method():
     assert len(visible) == 2
     assert visible[1].get_title(loc="left") == "VCA metric-length p1"
     plt.close(fig)
+
+
+def test_feature_series_rms_is_drawn_as_a_magnitude_on_a_signed_feature():
+    """A CLI audit (2026-11-28, finding 6): the mean RMS (a magnitude) was drawn at +RMS only,
+    above a feature that was negative throughout, reading as its level."""
+    from leakdiag.detect.measure import rms_change
+    from leakdiag.features.series import FeatureSeries
+    from leakdiag.report.figures import plot_feature_series
+
+    t = np.arange(1, 201, dtype=float)
+    for sign in (1.0, -1.0):
+        vals = sign * np.where(t <= 100, 0.8, 0.4)
+        fs = FeatureSeries(time=t, values=vals, name="cross-correlation")
+        r = rms_change(fs, 100.5, chunk=10)
+        # magnitudes either way
+        assert np.allclose((r.mean_rms_before, r.mean_rms_after), (0.8, 0.4))
+        fig = plot_feature_series(fs, onset=100.5, rms=r)
+        segs = [s for c in fig.axes[0].collections for s in c.get_segments()]
+        levels = sorted(float(s[0][1]) for s in segs)
+        assert np.allclose(levels, [0.4, 0.8] if sign > 0 else [-0.8, -0.4, 0.4, 0.8])
+        labels = fig.axes[0].get_legend_handles_labels()[1]
+        assert any(lb.startswith("mean RMS before " + ("+-" if sign < 0 else "") + "0.8")
+                   for lb in labels)
+        plt.close(fig)

@@ -543,6 +543,7 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
                      "run_level": j.run_level_words(float(det.threshold_)),
                      "alarm_time_s": d["alarm_time_s"],
                      "score_max": d["score_max"], "p_value": d["confidence"],
+                     "p_value_floor": d.get("confidence_floor"),
                      "n_windows": d.get("n_windows"),
                      "alarm_onset_s": d["onset_s"],
                      "onset_method": d["onset_method"] if v.leak else None,
@@ -632,6 +633,7 @@ def _verdict_columns(det, parts: list[FeatureSeries], t: np.ndarray, v: np.ndarr
             "why_inconclusive": j.why_inconclusive,
             "false_alarms_expected": expected, "alarm_time_s": d["alarm_time_s"],
             "score_max": d["score_max"], "p_value": d["confidence"],
+            "p_value_floor": d.get("confidence_floor"),
             "alarm_onset_s": d["onset_s"], "onset_method": d["onset_method"] if verdict.leak
             else None, "alarm_onset_censored": d["onset_censored"] if verdict.leak else None, "leak_lpm": d["leak_lpm"], "leak_lpm_low": d["leak_lpm_low"],
             "leak_lpm_high": d["leak_lpm_high"], "leak_lpm_in_range": d["leak_lpm_in_range"]}

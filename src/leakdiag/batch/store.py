@@ -47,6 +47,9 @@ RESULT_COLUMNS: dict[str, str] = {
     # is no evidence (an inconclusive decision with an alarm)
     "decision": "string", "false_alarms_expected": "float64", "run_level": "string",
     "why_inconclusive": "string",
+    # the p-value is the smallest the healthy reference resolves (the score above every
+    # healthy maximum): the true one may be smaller ("at most")
+    "p_value_floor": "bool",
 }
 
 

@@ -7,7 +7,17 @@ a message's ``name=value`` arguments as a command's options (``simulate``, ``ana
 
 from __future__ import annotations
 
-__all__ = ["threshold_words", "in_cli_words", "check_longer_than_burn_in", "option_names"]
+__all__ = ["threshold_words", "in_cli_words", "check_longer_than_burn_in", "option_names",
+           "few_healthy_words", "MODEL_LEVEL_WORDS"]
+
+#: What a model-based level did on virtual machines (docs/detect.md section 2), said under every
+#: model-based flow-balance level by ``fit`` and ``detect``.
+MODEL_LEVEL_WORDS = (
+    "a model-based level can misjudge a unit: on 8 virtual machines each fitted on 4 healthy "
+    "120-s no-load runs, one unit's healthy 30-min runs crossed its run level in 6 of 10, "
+    "against about 0.097 stated per run by the model (the other 7 units: 0 of 70); fitted on 16 "
+    "runs, where the level was distribution-free, 0 of 80 (docs/detect.md section 2, 'Does the "
+    "run level keep its promise?'): give more healthy recordings where the rate matters")
 
 #: The detectors' advice when healthy data cannot support a rate (detect/threshold.py), and
 #: what a command-line user can do instead (reference maxima are a Python-API feature).
@@ -137,3 +147,36 @@ def check_longer_than_burn_in(recordings, paths, burn_in_s: float) -> None:
             raise ValueError(f"--healthy {p}: {r.duration:g} s long, not longer than --burn-in "
                              f"{burn_in_s:g} s, so nothing of it is left to fit on; give longer "
                              "healthy recordings or a shorter --burn-in")
+
+
+def few_healthy_words(n: int) -> str | None:
+    """What fewer than 4 healthy recordings cost the flow balance, or None from 4 on.
+
+    Its own GLR maxima and its check of the healthy recordings against each other
+    (``ODD_ONE_OUT_FACTOR``: a leaking run or another machine's among them) both come from
+    two-fold cross-fitting, which needs 4 (a CLI audit, 2026-11-28, finding 2: ``detect
+    --healthy`` with 3 files said neither).
+
+    Parameters
+    ----------
+    n : int
+        Healthy recordings given.
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> few_healthy_words(4) is None
+    True
+    >>> few_healthy_words(3)[:60]
+    'the flow balance cross-fits its healthy recordings from 4 on '
+    """
+    if n >= 4:
+        return None
+    return (f"the flow balance cross-fits its healthy recordings from 4 on (got {n}): its level "
+            "has no healthy GLR maxima of its own (model-based), and the recordings are not "
+            "checked against each other, so a leaking run or another machine's among them "
+            "goes unnoticed and hides leaks of its size; give 4 or more (16 where the "
+            "false-alarm rate matters)")

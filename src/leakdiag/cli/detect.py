@@ -6,7 +6,8 @@ import click
 
 from leakdiag.cli._options import recording_options, resample_option
 from leakdiag.cli.dashboard import actuator_option
-from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
+from leakdiag.cli._words import (check_longer_than_burn_in, few_healthy_words, in_cli_words,
+                                 threshold_words)
 
 __all__ = ["detect", "verdict_table", "overall_verdict", "default_methods", "sensitivity_lines",
            "cause_lines"]
@@ -286,6 +287,8 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
             except ValueError as exc:
                 rows.append({"method": m, "error": in_cli_words(str(exc))})
                 continue
+            if m == "flow-balance" and few_healthy_words(len(train)) is not None:
+                notes.append(few_healthy_words(len(train)))  # as fit says it
             # fitted for 1/n of the run's rate per segment: the run is held to the run's rate
             split = false_alarms_per_hour is None and n_seg > 1 and for_run is None
             rows.append(_row(m, det, rec, len(train), per_run if split else None))
@@ -613,8 +616,13 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
                         progress=say, resample=resample, confidence=confidence)
     cols_ = [c for c in ("method", "leak", "onset_s", "alarm_time_s", "confidence", "leak_lpm",
                          "score_max", "threshold", "threshold_method", "error") if c in tab]
-    # Verdict.confidence is a conformal p-value (small = evidence of a leak): print it by that name
+    # Verdict.confidence is a conformal p-value (small = evidence of a leak): print it by that
+    # name, "<=" where it is the smallest the healthy reference resolves (a CLI audit,
+    # 2026-11-28, finding 4: only the Python verdict said so)
     shown = tab[cols_].astype(object).rename(columns={"confidence": "p_value"})
+    if "p_value" in shown and "confidence_floor" in tab:
+        at_floor = tab["confidence_floor"].eq(True) & shown["p_value"].notna()
+        shown.loc[at_floor, "p_value"] = [f"<={p:.6g}" for p in shown.loc[at_floor, "p_value"]]
     click.echo(shown.where(shown.notna(), "-").to_string(index=False))
     for note in tab.attrs.get("notes", []):
         click.echo(f"leakdiag: warning: {note}", err=True)
@@ -637,7 +645,12 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
         why = (tab["error"].dropna().iloc[0] if "error" in tab and tab["error"].notna().any()
                else "every feature value is NaN (zero variance: constant channel?)")
         store_verdicts()  # the methods' reasons are kept in the store (not judged)
-        raise ValueError(f"{file}: no method gave a finite score; first reason: {why}")
+        refused = "error" in tab and bool(tab["error"].notna().all())
+        # every method refused (a fit, a unit, too short): not a score problem (a CLI audit,
+        # 2026-11-28, finding 7)
+        raise ValueError(f"{file}: " + (f"no method could judge it ({len(tab)} tried)"
+                                        if refused else "no method gave a finite score")
+                         + f"; first reason: {why}")
     if "threshold_basis" in tab:
         for r in tab[tab["threshold_basis"].notna()].to_dict("records"):
             click.echo(f"  {r['method']} threshold: {r['threshold_basis']}")

@@ -288,7 +288,8 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
     files you trust. flow-balance sizes leaks from physics (no --calibrate).
     """
     from leakdiag.cli._options import column_map_from, read_healthy
-    from leakdiag.cli._words import check_longer_than_burn_in, in_cli_words, threshold_words
+    from leakdiag.cli._words import (MODEL_LEVEL_WORDS, check_longer_than_burn_in,
+                                     few_healthy_words, in_cli_words, threshold_words)
     from leakdiag.stream.detector_file import DetectorMeta, save_detector
 
     if calibration and method == "flow-balance":
@@ -344,18 +345,13 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
                f"channels {','.join(chans)}, for {false_alarm_rate:g} false alarm(s) per hour; "
                f"threshold {threshold_words(basis) if basis else f'{float(det.threshold_):.4g}'}"
                + (f"; leak size calibrated on {len(calibration)} recording(s)" if calibration
-                  else "")
-               + ("; the flow balance's own GLR maxima come from two-fold cross-fitting of at "
-                  f"least 4 healthy recordings (got {len(recs)}, so none)"
-                  if method == "flow-balance" and len(recs) < 4 else ""))
+                  else ""))
+    few = few_healthy_words(len(recs)) if method == "flow-balance" else None
+    if few is not None:
+        click.echo(f"  {few}")
     if basis is not None and basis.method == "glr-model":
         # what a model-based level did on virtual machines (docs/detect.md section 2)
-        click.echo("  a model-based level can misjudge a unit: on 8 virtual machines each "
-                   "fitted on 4 healthy 120-s no-load runs, one unit's healthy 30-min runs "
-                   "crossed its run level in 6 of 10, against at most 0.097 promised per run "
-                   "(the other 7 units: 0 of 70); fitted on 16 runs, where the level was "
-                   "distribution-free, 0 of 80 (docs/detect.md section 2, 'Does the run level "
-                   "keep its promise?'): give more healthy recordings where the rate matters")
+        click.echo(f"  {MODEL_LEVEL_WORDS}")
     if basis is not None and basis.method.startswith("conformal") and \
             not getattr(det, "restarts_per_segment", False):
         click.echo(f"  the rate holds for a recording's first {basis.segment_s:g}-s segment; a "

@@ -292,6 +292,12 @@ def overall_decision(table, false_alarm_rate: float = 0.01) -> tuple[str, str]:
     if m == 0:
         return "inconclusive", "no method could judge the recording"
     level = false_alarm_rate / m
+    alone = judged[judged["decision"] == "leak"]
+    # a row's own LEAK (at the full rate) that the split level does not carry: said wherever
+    # the overall decision is not LEAK (a CLI audit, 2026-11-28, finding 3: an INCONCLUSIVE
+    # overall line said nothing of a method line reading LEAK above it)
+    alone_note = (f" ({', '.join(alone['method'])} below {false_alarm_rate:g} alone, not below "
+                  "the split level)" if len(alone) else "")
     p = judged["p_value"].to_numpy(dtype=float)
     hit = judged[np.isfinite(p) & (p < level)]
     hit = hit[hit["decision"] != "inconclusive"]
@@ -313,7 +319,7 @@ def overall_decision(table, false_alarm_rate: float = 0.01) -> tuple[str, str]:
                               for r in tested.to_dict("records"))
             return "inconclusive", (f"too few chunks for the split level: the smallest p-value "
                                     f"{names} can give ({min(mins):.3g} at best) is not below "
-                                    f"{level:.3g}; {split}")
+                                    f"{level:.3g}{alone_note}; {split}")
     inc = weak = judged[judged["decision"] == "inconclusive"]
     if len(inc) and "p_value_opposite" in inc:  # (a table from before the column: as it says)
         opp = inc["p_value_opposite"].to_numpy(dtype=float)
@@ -326,10 +332,8 @@ def overall_decision(table, false_alarm_rate: float = 0.01) -> tuple[str, str]:
     if len(inc):
         names = ", ".join(f"{r['method']} {r.get('channels', '')}".strip()
                           for r in inc.to_dict("records"))
-        return "inconclusive", f"inconclusive: {names}; {split}"
-    alone = judged[judged["decision"] == "leak"]
-    note = (f" ({', '.join(alone['method'])} below {false_alarm_rate:g} alone, not below the "
-            "split level)" if len(alone) else "")
+        return "inconclusive", f"inconclusive: {names}{alone_note}; {split}"
+    note = alone_note
     if len(weak):
         note += (f" ({', '.join(weak['method'])}: a change opposite to a leak's below "
                  f"{false_alarm_rate:g} alone, not below the split level)")

@@ -42,7 +42,7 @@ from leakdiag.detect._flow_balance_search import (
     glr_profile,
     step_information,
 )
-from leakdiag.detect._rig_units import check_rig_units
+from leakdiag.detect._rig_units import check_flow_scale, check_rig_units
 from leakdiag.detect.base import Detector, Verdict, check_healthy, fingerprint, healthy_info
 from leakdiag.detect.threshold import (
     InsufficientHealthyDataError,
@@ -324,6 +324,22 @@ ODD_ONE_OUT_FACTOR = 5.0
 MIN_PISTON_VALVE_RATIO = -0.25
 #: Windows after the alarm that its own ratio needs (leakdiag choice: the GLR's history minimum).
 PISTON_VALVE_MIN_WINDOWS = 5
+
+
+#: A refused alarm whose score is within this factor of the level it crossed is named a
+#: possible false alarm first (leakdiag choice: a CLI audit, 2026-11-28, finding 7, found a
+#: healthy unit's chance alarm at 25 per hour blamed on its sensors only; a leak-sized score,
+#: 299 against 3.75, is no chance crossing).
+CHANCE_SCORE_FACTOR = 2.0
+
+
+def _chance_words(score: float, level: float) -> str:
+    """The first cause a refused alarm names: a chance crossing when the score is within
+    :data:`CHANCE_SCORE_FACTOR` of the level, else none."""
+    if not score <= CHANCE_SCORE_FACTOR * level:
+        return ""
+    return (f"a false alarm: the score is within {CHANCE_SCORE_FACTOR:g}x the level, as healthy "
+            "runs cross it at the rate it was fitted for; ")
 
 
 def _piston_valve_ratio(t: dict, j: int) -> float | None:
@@ -1141,6 +1157,13 @@ class FlowBalanceDetector(Detector):
             [self._skip(r) for r in recs], self.fit_bandwidth, self.fit_bulk_modulus,
             quiet=bool(self.quiet_boundaries),
             fit_valve_timing=bool(self.fit_valve_timing))
+        # a position or pressure in another unit scales the identified flow (a CLI audit,
+        # 2026-11-28: cm read as mm gave a factor 0.12 and every leak size a tenth)
+        scale = "flow_gain_factor" if self.system == "vca" else "displacement_factor"
+        check_flow_scale(getattr(self.model_, scale), self.model_std_.get(scale, float("nan")),
+                         "fit", f"the flow balance ({self.system})",
+                         "flow-gain factor" if self.system == "vca" else
+                         "pump displacement factor", len(recs))
         terms = [self._terms(r) for r in recs]
         e = np.concatenate([self._profiled(t) for t in terms])
         if len(e) < 10:
@@ -1608,16 +1631,16 @@ class FlowBalanceDetector(Detector):
                 f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g}), but the leak estimated from "
                 f"the onset ({onset:.4g} s) to the end is not significantly above zero (its "
                 f"interval {interval[0]:.3g} to {interval[1]:.3g} L/min reaches zero): the "
-                "alarm is not a leak that lasts (a seam or discontinuity, resampled time "
-                "stamps, a sensor fault?); no verdict on a leak")
+                "alarm is not a leak that lasts (" + _chance_words(smax, h) + "a seam or "
+                "discontinuity, resampled time stamps, a sensor fault?); no verdict on a leak")
         if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
             raise RecordingError(
                 f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
                 f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g}), but the leak coefficient "
                 f"estimated from the onset ({onset:.4g} s) to the end is not positive "
                 f"({k:.3g} +- {se:.2g}): the flow balance does not describe this recording "
-                "well (a sensor fault, the channels' units, another machine or operation?); "
-                "no verdict on a leak")
+                "well (" + _chance_words(smax, h) + "a sensor fault, the channels' units, "
+                "another machine or operation?); no verdict on a leak")
         lpm = k * mean_phi * LPM_PER_M3S
         ptr = be.leak_transition_pa(self._nominal())
         at_ref = k * _leak_law_value(float(self.reference_dp_pa), self.leak_law, ptr) * LPM_PER_M3S

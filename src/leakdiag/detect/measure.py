@@ -563,12 +563,13 @@ def decide_change(reference, test, *, false_alarm_rate: float = 0.01, direction:
     p = _mann_whitney_p(tst, ref, leak_alt)
     if p < alpha:
         return Decision("leak", basis, test_name, p, alpha, n1, n2, rho,
-                        f"the feature {'fell' if direction == 'down' else 'rose'} as a leak makes "
-                        f"it: p={p:.3g} < {alpha:g}")
+                        f"the feature's RMS {'fell' if direction == 'down' else 'rose'} as a "
+                        f"leak makes it: p={p:.3g} < {alpha:g}")
     p_other = _mann_whitney_p(tst, ref, other_alt)
     if p_other < alpha:
         return Decision("inconclusive", basis, test_name, p, alpha, n1, n2, rho,
-                        f"the feature {'rose' if direction == 'down' else 'fell'} significantly "
+                        f"the feature's RMS {'rose' if direction == 'down' else 'fell'} "
+                        "significantly "
                         f"(p={p_other:.3g}), the opposite of a leak's signature: something else "
                         "changed", p_other)
     return Decision("no-leak", basis, test_name, p, alpha, n1, n2, rho,

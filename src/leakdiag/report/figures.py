@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Sequence
 
+import numpy as np
+
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["plot_feature_series", "save_figure"]
@@ -56,10 +58,20 @@ def plot_feature_series(series: Sequence, onset: float | None = None, titles: Se
         if rms is not None and i < len(rms) and rms[i] is not None:
             r = rms[i]
             t0, t1 = float(fs.time[0]), float(fs.time[-1])
+            # the RMS is a magnitude: on a feature that goes negative it is drawn at +- RMS, so
+            # that it does not read as the level of a signed feature (a CLI audit, 2026-11-28,
+            # finding 6: a negative cross-correlation with its RMS drawn above it)
+            vals = np.asarray(fs.values, dtype=float)
+            signed = bool(np.isfinite(vals).any() and np.nanmin(vals) < 0)
+            pm = "+-" if signed else ""
             a.hlines(r.mean_rms_before, t0, r.onset, color="k", lw=1.2,
-                     label=f"mean RMS before {r.mean_rms_before:.4g}")
+                     label=f"mean RMS before {pm}{r.mean_rms_before:.4g}")
             a.hlines(r.mean_rms_after, r.onset, t1, color="tab:orange", lw=1.2,
-                     label=f"mean RMS after {r.mean_rms_after:.4g} ({r.pct_change_signed:+.1f}%)")
+                     label=f"mean RMS after {pm}{r.mean_rms_after:.4g} "
+                           f"({r.pct_change_signed:+.1f}%)")
+            if signed:
+                a.hlines(-r.mean_rms_before, t0, r.onset, color="k", lw=1.2, ls=":")
+                a.hlines(-r.mean_rms_after, r.onset, t1, color="tab:orange", lw=1.2, ls=":")
         label = titles[i] if titles is not None else _label(fs)
         a.set_title(label, fontsize=9, loc="left")
         a.set_ylabel(ylabel or fs.name, fontsize=8)
