@@ -260,3 +260,34 @@ def test_a_segment_as_long_as_the_healthy_runs_counts_one_segment_as_judge_run(
                               "--segment", "40"])
     assert code == 0, err
     assert "3 segment(s) of up to 40 s judged by flow-balance" in out + err
+
+
+def test_a_leak_refused_at_a_segment_end_is_named_when_the_next_segment_finds_it():
+    """A CLI audit (2026-11-28, finding 8): a leak from 58 s was refused in the segment
+    30-60 s (too little data after its alarm at 58.2 s to confirm it) and found in the next
+    one after its burn-in, "onset at or before 65.1 s", with no word of the earlier alarm."""
+    from leakdiag.detect import FlowBalanceDetector
+    from leakdiag.detect.flow_balance import AlarmNotConfirmed
+
+    det = FlowBalanceDetector(system="vca").fit([_vca(s) for s in range(4)])
+    rec = _vca(9, 120.0, leak_lpm=0.05, onset=58.0)
+    part = Recording({c: rec[c][30000:60000] for c in ("p1", "p2", "x", "u")}, 1000.0, 30.0,
+                     dict(rec.units), {"load": "spring", "system": "vca"})
+    with pytest.raises(AlarmNotConfirmed, match=r"s of data after the alarm, too few to "
+                       r"confirm a leak that began there") as refused:
+        det.predict(part)
+    assert 56.0 <= refused.value.onset_s < 58.0 < refused.value.alarm_time_s < 60.0
+    chans = {c: rec[c] for c in ("p1", "p2", "x", "u")}
+    judge = SegmentJudge(det, list(chans), rec.sample_rate, segment_s=30.0,
+                         units=dict(rec.units), meta={"system": "vca", "load": "spring"})
+    out = judge.push(chans)
+    assert [sv.decision for sv in out] == ["NO LEAK", "NOT JUDGED", "LEAK", "LEAK"]
+    found, later = out[2], out[3]
+    assert found.verdict.onset_censored and found.verdict.onset_s > 60.0
+    assert (found.unconfirmed_alarm_s, found.unconfirmed_onset_s) == (
+        refused.value.alarm_time_s, refused.value.onset_s)
+    assert f"the segment before alarmed at {refused.value.alarm_time_s:.6g} s" in found.words()
+    assert json.loads(found.to_json())["unconfirmed_onset_s"] == refused.value.onset_s
+    # the continuing segment carries the onset found, not the earlier alarm
+    assert later.continues_from_onset_s == found.verdict.onset_s
+    assert later.unconfirmed_alarm_s is None

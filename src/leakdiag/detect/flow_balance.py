@@ -59,7 +59,27 @@ from leakdiag.io.recording import RecordingError, load_name
 from leakdiag.sim.leak import LPM_PER_M3S
 
 __all__ = ["FlowBalanceDetector", "FlowBalanceVerdict", "LEAK_LAWS", "SYSTEMS",
-           "glr_segment_maxima"]
+           "glr_segment_maxima", "AlarmNotConfirmed"]
+
+
+class AlarmNotConfirmed(RecordingError):
+    """The test alarmed, but the leak estimated from its onset to the recording's end is not
+    significantly above zero: no verdict on a leak.
+
+    Besides a chance crossing or a fault, an alarm late in a recording (a segment of
+    ``leakdiag monitor --segment``) has too little data after it to confirm a real leak; the
+    next segment then finds the leak from its own start, and says when this one alarmed.
+
+    Attributes
+    ----------
+    alarm_time_s, onset_s : float
+        The alarm and the onset the test placed (s).
+    """
+
+    def __init__(self, message: str, alarm_time_s: float, onset_s: float):
+        super().__init__(message)
+        self.alarm_time_s = float(alarm_time_s)
+        self.onset_s = float(onset_s)
 
 #: Leak laws the regression can assume: Eq. 2-4 (turbulent) or Eq. 2-5 (laminar).
 LEAK_LAWS = ("turbulent", "laminar")
@@ -325,6 +345,11 @@ MIN_PISTON_VALVE_RATIO = -0.25
 #: Windows after the alarm that its own ratio needs (leakdiag choice: the GLR's history minimum).
 PISTON_VALVE_MIN_WINDOWS = 5
 
+
+#: An alarm this close to the judged span's end (s) has few windows after it to size a leak
+#: that began there: a refusal says so (leakdiag choice: a CLI audit, 2026-11-28, finding 8,
+#: found a leak from 58 s refused in the segment 30-60 s with its interval reaching zero).
+LATE_ALARM_S = 10.0
 
 #: A refused alarm whose score is within this factor of the level it crossed is named a
 #: possible false alarm first (leakdiag choice: a CLI audit, 2026-11-28, finding 7, found a
@@ -1626,13 +1651,17 @@ class FlowBalanceDetector(Detector):
         if k > 0.0 and not interval[0] > 0.0:  # alarmed, but since the onset no evidence
             # (an audit, 2026-11-28: a healthy file with a seam where the position matched, and
             # a healthy CSV resampled from jittered stamps, read LEAK with intervals below 0)
-            raise RecordingError(
+            end = float(t["end"][-1])
+            late = (f"; {end - alarm:.3g} s of data after the alarm, too few to confirm a leak "
+                    "that began there" if end - alarm < LATE_ALARM_S else "")
+            raise AlarmNotConfirmed(
                 f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
                 f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g}), but the leak estimated from "
                 f"the onset ({onset:.4g} s) to the end is not significantly above zero (its "
-                f"interval {interval[0]:.3g} to {interval[1]:.3g} L/min reaches zero): the "
-                "alarm is not a leak that lasts (" + _chance_words(smax, h) + "a seam or "
-                "discontinuity, resampled time stamps, a sensor fault?); no verdict on a leak")
+                f"interval {interval[0]:.3g} to {interval[1]:.3g} L/min reaches zero){late}: "
+                "the alarm is not a leak that lasts (" + _chance_words(smax, h) + "a seam or "
+                "discontinuity, resampled time stamps, a sensor fault?); no verdict on a leak",
+                alarm, onset)
         if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
             raise RecordingError(
                 f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from leakdiag.detect.decision import judge_run
+from leakdiag.detect.flow_balance import AlarmNotConfirmed
 from leakdiag.io.errors import RecordingError
 from leakdiag.io.recording import Recording
 
@@ -75,6 +76,13 @@ class SegmentVerdict:
         found. The leak was then present when this segment began, so this segment's own onset
         is no onset (an audit, 2026-11-28: 3 of 20 such segments were given a definite onset
         6-26 s into the segment).
+    unconfirmed_alarm_s, unconfirmed_onset_s : float or None
+        For a LEAK segment (not a continuing one) right after a segment whose alarm was not
+        confirmed (:class:`~leakdiag.detect.flow_balance.AlarmNotConfirmed`: too little data
+        after it): that alarm and its onset. A leak that began near a segment's end is refused
+        there and found in the next segment after its burn-in, whose onset is then only "at or
+        before" its first windows (a CLI audit, 2026-11-28, finding 8: a leak from 58 s was
+        reported "at or before 65.1 s", with no word of the alarm at 58.2 s).
     """
 
     start_s: float
@@ -82,6 +90,8 @@ class SegmentVerdict:
     verdict: Any = None
     reason: str | None = None
     continues_from_onset_s: float | None = None
+    unconfirmed_alarm_s: float | None = None
+    unconfirmed_onset_s: float | None = None
 
     @property
     def decision(self) -> str:
@@ -99,7 +109,9 @@ class SegmentVerdict:
         """
         d = {"segment_start_s": self.start_s, "segment_end_s": self.end_s,
              "decision": self.decision, "reason": self.reason,
-             "continues_from_onset_s": self.continues_from_onset_s}
+             "continues_from_onset_s": self.continues_from_onset_s,
+             "unconfirmed_alarm_s": self.unconfirmed_alarm_s,
+             "unconfirmed_onset_s": self.unconfirmed_onset_s}
         if self.verdict is not None:
             v = self.verdict.as_dict()
             d.update({k: v.get(k) for k in (
@@ -138,8 +150,12 @@ class SegmentVerdict:
             size = f", {v.leak_lpm:.3g} L/min"
             if v.leak_lpm_interval is not None:
                 size += f" ({v.leak_lpm_interval[0]:.3g}-{v.leak_lpm_interval[1]:.3g})"
+        before = ("" if self.unconfirmed_alarm_s is None else
+                  f"; the segment before alarmed at {self.unconfirmed_alarm_s:.6g} s (onset "
+                  f"{self.unconfirmed_onset_s:.6g} s) with too little data after it to confirm "
+                  "a leak: the leak may have begun there")
         return (f"LEAK       {span}: alarm at {v.alarm_time_s:.6g} s, onset {at}"
-                f"{v.onset_s:.6g} s{size}")
+                f"{v.onset_s:.6g} s{size}{before}")
 
 
 class SegmentJudge:
@@ -192,6 +208,8 @@ class SegmentJudge:
         self._n_buffered = 0
         self._first = 0  # index of the buffered segment's first sample
         self._leak_onset: float | None = None  # onset of the leak found in the last segment
+        # (alarm, onset) of the last segment's alarm that too little data confirmed
+        self._unconfirmed: tuple[float, float] | None = None
 
     def push(self, chunk: dict) -> list[SegmentVerdict]:
         """Add a chunk; judge every segment it completes.
@@ -244,7 +262,10 @@ class SegmentJudge:
             # leakdiag detect judges a file (leakdiag.detect.decision.judge_run)
             j = judge_run(self.detector, rec)
         except RecordingError as exc:  # too short, a stuck channel, the model does not fit
+            self._unconfirmed = (
+                (exc.alarm_time_s, exc.onset_s) if isinstance(exc, AlarmNotConfirmed) else None)
             return SegmentVerdict(start, end, reason=str(exc))
+        unconfirmed, self._unconfirmed = self._unconfirmed, None
         v = j.verdict
         if j.decision == "inconclusive":  # an alarm the segment's length makes no evidence
             return SegmentVerdict(start, end, reason=(
@@ -257,4 +278,7 @@ class SegmentJudge:
         prior = self._leak_onset
         if prior is None:
             self._leak_onset = v.onset_s
-        return SegmentVerdict(start, end, verdict=v, continues_from_onset_s=prior)
+        earlier = unconfirmed if prior is None else None
+        return SegmentVerdict(start, end, verdict=v, continues_from_onset_s=prior,
+                              unconfirmed_alarm_s=None if earlier is None else earlier[0],
+                              unconfirmed_onset_s=None if earlier is None else earlier[1])
