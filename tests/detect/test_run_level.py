@@ -504,3 +504,37 @@ def test_batch_rows_say_a_p_value_at_the_floor_and_why_an_alarm_is_no_evidence(a
     assert a["p_value"] == pytest.approx(1.0 / 19.0) and a["why_inconclusive"] is None
     assert b["alarm"] is True and b["decision"] == "inconclusive"
     assert b["why_inconclusive"].startswith("the run covers 3 healthy segments")
+
+
+def test_batch_prints_its_decisions_and_stores_an_inconclusive_alarm_as_not_judged(
+        acf_no_load, tmp_path, run_cli):
+    """batch's console said nothing of the decisions (a CLI audit, 2026-11-28), and its store
+    kept an alarm that batch reads INCONCLUSIVE as an alarm (the page would show a leak)."""
+    from leakdiag.io import write_recording
+    from leakdiag.store import EventStore
+    from leakdiag.stream.detector_file import DetectorMeta, save_detector
+
+    det_path = tmp_path / "acf.joblib"
+    save_detector(acf_no_load, DetectorMeta("acf-p1", "vca", 1000.0, ("p1",), {"p1": "Pa"},
+                                            false_alarms_per_hour=0.14 * 3600.0 / 5.0,
+                                            n_healthy=6, load="none"), det_path)
+    for name, dur, leak, seed in (("short", 10.0, 2.0, 61), ("long", 20.0, 0.0, 62)):
+        rec = ld.sim.simulate_vca(duration=dur, leak_lpm=leak, onset=6.0, load="none",
+                                  machine=31, seed=seed)
+        write_recording(rec, tmp_path / "rec" / name / "run.parquet")
+    job = tmp_path / "job.toml"
+    job.write_text("[job]\nrms_chunk = 10\n")
+    db = tmp_path / "ev.db"
+    code, out, err = run_cli(["batch", str(tmp_path / "rec" / "**" / "*.parquet"), "--config",
+                              str(job), "--detector", str(det_path), "-o",
+                              str(tmp_path / "res.parquet"), "--scheduler", "serial",
+                              "--store", str(db)])
+    assert code == 0, err
+    assert "detector decisions: 1 LEAK, 0 NO LEAK, 1 INCONCLUSIVE" in out
+    assert "  inconclusive: run.parquet: " in err and "the run covers 3 healthy segments" in err
+    st = EventStore(db)
+    short, long_ = st.runs_of("short").iloc[0], st.runs_of("long").iloc[0]
+    st.close()
+    assert short["status"] == "finished"
+    assert long_["status"] == "unjudged" and "alarmed at" in long_["error"]
+    assert "the run covers 3 healthy segments" in long_["error"]

@@ -179,6 +179,21 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     for _, r in unjudged.iterrows():
         click.echo(f"  not judged: {r['recording']}: {r['name']}: "
                    f"{str(r['error']).removeprefix('detector not judged: ')}", err=True)
+    judged = mine[(mine["status"] == "ok") & (mine["kind"] == "detector")
+                  & mine["alarm"].notna()]
+    if len(judged) and "decision" in judged:  # the decisions, as detect makes them
+        count = judged["decision"].value_counts()
+        click.echo("detector decisions: " + ", ".join(
+            f"{int(count.get(d, 0))} {w}" for d, w in (("leak", "LEAK"), ("no-leak", "NO LEAK"),
+                                                      ("inconclusive", "INCONCLUSIVE"))))
+        no_evidence = judged[judged["decision"].eq("inconclusive")
+                             & judged["alarm"].astype(bool)]
+        for _, r in no_evidence.iterrows():  # an alarm that is no evidence: say why
+            why = r.get("why_inconclusive")
+            click.echo(f"  inconclusive: {r['recording']}: {r['name']}: alarm at "
+                       f"{r['alarm_time_s']:.6g} s, but "
+                       + (why if isinstance(why, str) and why else
+                          "a run this long expects such an alarm by chance"), err=True)
     ok = mine[(mine["status"] == "ok") & (mine["kind"] == "analysis")]
     n_win = ok["n_windows"].fillna(0).astype(int)
     n_deg = ok["n_degenerate"].fillna(0).astype(int)

@@ -132,6 +132,14 @@ def _batch_run(r: dict, job_digest: str) -> FinishedRun:
     n_win = int(r["n_windows"]) if _num(r.get("n_windows")) is not None else 0
     judged = r.get("kind") == "detector" and r.get("alarm") is not None \
         and r.get("alarm") == r.get("alarm")  # None / NaN: the detector was not judged
+    why_not = None
+    if judged and bool(r.get("alarm")) and r.get("decision") == "inconclusive":
+        # an alarm batch reads as no evidence (a run this long expects it by chance): not
+        # judged, with why, as detect --store stores it; not an alarm
+        why = _text(r.get("why_inconclusive"))
+        judged, why_not = False, (f"{r.get('recording', r['path'])}: {feature} alarmed at "
+                                  f"{_num(r.get('alarm_time_s'))} s, but "
+                                  + (why or "a run this long expects such an alarm by chance"))
     summ = None
     if n_win:
         summ = ChunkSummary(0.0, _num(r.get("duration_s")) or 0.0, n_win,
@@ -148,8 +156,8 @@ def _batch_run(r: dict, job_digest: str) -> FinishedRun:
             onset_censored=_flag(r.get("alarm_onset_censored"))),)
     unjudged = r.get("kind") == "detector" and not judged
     return FinishedRun(**common, status="unjudged" if unjudged else "finished",
-                       error=_text(r.get("error")) if unjudged else None, summary=summ,
-                       alarms=alarms)
+                       error=(why_not or _text(r.get("error"))) if unjudged else None,
+                       summary=summ, alarms=alarms)
 
 
 def record_batch(store: EventStore, results, job_digest: str,
