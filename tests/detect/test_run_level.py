@@ -522,11 +522,10 @@ def test_batch_prints_its_decisions_and_stores_an_inconclusive_alarm_as_not_judg
         rec = ld.sim.simulate_vca(duration=dur, leak_lpm=leak, onset=6.0, load="none",
                                   machine=31, seed=seed)
         write_recording(rec, tmp_path / "rec" / name / "run.parquet")
-    job = tmp_path / "job.toml"
-    job.write_text("[job]\nrms_chunk = 10\n")
     db = tmp_path / "ev.db"
-    code, out, err = run_cli(["batch", str(tmp_path / "rec" / "**" / "*.parquet"), "--config",
-                              str(job), "--detector", str(det_path), "-o",
+    # a job of a detector file alone needs no --config (it did, a CLI audit found)
+    code, out, err = run_cli(["batch", str(tmp_path / "rec" / "**" / "*.parquet"),
+                              "--detector", str(det_path), "-o",
                               str(tmp_path / "res.parquet"), "--scheduler", "serial",
                               "--store", str(db)])
     assert code == 0, err
@@ -538,3 +537,6 @@ def test_batch_prints_its_decisions_and_stores_an_inconclusive_alarm_as_not_judg
     assert short["status"] == "finished"
     assert long_["status"] == "unjudged" and "alarmed at" in long_["error"]
     assert "the run covers 3 healthy segments" in long_["error"]
+    code, _, err = run_cli(["batch", str(tmp_path / "rec" / "**" / "*.parquet"), "-o",
+                            str(tmp_path / "res2.parquet")])
+    assert code == 2 and "give --config JOB.toml (analyses, detectors) or --detector" in err

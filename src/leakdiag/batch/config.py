@@ -300,13 +300,14 @@ def config_from_dict(d: Mapping[str, Any], base_dir: str = ".", *, source: str |
                        None if onset is None else float(onset), cmap, cmap_sha)
 
 
-def load_config(path: str | os.PathLike, detectors=()) -> BatchConfig:
+def load_config(path: str | os.PathLike | None, detectors=()) -> BatchConfig:
     """Read a batch job TOML file.
 
     Parameters
     ----------
-    path : str or path-like
-        The TOML file.
+    path : str or path-like or None
+        The TOML file; None: a job of the ``detectors`` alone, with the default settings
+        (``leakdiag batch --detector`` without ``--config``).
     detectors : sequence of path-like, default ()
         More detector files (``leakdiag batch --detector``; relative to the working directory),
         added to the job's ``[[detector]]`` entries, so a job may consist of them alone.
@@ -324,16 +325,20 @@ def load_config(path: str | os.PathLike, detectors=()) -> BatchConfig:
     """
     import tomllib
 
+    try:
+        extra = tuple(detector_ref(p, origin="--detector") for p in detectors)
+    except OSError as exc:
+        raise ValueError(f"--detector: cannot read {exc.filename}: {exc.strerror}") from None
+    if path is None:
+        if not extra:
+            raise ValueError("a job needs a job file (--config) or a detector (--detector)")
+        return config_from_dict({}, extra_detectors=extra)
     path = os.fspath(path)
     try:
         with open(path, "rb") as f:
             d = tomllib.load(f)
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{path}: invalid TOML: {exc}") from None
-    try:
-        extra = tuple(detector_ref(p, origin="--detector") for p in detectors)
-    except OSError as exc:
-        raise ValueError(f"--detector: cannot read {exc.filename}: {exc.strerror}") from None
     try:
         return config_from_dict(d, os.path.dirname(os.path.abspath(path)), source=path,
                                 extra_detectors=extra)

@@ -59,10 +59,10 @@ def _check_detectors(cfg) -> list:
 @click.command(epilog="Example: leakdiag batch 'recordings/**/*.parquet' --config job.toml "
                       "-o results.parquet --scheduler serial")
 @click.argument("inputs", nargs=-1, required=True)
-@click.option("--config", "config_path", required=True,
+@click.option("--config", "config_path", default=None,
               type=click.Path(exists=True, dir_okay=False),
               help="Job TOML: analyses, detectors (from leakdiag fit), column_map "
-                   "(docs/operations.md).")
+                   "(docs/operations.md); not needed for a job of --detector files alone.")
 @click.option("--detector", "detectors", multiple=True, type=click.Path(exists=True, dir_okay=False),
               help="Detector file from leakdiag fit, run on every recording (repeatable; adds "
                    "to the job's [[detector]] entries). It is a pickle: loading it runs code, "
@@ -94,6 +94,9 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     from leakdiag.batch import load_config, read_results, run_batch
     from leakdiag.batch.runner import LOCAL, batch_inputs
 
+    if config_path is None and not detectors:
+        raise click.UsageError("give --config JOB.toml (analyses, detectors) or --detector "
+                               "FILE (from leakdiag fit), or both")
     check_workers(scheduler, workers)  # None: one worker per core (as every command)
     st = None
     if store is not None:  # refused before the work: '', an in-memory database, 'sqlite:/x'
