@@ -170,8 +170,8 @@ def few_healthy_words(n: int) -> str | None:
     --------
     >>> few_healthy_words(4) is None
     True
-    >>> few_healthy_words(3)[:60]
-    'the flow balance cross-fits its healthy recordings from 4 on '
+    >>> few_healthy_words(3)[:64]
+    'the flow balance cross-fits its healthy recordings from 4 on (go'
     """
     if n >= 4:
         return None
