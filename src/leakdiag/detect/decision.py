@@ -372,12 +372,8 @@ def run_segments(det, n_samples: int, sample_rate_hz: float
 
     Parameters
     ----------
-    det : Detector
-        A fitted detector.
-    n_samples : int
-        Samples of the run.
-    sample_rate_hz : float
-        Its sample rate, Hz.
+    det, n_samples, sample_rate_hz
+        As :func:`raised_level` (the fitted detector, the run's samples and rate in Hz).
 
     Returns
     -------
@@ -429,12 +425,8 @@ def unheld_long_run(det, n_samples: int, sample_rate_hz: float,
 
     Parameters
     ----------
-    det : Detector
-        A fitted detector.
-    n_samples : int
-        Samples of the run.
-    sample_rate_hz : float
-        Its sample rate, Hz.
+    det, n_samples, sample_rate_hz
+        As :func:`raised_level` (the fitted detector, the run's samples and rate in Hz).
     run_target : float, optional
         The false-alarm rate the run is held to; default the rate requested of one healthy
         segment (``target_per_segment`` of the threshold basis), as a run level holds it.
