@@ -104,3 +104,25 @@ def test_a_position_in_cm_read_as_mm_is_refused_by_the_identified_flow_scale(sys
                        r"0\.1[0-2]\d? .* a position in cm read as mm gives 0\.1"):
         ld.detect.FlowBalanceDetector(system=system).fit([_scaled(r, x=0.1) for r in runs])
     assert FLOW_SCALE_LIMIT == 3.0
+
+
+def test_a_failed_identification_is_not_called_a_unit_error():
+    """An audit (2026-11-29): slow 1-2 mm sine references on some units identified a factor of
+    -1e-7, refused with words about units that were right."""
+    from leakdiag.detect._rig_units import check_flow_scale
+
+    with pytest.raises(ValueError, match=r"fit: the 4 healthy recording\(s\) do not identify "
+                       r"the flow-gain factor \(got -1\.2e-07"):
+        check_flow_scale(-1.2e-7, 1e-8, "fit", "the flow balance (vca)", "flow-gain factor", 4)
+    with pytest.raises(ValueError, match="a position in cm read as mm gives 0.1"):
+        check_flow_scale(0.001, 1e-6, "fit", "the flow balance (vca)", "flow-gain factor", 4)
+
+
+def test_the_flow_scale_is_checked_on_the_whole_fit_not_its_cross_fit_halves():
+    """The same audit: a chirp-driven fit of machine 1 (spring, 4 runs) identified 1.03, but
+    one cross-fit half -0.018, and the half refused the fit ("the 2 healthy recording(s)")."""
+    runs = [ld.sim.simulate_vca(duration=30.0, leak_lpm=0.0, load="spring", machine=1, seed=s,
+                                reference=ld.sim.ChirpReference(0.005, 0.1, 5.0, 30.0))
+            for s in range(11, 15)]
+    det = ld.detect.FlowBalanceDetector(system="vca").fit(runs)
+    assert det.model_.flow_gain_factor == pytest.approx(1.03, abs=0.02)

@@ -160,6 +160,16 @@ def check_flow_scale(factor: float, std: float, where: str, what: str, name: str
     f = float(factor)
     if np.isfinite(f) and 1.0 / FLOW_SCALE_LIMIT <= f <= FLOW_SCALE_LIMIT:
         return
+    if not (np.isfinite(f) and f > 0.0):
+        # no unit error gives zero or a negative factor: the identification failed (an audit,
+        # 2026-11-29: slow sine references of 1-2 mm on some units gave -1e-7, with a null
+        # offset of -6167 V), which the unit wording below would misname
+        raise ValueError(
+            f"{where}: the {n_recordings} healthy recording(s) do not identify the {name} "
+            f"(got {f:.3g} +- {float(std):.2g}, where 1 is the modelled rig's): {what} cannot "
+            "be fitted on them; the operation moves the valve too little or too slowly to "
+            "separate its flow from the null offset and leakage (give recordings of the "
+            "actuator's usual motion)")
     guess = (" (a unit error scales it by a power of 10: a position in cm read as mm gives "
              "0.1, in mm read as cm 10, in m read as mm 0.001)")
     raise ValueError(

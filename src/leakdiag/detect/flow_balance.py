@@ -1182,13 +1182,16 @@ class FlowBalanceDetector(Detector):
             [self._skip(r) for r in recs], self.fit_bandwidth, self.fit_bulk_modulus,
             quiet=bool(self.quiet_boundaries),
             fit_valve_timing=bool(self.fit_valve_timing))
-        # a position or pressure in another unit scales the identified flow (a CLI audit,
-        # 2026-11-28: cm read as mm gave a factor 0.12 and every leak size a tenth)
-        scale = "flow_gain_factor" if self.system == "vca" else "displacement_factor"
-        check_flow_scale(getattr(self.model_, scale), self.model_std_.get(scale, float("nan")),
-                         "fit", f"the flow balance ({self.system})",
-                         "flow-gain factor" if self.system == "vca" else
-                         "pump displacement factor", len(recs))
+        if not _no_cross:  # the fit the user asked for, not a cross-fit half of it (an
+            # audit, 2026-11-29: one half of a chirp-driven fit gave -0.018 where the whole fit
+            # gave 1.03, and refused it): a position or pressure in another unit scales the
+            # identified flow (cm read as mm gave a factor 0.12 and every leak size a tenth)
+            scale = "flow_gain_factor" if self.system == "vca" else "displacement_factor"
+            check_flow_scale(getattr(self.model_, scale),
+                             self.model_std_.get(scale, float("nan")), "fit",
+                             f"the flow balance ({self.system})",
+                             "flow-gain factor" if self.system == "vca" else
+                             "pump displacement factor", len(recs))
         terms = [self._terms(r) for r in recs]
         e = np.concatenate([self._profiled(t) for t in terms])
         if len(e) < 10:
