@@ -540,3 +540,17 @@ def test_batch_prints_its_decisions_and_stores_an_inconclusive_alarm_as_not_judg
     code, _, err = run_cli(["batch", str(tmp_path / "rec" / "**" / "*.parquet"), "-o",
                             str(tmp_path / "res2.parquet")])
     assert code == 2 and "give --config JOB.toml (analyses, detectors) or --detector" in err
+
+
+def test_unheld_words_for_a_level_held_with_confidence_do_not_ask_for_more_maxima():
+    """An audit (2026-11-29): a --confidence detector was told "24 healthy maxima resolve a run
+    of at most 7 segment(s) ... 25 would resolve 4", false for its conditional rank (with 48
+    files the run still had no run level)."""
+    from leakdiag.detect.decision import unheld_words
+    from leakdiag.detect.threshold import conformal_threshold
+
+    b = conformal_threshold(np.arange(1.0, 73.0), 0.28, segment_s=5.0, confidence=0.95)
+    assert b.conditional
+    words = unheld_words(0.5, 0.28, 4, b)
+    assert "would resolve" not in words
+    assert "has no run level: fit without --confidence" in words

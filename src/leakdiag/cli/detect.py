@@ -416,7 +416,8 @@ def overall_verdict(tab, duration_s: float) -> tuple[str, str]:
                 f"alarms are expected by chance in a run this long at its false-alarm "
                 f"rate{said}: the alarm is no evidence of a leak; judge parts as long as the "
                 "healthy recordings (a flow-balance detector does it: leakdiag monitor FILE "
-                "--detector DET --segment S), or fit for fewer false alarms per hour")
+                "--detector DET --segment S), or give more healthy recordings so that a run "
+                "level holds a run this long")
         note = "; ".join(notes)
         alarmed = alarmed.drop(chance.index)
         if not len(alarmed):

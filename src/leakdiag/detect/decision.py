@@ -494,7 +494,11 @@ def unheld_words(expected: float, target: float, m: int, basis) -> str:
     """
     n = getattr(basis, "n", None)
     fix = ""
-    if n is not None and getattr(basis, "method", "").startswith("conformal") and target > 0:
+    if getattr(basis, "conditional", False):  # its rank has no run counterpart: more healthy
+        # maxima do not help (an audit, 2026-11-29: 48 files read INCONCLUSIVE where 24 did not)
+        fix = (" (a level held with --confidence has no run level: fit without --confidence "
+               "for runs longer than the healthy recordings)")
+    elif n is not None and getattr(basis, "method", "").startswith("conformal") and target > 0:
         fix = (f" ({n} healthy maxima resolve a run of at most "
                f"{int(math.floor(target * (n + 1) + 1e-9))} segment(s) at {target:.3g}; "
                f"{max(n + 1, math.ceil(m / target - 1e-9) - 1)} would resolve {m})")
