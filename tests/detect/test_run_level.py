@@ -254,10 +254,14 @@ def test_detect_fits_the_flow_balance_for_the_run_rate_its_run_level_holds(long_
         assert bool(row["leak"]) is leak
 
 
-def test_a_calibration_conditional_level_is_raised_only_from_one_expected_alarm(healthy, seg):
-    # its rank has no run counterpart (the run level would be the model's), so a run of two
-    # segments keeps the conditional guarantee; from 1 expected it is raised as before
-    from leakdiag.detect.decision import raised_level
+def test_a_calibration_conditional_level_has_a_conditional_run_level(healthy, seg):
+    """An audit (2026-11-29): a --confidence level had no run level below one expected false
+    alarm, so every alarm of a run of 2+ segments read INCONCLUSIVE. Its run level is the
+    conditional rank for alpha / m per segment: P(Binomial(60, 0.1) <= k - 1) <= 0.1 gives
+    k' = 3 for two segments (8 for one, the fitted rank)."""
+    from scipy.stats import binom
+
+    from leakdiag.detect.decision import raised_level, run_level_method
 
     det = FlowBalanceDetector(system="vca", false_alarms_per_hour=0.2 * 3600.0 / seg,
                               confidence=0.9)
@@ -265,13 +269,74 @@ def test_a_calibration_conditional_level_is_raised_only_from_one_expected_alarm(
                           det.burn_in_s, "test units", 60)
     det.fit(healthy[:2], reference_maxima=ref)
     b = det.threshold_basis_
-    assert b.method == "conformal" and b.conditional and 0 < b.bound_per_segment < 0.2
+    desc = np.sort(b.maxima)[::-1]
+    assert b.method == "conformal" and b.conditional and b.n == 60 and b.k == 8
+    # by hand: the largest k with P(Binomial(n, alpha / m) <= k - 1) <= 1 - c
+    for m in (1, 2, 3):
+        k = max(k for k in range(0, b.n + 1)
+                if k == 0 or binom.cdf(k - 1, b.n, 0.2 / m) <= 0.1 + 1e-12)
+        assert det._run_rank(m) == k
+    assert det._run_rank(1) == b.k
+    k2 = det._run_rank(2)
+    assert 1 <= k2 < b.k
     assert det.segments_spanned(30000, 1000.0) > 1.0  # two segments, under 1 expected
-    assert raised_level(det, 30000, 1000.0) is None
-    n = int(math.ceil(1.0 / b.bound_per_segment))  # segments for 1 expected
-    dur = n * seg + det.burn_in_s + 1.0
-    level, expected = raised_level(det, int(dur * 1000), 1000.0)
-    assert level >= det.threshold_ and expected <= b.target_per_segment  # the model-based level
+    level, expected = raised_level(det, 30000, 1000.0)
+    assert level == pytest.approx(max(desc[k2 - 1], det.threshold_))
+    assert expected == pytest.approx(2 * k2 / (b.n + 1)) and expected <= 0.2
+    span = 30.0 - det.burn_in_s
+    assert run_level_method(det, span, 2) == "conformal"
+    rec = ld.sim.simulate_vca(duration=30.0, leak_lpm=0.0, load="spring", machine=31, seed=64)
+    j = judge_run(det, rec)
+    assert j.run_level == pytest.approx(level) and j.confidence == pytest.approx(0.9)
+    words = j.run_level_words(float(det.threshold_))
+    assert "with probability 90 % over the healthy data it lets through at most the 0.2" in words
+    # the GLR carries over segments: the rank holds the first segment only, and says so
+    assert "a bound not guaranteed beyond its first segment" in words and not j.guaranteed
+
+
+def test_a_feature_detector_with_confidence_judges_a_medium_run_at_its_conditional_rank():
+    """acf-p1 on six 20-s no-load runs at 0.3 per segment with confidence 0.8 (18 maxima,
+    fitted rank 4): a 20-s run (3 segments) is held at the conditional rank for 0.1 per
+    segment, 1 (0.9^18 = 0.150 <= 0.2; P(Binomial(18, 0.1) <= 1) = 0.450 > 0.2); the CUSUM
+    restarts per segment, so the bound is guaranteed. Before session 22 the 2 L/min leak
+    below read INCONCLUSIVE."""
+    from scipy.stats import binom
+
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm
+
+    h = [ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="none", machine=31, seed=s)
+         for s in range(6)]
+    det = make_detector("acf-p1", "vca", Alarm(false_alarms_per_hour=0.3 * 3600.0 / 5.0,
+                                                segment_s=5.0, confidence=0.8)).fit(h)
+    b = det.threshold_basis_
+    assert b.conditional and (b.n, b.k) == (18, 4)
+    assert binom.cdf(0, 18, 0.1) <= 0.2 < binom.cdf(1, 18, 0.1)  # k' = 1
+    level, expected = det.run_level(15.0)
+    assert level == pytest.approx(np.max(b.maxima)) and expected == pytest.approx(3 / 19)
+    rec = ld.sim.simulate_vca(duration=20.0, leak_lpm=2.0, onset=10.0, load="none",
+                              machine=31, seed=61)
+    j = judge_run(det, rec)
+    assert j.run_level == pytest.approx(level) and j.decision == "leak" and j.guaranteed
+    words = j.run_level_words(float(det.threshold_))
+    assert "with probability 80 % over the healthy data it lets through at most the 0.3" in words
+    assert "not guaranteed" not in words
+
+
+def test_unheld_words_under_confidence_count_the_conditional_maxima():
+    """Where a conditional basis's maxima cannot resolve a run, the words name how many would
+    (min_maxima for alpha / m at c), not "fit without --confidence"."""
+    from leakdiag.detect.decision import unheld_words
+    from leakdiag.detect.threshold import conditional_rank, conformal_threshold, min_maxima
+
+    b = conformal_threshold(np.arange(1.0, 73.0), 0.28, segment_s=5.0, confidence=0.95)
+    assert b.conditional and b.n == 72
+    # 72 maxima hold 0.28 / m at 95 % for m up to floor(0.28 / (1 - 0.05^(1/72))) = 6
+    assert conditional_rank(72, 0.28 / 6, 0.95) == 1 and conditional_rank(72, 0.28 / 7, 0.95) == 0
+    words = unheld_words(0.5, 0.28, 7, b)
+    assert "72 healthy maxima resolve a run of at most 6 segment(s) at 0.28 with 95 % " \
+           f"confidence; {min_maxima(0.04, 0.95)} would resolve 7" in words
+    assert min_maxima(0.04, 0.95) == 74
 
 
 @pytest.fixture(scope="module")
@@ -431,7 +496,35 @@ def test_a_model_based_run_level_says_so(healthy, seg):
         words = j.run_level_words(float(det.threshold_))
         assert ("model-based, not guaranteed" in words) is (method == "model-based")
         assert ("expects at most" in words) is (method == "conformal")
+        # the GLR carries over segments: a rank of the maxima bounds the first one only
+        # (until session 22 the words said "at most" without it)
+        assert ("a bound not guaranteed beyond its first segment" in words) is \
+            (method == "conformal")
         assert not j.guaranteed
+
+
+def test_monitor_words_the_flow_balance_rank_run_level_as_not_guaranteed(healthy, seg,
+                                                                         tmp_path, run_cli):
+    # 0.3 per segment over 6 maxima (k = 2); 30-s segments are 2 of the detector's: k' = 1,
+    # a rank, whose bound holds the first segment only (the GLR carries over)
+    from leakdiag.io import write_recording
+    from leakdiag.stream.detector_file import DetectorMeta, save_detector
+
+    det = FlowBalanceDetector(system="vca",
+                              false_alarms_per_hour=0.3 * 3600.0 / seg).fit(healthy)
+    assert (det.threshold_basis_.n, det.threshold_basis_.k) == (6, 2)
+    rec = ld.sim.simulate_vca(duration=60.0, leak_lpm=0.0, load="spring", machine=31, seed=63)
+    path = write_recording(rec, tmp_path / "ok.parquet")
+    det_path = tmp_path / "fb.joblib"
+    save_detector(det, DetectorMeta("flow-balance", "vca", 1000.0, ("p1", "p2", "x", "u"),
+                                    dict(rec.units), false_alarms_per_hour=0.3 * 3600.0 / seg,
+                                    n_healthy=6, load="spring"), det_path)
+    code, out, err = run_cli(["monitor", str(path), "--detector", str(det_path),
+                              "--segment", "30"])
+    assert code == 0, err
+    line = next(ln for ln in (out + err).splitlines() if "run level: a 30-s segment" in ln)
+    assert "so that it expects at most" in line and "(a rank of the healthy maxima)" in line
+    assert "a bound not guaranteed beyond its first segment" in line
 
 
 def test_the_flow_balance_and_the_decision_count_segments_alike(healthy):
@@ -540,17 +633,3 @@ def test_batch_prints_its_decisions_and_stores_an_inconclusive_alarm_as_not_judg
     code, _, err = run_cli(["batch", str(tmp_path / "rec" / "**" / "*.parquet"), "-o",
                             str(tmp_path / "res2.parquet")])
     assert code == 2 and "give --config JOB.toml (analyses, detectors) or --detector" in err
-
-
-def test_unheld_words_for_a_level_held_with_confidence_do_not_ask_for_more_maxima():
-    """An audit (2026-11-29): a --confidence detector was told "24 healthy maxima resolve a run
-    of at most 7 segment(s) ... 25 would resolve 4", false for its conditional rank (with 48
-    files the run still had no run level)."""
-    from leakdiag.detect.decision import unheld_words
-    from leakdiag.detect.threshold import conformal_threshold
-
-    b = conformal_threshold(np.arange(1.0, 73.0), 0.28, segment_s=5.0, confidence=0.95)
-    assert b.conditional
-    words = unheld_words(0.5, 0.28, 4, b)
-    assert "would resolve" not in words
-    assert "has no run level: fit without --confidence" in words

@@ -341,8 +341,8 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
     # where detect said INCONCLUSIVE) unless it is judged at a raised level (judge_run), as detect
     # judges a file
     from leakdiag.detect.decision import (detector_rate, expected_false_alarms, raised_level,
-                                          run_level_method, run_segments, unheld_long_run,
-                                          unheld_words)
+                                          run_level_how, run_level_method, run_segments,
+                                          unheld_long_run, unheld_words)
 
     basis = getattr(detector, "threshold_basis_", None)
     per_hour, burn = detector_rate(detector)
@@ -365,6 +365,8 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
         raise click.UsageError(f"--segment {seg:g}: {detector_path}: "
                                f"{unheld_words(*unheld, basis)}")
     method = None if raised is None else run_level_method(detector, span, n_seg)
+    conf = float(basis.confidence) if method == "conformal" and basis.conditional else \
+        float("nan")
     judge = SegmentJudge(detector, chans, source.sample_rate, source.start_time, seg,
                          units=units, meta=source.meta, source=str(source.source))
     speed = None if input_path == "-" or follow else parse_replay(replay)
@@ -419,13 +421,9 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
         say(f"  threshold: {threshold_words(basis)} (per segment: each is judged as one run)")
     if raised is not None:  # the full segments were judged at the run level (judge_run)
         level, at_level = raised
-        how = (f"which expects at most {at_level:.3g}, within the "
-               f"{basis.target_per_segment:.3g} requested of one healthy segment (a rank of the "
-               "healthy maxima)" if method == "conformal" else
-               f"which expects about {at_level:.3g} by the bootstrap null's fitted tail, "
-               f"against the {basis.target_per_segment:.3g} requested of one healthy segment: "
-               "model-based, not guaranteed by the healthy data, whose maxima are too few for "
-               "a segment this long")
+        how = run_level_how(at_level, float(basis.target_per_segment), method,
+                            conf, bool(getattr(detector, "restarts_per_segment", False)),
+                            "segment")
         say(f"  run level: a {seg:g}-s segment expects about {expected:.3g} false alarms at the "
             f"fitted level {float(detector.threshold_):.4g}, so full segments are judged at the "
             f"level {level:.4g}, {how} (docs/detect.md section 2, 'Long runs')")

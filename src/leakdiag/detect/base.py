@@ -658,10 +658,11 @@ class Detector(BaseEstimator):
         ``k'``-th largest healthy maximum, ``k' = floor(alpha (n + 1) / m)`` (union bound ``m k'
         / (n + 1) <= alpha``), guaranteed by the healthy maxima because the CUSUM restarts at
         every segment boundary unless in alarm (:attr:`restarts_per_segment`, at the level
-        judged at). None when the maxima cannot resolve it (``k' = 0``), the basis is not a
-        supported conformal one, or it is calibration-conditional (its rank has no run
-        counterpart): :func:`leakdiag.detect.decision.judge_run` then judges at the threshold
-        (docs/detect.md section 2, "Which runs are long").
+        judged at). A calibration-conditional basis (``confidence`` c) takes the conditional
+        rank for ``alpha / m`` per segment instead (:meth:`_run_rank`: the run held to ``alpha``
+        with probability c). None when the maxima cannot resolve it (``k' = 0``) or the basis
+        is not a supported conformal one: :func:`leakdiag.detect.decision.judge_run` then
+        judges at the threshold (docs/detect.md section 2, "Which runs are long").
 
         Parameters
         ----------
@@ -689,10 +690,21 @@ class Detector(BaseEstimator):
     def _run_rank(self, m: int | None) -> int:
         """Rank ``k'`` of the healthy maxima (in decreasing order) that holds ``m`` segments to
         one segment's rate (:meth:`run_level`); 0 when the maxima cannot, the basis is not
-        conformal (``m`` None), not supported, or calibration-conditional."""
+        conformal (``m`` None) or not supported.
+
+        A calibration-conditional basis (``confidence`` c) takes the conditional rank for
+        ``alpha / m`` per segment (:func:`~leakdiag.detect.threshold.conditional_rank`): with
+        probability c over the healthy data each segment's rate is at most ``alpha / m``, so
+        the run's is at most ``alpha`` (union bound); for ``m = 1`` the fitted rank. Until
+        session 22 it had none, and a run of 2 or more segments under one expected false alarm
+        read INCONCLUSIVE (an audit, 2026-11-29)."""
+        from leakdiag.detect.threshold import conditional_rank
+
         b = getattr(self, "threshold_basis_", None)
-        if m is None or b is None or not b.supported or b.conditional:
+        if m is None or b is None or not b.supported:
             return 0
+        if b.conditional:
+            return conditional_rank(b.n, float(b.target_per_segment) / m, float(b.confidence))
         return int(math.floor(float(b.target_per_segment) * (b.n + 1) / m + 1e-9))
 
     def predict(self, recording, level: float | None = None) -> Verdict:

@@ -20,11 +20,12 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from leakdiag.detect.threshold import SEGMENT_TOLERANCE, count_segments
+from leakdiag.detect.threshold import SEGMENT_TOLERANCE, count_segments, min_maxima
 
 __all__ = ["detector_rate", "per_run_rate", "expected_false_alarms", "longer_than_a_segment",
            "raised_level", "RunJudgement", "judge_run", "judge", "run_decision",
-           "run_segments", "run_level_method", "unheld_long_run", "unheld_words"]
+           "run_segments", "run_level_method", "run_level_how", "unheld_long_run",
+           "unheld_words"]
 
 
 def detector_rate(det) -> tuple[float, float]:
@@ -282,6 +283,10 @@ class RunJudgement:
     why_inconclusive : str or None
         Why an alarm is no evidence of a leak (``decision`` ``"inconclusive"`` with an alarm),
         in words; None otherwise.
+    confidence : float
+        The calibration-conditional confidence of a conformal run level (``confidence`` of
+        the threshold basis: the run held to ``segment_target`` with that probability over
+        the healthy data); NaN otherwise.
     """
 
     verdict: object
@@ -296,6 +301,7 @@ class RunJudgement:
     segment_target: float = float("nan")
     run_level_method: str | None = None
     why_inconclusive: str | None = None
+    confidence: float = float("nan")
 
     def run_level_words(self, threshold: float) -> str | None:
         """The raised level in words, or None when the run was judged at the threshold.
@@ -314,15 +320,65 @@ class RunJudgement:
         head = (f"this {self.span_s:.4g}-s run is judged at the level {self.run_level:.4g} "
                 f"(fitted level {threshold:.4g}, which expects about "
                 f"{self.expected_at_threshold:.3g} false alarms in a run this long)")
-        if self.run_level_method == "model-based":  # the maxima could not resolve the run
-            return (f"{head}, so that it expects about {self.expected:.3g} by the bootstrap "
-                    f"null's fitted tail, against the {self.segment_target:.3g} requested of "
-                    "one healthy segment: model-based, not guaranteed by the healthy data, "
-                    "whose maxima are too few to hold a run this long to a segment's rate "
-                    "(docs/detect.md section 2, 'Long runs')")
-        return (f"{head}, so that it expects at most {self.expected:.3g}, within the "
-                f"{self.segment_target:.3g} requested of one healthy segment (a rank of the "
-                "healthy maxima; docs/detect.md section 2, 'Long runs')")
+        return (f"{head}, " + run_level_how(self.expected, self.segment_target,
+                                              self.run_level_method, self.confidence,
+                                              self.guaranteed or self.run_level_method !=
+                                              "conformal")
+                + " (docs/detect.md section 2, 'Long runs')")
+
+
+def run_level_how(expected: float, target: float, method: str | None,
+                  confidence: float = float("nan"), restarts: bool = True,
+                  span: str = "run") -> str:
+    """What a run level holds a run to, in words (``detect``, ``batch`` and ``monitor``).
+
+    Parameters
+    ----------
+    expected : float
+        False alarms the run level expects in the run.
+    target : float
+        The rate requested of one healthy segment.
+    method : {"conformal", "model-based"}
+        What backs the level (:func:`run_level_method`).
+    confidence : float, default NaN
+        A calibration-conditional rank's confidence (NaN: the marginal rank).
+    restarts : bool, default True
+        Whether the detector's statistic restarts at each segment boundary
+        (``Detector.restarts_per_segment``); the flow balance's GLR carries its state over,
+        so its rank bounds the first segment only (:func:`per_run_rate`; until session 22 the
+        words said "at most" for it too).
+    span : str, default "run"
+        What is judged ("run", or "segment" for ``monitor --segment``).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> run_level_how(0.06, 0.1, "conformal")[:40]
+    'so that it expects at most 0.06, within '
+    >>> "not guaranteed beyond its first segment" in run_level_how(0.06, 0.1, "conformal",
+    ...                                                              restarts=False)
+    True
+    """
+    if method == "model-based":  # the maxima could not resolve the run
+        return (f"so that it expects about {expected:.3g} by the bootstrap null's fitted tail, "
+                f"against the {target:.3g} requested of one healthy segment: model-based, not "
+                "guaranteed by the healthy data, whose maxima are too few to hold a "
+                f"{span} this long to a segment's rate")
+    if math.isfinite(confidence):  # a calibration-conditional rank (--confidence)
+        held = (f"so that with probability {confidence * 100:g} % over the healthy data it "
+                f"lets through at most the {target:.3g} false alarms requested of one healthy "
+                f"segment (about {expected:.3g} on average; a calibration-conditional rank of "
+                "the healthy maxima)")
+    else:
+        held = (f"so that it expects at most {expected:.3g}, within the {target:.3g} requested "
+                "of one healthy segment (a rank of the healthy maxima)")
+    if restarts:
+        return held
+    return (held + ", a bound not guaranteed beyond its first segment: the detector's "
+            "statistic carries its state over segment boundaries")
 
 
 def raised_level(det, n_samples: int, sample_rate_hz: float) -> tuple[float, float] | None:
@@ -332,8 +388,8 @@ def raised_level(det, n_samples: int, sample_rate_hz: float) -> tuple[float, flo
     ``segments_spanned``) when :func:`longer_than_a_segment`; None when the run is one
     segment or shorter, or the detector cannot raise its level (no ``run_level``, or its
     healthy reference cannot resolve one). A calibration-conditional conformal level
-    (``confidence`` given) is raised only from one expected false alarm on: its rank has no
-    run counterpart, so raising it trades its guarantee for the model-based level's.
+    (``confidence`` given) is raised by the same rule, to its conditional run rank
+    (``Detector._run_rank``); until session 22 only from one expected false alarm on.
 
     Parameters
     ----------
@@ -355,13 +411,7 @@ def raised_level(det, n_samples: int, sample_rate_hz: float) -> tuple[float, flo
     basis = getattr(det, "threshold_basis_", None)
     span_s = max(n_samples / float(sample_rate_hz) - burn_in, 0.0)
     segs, n_seg = run_segments(det, n_samples, sample_rate_hz)
-    if getattr(basis, "conditional", False) and getattr(basis, "method", "").startswith(
-            "conformal"):
-        # a calibration-conditional rank has no run counterpart (the run level is then the
-        # model's): its guarantee is kept up to one expected false alarm, as before session 19
-        if expected_false_alarms(basis, per_hour, span_s, n_seg) < 1.0:
-            return None
-    elif not longer_than_a_segment(basis, per_hour, span_s, segs):
+    if not longer_than_a_segment(basis, per_hour, span_s, segs):
         return None
     return raise_to(span_s, n_seg)
 
@@ -494,11 +544,17 @@ def unheld_words(expected: float, target: float, m: int, basis) -> str:
     """
     n = getattr(basis, "n", None)
     fix = ""
-    if getattr(basis, "conditional", False):  # its rank has no run counterpart: more healthy
-        # maxima do not help (an audit, 2026-11-29: 48 files read INCONCLUSIVE where 24 did not)
-        fix = (" (a level held with --confidence has no run level: fit without --confidence "
-               "for runs longer than the healthy recordings)")
-    elif n is not None and getattr(basis, "method", "").startswith("conformal") and target > 0:
+    conformal = n is not None and getattr(basis, "method", "").startswith("conformal") and \
+        0 < target < 1
+    if conformal and getattr(basis, "conditional", False):
+        # the conditional rank for target / m per segment (Detector._run_rank); until session
+        # 22 it had none and the words said to fit without --confidence
+        c = float(basis.confidence)
+        most = int(math.floor(target / -math.expm1(math.log1p(-c) / n) + 1e-9))
+        fix = (f" ({n} healthy maxima resolve a run of at most {most} segment(s) at "
+               f"{target:.3g} with {c * 100:g} % confidence; "
+               f"{max(n + 1, min_maxima(target / m, c))} would resolve {m})")
+    elif conformal:
         fix = (f" ({n} healthy maxima resolve a run of at most "
                f"{int(math.floor(target * (n + 1) + 1e-9))} segment(s) at {target:.3g}; "
                f"{max(n + 1, math.ceil(m / target - 1e-9) - 1)} would resolve {m})")
@@ -604,6 +660,8 @@ def judge(det, n_samples: int, sample_rate_hz: float, duration_s: float,
     if decision == "inconclusive" and v.leak and why is None:
         why = (f"about {expected:.3g} false alarms are expected by chance in a run this long at "
                "the level it was judged at, so the alarm is no evidence of a leak")
+    conf = float(getattr(basis, "confidence", float("nan"))) \
+        if method == "conformal" and getattr(basis, "conditional", False) else float("nan")
     return RunJudgement(v, per_hour, span_s, expected, per_run, guaranteed, at_threshold, level,
                         decision, float(getattr(basis, "target_per_segment", float("nan"))),
-                        method, why)
+                        method, why, conf)

@@ -1492,8 +1492,9 @@ class FlowBalanceDetector(Detector):
         "Long runs"):
 
         * conformal basis: the ``k'``-th largest healthy maximum, ``k' = floor(alpha (n + 1) /
-          m)`` (union bound ``m k' / (n + 1) <= alpha``), when ``k' >= 1`` and the basis is not
-          calibration-conditional (``confidence`` given: its rank has no run counterpart here);
+          m)`` (union bound ``m k' / (n + 1) <= alpha``), when ``k' >= 1``; a
+          calibration-conditional basis (``confidence`` given) the conditional rank for
+          ``alpha / m`` per segment (:meth:`Detector._run_rank`);
         * otherwise, as :meth:`fit` falls back for one segment, the model-based level: the
           lowest level (on a 0.01 grid) above which the bootstrap null's rate stays at most
           ``alpha / hours`` (:meth:`GLRThreshold.tail_rate`: beyond the null's last levels
