@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import leakdiag as ld
-from leakdiag.detect._rig_units import PRESSURE_LEVEL_FRACTION, check_rig_units
+from leakdiag.detect._rig_units import (PRESSURE_LEVEL_FRACTION, STROKE_TOLERANCE,
+                                        check_rig_units)
 from leakdiag.io import Recording, RecordingError
 
 
@@ -31,13 +32,22 @@ def test_limits_by_hand():
     # a transducer zero elsewhere: the travel counts, not the distance from 0 (a review found
     # x from 0.68 to 0.72 m refused, though it was sized as without the offset)
     check_rig_units(Recording({"x": [0.68, 0.72]}, 1.0), "fit", 0.6, 17.2e6, "the rig")
-    with pytest.raises(RecordingError, match=r"channel 'x' travels 0\.6001 m \(from -0\.6001 "
-                                             r"to 0\)"):
-        check_rig_units(Recording({"x": [0.0, -0.6001]}, 1.0), "fit", 0.6, 17.2e6, "the rig")
+    # noise and end stops: up to 5 % beyond the stroke (the simulated EHA at 0.5 rad/s records
+    # 0.6005 m on its 0.6-m stroke, refused as a unit error until session 22)
+    assert STROKE_TOLERANCE == 0.05
+    check_rig_units(Recording({"x": [0.0, -0.63]}, 1.0), "fit", 0.6, 17.2e6, "the rig")
+    with pytest.raises(RecordingError, match=r"channel 'x' travels 0\.6301 m \(from -0\.6301 "
+                                             r"to 0\), more than the stroke of 0\.6 m that the "
+                                             r"rig models \(with 5% for noise and end stops\)"):
+        check_rig_units(Recording({"x": [0.0, -0.6301]}, 1.0), "fit", 0.6, 17.2e6, "the rig")
+    eha = ld.sim.simulate_eha(duration=20.0, leak_lpm=0.0, frequency_rad_s=0.5, seed=1)
+    assert 0.6 < float(np.ptp(eha["x"])) < 0.61  # on its end stops, with the sensor's noise
+    check_rig_units(eha, "fit", 0.6, 1.4e6, "the flow balance (eha)")
     low = Recording({"p1": [0.0, 171.9e3], "p2": [5.0, 100.0]}, 1.0,
                     meta={"source": "low.csv"})
     with pytest.raises(RecordingError, match=r"fit: low\.csv: the chamber pressures \(p1, p2\) "
-                       r"stay below 1\.719e\+05 Pa, under 1% of the 17\.2 MPa pressure level"):
+                       r"stay below 1\.719e\+05 Pa, under 1% of the 17\.2 MPa pressure level"
+                       r".*in Python, a rig of another pressure level is given as params=\)$"):
         check_rig_units(low, "fit", 0.6, 17.2e6, "the rig")
     assert PRESSURE_LEVEL_FRACTION == 0.01
 
@@ -81,8 +91,14 @@ def test_pressures_a_hundredfold_above_the_level_are_refused():
     high = Recording({"p1": [0.0, 1.0, 2.0], "p2": [0.0, 1.21e10, 3.0]}, 1.0,
                      meta={"source": "kpa.csv"})
     with pytest.raises(RecordingError, match=r"fit: kpa\.csv: channel 'p2' reaches 1\.21e\+10 Pa "
-                       r"\(data row 1\), 703 times the 17\.2 MPa pressure level"):
+                       r"\(data row 1\), 703 times the 17\.2 MPa pressure level") as err:
         check_rig_units(high, "fit", 0.6, 17.2e6, "the rig")
+    # every too-large unit named (an audit, 2026-11-29: it guessed "pascals read as kPa" only,
+    # and pointed to "the rig's own parameters", which the command line does not take)
+    msg = str(err.value)
+    assert "as bar 100,000 times" in msg and "stated as kPa give 1,000" in msg
+    assert "in Python, a rig of another pressure level is given as params=" in msg
+    assert "rig's own parameters" not in msg
 
 
 @pytest.mark.parametrize("system", ["vca", "eha"])

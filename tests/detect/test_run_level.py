@@ -55,6 +55,13 @@ def test_conformal_run_level_is_the_rank_that_holds_the_run(healthy, seg):
     th = det.alarm_threshold_
     assert th.tail_rate(level13) * 13 * seg / 3600.0 == pytest.approx(exp13)
     assert exp13 <= b.target_per_segment
+    # ... but not below the largest healthy maximum, under which the maxima themselves expect
+    # at least 13 / 61 (an audit, 2026-11-29: the model's level was the fitted threshold, 0.32
+    # expected by the maxima and 0.059 by the model in one line); here it was the fitted
+    # threshold, 4.25, "0.0002 expected" by the null against 13 x 12 / 61 = 2.6 by the maxima
+    assert level13 >= 5.0 and level13 == pytest.approx(5.0, abs=0.011)
+    hours = 13 * seg / 3600.0
+    assert th.tail_rate(det.threshold_) * hours <= b.target_per_segment
 
 
 def test_model_run_level_is_the_lowest_level_whose_null_rate_holds_the_run(healthy, seg):

@@ -1496,7 +1496,9 @@ class FlowBalanceDetector(Detector):
           calibration-conditional basis (``confidence`` given) the conditional rank for
           ``alpha / m`` per segment (:meth:`Detector._run_rank`);
         * otherwise, as :meth:`fit` falls back for one segment, the model-based level: the
-          lowest level (on a 0.01 grid) above which the bootstrap null's rate stays at most
+          lowest level (on a 0.01 grid, from the fitted threshold and, under a conformal basis,
+          from its largest healthy maximum: :meth:`_model_run_floor`) above which the
+          bootstrap null's rate stays at most
           ``alpha / hours`` (:meth:`GLRThreshold.tail_rate`: beyond the null's last levels
           with 3 or more alarm episodes, its fitted exponential tail, which over-states the
           rate of a Gaussian-like statistic), not guaranteed by data; None when that rate is
@@ -1533,13 +1535,30 @@ class FlowBalanceDetector(Detector):
         if target < 1.0 / (RUN_LEVEL_MAX_EXTRAPOLATION * th.simulated_hours):
             return None  # too far beyond the null's resolution for its fitted tail
         top = float(th.grid[-1]) * th.scale + 10.0
-        hs = np.arange(float(self.threshold_), top, 0.01)
+        hs = np.arange(self._model_run_floor(), top, 0.01)
         rates = np.array([th.tail_rate(h) for h in hs])
         over = np.flatnonzero(rates > target)
         if len(over) == len(hs):
             return None
         level = float(hs[over[-1] + 1]) if len(over) else float(hs[0])
         return level, th.tail_rate(level) * hours
+
+    def _model_run_floor(self) -> float:
+        """Lowest level a model-based run level may take: the fitted threshold, and under a
+        conformal basis its largest healthy maximum.
+
+        Below the largest maximum the healthy data speak for themselves: at the ``k``-th
+        largest they expect ``m k / (n + 1)`` false alarms in a run of ``m`` segments, more
+        than the run's target whenever the maxima cannot resolve the run. A statistics audit
+        (2026-11-29) found the model's level at the fitted threshold itself (the 2nd largest of
+        24 maxima), where the run "expects about 0.059" by the model and 0.32 by the maxima,
+        in one line.
+        """
+        floor = float(self.threshold_)
+        b = getattr(self, "threshold_basis_", None)
+        if b is not None and b.method.startswith("conformal") and len(b.maxima):
+            floor = max(floor, float(np.max(b.maxima)))
+        return floor
 
     def predict(self, recording, level: float | None = None) -> FlowBalanceVerdict:
         """Verdict: leak or not, alarm time, onset, leak size (mean L/min with an interval).
