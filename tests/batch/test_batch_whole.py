@@ -107,3 +107,37 @@ def test_the_cli_takes_a_flow_balance_file(fleet, tmp_path, capsys):
     res = read_results(tmp_path / "res")
     assert res.set_index("recording")["alarm"].to_dict() == {"leak.parquet": True,
                                                              "ok.parquet": False}
+
+
+def test_a_refused_judgement_at_the_run_level_keeps_that_level_as_threshold(tmp_path):
+    """An audit (2026-11-29): a run longer than a healthy segment is judged at its run level,
+    and when the detector then refused its alarm ("... level 3.53 ..."), the row (and
+    ``--store``) kept the fitted threshold (3.28). Four 20-s no-load runs of machine 31 fitted
+    for 36 per hour (14-s segments); the first 30 s of a 0.5 L/min leak from 25 s alarm at
+    28.07 s with too little data after it."""
+    import re
+
+    from leakdiag.detect.decision import raised_level
+    from leakdiag.stream.detector_file import load_detector_file
+
+    files = [str(write_recording(ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="none",
+                                                     machine=31, seed=s),
+                                 tmp_path / f"h{s}.parquet")) for s in range(100, 104)]
+    path = tmp_path / "fb.joblib"
+    assert main(["fit", *[a for f in files for a in ("--healthy", f)], "-m", "flow-balance",
+                 "--false-alarm-rate", "36", "--no-progress", "-o", str(path)]) == 0
+    det, _ = load_detector_file(path)
+    import dataclasses
+
+    full = ld.sim.simulate_vca(duration=50.0, leak_lpm=0.5, onset=25.0, load="none",
+                               machine=31, seed=2000)
+    rec = dataclasses.replace(full, channels={c: v[:30000] for c, v in full.channels.items()})
+    part = write_recording(rec, tmp_path / "part.parquet")
+    job = config_from_dict({"detector": [{"path": str(path), "name": "fb"}], "analysis": []})
+    (row,) = run_case(str(part), job)
+    assert row["alarm"] is None and "too few to confirm" in row["error"]
+    level, _ = raised_level(det, rec.n_samples, rec.sample_rate)
+    assert level > det.threshold_
+    assert row["threshold"] == pytest.approx(level)
+    named = float(re.search(r"level (\d+\.\d+)\)", row["error"]).group(1))
+    assert row["threshold"] == pytest.approx(named, abs=0.005)

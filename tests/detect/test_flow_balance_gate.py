@@ -257,10 +257,21 @@ def test_a_reversed_command_or_position_sign_is_no_leak_verdict(det, channel):
 # ------------------------------------------------------------------ 4. an alarm without a leak
 def test_an_alarm_whose_coefficient_since_the_onset_is_not_positive_is_no_leak_verdict(det,
                                                                                       monkeypatch):
-    """Until 2026-11-27 this was LEAK without a size; it is now refused (INCONCLUSIVE)."""
-    rec = _vca(65, leak_lpm=0.5, onset=8.0)
-    assert det.predict(rec).leak
+    """Until 2026-11-27 this was LEAK without a size; it is now refused (INCONCLUSIVE). Since
+    session 22 an onset in the first windows judged (a leak present from the start, fitted into
+    the null offset) or an alarm less than 10 s before the end (too few data) is refused with
+    its own words, not "does not describe this recording" (an audit, 2026-11-29)."""
+    from leakdiag.detect.flow_balance import AlarmAtStart, AlarmNotConfirmed
+
+    rec = _vca(65, 40.0, leak_lpm=0.5, onset=20.0)
+    early = _vca(65, leak_lpm=0.5, onset=8.0)
+    late = _vca(65, 25.0, leak_lpm=0.5, onset=20.0)
+    assert det.predict(rec).leak and det.predict(early).leak and det.predict(late).leak
     monkeypatch.setattr(type(det), "_estimate", lambda self, t, j, sigma=None: (-2e-13, 1e-13))
+    with pytest.raises(AlarmAtStart, match=r"with its onset within the first 10 windows judged"):
+        det.predict(early)
+    with pytest.raises(AlarmNotConfirmed, match=r"s of data after the alarm, too few to confirm"):
+        det.predict(late)
     with pytest.raises(RecordingError, match=(
             rf"^predict: {re.escape(SRC)}: the test alarmed at [0-9.]+ s \(score [0-9.]+, level "
             r"[0-9.]+\), but the leak coefficient estimated from the onset \([0-9.]+ s\) to the "

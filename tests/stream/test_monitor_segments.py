@@ -291,3 +291,74 @@ def test_a_leak_refused_at_a_segment_end_is_named_when_the_next_segment_finds_it
     # the continuing segment carries the onset found, not the earlier alarm
     assert later.continues_from_onset_s == found.verdict.onset_s
     assert later.unconfirmed_alarm_s is None
+
+
+@pytest.fixture(scope="module")
+def no_load_leak(tmp_path_factory):
+    """As an audit (2026-11-29) fitted it: flow-balance through the command on four 20-s
+    no-load runs of machine 31 for 36 false alarms per hour (5-s burn-in), and a 50-s run with
+    a 0.5 L/min leak from 25 s."""
+    from leakdiag.cli.main import main
+
+    d = tmp_path_factory.mktemp("noload")
+    files = [str(write_recording(ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="none",
+                                                     machine=31, seed=s), d / f"h{s}.parquet"))
+             for s in range(100, 104)]
+    assert main(["fit", *[a for f in files for a in ("--healthy", f)], "-m", "flow-balance",
+                 "--false-alarm-rate", "36", "--no-progress", "-o", str(d / "fb.joblib")]) == 0
+    det, _ = load_detector_file(d / "fb.joblib")
+    rec = ld.sim.simulate_vca(duration=50.0, leak_lpm=0.5, onset=25.0, load="none", machine=31,
+                              seed=2000)
+    return det, rec
+
+
+def _segments(det, rec, seg):
+    chans = {c: rec[c] for c in ("p1", "p2", "x", "u")}
+    judge = SegmentJudge(det, list(chans), rec.sample_rate, segment_s=seg,
+                         units=dict(rec.units), meta={"system": "vca", "load": "none"})
+    out = judge.push(chans)
+    last = judge.finish()
+    return out + ([] if last is None else [last])
+
+
+def test_a_leak_present_from_a_segments_start_is_not_called_a_sensor_fault(no_load_leak):
+    """The audit: the segment 35-50 s of a continuing 0.5 L/min leak (score 328) read "the leak
+    coefficient ... is not positive (-6.95e-10 +- 5.8e-11): the flow balance does not describe
+    this recording well (a sensor fault, ...)". A leak present from the start is fitted into
+    the per-recording null offset and gain; the segment now says the leak found earlier was
+    present from its start."""
+    from leakdiag.detect.flow_balance import AlarmAtStart
+
+    det, rec = no_load_leak
+    part = Recording({c: rec[c][35000:] for c in ("p1", "p2", "x", "u")}, 1000.0, 35.0,
+                     dict(rec.units), {"load": "none", "system": "vca", "source": "part"})
+    with pytest.raises(AlarmAtStart, match=r"with its onset within the first 10 windows judged "
+                       r"\(at or before .*\), but the leak coefficient estimated from there to "
+                       r"the end is not positive") as refused:
+        det.predict(part)
+    assert refused.value.onset_s < 41.0 and "does not describe this recording" not in \
+        str(refused.value)
+    first, second = _segments(det, rec, 35.0)
+    assert first.decision == "LEAK" and 25.0 <= first.verdict.onset_s < 29.0
+    assert second.decision == "NOT JUDGED"
+    assert second.continues_from_onset_s == first.verdict.onset_s
+    assert second.reason.startswith(f"<stream> [35-50 s]: the leak found with onset "
+                                    f"{first.verdict.onset_s:.6g} s was present when this "
+                                    "segment began")
+
+
+def test_a_late_alarm_whose_coefficient_is_not_positive_is_unconfirmed(no_load_leak):
+    """The same audit's leak in 30-s segments: the alarm at 28.07 s, 1 s before the segment's
+    end, gave k -2.7e-9 +- 1.8e-10 from its onset and read "a sensor fault?"; too few data
+    follow it, and the next segment names it."""
+    from leakdiag.detect.flow_balance import AlarmNotConfirmed
+
+    det, rec = no_load_leak
+    part = Recording({c: rec[c][:30000] for c in ("p1", "p2", "x", "u")}, 1000.0, 0.0,
+                     dict(rec.units), {"load": "none", "system": "vca", "source": "part"})
+    with pytest.raises(AlarmNotConfirmed, match=r"is not positive \(.*\); 0\.\d+ s of data "
+                       r"after the alarm, too few to confirm a leak that began there"):
+        det.predict(part)
+    first, second = _segments(det, rec, 30.0)
+    assert first.decision == "NOT JUDGED" and second.decision == "LEAK"
+    assert 25.0 <= second.unconfirmed_onset_s < 28.0 < second.unconfirmed_alarm_s < 30.0

@@ -532,6 +532,7 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
             j = judge_run(det, rec)  # a long run at the level that holds it to a segment's rate
         except RecordingError as exc:  # nothing was judged: the detector says why
             rows.append({**row, "alarm": None, "decision": "inconclusive",
+                         "threshold": _level_judged_at(det, rec.n_samples, rec.sample_rate),
                          "error": f"detector not judged: {exc}"})
             continue
         v, d = j.verdict, j.verdict.as_dict()
@@ -553,6 +554,17 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
                      "leak_lpm_in_range": d["leak_lpm_in_range"],
                      "detectable_lpm": d.get("detectable_lpm"), "verdict": str(v)})
     return rows
+
+
+def _level_judged_at(det, n_samples: int, sample_rate_hz: float) -> float:
+    """The level a run is judged at (its run level when longer than a healthy segment, else
+    the fitted threshold): the ``threshold`` of a row whose judgement the detector refused,
+    which its message names (an audit, 2026-11-29: the row, and ``--store``, kept the fitted
+    threshold while the refusal said "level 3.76")."""
+    from leakdiag.detect.decision import raised_level
+
+    found = raised_level(det, n_samples, sample_rate_hz)
+    return float(det.threshold_) if found is None else float(found[0])
 
 
 def _judges_series(det) -> bool:
@@ -622,6 +634,7 @@ def _verdict_columns(det, parts: list[FeatureSeries], t: np.ndarray, v: np.ndarr
                                                    source=path, level=level))
     except RecordingError as exc:  # nothing was tested: the detector says why
         return {**cols, "alarm": None, "decision": "inconclusive",
+                "threshold": _level_judged_at(det, int(round(duration_s * fs)), fs),
                 "error": f"detector not judged: {exc}"}
     verdict, expected = j.verdict, j.expected
     d = verdict.as_dict()

@@ -59,7 +59,7 @@ from leakdiag.io.recording import RecordingError, load_name
 from leakdiag.sim.leak import LPM_PER_M3S
 
 __all__ = ["FlowBalanceDetector", "FlowBalanceVerdict", "LEAK_LAWS", "SYSTEMS",
-           "glr_segment_maxima", "AlarmNotConfirmed"]
+           "glr_segment_maxima", "AlarmNotConfirmed", "AlarmAtStart"]
 
 
 class AlarmNotConfirmed(RecordingError):
@@ -80,6 +80,29 @@ class AlarmNotConfirmed(RecordingError):
         super().__init__(message)
         self.alarm_time_s = float(alarm_time_s)
         self.onset_s = float(onset_s)
+
+class AlarmAtStart(RecordingError):
+    """The test alarmed with its onset in the first windows judged, but the leak coefficient
+    estimated from there to the end is not positive: no verdict on a leak.
+
+    A leak present from the recording's start is fitted into the per-recording null offset and
+    gain (docs/detect.md 8.5), so the coefficient estimated after it can come out negative,
+    with a small standard error, though the test's score is far above its level. An audit
+    (2026-11-29) found ``leakdiag monitor --segment 35`` reading the last 15 s of a 0.5 L/min
+    leak from 25 s "not positive (-6.95e-10 +- 5.8e-11) ... a sensor fault?" at a score of 328;
+    the monitor now says that the leak it found earlier was present from the segment's start.
+
+    Attributes
+    ----------
+    alarm_time_s, onset_s : float
+        The alarm and the onset the test placed (s).
+    """
+
+    def __init__(self, message: str, alarm_time_s: float, onset_s: float):
+        super().__init__(message)
+        self.alarm_time_s = float(alarm_time_s)
+        self.onset_s = float(onset_s)
+
 
 #: Leak laws the regression can assume: Eq. 2-4 (turbulent) or Eq. 2-5 (laminar).
 LEAK_LAWS = ("turbulent", "laminar")
@@ -1671,10 +1694,10 @@ class FlowBalanceDetector(Detector):
                 f"between 0 and 1; below {MIN_PISTON_VALVE_RATIO:g} no leak explains it): the "
                 "command's or the position's sign is reversed against the fit runs; no "
                 "verdict on a leak")
+        end = float(t["end"][-1])
         if k > 0.0 and not interval[0] > 0.0:  # alarmed, but since the onset no evidence
             # (an audit, 2026-11-28: a healthy file with a seam where the position matched, and
             # a healthy CSV resampled from jittered stamps, read LEAK with intervals below 0)
-            end = float(t["end"][-1])
             late = (f"; {end - alarm:.3g} s of data after the alarm, too few to confirm a leak "
                     "that began there" if end - alarm < LATE_ALARM_S else "")
             raise AlarmNotConfirmed(
@@ -1685,6 +1708,27 @@ class FlowBalanceDetector(Detector):
                 "the alarm is not a leak that lasts (" + _chance_words(smax, h) + "a seam or "
                 "discontinuity, resampled time stamps, a sensor fault?); no verdict on a leak",
                 alarm, onset)
+        if not k > 0.0 and censored:  # a leak from the start, fitted into the null offset
+            raise AlarmAtStart(
+                f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
+                f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g}) with its onset within the "
+                f"first {CENSOR_WINDOWS} windows judged (at or before {onset:.4g} s), but the "
+                f"leak coefficient estimated from there to the end is not positive ({k:.3g} "
+                f"+- {se:.2g}): a leak present from the recording's start is fitted into the "
+                "per-recording null offset and gain, so the data cannot size it nor tell it "
+                "from a disturbance at the start (" + _chance_words(smax, h) + "a seam, a "
+                "sensor fault?); judge a recording that starts before the leak "
+                "(docs/detect.md 8.5); no verdict on a leak", alarm, onset)
+        if not k > 0.0 and end - alarm < LATE_ALARM_S:  # too few windows after a late alarm
+            # (an audit, 2026-11-29: a 0.5 L/min leak from 25 s alarmed at 28.07 s in the
+            # segment 0-30 s, k -2.7e-9 +- 1.8e-10, was "a sensor fault?")
+            raise AlarmNotConfirmed(
+                f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
+                f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g}), but the leak coefficient "
+                f"estimated from the onset ({onset:.4g} s) to the end is not positive ({k:.3g} "
+                f"+- {se:.2g}); {end - alarm:.3g} s of data after the alarm, too few to confirm "
+                "a leak that began there (" + _chance_words(smax, h) + "a seam or "
+                "discontinuity, a sensor fault?); no verdict on a leak", alarm, onset)
         if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
             raise RecordingError(
                 f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "

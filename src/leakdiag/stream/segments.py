@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from leakdiag.detect.decision import judge_run
-from leakdiag.detect.flow_balance import AlarmNotConfirmed
+from leakdiag.detect.flow_balance import AlarmAtStart, AlarmNotConfirmed
 from leakdiag.io.errors import RecordingError
 from leakdiag.io.recording import Recording
 
@@ -73,7 +73,8 @@ class SegmentVerdict:
         :func:`leakdiag.detect.decision.judge_run`).
     continues_from_onset_s : float or None
         For a LEAK segment right after a LEAK segment: the onset found when the leak was first
-        found. The leak was then present when this segment began, so this segment's own onset
+        found (also on a NOT JUDGED segment there whose alarm the detector refused as at its
+        start, :class:`~leakdiag.detect.flow_balance.AlarmAtStart`). The leak was then present when this segment began, so this segment's own onset
         is no onset (an audit, 2026-11-28: 3 of 20 such segments were given a definite onset
         6-26 s into the segment).
     unconfirmed_alarm_s, unconfirmed_onset_s : float or None
@@ -264,6 +265,13 @@ class SegmentJudge:
         except RecordingError as exc:  # too short, a stuck channel, the model does not fit
             self._unconfirmed = (
                 (exc.alarm_time_s, exc.onset_s) if isinstance(exc, AlarmNotConfirmed) else None)
+            prior = self._leak_onset
+            if isinstance(exc, AlarmAtStart) and prior is not None:  # the leak found before
+                return SegmentVerdict(start, end, reason=(
+                    f"{name}: the leak found with onset {prior:.6g} s was present when this "
+                    f"segment began and alarmed again at {exc.alarm_time_s:.6g} s, but a leak "
+                    f"present from a segment's start cannot be judged on that segment alone: "
+                    f"{exc}"), continues_from_onset_s=prior)
             return SegmentVerdict(start, end, reason=str(exc))
         unconfirmed, self._unconfirmed = self._unconfirmed, None
         v = j.verdict
