@@ -59,16 +59,12 @@ from leakdiag.io.recording import RecordingError, load_name
 from leakdiag.sim.leak import LPM_PER_M3S
 
 __all__ = ["FlowBalanceDetector", "FlowBalanceVerdict", "LEAK_LAWS", "SYSTEMS",
-           "glr_segment_maxima", "AlarmNotConfirmed", "AlarmAtStart"]
+           "glr_segment_maxima", "RefusedAlarm", "AlarmNotConfirmed", "AlarmAtStart"]
 
 
-class AlarmNotConfirmed(RecordingError):
-    """The test alarmed, but the leak estimated from its onset to the recording's end is not
-    significantly above zero: no verdict on a leak.
-
-    Besides a chance crossing or a fault, an alarm late in a recording (a segment of
-    ``leakdiag monitor --segment``) has too little data after it to confirm a real leak; the
-    next segment then finds the leak from its own start, and says when this one alarmed.
+class RefusedAlarm(RecordingError):
+    """The test alarmed, but the leak estimated after its onset does not confirm it: no
+    verdict on a leak (the base of :class:`AlarmNotConfirmed` and :class:`AlarmAtStart`).
 
     Attributes
     ----------
@@ -81,7 +77,18 @@ class AlarmNotConfirmed(RecordingError):
         self.alarm_time_s = float(alarm_time_s)
         self.onset_s = float(onset_s)
 
-class AlarmAtStart(RecordingError):
+
+class AlarmNotConfirmed(RefusedAlarm):
+    """The test alarmed, but the leak estimated from its onset to the recording's end is not
+    significantly above zero: no verdict on a leak.
+
+    Besides a chance crossing or a fault, an alarm late in a recording (a segment of
+    ``leakdiag monitor --segment``) has too little data after it to confirm a real leak; the
+    next segment then finds the leak from its own start, and says when this one alarmed.
+    """
+
+
+class AlarmAtStart(RefusedAlarm):
     """The test alarmed with its onset in the first windows judged, but the leak coefficient
     estimated from there to the end is not positive: no verdict on a leak.
 
@@ -91,17 +98,7 @@ class AlarmAtStart(RecordingError):
     (2026-11-29) found ``leakdiag monitor --segment 35`` reading the last 15 s of a 0.5 L/min
     leak from 25 s "not positive (-6.95e-10 +- 5.8e-11) ... a sensor fault?" at a score of 328;
     the monitor now says that the leak it found earlier was present from the segment's start.
-
-    Attributes
-    ----------
-    alarm_time_s, onset_s : float
-        The alarm and the onset the test placed (s).
     """
-
-    def __init__(self, message: str, alarm_time_s: float, onset_s: float):
-        super().__init__(message)
-        self.alarm_time_s = float(alarm_time_s)
-        self.onset_s = float(onset_s)
 
 
 #: Leak laws the regression can assume: Eq. 2-4 (turbulent) or Eq. 2-5 (laminar).
