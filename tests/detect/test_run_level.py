@@ -640,3 +640,33 @@ def test_batch_prints_its_decisions_and_stores_an_inconclusive_alarm_as_not_judg
     code, _, err = run_cli(["batch", str(tmp_path / "rec" / "**" / "*.parquet"), "-o",
                             str(tmp_path / "res2.parquet")])
     assert code == 2 and "give --config JOB.toml (analyses, detectors) or --detector" in err
+
+
+def test_detect_healthy_with_confidence_fits_for_the_run_rate_its_run_level_holds(tmp_path,
+                                                                                  run_cli):
+    """``detect --healthy --confidence`` on a file of 2 healthy segments: fitted for the run's
+    rate per segment (0.5: the 10th largest of 20 maxima at 50 %), judged at the conditional
+    run level for 0.5 / 2 (the 5th largest), which holds the file to 0.5. Fitted for 1/2 of it
+    per segment (as before session 22), the new run level would have held the file to 0.25."""
+    from scipy.stats import binom
+
+    from leakdiag.io import write_recording
+
+    hs = [str(write_recording(ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="none",
+                                                  machine=31, seed=s), tmp_path / f"h{s}.parquet"))
+          for s in range(20)]
+    f = write_recording(ld.sim.simulate_vca(duration=35.0, leak_lpm=0.0, load="none",
+                                            machine=31, seed=99), tmp_path / "ok.parquet")
+    # by hand: the largest k with P(Binomial(20, p) <= k - 1) <= 0.5
+    k = {p: max(k for k in range(1, 21) if binom.cdf(k - 1, 20, p) <= 0.5) for p in (0.5, 0.25)}
+    assert k == {0.5: 10, 0.25: 5}
+    code, out, err = run_cli(["detect", str(f), *[a for h in hs for a in ("--healthy", h)],
+                              "--methods", "acf-p1", "--false-alarm-rate", "0.5",
+                              "--confidence", "0.5", "--no-progress"])
+    assert code == 0, err
+    assert "= the 10th largest of 20 healthy CUSUM maxima (20 own; 15-s segments): at most 0.5 " \
+           "false alarm(s) per segment" in out
+    assert "acf-p1 run level: this 30-s run is judged at the level" in out
+    assert "so that with probability 50 % over the healthy data it lets through at most the " \
+           "0.5 false alarms requested of one healthy segment (about 0.476 on average" in out
+    assert math.isclose(2 * k[0.25] / 21, 0.476, abs_tol=5e-4)

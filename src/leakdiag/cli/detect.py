@@ -166,9 +166,9 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
         (each fitted at ``false_alarm_rate / m`` per run: its threshold is taken from healthy
         segments as long as the file's monitored span after ``burn_in_s``, or, for a file
         longer than the shortest healthy recording, ``1 / n`` of it per segment over the
-        ``n`` segments the file spans; a method that judges such a file at its run level, the
-        flow balance without ``confidence``, at ``false_alarm_rate / m`` per segment, the rate
-        its run level holds the whole file to: :func:`leakdiag.detect.decision.judge_run`).
+        ``n`` segments the file spans; a method that judges such a file at its run level (with
+        or without ``confidence``), at ``false_alarm_rate / m`` per segment, the rate its run
+        level holds the whole file to: :func:`leakdiag.detect.decision.judge_run`).
     onset_method : {"binseg", "pelt", "cusum"}, default "binseg"
         Onset estimator.
     burn_in_s : float, default 5.0
@@ -272,8 +272,10 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
             # a file of n segments is judged at the run level (judge_run), which holds the
             # whole run to one segment's rate: fitted for the run's rate per segment, not a
             # 1/n share of it, where the fitted detector can hold this file to it
-            whole = n_seg > 1 and confidence is None and \
-                callable(getattr(det, "run_level", None))
+            # (with --confidence too since session 22: its run level is the conditional rank
+            # for the run's rate over m segments; fitted for 1/n, the run level held the file
+            # to 1/n of the asked rate)
+            whole = n_seg > 1 and callable(getattr(det, "run_level", None))
             why = _cannot_judge(det, rec, file, m)
             if why is not None:
                 rows.append(why)
