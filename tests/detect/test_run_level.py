@@ -670,3 +670,34 @@ def test_detect_healthy_with_confidence_fits_for_the_run_rate_its_run_level_hold
     assert "so that with probability 50 % over the healthy data it lets through at most the " \
            "0.5 false alarms requested of one healthy segment (about 0.476 on average" in out
     assert math.isclose(2 * k[0.25] / 21, 0.476, abs_tol=5e-4)
+
+
+def test_a_conditional_threshold_without_a_run_level_is_not_judged_by_its_average():
+    """A statistics audit (2026-11-29): acf-p1 on 15 maxima for 0.2 per 15-s segment at 95 %
+    (k = 1) has no run level for 2 segments (P(Binomial(15, 0.1) = 0) = 0.206 > 0.05), and a
+    2-segment run's alarm read LEAK "at most 0.125" (the average 2/16): the promise is per
+    segment at 95 %, so the run only to 2 x 0.2 = 0.4. 19 of 200 calibrations let more than
+    0.2 through on healthy runs. At the threshold such an alarm is INCONCLUSIVE; held to 0.4
+    (detect's 1/n split of a per-run rate), it is evidence."""
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm
+    from leakdiag.detect.decision import unheld_long_run
+
+    h = [ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="none", machine=31,
+                             seed=4000 + i) for i in range(15)]
+    det = make_detector("acf-p1", "vca", Alarm(false_alarms_per_hour=48.0,
+                                                confidence=0.95)).fit(h)
+    b = det.threshold_basis_
+    assert (b.n, b.k, b.segment_s, b.target_per_segment) == (15, 1, 15.0, 0.2)
+    assert det.run_level(30.0, 2) is None and 0.9 ** 15 > 0.05
+    assert unheld_long_run(det, 35000, 1000.0) == (pytest.approx(0.125), pytest.approx(0.2), 2)
+    assert unheld_long_run(det, 35000, 1000.0, run_target=0.4) is None
+    rec = ld.sim.simulate_vca(duration=35.0, leak_lpm=0.0, load="none", machine=31,
+                              seed=60003)
+    j = judge_run(det, rec)
+    assert j.verdict.leak and j.expected == pytest.approx(0.125) and j.decision == "inconclusive"
+    assert "at the threshold each segment is held to 0.2 with 95 % confidence, so the run " \
+           "only to 0.4 (about 0.125 on average)" in j.why_inconclusive
+    assert "15 healthy maxima resolve a run of at most 1 segment(s) at 0.2 with 95 % " \
+           "confidence; 29 would resolve 2" in j.why_inconclusive
+    assert judge_run(det, rec, run_target=0.4).decision == "leak"
