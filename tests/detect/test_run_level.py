@@ -50,18 +50,17 @@ def test_conformal_run_level_is_the_rank_that_holds_the_run(healthy, seg):
     assert expected == pytest.approx(12 / 61) and expected <= 0.2
     # one segment: the fitted rank itself
     assert det.run_level(seg)[0] == pytest.approx(det.threshold_)
-    # 13 segments: floor(12.2 / 13) = 0 -> the model-based level (not the maxima)
-    level13, exp13 = det.run_level(13 * seg)
+    # 13 segments: floor(12.2 / 13) = 0 -> the model-based level, no lower than the largest
+    # maximum (5.0) and from the null's tail raised to agree with the maxima there: these
+    # artificial reference maxima lie far above the GLR null's own (its rate at 5.0 is about
+    # 7e-6 per hour against the maxima's 1/61 per segment), so the raised tail cannot resolve
+    # 13 segments within the null's resolution. Until session 22 the level was the fitted
+    # threshold, 4.25, "0.0002 expected" by the null against 13 x 12 / 61 = 2.6 by the maxima.
+    floor, scale = det._model_run_tail()
     th = det.alarm_threshold_
-    assert th.tail_rate(level13) * 13 * seg / 3600.0 == pytest.approx(exp13)
-    assert exp13 <= b.target_per_segment
-    # ... but not below the largest healthy maximum, under which the maxima themselves expect
-    # at least 13 / 61 (an audit, 2026-11-29: the model's level was the fitted threshold, 0.32
-    # expected by the maxima and 0.059 by the model in one line); here it was the fitted
-    # threshold, 4.25, "0.0002 expected" by the null against 13 x 12 / 61 = 2.6 by the maxima
-    assert level13 >= 5.0 and level13 == pytest.approx(5.0, abs=0.011)
-    hours = 13 * seg / 3600.0
-    assert th.tail_rate(det.threshold_) * hours <= b.target_per_segment
+    assert floor == pytest.approx(5.0)
+    assert scale == pytest.approx(-math.log1p(-1 / 61) / (seg / 3600.0) / th.tail_rate(5.0))
+    assert scale > 1e5 and det.run_level(13 * seg) is None
 
 
 def test_model_run_level_is_the_lowest_level_whose_null_rate_holds_the_run(healthy, seg):
@@ -72,9 +71,13 @@ def test_model_run_level_is_the_lowest_level_whose_null_rate_holds_the_run(healt
     span = 1800.0  # half an hour: alpha / 0.5 h is still above 1 per simulated hours
     level, expected = det.run_level(span)
     hours = span / 3600.0
-    assert expected == pytest.approx(th.tail_rate(level) * hours) and expected <= alpha
-    assert th.tail_rate(level - 0.01) * hours > alpha  # the lowest on its 0.01 grid
-    assert level > det.threshold_
+    # the null's tail, raised where it is lighter than the healthy maxima at the largest of
+    # them (since session 22, for a model-based basis with maxima too)
+    floor, scale = det._model_run_tail()
+    assert floor == max(float(np.max(b.maxima)), det.threshold_) and scale >= 1.0
+    assert expected == pytest.approx(scale * th.tail_rate(level) * hours) and expected <= alpha
+    assert scale * th.tail_rate(level - 0.01) * hours > alpha  # the lowest on its 0.01 grid
+    assert level > det.threshold_ and level >= floor
     # a run so long that its rate is more than 10x below one episode in the simulated null
     from leakdiag.detect.flow_balance import RUN_LEVEL_MAX_EXTRAPOLATION as x
 
@@ -508,6 +511,33 @@ def test_a_model_based_run_level_says_so(healthy, seg):
         assert ("a bound not guaranteed beyond its first segment" in words) is \
             (method == "conformal")
         assert not j.guaranteed
+
+
+def test_the_model_run_level_agrees_with_the_healthy_maxima_where_they_speak():
+    """A statistics audit (2026-11-29): six 20-s spring runs for 0.3 per 17-s segment (k = 2);
+    a 30-s run is judged at the largest maximum, 3.83, "at most 0.286" (a rank), and a 45-s run
+    was judged at the same level by the null's tail "about 0.005", a 90-s one "about 0.011",
+    while 14 of 100 such runs alarmed: the null's tail at 3.83 is 75 times lighter than the
+    maxima's 1/7 per segment. Raised to agree, the longer runs' levels lie above 3.83 and
+    state about the target."""
+    h = [ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="spring", machine=31,
+                             seed=300108 + i) for i in range(6)]
+    det = FlowBalanceDetector(system="vca", false_alarms_per_hour=0.3 * 3600 / 17).fit(h)
+    b, th = det.threshold_basis_, det.alarm_threshold_
+    assert (b.n, b.k, b.segment_s) == (6, 2, 17.0)
+    top = float(np.max(b.maxima))
+    floor, scale = det._model_run_tail()
+    assert floor == top
+    assert scale == pytest.approx(-math.log1p(-1 / 7) / (17 / 3600) / th.tail_rate(top))
+    assert 50 < scale < 100
+    level30, exp30 = det.run_level(28.0, 2)
+    assert level30 == pytest.approx(top) and exp30 == pytest.approx(2 / 7)
+    for span, m in ((43.0, 3), (88.0, 6)):
+        level, expected = det.run_level(span, m)
+        assert level > top and 0.25 < expected <= 0.3
+        assert expected == pytest.approx(scale * th.tail_rate(level) * span / 3600.0)
+        # the lowest such level on the 0.01 grid
+        assert scale * th.tail_rate(level - 0.01) * span / 3600.0 > 0.3
 
 
 def test_monitor_words_the_flow_balance_rank_run_level_as_not_guaranteed(healthy, seg,

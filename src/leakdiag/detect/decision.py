@@ -363,8 +363,9 @@ def run_level_how(expected: float, target: float, method: str | None,
     True
     """
     if method == "model-based":  # the maxima could not resolve the run
-        return (f"so that it expects about {expected:.3g} by the bootstrap null's fitted tail, "
-                f"against the {target:.3g} requested of one healthy segment: model-based, not "
+        return (f"so that it expects about {expected:.3g} by the bootstrap null's fitted tail "
+                "(no lighter than the healthy maxima at the largest of them), against the "
+                f"{target:.3g} requested of one healthy segment: model-based, not "
                 "guaranteed by the healthy data, whose maxima are too few to hold a "
                 f"{span} this long to a segment's rate")
     if math.isfinite(confidence):  # a calibration-conditional rank (--confidence)

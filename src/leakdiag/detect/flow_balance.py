@@ -1516,9 +1516,9 @@ class FlowBalanceDetector(Detector):
           calibration-conditional basis (``confidence`` given) the conditional rank for
           ``alpha / m`` per segment (:meth:`Detector._run_rank`);
         * otherwise, as :meth:`fit` falls back for one segment, the model-based level: the
-          lowest level (on a 0.01 grid, from the fitted threshold and, under a conformal basis,
-          from its largest healthy maximum: :meth:`_model_run_floor`) above which the
-          bootstrap null's rate stays at most
+          lowest level (on a 0.01 grid, from the fitted threshold and from the largest healthy
+          maximum, with the null's tail raised to agree with the healthy maxima there:
+          :meth:`_model_run_tail`) above which the bootstrap null's rate stays at most
           ``alpha / hours`` (:meth:`GLRThreshold.tail_rate`: beyond the null's last levels
           with 3 or more alarm episodes, its fitted exponential tail, which over-states the
           rate of a Gaussian-like statistic), not guaranteed by data; None when that rate is
@@ -1551,34 +1551,55 @@ class FlowBalanceDetector(Detector):
         alpha = float(self.threshold_basis_.target_per_segment)
         hours = span_s / 3600.0
         th = self.alarm_threshold_
-        target = alpha / hours if hours > 0 else float("inf")
+        floor, scale = self._model_run_tail()
+        target = alpha / hours / scale if hours > 0 else float("inf")  # for the null's tail
         if target < 1.0 / (RUN_LEVEL_MAX_EXTRAPOLATION * th.simulated_hours):
             return None  # too far beyond the null's resolution for its fitted tail
         top = float(th.grid[-1]) * th.scale + 10.0
-        hs = np.arange(self._model_run_floor(), top, 0.01)
+        hs = np.arange(floor, top, 0.01)
         rates = np.array([th.tail_rate(h) for h in hs])
         over = np.flatnonzero(rates > target)
         if len(over) == len(hs):
             return None
         level = float(hs[over[-1] + 1]) if len(over) else float(hs[0])
-        return level, th.tail_rate(level) * hours
+        return level, scale * th.tail_rate(level) * hours
 
-    def _model_run_floor(self) -> float:
-        """Lowest level a model-based run level may take: the fitted threshold, and under a
-        conformal basis its largest healthy maximum.
+    def _model_run_tail(self) -> tuple[float, float]:
+        """Where a model-based run level starts, and the factor on the null's tail.
 
-        Below the largest maximum the healthy data speak for themselves: at the ``k``-th
-        largest they expect ``m k / (n + 1)`` false alarms in a run of ``m`` segments, more
-        than the run's target whenever the maxima cannot resolve the run. A statistics audit
-        (2026-11-29) found the model's level at the fitted threshold itself (the 2nd largest of
-        24 maxima), where the run "expects about 0.059" by the model and 0.32 by the maxima,
-        in one line.
+        Returns
+        -------
+        floor : float
+            The fitted threshold, and where the basis keeps healthy maxima no lower than the
+            largest of them, ``M_(1)``. Below it the healthy data speak for themselves: at the
+            ``k``-th largest they expect ``m k / (n + 1)`` false alarms in a run of ``m``
+            segments, more than the run's target whenever the maxima cannot resolve the run.
+        scale : float
+            At least 1: the factor that makes the bootstrap null's fitted tail
+            (:meth:`GLRThreshold.tail_rate`) no lighter at ``M_(1)`` than the healthy maxima
+            are there, a rate ``-log(1 - 1 / (n + 1))`` per segment (the rank's chance that a
+            new segment's maximum exceeds the largest of ``n``, as Poisson episodes); 1 without
+            maxima.
+
+        Notes
+        -----
+        Two statistics audits (2026-11-29): the model's level sat at the fitted threshold (the
+        2nd largest of 24 maxima), where a run "expects about 0.059" by the model and 0.32 by
+        the maxima, in one line (the floor, session 22); and where the floor then set the level,
+        the null's tail said "about 0.011" for 90-s runs of which 14 of 100 alarmed: the tail
+        is lighter than the healthy data exactly where the floor binds (the scale). The floor
+        and the scale hold for a model-based basis with maxima too (4 of 20 of its run levels
+        lay below a healthy maximum).
         """
         floor = float(self.threshold_)
         b = getattr(self, "threshold_basis_", None)
-        if b is not None and b.method.startswith("conformal") and len(b.maxima):
-            floor = max(floor, float(np.max(b.maxima)))
-        return floor
+        if b is None or not len(b.maxima) or not float(b.segment_s) > 0:
+            return floor, 1.0
+        top = float(np.max(b.maxima))
+        floor = max(floor, top)
+        data = -math.log1p(-1.0 / (len(b.maxima) + 1)) / (float(b.segment_s) / 3600.0)
+        model = self.alarm_threshold_.tail_rate(top)
+        return floor, (max(1.0, data / model) if 0.0 < model < float("inf") else 1.0)
 
     def predict(self, recording, level: float | None = None) -> FlowBalanceVerdict:
         """Verdict: leak or not, alarm time, onset, leak size (mean L/min with an interval).
@@ -2016,7 +2037,8 @@ class FlowBalanceDetector(Detector):
         # no smaller than the Monte-Carlo null resolves (one episode in its simulated hours):
         # beyond it the log-linear tail is a model, which gave p-values of 1e-286 and 0; at a
         # run level, the fitted tail the level rests on, to the same limit (run_level)
-        rate = (max(th.tail_rate(smax), 1.0 / (RUN_LEVEL_MAX_EXTRAPOLATION * th.simulated_hours))
+        rate = (max(self._model_run_tail()[1] * th.tail_rate(smax),
+                    1.0 / (RUN_LEVEL_MAX_EXTRAPOLATION * th.simulated_hours))
                 if run else max(th.rate_at(smax), 1.0 / th.simulated_hours))
         return float(-np.expm1(-rate * hours)), False
 
