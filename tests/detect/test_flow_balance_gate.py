@@ -78,7 +78,9 @@ def test_the_sum_equation_does_not_see_a_leak(det):
     a run leaking 2 L/min stay within the limit where the valve volume is within the healthy
     windows' (the servo feeds a large leak with larger volumes, which the gate does not
     judge), and the run is judged LEAK with a size (the rated leak of the VCA)."""
-    rec = _vca(60, leak_lpm=2.0, onset=10.0)
+    # (30 s with the leak from 15 s: an onset after the first 10 windows judged, sized; from
+    # 10 s in 20 s, it is "at or before" with 9 windows after it, no size since session 22)
+    rec = _vca(60, 30.0, leak_lpm=2.0, onset=15.0)
     t = det._terms(rec)
     gate = det.sum_gate_
     inside = gate.judged(t["flow"])

@@ -210,3 +210,21 @@ def test_an_alarm_whose_leak_since_the_onset_is_not_above_zero_is_no_verdict(spr
                                              r"\(its interval -[0-9.e-]+ to [0-9.e-]+ L/min "
                                              r"reaches zero\)"):
         spring.predict(rec)
+
+
+def test_a_leak_there_from_the_start_of_a_short_run_gets_no_size(spring):
+    """A CLI audit (2026-11-29): ``monitor --segment 11.5`` and ``20`` sized a continuing
+    0.05 L/min spring leak at 0.0055-0.07 L/min per segment, 9 of 10 intervals excluding the
+    truth. A leak present from the start (a censored onset) is sized only with at least
+    ``CENSORED_SIZE_MIN_WINDOWS`` windows after its onset window, as on the 40-s runs above."""
+    from leakdiag.detect.flow_balance import CENSORED_SIZE_MIN_WINDOWS
+
+    assert CENSORED_SIZE_MIN_WINDOWS == 15
+    rec = _vca("spring", 7, 20.0, leak_lpm=0.05, onset=0.0)
+    v = spring.predict(rec)
+    assert v.leak and v.onset_censored
+    assert v.leak_lpm is None and v.leak_lpm_interval is None and v.leak_coefficient is None
+    assert v.leak_lpm_interval_holds.startswith(
+        "no size: the onset lies within the first 10 windows judged") and \
+        f"sized within its band with {CENSORED_SIZE_MIN_WINDOWS} or more" in \
+        v.leak_lpm_interval_holds
