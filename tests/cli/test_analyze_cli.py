@@ -153,6 +153,11 @@ def test_analyze_with_healthy_references(run_file, healthy_files, capsys):
     assert main(args) == 0  # the chunks after the onset against every healthy chunk
     out = capsys.readouterr().out
     assert "against healthy references" in out and "Decision: LEAK" in out
+    # the percentage is the file's own change across the onset (Sec. 5.2), said so; not the
+    # change against the references (a CLI audit, 2026-11-29)
+    line = next(ln for ln in out.splitlines() if "against healthy references" in ln)
+    assert re.search(r"\([+-]\d+\.\d % after vs before the onset; decided against healthy "
+                     r"references; ", line), line
     # no onset: the whole file is judged against the references
     assert main(["analyze", str(healthy_files[0]), "--healthy", str(healthy_files[1])]) == 0
     assert "Decision: NO LEAK" in capsys.readouterr().out

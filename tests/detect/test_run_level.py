@@ -163,6 +163,10 @@ def test_detect_judges_a_long_file_at_its_run_level(long_files, run_cli):
     assert code == 0, err
     assert "Decision: LEAK -- alarm from flow-balance;" in out
     assert "flow-balance run level: this 145-s run is judged at the level" in out
+    # the table's threshold is the run level, and so is what backs it (a CLI audit,
+    # 2026-11-29: "conformal" beside a model-based run level)
+    row = next(ln for ln in out.splitlines() if ln.startswith("flow-balance "))
+    assert row.split()[-1] == "model-based", row
     assert "requested of one healthy segment" in out
     # before: "about 2.4 false alarms are expected by chance ... no evidence of a leak"
     assert "no evidence" not in out
@@ -562,6 +566,15 @@ def test_monitor_words_the_flow_balance_rank_run_level_as_not_guaranteed(healthy
     line = next(ln for ln in (out + err).splitlines() if "run level: a 30-s segment" in ln)
     assert "so that it expects at most" in line and "(a rank of the healthy maxima)" in line
     assert "a bound not guaranteed beyond its first segment" in line
+    # no full segment (a 30-s input under --segment 40): no line about a level no segment
+    # was judged at (a CLI audit, 2026-11-29)
+    short = write_recording(ld.sim.simulate_vca(duration=30.0, leak_lpm=0.0, load="spring",
+                                                machine=31, seed=64), tmp_path / "short.parquet")
+    code, out, err = run_cli(["monitor", str(short), "--detector", str(det_path),
+                              "--segment", "40"])
+    assert code == 0, err
+    assert "1 segment(s) of up to 40 s judged" in out + err
+    assert "run level: a 40-s segment" not in out + err
 
 
 def test_the_flow_balance_and_the_decision_count_segments_alike(healthy):
@@ -699,6 +712,9 @@ def test_detect_healthy_with_confidence_fits_for_the_run_rate_its_run_level_hold
     assert "acf-p1 run level: this 30-s run is judged at the level" in out
     assert "so that with probability 50 % over the healthy data it lets through at most the " \
            "0.5 false alarms requested of one healthy segment (about 0.476 on average" in out
+    # the decision line's rate is that average, and says so (a CLI audit, 2026-11-29)
+    assert "false-alarm rate for this run at most 0.476 on average over calibrations (sum " \
+           "over 1 method(s)); acf-p1 holds its rate with the probability" in out
     assert math.isclose(2 * k[0.25] / 21, 0.476, abs_tol=5e-4)
 
 

@@ -121,6 +121,10 @@ def decision_words(table, false_alarm_rate: float) -> str:
             "pct_change_signed") and r.get("pct_change_signed") is not None else "")
         basis = {"before-after": "before vs after the onset", "healthy": "against healthy "
                  "references", "none": "no reference"}.get(r["basis"], r["basis"])
+        if pct and r["basis"] != "before-after":  # the percentage is the file's own change
+            # (Sec. 5.2), not the change against the references that decided (a CLI audit,
+            # 2026-11-29: "+5.5 %, against healthy references", the same +5.5 % as without them)
+            pct = f"{pct[:-2]} after vs before the onset; decided "
         lines.append(f"  {label}: {words[r['decision']]} ({pct}{basis}; {r['reason']})")
     dec, why = overall_decision(table, false_alarm_rate)
     lines.append(f"Decision: {words[dec]} -- {why}.")

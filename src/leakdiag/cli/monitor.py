@@ -419,7 +419,10 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
         from leakdiag.cli._words import threshold_words
 
         say(f"  threshold: {threshold_words(basis)} (per segment: each is judged as one run)")
-    if raised is not None:  # the full segments were judged at the run level (judge_run)
+    full = any(sv.end_s - sv.start_s >= seg - 0.5 / source.sample_rate for sv in done)
+    if raised is not None and full:  # the full segments were judged at the run level
+        # (judge_run); without a full segment no line: an audit (2026-11-29) found a 200-s
+        # input under --segment 300 described at a level no segment was judged at
         level, at_level = raised
         how = run_level_how(at_level, float(basis.target_per_segment), method,
                             conf, bool(getattr(detector, "restarts_per_segment", False)),
