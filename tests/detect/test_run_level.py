@@ -747,3 +747,18 @@ def test_a_conditional_threshold_without_a_run_level_is_not_judged_by_its_averag
     assert "15 healthy maxima resolve a run of at most 1 segment(s) at 0.2 with 95 % " \
            "confidence; 29 would resolve 2" in j.why_inconclusive
     assert judge_run(det, rec, run_target=0.4).decision == "leak"
+
+
+def test_fit_says_when_the_confidence_asked_for_is_not_held(healthy, tmp_path, run_cli):
+    """A CLI audit (2026-11-29): ``fit -m flow-balance --confidence 0.9`` on few healthy runs
+    fell back to the model-based level, with the same level and words as without it."""
+    from leakdiag.io import write_recording
+
+    files = [str(write_recording(r, tmp_path / f"h{i}.parquet")) for i, r in enumerate(healthy)]
+    code, out, err = run_cli(["fit", *[a for f in files for a in ("--healthy", f)], "-m",
+                              "flow-balance", "--false-alarm-rate", "3", "--confidence", "0.9",
+                              "--no-progress", "-o", str(tmp_path / "fb.joblib")])
+    assert code == 0, err
+    assert "the model-based level of the healthy-residual bootstrap" in out
+    assert "--confidence 0.9 is not held: the healthy maxima are too few for a level at 90 % " \
+           "confidence (it needs " in out

@@ -362,3 +362,17 @@ def test_a_late_alarm_whose_coefficient_is_not_positive_is_unconfirmed(no_load_l
     first, second = _segments(det, rec, 30.0)
     assert first.decision == "NOT JUDGED" and second.decision == "LEAK"
     assert 25.0 <= second.unconfirmed_onset_s < 28.0 < second.unconfirmed_alarm_s < 30.0
+
+
+def test_a_segment_too_short_for_any_judgement_is_refused_up_front(setup, run_cli):
+    """A CLI audit (2026-11-29): --segment 8 printed 50 lines of "too short to judge" and then
+    exited 2; the shortest judgeable length (burn-in and the test's first windows) is known
+    before the run."""
+    d, det_path, path, _ = setup
+    det, _ = load_detector_file(det_path)
+    assert det.shortest_run_s() == det.burn_in_s + 5 * det.window_s == 10.0
+    code, out, err = run_cli(["monitor", str(path), "--detector", str(det_path),
+                              "--segment", "8"])
+    assert code == 2 and "NOT JUDGED" not in out + err
+    assert f"--segment 8: {det_path} cannot judge a segment this short: its 5-s burn-in and " \
+           "the windows its test needs take about 10 s" in err

@@ -350,6 +350,13 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
     if few is not None:
         click.echo(f"  {few}")
     if basis is not None and basis.method == "glr-model":
+        if confidence is not None:  # the confidence asked for is not held: said, not dropped
+            # silently (a CLI audit, 2026-11-29: the same level and words as without it)
+            click.echo(f"  --confidence {confidence:g} is not held: the healthy maxima are too "
+                       f"few for a level at {confidence * 100:g} % confidence (it needs "
+                       f"{basis.min_n_for_target}), so the level is the model-based one above, "
+                       "which carries no confidence over the healthy data; give more healthy "
+                       "recordings for it")
         # what a model-based level did on virtual machines (docs/detect.md section 2)
         click.echo(f"  {MODEL_LEVEL_WORDS}")
     if basis is not None and basis.method.startswith("conformal") and \

@@ -346,6 +346,13 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
 
     basis = getattr(detector, "threshold_basis_", None)
     per_hour, burn = detector_rate(detector)
+    shortest = getattr(detector, "shortest_run_s", None)
+    if callable(shortest) and seg <= shortest():  # every segment would be NOT JUDGED (a CLI
+        # audit, 2026-11-29: 50 lines of "too short to judge", then exit 2)
+        raise click.UsageError(
+            f"--segment {seg:g}: {detector_path} cannot judge a segment this short: its "
+            f"{burn:g}-s burn-in and the windows its test needs take about {shortest():.3g} s; "
+            f"give a --segment longer than that")
     span = max(seg - burn, 0.0)
     n_full = int(round(seg * source.sample_rate))
     # the segments as the detector counts them, as judge_run does (a statistics audit,

@@ -953,12 +953,23 @@ class FlowBalanceDetector(Detector):
         n_win = max(0, (rec.n_samples - 1) // self._window(rec))
         return n_win - min(self._skip(rec), n_win)
 
+    def shortest_run_s(self) -> float:
+        """About the shortest recording the test can judge (s): the burn-in and the windows
+        the test needs before its first statistic (``leakdiag monitor --segment`` refuses a
+        shorter segment up front).
+
+        Returns
+        -------
+        float
+        """
+        return float(self.burn_in_s + self._MIN_HISTORY * self.window_s)
+
     def _too_short(self, rec, n_win: int) -> str:
         """Why a recording of ``n_win`` monitored windows cannot be tested (words)."""
         return (f"{rec.duration:.4g} s gives {n_win} window(s) of {self.window_s:g} s after the "
                 f"{self.burn_in_s:g}-s burn-in, and the flow-balance test starts at the "
                 f"{self._MIN_HISTORY}th (a recording longer than about "
-                f"{self.burn_in_s + self._MIN_HISTORY * self.window_s:.3g} s)")
+                f"{self.shortest_run_s():.3g} s)")
 
     def _check_healthy(self, recs: list) -> None:
         """Refuse healthy recordings that cannot be tested or hold a constant channel, and
