@@ -558,3 +558,34 @@ def test_a_recording_shorter_than_a_window_says_so_in_its_rows(tmp_path):
     assert r.exit_code == 1
     assert "unusable: five.parquet: autocorrelation p1 1 N=200 5%: 5 samples is shorter than " \
            "one window (window=200)" in r.output
+
+
+def test_a_detector_does_not_judge_its_own_healthy_files(tmp_path):
+    """A CLI audit (2026-11-29): batch judged one of acf-p1's 8 healthy files with it, LEAK
+    against a threshold that file set itself; ``detect`` refuses it. ``fit`` now records the
+    healthy files' SHA-256 and batch leaves such a row not judged, saying why."""
+    import leakdiag as ld
+    from leakdiag.cli.main import main
+    from leakdiag.io import write_recording
+    from leakdiag.stream.detector_file import load_detector_file
+
+    hs = [write_recording(ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="none",
+                                              machine=31, seed=s), tmp_path / f"h{s}.parquet")
+          for s in range(3)]
+    other = write_recording(ld.sim.simulate_vca(duration=20.0, leak_lpm=0.0, load="none",
+                                                machine=31, seed=9), tmp_path / "ok.parquet")
+    det_path = tmp_path / "acf.joblib"
+    assert main(["fit", *[a for h in hs for a in ("--healthy", str(h))], "-m", "acf-p1",
+                 "--false-alarm-rate", "60", "--no-progress", "-o", str(det_path)]) == 0
+    _, meta = load_detector_file(det_path)
+    assert meta.healthy_sha256 == tuple(content_hash(h) for h in hs)
+    job = config_from_dict({"detector": [{"path": str(det_path), "name": "acf"}],
+                            "analysis": []})
+    (own,) = run_case(str(hs[1]), job)
+    assert own["status"] == "ok" and own["alarm"] is None and own["decision"] == "inconclusive"
+    assert own["error"] == (f"detector not judged: {hs[1]}: one of the 3 healthy recordings "
+                            f"{det_path} was fitted on (the same bytes): judged against a "
+                            "threshold it set itself, a leak reads NO LEAK; judge recordings "
+                            "other than the healthy ones (or fit without this one)")
+    (judged,) = run_case(str(other), job)
+    assert judged["alarm"] is not None

@@ -285,6 +285,7 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
             except ValueError as exc:
                 refused[name] = _in_job_words(str(exc))
         items = [it for it in items if not (it[0] == "detector" and it[1] in refused)]
+        own = _own_healthy(path, dets)  # a detector's own healthy file: not judged by it
         # what of the recording its metadata leave unchecked (rig, load): one note per file
         unchecked = unchecked_note(path, src.meta, [
             (dpath, getattr(meta, "system", None), getattr(meta, "load", None))
@@ -323,7 +324,10 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
             if unusable is not None:  # kept with the row (and the store), not only printed
                 note = row.get("error")
                 row["error"] = unusable + (f"; {note}" if note else "")
-            if scorer is not None:
+            if kind == "detector" and name in own:
+                row.update({"alarm": None, "decision": "inconclusive",
+                            "error": f"detector not judged: {own[name]}"})
+            elif scorer is not None:
                 s = np.concatenate([a[1] for a in acc]) if acc else np.empty(0)
                 row.update(_scorer_columns(det, scorer, t, s, row["duration_s"]))
             elif det is not None:
@@ -554,6 +558,29 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
                      "leak_lpm_in_range": d["leak_lpm_in_range"],
                      "detectable_lpm": d.get("detectable_lpm"), "verdict": str(v)})
     return rows
+
+
+def _own_healthy(path: str, dets) -> dict:
+    """The job's detectors fitted on this very file (its bytes' SHA-256 among their healthy
+    files', ``DetectorMeta.healthy_sha256``), each with why it does not judge it.
+
+    Judged against a threshold it set itself, a leak reads NO LEAK and a false alarm LEAK: a CLI
+    audit (2026-11-29) found one of a detector's 8 healthy files reading LEAK in ``batch``,
+    which ``detect`` refuses (by its samples, :func:`leakdiag.detect.base.refuse_own_healthy`).
+    The file is hashed only when a detector file records its healthy files' hashes (fitted
+    since session 22)."""
+    from leakdiag.batch.store import content_hash
+
+    known = [(name, meta, dpath) for name, _, meta, dpath in dets
+             if getattr(meta, "healthy_sha256", ())]
+    if not known:
+        return {}
+    sha = content_hash(path)
+    return {name: (f"{path}: one of the {len(meta.healthy_sha256)} healthy recordings "
+                   f"{dpath} was fitted on (the same bytes): judged against a threshold it "
+                   "set itself, a leak reads NO LEAK; judge recordings other than the healthy "
+                   "ones (or fit without this one)")
+            for name, meta, dpath in known if sha in meta.healthy_sha256}
 
 
 def _level_judged_at(det, n_samples: int, sample_rate_hz: float) -> float:

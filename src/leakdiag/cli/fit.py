@@ -290,6 +290,7 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
     from leakdiag.cli._options import column_map_from, read_healthy
     from leakdiag.cli._words import (MODEL_LEVEL_WORDS, check_longer_than_burn_in,
                                      few_healthy_words, in_cli_words, threshold_words)
+    from leakdiag.batch.store import content_hash
     from leakdiag.stream.detector_file import DetectorMeta, save_detector
 
     if calibration and method == "flow-balance":
@@ -338,7 +339,8 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
                         channels=chans, units={c: recs[0].units.get(c) for c in chans
                                                if recs[0].units.get(c)},
                         false_alarms_per_hour=float(false_alarm_rate), n_healthy=len(recs),
-                        healthy_files=tuple(str(h) for h in healthy), load=common_load(recs))
+                        healthy_files=tuple(str(h) for h in healthy), load=common_load(recs),
+                        healthy_sha256=tuple(content_hash(h) for h in healthy))
     save_detector(det, meta, out)
     basis = getattr(det, "threshold_basis_", None)
     click.echo(f"wrote {out}: {method} for the {system.upper()} at {meta.sample_rate_hz:g} Hz, "

@@ -85,6 +85,9 @@ class DetectorMeta:
         Healthy recordings used.
     healthy_files : tuple of str
         Their paths, as given.
+    healthy_sha256 : tuple of str
+        SHA-256 of those files' bytes (``leakdiag batch`` refuses to judge one of them with the
+        detector, as ``detect`` does by its samples); empty in files written before session 22.
     leakdiag_version : str
         Version that wrote the file.
     load : str or None
@@ -106,6 +109,7 @@ class DetectorMeta:
     leakdiag_version: str = __version__
     load: str | None = None
     code_fingerprint: str | None = None
+    healthy_sha256: tuple = ()
 
 
 #: A module of each part: :func:`leakdiag.runtime.cache.code_fingerprint` hashes the whole
@@ -297,7 +301,7 @@ def _check_field(path: str, name: str, v: Any) -> None:
     elif name == "n_healthy":
         if isinstance(v, bool) or not isinstance(v, int) or v < 0:
             raise bad("an integer >= 0")
-    elif name in ("channels", "healthy_files"):
+    elif name in ("channels", "healthy_files", "healthy_sha256"):
         if not isinstance(v, (list, tuple)) or not all(isinstance(c, str) for c in v) or \
                 (name == "channels" and not v):
             raise bad("a list of strings" + (" (at least one)" if name == "channels" else ""))
@@ -332,6 +336,7 @@ def _parse_meta(path: str, raw: Any) -> DetectorMeta:
     d = dict(raw)
     d["channels"] = tuple(d["channels"])
     d["healthy_files"] = tuple(d.get("healthy_files", ()))
+    d["healthy_sha256"] = tuple(d.get("healthy_sha256", ()))
     d["sample_rate_hz"] = float(d["sample_rate_hz"])
     return DetectorMeta(**d)
 
