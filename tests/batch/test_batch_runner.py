@@ -446,6 +446,10 @@ def test_cli_error_rows_advise_what_a_batch_job_can_do(tmp_path):
            "(sample_rate_hz in the job's column_map)" in r.output
     assert "jitter.txt: column 'time' is not uniformly sampled" in r.output
     assert "batch needs a uniform time axis: resample the file first" in r.output
+    # advice batch can follow: no "analyze --resample", which writes no file (a CLI audit,
+    # 2026-11-29)
+    assert "leakdiag.io.read_recording(FILE, resample=RATE_HZ), OUT); batch has no " \
+           "--resample)" in r.output and "analyze --resample" not in r.output
     assert "raw.txt: no column is named like a channel" in r.output
     assert "raw.csv: missing channel(s) ['p1']; available: ['PG_1']; give the job a column " \
            'map (column_map = "map.toml" under [job])' in r.output

@@ -162,7 +162,9 @@ def _in_job_words(msg: str) -> str:
     """A reader's message with advice a batch job can follow (batch has no --resample or
     --sample-rate: the job's column_map gives a rate, files are resampled beforehand)."""
     msg = msg.replace(RESAMPLE_ADVICE, "batch needs a uniform time axis: resample the file "
-                      "first (leakdiag analyze --resample RATE_HZ reads it)")
+                      "first and batch the copy (in Python: leakdiag.io.write_recording("
+                      "leakdiag.io.read_recording(FILE, resample=RATE_HZ), OUT); batch has no "
+                      "--resample)")
     msg = msg.replace("give a column map (--map FILE or --col p1=COLUMN:UNIT)",
                       'give the job a column map (column_map = "map.toml" under [job])')
     return re.sub(r"\(--sample-rate, or sample_rate_hz in (a column|the) map\)",

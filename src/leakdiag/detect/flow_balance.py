@@ -64,7 +64,9 @@ __all__ = ["FlowBalanceDetector", "FlowBalanceVerdict", "LEAK_LAWS", "SYSTEMS",
 
 class RefusedAlarm(RecordingError):
     """The test alarmed, but the leak estimated after its onset does not confirm it: no
-    verdict on a leak (the base of :class:`AlarmNotConfirmed` and :class:`AlarmAtStart`).
+    verdict on a leak (the base of :class:`AlarmNotConfirmed` and :class:`AlarmAtStart`;
+    raised itself when the coefficient since the onset is not positive and neither applies:
+    "the flow balance does not describe this recording well").
 
     Attributes
     ----------
@@ -1767,13 +1769,13 @@ class FlowBalanceDetector(Detector):
                 "a leak that began there (" + _chance_words(smax, h) + "a seam or "
                 "discontinuity, a sensor fault?); no verdict on a leak", alarm, onset)
         if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
-            raise RecordingError(
+            raise RefusedAlarm(
                 f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
                 f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g}), but the leak coefficient "
                 f"estimated from the onset ({onset:.4g} s) to the end is not positive "
                 f"({k:.3g} +- {se:.2g}): the flow balance does not describe this recording "
                 "well (" + _chance_words(smax, h) + "a sensor fault, the channels' units, "
-                "another machine or operation?); no verdict on a leak")
+                "another machine or operation?); no verdict on a leak", alarm, onset)
         lpm = k * mean_phi * LPM_PER_M3S
         ptr = be.leak_transition_pa(self._nominal())
         at_ref = k * _leak_law_value(float(self.reference_dp_pa), self.leak_law, ptr) * LPM_PER_M3S
