@@ -92,8 +92,8 @@ def test_mapping_a_junk_text_column_is_an_error(files):
 
 def test_half_empty_numeric_junk_column_gives_first_nan_row(files):
     cmap = build_column_map(["p1=F_Values"], sample_rate_hz=1000)
-    with pytest.raises(RecordingError, match=r"channel 'p1' has \d+ non-finite value\(s\); first "
-                                             r"NaN at row \d+"):
+    with pytest.raises(RecordingError, match=r"channel 'p1' \(column 'F_Values'\) has \d+ "
+                       r"non-finite value\(s\); first NaN at row \d+"):
         read_recording(files[0], cmap)
 
 

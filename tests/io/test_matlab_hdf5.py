@@ -135,7 +135,7 @@ def test_generic_parquet_with_nulls_and_text(tmp_path):
                              "P": pa.array([1.0, None, 3.0]),
                              "tag": pa.array(["a", "b", "c"])}), path)
     cmap = {"file": {"time_column": "t_ms", "time_unit": "ms"}, "channels": {"p1": "P:bar"}}
-    with pytest.raises(RecordingError, match=r"ext.parquet: channel 'p1' has 1 non-finite "
+    with pytest.raises(RecordingError, match=r"ext.parquet: channel 'p1' \(column 'P'\) has 1 non-finite "
                                              r"value\(s\); first NaN at row 1"):
         read_recording(path, cmap)
     with pytest.raises(RecordingError, match=r"channel 'p1' \(column 'tag'\) holds text"):

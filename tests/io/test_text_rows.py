@@ -69,6 +69,13 @@ def test_empty_last_field_is_not_a_short_row(tmp_path):
     _raises(path, "channel 'p2' has 1 non-finite value(s); first NaN at row 2")
 
 
+def test_a_non_finite_value_names_the_mapped_column(tmp_path):
+    # a CLI audit (2026-11-29): "channel 'p2' ... row 1999" of a file whose column is PG_2
+    path = _write(tmp_path, ["time,PG_1,PG_2", "0.0,1,50", "0.1,2,51", "0.2,3,"], newline=False)
+    _raises(path, "channel 'p2' (column 'PG_2') has 1 non-finite value(s); first NaN at row 2",
+            {"p1": "PG_1", "p2": "PG_2"})
+
+
 @pytest.mark.parametrize("newline", [True, False])
 def test_row_lacking_only_unread_trailing_columns_is_read(tmp_path, newline):
     # p2 is followed by a field ("x") in the short row, so p2 is complete: decided to read it

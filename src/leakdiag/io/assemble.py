@@ -140,16 +140,21 @@ def _check_all_numeric(table: RawTable, specs: Mapping[str, ChannelSpec]) -> Non
                 ) from None
 
 
-def _check_finite(x: np.ndarray, name: str, source: str, every_column: bool) -> None:
+def _check_finite(x: np.ndarray, name: str, source: str, every_column: bool,
+                  column: str | None = None) -> None:
     """:func:`check_channel_finite`; when every column of the file was read (no map selecting
     channels) and ``name`` is no channel leakdiag reads, the error says how to leave it out
     (streams audit 2026-11-27, finding 5: a NaN in a temperature column refused the file for
-    methods that never read it)."""
+    methods that never read it). A channel read from a column of another name (a map) names
+    the column too (a CLI audit, 2026-11-29: "channel 'p2'" of a file whose column is PG_2)."""
     try:
         check_channel_finite(x, name, source)
     except RecordingError as exc:
+        if column is not None and str(column) != name:
+            exc = RecordingError(str(exc).replace(f"channel {name!r}",
+                                                  f"channel {name!r} (column {str(column)!r})", 1))
         if not every_column or name in STANDARD_CHANNELS:
-            raise
+            raise exc from None
         raise RecordingError(
             f"{exc}; {name!r} is not a channel leakdiag reads ({', '.join(STANDARD_CHANNELS)}) "
             "but without a column map every column is read: to leave it out, name the "
@@ -312,7 +317,8 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
     out_units: dict[str, str] = {}
     for name, spec in specs.items():
         raw = _numeric(table, spec.column, name)
-        _check_finite(raw, name, source, column_map is None or not column_map.channels)
+        _check_finite(raw, name, source, column_map is None or not column_map.channels,
+                      spec.column)
         try:
             values, unit = to_si(raw, spec.unit, gain=spec.gain, offset=spec.offset,
                                  channel=name, si_unit=spec.si_unit)
