@@ -141,3 +141,13 @@ def test_a_refused_judgement_at_the_run_level_keeps_that_level_as_threshold(tmp_
     assert row["threshold"] == pytest.approx(level)
     named = float(re.search(r"level (\d+\.\d+)\)", row["error"]).group(1))
     assert row["threshold"] == pytest.approx(named, abs=0.005)
+    # detect reads the same file INCONCLUSIVE, as batch does (a CLI audit, 2026-11-29: it
+    # exited 2, "no method could judge it")
+    from click.testing import CliRunner
+
+    from leakdiag.cli.main import cli
+
+    r = CliRunner().invoke(cli, ["detect", str(part), "--detector", str(path)])
+    assert r.exit_code == 0, r.output
+    assert "Decision: INCONCLUSIVE -- flow-balance alarmed but refused its alarm: predict: " \
+           in r.output and "too few to confirm a leak that began there" in r.output

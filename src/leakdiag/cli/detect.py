@@ -23,11 +23,15 @@ def _row(m, det, rec, n_healthy, run_target=None):
     from leakdiag.detect.decision import judge_run
     from leakdiag.io.errors import RecordingError
 
+    from leakdiag.detect.flow_balance import RefusedAlarm
+
     try:
         refuse_own_healthy(det, rec, "detect")  # a file the detector was fitted on
         # a long run at the level that holds it to a segment's rate (or at the threshold, its
         # alarm evidence only within run_target: a per-run rate split 1/n over its segments)
         j = judge_run(det, rec, run_target)
+    except RefusedAlarm as exc:  # it alarmed, and refused the alarm: judged, no evidence
+        return {"method": m, "error": in_cli_words(str(exc)), "alarm_refused": True}
     except (RecordingError, ValueError) as exc:  # too short, units, a stuck channel, a level
         # the detector cannot judge at: this method cannot judge the file
         return {"method": m, "error": in_cli_words(str(exc))}
@@ -658,6 +662,16 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
                    f"{name} written to {st.shown_url}")
 
     scores = tab["score_max"] if "score_max" in tab else pd.Series(float("nan"), index=tab.index)
+    refusals = tab[tab["alarm_refused"].eq(True)] if "alarm_refused" in tab else tab.iloc[:0]
+    if not np.isfinite(scores.to_numpy(dtype=float)).any() and len(refusals):
+        # every method that judged alarmed and refused its own alarm (no lasting leak): the
+        # file was judged, INCONCLUSIVE, as batch reads it (a CLI audit, 2026-11-29: detect
+        # exited 2 "no method could judge it" where batch said inconclusive)
+        store_verdicts()
+        r = refusals.iloc[0]
+        click.echo(f"Decision: INCONCLUSIVE -- {r['method']} alarmed but refused its alarm: "
+                   f"{r['error']}.")
+        return
     if not np.isfinite(scores.to_numpy(dtype=float)).any():  # no method could judge FILE
         why = (tab["error"].dropna().iloc[0] if "error" in tab and tab["error"].notna().any()
                else "every feature value is NaN (zero variance: constant channel?)")
