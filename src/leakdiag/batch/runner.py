@@ -570,7 +570,8 @@ def _own_healthy(path: str, dets) -> dict:
     audit (2026-11-29) found one of a detector's 8 healthy files reading LEAK in ``batch``,
     which ``detect`` refuses (by its samples, :func:`leakdiag.detect.base.refuse_own_healthy`).
     The file is hashed only when a detector file records its healthy files' hashes (fitted
-    since session 22)."""
+    since session 22): a second read of it, as :func:`run_batch` hashed it already; passing
+    every file's hash to each case would ship the job's whole table to every Dask task."""
     from leakdiag.batch.store import content_hash
 
     known = [(name, meta, dpath) for name, _, meta, dpath in dets

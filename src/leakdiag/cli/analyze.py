@@ -117,14 +117,14 @@ def decision_words(table, false_alarm_rate: float) -> str:
         if isinstance(r.get("skipped"), str):
             lines.append(f"  {label}: skipped ({r['skipped']})")
             continue
-        pct = (f"{r['pct_change_signed']:+.1f} %, " if r.get("pct_change_signed") == r.get(
-            "pct_change_signed") and r.get("pct_change_signed") is not None else "")
+        change = r.get("pct_change_signed")
+        pct = "" if change is None or change != change else f"{change:+.1f} %, "
         basis = {"before-after": "before vs after the onset", "healthy": "against healthy "
                  "references", "none": "no reference"}.get(r["basis"], r["basis"])
         if pct and r["basis"] != "before-after":  # the percentage is the file's own change
             # (Sec. 5.2), not the change against the references that decided (a CLI audit,
             # 2026-11-29: "+5.5 %, against healthy references", the same +5.5 % as without them)
-            pct = f"{pct[:-2]} after vs before the onset; decided "
+            pct = f"{change:+.1f} % after vs before the onset; decided "
         lines.append(f"  {label}: {words[r['decision']]} ({pct}{basis}; {r['reason']})")
     dec, why = overall_decision(table, false_alarm_rate)
     lines.append(f"Decision: {words[dec]} -- {why}.")

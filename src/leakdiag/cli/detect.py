@@ -21,9 +21,8 @@ _FALLBACK_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 def _row(m, det, rec, n_healthy, run_target=None):
     from leakdiag.detect.base import refuse_own_healthy
     from leakdiag.detect.decision import judge_run
-    from leakdiag.io.errors import RecordingError
-
     from leakdiag.detect.flow_balance import RefusedAlarm
+    from leakdiag.io.errors import RecordingError
 
     try:
         refuse_own_healthy(det, rec, "detect")  # a file the detector was fitted on
@@ -662,8 +661,9 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
                    f"{name} written to {st.shown_url}")
 
     scores = tab["score_max"] if "score_max" in tab else pd.Series(float("nan"), index=tab.index)
+    judged = np.isfinite(scores.to_numpy(dtype=float)).any()
     refusals = tab[tab["alarm_refused"].eq(True)] if "alarm_refused" in tab else tab.iloc[:0]
-    if not np.isfinite(scores.to_numpy(dtype=float)).any() and len(refusals):
+    if not judged and len(refusals):
         # every method that judged alarmed and refused its own alarm (no lasting leak): the
         # file was judged, INCONCLUSIVE, as batch reads it (a CLI audit, 2026-11-29: detect
         # exited 2 "no method could judge it" where batch said inconclusive)
@@ -672,7 +672,7 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
         click.echo(f"Decision: INCONCLUSIVE -- {r['method']} alarmed but refused its alarm: "
                    f"{r['error']}.")
         return
-    if not np.isfinite(scores.to_numpy(dtype=float)).any():  # no method could judge FILE
+    if not judged:  # no method could judge FILE
         why = (tab["error"].dropna().iloc[0] if "error" in tab and tab["error"].notna().any()
                else "every feature value is NaN (zero variance: constant channel?)")
         store_verdicts()  # the methods' reasons are kept in the store (not judged)

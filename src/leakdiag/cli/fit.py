@@ -340,7 +340,9 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
                                                if recs[0].units.get(c)},
                         false_alarms_per_hour=float(false_alarm_rate), n_healthy=len(recs),
                         healthy_files=tuple(str(h) for h in healthy), load=common_load(recs),
-                        healthy_sha256=tuple(content_hash(h) for h in healthy))
+                        # ("missing": a file not read by path, e.g. a pipe; not recorded)
+                        healthy_sha256=tuple(x for x in map(content_hash, healthy)
+                                             if x != "missing"))
     save_detector(det, meta, out)
     basis = getattr(det, "threshold_basis_", None)
     click.echo(f"wrote {out}: {method} for the {system.upper()} at {meta.sample_rate_hz:g} Hz, "

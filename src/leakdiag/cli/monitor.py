@@ -341,8 +341,9 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
     # where detect said INCONCLUSIVE) unless it is judged at a raised level (judge_run), as detect
     # judges a file
     from leakdiag.detect.decision import (detector_rate, expected_false_alarms, raised_level,
-                                          run_level_how, run_level_method, run_segments,
-                                          unheld_long_run, unheld_words)
+                                          run_level_confidence, run_level_how,
+                                          run_level_method, run_segments, unheld_long_run,
+                                          unheld_words)
 
     basis = getattr(detector, "threshold_basis_", None)
     per_hour, burn = detector_rate(detector)
@@ -372,8 +373,6 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
         raise click.UsageError(f"--segment {seg:g}: {detector_path}: "
                                f"{unheld_words(*unheld, basis)}")
     method = None if raised is None else run_level_method(detector, span, n_seg)
-    conf = float(basis.confidence) if method == "conformal" and basis.conditional else \
-        float("nan")
     judge = SegmentJudge(detector, chans, source.sample_rate, source.start_time, seg,
                          units=units, meta=source.meta, source=str(source.source))
     speed = None if input_path == "-" or follow else parse_replay(replay)
@@ -432,8 +431,8 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
         # input under --segment 300 described at a level no segment was judged at
         level, at_level = raised
         how = run_level_how(at_level, float(basis.target_per_segment), method,
-                            conf, bool(getattr(detector, "restarts_per_segment", False)),
-                            "segment")
+                            run_level_confidence(basis, method),
+                            bool(getattr(detector, "restarts_per_segment", False)), "segment")
         say(f"  run level: a {seg:g}-s segment expects about {expected:.3g} false alarms at the "
             f"fitted level {float(detector.threshold_):.4g}, so full segments are judged at the "
             f"level {level:.4g}, {how} (docs/detect.md section 2, 'Long runs')")

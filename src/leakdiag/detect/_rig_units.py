@@ -9,8 +9,9 @@ recording with the rig they model, in physical terms and with no tuned factor:
 
 * the piston cannot travel further than the cylinder's stroke (Tables 2-1 / 3-1: 0.6 m), so a
   position whose range (largest minus smallest) exceeds ``stroke_m`` (by more than
-  :data:`STROKE_TOLERANCE` for noise and end stops) is not in metres for this rig. The range, not the distance from 0: the balance uses displacements, and a
-  transducer whose zero lies elsewhere (x from 0.68 to 0.72 m) was sized as without the offset
+  :data:`STROKE_TOLERANCE` for noise and end stops) is not in metres for this rig. The
+  range, not the distance from 0: the balance uses displacements, and a transducer whose
+  zero lies elsewhere (x from 0.68 to 0.72 m) was sized as without the offset
   (a review, 2026-11-27, found a first version refusing it);
 * the chamber pressures of a working actuator reach a sizeable fraction of its pressure level
   (the VCA's supply, Table 2-1; the EHA's charge pressure, which its chambers never fall far

@@ -24,8 +24,8 @@ from leakdiag.detect.threshold import SEGMENT_TOLERANCE, count_segments, min_max
 
 __all__ = ["detector_rate", "per_run_rate", "expected_false_alarms", "longer_than_a_segment",
            "raised_level", "RunJudgement", "judge_run", "judge", "run_decision",
-           "run_segments", "run_level_method", "run_level_how", "unheld_long_run",
-           "unheld_words"]
+           "run_segments", "run_level_method", "run_level_how", "run_level_confidence",
+           "unheld_long_run", "unheld_words"]
 
 
 def detector_rate(det) -> tuple[float, float]:
@@ -320,10 +320,10 @@ class RunJudgement:
         head = (f"this {self.span_s:.4g}-s run is judged at the level {self.run_level:.4g} "
                 f"(fitted level {threshold:.4g}, which expects about "
                 f"{self.expected_at_threshold:.3g} false alarms in a run this long)")
+        # guaranteed: a rank whose statistic restarts per segment (run_level_how's restarts)
         return (f"{head}, " + run_level_how(self.expected, self.segment_target,
                                               self.run_level_method, self.confidence,
-                                              self.guaranteed or self.run_level_method !=
-                                              "conformal")
+                                              self.guaranteed)
                 + " (docs/detect.md section 2, 'Long runs')")
 
 
@@ -346,7 +346,7 @@ def run_level_how(expected: float, target: float, method: str | None,
         Whether the detector's statistic restarts at each segment boundary
         (``Detector.restarts_per_segment``); the flow balance's GLR carries its state over,
         so its rank bounds the first segment only (:func:`per_run_rate`; until session 22 the
-        words said "at most" for it too).
+        words said "at most" for it too). Not used for a model-based level.
     span : str, default "run"
         What is judged ("run", or "segment" for ``monitor --segment``).
 
@@ -380,6 +380,34 @@ def run_level_how(expected: float, target: float, method: str | None,
         return held
     return (held + ", a bound not guaranteed beyond its first segment: the detector's "
             "statistic carries its state over segment boundaries")
+
+
+def run_level_confidence(basis, method: str | None) -> float:
+    """The confidence a run level holds its run to its target with: the basis's
+    calibration-conditional ``confidence`` for a rank of its maxima (``method``
+    ``"conformal"``), NaN otherwise (the marginal rank, a model-based level or none).
+
+    Parameters
+    ----------
+    basis : ThresholdBasis or None
+        ``Detector.threshold_basis_``.
+    method : {"conformal", "model-based"} or None
+        What backs the run level (:func:`run_level_method`; None: judged at the threshold).
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> from leakdiag.detect.threshold import conformal_threshold
+    >>> b = conformal_threshold(range(1, 61), 0.2, segment_s=5.0, confidence=0.9)
+    >>> run_level_confidence(b, "conformal"), run_level_confidence(b, "model-based")
+    (0.9, nan)
+    """
+    if method == "conformal" and getattr(basis, "conditional", False):
+        return float(basis.confidence)
+    return float("nan")
 
 
 def raised_level(det, n_samples: int, sample_rate_hz: float) -> tuple[float, float] | None:
@@ -517,7 +545,7 @@ def _unheld(det, n_samples: int, sample_rate_hz: float,
     expected = expected_false_alarms(basis, per_hour, span_s, n_seg)
     if expected >= 1.0:
         return None
-    if getattr(basis, "conditional", False) and m is not None:
+    if getattr(basis, "conditional", False):
         # with --confidence the threshold holds each segment to target_per_segment with
         # probability c, so the run to m times that; its average (expected) is no part of the
         # promise (a statistics audit, 2026-11-29: 19 of 200 calibrations at c = 0.95 let
@@ -553,6 +581,10 @@ def unheld_words(expected: float, target: float, m: int, basis) -> str:
     """
     n = getattr(basis, "n", None)
     fix = ""
+    # at the threshold: what the run is expected to let through (a conditional basis holds
+    # each segment to its target with probability c, so the run only to m times that)
+    at = (f"at the threshold about {expected:.3g} false alarms are expected by chance in a "
+          "run this long, so the alarm is no evidence of a leak")
     conformal = n is not None and getattr(basis, "method", "").startswith("conformal") and \
         0 < target < 1
     if conformal and getattr(basis, "conditional", False):
@@ -560,30 +592,23 @@ def unheld_words(expected: float, target: float, m: int, basis) -> str:
         # 22 it had none and the words said to fit without --confidence
         c = float(basis.confidence)
         most = int(math.floor(target / -math.expm1(math.log1p(-c) / n) + 1e-9))
-        can = (f"resolve a run of at most {most} segment(s)" if most >= 1 else
-               "cannot hold even one segment")
-        fix = (f" ({n} healthy maxima {can} at {target:.3g} with {c * 100:g} % confidence; "
-               f"{max(n + 1, min_maxima(target / m, c))} would resolve {m})")
+        need, held = min_maxima(target / m, c), f" with {c * 100:g} % confidence"
         alpha = float(basis.target_per_segment)
-        return (f"the run covers {m} healthy segments and its healthy reference cannot hold it "
-                f"to the {target:.3g} false alarms asked of it{fix}: at the threshold each "
-                f"segment is held to {alpha:.3g} with {c * 100:g} % confidence, so the run only "
-                f"to {min(1.0, m * alpha):.3g} (about {expected:.3g} on average), and the "
-                "alarm is no evidence of a leak at the rate asked; judge parts as long as the "
-                "healthy recordings, give more healthy recordings, or fit for more false "
-                "alarms per segment (docs/detect.md section 2, 'Long runs')")
+        at = (f"at the threshold each segment is held to {alpha:.3g}{held}, so the run only "
+              f"to {min(1.0, m * alpha):.3g} (about {expected:.3g} on average), and the alarm "
+              "is no evidence of a leak at the rate asked")
     elif conformal:
         most = int(math.floor(target * (n + 1) + 1e-9))
+        need, held = math.ceil(m / target - 1e-9) - 1, ""
+    if conformal:
         can = (f"resolve a run of at most {most} segment(s)" if most >= 1 else
                "cannot hold even one segment")
-        fix = (f" ({n} healthy maxima {can} at {target:.3g}; "
-               f"{max(n + 1, math.ceil(m / target - 1e-9) - 1)} would resolve {m})")
+        fix = f" ({n} healthy maxima {can} at {target:.3g}{held}; {max(n + 1, need)} would " \
+              f"resolve {m})"
     return (f"the run covers {m} healthy segments and its healthy reference cannot hold it to "
-            f"the {target:.3g} false alarms asked of it{fix}: at the threshold about "
-            f"{expected:.3g} false alarms are expected by chance in a run this long, so the "
-            "alarm is no evidence of a leak; judge parts as long as the healthy recordings, "
-            "give more healthy recordings, or fit for more false alarms per segment "
-            "(docs/detect.md section 2, 'Long runs')")
+            f"the {target:.3g} false alarms asked of it{fix}: {at}; judge parts as long as the "
+            "healthy recordings, give more healthy recordings, or fit for more false alarms per "
+            "segment (docs/detect.md section 2, 'Long runs')")
 
 
 def judge_run(det, rec, run_target: float | None = None) -> RunJudgement:
@@ -680,8 +705,6 @@ def judge(det, n_samples: int, sample_rate_hz: float, duration_s: float,
     if decision == "inconclusive" and v.leak and why is None:
         why = (f"about {expected:.3g} false alarms are expected by chance in a run this long at "
                "the level it was judged at, so the alarm is no evidence of a leak")
-    conf = float(getattr(basis, "confidence", float("nan"))) \
-        if method == "conformal" and getattr(basis, "conditional", False) else float("nan")
     return RunJudgement(v, per_hour, span_s, expected, per_run, guaranteed, at_threshold, level,
                         decision, float(getattr(basis, "target_per_segment", float("nan"))),
-                        method, why, conf)
+                        method, why, run_level_confidence(basis, method))

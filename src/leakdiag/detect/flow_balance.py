@@ -1734,48 +1734,45 @@ class FlowBalanceDetector(Detector):
                 "command's or the position's sign is reversed against the fit runs; no "
                 "verdict on a leak")
         end = float(t["end"][-1])
+        said = (f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
+                f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g})")
         if k > 0.0 and not interval[0] > 0.0:  # alarmed, but since the onset no evidence
             # (an audit, 2026-11-28: a healthy file with a seam where the position matched, and
             # a healthy CSV resampled from jittered stamps, read LEAK with intervals below 0)
             late = (f"; {end - alarm:.3g} s of data after the alarm, too few to confirm a leak "
                     "that began there" if end - alarm < LATE_ALARM_S else "")
             raise AlarmNotConfirmed(
-                f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
-                f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g}), but the leak estimated from "
-                f"the onset ({onset:.4g} s) to the end is not significantly above zero (its "
-                f"interval {interval[0]:.3g} to {interval[1]:.3g} L/min reaches zero){late}: "
+                f"{said}, but the leak estimated from the onset ({onset:.4g} s) to the end is "
+                f"not significantly above zero (its interval {interval[0]:.3g} to "
+                f"{interval[1]:.3g} L/min reaches zero){late}: "
                 "the alarm is not a leak that lasts (" + _chance_words(smax, h) + "a seam or "
                 "discontinuity, resampled time stamps, a sensor fault?); no verdict on a leak",
                 alarm, onset)
         if not k > 0.0 and censored:  # a leak from the start, fitted into the null offset
             raise AlarmAtStart(
-                f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
-                f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g}) with its onset within the "
-                f"first {CENSOR_WINDOWS} windows judged (at or before {onset:.4g} s), but the "
-                f"leak coefficient estimated from there to the end is not positive ({k:.3g} "
-                f"+- {se:.2g}): a leak present from the recording's start is fitted into the "
-                "per-recording null offset and gain, so the data cannot size it nor tell it "
-                "from a disturbance at the start (" + _chance_words(smax, h) + "a seam, a "
-                "sensor fault?); judge a recording that starts before the leak "
-                "(docs/detect.md 8.5); no verdict on a leak", alarm, onset)
+                f"{said} with its onset within the first {CENSOR_WINDOWS} windows judged (at or "
+                f"before {onset:.4g} s), but the leak coefficient estimated from there to the end "
+                f"is not positive ({k:.3g} +- {se:.2g}): a leak present from the recording's "
+                "start is fitted into the per-recording null offset and gain, so the data "
+                "cannot size it nor tell it from a disturbance at the start ("
+                + _chance_words(smax, h) + "a seam, a sensor fault?); judge a recording that "
+                "starts before the leak (docs/detect.md 8.5); no verdict on a leak", alarm, onset)
         if not k > 0.0 and end - alarm < LATE_ALARM_S:  # too few windows after a late alarm
             # (an audit, 2026-11-29: a 0.5 L/min leak from 25 s alarmed at 28.07 s in the
             # segment 0-30 s, k -2.7e-9 +- 1.8e-10, was "a sensor fault?")
             raise AlarmNotConfirmed(
-                f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
-                f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g}), but the leak coefficient "
-                f"estimated from the onset ({onset:.4g} s) to the end is not positive ({k:.3g} "
-                f"+- {se:.2g}); {end - alarm:.3g} s of data after the alarm, too few to confirm "
-                "a leak that began there (" + _chance_words(smax, h) + "a seam or "
-                "discontinuity, a sensor fault?); no verdict on a leak", alarm, onset)
+                f"{said}, but the leak coefficient estimated from the onset ({onset:.4g} s) to "
+                f"the end is not positive ({k:.3g} +- {se:.2g}); {end - alarm:.3g} s of data "
+                "after the alarm, too few to confirm a leak that began there ("
+                + _chance_words(smax, h) + "a seam or discontinuity, a sensor fault?); no "
+                "verdict on a leak", alarm, onset)
         if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
             raise RefusedAlarm(
-                f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
-                f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g}), but the leak coefficient "
-                f"estimated from the onset ({onset:.4g} s) to the end is not positive "
-                f"({k:.3g} +- {se:.2g}): the flow balance does not describe this recording "
-                "well (" + _chance_words(smax, h) + "a sensor fault, the channels' units, "
-                "another machine or operation?); no verdict on a leak", alarm, onset)
+                f"{said}, but the leak coefficient estimated from the onset ({onset:.4g} s) to "
+                f"the end is not positive ({k:.3g} +- {se:.2g}): the flow balance does not "
+                "describe this recording well (" + _chance_words(smax, h) + "a sensor fault, "
+                "the channels' units, another machine or operation?); no verdict on a leak",
+                alarm, onset)
         lpm = k * mean_phi * LPM_PER_M3S
         ptr = be.leak_transition_pa(self._nominal())
         at_ref = k * _leak_law_value(float(self.reference_dp_pa), self.leak_law, ptr) * LPM_PER_M3S

@@ -74,9 +74,9 @@ class SegmentVerdict:
     continues_from_onset_s : float or None
         For a LEAK segment right after a LEAK segment: the onset found when the leak was first
         found (also on a NOT JUDGED segment there whose alarm the detector refused as at its
-        start, :class:`~leakdiag.detect.flow_balance.AlarmAtStart`). The leak was then present when this segment began, so this segment's own onset
-        is no onset (an audit, 2026-11-28: 3 of 20 such segments were given a definite onset
-        6-26 s into the segment).
+        start, :class:`~leakdiag.detect.flow_balance.AlarmAtStart`). The leak was then present
+        when this segment began, so this segment's own onset is no onset (an audit, 2026-11-28:
+        3 of 20 such segments were given a definite onset 6-26 s into the segment).
     unconfirmed_alarm_s, unconfirmed_onset_s : float or None
         For a LEAK segment (not a continuing one) right after a segment whose alarm was not
         confirmed (:class:`~leakdiag.detect.flow_balance.AlarmNotConfirmed`: too little data
