@@ -75,7 +75,7 @@ def test_each_segment_is_judged_as_detect_judges_that_part_of_the_file(setup, ru
     assert lines[0]["detectable_lpm"] > 0 and lines[0]["p_value"] > 0.01
     assert "LEAK       60-90 s: alarm at " in out and "NO LEAK    0-30 s: score max" in out
     assert ("suspect.parquet: 100000 samples at 1000 Hz, 4 segment(s) of up to 30 s judged by "
-            "flow-balance: 1 LEAK, 2 NO LEAK, 1 not judged") in out
+            "flow-balance: 1 LEAK, 2 NO LEAK, 0 INCONCLUSIVE, 1 not judged") in out
 
 
 def test_a_segment_too_short_to_judge_says_why(setup):
@@ -209,7 +209,8 @@ def test_an_alarm_the_segment_length_makes_no_evidence_is_not_a_leak(setup, loos
         out[name] = judge.push(chans)
     (leak_as_fitted,), (leak_without,) = out["as fitted"], out["no run level"]
     assert leak_as_fitted.decision == "LEAK" and leak_as_fitted.verdict.threshold > det.threshold_
-    assert leak_without.decision == "NOT JUDGED" and leak_without.verdict is None
+    assert leak_without.decision == "INCONCLUSIVE" and leak_without.verdict is None
+    assert leak_without.words().startswith("INCONCLUSIVE 0-100 s: ")
     assert "false alarms are expected by chance" in leak_without.reason
     assert "[0-100 s]" in leak_without.reason
 
@@ -281,7 +282,8 @@ def test_a_leak_refused_at_a_segment_end_is_named_when_the_next_segment_finds_it
     judge = SegmentJudge(det, list(chans), rec.sample_rate, segment_s=30.0,
                          units=dict(rec.units), meta={"system": "vca", "load": "spring"})
     out = judge.push(chans)
-    assert [sv.decision for sv in out] == ["NO LEAK", "NOT JUDGED", "LEAK", "LEAK"]
+    # the refused alarm: judged, no evidence (INCONCLUSIVE, as detect and batch read it)
+    assert [sv.decision for sv in out] == ["NO LEAK", "INCONCLUSIVE", "LEAK", "LEAK"]
     found, later = out[2], out[3]
     assert found.verdict.onset_censored and found.verdict.onset_s > 60.0
     assert (found.unconfirmed_alarm_s, found.unconfirmed_onset_s) == (
@@ -309,6 +311,7 @@ def no_load_leak(tmp_path_factory):
     det, _ = load_detector_file(d / "fb.joblib")
     rec = ld.sim.simulate_vca(duration=50.0, leak_lpm=0.5, onset=25.0, load="none", machine=31,
                               seed=2000)
+    det.path_ = d / "fb.joblib"  # for the tests through the command
     return det, rec
 
 
@@ -340,7 +343,7 @@ def test_a_leak_present_from_a_segments_start_is_not_called_a_sensor_fault(no_lo
         str(refused.value)
     first, second = _segments(det, rec, 35.0)
     assert first.decision == "LEAK" and 25.0 <= first.verdict.onset_s < 29.0
-    assert second.decision == "NOT JUDGED"
+    assert second.decision == "INCONCLUSIVE"
     assert second.continues_from_onset_s == first.verdict.onset_s
     assert second.reason.startswith(f"<stream> [35-50 s]: the leak found with onset "
                                     f"{first.verdict.onset_s:.6g} s was present when this "
@@ -360,8 +363,28 @@ def test_a_late_alarm_whose_coefficient_is_not_positive_is_unconfirmed(no_load_l
                        r"after the alarm, too few to confirm a leak that began there"):
         det.predict(part)
     first, second = _segments(det, rec, 30.0)
-    assert first.decision == "NOT JUDGED" and second.decision == "LEAK"
+    assert first.decision == "INCONCLUSIVE" and second.decision == "LEAK"
     assert 25.0 <= second.unconfirmed_onset_s < 28.0 < second.unconfirmed_alarm_s < 30.0
+
+
+def test_a_stream_whose_only_alarm_is_refused_reads_inconclusive_not_unjudged(
+        no_load_leak, run_cli, tmp_path):
+    """A review (2026-11-29): detect and batch read a file whose only alarm the detector refused
+    INCONCLUSIVE (exit 0); monitor --segment printed the segment NOT JUDGED and, with no other
+    segment, exited 2 with "no segment could be judged"."""
+    det, rec = no_load_leak
+    part = Recording({c: rec[c][:30000] for c in ("p1", "p2", "x", "u")}, 1000.0, 0.0,
+                     dict(rec.units), {"load": "none", "system": "vca"})
+    path = write_recording(part, tmp_path / "first30.parquet")
+    events = tmp_path / "ev.jsonl"
+    code, out, err = run_cli(["monitor", str(path), "--detector", str(det.path_),
+                              "--segment", "30", "--events", str(events)])
+    assert code == 0, err
+    (e,) = [json.loads(ln) for ln in events.read_text().splitlines()]
+    assert e["decision"] == "INCONCLUSIVE" and "too few to confirm a leak" in e["reason"]
+    assert "INCONCLUSIVE 0-30 s: " in out + err
+    assert "1 segment(s) of up to 30 s judged by flow-balance: 0 LEAK, 0 NO LEAK, " \
+           "1 INCONCLUSIVE, 0 not judged" in out + err
 
 
 def test_a_segment_too_short_for_any_judgement_is_refused_up_front(setup, run_cli):
@@ -376,3 +399,24 @@ def test_a_segment_too_short_for_any_judgement_is_refused_up_front(setup, run_cl
     assert code == 2 and "NOT JUDGED" not in out + err
     assert f"--segment 8: {det_path} cannot judge a segment this short: its 5-s burn-in and " \
            "the windows its test needs take about 10 s" in err
+
+
+def test_monitor_refuses_a_detectors_own_healthy_file(setup, run_cli):
+    """A review (2026-11-29): detect (by samples) and batch (by bytes) refuse to judge one of a
+    detector's own healthy files, judged against a threshold it set itself; monitor judged it,
+    with a whole-recording detector (segments) and with a streamed one alike."""
+    from leakdiag.cli.main import main
+
+    d, det_path, path, _ = setup
+    own = d / "h1.parquet"
+    acf = d / "acf.joblib"
+    assert main(["fit", *[a for s in range(3) for a in ("--healthy", str(d / f"h{s}.parquet"))],
+                 "-m", "acf-p1", "--false-alarm-rate", "60", "--no-progress", "-o",
+                 str(acf)]) == 0
+    for det in (det_path, acf):
+        code, out, err = run_cli(["monitor", str(own), "--detector", str(det), "--quiet"])
+        assert code == 2
+        assert (f"{own}: one of the 3 healthy recordings {det} was fitted on (the same "
+                "bytes): judged against a threshold it set itself") in err
+        code, out, err = run_cli(["monitor", str(path), "--detector", str(det), "--quiet"])
+        assert code == 0, err

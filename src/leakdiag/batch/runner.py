@@ -564,26 +564,22 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
 
 def _own_healthy(path: str, dets) -> dict:
     """The job's detectors fitted on this very file (its bytes' SHA-256 among their healthy
-    files', ``DetectorMeta.healthy_sha256``), each with why it does not judge it.
+    files', :func:`~leakdiag.stream.detector_file.own_healthy_reason`), each with why it does
+    not judge it.
 
-    Judged against a threshold it set itself, a leak reads NO LEAK and a false alarm LEAK: a CLI
-    audit (2026-11-29) found one of a detector's 8 healthy files reading LEAK in ``batch``,
-    which ``detect`` refuses (by its samples, :func:`leakdiag.detect.base.refuse_own_healthy`).
     The file is hashed only when a detector file records its healthy files' hashes (fitted
     since session 22): a second read of it, as :func:`run_batch` hashed it already; passing
     every file's hash to each case would ship the job's whole table to every Dask task."""
     from leakdiag.batch.store import content_hash
+    from leakdiag.stream.detector_file import own_healthy_reason
 
     known = [(name, meta, dpath) for name, _, meta, dpath in dets
              if getattr(meta, "healthy_sha256", ())]
     if not known:
         return {}
     sha = content_hash(path)
-    return {name: (f"{path}: one of the {len(meta.healthy_sha256)} healthy recordings "
-                   f"{dpath} was fitted on (the same bytes): judged against a threshold it "
-                   "set itself, a leak reads NO LEAK; judge recordings other than the healthy "
-                   "ones (or fit without this one)")
-            for name, meta, dpath in known if sha in meta.healthy_sha256}
+    why = {name: own_healthy_reason(meta, sha, path, dpath) for name, meta, dpath in known}
+    return {name: w for name, w in why.items() if w is not None}
 
 
 def _level_judged_at(det, n_samples: int, sample_rate_hz: float) -> float:

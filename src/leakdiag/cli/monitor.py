@@ -174,6 +174,26 @@ def _open_input(input_path: str, channels, follow: bool, sample_rate, chunk: int
     return open_recording(input_path, channels, chunk, sample_rate, column_map)
 
 
+def refuse_own_healthy_file(meta, input_path: str, follow: bool, detector_path) -> None:
+    """Refuse a recording file that is one of the detector file's own healthy files (the same
+    bytes: :func:`leakdiag.stream.detector_file.own_healthy_reason`), as ``detect`` and
+    ``batch`` refuse it; stdin and ``--follow`` (a growing file) are not checked.
+
+    Raises
+    ------
+    click.UsageError
+        Naming both files.
+    """
+    if meta is None or not getattr(meta, "healthy_sha256", ()) or input_path == "-" or follow:
+        return
+    from leakdiag.batch.store import content_hash
+    from leakdiag.stream.detector_file import own_healthy_reason
+
+    why = own_healthy_reason(meta, content_hash(input_path), input_path, str(detector_path))
+    if why is not None:
+        raise click.UsageError(why)
+
+
 def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=()):
     """The monitored feature; ``given`` lists the feature options given on the command line,
     refused where they would be ignored (a detector's own feature, the other lag kind).
@@ -414,13 +434,15 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
         except KeyboardInterrupt as exc:
             stopped = exc if isinstance(exc, Stopped) else Stopped(signal.SIGINT)
     dt = time.perf_counter() - t0
-    count = {d: sum(sv.decision == d for sv in done) for d in ("LEAK", "NO LEAK", "NOT JUDGED")}
+    count = {d: sum(sv.decision == d for sv in done)
+             for d in ("LEAK", "NO LEAK", "INCONCLUSIVE", "NOT JUDGED")}
     end = ("" if stopped is None else f"; stopped by {stopped.name}") + (
         "" if failed is None else "; the input stopped with an error (below): the samples "
         "before it were judged")
     say(f"{source.source}: {judge.n_samples_seen} samples at {source.sample_rate:g} Hz, "
         f"{len(done)} segment(s) of up to {seg:g} s judged by {name}: {count['LEAK']} LEAK, "
-        f"{count['NO LEAK']} NO LEAK, {count['NOT JUDGED']} not judged, in {dt:.3g} s{end}")
+        f"{count['NO LEAK']} NO LEAK, {count['INCONCLUSIVE']} INCONCLUSIVE, "
+        f"{count['NOT JUDGED']} not judged, in {dt:.3g} s{end}")
     if basis is not None:
         from leakdiag.cli._words import threshold_words
 
@@ -522,6 +544,9 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
 
         store_url(live["store"])
     detector, meta = load_detector(detector_path) if detector_path else (None, None)
+    # one of the detector's own healthy files: judged against a threshold it set itself (a
+    # review, 2026-11-29: detect and batch refused it, monitor judged it)
+    refuse_own_healthy_file(meta, input_path, follow, detector_path)
     ctx = click.get_current_context()
     given = [f"--{n.replace('_', '-')}" for n in ("channels", "lag", "lag_ratio", "window",
                                                   "overlap")

@@ -1041,8 +1041,9 @@ def refuse_own_healthy(det, recording, where: str) -> None:
     (its threshold set by that very recording: compared with itself a leak reads NO LEAK; a
     review, 2026-11-27, of the ``--healthy`` refusal, which a detector file got around).
     ``leakdiag detect`` calls it; ``predict`` and ``score`` do not (in Python, scoring the fit
-    runs is a legitimate in-sample look), nor do ``batch`` and ``monitor``, which read a file
-    in chunks.
+    runs is a legitimate in-sample look); ``batch`` and ``monitor``, which read a file in
+    chunks, refuse it by the file's bytes
+    (:func:`leakdiag.stream.detector_file.own_healthy_reason`).
 
     Raises
     ------

@@ -32,7 +32,7 @@ from leakdiag.io.recording import load_name
 __all__ = ["DetectorMeta", "save_detector", "load_detector_file", "check_detector_fits",
            "sniff_detector_file", "detector_code_fingerprint", "DetectorFileWarning",
            "DETECTOR_FORMAT", "DETECTOR_FINGERPRINT_PARTS", "unchecked_note", "ADVICE_MAP",
-           "ADVICE_JOB"]
+           "ADVICE_JOB", "own_healthy_reason"]
 
 #: Tag of the record written by :func:`save_detector` (2: code fingerprint and SHA-256 of the
 #: pickled detector, 2026-11-27; 1: the detector pickled inside the record, still read).
@@ -627,6 +627,48 @@ def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
 ADVICE_MAP = "a --map"
 #: Where a ``batch`` user states them.
 ADVICE_JOB = "the job's column map"
+
+
+def own_healthy_reason(meta: DetectorMeta | None, sha256: str, source: str,
+                       path: str) -> str | None:
+    """Why a detector file does not judge a recording file: it is one of the healthy files the
+    detector was fitted on (the same bytes, ``DetectorMeta.healthy_sha256``).
+
+    Judged against a threshold it set itself, a leak reads NO LEAK and a false alarm LEAK: a
+    CLI audit (2026-11-29) found one of a detector's 8 healthy files reading LEAK in ``batch``.
+    ``detect`` refuses such a recording by its samples
+    (:func:`leakdiag.detect.base.refuse_own_healthy`); ``batch`` and ``monitor``, which read a
+    file in chunks, by its bytes with this function.
+
+    Parameters
+    ----------
+    meta : DetectorMeta or None
+        The detector's record (None, or no hashes recorded: files written before session 22,
+        nothing to check).
+    sha256 : str
+        SHA-256 of the recording file's bytes (:func:`leakdiag.batch.store.content_hash`).
+    source, path : str
+        The recording and the detector file, for the message.
+
+    Returns
+    -------
+    str or None
+        The reason, naming both files; None when it is not one of them.
+
+    Examples
+    --------
+    >>> m = DetectorMeta("flow-balance", "vca", 1000.0, ("p1",), healthy_sha256=("ab", "cd"))
+    >>> own_healthy_reason(m, "cd", "h2.parquet", "fb.joblib")[:53]
+    'h2.parquet: one of the 2 healthy recordings fb.joblib'
+    >>> own_healthy_reason(m, "ef", "new.parquet", "fb.joblib") is None
+    True
+    """
+    known = tuple(getattr(meta, "healthy_sha256", ()) or ())
+    if sha256 not in known:
+        return None
+    return (f"{source}: one of the {len(known)} healthy recordings {path} was fitted on (the "
+            "same bytes): judged against a threshold it set itself, a leak reads NO LEAK; "
+            "judge recordings other than the healthy ones (or fit without this one)")
 
 
 def unchecked_note(source: str, meta, fitted, advice: str) -> str | None:

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from leakdiag.detect.decision import judge_run
-from leakdiag.detect.flow_balance import AlarmAtStart, AlarmNotConfirmed
+from leakdiag.detect.flow_balance import AlarmAtStart, AlarmNotConfirmed, RefusedAlarm
 from leakdiag.io.errors import RecordingError
 from leakdiag.io.recording import Recording
 
@@ -66,14 +66,21 @@ class SegmentVerdict:
     start_s, end_s : float
         Time of the segment's first sample and one sample after its last (s).
     verdict : Verdict or None
-        The detector's verdict; None when it could not judge the segment.
+        The detector's verdict; None when it could not judge the segment or judged it
+        inconclusive.
     reason : str or None
-        Why not (the detector's ``RecordingError``, or an alarm that the segment's length makes
-        no evidence: one false alarm or more expected by chance and no run level,
-        :func:`leakdiag.detect.decision.judge_run`).
+        Why not (the detector's ``RecordingError``), or why inconclusive.
+    inconclusive : bool, default False
+        The detector judged the segment and alarmed, but the alarm is no evidence of a leak:
+        it refused the alarm itself (:class:`~leakdiag.detect.flow_balance.RefusedAlarm`: no
+        lasting leak after it, or a leak fitted into the null offset from the segment's start)
+        or the segment's length makes it likely by chance
+        (:func:`leakdiag.detect.decision.judge_run`). ``leakdiag detect`` and ``batch`` read
+        such a file INCONCLUSIVE, and so does this segment (a review, 2026-11-29: it read NOT
+        JUDGED, and a stream of such segments ended with "no segment could be judged").
     continues_from_onset_s : float or None
         For a LEAK segment right after a LEAK segment: the onset found when the leak was first
-        found (also on a NOT JUDGED segment there whose alarm the detector refused as at its
+        found (also on an INCONCLUSIVE segment there whose alarm the detector refused as at its
         start, :class:`~leakdiag.detect.flow_balance.AlarmAtStart`). The leak was then present
         when this segment began, so this segment's own onset is no onset (an audit, 2026-11-28:
         3 of 20 such segments were given a definite onset 6-26 s into the segment).
@@ -90,13 +97,16 @@ class SegmentVerdict:
     end_s: float
     verdict: Any = None
     reason: str | None = None
+    inconclusive: bool = False
     continues_from_onset_s: float | None = None
     unconfirmed_alarm_s: float | None = None
     unconfirmed_onset_s: float | None = None
 
     @property
     def decision(self) -> str:
-        """``"LEAK"``, ``"NO LEAK"`` or ``"NOT JUDGED"``."""
+        """``"LEAK"``, ``"NO LEAK"``, ``"INCONCLUSIVE"`` or ``"NOT JUDGED"``."""
+        if self.inconclusive:
+            return "INCONCLUSIVE"
         if self.verdict is None:
             return "NOT JUDGED"
         return "LEAK" if self.verdict.leak else "NO LEAK"
@@ -134,7 +144,7 @@ class SegmentVerdict:
         span = f"{self.start_s:.6g}-{self.end_s:.6g} s"
         v = self.verdict
         if v is None:
-            return f"NOT JUDGED {span}: {self.reason}"
+            return f"{self.decision:<10} {span}: {self.reason}"
         if not v.leak:
             seen = getattr(v, "detectable_lpm", None)
             since = getattr(v, "detectable_from_s", None)
@@ -271,15 +281,16 @@ class SegmentJudge:
                     f"{name}: the leak found with onset {prior:.6g} s was present when this "
                     f"segment began and alarmed again at {exc.alarm_time_s:.6g} s, but a leak "
                     f"present from a segment's start cannot be judged on that segment alone: "
-                    f"{exc}"), continues_from_onset_s=prior)
-            return SegmentVerdict(start, end, reason=str(exc))
+                    f"{exc}"), inconclusive=True, continues_from_onset_s=prior)
+            return SegmentVerdict(start, end, reason=str(exc),
+                                  inconclusive=isinstance(exc, RefusedAlarm))
         unconfirmed, self._unconfirmed = self._unconfirmed, None
         v = j.verdict
         if j.decision == "inconclusive":  # an alarm the segment's length makes no evidence
             return SegmentVerdict(start, end, reason=(
                 f"{name}: the detector alarmed (score {v.score_max:.3g} against "
                 f"{v.threshold:.3g}), but {j.why_inconclusive}; use a shorter segment or a "
-                "detector fitted for fewer false alarms per hour"))
+                "detector fitted for fewer false alarms per hour"), inconclusive=True)
         if not v.leak:
             self._leak_onset = None
             return SegmentVerdict(start, end, verdict=v)
