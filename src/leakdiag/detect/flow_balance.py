@@ -147,6 +147,44 @@ HOLD_EXEMPT_BY_SYSTEM = {"vca": HOLD_EXEMPT, "eha": ()}
 HOLD_FACTORS = {("eha", "x"): 6.0}
 
 
+#: How close to the modelled VCA's tank or supply pressure (a fraction of the difference) a
+#: chamber pressure counts as at that bound, where the simulator clips it (cavitation,
+#: relief) and a real chamber cavitates or relieves: there the chamber continuity (Eq. 2-1)
+#: does not hold (leakdiag choice: wider than a unit's +-2 % supply, docs/models.md; the
+#: balance's pressures under the spring stay 4-12 MPa from the 17.2 MPa supply).
+PRESSURE_BOUND_MARGIN = 0.03
+#: Share of the samples after the burn-in with a chamber at a bound above which a failed
+#: identification names it as the likely cause (leakdiag choice).
+PRESSURE_BOUND_SHARE = 0.01
+
+
+def _at_bounds_note(recs, nominal, skip_s: float) -> str | None:
+    """Why a VCA flow balance may not be identifiable on ``recs``: a chamber pressure at the
+    tank or supply level in a share of the samples after the burn-in (None when under
+    :data:`PRESSURE_BOUND_SHARE`).
+
+    A session-23 review found healthy runs of unit 17 under the spring driven around 0.2 m
+    (where the spring's force holds P2 near tank, below 0.1 MPa in most of the run) refused
+    with a flow-gain factor of 0.14 "likely in another unit than stated"; the units were right,
+    the chamber cavitated.
+    """
+    lo, hi = float(nominal.tank_pressure_pa), float(nominal.supply_pressure_pa)
+    band = PRESSURE_BOUND_MARGIN * (hi - lo)
+    n = bad = 0
+    for r in recs:
+        p = np.vstack([_after(r, c, skip_s) for c in ("p1", "p2")])
+        at = ((p <= lo + band) | (p >= hi - band)).any(axis=0)
+        n, bad = n + at.size, bad + int(at.sum())
+    if not n or bad < PRESSURE_BOUND_SHARE * n:
+        return None
+    return (f"But here a chamber pressure is within {band / 1e6:.2g} MPa of the tank "
+            f"({lo / 1e6:.3g} MPa) or supply ({hi / 1e6:.3g} MPa) pressure in {100 * bad / n:.0f} "
+            "% of the samples after the burn-in: a cavitating or relieving chamber, where the "
+            "chamber continuity (Eq. 2-1) the balance rests on does not hold, is the likelier "
+            "cause; fit on operation that keeps both chambers between tank and supply (a "
+            "load that does not hold the piston against them)")
+
+
 def _after(rec, c: str, skip_s: float) -> np.ndarray:
     """Channel ``c`` of ``rec`` after its first ``skip_s`` seconds (the burn-in)."""
     return np.asarray(rec[c], dtype=np.float64)[int(round(skip_s * rec.sample_rate)):]
@@ -1228,11 +1266,18 @@ class FlowBalanceDetector(Detector):
             # gave 1.03, and refused it): a position or pressure in another unit scales the
             # identified flow (cm read as mm gave a factor 0.12 and every leak size a tenth)
             scale = "flow_gain_factor" if self.system == "vca" else "displacement_factor"
-            check_flow_scale(getattr(self.model_, scale),
-                             self.model_std_.get(scale, float("nan")), "fit",
-                             f"the flow balance ({self.system})",
-                             "flow-gain factor" if self.system == "vca" else
-                             "pump displacement factor", len(recs))
+            try:
+                check_flow_scale(getattr(self.model_, scale),
+                                 self.model_std_.get(scale, float("nan")), "fit",
+                                 f"the flow balance ({self.system})",
+                                 "flow-gain factor" if self.system == "vca" else
+                                 "pump displacement factor", len(recs))
+            except ValueError as exc:  # a chamber at a bound breaks the balance, not a unit
+                note = (_at_bounds_note(recs, nominal, float(self.burn_in_s))
+                        if self.system == "vca" else None)
+                if note is None:
+                    raise
+                raise ValueError(f"{exc}. {note}") from None
         terms = [self._terms(r) for r in recs]
         e = np.concatenate([self._profiled(t) for t in terms])
         if len(e) < 10:
