@@ -281,7 +281,7 @@ def test_monitor_refuses_options_it_would_ignore(run_file, tmp_path):
         assert r.exit_code == 2 and needle in r.output, (args, r.output)
     h = [str(write_recording(simulate_vca(duration=12.0, leak_lpm=None, seed=s,
                                           reference_seed=50 + s), tmp_path / f"h{s}.parquet"))
-         for s in (1, 2)]
+         for s in (1, 2, 3)]
     det = tmp_path / "det.joblib"
     assert CliRunner().invoke(cli, ["fit", "--healthy", h[0], "--healthy", h[1], "-m", "acf-p1",
                                     "--false-alarm-rate", "200", "-o", str(det)]).exit_code == 0
@@ -290,7 +290,7 @@ def test_monitor_refuses_options_it_would_ignore(run_file, tmp_path):
     assert "--window: the detector file fixes its feature (autocorrelation p1 1 N=200 5%)" \
         in r.output
     # the detector's own values are harmless
-    r = CliRunner().invoke(cli, ["monitor", "-i", h[0], "--detector", str(det), "-c", "p1",
+    r = CliRunner().invoke(cli, ["monitor", "-i", h[2], "--detector", str(det), "-c", "p1",
                                  "-w", "200", "-q"])
     assert r.exit_code == 0, r.output
 

@@ -337,6 +337,7 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
     if not chans:
         raise click.UsageError(f"{detector_path}: {name} does not say which channels it reads; "
                                "judge files with leakdiag detect or batch")
+    refuse_own_healthy_file(meta, input_path, follow, detector_path)  # as streamed detectors
     source, units = _open_input(input_path, chans, follow, sample_rate, chunk, idle_timeout,
                                 batch_lines, cmap)
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
@@ -544,9 +545,6 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
 
         store_url(live["store"])
     detector, meta = load_detector(detector_path) if detector_path else (None, None)
-    # one of the detector's own healthy files: judged against a threshold it set itself (a
-    # review, 2026-11-29: detect and batch refused it, monitor judged it)
-    refuse_own_healthy_file(meta, input_path, follow, detector_path)
     ctx = click.get_current_context()
     given = [f"--{n.replace('_', '-')}" for n in ("channels", "lag", "lag_ratio", "window",
                                                   "overlap")
@@ -584,6 +582,9 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                                "a file is read in --chunk samples")
     spec = _spec(method, channels, lag, lag_ratio, window, overlap, detector, given)
     cmap = column_map_from(column_map, cols, time_unit)
+    # one of the detector's own healthy files: judged against a threshold it set itself (a
+    # review, 2026-11-29: detect and batch refused it, monitor judged it)
+    refuse_own_healthy_file(meta, input_path, follow, detector_path)
     try:
         source, units = _open_input(input_path, list(spec.channels), follow, sample_rate,
                                     chunk, idle_timeout, batch_lines, cmap)
