@@ -136,6 +136,11 @@ def test_a_refused_judgement_at_the_run_level_keeps_that_level_as_threshold(tmp_
     job = config_from_dict({"detector": [{"path": str(path), "name": "fb"}], "analysis": []})
     (row,) = run_case(str(part), job)
     assert row["alarm"] is None and "too few to confirm" in row["error"]
+    # the detector alarmed and refused its alarm: judged, inconclusive (session 23: batch
+    # printed "not judged" and exited 1, and the store said NOT JUDGED, where detect said
+    # INCONCLUSIVE)
+    assert row["alarm_refused"] is True and row["decision"] == "inconclusive"
+    assert row["error"].startswith("alarm refused: predict: ")
     level, _ = raised_level(det, rec.n_samples, rec.sample_rate)
     assert level > det.threshold_
     assert row["threshold"] == pytest.approx(level)
@@ -147,7 +152,25 @@ def test_a_refused_judgement_at_the_run_level_keeps_that_level_as_threshold(tmp_
 
     from leakdiag.cli.main import cli
 
-    r = CliRunner().invoke(cli, ["detect", str(part), "--detector", str(path)])
+    db = tmp_path / "e.db"
+    r = CliRunner().invoke(cli, ["detect", str(part), "--detector", str(path), "--store",
+                                 str(db), "--actuator", "unit31"])
     assert r.exit_code == 0, r.output
     assert "Decision: INCONCLUSIVE -- flow-balance alarmed but refused its alarm: predict: " \
            in r.output and "too few to confirm a leak that began there" in r.output
+    r = CliRunner().invoke(cli, ["batch", str(part), "--detector", str(path), "-o",
+                                 str(tmp_path / "res"), "--scheduler", "serial",
+                                 "--no-progress", "--store", str(db)])
+    assert r.exit_code == 0, r.output  # judged: no "not judged" row
+    assert "1 current row(s) for job" in r.output and "0 of them not judged" in r.output
+    assert "detector decisions: 0 LEAK, 0 NO LEAK, 1 INCONCLUSIVE" in r.output
+    assert "  inconclusive: part.parquet: " in r.output and "not judged:" not in r.output
+    from leakdiag.store import EventStore
+
+    st = EventStore(db, create=False)
+    fl = st.fleet().set_index("name")
+    assert fl.loc["unit31", "state"] == "INCONCLUSIVE"  # detect's run
+    assert "too few to confirm" in fl.loc["unit31", "error"]
+    runs = st.runs_of(tmp_path.name)  # batch's actuator: the file's folder
+    assert runs["status"].tolist() == ["inconclusive"]
+    st.close()

@@ -46,12 +46,12 @@ def downgrade(db, version):
 
 def upgrade_and_write(db, version):
     """Open the store ``db`` of schema ``version`` as a writer in another process would (it is
-    upgraded to 3, with its warning) and write what the columns added since show: rigA a
+    upgraded to 4, with its warning) and write what the columns added since show: rigA a
     ``detect`` alarm with a censored onset (4.85 s), rigB a failed ``batch`` run with its
     reason (:data:`WHY_FAILED`)."""
     import pytest
 
-    with pytest.warns(UserWarning, match=f"upgraded from schema version {version} to 3"):
+    with pytest.warns(UserWarning, match=f"upgraded from schema version {version} to 4"):
         writer = EventStore(db)
     run = writer.start_run("rigA", command="detect", source="a.parquet", feature="fb")
     writer.add_chunk(run, None, [AlarmRecord(7.1, onset_s=4.85, onset_censored=True)])

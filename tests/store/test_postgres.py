@@ -71,7 +71,7 @@ def test_schema_version_mismatch(pg_url):
     with eng.begin() as c:
         c.execute(text("update schema_version set version = 99"))
     eng.dispose()
-    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 3"):
+    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 4"):
         EventStore(pg_url)
 
 
@@ -117,10 +117,10 @@ def test_a_version_1_store_is_upgraded_in_place(pg_url):
         c.execute(text("alter table runs drop column error"))
         c.execute(text("alter table alarms drop column onset_censored"))
         c.execute(text("update schema_version set version = 1"))
-    with pytest.warns(UserWarning, match="upgraded from schema version 1 to 3"):
+    with pytest.warns(UserWarning, match="upgraded from schema version 1 to 4"):
         st = EventStore(pg_url)
     with eng.connect() as c:
-        assert c.execute(text("select version from schema_version")).all() == [(3,)]
+        assert c.execute(text("select version from schema_version")).all() == [(4,)]
         assert c.execute(text("select status, error from runs")).all() == [("finished", None)]
     eng.dispose()
     run = st.start_run("rig1", command="batch", source="b.csv", feature="acf")

@@ -87,7 +87,7 @@ def test_schema_version_mismatch(tmp_path):
     con.execute("update schema_version set version = 99")
     con.commit()
     con.close()
-    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 3"):
+    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 4"):
         EventStore(db)
 
 
@@ -334,11 +334,12 @@ def test_a_version_1_store_is_upgraded_in_place(tmp_path):
     assert con.execute("select version from schema_version").fetchall() == [(1,)]
     con.close()
     with pytest.warns(UserWarning, match=r"e.db: event store upgraded from schema version 1 to "
-                                         r"3 \(runs.error, alarms.onset_censored added\); "
+                                         r"4 \(runs.error, alarms.onset_censored, the run "
+                                         r"status 'inconclusive' added\); "
                                          r"leakdiag versions before"):
         st = EventStore(db)  # a writer upgrades it
     con = sqlite3.connect(db)
-    assert con.execute("select version from schema_version").fetchall() == [(3,)]
+    assert con.execute("select version from schema_version").fetchall() == [(4,)]
     assert "onset_censored" in [r[1] for r in con.execute("pragma table_info(alarms)")]
     assert "error" in [r[1] for r in con.execute("pragma table_info(runs)")]
     assert con.execute("select status, error from runs").fetchall() == [("finished", None)]
@@ -351,10 +352,10 @@ def test_a_version_1_store_is_upgraded_in_place(tmp_path):
     st.close()
     EventStore(db).close()  # opening a current store changes nothing
     assert sqlite3.connect(db).execute("select version from schema_version").fetchall() == \
-        [(3,)]
+        [(4,)]
 
 
-def test_a_version_2_store_keeps_its_alarms_and_is_upgraded_to_3(tmp_path):
+def test_a_version_2_store_keeps_its_alarms_and_is_upgraded_to_4(tmp_path):
     db = tmp_path / "e.db"
     st = EventStore(db)
     run = st.start_run("rig1", command="detect", source="a.parquet", feature="fb")
@@ -372,8 +373,8 @@ def test_a_version_2_store_keeps_its_alarms_and_is_upgraded_to_3(tmp_path):
     assert fl["onset_s"].tolist() == [5.2] and fl["onset_censored"].tolist() == [None]
     assert st.history("rig1")[1]["onset_censored"].tolist() == [None]
     st.close()
-    with pytest.warns(UserWarning, match=r"from schema version 2 to 3 \(alarms.onset_censored "
-                                         r"added\)"):
+    with pytest.warns(UserWarning, match=r"from schema version 2 to 4 \(alarms.onset_censored, "
+                                         r"the run status 'inconclusive' added\)"):
         st = EventStore(db)
     run = st.start_run("rig1", command="detect", source="b.parquet", feature="fb")
     st.add_chunk(run, None, [AlarmRecord(7.1, onset_s=4.85, detector="fb", onset_censored=True)])
@@ -420,3 +421,56 @@ def test_the_system_of_an_actuator_is_filled_once_and_never_overridden(tmp_path)
         st.start_run("rig1", command="detect", source="d.csv", feature="f", system="eha")
     assert st.count("runs") == 3 and st.fleet()["system"].tolist() == ["vca"]
     st.close()
+
+
+def test_an_inconclusive_run_is_neither_ok_nor_alarm_nor_unjudged(tmp_path):
+    """Session 23: detect, batch and monitor --segment print INCONCLUSIVE for an alarm that is
+    no evidence (the detector refused it, or the run expects it by chance); the store kept such
+    a run ``unjudged`` and the fleet page said NOT JUDGED. It is stored ``inconclusive`` now
+    (schema version 4): INCONCLUSIVE, with why, above NOT JUDGED and below ALARM, and it clears
+    no alarm."""
+    st = EventStore(tmp_path / "e.db")
+
+    def invocation(inv, *runs):
+        for feature, status, why in runs:
+            st.end_run(st.start_run("rig1", command="detect", source=f"{inv}.csv",
+                                    feature=feature, invocation=inv), status, why)
+        return st.fleet().iloc[0]
+
+    r = invocation("i1", ("acf-p1", "finished", None),
+                   ("flow-balance", "inconclusive", "alarmed but refused its alarm"))
+    assert (r["state"], r["error"]) == ("INCONCLUSIVE",
+                                        "flow-balance: alarmed but refused its alarm")
+    r = invocation("i2", ("ekf", "unjudged", "too short"),
+                   ("flow-balance", "inconclusive", "refused"))
+    assert (r["state"], r["error"]) == ("INCONCLUSIVE", "flow-balance: refused")
+    r = invocation("i3", ("acf-p1", "finished", None), ("ekf", "unjudged", "too short"))
+    assert (r["state"], r["error"]) == ("NOT JUDGED", "ekf: too short")
+    run = st.start_run("rig1", command="detect", source="a.csv", feature="acf-p1",
+                       invocation="i4")
+    st.add_chunk(run, None, [AlarmRecord(9.8, detector="acf-p1")])
+    st.end_run(run)
+    assert st.fleet()["state"].tolist() == ["ALARM"]
+    r = invocation("i5", ("flow-balance", "inconclusive", "refused"))
+    assert r["state"] == "ALARM"  # only an OK started later clears it
+    st.close()
+
+
+def test_a_version_3_store_is_upgraded_to_4_without_a_new_column(tmp_path):
+    db = tmp_path / "e.db"
+    st = EventStore(db)
+    st.end_run(st.start_run("rig1", command="detect", source="a.csv", feature="fb"))
+    st.close()
+    con = sqlite3.connect(db)
+    con.execute("update schema_version set version = 3")
+    con.commit()
+    con.close()
+    st = EventStore(db, create=False)  # a reader leaves it at 3
+    assert st.version == 3 and st.fleet()["state"].tolist() == ["OK"]
+    st.close()
+    with pytest.warns(UserWarning, match=r"from schema version 3 to 4 \(the run status "
+                                         r"'inconclusive' added\); leakdiag versions before"):
+        st = EventStore(db)
+    st.close()
+    assert sqlite3.connect(db).execute("select version from schema_version").fetchall() == \
+        [(4,)]

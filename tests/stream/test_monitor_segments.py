@@ -377,14 +377,22 @@ def test_a_stream_whose_only_alarm_is_refused_reads_inconclusive_not_unjudged(
                      dict(rec.units), {"load": "none", "system": "vca"})
     path = write_recording(part, tmp_path / "first30.parquet")
     events = tmp_path / "ev.jsonl"
+    db = tmp_path / "e.db"
     code, out, err = run_cli(["monitor", str(path), "--detector", str(det.path_),
-                              "--segment", "30", "--events", str(events)])
+                              "--segment", "30", "--events", str(events), "--store", str(db),
+                              "--actuator", "unit31"])
     assert code == 0, err
     (e,) = [json.loads(ln) for ln in events.read_text().splitlines()]
     assert e["decision"] == "INCONCLUSIVE" and "too few to confirm a leak" in e["reason"]
     assert "INCONCLUSIVE 0-30 s: " in out + err
     assert "1 segment(s) of up to 30 s judged by flow-balance: 0 LEAK, 0 NO LEAK, " \
            "1 INCONCLUSIVE, 0 not judged" in out + err
+    from leakdiag.store import EventStore
+
+    st = EventStore(db, create=False)  # stored as detect stores it (schema version 4)
+    assert st.fleet()["state"].tolist() == ["INCONCLUSIVE"]
+    assert st.runs_of("unit31")["status"].tolist() == ["inconclusive"]
+    st.close()
 
 
 def test_a_segment_too_short_for_any_judgement_is_refused_up_front(setup, run_cli):
@@ -420,3 +428,35 @@ def test_monitor_refuses_a_detectors_own_healthy_file(setup, run_cli):
                 "bytes): judged against a threshold it set itself") in err
         code, out, err = run_cli(["monitor", str(path), "--detector", str(det), "--quiet"])
         assert code == 0, err
+
+
+def test_stored_segments_are_judged_on_the_fleet_page_as_detect_runs(setup, run_cli, tmp_path):
+    """A review (2026-11-29): a NO LEAK segment of ``monitor --segment --store`` was shown NOT
+    JUDGED on the fleet page ("no window was scored: every window lay in the detector's
+    burn-in": its run has no chunks, as a streamed monitor's that scored nothing), and a
+    segment the detector could not judge NO DETECTOR (it has no threshold)."""
+    from leakdiag.store import EventStore
+
+    d, det_path, _, rec = setup
+    part = Recording({c: rec[c][:60000] for c in ("p1", "p2", "x", "u")}, 1000.0, 0.0,
+                     dict(rec.units), {"load": "spring", "system": "vca"})
+    path = write_recording(part, tmp_path / "first60.parquet")
+    db = tmp_path / "e.db"
+    code, out, err = run_cli(["monitor", str(path), "--detector", str(det_path), "--segment",
+                              "30", "--store", str(db), "--actuator", "u17", "--quiet"])
+    assert code == 0, err
+    st = EventStore(db, create=False)
+    assert st.runs_of("u17")["status"].tolist() == ["finished", "finished"]
+    assert st.fleet()[["state", "error"]].values.tolist() == [["OK", None]]
+    st.close()
+    # 10 s: too short to judge (NOT JUDGED, exit 2), stored with its reason
+    short = Recording({c: rec[c][:10000] for c in ("p1", "p2", "x", "u")}, 1000.0, 0.0,
+                      dict(rec.units), {"load": "spring", "system": "vca"})
+    path = write_recording(short, tmp_path / "first10.parquet")
+    code, out, err = run_cli(["monitor", str(path), "--detector", str(det_path), "--segment",
+                              "30", "--store", str(db), "--actuator", "u17", "--quiet"])
+    assert code == 2 and "no segment could be judged" in err
+    st = EventStore(db, create=False)
+    (state, why), = st.fleet()[["state", "error"]].values.tolist()
+    assert state == "NOT JUDGED" and "too short to judge" in why
+    st.close()

@@ -511,6 +511,7 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
     """
     from leakdiag.detect.base import refuse_own_healthy
     from leakdiag.detect.decision import judge_run
+    from leakdiag.detect.flow_balance import RefusedAlarm
     from leakdiag.io import read_recording
     from leakdiag.io.errors import RecordingError
 
@@ -536,10 +537,13 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
         try:
             refuse_own_healthy(det, rec, "batch")
             j = judge_run(det, rec)  # a long run at the level that holds it to a segment's rate
-        except RecordingError as exc:  # nothing was judged: the detector says why
+        except RecordingError as exc:  # nothing was judged, or an alarm it refused
+            refused = isinstance(exc, RefusedAlarm)  # judged: inconclusive, as detect says
             rows.append({**row, "alarm": None, "decision": "inconclusive",
+                         "alarm_refused": refused,
                          "threshold": _level_judged_at(det, rec.n_samples, rec.sample_rate),
-                         "error": f"detector not judged: {exc}"})
+                         "error": f"{'alarm refused' if refused else 'detector not judged'}: "
+                                  f"{exc}"})
             continue
         v, d = j.verdict, j.verdict.as_dict()
         if j.run_level is not None:

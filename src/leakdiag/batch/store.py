@@ -47,6 +47,10 @@ RESULT_COLUMNS: dict[str, str] = {
     # is no evidence (an inconclusive decision with an alarm)
     "decision": "string", "false_alarms_expected": "float64", "run_level": "string",
     "why_inconclusive": "string",
+    # a whole-recording detector that alarmed and refused its own alarm (no lasting leak after
+    # it, a leak fitted into the null offset from the start): judged, inconclusive (``alarm``
+    # null, ``error`` says why); a row not judged leaves it null
+    "alarm_refused": "bool",
     # the p-value is the smallest the healthy reference resolves (the score above every
     # healthy maximum): the true one may be smaller ("at most")
     "p_value_floor": "bool",

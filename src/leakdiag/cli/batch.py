@@ -131,9 +131,11 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
     matched, _ = batch_inputs(list(inputs), out)
     mine = df[(df["job_digest"] == cfg.digest) & df["path"].isin(set(matched))]
     n_rows = len(mine)
-    # a detector row that judged nothing (alarm empty: too short, a stuck channel, ...)
+    # a detector row that judged nothing (alarm empty: too short, a stuck channel, ...); one
+    # whose detector alarmed and refused its alarm was judged, inconclusive (as detect says)
+    refused_alarm = mine["alarm_refused"].eq(True)  # read_results gives every column
     unjudged = mine[(mine["status"] == "ok") & (mine["kind"] == "detector")
-                    & mine["alarm"].isna()]
+                    & mine["alarm"].isna() & ~refused_alarm]
     click.echo(f"{s.n_inputs} recording(s): {s.n_run} run, {s.n_skipped} already done, "
                f"{s.n_errors} error(s) in this run; {n_rows} current row(s) for job {cfg.digest} "
                f"in {out}, {len(unjudged)} of them not judged")
@@ -183,14 +185,17 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
         click.echo(f"  not judged: {r['recording']}: {r['name']}: "
                    f"{str(r['error']).removeprefix('detector not judged: ')}", err=True)
     judged = mine[(mine["status"] == "ok") & (mine["kind"] == "detector")
-                  & mine["alarm"].notna()]
+                  & (mine["alarm"].notna() | refused_alarm)]
     if len(judged) and "decision" in judged:  # the decisions, as detect makes them
         count = judged["decision"].value_counts()
         click.echo("detector decisions: " + ", ".join(
             f"{int(count.get(d, 0))} {w}" for d, w in (("leak", "LEAK"), ("no-leak", "NO LEAK"),
                                                       ("inconclusive", "INCONCLUSIVE"))))
+        for _, r in judged[refused_alarm.loc[judged.index]].iterrows():
+            click.echo(f"  inconclusive: {r['recording']}: {r['name']}: "
+                       f"{str(r['error']).removeprefix('alarm refused: ')}", err=True)
         no_evidence = judged[judged["decision"].eq("inconclusive")
-                             & judged["alarm"].astype(bool)]
+                             & judged["alarm"].fillna(False).astype(bool)]
         for _, r in no_evidence.iterrows():  # an alarm that is no evidence: say why
             why = r.get("why_inconclusive")
             click.echo(f"  inconclusive: {r['recording']}: {r['name']}: alarm at "

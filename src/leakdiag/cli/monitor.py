@@ -307,7 +307,8 @@ def _store_segment(st, actuator: str, source: str, method: str, sv, system) -> N
 
     from leakdiag.store.writers import record_verdicts
 
-    row = {"method": method, "leak": None, "error": sv.reason}
+    # an alarm that is no evidence (refused, or expected by chance): stored inconclusive
+    row = {"method": method, "leak": None, "error": sv.reason, "alarm_refused": sv.inconclusive}
     if sv.verdict is not None:
         d = sv.verdict.as_dict()
         row.update({k: d.get(k) for k in ("leak", "alarm_time_s", "score_max", "threshold",

@@ -321,7 +321,7 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                     f'<td>{html.escape(str(r["feature"]))}</td>{note}</tr>')
             head = ("<tr><th>Actuator</th><th>State</th><th>Last alarm (UTC)</th><th>Onset</th>"
                     "<th>Leak estimate</th><th>Last seen (UTC)</th><th>Feature</th>"
-                    "<th>Why not judged</th></tr>")
+                    "<th>Why not judged / inconclusive</th></tr>")
             parts.append(f'<h2>Event store</h2><table id="fleet">{head}{"".join(rows)}</table>'
                          f'<p class="note">{len(rows)} actuator(s); refreshed every 10 s.</p>')
         return HTMLResponse(_page("leakdiag fleet", "".join(parts), [], tq, refresh=10))

@@ -694,7 +694,8 @@ class EventStore:
         return rid
 
     def end_run(self, run_id: int, status: str = "finished", error: str | None = None) -> None:
-        """Mark a run as ended (``finished``, ``failed``, ``unjudged`` or ``stopped``).
+        """Mark a run as ended (``finished``, ``failed``, ``unjudged``, ``inconclusive`` or
+        ``stopped``).
 
         Parameters
         ----------
@@ -704,8 +705,8 @@ class EventStore:
             Final status; ``stopped``: the user stopped a monitor before the end of its input
             (Ctrl-C, SIGTERM), what it judged until then is stored.
         error : str, optional
-            Why the run failed or was not judged (the message the user saw), or what stopped
-            it ("stopped by SIGTERM after 1263 windows").
+            Why the run failed, was not judged or was inconclusive (the message the user
+            saw), or what stopped it ("stopped by SIGTERM after 1263 windows").
         """
         self._write(lambda c: c.execute(update(S.runs).where(S.runs.c.id == run_id)
                                         .values(ended_at=_now(), status=status, error=error)))
@@ -740,8 +741,11 @@ class EventStore:
         judged together. An invocation's *activity* is the latest of its runs' start, end, last
         chunk and last alarm (wall clock); its verdict is ``ALARM`` when a run of it has an
         alarm that was not cleared, ``NO DATA`` while its runs are running (or were stopped)
-        without a chunk or an alarm, ``FAILED`` when every run failed, ``NOT JUDGED`` when one
-        failed or was not judged, else ``OK`` (a monitor ``stopped`` by the user is judged by
+        without a chunk or an alarm, ``FAILED`` when every run failed, ``INCONCLUSIVE`` when
+        a run alarmed but its alarm is no evidence of a leak (``inconclusive``: the detector
+        refused it, or a run this long expects it by chance; ``detect`` and ``batch`` print
+        INCONCLUSIVE, ``monitor --segment`` such a segment), ``NOT JUDGED`` when one failed
+        or was not judged, else ``OK`` (a monitor ``stopped`` by the user is judged by
         what it stored, like a ``finished`` one). Runs that cannot judge take no part
         (:func:`_judgment`: a ``monitor`` without a detector, a ``batch`` analysis row): an
         invocation of such runs only is ``NO DETECTOR``, which gives the state only while the
@@ -776,8 +780,8 @@ class EventStore:
             ``last_alarm_at``, ``last_alarm_time_s``, ``onset_s``, ``leak_lpm``,
             ``leak_lpm_low``, ``leak_lpm_high``, ``feature``, ``source`` (of the alarm shown
             when the state is ``ALARM``, else of the latest run) and ``error`` (for ``FAILED``,
-            ``NOT JUDGED`` and ``NO DETECTOR``: the feature and reason of the first such run of
-            that invocation).
+            ``INCONCLUSIVE``, ``NOT JUDGED`` and ``NO DETECTOR``: the feature and reason of the
+            first such run of that invocation).
         """
         import pandas as pd
 
@@ -842,9 +846,10 @@ class EventStore:
                 pool = [x for i in invs for x in i["alarms"]]
             la, size_row = _shown_alarm(pool)
             why = None
-            if state in ("FAILED", "NOT JUDGED", "NO DETECTOR"):
-                bad = [r for r in current["runs"] if r["effective"] in ("failed", "unjudged",
-                                                                        "no detector")
+            if state in ("FAILED", "INCONCLUSIVE", "NOT JUDGED", "NO DETECTOR"):
+                kinds = ("inconclusive",) if state == "INCONCLUSIVE" else (
+                    "failed", "unjudged", "no detector")
+                bad = [r for r in current["runs"] if r["effective"] in kinds
                        and not _missing(r["why"])]
                 why = f"{bad[0]['feature']}: {bad[0]['why']}" if bad else None
             shown = None
@@ -1097,7 +1102,8 @@ def _judgment(run: dict, has_alarm: bool) -> dict:
 
     Returns ``effective``: the run's status, ``no detector`` for a run that could not judge
     (``monitor`` without a detector: ``config["detector"]`` false, or for runs stored before
-    that key no ``threshold``; a ``batch`` analysis row), ``unjudged`` for a monitor with a
+    that key no ``threshold``; a ``batch`` analysis row), ``unjudged`` for a streamed monitor
+    with a
     detector that ended (finished, or stopped after a chunk) without scoring a window,
     ``waiting`` for one still running in its burn-in; and ``why``: the stored error or the
     reason for these. A run with an alarm judged, whatever else it says; a failed run is
@@ -1113,6 +1119,10 @@ def _judgment(run: dict, has_alarm: bool) -> dict:
     ...            "config": None, "error": None, "scored": 0, "n_chunks": 2},
     ...           False)["effective"]
     'unjudged'
+    >>> _judgment({"command": "monitor", "status": "finished", "threshold": 4.1,
+    ...            "config": '{"method": "flow-balance"}', "error": None, "scored": 0},
+    ...           False)["effective"]  # a monitor --segment verdict
+    'finished'
     >>> _judgment({"command": "batch", "status": "finished", "threshold": None,
     ...            "config": '{"kind": "detector"}', "error": None, "scored": 1},
     ...           False)["effective"]
@@ -1122,7 +1132,12 @@ def _judgment(run: dict, has_alarm: bool) -> dict:
     if has_alarm or status == "failed":  # an alarm judged; a failure is shown whatever ran
         return {"effective": status, "why": why}
     cmd, cfg = run["command"], _config(run.get("config"))
-    if cmd == "monitor":
+    # a segment of monitor --segment is stored as detect stores a verdict (writers.
+    # record_verdicts: config {"method": ...}, no chunks, no window settings) and judged as
+    # one: a review (2026-11-29) found a NO LEAK segment shown NOT JUDGED, "no window was
+    # scored", and a segment that could not judge shown NO DETECTOR
+    segment = cmd == "monitor" and "method" in cfg and "window" not in cfg
+    if cmd == "monitor" and not segment:
         detector = bool(cfg["detector"]) if "detector" in cfg else \
             not _missing(run.get("threshold"))
         if not detector:
@@ -1156,6 +1171,8 @@ def _invocation(runs: list[dict], alarms: list[dict]) -> dict:
         verdict = "NO DATA"  # (a monitor stopped before its first window judged nothing)
     elif all(st == "failed" for st in status):
         verdict = "FAILED"  # nothing of it could be read or judged
+    elif any(st == "inconclusive" for st in status):
+        verdict = "INCONCLUSIVE"  # an alarm that is no evidence: neither an ALARM nor an OK
     elif any(st in ("failed", "unjudged") for st in status):
         verdict = "NOT JUDGED"  # no alarm, but a run of it was not judged: not an OK
     else:

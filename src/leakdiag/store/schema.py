@@ -17,17 +17,22 @@ __all__ = ["SCHEMA_VERSION", "UPGRADES", "UPGRADE_NOTES", "metadata", "schema_ve
 
 #: Version of the table layout below. 1: the first layout; 2: ``runs.error``, the reason a run
 #: failed or was not judged; 3: ``alarms.onset_censored``, the onset is the first window judged
-#: (the leak was there from the start, the onset is an upper bound). An older store is upgraded
-#: in place when a writer opens it (added columns, :data:`UPGRADES`); a store of any other
-#: version is refused.
-SCHEMA_VERSION = 3
+#: (the leak was there from the start, the onset is an upper bound); 4: the run status
+#: ``inconclusive`` (the detector alarmed, but the alarm is no evidence of a leak: refused by
+#: the detector or expected by chance in a run this long; stored ``unjudged`` before), no new
+#: column, but a leakdiag reading version 3 would show such a run OK. An older store is
+#: upgraded in place when a writer opens it (added columns, :data:`UPGRADES`); a store of any
+#: other version is refused.
+SCHEMA_VERSION = 4
 
 #: The statements that take a store from version ``v`` to ``v + 1``.
 UPGRADES = {1: ("ALTER TABLE runs ADD COLUMN error TEXT",),
-            2: ("ALTER TABLE alarms ADD COLUMN onset_censored BOOLEAN",)}
+            2: ("ALTER TABLE alarms ADD COLUMN onset_censored BOOLEAN",),
+            3: ()}
 
 #: What each upgrade adds, in words (the writer's warning).
-UPGRADE_NOTES = {1: "runs.error", 2: "alarms.onset_censored"}
+UPGRADE_NOTES = {1: "runs.error", 2: "alarms.onset_censored",
+                 3: "the run status 'inconclusive'"}
 
 metadata = MetaData()
 
@@ -63,7 +68,8 @@ runs = Table(
     Column("n_windows", Integer, nullable=False, default=0),
     Column("config", Text),
     Column("leakdiag_version", String(40)),
-    Column("error", Text),  # why a run failed or was not judged (schema version 2)
+    Column("error", Text),  # why a run failed, was not judged (schema version 2) or was
+    # inconclusive (4)
 )
 
 chunk_summaries = Table(

@@ -99,9 +99,10 @@ class FinishedRun:
     feature : str
         Feature, method or detector name.
     status : str, default "finished"
-        ``finished``, ``failed`` or ``unjudged``.
+        ``finished``, ``failed``, ``unjudged`` or ``inconclusive`` (it alarmed, but the alarm
+        is no evidence of a leak).
     error : str or None
-        Why it failed or was not judged.
+        Why it failed, was not judged or was inconclusive.
     sample_rate_hz, threshold : float or None
         Sample rate (Hz) and detector threshold.
     system : str or None

@@ -133,13 +133,17 @@ def _batch_run(r: dict, job_digest: str) -> FinishedRun:
     judged = r.get("kind") == "detector" and r.get("alarm") is not None \
         and r.get("alarm") == r.get("alarm")  # None / NaN: the detector was not judged
     why_not = None
-    if judged and bool(r.get("alarm")) and r.get("decision") == "inconclusive":
-        # an alarm batch reads as no evidence (a run this long expects it by chance): not
-        # judged, with why, as detect --store stores it; not an alarm
+    inconclusive = r.get("kind") == "detector" and _flag(r.get("alarm_refused")) is True
+    if inconclusive:  # it alarmed and refused its alarm: judged, no evidence
+        why_not = _text(r.get("error"))
+    elif judged and bool(r.get("alarm")) and r.get("decision") == "inconclusive":
+        # an alarm batch reads as no evidence (a run this long expects it by chance):
+        # inconclusive, with why, as detect --store stores it; not an alarm
         why = _text(r.get("why_inconclusive"))
-        judged, why_not = False, (f"{r.get('recording', r['path'])}: {feature} alarmed at "
-                                  f"{_num(r.get('alarm_time_s'))} s, but "
-                                  + (why or "a run this long expects such an alarm by chance"))
+        judged, inconclusive, why_not = False, True, (
+            f"{r.get('recording', r['path'])}: {feature} alarmed at "
+            f"{_num(r.get('alarm_time_s'))} s, but "
+            + (why or "a run this long expects such an alarm by chance"))
     summ = None
     if n_win:
         summ = ChunkSummary(0.0, _num(r.get("duration_s")) or 0.0, n_win,
@@ -154,9 +158,11 @@ def _batch_run(r: dict, job_digest: str) -> FinishedRun:
             _num(r.get("alarm_onset_s")), _num(r.get("leak_lpm")),
             _num(r.get("leak_lpm_low")), _num(r.get("leak_lpm_high")), detector=feature,
             onset_censored=_flag(r.get("alarm_onset_censored"))),)
-    unjudged = r.get("kind") == "detector" and not judged
-    return FinishedRun(**common, status="unjudged" if unjudged else "finished",
-                       error=(why_not or _text(r.get("error"))) if unjudged else None,
+    unjudged = r.get("kind") == "detector" and not judged and not inconclusive
+    return FinishedRun(**common, status="inconclusive" if inconclusive else
+                       "unjudged" if unjudged else "finished",
+                       error=(why_not or _text(r.get("error")))
+                       if unjudged or inconclusive else None,
                        summary=summ, alarms=alarms)
 
 
@@ -170,7 +176,9 @@ def record_batch(store: EventStore, results, job_digest: str,
     recording (``t_start_s`` 0, ``t_end_s`` its duration, the row's value statistics); detector
     rows also carry the score maximum, and an alarm at ``alarm_time_s`` when one was raised.
     Error rows become a run with status ``failed``, a detector row that was not judged (no
-    alarm value: too short for the burn-in) one with status ``unjudged``.
+    alarm value: too short for the burn-in) one with status ``unjudged``, one whose alarm is no
+    evidence (refused by the detector, ``alarm_refused``, or expected by chance in a run this
+    long) one with status ``inconclusive``.
 
     Each actuator's rows are written in one transaction
     (:meth:`~leakdiag.store.database.EventStore.add_finished_runs`): each run with its summary,
@@ -277,8 +285,11 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table,
 
     A method that could not judge the file (its row has an ``error``, or no verdict) is stored
     ``unjudged`` with the reason, as ``batch`` stores such a row: the fleet page shows
-    ``NOT JUDGED``. (``detect`` reads the file before it stores anything, so a failure to read
-    it never reaches the store.)
+    ``NOT JUDGED``. A method whose alarm is no evidence of a leak (it refused the alarm,
+    ``alarm_refused``, or the run expects it by chance: ``decision`` inconclusive) is stored
+    ``inconclusive`` with why, without an alarm: the fleet page shows ``INCONCLUSIVE``.
+    (``detect`` reads the file before it stores anything, so a failure to read it never
+    reaches the store.)
 
     Every method's run goes in with its alarm and its end in one transaction
     (:meth:`~leakdiag.store.database.EventStore.add_finished_runs`): an interruption stores all
@@ -313,21 +324,24 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table,
     for r in table.to_dict("records"):
         err = r.get("error")
         failed = isinstance(err, str) and bool(err)
-        if not failed and (_flag(r.get("leak")) is None or
+        inconclusive = _flag(r.get("alarm_refused")) is True  # it alarmed and refused it
+        if not failed and not inconclusive and (_flag(r.get("leak")) is None or
                            ("score_max" in r and _num(r["score_max"]) is None)):
             # no verdict, or no window scored (detect stops with "no finite score"): say so
             failed, err = True, (f"{file}: {r['method']} scored no window (no finite score: "
                                  "every feature value undefined, a constant channel?)")
         if not failed and bool(r.get("leak")) and r.get("decision") == "inconclusive":
-            # an alarm detect reads as no evidence (a run this long expects it by chance): not
-            # judged, with why, as monitor --segment stores such a segment; not an alarm
+            # an alarm detect reads as no evidence (a run this long expects it by chance):
+            # inconclusive, with why, as monitor --segment stores such a segment; not an alarm
             why = r.get("why_inconclusive")
-            failed, err = True, (f"{file}: {r['method']} alarmed at "
-                                 f"{_num(r.get('alarm_time_s'))} s, but " + (
-                                     why if isinstance(why, str) and why else
-                                     "a run this long expects such an alarm by chance"))
+            inconclusive, err = True, (f"{file}: {r['method']} alarmed at "
+                                       f"{_num(r.get('alarm_time_s'))} s, but " + (
+                                           why if isinstance(why, str) and why else
+                                           "a run this long expects such an alarm by chance"))
+        failed = failed and not inconclusive
         alarms = ()
-        if not failed and bool(r.get("leak")) and _num(r.get("alarm_time_s")) is not None:
+        if not failed and not inconclusive and bool(r.get("leak")) and \
+                _num(r.get("alarm_time_s")) is not None:
             alarms = (AlarmRecord(
                 _num(r["alarm_time_s"]), _num(r.get("score_max")), _num(r.get("threshold")),
                 _num(r.get("onset_s")), _num(r.get("leak_lpm")), _num(r.get("leak_lpm_low")),
@@ -335,8 +349,9 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table,
                 onset_censored=_flag(r.get("onset_censored"))),)
         # a method that could not judge the file (it was read: detect stops before storing
         # otherwise) is not judged, as batch stores the same row: NOT JUDGED, not FAILED
-        runs.append(FinishedRun(command, str(file), str(r["method"]),
-                                "unjudged" if failed else "finished", err if failed else None,
+        status = "inconclusive" if inconclusive else "unjudged" if failed else "finished"
+        runs.append(FinishedRun(command, str(file), str(r["method"]), status,
+                                err if failed or inconclusive else None,
                                 threshold=_num(r.get("threshold")), system=system,
                                 config={"method": r["method"]}, alarms=alarms))
     store.add_finished_runs(actuator, runs)  # one transaction: no run left 'running'
