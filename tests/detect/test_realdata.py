@@ -124,3 +124,28 @@ def test_what_leakdiag_reports(table):
     seal = table[table.condition == "seal defect"]
     healthy = table[table.condition == "healthy"]
     assert seal.score_max.max() < healthy.score_max.max()
+
+
+def test_the_command_line_gives_the_tables_row(shared_dir, run_cli, tmp_path):
+    """docs/realdata.md's commands (fit on the other units' P1-high healthy files, detect Act_4
+    file 10) give the table's row: score 2.53 against 6.66, NO LEAK at 0.2 per file."""
+    data = shared_dir / "realdata" / "rotary-actuators" / "Data"
+    healthy = [next((data / u).glob(f"Base_000_{i}_*.txt"))
+               for u, i in (("Act_1", 11), ("Act_1", 61), ("Act_2", 30), ("Act_5", 30))]
+    det = tmp_path / "p1high.joblib"
+    common = ["--map", str(MAP)]
+    code, out, err = run_cli(["fit", *[a for h in healthy for a in ("--healthy", str(h))],
+                              "-m", "acf-p1", "--system", "vca", *common, "--burn-in", "0",
+                              "--false-alarm-rate", "200", "--no-progress", "-o", str(det)])
+    assert code == 2 and "needs at least 5 maxima" in err
+    code, out, err = run_cli(["fit", *[a for h in healthy for a in ("--healthy", str(h))],
+                              "-m", "acf-p1", "--system", "vca", *common, "--burn-in", "0",
+                              "--false-alarm-rate", "240", "--no-progress", "-o", str(det)])
+    assert code == 0, err
+    suspect = next((data / "Act_4 (Seal Defect)").glob("Leak_000_10_*.txt"))
+    code, out, err = run_cli(["detect", str(suspect), "--detector", str(det), *common])
+    assert code == 0, err
+    assert "acf-p1 False" in out and "2.532205  6.664946" in out
+    assert "Decision: NO LEAK -- no method alarmed; false-alarm rate for this run at most 0.2" \
+        in out
+    assert "states no rig in its metadata" in err
