@@ -477,14 +477,15 @@ def test_detect_reads_the_unheld_long_run_inconclusive(acf_no_load, tmp_path, ru
     assert code == 0, err
     assert "Decision: INCONCLUSIVE -- alarm from acf-p1, but the run covers 3 healthy " \
         "segments" in out
-    # stored as not judged, with why, not as an alarm (the page would show a leak)
+    # stored as inconclusive (schema version 4; not judged before), with why, not as an alarm
+    # (the page would show a leak)
     from leakdiag.store import EventStore
 
     assert "0 alarm(s) for unit31 written to" in out
     st = EventStore(db)
     (run,) = st.runs_of("unit31").to_dict("records")
     st.close()
-    assert run["status"] == "unjudged" and "acf-p1 alarmed at" in run["error"]
+    assert run["status"] == "inconclusive" and "acf-p1 alarmed at" in run["error"]
     assert "the run covers 3 healthy segments" in run["error"]
 
 
@@ -649,7 +650,7 @@ def test_batch_rows_say_a_p_value_at_the_floor_and_why_an_alarm_is_no_evidence(a
     assert b["why_inconclusive"].startswith("the run covers 3 healthy segments")
 
 
-def test_batch_prints_its_decisions_and_stores_an_inconclusive_alarm_as_not_judged(
+def test_batch_prints_its_decisions_and_stores_an_inconclusive_alarm_as_inconclusive(
         acf_no_load, tmp_path, run_cli):
     """batch's console said nothing of the decisions (a CLI audit, 2026-11-28), and its store
     kept an alarm that batch reads INCONCLUSIVE as an alarm (the page would show a leak)."""
@@ -678,7 +679,7 @@ def test_batch_prints_its_decisions_and_stores_an_inconclusive_alarm_as_not_judg
     short, long_ = st.runs_of("short").iloc[0], st.runs_of("long").iloc[0]
     st.close()
     assert short["status"] == "finished"
-    assert long_["status"] == "unjudged" and "alarmed at" in long_["error"]
+    assert long_["status"] == "inconclusive" and "alarmed at" in long_["error"]
     assert "the run covers 3 healthy segments" in long_["error"]
     code, _, err = run_cli(["batch", str(tmp_path / "rec" / "**" / "*.parquet"), "-o",
                             str(tmp_path / "res2.parquet")])
