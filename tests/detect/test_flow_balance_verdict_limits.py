@@ -219,7 +219,7 @@ def test_a_leak_there_from_the_start_of_a_short_run_gets_no_size(spring):
     ``CENSORED_SIZE_MIN_WINDOWS`` windows after its onset window, as on the 40-s runs above."""
     from leakdiag.detect.flow_balance import CENSORED_SIZE_MIN_WINDOWS
 
-    assert CENSORED_SIZE_MIN_WINDOWS == 15
+    assert CENSORED_SIZE_MIN_WINDOWS == 25
     rec = _vca("spring", 7, 20.0, leak_lpm=0.05, onset=0.0)
     v = spring.predict(rec)
     assert v.leak and v.onset_censored

@@ -67,11 +67,15 @@ def test_each_segment_is_judged_as_detect_judges_that_part_of_the_file(setup, ru
     leak = lines[2]
     assert 69.0 <= leak["onset_s"] <= 71.0 and leak["alarm_time_s"] > 70.0
     # the onset lies in the segment's first judged windows (from 65 s, after the 5-s burn-in):
-    # "at or before", and the size band's condition (a leak that began later) is not met, as
-    # the verdict says; the size is still close
-    assert leak["onset_censored"] and "a step that began after the first windows judged" \
-        in leak["verdict"]
-    assert leak["leak_lpm"] == pytest.approx(rec.meta["leak_lpm_achieved"], rel=0.15)
+    # "at or before", so a leak perhaps there from the segment's start, sized only with
+    # CENSORED_SIZE_MIN_WINDOWS (25) windows after it; here about 19 (until session 23 the
+    # limit was 15 and this segment read 0.057 L/min (0.0508-0.0779) for 0.0499, a docs audit)
+    assert leak["onset_censored"] and leak["leak_lpm"] is None and leak["leak_lpm_low"] is None
+    assert "no size: the onset lies within the first 10 windows judged" in leak["verdict"]
+    # and the console line says why it gives no size (a docs audit, 2026-11-29: it printed the
+    # interval without its caveat)
+    assert "LEAK       60-90 s: alarm at 71.022 s, onset at or before 70.06 s; no size: the " \
+        "onset lies within the first 10 windows judged" in out
     assert lines[0]["detectable_lpm"] > 0 and lines[0]["p_value"] > 0.01
     assert "LEAK       60-90 s: alarm at " in out and "NO LEAK    0-30 s: score max" in out
     assert ("suspect.parquet: 100000 samples at 1000 Hz, 4 segment(s) of up to 30 s judged by "

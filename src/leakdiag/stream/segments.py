@@ -161,6 +161,8 @@ class SegmentVerdict:
             size = f", {v.leak_lpm:.3g} L/min"
             if v.leak_lpm_interval is not None:
                 size += f" ({v.leak_lpm_interval[0]:.3g}-{v.leak_lpm_interval[1]:.3g})"
+        elif isinstance(getattr(v, "leak_lpm_interval_holds", None), str):
+            size = f"; {v.leak_lpm_interval_holds}"  # why no size (a censored onset, ...)
         before = ("" if self.unconfirmed_alarm_s is None else
                   f"; the segment before alarmed at {self.unconfirmed_alarm_s:.6g} s (onset "
                   f"{self.unconfirmed_onset_s:.6g} s) with too little data after it to confirm "
