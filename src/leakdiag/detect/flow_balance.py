@@ -502,7 +502,8 @@ OFFSET_MIN_WINDOWS = 10
 #: 98.7-99.9 % beyond; of all sizes at or above 15 windows 94.7 % with 23 gross errors (size
 #: under 0.5x or over 2x the truth), at or above 25 98.8 % with none. 25 is where the per-bin
 #: coverage reaches the band's stated probability (>= 0.97). The cases share seeds (about 78
-#: references in effect), so the intervals are narrower than the evidence.
+#: references in effect), so the intervals are narrower than the evidence (perf/censored_size.py,
+#: rows in docs/flow_balance_study/censored_size/).
 CENSORED_SIZE_MIN_WINDOWS = 25
 
 
