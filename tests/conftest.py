@@ -5,8 +5,31 @@ from pathlib import Path
 
 import pytest
 
+import _skip_lines
+
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
+_WORKER_KEY = "leakdiag_skip_lines"
+
+
+def pytest_sessionfinish(session):
+    """In a pytest-xdist worker, hand this process's skip lines to the controlling process."""
+    out = getattr(session.config, "workeroutput", None)
+    if out is not None:
+        out[_WORKER_KEY] = list(_skip_lines.LINES)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    """pytest-xdist, in the controlling process: a worker's skip lines."""
+    for line in getattr(node, "workeroutput", {}).get(_WORKER_KEY, ()):
+        _skip_lines.add(line)
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Why a group of tests was skipped, one line each (no browser, no PostgreSQL)."""
+    for line in _skip_lines.LINES:
+        terminalreporter.write_line(line)
 
 
 @pytest.fixture(scope="session")

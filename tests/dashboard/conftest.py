@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+import _skip_lines
+
 CHROMIUM = os.environ.get("LEAKDIAG_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
 CHROMEDRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
 CHROME_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -26,10 +28,8 @@ def browser_missing() -> str | None:
     return None
 
 
-def pytest_terminal_summary(terminalreporter):
-    why = browser_missing()
-    if why:
-        terminalreporter.write_line(f"tests/dashboard: headless-browser tests skipped: {why}")
+if browser_missing():  # said once at the end of the run (tests/conftest.py)
+    _skip_lines.add(f"tests/dashboard: headless-browser tests skipped: {browser_missing()}")
 
 
 @pytest.fixture(scope="session")

@@ -12,7 +12,8 @@ HERE = Path(__file__).resolve().parent
 
 def test_no_browser_skips_with_one_visible_line(tmp_path):
     env = {**src_env(), "LEAKDIAG_CHROMIUM": str(tmp_path / "no-chromium")}
-    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:randomly",
+    # in two processes, as make test runs the suite: the workers' line reaches the end
+    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:randomly", "-n", "2",
                         "--basetemp", str(tmp_path / "bt"), str(HERE / "test_browser.py")],
                        cwd=HERE.parents[1], env=env, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stdout + r.stderr

@@ -17,6 +17,8 @@ import uuid
 
 import pytest
 
+import _skip_lines
+
 PG_ENV = "LEAKDIAG_TEST_PG_URL"
 _WHY: list[str] = []
 
@@ -36,12 +38,9 @@ def _as_user(cmd: list[str]) -> list[str]:
     return ["runuser", "-u", "postgres", "--", *cmd]
 
 
-def pytest_terminal_summary(terminalreporter):
-    if _WHY:
-        terminalreporter.write_line(f"tests/store: PostgreSQL tests skipped: {_WHY[0]}")
-
-
 def _skip(why: str):
+    if not _WHY:  # said once at the end of the run (tests/conftest.py)
+        _skip_lines.add(f"tests/store: PostgreSQL tests skipped: {why}")
     _WHY.append(why)
     pytest.skip(why)
 
