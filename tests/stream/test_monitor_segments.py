@@ -125,11 +125,12 @@ def test_store_holds_one_judged_run_per_segment(setup, run_cli):
         runs = st.runs_of("rig7").sort_values("id")
         fleet = st.fleet()
         st.close()
-    assert runs["command"].tolist() == ["monitor"] * 4
+    # the last 10 s, too short to judge (printed NOT JUDGED), is not stored after judged
+    # segments (session 23: as the newest run it would set the page's state)
+    assert runs["command"].tolist() == ["monitor"] * 3
     assert [s.rsplit(" [", 1)[1] for s in runs["source"]] == ["0-30 s]", "30-60 s]",
-                                                              "60-90 s]", "90-100 s]"]
-    assert runs["status"].tolist() == ["finished", "finished", "finished", "unjudged"]
-    assert "too short to judge" in runs["error"].iloc[3]
+                                                              "60-90 s]"]
+    assert runs["status"].tolist() == ["finished", "finished", "finished"]
     assert fleet.set_index("name").loc["rig7", "state"] == "ALARM"
 
 
@@ -139,8 +140,10 @@ def test_a_leak_found_earlier_continues_and_a_no_leak_says_from_when(setup, run_
     stated leak's start time."""
     d, det_path, path, _ = setup
     events = d / "ev20.jsonl"
+    db = d / "ev20.db"
     code, out, err = run_cli(["monitor", str(path), "--detector", str(det_path), "--segment",
-                              "20", "--events", str(events)])
+                              "20", "--events", str(events), "--store", str(db),
+                              "--actuator", "c20"])
     assert code == 0, err
     ev = [json.loads(ln) for ln in events.read_text().splitlines()]
     assert [e["decision"] for e in ev] == ["NO LEAK"] * 3 + ["LEAK", "LEAK"]
@@ -150,6 +153,15 @@ def test_a_leak_found_earlier_continues_and_a_no_leak_says_from_when(setup, run_
     assert f"LEAK       80-100 s: the leak continues (found with onset {first['onset_s']:.6g} s)" \
         in out
     assert ev[0]["detectable_from_s"] > 0 and "would have alarmed (probability about 0.9)" in out
+    # the store (and the fleet page) gives the continuing segment's alarm the leak's onset, as
+    # the console does (a consistency audit, 2026-11-29: "at or before" 20-55 s later)
+    from leakdiag.store import EventStore
+
+    st = EventStore(db, create=False)
+    row = st.fleet().set_index("name").loc["c20"]
+    assert row["state"] == "ALARM" and row["onset_s"] == first["onset_s"]
+    assert row["last_alarm_time_s"] == later["alarm_time_s"]
+    st.close()
 
 
 def test_a_segment_that_expects_a_false_alarm_is_refused_and_bad_input_keeps_the_summary(
@@ -396,6 +408,19 @@ def test_a_stream_whose_only_alarm_is_refused_reads_inconclusive_not_unjudged(
     st = EventStore(db, create=False)  # stored as detect stores it (schema version 4)
     assert st.fleet()["state"].tolist() == ["INCONCLUSIVE"]
     assert st.runs_of("unit31")["status"].tolist() == ["inconclusive"]
+    st.close()
+    # with 5 s more, the input's last segment is too short to judge: printed, not stored (a
+    # consistency audit, 2026-11-29: as the newest run it turned the page to NOT JUDGED)
+    longer = Recording({c: rec[c][:35000] for c in ("p1", "p2", "x", "u")}, 1000.0, 0.0,
+                       dict(rec.units), {"load": "none", "system": "vca"})
+    path = write_recording(longer, tmp_path / "first35.parquet")
+    code, out, err = run_cli(["monitor", str(path), "--detector", str(det.path_),
+                              "--segment", "30", "--store", str(db), "--actuator", "u35"])
+    assert code == 0, err
+    assert "INCONCLUSIVE 0-30 s: " in out + err and "NOT JUDGED 30-35 s: " in out + err
+    st = EventStore(db, create=False)
+    assert st.runs_of("u35")["status"].tolist() == ["inconclusive"]
+    assert st.fleet().set_index("name").loc["u35", "state"] == "INCONCLUSIVE"
     st.close()
 
 

@@ -327,7 +327,7 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                 note = row.get("error")
                 row["error"] = unusable + (f"; {note}" if note else "")
             if kind == "detector" and name in own:
-                row.update({"alarm": None, "decision": "inconclusive",
+                row.update({"alarm": None, "decision": None,
                             "error": f"detector not judged: {own[name]}"})
             elif scorer is not None:
                 s = np.concatenate([a[1] for a in acc]) if acc else np.empty(0)
@@ -538,9 +538,11 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
             refuse_own_healthy(det, rec, "batch")
             j = judge_run(det, rec)  # a long run at the level that holds it to a segment's rate
         except RecordingError as exc:  # nothing was judged, or an alarm it refused
-            refused = isinstance(exc, RefusedAlarm)  # judged: inconclusive, as detect says
-            rows.append({**row, "alarm": None, "decision": "inconclusive",
-                         "alarm_refused": refused,
+            # a refused alarm was judged: inconclusive, as detect says; not judged: no
+            # decision (as detect's table leaves it; until session 23 "inconclusive" too)
+            refused = isinstance(exc, RefusedAlarm)
+            rows.append({**row, "alarm": None, "decision": "inconclusive" if refused else None,
+                         "alarm_refused": True if refused else None,
                          "threshold": _level_judged_at(det, rec.n_samples, rec.sample_rate),
                          "error": f"{'alarm refused' if refused else 'detector not judged'}: "
                                   f"{exc}"})
@@ -652,7 +654,7 @@ def _verdict_columns(det, parts: list[FeatureSeries], t: np.ndarray, v: np.ndarr
 
     cols = {"threshold": float(det.threshold_)}
     if not parts:  # no window at all (run_case says why: _unusable)
-        return {**cols, "alarm": None, "decision": "inconclusive",
+        return {**cols, "alarm": None, "decision": None,
                 "error": _not_judged(det, 0, duration_s)}
     # as detect judges a file: a run longer than a healthy segment at the level that holds it
     # to one segment's rate (leakdiag.detect.decision.judge_run)
@@ -663,7 +665,7 @@ def _verdict_columns(det, parts: list[FeatureSeries], t: np.ndarray, v: np.ndarr
                   lambda level: det.predict_series(series, duration_s, start_time,
                                                    source=path, level=level))
     except RecordingError as exc:  # nothing was tested: the detector says why
-        return {**cols, "alarm": None, "decision": "inconclusive",
+        return {**cols, "alarm": None, "decision": None,
                 "threshold": _level_judged_at(det, int(round(duration_s * fs)), fs),
                 "error": f"detector not judged: {exc}"}
     verdict, expected = j.verdict, j.expected

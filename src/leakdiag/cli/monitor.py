@@ -181,8 +181,8 @@ def refuse_own_healthy_file(meta, input_path: str, follow: bool, detector_path) 
 
     Raises
     ------
-    click.UsageError
-        Naming both files.
+    ValueError
+        Naming both files (the command prints it as an error, exit code 2).
     """
     if meta is None or not getattr(meta, "healthy_sha256", ()) or input_path == "-" or follow:
         return
@@ -190,8 +190,8 @@ def refuse_own_healthy_file(meta, input_path: str, follow: bool, detector_path) 
     from leakdiag.stream.detector_file import own_healthy_reason
 
     why = own_healthy_reason(meta, content_hash(input_path), input_path, str(detector_path))
-    if why is not None:
-        raise click.UsageError(why)
+    if why is not None:  # an error of the input, as detect says it (not a usage error)
+        raise ValueError(why)
 
 
 def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=()):
@@ -314,6 +314,10 @@ def _store_segment(st, actuator: str, source: str, method: str, sv, system) -> N
         row.update({k: d.get(k) for k in ("leak", "alarm_time_s", "score_max", "threshold",
                                             "onset_s", "leak_lpm", "leak_lpm_low",
                                             "leak_lpm_high", "onset_censored")}, error=None)
+        if sv.continues_from_onset_s is not None:  # the leak found earlier continues: its
+            # onset, as the console says, not this segment's first windows (an audit,
+            # 2026-11-29: the fleet page showed "at or before 45.2 s" for a leak from 25.8 s)
+            row.update(onset_s=sv.continues_from_onset_s, onset_censored=None)
     tab = pd.DataFrame([row])
     tab.attrs["system"] = system
     record_verdicts(st, actuator, f"{source} [{sv.start_s:.6g}-{sv.end_s:.6g} s]", tab,
@@ -405,14 +409,20 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
 
     system = source.meta.get("system") or getattr(meta, "system", None)
 
-    def emit(verdicts):
+    def emit(verdicts, last=False):
         for sv in verdicts:
+            # the stream's last, shorter segment that could not be judged (too short: the
+            # input ended) after judged ones is not stored: as the newest run it set the
+            # fleet page's state to NOT JUDGED over the stream's INCONCLUSIVE, NO LEAK or
+            # LEAK (an audit, 2026-11-29); it is printed and in the events as before
+            tail = (last and sv.verdict is None and not sv.inconclusive
+                    and any(d.decision != "NOT JUDGED" for d in done))
             done.append(sv)
             say(sv.words())
             if out is not None:
                 out.write(sv.to_json() + "\n")
                 out.flush()
-            if st is not None:
+            if st is not None and not tail:
                 _store_segment(st, actuator, str(source.source), name, sv, system)
 
     stopped = failed = None
@@ -429,7 +439,7 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
                     failed = exc
                 stop.busy = True
                 last = judge.finish()
-                emit([] if last is None else [last])
+                emit([] if last is None else [last], last=True)
             finally:
                 if out is not None and out is not sys.stdout:
                     out.close()
