@@ -158,6 +158,16 @@ def test_a_refused_judgement_at_the_run_level_keeps_that_level_as_threshold(tmp_
     assert r.exit_code == 0, r.output
     assert "Decision: INCONCLUSIVE -- flow-balance alarmed but refused its alarm: predict: " \
            in r.output and "too few to confirm a leak that began there" in r.output
+    # beside a method that judged, the refused alarm is said under the decision line (a
+    # consistency audit, 2026-11-29: the line named only the other method)
+    acf = tmp_path / "acf.joblib"
+    assert main(["fit", *[a for f in files for a in ("--healthy", f)], "-m", "acf-p1",
+                 "--false-alarm-rate", "60", "--no-progress", "-o", str(acf)]) == 0
+    r = CliRunner().invoke(cli, ["detect", str(part), "--detector", str(path), "--detector",
+                                 str(acf)])
+    assert r.exit_code == 0, r.output
+    assert "\n  flow-balance alarmed but refused its alarm (no evidence of a leak): predict: " \
+        in r.output
     r = CliRunner().invoke(cli, ["batch", str(part), "--detector", str(path), "-o",
                                  str(tmp_path / "res"), "--scheduler", "serial",
                                  "--no-progress", "--store", str(db)])

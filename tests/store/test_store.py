@@ -437,10 +437,12 @@ def test_an_inconclusive_run_is_neither_ok_nor_alarm_nor_unjudged(tmp_path):
                                     feature=feature, invocation=inv), status, why)
         return st.fleet().iloc[0]
 
-    r = invocation("i1", ("acf-p1", "finished", None),
-                   ("flow-balance", "inconclusive", "alarmed but refused its alarm"))
+    r = invocation("i1", ("flow-balance", "inconclusive", "alarmed but refused its alarm"),
+                   ("acf-p1", "finished", None))
     assert (r["state"], r["error"]) == ("INCONCLUSIVE",
                                         "flow-balance: alarmed but refused its alarm")
+    # the run beside the state is the one that set it, not the invocation's latest run
+    assert (r["run"], r["feature"]) == ("detect inconclusive", "flow-balance")
     r = invocation("i2", ("ekf", "unjudged", "too short"),
                    ("flow-balance", "inconclusive", "refused"))
     assert (r["state"], r["error"]) == ("INCONCLUSIVE", "flow-balance: refused")

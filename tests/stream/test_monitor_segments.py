@@ -420,7 +420,9 @@ def test_a_stream_whose_only_alarm_is_refused_reads_inconclusive_not_unjudged(
     assert "INCONCLUSIVE 0-30 s: " in out + err and "NOT JUDGED 30-35 s: " in out + err
     st = EventStore(db, create=False)
     assert st.runs_of("u35")["status"].tolist() == ["inconclusive"]
-    assert st.fleet().set_index("name").loc["u35", "state"] == "INCONCLUSIVE"
+    row = st.fleet().set_index("name").loc["u35"]
+    # no "0 windows": a segment's windows are not stored (an audit, 2026-11-29)
+    assert (row["state"], row["run"]) == ("INCONCLUSIVE", "monitor inconclusive")
     st.close()
 
 

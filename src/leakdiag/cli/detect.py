@@ -691,6 +691,10 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     dec, why = overall_verdict(tab, tab.attrs["duration_s"])
     words = {"leak": "LEAK", "no-leak": "NO LEAK", "inconclusive": "INCONCLUSIVE"}
     click.echo(f"Decision: {words[dec]} -- {why}.")
+    for r in refusals.to_dict("records"):  # beside methods that judged: said, not dropped (a
+        # consistency audit, 2026-11-29: the decision line named only the other methods)
+        click.echo(f"  {r['method']} alarmed but refused its alarm (no evidence of a leak): "
+                   f"{r['error']}")
     if dec != "leak":
         for line in sensitivity_lines(tab):
             click.echo(f"  {line}")

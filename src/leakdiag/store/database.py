@@ -845,7 +845,7 @@ class EventStore:
             else:
                 pool = [x for i in invs for x in i["alarms"]]
             la, size_row = _shown_alarm(pool)
-            why = None
+            why, bad = None, []
             if state in ("FAILED", "INCONCLUSIVE", "NOT JUDGED", "NO DETECTOR"):
                 kinds = ("inconclusive",) if state == "INCONCLUSIVE" else (
                     "failed", "unjudged", "no detector")
@@ -855,6 +855,9 @@ class EventStore:
             shown = None
             if state == "ALARM" and la is not None:
                 shown = next(r for i in standing for r in i["runs"] if r["id"] == la["run_id"])
+            elif bad:  # the run that set the state, whose reason is shown (an audit,
+                # 2026-11-29: "detect finished" beside INCONCLUSIVE, the latest of its runs)
+                shown = bad[0]
             elif current is not None:
                 shown = max(current["runs"], key=lambda r: (r["at"], r["id"]))
 
@@ -1059,6 +1062,21 @@ def _config(text) -> dict:
 SILENT_S = 60.0
 
 
+def _is_segment(cmd: str, cfg: dict) -> bool:
+    """Whether a stored run is a segment of ``monitor --segment``: stored as ``detect`` stores
+    a verdict (:func:`leakdiag.store.writers.record_verdicts`: config ``{"method": ...}``, no
+    chunks, no window settings), not a streamed monitor's run.
+
+    Examples
+    --------
+    >>> _is_segment("monitor", {"method": "flow-balance"})
+    True
+    >>> _is_segment("monitor", {"method": "autocorrelation", "window": 200, "detector": True})
+    False
+    """
+    return cmd == "monitor" and "method" in cfg and "window" not in cfg
+
+
 def _run_words(run: dict, now) -> str:
     """How the run that gave an actuator's state stands, in words (:meth:`EventStore.fleet`).
 
@@ -1080,8 +1098,8 @@ def _run_words(run: dict, now) -> str:
     cmd, status = str(run["command"]), str(run["status"])
     n = run.get("n_windows")
     n = None if _missing(n) else int(n)
-    if cmd != "monitor":
-        return f"{cmd} {status}"
+    if cmd != "monitor" or _is_segment(cmd, _config(run.get("config"))):
+        return f"{cmd} {status}"  # (a segment's windows are not stored: no "0 windows")
     if status == "running":
         at, start = run.get("data_at", run.get("at")), run.get("start")
         chunks = int(run.get("n_chunks") or 0)
@@ -1136,8 +1154,7 @@ def _judgment(run: dict, has_alarm: bool) -> dict:
     # record_verdicts: config {"method": ...}, no chunks, no window settings) and judged as
     # one: a review (2026-11-29) found a NO LEAK segment shown NOT JUDGED, "no window was
     # scored", and a segment that could not judge shown NO DETECTOR
-    segment = cmd == "monitor" and "method" in cfg and "window" not in cfg
-    if cmd == "monitor" and not segment:
+    if cmd == "monitor" and not _is_segment(cmd, cfg):
         detector = bool(cfg["detector"]) if "detector" in cfg else \
             not _missing(run.get("threshold"))
         if not detector:
