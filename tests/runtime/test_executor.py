@@ -2,6 +2,7 @@
 case stops the run, or becomes its result through on_error (the batch runner's setting)."""
 
 import math
+import os
 
 import pytest
 
@@ -86,11 +87,13 @@ def test_a_cluster_without_workers_is_refused_before_it_starts(monkeypatch, n, e
         assert str(info.value) == message
 
 
-def test_our_local_workers_are_quietened_before_the_cluster_closes(capfd):
+def test_our_local_workers_are_quietened_before_the_cluster_closes(capfd, monkeypatch,
+                                                                   tmp_path):
     """A docs audit (2026-11-29): at load 3, one in three ``batch`` runs printed a worker's
     "Failed to communicate with scheduler during heartbeat" traceback after its results. Once
     the cases are done, our own workers' ``distributed`` loggers go to CRITICAL
-    (``_quiet_shutdown``, run on each worker); the run itself prints nothing from Dask."""
+    (``_quiet_shutdown``, run on each of the 2 workers: checked by a stand-in that leaves one
+    file per worker process); the run itself prints nothing from Dask."""
     import logging
 
     import leakdiag.runtime.executor as ex
@@ -102,7 +105,18 @@ def test_our_local_workers_are_quietened_before_the_cluster_closes(capfd):
         assert logger.level == logging.CRITICAL
     finally:
         logger.setLevel(before)
+    marks = tmp_path / "marks"
+    marks.mkdir()
+
+    def mark():  # pickled by value: runs in the worker processes
+        import os
+
+        (marks / str(os.getpid())).touch()
+
+    monkeypatch.setattr(ex, "_quiet_shutdown", mark)
     out = run_cases(square_plus_seed, CONFIGS, scheduler="local", n_workers=2, progress=False)
     assert [c.result for c in out] == [square_plus_seed(c) for c in CONFIGS]
+    pids = {int(p.name) for p in marks.iterdir()}
+    assert len(pids) == 2 and os.getpid() not in pids
     err = capfd.readouterr().err
     assert "Traceback" not in err and "distributed.worker - ERROR" not in err

@@ -92,6 +92,7 @@ def test_a_segment_too_short_to_judge_says_why(setup):
     assert first.decision == "NO LEAK" and (first.start_s, first.end_s) == (0.0, 30.0)
     last = judge.finish()
     assert last.decision == "NOT JUDGED" and (last.start_s, last.end_s) == (30.0, 31.0)
+    assert last.too_short and not first.too_short  # TooShortToJudge, by type not by words
     assert last.reason.startswith("predict: s.parquet [30-31 s]: too short to judge")
     assert judge.finish() is None and judge.n_samples_seen == 31000
 

@@ -416,9 +416,7 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
             # fleet page's state to NOT JUDGED over the stream's INCONCLUSIVE, NO LEAK or
             # LEAK (an audit, 2026-11-29); it is printed and in the events as before
             # (another reason, a stuck channel in the tail, is stored)
-            tail = (last and sv.verdict is None and not sv.inconclusive
-                    and "too short to judge" in (sv.reason or "")
-                    and any(d.decision != "NOT JUDGED" for d in done))
+            tail = last and sv.too_short and any(d.decision != "NOT JUDGED" for d in done)
             done.append(sv)
             say(sv.words())
             if out is not None:

@@ -66,7 +66,14 @@ from leakdiag.io.checks import same_rate
 from leakdiag.io.errors import RecordingError
 from leakdiag.io.recording import load_name
 
-__all__ = ["Alarm", "Verdict", "Detector"]
+__all__ = ["Alarm", "Verdict", "Detector", "TooShortToJudge"]
+
+
+class TooShortToJudge(RecordingError):
+    """A recording too short for the detector to judge: no complete window after its burn-in
+    (feature detectors), or fewer windows than its test needs (the flow balance). What a
+    stream's last, shorter segment usually is (``monitor --segment`` leaves such a segment out
+    of the store after judged ones, :class:`leakdiag.stream.segments.SegmentVerdict`)."""
 
 
 @dataclass(frozen=True)
@@ -799,11 +806,13 @@ class Detector(BaseEstimator):
         (default ``threshold_``)."""
         a = self._alarm()
         if not np.isfinite(tr.z).any():
-            why = (f"too short to judge: {duration_s:.4g} s leaves no complete window "
-                   f"of the feature after the {a.burn_in_s:g}-s burn-in" if len(tr.z) == 0 else
-                   f"no finite feature value in the {len(tr.z)} window(s) after the "
-                   f"{a.burn_in_s:g}-s burn-in (zero variance: constant channel?)")
-            raise RecordingError(f"predict: {source}: {why}")
+            if len(tr.z) == 0:
+                raise TooShortToJudge(
+                    f"predict: {source}: too short to judge: {duration_s:.4g} s leaves no "
+                    f"complete window of the feature after the {a.burn_in_s:g}-s burn-in")
+            raise RecordingError(
+                f"predict: {source}: no finite feature value in the {len(tr.z)} window(s) "
+                f"after the {a.burn_in_s:g}-s burn-in (zero variance: constant channel?)")
         h = self.threshold_ if level is None else level
         stat = np.maximum(tr.s_up, tr.s_down)
         smax = float(stat.max()) if len(stat) else 0.0

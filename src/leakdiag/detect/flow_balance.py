@@ -43,7 +43,8 @@ from leakdiag.detect._flow_balance_search import (
     step_information,
 )
 from leakdiag.detect._rig_units import check_flow_scale, check_rig_units
-from leakdiag.detect.base import Detector, Verdict, check_healthy, fingerprint, healthy_info
+from leakdiag.detect.base import (Detector, TooShortToJudge, Verdict, check_healthy, fingerprint,
+                                  healthy_info)
 from leakdiag.detect.threshold import (
     InsufficientHealthyDataError,
     ReferenceMaxima,
@@ -1450,7 +1451,7 @@ class FlowBalanceDetector(Detector):
         n_win = self._monitored_windows(rec)
         if n_win < self._MIN_HISTORY:  # the GLR tests from its _MIN_HISTORY-th window on
             source = rec.meta.get("source", "<recording>")
-            raise RecordingError(
+            raise TooShortToJudge(
                 f"{where}: {source}: too short to judge: {self._too_short(rec, n_win)}")
         self._check_constant(rec, where)
         self._check_operation(rec, where)

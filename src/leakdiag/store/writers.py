@@ -116,6 +116,20 @@ class BatchWrite:
     refused: tuple = ()
 
 
+def _no_evidence(source, method: str, r: dict) -> str:
+    """Why a run's alarm is stored as no evidence (``inconclusive``): its row's
+    ``why_inconclusive``, or that a run this long expects such an alarm by chance.
+
+    Examples
+    --------
+    >>> _no_evidence("a.csv", "acf-p1", {"alarm_time_s": 12.5, "why_inconclusive": None})
+    'a.csv: acf-p1 alarmed at 12.5 s, but a run this long expects such an alarm by chance'
+    """
+    why = _text(r.get("why_inconclusive"))
+    return (f"{source}: {method} alarmed at {_num(r.get('alarm_time_s'))} s, but "
+            + (why or "a run this long expects such an alarm by chance"))
+
+
 def _batch_run(r: dict, job_digest: str) -> FinishedRun:
     """One batch result row as a stored run: its summary, its alarm, its end."""
     feature = str(r["name"]) if r.get("name") is not None and r["name"] == r["name"] \
@@ -139,11 +153,8 @@ def _batch_run(r: dict, job_digest: str) -> FinishedRun:
     elif judged and bool(r.get("alarm")) and r.get("decision") == "inconclusive":
         # an alarm batch reads as no evidence (a run this long expects it by chance):
         # inconclusive, with why, as detect --store stores it; not an alarm
-        why = _text(r.get("why_inconclusive"))
-        judged, inconclusive, why_not = False, True, (
-            f"{r.get('recording', r['path'])}: {feature} alarmed at "
-            f"{_num(r.get('alarm_time_s'))} s, but "
-            + (why or "a run this long expects such an alarm by chance"))
+        judged, inconclusive = False, True
+        why_not = _no_evidence(r.get("recording", r["path"]), feature, r)
     summ = None
     if n_win:
         summ = ChunkSummary(0.0, _num(r.get("duration_s")) or 0.0, n_win,
@@ -323,22 +334,18 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table,
     runs = []
     for r in table.to_dict("records"):
         err = r.get("error")
-        failed = isinstance(err, str) and bool(err)
         inconclusive = _flag(r.get("alarm_refused")) is True  # it alarmed and refused it
+        failed = isinstance(err, str) and bool(err) and not inconclusive
         if not failed and not inconclusive and (_flag(r.get("leak")) is None or
-                           ("score_max" in r and _num(r["score_max"]) is None)):
+                                                ("score_max" in r and
+                                                 _num(r["score_max"]) is None)):
             # no verdict, or no window scored (detect stops with "no finite score"): say so
             failed, err = True, (f"{file}: {r['method']} scored no window (no finite score: "
                                  "every feature value undefined, a constant channel?)")
         if not failed and bool(r.get("leak")) and r.get("decision") == "inconclusive":
             # an alarm detect reads as no evidence (a run this long expects it by chance):
             # inconclusive, with why, as monitor --segment stores such a segment; not an alarm
-            why = r.get("why_inconclusive")
-            inconclusive, err = True, (f"{file}: {r['method']} alarmed at "
-                                       f"{_num(r.get('alarm_time_s'))} s, but " + (
-                                           why if isinstance(why, str) and why else
-                                           "a run this long expects such an alarm by chance"))
-        failed = failed and not inconclusive
+            inconclusive, err = True, _no_evidence(file, r["method"], r)
         alarms = ()
         if not failed and not inconclusive and bool(r.get("leak")) and \
                 _num(r.get("alarm_time_s")) is not None:

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from leakdiag.detect.base import TooShortToJudge
 from leakdiag.detect.decision import judge_run
 from leakdiag.detect.flow_balance import AlarmAtStart, AlarmNotConfirmed, RefusedAlarm
 from leakdiag.io.errors import RecordingError
@@ -78,6 +79,9 @@ class SegmentVerdict:
         (:func:`leakdiag.detect.decision.judge_run`). ``leakdiag detect`` and ``batch`` read
         such a file INCONCLUSIVE, and so does this segment (a review, 2026-11-29: it read NOT
         JUDGED, and a stream of such segments ended with "no segment could be judged").
+    too_short : bool, default False
+        Not judged because the segment is too short for the detector
+        (:class:`~leakdiag.detect.base.TooShortToJudge`): usually the input's last segment.
     continues_from_onset_s : float or None
         For a LEAK segment right after a LEAK segment: the onset found when the leak was first
         found (also on an INCONCLUSIVE segment there whose alarm the detector refused as at its
@@ -98,6 +102,7 @@ class SegmentVerdict:
     verdict: Any = None
     reason: str | None = None
     inconclusive: bool = False
+    too_short: bool = False
     continues_from_onset_s: float | None = None
     unconfirmed_alarm_s: float | None = None
     unconfirmed_onset_s: float | None = None
@@ -285,7 +290,8 @@ class SegmentJudge:
                     f"present from a segment's start cannot be judged on that segment alone: "
                     f"{exc}"), inconclusive=True, continues_from_onset_s=prior)
             return SegmentVerdict(start, end, reason=str(exc),
-                                  inconclusive=isinstance(exc, RefusedAlarm))
+                                  inconclusive=isinstance(exc, RefusedAlarm),
+                                  too_short=isinstance(exc, TooShortToJudge))
         unconfirmed, self._unconfirmed = self._unconfirmed, None
         v = j.verdict
         if j.decision == "inconclusive":  # an alarm the segment's length makes no evidence
