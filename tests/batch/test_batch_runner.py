@@ -76,10 +76,23 @@ def test_config_sweep_and_digest(tmp_path):
      "^\\[\\[analysis\\]\\] #1: unknown method 'autocorr'; known: .* \\(aliases: acf, ccf"),
     ({"detector": [{"path": "/no/such.pkl"}]}, "\\[\\[detector\\]\\] #1: cannot read"),
     ({"jobs": {}}, "unknown table\\(s\\) \\['jobs'\\]"),
+    # a CLI audit, 2026-11-29: these were taken without a word
+    ({"detector": [{"path": "/no/such.pkl", "nmae": "x", "false_alarm_rate": 0.001}]},
+     "^\\[\\[detector\\]\\] #1: unknown key\\(s\\) \\['false_alarm_rate', 'nmae'\\]; "
+     "allowed: \\['name', 'path'\\]"),
+    *[({"job": {"onset_s": v}, "analysis": [{"method": "autocorrelation"}]},
+       f"^\\[job\\] onset_s = {w}: must be a finite number of seconds >= 0")
+      for v, w in ((float("nan"), "nan"), (float("inf"), "inf"), (-1.0, "-1.0"),
+                   (True, "True"), ("30", "'30'"))],
 ])
 def test_config_errors(d, msg):
     with pytest.raises(ValueError, match=msg):
         config_from_dict(d)
+
+
+def test_config_onset_is_a_float():
+    cfg = config_from_dict({"job": {"onset_s": 30}, "analysis": [{"method": "autocorrelation"}]})
+    assert cfg.onset_s == 30.0 and isinstance(cfg.onset_s, float)
 
 
 def test_load_config_names_file(tmp_path):

@@ -198,3 +198,22 @@ def test_help_says_detector_files_are_pickles(command, option):
     opt = next(p for p in cmd.params
                if isinstance(p, click.Option) and p.name == option)
     assert "It is a pickle" in opt.help and "load only files you trust" in opt.help
+
+
+def test_detect_refuses_one_detector_given_twice(rig, tmp_path, capsys):
+    # a CLI audit, 2026-11-29: --detector d --detector d judged d twice and stated the run's
+    # false-alarm rate as the sum of both (twice the file's)
+    copy = tmp_path / "copy.joblib"
+    copy.write_bytes(Path(rig["det"]).read_bytes())
+    for second, how in ((str(rig["det"]), "the same file"), (str(copy), "the same bytes")):
+        line = _error(capsys, main(["detect", rig["healthy"][0], "--detector", str(rig["det"]),
+                                    "--detector", second]))
+        assert f"{rig['det']} and {second} hold the same detector ({how})" in line
+    # two different detector files are judged side by side
+    other = tmp_path / "other.joblib"
+    assert main(["fit", *(a for h in rig["healthy"] for a in ("--healthy", h)), "-m", "mlr-p1",
+                 "--false-alarm-rate", "100", "-o", str(other), "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["detect", rig["leak"], "--detector", str(rig["det"]), "--detector",
+                 str(other)]) == 0
+    assert "sum over 2 method(s)" in capsys.readouterr().out

@@ -25,6 +25,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 import os
 from dataclasses import dataclass, field
 from typing import Any, Mapping
@@ -117,6 +118,16 @@ class BatchConfig:
                 raise ValueError(f"analysis method={s.method!r} is not one of {stream_methods()}")
         object.__setattr__(self, "chunk_samples", check_int(self.chunk_samples, "chunk_samples", 1))
         object.__setattr__(self, "rms_chunk", check_int(self.rms_chunk, "rms_chunk", 1))
+        if self.onset_s is not None:
+            # a CLI audit, 2026-11-29: onset_s = nan replaced each file's own onset, and every
+            # row read "0 before and 0 after" the onset with status ok
+            onset = self.onset_s
+            if isinstance(onset, bool) or not isinstance(onset, (int, float)) \
+                    or not math.isfinite(onset) or onset < 0:
+                raise ValueError(f"[job] onset_s = {onset!r}: must be a finite number of "
+                                 "seconds >= 0 (leave it out to use each recording's own "
+                                 "onset)")
+            object.__setattr__(self, "onset_s", float(onset))
 
     def to_dict(self) -> dict:
         """JSON-serialisable form (stored with the results).
@@ -216,7 +227,16 @@ def detector_ref(path: str | os.PathLike, name: str | None = None,
                        origin)
 
 
+#: The keys of a ``[[detector]]`` entry (a detector file keeps its own settings).
+_DETECTOR_KEYS = frozenset({"path", "name"})
+
+
 def _detector(entry: Mapping[str, Any], i: int, base_dir: str, where: str) -> DetectorRef:
+    unknown = set(entry) - _DETECTOR_KEYS
+    if unknown:  # a CLI audit, 2026-11-29: a misspelt name or a false_alarm_rate was dropped
+        raise ValueError(f"[[detector]] #{i + 1}: unknown key(s) {sorted(unknown)}; allowed: "
+                         f"{sorted(_DETECTOR_KEYS)} (a detector file keeps the settings it "
+                         "was fitted with: leakdiag fit)")
     if "path" not in entry:
         raise ValueError(f"[[detector]] #{i + 1}: needs a path to a detector file (leakdiag fit)")
     path = os.path.abspath(os.path.join(base_dir, entry["path"]))
@@ -297,7 +317,7 @@ def config_from_dict(d: Mapping[str, Any], base_dir: str = ".", *, source: str |
             raise ValueError(f"[job] column_map: cannot read {cmap}: {exc}") from None
     return BatchConfig(tuple(specs), tuple(dets), job.get("chunk_samples", DEFAULT_CHUNK_SAMPLES),
                        job.get("rms_chunk", DEFAULT_RMS_CHUNK),
-                       None if onset is None else float(onset), cmap, cmap_sha)
+                       onset, cmap, cmap_sha)
 
 
 def load_config(path: str | os.PathLike | None, detectors=()) -> BatchConfig:

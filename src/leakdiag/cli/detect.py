@@ -18,6 +18,38 @@ _DEFAULT_METHODS = "flow-balance"
 _FALLBACK_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 
 
+def _repeated_detector(paths) -> str | None:
+    """Why two ``--detector`` files are one detector (the same file, or the same bytes), or
+    None: judged twice, it would count twice in the run's false-alarm rate (a CLI audit,
+    2026-11-29: ``--detector d.joblib --detector d.joblib`` stated 0.8 where the file says 0.4).
+
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "a.joblib").write_bytes(b"x"); _ = (d / "b.joblib").write_bytes(b"x")
+    >>> _ = (d / "c.joblib").write_bytes(b"y")
+    >>> print(_repeated_detector([d / "a.joblib", d / "c.joblib"]))
+    None
+    >>> print(_repeated_detector([d / "a.joblib", d / "b.joblib"]).replace(str(d), "D"))
+    D/a.joblib and D/b.joblib hold the same detector (the same bytes): it would be judged \
+twice and its false-alarm rate counted twice; give it once
+    """
+    import hashlib
+    import os
+
+    seen: dict[tuple[str, str], str] = {}
+    for path in paths:
+        real = os.path.realpath(path)
+        with open(path, "rb") as fh:
+            digest = hashlib.file_digest(fh, "sha256").hexdigest()
+        for (other_real, other_digest), other in seen.items():
+            if real == other_real or digest == other_digest:
+                how = "the same file" if real == other_real else "the same bytes"
+                return (f"{other} and {path} hold the same detector ({how}): it would be "
+                        "judged twice and its false-alarm rate counted twice; give it once")
+        seen[(real, digest)] = str(path)
+    return None
+
+
 def _row(m, det, rec, n_healthy, run_target=None):
     from leakdiag.detect.base import refuse_own_healthy
     from leakdiag.detect.decision import judge_run
@@ -614,6 +646,9 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
     if methods is not None and not healthy:
         raise click.UsageError("--methods are fitted on --healthy files; a --detector file "
                                "already holds its method")
+    twice = _repeated_detector(detectors)
+    if twice:
+        raise click.BadParameter(twice, param_hint="--detector")
     ctx = click.get_current_context()
     fitting = [o for n, o in (("false_alarm_rate", "--false-alarm-rate"),
                               ("onset_method", "--onset-method"), ("burn_in_s", "--burn-in"),
