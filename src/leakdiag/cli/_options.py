@@ -504,14 +504,19 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
                                  f"{name} in {ref.units.get(c)!r}")
     if recordings is not None:  # checked when they were read
         return recs
+    # samples compared over the channels the methods read (all without ``channels``): a copy
+    # with other columns (a CSV export without leak_flow) is the same run to them (a CLI
+    # audit, 2026-11-29: analyze judged a file against its own CSV export)
+    ident = [c for c in channels if c in ref.channels] if channels else None
+    ident = ident or None
     try:  # leaking by metadata, or one file given twice: the check of every detector's fit
-        check_healthy([healthy_info(r) for r in recs])
+        check_healthy([healthy_info(r, ident) for r in recs])
     except RecordingError as exc:
         raise ValueError(f"--healthy: {str(exc).removeprefix('fit: ')}") from None
     if suspect is not None:  # the judged file (or a copy) as its own reference: in-sample
-        mine = healthy_info(suspect)["digest"]
+        mine = healthy_info(suspect, ident)["digest"]
         for p, r in zip(paths, recs):
-            if healthy_info(r)["digest"] == mine:
+            if healthy_info(r, ident)["digest"] == mine:
                 raise ValueError(
                     f"--healthy {p}: holds the same samples as {name}, the recording judged: a "
                     "recording cannot be its own healthy reference (compared with itself, a "

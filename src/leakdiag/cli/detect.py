@@ -18,6 +18,25 @@ _DEFAULT_METHODS = "flow-balance"
 _FALLBACK_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 
 
+def _channels_read(methods, system, rec) -> list[str]:
+    """The suspect's channels that ``methods`` read (the default methods and their fallback
+    when None), on ``system`` (both rigs when neither it nor the file says), sorted."""
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm, read_channels
+
+    names = methods or [*_DEFAULT_METHODS.split(","), *_FALLBACK_METHODS.split(",")]
+    said = system or rec.meta.get("system")
+    out: set[str] = set()
+    for rig in ([str(said).lower()] if said else ["vca", "eha"]):
+        for m in names:
+            try:
+                det = make_detector(m, rig, Alarm())
+            except (TypeError, ValueError):  # an unknown name is refused where it is fitted
+                continue
+            out.update(c for c in read_channels(det, rec) if c in rec.channels)
+    return sorted(out)
+
+
 def _repeated_detector(paths) -> str | None:
     """Why two ``--detector`` files are one detector (the same file, or the same bytes), or
     None: judged twice, it would count twice in the run's false-alarm rate (a CLI audit,
@@ -268,7 +287,10 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
         rows.append(_cannot_judge(det, rec, file, m)
                     or _row(m, det, rec, meta.n_healthy if meta else None))
     if healthy:
-        train = read_healthy(healthy, rec, column_map, sample_rate, resample=resample)
+        # checked in each healthy file: the channels the methods may read (not the suspect's
+        # every column: a healthy CSV export without the simulator's leak_flow was refused)
+        train = read_healthy(healthy, rec, column_map, sample_rate, resample=resample,
+                             channels=_channels_read(methods, system, rec))
         check_longer_than_burn_in(train, healthy, burn_in_s)
         from leakdiag.io.recording import load_name
 

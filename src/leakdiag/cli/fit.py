@@ -7,12 +7,11 @@ import os
 import click
 
 from leakdiag.cli._options import no_progress_option, recording_options, resample_option
+from leakdiag.detect.base import read_channels as detector_channels
 
 __all__ = ["fit", "fit_detector", "detector_channels", "system_of", "common_load",
            "check_out_path"]
 
-#: Channels a detector without a ``channels`` attribute may read (e.g. the EKF).
-_ALL_CHANNELS = ("p1", "p2", "x", "u")
 #: Suffixes of recordings (``leakdiag.io``): ``-o`` with one of them is refused unless the file
 #: is already a detector file (``fit ... -o a.parquet`` overwrote a healthy input).
 _RECORDING_SUFFIXES = (".parquet", ".pq", ".csv", ".h5", ".hdf5", ".txt")
@@ -68,41 +67,6 @@ def check_out_path(out: str, inputs) -> None:
                 + ("and the file is not a detector file: writing would overwrite it"
                    if os.path.exists(out) else "but a detector file is a joblib pickle")
                 + f"; give e.g. {stem}.joblib", param_hint="--out")
-
-
-def detector_channels(det, recording=None) -> tuple[str, ...]:
-    """Channels a detector reads.
-
-    Parameters
-    ----------
-    det : Detector
-        A (fitted or not) detector.
-    recording : Recording, optional
-        Used for detectors that read every standard channel (e.g. the EKF).
-
-    Returns
-    -------
-    tuple of str
-
-    Examples
-    --------
-    >>> from leakdiag.bench.registry import make_detector
-    >>> from leakdiag.detect.base import Alarm
-    >>> detector_channels(make_detector("combined", "vca", Alarm()))
-    ('p1', 'p2', 'u', 'x')
-    """
-    chans = getattr(det, "channels", None)
-    if chans:
-        return tuple(chans)
-    parts = getattr(det, "detectors", None)
-    if parts:
-        out: list[str] = []
-        for p in parts:
-            out += [c for c in detector_channels(p) if c not in out]
-        return tuple(out)
-    if recording is not None:
-        return tuple(c for c in _ALL_CHANNELS if c in recording.channels)
-    return _ALL_CHANNELS
 
 
 def common_load(recordings) -> str | None:

@@ -503,9 +503,15 @@ class Detector(BaseEstimator):
         its samples (:func:`healthy_info`)."""
         a = self._alarm()
         t, _, v, fs = self._series(recording)
+        # digests of the channels the detector reads only: a copy of a healthy run with another
+        # set of columns (a CSV export without the simulator's leak_flow, an extra temperature)
+        # is the same run to it (a CLI audit, 2026-11-29: such copies counted as two healthy
+        # runs and were judged against their own threshold)
+        chans = fingerprint_channels(self, recording)
         return (t, v, recording.start_time + a.burn_in_s, fs.name,
                 max(0.0, recording.duration - a.burn_in_s),
-                {**healthy_info(recording), "fingerprint": fingerprint(recording)})
+                {**healthy_info(recording, chans),
+                 "fingerprint": fingerprint(recording, chans), "channels": chans})
 
     def _fit_from_parts(self, parts: list, reference_maxima=None) -> "Detector":
         """The rest of :meth:`fit`, from :meth:`_fit_part` of every healthy recording."""
@@ -567,6 +573,8 @@ class Detector(BaseEstimator):
         # the healthy recordings, so that none of them is judged against this threshold
         self.healthy_fingerprints_ = frozenset(i["fingerprint"] for i in infos
                                                if "fingerprint" in i)
+        self.fingerprint_channels_ = next((i["channels"] for i in infos if "channels" in i),
+                                          None)
         # ... and the largest share of undefined windows in a healthy recording, which sets the
         # share a judged run may have (undefined_limit: a feature undefined in most healthy
         # windows, ccf u,x while an encoder holds its count, is not a stuck sensor)
@@ -997,6 +1005,47 @@ def longest_nan_run(time, values) -> tuple[int, int, float]:
     return n, int(starts[k]), n * _window_step(time)
 
 
+#: Channels a detector without a ``channels`` attribute may read (e.g. the EKF).
+_STANDARD_CHANNELS = ("p1", "p2", "x", "u")
+
+
+def read_channels(det, recording=None) -> tuple[str, ...]:
+    """Channels a detector reads (also ``leakdiag.cli.fit.detector_channels``): its
+    ``channels``, a combination's parts' channels, else the standard channels that
+    ``recording`` has (the EKF reads them all).
+
+    Parameters
+    ----------
+    det : Detector
+        A (fitted or not) detector.
+    recording : Recording, optional
+        Used for detectors that read every standard channel (e.g. the EKF).
+
+    Returns
+    -------
+    tuple of str
+
+    Examples
+    --------
+    >>> from leakdiag.bench.registry import make_detector
+    >>> from leakdiag.detect.base import Alarm
+    >>> read_channels(make_detector("combined", "vca", Alarm()))
+    ('p1', 'p2', 'u', 'x')
+    """
+    chans = getattr(det, "channels", None)
+    if chans:
+        return tuple(chans)
+    parts = getattr(det, "detectors", None)
+    if parts:
+        out: list[str] = []
+        for p in parts:
+            out += [c for c in read_channels(p) if c not in out]
+        return tuple(out)
+    if recording is not None:
+        return tuple(c for c in _STANDARD_CHANNELS if c in recording.channels)
+    return _STANDARD_CHANNELS
+
+
 def meta_leak_lpm(meta) -> float | None:
     """The leak (L/min) a recording's metadata states (``leak_lpm``); None when it states none
     or no finite number.
@@ -1016,12 +1065,39 @@ def meta_leak_lpm(meta) -> float | None:
     return q if math.isfinite(q) else None
 
 
-def fingerprint(recording) -> str:
+def fingerprint_channels(det, recording) -> tuple[str, ...]:
+    """The channels whose samples identify a recording to ``det``: those it reads, sorted
+    (:func:`read_channels`). Its healthy recordings' digests and fingerprints cover these only.
+
+    Parameters
+    ----------
+    det : Detector
+        The detector.
+    recording : Recording
+        A recording it fits on or judges.
+
+    Returns
+    -------
+    tuple of str
+
+    Examples
+    --------
+    >>> from leakdiag.detect.methods import FeatureDetector
+    >>> from leakdiag.io import Recording
+    >>> rec = Recording({c: np.zeros(4) for c in ("x", "p1", "leak_flow", "p2")}, 1.0)
+    >>> fingerprint_channels(FeatureDetector("cross-correlation", ("p2", "p1")), rec)
+    ('p1', 'p2')
+    """
+    return tuple(sorted(read_channels(det, recording)))
+
+
+def fingerprint(recording, channels=None) -> str:
     """A cheap fingerprint of a recording's samples: its channel names, length, rate and about
     4,096 evenly spaced samples of each channel (a few microseconds, where a digest of every
     sample costs half a ``predict``). Equal for the same file read twice; not a defence against
     a file built to collide. Used to refuse judging a recording with a detector fitted on it
-    (:meth:`Detector.fit`'s ``healthy_fingerprints_``).
+    (:meth:`Detector.fit`'s ``healthy_fingerprints_``), over the channels it reads
+    (``channels``; default: all).
 
     Examples
     --------
@@ -1031,6 +1107,9 @@ def fingerprint(recording) -> str:
     True
     >>> fingerprint(a) == fingerprint(Recording({"p1": np.arange(10.0) + 1}, 1.0))
     False
+    >>> b = Recording({"p1": np.arange(10.0), "temp": np.ones(10)}, 1.0)
+    >>> fingerprint(a) == fingerprint(b), fingerprint(a, ["p1"]) == fingerprint(b, ["p1"])
+    (False, True)
     """
     import hashlib
 
@@ -1038,7 +1117,7 @@ def fingerprint(recording) -> str:
     n = int(recording.n_samples)
     h.update(f"{n} {float(recording.sample_rate)!r}".encode())
     step = max(1, n // 4096)
-    for name in sorted(recording.channels):
+    for name in sorted(recording.channels if channels is None else channels):
         h.update(name.encode())
         h.update(np.ascontiguousarray(np.asarray(recording[name])[::step],
                                       dtype=np.float64).tobytes())
@@ -1060,7 +1139,11 @@ def refuse_own_healthy(det, recording, where: str) -> None:
         Naming the recording.
     """
     own = getattr(det, "healthy_fingerprints_", None)  # None: fitted before 2026-11-27
-    if own and fingerprint(recording) in own:
+    # fitted before 2026-11-29: fingerprints of all channels
+    chans = getattr(det, "fingerprint_channels_", None)
+    if chans is not None and not set(chans) <= set(recording.channels):
+        return  # not a recording the detector reads: predict says which channel it lacks
+    if own and fingerprint(recording, chans) in own:
         raise RecordingError(
             f"{where}: {recording.meta.get('source', '<recording>')}: holds the same samples as "
             f"one of the {len(own)} healthy recordings this {type(det).__name__} was fitted on: "

@@ -1032,7 +1032,8 @@ class FlowBalanceDetector(Detector):
             self._check_constant(r, "fit", name)
         check_healthy([healthy_info(r, chans) for r in recs])
         # so that none of them is judged against this threshold (refuse_own_healthy)
-        self.healthy_fingerprints_ = frozenset(fingerprint(r) for r in recs)
+        self.healthy_fingerprints_ = frozenset(fingerprint(r, chans) for r in recs)
+        self.fingerprint_channels_ = chans
 
     def _check_target(self, recs: list) -> float:
         """The segment (s) of the level; refuses a target of one false alarm or more per
