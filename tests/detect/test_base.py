@@ -203,6 +203,29 @@ def test_leak_size_calibration_recovers_linear_truth(fitted):
     assert det.calibration_.validity == {"rig": "synthetic"}
 
 
+def test_calibrate_refuses_a_run_given_twice_and_another_load(fitted):
+    # a CLI audit, 2026-11-29: three calibration runs given twice passed the slope test that
+    # the three alone failed, and their interval missed the truth; spring runs calibrated a
+    # no-load detector (a 0.5 L/min no-load leak sized 3.6 L/min)
+    det = clone(fitted).fit([_with(synthetic(600.0, s), meta={"load": "none"})
+                             for s in range(6)])
+    assert det.healthy_load_ == "none"
+    runs = [synthetic(200.0, 100 + i, onset=100.0, step=q) for i, q in
+            enumerate([0.05, 0.1, 0.2, 0.3])]
+    with pytest.raises(ValueError, match=r"^calibrate: recording 5 \(syn100\) holds the same "
+                                         r"samples as recording 1 \(syn100\): a recording "
+                                         r"given twice would count as two known leaks"):
+        det.calibrate([*runs, _with(runs[0])])
+    spring = [_with(r, meta={"load": "Spring"}) for r in runs]
+    with pytest.raises(ValueError, match=r"^calibrate: syn100 states load 'spring', but the "
+                                         r"healthy recordings of fit state 'none'"):
+        det.calibrate(spring)
+    det.calibrate([_with(r, meta={"load": "none"}) for r in runs])  # the same load: fitted
+    assert det.calibration_ is not None
+    # a load unstated on either side is not checked (a plain CSV export)
+    clone(fitted).fit([synthetic(600.0, s) for s in range(6)]).calibrate(spring)
+
+
 def test_not_fitted_is_sklearns_not_fitted_error():
     from sklearn.exceptions import NotFittedError
 

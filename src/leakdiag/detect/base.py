@@ -575,6 +575,10 @@ class Detector(BaseEstimator):
                                                if "fingerprint" in i)
         self.fingerprint_channels_ = next((i["channels"] for i in infos if "channels" in i),
                                           None)
+        # the load the healthy recordings state (one, or none: check_healthy), which a
+        # calibration on known leaks must share (calibrate)
+        self.healthy_load_ = next((i["load"] for i in infos if i.get("load") is not None),
+                                  None)
         # ... and the largest share of undefined windows in a healthy recording, which sets the
         # share a judged run may have (undefined_limit: a feature undefined in most healthy
         # windows, ccf u,x while an encoder holds its count, is not a stuck sensor)
@@ -951,14 +955,36 @@ class Detector(BaseEstimator):
         Raises
         ------
         ValueError
-            If a recording lacks ``onset`` or ``leak_lpm`` metadata, or the feature's shift
-            does not follow the leak (:func:`~leakdiag.detect.leaksize.fit_leak_calibration`).
+            If a recording lacks ``onset`` or ``leak_lpm`` metadata, states another load than
+            the healthy recordings of ``fit``, holds the same samples as another one, or the
+            feature's shift does not follow the leak
+            (:func:`~leakdiag.detect.leaksize.fit_leak_calibration`).
         """
         shifts, flows = [], []
-        for rec in _as_recordings(recordings):
+        seen: dict[str, int] = {}
+        fitted_load = getattr(self, "healthy_load_", None)  # None: unstated, or fitted before
+        recs = _as_recordings(recordings)
+        for i, rec in enumerate(recs):
+            src = rec.meta.get("source", "<recording>")
             if rec.onset is None or rec.meta.get("leak_lpm") is None:
-                raise ValueError(f"{rec.meta.get('source', '<recording>')}: calibrate needs "
-                                 "meta['onset'] and meta['leak_lpm']")
+                raise ValueError(f"{src}: calibrate needs meta['onset'] and meta['leak_lpm']")
+            load = load_name(rec.meta.get("load"))
+            if fitted_load is not None and load is not None and load != fitted_load:
+                # a CLI audit, 2026-11-29: spring runs calibrated a no-load detector, which
+                # then sized a 0.5 L/min no-load leak 3.6 L/min
+                raise ValueError(f"calibrate: {src} states load {load!r}, but the healthy "
+                                 f"recordings of fit state {fitted_load!r}: a feature's shift "
+                                 "per L/min is the load's; calibrate on leaks under that load")
+            # the same samples twice would count as two independent leaks: more degrees of
+            # freedom, a narrower interval (the audit: a refused calibration passed its test
+            # with its three files given twice, and its interval missed the truth)
+            digest = healthy_info(rec, fingerprint_channels(self, rec))["digest"]
+            j = seen.setdefault(digest, i)
+            if j != i:
+                first = recs[j].meta.get("source", "<recording>")
+                raise ValueError(f"calibrate: recording {i + 1} ({src}) holds the same samples "
+                                 f"as recording {j + 1} ({first}): a recording given twice "
+                                 "would count as two known leaks; give each once")
             shifts.append(self.shift(rec, rec.onset))
             # the delivered mean leak since the onset (the thesis's measure, what a size
             # estimates) where the simulator recorded it; the requested one otherwise
