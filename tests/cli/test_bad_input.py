@@ -425,24 +425,69 @@ def test_simulate_refuses_a_run_that_cannot_fit_in_memory(tmp_path, capsys, monk
     assert "(248 bytes per sample)" in _one_error_line(capsys, code)
 
 
-def test_a_nan_in_a_column_no_method_reads_says_how_to_leave_it_out(files, tmp_path, capsys):
+def test_a_nan_in_a_column_no_method_reads(files, tmp_path, capsys):
     """Streams audit (2026-11-27, finding 5): a NaN in a temperature column refused the file
-    for methods that never read it, with no word of how to go on. The refusal stays (without a
-    map every column is read and checked), and now says how to read only the channels needed;
-    with --col the same file is judged."""
+    for methods that never read it, with no word of how to go on; the refusal then said how to
+    read only the channels needed. Since a CLI audit of 2026-11-29 (detect refused a file with
+    a text note column that monitor and batch judged), the commands read only the channels
+    their methods read, so the file is judged; a reader asked for every column (Python's
+    read_recording) still refuses it with the advice."""
+    from leakdiag.io import RecordingError, read_recording
+
     t = np.arange(N) / RATE_HZ
     c = _cols()
     c["temp"] = np.full(N, 40.0)
     c["temp"][700] = np.nan
     path = _write(tmp_path / "temp.csv", t, c)
-    code = main(["analyze", str(path), "--onset", "1.0", "-m", "acf", "-c", "p1"])
-    line = _one_error_line(capsys, code, "temp.csv", "channel 'temp'", "first NaN at row 700")
-    assert "'temp' is not a channel leakdiag reads" in line and "--col p1=p1" in line
-    code = main(["analyze", str(path), "--onset", "1.0", "-m", "acf", "-c", "p1",
-                 "--col", "p1=p1"])
-    assert code == 0, capsys.readouterr().err
+    with pytest.raises(RecordingError, match="first NaN at row 700") as err:
+        read_recording(path)
+    assert "'temp' is not a channel leakdiag reads" in str(err.value)
+    assert "--col p1=p1" in str(err.value)
+    assert read_recording(path, channels=["p1"]).channels.keys() == {"p1"}
+    other = {k: v[::-1].copy() for k, v in _cols().items()}  # not temp.csv's samples
+    ref = _write(tmp_path / "ref.csv", t, other)
+    for args in (["analyze", str(path), "--onset", "1.0", "-m", "acf", "-c", "p1"],
+                 ["detect", str(path), "--healthy", str(ref), "--burn-in", "0",
+                  "--system", "vca", "--methods", "acf-p1", "--false-alarm-rate", "0.5"]):
+        code = main(args)
+        assert code == 0, capsys.readouterr().err
     c["p1"][700] = np.nan  # a NaN in a channel leakdiag reads: no such advice
     code = main(["analyze", str(_write(tmp_path / "p1.csv", t, c)), "--onset", "1.0", "-m",
                  "acf", "-c", "p1"])
     line = _one_error_line(capsys, code, "channel 'p1'")
     assert "not a channel leakdiag reads" not in line
+
+
+def test_a_text_column_no_method_reads_is_left_alone_by_every_command(tmp_path, capsys):
+    """A CLI audit, 2026-11-29: a text note column beside the signals made detect (and fit,
+    analyze) refuse the file ("holds text, not numbers") while monitor and batch, which read
+    only their detectors' channels, judged it LEAK. Now each command reads only the channels
+    its methods read."""
+    import pandas as pd
+
+    t = np.arange(N) / RATE_HZ
+    paths = []
+    for seed in range(4):
+        df = pd.DataFrame({"time": t, **_cols(seed=seed)})
+        df["note"] = "ok"
+        paths.append(tmp_path / f"n{seed}.csv")
+        df.to_csv(paths[-1], index=False)
+    det = tmp_path / "d.joblib"
+    assert main(["fit", *[a for p in paths[:3] for a in ("--healthy", str(p))], "--system",
+                 "vca", "-m", "acf-p1", "--burn-in", "0", "--false-alarm-rate", "1000", "-o",
+                 str(det), "--no-progress"]) == 0, capsys.readouterr().err
+    for args in (["detect", str(paths[3]), "--detector", str(det), "--no-progress"],
+                 ["detect", str(paths[3]), *[a for p in paths[:3] for a in ("--healthy", str(p))],
+                  "--system", "vca", "--methods", "acf-p1", "--burn-in", "0",
+                  "--false-alarm-rate", "0.5", "--no-progress"],
+                 ["analyze", str(paths[3]), "-m", "acf", "-c", "p1", "--onset", "1.0"],
+                 ["monitor", str(paths[3]), "--detector", str(det), "-q"]):
+        code = main(args)
+        out = capsys.readouterr()
+        assert code == 0 and "holds text" not in out.err, (args[0], out)
+    # a text column a method reads is still refused, naming it
+    df = pd.read_csv(paths[3])
+    df["p1"] = "x"
+    df.to_csv(tmp_path / "bad.csv", index=False)
+    code = main(["detect", str(tmp_path / "bad.csv"), "--detector", str(det)])
+    _one_error_line(capsys, code, "bad.csv", "channel 'p1'", "holds text")

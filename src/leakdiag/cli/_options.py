@@ -309,7 +309,7 @@ def column_map_from(column_map, cols, time_unit=None):
 _READ_OPTIONS = {"resample": "--resample", "sample_rate": "--sample-rate"}
 
 
-def read_with(path, cmap, sample_rate=None, resample=None):
+def read_with(path, cmap, sample_rate=None, resample=None, channels=None):
     """Read ``path`` and make messages name it.
 
     Parameters
@@ -320,6 +320,8 @@ def read_with(path, cmap, sample_rate=None, resample=None):
         Column map (from :func:`column_map_from`).
     sample_rate, resample : float, optional
         As in :func:`leakdiag.io.read_recording`.
+    channels : collection of str, optional
+        Read only these channels (:func:`leakdiag.io.read_recording`).
 
     Returns
     -------
@@ -330,10 +332,11 @@ def read_with(path, cmap, sample_rate=None, resample=None):
 
     try:
         if resample is None:
-            rec = lio.read_recording(path, column_map=cmap, sample_rate=sample_rate)
+            rec = lio.read_recording(path, column_map=cmap, sample_rate=sample_rate,
+                                     channels=channels)
         else:
             rec = lio.read_recording(path, column_map=cmap, sample_rate=sample_rate,
-                                     resample=resample)
+                                     resample=resample, channels=channels)
     except ValueError as exc:  # the reader names its arguments as Python does (resample=-5.0)
         named = option_names(str(exc), _READ_OPTIONS)
         if named == str(exc):
@@ -439,7 +442,7 @@ def rate_warning(path, rate: float, basis: str, advice: str,
 
 
 def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample=None,
-                 recordings=None, reads=None):
+                 recordings=None, reads=None, keep=None):
     """Read healthy reference recordings and check they agree with the suspect recording.
 
     Parameters
@@ -461,6 +464,9 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
         The files already read (only checked again, e.g. for the channels a method reads).
     reads : str, optional
         What needs ``channels`` (a method name), for the message of a missing one.
+    keep : collection of str, optional
+        Read only these channels of each file (default: ``channels`` when given, else all;
+        :func:`leakdiag.io.read_recording`).
 
     Returns
     -------
@@ -478,7 +484,8 @@ def read_healthy(paths, suspect, cmap, sample_rate=None, channels=None, resample
     from leakdiag.io.errors import RecordingError
 
     recs = (list(recordings) if recordings is not None else
-            [read_with(p, cmap, sample_rate, resample) for p in paths])
+            [read_with(p, cmap, sample_rate, resample,
+                       keep if keep is not None else channels or None) for p in paths])
     ref = suspect if suspect is not None else (recs[0] if recs else None)
     if ref is None:
         return recs

@@ -170,7 +170,17 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
     from leakdiag.detect.analysis import analyze_recording
 
     cmap = column_map_from(column_map, cols, time_unit)
-    rec = read_with(file, cmap, sample_rate, resample)
+    # only the channels the features read (a CLI audit, 2026-11-29: a text note column beside
+    # the signals was refused here, where monitor and batch, which read only what they use,
+    # judged the file); an option error is said below, after the file's own errors, as before
+    try:
+        wanted = sorted({c for rig in ([system] if system else ["vca", "eha"])
+                         for spec in _specs(method, channels, lag, lag_ratio, window, overlap,
+                                            rig)
+                         for c in spec.channels})
+    except (click.UsageError, ValueError, TypeError):
+        wanted = None
+    rec = read_with(file, cmap, sample_rate, resample, channels=wanted)
     if rec.meta.get("system"):  # a --system against the file's own word is refused
         from leakdiag.cli.fit import system_of
 

@@ -20,12 +20,13 @@ _FALLBACK_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
 
 def _channels_read(methods, system, rec) -> list[str]:
     """The suspect's channels that ``methods`` read (the default methods and their fallback
-    when None), on ``system`` (both rigs when neither it nor the file says), sorted."""
+    when None), on ``system`` (both rigs when neither it nor the file says), sorted; every
+    channel they may read when ``rec`` is None."""
     from leakdiag.bench.registry import make_detector
     from leakdiag.detect.base import Alarm, read_channels
 
     names = methods or [*_DEFAULT_METHODS.split(","), *_FALLBACK_METHODS.split(",")]
-    said = system or rec.meta.get("system")
+    said = system or (rec.meta.get("system") if rec is not None else None)
     out: set[str] = set()
     for rig in ([str(said).lower()] if said else ["vca", "eha"]):
         for m in names:
@@ -33,7 +34,8 @@ def _channels_read(methods, system, rec) -> list[str]:
                 det = make_detector(m, rig, Alarm())
             except (TypeError, ValueError):  # an unknown name is refused where it is fitted
                 continue
-            out.update(c for c in read_channels(det, rec) if c in rec.channels)
+            out.update(c for c in read_channels(det, rec)
+                       if rec is None or c in rec.channels)
     return sorted(out)
 
 
@@ -272,11 +274,19 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
 
     say = progress or (lambda msg: None)
     notes: list[str] = []
-    rec = read_with(file, column_map, sample_rate, resample)
+    from leakdiag.detect.base import read_channels
+
+    loaded = [(path, *load_detector_file(path)) for path in detectors]
+    # only the channels that some method reads (a CLI audit, 2026-11-29: a text note column
+    # beside the signals made detect refuse a file that monitor and batch, which read only
+    # their detectors' channels, judged LEAK)
+    wanted = set(_channels_read(methods, system, None) if healthy else ())
+    for _, det, meta in loaded:
+        wanted.update(getattr(meta, "channels", None) or read_channels(det))
+    rec = read_with(file, column_map, sample_rate, resample, channels=sorted(wanted))
     rows, fitted = [], []  # fitted: what each detector's healthy recordings said (rig, load)
     rig = rec.meta.get("system")  # the file's rig, else the detectors' or the --system
-    for path in detectors:
-        det, meta = load_detector_file(path)
+    for path, det, meta in loaded:
         rig = rig or getattr(meta, "system", None)
         check_detector_fits(meta, sample_rate=rec.sample_rate, channels=rec.channels,
                             units=rec.units, system=rec.meta.get("system"), source=str(file),

@@ -264,12 +264,22 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
     check_out_path(out, [*(("--healthy", h) for h in healthy),
                          *(("--calibrate", c) for c in calibration)])
     cmap = column_map_from(column_map, cols, time_unit)
-    recs = read_healthy(healthy, None, cmap, sample_rate, channels=(), resample=resample)
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm
+
+    # read only what the method reads, on either rig (a CLI audit, 2026-11-29: a text note
+    # column beside the signals was refused here and in detect, read by monitor and batch)
+    wanted = set()
+    for rig in ([system] if system else ["vca", "eha"]):
+        try:
+            wanted.update(detector_channels(make_detector(method, rig, Alarm())))
+        except (TypeError, ValueError):  # not a method of that rig
+            continue
+    recs = read_healthy(healthy, None, cmap, sample_rate, channels=(), resample=resample,
+                        keep=sorted(wanted) or None)
     system = system_of(recs, system, healthy)
     # the channels the method reads must be in every healthy file, with one unit; others may
     # differ (a file without p2 was refused for acf-p1, which reads only p1)
-    from leakdiag.bench.registry import make_detector
-    from leakdiag.detect.base import Alarm
 
     needed = detector_channels(make_detector(method, system, Alarm()), recs[0])
     read_healthy(healthy, None, cmap, sample_rate, channels=needed, resample=resample,
@@ -285,7 +295,8 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
     if calibration:
         from leakdiag.cli._options import read_with
 
-        cal = [read_with(p, cmap, sample_rate, resample) for p in calibration]
+        cal = [read_with(p, cmap, sample_rate, resample, sorted(wanted) or None)
+               for p in calibration]
         if len(cal) < 3:
             raise click.BadParameter(f"got {len(cal)} file(s); a leak-size calibration needs at "
                                      "least 3 recordings with known leaks (0 allowed)",

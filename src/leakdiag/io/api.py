@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Collection, Mapping
 
 from leakdiag.io.assemble import table_to_recording
 from leakdiag.io.column_map import load_column_map
@@ -43,7 +43,8 @@ def _format(path: Path, table: Mapping[str, str], verb: str) -> str:
 
 def read_recording(path: str | os.PathLike, column_map: Any = None, *,
                    sample_rate: float | None = None, resample: float | None = None,
-                   units: Mapping[str, str] | None = None) -> Recording:
+                   units: Mapping[str, str] | None = None,
+                   channels: Collection[str] | None = None) -> Recording:
     """Read a recording from CSV/TSV text, Parquet, HDF5 or MATLAB ``.mat``.
 
     Parameters
@@ -65,6 +66,10 @@ def read_recording(path: str | os.PathLike, column_map: Any = None, *,
         error.
     units : dict of str to str, optional
         Channel -> unit of the values in the file, e.g. ``{"p1": "bar"}``.
+    channels : collection of str, optional
+        Read only these channels (of those the file or the map has): the other columns are
+        neither converted nor checked, e.g. a text note beside the signals. A file written by
+        :func:`write_recording` is restored whole.
 
     Returns
     -------
@@ -118,7 +123,7 @@ def read_recording(path: str | os.PathLike, column_map: Any = None, *,
     else:
         table = read_mat(path)
     return table_to_recording(table, cmap, sample_rate=sample_rate, resample=resample,
-                              units=units)
+                              units=units, channels=channels)
 
 
 def write_recording(rec: Recording, path: str | os.PathLike) -> Path:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import copy
 import datetime
 import warnings
-from typing import Any, Mapping
+from typing import Any, Collection, Mapping
 
 import numpy as np
 
@@ -80,9 +80,21 @@ def _check_one_column_each(specs: Mapping[str, ChannelSpec], source: str) -> Non
                       stacklevel=5)
 
 
-def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | None
-            ) -> dict[str, ChannelSpec]:
-    """Channel -> spec: the map's channels, or every non-time column when there is no map."""
+def _only(specs: dict[str, ChannelSpec], only: Collection[str] | None
+          ) -> dict[str, ChannelSpec]:
+    """The specs of the channels in ``only``; all of them when ``only`` is None or names none
+    of them (then the caller's check of its channels says which one is missing, where an empty
+    recording would read as 0 s long)."""
+    if only is None:
+        return specs
+    kept = {k: v for k, v in specs.items() if k in only}
+    return kept or specs
+
+
+def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | None,
+            only: Collection[str] | None = None) -> dict[str, ChannelSpec]:
+    """Channel -> spec: the map's channels, or every non-time column when there is no map;
+    with ``only``, those of them in ``only``."""
     available = table.names
     if cmap is not None and cmap.channels:
         specs = dict(cmap.channels)
@@ -94,6 +106,7 @@ def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | 
                     f"{_available(table)}"
                 )
         _check_one_column_each(specs, table.source)
+        specs = _only(specs, only)
     else:
         time_col = cmap.time_column if cmap is not None and cmap.time_column else "time"
         table.require_all_unique(time_col, "without a column map every column is read - "
@@ -107,6 +120,7 @@ def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | 
             )
         if time_col == "time" and "time" not in table.columns:  # before: refused as a channel
             refuse_time_like(available, table.source)
+        specs = _only(specs, only)
         bad = [c for c in specs if not c.isidentifier()]
         if bad:
             raise RecordingError(
@@ -246,7 +260,8 @@ def _time_axis(table: RawTable, cmap: ColumnMap | None, col: str | None,
 
 def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
                        sample_rate: float | None = None, resample: float | None = None,
-                       units: Mapping[str, str] | None = None) -> Recording:
+                       units: Mapping[str, str] | None = None,
+                       channels: Collection[str] | None = None) -> Recording:
     """Select, check and convert the columns of a raw table into a :class:`Recording`.
 
     Parameters
@@ -266,6 +281,10 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
         uniform grid; recorded in ``meta["resampled"]``.
     units : dict of str to str, optional
         Channel -> unit of the values in the file (overrides the map's units).
+    channels : collection of str, optional
+        Read only these of the channels (the rest of the columns are neither converted nor
+        checked, as the chunked readers of ``monitor`` and ``batch`` read only what their
+        detectors read); a file written by leakdiag is restored whole.
 
     Returns
     -------
@@ -295,7 +314,7 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
     header = table.header
     if header is not None and column_map is None and units is None and resample is None:
         return _from_header(table, header, sample_rate)
-    specs = _select(table, column_map, units)
+    specs = _select(table, column_map, units, channels)
     time_col = _time_column(table, column_map)
     read = {f"channel {name!r}": spec.column for name, spec in specs.items()}
     table.check_rows(read if time_col is None else {"time column": time_col, **read})
