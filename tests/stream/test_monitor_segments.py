@@ -105,7 +105,18 @@ def test_options_that_do_not_apply_are_refused(setup, run_cli):
         code, _, err = run_cli(["monitor", str(path), "--detector", str(det_path), *extra])
         assert code == 2 and words in " ".join(err.split()), err
     code, _, err = run_cli(["monitor", str(path), "--segment", "30"])
-    assert code == 2 and "--segment applies to a whole-recording detector" in err
+    assert code == 2 and "--segment needs --detector FILE with a whole-recording detector" \
+        in " ".join(err.split()), err
+    d = setup[0]
+    acf = d / "acf.joblib"
+    code, _, err = run_cli(["fit", *[a for s in range(3) for a in ("--healthy",
+                                                                    str(d / f"h{s}.parquet"))],
+                            "-m", "acf-p1", "--false-alarm-rate", "100", "--no-progress",
+                            "-o", str(acf)])
+    assert code == 0, err
+    code, _, err = run_cli(["monitor", str(path), "--detector", str(acf), "--segment", "30"])
+    assert code == 2 and "--segment applies to a whole-recording detector (the flow balance); " \
+        "a streamed detector judges every window" in " ".join(err.split()), err
 
 
 def test_store_holds_one_judged_run_per_segment(setup, run_cli):

@@ -577,6 +577,11 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                                  column_map_from(column_map, cols, time_unit), events, quiet,
                                  segment_s, live.get("store"), live.get("actuator"))
     if segment_s is not None:
+        if detector is None:  # (said "a streamed detector judges every window": none given)
+            raise click.UsageError("--segment needs --detector FILE with a whole-recording "
+                                   "detector (the flow balance: leakdiag fit --method "
+                                   "flow-balance), which judges each segment as detect judges "
+                                   "a file")
         raise click.UsageError("--segment applies to a whole-recording detector (the flow "
                                "balance); a streamed detector judges every window")
     if detector is not None:
