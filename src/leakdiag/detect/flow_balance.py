@@ -1838,6 +1838,23 @@ class FlowBalanceDetector(Detector):
                     pressure_offset_pa=offset)
         no_size = _size_withheld(self.system, load, censored)
         n_after = len(g) - first
+        if self._step_undetermined(t, i, int(arg[i])):
+            # the recording locates no onset: said as what is known, an onset at or before the
+            # alarm, and no size (an API audit, 2026-11-29: "at or before 2.2 s", present from
+            # the start, for a leak from 30 s in no-load runs cut a few seconds after the alarm)
+            onset = alarm
+            common["onset_censored"] = True
+            common["onset_why"] = (
+                "the windows after the alarm show no lasting step of the leak coefficient from "
+                "any onset (the change-point profile over the whole recording has no positive "
+                "Z), so the recording does not locate the onset, only that the leak began "
+                "before the alarm (docs/detect.md 8.4, \"Onset\")")
+            no_size = no_size or (
+                "no size: the recording does not locate the onset (the windows after the alarm "
+                "show no lasting step), and a size needs it; a recording that goes on longer "
+                "after the alarm is sized")
+            coef = dict(leak_coefficient=None, leak_coefficient_se=None,
+                        leak_lpm_at_reference=None, pressure_offset_pa=None)
         if not no_size and censored and self.system == "vca" and \
                 n_after < CENSORED_SIZE_MIN_WINDOWS:  # (the EHA: OFFSET_MIN_WINDOWS below)
             no_size = (
@@ -2034,7 +2051,24 @@ class FlowBalanceDetector(Detector):
             beta = np.linalg.lstsq(nu[pre] * sw[:, None], r[pre] * sw, rcond=None)[0]
             r = r - nu @ beta
         j, z = change_point(t["phi"], r, w, nu[:, :0], last=i if last is None else last)
+        if last is None and not np.any(z > 0) and i + 1 < len(r):
+            # no positive step fits the whole recording: the windows after the alarm pull every
+            # candidate's coefficient below zero, and the argmax of negative Z_j is the first
+            # window (an API audit, 2026-11-29: no-load runs cut a few seconds after the alarm
+            # read "at or before 2.2 s", present from the start, for a leak from 30 s): the
+            # step is searched on the test's own evidence, the windows up to the alarm
+            # and, when none fits them either, the first window of the GLR's best span, the
+            # test's own onset (_step_undetermined tells predict, which gives no size then)
+            j2, z2 = change_point(t["phi"][:i + 1], r[:i + 1], w[:i + 1], nu[:i + 1, :0],
+                                  last=i)
+            j = j2 if np.any(z2 > 0) else min(max(j_span, 0), i)
         return int(j), z
+
+    def _step_undetermined(self, t: dict, i: int, j_span: int) -> bool:
+        """Whether no positive step of the leak coefficient fits the whole recording for the
+        alarm at window ``i`` (every :math:`Z_j` of :meth:`_onset_profile` at or below zero):
+        its onset then rests on the windows up to the alarm only."""
+        return not np.any(self._onset_profile(t, i, j_span)[1] > 0)
 
     def _offset_profile(self, rec, first: int, j: int, dur: float):
         """Leak coefficient and mean ``|phi|`` since window ``j`` with the differential
