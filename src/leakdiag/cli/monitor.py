@@ -301,6 +301,18 @@ def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignal
         stop.busy = True
 
 
+def _stored_source(source) -> str:
+    """A segment's input as the store records it: a file's real path, stdin as it is.
+
+    >>> _stored_source("-"), _stored_source("<stdin>")
+    ('-', '<stdin>')
+    """
+    import os
+
+    s = str(source)
+    return s if s in ("-", "<stdin>") else os.path.realpath(s)
+
+
 def _store_segment(st, actuator: str, source: str, method: str, sv, system) -> None:
     """One judged segment into the store, as ``detect --store`` stores a file's verdict."""
     import pandas as pd
@@ -317,7 +329,8 @@ def _store_segment(st, actuator: str, source: str, method: str, sv, system) -> N
         if sv.continues_from_onset_s is not None:  # the leak found earlier continues: its
             # onset, as the console says, not this segment's first windows (an audit,
             # 2026-11-29: the fleet page showed "at or before 45.2 s" for a leak from 25.8 s)
-            row.update(onset_s=sv.continues_from_onset_s, onset_censored=None)
+            row.update(onset_s=sv.continues_from_onset_s,
+                       onset_censored=sv.continues_onset_censored)
     tab = pd.DataFrame([row])
     tab.attrs["system"] = system
     record_verdicts(st, actuator, f"{source} [{sv.start_s:.6g}-{sv.end_s:.6g} s]", tab,
@@ -423,7 +436,10 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
                 out.write(sv.to_json() + "\n")
                 out.flush()
             if st is not None and not tail:
-                _store_segment(st, actuator, str(source.source), name, sv, system)
+                # the file's real path, as the streaming monitor and detect store it (a store
+                # audit, 2026-11-29: the path as typed, relative, escaped the check that keeps
+                # one stem of two folders apart, default_actuator)
+                _store_segment(st, actuator, _stored_source(source.source), name, sv, system)
 
     stopped = failed = None
     t0 = time.perf_counter()

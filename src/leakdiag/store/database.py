@@ -22,7 +22,7 @@ from typing import Any, Callable
 
 from sqlalchemy import and_, case, create_engine, event, func, insert, select, update
 from sqlalchemy.engine import Engine
-from sqlalchemy.exc import DatabaseError, OperationalError
+from sqlalchemy.exc import DatabaseError, DataError, OperationalError
 
 from leakdiag._version import __version__
 from leakdiag.store import schema as S
@@ -109,6 +109,11 @@ def store_url(target: str | os.PathLike) -> str:
     return f"sqlite:///{os.path.abspath(t)}"
 
 
+#: Longest actuator name (and detector or feature name) the store's columns hold
+#: (``String(200)``, :mod:`leakdiag.store.schema`).
+MAX_NAME_CHARS = 200
+
+
 def check_actuator_name(name: str) -> str:
     """Refuse an actuator name the store and its pages cannot hold.
 
@@ -124,7 +129,9 @@ def check_actuator_name(name: str) -> str:
     Raises
     ------
     ValueError
-        If it is empty or blank, or has a ``.`` or ``..`` path segment (``.``, ``..``,
+        If it is empty or blank, longer than :data:`MAX_NAME_CHARS` (the column's size: a
+        PostgreSQL store refused a longer one with a traceback after the verdict was printed,
+        a store audit, 2026-11-29), or has a ``.`` or ``..`` path segment (``.``, ``..``,
         ``site A/../pump 1``, ``a/./b``: its page is ``/history/NAME``, which a browser or an
         HTTP client resolves to another address, another actuator's page).
 
@@ -140,6 +147,9 @@ def check_actuator_name(name: str) -> str:
     text = str(name)
     if not text.strip():
         raise ValueError("actuator name must not be empty")
+    if len(text) > MAX_NAME_CHARS:
+        raise ValueError(f"actuator name {text[:40]!r}...: {len(text)} characters, at most "
+                         f"{MAX_NAME_CHARS} are stored (the store's actuator names)")
     segments = text.split("/")
     if any(seg.strip() in (".", "..") for seg in segments):
         fixed = "/".join(seg for seg in segments if seg.strip() not in (".", "..")) or "rig1"
@@ -376,6 +386,9 @@ class EventStore:
             try:
                 with self.engine.begin() as conn:
                     return fn(conn)
+            except DataError as exc:  # a value the column cannot hold (PostgreSQL: too long)
+                raise StoreError(f"{self.shown_url}: cannot write to the event store: a value "
+                                 f"does not fit its column: {str(exc.orig).strip()}") from None
             except OperationalError as exc:
                 if _locked(exc) and attempt < WRITE_ATTEMPTS - 1:
                     time.sleep(0.05 * 2 ** attempt)

@@ -231,7 +231,13 @@ def record_batch(store: EventStore, results, job_digest: str,
         per_actuator.setdefault(names[str(r["path"])], []).append(_batch_run(r, job_digest))
     n = skipped = 0
     refused = []
+    known = set(store.actuator_names())
     for actuator, runs in per_actuator.items():
+        other = _other_folder(store, actuator, [str(r["path"]) for r in rows.to_dict("records")
+                                                if names[str(r["path"])] == actuator], known)
+        if other is not None:  # none of this actuator's rows: stored, they would merge
+            refused.append(other)
+            continue
         try:
             ids = store.add_finished_runs(actuator, runs, invocation=inv)
         except ActuatorRigError as exc:  # another rig: none of this actuator's rows, say why
@@ -242,6 +248,27 @@ def record_batch(store: EventStore, results, job_digest: str,
         n += sum(i is not None for i in ids)
         skipped += sum(i is None for i in ids)
     return BatchWrite(n, skipped, tuple(refused))
+
+
+def _other_folder(store: EventStore, actuator: str, paths, known) -> str | None:
+    """Why a batch job's runs of ``actuator`` (recordings ``paths``) may not join the store's
+    runs of that name, or None: the store holds runs of it from files in another folder
+    (absolute sources; older relative ones are not compared). Within one job
+    :func:`actuator_names` refuses such a pair; across jobs a second job's healthy
+    ``siteB/rig1`` was stored under ``siteA/rig1``'s name and the fleet page showed the leak
+    OK (a store audit, 2026-11-29)."""
+    if actuator not in known:
+        return None
+    mine = {Path(p).resolve().parent for p in paths}
+    for src in store.runs_of(actuator)["source"].dropna():
+        o = Path(str(src).split(" [", 1)[0])  # a monitor segment's source ends " [a-b s]"
+        if o.is_absolute() and o.resolve().parent not in mine:
+            here = sorted(mine)[0]
+            return (f"actuator {actuator!r} already holds runs of {o}, a file in another "
+                    f"folder than {here}: stored under one name their runs would merge into "
+                    "one actuator (a healthy run hiding another's leak); store this job in "
+                    "another store, or name the folders apart")
+    return None
 
 
 def default_actuator(store: EventStore, source: str) -> str:

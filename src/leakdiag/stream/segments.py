@@ -88,6 +88,9 @@ class SegmentVerdict:
         start, :class:`~leakdiag.detect.flow_balance.AlarmAtStart`). The leak was then present
         when this segment began, so this segment's own onset is no onset (an audit, 2026-11-28:
         3 of 20 such segments were given a definite onset 6-26 s into the segment).
+    continues_onset_censored : bool, default False
+        Whether that onset is only "at or before" (the first segment's ``onset_censored``): a
+        store audit, 2026-11-29, found the continuing segment's stored alarm without it.
     unconfirmed_alarm_s, unconfirmed_onset_s : float or None
         For a LEAK segment (not a continuing one) right after a segment whose alarm was not
         confirmed (:class:`~leakdiag.detect.flow_balance.AlarmNotConfirmed`: too little data
@@ -104,6 +107,7 @@ class SegmentVerdict:
     inconclusive: bool = False
     too_short: bool = False
     continues_from_onset_s: float | None = None
+    continues_onset_censored: bool = False
     unconfirmed_alarm_s: float | None = None
     unconfirmed_onset_s: float | None = None
 
@@ -126,6 +130,7 @@ class SegmentVerdict:
         d = {"segment_start_s": self.start_s, "segment_end_s": self.end_s,
              "decision": self.decision, "reason": self.reason,
              "continues_from_onset_s": self.continues_from_onset_s,
+             "continues_onset_censored": self.continues_onset_censored,
              "unconfirmed_alarm_s": self.unconfirmed_alarm_s,
              "unconfirmed_onset_s": self.unconfirmed_onset_s}
         if self.verdict is not None:
@@ -159,7 +164,8 @@ class SegmentVerdict:
         at = "at or before " if v.onset_censored else ""
         if self.continues_from_onset_s is not None:  # present when the segment began
             size = "" if v.leak_lpm is None else f", {v.leak_lpm:.3g} L/min in this segment"
-            return (f"LEAK       {span}: the leak continues (found with onset "
+            bound = "at or before " if self.continues_onset_censored else ""
+            return (f"LEAK       {span}: the leak continues (found with onset {bound}"
                     f"{self.continues_from_onset_s:.6g} s){size}")
         size = ""
         if v.leak_lpm is not None:
@@ -226,6 +232,7 @@ class SegmentJudge:
         self._n_buffered = 0
         self._first = 0  # index of the buffered segment's first sample
         self._leak_onset: float | None = None  # onset of the leak found in the last segment
+        self._leak_onset_censored = False  # ... and whether it is only "at or before"
         # (alarm, onset) of the last segment's alarm that too little data confirmed
         self._unconfirmed: tuple[float, float] | None = None
 
@@ -288,7 +295,8 @@ class SegmentJudge:
                     f"{name}: the leak found with onset {prior:.6g} s was present when this "
                     f"segment began and alarmed again at {exc.alarm_time_s:.6g} s, but a leak "
                     f"present from a segment's start cannot be judged on that segment alone: "
-                    f"{exc}"), inconclusive=True, continues_from_onset_s=prior)
+                    f"{exc}"), inconclusive=True, continues_from_onset_s=prior,
+                    continues_onset_censored=self._leak_onset_censored)
             return SegmentVerdict(start, end, reason=str(exc),
                                   inconclusive=isinstance(exc, RefusedAlarm),
                                   too_short=isinstance(exc, TooShortToJudge))
@@ -305,7 +313,10 @@ class SegmentJudge:
         prior = self._leak_onset
         if prior is None:
             self._leak_onset = v.onset_s
+            self._leak_onset_censored = bool(v.onset_censored)
         earlier = unconfirmed if prior is None else None
         return SegmentVerdict(start, end, verdict=v, continues_from_onset_s=prior,
+                              continues_onset_censored=prior is not None
+                              and self._leak_onset_censored,
                               unconfirmed_alarm_s=None if earlier is None else earlier[0],
                               unconfirmed_onset_s=None if earlier is None else earlier[1])
