@@ -175,6 +175,8 @@ def check_positive(value, name: str) -> float:
     >>> check_positive(1000, "sample_rate")
     1000.0
     """
+    if isinstance(value, (bool, np.bool_)):  # float(True) is 1.0: a flag is no number
+        raise TypeError(f"{name}={value!r} must be a number, not a bool")
     try:
         v = float(value)
     except (TypeError, ValueError):

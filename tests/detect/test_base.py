@@ -55,9 +55,15 @@ def test_zero_variance_feature_rejected():
                                        ({"onset_method": "magic"}, "onset_method"),
                                        ({"false_alarms_per_hour": 0}, "false_alarms_per_hour"),
                                        ({"confidence": 1.0}, "confidence"),
-                                       ({"confidence": 0.0}, "confidence")])
+                                       ({"confidence": 0.0}, "confidence"),
+                                       # an API audit, 2026-11-29: numpy's words, or taken
+                                       ({"drift": "a"}, "drift='a' must be a finite number"),
+                                       ({"burn_in_s": None}, "burn_in_s=None must be a finite"),
+                                       ({"false_alarms_per_hour": True},
+                                        "false_alarms_per_hour=True must be a number, not a "
+                                        "bool")])
 def test_alarm_validation(bad, match):
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises((ValueError, TypeError), match=match):
         Alarm(**bad)
 
 

@@ -154,3 +154,27 @@ def test_slope_pilot_stretch():
     flow = np.zeros(400_000)
     flow[200_000:220_000] = 2.0 / 60_000  # 2 L/min over the stretch, 0 after it
     assert p.pilot_mean_lpm(flow) == pytest.approx(2.0, rel=1e-12)
+
+
+def test_a_given_coefficient_needs_a_leak_and_states_what_it_leaks():
+    # an API audit, 2026-11-29: without leak_lpm the coefficient and the onset were dropped
+    # without a word; with it, meta['leak_lpm'] kept a target of 0.1 beside 0.51 achieved
+    import numpy as np
+    import pytest
+
+    import leakdiag as ld
+
+    r = ld.sim.simulate_vca(duration=20.0, leak_lpm=0.1, onset=10.0, seed=1)
+    k = r.meta["leak_coefficient"]
+    r5 = ld.sim.simulate_vca(duration=20.0, leak_lpm=0.1, onset=10.0, seed=1,
+                             leak_coefficient=5 * k)
+    mean = float(np.mean(np.abs(r5["leak_flow"][10000:]))) * 6e4
+    assert r5.meta["leak_lpm"] == r5.meta["leak_lpm_achieved"] == pytest.approx(mean)
+    assert r5.meta["leak_lpm"] > 0.3
+    assert r.meta["leak_lpm"] == 0.1  # a calibrated run keeps its target
+    for fn in (ld.sim.simulate_vca, ld.sim.simulate_eha):
+        with pytest.raises(ValueError, match="leak_coefficient=1e-09 is for a leaking run: "
+                                             "give leak_lpm > 0 too"):
+            fn(duration=4.0, leak_lpm=None, onset=2.0, seed=1, leak_coefficient=1e-9)
+    with pytest.raises(ValueError, match="reference_seed=-3 must be >= 0"):
+        ld.sim.simulate_vca(duration=2.0, leak_lpm=0, reference_seed=-3)

@@ -139,10 +139,13 @@ class Alarm:
         check_positive(self.false_alarms_per_hour, "false_alarms_per_hour")
         check_positive(self.penalty_factor, "penalty_factor")
         check_int(self.min_size, "min_size", 1)
-        if not (np.isfinite(self.drift) and self.drift >= 0):
-            raise ValueError(f"drift={self.drift!r} must be a finite number >= 0")
-        if not (np.isfinite(self.burn_in_s) and self.burn_in_s >= 0):
-            raise ValueError(f"burn_in_s={self.burn_in_s!r} must be a finite number >= 0")
+        for name in ("drift", "burn_in_s"):  # (an API audit, 2026-11-29: drift="a" raised
+            # numpy's "ufunc 'isfinite' not supported", naming no argument)
+            v = getattr(self, name)
+            ok = not isinstance(v, (bool, np.bool_, str)) and isinstance(v, (int, float,
+                                                                           np.number))
+            if not (ok and np.isfinite(v) and v >= 0):
+                raise ValueError(f"{name}={v!r} must be a finite number >= 0")
         if self.direction not in DIRECTIONS:
             raise ValueError(f"direction={self.direction!r} must be one of {sorted(DIRECTIONS)}")
         if self.onset_method not in ONSET_METHODS:

@@ -216,9 +216,9 @@ def read_hdf5_header(path: str | os.PathLike) -> dict | None:
     --------
     >>> import tempfile, pathlib
     >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.h5"
-    >>> write_hdf5(Recording({"p1": np.array([1.0, 2.0])}, 2.0, units={"p1": "bar"}), p)
+    >>> write_hdf5(Recording({"p1": np.array([1.0, 2.0])}, 2.0, units={"p1": "counts"}), p)
     >>> read_hdf5_header(p)["units"]
-    {'p1': 'bar'}
+    {'p1': 'counts'}
     """
     source = str(path)
     f = _open(path)

@@ -160,9 +160,9 @@ def read_parquet_header(path: str | os.PathLike) -> dict | None:
     --------
     >>> import tempfile, pathlib
     >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.parquet"
-    >>> write_parquet(Recording({"p1": np.array([1.0, 2.0])}, 2.0, units={"p1": "bar"}), p)
+    >>> write_parquet(Recording({"p1": np.array([1.0, 2.0])}, 2.0, units={"p1": "counts"}), p)
     >>> read_parquet_header(p)["units"]
-    {'p1': 'bar'}
+    {'p1': 'counts'}
     """
     import pyarrow as pa
     import pyarrow.parquet as pq

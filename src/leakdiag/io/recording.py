@@ -9,7 +9,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from leakdiag._validation import check_positive
-from leakdiag.io.checks import check_same_length, infer_sample_rate
+from leakdiag.io.checks import check_same_length, infer_sample_rate, same_rate
 from leakdiag.io.errors import RecordingError
 
 __all__ = ["Recording", "STANDARD_CHANNELS", "RecordingError", "load_name"]
@@ -96,10 +96,28 @@ class Recording:
             self.sample_rate = check_positive(self.sample_rate, "sample_rate")
         except (TypeError, ValueError) as exc:
             raise RecordingError(f"{source}: {exc}") from None
+        # (an API audit, 2026-11-29: a NaN start time, complex samples and text were taken or
+        # failed with numpy's words)
+        try:
+            start = float(self.start_time)
+        except (TypeError, ValueError):
+            start = float("nan")
+        if isinstance(self.start_time, bool) or not np.isfinite(start):
+            raise RecordingError(f"{source}: start_time={self.start_time!r} must be a finite "
+                                 "number of seconds")
+        self.start_time = start
         lengths = {}
         chans = {}
         for name, values in self.channels.items():
-            arr = np.ascontiguousarray(np.asarray(values, dtype=np.float64))
+            raw = np.asarray(values)
+            if np.iscomplexobj(raw):
+                raise RecordingError(f"{source}: channel {name!r} holds complex values (their "
+                                     "imaginary part would be dropped)")
+            try:
+                arr = np.ascontiguousarray(raw.astype(np.float64, copy=False))
+            except (TypeError, ValueError):
+                raise RecordingError(f"{source}: channel {name!r} holds values that are not "
+                                     f"numbers (dtype {raw.dtype})") from None
             if arr.ndim != 1:
                 raise RecordingError(
                     f"{source}: channel {name!r} must be 1-D, got shape {arr.shape}"
@@ -110,6 +128,17 @@ class Recording:
         self.channels = chans
         units = {k: STANDARD_CHANNELS[k] for k in chans if k in STANDARD_CHANNELS}
         units.update(self.units)
+        # a standard channel holds its SI unit (or raw counts): another label was kept and
+        # written, while every method read the values as SI (an API audit, 2026-11-29: p1
+        # labelled 'bar' went through fit, predict and Parquet as Pa)
+        for k, u in units.items():
+            if k in chans and k in STANDARD_CHANNELS and u not in (STANDARD_CHANNELS[k],
+                                                                   "counts"):
+                raise RecordingError(
+                    f"{source}: channel {k!r} is labelled {u!r}, but a Recording holds "
+                    f"standard channels in SI units ({STANDARD_CHANNELS[k]!r}, or 'counts'): "
+                    "convert the values (leakdiag.io.units.to_si, or read the file with a "
+                    "column map that states its unit)")
         self.units = units
 
     # ------------------------------------------------------------------ access
@@ -183,7 +212,15 @@ class Recording:
         -------
         Recording
             A copy holding the selected samples.
+
+        Raises
+        ------
+        ValueError
+            If a bound is NaN or infinite.
         """
+        for name, t in (("t0", t0), ("t1", t1)):
+            if t is not None and not np.isfinite(t):
+                raise ValueError(f"{name}={t!r} must be a finite time in s, or None")
         i0 = 0 if t0 is None else max(0, int(np.ceil((t0 - self.start_time) * self.sample_rate - 1e-9)))
         i1 = self.n_samples if t1 is None else max(0, int(np.ceil((t1 - self.start_time) * self.sample_rate - 1e-9)))
         return Recording(
@@ -244,8 +281,14 @@ class Recording:
         if time_column in df.columns:
             t = np.asarray(df[time_column], dtype=np.float64)
             fs = infer_sample_rate(t, source=source)
-            if sample_rate is None:
-                sample_rate = fs
+            # a given rate is a cross-check of the time column's, as in every reader (an API
+            # audit, 2026-11-29: 1000 Hz given for a 500-Hz column halved every time)
+            if sample_rate is not None and not same_rate(float(sample_rate), fs):
+                raise RecordingError(
+                    f"{source}: sample_rate={float(sample_rate):g} Hz was given, but the "
+                    f"{time_column!r} column says {fs:g} Hz; leave sample_rate out (the "
+                    "column's is used) or fix the column")
+            sample_rate = fs
             start = float(t[0]) if len(t) else 0.0
         if sample_rate is None:
             sample_rate = df.attrs.get("sample_rate")

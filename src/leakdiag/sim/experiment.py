@@ -47,7 +47,7 @@ from leakdiag.sim.leak import (
 from leakdiag.sim.linear_response import window_ratio
 from leakdiag.sim.machine import resolve_machine
 
-__all__ = ["Setup", "setup", "random_streams", "LeakPlan", "plan_leak",
+__all__ = ["Setup", "setup", "random_streams", "LeakPlan", "plan_leak", "check_coefficient_has_a_leak",
            "coefficient_from_healthy", "calibrate_leak", "experiment_metadata"]
 
 
@@ -420,6 +420,30 @@ def calibrate_leak(plan: LeakPlan, simulate_fn: Callable[[float], float], k0: fl
         raise
 
 
+def check_coefficient_has_a_leak(leak_coefficient, plan: LeakPlan) -> None:
+    """Refuse a ``leak_coefficient`` for a run without a leak (``leak_lpm`` None or 0): the
+    coefficient replaces the calibration of a leak, whose ``leak_lpm`` > 0 and ``onset`` make
+    it; it was dropped without a word, with the onset (an API audit, 2026-11-29).
+
+    Parameters
+    ----------
+    leak_coefficient : float or None
+        The simulator's argument.
+    plan : LeakPlan
+        The run's leak plan.
+
+    Raises
+    ------
+    ValueError
+        If a coefficient is given and the plan has no leak.
+    """
+    if leak_coefficient is not None and not plan.active:
+        raise ValueError(f"leak_coefficient={leak_coefficient!r} is for a leaking run: give "
+                         "leak_lpm > 0 too (the leak and its onset; the coefficient then "
+                         "replaces its calibration, and meta['leak_lpm'] is the run's mean "
+                         "leak since the onset)")
+
+
 def experiment_metadata(system: str, plan: LeakPlan, leak_flow_m3s: np.ndarray, *,
                         k_leak: float, leak_model: str, transition_pa: float, load: str,
                         seed: int, params, sensors: bool, sensor_params, conditions, machine,
@@ -477,11 +501,15 @@ def experiment_metadata(system: str, plan: LeakPlan, leak_flow_m3s: np.ndarray, 
     if calibration is not None:
         check_calibrated(achieved, plan.target_lpm, calibration_rtol)
     sched = plan.schedule
+    # a coefficient given (leak_coefficient=) leaks what it leaks: the run's leak in L/min is
+    # then its mean since the onset (the thesis's measure), not the target it replaced (an API
+    # audit, 2026-11-29: leak_lpm 0.1 stood beside 0.51 achieved)
+    given = plan.active and calibration is None
     return {
         "system": system,
         "source": f"leakdiag.sim.simulate_{system}",
         "onset": sched.onset_s if plan.active else None,
-        "leak_lpm": plan.target_lpm,
+        "leak_lpm": achieved if given else plan.target_lpm,
         "leak_lpm_achieved": achieved,
         "leak_coefficient": float(k_leak),
         "leak_reference_dp_pa": LEAK_REFERENCE_DP_PA,

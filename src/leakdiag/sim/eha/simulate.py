@@ -25,7 +25,8 @@ from leakdiag.sim.eha.model import (
 )
 from leakdiag.sim.eha.params import P_KFREE, EHAParams
 from leakdiag.sim.experiment import (
-    calibrate_leak, coefficient_from_healthy, experiment_metadata, plan_leak, random_streams, setup,
+    calibrate_leak, check_coefficient_has_a_leak, coefficient_from_healthy, experiment_metadata,
+    plan_leak, random_streams, setup,
 )
 from leakdiag.sim.leak import LPM_PER_M3S, LeakCalibrationError, leak_flow
 from leakdiag.sim.machine import EHAMachine
@@ -337,6 +338,8 @@ def simulate_eha(
         Ramp length in s.
     leak_coefficient : float, optional
         Use this coefficient :math:`k_l` (m^3/(s sqrt(Pa))) instead of calibrating one.
+        It needs ``leak_lpm`` > 0 (the leak and its onset), and ``meta['leak_lpm']`` is then
+        the run's mean leak since the onset (the coefficient's, not a target).
     leak_model : {"turbulent"}, default "turbulent"
         The leak law, Eq. 2-4 (the same argument as :func:`~leakdiag.sim.simulate_vca`; the
         EHA has no laminar leak).
@@ -490,6 +493,7 @@ def simulate_eha(
         return sol.states, sol.n_accepted, _leak_flow(k_leak * multiplier, sol.states, ptr)
 
     cal = None
+    check_coefficient_has_a_leak(leak_coefficient, plan)
     if not plan.active:
         k_leak = 0.0
         states, n_steps, q_leak = run(0.0)

@@ -7,10 +7,11 @@ from typing import Callable
 
 import numpy as np
 
-from leakdiag._validation import check_positive
+from leakdiag._validation import check_int, check_positive
 from leakdiag.io.recording import Recording
 from leakdiag.sim.experiment import (
     calibrate_leak,
+    check_coefficient_has_a_leak,
     coefficient_from_healthy,
     experiment_metadata,
     plan_leak,
@@ -244,6 +245,8 @@ def simulate_vca(
         Ramp length in s.
     leak_coefficient : float, optional
         Use this leakage coefficient instead of calibrating one to ``leak_lpm``.
+        It needs ``leak_lpm`` > 0 (the leak and its onset), and ``meta['leak_lpm']`` is then
+        the run's mean leak since the onset (the coefficient's, not a target).
     reference : optional
         Anything :func:`~leakdiag.sim.reference.as_reference` accepts; default pseudorandom
         steps of 2-20 mm.
@@ -346,6 +349,8 @@ def simulate_vca(
 
     # --- random streams: reference and noise independent, both from `seed`
     ref_ss, noise_ss = random_streams(seed)
+    if reference_seed is not None:  # (numpy's "expected non-negative integer" named nothing)
+        reference_seed = check_int(reference_seed, "reference_seed", 0)
     ref_rng = np.random.default_rng(ref_ss if reference_seed is None else reference_seed)
     t = np.arange(n) / fs
     x_ref = np.ascontiguousarray(as_reference(reference).samples(t, ref_rng), dtype=np.float64)
@@ -418,6 +423,7 @@ def simulate_vca(
     ptr = params.leak_transition_pressure_pa
     laminar = leak_model == "laminar"
     cal = None
+    check_coefficient_has_a_leak(leak_coefficient, plan)
     if not plan.active:
         k_leak = 0.0
         result = run(0.0)
