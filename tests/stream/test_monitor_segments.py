@@ -508,3 +508,56 @@ def test_stored_segments_are_judged_on_the_fleet_page_as_detect_runs(setup, run_
     (state, why), = st.fleet()[["state", "error"]].values.tolist()
     assert state == "NOT JUDGED" and "too short to judge" in why
     st.close()
+
+
+def test_a_failed_or_stopped_segment_session_is_not_shown_finished(setup, run_cli, tmp_path):
+    """A store audit (2026-11-29): a ``monitor --segment`` session that failed on bad input or
+    was stopped with SIGTERM read "OK, monitor finished" on the fleet page (its judged
+    segments are finished runs); the streamed monitor's run says failed or stopped."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from leakdiag.store import EventStore
+
+    d, det_path, path, rec = setup
+    df = rec.to_pandas()[["time", "p1", "p2", "x", "u"]].iloc[:45000]
+    df.to_csv(tmp_path / "bad45.csv", index=False)
+    with open(tmp_path / "bad45.csv", "a") as f:
+        f.write("45.0,abc,1,2,3\n")
+    db = tmp_path / "s.db"
+    code, _, err = run_cli(["monitor", str(tmp_path / "bad45.csv"), "--detector",
+                            str(det_path), "--segment", "20", "--store", str(db), "-q",
+                            "--chunk", "1000"])
+    assert code == 2 and "holds text" in err, err
+    st = EventStore(db, create=False)
+    row = st.fleet().set_index("name").loc["bad45"]
+    assert row["state"] == "FAILED", row.to_dict()
+    assert row["run"] == "monitor failed"
+    runs = st.runs_of("bad45")
+    assert list(runs["status"]) == ["failed", "finished", "finished"]  # 0-20 s, 20-40 s judged
+    assert "holds text" in runs.iloc[0]["error"]
+    assert runs.iloc[0]["source"].startswith(str((tmp_path / "bad45.csv").resolve()))
+    st.close()
+    # SIGTERM in a real-time replay: the input after the last judged segment is not judged
+    db2 = tmp_path / "s2.db"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    p = subprocess.Popen([sys.executable, "-m", "leakdiag.cli.main", "monitor", str(path),
+                          "--detector", str(det_path), "--segment", "20", "--store", str(db2),
+                          "--actuator", "seg", "--replay", "10x", "-q"], env=env,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t_end = time.monotonic() + 60
+    while time.monotonic() < t_end and not db2.exists():
+        time.sleep(0.1)
+    time.sleep(3.0)  # 30 s of the input read: the first segment judged, the second not
+    p.send_signal(signal.SIGTERM)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 128 + signal.SIGTERM, (out, err)
+    st = EventStore(db2, create=False)
+    runs = st.runs_of("seg")
+    last = runs.iloc[0]
+    assert last["status"] == "unjudged" and "stopped by SIGTERM" in last["error"], last
+    assert st.fleet().set_index("name").loc["seg", "state"] in ("NOT JUDGED", "ALARM")
+    st.close()

@@ -337,6 +337,29 @@ def _store_segment(st, actuator: str, source: str, method: str, sv, system) -> N
                     command="monitor")
 
 
+def _store_session_end(st, actuator: str, source, name: str, system, done, judge, stopped,
+                       failed) -> None:
+    """A stopped or failed ``monitor --segment`` session as one more run of the actuator.
+
+    Its judged segments are finished runs, so the fleet page read "OK, monitor finished" after
+    a SIGTERM or an input error (a store audit, 2026-11-29; the streamed monitor's run says
+    "stopped" or "failed"). A failure is stored ``failed`` (FAILED), a stop ``unjudged`` (NOT
+    JUDGED: the input after the last judged segment was not judged), each with why. A session
+    killed with ``kill -9`` stores nothing more: its last judged segment stands."""
+    from leakdiag.store.summary import FinishedRun
+
+    since = done[-1].end_s if done else judge.start_time
+    if failed is not None:
+        status, why = "failed", (f"monitor --segment failed: {failed}; the segments before "
+                                 "the error were judged")
+    else:
+        status, why = "unjudged", (f"monitor --segment stopped by {stopped.name}; the input "
+                                   f"from {since:.6g} s on was not judged")
+    st.add_finished_runs(actuator, [FinishedRun(
+        "monitor", f"{_stored_source(source.source)} [from {since:.6g} s]", name, status, why,
+        system=system, config={"method": name})])
+
+
 def _monitor_segments(detector, meta, detector_path, input_path, follow, replay, sample_rate,
                       chunk, idle_timeout, batch_lines, cmap, events, quiet, segment_s,
                       store=None, actuator=None):
@@ -486,6 +509,8 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
         say(f"  run level: a {seg:g}-s segment expects about {expected:.3g} false alarms at the "
             f"fitted level {float(detector.threshold_):.4g}, so full segments are judged at the "
             f"level {level:.4g}, {how} (docs/detect.md section 2, 'Long runs')")
+    if st is not None and (stopped is not None or failed is not None):
+        _store_session_end(st, actuator, source, name, system, done, judge, stopped, failed)
     if stopped is not None:
         click.get_current_context().exit(128 + stopped.signum)
     if failed is not None:
