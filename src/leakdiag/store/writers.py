@@ -227,14 +227,16 @@ def record_batch(store: EventStore, results, job_digest: str,
     names = actuator_names(rows["path"].astype(str), actuator_from)
     inv = uuid.uuid4().hex
     per_actuator: dict[str, list[FinishedRun]] = {}
+    paths_of: dict[str, set[str]] = {}
     for r in rows.to_dict("records"):
-        per_actuator.setdefault(names[str(r["path"])], []).append(_batch_run(r, job_digest))
+        name = names[str(r["path"])]
+        per_actuator.setdefault(name, []).append(_batch_run(r, job_digest))
+        paths_of.setdefault(name, set()).add(str(r["path"]))
     n = skipped = 0
     refused = []
     known = set(store.actuator_names())
     for actuator, runs in per_actuator.items():
-        other = _other_folder(store, actuator, [str(r["path"]) for r in rows.to_dict("records")
-                                                if names[str(r["path"])] == actuator], known)
+        other = _other_folder(store, actuator, paths_of[actuator], known)
         if other is not None:  # none of this actuator's rows: stored, they would merge
             refused.append(other)
             continue
