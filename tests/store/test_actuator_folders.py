@@ -48,6 +48,15 @@ def test_a_second_batch_job_does_not_merge_another_folder_into_an_actuator(sites
     sources = set(st.runs_of("rig1")["source"])
     st.close()
     assert sources == {str((d / "siteA" / "rig1" / "run1.parquet").resolve())}
+    # one file per actuator (--actuator-from stem): siteB's run1 is not siteA's run1 either
+    db2 = d / "stems.db"
+    for site, code_wanted in (("siteA", 0), ("siteB", 2)):
+        code, out, err = run_cli(["batch", str(d / site / "**" / "*.parquet"), "--detector",
+                                  str(det), "-o", str(d / f"stem{site}.parquet"), "--scheduler",
+                                  "serial", "--store", str(db2), "--actuator-from", "stem",
+                                  "--no-progress"])
+        assert code == code_wanted, (out, err)
+    assert "not stored: actuator 'run1' already holds runs of" in err
     # the same folder again (a new job over it) is the same actuator
     code, out, err = run_cli(["batch", str(d / "siteA" / "**" / "*.parquet"), "--detector",
                               str(det), "-o", str(d / "resA2.parquet"), "--scheduler",
