@@ -559,5 +559,6 @@ def test_a_failed_or_stopped_segment_session_is_not_shown_finished(setup, run_cl
     runs = st.runs_of("seg")
     last = runs.iloc[0]
     assert last["status"] == "unjudged" and "stopped by SIGTERM" in last["error"], last
-    assert st.fleet().set_index("name").loc["seg", "state"] in ("NOT JUDGED", "ALARM")
+    # the leak begins at 70 s, after what 3 s of a 10x replay read: no alarm to keep
+    assert st.fleet().set_index("name").loc["seg", "state"] == "NOT JUDGED"
     st.close()

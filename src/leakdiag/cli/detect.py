@@ -16,27 +16,8 @@ __all__ = ["detect", "verdict_table", "overall_verdict", "default_methods", "sen
 #: file has the channels it reads (docs/detect.md section 6, "Default methods"), else these.
 _DEFAULT_METHODS = "flow-balance"
 _FALLBACK_METHODS = "acf-p1,ccf-p1p2,mlr-p1"
-
-
-def _channels_read(methods, system, rec) -> list[str]:
-    """The suspect's channels that ``methods`` read (the default methods and their fallback
-    when None), on ``system`` (both rigs when neither it nor the file says), sorted; every
-    channel they may read when ``rec`` is None."""
-    from leakdiag.bench.registry import make_detector
-    from leakdiag.detect.base import Alarm, read_channels
-
-    names = methods or [*_DEFAULT_METHODS.split(","), *_FALLBACK_METHODS.split(",")]
-    said = system or (rec.meta.get("system") if rec is not None else None)
-    out: set[str] = set()
-    for rig in ([str(said).lower()] if said else ["vca", "eha"]):
-        for m in names:
-            try:
-                det = make_detector(m, rig, Alarm())
-            except (TypeError, ValueError):  # an unknown name is refused where it is fitted
-                continue
-            out.update(c for c in read_channels(det, rec)
-                       if rec is None or c in rec.channels)
-    return sorted(out)
+#: Every method detect may fit without --methods (the default and its fallback).
+_DEFAULTS = [*_DEFAULT_METHODS.split(","), *_FALLBACK_METHODS.split(",")]
 
 
 def _repeated_detector(paths) -> str | None:
@@ -54,14 +35,13 @@ def _repeated_detector(paths) -> str | None:
     D/a.joblib and D/b.joblib hold the same detector (the same bytes): it would be judged \
 twice and its false-alarm rate counted twice; give it once
     """
-    import hashlib
     import os
+
+    from leakdiag.batch.store import content_hash
 
     seen: dict[tuple[str, str], str] = {}
     for path in paths:
-        real = os.path.realpath(path)
-        with open(path, "rb") as fh:
-            digest = hashlib.file_digest(fh, "sha256").hexdigest()
+        real, digest = os.path.realpath(path), content_hash(path)
         for (other_real, other_digest), other in seen.items():
             if real == other_real or digest == other_digest:
                 how = "the same file" if real == other_real else "the same bytes"
@@ -267,7 +247,7 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
 
     from leakdiag.bench.registry import make_detector
     from leakdiag.cli._options import read_healthy, read_with
-    from leakdiag.cli.fit import common_load, system_of
+    from leakdiag.cli.fit import channels_of_methods, common_load, system_of
     from leakdiag.detect.base import Alarm
     from leakdiag.detect.threshold import count_segments
     from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
@@ -280,7 +260,7 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
     # only the channels that some method reads (a CLI audit, 2026-11-29: a text note column
     # beside the signals made detect refuse a file that monitor and batch, which read only
     # their detectors' channels, judged LEAK)
-    wanted = set(_channels_read(methods, system, None) if healthy else ())
+    wanted = set(channels_of_methods(methods or _DEFAULTS, system) if healthy else ())
     for _, det, meta in loaded:
         wanted.update(getattr(meta, "channels", None) or read_channels(det))
     rec = read_with(file, column_map, sample_rate, resample, channels=sorted(wanted))
@@ -300,7 +280,7 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
         # checked in each healthy file: the channels the methods may read (not the suspect's
         # every column: a healthy CSV export without the simulator's leak_flow was refused)
         train = read_healthy(healthy, rec, column_map, sample_rate, resample=resample,
-                             channels=_channels_read(methods, system, rec))
+                             channels=channels_of_methods(methods or _DEFAULTS, system, rec))
         check_longer_than_burn_in(train, healthy, burn_in_s)
         from leakdiag.io.recording import load_name
 

@@ -9,8 +9,8 @@ import click
 from leakdiag.cli._options import no_progress_option, recording_options, resample_option
 from leakdiag.detect.base import read_channels as detector_channels
 
-__all__ = ["fit", "fit_detector", "detector_channels", "system_of", "common_load",
-           "check_out_path"]
+__all__ = ["fit", "fit_detector", "detector_channels", "channels_of_methods", "system_of",
+           "common_load", "check_out_path"]
 
 #: Suffixes of recordings (``leakdiag.io``): ``-o`` with one of them is refused unless the file
 #: is already a detector file (``fit ... -o a.parquet`` overwrote a healthy input).
@@ -67,6 +67,50 @@ def check_out_path(out: str, inputs) -> None:
                 + ("and the file is not a detector file: writing would overwrite it"
                    if os.path.exists(out) else "but a detector file is a joblib pickle")
                 + f"; give e.g. {stem}.joblib", param_hint="--out")
+
+
+def channels_of_methods(methods, system=None, recording=None) -> list[str]:
+    """The channels that ``methods`` read, on ``system`` (both rigs when None and
+    ``recording`` does not say): what detect and fit read of a file (the other columns are
+    neither converted nor checked).
+
+    Parameters
+    ----------
+    methods : sequence of str
+        Method names (:data:`leakdiag.bench.registry.METHODS`); unknown ones are skipped
+        (they are refused where they are fitted).
+    system : {"vca", "eha"}, optional
+        The rig.
+    recording : Recording, optional
+        Only its channels are returned (and its metadata's rig is used when ``system`` is
+        None).
+
+    Returns
+    -------
+    list of str
+        Sorted.
+
+    Examples
+    --------
+    >>> channels_of_methods(["acf-p1", "ccf-p1p2"], "vca")
+    ['p1', 'p2']
+    >>> channels_of_methods(["flow-balance"])  # either rig
+    ['p1', 'p2', 'pa', 'pb', 'speed', 'u', 'x']
+    """
+    from leakdiag.bench.registry import make_detector
+    from leakdiag.detect.base import Alarm
+
+    said = system or (recording.meta.get("system") if recording is not None else None)
+    out: set[str] = set()
+    for rig in ([str(said).lower()] if said else ["vca", "eha"]):
+        for m in methods:
+            try:
+                det = make_detector(m, rig, Alarm())
+            except (TypeError, ValueError):  # not a method (of that rig)
+                continue
+            out.update(c for c in detector_channels(det, recording)
+                       if recording is None or c in recording.channels)
+    return sorted(out)
 
 
 def common_load(recordings) -> str | None:
@@ -269,14 +313,9 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
 
     # read only what the method reads, on either rig (a CLI audit, 2026-11-29: a text note
     # column beside the signals was refused here and in detect, read by monitor and batch)
-    wanted = set()
-    for rig in ([system] if system else ["vca", "eha"]):
-        try:
-            wanted.update(detector_channels(make_detector(method, rig, Alarm())))
-        except (TypeError, ValueError):  # not a method of that rig
-            continue
+    wanted = channels_of_methods([method], system) or None
     recs = read_healthy(healthy, None, cmap, sample_rate, channels=(), resample=resample,
-                        keep=sorted(wanted) or None)
+                        keep=wanted)
     system = system_of(recs, system, healthy)
     # the channels the method reads must be in every healthy file, with one unit; others may
     # differ (a file without p2 was refused for acf-p1, which reads only p1)
@@ -295,7 +334,7 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
     if calibration:
         from leakdiag.cli._options import read_with
 
-        cal = [read_with(p, cmap, sample_rate, resample, sorted(wanted) or None)
+        cal = [read_with(p, cmap, sample_rate, resample, wanted)
                for p in calibration]
         if len(cal) < 3:
             raise click.BadParameter(f"got {len(cal)} file(s); a leak-size calibration needs at "

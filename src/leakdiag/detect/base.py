@@ -142,9 +142,9 @@ class Alarm:
         for name in ("drift", "burn_in_s"):  # (an API audit, 2026-11-29: drift="a" raised
             # numpy's "ufunc 'isfinite' not supported", naming no argument)
             v = getattr(self, name)
-            ok = not isinstance(v, (bool, np.bool_, str)) and isinstance(v, (int, float,
-                                                                           np.number))
-            if not (ok and np.isfinite(v) and v >= 0):
+            number = isinstance(v, (int, float, np.number)) and not isinstance(v, (bool,
+                                                                                 np.bool_))
+            if not (number and np.isfinite(v) and v >= 0):
                 raise ValueError(f"{name}={v!r} must be a finite number >= 0")
         if self.direction not in DIRECTIONS:
             raise ValueError(f"direction={self.direction!r} must be one of {sorted(DIRECTIONS)}")
