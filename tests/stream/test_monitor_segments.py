@@ -562,3 +562,81 @@ def test_a_failed_or_stopped_segment_session_is_not_shown_finished(setup, run_cl
     # the leak begins at 70 s, after what 3 s of a 10x replay read: no alarm to keep
     assert st.fleet().set_index("name").loc["seg", "state"] == "NOT JUDGED"
     st.close()
+
+
+def test_a_segment_session_killed_with_kill_9_reads_silent_not_finished(
+        setup, run_cli, tmp_path, monkeypatch):
+    """A ``monitor --segment --store`` session killed with ``kill -9`` stores nothing more, and
+    its last judged segment read "monitor finished" on the fleet page for ever, like a session
+    that ended (a known gap until session 25). Each segment now carries its session, marked
+    ended when the session ends in any other way; a session not ended that sent no segment for
+    3 of its segment intervals (at least a minute) reads "silent since"."""
+    import datetime as dt
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import leakdiag.store.database as database
+    from leakdiag.store import EventStore
+
+    d, det_path, path, rec = setup
+    # a session that ends: every segment's session is marked ended, "monitor finished"
+    db = tmp_path / "ok.db"
+    code, _, err = run_cli(["monitor", str(path), "--detector", str(det_path), "--segment",
+                            "30", "--store", str(db), "--actuator", "ok", "-q"])
+    assert code == 0, err
+    st = EventStore(db, create=False)
+    cfgs = _configs(db)
+    assert len(cfgs) == 3 and len({c["session"]["id"] for c in cfgs}) == 1
+    assert all(c["session"]["ended"] is True and c["session"]["interval_s"] == 0.0
+               for c in cfgs)  # a file read as fast as possible
+    later = database._now() + dt.timedelta(hours=1)
+    monkeypatch.setattr(database, "_now", lambda: later)
+    assert st.fleet().set_index("name").loc["ok", "run"] == "monitor finished"
+    st.close()
+    monkeypatch.undo()
+    # kill -9 in a 10x replay once the first 20-s segment is stored
+    db2 = tmp_path / "k.db"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    p = subprocess.Popen([sys.executable, "-m", "leakdiag.cli.main", "monitor", str(path),
+                          "--detector", str(det_path), "--segment", "20", "--store", str(db2),
+                          "--actuator", "seg", "--replay", "10x", "-q"], env=env,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t_end, n = time.monotonic() + 90, 0
+    while time.monotonic() < t_end and n == 0 and p.poll() is None:
+        time.sleep(0.2)
+        if db2.exists():
+            try:
+                st = EventStore(db2, create=False)
+                n = len(st.runs_of("seg")) if "seg" in st.actuator_names() else 0
+                st.close()
+            except Exception:  # the schema not written yet
+                n = 0
+    p.send_signal(signal.SIGKILL)
+    p.communicate(timeout=60)
+    assert n >= 1 and p.returncode == -signal.SIGKILL
+    st = EventStore(db2, create=False)
+    ses = _configs(db2)[-1]["session"]
+    assert ses["ended"] is False and ses["interval_s"] == 2.0  # 20 s at 10x
+    row = st.fleet().set_index("name").loc["seg"]
+    assert row["state"] == "OK"  # the leak begins at 70 s
+    assert row["run"].startswith("monitor --segment running, last segment judged "), row["run"]
+    # 3 intervals are 6 s, so a minute without a segment is silent (SILENT_S)
+    t_last = database._now()
+    monkeypatch.setattr(database, "_now", lambda: t_last + dt.timedelta(seconds=30))
+    assert st.fleet().set_index("name").loc["seg", "run"].startswith(
+        "monitor --segment running, last segment judged ")
+    monkeypatch.setattr(database, "_now", lambda: t_last + dt.timedelta(seconds=61))
+    assert st.fleet().set_index("name").loc["seg", "run"].startswith(
+        "monitor --segment running, silent since ")
+    st.close()
+
+
+def _configs(db) -> list:
+    """The stored runs' config, in the order they were stored (read as any SQLite reader)."""
+    import sqlite3
+
+    with sqlite3.connect(db) as conn:
+        return [json.loads(c) for (c,) in conn.execute("SELECT config FROM runs ORDER BY id")]

@@ -313,8 +313,10 @@ def _stored_source(source) -> str:
     return s if s in ("-", "<stdin>") else os.path.realpath(s)
 
 
-def _store_segment(st, actuator: str, source: str, method: str, sv, system) -> None:
-    """One judged segment into the store, as ``detect --store`` stores a file's verdict."""
+def _store_segment(st, actuator: str, source: str, method: str, sv, system,
+                   session: dict | None = None) -> None:
+    """One judged segment into the store, as ``detect --store`` stores a file's verdict, with
+    its session (:func:`_segment_session`)."""
     import pandas as pd
 
     from leakdiag.store.writers import record_verdicts
@@ -334,11 +336,32 @@ def _store_segment(st, actuator: str, source: str, method: str, sv, system) -> N
     tab = pd.DataFrame([row])
     tab.attrs["system"] = system
     record_verdicts(st, actuator, f"{source} [{sv.start_s:.6g}-{sv.end_s:.6g} s]", tab,
-                    command="monitor")
+                    command="monitor", config=None if session is None else {"session": session})
+
+
+def _segment_session(seg: float, live: bool, speed: float | None) -> dict:
+    """The session a ``monitor --segment`` run stores with each segment: an id, the wall
+    seconds between segments it expects (``interval_s``: a segment's length for a live input,
+    divided by the replay speed for a paced file, 0 for a file read as fast as possible) and
+    ``ended`` false until the session ends in any way but ``kill -9``
+    (:meth:`~leakdiag.store.database.EventStore.end_session`): the fleet page says a session
+    that has not ended and sent no segment for 3 intervals (at least a minute) is silent. A
+    session killed with ``kill -9`` read as a finished ``monitor`` (an audit, 2026-11-29).
+
+    >>> s = _segment_session(60.0, False, 10.0)
+    >>> s["interval_s"], s["ended"], len(s["id"])
+    (6.0, False, 32)
+    >>> [_segment_session(60.0, live, None)["interval_s"] for live in (True, False)]
+    [60.0, 0.0]
+    """
+    import uuid
+
+    interval = seg if live else (0.0 if speed is None else seg / float(speed))
+    return {"id": uuid.uuid4().hex, "interval_s": float(interval), "ended": False}
 
 
 def _store_session_end(st, actuator: str, source, name: str, system, done, judge, stopped,
-                       failed) -> None:
+                       failed, session: dict) -> None:
     """A stopped or failed ``monitor --segment`` session as one more run of the actuator.
 
     Its judged segments are finished runs, so the fleet page read "OK, monitor finished" after
@@ -357,7 +380,7 @@ def _store_session_end(st, actuator: str, source, name: str, system, done, judge
                                    f"from {since:.6g} s on was not judged")
     st.add_finished_runs(actuator, [FinishedRun(
         "monitor", f"{_stored_source(source.source)} [from {since:.6g} s]", name, status, why,
-        system=system, config={"method": name})])
+        system=system, config={"method": name, "session": session})])
 
 
 def _monitor_segments(detector, meta, detector_path, input_path, follow, replay, sample_rate,
@@ -444,6 +467,7 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
     done: list = []
 
     system = source.meta.get("system") or getattr(meta, "system", None)
+    session = _segment_session(seg, input_path == "-" or follow, speed)
 
     def emit(verdicts, last=False):
         for sv in verdicts:
@@ -462,7 +486,8 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
                 # the file's real path, as the streaming monitor and detect store it (a store
                 # audit, 2026-11-29: the path as typed, relative, escaped the check that keeps
                 # one stem of two folders apart, default_actuator)
-                _store_segment(st, actuator, _stored_source(source.source), name, sv, system)
+                _store_segment(st, actuator, _stored_source(source.source), name, sv, system,
+                               session)
 
     stopped = failed = None
     t0 = time.perf_counter()
@@ -509,8 +534,11 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
         say(f"  run level: a {seg:g}-s segment expects about {expected:.3g} false alarms at the "
             f"fitted level {float(detector.threshold_):.4g}, so full segments are judged at the "
             f"level {level:.4g}, {how} (docs/detect.md section 2, 'Long runs')")
-    if st is not None and (stopped is not None or failed is not None):
-        _store_session_end(st, actuator, source, name, system, done, judge, stopped, failed)
+    if st is not None:
+        if stopped is not None or failed is not None:
+            _store_session_end(st, actuator, source, name, system, done, judge, stopped,
+                               failed, session)
+        st.end_session(actuator, session["id"])  # only kill -9 leaves it running
     if stopped is not None:
         click.get_current_context().exit(128 + stopped.signum)
     if failed is not None:

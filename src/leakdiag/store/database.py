@@ -11,6 +11,7 @@ transaction, so a killed writer loses at most the chunk it was writing.
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import time
@@ -724,6 +725,46 @@ class EventStore:
         self._write(lambda c: c.execute(update(S.runs).where(S.runs.c.id == run_id)
                                         .values(ended_at=_now(), status=status, error=error)))
 
+    def end_session(self, actuator: str, session_id: str) -> int:
+        """Mark the stored runs of one ``monitor --segment`` session as ended.
+
+        Each judged segment is stored as a finished run whose config carries the session
+        (``{"session": {"id": ..., "interval_s": ..., "ended": false}}``); the monitor marks
+        them ended when it stops in any way but a ``kill -9`` (or a crash of the machine), so
+        the fleet page can tell a session that stopped sending segments from one that ended
+        (:func:`_run_words`).
+
+        Parameters
+        ----------
+        actuator : str
+            Actuator name.
+        session_id : str
+            The session's id (its runs' ``config["session"]["id"]``).
+
+        Returns
+        -------
+        int
+            Runs marked.
+        """
+        def fn(conn):
+            r_, a_ = S.runs.c, S.actuators.c
+            rows = conn.execute(select(r_.id, r_.config).join(
+                S.actuators, a_.id == r_.actuator_id).where(
+                (a_.name == str(actuator)) & r_.config.contains(str(session_id)))).all()
+            n = 0
+            for rid, text in rows:
+                cfg = _config(text)
+                ses = cfg.get("session")
+                if isinstance(ses, dict) and ses.get("id") == session_id and \
+                        ses.get("ended") is not True:
+                    cfg["session"] = {**ses, "ended": True}
+                    conn.execute(update(S.runs).where(r_.id == rid).values(
+                        config=json.dumps(cfg, default=str)))
+                    n += 1
+            return n
+
+        return self._write(fn)
+
     def close(self) -> None:
         """Release the database connections."""
         self.engine.dispose()
@@ -784,7 +825,10 @@ class EventStore:
         :func:`_run_words`): "monitor stopped after 57 windows", or for a monitor still marked
         running but silent for :data:`SILENT_S` and 20 of its mean chunk intervals (killed, or
         its input stalled) "monitor running, silent since ...": a dead monitor's last OK is
-        told from a live one's (store audit 2026-11-27, finding 8).
+        told from a live one's (store audit 2026-11-27, finding 8). A ``monitor --segment``
+        session's judged segments say "monitor --segment running, last segment judged ..."
+        until the session ends (:meth:`end_session`), and "silent since ..." once its latest
+        segment is 3 of its segment intervals (at least :data:`SILENT_S`) old.
 
         Returns
         -------
@@ -836,10 +880,19 @@ class EventStore:
         for a in al.to_dict("records"):
             alarms_of.setdefault(a["run_id"], []).append(a)
         invocations: dict = {}  # actuator id -> invocation -> its runs
+        sessions: dict = {}  # (actuator id, monitor --segment session id) -> its runs
         for r in runs.sort_values("id").to_dict("records"):
             r.update(_judgment(r, bool(alarms_of.get(r["id"]))))
             invocations.setdefault(r["actuator_id"], {}).setdefault(r["invocation"], []) \
                 .append(r)
+            ses = _session(r)
+            if ses is not None:
+                sessions.setdefault((r["actuator_id"], ses["id"]), []).append(r)
+        for rs in sessions.values():  # a session's latest segment, and whether it ended
+            latest = max(r["at"] for r in rs)
+            ended = any(_session(r).get("ended") is True for r in rs)
+            for r in rs:
+                r["session_at"], r["session_ended"] = latest, ended
         rows = []
         for a in act.itertuples():
             invs = [_invocation(rs, [x for r in rs for x in alarms_of.get(r["id"], [])])
@@ -1090,6 +1143,27 @@ def _is_segment(cmd: str, cfg: dict) -> bool:
     return cmd == "monitor" and "method" in cfg and "window" not in cfg
 
 
+def _session(run: dict) -> dict | None:
+    """The ``monitor --segment`` session of a stored run (``config["session"]`` with an id),
+    None for any other run (and for segments stored before sessions were).
+
+    Examples
+    --------
+    >>> import json
+    >>> cfg = {"method": "flow-balance", "session": {"id": "ab12", "ended": False}}
+    >>> _session({"command": "monitor", "config": json.dumps(cfg)})["id"]
+    'ab12'
+    >>> _session({"command": "detect", "config": json.dumps(cfg)}) is None
+    True
+    """
+    cmd, cfg = str(run.get("command")), _config(run.get("config"))
+    ses = cfg.get("session")
+    if not _is_segment(cmd, cfg) or not isinstance(ses, dict) or \
+            not isinstance(ses.get("id"), str):
+        return None
+    return ses
+
+
 def _run_words(run: dict, now) -> str:
     """How the run that gave an actuator's state stands, in words (:meth:`EventStore.fleet`).
 
@@ -1107,10 +1181,32 @@ def _run_words(run: dict, now) -> str:
     >>> _run_words({"command": "detect", "status": "finished", "n_windows": None,
     ...             "start": t, "at": t, "n_chunks": 0}, t)
     'detect finished'
+    >>> seg = {"command": "monitor", "status": "finished", "at": t, "config": json.dumps(
+    ...     {"method": "flow-balance", "session": {"id": "a1", "interval_s": 60.0,
+    ...                                            "ended": False}})}
+    >>> _run_words(seg, t + pd.Timedelta(minutes=2))   # 3 intervals: 3 minutes
+    'monitor --segment running, last segment judged 2026-11-27 09:00:00 UTC'
+    >>> _run_words({**seg, "session_at": t + pd.Timedelta(minutes=1)},
+    ...            t + pd.Timedelta(minutes=5))   # the session's latest segment counts
+    'monitor --segment running, silent since 2026-11-27 09:01:00 UTC'
+    >>> _run_words({**seg, "session_ended": True}, t + pd.Timedelta(hours=1))
+    'monitor finished'
     """
     cmd, status = str(run["command"]), str(run["status"])
     n = run.get("n_windows")
     n = None if _missing(n) else int(n)
+    ses = _session(run)
+    if ses is not None and not run.get("session_ended", ses.get("ended") is True):
+        # a monitor --segment session that has not ended: its latest segment tells whether
+        # it still sends them (a segment session killed with kill -9 read "monitor finished")
+        at = run.get("session_at", run.get("at"))
+        when = at.strftime("%Y-%m-%d %H:%M:%S")
+        interval = ses.get("interval_s")
+        interval = float(interval) if isinstance(interval, (int, float)) and \
+            math.isfinite(interval) and interval > 0 else 0.0
+        if (now - at).total_seconds() > max(SILENT_S, 3.0 * interval):
+            return f"monitor --segment running, silent since {when} UTC"
+        return f"monitor --segment running, last segment judged {when} UTC"
     if cmd != "monitor" or _is_segment(cmd, _config(run.get("config"))):
         return f"{cmd} {status}"  # (a segment's windows are not stored: no "0 windows")
     if status == "running":

@@ -320,7 +320,7 @@ def default_actuator(store: EventStore, source: str) -> str:
 
 
 def record_verdicts(store: EventStore, actuator: str, file: str, table,
-                    command: str = "detect") -> int:
+                    command: str = "detect", config: dict | None = None) -> int:
     """Store the verdicts of ``leakdiag detect``: one run per method, an alarm per leak found.
 
     A method that could not judge the file (its row has an ``error``, or no verdict) is stored
@@ -348,6 +348,9 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table,
     command : str, default "detect"
         The command stored with the runs (``monitor`` for a segment judged by a
         whole-recording detector).
+    config : dict, optional
+        More settings stored with each run besides its method (``monitor --segment``: its
+        session, :meth:`~leakdiag.store.database.EventStore.end_session`).
 
     Returns
     -------
@@ -389,6 +392,7 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table,
         runs.append(FinishedRun(command, str(file), str(r["method"]), status,
                                 err if failed or inconclusive else None,
                                 threshold=_num(r.get("threshold")), system=system,
-                                config={"method": r["method"]}, alarms=alarms))
+                                config={**(config or {}), "method": r["method"]},
+                                alarms=alarms))
     store.add_finished_runs(actuator, runs)  # one transaction: no run left 'running'
     return sum(len(r.alarms) for r in runs)
