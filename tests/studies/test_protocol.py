@@ -122,3 +122,29 @@ def test_report_compares_with_a_previous_run():
     assert f"Direction agrees in 0 of {len(new)} rows before and {len(new)} of {len(new)} now" \
         in md
     assert "0.1 before, 0.5 now" in md
+
+
+def test_cross_correlation_signals_in_the_named_order():
+    """docs/studies.md "Signals" (decision, thesis audit 2026-11-29): the signal the thesis names
+    first is Eq. 4.2's y (paired with the other's later samples); the order changes the value,
+    so the study path must keep it. A signal that leads the other by the lag correlates fully
+    in this order and not swapped."""
+    from leakdiag.features.correlation import cross_correlation
+    from leakdiag.features.spec import compute_feature
+    from leakdiag.io import Recording
+    from leakdiag.studies.protocol import _spec
+    from leakdiag.studies.thesis import channels_of
+
+    rng = np.random.default_rng(3)
+    lead = rng.standard_normal(2000)
+    u = lead[8:]                    # x = u delayed by 8 samples: x_{j+8} = u_j
+    x = lead[:-8]
+    rec = Recording({"u": u, "x": x, "p1": u, "p2": x}, 1000.0)
+    for signals, (a, b) in (("U,X", (u, x)), ("P1,P2", (u, x))):
+        assert channels_of(signals) == (("u", "x") if signals == "U,X" else ("p1", "p2"))
+        spec = _spec("cross_correlation", ",".join(channels_of(signals)), 8, 200, 5.0)
+        got = compute_feature(rec, spec).values
+        want = cross_correlation(a, b, lag=8, window=200, overlap=5.0).values
+        swapped = cross_correlation(b, a, lag=8, window=200, overlap=5.0).values
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+        assert np.all(got > 0.9) and np.all(np.abs(swapped) < 0.5)  # (N - lag) / N at most

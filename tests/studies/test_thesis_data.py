@@ -102,3 +102,25 @@ def test_vca_ux_sensitivity_range_is_table_5_17s(shared_dir):
     # the shared copy's values are the same; only the note was added
     shared = pd.read_csv(shared_dir / "thesis" / "sensitivity.csv")
     np.testing.assert_array_equal(shared.sensitivity_min_pct, s.sensitivity_min_pct)
+
+
+def test_rows_at_one_setting_with_different_printed_numbers_are_the_documented_ones():
+    """Thesis audit 2026-11-29: groups of rows that state one setting but print different
+    numbers are the four docs/studies.md lists, and Table 6-15 is computed at window 400 (its
+    5 % row near Table 6-14's window-400 row, far from its window-200 row)."""
+    t = load_tables()
+    setting = SAME_EXPERIMENT + ["lag", "window", "overlap_pct"]
+    groups = sorted(sorted(set(g["table"])) for _, g in t.groupby(setting)
+                    if len(g.drop_duplicates(PRINTED)) > 1)
+    assert groups == [["5-1", "5-2", "5-3"], ["5-10", "5-9"], ["6-14", "6-15"],
+                      ["6-5", "6-6", "6-7"]]
+    studies = " ".join((DOCS / "studies.md").read_text(encoding="utf-8").split())
+    for rows in ("5-1 and 5-3", "5-9 (lag 1", "6-5 (lag 16", "6-14 (43:3"):
+        assert f"| {rows}" in studies
+    t615 = t[t.table == "6-15"]
+    assert t615.window.tolist() == [400] * 3 and t615.overlap_pct.tolist() == [5.0, 15.0, 25.0]
+    w = t[t.table == "6-14"].set_index("window")
+    first = t615.iloc[0]
+    near = [abs(first[c] / w.loc[400, c] - 1) for c in PRINTED[:2]]
+    far = [abs(first[c] / w.loc[200, c] - 1) for c in PRINTED[:2]]
+    assert max(near) < 0.013 and min(far) > 0.1

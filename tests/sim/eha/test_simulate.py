@@ -272,3 +272,18 @@ def test_measured_speed_is_the_encoder_count_difference():
     assert np.max(np.abs(meas["speed"][1:] - mid)) <= quantum + 1e-9
     assert meas.meta["motor_encoder_counts_per_rev"] == 20_000
     assert true.meta["motor_encoder_counts_per_rev"] is None
+
+
+def test_default_sample_rate_is_1khz():
+    """docs/models.md, EHA "Sample rate" (decision, thesis audit 2026-11-29): Ch. 3 states none;
+    the EHA records at 1 kHz as the VCA does, and its leak law is the turbulent Eq. 2-4 only."""
+    import inspect
+
+    import leakdiag as ld
+
+    sig = inspect.signature(ld.sim.simulate_eha).parameters
+    assert sig["sample_rate"].default == 1000.0 and sig["leak_model"].default == "turbulent"
+    rec = ld.sim.simulate_eha(duration=0.5)
+    assert rec.sample_rate == 1000.0 and len(rec["p1"]) == 500
+    with pytest.raises(ValueError, match="leak_model='laminar' must be one of"):
+        ld.sim.simulate_eha(duration=2.0, leak_model="laminar", leak_lpm=0.5, onset=1.0)
