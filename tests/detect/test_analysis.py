@@ -330,3 +330,38 @@ def test_an_inconclusive_overall_names_a_method_that_reads_leak_alone():
     assert overall_decision(t, 0.01) == (
         "inconclusive", "inconclusive: b (a below 0.01 alone, not below the split level); 2 "
         "method(s), each at 0.005 so that the overall false-alarm rate per run is 0.01")
+
+
+@pytest.mark.filterwarnings("ignore::leakdiag.features._degenerate.DegenerateWindowWarning")
+def test_a_no_leak_resting_on_few_defined_windows_is_inconclusive():
+    """A user-data audit (2026-11-29): ``analyze`` read NO LEAK on a file whose pressure sensor
+    was stuck (constant) over 9 of its 15 windows, where ``detect`` refused the NO LEAK; the
+    same rule now refuses it here, per row and overall (the rule of
+    :func:`leakdiag.detect.blind_rules.blind_rule`)."""
+    from leakdiag.detect.analysis import analyze_recording, overall_decision
+    from leakdiag.io import Recording
+
+    rng = np.random.default_rng(5)
+    spec = MethodSpec("autocorrelation", ("p1",), lag=1, window=200, overlap=0)
+    healthy = [Recording({"p1": rng.standard_normal(20000)}, 1000.0) for _ in range(3)]
+    p1 = rng.standard_normal(20000)
+    a = analyze_recording(Recording({"p1": p1}, 1000.0), spec, healthy=healthy)
+    assert a.table.loc[0, "decision"] == "no-leak" and a.table.loc[0, "blind"] is None
+    stuck = p1.copy()
+    stuck[4000:15000] = 3.0  # 55 of the 100 windows constant (11 s: longer than the 10-s floor)
+    a = analyze_recording(Recording({"p1": stuck}, 1000.0), spec, healthy=healthy)
+    row = a.table.loc[0]
+    assert row["n_nan_windows"] == 55 and row["decision"] == "inconclusive"
+    assert "undefined for 11 s in a row" in row["reason"] and "stuck sensor" in row["reason"]
+    assert overall_decision(a.table)[0] == "inconclusive"
+    # 4 s stuck: 20 of 100 windows, a span under the floor: judged as before
+    short = p1.copy()
+    short[4000:8000] = 3.0
+    a = analyze_recording(Recording({"p1": short}, 1000.0), spec, healthy=healthy)
+    assert a.table.loc[0, "decision"] == "no-leak"
+    # without healthy references the file's own windows, before and after the onset
+    stuck = p1.copy()
+    stuck[2000:14000] = 3.0  # 60 of 100 windows, from before to after the onset
+    a = analyze_recording(Recording({"p1": stuck}, 1000.0), spec, onset=10.0, chunk=2)
+    assert a.table.loc[0, "decision"] == "inconclusive", a.table.loc[0, "reason"]
+    assert overall_decision(a.table)[0] == "inconclusive"

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from leakdiag.detect.base import longest_nan_run
+from leakdiag.detect.blind_rules import blind_limit_s, blind_rule, undefined_limit
 from leakdiag.detect.measure import (Decision, TooFewChunksError, chunk_rms, chunks_in_words,
                                      decide_change, leak_direction, rms_change,
                                      smallest_p_value)
@@ -22,7 +24,7 @@ VERDICT_COLUMNS = [
     "mean_rms_after", "pct_change", "pct_change_signed", "n_chunks_before", "n_chunks_after",
     "n_chunks_straddling", "n_chunks_empty", "n_nan_windows",
     "decision", "basis", "test", "p_value", "false_alarm_rate", "n_reference", "n_test",
-    "chunk_autocorr", "reason", "p_value_opposite", "skipped",
+    "chunk_autocorr", "reason", "p_value_opposite", "skipped", "blind",
 ]
 #: The decision columns of the verdict table (see :class:`~leakdiag.detect.measure.Decision`).
 DECISION_COLUMNS = ["decision", "basis", "test", "p_value", "false_alarm_rate", "n_reference",
@@ -83,6 +85,8 @@ class _Reference:
     windows: tuple[int, ...]  # windows per recording
     names: tuple[str, ...]  # file names (``meta['source']``)
     chunk: int
+    nan_span_s: float = 0.0  # longest undefined span of a healthy recording, s
+    nan_fraction: float = 0.0  # largest share of undefined windows of a healthy recording
 
     def in_words(self) -> str:
         n_empty = int(np.count_nonzero(~np.isfinite(self.rms)))
@@ -102,14 +106,54 @@ class _Reference:
 def _healthy_chunks(healthy, spec: MethodSpec, chunk: int) -> dict[str, _Reference]:
     """Pooled chunk RMS values of each feature series of ``spec`` over the healthy recordings."""
     pooled: dict[str, list] = {}
+    blind: dict[str, list] = {}
     for rec in healthy:
         out = compute_feature(rec, spec)
         source = rec.meta.get("source")
         name = Path(str(source)).name if source else ""
         for fs in _series_of(out):
             pooled.setdefault(fs.name, []).append((chunk_rms(fs.values, chunk)[0], len(fs), name))
+            n_bad = int(np.count_nonzero(~np.isfinite(fs.values)))
+            blind.setdefault(fs.name, []).append(
+                (longest_nan_run(fs.time, fs.values)[2], n_bad / max(len(fs), 1)))
     return {k: _Reference(np.concatenate([r for r, _, _ in v]), tuple(w for _, w, _ in v),
-                          tuple(n for _, _, n in v), chunk) for k, v in pooled.items()}
+                          tuple(n for _, _, n in v), chunk,
+                          max(b[0] for b in blind[k]), max(b[1] for b in blind[k]))
+            for k, v in pooled.items()}
+
+
+def _blind_reason(fs, onset, basis, ref) -> str | None:
+    """Why a NO LEAK of this row cannot stand on its undefined windows (a stuck sensor), by
+    the one rule of ``detect``, ``batch`` and ``monitor``
+    (:func:`~leakdiag.detect.blind_rules.blind_rule`), or None.
+
+    The windows judged are those after the onset when the healthy references decide, else all
+    of the file's (before and after the onset are both compared). The healthy references' own
+    longest undefined span and share set the limits, as a fitted detector's healthy recordings
+    do; without them the rule's floor (10 s) and half of the windows. A user-data audit
+    (2026-11-29) found ``analyze`` reading NO LEAK on a file whose pressure sensor was stuck at
+    full scale over 9 of its 15 windows, where ``detect`` refused the NO LEAK.
+    """
+    judged = fs.time > onset if (onset is not None and basis == "healthy") else \
+        np.ones(len(fs), dtype=bool)
+    t, v = fs.time[judged], fs.values[judged]
+    n_bad = int(np.count_nonzero(~np.isfinite(v)))
+    if not n_bad:
+        return None
+    span_s, fraction = (0.0, 0.0) if ref is None else (ref.nan_span_s, ref.nan_fraction)
+    count, first, longest = longest_nan_run(t, v)
+    rule = blind_rule(span_s, len(v), n_bad, longest, fraction)
+    if rule is None:
+        return None
+    whose = "the healthy references allow" if ref is not None else "a judgement allows"
+    if rule == "span":
+        return (f"the feature is undefined for {longest:.3g} s in a row, from "
+                f"{t[first]:.6g} s (a channel it reads is constant there: a stuck sensor?), "
+                f"longer than the {blind_limit_s(span_s):.3g} s {whose}, so no NO LEAK can "
+                "rest on it")
+    return (f"the feature is undefined in {n_bad} of the {len(v)} windows judged (more than "
+            f"{undefined_limit(fraction):.0%}: a channel it reads is constant there, a stuck "
+            f"sensor?), so no NO LEAK can rest on the {len(v) - n_bad} defined window(s)")
 
 
 def _tested_in_words(res, fs, chunk) -> str:
@@ -241,8 +285,12 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
             ref = ref_chunks.get(fs.name, _Reference(np.empty(0), (), (), chunk)) \
                 if ref_chunks is not None else None
             if no_measure is None or ref is not None:  # healthy references need no "before"
-                row.update(_decide(res, fs, spec, ref, false_alarm_rate, chunk,
-                                   system).as_dict())
+                d = _decide(res, fs, spec, ref, false_alarm_rate, chunk, system)
+                blind = _blind_reason(fs, onset, d.basis, ref) if d.decision == "no-leak" \
+                    else None
+                if blind is not None:  # NO LEAK refused, as detect refuses it
+                    d = replace(d, decision="inconclusive", reason=f"{blind}; {d.reason}")
+                row.update(d.as_dict(), blind=blind)
             else:
                 row.update(Decision("inconclusive", "before-after", "", float("nan"),
                                     false_alarm_rate, 0, 0, float("nan"),
@@ -323,9 +371,13 @@ def overall_decision(table, false_alarm_rate: float = 0.01) -> tuple[str, str]:
     inc = weak = judged[judged["decision"] == "inconclusive"]
     if len(inc) and "p_value_opposite" in inc:  # (a table from before the column: as it says)
         opp = inc["p_value_opposite"].to_numpy(dtype=float)
-        # untested (no p-value), or an opposite change at the split level as well
+        # untested (no p-value), or an opposite change at the split level as well, or a NO
+        # LEAK refused on undefined windows (``blind``: a stuck sensor; its p-value rests on
+        # the few defined windows)
         untested = ~np.isfinite(inc["p_value"].to_numpy(dtype=float)) & ~np.isfinite(opp)
-        keep = untested | (np.isfinite(opp) & (opp < level))
+        blind = inc["blind"].map(lambda b: isinstance(b, str) and bool(b)).to_numpy(bool) \
+            if "blind" in inc else np.zeros(len(inc), dtype=bool)
+        keep = untested | blind | (np.isfinite(opp) & (opp < level))
         inc, weak = inc[keep], inc[~keep]
     else:
         weak = inc.iloc[:0]
