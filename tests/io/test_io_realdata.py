@@ -167,3 +167,20 @@ def test_a_file_read_is_named_by_its_path_and_its_origin_kept(tmp_path):
     rec = ld.io.read_recording(path)
     assert rec.meta["source"] == str(path)
     assert rec.meta["origin"] == "leakdiag.sim.simulate_vca"
+
+
+def test_a_row_without_a_field_before_the_pressures_is_refused(files, tmp_path):
+    """A user-data audit (2026-11-29): data row 1500 of a real file without its Temp_3 field
+    (17 of 18 fields) was read with PG_2's value as p1 and PG_3's as p2, because a short row
+    that ends after every column read was taken to lack its last fields."""
+    path = files[0]
+    lines = path.read_bytes().split(b"\n")
+    fields = lines[1501].split(b"\t")
+    assert len(fields) == 18 and path.read_bytes().split(b"\n")[0].split(b"\t")[7] == b"Temp_3"
+    lines[1501] = b"\t".join(fields[:7] + fields[8:])
+    copy = tmp_path / path.name
+    copy.write_bytes(b"\n".join(lines))
+    with pytest.raises(RecordingError, match=re.escape(
+            f"{copy}: row 1500 has 17 of 18 fields: a field is missing, and one missing before "
+            "a column read shifts that column's value into another")):
+        read_recording(copy, MAP)

@@ -350,9 +350,15 @@ def test_stream_short_and_long_lines_are_refused(text, channels, message):
         _lines(text, channels)
 
 
-def test_stream_lines_lacking_unread_columns_or_ending_in_a_separator_are_read():
-    assert _lines("time,p1,p2,note\n0.0,1,50,a\n0.1,2,51\n", ["p1"]) == [1.0, 2.0]
+def test_stream_lines_ending_in_a_separator_are_read_and_short_ones_refused():
     assert _lines("time,p1,p2\n0.0,1,50,\n0.1,2,51, \n", ["p2"]) == [50.0, 51.0]
+    # a line of a live stream is complete with its newline: one with fewer fields lacks one
+    # somewhere, which may shift the columns read (a user-data audit, 2026-11-29; such a line
+    # lacking only unread columns was read until then)
+    with pytest.raises(RecordingError, match=re.escape(
+            "line 3 has 3 of 4 fields: a field is missing, and one missing before a column read "
+            "shifts that column's value into another")):
+        _lines("time,p1,p2,note\n0.0,1,50,a\n0.1,2,51\n", ["p1"])
 
 
 def test_tail_refuses_a_short_line_and_leaves_out_a_line_without_newline(tmp_path):
@@ -460,3 +466,26 @@ def test_latin1_semicolon_file_and_blank_separated_file(tmp_path):
                    "chunked CSV reader needs one (leakdiag.io.read_recording reads it whole)")
     src, _ = open_recording(blank)
     assert np.concatenate([c["p1"] for c in src]).tolist() == [1.0, 2.0]
+
+
+MIDDLE = ["time,p1,p2,note,extra", "0.0,1,50,a,b", "0.1,2,51,b", "0.2,3,52,c,d", "0.3,4,53,e,f"]
+
+
+@pytest.mark.parametrize("chunk_samples", [1, 2, 3, 1 << 20])
+def test_a_middle_row_short_after_the_columns_read_is_refused(tmp_path, chunk_samples):
+    """A user-data audit (2026-11-29): a real file's row without its ``Temp_3`` field (before
+    the pressures) was read with PG_2 as p1 and PG_3 as p2, because a short row that ends after
+    every column read was read as if its fields were missing at the end. Now only the file's
+    last row may be read so (a file cut while written), whatever the chunks, also when a chunk
+    ends on it."""
+    path = _write(tmp_path, MIDDLE)
+    message = ("row 1 has 4 of 5 fields: a field is missing, and one missing before a column "
+               "read shifts that column's value into another (a field missing at the end of "
+               "the row cannot be told from one missing in the middle); fix or remove the row")
+    _raises(path, message, ["p1", "p2"], chunk_samples=chunk_samples)
+    with pytest.raises(RecordingError, match=re.escape(f"{path}: {message}") + "$"):
+        read_recording(path, channels=["p1", "p2"])
+    # the last row cut after the columns read: read, whether its chunk is full or not
+    last = _write(tmp_path, MIDDLE[:1] + MIDDLE[3:] + ["0.4,5,54,g"], name="cut.csv")
+    assert _read(last, ["p1", "p2"], chunk_samples=chunk_samples)["p2"] == [52, 53, 54]
+    assert read_recording(last, channels=["p1", "p2"])["p2"].tolist() == [52, 53, 54]

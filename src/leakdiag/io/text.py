@@ -137,8 +137,9 @@ COMMENT_HINT = ("; it starts with '#', and leakdiag reads no comment lines ('#' 
 def short_row_error(source: str, where: str, k: int, n: int, read: dict[str, str],
                     pos: dict[str, int], more: str = "", first: object = None
                     ) -> RecordingError:
-    """The error for a row of ``k`` of ``n`` fields that ends at or before a column read
-    (:meth:`TextTable.check_rows`, and the streaming readers of :mod:`leakdiag.stream`).
+    """The error for a row of ``k`` of ``n`` fields (:meth:`TextTable.check_rows`, and the
+    streaming readers of :mod:`leakdiag.stream`): the columns read that it lacks or cuts, or,
+    when it ends after every column read, that a field missing anywhere shifts the values.
 
     Parameters
     ----------
@@ -167,10 +168,19 @@ def short_row_error(source: str, where: str, k: int, n: int, read: dict[str, str
     >>> print(short_row_error("a.csv", "row 3", 3, 4, {"time column": "time", "channel 'p2'": "p2"},
     ...                       {"time": 0, "p2": 2}))
     a.csv: row 3 has 3 of 4 fields (truncated line?); column 'p2' (channel 'p2') is missing or cut
+    >>> print(short_row_error("a.csv", "row 3", 3, 4, {"channel 'p1'": "p1"}, {"p1": 0}))
+    a.csv: row 3 has 3 of 4 fields: a field is missing, and one missing before a column read shifts that column's value into another (a field missing at the end of the row cannot be told from one missing in the middle); fix or remove the row
     """
     hit = sorted({c for c in read.values() if pos[c] >= k - 1}, key=pos.get)
     desc = ", ".join(f"{c!r} ({', '.join(lab for lab, col in read.items() if col == c)})"
                      for c in hit)
+    if not hit:  # it ends after every column read: where its field went missing is unknown
+        return RecordingError(
+            f"{source}: {where} has {k} of {n} fields: a field is missing, and one missing "
+            "before a column read shifts that column's value into another (a field missing "
+            "at the end of the row cannot be told from one missing in the middle); fix or "
+            f"remove the row{more}"
+            f"{COMMENT_HINT if isinstance(first, str) and first.lstrip().startswith('#') else ''}")
     return RecordingError(
         f"{source}: {where} has {k} of {n} fields (truncated line?); "
         f"{'column' if len(hit) == 1 else 'columns'} {desc} "
@@ -220,12 +230,17 @@ class TextTable(RawTable):
     by_position: list[np.ndarray] = field(default_factory=list, repr=False)
 
     def check_rows(self, columns: Mapping[str, str]) -> None:
-        """Raise if a data row ends at or before the last column read (a truncated line).
+        """Raise if a data row has fewer fields than the header (a truncated line, or a field
+        missing anywhere in the row).
 
         A row with fewer fields than the header has no value for the columns after its last
-        field, and its last field may itself be cut short (``53`` written as ``5``). So a short
-        row is refused if its last field is at or before the last column read; a row that
-        lacks only columns after every column read is accepted (they are not read).
+        field, and its last field may itself be cut short (``53`` written as ``5``). A row that
+        ends after every column read is refused too: its missing field may be in the middle,
+        which shifts every later value into the column before it (a user-data audit,
+        2026-11-29: a real file's row without its ``Temp_3`` field read PG_2 as p1 and PG_3 as
+        p2). Until then such a row was read, as if fields went missing only at the end. The
+        file's *last* row is the exception: one that ends after every column read is read, as
+        a file cut while it was written (its missing fields are at its end).
 
         Parameters
         ----------
@@ -241,16 +256,17 @@ class TextTable(RawTable):
 
         Notes
         -----
-        Missing fields parse as NaN, so only when the column after the last one read (or the
-        last column) holds NaN is the file scanned again to count the fields of each row.
+        Missing fields parse as NaN, so only when the last column holds NaN is the file scanned
+        again to count the fields of each row.
         """
         pos = {name: self.fields.index(name) for name in columns.values() if name in self.fields}
         if not pos:
             return
         n = len(self.fields)
-        # a row with k fields is refused iff k <= last + 1 (and k < n), i.e. iff it lacks the
-        # field at `probe`: missing fields are always at the end of a row
-        probe = min(max(pos.values()) + 1, n - 1)
+        # a row with k < n fields lacks the last field, whose value reads NaN; it is refused
+        # (where in the row its field went missing cannot be told), except the file's last
+        # row when it ends after every column read (a file cut while it was written)
+        probe, last_probe = n - 1, min(max(pos.values()) + 1, n - 1)
         values = self.by_position[probe]
         blank = (np.isnan(values) if values.dtype != object
                  else np.fromiter((v is None for v in values), dtype=bool, count=len(values)))
@@ -264,6 +280,8 @@ class TextTable(RawTable):
                 f"look for odd lines (only quotes or blanks)"
             )
         short = np.flatnonzero(counts <= probe)
+        if len(short) and short[-1] == len(counts) - 1 and counts[-1] > last_probe:
+            short = short[:-1]  # the last row, cut after the columns read: read
         if not len(short):
             return
         more = f"; {len(short)} rows are short like this" if len(short) > 1 else ""

@@ -493,10 +493,11 @@ class _CsvRows:
     """Checks that the rows of a CSV file hold the columns read from them, chunk by chunk.
 
     The same rules as :meth:`leakdiag.io.text.TextTable.check_rows`, with the same messages: a
-    data row with fewer fields than the header is refused if it ends at or before the last
-    column read (its last field may be cut: ``53`` written as ``5``); a row lacking only later,
-    unread columns is read. A row with more fields than the header is refused unless its extra
-    fields are empty (separators at the end of rows are ignored).
+    data row with fewer fields than the header is refused (its last field may be cut: ``53``
+    written as ``5``; a field missing in the middle shifts the values after it), except the
+    file's last row when it ends after every column read (a file cut while written). A row with
+    more fields than the header is refused unless its extra fields are empty (separators at
+    the end of rows are ignored).
 
     Parameters
     ----------
@@ -511,8 +512,8 @@ class _CsvRows:
 
     Notes
     -----
-    A missing field reads as NaN, so only a chunk whose column after the last one read (the
-    *probe*; the last column if that one is read) holds a NaN has its fields counted
+    A missing field reads as NaN, so only a chunk whose last column (the *probe*) holds a NaN
+    has its fields counted
     (:class:`_RowFields`): free for a file without empty cells there, otherwise the file is read
     a second time, once, as the chunks go.
     """
@@ -522,8 +523,14 @@ class _CsvRows:
         self.n = len(names)
         self.read = read
         self.pos = {col: names.index(col) for col in read.values()}
-        self.probe = min(max(self.pos.values(), default=-1) + 1, self.n - 1)
+        self.probe = self.n - 1  # any short row: where its field went missing is unknown;
+        # the file's last row only if it ends at or before a column read (a file cut while it
+        # was written keeps its read values)
+        self.last_probe = min(max(self.pos.values(), default=-1) + 1, self.n - 1)
         self.fields = _RowFields(path, self.n, fmt)
+        # a chunk's last row, short after the columns read, in a chunk that may not be the
+        # file's last: (row, its error), raised when a later row comes
+        self.pending: tuple[int, RecordingError] | None = None
 
     def first_row(self) -> int:
         """Check data row 0 for extra fields; return the fields of the widest rows pandas will
@@ -564,6 +571,8 @@ class _CsvRows:
         """
         if not self.read:
             return
+        if self.pending is not None and row0 + len(df) - 1 > self.pending[0]:
+            raise self.pending[1]  # a row came after it: not the file's last row
         wide = [c for c in df.columns if int(c) >= self.n]  # fields of rows ending in separators
         # a field beyond the header's counts when it is not empty after stripping blanks (as the
         # line counter and io's reader see it); pandas keeps "  " as text
@@ -580,6 +589,15 @@ class _CsvRows:
                 f"{'' if last else 'at least '}{row0 + len(df)} data rows, counting fields line "
                 f"by line finds {row0 + len(counts)}; look for odd lines (only quotes or blanks)")
         short = np.flatnonzero(counts <= self.probe)
+        if len(short) and short[-1] == len(df) - 1 and counts[-1] > self.last_probe:
+            # the chunk's last row, cut after the columns read: read if it is the file's last
+            # row (a file cut while it was written); in a full chunk that is not known yet
+            if not last:
+                first = df["0"].iloc[-1] if "0" in df.columns else None
+                self.pending = (row0 + len(df) - 1, _short_row(
+                    self.path, f"row {row0 + len(df) - 1}", int(counts[-1]), self.n,
+                    self.read, self.pos, first=first))
+            short = short[:-1]
         first_short = row0 + int(short[0]) if len(short) else None
         if extra is not None and (first_short is None or extra[0] < first_short):
             raise self._extra(*extra)

@@ -65,7 +65,6 @@ class _LineFields:
         self.n = len(header)
         self.read = read
         self.pos = {c: header.index(c) for c in read.values()}
-        self.last = max(self.pos.values(), default=-1)
         self.source = source
 
     def check(self, fields: list[str], lineno: int) -> None:
@@ -77,7 +76,7 @@ class _LineFields:
             j = next((j for j in range(self.n, k) if fields[j].strip()), None)
             if j is not None:
                 raise _extra_field(self.source, f"line {lineno}", self.n, j, fields[j])
-        elif k <= self.last + 1:
+        else:  # short: a field missing anywhere shifts the values after it
             raise _short_row(self.source, f"line {lineno}", k, self.n, self.read, self.pos,
                              first=fields[0])
 
