@@ -43,8 +43,52 @@ from leakdiag.bench.v5_suite import V5_VERSION
 from leakdiag.detect.base import Detector
 from leakdiag.detect.threshold import InsufficientHealthyDataWarning, ReferenceMaxima
 
-__all__ = ["own_cases", "UnitRefConfig", "UnitChunkConfig", "reference_group",
+__all__ = ["own_cases", "own_seed", "MAX_OWN_RUNS", "UnitRefConfig", "UnitChunkConfig", "reference_group",
            "score_chunk_unit", "takes_reference", "plan_units"]
+
+
+#: Own healthy runs per unit at most (:func:`own_seed` keeps their seeds apart up to it).
+MAX_OWN_RUNS = 10_000
+#: Seeds of own runs after the first ten start here, above every ``10 * seed + 9`` of a suite.
+_OWN_SEED_BASE = 10**13
+
+
+def own_seed(seed: int, k: int) -> int:
+    """Seed of own run ``k`` (0-based) of the unit of the suite run ``seed``.
+
+    The first ten are ``10 * seed + k + 1``, as the committed results were made; from the
+    eleventh on ``10**13 + 10**4 * seed + k``: with ``10 * seed + k + 1`` alone, own run 10 of one
+    unit was own run 0 of the next (the same operating conditions and noise on another
+    machine; a statistics audit, 2026-11-29, found 106 of 1,170 own seeds repeated at
+    ``--unit-fit 11``).
+
+    Parameters
+    ----------
+    seed : int
+        The suite run's seed (below 10**9: the suites' seeds are below 10**8).
+    k : int
+        Own run, 0 to :data:`MAX_OWN_RUNS` - 1.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    ValueError
+        Outside those ranges.
+
+    Examples
+    --------
+    >>> own_seed(70_000_000, 0), own_seed(70_000_000, 9), own_seed(70_000_000, 10)
+    (700000001, 700000010, 10700000000010)
+    """
+    if not 0 <= int(seed) < 10**9 or not 0 <= int(k) < MAX_OWN_RUNS:
+        raise ValueError(f"own_seed({seed}, {k}): the seed must be in [0, 1e9) and the run in "
+                         f"[0, {MAX_OWN_RUNS})")
+    if k < 10:
+        return 10 * int(seed) + k + 1
+    return _OWN_SEED_BASE + 10**4 * int(seed) + k
 
 
 def own_cases(case, n: int, nuisance) -> list:
@@ -62,7 +106,13 @@ def own_cases(case, n: int, nuisance) -> list:
     Returns
     -------
     list of BenchCase
-        Role ``"own"``, seeds ``10 * seed + k + 1`` (disjoint from the suite's seeds), no leak.
+        Role ``"own"``, seeds :func:`own_seed` (disjoint from the suite's seeds and from
+        every other unit's own runs), no leak.
+
+    Raises
+    ------
+    ValueError
+        For more than :data:`MAX_OWN_RUNS` own runs.
 
     Examples
     --------
@@ -71,9 +121,11 @@ def own_cases(case, n: int, nuisance) -> list:
     >>> [o.seed for o in own_cases(c, 2, V5_QUICK_SUITES["vca"].nuisance)]
     [700000001, 700000002]
     """
+    if n > MAX_OWN_RUNS:
+        raise ValueError(f"--unit-fit {n}: at most {MAX_OWN_RUNS} own healthy runs per unit")
     out = []
     for k in range(n):
-        seed = 10 * case.seed + k + 1
+        seed = own_seed(case.seed, k)
         nz = nuisance.draw(np.random.default_rng(seed), case.duration_s)
         nz.update(machine=case.nuisance["machine"], index=k)
         out.append(replace(case, role="own", leak_lpm=0.0, onset_s=None, seed=seed,
