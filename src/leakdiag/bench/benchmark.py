@@ -241,8 +241,8 @@ def check_target_supported(suites, methods, per_run: float, burn_in_s: float = 5
     Traceback (most recent call last):
     ...
     ValueError: suite v4 fits each threshold on 8 healthy fitting runs per group (vca), one \
-maximum each: they support a false-alarm target of at least 0.105 per run, and \
---false-alarm-rate 0.05 needs 19 such runs; give --false-alarm-rate 0.11 or more
+maximum each: they support a false-alarm target of at least 0.111 per run, and \
+--false-alarm-rate 0.05 needs 19 such runs; give --false-alarm-rate 0.12 or more
     """
     for name, s in suites.items():
         short = unsupported_target(name, s, methods, per_run, burn_in_s)
@@ -299,7 +299,7 @@ def _smallest_target(s, burn_in_s: float) -> tuple[float, float]:
     """The smallest per-run target ``n_fit`` maxima support, and it rounded up to 0.01."""
     from leakdiag.detect.threshold import min_maxima
 
-    low = -math.expm1(-1.0 / (s.n_fit + 1))  # target per segment 1 / (n + 1)
+    low = 1.0 / (s.n_fit + 1)  # target per segment (one segment per run) 1 / (n + 1)
     give = math.ceil(100 * low) / 100
     while min_maxima(_segment_target(give, s, burn_in_s)) > s.n_fit:
         give += 0.01

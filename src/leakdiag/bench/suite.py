@@ -211,8 +211,8 @@ SUITES: dict[str, SystemSuite] = {
 }
 
 #: Default per-run false-alarm target of ``--suite v4 --quick``: its 8 fitting runs per group
-#: give 8 maxima, which support 1/9 per segment at best (``-log(1 - p) >= 1/9``, p >= 0.105),
-#: so the suite's 1 % cannot be fitted; 0.12 gives rank 1 of 8 (the largest maximum).
+#: give 8 maxima, which support 1/9 per segment (one per run) at best (p >= 0.111), so the
+#: suite's 1 % cannot be fitted; 0.12 gives rank 1 of 8 (the largest maximum).
 QUICK_FAR = 0.12
 #: The ``--quick`` suite (CI): one group per rig, short runs, few seeds, the largest leaks.
 QUICK_SUITES: dict[str, SystemSuite] = {
