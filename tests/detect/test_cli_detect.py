@@ -236,11 +236,18 @@ def test_fit_with_calibration_gives_the_leak_size_with_interval(files, tmp_path,
             rec, channels={**rec.channels, "p2": p2}, meta=meta), path))
 
     # (a healthy run's seed: the same operation before the onset, one noise pattern scaled)
+    # (the calibration reads each run's shift as predict does, on the runs it alarms on: the
+    # 0.2 "leak" does not alarm and is left out, and three runs do not pass the slope test)
     cal = [a for i, q in enumerate((0.2, 0.5, 1.0, 1.5))
            for a in ("--calibrate", noisy(q, 20, tmp_path / f"n{i}.parquet"))]
+    assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, *cal, "-o", str(det)]) == 2
+    assert "(the detector alarms on 3 of the 4 calibration recordings; the others are left " \
+        "out)" in capsys.readouterr().err
+    cal += [a for i, q in enumerate((0.8, 1.2, 2.0))
+            for a in ("--calibrate", noisy(q, 20, tmp_path / f"m{i}.parquet"))]
     leak = noisy(0.8, 21, tmp_path / "nleak.parquet")
     assert main(["fit", *_h(healthy), "-m", "ccf-p1p2", *RATE_H, *cal, "-o", str(det)]) == 0
-    assert "leak size calibrated on 4 recording(s)" in capsys.readouterr().out
+    assert "leak size calibrated on 7 recording(s)" in capsys.readouterr().out
     assert main(["detect", leak, "--detector", str(det)]) == 0
     out = capsys.readouterr().out
     line = [ln for ln in out.splitlines() if "leak size (ccf-p1p2)" in ln][0]

@@ -118,7 +118,9 @@ def fit_leak_calibration(shifts, leak_lpm, level: float = 0.9,
     Notes
     -----
     The interval is the ordinary least-squares prediction interval with Student's t on
-    ``n - 2`` degrees of freedom; it assumes the calibration conditions hold.
+    ``n - 2`` degrees of freedom; it assumes the calibration conditions hold. Its level holds
+    over leaks drawn like the calibration runs (marginally over their mix of sizes), not at
+    each size: a barely detected leak is over-estimated (docs/detect.md section 4).
 
     Examples
     --------
