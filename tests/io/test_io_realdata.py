@@ -184,3 +184,32 @@ def test_a_row_without_a_field_before_the_pressures_is_refused(files, tmp_path):
             f"{copy}: row 1500 has 17 of 18 fields: a field is missing, and one missing before "
             "a column read shifts that column's value into another")):
         read_recording(copy, MAP)
+
+
+def test_columns_of_channels_not_read_are_neither_required_nor_checked(files, tmp_path):
+    """A user-data audit (2026-11-29): a real file whose Angle column was renamed was refused
+    ("missing column 'Angle' for channel 'angle'") by commands that read only p1; and monitor
+    and batch refused a file with a NaN in PG_2 that a p1 detector never reads (read whole
+    through the map, every mapped channel checked), which detect judged."""
+    from leakdiag.stream.files import open_recording
+
+    path = files[0]
+    lines = path.read_bytes().split(b"\n")
+    copy = tmp_path / path.name
+    copy.write_bytes(b"\n".join([lines[0].replace(b"Angle", b"Angle_raw"), *lines[1:]]))
+    with pytest.raises(RecordingError, match="missing column 'Angle' for channel 'angle'"):
+        read_recording(copy, MAP)
+    rec = read_recording(copy, MAP, channels=["p1"])
+    assert rec.channel_names == ["p1"]
+    assert rec["p1"].tobytes() == read_recording(path, MAP)["p1"].tobytes()
+    # a NaN in PG_2 (row 100): refused for p2, not for p1, by the chunked reader too
+    header = lines[0].split(b"\t")
+    fields = lines[101].split(b"\t")
+    fields[header.index(b"PG_2")] = b""
+    nan = tmp_path / "nan_pg2.txt"
+    nan.write_bytes(b"\n".join([*lines[:101], b"\t".join(fields), *lines[102:]]))
+    src, units = open_recording(nan, ["p1"], column_map=MAP)
+    assert np.concatenate([c["p1"] for c in src]).tobytes() == \
+        read_recording(path, MAP)["p1"].tobytes()
+    with pytest.raises(RecordingError, match="channel 'p2' .*non-finite"):
+        open_recording(nan, ["p1", "p2"], column_map=MAP)

@@ -97,7 +97,9 @@ def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | 
     with ``only``, those of them in ``only``."""
     available = table.names
     if cmap is not None and cmap.channels:
-        specs = dict(cmap.channels)
+        # only the channels read must have their columns: a map's channel that no method reads
+        # (the rotary map's angle) was required all the same (a user-data audit, 2026-11-29)
+        specs = _only(dict(cmap.channels), only)
         for name, spec in specs.items():
             table.require_unique(spec.column, f"channel {name!r}")
             if spec.column not in table.columns:
@@ -106,7 +108,6 @@ def _select(table: RawTable, cmap: ColumnMap | None, units: Mapping[str, str] | 
                     f"{_available(table)}"
                 )
         _check_one_column_each(specs, table.source)
-        specs = _only(specs, only)
     else:
         time_col = cmap.time_column if cmap is not None and cmap.time_column else "time"
         table.require_all_unique(time_col, "without a column map every column is read - "

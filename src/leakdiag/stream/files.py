@@ -879,6 +879,10 @@ def open_recording(path: str | os.PathLike, channels: Sequence[str] | None = Non
             and not _blank_separated(path)):
         return (open_chunks(path, channels, chunk_samples, sample_rate, finite=True),
                 recording_units(path))
-    rec = read_recording(path, column_map, sample_rate=sample_rate)
+    # only the channels asked for are read and checked, as detect reads a file (a NaN in a
+    # column the detector does not read made monitor and batch refuse a file detect judged:
+    # a user-data audit, 2026-11-29)
+    rec = read_recording(path, column_map, sample_rate=sample_rate,
+                         channels=None if channels is None else list(channels))
     rec.meta["source"] = path
     return recording_chunks(rec, chunk_samples, channels), dict(rec.units)
