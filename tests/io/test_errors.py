@@ -1,6 +1,7 @@
 """The error catalogue of docs/io.md: each bad input gives one RecordingError naming the problem."""
 
 import numpy as np
+import re
 import pytest
 
 from leakdiag.io import Recording, RecordingError, check_length, read_recording
@@ -163,3 +164,46 @@ def test_bad_dict_map_names_the_data_file(tmp_path):
     with pytest.raises(RecordingError, match=r"run.csv: column map: column spec 'p1=P:atm': .*"
                                              r"unknown unit 'atm'"):
         read_recording(path, {"p1": "P:atm"})
+
+
+def test_a_latin_1_byte_after_the_first_64_kb_reads_the_file_as_latin_1(tmp_path):
+    """A user-data audit (2026-11-29): a cp1252 export whose only non-UTF-8 byte (a degree
+    sign in a note) came after the 64 KB the encoding was sniffed on failed with "'utf-8'
+    codec can't decode byte 0xb0 in position 131694" in every command; docs/io.md says text
+    that is not UTF-8 is read as Latin-1."""
+    import numpy as np
+
+    from leakdiag.io import read_recording
+    from leakdiag.stream import open_chunks
+
+    rows = [f"{k / 1000:.3f},{k % 97},{k % 89}," for k in range(8000)]
+    rows[7000] += "45\xb0C"
+    path = tmp_path / "late.csv"
+    path.write_bytes(("time,p1,p2,note\n" + "\n".join(rows) + "\n").encode("cp1252"))
+    assert path.stat().st_size > 1 << 16 and path.read_bytes().index(b"\xb0") > 1 << 16
+    rec = read_recording(path, channels=["p1", "p2"])
+    assert rec["p1"][7000] == 7000 % 97 and rec.n_samples == 8000
+    got = np.concatenate([c["p2"] for c in open_chunks(path, ["p1", "p2"], 1000)])
+    assert got.tolist() == [k % 89 for k in range(8000)]
+
+
+def test_decimal_commas_are_named_not_read_as_text_to_leave_out(tmp_path):
+    """A user-data audit (2026-11-29): an Excel export with decimal commas was refused with
+    advice to map only the numeric columns (p1, the channel needed, among the "text" ones)."""
+    from leakdiag.io import RecordingError, read_recording
+    from leakdiag.stream import open_chunks
+
+    path = tmp_path / "excel.csv"
+    path.write_text("time;p1;p2\n0,0;0,392;3,608\n0,001;0,596;2,994\n0,002;1,5;2,5\n")
+    hint = ("'0,0' looks like a number with a decimal comma (an export in a European "
+            "locale?): leakdiag reads '.' as the decimal mark and guesses no locale")
+    with pytest.raises(RecordingError, match=re.escape(hint)) as exc:
+        read_recording(path, column_map={"p1": "p1"}, sample_rate=1000.0)
+    assert "give a map" not in str(exc.value)
+    with pytest.raises(RecordingError, match=re.escape("row 0 is '0,0'; '0,0' looks like a "
+                                                       "number with a decimal comma")):
+        list(open_chunks(path, ["p1"]))
+    path.write_text("time,p1\n0.0,abc\n0.001,1\n")  # other text: no such hint
+    with pytest.raises(RecordingError) as exc:
+        read_recording(path)
+    assert "decimal comma" not in str(exc.value)

@@ -24,6 +24,43 @@ __all__ = ["table_to_recording"]
 _TEXT_PREVIEW = 30
 
 
+_DECIMAL_COMMA = None
+
+
+def decimal_comma_hint(text: str) -> str:
+    """``"; ..."`` advice when a text value reads as a number written with a decimal comma
+    (``0,392``, ``-1.234,5``: an export in a European locale), else ``""``. leakdiag reads
+    ``.`` as the decimal mark and guesses no locale (a user-data audit, 2026-11-29: such a
+    file was refused with advice to map only numeric columns, which p1 was meant to be).
+
+    Parameters
+    ----------
+    text : str
+        The value that is not a number.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> decimal_comma_hint("0,392")[:60]
+    "; '0,392' looks like a number with a decimal comma (an expor"
+    >>> decimal_comma_hint("abc")
+    ''
+    """
+    import re
+
+    global _DECIMAL_COMMA
+    if _DECIMAL_COMMA is None:
+        _DECIMAL_COMMA = re.compile(r"^\s*[-+]?(\d{1,3}(\.\d{3})+|\d+),\d+([eE][-+]?\d+)?\s*$")
+    if not _DECIMAL_COMMA.match(str(text)):
+        return ""
+    return (f"; {str(text).strip()!r} looks like a number with a decimal comma (an export in a "
+            "European locale?): leakdiag reads '.' as the decimal mark and guesses no locale; "
+            "export the file with '.' decimals (and another separator than ',')")
+
+
 def _numeric(table: RawTable, column: str, channel: str) -> np.ndarray:
     """The column as float64; text in it is an error naming channel, column and row, and
     timestamps (a Parquet ``timestamp`` column) one naming the column."""
@@ -46,6 +83,7 @@ def _numeric(table: RawTable, column: str, channel: str) -> np.ndarray:
         raise RecordingError(
             f"{table.source}: channel {channel!r} (column {column!r}) holds text, not numbers: "
             f"row {row} is {text!r} ({len(bad)} non-numeric value(s))"
+            f"{decimal_comma_hint(values[row])}"
         )
     return coerced
 
@@ -149,6 +187,8 @@ def _check_all_numeric(table: RawTable, specs: Mapping[str, ChannelSpec]) -> Non
             try:
                 _numeric(table, spec.column, name)
             except RecordingError as exc:
+                if "decimal comma" in str(exc):  # the column is meant: no map helps
+                    raise
                 raise RecordingError(
                     f"{exc}; without a column map every column is read - give a map that "
                     f"selects the numeric columns"

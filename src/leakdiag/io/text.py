@@ -66,10 +66,34 @@ def _sniff(path: Path, source: str) -> tuple[list[str], str]:
     complete = head if cut < 0 or len(head) < _SNIFF_BYTES else head[:cut + 1]
     try:
         text, encoding = complete.decode("utf-8-sig"), "utf-8-sig"
+        if len(head) == _SNIFF_BYTES and not _rest_is_utf8(path, len(complete)):
+            # a non-UTF-8 byte after the head (a degree sign in a note on row 1800 of a cp1252
+            # export): the file is Latin-1 as documented, not an error at that byte (a
+            # user-data audit, 2026-11-29)
+            text, encoding = complete.decode("latin-1"), "latin-1"
     except UnicodeDecodeError:  # e.g. Windows DAQ exports with a degree sign in cp1252
         text, encoding = complete.decode("latin-1"), "latin-1"
     lines = [line.rstrip("\r") for line in text.split("\n") if line.strip()]
     return lines[:_SNIFF_LINES], encoding
+
+
+def _rest_is_utf8(path: Path, start: int, block: int = 1 << 20) -> bool:
+    """Whether the file from byte ``start`` on (a line start) decodes as UTF-8, read in blocks
+    (about 1 ms per MB)."""
+    import codecs
+
+    dec = codecs.getincrementaldecoder("utf-8")()
+    try:
+        with open(path, "rb") as fh:
+            fh.seek(start)
+            while True:
+                data = fh.read(block)
+                if not data:
+                    dec.decode(b"", final=True)
+                    return True
+                dec.decode(data)
+    except UnicodeDecodeError:
+        return False
 
 
 def _field_counts(path: Path, sep: str, encoding: str) -> np.ndarray:

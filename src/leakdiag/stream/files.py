@@ -14,6 +14,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 
 from leakdiag._validation import check_int
+from leakdiag.io.assemble import decimal_comma_hint
 from leakdiag.io.checks import check_same_length, timestamps_error
 from leakdiag.io.recording import RecordingError
 from leakdiag.io.text import SEPARATOR_CANDIDATES
@@ -309,7 +310,8 @@ def _numeric(df, keys: dict[str, str], path: str, row0: int) -> dict:
             if len(bad):
                 i = int(bad[0])
                 raise RecordingError(f"{path}: channel {c!r} holds text, not numbers: row "
-                                     f"{row0 + i} is {str(col.iloc[i])[:40]!r}")
+                                     f"{row0 + i} is {str(col.iloc[i])[:40]!r}"
+                                     f"{decimal_comma_hint(col.iloc[i])}")
             col = num
         out[c] = np.ascontiguousarray(col.to_numpy(dtype=np.float64), dtype=np.float64)
     return out
