@@ -359,8 +359,10 @@ def test_an_onset_outside_the_recording_is_refused_naming_the_file(three_seconds
     path = three_seconds[0]
     for method in (["-m", "autocorrelation"], ["-m", "all"]):
         assert main(["analyze", str(path), *method, "--onset", "7"]) == 2
-        assert (f"{path}: onset 7 s is outside the recording (0 to 3 s): nothing to compare "
-                "before and after it") in capsys.readouterr().err
+        # the last sample's time (3 s of samples at 1 kHz end at 2.999 s; an audit,
+        # 2026-11-29: "0.001 to 3.001 s" for samples up to 3.000 s)
+        assert (f"{path}: onset 7 s is outside the recording (samples from 0 to 2.999 s): "
+                "nothing to compare before and after it") in capsys.readouterr().err
 
 
 def test_healthy_reference_too_short_says_why_without_numpy_warnings(three_seconds, capsys):

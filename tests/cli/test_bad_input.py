@@ -491,3 +491,18 @@ def test_a_text_column_no_method_reads_is_left_alone_by_every_command(tmp_path, 
     df.to_csv(tmp_path / "bad.csv", index=False)
     code = main(["detect", str(tmp_path / "bad.csv"), "--detector", str(det)])
     _one_error_line(capsys, code, "bad.csv", "channel 'p1'", "holds text")
+
+
+def test_monitor_advises_a_resampling_it_can_be_given(tmp_path, run_cli):
+    """A user-data audit (2026-11-29): monitor on a jittery time axis advised "leakdiag analyze
+    --resample RATE_HZ reads it", which writes no resampled file to monitor."""
+    import numpy as np
+
+    t = np.arange(2000) / 1000.0
+    t[1000:] += 0.0004  # one interval of 1.4 ms among 1-ms ones
+    path = tmp_path / "jitter.csv"
+    path.write_text("time,p1\n" + "\n".join(f"{a:.4f},{np.sin(a * 50):.6f}" for a in t) + "\n")
+    code, out, err = run_cli(["monitor", str(path), "-q"])
+    assert code == 2 and "is not uniformly sampled" in err, err
+    assert "leakdiag.io.write_recording(leakdiag.io.read_recording(FILE, resample=RATE_HZ), " \
+        "OUT)" in err and "analyze --resample RATE_HZ reads it" not in err

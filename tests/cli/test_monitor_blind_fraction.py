@@ -3,6 +3,7 @@ windows are undefined, also where no undefined span reaches the 10-s limit (audi
 recordings, 2026-11-27, finding 2: the monitor counted only spans)."""
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -36,11 +37,15 @@ def test_monitor_and_detect_refuse_no_leak_on_mostly_undefined_windows(run_cli, 
                            tmp_path / "stuck.parquet")  # the 5-s burn-in undefined
     code, out, err = run_cli(["detect", str(path), "--detector", str(det), "--no-progress"])
     assert code == 2 and "windows judged (more than 50%" in err, (out, err)
+    span = re.search(r"the longest span \d+ windows from \S+ to \S+ s", err).group(0)
     code, out, err = run_cli(["monitor", "--input", str(path), "--detector", str(det)])
     assert code == 0, err
     warn = [ln for ln in err.splitlines() if ln.startswith("leakdiag: warning:")]
     assert len(warn) == 1 and "windows judged (more than half; the longest span" in warn[0] \
         and "the absence of an alarm rules nothing out" in warn[0], err
+    # the same span as detect's, from its first window's first sample (an audit, 2026-11-29:
+    # monitor said "from 1.339" where detect said "from 1.14", the first window's last sample)
+    assert span in warn[0], (span, warn[0])
     assert "BLIND   t=" not in err  # no span beyond the limit: no BLIND line while it ran
     # the same file without the stuck sensor: no warning
     clean = write_recording(rec, tmp_path / "clean.parquet")

@@ -229,11 +229,13 @@ def _check_onset(file, rec, onset) -> None:
     onset = onset if given else rec.onset
     if onset is None:
         return
-    t0, t1 = rec.start_time, rec.start_time + rec.duration
+    # the last sample's time, not start + duration (an audit, 2026-11-29: "0.001 to 3.001 s"
+    # for samples from 0.001 to 3.000 s)
+    t0, t1 = rec.start_time, rec.start_time + (rec.n_samples - 1) / rec.sample_rate
     if not t0 < onset < t1:
         where = "" if given else " (from the file's metadata; give --onset to override it)"
         raise click.UsageError(f"{file}: onset {onset:g} s{where} is outside the recording "
-                               f"({t0:g} to {t1:g} s): nothing to compare before and after it")
+                               f"(samples from {t0:g} to {t1:g} s): nothing to compare before and after it")
 
 
 def _fail_if_nothing_computed(file, table) -> None:

@@ -676,8 +676,10 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     except ValueError as exc:  # advise only what monitor has: it streams, it cannot resample
         raise ValueError(str(exc).replace(
             RESAMPLE_ADVICE,
-            "monitor needs a uniform time axis: resample the file first (e.g. leakdiag analyze "
-            "--resample RATE_HZ reads it)")) from None
+            "monitor needs a uniform time axis: resample the file first and monitor the copy "
+            "(in Python: leakdiag.io.write_recording(leakdiag.io.read_recording(FILE, "
+            "resample=RATE_HZ), OUT); no leakdiag command writes a resampled file, and analyze "
+            "and detect --resample read it resampled)")) from None
     if sample_rate is None:  # stdin and --follow: their time column (no header, no map)
         basis = (rate_basis(input_path, cmap, source.sample_rate)
                  if input_path != "-" and not follow else RATE_FROM_TIME)
@@ -711,7 +713,10 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     # refuses it, over a long undefined span or more than half of the windows undefined
     blind = (BlindSpans(healthy_span, window_step(spec.window, spec.overlap)
                         / source.sample_rate, every_window=True,
-                        healthy_fraction=getattr(detector, "nan_fraction_healthy_", 0.0))
+                        healthy_fraction=getattr(detector, "nan_fraction_healthy_", 0.0),
+                        # its summary names spans from their first sample, as detect does (an
+                        # audit, 2026-11-29: "from 1.339" where detect said "from 1.14")
+                        window_span_s=(spec.window - 1) / source.sample_rate)
              if healthy_span is not None else None)
     live = {**live, "system": source.meta.get("system") or getattr(meta, "system", None)}
     hooks = stopped = t_loop = None  # stopped: the Stopped of a SIGINT or SIGTERM

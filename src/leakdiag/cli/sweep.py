@@ -153,10 +153,12 @@ def sweep(file, column_map, cols, sample_rate, time_unit, resample, method, chan
     if onset is None:
         raise click.UsageError(f"{file}: the file's metadata has no leak onset: give --onset "
                                "SECONDS (the sweep compares the feature before and after it)")
-    t0, t1 = rec.start_time, rec.start_time + rec.duration
+    # the last sample's time, not start + duration (an audit, 2026-11-29: "0.001 to 3.001 s"
+    # for samples from 0.001 to 3.000 s)
+    t0, t1 = rec.start_time, rec.start_time + (rec.n_samples - 1) / rec.sample_rate
     if not t0 < onset < t1:
         raise click.UsageError(f"{file}: onset {onset:g} s is outside the recording "
-                               f"({t0:g} to {t1:g} s): nothing to compare before and after it")
+                               f"(samples from {t0:g} to {t1:g} s): nothing to compare before and after it")
     try:
         table, chosen, groups, failed = _run(rec, m, channels, lag_values, win_values,
                                              ov_values, rule, onset, chunk, mode)

@@ -40,6 +40,11 @@ class BlindSpans:
         (:data:`~leakdiag.detect.blind_rules.MAX_UNDEFINED_FRACTION`) as ``Detector.predict`` does.
         A caller that gives only the undefined windows and the first defined one after each
         span gets the span limit only.
+    healthy_fraction : float, default 0.0
+        Largest share of undefined windows in a healthy recording.
+    window_span_s : float, default 0.0
+        Time from a window's first sample to its last, ``(N - 1) / rate``: :meth:`words`
+        names a span from its first window's first sample, as ``Detector.predict`` does.
 
     Attributes
     ----------
@@ -81,8 +86,9 @@ class BlindSpans:
     """
 
     def __init__(self, healthy_span_s: float, step_s: float, every_window: bool = False,
-                 healthy_fraction: float = 0.0):
+                 healthy_fraction: float = 0.0, window_span_s: float = 0.0):
         self.healthy_span_s = float(healthy_span_s)
+        self.window_span_s = float(window_span_s)
         self.step_s = float(step_s)
         self.limit_s = blind_limit_s(self.healthy_span_s)
         self.every_window = bool(every_window)
@@ -206,7 +212,8 @@ class BlindSpans:
                     f"recordings had at most {self.healthy_fraction:.0%}")
             return (f"{source}: the feature {label!r} was undefined in {self.undefined} of the "
                     f"{self.judged} windows judged ({more}; the longest span {n} windows "
-                    f"from {t0:.6g} to {t1:.6g} s: a channel it reads is constant there, a "
+                    f"from {t0 - self.window_span_s:.6g} to {t1:.6g} s: a channel it reads is "
+                    "constant there, a "
                     f"stuck sensor?), so the absence of an alarm rules nothing out: it rests on "
                     f"{self.judged - self.undefined} defined window(s)")
         return (f"{source}: the feature {label!r} was undefined in {n} consecutive windows "
