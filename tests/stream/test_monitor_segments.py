@@ -478,6 +478,47 @@ def test_monitor_refuses_a_detectors_own_healthy_file(setup, run_cli):
         assert code == 0, err
 
 
+def test_monitor_and_batch_refuse_another_copy_of_a_detectors_healthy_file(setup, run_cli,
+                                                                          tmp_path):
+    """A user-data audit (2026-11-29): a healthy training file saved again (CRLF line ends)
+    was refused by detect (same samples) and judged NO LEAK by monitor and batch, which
+    compared its bytes. Now they compare its samples too, reading it whole only when its
+    length and rate are a healthy recording's."""
+    import dataclasses
+
+    from leakdiag.cli.main import main
+    from leakdiag.io import read_recording, write_recording
+
+    d, det_path, path, _ = setup
+    rec = read_recording(d / "h1.parquet")
+    copy = write_recording(rec, tmp_path / "h1_again.csv")  # other bytes, the same samples
+    other = write_recording(dataclasses.replace(rec, channels={
+        **rec.channels, "p1": rec["p1"] + 1.0}), tmp_path / "h1_plus_1pa.csv")
+    acf = tmp_path / "acf.joblib"
+    assert main(["fit", *[a for s in range(3) for a in ("--healthy", str(d / f"h{s}.parquet"))],
+                 "-m", "acf-p1", "--false-alarm-rate", "60", "--no-progress", "-o",
+                 str(acf)]) == 0
+    for det in (det_path, acf):
+        code, out, err = run_cli(["detect", str(copy), "--detector", str(det)])
+        assert code == 2 and "holds the same samples as one of the 3 healthy" in err, err
+        code, out, err = run_cli(["monitor", str(copy), "--detector", str(det), "--quiet"])
+        assert code == 2, (out, err)
+        assert (f"{copy}: holds the same samples as one of the 3 healthy recordings {det} "
+                "was fitted on: judged against a threshold it set itself") in err
+        code, out, err = run_cli(["monitor", str(other), "--detector", str(det), "--quiet"])
+        assert code == 0, err
+    job = tmp_path / "job.toml"
+    job.write_text(f'[[detector]]\nname = "acf"\npath = "{acf}"\n')
+    code, out, err = run_cli(["batch", str(copy), str(other), "--config", str(job),
+                              "--scheduler", "serial", "-o", str(tmp_path / "res.parquet")])
+    import pandas as pd
+
+    rows = pd.read_parquet(tmp_path / "res.parquet").set_index("path")
+    assert rows.loc[str(copy), "error"].startswith(
+        f"detector not judged: {copy}: holds the same samples as one of the 3 healthy"), rows
+    assert pd.isna(rows.loc[str(other), "error"]) and rows.loc[str(other), "alarm"] is not None
+
+
 def test_stored_segments_are_judged_on_the_fleet_page_as_detect_runs(setup, run_cli, tmp_path):
     """A review (2026-11-29): a NO LEAK segment of ``monitor --segment --store`` was shown NOT
     JUDGED on the fleet page ("no window was scored: every window lay in the detector's

@@ -288,6 +288,8 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
                 refused[name] = _in_job_words(str(exc))
         items = [it for it in items if not (it[0] == "detector" and it[1] in refused)]
         own = _own_healthy(path, dets)  # a detector's own healthy file: not judged by it
+        own.update(_own_healthy_samples(path, [d for d in dets if d[0] not in own], src,
+                                        config.column_map))
         # what of the recording its metadata leave unchecked (rig, load): one note per file
         unchecked = unchecked_note(path, src.meta, [
             (dpath, getattr(meta, "system", None), getattr(meta, "load", None))
@@ -586,6 +588,32 @@ def _own_healthy(path: str, dets) -> dict:
     sha = content_hash(path)
     why = {name: own_healthy_reason(meta, sha, path, dpath) for name, meta, dpath in known}
     return {name: w for name, w in why.items() if w is not None}
+
+
+def _own_healthy_samples(path: str, dets, src, column_map) -> dict:
+    """The job's detectors one of whose healthy recordings this file holds over the channels
+    they read (another copy of it: CRLF line ends, Parquet), each with why it does not judge it
+    (:func:`~leakdiag.stream.detector_file.own_healthy_samples_reason`; a user-data audit,
+    2026-11-29: compared by bytes only, such a copy was judged NO LEAK). The file is read whole
+    once, and only when its length and rate are a healthy recording's."""
+    from leakdiag.io import read_recording
+    from leakdiag.stream.detector_file import own_healthy_samples_reason
+
+    cache: dict = {}
+
+    def read(chans):
+        key = tuple(chans)
+        if key not in cache:
+            cache[key] = read_recording(path, column_map, channels=list(chans))
+        return cache[key]
+
+    out = {}
+    for name, det, _, dpath in dets:
+        why = own_healthy_samples_reason(det, path, src.n_samples, src.sample_rate, read,
+                                         str(dpath))
+        if why is not None:
+            out[name] = why
+    return out
 
 
 def _level_judged_at(det, n_samples: int, sample_rate_hz: float) -> float:

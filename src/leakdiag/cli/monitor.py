@@ -194,6 +194,33 @@ def refuse_own_healthy_file(meta, input_path: str, follow: bool, detector_path) 
         raise ValueError(why)
 
 
+def refuse_own_healthy_samples(detector, source, input_path: str, follow: bool, cmap,
+                               sample_rate, detector_path) -> None:
+    """Refuse a recording file that holds the same samples as one of the detector's healthy
+    recordings, as ``detect`` refuses it (a copy saved with CRLF line ends or as Parquet was
+    judged NO LEAK by monitor: a user-data audit, 2026-11-29); read whole only when its length
+    and rate are a healthy recording's
+    (:func:`leakdiag.stream.detector_file.own_healthy_samples_reason`). Stdin and
+    ``--follow`` are not checked.
+
+    Raises
+    ------
+    ValueError
+        Naming both files (the command prints it as an error, exit code 2).
+    """
+    if detector is None or input_path == "-" or follow:
+        return
+    from leakdiag.io import read_recording
+    from leakdiag.stream.detector_file import own_healthy_samples_reason
+
+    why = own_healthy_samples_reason(
+        detector, str(source.source), source.n_samples, source.sample_rate,
+        lambda chans: read_recording(input_path, cmap, sample_rate=sample_rate, channels=chans),
+        str(detector_path))
+    if why is not None:
+        raise ValueError(why)
+
+
 def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=()):
     """The monitored feature; ``given`` lists the feature options given on the command line,
     refused where they would be ignored (a detector's own feature, the other lag kind).
@@ -404,6 +431,8 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
     refuse_own_healthy_file(meta, input_path, follow, detector_path)  # as streamed detectors
     source, units = _open_input(input_path, chans, follow, sample_rate, chunk, idle_timeout,
                                 batch_lines, cmap)
+    refuse_own_healthy_samples(detector, source, input_path, follow, cmap, sample_rate,
+                               detector_path)
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
                         units=units, system=source.meta.get("system"), source=source.source,
                         path=str(detector_path), load=source.meta.get("load"))
@@ -686,6 +715,8 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
         warn_low_rate(source.source, source.sample_rate,
                       "give --time-unit ms (files; stdin and --follow need the time in s)",
                       basis=basis)
+    refuse_own_healthy_samples(detector, source, input_path, follow, cmap, sample_rate,
+                               detector_path)
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
                         units=units, system=source.meta.get("system"), source=source.source,
                         path=str(detector_path), load=source.meta.get("load"))

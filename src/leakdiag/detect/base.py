@@ -514,7 +514,8 @@ class Detector(BaseEstimator):
         return (t, v, recording.start_time + a.burn_in_s, fs.name,
                 max(0.0, recording.duration - a.burn_in_s),
                 {**healthy_info(recording, chans),
-                 "fingerprint": fingerprint(recording, chans), "channels": chans})
+                 "fingerprint": fingerprint(recording, chans), "channels": chans,
+                 "shape": (int(recording.n_samples), float(recording.sample_rate))})
 
     def _fit_from_parts(self, parts: list, reference_maxima=None) -> "Detector":
         """The rest of :meth:`fit`, from :meth:`_fit_part` of every healthy recording."""
@@ -578,6 +579,9 @@ class Detector(BaseEstimator):
                                                if "fingerprint" in i)
         self.fingerprint_channels_ = next((i["channels"] for i in infos if "channels" in i),
                                           None)
+        # their lengths and rates: monitor and batch read a file whole to compare its samples
+        # only when it has one of them (own_healthy_samples_reason)
+        self.healthy_shapes_ = frozenset(i["shape"] for i in infos if "shape" in i)
         # the load the healthy recordings state (one, or none: check_healthy), which a
         # calibration on known leaks must share (calibrate)
         self.healthy_load_ = next((i["load"] for i in infos if i.get("load") is not None),

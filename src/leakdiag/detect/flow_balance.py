@@ -1034,6 +1034,8 @@ class FlowBalanceDetector(Detector):
         # so that none of them is judged against this threshold (refuse_own_healthy)
         self.healthy_fingerprints_ = frozenset(fingerprint(r, chans) for r in recs)
         self.fingerprint_channels_ = chans
+        self.healthy_shapes_ = frozenset((int(r.n_samples), float(r.sample_rate))
+                                         for r in recs)
 
     def _check_target(self, recs: list) -> float:
         """The segment (s) of the level; refuses a target of one false alarm or more per

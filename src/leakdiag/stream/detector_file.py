@@ -32,7 +32,8 @@ from leakdiag.io.recording import load_name
 __all__ = ["DetectorMeta", "save_detector", "load_detector_file", "check_detector_fits",
            "sniff_detector_file", "detector_code_fingerprint", "DetectorFileWarning",
            "DETECTOR_FORMAT", "DETECTOR_FINGERPRINT_PARTS", "unchecked_note", "ADVICE_MAP",
-           "ADVICE_JOB", "own_healthy_reason"]
+           "ADVICE_JOB", "own_healthy_reason",
+           "own_healthy_samples_reason"]
 
 #: Tag of the record written by :func:`save_detector` (2: code fingerprint and SHA-256 of the
 #: pickled detector, 2026-11-27; 1: the detector pickled inside the record, still read).
@@ -669,6 +670,55 @@ def own_healthy_reason(meta: DetectorMeta | None, sha256: str, source: str,
     return (f"{source}: one of the {len(known)} healthy recordings {path} was fitted on (the "
             "same bytes): judged against a threshold it set itself, a leak reads NO LEAK; "
             "judge recordings other than the healthy ones (or fit without this one)")
+
+
+def own_healthy_samples_reason(detector, source: str, n_samples: int | None,
+                               sample_rate: float, read, path: str) -> str | None:
+    """Why ``detector`` does not judge the recording ``source``: it holds the same samples as
+    one of its healthy recordings over the channels it reads (``detect``'s check,
+    :func:`leakdiag.detect.base.refuse_own_healthy`), for ``monitor`` and ``batch``, which read
+    a file in chunks and compared it by its bytes only: a healthy training file saved again
+    with CRLF line ends, or as Parquet, was judged NO LEAK against the threshold it set (a
+    user-data audit, 2026-11-29).
+
+    The recording is read whole (``read(channels)``) only when its length and rate are those
+    of a healthy recording (``healthy_shapes_``, recorded by ``fit`` since 2026-11-29;
+    detectors fitted before keep the check by bytes only).
+
+    Parameters
+    ----------
+    detector : Detector
+        The fitted detector.
+    source : str
+        The recording, for the message.
+    n_samples : int or None
+        Its samples per channel, if known without reading it (None: read to find out).
+    sample_rate : float
+        Its sample rate, Hz.
+    read : callable
+        ``read(channels) -> Recording``: the recording's channels as the detector reads them.
+    path : str
+        The detector file, for the message.
+
+    Returns
+    -------
+    str or None
+    """
+    from leakdiag.detect.base import fingerprint
+
+    own = getattr(detector, "healthy_fingerprints_", None)
+    chans = getattr(detector, "fingerprint_channels_", None)
+    shapes = getattr(detector, "healthy_shapes_", None)
+    if not own or chans is None or not shapes:
+        return None
+    if n_samples is not None and (int(n_samples), float(sample_rate)) not in shapes:
+        return None
+    rec = read(list(chans))
+    if fingerprint(rec, chans) not in own:
+        return None
+    return (f"{source}: holds the same samples as one of the {len(own)} healthy recordings "
+            f"{path} was fitted on: judged against a threshold it set itself, a leak reads NO "
+            "LEAK; judge recordings other than the healthy ones (or fit without this one)")
 
 
 def unchecked_note(source: str, meta, fitted, advice: str) -> str | None:

@@ -735,8 +735,10 @@ def _csv(path: str, channels, chunk_samples: int, sample_rate, start_time,
             if has_time and len(head) == _HEAD_ROWS else None)
     fs, t0 = _rate_start(t_head, sample_rate, start_time, {}, path, span)
     keys = {c: keys[c] for c in chans + ([TIME_COLUMN] if has_time else [])}
+    # its length when known without another pass: the time column's span, or the head alone
+    n = span[0] if span is not None else (len(head) if len(head) < _HEAD_ROWS else None)
     return ChunkSource(_checked(_csv_frames(path, fmt, chunk_samples, keys, rows, width, usecols),
-                                _axis(has_time, fs, path, {}), path, finite), fs, t0, chans, None,
+                                _axis(has_time, fs, path, {}), path, finite), fs, t0, chans, n,
                        path, {})
 
 
