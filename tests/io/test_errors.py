@@ -207,3 +207,25 @@ def test_decimal_commas_are_named_not_read_as_text_to_leave_out(tmp_path):
     with pytest.raises(RecordingError) as exc:
         read_recording(path)
     assert "decimal comma" not in str(exc.value)
+
+
+def test_utf16_text_and_a_separator_other_than_the_maps_are_named(tmp_path):
+    """A user-data audit (2026-11-29): an Excel "Unicode text" export (UTF-16) was reported as
+    "unreadable as text (binary data)", and a ';' file read with a map's tab separator said
+    only "missing column 'PG_1'" with the whole header as one name."""
+    from leakdiag.io import RecordingError, read_recording
+
+    path = tmp_path / "u16.txt"
+    path.write_bytes("time\tp1\n0\t1\n0.001\t2\n".encode("utf-16"))
+    with pytest.raises(RecordingError, match=re.escape(
+            "u16.txt: UTF-16 text (a byte-order mark; Excel's \"Unicode text\"): leakdiag "
+            "reads UTF-8 or Latin-1 text")):
+        read_recording(path)
+    semi = tmp_path / "semi.txt"
+    semi.write_text("Time;PG_1\n1;10\n2;11\n")
+    cmap = {"file": {"separator": "\t", "time_column": "Time", "time_unit": "ms"},
+            "channels": {"p1": "PG_1"}}
+    with pytest.raises(RecordingError, match=re.escape(
+            "the header is one field that holds ';': the file seems separated by ';', not by "
+            "the separator given")):
+        read_recording(semi, cmap)

@@ -93,6 +93,14 @@ def _available(table: RawTable) -> str:
     text = f"available columns: {table.names}"
     if table.duplicates:
         text += f"; in the header more than once (not readable): {list(table.duplicates)}"
+    if len(table.names) == 1:  # one name holding another separator: the map's is not the file's
+        from leakdiag.io.text import SEPARATOR_CANDIDATES
+
+        found = [sep for sep in SEPARATOR_CANDIDATES if sep in str(table.names[0])]
+        if found:
+            text += (f"; the header is one field that holds {found[0]!r}: the file seems "
+                     f"separated by {found[0]!r}, not by the separator given (a map's [file] "
+                     "separator, or drop it to detect the file's)")
     return text
 
 

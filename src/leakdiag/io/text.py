@@ -60,6 +60,10 @@ def _sniff(path: Path, source: str) -> tuple[list[str], str]:
             head = fh.read(_SNIFF_BYTES)
     except OSError as exc:
         raise RecordingError(f"{source}: cannot open: {exc.strerror}") from None
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff"):  # Excel's "Unicode text": UTF-16, not binary
+        raise RecordingError(f"{source}: UTF-16 text (a byte-order mark; Excel's \"Unicode "
+                             "text\"): leakdiag reads UTF-8 or Latin-1 text; save it as CSV "
+                             "(UTF-8) or convert it (iconv -f UTF-16 -t UTF-8)")
     if b"\x00" in head:
         raise RecordingError(f"{source}: unreadable as text (binary data); is it another format?")
     cut = head.rfind(b"\n")
