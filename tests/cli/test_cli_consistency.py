@@ -118,7 +118,10 @@ def test_monitor_error_advises_no_option_monitor_lacks(tmp_path, capsys):
     path.write_text("time,p1\n" + "".join(f"{a},{np.sin(a * 50)}\n" for a in t))
     assert main(["monitor", "-i", str(path), "-c", "p1", "-q"]) == 2
     err = capsys.readouterr().err
-    assert "not uniformly sampled" in err and "leakdiag analyze --resample" in err
+    # the resampling it can be given (a user-data audit, 2026-11-29: "leakdiag analyze
+    # --resample RATE_HZ reads it" wrote no file to monitor)
+    assert "not uniformly sampled" in err and \
+        "leakdiag.io.write_recording(leakdiag.io.read_recording(FILE, resample=RATE_HZ)" in err
     assert "(--resample RATE_HZ)" not in err
     # detect has --resample, so it may advise it
     opts = {o for p in _command("detect").params for o in getattr(p, "opts", [])}

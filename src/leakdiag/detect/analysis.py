@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 
-from leakdiag.detect.base import longest_nan_run
 from leakdiag.detect.blind_rules import blind_limit_s, blind_rule, undefined_limit
 from leakdiag.detect.measure import (Decision, TooFewChunksError, chunk_rms, chunks_in_words,
                                      decide_change, leak_direction, rms_change,
@@ -105,6 +104,9 @@ class _Reference:
 
 def _healthy_chunks(healthy, spec: MethodSpec, chunk: int) -> dict[str, _Reference]:
     """Pooled chunk RMS values of each feature series of ``spec`` over the healthy recordings."""
+    from leakdiag.detect.base import longest_nan_run  # (not at import: the page's sidecar
+    # imports leakdiag.detect for its blind rules, without scikit-learn)
+
     pooled: dict[str, list] = {}
     blind: dict[str, list] = {}
     for rec in healthy:
@@ -134,6 +136,8 @@ def _blind_reason(fs, onset, basis, ref) -> str | None:
     (2026-11-29) found ``analyze`` reading NO LEAK on a file whose pressure sensor was stuck at
     full scale over 9 of its 15 windows, where ``detect`` refused the NO LEAK.
     """
+    from leakdiag.detect.base import longest_nan_run
+
     judged = fs.time > onset if (onset is not None and basis == "healthy") else \
         np.ones(len(fs), dtype=bool)
     t, v = fs.time[judged], fs.values[judged]
