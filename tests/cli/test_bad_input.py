@@ -255,7 +255,8 @@ def test_simulate_unknown_params_field(tmp_path, capsys):
 @pytest.mark.parametrize("args,message", [
     (["--duration", "-5"], "Error: Invalid value for '--duration': -5.0 is not in the range x>0."),
     (["--duration", "10", "--onset", "20"],
-     "leakdiag: error: --onset 20.0 s must lie in [0, --duration 10.0) s"),
+     "leakdiag: error: --onset 20 s must lie in [0, 9.999) s: before the run's last sample "
+     "(10000 samples at 1000 Hz, --duration 10 s)"),
     (["--leak", "50"], "leakdiag: error: --leak 50.0 must be below the rated flow 43.3 L/min"),
     # a 10-Hz run was refused as "leak coefficient 0 ... short-circuits the actuator", and a
     # 20-Hz one was written: the controller's loop at that rate is unstable

@@ -43,7 +43,8 @@ def test_simulate_bad_onset_is_a_one_line_error(tmp_path, capsys):
     code = main(["simulate", "vca", "--duration", "2", "--onset", "5",
                  "--out", str(tmp_path / "x.parquet")])
     assert code == 2
-    assert "--onset 5.0 s must lie in [0, --duration 2.0) s" in capsys.readouterr().err
+    assert ("--onset 5 s must lie in [0, 1.999) s: before the run's last sample (2000 samples "
+            "at 1000 Hz, --duration 2 s)") in capsys.readouterr().err
 
 
 def test_simulate_eha_same_options_as_vca(tmp_path, capsys):

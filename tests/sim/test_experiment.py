@@ -44,7 +44,7 @@ def test_plan_leak_onset_sample_and_window():
 
 def test_plan_leak_checks_target_before_onset():
     calls = []
-    with pytest.raises(ValueError, match="onset=50.0"):
+    with pytest.raises(ValueError, match="onset=50 s"):
         plan_leak(0.1, 50.0, "step", 1.0, n=1000, sample_rate=100.0, duration=10.0,
                   check_target=calls.append)
     assert calls == [0.1]

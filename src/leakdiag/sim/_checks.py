@@ -6,6 +6,8 @@ Each check raises with the message the entry points have always raised, naming t
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["check_choice", "check_leak_kind", "check_seed", "check_params_type",
@@ -193,9 +195,64 @@ def check_onset(onset, n: int, sample_rate: float, duration: float) -> float:
     >>> check_onset(2.0, 2000, 1000.0, 2.0)
     Traceback (most recent call last):
     ...
-    ValueError: onset=2.0 s must lie in [0, duration=2.0) s
+    ValueError: onset=2 s must lie in [0, 1.999) s: before the run's last sample (2000 samples at 1000 Hz, duration=2 s)
+    >>> check_onset(True, 2000, 1000.0, 2.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: onset=True must be a number of seconds, not a bool
     """
+    # (a simulator audit, 2026-11-29: onset=True ran a leak from 1 s; and a message that named
+    # [0, duration) refused 3.9995 s of a 4-s run, inside it: the bound is the last sample)
+    if isinstance(onset, (bool, np.bool_)):
+        raise ValueError(f"onset={onset!r} must be a number of seconds, not a bool")
     onset = float(onset)
-    if not (0.0 <= onset < (n - 1) / sample_rate):
-        raise ValueError(f"onset={onset} s must lie in [0, duration={duration}) s")
+    last = (n - 1) / sample_rate
+    if not (0.0 <= onset < last):
+        raise ValueError(f"onset={onset:g} s must lie in [0, {last:g}) s: before the run's last "
+                         f"sample ({n} samples at {sample_rate:g} Hz, duration={duration:g} s)")
     return onset
+
+
+def check_condition_numbers(conditions, optional: tuple = ()) -> None:
+    """Check that every field of an operating-conditions object is a finite real number (numpy
+    scalars included, bools not), or None for the fields in ``optional``.
+
+    Parameters
+    ----------
+    conditions : dataclass instance
+        :class:`~leakdiag.sim.vca.conditions.OperatingConditions` or
+        :class:`~leakdiag.sim.eha.drive.EHAConditions`.
+    optional : tuple of str
+        Fields that may be None.
+
+    Raises
+    ------
+    TypeError
+        For a bool, text or None where a number is needed (naming the field).
+    ValueError
+        For a non-finite number.
+
+    Examples
+    --------
+    >>> from leakdiag.sim.vca.conditions import OperatingConditions
+    >>> OperatingConditions(spring_change_time_s=True)
+    Traceback (most recent call last):
+    ...
+    TypeError: spring_change_time_s=True must be a number of seconds or None, not a bool
+    """
+    from dataclasses import fields
+
+    # (a simulator audit, 2026-11-29: EHAConditions(spring_change_time_s=True) changed the
+    # spring at 1 s, temperature_rise_k="5" failed inside numpy, None with a bare TypeError;
+    # OperatingConditions refused numpy's float32 as "not a finite number")
+    for f in fields(conditions):
+        v = getattr(conditions, f.name)
+        if v is None and f.name in optional:
+            continue
+        kind = "a number of seconds or None" if f.name in optional else "a number"
+        if isinstance(v, (bool, np.bool_)):
+            raise TypeError(f"{f.name}={v!r} must be {kind}, not a bool")
+        if not isinstance(v, (int, float, np.integer, np.floating)):
+            raise TypeError(f"{f.name}={v!r} must be {kind}")
+        if not math.isfinite(float(v)):
+            raise ValueError(f"{f.name}={v!r} must be finite")

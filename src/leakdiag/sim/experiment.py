@@ -81,7 +81,8 @@ class Setup:
 
 def setup(system: str, *, duration, sample_rate, load, loads, leak_model, leak_models, leak_kind,
           seed, params, params_cls, sensor_params, default_sensors, machine,
-          extra_checks: Callable[[], None] | None = None) -> Setup:
+          extra_checks: Callable[[], None] | None = None, sensors=True, progress=None,
+          calibration_rtol=0.02) -> Setup:
     """Check the arguments both simulators share and resolve the unit.
 
     Parameters
@@ -107,6 +108,12 @@ def setup(system: str, *, duration, sample_rate, load, loads, leak_model, leak_m
     extra_checks : callable, optional
         The rig's own checks, run after the choices and before the seed is checked (the order in
         which the simulators have always reported errors).
+    sensors : bool, default True
+        Whether the sensor chain is on: True or False only (``"no"`` was truthy and ran it).
+    progress : callable or None
+        Progress callback, checked to be callable before any work.
+    calibration_rtol : float, default 0.02
+        Tolerance of a calibrated leak, in (0, 1).
 
     Returns
     -------
@@ -139,6 +146,21 @@ def setup(system: str, *, duration, sample_rate, load, loads, leak_model, leak_m
     check_leak_kind(leak_kind)
     check_seed(seed)
     params = check_params_type(params, params_cls)
+    # (a simulator audit, 2026-11-29: sensors="no" ran the sensor chain, sensor_params=1 and
+    # progress=1 failed inside the run naming no argument, calibration_rtol=5 was taken and
+    # its errors named the solver's rtol)
+    if not isinstance(sensors, (bool, np.bool_)):
+        raise TypeError(f"sensors={sensors!r} must be True or False")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress={progress!r} must be a callable progress(n_samples) or None")
+    rtol = check_positive(calibration_rtol, "calibration_rtol")
+    if not rtol < 1.0:
+        raise ValueError(f"calibration_rtol={calibration_rtol!r} must be below 1 (a relative "
+                         "tolerance of the mean leak; default 0.02)")
+    if sensor_params is not None:
+        from leakdiag.sim.sensors import SensorParams
+
+        sensor_params = check_params_type(sensor_params, SensorParams, "sensor_params")
     sensor_params = default_sensors if sensor_params is None else sensor_params
     unit = resolve_machine(machine, system)
     params = unit.apply_params(params)
@@ -490,7 +512,8 @@ def experiment_metadata(system: str, plan: LeakPlan, leak_flow_m3s: np.ndarray, 
         ``leak_coefficient``, ``leak_reference_dp_pa``, ``leak_lpm_at_reference_dp``,
         ``leak_model``, ``leak_kind``, ``ramp_duration``, ``load``, ``seed``, ``params``,
         ``sensors``, ``conditions``, ``machine``, ``calibration_runs``,
-        ``calibration_pilot_runs``, ``rated_flow_lpm``, ``leakdiag_version``.
+        ``calibration_pilot_runs``, ``calibration_rtol``, ``rated_flow_lpm``,
+        ``leakdiag_version``.
 
     Raises
     ------
@@ -526,6 +549,7 @@ def experiment_metadata(system: str, plan: LeakPlan, leak_flow_m3s: np.ndarray, 
         "conditions": conditions.to_dict(),
         "machine": machine.to_dict(),
         "calibration_runs": 0 if calibration is None else calibration.n_evaluations,
+        "calibration_rtol": float(calibration_rtol),
         "calibration_pilot_runs": 0 if calibration is None else calibration.n_pilot_evaluations,
         "rated_flow_lpm": rated_flow_lpm,
         "leakdiag_version": __version__,

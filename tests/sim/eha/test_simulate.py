@@ -188,7 +188,8 @@ def test_amplitude_variation_is_slow_and_sized():
     [
         ({"mode": "pid"}, ValueError, r"mode='pid' must be one of \['open-loop', 'closed-loop'\]"),
         ({"load": "mass"}, ValueError, "load='mass' must be one of"),
-        ({"onset": 200.0}, ValueError, r"onset=200.0 s must lie in \[0, duration=180.0\)"),
+        ({"onset": 200.0}, ValueError, r"onset=200 s must lie in \[0, 179.999\) s: before the "
+                                        r"run.s last sample"),
         ({"leak_lpm": -1.0}, ValueError, "leak_lpm=-1.0 must be a finite number > 0"),
         ({"seed": -3}, ValueError, "seed=-3 must be a non-negative integer"),
         ({"params": {"mass_kg": 1}}, TypeError, "params must be an EHAParams"),

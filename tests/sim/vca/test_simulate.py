@@ -151,7 +151,7 @@ def test_sine_reference_and_conditions_change_signals_without_leak():
 @pytest.mark.parametrize(
     "kwargs, exc, match",
     [
-        ({"onset": 500.0}, ValueError, "onset=500.0 s must lie in"),
+        ({"onset": 500.0}, ValueError, "onset=500 s must lie in"),
         ({"leak_model": "orifice"}, ValueError, "leak_model='orifice' must be one of"),
         ({"load": "mass"}, ValueError, "load='mass' must be one of"),
         ({"leak_lpm": -0.1}, ValueError, "leak_lpm=-0.1 must be"),

@@ -79,9 +79,9 @@ class EHAConditions:
     variation_time_constant_s: float = 20.0
 
     def __post_init__(self) -> None:
-        for name in ("temperature_rise_k", "bulk_modulus_per_k", "damping_per_k"):
-            if not math.isfinite(float(getattr(self, name))):
-                raise ValueError(f"{name}={getattr(self, name)!r} must be finite")
+        from leakdiag.sim._checks import check_condition_numbers
+
+        check_condition_numbers(self, optional=("spring_change_time_s",))
         for name in ("amplitude_variation", "frequency_variation"):
             v = float(getattr(self, name))
             if not (0.0 <= v < 1.0):

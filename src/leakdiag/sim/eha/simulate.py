@@ -432,6 +432,7 @@ def simulate_eha(
                 leak_model=leak_model, leak_models=LEAK_MODELS, leak_kind=leak_kind, seed=seed,
                 params=params, params_cls=EHAParams, sensor_params=sensor_params,
                 default_sensors=EHA_SENSORS, machine=machine,
+                sensors=sensors, progress=progress, calibration_rtol=calibration_rtol,
                 extra_checks=lambda: check_choice(mode, "mode", MODES))
     duration, fs, n = exp.duration, exp.sample_rate, exp.n
     params, sensor_params, machine = exp.params, exp.sensor_params, exp.machine
@@ -454,6 +455,14 @@ def simulate_eha(
     if input_signal is not None:
         drive = _input_samples(input_signal, t, conditions, np.random.default_rng(cond_ss))
         amplitude = max(float(np.max(np.abs(drive))), 1e-12)
+    if mode == "open-loop" and amplitude > params.command_limit_v:
+        # the command saturates at the limit: the run would not be the one its metadata
+        # state (a simulator audit, 2026-11-29: amplitude=100 recorded beside u at 10 V)
+        what = "input_signal reaches" if input_signal is not None else "amplitude="
+        raise ValueError(f"{what}{'' if input_signal is None else ' '}{amplitude:g} V, beyond "
+                         f"the command limit of +-{params.command_limit_v:g} V (command_limit_v"
+                         "): the motor command saturates there, so the run would not be the "
+                         "experiment asked for; give at most that")
 
     def within_pump_flow(lpm: float) -> None:
         q_avail = available_pump_flow_lpm(params, mode, amplitude)
@@ -588,6 +597,18 @@ def simulate_eha(
         conditions=conditions, machine=machine, calibration=cal,
         calibration_rtol=calibration_rtol, rated_flow_lpm=params.rated_pump_flow_lpm,
         ramp_duration=ramp_duration)
+    if leak_coefficient is not None and plan.active:
+        # a given coefficient skips the target's check: the leak it delivered is checked
+        # instead (a simulator audit, 2026-11-29: 1e-3 delivered 3.54 L/min, 95 % of the
+        # pump flow available)
+        q_avail = available_pump_flow_lpm(params, mode, amplitude)
+        if meta["leak_lpm_achieved"] > MAX_LEAK_FRACTION * q_avail:
+            raise ValueError(
+                f"leak_coefficient={leak_coefficient!r} delivers a mean leak of "
+                f"{meta['leak_lpm_achieved']:.3g} L/min, beyond {MAX_LEAK_FRACTION:.0%} of the "
+                f"mean pump flow available in this experiment ({q_avail:.3g} L/min, "
+                f"mode={mode!r}, amplitude={amplitude}); the pump is a flow source, such a "
+                "leak is not physical")
     meta.update({
         "mode": mode,
         "leak_pct_of_rated_flow": 100.0 * meta["leak_lpm_achieved"] / params.rated_pump_flow_lpm,

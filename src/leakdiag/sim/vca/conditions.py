@@ -70,11 +70,12 @@ class OperatingConditions:
     spring_change_factor: float = 1.0
 
     def __post_init__(self) -> None:
-        for name, v in asdict(self).items():
-            if v is None and name == "spring_change_time_s":
-                continue
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"{name}={v!r} must be a finite number")
+        from leakdiag.sim._checks import check_condition_numbers
+
+        check_condition_numbers(self, optional=("spring_change_time_s",))
+        if self.spring_change_time_s is not None and self.spring_change_time_s < 0:
+            raise ValueError(f"spring_change_time_s={self.spring_change_time_s!r} must be None "
+                             "or >= 0")
         if self.supply_ripple_pa < 0:
             raise ValueError(f"supply_ripple_pa={self.supply_ripple_pa!r} must be >= 0")
         if self.supply_ripple_hz <= 0:

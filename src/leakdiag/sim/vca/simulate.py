@@ -329,6 +329,7 @@ def simulate_vca(
                 leak_model=leak_model, leak_models=LEAK_MODELS, leak_kind=leak_kind, seed=seed,
                 params=params, params_cls=VCAParams, sensor_params=sensor_params,
                 default_sensors=SensorParams(), machine=machine,
+                sensors=sensors, progress=progress, calibration_rtol=calibration_rtol,
                 extra_checks=lambda: check_positive(max_step, "max_step"))
     duration, fs, n = exp.duration, exp.sample_rate, exp.n
     params, sensor_params, machine = exp.params, exp.sensor_params, exp.machine
