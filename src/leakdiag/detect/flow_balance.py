@@ -506,6 +506,16 @@ OFFSET_MIN_WINDOWS = 10
 #: references in effect), so the intervals are narrower than the evidence (perf/censored_size.py,
 #: rows in docs/flow_balance_study/censored_size/).
 CENSORED_SIZE_MIN_WINDOWS = 25
+#: Windows after a located onset's window that a VCA size needs (leakdiag choice, 2026-11-29,
+#: a flow-balance audit): sizes from fewer missed the truth, confidently. VCA unit 31, 0.05
+#: and 0.2 L/min from 60 s, 4 seeds, 90-s runs cut 1.5-10 s after the onset: the interval held
+#: the true mean leak since the onset in 15 of 23 sized no-load verdicts (one 2.61 L/min
+#: [1.58, 20.8] for 0.124, a late onset 21.3 [12.9, 170] for 0.2) and 41 of 48 with the spring
+#: (1.12-1.23x), cut 30 s after it 16 of 16. By windows after the onset: 1.5-6 s 34 of 47
+#: held (no load 7 of 15), 10 s 14 of 15, 30 s 16 of 16. 10, as the EHA's minimum: before the
+#: onset the healthy windows hold the null offset and gain (a censored onset has none, hence
+#: its 25). Between 10 and 30 windows coverage was measured on 15 cases only.
+VCA_SIZE_MIN_WINDOWS = 10
 
 
 #: Rig and load under which the size is weighted by the error model at the valve's leak-free
@@ -1866,6 +1876,15 @@ class FlowBalanceDetector(Detector):
                 f"sized within its band with {CENSORED_SIZE_MIN_WINDOWS} or more (the "
                 "per-recording null offset and gain are fitted on the leaking windows; "
                 "docs/detect.md 8.5); a longer recording is sized")
+            coef = dict(leak_coefficient=None, leak_coefficient_se=None,
+                        leak_lpm_at_reference=None, pressure_offset_pa=None)
+        elif not no_size and self.system == "vca" and n_after < VCA_SIZE_MIN_WINDOWS:
+            no_size = (
+                f"no size: only {n_after} window(s) follow the onset window before the "
+                f"recording ends, and a VCA size needs {VCA_SIZE_MIN_WINDOWS}: from fewer it "
+                "missed the truth (a 0.124 L/min leak sized 2.61 [1.58, 20.8] L/min 4 s after "
+                "its onset; docs/detect.md 8.5); a recording that goes on longer after the "
+                "onset is sized")
             coef = dict(leak_coefficient=None, leak_coefficient_se=None,
                         leak_lpm_at_reference=None, pressure_offset_pa=None)
         elif not no_size and be.SIZE_PROFILES_PRESSURE_OFFSET and \
