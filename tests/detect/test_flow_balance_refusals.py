@@ -347,3 +347,32 @@ def test_a_recording_at_another_sample_rate_is_refused_as_the_cli_does(det, heal
     del old.sample_rate_  # as pickled before 2026-11-27
     same = _vca(61, duration=12.0)
     assert old.predict(same).score_max == det.predict(same).score_max
+
+
+def test_a_column_map_can_state_the_machine_which_the_flow_balance_checks(tmp_path):
+    """A flow-balance audit (2026-11-29): a detector fitted on unit 57 judged healthy CSV
+    exports of unit 31 LEAK at p = 1.9e-4, since a CSV keeps no metadata and a map could not
+    state the unit ("unknown key(s) ['machine']"). The map's [file] table now takes it."""
+    import leakdiag as ld
+    from leakdiag.io import RecordingError, read_recording, write_recording
+
+    healthy = [ld.sim.simulate_vca(duration=40.0, leak_lpm=0.0, load="spring", machine=57,
+                                   seed=s) for s in range(4)]
+    det = ld.detect.FlowBalanceDetector(system="vca").fit(healthy)
+    other = write_recording(ld.sim.simulate_vca(duration=40.0, leak_lpm=0.0, load="spring",
+                                                machine=31, seed=9), tmp_path / "u31.csv")
+    cmap = {"file": {"machine": 31, "load": "spring", "system": "vca"},
+            "channels": {c: c for c in ("p1", "p2", "x", "u")}}
+    rec = read_recording(other, cmap)
+    assert rec.meta["machine"] == {"unit": 31}
+    with pytest.raises(RecordingError, match=r"recording of machine unit 31, but the detector "
+                                             r"was fitted on healthy recordings of machine "
+                                             r"unit 57"):
+        det.predict(rec)
+    with pytest.raises(RecordingError, match=r"machine=True must be a unit number >= 0 or a "
+                                             r"non-empty name"):
+        read_recording(other, {**cmap, "file": {"machine": True}})
+    parquet = write_recording(healthy[0], tmp_path / "u57.parquet")  # its own metadata: 57
+    with pytest.raises(RecordingError, match=r"the column map says machine 31, the file's own "
+                                             r"metadata say 57: fix the map"):
+        read_recording(parquet, cmap)

@@ -1819,8 +1819,11 @@ class FlowBalanceDetector(Detector):
                 f"is not positive ({k:.3g} +- {se:.2g}): a leak present from the recording's "
                 "start is fitted into the per-recording null offset and gain, so the data "
                 "cannot size it nor tell it from a disturbance at the start ("
-                + _chance_words(smax, h) + "a seam, a sensor fault?); judge a recording that "
-                "starts before the leak (docs/detect.md 8.5); no verdict on a leak", alarm, onset)
+                + _chance_words(smax, h) + "a seam, a sensor fault, or a recording of another "
+                "machine than the one fitted, whose valve differs: state the unit as machine in "
+                "the map's [file] table or the file's metadata to have it checked?); judge a "
+                "recording that starts before the leak (docs/detect.md 8.5); no verdict on a "
+                "leak", alarm, onset)
         if not k > 0.0 and end - alarm < LATE_ALARM_S:  # too few windows after a late alarm
             # (an audit, 2026-11-29: a 0.5 L/min leak from 25 s alarmed at 28.07 s in the
             # segment 0-30 s, k -2.7e-9 +- 1.8e-10, was "a sensor fault?")

@@ -407,6 +407,15 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
                 raise RecordingError(f"{source}: the column map says {what} {given!r}, the "
                                      f"file's own metadata say {str(own)!r}: fix the map")
             meta[key] = given
+        if column_map.machine is not None:  # the unit, as the simulators record it
+            own = meta.get("machine")
+            own_unit = own.get("unit") if isinstance(own, dict) else None
+            if own_unit is not None and own_unit != column_map.machine:
+                raise RecordingError(f"{source}: the column map says machine "
+                                     f"{column_map.machine!r}, the file's own metadata say "
+                                     f"{own_unit!r}: fix the map")
+            meta["machine"] = {**(own if isinstance(own, dict) else {}),
+                               "unit": column_map.machine}
     start = float(t[0]) if t is not None else 0.0
     if resample is not None:
         if t is None:

@@ -34,7 +34,8 @@ __all__ = [
 TIME_UNITS = ("s", "ms", "us", "samples")
 
 #: Keys allowed in the ``[file]`` table.
-FILE_KEYS = ("separator", "sample_rate_hz", "time_column", "time_unit", "system", "load")
+FILE_KEYS = ("separator", "sample_rate_hz", "time_column", "time_unit", "system", "load",
+             "machine")
 #: Rigs a map's ``system`` may name.
 SYSTEMS = ("vca", "eha")
 #: Keys allowed in a ``[channels.<name>]`` table.
@@ -136,6 +137,12 @@ class ColumnMap:
         The load the file was recorded under (``"none"``, ``"spring"`` or a name of yours,
         lower-cased), stored as ``meta["load"]``: checked against the detectors' healthy
         recordings likewise. A file whose own metadata say otherwise is refused.
+    machine : int or str, optional
+        The machine (unit) the file comes from: a virtual unit's number or your own name, stored
+        as ``meta["machine"] = {"unit": ...}``: the flow balance, identified per machine,
+        refuses a recording of another unit than its healthy ones (without it a detector of
+        unit 57 judged healthy CSV exports of unit 31 LEAK at p = 1.9e-4: a flow-balance audit,
+        2026-11-29).
 
     Raises
     ------
@@ -156,6 +163,7 @@ class ColumnMap:
     time_unit: str = "s"
     system: str | None = None
     load: str | None = None
+    machine: int | str | None = None
 
     def __post_init__(self) -> None:
         chans = {}
@@ -192,6 +200,14 @@ class ColumnMap:
                 raise RecordingError(f"load={self.load!r} must be a non-empty name, e.g. "
                                      "'none' or 'spring'")
             object.__setattr__(self, "load", self.load.strip().lower())
+        if self.machine is not None:
+            m = self.machine
+            if isinstance(m, bool) or not (isinstance(m, int) and m >= 0
+                                           or isinstance(m, str) and m.strip()):
+                raise RecordingError(f"machine={m!r} must be a unit number >= 0 or a non-empty "
+                                     "name")
+            if isinstance(m, str):
+                object.__setattr__(self, "machine", m.strip())
 
     def to_dict(self) -> dict[str, Any]:
         """The map as a TOML-shaped dict (``{"file": {...}, "channels": {...}}``), Nones dropped.
