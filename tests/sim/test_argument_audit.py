@@ -65,3 +65,13 @@ def test_conditions_take_numbers_only(cls):
     with pytest.raises(ValueError, match=r"spring_change_time_s=-5 must be None or >= 0"):
         cls(spring_change_time_s=-5)
     assert cls(temperature_rise_k=np.float32(2.0)).temperature_rise_k == 2.0
+
+
+def test_a_drive_above_nyquist_and_a_ripple_above_the_supply_are_refused():
+    with pytest.raises(ValueError, match=r"frequency_rad_s=10000 must be below the Nyquist "
+                                         r"frequency of sample_rate=1000 Hz"):
+        ld.sim.simulate_eha(duration=2.0, leak_lpm=None, frequency_rad_s=1e4)
+    with pytest.raises(ValueError, match=r"conditions.supply_ripple_pa=2e\+07 must be below the "
+                                         r"supply pressure"):
+        ld.sim.simulate_vca(duration=2.0, leak_lpm=None,
+                            conditions=OperatingConditions(supply_ripple_pa=2e7))

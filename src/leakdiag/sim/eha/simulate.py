@@ -344,8 +344,9 @@ def simulate_eha(
         The leak law, Eq. 2-4 (the same argument as :func:`~leakdiag.sim.simulate_vca`; the
         EHA has no laminar leak).
     progress : callable, optional
-        ``progress(n_samples)`` after each integration (the whole run, or the part before the
-        onset and each trial after it during the leak calibration).
+        ``progress(n)`` with the samples of each integration (as ``tqdm.update``: the whole
+        run, or the part before the onset and each trial after it during the leak
+        calibration, so the calls may add up to more than the run's samples).
     conditions : EHAConditions, optional
         Temperature drift, spring change, amplitude/frequency variation; default nominal.
     sensor_params : SensorParams, optional
@@ -449,6 +450,10 @@ def simulate_eha(
         rtol = DEFAULT_RTOL if mode == "open-loop" else CLOSED_LOOP_RTOL
     rtol = check_positive(rtol, "rtol")
     frequency_rad_s = check_positive(frequency_rad_s, "frequency_rad_s")
+    if not frequency_rad_s < np.pi * fs:  # (a simulator audit, 2026-11-29: 1e4 rad/s at 1 kHz)
+        raise ValueError(f"frequency_rad_s={frequency_rad_s:g} must be below the Nyquist "
+                         f"frequency of sample_rate={fs:g} Hz ({np.pi * fs:.6g} rad/s): the "
+                         "recorded drive would alias")
     t = np.arange(n) / fs
     cond_ss, noise_ss = random_streams(seed)
     drive = None

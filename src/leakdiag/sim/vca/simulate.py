@@ -264,7 +264,9 @@ def simulate_vca(
     calibration_rtol : float, default 0.02
         Relative tolerance of the leak calibration.
     progress : callable, optional
-        ``progress(n_samples_done)`` called every 10 s of simulated time.
+        ``progress(n)`` with the samples integrated since its last call (as ``tqdm.update``),
+        every 10 s of simulated time; a leak's calibration reruns the part after the onset, so
+        the calls may add up to more than the run's samples.
     machine : None, int or VCAMachine, default None
         The unit: None is the nominal Table 2-1 rig; an int draws that unit with
         :func:`~leakdiag.sim.machine.draw_machine` (its own random stream, independent of
@@ -335,6 +337,10 @@ def simulate_vca(
     params, sensor_params, machine = exp.params, exp.sensor_params, exp.machine
     max_step = float(max_step)
     conditions = check_params_type(conditions, OperatingConditions, "conditions")
+    if not conditions.supply_ripple_pa < params.supply_pressure_pa:  # (a simulator audit,
+        # 2026-11-29: a 20 MPa ripple on a 17.2 MPa supply was taken)
+        raise ValueError(f"conditions.supply_ripple_pa={conditions.supply_ripple_pa:g} must be "
+                         f"below the supply pressure ({params.supply_pressure_pa:g} Pa)")
     n_sub = max(1, math.ceil(1.0 / (fs * max_step) - 1e-9))
 
     def below_rated_flow(lpm: float) -> None:
