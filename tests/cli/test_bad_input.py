@@ -507,3 +507,13 @@ def test_monitor_advises_a_resampling_it_can_be_given(tmp_path, run_cli):
     assert code == 2 and "is not uniformly sampled" in err, err
     assert "leakdiag.io.write_recording(leakdiag.io.read_recording(FILE, resample=RATE_HZ), " \
         "OUT)" in err and "analyze --resample RATE_HZ reads it" not in err
+
+
+def test_batch_refuses_a_results_folder_named_like_a_csv_file(tmp_path, run_cli):
+    """A flow-balance audit (2026-11-29): batch -o res.csv made a Parquet dataset folder named
+    res.csv without a word."""
+    (tmp_path / "d.joblib").write_bytes(b"not read")  # refused before it is loaded
+    code, out, err = run_cli(["batch", str(tmp_path / "x.parquet"), "--detector",
+                              str(tmp_path / "d.joblib"), "-o", str(tmp_path / "res.csv")])
+    assert code == 2 and "batch writes a results folder (a Parquet dataset" in err, err
+    assert not (tmp_path / "res.csv").exists()

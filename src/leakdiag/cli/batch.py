@@ -98,6 +98,15 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
         raise click.UsageError("give --config JOB.toml (analyses, detectors) or --detector "
                                "FILE (from leakdiag fit), or both")
     check_workers(scheduler, workers)  # None: one worker per core (as every command)
+    import os
+
+    suffix = os.path.splitext(str(out))[1].lower()
+    if suffix in (".csv", ".txt", ".tsv", ".xlsx", ".json") and not os.path.isdir(str(out)):
+        # a folder named res.csv was made without a word (a flow-balance audit, 2026-11-29)
+        raise click.BadParameter(f"{out}: batch writes a results folder (a Parquet dataset, "
+                                 "e.g. results.parquet), not a single file; name it without "
+                                 f"{suffix} (read it with leakdiag.batch.read_results or "
+                                 "pandas.read_parquet)", param_hint="--out")
     st = None
     if store is not None:  # refused before the work: '', an in-memory database, 'sqlite:/x'
         from leakdiag.store import store_url
