@@ -555,10 +555,7 @@ def test_a_failed_or_stopped_segment_session_is_not_shown_finished(setup, run_cl
     """A store audit (2026-11-29): a ``monitor --segment`` session that failed on bad input or
     was stopped with SIGTERM read "OK, monitor finished" on the fleet page (its judged
     segments are finished runs); the streamed monitor's run says failed or stopped."""
-    import os
     import signal
-    import subprocess
-    import sys
     import time
 
     from leakdiag.store import EventStore
@@ -584,11 +581,7 @@ def test_a_failed_or_stopped_segment_session_is_not_shown_finished(setup, run_cl
     st.close()
     # SIGTERM in a real-time replay: the input after the last judged segment is not judged
     db2 = tmp_path / "s2.db"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    p = subprocess.Popen([sys.executable, "-m", "leakdiag.cli.main", "monitor", str(path),
-                          "--detector", str(det_path), "--segment", "20", "--store", str(db2),
-                          "--actuator", "seg", "--replay", "10x", "-q"], env=env,
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = _segment_monitor(path, det_path, db2)
     t_end = time.monotonic() + 60
     while time.monotonic() < t_end and not db2.exists():
         time.sleep(0.1)
@@ -613,10 +606,7 @@ def test_a_segment_session_killed_with_kill_9_reads_silent_not_finished(
     ended when the session ends in any other way; a session not ended that sent no segment for
     3 of its segment intervals (at least a minute) reads "silent since"."""
     import datetime as dt
-    import os
     import signal
-    import subprocess
-    import sys
     import time
 
     import leakdiag.store.database as database
@@ -640,11 +630,7 @@ def test_a_segment_session_killed_with_kill_9_reads_silent_not_finished(
     monkeypatch.undo()
     # kill -9 in a 10x replay once the first 20-s segment is stored
     db2 = tmp_path / "k.db"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    p = subprocess.Popen([sys.executable, "-m", "leakdiag.cli.main", "monitor", str(path),
-                          "--detector", str(det_path), "--segment", "20", "--store", str(db2),
-                          "--actuator", "seg", "--replay", "10x", "-q"], env=env,
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = _segment_monitor(path, det_path, db2)
     t_end, n = time.monotonic() + 90, 0
     while time.monotonic() < t_end and n == 0 and p.poll() is None:
         time.sleep(0.2)
@@ -681,3 +667,17 @@ def _configs(db) -> list:
 
     with sqlite3.connect(db) as conn:
         return [json.loads(c) for (c,) in conn.execute("SELECT config FROM runs ORDER BY id")]
+
+
+def _segment_monitor(path, det_path, db):
+    """``leakdiag monitor PATH --segment 20 --store DB --actuator seg`` replayed at 10x, as a
+    process of its own (to be stopped by a signal)."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    return subprocess.Popen([sys.executable, "-m", "leakdiag.cli.main", "monitor", str(path),
+                             "--detector", str(det_path), "--segment", "20", "--store", str(db),
+                             "--actuator", "seg", "--replay", "10x", "-q"], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
