@@ -376,3 +376,23 @@ def test_a_column_map_can_state_the_machine_which_the_flow_balance_checks(tmp_pa
     with pytest.raises(RecordingError, match=r"the column map says machine 31, the file's own "
                                              r"metadata say 57: fix the map"):
         read_recording(parquet, cmap)
+
+
+def test_detect_says_a_file_without_a_machine_was_not_checked_against_the_fitted_one(
+        tmp_path, run_cli):
+    """The flow-balance audit's case through the command: a CSV export (no metadata) judged by
+    a detector of unit 57; the warning named rig and load only, never the machine."""
+    import leakdiag as ld
+    from leakdiag.io import write_recording
+
+    healthy = [str(write_recording(ld.sim.simulate_vca(
+        duration=40.0, leak_lpm=0.0, load="spring", machine=57, seed=s), tmp_path / f"h{s}.parquet"))
+        for s in range(4)]
+    det = tmp_path / "fb.joblib"
+    code, _, err = run_cli(["fit", "-m", "flow-balance", "--system", "vca", "--no-progress",
+                            *[a for h in healthy for a in ("--healthy", h)], "-o", str(det)])
+    assert code == 0, err
+    csv = write_recording(ld.sim.simulate_vca(duration=40.0, leak_lpm=0.0, load="spring",
+                                              machine=57, seed=9), tmp_path / "u57.csv")
+    code, out, err = run_cli(["detect", str(csv), "--detector", str(det)])
+    assert "machine unit 57 of" in err and "state them as system and load and machine" in err, err

@@ -28,7 +28,7 @@ from leakdiag.features.series import FeatureSeries
 from leakdiag.io.checks import RESAMPLE_ADVICE
 from leakdiag.runtime.executor import LOCAL, run_cases
 from leakdiag.stream.detector import as_scorer
-from leakdiag.stream.detector_file import (ADVICE_JOB, check_detector_fits,
+from leakdiag.stream.detector_file import (ADVICE_JOB, check_detector_fits, fitted_machine,
                                             load_detector_file, unchecked_note)
 from leakdiag.stream.feature import StreamingFeature
 from leakdiag.stream.files import open_recording
@@ -534,7 +534,8 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
             rows.append({**row, "status": "error", "error": _in_job_words(str(exc))})
             continue
         row["unchecked"] = unchecked_note(path, rec.meta, [
-            (dpath, getattr(meta, "system", None), getattr(meta, "load", None))], ADVICE_JOB)
+            (dpath, getattr(meta, "system", None), getattr(meta, "load", None),
+             fitted_machine(det))], ADVICE_JOB)
         row["status"], row["threshold"] = "ok", float(det.threshold_)
         try:
             refuse_own_healthy(det, rec, "batch")

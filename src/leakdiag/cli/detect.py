@@ -250,7 +250,8 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
     from leakdiag.cli.fit import channels_of_methods, common_load, system_of
     from leakdiag.detect.base import Alarm
     from leakdiag.detect.threshold import count_segments
-    from leakdiag.stream.detector_file import check_detector_fits, load_detector_file
+    from leakdiag.stream.detector_file import (check_detector_fits, fitted_machine,
+                                                load_detector_file)
 
     say = progress or (lambda msg: None)
     notes: list[str] = []
@@ -271,7 +272,8 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
         check_detector_fits(meta, sample_rate=rec.sample_rate, channels=rec.channels,
                             units=rec.units, system=rec.meta.get("system"), source=str(file),
                             path=str(path), load=rec.meta.get("load"))
-        fitted.append((str(path), getattr(meta, "system", None), getattr(meta, "load", None)))
+        fitted.append((str(path), getattr(meta, "system", None), getattr(meta, "load", None),
+                       fitted_machine(det)))
         m = meta.method if meta else str(path)
         say(f"judging with {path} ({m})...")
         rows.append(_cannot_judge(det, rec, file, m)

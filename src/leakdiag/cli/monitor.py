@@ -437,8 +437,11 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
                         units=units, system=source.meta.get("system"), source=source.source,
                         path=str(detector_path), load=source.meta.get("load"))
     if meta is not None:
+        from leakdiag.stream.detector_file import fitted_machine
+
         note = unchecked_note(str(source.source), source.meta, [
-            (str(detector_path), meta.system, getattr(meta, "load", None))], ADVICE_MAP)
+            (str(detector_path), meta.system, getattr(meta, "load", None),
+             fitted_machine(detector))], ADVICE_MAP)
         if note is not None:
             click.echo(f"leakdiag: warning: {note}", err=True)
     st = None

@@ -33,7 +33,7 @@ __all__ = ["DetectorMeta", "save_detector", "load_detector_file", "check_detecto
            "sniff_detector_file", "detector_code_fingerprint", "DetectorFileWarning",
            "DETECTOR_FORMAT", "DETECTOR_FINGERPRINT_PARTS", "unchecked_note", "ADVICE_MAP",
            "ADVICE_JOB", "own_healthy_reason",
-           "own_healthy_samples_reason"]
+           "own_healthy_samples_reason", "fitted_machine"]
 
 #: Tag of the record written by :func:`save_detector` (2: code fingerprint and SHA-256 of the
 #: pickled detector, 2026-11-27; 1: the detector pickled inside the record, still read).
@@ -721,6 +721,30 @@ def own_healthy_samples_reason(detector, source: str, n_samples: int | None,
             "LEAK; judge recordings other than the healthy ones (or fit without this one)")
 
 
+def fitted_machine(detector):
+    """The machine unit of a detector's healthy recordings, when it is identified per machine
+    (the flow balance's ``operation_["machine"]``: a unit id, ``"nominal"``, or None when
+    unknown or mixed); None for other detectors.
+
+    Parameters
+    ----------
+    detector : object
+        A fitted detector.
+
+    Returns
+    -------
+    int, str or None
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> fitted_machine(SimpleNamespace(operation_={"machine": 57})), fitted_machine(object())
+    (57, None)
+    """
+    op = getattr(detector, "operation_", None)
+    return op.get("machine") if isinstance(op, dict) else None
+
+
 def unchecked_note(source: str, meta, fitted, advice: str) -> str | None:
     """The one sentence ``detect``, ``monitor`` and ``batch`` say about a recording whose
     metadata do not state what its detectors' healthy recordings did (rig, load), so that it
@@ -736,10 +760,11 @@ def unchecked_note(source: str, meta, fitted, advice: str) -> str | None:
         The recording, as the command names it.
     meta : mapping
         Its metadata (``Recording.meta``, ``ChunkSource.meta``).
-    fitted : iterable of (str, str or None, str or None)
+    fitted : iterable of (str, str or None, str or None[, unit or None])
         For each detector judging it: what it was fitted on (a detector file, ``the --healthy
-        recordings``), the rig and the load of its healthy recordings (None: unknown, not said).
-        Two entries that say the same are said once.
+        recordings``), the rig and the load of its healthy recordings (None: unknown, not said),
+        and optionally the machine unit (:func:`fitted_machine`: a flow balance is identified
+        per machine). Two entries that say the same are said once.
     advice : str
         Where this command's user states them: :data:`ADVICE_MAP` or :data:`ADVICE_JOB`.
 
@@ -757,14 +782,24 @@ def unchecked_note(source: str, meta, fitted, advice: str) -> str | None:
     job's column map, or in the file's metadata)"
     >>> unchecked_note("x.csv", {}, [("d.joblib", None, None)], ADVICE_MAP) is None
     True
+    >>> unchecked_note("x.csv", {"system": "vca", "load": "spring"},
+    ...                [("fb.joblib", "vca", "spring", 57)], ADVICE_MAP)[:98]
+    'x.csv states no machine unit in its metadata, so it was not checked against the machine unit 57 of'
     """
-    props = [(key, what) for key, what in (("system", "rig"), ("load", "load"))
-             if meta.get(key) is None]
+    # the machine unit since 2026-11-29 (a flow-balance audit: a detector of unit 57 judged
+    # healthy CSV exports of unit 31 LEAK at p = 1.9e-4, and the note named only rig and load)
+    machine = meta.get("machine")
+    stated = {"system": meta.get("system") is not None, "load": meta.get("load") is not None,
+              "machine": isinstance(machine, dict) and "unit" in machine}
+    props = [(key, what) for key, what in (("system", "rig"), ("load", "load"),
+                                           ("machine", "machine unit")) if not stated[key]]
     against, used = [], set()
-    for fitted_on, system, load in fitted:
-        values = {"system": system, "load": load}
+    for entry in fitted:
+        fitted_on, system, load = entry[:3]
+        values = {"system": system, "load": load, "machine": entry[3] if len(entry) > 3 else None}
         said = [(key, what, values[key]) for key, what in props if values[key] is not None]
-        phrase = " and ".join(f"the {w} {str(v)!r}" for _, w, v in said) + f" of {fitted_on}"
+        phrase = " and ".join(f"the {w} {v!r}" if k == "machine" else f"the {w} {str(v)!r}"
+                              for k, w, v in said) + f" of {fitted_on}"
         if said and phrase not in against:
             against.append(phrase)
             used.update(key for key, _, _ in said)
