@@ -145,11 +145,12 @@ def _blind_reason(fs, onset, basis, ref) -> str | None:
     if not n_bad:
         return None
     span_s, fraction = (0.0, 0.0) if ref is None else (ref.nan_span_s, ref.nan_fraction)
-    count, first, longest = longest_nan_run(t, v)
+    _, first, longest = longest_nan_run(t, v)
     rule = blind_rule(span_s, len(v), n_bad, longest, fraction)
     if rule is None:
         return None
-    whose = "the healthy references allow" if ref is not None else "a judgement allows"
+    whose = ("the healthy references allow" if ref is not None
+             else "a judgement without healthy references allows")
     if rule == "span":
         return (f"the feature is undefined for {longest:.3g} s in a row, from "
                 f"{t[first]:.6g} s (a channel it reads is constant there: a stuck sensor?), "
