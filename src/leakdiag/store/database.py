@@ -1156,7 +1156,11 @@ def _session(run: dict) -> dict | None:
     >>> _session({"command": "detect", "config": json.dumps(cfg)}) is None
     True
     """
-    cmd, cfg = str(run.get("command")), _config(run.get("config"))
+    text = run.get("config")
+    if str(run.get("command")) != "monitor" or not isinstance(text, str) or \
+            '"session"' not in text:  # (the fleet asks it of every run: no JSON parse for most)
+        return None
+    cmd, cfg = "monitor", _config(text)
     ses = cfg.get("session")
     if not _is_segment(cmd, cfg) or not isinstance(ses, dict) or \
             not isinstance(ses.get("id"), str):
