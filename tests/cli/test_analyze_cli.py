@@ -457,3 +457,20 @@ def test_analyze_tests_an_ehas_change_two_sided(tmp_path, capsys):
     assert "cross-correlation p1,p2: INCONCLUSIVE" in capsys.readouterr().out
     assert main([*args, "--system", "eha"]) == 0
     assert "cross-correlation p1,p2: LEAK" in capsys.readouterr().out
+
+
+@pytest.mark.filterwarnings("ignore::leakdiag.features._degenerate.DegenerateWindowWarning")
+def test_moments_of_adc_counts_are_said_to_depend_on_the_converters_zero(shared_dir, capsys):
+    """A user-data audit (2026-11-29): analyze -m moments on the rotary files' raw counts said
+    nothing, while the mean's % change (a ratio) depends on the ADC's zero."""
+    data = shared_dir / "realdata" / "rotary-actuators" / "Data"
+    cmap = str(Path(__file__).resolve().parents[2] / "docs" / "examples"
+               / "rotary_actuator_map.toml")
+    base = next((data / "Act_1").glob("Base_000_10_418_*AM.txt"))
+    assert main(["analyze", str(base), "--map", cmap, "-m", "moments", "-c", "p1", "-w", "200",
+                 "--onset", "1.5", "--chunk", "2"]) == 0
+    err = capsys.readouterr().err
+    assert "the moments of p1 are in ADC counts, whose zero is the converter's" in err
+    assert main(["analyze", str(base), "--map", cmap, "-m", "autocorrelation", "-c", "p1",
+                 "--onset", "1.5", "--chunk", "2"]) == 0
+    assert "ADC counts" not in capsys.readouterr().err

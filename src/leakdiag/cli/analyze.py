@@ -217,6 +217,14 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
     click.echo(head)
     click.echo(format_verdict(result.table))
     click.echo(decision_words(result.table, false_alarm_rate))
+    counts = sorted({c for s in specs if s.method == "moments" for c in s.channels
+                     if str(rec.units.get(c, "")).lower() == "counts"})
+    if counts:  # a user-data audit, 2026-11-29: raw ADC counts, nothing said
+        click.echo(f"leakdiag: warning: {file}: the moments of {', '.join(counts)} are in ADC "
+                   "counts, whose zero is the converter's, not 0 Pa: the mean's change (Eq. 5-3, "
+                   "a ratio) depends on that offset (the variance's, skewness's and kurtosis's "
+                   "do not); give the channel's offset and gain to pascals in the map for a "
+                   "change of the pressure's mean", err=True)
     if out:
         outp = Path(out)
         _write_outputs(result, outp)
