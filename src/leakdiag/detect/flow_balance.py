@@ -1782,7 +1782,9 @@ class FlowBalanceDetector(Detector):
             common["onset_why"] = (
                 f"the onset lies within the first {CENSOR_WINDOWS} windows judged (from "
                 f"{float(t['start'][0]):.4g} s), where a leak present from the start is placed "
-                "as well (docs/detect.md 8.5)")
+                "as well, and where a recording of another machine than the one fitted alarms "
+                "(the data cannot tell them apart: state the machine in the file's metadata or "
+                "the map's [file] table; docs/detect.md 8.5)")
         # since the onset, and since the alarm (an onset placed before a sign change dilutes
         # the first; the second needs windows enough to mean anything)
         ratios = [_piston_valve_ratio(t, j)] + (
