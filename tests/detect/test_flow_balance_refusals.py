@@ -376,6 +376,12 @@ def test_a_column_map_can_state_the_machine_which_the_flow_balance_checks(tmp_pa
     with pytest.raises(RecordingError, match=r"the column map says machine 31, the file's own "
                                              r"metadata say 57: fix the map"):
         read_recording(parquet, cmap)
+    # a nominal unit's file (metadata unit None) is not relabelled by the map either
+    nominal = write_recording(ld.sim.simulate_vca(duration=2.0, leak_lpm=0.0, load="spring",
+                                                  seed=1), tmp_path / "nominal.parquet")
+    with pytest.raises(RecordingError, match=r"the column map says machine 31, the file's own "
+                                             r"metadata say the nominal unit: fix the map"):
+        read_recording(nominal, cmap)
 
 
 def test_detect_says_a_file_without_a_machine_was_not_checked_against_the_fitted_one(

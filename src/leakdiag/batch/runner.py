@@ -287,9 +287,8 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
             except ValueError as exc:
                 refused[name] = _in_job_words(str(exc))
         items = [it for it in items if not (it[0] == "detector" and it[1] in refused)]
-        own = _own_healthy(path, dets)  # a detector's own healthy file: not judged by it
-        own.update(_own_healthy_samples(path, [d for d in dets if d[0] not in own], src,
-                                        config.column_map))
+        # a detector's own healthy file (its bytes or its samples): not judged by it
+        own = _own_healthy(path, dets, src, config.column_map)
         # what of the recording its metadata leave unchecked (rig, load): one note per file
         unchecked = unchecked_note(path, src.meta, [
             (dpath, getattr(meta, "system", None), getattr(meta, "load", None))
@@ -571,35 +570,28 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
     return rows
 
 
-def _own_healthy(path: str, dets) -> dict:
-    """The job's detectors fitted on this very file (its bytes' SHA-256 among their healthy
-    files', :func:`~leakdiag.stream.detector_file.own_healthy_reason`), each with why it does
-    not judge it.
+def _own_healthy(path: str, dets, src, column_map) -> dict:
+    """The job's detectors fitted on this very file, each with why it does not judge it: the
+    same bytes (their healthy files' SHA-256, :func:`~leakdiag.stream.detector_file.
+    own_healthy_reason`), or the same samples over the channels they read (another copy:
+    CRLF line ends, Parquet; :func:`~leakdiag.stream.detector_file.own_healthy_samples_reason`;
+    a user-data audit, 2026-11-29: compared by bytes only, such a copy was judged NO LEAK).
 
     The file is hashed only when a detector file records its healthy files' hashes (fitted
     since session 22): a second read of it, as :func:`run_batch` hashed it already; passing
-    every file's hash to each case would ship the job's whole table to every Dask task."""
+    every file's hash to each case would ship the job's whole table to every Dask task. It is
+    read whole once more, once, only when its length and rate are a healthy recording's."""
     from leakdiag.batch.store import content_hash
-    from leakdiag.stream.detector_file import own_healthy_reason
-
-    known = [(name, meta, dpath) for name, _, meta, dpath in dets
-             if getattr(meta, "healthy_sha256", ())]
-    if not known:
-        return {}
-    sha = content_hash(path)
-    why = {name: own_healthy_reason(meta, sha, path, dpath) for name, meta, dpath in known}
-    return {name: w for name, w in why.items() if w is not None}
-
-
-def _own_healthy_samples(path: str, dets, src, column_map) -> dict:
-    """The job's detectors one of whose healthy recordings this file holds over the channels
-    they read (another copy of it: CRLF line ends, Parquet), each with why it does not judge it
-    (:func:`~leakdiag.stream.detector_file.own_healthy_samples_reason`; a user-data audit,
-    2026-11-29: compared by bytes only, such a copy was judged NO LEAK). The file is read whole
-    once, and only when its length and rate are a healthy recording's."""
     from leakdiag.io import read_recording
-    from leakdiag.stream.detector_file import own_healthy_samples_reason
+    from leakdiag.stream.detector_file import own_healthy_reason, own_healthy_samples_reason
 
+    out: dict = {}
+    if any(getattr(meta, "healthy_sha256", ()) for _, _, meta, _ in dets):
+        sha = content_hash(path)
+        for name, _, meta, dpath in dets:
+            why = own_healthy_reason(meta, sha, path, dpath)
+            if why is not None:
+                out[name] = why
     cache: dict = {}
 
     def read(chans):
@@ -608,12 +600,12 @@ def _own_healthy_samples(path: str, dets, src, column_map) -> dict:
             cache[key] = read_recording(path, column_map, channels=list(chans))
         return cache[key]
 
-    out = {}
     for name, det, _, dpath in dets:
-        why = own_healthy_samples_reason(det, path, src.n_samples, src.sample_rate, read,
-                                         str(dpath))
-        if why is not None:
-            out[name] = why
+        if name not in out:
+            why = own_healthy_samples_reason(det, path, src.n_samples, src.sample_rate, read,
+                                             str(dpath))
+            if why is not None:
+                out[name] = why
     return out
 
 

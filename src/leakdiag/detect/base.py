@@ -1199,17 +1199,41 @@ def refuse_own_healthy(det, recording, where: str) -> None:
     leakdiag.io.RecordingError
         Naming the recording.
     """
+    why = own_healthy_words(det, recording)
+    if why is not None:
+        raise RecordingError(f"{where}: {recording.meta.get('source', '<recording>')}: {why}")
+
+
+def own_healthy_words(det, recording, fitted_on: str | None = None) -> str | None:
+    """Why ``det`` does not judge ``recording`` (it holds the same samples as one of its
+    healthy recordings, over the channels it reads), or None: the one comparison of
+    :func:`refuse_own_healthy` (``detect``) and of ``monitor`` and ``batch``
+    (:func:`leakdiag.stream.detector_file.own_healthy_samples_reason`).
+
+    Parameters
+    ----------
+    det : Detector
+        The fitted detector.
+    recording : Recording
+        The recording to judge.
+    fitted_on : str, optional
+        What the message names as fitted (a detector file); default: this detector's class.
+
+    Returns
+    -------
+    str or None
+    """
     own = getattr(det, "healthy_fingerprints_", None)  # None: fitted before 2026-11-27
     # fitted before 2026-11-29: fingerprints of all channels
     chans = getattr(det, "fingerprint_channels_", None)
     if chans is not None and not set(chans) <= set(recording.channels):
-        return  # not a recording the detector reads: predict says which channel it lacks
-    if own and fingerprint(recording, chans) in own:
-        raise RecordingError(
-            f"{where}: {recording.meta.get('source', '<recording>')}: holds the same samples as "
-            f"one of the {len(own)} healthy recordings this {type(det).__name__} was fitted on: "
-            "judged against a threshold it set itself, a leak reads NO LEAK; judge recordings "
-            "other than the healthy ones (or fit without this one)")
+        return None  # not a recording the detector reads: predict says which channel it lacks
+    if not own or fingerprint(recording, chans) not in own:
+        return None
+    who = f"this {type(det).__name__}" if fitted_on is None else fitted_on
+    return (f"holds the same samples as one of the {len(own)} healthy recordings {who} was "
+            "fitted on: judged against a threshold it set itself, a leak reads NO LEAK; judge "
+            "recordings other than the healthy ones (or fit without this one)")
 
 
 def healthy_info(recording, channels=None) -> dict:

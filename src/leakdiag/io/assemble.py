@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import datetime
+import re
 import warnings
 from typing import Any, Collection, Mapping
 
@@ -24,7 +25,13 @@ __all__ = ["table_to_recording"]
 _TEXT_PREVIEW = 30
 
 
-_DECIMAL_COMMA = None
+#: A number written with a decimal comma (``0,392``, ``-1.234,5``).
+_DECIMAL_COMMA = re.compile(r"^\s*[-+]?(\d{1,3}(\.\d{3})+|\d+),\d+([eE][-+]?\d+)?\s*$")
+
+
+class DecimalCommaError(RecordingError):
+    """A column read holds numbers written with a decimal comma (:func:`decimal_comma_hint`):
+    the column is meant, so no advice to map other columns applies."""
 
 
 def decimal_comma_hint(text: str) -> str:
@@ -49,11 +56,6 @@ def decimal_comma_hint(text: str) -> str:
     >>> decimal_comma_hint("abc")
     ''
     """
-    import re
-
-    global _DECIMAL_COMMA
-    if _DECIMAL_COMMA is None:
-        _DECIMAL_COMMA = re.compile(r"^\s*[-+]?(\d{1,3}(\.\d{3})+|\d+),\d+([eE][-+]?\d+)?\s*$")
     if not _DECIMAL_COMMA.match(str(text)):
         return ""
     return (f"; {str(text).strip()!r} looks like a number with a decimal comma (an export in a "
@@ -80,10 +82,10 @@ def _numeric(table: RawTable, column: str, channel: str) -> np.ndarray:
     if len(bad):
         row = int(bad[0])
         text = str(values[row])[:_TEXT_PREVIEW]
-        raise RecordingError(
+        hint = decimal_comma_hint(values[row])
+        raise (DecimalCommaError if hint else RecordingError)(
             f"{table.source}: channel {channel!r} (column {column!r}) holds text, not numbers: "
-            f"row {row} is {text!r} ({len(bad)} non-numeric value(s))"
-            f"{decimal_comma_hint(values[row])}"
+            f"row {row} is {text!r} ({len(bad)} non-numeric value(s)){hint}"
         )
     return coerced
 
@@ -194,9 +196,9 @@ def _check_all_numeric(table: RawTable, specs: Mapping[str, ChannelSpec]) -> Non
         if table.columns[spec.column].dtype == object:
             try:
                 _numeric(table, spec.column, name)
+            except DecimalCommaError:  # the column is meant: no map helps
+                raise
             except RecordingError as exc:
-                if "decimal comma" in str(exc):  # the column is meant: no map helps
-                    raise
                 raise RecordingError(
                     f"{exc}; without a column map every column is read - give a map that "
                     f"selects the numeric columns"
@@ -409,11 +411,13 @@ def table_to_recording(table: RawTable, column_map: ColumnMap | None = None, *,
             meta[key] = given
         if column_map.machine is not None:  # the unit, as the simulators record it
             own = meta.get("machine")
-            own_unit = own.get("unit") if isinstance(own, dict) else None
-            if own_unit is not None and own_unit != column_map.machine:
+            # a unit the file states (None: the nominal unit of a simulation) is not
+            # overridden by the map
+            if isinstance(own, dict) and "unit" in own and own["unit"] != column_map.machine:
+                said = "the nominal unit" if own["unit"] is None else repr(own["unit"])
                 raise RecordingError(f"{source}: the column map says machine "
                                      f"{column_map.machine!r}, the file's own metadata say "
-                                     f"{own_unit!r}: fix the map")
+                                     f"{said}: fix the map")
             meta["machine"] = {**(own if isinstance(own, dict) else {}),
                                "unit": column_map.machine}
     start = float(t[0]) if t is not None else 0.0

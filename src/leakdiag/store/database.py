@@ -885,12 +885,12 @@ class EventStore:
             r.update(_judgment(r, bool(alarms_of.get(r["id"]))))
             invocations.setdefault(r["actuator_id"], {}).setdefault(r["invocation"], []) \
                 .append(r)
-            ses = _session(r)
-            if ses is not None:
-                sessions.setdefault((r["actuator_id"], ses["id"]), []).append(r)
+            r["session"] = _session(r)
+            if r["session"] is not None:
+                sessions.setdefault((r["actuator_id"], r["session"]["id"]), []).append(r)
         for rs in sessions.values():  # a session's latest segment, and whether it ended
             latest = max(r["at"] for r in rs)
-            ended = any(_session(r).get("ended") is True for r in rs)
+            ended = any(r["session"].get("ended") is True for r in rs)
             for r in rs:
                 r["session_at"], r["session_ended"] = latest, ended
         rows = []
@@ -1199,7 +1199,7 @@ def _run_words(run: dict, now) -> str:
     cmd, status = str(run["command"]), str(run["status"])
     n = run.get("n_windows")
     n = None if _missing(n) else int(n)
-    ses = _session(run)
+    ses = run["session"] if "session" in run else _session(run)  # (the fleet's, or parsed)
     if ses is not None and not run.get("session_ended", ses.get("ended") is True):
         # a monitor --segment session that has not ended: its latest segment tells whether
         # it still sends them (a segment session killed with kill -9 read "monitor finished")

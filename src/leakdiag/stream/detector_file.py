@@ -704,21 +704,16 @@ def own_healthy_samples_reason(detector, source: str, n_samples: int | None,
     -------
     str or None
     """
-    from leakdiag.detect.base import fingerprint
+    from leakdiag.detect.base import own_healthy_words
 
-    own = getattr(detector, "healthy_fingerprints_", None)
     chans = getattr(detector, "fingerprint_channels_", None)
     shapes = getattr(detector, "healthy_shapes_", None)
-    if not own or chans is None or not shapes:
+    if not getattr(detector, "healthy_fingerprints_", None) or chans is None or not shapes:
         return None
     if n_samples is not None and (int(n_samples), float(sample_rate)) not in shapes:
         return None
-    rec = read(list(chans))
-    if fingerprint(rec, chans) not in own:
-        return None
-    return (f"{source}: holds the same samples as one of the {len(own)} healthy recordings "
-            f"{path} was fitted on: judged against a threshold it set itself, a leak reads NO "
-            "LEAK; judge recordings other than the healthy ones (or fit without this one)")
+    why = own_healthy_words(detector, read(list(chans)), fitted_on=path)
+    return None if why is None else f"{source}: {why}"
 
 
 def fitted_machine(detector):
