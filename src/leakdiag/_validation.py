@@ -186,6 +186,54 @@ def check_positive(value, name: str) -> float:
     return v
 
 
+def check_number(value, name: str, low: float | None = None, what: str = "a number") -> float:
+    """Check that ``value`` is a finite real number (numpy scalars included; bools and text
+    are not numbers), at least ``low`` when given.
+
+    Parameters
+    ----------
+    value : float
+        Value to check.
+    name : str
+        Name used in error messages.
+    low : float, optional
+        Smallest value allowed.
+    what : str, default "a number"
+        What the messages say the value must be (e.g. ``"a number of seconds or None"``).
+
+    Returns
+    -------
+    float
+        The value.
+
+    Raises
+    ------
+    TypeError
+        For a bool or anything that is not a real number.
+    ValueError
+        If not finite, or below ``low``.
+
+    Examples
+    --------
+    >>> check_number(np.float32(2.0), "temperature_rise_k"), check_number(0, "drift", low=0.0)
+    (2.0, 0.0)
+    >>> check_number("5", "drift")
+    Traceback (most recent call last):
+    ...
+    TypeError: drift='5' must be a number
+    """
+    if isinstance(value, (bool, np.bool_)):  # float(True) is 1.0: a flag is no number
+        raise TypeError(f"{name}={value!r} must be {what}, not a bool")
+    if not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name}={value!r} must be {what}")
+    v = float(value)
+    if not np.isfinite(v):
+        raise ValueError(f"{name}={value!r} must be finite")
+    if low is not None and v < low:
+        raise ValueError(f"{name}={value!r} must be >= {low:g}")
+    return v
+
+
 def check_overlap(overlap) -> float:
     """Check an overlap in percent, ``0 <= overlap < 100`` (Sec. 4.4).
 

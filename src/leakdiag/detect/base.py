@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 from sklearn.base import BaseEstimator
 
-from leakdiag._validation import check_int, check_positive
+from leakdiag._validation import check_int, check_number, check_positive
 from leakdiag.detect.cusum import DIRECTIONS, cusum, segmented_cusum
 from leakdiag.detect.blind_rules import blind_limit_s, blind_rule, undefined_limit
 from leakdiag.detect.leaksize import MIN_CALIBRATION_RUNS, fit_leak_calibration
@@ -141,11 +141,7 @@ class Alarm:
         check_int(self.min_size, "min_size", 1)
         for name in ("drift", "burn_in_s"):  # (an API audit, 2026-11-29: drift="a" raised
             # numpy's "ufunc 'isfinite' not supported", naming no argument)
-            v = getattr(self, name)
-            number = isinstance(v, (int, float, np.number)) and not isinstance(v, (bool,
-                                                                                 np.bool_))
-            if not (number and np.isfinite(v) and v >= 0):
-                raise ValueError(f"{name}={v!r} must be a finite number >= 0")
+            check_number(getattr(self, name), name, low=0.0)
         if self.direction not in DIRECTIONS:
             raise ValueError(f"direction={self.direction!r} must be one of {sorted(DIRECTIONS)}")
         if self.onset_method not in ONSET_METHODS:

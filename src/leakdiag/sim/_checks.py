@@ -6,8 +6,6 @@ Each check raises with the message the entry points have always raised, naming t
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 __all__ = ["check_choice", "check_leak_kind", "check_seed", "check_params_type",
@@ -242,6 +240,8 @@ def check_condition_numbers(conditions, optional: tuple = ()) -> None:
     """
     from dataclasses import fields
 
+    from leakdiag._validation import check_number
+
     # (a simulator audit, 2026-11-29: EHAConditions(spring_change_time_s=True) changed the
     # spring at 1 s, temperature_rise_k="5" failed inside numpy, None with a bare TypeError;
     # OperatingConditions refused numpy's float32 as "not a finite number")
@@ -249,10 +249,5 @@ def check_condition_numbers(conditions, optional: tuple = ()) -> None:
         v = getattr(conditions, f.name)
         if v is None and f.name in optional:
             continue
-        kind = "a number of seconds or None" if f.name in optional else "a number"
-        if isinstance(v, (bool, np.bool_)):
-            raise TypeError(f"{f.name}={v!r} must be {kind}, not a bool")
-        if not isinstance(v, (int, float, np.integer, np.floating)):
-            raise TypeError(f"{f.name}={v!r} must be {kind}")
-        if not math.isfinite(float(v)):
-            raise ValueError(f"{f.name}={v!r} must be finite")
+        check_number(v, f.name, what="a number of seconds or None" if f.name in optional
+                     else "a number")
