@@ -150,6 +150,19 @@ def check_int(value, name: str, low: int | None = None, high: int | None = None)
     return value
 
 
+def _real(value, name: str, what: str, text: bool) -> float:
+    """``value`` as a float: a bool is refused (``float(True)`` is 1.0: a flag is no number),
+    and text too unless ``text`` (``check_positive`` has always taken ``"5"``)."""
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}={value!r} must be {what}, not a bool")
+    if not text and not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name}={value!r} must be {what}")
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name}={value!r} must be {what}") from None
+
+
 def check_positive(value, name: str) -> float:
     """Check that ``value`` is a finite number > 0.
 
@@ -175,12 +188,7 @@ def check_positive(value, name: str) -> float:
     >>> check_positive(1000, "sample_rate")
     1000.0
     """
-    if isinstance(value, (bool, np.bool_)):  # float(True) is 1.0: a flag is no number
-        raise TypeError(f"{name}={value!r} must be a number, not a bool")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name}={value!r} must be a number") from None
+    v = _real(value, name, "a number", text=True)
     if not np.isfinite(v) or v <= 0:
         raise ValueError(f"{name}={value!r} must be a finite number > 0")
     return v
@@ -222,11 +230,7 @@ def check_number(value, name: str, low: float | None = None, what: str = "a numb
     ...
     TypeError: drift='5' must be a number
     """
-    if isinstance(value, (bool, np.bool_)):  # float(True) is 1.0: a flag is no number
-        raise TypeError(f"{name}={value!r} must be {what}, not a bool")
-    if not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name}={value!r} must be {what}")
-    v = float(value)
+    v = _real(value, name, what, text=False)
     if not np.isfinite(v):
         raise ValueError(f"{name}={value!r} must be finite")
     if low is not None and v < low:
