@@ -7,7 +7,6 @@ central differences of the right-hand side in ``tests/sim/eha/test_model.py``.
 from __future__ import annotations
 
 import numba
-import numpy as np
 
 from leakdiag.sim.eha.flows import (
     _dcheck_valve, _dline_orifice, _dorifice, line_orifice_flow,
@@ -21,6 +20,7 @@ from leakdiag.sim.eha.params import (
     P_KCV, P_KFREE, P_KI, P_KP, P_KRESTR, P_KSTOP, P_KW, P_KX, P_LC, P_M, P_PACC, P_PCV,
     P_PTR, P_QB, P_RC, P_STROKE, P_UMAX, P_V0, P_VLINE, P_VMAX, P_VTH, P_WMAX,
 )
+from leakdiag.sim.friction import smooth_sign
 
 __all__: list[str] = []
 
@@ -133,7 +133,7 @@ def _jacobian_into(t, y, inputs, p, jac):
 
     # piston
     m = p[P_M]
-    th = np.tanh(v / p[P_VTH])
+    th = smooth_sign(v / p[P_VTH])
     dfdv = -p[P_FPR] * (1.0 - th * th) / p[P_VTH] - p[P_FV] * inputs[IN_FV_SCALE]
     dfdx = -inputs[IN_SPRING]
     half = 0.5 * p[P_STROKE]

@@ -29,6 +29,7 @@ from leakdiag.sim.eha.params import (
     P_JM, P_KCV, P_KFREE, P_KI, P_KP, P_KRESTR, P_KSTOP, P_KW, P_KX, P_LC, P_M, P_PACC,
     P_PCV, P_PTR, P_QB, P_RC, P_STROKE, P_UMAX, P_V0, P_VLINE, P_VMAX, P_VTH, P_WMAX,
 )
+from leakdiag.sim.friction import smooth_sign
 from leakdiag.sim.leak import leak_flow
 
 __all__ = [
@@ -191,7 +192,7 @@ def _rhs_into(t, y, inputs, p, out):
 
     # --- piston (Eqs. 3-13 to 3-15): preload friction with velocity threshold, viscous
     # damping, load spring, end stops
-    force = (p1 - p2) * area - p[P_FPR] * np.tanh(v / p[P_VTH]) - p[P_FV] * inputs[IN_FV_SCALE] * v
+    force = (p1 - p2) * area - p[P_FPR] * smooth_sign(v / p[P_VTH]) - p[P_FV] * inputs[IN_FV_SCALE] * v
     force -= inputs[IN_SPRING] * x
     half = 0.5 * p[P_STROKE]
     if x > half:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from leakdiag.sim.friction import smooth_sign
 from leakdiag.sim.leak import leak_flow
 from leakdiag.sim.orifice import signed_sqrt
 from leakdiag.sim.vca.params import (
@@ -106,7 +107,7 @@ def _rhs_into(t, s, inp, prm, out):
     force = (area * (p1 - p2) - prm[P_DAMPING] * inp[IN_DAMPING_SCALE] * v
              - prm[P_K_SPRING] * inp[IN_SPRING_SCALE] * x)
     if prm[P_F_COULOMB] > 0.0:
-        force -= prm[P_F_COULOMB] * np.tanh(v / prm[P_V_COULOMB])
+        force -= prm[P_F_COULOMB] * smooth_sign(v / prm[P_V_COULOMB])
     if x > half:
         force -= prm[P_K_END] * (x - half) + prm[P_C_END] * v
     elif x < -half:
