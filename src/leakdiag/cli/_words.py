@@ -10,13 +10,13 @@ from __future__ import annotations
 __all__ = ["threshold_words", "in_cli_words", "check_longer_than_burn_in", "option_names",
            "few_healthy_words", "MODEL_LEVEL_WORDS"]
 
-#: What a model-based level did on virtual machines (docs/detect.md section 2), said under every
+#: What a model-based level did on virtual machines (docs/detect.md section 6), said under every
 #: model-based flow-balance level by ``fit`` and ``detect``.
 MODEL_LEVEL_WORDS = (
     "a model-based level can misjudge a unit: on 8 virtual machines each fitted on 4 healthy "
     "120-s no-load runs, one unit's healthy 30-min runs crossed its run level in 6 of 10, "
     "against about 0.097 stated per run by the model (the other 7 units: 0 of 70); fitted on 16 "
-    "runs, where the level was distribution-free, 0 of 80 (docs/detect.md section 2, 'Does the "
+    "runs, where the level was distribution-free, 0 of 80 (docs/detect.md section 6, 'Does the "
     "run level keep its promise?'): give more healthy recordings where the rate matters")
 
 #: The detectors' advice when healthy data cannot support a rate (detect/threshold.py), and

@@ -375,7 +375,7 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
                        f"{basis.min_n_for_target}), so the level is the model-based one above, "
                        "which carries no confidence over the healthy data; give more healthy "
                        "recordings for it")
-        # what a model-based level did on virtual machines (docs/detect.md section 2)
+        # what a model-based level did on virtual machines (docs/detect.md section 6)
         click.echo(f"  {MODEL_LEVEL_WORDS}")
     if basis is not None and basis.method.startswith("conformal") and \
             not getattr(det, "restarts_per_segment", False):

@@ -565,7 +565,7 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
                             bool(getattr(detector, "restarts_per_segment", False)), "segment")
         say(f"  run level: a {seg:g}-s segment expects about {expected:.3g} false alarms at the "
             f"fitted level {float(detector.threshold_):.4g}, so full segments are judged at the "
-            f"level {level:.4g}, {how} (docs/detect.md section 2, 'Long runs')")
+            f"level {level:.4g}, {how} (docs/detect.md section 6, 'Long runs')")
     if st is not None:
         if stopped is not None or failed is not None:
             _store_session_end(st, actuator, source, name, system, done, judge, stopped,

@@ -684,7 +684,7 @@ class Detector(BaseEstimator):
         rank for ``alpha / m`` per segment instead (:meth:`_run_rank`: the run held to ``alpha``
         with probability c). None when the maxima cannot resolve it (``k' = 0``) or the basis
         is not a supported conformal one: :func:`leakdiag.detect.decision.judge_run` then
-        judges at the threshold (docs/detect.md section 2, "Which runs are long").
+        judges at the threshold (docs/detect.md section 6, "Which runs are long").
 
         Parameters
         ----------

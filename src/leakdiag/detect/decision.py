@@ -182,7 +182,7 @@ def longer_than_a_segment(basis, per_hour: float, span_s: float,
     (:func:`expected_false_alarms`). Until 2026-11-28 (session 19) the rule was the second one
     for every run, so a run expecting 0.94 false alarms at the fitted level was judged there
     (LEAK on a 61 % chance of a false alarm) and one expecting 1.0 at one segment's rate
-    (docs/detect.md section 2, "Long runs").
+    (docs/detect.md section 6, "Long runs").
 
     Parameters
     ----------
@@ -324,7 +324,7 @@ class RunJudgement:
         return (f"{head}, " + run_level_how(self.expected, self.segment_target,
                                               self.run_level_method, self.confidence,
                                               self.guaranteed)
-                + " (docs/detect.md section 2, 'Long runs')")
+                + " (docs/detect.md section 6, 'Long runs')")
 
 
 def run_level_how(expected: float, target: float, method: str | None,
@@ -608,7 +608,7 @@ def unheld_words(expected: float, target: float, m: int, basis) -> str:
     return (f"the run covers {m} healthy segments and its healthy reference cannot hold it to "
             f"the {target:.3g} false alarms asked of it{fix}: {at}; judge parts as long as the "
             "healthy recordings, give more healthy recordings, or fit for more false alarms per "
-            "segment (docs/detect.md section 2, 'Long runs')")
+            "segment (docs/detect.md section 6, 'Long runs')")
 
 
 def judge_run(det, rec, run_target: float | None = None) -> RunJudgement:
