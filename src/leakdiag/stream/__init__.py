@@ -28,6 +28,7 @@ _WHERE = {
     "check_detector_fits": "detector_file", "load_detector_file": "detector_file",
     "save_detector": "detector_file",
     "SegmentJudge": "segments", "SegmentVerdict": "segments", "judges_whole": "segments",
+    "BlindSpans": "blind",
 }
 _SUBMODULES = {"blind", "chunks", "detector", "detector_file", "episodes", "feature", "files",
                "live", "monitor", "segments", "summary"}
