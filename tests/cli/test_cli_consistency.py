@@ -220,3 +220,24 @@ def test_one_false_alarm_option_name():
             for o in getattr(p, "opts", []):
                 if "alarm" in o:
                     assert o == "--false-alarm-rate", (name, o)
+
+
+def test_every_false_alarm_rate_shows_its_range_in_help():
+    """detect's --false-alarm-rate showed only its default while analyze, fit and benchmark
+    showed the values they take (docs audit 2026-11-29): each is a range, open at 0."""
+    for name in MINE:
+        for p in _command(name).params:
+            if "--false-alarm-rate" in getattr(p, "opts", []):
+                assert isinstance(p.type, click.FloatRange), name
+                assert (p.type.min, p.type.min_open) == (0, True), name
+    out = CliRunner().invoke(cli, ["detect", "--help"], terminal_width=200).output
+    assert "[default: 0.01; 0<x<1]" in out
+
+
+@pytest.mark.parametrize("rate", ["1", "0", "-0.1", "1.5"])
+def test_detect_refuses_a_false_alarm_rate_out_of_its_range(run_cli, tmp_path, rate):
+    x, h = tmp_path / "x.parquet", tmp_path / "h.parquet"
+    x.touch()
+    h.touch()
+    code, out, err = run_cli(["detect", str(x), "--healthy", str(h), "--false-alarm-rate", rate])
+    assert code == 2 and f"'--false-alarm-rate': {float(rate)} is not in the range 0<x<1" in err

@@ -613,7 +613,8 @@ def sensitivity_lines(tab) -> list[str]:
               help="Rig whose thesis settings the features use (default: the files' metadata).")
 @recording_options
 @resample_option
-@click.option("--false-alarm-rate", type=float, default=0.01, show_default=True,
+@click.option("--false-alarm-rate", default=0.01, show_default=True,
+              type=click.FloatRange(0, 1, min_open=True, max_open=True),
               help="Chance of a false 'leak' for this run, split over the --methods fitted on "
                    "--healthy (a --detector keeps its own rate per hour).")
 @click.option("--confidence", type=click.FloatRange(0, 1, min_open=True, max_open=True),
@@ -673,9 +674,6 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
         raise click.UsageError(f"{', '.join(fitting)} set{'s' if len(fitting) == 1 else ''} "
                                "how the --methods are fitted on --healthy files; a --detector "
                                "file keeps the settings it was fitted with (leakdiag fit)")
-    if not 0.0 < false_alarm_rate < 1.0:
-        raise click.BadParameter(f"{false_alarm_rate} must be in (0, 1)",
-                                 param_hint="--false-alarm-rate")
     names = None if methods is None else [m.strip() for m in methods.split(",") if m.strip()]
     say = None if no_progress else (lambda msg: click.echo(msg, err=True))
     cmap = column_map_from(column_map, cols, time_unit)
