@@ -61,7 +61,7 @@ def _pixels(png: bytes, rgb, tol=40) -> int:
 
 
 def _fmt(v):
-    return f"{v:.6g} s"
+    return f"{v:.3f} s"  # the live page's times: ms resolution (format.js, fmtTime)
 
 
 def test_live_page_turns_to_alarm_at_the_right_time(browser, leak_case, tmp_path):

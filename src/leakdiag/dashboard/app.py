@@ -343,7 +343,8 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                 '<div id="feature-plot" class="plot"></div><div id="score-plot" class="plot"></div>'
                 '<h2>Recent events</h2><ul id="events"></ul>'
                 f'<p><a href="/{tq}">fleet</a></p>')
-        return HTMLResponse(_page(f"leakdiag live {name}", body, ["plotly.min.js", "live.js"], tq))
+        return HTMLResponse(_page(f"leakdiag live {name}", body,
+                                  ["plotly.min.js", "format.js", "live.js"], tq))
 
     async def live_api(request: Request):
         hit = live_json(request.path_params["name"])
@@ -392,7 +393,7 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                 '</tr></table>'
                 f'<p><a href="/{tq}">fleet</a></p>')
         return HTMLResponse(_page(f"leakdiag history {name}", body,
-                                  ["plotly.min.js", "history.js"], tq))
+                                  ["plotly.min.js", "format.js", "history.js"], tq))
 
     async def history_api(request: Request):
         if store is None:
@@ -427,7 +428,7 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
         return JSONResponse([{k: _clean(v) for k, v in r.items()} for r in fl.to_dict("records")])
 
     files = {"live.js": STATIC / "live.js", "history.js": STATIC / "history.js",
-             "dashboard.css": STATIC / "dashboard.css"}
+             "format.js": STATIC / "format.js", "dashboard.css": STATIC / "dashboard.css"}
 
     async def static(request: Request):
         fname = request.path_params["fname"]

@@ -6,9 +6,7 @@ document.getElementById("name").textContent = cfg.name;
 const FEATURE_COLOR = "#1f77b4", SCORE_COLOR = "#ff7f0e";
 window.leakdiagLatencies = [];
 
-function fmt(v, unit) {
-  return (v === null || v === undefined) ? "–" : (Number(v).toPrecision(6).replace(/\.?0+$/, "") + unit);
-}
+// fmtTime, fmtNum and plotlyText: format.js
 
 function alarmShapes(s) {
   if (s.alarm_time_s === null) return [];
@@ -24,20 +22,20 @@ function render(s) {
   st.textContent = s.state;
   st.className = "state " + s.state;
   document.getElementById("feature").textContent = s.feature;
-  document.getElementById("alarm-time").textContent = fmt(s.alarm_time_s, " s");
+  document.getElementById("alarm-time").textContent = fmtTime(s.alarm_time_s);
   document.getElementById("onset").textContent = (s.onset_censored ? "at or before " : "") +
-    fmt(s.onset_s, " s") + (s.onset_censored ? " (there when monitoring began)" : "");
+    fmtTime(s.onset_s) + (s.onset_censored ? " (there when monitoring began)" : "");
   let leak = s.calibrated ? "–" : "no calibration";
   if (s.leak_lpm !== null) {
-    leak = fmt(s.leak_lpm, " L/min") + " [" + fmt(s.leak_lpm_low, "") + ", " +
-           fmt(s.leak_lpm_high, "") + "]" + (s.leak_in_range ? "" : " (extrapolated)");
+    leak = fmtNum(s.leak_lpm, " L/min") + " [" + fmtNum(s.leak_lpm_low, "") + ", " +
+           fmtNum(s.leak_lpm_high, "") + "]" + (s.leak_in_range ? "" : " (extrapolated)");
   }
   document.getElementById("leak").textContent = leak;
-  document.getElementById("last-time").textContent = fmt(s.last_time_s, " s") + (s.done ? " (input ended)" : "");
+  document.getElementById("last-time").textContent = fmtTime(s.last_time_s) + (s.done ? " (input ended)" : "");
   const shapes = alarmShapes(s);
   Plotly.react("feature-plot", [{x: s.time, y: s.value, mode: "lines", name: "feature",
     line: {color: FEATURE_COLOR, width: 2}}],
-    {title: {text: s.feature}, margin: {t: 40, r: 20, b: 40, l: 60}, shapes: shapes,
+    {title: {text: plotlyText(s.feature)}, margin: {t: 40, r: 20, b: 40, l: 60}, shapes: shapes,
      xaxis: {title: {text: "time (s)"}}, yaxis: {title: {text: "feature"}}},
     {staticPlot: false, displaylogo: false});
   const traces = [{x: s.time, y: s.score, mode: "lines", name: "CUSUM score",
@@ -56,9 +54,9 @@ function render(s) {
   for (const e of s.events) {
     const li = document.createElement("li");
     li.className = e.kind;
-    li.textContent = e.kind.toUpperCase() + (e.again ? " again" : "") + " at t=" + fmt(e.time_s, " s") + ", score " +
-      fmt(e.score, "") + (e.onset_s !== undefined && e.onset_s !== null ? ", onset " +
-      (e.onset_censored ? "at or before " : "") + fmt(e.onset_s, " s") : "");
+    li.textContent = e.kind.toUpperCase() + (e.again ? " again" : "") + " at t=" + fmtTime(e.time_s) + ", score " +
+      fmtNum(e.score, "") + (e.onset_s !== undefined && e.onset_s !== null ? ", onset " +
+      (e.onset_censored ? "at or before " : "") + fmtTime(e.onset_s) : "");
     ul.appendChild(li);
   }
   if (s.done) {
