@@ -13,7 +13,8 @@ import time
 import click
 
 from leakdiag.features.spec import MethodSpec
-from leakdiag.cli._features import FeatureChoice, check_setting_options, spec_from_options
+from leakdiag.cli._features import check_setting_options, spec_from_options
+from leakdiag.cli._monitor_method import MonitorMethod, resolve_method
 from leakdiag.cli._options import recording_options
 from leakdiag.cli.dashboard import live_options, open_monitor_hooks
 from leakdiag.features.windowing import window_step
@@ -224,8 +225,9 @@ def refuse_own_healthy_samples(detector, source, input_path: str, follow: bool, 
 def _spec(method, channels, lag, lag_ratio, window, overlap, detector, given=()):
     """The monitored feature; ``given`` lists the feature options given on the command line,
     refused where they would be ignored (a detector's own feature, the other lag kind).
-    ``method`` is a canonical name (:class:`~leakdiag.cli._features.FeatureChoice`): the
-    detector's own is harmless, like its other settings; another one is refused by the scorer
+    ``method`` is a canonical name or None for the detector's own
+    (:func:`~leakdiag.cli._monitor_method.resolve_method`); the detector's own name is
+    harmless, like its other settings; another one is refused by the scorer
     (:func:`leakdiag.stream.detector.as_scorer`: "differs from the monitored")."""
     own = detector.spec() if detector is not None and \
         callable(getattr(detector, "spec", None)) else None
@@ -593,8 +595,9 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
 @click.option("--follow", is_flag=True, help="Follow a growing CSV file (like tail -f).")
 @click.option("--idle-timeout", type=click.FloatRange(min=0), default=None,
               help="With --follow: stop after this many seconds without new lines.")
-@click.option("--method", "-m", type=FeatureChoice(streamable=True), default=None,
-              help="Feature (default: the detector's, else autocorrelation).")
+@click.option("--method", "-m", type=MonitorMethod(), default=None,
+              help="Feature (default: the detector's, else autocorrelation), or a method name "
+                   "of leakdiag fit -m, e.g. ccf-p1p2: the cross-correlation of p1,p2.")
 @click.option("--channels", "-c", default=None, help="Channels, e.g. p1 | p1,p2 | u,x.")
 @click.option("--lag", type=click.IntRange(min=1), default=None,
               help="Lag in samples (correlations; default 1).")
@@ -663,6 +666,7 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
              if ctx.get_parameter_source(n) is click.core.ParameterSource.COMMANDLINE]
     from leakdiag.stream.segments import judges_whole
 
+    method, channels = resolve_method(method, channels, detector, meta, detector_path)
     if detector is not None and judges_whole(detector):
         if method is not None or given:
             raise click.UsageError(f"{', '.join((['--method'] if method else []) + given)}: "
