@@ -122,6 +122,11 @@ class ActuatorLive:
         self.received_wall = None
         self.done = False
 
+    @property
+    def episode_branch(self) -> int | None:
+        """The CUSUM branch (0: S+, 1: S-) that raised the latest alarm episode, or None."""
+        return None if self._episode_key is None else int(self._episode_key[0])
+
     def _z(self, v: np.ndarray, s: np.ndarray) -> np.ndarray:
         if self.mean is None or not self.std:
             return np.full(len(v), np.nan)

@@ -72,6 +72,7 @@ class ChunkRecorder:
         self._alarm_id: int | None = None
         self._sent_leak = None
         self._n_events = 0
+        self._open = False  # an alarm episode whose CUSUM excursion is not back at 0 yet
 
     def apply(self, chunks: list) -> None:
         """Take consecutive chunks: one board update, one transaction (summaries, alarms).
@@ -110,6 +111,8 @@ class ChunkRecorder:
                               None if br is None else (br[0][seg], br[1][seg]))
             if self.store is not None:
                 self._collect(new, updates)
+                if br is not None:
+                    self._episode_end(new, updates, t[seg], a[seg], (br[0][seg], br[1][seg]))
         if self.store is None:
             return
         summaries = summarize_chunks(t, v, s, a, [len(c[0]) for c in chunks])
@@ -123,7 +126,12 @@ class ChunkRecorder:
             self._alarm_id = ids[-1]
 
     def _collect(self, new: list, updates: dict) -> None:
-        """Alarm rows to write for the events since the last call (``new``/``updates`` grow)."""
+        """Alarm rows to write for the events since the last call (``new``/``updates`` grow).
+
+        A new episode's alarm is a new row; an alarm raised again in the same episode and a
+        clearing (the score under the threshold) change nothing: the episode goes on until
+        its CUSUM excursion is back at 0 (:meth:`_episode_end`).
+        """
         live = self.live
         evs = list(live.events)  # oldest first; the deque is bounded, so count from the end
         fresh = evs[len(evs) - min(len(evs), live.n_events_total - self._n_events):]
@@ -133,12 +141,7 @@ class ChunkRecorder:
                 new.append(AlarmRecord(e["time_s"], e["score"], live.threshold, e["onset_s"],
                                        detector=live.feature,
                                        onset_censored=e.get("onset_censored")))
-                continue
-            cleared = e["time_s"] if e["kind"] == "cleared" else None
-            if new:  # the episode's alarm row is written with these chunks
-                new[-1] = replace(new[-1], cleared_time_s=cleared)
-            elif self._alarm_id is not None:
-                updates.setdefault(self._alarm_id, {})["cleared_time_s"] = cleared
+                self._open = True
         leak = (live.leak[0], live.leak[1], live.leak[2]) if live.leak else None
         if new and leak:
             new[-1] = replace(new[-1], leak_lpm=leak[0], leak_lpm_low=leak[1],
@@ -147,3 +150,30 @@ class ChunkRecorder:
             updates.setdefault(self._alarm_id, {}).update(
                 leak_lpm=leak[0], leak_lpm_low=leak[1], leak_lpm_high=leak[2])
         self._sent_leak = leak
+
+    def _episode_end(self, new: list, updates: dict, t: np.ndarray, a: np.ndarray,
+                     branches: tuple) -> None:
+        """Write ``cleared_time_s`` when the open alarm episode ends in these windows.
+
+        The episode ends at the first window out of alarm whose CUSUM branch (the one that
+        raised it) is back at 0, as the monitor's :class:`~leakdiag.stream.episodes.
+        AlarmEpisodes` and the board count episodes: a score that dips under the threshold
+        and crosses it again in one excursion is one alarm, and a run that ends (or is
+        killed) in such a dip ends in alarm, as ``leakdiag detect`` judges the recording
+        (session 26 audit: a dip at the end of a run was stored as a clearing, and the fleet
+        page showed OK where ``detect`` said LEAK). The windows start with the raising, if
+        any (:meth:`apply` splits there). An undefined branch (NaN, the CUSUM held) is not 0.
+        """
+        b = self.live.episode_branch
+        if not self._open or b is None:
+            return
+        with np.errstate(invalid="ignore"):
+            back = np.flatnonzero(~a & (np.asarray(branches[b], dtype=np.float64) <= 0.0))
+        if not len(back):
+            return
+        cleared = float(t[back[0]])
+        if new:  # the episode's alarm row is written with these chunks
+            new[-1] = replace(new[-1], cleared_time_s=cleared)
+        elif self._alarm_id is not None:
+            updates.setdefault(self._alarm_id, {})["cleared_time_s"] = cleared
+        self._open = False
