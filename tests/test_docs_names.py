@@ -54,3 +54,14 @@ def test_blind_spans_is_exported_by_the_stream_facade():
 
     assert leakdiag.stream.BlindSpans is BlindSpans
     assert "BlindSpans" in leakdiag.stream.__all__ and "BlindSpans" in dir(leakdiag.stream)
+
+
+def test_detect_md_lists_every_fingerprint_part():
+    """docs/detect.md names what the v5 resume key hashes; it lacked ``_holds.py`` (docs audit
+    2026-11-29)."""
+    from leakdiag.bench.v5_common import FINGERPRINT_PARTS
+
+    text = re.sub(r"\s+", " ", (ROOT / "docs" / "detect.md").read_text(encoding="utf-8"))
+    listed = re.search(r"the source of every package that can change a result \((.*?): "
+                       r"`FINGERPRINT_PARTS` in `bench/v5_common.py`", text).group(1)
+    assert sorted(re.findall(r"`([\w.]+)`", listed)) == sorted(FINGERPRINT_PARTS)
