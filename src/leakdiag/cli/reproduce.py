@@ -8,8 +8,8 @@ import sys
 
 import click
 
-from leakdiag.cli._options import (check_workers, prepare_out_dir, prepare_out_file,
-                                   scheduler_option, workers_option)
+from leakdiag.cli._options import (check_workers, prepare_out_file, scheduler_option,
+                                   workers_option)
 
 __all__ = ["reproduce"]
 
@@ -52,7 +52,7 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol
     from leakdiag.studies.reproduce import reproduce as run
 
     t0 = time.perf_counter()
-    from leakdiag.report.reproduction import write_outputs
+    from leakdiag.report.reproduction import check_out_dir, write_outputs
     from leakdiag.runtime.cache import prepare_cache_dir
 
     systems = ("vca", "eha") if system == "all" else (system,)
@@ -65,7 +65,7 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol
         except ValueError as exc:
             raise ValueError(f"--previous {exc}") from None
     prepare_cache_dir(cache_dir, "--cache-dir")
-    prepare_out_dir(out)
+    check_out_dir(out)  # and every file and folder the report writes in it
     if save_results:
         prepare_out_file(save_results, "--save-results")
     rep = run(systems, cfg, scheduler=scheduler, n_workers=workers, progress=not no_progress)

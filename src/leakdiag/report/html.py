@@ -338,9 +338,20 @@ class Report:
         -------
         dict
             ``{"html": path, "markdown": path, "figures": folder}``.
+
+        Raises
+        ------
+        OSError
+            Before any file is written, naming the path: the page or the Markdown twin is a
+            folder, or the figure folder exists and is not a folder.
         """
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
+        for name in (html_name, md_name):
+            if (out / name).is_dir():
+                raise OSError(f"{out / name} exists and is a folder, not a file")
+        if self.figures and (out / figure_dir).exists() and not (out / figure_dir).is_dir():
+            raise OSError(f"{out / figure_dir} exists and is not a folder")
         page = self.to_html()
         check_html(page)
         (out / html_name).write_text(page, encoding="utf-8")

@@ -22,10 +22,12 @@ from leakdiag.studies.thesis import (PRINTED_MISMATCH_POINTS, printed_mismatch, 
                                      varied_value)
 
 __all__ = ["build_report", "direction_word", "trend_word", "write_outputs", "FIGURE_NAMES",
-           "OUTPUT_FILES"]
+           "OUTPUT_FILES", "FIGURE_DIR", "check_out_dir"]
 
 #: Files ``write_outputs`` writes at the top of its folder (every run writes all of them).
 OUTPUT_FILES = ("tables.csv", "sensitivity.csv", "preferred.csv", "index.html", "report.md")
+#: Sub-folder of the figures (the Markdown report links them there).
+FIGURE_DIR = "figures"
 #: Names of the figures a reproduction writes into ``figures/`` (the ``fig-NNN.png`` of runs
 #: before the figures were named after their table included; ``sec-``: the EHA's sensitivity,
 #: Secs. 6.1.5-6.4.5, which have no table); any other file there is kept.
@@ -566,6 +568,65 @@ def _stale_figures(fig_dir: Path, keep) -> list[Path]:
                   and FIGURE_NAMES.fullmatch(p.name))
 
 
+def check_out_dir(out_dir, option: str = "--out") -> Path:
+    """Check, before the run, every path :func:`write_outputs` will write in ``out_dir``.
+
+    Parameters
+    ----------
+    out_dir : path-like
+        Output folder (created when missing).
+    option : str, default "--out"
+        Option name for the message.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    OSError
+        One line naming the problem: the folder cannot be created or written, one of
+        :data:`OUTPUT_FILES` is a folder, or ``figures`` is not a writable folder
+        (``--out rep: rep/figures exists and is not a folder``).
+    """
+    from leakdiag.runtime.paths import prepare_out_dir
+
+    return prepare_out_dir(out_dir, option, files=OUTPUT_FILES, folders=(FIGURE_DIR,))
+
+
+def _move_in(stage: Path, out: Path, names) -> None:
+    """Move the staged files ``names`` (paths relative to ``stage``) to the same place in
+    ``out``, replacing the earlier ones; if a move fails, the ones made are undone (the
+    earlier files put back) before the error propagates."""
+    import os
+
+    backup = stage / ".earlier"
+    done = []  # (target, its earlier file in backup or None)
+    made = []  # folders made here
+    try:
+        for name in names:
+            dst, bak = out / name, backup / name
+            if not dst.parent.is_dir():
+                dst.parent.mkdir()
+                made.append(dst.parent)
+            if dst.exists() or dst.is_symlink():
+                bak.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(dst, bak)
+                done.append((dst, bak))
+            else:
+                done.append((dst, None))
+            os.replace(stage / name, dst)
+    except BaseException:
+        for dst, bak in reversed(done):
+            if bak is not None:
+                os.replace(bak, dst)
+            else:
+                dst.unlink(missing_ok=True)
+        for d in reversed(made):
+            d.rmdir()
+        raise
+
+
 def write_outputs(rep: Reproduction, out_dir, command: str = "") -> dict:
     """Write ``tables.csv``, ``sensitivity.csv``, ``preferred.csv``, ``index.html``, ``report.md``
     and ``figures/``; remove the figures an earlier reproduction left in ``figures/``.
@@ -585,28 +646,46 @@ def write_outputs(rep: Reproduction, out_dir, command: str = "") -> dict:
         Name -> path of every file written (``"figures"``: the folder), and ``"removed"``: the
         list of stale figures removed.
 
+    Raises
+    ------
+    OSError
+        Before anything is built or written, when a path of the output is not what it must be
+        (:func:`check_out_dir`); or when writing fails (the earlier files are then as they
+        were).
+
     Notes
     -----
-    The report is built before any file is written: a failure leaves an earlier run's files
-    as they were. The files of :data:`OUTPUT_FILES` are overwritten. In ``figures/``, a file
-    named as a reproduction names its figures (:data:`FIGURE_NAMES`) that this run did not
-    write is removed, after the new files are written, so that the folder holds this run's
-    report only (a ``vca`` run over an earlier ``all`` run used to keep the EHA's figures
-    beside the VCA report). Every other file in the folder is kept.
+    The paths are checked first (:func:`check_out_dir`), then the report is built, then every
+    file is written into a staging folder inside ``out_dir`` (``.leakdiag-staging-*``) and
+    only then moved in place, one rename each, replacing the earlier run's files: a failure
+    while building or writing leaves the earlier run's files as they were, and one while
+    moving puts back those already replaced. The files of :data:`OUTPUT_FILES` are
+    overwritten. In ``figures/``, a file named as a reproduction names its figures
+    (:data:`FIGURE_NAMES`) that this run did not write is removed, after the new files are in
+    place, so that the folder holds this run's report only (a ``vca`` run over an earlier
+    ``all`` run used to keep the EHA's figures beside the VCA report). Every other file in
+    the folder is kept.
     """
+    import shutil
+    import tempfile
+
+    out = check_out_dir(out_dir, "out_dir")
     report = build_report(rep, command=command)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths: dict = {}
-    rep.tables.drop(columns=["row_id"]).to_csv(out / "tables.csv", index=False)
-    paths["tables"] = out / "tables.csv"
-    rep.sensitivity.to_csv(out / "sensitivity.csv", index=False)
-    paths["sensitivity"] = out / "sensitivity.csv"
-    rep.preferred.to_csv(out / "preferred.csv", index=False)
-    paths["preferred"] = out / "preferred.csv"
-    written = report.write(out)
-    paths.update(written)
-    stale = _stale_figures(Path(written["figures"]), set(report.figures))
+    stage = Path(tempfile.mkdtemp(dir=out, prefix=".leakdiag-staging-"))
+    try:
+        rep.tables.drop(columns=["row_id"]).to_csv(stage / "tables.csv", index=False)
+        rep.sensitivity.to_csv(stage / "sensitivity.csv", index=False)
+        rep.preferred.to_csv(stage / "preferred.csv", index=False)
+        report.write(stage, figure_dir=FIGURE_DIR)
+        _move_in(stage, out, list(OUTPUT_FILES)
+                 + [f"{FIGURE_DIR}/{name}" for name in report.figures])
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    fig_dir = out / FIGURE_DIR
+    paths: dict = {"tables": out / "tables.csv", "sensitivity": out / "sensitivity.csv",
+                   "preferred": out / "preferred.csv", "html": out / "index.html",
+                   "markdown": out / "report.md", "figures": fig_dir}
+    stale = _stale_figures(fig_dir, set(report.figures))
     for p in stale:
         p.unlink()
     paths["removed"] = stale

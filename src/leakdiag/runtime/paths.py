@@ -25,7 +25,7 @@ def _probe(folder: Path, option: str, path) -> None:
                       f"{exc.strerror or exc}") from None
 
 
-def prepare_out_dir(path, option: str = "--out") -> Path:
+def prepare_out_dir(path, option: str = "--out", files=(), folders=()) -> Path:
     """Create an output folder and check that it can be written, before the long work.
 
     Parameters
@@ -34,6 +34,12 @@ def prepare_out_dir(path, option: str = "--out") -> Path:
         The folder (created with its parents when missing).
     option : str, default "--out"
         Option name for the message.
+    files : sequence of str, default ()
+        Names of the files the command will write in the folder: none of them may be a
+        folder (an earlier file there is replaced).
+    folders : sequence of str, default ()
+        Names of the sub-folders the command will write in: each must be a folder that can be
+        written, or be absent (it is made when the results are written).
 
     Returns
     -------
@@ -42,7 +48,9 @@ def prepare_out_dir(path, option: str = "--out") -> Path:
     Raises
     ------
     OSError
-        One line naming the option and the path when the folder cannot be created or written.
+        One line naming the option and the path when the folder cannot be created or written,
+        or when one of ``files`` is a folder or one of ``folders`` is not a writable folder,
+        e.g. ``--out rep: rep/figures exists and is not a folder``.
     """
     p = Path(path)
     try:
@@ -51,6 +59,15 @@ def prepare_out_dir(path, option: str = "--out") -> Path:
         raise OSError(f"{option} {path}: cannot create the folder: "
                       f"{exc.strerror or exc}") from None
     _probe(p, option, path)
+    for name in files:
+        if (p / name).is_dir():
+            raise OSError(f"{option} {path}: {p / name} exists and is a folder, not a file")
+    for name in folders:
+        sub = p / name
+        if sub.exists() or sub.is_symlink():
+            if not sub.is_dir():
+                raise OSError(f"{option} {path}: {sub} exists and is not a folder")
+            _probe(sub, option, path)
     return p
 
 
