@@ -798,7 +798,7 @@ class FlowBalanceDetector(Detector):
         recording's) or, when fitted, the fit's ``sample_rate_``: the spike, hold and sum-gate
         limits and the false-alarm level were learned at that rate (a 1-kHz fit refused 4 of
         6 healthy 600-Hz runs as "spikes" and scored 2-kHz ones above its healthy maxima;
-        docs/detect.md 8.4, "Sample rate")."""
+        docs/detect.md 8.5, "Sample rate")."""
         source = rec.meta.get("source", "<recording>")
         system = rec.meta.get("system")
         if system is not None and system != self.system:
@@ -1593,7 +1593,7 @@ class FlowBalanceDetector(Detector):
 
         The fitted threshold holds ``alpha = false_alarms_per_hour * segment / 3600`` per
         healthy segment; a run of ``m`` segments expects ``m`` times as many false alarms at it.
-        The run level expects at most ``alpha`` in the whole run (docs/detect.md section 2,
+        The run level expects at most ``alpha`` in the whole run (docs/detect.md section 6,
         "Long runs"):
 
         * conformal basis: the ``k'``-th largest healthy maximum, ``k' = floor(alpha (n + 1) /
