@@ -360,3 +360,20 @@ def test_setting_differences_match_rows_by_table_and_setting():
         ": other run lengths, e.g. a --quick run against a full one"]
     one_more = pd.concat([full.iloc[:1], full], ignore_index=True)  # positions shifted by one
     assert setting_differences(full, one_more) == []
+
+
+def test_a_quick_report_says_its_runs_are_shorter_than_the_thesiss(quick_run):
+    """An audit (2026-11-29): a --quick report read like the reproduction (60 s / 40 s runs
+    against the thesis's 400 s / 180 s, without a word)."""
+    out, *_ = quick_run
+    md = (out / "report.md").read_text()
+    assert md.splitlines()[0].endswith("thesis-quick, --quick: runs shorter than the thesis's)")
+    short = {"vca": "VCA 60 s against the thesis's 400 s",
+             "eha": "EHA 40 s against the thesis's 180 s"}
+    assert (f"**A --quick run**: its case-study runs are shorter than the thesis's ("
+            f"{'; '.join(short[s] for s in SYSTEMS)}), so each measure averages fewer RMS "
+            "chunks") in md
+    for s in SYSTEMS:
+        assert f"## {s.upper()}: thesis tables reproduced (--quick: {short[s]})" in md
+    assert md.count("s run (shorter than the thesis's") == (16 if "vca" in SYSTEMS else 0) + (
+        16 if "eha" in SYSTEMS else 0)

@@ -154,13 +154,80 @@ def _nan_lines(g) -> list[str]:
             f"{span(zero, '{:+.3g} %')} (docs/studies.md, 'Degenerate windows')."]
 
 
-def _table_title(g) -> str:
+def _run_words(cfg, system) -> str:
+    """The case-study run of a system in words: leak onset, run length, load; a run shorter than
+    the thesis's (``--quick``) says so.
+
+    Examples
+    --------
+    >>> from leakdiag.studies.protocol import QUICK, THESIS
+    >>> _run_words(THESIS, "VCA")
+    "leak at 200 s of a 400 s run, load 'none'"
+    >>> _run_words(QUICK, "eha")
+    "leak at 20 s of a 40 s run (shorter than the thesis's 180 s: --quick), load 'none'"
+    """
+    from leakdiag.studies.protocol import EHA_DURATION_S, VCA_DURATION_S
+
+    vca = str(system).lower() == "vca"
+    dur, onset, load, full = ((cfg.vca_duration_s, cfg.vca_onset_s, cfg.vca_load,
+                               VCA_DURATION_S) if vca else
+                              (cfg.eha_duration_s, cfg.eha_onset_s, cfg.eha_load,
+                               EHA_DURATION_S))
+    short = f" (shorter than the thesis's {full:g} s: --quick)" if dur < full else ""
+    return f"leak at {onset:g} s of a {dur:g} s run{short}, load '{load}'"
+
+
+def _short_runs(cfg, systems) -> list[str]:
+    """Per system run, ``"VCA 60 s"`` when its case-study runs are shorter than the thesis's."""
+    from leakdiag.studies.protocol import EHA_DURATION_S, VCA_DURATION_S
+
+    out = []
+    for s in systems:
+        vca = str(s).lower() == "vca"
+        dur, full = ((cfg.vca_duration_s, VCA_DURATION_S) if vca
+                     else (cfg.eha_duration_s, EHA_DURATION_S))
+        if dur < full:
+            out.append(f"{str(s).upper()} {dur:g} s against the thesis's {full:g} s")
+    return out
+
+
+def _held_fixed(g) -> str:
+    """The settings of a table that are the same in every row (all but the varied one)."""
     r = g.iloc[0]
     v = r["varied"]
-    what = "signals compared" if v == "signal" else f"{_SETTING_LABEL.get(v, v)} varied"
+    ratio = ":" in str(r["lag"])
+    parts = []
+    if v not in ("lag", "lag_ratio"):
+        parts.append(f"{'lag ratio' if ratio else 'lag'} {r['lag']}")
+    if v != "window":
+        parts.append(f"window {int(r['window'])}")
+    if v != "overlap":
+        parts.append(f"overlap {float(r['overlap_pct']):g} %")
+    return ", ".join(parts)
+
+
+def _table_title(g, cfg) -> str:
+    """Heading of one thesis table: what is compared, what is varied, what is held fixed (the
+    other settings, the run's length and load).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from leakdiag.studies.protocol import THESIS
+    >>> g = pd.DataFrame({"table": "5-4", "system": "VCA", "case_study": 2, "leak_lpm": 0.047,
+    ...                   "method": "autocorrelation", "signals": ["P1", "P2"],
+    ...                   "varied": "signal", "lag": "1", "window": 200, "overlap_pct": 5.0})
+    >>> print(_table_title(g, THESIS))
+    Table 5-4: VCA case study 2, autocorrelation of P1 and of P2 (one row each); lag 1, window 200, overlap 5 % held fixed; leak 0.047 L/min, leak at 200 s of a 400 s run, load 'none'
+    """
+    r = g.iloc[0]
+    v = r["varied"]
+    signals = list(dict.fromkeys(g["signals"].astype(str)))
+    what = (" and of ".join(signals) + " (one row each)") if len(signals) > 1 else signals[0]
+    varied = "" if v == "signal" else f", {_SETTING_LABEL.get(v, v).split(' (')[0]} varied"
     return (f"Table {r['table']}: {r['system']} case study {int(r['case_study'])}, "
-            f"{r['method'].replace('_', ' ')} of {r['signals']}, {what}, "
-            f"leak {r['leak_lpm']:g} L/min")
+            f"{r['method'].replace('_', ' ')} of {what}{varied}; {_held_fixed(g)} held fixed; "
+            f"leak {r['leak_lpm']:g} L/min, {_run_words(cfg, r['system'])}")
 
 
 def _verdict(g) -> list[str]:
@@ -259,6 +326,14 @@ def _summary(rep, r: Report) -> None:
         f"time). Every feature, measure, table and comparison below was computed in this run "
         f"from these recordings of leakdiag's simulators; the thesis's numbers come from "
         f"physical test rigs." + _code_sentence(rep.timing.get("code")))
+    short = _short_runs(rep.config, rep.systems)
+    if short:
+        r.paragraph(
+            f"**A --quick run**: its case-study runs are shorter than the thesis's ("
+            f"{'; '.join(short)}), so each measure averages fewer RMS chunks, and case study 3 "
+            f"has fewer leak sizes, durations and seeds. It checks that the reproduction runs; "
+            f"its numbers are not the reproduction of the thesis (`leakdiag reproduce all` "
+            f"without --quick).")
     by_sys = t.groupby("system")["direction_agrees"].agg(["sum", "count"])
     items = [f"Feature direction after the leak (rise or fall) agrees with the thesis in "
              f"{agree} of {n} table rows ("
@@ -368,9 +443,11 @@ def _sweep_section(rep, r: Report, figures: bool) -> None:
         ts = t[t.system.str.lower() == system]
         if ts.empty:
             continue
-        r.heading(f"{system.upper()}: thesis tables reproduced")
+        short = _short_runs(rep.config, [system])
+        r.heading(f"{system.upper()}: thesis tables reproduced"
+                  + (f" (--quick: {short[0]})" if short else ""))
         for _, g in ts.groupby("table", sort=False):
-            r.heading(_table_title(g), 3)
+            r.heading(_table_title(g, rep.config), 3)
             for line in _verdict(g):
                 r.paragraph(line)
             r.table(_side_by_side(g))
@@ -521,8 +598,10 @@ def build_report(rep, command: str = "", figures: bool = True) -> Report:
     """
     if command:
         rep.timing["command"] = command
+    quick = ", --quick: runs shorter than the thesis's" if _short_runs(rep.config,
+                                                                        rep.systems) else ""
     r = Report(f"leakdiag reproduction of the thesis ({'+'.join(rep.systems).upper()}, "
-               f"{rep.config.name})")
+               f"{rep.config.name}{quick})")
     _summary(rep, r)
     r.heading("Method and decisions")
     r.paragraph(
