@@ -194,10 +194,42 @@ def test_paced_releases_chunks_at_stream_time():
         sleeps.append(dt)
         now[0] += dt
 
-    out = list(paced(recording_chunks(rec, 250), speed=2.0, clock=lambda: now[0], sleep=sleep))
+    out = list(paced(recording_chunks(rec, 250), speed=2.0, clock=lambda: now[0], sleep=sleep,
+                     piece_s=1.25))   # pieces of up to 250 samples: the chunks as they are
     assert len(out) == 4
     # chunk i ends at (i+1)*2.5 s of stream time -> released at (i+1)*1.25 s of wall time
     assert sleeps == pytest.approx([1.25, 1.25, 1.25, 1.25])
     assert now[0] == pytest.approx(5.0)
     with pytest.raises(ValueError, match="speed=0"):
         list(paced(recording_chunks(rec, 250), speed=0))
+
+
+def test_paced_cuts_long_chunks_into_pieces_of_at_most_piece_s():
+    # one 65,536-sample chunk replayed in real time had reached the monitor (and its page)
+    # only after 65.5 s; cut into 0.1-s pieces it arrives ten times a second
+    rec = Recording({"p1": np.arange(1000.0), "p2": -np.arange(1000.0)}, sample_rate=100.0)
+    now = [0.0]
+    released = []
+
+    def sleep(dt):
+        now[0] += dt
+
+    pieces = []
+    for piece in paced(recording_chunks(rec, 1000), speed=2.0, clock=lambda: now[0],
+                       sleep=sleep, piece_s=0.35):
+        released.append(now[0])
+        pieces.append(piece)
+    assert [len(p["p1"]) for p in pieces] == [70] * 14 + [20]     # 100 Hz * 2 * 0.35 s = 70
+    assert np.array_equal(np.concatenate([p["p1"] for p in pieces]), rec.channels["p1"])
+    assert np.array_equal(np.concatenate([p["p2"] for p in pieces]), rec.channels["p2"])
+    # piece i ends at 0.7 (i + 1) s of stream time -> released at 0.35 (i + 1) s of wall time
+    assert released == pytest.approx([0.35 * (i + 1) for i in range(14)] + [5.0])
+    with pytest.raises(ValueError, match="piece_s"):
+        list(paced(recording_chunks(rec, 1000), speed=1.0, piece_s=0.0))
+
+
+def test_paced_default_pieces_are_a_tenth_of_a_second():
+    rec = Recording({"p1": np.zeros(5000)}, sample_rate=1000.0)
+    sizes = [len(p["p1"]) for p in paced(recording_chunks(rec, 5000), speed=1.0,
+                                          clock=lambda: 1e9, sleep=lambda dt: None)]
+    assert sizes == [100] * 50

@@ -591,7 +591,8 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
               help="Recording file (Parquet, HDF5, CSV, ...) or '-' for CSV lines on stdin "
                    "(or give it as FILE, like analyze and detect).")
 @click.option("--replay", default="fast", show_default=True,
-              help="Replay speed of a file: fast, realtime, or a factor like 10x.")
+              help="Replay speed of a file: fast, realtime, or a factor like 10x (paced "
+                   "replays are handed on in pieces of at most 0.1 s of wall-clock time).")
 @click.option("--follow", is_flag=True, help="Follow a growing CSV file (like tail -f).")
 @click.option("--idle-timeout", type=click.FloatRange(min=0), default=None,
               help="With --follow: stop after this many seconds without new lines.")
