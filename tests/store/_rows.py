@@ -31,10 +31,19 @@ def summary(i, alarm=None):
                         alarm)
 
 
+def drop_version_5_columns(con) -> None:
+    """Drop the columns schema version 5 added (``alarms.leak_extrapolated``,
+    ``alarms.leak_interval``) from an open sqlite3 connection's store."""
+    con.execute("alter table alarms drop column leak_extrapolated")
+    con.execute("alter table alarms drop column leak_interval")
+
+
 def downgrade(db, version):
-    """Make the SQLite store ``db`` a store of schema ``version`` (1 or 2), as an older leakdiag
+    """Make the SQLite store ``db`` a store of schema ``version`` (1 to 4), as an older leakdiag
     wrote it."""
     con = sqlite3.connect(db)
+    if version < 5:
+        drop_version_5_columns(con)
     if version < 3:
         con.execute("alter table alarms drop column onset_censored")
     if version < 2:
@@ -46,12 +55,12 @@ def downgrade(db, version):
 
 def upgrade_and_write(db, version):
     """Open the store ``db`` of schema ``version`` as a writer in another process would (it is
-    upgraded to 4, with its warning) and write what the columns added since show: rigA a
+    upgraded to 5, with its warning) and write what the columns added since show: rigA a
     ``detect`` alarm with a censored onset (4.85 s), rigB a failed ``batch`` run with its
     reason (:data:`WHY_FAILED`)."""
     import pytest
 
-    with pytest.warns(UserWarning, match=f"upgraded from schema version {version} to 4"):
+    with pytest.warns(UserWarning, match=f"upgraded from schema version {version} to 5"):
         writer = EventStore(db)
     run = writer.start_run("rigA", command="detect", source="a.parquet", feature="fb")
     writer.add_chunk(run, None, [AlarmRecord(7.1, onset_s=4.85, onset_censored=True)])

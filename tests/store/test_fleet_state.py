@@ -130,7 +130,7 @@ def test_a_reader_sees_the_columns_of_a_store_another_process_upgraded(tmp_path,
     assert reader.version == version
     upgrade_and_write(db, version)
     fl = reader.fleet().set_index("name")
-    assert reader.version == 4
+    assert reader.version == 5
     assert fl.loc["rigA", "onset_censored"] is True or fl.loc["rigA", "onset_censored"] == 1
     assert fl.loc["rigB", "error"] == f"acf: {WHY_FAILED}"
     assert reader.history("rigA")[1]["onset_censored"].tolist() == [True]

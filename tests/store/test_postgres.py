@@ -71,7 +71,7 @@ def test_schema_version_mismatch(pg_url):
     with eng.begin() as c:
         c.execute(text("update schema_version set version = 99"))
     eng.dispose()
-    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 4"):
+    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 5"):
         EventStore(pg_url)
 
 
@@ -116,11 +116,13 @@ def test_a_version_1_store_is_upgraded_in_place(pg_url):
     with eng.begin() as c:
         c.execute(text("alter table runs drop column error"))
         c.execute(text("alter table alarms drop column onset_censored"))
+        c.execute(text("alter table alarms drop column leak_extrapolated"))
+        c.execute(text("alter table alarms drop column leak_interval"))
         c.execute(text("update schema_version set version = 1"))
-    with pytest.warns(UserWarning, match="upgraded from schema version 1 to 4"):
+    with pytest.warns(UserWarning, match="upgraded from schema version 1 to 5"):
         st = EventStore(pg_url)
     with eng.connect() as c:
-        assert c.execute(text("select version from schema_version")).all() == [(4,)]
+        assert c.execute(text("select version from schema_version")).all() == [(5,)]
         assert c.execute(text("select status, error from runs")).all() == [("finished", None)]
     eng.dispose()
     run = st.start_run("rig1", command="batch", source="b.csv", feature="acf")
@@ -176,6 +178,8 @@ def test_a_writer_waits_for_another_creating_or_upgrading_the_schema(pg_url, ver
         with eng.begin() as c:
             c.execute(text("alter table runs drop column error"))
             c.execute(text("alter table alarms drop column onset_censored"))
+            c.execute(text("alter table alarms drop column leak_extrapolated"))
+            c.execute(text("alter table alarms drop column leak_interval"))
             c.execute(text("update schema_version set version = 1"))
     out = []
 
@@ -194,7 +198,7 @@ def test_a_writer_waits_for_another_creating_or_upgrading_the_schema(pg_url, ver
         tx = c.begin()
         c.execute(text("SELECT pg_advisory_xact_lock(:k)"), {"k": SCHEMA_LOCK_KEY})
         if version == 1:
-            for v in (1, 2):
+            for v in range(1, S.SCHEMA_VERSION):
                 for stmt in S.UPGRADES[v]:
                     c.execute(text(stmt))
             c.execute(text(f"update schema_version set version = {S.SCHEMA_VERSION}"))

@@ -13,7 +13,7 @@ import pytest
 from leakdiag.store import (SCHEMA_VERSION, AlarmRecord, ChunkSummary, EventStore, StoreError,
                             store_url, summarize_chunks, summarize_windows)
 
-from ._rows import child_env, summary
+from ._rows import child_env, drop_version_5_columns, summary
 
 WRITER = Path(__file__).with_name("_writer.py")
 
@@ -87,7 +87,7 @@ def test_schema_version_mismatch(tmp_path):
     con.execute("update schema_version set version = 99")
     con.commit()
     con.close()
-    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 4"):
+    with pytest.raises(StoreError, match=r"schema version 99, this leakdiag .*reads version 5"):
         EventStore(db)
 
 
@@ -310,6 +310,7 @@ def _as_version_1(db):
     """Make a store file the version-1 layout: ``runs`` without ``error``, ``alarms`` without
     ``onset_censored``, version 1."""
     con = sqlite3.connect(db)
+    drop_version_5_columns(con)
     con.execute("alter table runs drop column error")
     con.execute("alter table alarms drop column onset_censored")
     con.execute("update schema_version set version = 1")
@@ -334,12 +335,13 @@ def test_a_version_1_store_is_upgraded_in_place(tmp_path):
     assert con.execute("select version from schema_version").fetchall() == [(1,)]
     con.close()
     with pytest.warns(UserWarning, match=r"e.db: event store upgraded from schema version 1 to "
-                                         r"4 \(runs.error, alarms.onset_censored, the run "
-                                         r"status 'inconclusive' added\); "
+                                         r"5 \(runs.error, alarms.onset_censored, the run "
+                                         r"status 'inconclusive', alarms.leak_extrapolated, "
+                                         r"alarms.leak_interval added\); "
                                          r"leakdiag versions before"):
         st = EventStore(db)  # a writer upgrades it
     con = sqlite3.connect(db)
-    assert con.execute("select version from schema_version").fetchall() == [(4,)]
+    assert con.execute("select version from schema_version").fetchall() == [(5,)]
     assert "onset_censored" in [r[1] for r in con.execute("pragma table_info(alarms)")]
     assert "error" in [r[1] for r in con.execute("pragma table_info(runs)")]
     assert con.execute("select status, error from runs").fetchall() == [("finished", None)]
@@ -352,10 +354,10 @@ def test_a_version_1_store_is_upgraded_in_place(tmp_path):
     st.close()
     EventStore(db).close()  # opening a current store changes nothing
     assert sqlite3.connect(db).execute("select version from schema_version").fetchall() == \
-        [(4,)]
+        [(5,)]
 
 
-def test_a_version_2_store_keeps_its_alarms_and_is_upgraded_to_4(tmp_path):
+def test_a_version_2_store_keeps_its_alarms_and_is_upgraded_to_5(tmp_path):
     db = tmp_path / "e.db"
     st = EventStore(db)
     run = st.start_run("rig1", command="detect", source="a.parquet", feature="fb")
@@ -363,6 +365,7 @@ def test_a_version_2_store_keeps_its_alarms_and_is_upgraded_to_4(tmp_path):
     st.end_run(run)
     st.close()
     con = sqlite3.connect(db)
+    drop_version_5_columns(con)
     con.execute("alter table alarms drop column onset_censored")
     con.execute("update schema_version set version = 2")
     con.commit()
@@ -373,8 +376,10 @@ def test_a_version_2_store_keeps_its_alarms_and_is_upgraded_to_4(tmp_path):
     assert fl["onset_s"].tolist() == [5.2] and fl["onset_censored"].tolist() == [None]
     assert st.history("rig1")[1]["onset_censored"].tolist() == [None]
     st.close()
-    with pytest.warns(UserWarning, match=r"from schema version 2 to 4 \(alarms.onset_censored, "
-                                         r"the run status 'inconclusive' added\)"):
+    with pytest.warns(UserWarning, match=r"from schema version 2 to 5 \(alarms.onset_censored, "
+                                         r"the run status 'inconclusive', "
+                                         r"alarms.leak_extrapolated, alarms.leak_interval "
+                                         r"added\)"):
         st = EventStore(db)
     run = st.start_run("rig1", command="detect", source="b.parquet", feature="fb")
     st.add_chunk(run, None, [AlarmRecord(7.1, onset_s=4.85, detector="fb", onset_censored=True)])
@@ -458,21 +463,24 @@ def test_an_inconclusive_run_is_neither_ok_nor_alarm_nor_unjudged(tmp_path):
     st.close()
 
 
-def test_a_version_3_store_is_upgraded_to_4_without_a_new_column(tmp_path):
+def test_a_version_3_store_is_upgraded_to_5(tmp_path):
     db = tmp_path / "e.db"
     st = EventStore(db)
     st.end_run(st.start_run("rig1", command="detect", source="a.csv", feature="fb"))
     st.close()
     con = sqlite3.connect(db)
+    drop_version_5_columns(con)
     con.execute("update schema_version set version = 3")
     con.commit()
     con.close()
     st = EventStore(db, create=False)  # a reader leaves it at 3
     assert st.version == 3 and st.fleet()["state"].tolist() == ["OK"]
     st.close()
-    with pytest.warns(UserWarning, match=r"from schema version 3 to 4 \(the run status "
-                                         r"'inconclusive' added\); leakdiag versions before"):
+    with pytest.warns(UserWarning, match=r"from schema version 3 to 5 \(the run status "
+                                         r"'inconclusive', alarms.leak_extrapolated, "
+                                         r"alarms.leak_interval added\); leakdiag versions "
+                                         r"before"):
         st = EventStore(db)
     st.close()
     assert sqlite3.connect(db).execute("select version from schema_version").fetchall() == \
-        [(4,)]
+        [(5,)]

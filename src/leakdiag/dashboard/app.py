@@ -302,6 +302,10 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                     leak = f'{r["leak_lpm"]:.3g} L/min'
                     if r["leak_lpm_low"] is not None:
                         leak += f' [{r["leak_lpm_low"]:.3g}, {r["leak_lpm_high"]:.3g}]'
+                        if r.get("leak_interval"):  # what the bracket is (detect's words)
+                            leak += f' ({r["leak_interval"]})'
+                    if r.get("leak_extrapolated"):
+                        leak += " (extrapolated: outside the calibrated range)"
                 last = "–" if r["last_alarm_at"] is None else (
                     f'{r["last_alarm_at"][:19].replace("T", " ")} (t={r["last_alarm_time_s"]:.6g} s)')
                 onset = "–" if r["onset_s"] is None else (

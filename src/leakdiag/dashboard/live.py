@@ -123,6 +123,16 @@ class ActuatorLive:
         self.done = False
 
     @property
+    def leak_interval(self) -> str | None:
+        """What the leak size's bracket is, in words (``"90 % prediction interval"``, the
+        calibration's level), None without a calibration."""
+        level = getattr(self.calibration, "level", None)
+        if self.calibration is None:
+            return None
+        return "prediction interval" if level is None else \
+            f"{float(level) * 100:g} % prediction interval"
+
+    @property
     def episode_branch(self) -> int | None:
         """The CUSUM branch (0: S+, 1: S-) that raised the latest alarm episode, or None."""
         return None if self._episode_key is None else int(self._episode_key[0])
@@ -319,7 +329,7 @@ class ActuatorLive:
             "onset_censored": self.onset_censored if self.onset_s is not None else None,
             "leak_lpm": leak[0] if leak else None, "leak_lpm_low": leak[1] if leak else None,
             "leak_lpm_high": leak[2] if leak else None,
-            "leak_in_range": leak[3] if leak else None,
+            "leak_in_range": leak[3] if leak else None, "leak_interval": self.leak_interval,
             "calibrated": self.calibration is not None,
             "n_windows": self.n_windows, "last_time_s": self.time[-1] if self.time else None,
             "received_wall": self.received_wall, "done": self.done,

@@ -142,13 +142,15 @@ class ChunkRecorder:
                                        detector=live.feature,
                                        onset_censored=e.get("onset_censored")))
                 self._open = True
-        leak = (live.leak[0], live.leak[1], live.leak[2]) if live.leak else None
+        leak = (live.leak[0], live.leak[1], live.leak[2], not live.leak[3]) \
+            if live.leak else None
+        if leak:
+            cols = dict(leak_lpm=leak[0], leak_lpm_low=leak[1], leak_lpm_high=leak[2],
+                        leak_extrapolated=leak[3], leak_interval=live.leak_interval)
         if new and leak:
-            new[-1] = replace(new[-1], leak_lpm=leak[0], leak_lpm_low=leak[1],
-                              leak_lpm_high=leak[2])
+            new[-1] = replace(new[-1], **cols)
         elif self._alarm_id is not None and leak and leak != self._sent_leak:
-            updates.setdefault(self._alarm_id, {}).update(
-                leak_lpm=leak[0], leak_lpm_low=leak[1], leak_lpm_high=leak[2])
+            updates.setdefault(self._alarm_id, {}).update(cols)
         self._sent_leak = leak
 
     def _episode_end(self, new: list, updates: dict, t: np.ndarray, a: np.ndarray,

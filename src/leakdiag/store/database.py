@@ -834,8 +834,10 @@ class EventStore:
         -------
         pandas.DataFrame
             Columns ``name``, ``system``, ``state``, ``run``, ``last_seen_at``, ``n_runs``,
-            ``last_alarm_at``, ``last_alarm_time_s``, ``onset_s``, ``leak_lpm``,
-            ``leak_lpm_low``, ``leak_lpm_high``, ``feature``, ``source`` (of the alarm shown
+            ``last_alarm_at``, ``last_alarm_time_s``, ``onset_s``, ``onset_censored``,
+            ``leak_lpm``, ``leak_lpm_low``, ``leak_lpm_high``, ``leak_extrapolated`` (the size
+            an extrapolation), ``leak_interval`` (what the bracket is, in words), ``feature``,
+            ``source`` (of the alarm shown
             when the state is ``ALARM``, else of the latest run) and ``error`` (for ``FAILED``,
             ``INCONCLUSIVE``, ``NOT JUDGED`` and ``NO DETECTOR``: the feature and reason of the
             first such run of that invocation).
@@ -940,11 +942,14 @@ class EventStore:
                          "leak_lpm": g("leak_lpm", size_row),
                          "leak_lpm_low": g("leak_lpm_low", size_row),
                          "leak_lpm_high": g("leak_lpm_high", size_row),
+                         "leak_extrapolated": g("leak_extrapolated", size_row),
+                         "leak_interval": g("leak_interval", size_row),
                          "feature": None if shown is None else shown["feature"],
                          "source": None if shown is None else shown["source"], "error": why})
         cols = ["name", "system", "state", "run", "last_seen_at", "n_runs", "last_alarm_at",
                 "last_alarm_time_s", "onset_s", "onset_censored", "leak_lpm", "leak_lpm_low",
-                "leak_lpm_high", "feature", "source", "error"]
+                "leak_lpm_high", "leak_extrapolated", "leak_interval", "feature", "source",
+                "error"]
         return pd.DataFrame(rows, columns=cols).sort_values("name", kind="stable") \
             .reset_index(drop=True)
 
@@ -1031,14 +1036,16 @@ class EventStore:
             self.version = min(int(rows[0]), S.SCHEMA_VERSION)
 
     def _alarm_columns(self) -> list:
-        """The columns of ``alarms`` this file has (before version 3 read as it is: no
-        ``onset_censored``, read as unknown)."""
+        """The columns of ``alarms`` this file has (an older file read as it is: the columns
+        added since, ``onset_censored`` (3), ``leak_extrapolated`` and ``leak_interval`` (5),
+        read as unknown)."""
         from sqlalchemy import null
 
-        if self.version >= 3:
-            return list(S.alarms.c)
-        return [c for c in S.alarms.c if c.name != "onset_censored"] + \
-            [null().label("onset_censored")]
+        missing = {"leak_extrapolated", "leak_interval"} if self.version < 5 else set()
+        if self.version < 3:
+            missing.add("onset_censored")
+        return [c for c in S.alarms.c if c.name not in missing] + \
+            [null().label(name) for name in sorted(missing)]
 
     def _run_columns(self) -> list:
         """The columns of ``runs`` this file has (a version-1 file read as it is: no error)."""
@@ -1287,7 +1294,13 @@ def _invocation(runs: list[dict], alarms: list[dict]) -> dict:
     """One invocation's runs and alarms, its start, activity and verdict (:meth:`fleet`).
 
     Runs without a detector (:func:`_judgment`) do not take part in the verdict; an
-    invocation of such runs only is ``NO DETECTOR``.
+    invocation of such runs only is ``NO DETECTOR``. An alarm stands until its
+    ``cleared_time_s``: a monitor writes it when the episode ends, its CUSUM excursion back at
+    0 (:class:`leakdiag.dashboard.recorder.ChunkRecorder`), not when the score dips under the
+    threshold, so a run that ends or is killed inside an episode stands in alarm, as
+    ``leakdiag detect`` judges the recording (session 26 audit: such a dip was stored as a
+    clearing and shown OK; alarm rows a monitor wrote before schema version 5 may still hold
+    a dip's time, which cannot be told from an end).
     """
     judging = [r for r in runs if r["effective"] != "no detector"]
     status = [r["effective"] for r in judging]

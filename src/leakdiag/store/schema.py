@@ -20,19 +20,25 @@ __all__ = ["SCHEMA_VERSION", "UPGRADES", "UPGRADE_NOTES", "metadata", "schema_ve
 #: (the leak was there from the start, the onset is an upper bound); 4: the run status
 #: ``inconclusive`` (the detector alarmed, but the alarm is no evidence of a leak: refused by
 #: the detector or expected by chance in a run this long; stored ``unjudged`` before), no new
-#: column, but a leakdiag reading version 3 would show such a run OK. An older store is
-#: upgraded in place when a writer opens it (added columns, :data:`UPGRADES`); a store of any
-#: other version is refused.
-SCHEMA_VERSION = 4
+#: column, but a leakdiag reading version 3 would show such a run OK; 5:
+#: ``alarms.leak_extrapolated`` (the feature shift lies outside the calibrated range: the
+#: size is an extrapolation) and ``alarms.leak_interval`` (what the bracket of the size is, in
+#: the detector's words: "90 % prediction interval", the flow balance's interval). An older
+#: store is upgraded in place when a writer opens it (added columns, :data:`UPGRADES`); a store
+#: of any other version is refused.
+SCHEMA_VERSION = 5
 
 #: The statements that take a store from version ``v`` to ``v + 1``.
 UPGRADES = {1: ("ALTER TABLE runs ADD COLUMN error TEXT",),
             2: ("ALTER TABLE alarms ADD COLUMN onset_censored BOOLEAN",),
-            3: ()}
+            3: (),
+            4: ("ALTER TABLE alarms ADD COLUMN leak_extrapolated BOOLEAN",
+                "ALTER TABLE alarms ADD COLUMN leak_interval TEXT")}
 
 #: What each upgrade adds, in words (the writer's warning).
 UPGRADE_NOTES = {1: "runs.error", 2: "alarms.onset_censored",
-                 3: "the run status 'inconclusive'"}
+                 3: "the run status 'inconclusive'",
+                 4: "alarms.leak_extrapolated, alarms.leak_interval"}
 
 metadata = MetaData()
 
@@ -98,7 +104,8 @@ alarms = Table(
     Column("run_id", Integer, ForeignKey("runs.id"), nullable=False, index=True),
     Column("raised_at", DateTime(timezone=True), nullable=False),
     Column("alarm_time_s", Float, nullable=False),
-    Column("cleared_time_s", Float),
+    Column("cleared_time_s", Float),  # the episode's end: its CUSUM excursion back at 0 (a dip
+    # under the threshold is no clearing; stores before version 5 may hold a dip's time)
     Column("onset_s", Float),
     Column("onset_censored", Boolean),  # onset at the first window judged (schema version 3)
     Column("score", Float),
@@ -107,4 +114,6 @@ alarms = Table(
     Column("leak_lpm_low", Float),
     Column("leak_lpm_high", Float),
     Column("detector", String(200)),
+    Column("leak_extrapolated", Boolean),  # the size an extrapolation (schema version 5)
+    Column("leak_interval", Text),  # what [leak_lpm_low, leak_lpm_high] is, in words (5)
 )

@@ -66,11 +66,18 @@ class AlarmRecord:
         True when the onset is the first window judged: the leak was there from the start and
         ``onset_s`` is an upper bound (None: not known, e.g. a store before schema version 3).
     leak_lpm, leak_lpm_low, leak_lpm_high : float or None
-        Leak flow estimate and its prediction interval (L/min), when the detector is calibrated.
+        Leak flow estimate and its interval (L/min), when the detector sizes leaks.
     cleared_time_s : float or None
-        Time (s) of the first window out of alarm again.
+        Time (s) at which the alarm episode ended: the first window out of alarm with the
+        CUSUM excursion back at 0 (a dip under the threshold does not end it).
     detector : str or None
         Feature or method name.
+    leak_extrapolated : bool or None
+        True when the feature shift lies outside the calibrated range, so the size is an
+        extrapolation its interval does not cover (None: not known or no size).
+    leak_interval : str or None
+        What the bracket ``[leak_lpm_low, leak_lpm_high]`` is, in the detector's words
+        (``"90 % prediction interval"`` of a calibrated feature, the flow balance's interval).
     """
 
     alarm_time_s: float
@@ -83,6 +90,8 @@ class AlarmRecord:
     cleared_time_s: float | None = None
     detector: str | None = None
     onset_censored: bool | None = None
+    leak_extrapolated: bool | None = None
+    leak_interval: str | None = None
 
 
 @dataclass(frozen=True)

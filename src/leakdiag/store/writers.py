@@ -130,6 +130,34 @@ def _no_evidence(source, method: str, r: dict) -> str:
             + (why or "a run this long expects such an alarm by chance"))
 
 
+#: What the bracket of a calibrated detector's leak size is, as ``leakdiag detect`` says it
+#: (the verdict rows do not carry the calibration's level; the live page, which has it, says
+#: "90 % prediction interval").
+PREDICTION_INTERVAL = "prediction interval"
+
+
+def _leak_words(r: dict) -> dict:
+    """``leak_extrapolated`` and ``leak_interval`` of a verdict row's alarm, as ``detect``
+    prints them: the size an extrapolation where the shift lies outside the calibrated range
+    (``leak_lpm_in_range`` False), and the interval a prediction interval, or in the
+    detector's words where it says what its interval holds (the flow balance's
+    ``leak_lpm_interval_holds``).
+
+    Examples
+    --------
+    >>> _leak_words({"leak_lpm": 0.2, "leak_lpm_in_range": False})
+    {'leak_extrapolated': True, 'leak_interval': 'prediction interval'}
+    >>> _leak_words({"leak_lpm": None, "leak_lpm_in_range": None})
+    {'leak_extrapolated': None, 'leak_interval': None}
+    """
+    if _num(r.get("leak_lpm")) is None:
+        return {"leak_extrapolated": None, "leak_interval": None}
+    in_range = _flag(r.get("leak_lpm_in_range"))
+    holds = _text(r.get("leak_lpm_interval_holds"))
+    return {"leak_extrapolated": None if in_range is None else not in_range,
+            "leak_interval": f"interval: {holds}" if holds else PREDICTION_INTERVAL}
+
+
 def _batch_run(r: dict, job_digest: str) -> FinishedRun:
     """One batch result row as a stored run: its summary, its alarm, its end."""
     feature = str(r["name"]) if r.get("name") is not None and r["name"] == r["name"] \
@@ -168,7 +196,7 @@ def _batch_run(r: dict, job_digest: str) -> FinishedRun:
             _num(r["alarm_time_s"]), _num(r.get("score_max")), _num(r.get("threshold")),
             _num(r.get("alarm_onset_s")), _num(r.get("leak_lpm")),
             _num(r.get("leak_lpm_low")), _num(r.get("leak_lpm_high")), detector=feature,
-            onset_censored=_flag(r.get("alarm_onset_censored"))),)
+            onset_censored=_flag(r.get("alarm_onset_censored")), **_leak_words(r)),)
     unjudged = r.get("kind") == "detector" and not judged and not inconclusive
     return FinishedRun(**common, status="inconclusive" if inconclusive else
                        "unjudged" if unjudged else "finished",
@@ -385,7 +413,7 @@ def record_verdicts(store: EventStore, actuator: str, file: str, table,
                 _num(r["alarm_time_s"]), _num(r.get("score_max")), _num(r.get("threshold")),
                 _num(r.get("onset_s")), _num(r.get("leak_lpm")), _num(r.get("leak_lpm_low")),
                 _num(r.get("leak_lpm_high")), detector=str(r["method"]),
-                onset_censored=_flag(r.get("onset_censored"))),)
+                onset_censored=_flag(r.get("onset_censored")), **_leak_words(r)),)
         # a method that could not judge the file (it was read: detect stops before storing
         # otherwise) is not judged, as batch stores the same row: NOT JUDGED, not FAILED
         status = "inconclusive" if inconclusive else "unjudged" if failed else "finished"

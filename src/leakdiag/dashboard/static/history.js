@@ -59,9 +59,10 @@ fetch(cfg.api).then((r) => r.json()).then((h) => {
     cell(tr, a.raised_at);
     cell(tr, a.alarm_time_s === null ? null : a.alarm_time_s + " s");
     cell(tr, a.onset_s === null ? null : (a.onset_censored ? "at or before " : "") + a.onset_s + " s");
-    cell(tr, a.leak_lpm === null ? null : a.leak_lpm.toPrecision(3) + " L/min [" +
-         (a.leak_lpm_low === null ? "–" : a.leak_lpm_low.toPrecision(3)) + ", " +
-         (a.leak_lpm_high === null ? "–" : a.leak_lpm_high.toPrecision(3)) + "]");
+    cell(tr, a.leak_lpm === null ? null : fmtNum(a.leak_lpm, " L/min") + " [" +
+         fmtNum(a.leak_lpm_low, "") + ", " + fmtNum(a.leak_lpm_high, "") + "]" +
+         (a.leak_interval ? " (" + a.leak_interval + ")" : "") +
+         (a.leak_extrapolated ? " (extrapolated: outside the calibrated range)" : ""));
     cell(tr, a.cleared_time_s === null ? null : a.cleared_time_s + " s");
     cell(tr, a.source);
     table.appendChild(tr);

@@ -28,10 +28,12 @@ function render(s) {
   let leak = s.calibrated ? "–" : "no calibration";
   if (s.leak_lpm !== null) {
     leak = fmtNum(s.leak_lpm, " L/min") + " [" + fmtNum(s.leak_lpm_low, "") + ", " +
-           fmtNum(s.leak_lpm_high, "") + "]" + (s.leak_in_range ? "" : " (extrapolated)");
+      fmtNum(s.leak_lpm_high, "") + "]" + (s.leak_interval ? " (" + s.leak_interval + ")" : "") +
+      (s.leak_in_range ? "" : " (extrapolated: outside the calibrated range)");
   }
   document.getElementById("leak").textContent = leak;
-  document.getElementById("last-time").textContent = fmtTime(s.last_time_s) + (s.done ? " (input ended)" : "");
+  document.getElementById("last-time").textContent = fmtTime(s.last_time_s) +
+    (s.done ? " (input ended)" : "");
   const shapes = alarmShapes(s);
   Plotly.react("feature-plot", [{x: s.time, y: s.value, mode: "lines", name: "feature",
     line: {color: FEATURE_COLOR, width: 2}}],
@@ -54,9 +56,10 @@ function render(s) {
   for (const e of s.events) {
     const li = document.createElement("li");
     li.className = e.kind;
-    li.textContent = e.kind.toUpperCase() + (e.again ? " again" : "") + " at t=" + fmtTime(e.time_s) + ", score " +
-      fmtNum(e.score, "") + (e.onset_s !== undefined && e.onset_s !== null ? ", onset " +
-      (e.onset_censored ? "at or before " : "") + fmtTime(e.onset_s) : "");
+    li.textContent = e.kind.toUpperCase() + (e.again ? " again" : "") + " at t=" +
+      fmtTime(e.time_s) + ", score " + fmtNum(e.score, "") +
+      (e.onset_s !== undefined && e.onset_s !== null ? ", onset " +
+       (e.onset_censored ? "at or before " : "") + fmtTime(e.onset_s) : "");
     ul.appendChild(li);
   }
   if (s.done) {
