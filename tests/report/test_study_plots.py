@@ -34,7 +34,8 @@ def test_stacked_panels_and_decimation():
 def test_sensitivity_panels_per_method():
     sens = pd.DataFrame({"method": ["autocorrelation"] * 2 + ["metric-length"] * 2,
                          "channels": ["p1"] * 4, "leak_lpm": [0.1, 0.5, 0.1, 0.5],
-                         "load": ["spring", "none"] * 2, "pct_change": [1.0, 2.0, 3.0, 4.0]})
+                         "load": ["spring", "none"] * 2, "pct_change": [1.0, 2.0, 3.0, 4.0],
+                         "pct_change_signed": [1.0, -2.0, 3.0, -4.0]})
     fig = plot_sensitivity(sens, "vca")
     visible = [a for a in fig.axes if a.get_visible()]
     assert len(visible) == 2

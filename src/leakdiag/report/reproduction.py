@@ -17,12 +17,14 @@ from leakdiag.report.html import Report
 from leakdiag.report.study_plots import (plot_moments, plot_pct_vs_parameter, plot_sensitivity,
                                          plot_stacked)
 from leakdiag.studies.reproduce import (Reproduction, compare_runs, per_table_agreement,
-                                        sensitivity_summary, setting_differences)
+                                        sensitivity_by_load, sensitivity_summary,
+                                        setting_differences)
 from leakdiag.studies.thesis import (PRINTED_MISMATCH_POINTS, printed_mismatch, row_sign,
                                      varied_value)
 
 __all__ = ["build_report", "direction_word", "trend_word", "write_outputs", "FIGURE_NAMES",
-           "OUTPUT_FILES", "FIGURE_DIR", "check_out_dir"]
+           "OUTPUT_FILES", "FIGURE_DIR", "check_out_dir", "thesis_series_figure",
+           "SENSITIVITY_FIGURES", "STATIONARITY_FIGURES"]
 
 #: Files ``write_outputs`` writes at the top of its folder (every run writes all of them).
 OUTPUT_FILES = ("tables.csv", "sensitivity.csv", "preferred.csv", "index.html", "report.md")
@@ -32,6 +34,62 @@ FIGURE_DIR = "figures"
 #: before the figures were named after their table included; ``sec-``: the EHA's sensitivity,
 #: Secs. 6.1.5-6.4.5, which have no table); any other file there is kept.
 FIGURE_NAMES = re.compile(r"(?:(?:table|stationarity|sec)-[A-Za-z0-9_.-]+|fig-\d{3})\.png")
+
+#: The y axis of a table's feature series, per method.
+_FEATURE_LABEL = {"autocorrelation": "autocorrelation coefficient",
+                  "cross_correlation": "cross-correlation coefficient",
+                  "ratio_of_metric_lengths": "ratio of metric lengths"}
+#: Thesis figures of case study 3 per (system, method, channels), from their captions (Sec.
+#: 5.8 for the VCA, Secs. 6.1.5, 6.2.5, 6.3.5 and 6.4.5 for the EHA).
+SENSITIVITY_FIGURES = {
+    ("vca", "autocorrelation", "p1"): "5-23", ("vca", "autocorrelation", "p2"): "5-24",
+    ("vca", "cross-correlation", "p1,p2"): "5-25", ("vca", "cross-correlation", "u,x"): "5-26",
+    ("vca", "metric-length", "p1"): "5-27", ("vca", "metric-length", "p2"): "5-28",
+    ("eha", "autocorrelation", "p1"): "6-5", ("eha", "cross-correlation", "p1,p2"): "6-10",
+    ("eha", "cross-correlation", "u,x"): "6-15", ("eha", "metric-length", "p1"): "6-20"}
+#: Thesis figures of the windowed moments per (system, channel), from their captions (Secs.
+#: 4.7.1 and 4.7.2; the thesis's signals come from its Ch. 4 experiments, see the section).
+STATIONARITY_FIGURES = {
+    ("vca", "p1"): "4-13", ("vca", "p2"): "4-14", ("vca", "x"): "4-15", ("vca", "u"): "4-16",
+    ("eha", "p1"): "4-17", ("eha", "p2"): "4-18", ("eha", "x"): "4-19", ("eha", "u"): "4-20"}
+#: Unit each channel's moments are drawn in, and the factor from the recording's SI unit
+#: (pressures in kPa as thesis Fig. 5-2, displacement in mm as Fig. 5-3).
+_MOMENT_UNITS = {"p1": ("kPa", 1e-3), "p2": ("kPa", 1e-3), "x": ("mm", 1e3), "u": ("V", 1.0)}
+
+
+def thesis_series_figure(table: str) -> str:
+    """The thesis figure that plots the feature series of a table (Figs. 5-7 to 5-22, 6-1 to
+    6-19), read from the figures' captions: each names the method, signals, leak and settings
+    of its table. Table 5-k is Fig. 5-(k+6); in Ch. 6 one sensitivity figure (6-5, 6-10, 6-15,
+    6-20) follows every four tables.
+
+    Parameters
+    ----------
+    table : str
+        Thesis table, ``"5-1"`` to ``"5-16"`` or ``"6-1"`` to ``"6-16"``.
+
+    Returns
+    -------
+    str
+        The figure, e.g. ``"5-7"``.
+
+    Raises
+    ------
+    ValueError
+        For a table without a feature-series figure.
+
+    Examples
+    --------
+    >>> thesis_series_figure("5-1"), thesis_series_figure("5-16"), thesis_series_figure("6-5")
+    ('5-7', '5-22', '6-6')
+    """
+    chapter, _, k = str(table).partition("-")
+    if chapter not in ("5", "6") or not k.isdigit() or not 1 <= int(k) <= 16:
+        raise ValueError(f"{table=} must be a table 5-1..5-16 or 6-1..6-16 (the tables with a "
+                         "feature-series figure)")
+    k = int(k)
+    return f"5-{k + 6}" if chapter == "5" else f"6-{k + (k - 1) // 4}"
+
 
 _SETTING_LABEL = {"lag": "lag", "lag_ratio": "lag ratio", "window": "window (samples)",
                   "overlap": "overlap (%)", "signal": "signal"}
@@ -267,7 +325,8 @@ def _panels(rep, g):
         series = [series[i] for i in idx]
         rms = [rms[i] for i in idx]
         titles = [titles[i] for i in idx]
-    return plot_stacked(series, onset=_onset(rep, g["system"].iloc[0]), titles=titles, rms=rms)
+    return plot_stacked(series, onset=_onset(rep, g["system"].iloc[0]), titles=titles, rms=rms,
+                        ylabel=_FEATURE_LABEL.get(g["method"].iloc[0]))
 
 
 def _onset(rep, system) -> float:
@@ -455,8 +514,10 @@ def _sweep_section(rep, r: Report, figures: bool) -> None:
                 continue
             fig = _panels(rep, g)
             if fig is not None:
-                r.figure(fig, f"Feature series of Table {g['table'].iloc[0]} (ours), leak onset "
-                              f"dashed; horizontal lines: mean RMS before/after.",
+                tab = g["table"].iloc[0]
+                r.figure(fig, f"Feature series of Table {tab} (ours; cf. thesis Fig. "
+                              f"{thesis_series_figure(tab)}), leak onset dashed; horizontal "
+                              "lines: mean RMS before/after.",
                          name=f"table-{g['table'].iloc[0]}-series")
             if g["varied"].iloc[0] != "signal" and len(g) > 1:
                 x = [varied_value(v, lag, w, o) for v, lag, w, o in
@@ -505,12 +566,26 @@ def _sensitivity_section(rep, r: Report, figures: bool) -> None:
                 f"{list(cfg.sensitivity_seeds)}; leak at half time; each method at the thesis's "
                 f"preferred setting.")
     summ = sensitivity_summary(s)
-    r.paragraph("rho_pct_vs_leak: Spearman rank correlation of |% change| with the leak size "
-                "within each operating condition (load and duration), averaged; "
-                "rho_pct_vs_leak_<load>: the same within one load (pooled over loads the "
-                "loads' levels, not the sizes, would order the runs).")
+    keys = ["system", "method", "channels"]
+    if "load" in s:
+        by_load = sensitivity_by_load(s).merge(
+            summ[keys + ["thesis_min_pct", "thesis_max_pct"]], on=keys, how="left")
+        r.paragraph("Per load, signed: a negative % change means the feature falls after the "
+                    "leak. The thesis prints magnitudes only, so its range (thesis_min_pct to "
+                    "thesis_max_pct) is of |% change|; rho_pct_vs_leak: Spearman rank "
+                    "correlation of |% change| with the leak size within the load (averaged "
+                    "over durations).")
+        r.table(by_load, "Signed % change per method and load: runs falling and rising, range, "
+                         "trend with leak size; the thesis's range of |% change|")
+        for line in _direction_lines(by_load):
+            r.paragraph(line)
+    r.paragraph("Pooled over loads and durations (the form of the thesis's Table 5-17, which "
+                "hides a direction that reverses between loads): rho_pct_vs_leak: Spearman rank "
+                "correlation of |% change| with the leak size within each operating condition "
+                "(load and duration), averaged; rho_pct_vs_leak_<load>: the same within one load "
+                "(pooled over loads the loads' levels, not the sizes, would order the runs).")
     r.table(summ.drop(columns=["thesis_note"], errors="ignore"),
-            "Range of |% change| per method, ours beside the thesis's")
+            "Range of |% change| per method, pooled over loads, ours beside the thesis's")
     if "thesis_note" in summ:
         for row in summ[summ["thesis_note"].astype(str).str.len() > 0].itertuples():
             r.paragraph(f"Note on the thesis's range for {row.system.upper()} {row.method} "
@@ -521,11 +596,53 @@ def _sensitivity_section(rep, r: Report, figures: bool) -> None:
         for system, g in s.groupby("system", sort=False):
             # Table 5-17 is the VCA's summary; the EHA's results are Secs. 6.1.5-6.4.5 (no table)
             vca = system.lower() == "vca"
-            r.figure(plot_sensitivity(g, system, summ[summ.system == system]),
-                     f"{system.upper()}: % change against mean leak size (thesis range shaded; "
-                     f"{'Table 5-17' if vca else 'Secs. 6.1.5-6.4.5'}).",
+            figs = {(m, c): f for (sy, m, c), f in SENSITIVITY_FIGURES.items()
+                    if sy == system.lower()}
+            shown = [figs[k] for k in dict.fromkeys(zip(g["method"], g["channels"]))
+                     if k in figs]
+            cf = f"; cf. thesis Figs. {', '.join(shown)}" if shown else ""
+            r.figure(plot_sensitivity(g, system, summ[summ.system == system], figures=figs),
+                     f"{system.upper()}: signed % change against mean leak size, one marker "
+                     f"and colour per load (the thesis's |% change| range shaded on both sides "
+                     f"of 0; {'Table 5-17' if vca else 'Secs. 6.1.5-6.4.5'}{cf}).",
                      name="table-5-17-sensitivity-vca" if vca else
                      f"sec-6-x-5-sensitivity-{system.lower()}")
+
+
+def _direction_lines(by_load) -> list[str]:
+    """Per method of case study 3 whose direction differs between loads (or within one): the
+    runs falling and rising per load, in words; then how many methods go one way throughout.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> b = pd.DataFrame({"system": "eha", "method": "cross-correlation", "channels": "p1,p2",
+    ...                   "load": ["none", "spring"], "n_runs": 10, "n_falling": [10, 0],
+    ...                   "n_rising": [0, 10], "min_pct_signed": [-15.2, 1.5],
+    ...                   "max_pct_signed": [-5.1, 4.2], "direction": ["falls", "rises"]})
+    >>> print(_direction_lines(b)[0])
+    EHA cross-correlation p1,p2: the leak's effect on the feature reverses between loads: load 'none' 10 of 10 runs fall, 0 rise (-15.2 to -5.1 %); load 'spring' 0 of 10 runs fall, 10 rise (+1.5 to +4.2 %). The pooled |% change| range hides this.
+    """
+    out, same = [], []
+    for (system, method, chans), g in by_load.groupby(["system", "method", "channels"],
+                                                     sort=False):
+        dirs = [d for d in g["direction"] if d]
+        if len(set(dirs)) <= 1 and "mixed" not in dirs:
+            same.append(f"{system.upper()} {method} {chans} ({dirs[0] if dirs else 'n/a'})")
+            continue
+        what = ("reverses between loads" if {"falls", "rises"} <= set(dirs)
+                else "differs between loads" if len(set(dirs)) > 1
+                else "is not the same in every run")
+        per = "; ".join(
+            f"load '{row.load}' {row.n_falling} of {row.n_runs} runs fall, {row.n_rising} rise "
+            f"({row.min_pct_signed:+.3g} to {row.max_pct_signed:+.3g} %)"
+            for row in g.itertuples())
+        out.append(f"{system.upper()} {method} {chans}: the leak's effect on the feature {what}: "
+                   f"{per}. The pooled |% change| range hides this.")
+    if same:
+        out.append(f"The feature goes the same way under every load in {len(same)} of "
+                   f"{len(same) + len(out)} methods: {', '.join(same)}.")
+    return out
 
 
 def _sensitivity_nan_lines(s) -> list[str]:
@@ -574,9 +691,13 @@ def _stationarity_section(rep, r: Report, figures: bool) -> None:
         r.table(st["tests"])
         if figures:
             for ch, df in st["moments"].items():
+                unit, scale = _MOMENT_UNITS.get(ch, ("", 1.0))
+                fig_no = STATIONARITY_FIGURES.get((system, ch))
+                cf = f" (cf. thesis Fig. {fig_no})" if fig_no else ""
                 r.figure(plot_moments(df, ch, _onset(rep, system),
-                                      f"{system.upper()} {ch}: windowed moments (400, 50 %)"),
-                         f"{system.upper()} {ch}: windowed moments, leak onset dashed.",
+                                      f"{system.upper()} {ch}: windowed moments (400, 50 %)",
+                                      unit=unit, scale=scale),
+                         f"{system.upper()} {ch}: windowed moments{cf}, leak onset dashed.",
                          name=f"stationarity-{system}-{ch}")
 
 

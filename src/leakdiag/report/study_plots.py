@@ -68,19 +68,30 @@ def plot_pct_vs_parameter(x, ours, thesis=None, xlabel: str = "parameter",
     return fig
 
 
-def plot_sensitivity(sens, system: str, thesis_ranges=None):
-    """% change against leak size per method (case study 3), one panel per method.
+#: Marker and colour of each load in the sensitivity figures (others: "x", grey).
+_LOAD_STYLE = {"none": ("^", "tab:blue"), "spring": ("o", "tab:orange")}
+
+
+def plot_sensitivity(sens, system: str, thesis_ranges=None, figures=None):
+    """Signed % change against leak size per method (case study 3), one panel per method, one
+    marker and colour per load.
+
+    The change is drawn signed (``pct_change_signed``): a leak whose effect reverses between
+    loads (the feature falls without load and rises with the spring) shows as two clouds on
+    either side of 0, which a plot of |% change| merges.
 
     Parameters
     ----------
     sens : pandas.DataFrame
         Sensitivity rows of one system (``method``, ``channels``, ``leak_lpm``, ``load``,
-        ``pct_change``, ``duration``).
+        ``pct_change_signed``).
     system : str
         ``"vca"`` or ``"eha"`` (title).
     thesis_ranges : pandas.DataFrame, optional
-        Output of :func:`leakdiag.studies.reproduce.sensitivity_summary`; the thesis's range is
-        drawn as a grey band.
+        Output of :func:`leakdiag.studies.reproduce.sensitivity_summary`; the thesis's range of
+        |% change| (it prints magnitudes only) is drawn as grey bands at + and - that range.
+    figures : dict, optional
+        ``(method, channels)`` -> thesis figure (``"5-23"``), named in the panel's title.
 
     Returns
     -------
@@ -92,20 +103,24 @@ def plot_sensitivity(sens, system: str, thesis_ranges=None):
     ncol = 2 if n > 1 else 1
     nrow = int(np.ceil(n / ncol))
     fig, axes = plt.subplots(nrow, ncol, figsize=(max(6.4, 5 * ncol), 2.8 * nrow), squeeze=False)
-    markers = {"spring": "o", "none": "^"}
     for a, ((method, chans), g) in zip(axes.ravel(), groups):
-        for load, gl in g.groupby("load"):
-            a.scatter(gl["leak_lpm"], gl["pct_change"], marker=markers.get(load, "x"), s=22,
-                      label=f"load {load}", alpha=0.8)
+        a.axhline(0.0, color="0.3", lw=0.8)
+        for load, gl in g.groupby("load", sort=False):
+            marker, colour = _LOAD_STYLE.get(load, ("x", "0.4"))
+            a.scatter(gl["leak_lpm"], gl["pct_change_signed"], marker=marker, color=colour,
+                      s=22, label=f"load {load}", alpha=0.8)
         if thesis_ranges is not None:
             r = thesis_ranges[(thesis_ranges.method == method)
                               & (thesis_ranges.channels == chans)]
             if len(r) and np.isfinite(r.thesis_min_pct.iloc[0]):
-                a.axhspan(r.thesis_min_pct.iloc[0], r.thesis_max_pct.iloc[0], color="0.85",
-                          zorder=0, label="thesis range")
-        a.set_title(f"{system.upper()} {method} {chans}", fontsize=9, loc="left")
+                lo, hi = r.thesis_min_pct.iloc[0], r.thesis_max_pct.iloc[0]
+                a.axhspan(lo, hi, color="0.85", zorder=0, label="thesis |% change| range (±)")
+                a.axhspan(-hi, -lo, color="0.85", zorder=0)
+        cf = f" (cf. thesis Fig. {figures[(method, chans)]})" \
+            if figures and (method, chans) in figures else ""
+        a.set_title(f"{system.upper()} {method} {chans}{cf}", fontsize=9, loc="left")
         a.set_xlabel("mean leak (L/min)")
-        a.set_ylabel("% change")
+        a.set_ylabel("% change (signed)")
         a.grid(alpha=0.3)
         a.legend(fontsize=7)
     for a in axes.ravel()[n:]:
@@ -114,7 +129,8 @@ def plot_sensitivity(sens, system: str, thesis_ranges=None):
     return fig
 
 
-def plot_moments(df, channel: str, onset: float | None = None, title: str = ""):
+def plot_moments(df, channel: str, onset: float | None = None, title: str = "",
+                 unit: str = "", scale: float = 1.0):
     """The four windowed moments of a signal (Figs. 4-13 to 4-20), stacked.
 
     Parameters
@@ -127,22 +143,32 @@ def plot_moments(df, channel: str, onset: float | None = None, title: str = ""):
         Leak onset, drawn dashed.
     title : str
         Title of the top panel.
+    unit : str, default ""
+        Unit the signal is drawn in (e.g. ``"kPa"``, as thesis Fig. 5-2): the mean is labelled
+        in it, the variance in its square; skewness and kurtosis are labelled dimensionless.
+    scale : float, default 1.0
+        Factor from the signal's unit in ``df`` to ``unit`` (``1e-3`` for Pa to kPa): the mean
+        is multiplied by it, the variance by its square.
 
     Returns
     -------
     matplotlib.figure.Figure
     """
     plt = _plt()
+    factor = {"mean": scale, "variance": scale ** 2}
+    label = {"mean": f"mean ({unit})" if unit else "mean",
+             "variance": f"variance ({unit}²)" if unit else "variance",
+             "skewness": "skewness (-)", "kurtosis": "kurtosis (-)"}
     t = df["time"].to_numpy() if "time" in df else df.index.to_numpy()
     cols = [c for c in df.columns if c != "time" and np.issubdtype(df[c].dtype, np.number)][:4]
     fig, axes = plt.subplots(len(cols), 1, figsize=(8, 1.7 * len(cols) + 0.5), sharex=True,
                              squeeze=False)
     k = max(1, len(t) // PLOT_MAX_POINTS)
     for a, c in zip(axes[:, 0], cols):
-        a.plot(t[::k], df[c].to_numpy()[::k], lw=0.7)
+        a.plot(t[::k], df[c].to_numpy()[::k] * factor.get(c, 1.0), lw=0.7)
         if onset is not None:
             a.axvline(onset, color="tab:red", ls="--", lw=1.0)
-        a.set_ylabel(c, fontsize=8)
+        a.set_ylabel(label.get(c, c), fontsize=8)
         a.grid(alpha=0.3)
     axes[0, 0].set_title(title or f"windowed moments of {channel}", fontsize=9, loc="left")
     axes[-1, 0].set_xlabel("time (s)")
@@ -184,7 +210,8 @@ def plot_grid_heatmap(table, lag, title: str = ""):
     return fig
 
 
-def plot_stacked(series, onset: float | None = None, titles=None, rms=None):
+def plot_stacked(series, onset: float | None = None, titles=None, rms=None,
+                 ylabel: str | None = None):
     """Stacked feature-series panels (Figs. 5-7 to 5-22 style), cheap to render.
 
     Like :func:`leakdiag.report.figures.plot_feature_series` but with fixed legend positions and
@@ -200,6 +227,8 @@ def plot_stacked(series, onset: float | None = None, titles=None, rms=None):
         Panel titles.
     rms : sequence of (before, after, signed_pct) or None, optional
         Mean RMS before/after drawn as horizontal segments.
+    ylabel : str, optional
+        Label of every panel's y axis (the feature, e.g. ``"autocorrelation coefficient"``).
 
     Returns
     -------
@@ -222,6 +251,8 @@ def plot_stacked(series, onset: float | None = None, titles=None, rms=None):
                    bbox={"fc": "white", "ec": "0.7", "alpha": 0.8})
         if titles is not None:
             a.set_title(titles[i], fontsize=8, loc="left")
+        if ylabel:
+            a.set_ylabel(ylabel, fontsize=7)
         a.grid(alpha=0.3)
     axes[-1, 0].set_xlabel("time (s)")
     fig.tight_layout()

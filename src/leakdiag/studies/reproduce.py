@@ -25,7 +25,7 @@ from leakdiag.studies.thesis import (THESIS_DATA, load_sensitivity, load_tables,
                                      trend_sign, varied_value)
 
 __all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings", "same_setting",
-           "sensitivity_summary", "CONTRACT_COLUMNS", "PREVIOUS_COLUMNS", "per_table_agreement",
+           "sensitivity_summary", "sensitivity_by_load", "CONTRACT_COLUMNS", "PREVIOUS_COLUMNS", "per_table_agreement",
            "compare_runs", "read_previous", "setting_differences", "code_fingerprints",
            "CODE_PARTS", "NAN_COLUMNS"]
 
@@ -314,6 +314,70 @@ def sensitivity_summary(sens, thesis_ranges=None):
                     "thesis_source": "" if m is None else m.source,
                     "thesis_note": "" if m is None or "note" not in m or pd.isna(m["note"])
                     else str(m["note"])})
+    return pd.DataFrame(out)
+
+
+def sensitivity_by_load(sens):
+    """Case study 3 per system, method, channels and load, signed: where the feature goes.
+
+    The pooled range of |% change| (:func:`sensitivity_summary`, the thesis's Table 5-17 form)
+    hides a leak whose effect reverses between loads: an audit (2026-11-29) found the EHA's
+    P1,P2 cross-correlation falling in all 10 runs without load (-15.2 to -5.1 %) and rising
+    in all 10 with the spring (+1.5 to +4.2 %), which the pooled magnitudes showed as one range.
+
+    Parameters
+    ----------
+    sens : pandas.DataFrame
+        Sensitivity rows (``system``, ``method``, ``channels``, ``load``,
+        ``pct_change_signed``, ``leak_lpm``; ``duration`` when there is one).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per (system, method, channels, load), the loads of a method together: ``n_runs`` (runs
+        with a measure), ``n_falling``, ``n_rising`` (signed % change below, above 0),
+        ``min_pct_signed``, ``max_pct_signed`` (%), ``direction`` (``"falls"``, ``"rises"``,
+        ``"mixed"``, or ``""`` without a measure) and ``rho_pct_vs_leak`` (Spearman rank
+        correlation of |% change| with the leak size, averaged over the durations).
+
+    Raises
+    ------
+    KeyError
+        When a column named above is missing.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> s = pd.DataFrame({"system": "eha", "method": "cross-correlation", "channels": "p1,p2",
+    ...                   "load": ["none", "none", "spring", "spring"],
+    ...                   "leak_lpm": [0.8, 1.6, 0.8, 1.6],
+    ...                   "pct_change_signed": [-5.1, -15.2, 1.5, 4.2]})
+    >>> b = sensitivity_by_load(s)
+    >>> b[["load", "n_falling", "n_rising", "min_pct_signed", "max_pct_signed",
+    ...    "direction"]].values.tolist()
+    [['none', 2, 0, -15.2, -5.1, 'falls'], ['spring', 0, 2, 1.5, 4.2, 'rises']]
+    """
+    import pandas as pd
+
+    out = []
+    parts = [(key, load, g) for key, m in sens.groupby(["system", "method", "channels"],
+                                                       sort=False)
+             for load, g in m.groupby("load", sort=False)]
+    for (system, method, chans), load, g in parts:
+        v = g["pct_change_signed"].to_numpy(dtype=float)
+        ok = v[np.isfinite(v)]
+        falling, rising = int((ok < 0).sum()), int((ok > 0).sum())
+        direction = ("" if not len(ok) else "falls" if falling == len(ok) else
+                     "rises" if rising == len(ok) else "mixed")
+        groups = g.groupby("duration") if "duration" in g else [(None, g)]
+        rhos = [spearman(h["leak_lpm"], h["pct_change_signed"].abs()) for _, h in groups]
+        rhos = [r for r in rhos if np.isfinite(r)]
+        out.append({"system": system, "method": method, "channels": chans, "load": load,
+                    "n_runs": len(ok), "n_falling": falling, "n_rising": rising,
+                    "min_pct_signed": float(ok.min()) if len(ok) else np.nan,
+                    "max_pct_signed": float(ok.max()) if len(ok) else np.nan,
+                    "direction": direction,
+                    "rho_pct_vs_leak": float(np.mean(rhos)) if rhos else np.nan})
     return pd.DataFrame(out)
 
 
