@@ -86,3 +86,29 @@ def test_case_study_3_undefined_windows_per_load():
                            "10.0 % of the windows before the onset and 30.0 % after it are NaN")
     assert "|% change| 2-5 % as measured, 20-30 % with them counted as 0" in line
     assert _sensitivity_nan_lines(s.drop(columns=["n_nan_windows_after"])) == []
+
+
+def test_stationarity_states_the_thesiss_verdict_and_counts_our_disagreements():
+    """An audit (2026-11-29): the section did not say the thesis found every signal stationary
+    (Sec. 4.7.3), nor where ADF/KPSS on ours disagree (the EHA's x was non-stationary)."""
+    from leakdiag.report.reproduction import _stationarity_verdict_lines
+
+    def tests(*verdicts):
+        return {"tests": pd.DataFrame({"channel": ["p1", "p1", "x", "x"],
+                                       "part": ["whole", "before leak"] * 2,
+                                       "verdict": list(verdicts)})}
+
+    st = {"vca": tests("stationary", "stationary", "stationary", "inconclusive"),
+          "eha": tests("stationary", "stationary", "non-stationary", "non-stationary")}
+    thesis, ours = _stationarity_verdict_lines(st)
+    assert thesis.startswith("The thesis's verdict (Sec. 4.7.3): the first four moments of "
+                             "every signal")
+    assert '"the signals produced from the test rig are stationary"' in thesis
+    assert ours == ("Ours (ADF and KPSS at 5 %, each signal over the whole run and before the "
+                    "leak): 'stationary' in 5 of 8 tests (VCA 3 of 4, EHA 2 of 4), so ours "
+                    "disagrees with the thesis in 3: VCA x before leak (inconclusive), EHA x "
+                    "whole (non-stationary), EHA x before leak (non-stationary).")
+    st = {"vca": tests(*["stationary"] * 4)}
+    assert _stationarity_verdict_lines(st)[1].endswith(
+        "'stationary' in 4 of 4 tests (VCA 4 of 4): ours agrees with the thesis in every test.")
+    assert _stationarity_verdict_lines({}) == []

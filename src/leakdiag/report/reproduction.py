@@ -686,6 +686,8 @@ def _stationarity_section(rep, r: Report, figures: bool) -> None:
                 "their experiment is used; but Ch. 4 shows its signals from experiments under "
                 "a load emulating a spring (Sec. 4.6 says so for the EHA), and a verdict can "
                 "depend on the load (docs/studies.md, 'Stationarity tests').")
+    for line in _stationarity_verdict_lines(rep.stationarity):
+        r.paragraph(line)
     for system, st in rep.stationarity.items():
         r.heading(f"{system.upper()} stationarity tests", 3)
         r.table(st["tests"])
@@ -699,6 +701,38 @@ def _stationarity_section(rep, r: Report, figures: bool) -> None:
                                       unit=unit, scale=scale),
                          f"{system.upper()} {ch}: windowed moments{cf}, leak onset dashed.",
                          name=f"stationarity-{system}-{ch}")
+
+
+def _stationarity_verdict_lines(stationarity) -> list[str]:
+    """The thesis's stationarity verdict (Sec. 4.7.3) and where our tests disagree, counted.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> tests = pd.DataFrame({"channel": ["p1", "p1", "x", "x"],
+    ...                       "part": ["whole", "before leak"] * 2,
+    ...                       "verdict": ["stationary", "stationary", "non-stationary",
+    ...                                   "trend/difference stationary?"]})
+    >>> print(_stationarity_verdict_lines({"eha": {"tests": tests}})[1])
+    Ours (ADF and KPSS at 5 %, each signal over the whole run and before the leak): 'stationary' in 2 of 4 tests (EHA 2 of 4), so ours disagrees with the thesis in 2: EHA x whole (non-stationary), EHA x before leak (trend/difference stationary?).
+    """
+    rows = [(system, t) for system, st in stationarity.items()
+            for t in st["tests"].itertuples()]
+    if not rows:
+        return []
+    ok = [(s, t) for s, t in rows if t.verdict == "stationary"]
+    bad = [(s, t) for s, t in rows if t.verdict != "stationary"]
+    per = ", ".join(f"{s.upper()} {sum(1 for x, _ in ok if x == s)} of "
+                    f"{sum(1 for x, _ in rows if x == s)}" for s in stationarity)
+    said = (f", so ours disagrees with the thesis in {len(bad)}: "
+            + ", ".join(f"{s.upper()} {t.channel} {t.part} ({t.verdict})" for s, t in bad)
+            if bad else ": ours agrees with the thesis in every test")
+    return ["The thesis's verdict (Sec. 4.7.3): the first four moments of every signal "
+            "\"appear to be unrelated to time regardless of the size of the window, or amount of "
+            "overlap\", so \"the signals produced from the test rig are stationary\" (a verdict "
+            "read from the plots, Figs. 4-13 to 4-20; no test statistic is given).",
+            f"Ours (ADF and KPSS at 5 %, each signal over the whole run and before the leak): "
+            f"'stationary' in {len(ok)} of {len(rows)} tests ({per}){said}."]
 
 
 def build_report(rep, command: str = "", figures: bool = True) -> Report:
