@@ -61,3 +61,37 @@ def test_live_page_times_numbers_and_label(browser):
                                                     "text": [LINK + BIG]}
     finally:
         srv.stop()
+
+
+def test_history_page_labels_alarm_times_and_windows(browser, tmp_path):
+    from leakdiag.store import AlarmRecord, ChunkSummary, EventStore
+
+    st = EventStore(tmp_path / "e.db")
+    for label in (LINK, BIG):  # two features: each its own legend entry
+        run = st.start_run("rig1", command="monitor", source="a.csv", feature=label,
+                           threshold=20.0)
+        for i in range(5):
+            al = [AlarmRecord(57.859500000000004, 25.0, 20.0, onset_s=55.1000000001)] \
+                if i == 3 and label == LINK else []
+            st.add_chunk(run, ChunkSummary(i, i + 0.9, 5, 0, 0.5, 0.1, 0.9, 0.4, 2.0 * i, 1.0,
+                                           i >= 3), al)
+        st.end_run(run)
+    st.end_run(st.start_run("rig1", command="detect", source="/d/b.parquet", feature="acf"))
+    srv = DashboardServer(make_app(store=st), Bind("127.0.0.1", 0)).start()
+    try:
+        browser.get(srv.page_url("history/rig1"))
+        _wait(browser, "return document.body.dataset.loaded === '1';")
+        for plot in ("summary-plot", "score-plot"):
+            got = _markup(browser, plot)
+            assert (got["links"], got["big"]) == (0, 0), (plot, got)
+            assert LINK in got["text"] and BIG in got["text"], got
+        cells = browser.execute_script(
+            "return [...document.querySelectorAll('#alarms tr td')].map((e) => e.innerText);")
+        assert cells[1:3] == ["57.860 s", "55.100 s"]  # was 57.859500000000004 s
+        windows = browser.execute_script(
+            "return [...document.querySelectorAll('#runs tr.run')].map((r) =>"
+            " [r.children[1].innerText, r.children[4].innerText]);")
+        assert windows == [["detect", "–"], ["monitor", "25"], ["monitor", "25"]]  # was "0"
+    finally:
+        srv.stop()
+        st.close()

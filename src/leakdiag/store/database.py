@@ -1007,21 +1007,32 @@ class EventStore:
         -------
         pandas.DataFrame
             Columns ``id``, ``command``, ``source``, ``feature``, ``started_at``,
-            ``ended_at``, ``status``, ``n_chunks``, ``n_windows``, ``threshold``, ``error``.
+            ``ended_at``, ``status``, ``n_chunks``, ``n_windows`` (None for a run judged as a
+            whole, whose windows are not stored: ``detect``, a ``monitor --segment`` segment),
+            ``threshold``, ``error``.
 
         Raises
         ------
         StoreError
             If the actuator is not in the store.
         """
+        import pandas as pd
+
         self._refresh_version()
         aid = self._known_actuator(actuator)
         c = S.runs.c
         cols = {col.name: col for col in self._run_columns()}
-        return self._frame(select(*(cols[k] for k in (
+        runs = self._frame(select(*(cols[k] for k in (
             "id", "command", "source", "feature", "started_at", "ended_at", "status",
-            "n_chunks", "n_windows", "threshold", "error")))
+            "n_chunks", "n_windows", "threshold", "error", "config")))
                            .where(c.actuator_id == aid).order_by(c.id.desc()))
+        # a run judged as a whole without its windows stored (detect's methods, a monitor
+        # --segment segment) has no window count: None, not 0 (as the fleet page says it)
+        whole = [int(n) == 0 and (cmd == "detect" or _is_segment(cmd, _config(cfg)))
+                 for cmd, n, cfg in zip(runs["command"], runs["n_chunks"], runs["config"])]
+        runs["n_windows"] = runs["n_windows"].astype(object).where(
+            ~pd.Series(whole, index=runs.index, dtype=bool), None)
+        return runs.drop(columns="config")
 
     def _refresh_version(self) -> None:
         """Read the file's schema version again when it is older than this code's: another

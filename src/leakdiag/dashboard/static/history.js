@@ -34,11 +34,11 @@ fetch(cfg.api).then((r) => r.json()).then((h) => {
     traces.push({x: x, y: pick("value_min"), mode: "lines", line: {width: 0}, fill: "tonexty",
       fillcolor: rgba(colour, 0.2), name: "min-max",
       showlegend: k === 0, legendgroup: String(k)});
-    traces.push({x: x, y: pick("value_mean"), mode: "lines+markers", name: label,
+    traces.push({x: x, y: pick("value_mean"), mode: "lines+markers", name: plotlyText(label),
       line: {color: colour}, legendgroup: String(k)});
     const sc = pick("score_max");
     if (sc.some((v) => v !== null) || feats.length === 1) {
-      scores.push({x: x, y: sc, mode: "lines+markers", name: feats.length > 1 ? f :
+      scores.push({x: x, y: sc, mode: "lines+markers", name: feats.length > 1 ? plotlyText(f) :
         "max score per point", line: {color: k === 0 ? "#ff7f0e" : colour}});
     }
   });
@@ -57,13 +57,14 @@ fetch(cfg.api).then((r) => r.json()).then((h) => {
   for (const a of h.alarms) {
     const tr = document.createElement("tr");
     cell(tr, a.raised_at);
-    cell(tr, a.alarm_time_s === null ? null : a.alarm_time_s + " s");
-    cell(tr, a.onset_s === null ? null : (a.onset_censored ? "at or before " : "") + a.onset_s + " s");
+    cell(tr, a.alarm_time_s === null ? null : fmtTime(a.alarm_time_s));
+    cell(tr, a.onset_s === null ? null : (a.onset_censored ? "at or before " : "") +
+         fmtTime(a.onset_s));
     cell(tr, a.leak_lpm === null ? null : fmtNum(a.leak_lpm, " L/min") + " [" +
          fmtNum(a.leak_lpm_low, "") + ", " + fmtNum(a.leak_lpm_high, "") + "]" +
          (a.leak_interval ? " (" + a.leak_interval + ")" : "") +
          (a.leak_extrapolated ? " (extrapolated: outside the calibrated range)" : ""));
-    cell(tr, a.cleared_time_s === null ? null : a.cleared_time_s + " s");
+    cell(tr, a.cleared_time_s === null ? null : fmtTime(a.cleared_time_s));
     cell(tr, a.source);
     table.appendChild(tr);
   }
