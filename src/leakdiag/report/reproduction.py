@@ -18,7 +18,7 @@ from leakdiag.report.study_plots import (plot_moments, plot_pct_vs_parameter, pl
                                          plot_stacked)
 from leakdiag.studies.reproduce import (Reproduction, compare_runs, per_table_agreement,
                                         sensitivity_by_load, sensitivity_summary,
-                                        setting_differences)
+                                        setting_differences, unrecorded_settings)
 from leakdiag.studies.thesis import (PRINTED_MISMATCH_POINTS, printed_mismatch, row_sign,
                                      varied_value)
 
@@ -493,6 +493,12 @@ def _changes_section(rep, r: Report) -> None:
     if diff:
         r.paragraph("**The previous run was made with other settings**, so these changes are "
                     "not the code's alone: " + "; ".join(diff) + ".")
+    missing = unrecorded_settings(old)
+    if missing:
+        r.paragraph(f"**Settings not compared**: the previous run's tables.csv has no "
+                    f"{', '.join(missing)} (written before leakdiag recorded them), so whether "
+                    "it was made with the same protocol, load, run length, onset, seed and "
+                    "sensor chain could not be checked.")
     r.table(c, "Per table: previous run (_old) and this run (_new)")
 
 

@@ -25,7 +25,8 @@ from leakdiag.studies.thesis import (THESIS_DATA, load_sensitivity, load_tables,
                                      trend_sign, varied_value)
 
 __all__ = ["Reproduction", "reproduce", "assemble_tables", "preferred_settings", "same_setting",
-           "sensitivity_summary", "sensitivity_by_load", "CONTRACT_COLUMNS", "PREVIOUS_COLUMNS", "per_table_agreement",
+           "sensitivity_summary", "sensitivity_by_load", "CONTRACT_COLUMNS", "SETTING_COLUMNS",
+           "experiment_settings", "unrecorded_settings", "PREVIOUS_COLUMNS", "per_table_agreement",
            "compare_runs", "read_previous", "setting_differences", "code_fingerprints",
            "CODE_PARTS", "NAN_COLUMNS"]
 
@@ -47,8 +48,16 @@ CONTRACT_COLUMNS = [
     "trend_ours", "trend_thesis", "trend_agrees", "n_windows", "n_chunks_before",
     "n_chunks_after", "n_chunks_straddling", "n_chunks_empty", "n_nan_windows",
     "n_windows_before", "n_windows_after", "n_nan_windows_before", "n_nan_windows_after",
-    "pct_change_signed_nan_as_0", "chunk", "note",
+    "pct_change_signed_nan_as_0", "chunk", "note", "protocol", "load", "duration_s", "onset_s",
+    "seed", "sensors",
 ]
+#: The columns of :data:`CONTRACT_COLUMNS` that record the settings defining the experiment of
+#: each row (:func:`experiment_settings`), so that ``--previous`` can tell a run made otherwise
+#: (:func:`setting_differences`; an audit, 2026-11-29: only ``chunk`` and ``n_windows`` were
+#: compared, so another protocol, load or seed went unnoticed).
+SETTING_COLUMNS = ["protocol", "load", "duration_s", "onset_s", "seed", "sensors"]
+_SETTING_WORDS = {"protocol": "protocol", "load": "load", "duration_s": "run length (s)",
+                  "onset_s": "leak onset (s)", "seed": "seed", "sensors": "sensor chain"}
 #: The columns of :data:`CONTRACT_COLUMNS` that disclose undefined (NaN, zero-variance) windows
 #: (thesis audit 2026-11-28, F1): the measure's counts (``n_chunks_empty``, ``n_nan_windows``),
 #: the windows in whole chunks and the NaN ones among them per side of the onset
@@ -106,7 +115,37 @@ class Reproduction:
     previous: Any = None
 
 
-def assemble_tables(thesis, rows: list[dict]):
+def experiment_settings(config: ProtocolConfig, system: str) -> dict:
+    """The settings that define the case-study experiments of one system in a run (the
+    :data:`SETTING_COLUMNS` of its rows in ``tables.csv``).
+
+    Parameters
+    ----------
+    config : ProtocolConfig
+        Settings of the run.
+    system : str
+        ``"vca"`` or ``"eha"`` (either case).
+
+    Returns
+    -------
+    dict
+        ``protocol`` (the config's name), ``load``, ``duration_s``, ``onset_s`` (s),
+        ``seed`` (the tables' seed) and ``sensors`` (the sensor chain).
+
+    Examples
+    --------
+    >>> experiment_settings(QUICK, "EHA")  # doctest: +NORMALIZE_WHITESPACE
+    {'protocol': 'thesis-quick', 'load': 'none', 'duration_s': 40.0, 'onset_s': 20.0,
+     'seed': 0, 'sensors': 'thesis'}
+    """
+    vca = str(system).lower() == "vca"
+    return {"protocol": config.name, "load": config.vca_load if vca else config.eha_load,
+            "duration_s": float(config.vca_duration_s if vca else config.eha_duration_s),
+            "onset_s": float(config.vca_onset_s if vca else config.eha_onset_s),
+            "seed": int(config.table_seed), "sensors": str(config.sensor_chain)}
+
+
+def assemble_tables(thesis, rows: list[dict], config: ProtocolConfig | None = None):
     """Our measure beside the thesis's, with the direction and trend verdicts.
 
     Parameters
@@ -115,6 +154,9 @@ def assemble_tables(thesis, rows: list[dict]):
         :func:`leakdiag.studies.thesis.load_tables` (possibly filtered).
     rows : list of dict
         Our measure rows, each with ``row_id``.
+    config : ProtocolConfig, optional
+        Settings of the run, recorded per row in :data:`SETTING_COLUMNS`
+        (:func:`experiment_settings`); without it those columns are empty.
 
     Returns
     -------
@@ -162,6 +204,9 @@ def assemble_tables(thesis, rows: list[dict]):
         out.loc[g.index, "trend_thesis"] = ts_thesis
         out.loc[g.index, "trend_agrees"] = ts_ours == ts_thesis
     out["note"] = t["note"]
+    for c in SETTING_COLUMNS:
+        out[c] = [experiment_settings(config, sy)[c] if config is not None else None
+                  for sy in out["system"]]
     return out.reset_index()[["row_id"] + CONTRACT_COLUMNS]
 
 
@@ -466,9 +511,11 @@ def compare_runs(new, old):
 
 def setting_differences(new, old) -> list[str]:
     """How an earlier run's tables were made otherwise than this run's (sentences; empty when
-    alike): the RMS chunk (``chunk``) and, per table, the number of windows (``n_windows``:
-    another run length, e.g. a ``--quick`` run against a full one). A comparison of two such
-    runs mixes those changes with the code's, so the report says so.
+    alike): per system the settings of :data:`SETTING_COLUMNS` (protocol, load, run length,
+    onset, seed, sensor chain; compared when both tables have them, see
+    :func:`unrecorded_settings`), the RMS chunk (``chunk``) and, per table, the number of
+    windows (``n_windows``: another run length, e.g. a ``--quick`` run against a full one). A
+    comparison of two such runs mixes those changes with the code's, so the report says so.
 
     Parameters
     ----------
@@ -489,8 +536,23 @@ def setting_differences(new, old) -> list[str]:
     ['RMS chunk: 10 feature values before, 5 now', 'windows per experiment differ in 1 of 2 ...']
     >>> setting_differences(a.iloc[1:], a)  # one table of the earlier run's two: no difference
     []
+    >>> b = a.assign(system="VCA", load="none", seed=0)
+    >>> setting_differences(b.assign(load="spring", seed=2), b)
+    ['load (VCA): none before, spring now', 'seed (VCA): 0 before, 2 now']
     """
     out = []
+    systems = [sy for sy in dict.fromkeys(new["system"].astype(str))
+               if sy in set(old["system"].astype(str))] if "system" in new and \
+        "system" in old else []
+    for c in SETTING_COLUMNS:
+        if c not in new or c not in old:
+            continue
+        for sy in systems:
+            a = _setting_values(old.loc[old["system"].astype(str) == sy, c])
+            b = _setting_values(new.loc[new["system"].astype(str) == sy, c])
+            if a and b and a != b:
+                out.append(f"{_SETTING_WORDS[c]} ({sy}): {', '.join(a)} before, "
+                           f"{', '.join(b)} now")
     if "chunk" in new and "chunk" in old:
         a, b = sorted(set(old["chunk"].dropna())), sorted(set(new["chunk"].dropna()))
         if a != b:
@@ -514,6 +576,41 @@ def setting_differences(new, old) -> list[str]:
                        f"(tables {', '.join(tabs[:4])}{', ...' if len(tabs) > 4 else ''}): "
                        "other run lengths, e.g. a --quick run against a full one")
     return out
+
+
+def _setting_values(values) -> list[str]:
+    """The distinct values of a setting column as text, numbers without a trailing ``.0``."""
+    def word(v):
+        try:
+            return f"{float(v):g}" if not isinstance(v, str) else v
+        except (TypeError, ValueError):
+            return str(v)
+
+    return sorted({word(v) for v in values.dropna()})
+
+
+def unrecorded_settings(old) -> list[str]:
+    """The :data:`SETTING_COLUMNS` an earlier run's ``tables.csv`` lacks (written before they
+    were recorded): its settings of those could not be compared with this run's.
+
+    Parameters
+    ----------
+    old : pandas.DataFrame
+        ``tables.csv`` of the earlier run.
+
+    Returns
+    -------
+    list of str
+        Column names, in the order of :data:`SETTING_COLUMNS`; empty when all are there and
+        hold a value.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> unrecorded_settings(pd.DataFrame({"table": ["5-1"], "load": ["none"]}))
+    ['protocol', 'duration_s', 'onset_s', 'seed', 'sensors']
+    """
+    return [c for c in SETTING_COLUMNS if c not in old or old[c].isna().all()]
 
 
 def read_previous(path, systems=None):
@@ -651,7 +748,7 @@ def reproduce(systems=("vca", "eha"), config: ProtocolConfig | None = None, *, q
         elif case["kind"] == "stationarity":
             stat[case["system"]] = {"moments": res["moments"],
                                     "tests": pd.DataFrame(res["tests"])}
-    tables = assemble_tables(thesis, rows)
+    tables = assemble_tables(thesis, rows, cfg)
     timing = {"wall_s": time.perf_counter() - t0, "n_cases": len(cases),
               "cache_hits": sum(bool(cr.result.get("cache_hit")) for cr in results),
               "case_s": float(sum(cr.elapsed_s for cr in results)), "code": code_fingerprints()}
