@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from leakdiag._format import seconds
 from leakdiag.cli._options import check_workers, scheduler_option, workers_option
 
 __all__ = ["batch"]
@@ -208,7 +209,7 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
         for _, r in no_evidence.iterrows():  # an alarm that is no evidence: say why
             why = r.get("why_inconclusive")
             click.echo(f"  inconclusive: {r['recording']}: {r['name']}: alarm at "
-                       f"{r['alarm_time_s']:.6g} s, but "
+                       f"{seconds(r['alarm_time_s'], 6)} s, but "
                        + (why if isinstance(why, str) and why else
                           "a run this long expects such an alarm by chance"), err=True)
     ok = mine[(mine["status"] == "ok") & (mine["kind"] == "analysis")]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from leakdiag._format import seconds
 from leakdiag.cli._options import recording_options, resample_option
 from leakdiag.cli.dashboard import actuator_option
 from leakdiag.cli._words import (check_longer_than_burn_in, few_healthy_words, in_cli_words,
@@ -78,7 +79,8 @@ def _row(m, det, rec, n_healthy, run_target=None):
            "run_level_method": j.run_level_method, "decision": j.decision,
            "why_inconclusive": j.why_inconclusive,
            "threshold_confidence": float(basis.confidence)
-           if basis is not None and basis.conditional else None}
+           if basis is not None and basis.conditional else None,
+           "size_calibrated": getattr(det, "calibration_", None) is not None}
     if j.run_level is not None:  # the threshold column is the run level: say what backs it
         row["threshold_method"] = j.run_level_method
     if basis is None:  # only a threshold basis gives a p-value (docs/detect.md, section 2)
@@ -756,16 +758,17 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
         first = sized.sort_values("alarm_time_s").iloc[0]
         why = first.get("onset_why")
         if first.get("onset_censored") in (True, 1) and isinstance(why, str) and why:
-            click.echo(f"  onset at or before {first['onset_s']:.4g} s ({first['method']}): "
-                       f"{why}; first alarm {first['alarm_time_s']:.4g} s")
+            click.echo(f"  onset at or before {seconds(first['onset_s'])} s ({first['method']}): "
+                       f"{why}; first alarm {seconds(first['alarm_time_s'])} s")
         elif first.get("onset_censored") in (True, 1):  # the change was there from the start
-            click.echo(f"  onset at or before {first['onset_s']:.4g} s: the change was present "
-                       f"from the first window judged ({first['method']}), so it began before "
+            click.echo(f"  onset at or before {seconds(first['onset_s'])} s: the change was "
+                       f"present from the first window judged ({first['method']}), so it began "
+                       "before "
                        f"the recording or within its burn-in; first alarm "
-                       f"{first['alarm_time_s']:.4g} s")
+                       f"{seconds(first['alarm_time_s'])} s")
         else:
-            click.echo(f"  onset {first['onset_s']:.4g} s, first alarm "
-                       f"{first['alarm_time_s']:.4g} s ({first['method']})")
+            click.echo(f"  onset {seconds(first['onset_s'])} s, first alarm "
+                       f"{seconds(first['alarm_time_s'])} s ({first['method']})")
         for r in sized.to_dict("records"):
             holds = r.get("leak_lpm_interval_holds")
             if r.get("leak_lpm") is not None and r["leak_lpm"] == r["leak_lpm"]:
@@ -783,8 +786,17 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
         if ("leak_lpm" not in sized or sized["leak_lpm"].isna().all()) and not (
                 "leak_lpm_interval_holds" in sized
                 and sized["leak_lpm_interval_holds"].map(lambda v: isinstance(v, str)).any()):
-            click.echo("  leak size: not estimated (no detector here is calibrated on known "
-                       "leaks)")
+            calibrated = [r for r in sized.to_dict("records") if r.get("size_calibrated") is True]
+            for r in calibrated:  # calibrated, yet no size: say why (a user audit, 2026-11-29:
+                # "no detector here is calibrated" was printed for a calibrated one)
+                why = ("the change was there from the first window judged, so no leak-free "
+                       "windows before the onset give the feature's shift" if
+                       r.get("onset_censored") in (True, 1) else
+                       "the feature's shift around the onset is undefined")
+                click.echo(f"  leak size ({r['method']}): not estimated: {why}")
+            if not calibrated:
+                click.echo("  leak size: not estimated (no detector here is calibrated on known "
+                           "leaks)")
         for line in cause_lines(tab):
             click.echo(f"  {line}")
     store_verdicts()

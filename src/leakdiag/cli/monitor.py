@@ -12,6 +12,7 @@ import time
 
 import click
 
+from leakdiag._format import seconds
 from leakdiag.features.spec import MethodSpec
 from leakdiag.cli._features import check_setting_options, spec_from_options
 from leakdiag.cli._monitor_method import MonitorMethod, resolve_method
@@ -364,7 +365,8 @@ def _store_segment(st, actuator: str, source: str, method: str, sv, system,
                        onset_censored=sv.continues_onset_censored)
     tab = pd.DataFrame([row])
     tab.attrs["system"] = system
-    record_verdicts(st, actuator, f"{source} [{sv.start_s:.6g}-{sv.end_s:.6g} s]", tab,
+    span = f"{seconds(sv.start_s, 6)}-{seconds(sv.end_s, 6)} s"
+    record_verdicts(st, actuator, f"{source} [{span}]", tab,
                     command="monitor", config=None if session is None else {"session": session})
 
 
@@ -406,9 +408,10 @@ def _store_session_end(st, actuator: str, source, name: str, system, done, judge
                                  "the error were judged")
     else:
         status, why = "unjudged", (f"monitor --segment stopped by {stopped.name}; the input "
-                                   f"from {since:.6g} s on was not judged")
+                                   f"from {seconds(since, 6)} s on was not judged")
     st.add_finished_runs(actuator, [FinishedRun(
-        "monitor", f"{_stored_source(source.source)} [from {since:.6g} s]", name, status, why,
+        "monitor", f"{_stored_source(source.source)} [from {seconds(since, 6)} s]", name,
+        status, why,
         system=system, config={"method": name, "session": session})])
 
 
@@ -787,10 +790,10 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                             if e.alarm and not alarm_on:
                                 n_alarm += 1
                                 raised.append(i)
-                                say(f"ALARM   t={e.time:.6g} s  {spec.label}  "
+                                say(f"ALARM   t={seconds(e.time, 6)} s  {spec.label}  "
                                     f"value={e.value:.6g}  score={e.score:.6g}")
                             elif alarm_on and e.alarm is False:
-                                say(f"cleared t={e.time:.6g} s  score={e.score:.6g}")
+                                say(f"cleared t={seconds(e.time, 6)} s  score={e.score:.6g}")
                             if e.alarm is not None:
                                 alarm_on = e.alarm
                                 # scored windows only (no burn-in); a defined window costs a
@@ -801,8 +804,9 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                                 elif e.value == e.value and not blind.windows:
                                     blind.judged += 1
                                 elif blind.add(e.time, e.value):
-                                    say(f"BLIND   t={e.time:.6g} s  {spec.label}: undefined for "
-                                        f"{blind.windows * blind.step_s:.3g} s, more than the "
+                                    say(f"BLIND   t={seconds(e.time, 6)} s  {spec.label}: "
+                                        f"undefined for {blind.windows * blind.step_s:.3g} s, "
+                                        "more than the "
                                         f"{blind.limit_s:.3g} s allowed (a stuck sensor?); no "
                                         "alarm is possible until it is defined again")
                         if not n_scored and evs and detector is not None:  # burn-in over?

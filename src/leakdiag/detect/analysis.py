@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from leakdiag._format import seconds
 from leakdiag.detect.blind_rules import blind_limit_s, blind_rule, undefined_limit
 from leakdiag.detect.measure import (Decision, TooFewChunksError, chunk_rms, chunks_in_words,
                                      decide_change, leak_direction, rms_change,
@@ -153,7 +154,8 @@ def _blind_reason(fs, onset, basis, ref) -> str | None:
              else "a judgement without healthy references allows")
     if rule == "span":
         return (f"the feature is undefined for {longest:.3g} s in a row, from "
-                f"{t[first]:.6g} s (a channel it reads is constant there: a stuck sensor?), "
+                f"{seconds(t[first], 6)} s (a channel it reads is constant there: a stuck "
+                "sensor?), "
                 f"longer than the {blind_limit_s(span_s):.3g} s {whose}, so no NO LEAK can "
                 "rest on it")
     return (f"the feature is undefined in {n_bad} of the {len(v)} windows judged (more than "

@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 from sklearn.base import BaseEstimator
 
+from leakdiag._format import seconds
 from leakdiag._validation import check_int, check_number, check_positive
 from leakdiag.detect.cusum import DIRECTIONS, cusum, segmented_cusum
 from leakdiag.detect.blind_rules import blind_limit_s, blind_rule, undefined_limit
@@ -274,8 +275,8 @@ class Verdict:
             head = f"NO LEAK ({self.detector}): "
         else:
             at = "at or before " if self.onset_censored else ""
-            head = (f"LEAK ({self.detector}): alarm at {self.alarm_time_s:.4g} s, onset {at}"
-                    f"{self.onset_s:.4g} s ({self.onset_method}"
+            head = (f"LEAK ({self.detector}): alarm at {seconds(self.alarm_time_s)} s, onset {at}"
+                    f"{seconds(self.onset_s)} s ({self.onset_method}"
                     + (f": {self.onset_bound_words}" if self.onset_censored else "")
                     + "); ")
             if self.leak_lpm is not None:
@@ -861,7 +862,8 @@ class Detector(BaseEstimator):
         blind = self._after_blind_span(tr, j, i_alarm)
         if blind is not None:  # the excursion crossed a blind span: at or before its end
             j, censored = blind[0], True
-            why = (f"the feature was undefined from {blind[1]:.6g} to {blind[2]:.6g} s, longer "
+            why = (f"the feature was undefined from {seconds(blind[1], 6)} to "
+                   f"{seconds(blind[2], 6)} s, longer "
                    "than the healthy recordings allow (a stuck sensor?), and the change was "
                    "there from the first window after it: the leak may have begun inside that "
                    "span or before it")
@@ -923,7 +925,8 @@ class Detector(BaseEstimator):
         if rule == "span":
             raise RecordingError(
                 f"predict: {source}: the feature {tr.name!r} is undefined in {n} consecutive "
-                f"windows from {t0:.6g} to {t1:.6g} s (a channel it reads is constant there, or "
+                f"windows from {seconds(t0, 6)} to {seconds(t1, 6)} s (a channel it reads is "
+                "constant there, or "
                 f"holds one value longer than in the healthy recordings: a stuck sensor?); the "
                 f"healthy recordings had undefined spans of at most {healthy:.3g} s (limit "
                 f"{blind_limit_s(healthy):.3g} s), so no leak can be ruled out over that span "
@@ -933,7 +936,8 @@ class Detector(BaseEstimator):
             f"{len(tr.z)} windows judged (more than {undefined_limit(fraction):.0%}"
             + (f", the healthy recordings had at most {fraction:.0%}" if fraction > 0 else "")
             + f"; the longest span {n} windows from "
-            f"{t0:.6g} to {t1:.6g} s: a channel it reads is constant there, a stuck sensor?), "
+            f"{seconds(t0, 6)} to {seconds(t1, 6)} s: a channel it reads is constant there, a "
+            "stuck sensor?), "
             f"so no NO LEAK can rest on the {len(tr.z) - n_undefined} defined window(s)")
 
     def calibrate(self, recordings, level: float = 0.9, validity: dict | None = None) -> "Detector":

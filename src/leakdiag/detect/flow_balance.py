@@ -19,6 +19,7 @@ from scipy.optimize import nnls
 from scipy.stats import norm
 from threadpoolctl import ThreadpoolController
 
+from leakdiag._format import seconds
 from leakdiag._validation import check_positive
 from leakdiag.detect import _flow_balance_eha as eha
 from leakdiag.detect import _flow_balance_vca as vca
@@ -969,7 +970,8 @@ class FlowBalanceDetector(Detector):
                 at = float(rec.start_time) + (first + i + 1) / rec.sample_rate
                 raise RecordingError(
                     f"{where}: {source}: channel {c!r} steps by {d[i]:.4g} between rows "
-                    f"{first + i} and {first + i + 1} (at {at:.6g} s; {bad.size} such step(s) "
+                    f"{first + i} and {first + i + 1} (at {seconds(at, 6)} s; {bad.size} such "
+                    "step(s) "
                     f"after the burn-in): more than the {limit:.4g} allowed, {STEP_FACTOR:g}x "
                     f"the largest step of the healthy recordings ({self.largest_step_[c]:.4g}), "
                     "faster than the piston moved there: a discontinuity (a stop and restart "
@@ -994,10 +996,10 @@ class FlowBalanceDetector(Detector):
         a, b = int(bad[0]), int(bad[-1])
         raise RecordingError(
             f"{where}: {source}: sensor or model inconsistency from {t['start'][a]:.4g} to "
-            f"{t['end'][b]:.4g} s ({bad.size} window(s)): the leak-free sum of the chamber "
+            f"{seconds(t['end'][b])} s ({bad.size} window(s)): the leak-free sum of the chamber "
             f"balances (Q1 - Q2 = (V1 dP1 + V2 dP2)/beta, which a leak does not enter) is off "
             f"by up to {abs(z[worst]):.3g} healthy spreads ({t['balance'][worst] * 1e9:+.4g} uL "
-            f"in the window {t['start'][worst]:.4g}-{t['end'][worst]:.4g} s), where the "
+            f"in the window {seconds(t['start'][worst])}-{seconds(t['end'][worst])} s), where the "
             f"healthy recordings reached {gate.healthy_max_z:.3g} and {gate.limit:.3g} is "
             f"allowed ({gate.factor:g}x): a transducer offset/gain, a command delay or sign, "
             "or operation the fit did not see; no verdict on a leak")
@@ -1781,7 +1783,7 @@ class FlowBalanceDetector(Detector):
         if censored and j > 0:
             common["onset_why"] = (
                 f"the onset lies within the first {CENSOR_WINDOWS} windows judged (from "
-                f"{float(t['start'][0]):.4g} s), where a leak present from the start is placed "
+                f"{seconds(t['start'][0])} s), where a leak present from the start is placed "
                 "as well, and where a recording of another machine than the one fitted alarms "
                 "(the data cannot tell them apart: state the machine in the file's metadata or "
                 "the map's [file] table; docs/detect.md 8.5)")
@@ -1793,7 +1795,8 @@ class FlowBalanceDetector(Detector):
         if ratio is not None and ratio < MIN_PISTON_VALVE_RATIO:
             raise RecordingError(
                 f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
-                f"{alarm:.4g} s, but after the onset ({onset:.4g} s) the piston moved against "
+                f"{seconds(alarm)} s, but after the onset ({seconds(onset)} s) the piston moved "
+                "against "
                 f"the valve's flow: the piston's volume is {ratio:.2f} times the valve "
                 f"model's (1 on a healthy recording; a leak takes part of the valve's flow, "
                 f"between 0 and 1; below {MIN_PISTON_VALVE_RATIO:g} no leak explains it): the "
@@ -1801,14 +1804,15 @@ class FlowBalanceDetector(Detector):
                 "verdict on a leak")
         end = float(t["end"][-1])
         said = (f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
-                f"{alarm:.4g} s (score {smax:.3g}, level {h:.3g})")
+                f"{seconds(alarm)} s (score {smax:.3g}, level {h:.3g})")
         if k > 0.0 and not interval[0] > 0.0:  # alarmed, but since the onset no evidence
             # (an audit, 2026-11-28: a healthy file with a seam where the position matched, and
             # a healthy CSV resampled from jittered stamps, read LEAK with intervals below 0)
             late = (f"; {end - alarm:.3g} s of data after the alarm, too few to confirm a leak "
                     "that began there" if end - alarm < LATE_ALARM_S else "")
             raise AlarmNotConfirmed(
-                f"{said}, but the leak estimated from the onset ({onset:.4g} s) to the end is "
+                f"{said}, but the leak estimated from the onset ({seconds(onset)} s) to the end "
+                "is "
                 f"not significantly above zero (its interval {interval[0]:.3g} to "
                 f"{interval[1]:.3g} L/min reaches zero){late}: "
                 "the alarm is not a leak that lasts (" + _chance_words(smax, h) + "a seam or "
@@ -1817,7 +1821,8 @@ class FlowBalanceDetector(Detector):
         if not k > 0.0 and censored:  # a leak from the start, fitted into the null offset
             raise AlarmAtStart(
                 f"{said} with its onset within the first {CENSOR_WINDOWS} windows judged (at or "
-                f"before {onset:.4g} s), but the leak coefficient estimated from there to the end "
+                f"before {seconds(onset)} s), but the leak coefficient estimated from there to "
+                "the end "
                 f"is not positive ({k:.3g} +- {se:.2g}): a leak present from the recording's "
                 "start is fitted into the per-recording null offset and gain, so the data "
                 "cannot size it nor tell it from a disturbance at the start ("
@@ -1830,14 +1835,16 @@ class FlowBalanceDetector(Detector):
             # (an audit, 2026-11-29: a 0.5 L/min leak from 25 s alarmed at 28.07 s in the
             # segment 0-30 s, k -2.7e-9 +- 1.8e-10, was "a sensor fault?")
             raise AlarmNotConfirmed(
-                f"{said}, but the leak coefficient estimated from the onset ({onset:.4g} s) to "
+                f"{said}, but the leak coefficient estimated from the onset "
+                f"({seconds(onset)} s) to "
                 f"the end is not positive ({k:.3g} +- {se:.2g}); {end - alarm:.3g} s of data "
                 "after the alarm, too few to confirm a leak that began there ("
                 + _chance_words(smax, h) + "a seam or discontinuity, a sensor fault?); no "
                 "verdict on a leak", alarm, onset)
         if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
             raise RefusedAlarm(
-                f"{said}, but the leak coefficient estimated from the onset ({onset:.4g} s) to "
+                f"{said}, but the leak coefficient estimated from the onset "
+                f"({seconds(onset)} s) to "
                 f"the end is not positive ({k:.3g} +- {se:.2g}): the flow balance does not "
                 "describe this recording well (" + _chance_words(smax, h) + "a sensor fault, "
                 "the channels' units, another machine or operation?); no verdict on a leak",
@@ -1976,7 +1983,8 @@ class FlowBalanceDetector(Detector):
                  f"{_load_words(load)} the model's own size alarmed in as few as "
                  f"{DETECTABLE_MODEL_RUNS[own][0]} of {DETECTABLE_MODEL_RUNS[own][1]} runs)")
         return lpm, start, (
-            f"a step leak of {lpm:.3g} L/min or more from {start:.4g} s (the last {span:.3g} s "
+            f"a step leak of {lpm:.3g} L/min or more from {seconds(start)} s (the last "
+            f"{span:.3g} s "
             f"judged) would have alarmed with probability about {DETECTABLE_POWER:g}: "
             f"{basis}; on 8 virtual machines {hit} of {runs} such leaks alarmed (5 runs "
             "each, so nearer 8 independent trials; docs/detect.md 8.5). The test looks at spans of up to "
@@ -2041,9 +2049,9 @@ class FlowBalanceDetector(Detector):
         between = (f"{c[1] / c[0]:.3g}x that between the two onsets" if c[0] > 0.0 else
                    "not above zero between the two onsets")
         return i2, j2, (
-            f"at {float(t['end'][i]):.4g} s (onset {float(t['start'][j]):.4g} s, score "
+            f"at {seconds(t['end'][i])} s (onset {seconds(t['start'][j])} s, score "
             f"{float(g[i:i2].max()):.3g}) it was not this leak's start: a step of the leak "
-            f"coefficient at {float(t['start'][j2]):.4g} s explains the recording better (Z "
+            f"coefficient at {seconds(t['start'][j2])} s explains the recording better (Z "
             f"{z[j2]:.3g} against {z[j]:.3g} at the earlier onset), and the coefficient from "
             f"there on is {between}")
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from leakdiag._format import seconds
 from leakdiag._holds import holds
 from leakdiag._validation import check_int, check_overlap, check_positive
 from leakdiag.detect._rig_units import check_rig_units
@@ -627,7 +628,7 @@ def ekf_feature(recording, params: EKFParams = EKFParams()) -> FeatureSeries:
         warn_degenerate(int(bad.sum()), len(values), "a measured channel frozen (held one value "
                         "longer than max_hold_s; " + ", ".join(
                             f"{c} from {recording.start_time + i0 / recording.sample_rate:.6g} "
-                            f"to {recording.start_time + i1 / recording.sample_rate:.6g} s"
+                            f"to {seconds(recording.start_time + i1 / recording.sample_rate, 6)} s"
                             for c, i0, i1 in res.frozen) + ")")
     times = window_times(starts, params.window, recording.sample_rate, recording.start_time)
     return FeatureSeries(times, values, f"ekf_{params.feature}",

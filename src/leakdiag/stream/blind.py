@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from collections import deque
 
+from leakdiag._format import seconds
 from leakdiag.detect.blind_rules import blind_limit_s, blind_rule, undefined_limit
 
 __all__ = ["BlindSpans", "MAX_ENDED"]
@@ -212,7 +213,8 @@ class BlindSpans:
                     f"recordings had at most {self.healthy_fraction:.0%}")
             return (f"{source}: the feature {label!r} was undefined in {self.undefined} of the "
                     f"{self.judged} windows judged ({more}; the longest span {n} windows "
-                    f"from {t0 - self.window_span_s:.6g} to {t1:.6g} s: a channel it reads is "
+                    f"from {seconds(t0 - self.window_span_s, 6)} to {seconds(t1, 6)} s: a "
+                    "channel it reads is "
                     "constant there, a "
                     f"stuck sensor?), so the absence of an alarm rules nothing out: it rests on "
                     f"{self.judged - self.undefined} defined window(s)")

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from leakdiag._format import seconds
 from leakdiag.detect.base import TooShortToJudge
 from leakdiag.detect.decision import judge_run
 from leakdiag.detect.flow_balance import AlarmAtStart, AlarmNotConfirmed, RefusedAlarm
@@ -151,7 +152,7 @@ class SegmentVerdict:
         -------
         str
         """
-        span = f"{self.start_s:.6g}-{self.end_s:.6g} s"
+        span = f"{seconds(self.start_s, 6)}-{seconds(self.end_s, 6)} s"
         v = self.verdict
         if v is None:
             return f"{self.decision:<10} {span}: {self.reason}"
@@ -159,14 +160,15 @@ class SegmentVerdict:
             seen = getattr(v, "detectable_lpm", None)
             since = getattr(v, "detectable_from_s", None)
             return (f"NO LEAK    {span}: score max {v.score_max:.3g} against {v.threshold:.3g}"
-                    + (f"; a step leak of {seen:.3g} L/min or more from {since:.6g} s would "
+                    + (f"; a step leak of {seen:.3g} L/min or more from "
+                       f"{seconds(since, 6)} s would "
                        "have alarmed (probability about 0.9)" if seen is not None else ""))
         at = "at or before " if v.onset_censored else ""
         if self.continues_from_onset_s is not None:  # present when the segment began
             size = "" if v.leak_lpm is None else f", {v.leak_lpm:.3g} L/min in this segment"
             bound = "at or before " if self.continues_onset_censored else ""
             return (f"LEAK       {span}: the leak continues (found with onset {bound}"
-                    f"{self.continues_from_onset_s:.6g} s){size}")
+                    f"{seconds(self.continues_from_onset_s, 6)} s){size}")
         size = ""
         if v.leak_lpm is not None:
             size = f", {v.leak_lpm:.3g} L/min"
@@ -175,11 +177,12 @@ class SegmentVerdict:
         elif isinstance(getattr(v, "leak_lpm_interval_holds", None), str):
             size = f"; {v.leak_lpm_interval_holds}"  # why no size (a censored onset, ...)
         before = ("" if self.unconfirmed_alarm_s is None else
-                  f"; the segment before alarmed at {self.unconfirmed_alarm_s:.6g} s (onset "
-                  f"{self.unconfirmed_onset_s:.6g} s) with too little data after it to confirm "
+                  f"; the segment before alarmed at {seconds(self.unconfirmed_alarm_s, 6)} s "
+                  f"(onset {seconds(self.unconfirmed_onset_s, 6)} s) with too little data after "
+                  "it to confirm "
                   "a leak: the leak may have begun there")
-        return (f"LEAK       {span}: alarm at {v.alarm_time_s:.6g} s, onset {at}"
-                f"{v.onset_s:.6g} s{size}{before}")
+        return (f"LEAK       {span}: alarm at {seconds(v.alarm_time_s, 6)} s, onset {at}"
+                f"{seconds(v.onset_s, 6)} s{size}{before}")
 
 
 class SegmentJudge:
