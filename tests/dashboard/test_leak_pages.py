@@ -25,3 +25,18 @@ def test_fleet_and_history_show_the_interval_and_the_extrapolation(tmp_path):
     finally:
         c.srv.stop()
         st.close()
+
+
+def test_fleet_page_times_on_a_clock_axis_keep_the_tenth_of_a_second(tmp_path):
+    # a recording timed in Unix seconds: ".6g" printed both instants as 1.79596e+09 s
+    st = EventStore(tmp_path / "e.db")
+    run = st.start_run("rig1", command="detect", source="a.parquet", feature="acf")
+    st.add_chunk(run, None, [AlarmRecord(1795960063.279, onset_s=1795960057.8595)])
+    st.end_run(run)
+    c = Client(make_app(store=st))
+    try:
+        row = c.get("/").text.split('<tr data-actuator="rig1">')[1].split("</tr>")[0]
+        assert "(t=1795960063.3 s)" in row and "1795960057.9 s" in row and "e+09" not in row
+    finally:
+        c.srv.stop()
+        st.close()

@@ -45,6 +45,7 @@ from starlette.responses import (
 )
 from starlette.routing import Route
 
+from leakdiag._format import seconds
 from leakdiag.dashboard.live import LiveBoard
 from leakdiag.dashboard.server import url_segment as _seg
 from leakdiag.store import StoreError
@@ -307,9 +308,11 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                     if r.get("leak_extrapolated"):
                         leak += " (extrapolated: outside the calibrated range)"
                 last = "–" if r["last_alarm_at"] is None else (
-                    f'{r["last_alarm_at"][:19].replace("T", " ")} (t={r["last_alarm_time_s"]:.6g} s)')
+                    f'{r["last_alarm_at"][:19].replace("T", " ")} '
+                    f'(t={seconds(r["last_alarm_time_s"], 6)} s)')
                 onset = "–" if r["onset_s"] is None else (
-                    ("at or before " if r.get("onset_censored") else "") + f'{r["onset_s"]:.6g} s')
+                    ("at or before " if r.get("onset_censored") else "")
+                    + f'{seconds(r["onset_s"], 6)} s')
                 why = r.get("error") or ""
                 note = (f'<td class="note" title="{html.escape(why)}">'
                         f'{html.escape(why if len(why) <= 160 else why[:157] + "...")}</td>')
