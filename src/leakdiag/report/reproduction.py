@@ -385,7 +385,7 @@ def _summary(rep, r: Report) -> None:
         f"time). Every feature, measure, table and comparison below was computed in this run "
         f"from these recordings of leakdiag's simulators; the thesis's numbers come from "
         f"physical test rigs." + _code_sentence(rep.timing.get("code")))
-    short = _short_runs(rep.config, rep.systems)
+    short = _short_runs(rep.config, list(dict.fromkeys(t["system"].astype(str).str.lower())))
     if short:
         r.paragraph(
             f"**A --quick run**: its case-study runs are shorter than the thesis's ("
