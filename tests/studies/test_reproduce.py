@@ -377,3 +377,21 @@ def test_a_quick_report_says_its_runs_are_shorter_than_the_thesiss(quick_run):
         assert f"## {s.upper()}: thesis tables reproduced (--quick: {short[s]})" in md
     assert md.count("s run (shorter than the thesis's") == (16 if "vca" in SYSTEMS else 0) + (
         16 if "eha" in SYSTEMS else 0)
+
+
+def test_the_report_rebuilt_from_saved_results_is_the_runs(quick_run, tmp_path, capsys):
+    """`leakdiag reproduce --from-results PKL --out DIR` writes the run's own report again,
+    without simulating (an audit, 2026-11-29: no command read --save-results)."""
+    out, _, pkl = quick_run
+    again = tmp_path / "again"
+    assert main(["reproduce", "--from-results", str(pkl), "--out", str(again)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("rebuilt the report of `leakdiag reproduce") and \
+        lines[0].endswith(f"` from {pkl}")
+    for f in ("tables.csv", "sensitivity.csv", "preferred.csv", "report.md"):
+        assert (again / f).read_bytes() == (out / f).read_bytes(), f
+    assert sorted(p.name for p in (again / "figures").iterdir()) == \
+        sorted(p.name for p in (out / "figures").iterdir())
+    code = main(["reproduce", "eha" if WHICH == "vca" else "vca", "--from-results", str(pkl),
+                 "--out", str(again)])
+    assert code == 2 and "give its system or none" in capsys.readouterr().err

@@ -14,8 +14,10 @@ from leakdiag.cli._options import (check_workers, prepare_out_file, scheduler_op
 __all__ = ["reproduce"]
 
 
-@click.command(epilog="Example: leakdiag reproduce vca --quick --scheduler serial -o repro/")
-@click.argument("system", type=click.Choice(["vca", "eha", "all"]))
+@click.command(epilog="\b\nExample: leakdiag reproduce vca --quick --scheduler serial -o repro/\n"
+                      "Its report again from --save-results r.pkl:\n"
+                      "         leakdiag reproduce --from-results r.pkl -o repro/")
+@click.argument("system", type=click.Choice(["vca", "eha", "all"]), required=False)
 @click.option("--quick", is_flag=True,
               help="Short version (VCA 60 s, EHA 40 s, fewer leak sizes and seeds) for CI.")
 @click.option("--out", "-o", type=click.Path(file_okay=False), default="reproduction",
@@ -40,12 +42,22 @@ __all__ = ["reproduce"]
                    "(checked before the run).")
 @click.option("--no-progress", is_flag=True, help="Hide progress bars.")
 @click.option("--save-results", type=click.Path(dir_okay=False), default=None,
-              help="Also pickle the computed results (to rebuild the report of this run); "
-                   "checked before the run, written before the report.")
+              help="Also pickle the computed results (to rebuild the report of this run with "
+                   "--from-results); checked before the run, written before the report.")
+@click.option("--from-results", type=click.Path(dir_okay=False, exists=True), default=None,
+              help="Rebuild the report (tables, figures, pages) of a run saved with "
+                   "--save-results into --out, without simulating; SYSTEM may be left out. "
+                   "Only for files you trust: loading a pickle can run code.")
 def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol, previous,
-              no_progress, save_results):
+              no_progress, save_results, from_results):
     """Reproduce the thesis's case studies, tables, sensitivity and stationarity analysis."""
     import time
+
+    if from_results:
+        return _rebuild(system, from_results, out, previous)
+    if system is None:
+        raise click.UsageError("Missing argument 'SYSTEM' (vca, eha or all), or give "
+                               "--from-results PKL to rebuild a saved run's report.")
 
     from leakdiag.studies.protocol import protocol_config
     from leakdiag.studies.reproduce import read_previous
@@ -64,6 +76,7 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol
             previous = read_previous(previous, systems)
         except ValueError as exc:
             raise ValueError(f"--previous {exc}") from None
+        _warn_settings(previous, cfg, systems)
     prepare_cache_dir(cache_dir, "--cache-dir")
     check_out_dir(out)  # and every file and folder the report writes in it
     if save_results:
@@ -93,6 +106,86 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol
                    + ", ".join(p.name for p in removed[:3]) + (", ..." if len(removed) > 3
                                                                 else ""))
     click.echo(f"total {time.perf_counter() - t0:.0f} s (report included)")
+
+
+#: Options that configure a new run, refused with ``--from-results`` (the saved run's are used).
+_RUN_OPTIONS = ("quick", "scheduler", "workers", "cache_dir", "chunk", "protocol",
+                "save_results")
+
+
+def _load_results(path):
+    """The ``(Reproduction, command)`` pickled by ``--save-results``, checked."""
+    import pickle
+
+    from leakdiag.studies.reproduce import Reproduction
+
+    try:
+        with open(path, "rb") as fh:
+            obj = pickle.load(fh)
+    except (pickle.UnpicklingError, EOFError, AttributeError, ImportError, IndexError,
+            ValueError, TypeError) as exc:
+        raise ValueError(f"--from-results {path}: cannot read it as results saved by "
+                         f"--save-results ({type(exc).__name__}: {exc})") from None
+    if not (isinstance(obj, tuple) and len(obj) == 2 and isinstance(obj[0], Reproduction)
+            and isinstance(obj[1], str)):
+        raise ValueError(f"--from-results {path}: not results saved by leakdiag reproduce "
+                         f"--save-results (it holds a {type(obj).__name__})")
+    return obj
+
+
+def _rebuild(system, path, out, previous) -> None:
+    """``--from-results``: the report of a saved run, written as the run would have."""
+    from click.core import ParameterSource
+
+    from leakdiag.report.reproduction import check_out_dir, write_outputs
+    from leakdiag.studies.reproduce import read_previous
+
+    ctx = click.get_current_context()
+    given = [f"--{p.replace('_', '-')}" for p in _RUN_OPTIONS
+             if ctx.get_parameter_source(p) == ParameterSource.COMMANDLINE]
+    if given:
+        raise click.UsageError(f"{', '.join(given)}: for a new run; --from-results rebuilds "
+                               "the report of a saved one, with its settings: drop "
+                               f"{'it' if len(given) == 1 else 'them'}")
+    rep, command = _load_results(path)
+    if system is not None:
+        want = ("vca", "eha") if system == "all" else (system,)
+        if tuple(want) != tuple(rep.systems):
+            raise ValueError(f"--from-results {path}: the saved run is of "
+                             f"{'+'.join(rep.systems).upper()}, not {system.upper()}: give "
+                             "its system or none")
+    if previous:
+        try:
+            rep.previous = read_previous(previous, rep.systems)
+        except ValueError as exc:
+            raise ValueError(f"--previous {exc}") from None
+        _warn_settings(rep.previous, rep.config, rep.systems)
+    check_out_dir(out)
+    paths = write_outputs(rep, out, command=command)
+    click.echo(f"rebuilt the report of `{command}` from {path}")
+    click.echo("wrote " + ", ".join(str(p) for k, p in paths.items()
+                                    if k not in ("figures", "removed")))
+
+
+def _warn_settings(previous, cfg, systems) -> None:
+    """Say before the run when the ``--previous`` run was made with other settings (or does not
+    record them): its comparison would mix those changes with the code's."""
+    import pandas as pd
+
+    from leakdiag.studies.reproduce import (experiment_settings, setting_differences,
+                                            unrecorded_settings)
+
+    new = pd.DataFrame([{"system": s.upper(), "chunk": cfg.chunk,
+                         **experiment_settings(cfg, s)} for s in systems])
+    diff = setting_differences(new, previous)
+    if diff:
+        click.echo("leakdiag: warning: the --previous run was made with other settings, so the "
+                   "comparison is not of the code alone: " + "; ".join(diff), err=True)
+    missing = unrecorded_settings(previous)
+    if missing:
+        click.echo(f"leakdiag: warning: the --previous tables.csv has no {', '.join(missing)} "
+                   "(an older run): its settings could not be compared with this run's",
+                   err=True)
 
 
 def _save(path, obj) -> None:
