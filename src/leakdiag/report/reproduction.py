@@ -275,8 +275,11 @@ def _table_title(g, cfg) -> str:
     >>> g = pd.DataFrame({"table": "5-4", "system": "VCA", "case_study": 2, "leak_lpm": 0.047,
     ...                   "method": "autocorrelation", "signals": ["P1", "P2"],
     ...                   "varied": "signal", "lag": "1", "window": 200, "overlap_pct": 5.0})
-    >>> print(_table_title(g, THESIS))
-    Table 5-4: VCA case study 2, autocorrelation of P1 and of P2 (one row each); lag 1, window 200, overlap 5 % held fixed; leak 0.047 L/min, leak at 200 s of a 400 s run, load 'none'
+    >>> import textwrap
+    >>> print(textwrap.fill(_table_title(g, THESIS), 88))
+    Table 5-4: VCA case study 2, autocorrelation of P1 and of P2 (one row each); lag 1,
+    window 200, overlap 5 % held fixed; leak 0.047 L/min, leak at 200 s of a 400 s run, load
+    'none'
     """
     r = g.iloc[0]
     v = r["varied"]
@@ -626,8 +629,11 @@ def _direction_lines(by_load) -> list[str]:
     ...                   "load": ["none", "spring"], "n_runs": 10, "n_falling": [10, 0],
     ...                   "n_rising": [0, 10], "min_pct_signed": [-15.2, 1.5],
     ...                   "max_pct_signed": [-5.1, 4.2], "direction": ["falls", "rises"]})
-    >>> print(_direction_lines(b)[0])
-    EHA cross-correlation p1,p2: the leak's effect on the feature reverses between loads: load 'none' 10 of 10 runs fall, 0 rise (-15.2 to -5.1 %); load 'spring' 0 of 10 runs fall, 10 rise (+1.5 to +4.2 %). The pooled |% change| range hides this.
+    >>> import textwrap
+    >>> print(textwrap.fill(_direction_lines(b)[0], 88))
+    EHA cross-correlation p1,p2: the leak's effect on the feature reverses between loads:
+    load 'none' 10 of 10 runs fall, 0 rise (-15.2 to -5.1 %); load 'spring' 0 of 10 runs
+    fall, 10 rise (+1.5 to +4.2 %). The pooled |% change| range hides this.
     """
     out, same = [], []
     for (system, method, chans), g in by_load.groupby(["system", "method", "channels"],
@@ -719,8 +725,11 @@ def _stationarity_verdict_lines(stationarity) -> list[str]:
     ...                       "part": ["whole", "before leak"] * 2,
     ...                       "verdict": ["stationary", "stationary", "non-stationary",
     ...                                   "trend/difference stationary?"]})
-    >>> print(_stationarity_verdict_lines({"eha": {"tests": tests}})[1])
-    Ours (ADF and KPSS at 5 %, each signal over the whole run and before the leak): 'stationary' in 2 of 4 tests (EHA 2 of 4), so ours disagrees with the thesis in 2: EHA x whole (non-stationary), EHA x before leak (trend/difference stationary?).
+    >>> import textwrap
+    >>> print(textwrap.fill(_stationarity_verdict_lines({"eha": {"tests": tests}})[1], 88))
+    Ours (ADF and KPSS at 5 %, each signal over the whole run and before the leak):
+    'stationary' in 2 of 4 tests (EHA 2 of 4), so ours disagrees with the thesis in 2: EHA x
+    whole (non-stationary), EHA x before leak (trend/difference stationary?).
     """
     rows = [(system, t) for system, st in stationarity.items()
             for t in st["tests"].itertuples()]

@@ -379,8 +379,9 @@ def sensitivity_by_load(sens):
     Returns
     -------
     pandas.DataFrame
-        One row per (system, method, channels, load), the loads of a method together: ``n_runs`` (runs
-        with a measure), ``n_falling``, ``n_rising`` (signed % change below, above 0),
+        One row per (system, method, channels, load), the loads of a method together:
+        ``n_runs`` (runs with a measure), ``n_falling``, ``n_rising`` (signed % change below,
+        above 0),
         ``min_pct_signed``, ``max_pct_signed`` (%), ``direction`` (``"falls"``, ``"rises"``,
         ``"mixed"``, or ``""`` without a measure) and ``rho_pct_vs_leak`` (Spearman rank
         correlation of |% change| with the leak size, averaged over the durations).
