@@ -297,3 +297,29 @@ def test_a_monitor_that_fails_stores_why(leak_case, tmp_path):
     fl = st.fleet()
     assert fl["state"].tolist() == ["FAILED"] and fl["error"].iloc[0].endswith(why)
     st.close()
+
+
+def test_monitor_refuses_a_taken_dashboard_port_and_stores_nothing(leak_case, tmp_path,
+                                                                   run_cli):
+    """User audit (2026-11-29): ``--dashboard PORT`` with PORT in use stored a FAILED run ("the
+    page or store sidecar did not start: dashboard could not listen..."), so the fleet read
+    FAILED for a healthy actuator. The port is refused before the run starts: exit 2, the
+    address named, no run in the store."""
+    import socket
+
+    db = tmp_path / "ev.db"
+    EventStore(db).close()  # an existing store: the refusal must leave it without a run
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        code, out, err = run_cli(["monitor", "-i", str(leak_case["recording"]), "--detector",
+                                  str(leak_case["detector_path"]), "--store", str(db),
+                                  "--dashboard", f"127.0.0.1:{port}"])
+    assert code == 2, err
+    assert sqlite3.connect(db).execute("select count(*) from runs").fetchone() == (0,)
+    st = EventStore(db)
+    assert st.fleet().empty and "rig7" not in st.actuator_names()
+    st.close()
+    assert f"leakdiag: error: --dashboard 127.0.0.1:{port}: the page cannot listen there" in err
+    assert "nothing was run or stored" in err and "dashboard: http" not in out + err

@@ -72,7 +72,8 @@ class MonitorHooks:
     leakdiag.store.StoreError
         If the store cannot be opened, or the sidecar cannot start.
     OSError
-        If the page cannot listen on ``bind``.
+        If the page cannot listen on ``bind`` (a port in use: refused before the store is
+        opened, so no run is stored; :func:`~leakdiag.dashboard.server.check_can_listen`).
     """
 
     def __init__(self, actuator: str, spec: Any, monitor: Any, source: str, sample_rate: float,
@@ -84,6 +85,10 @@ class MonitorHooks:
         self.monitor = monitor
         self.store = self.run_id = None
         self._closed = False
+        if bind is not None:  # a taken port refused before the run is stored (failed)
+            from leakdiag.dashboard.server import check_can_listen
+
+            check_can_listen(bind)
         if store is not None:
             from leakdiag.store import EventStore
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from urllib.parse import quote
 
 __all__ = ["Bind", "parse_bind", "DashboardServer", "LOCALHOST", "stop_on_sigterm", "url_segment",
-           "page_path"]
+           "page_path", "check_can_listen"]
 
 LOCALHOST = "127.0.0.1"
 
@@ -95,6 +95,60 @@ def parse_bind(text: str, allow_remote: bool = False, token: str | None = None) 
             raise ValueError(f"--dashboard {text} binds an address other machines can reach; "
                              f"add {need}")
     return b
+
+
+def check_can_listen(bind: Bind) -> None:
+    """Refuse an address the dashboard could not listen on (a port in use), before any work.
+
+    Binds (and closes at once) a socket to every address of ``bind.host`` as uvicorn's
+    server does (``SO_REUSEADDR``, IPv6 sockets IPv6-only), so that ``leakdiag monitor
+    --dashboard`` stops before its run is registered in the store: a port taken by another
+    program said nothing about the actuator, yet the run was stored as failed. Port 0 (any
+    free port) is not checked. Another program can still take the port between this check and
+    the server's start (the sidecar then fails as before).
+
+    Parameters
+    ----------
+    bind : Bind
+        The ``--dashboard`` address.
+
+    Raises
+    ------
+    OSError
+        Naming the address and the system's reason (e.g. ``Address already in use``).
+
+    Examples
+    --------
+    >>> import socket
+    >>> s = socket.socket()
+    >>> s.bind(("127.0.0.1", 0)); s.listen()
+    >>> port = s.getsockname()[1]
+    >>> try:
+    ...     check_can_listen(Bind("127.0.0.1", port))
+    ... except OSError as exc:
+    ...     print(str(exc).replace(str(port), "PORT").split(" (")[0])
+    --dashboard 127.0.0.1:PORT: the page cannot listen there
+    >>> s.close()
+    """
+    import socket
+
+    if bind.port == 0:
+        return
+    where = f"[{bind.host}]:{bind.port}" if ":" in bind.host else f"{bind.host}:{bind.port}"
+    try:
+        infos = socket.getaddrinfo(bind.host, bind.port, socket.AF_UNSPEC, socket.SOCK_STREAM,
+                                   0, socket.AI_PASSIVE)
+        for family, kind, proto, _, addr in infos:
+            with socket.socket(family, kind, proto) as s:
+                s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+                if family == socket.AF_INET6 and hasattr(socket, "IPPROTO_IPV6"):
+                    s.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
+                s.bind(addr)
+    except OSError as exc:
+        why = exc.strerror or str(exc)
+        raise OSError(f"--dashboard {where}: the page cannot listen there ({why}: another "
+                      "program, e.g. a dashboard or monitor still running, may use the port); "
+                      "nothing was run or stored: choose another port (0: any free one)") from None
 
 
 def url_segment(name: str) -> str:
