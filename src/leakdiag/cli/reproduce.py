@@ -37,6 +37,10 @@ __all__ = ["reproduce"]
               help="thesis: case studies as Sec. 5.1 states them (VCA 1-2 without load, stated "
                    "step amplitudes, the rigs' sensor chains); v1: the earlier setup (spring "
                    "load, 2-20 mm, default sensors), for side-by-side comparison.")
+@click.option("--table-seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Seed of the case-study runs (one simulated run per table row). A trend "
+                   "verdict whose |% change| varies little along its setting can change with "
+                   "it: rerun with other seeds to see which (docs/reproduction/README.md).")
 @click.option("--previous", type=click.Path(dir_okay=False, exists=True), default=None,
               help="tables.csv of an earlier run: the report adds a per-table comparison "
                    "(checked before the run).")
@@ -48,8 +52,8 @@ __all__ = ["reproduce"]
               help="Rebuild the report (tables, figures, pages) of a run saved with "
                    "--save-results into --out, without simulating; SYSTEM may be left out. "
                    "Only for files you trust: loading a pickle can run code.")
-def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol, previous,
-              no_progress, save_results, from_results):
+def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol, table_seed,
+              previous, no_progress, save_results, from_results):
     """Reproduce the thesis's case studies, tables, sensitivity and stationarity analysis."""
     import time
 
@@ -70,7 +74,8 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol
     systems = ("vca", "eha") if system == "all" else (system,)
     # every option and path is checked before the run: nothing fails after the long work
     check_workers(scheduler, workers)
-    cfg = dataclasses.replace(protocol_config(protocol, quick), cache_dir=cache_dir, chunk=chunk)
+    cfg = dataclasses.replace(protocol_config(protocol, quick), cache_dir=cache_dir, chunk=chunk,
+                              table_seed=table_seed)
     if previous:
         try:
             previous = read_previous(previous, systems)
@@ -86,7 +91,8 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol
     command = "leakdiag " + " ".join(shlex.quote(a) for a in sys.argv[1:]) \
         if sys.argv and sys.argv[0].endswith("leakdiag") else f"leakdiag reproduce {system}" + (
             " --quick" if quick else "") + (f" --protocol {protocol}" if protocol != "thesis"
-                                             else "")
+                                             else "") + (f" --table-seed {table_seed}"
+                                                         if table_seed else "")
     if save_results:
         _save(save_results, (rep, command))
     if not no_progress:  # the figures and pages take tens of seconds after the bar's 100 %
@@ -110,7 +116,7 @@ def reproduce(system, quick, out, scheduler, workers, cache_dir, chunk, protocol
 
 #: Options that configure a new run, refused with ``--from-results`` (the saved run's are used).
 _RUN_OPTIONS = ("quick", "scheduler", "workers", "cache_dir", "chunk", "protocol",
-                "save_results")
+                "table_seed", "save_results")
 
 
 def _load_results(path):

@@ -401,8 +401,13 @@ def _summary(rep, r: Report) -> None:
              f"{agree} of {n} table rows ("
              + ", ".join(f"{s}: {int(v['sum'])}/{int(v['count'])}" for s, v in by_sys.iterrows())
              + ")."]
+    seed = getattr(getattr(rep, "config", None), "table_seed", None)
     items.append(f"Trend of |% change| along the varied parameter agrees in {agree_tr} of "
-                 f"{n_tr} sweep tables.")
+                 f"{n_tr} sweep tables. Each row is one simulated run"
+                 + (f" (table seed {seed})" if seed is not None else "")
+                 + ": a trend whose |% change| varies little along its setting can change with "
+                 "the seed, the direction of a row rarely (rerun with `--table-seed` to see "
+                 "which).")
     for s, g in t.groupby("system", sort=False):
         items.append(f"Magnitude ({s}): median |% change| {np.nanmedian(g['pct_change']):.3g} % "
                      f"in ours against {np.nanmedian(g['thesis_pct_change']):.3g} % in the "
