@@ -8,7 +8,8 @@ Routes (all ``GET``; any other method gets 405):
   ``refresh_hz`` per second, :data:`REPLAY_HZ` while a replay runs faster than real time, only
   when something changed) or ``/api/live/{name}`` (one JSON).
 * ``/history/{name}`` feature summaries over all runs, alarms marked (data: ``/api/history``,
-  at most :data:`HISTORY_POINTS` points: longer histories merged in blocks of chunks).
+  at most :data:`HISTORY_POINTS` points and line breaks: longer histories merged in blocks of
+  chunks, and of whole runs when runs outnumber the points; :mod:`leakdiag.dashboard.history`).
 * ``/api/fleet`` the overview as JSON; ``/static/...`` the page scripts and Plotly's
   ``plotly.min.js`` served from the installed ``plotly`` package (no CDN, works offline).
 
@@ -46,6 +47,7 @@ from starlette.responses import (
 from starlette.routing import Route
 
 from leakdiag._format import seconds
+from leakdiag.dashboard.history import history_points
 from leakdiag.dashboard.live import LiveBoard
 from leakdiag.dashboard.server import url_segment as _seg
 from leakdiag.store import StoreError
@@ -53,8 +55,9 @@ from leakdiag.store import StoreError
 __all__ = ["make_app", "plotly_js_path"]
 
 STATIC = Path(__file__).with_name("static")
-#: Most points of a history plot: longer histories are merged in blocks of consecutive chunks
-#: (:func:`leakdiag.store.merge_summaries`; a day of 1-s chunks is 86,400 rows).
+#: Most rows of a history plot, points and line breaks together: longer histories are merged
+#: in blocks of consecutive chunks (:func:`leakdiag.dashboard.history.history_points`; a day of
+#: 1-s chunks is 86,400 rows).
 HISTORY_POINTS = 2000
 #: Runs listed on a history page (newest first; the API says how many there are in all).
 HISTORY_RUNS = 200
@@ -89,82 +92,6 @@ def plotly_js_path() -> Path:
     if not p.is_file():
         raise FileNotFoundError(f"plotly.min.js not found at {p}")
     return p
-
-
-#: A gap inside a run longer than this many of its median intervals between points (and
-#: than :data:`GAP_MIN_S`) breaks the history line: no data were recorded there.
-GAP_INTERVALS = 5.0
-#: Smallest gap (s) that breaks the line (chunks handed over within this are drawn joined).
-GAP_MIN_S = 2.0
-
-
-def history_points(summ, max_points: int):
-    """The points of a history plot: each feature's chunk summaries merged run by run.
-
-    Each run's summaries are merged on their own (:func:`leakdiag.store.merge_summaries`,
-    blocks of the same number of chunks across the feature's runs, so that all together make
-    about ``max_points / number of features`` points), so no point mixes two runs. The runs
-    follow one another (by their first chunk), a row of nulls between two (Plotly breaks a
-    line there), and a run is broken likewise where its points are further apart than
-    :data:`GAP_INTERVALS` median intervals and :data:`GAP_MIN_S`. So two monitors of one
-    actuator at once are two lines, not one zig-zagging between them, and no line bridges
-    days without data.
-
-    Parameters
-    ----------
-    summ : pandas.DataFrame
-        :meth:`leakdiag.store.EventStore.history` summaries (with ``run_id`` and ``feature``).
-    max_points : int
-        About the largest number of points (plus one per run).
-
-    Returns
-    -------
-    points : pandas.DataFrame
-        :func:`~leakdiag.store.merge_summaries` columns plus ``feature`` and ``run_id``; the
-        break rows have only ``recorded_at``, ``feature`` and ``run_id`` (``n_chunks`` null).
-    features : list of str
-        The features, in order of their first chunk.
-
-    Examples
-    --------
-    >>> import pandas as pd
-    >>> s = pd.DataFrame({"recorded_at": pd.to_datetime([0, 1, 2, 3, 5, 7, 3600], unit="s"),
-    ...     "t_start_s": 0.0, "t_end_s": 1.0, "n_windows": 2, "n_degenerate": 0,
-    ...     "value_mean": [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0], "value_min": 0.0,
-    ...     "value_max": 9.0, "score_max": None, "alarm": None, "source": "a",
-    ...     "feature": "f", "run_id": [1, 2, 1, 2, 2, 2, 2]})
-    >>> p, _ = history_points(s, 100)
-    >>> p["value_mean"].tolist()  # run 1; break; run 2, broken across the hour's gap
-    [1.0, 3.0, nan, 2.0, 4.0, 5.0, 6.0, nan, 7.0]
-    """
-    import numpy as np
-    import pandas as pd
-
-    from leakdiag.store import merge_summaries
-
-    feats = list(dict.fromkeys(summ["feature"].tolist()))
-    budget = max(1, max_points // max(len(feats), 1))
-    parts = []
-    for f in feats:
-        fs = summ[summ["feature"] == f]
-        k = max(1, -(-len(fs) // budget))  # chunks per point, the same for every run
-        first = True
-        for rid, rs in fs.groupby("run_id", sort=False):
-            m = merge_summaries(rs.reset_index(drop=True), max(1, -(-len(rs) // k)))
-            at = pd.to_datetime(pd.Series(m["recorded_at"]), utc=True)
-            d = at.diff().dt.total_seconds().to_numpy()[1:]
-            med = float(np.median(d)) if len(d) else 0.0
-            gap = np.flatnonzero(d > max(GAP_INTERVALS * med, GAP_MIN_S)) + 1
-            edges = [0, *gap.tolist(), len(m)]
-            for i0, i1 in zip(edges[:-1], edges[1:]):
-                if not first:  # a null row between two stretches of line
-                    parts.append(pd.DataFrame({"recorded_at": [m["recorded_at"].iloc[i0]],
-                                               "feature": [f], "run_id": [rid]}))
-                parts.append(m.iloc[i0:i1].assign(feature=f, run_id=rid))
-                first = False
-    if not parts:
-        return merge_summaries(summ, max_points).assign(feature=None, run_id=None), feats
-    return pd.concat(parts, ignore_index=True), feats
 
 
 def _clean(v: Any) -> Any:
@@ -415,13 +342,21 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
         # one series per feature (the runs of an actuator may monitor several: batch analyses,
         # detect's methods), merged run by run so that no point mixes two features or two
         # runs; each run is its own stretch of line: a null row ends it, and one breaks it
-        # across a gap (history_points)
-        summ, feats = history_points(summ, HISTORY_POINTS)
+        # across a gap (history_points); with more runs than that fits in HISTORY_POINTS,
+        # whole runs are merged and drawn as one line (runs_joined, runs_per_point)
+        summ, feats = await anyio.to_thread.run_sync(history_points, summ, HISTORY_POINTS)
         cols = ["recorded_at", "t_start_s", "t_end_s", "n_chunks", "value_mean", "value_min",
                 "value_max", "score_max", "alarm", "source", "feature"]
+        pts = summ["n_chunks"].notna().to_numpy()
+        rid, ft = summ["run_id"].to_numpy(), summ["feature"].to_numpy()
+        per_run = int(summ["n_runs"].max()) if pts.any() else 1
         out = {"summaries": {c: [_clean(v) for v in summ[c].tolist()] for c in cols},
                "features": feats, "n_chunks": n_rows,
                "chunks_per_point": int(summ["n_chunks"].max()) if len(summ) and n_rows else 1,
+               # two runs' points one after the other without a null row between them
+               "runs_joined": per_run > 1 or bool((pts[1:] & pts[:-1] & (rid[1:] != rid[:-1])
+                                                   & (ft[1:] == ft[:-1])).any()),
+               "runs_per_point": per_run,
                "alarms": [{k: _clean(v) for k, v in r.items()} for r in al.to_dict("records")],
                "runs": [{k: _clean(v) for k, v in r.items()}
                         for r in runs.head(HISTORY_RUNS).to_dict("records")],

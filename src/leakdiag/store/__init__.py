@@ -6,9 +6,10 @@ PostgreSQL). ``leakdiag monitor``, ``batch`` and ``detect`` write to it with ``-
 """
 
 from leakdiag.store.schema import SCHEMA_VERSION
-from leakdiag.store.summary import (AlarmRecord, ChunkSummary, FinishedRun, merge_summaries,
-                                   summarize_chunks, summarize_windows)
+from leakdiag.store.summary import (AlarmRecord, ChunkSummary, FinishedRun, merge_blocks,
+                                   merge_summaries, summarize_chunks, summarize_windows)
 from leakdiag.store.database import EventStore, StoreError, store_url
 
 __all__ = ["SCHEMA_VERSION", "EventStore", "StoreError", "store_url", "ChunkSummary",
-           "AlarmRecord", "FinishedRun", "summarize_windows", "summarize_chunks", "merge_summaries"]
+           "AlarmRecord", "FinishedRun", "summarize_windows", "summarize_chunks", "merge_summaries",
+           "merge_blocks"]

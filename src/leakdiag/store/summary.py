@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["ChunkSummary", "AlarmRecord", "FinishedRun", "summarize_windows", "summarize_chunks",
-           "merge_summaries"]
+           "merge_summaries", "merge_blocks"]
 
 
 def _f(v) -> float | None:
@@ -321,16 +321,57 @@ def merge_summaries(summ, max_points: int):
     >>> m[cols].values.tolist()
     [[2, 6, 1.6, 0.0, 1.0, False], [1, 3, 0.0, -1.0, 3.0, True]]
     """
-    import pandas as pd
-
     if max_points < 1:
         raise ValueError(f"max_points={max_points!r} must be >= 1")
     n = len(summ)
     k = max(1, -(-n // max_points))
-    starts = np.arange(0, n, k)
-    ends = np.minimum(starts + k, n) - 1
+    return merge_blocks(summ, np.arange(0, n, k, dtype=np.int64), k == 1)
+
+
+def merge_blocks(summ, starts, raw):
+    """Merge the blocks of consecutive rows of a history that begin at ``starts``.
+
+    The reductions of :func:`merge_summaries` over blocks of any sizes, all in one pass (the
+    history page's blocks differ from run to run:
+    :func:`leakdiag.dashboard.history.history_points`).
+
+    Parameters
+    ----------
+    summ : pandas.DataFrame
+        Summaries from :meth:`leakdiag.store.EventStore.history`, in the order of the blocks.
+    starts : array of int, shape (n_blocks,)
+        Row where each block begins, increasing from 0; a block ends where the next begins
+        (the last at the end of ``summ``).
+    raw : bool or array of bool, shape (n_blocks,)
+        Blocks of one chunk whose ``value_mean`` is taken as stored (no weighting: no rounding
+        by the weights, and a chunk without finite windows keeps its value); the others get
+        the mean weighted by the finite windows.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The columns of :func:`merge_summaries`, one row per block.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> s = pd.DataFrame({"recorded_at": [1, 2, 3], "t_start_s": [0.0, 1.0, 2.0],
+    ...                   "t_end_s": [0.9, 1.9, 2.9], "n_windows": [4, 2, 3],
+    ...                   "n_degenerate": [0, 1, 0], "value_mean": [1.0, 4.0, 0.0],
+    ...                   "value_min": [0.0, 4.0, -1.0], "value_max": [2.0, 4.0, 1.0],
+    ...                   "score_max": [1.0, None, 3.0], "alarm": [False, None, True],
+    ...                   "source": ["a", "a", "b"]})
+    >>> m = merge_blocks(s, np.array([0, 2]), [False, True])  # chunks 0-1, then chunk 2
+    >>> m[["n_chunks", "value_mean"]].values.tolist()  # (1*4 + 4*1) / 5, then as stored
+    [[2.0, 1.6], [1.0, 0.0]]
+    """
+    import pandas as pd
+
+    n = len(summ)
+    starts = np.asarray(starts, dtype=np.int64)
     if not n:
-        starts = ends = np.empty(0, dtype=np.int64)
+        starts = np.empty(0, dtype=np.int64)
+    ends = np.append(starts[1:], n)[:len(starts)] - 1
 
     def col(c):
         return pd.to_numeric(summ[c], errors="coerce").to_numpy(np.float64)
@@ -345,11 +386,13 @@ def merge_summaries(summ, max_points: int):
     w = col("n_windows") - col("n_degenerate")
     mean = col("value_mean")
     w = np.where(np.isfinite(mean), w, 0.0)
-    if k == 1:  # nothing to merge: the values as stored (no rounding by the weights)
-        wmean = mean
+    raw = np.broadcast_to(np.asarray(raw, dtype=bool), starts.shape)
+    if raw.all():  # nothing to merge: the values as stored
+        wmean = mean[starts]
     else:
         with np.errstate(invalid="ignore", divide="ignore"):
             wmean = red(np.add, mean * w, 0.0) / red(np.add, w, 0.0)
+        wmean = np.where(raw, mean[starts], wmean)
     a = summ["alarm"]
     known = a.notna().to_numpy()
     on = (a.fillna(False).astype(bool).to_numpy() & known).astype(np.int64)

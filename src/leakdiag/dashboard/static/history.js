@@ -42,8 +42,12 @@ fetch(cfg.api).then((r) => r.json()).then((h) => {
         "max score per point", line: {color: k === 0 ? "#ff7f0e" : colour}});
     }
   });
-  const per = h.chunks_per_point > 1 ? "per block of up to " + h.chunks_per_point +
+  let per = h.chunks_per_point > 1 ? "per block of up to " + h.chunks_per_point +
     " chunks (" + h.n_chunks + " chunks, UTC)" : "per chunk (UTC)";
+  if (h.runs_joined) {  // more runs than points and line breaks: whole runs merged, joined
+    per += "; " + h.n_runs + " runs drawn as one line" + (h.runs_per_point > 1 ?
+      ", up to " + h.runs_per_point + " whole runs per point" : "");
+  }
   Plotly.newPlot("summary-plot", traces,
     {title: {text: (feats.length > 1 ? feats.length + " features " : "feature ") + per},
      shapes: shapes, margin: {t: 40, r: 20, b: 40, l: 60}, xaxis: {type: "date"},
