@@ -156,7 +156,7 @@ def test_fleet_page_lists_actuators_and_history(browser, leak_case, tmp_path):
             time.sleep(0.1)
         assert browser.current_url.endswith("/history/rig2")
         alarm_rows = browser.find_elements("css selector", "#alarms tr")[1:]
-        assert len(alarm_rows) == 1 and "15.5 s" in alarm_rows[0].text
+        assert len(alarm_rows) == 1 and "15.500 s" in alarm_rows[0].text  # times to the ms
         # the alarm marked on both plots, at the time it was raised; 20 chunks drawn
         marks = browser.execute_script(
             "return ['summary-plot', 'score-plot'].map((id) => {"
