@@ -51,9 +51,9 @@ def _closure(parts) -> set[str]:
     return seen
 
 
-# parts that hold no kernel code and cannot change a kernel: the version number, and the two
-# modules that name the cache folder itself
-_NEUTRAL = {"_version.py", "_fingerprint.py", "_numba_cache.py"}
+# parts that hold no kernel code and cannot change a kernel: the version number, the two
+# modules that name the cache folder itself, and the writing of instants as text (_format)
+_NEUTRAL = {"_version.py", "_fingerprint.py", "_numba_cache.py", "_format.py"}
 
 
 def test_every_module_that_imports_numba_lies_in_the_kernel_parts():

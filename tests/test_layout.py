@@ -18,10 +18,12 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "leakdiag"
 
 #: The data flow, first to last: a folder may import only folders before it. The root modules
-#: ``_version``, ``_fingerprint``, ``_numba_cache``, ``_validation`` and ``_holds`` come first
+#: ``_version``, ``_fingerprint``, ``_numba_cache``, ``_validation``, ``_holds`` and ``_format``
+#: come first
 #: (everybody may use them); ``leakdiag``
 #: is the root package's lazy facade (``leakdiag/__init__.py``), which only the command line uses.
-LAYERS = ("_version", "_fingerprint", "_numba_cache", "_validation", "_holds", "io", "sim",
+LAYERS = ("_version", "_fingerprint", "_numba_cache", "_validation", "_holds", "_format", "io",
+          "sim",
           "features", "detect", "literature", "runtime", "studies", "report", "stream", "batch", "bench", "store", "dashboard",
           "leakdiag", "cli")
 

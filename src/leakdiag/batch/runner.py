@@ -44,10 +44,10 @@ __all__ = ["run_case", "run_batch", "expand_inputs", "batch_inputs", "warn_job_d
 #: Sec. 5.2 measure (``features``, ``detect``), the detectors a detector file can hold
 #: (``detect``, ``literature``), the simulator parameters the whole-recording detectors (flow
 #: balance, EKF) read (``sim``) and the checks and holds they all use (``_validation.py``,
-#: ``_holds.py``). Left out: ``runtime`` (where a case runs, not what it computes), ``store``,
+#: ``_holds.py``), and ``_format.py``, which writes the instants of a row's words). Left out: ``runtime`` (where a case runs, not what it computes), ``store``,
 #: ``report``, ``cli`` and ``_version`` (no number).
-CODE_PARTS = ("_holds.py", "_validation.py", "batch", "detect", "features", "io", "literature",
-              "sim", "stream")
+CODE_PARTS = ("_format.py", "_holds.py", "_validation.py", "batch", "detect", "features", "io",
+              "literature", "sim", "stream")
 
 
 def code_provenance() -> dict[str, str]:

@@ -87,6 +87,7 @@ FINGERPRINT_PARTS = ("_validation.py", "_holds.py", "bench", "detect", "features
 #: Parts the v5 pipeline imports that cannot change a result (checked by the tests).
 FINGERPRINT_EXCLUDED = {"report": "HTML pages and figure styles (bench.report.method_style)",
                         "_version": "the version number, not code",
+                        "_format": "instants written as text in messages, no number",
                         "_fingerprint": "computes this fingerprint (hashes, no result)",
                         "_numba_cache": "names the folder of Numba's compiled kernels"}
 
