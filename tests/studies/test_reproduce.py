@@ -173,7 +173,7 @@ def test_saved_results_and_previous_comparison(quick_run):
     assert "What changed against the previous run" in md
     # the committed run is a full one: the quick run's report says the settings differ
     assert "**The previous run was made with other settings**, so these changes are not the " \
-           "code's alone: windows per experiment differ in" in md
+           "code's alone: protocol (VCA): thesis before, thesis-quick now;" in md
     assert not list(pkl.parent.glob(".leakdiag-*"))  # no temporary file left beside it
 
 

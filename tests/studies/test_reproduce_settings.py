@@ -22,8 +22,9 @@ COMMITTED = Path(__file__).resolve().parents[2] / "docs" / "reproduction" / "tab
 
 
 def _committed():
-    """The committed full run's tables.csv (written before the setting columns)."""
-    return pd.read_csv(COMMITTED, dtype={"table": str, "lag": str})
+    """The committed full run's tables.csv without the setting columns (as an older run's)."""
+    return pd.read_csv(COMMITTED, dtype={"table": str, "lag": str}).drop(
+        columns=SETTING_COLUMNS, errors="ignore")
 
 
 def _with(t, cfg):
