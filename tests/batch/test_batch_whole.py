@@ -62,6 +62,8 @@ def test_a_flow_balance_row_is_its_predict_on_the_whole_file(fleet):
             assert row["leak_lpm"] == v.leak_lpm and \
                 (row["leak_lpm_low"], row["leak_lpm_high"]) == v.leak_lpm_interval
             assert 19.0 <= v.onset_s <= 21.0 and row["detectable_lpm"] is None
+            # what its interval holds, in its words (the store's alarm says it)
+            assert row["leak_lpm_interval_holds"] == v.leak_lpm_interval_holds != ""
         else:  # a NO LEAK row states what it would have seen
             assert row["detectable_lpm"] == v.detectable_lpm > 0
             assert "sensitivity: a step leak of" in row["verdict"]
@@ -107,6 +109,30 @@ def test_the_cli_takes_a_flow_balance_file(fleet, tmp_path, capsys):
     res = read_results(tmp_path / "res")
     assert res.set_index("recording")["alarm"].to_dict() == {"leak.parquet": True,
                                                              "ok.parquet": False}
+
+
+def test_the_store_says_what_the_flow_balance_interval_holds(fleet, tmp_path, run_cli):
+    # a batch audit (2026-11-29): batch --store called it a "prediction interval", where
+    # detect --store stored the flow balance's own words (its model error)
+    from leakdiag.store import EventStore
+
+    _, path, files = fleet
+    db = tmp_path / "ev.db"
+    code, out, err = run_cli(["batch", str(files["leak"]), "--detector", str(path), "-o",
+                              str(tmp_path / "res"), "--scheduler", "serial", "--no-progress",
+                              "--store", str(db)])
+    assert code == 0, err
+    code, out, err = run_cli(["detect", str(files["leak"]), "--detector", str(path), "--store",
+                              str(tmp_path / "det.db"), "--actuator", "recs"])
+    assert code == 0, err
+    st, sd = EventStore(db), EventStore(tmp_path / "det.db")
+    try:
+        (batch,), (det,) = st.fleet().to_dict("records"), sd.fleet().to_dict("records")
+    finally:
+        st.close()
+        sd.close()
+    assert batch["leak_interval"].startswith("interval: ")
+    assert batch["leak_interval"] == det["leak_interval"]
 
 
 def test_a_refused_judgement_at_the_run_level_keeps_that_level_as_threshold(tmp_path):

@@ -566,6 +566,7 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
                      "leak_lpm": d["leak_lpm"], "leak_lpm_low": d["leak_lpm_low"],
                      "leak_lpm_high": d["leak_lpm_high"],
                      "leak_lpm_in_range": d["leak_lpm_in_range"],
+                     "leak_lpm_interval_holds": d.get("leak_lpm_interval_holds"),
                      "detectable_lpm": d.get("detectable_lpm"), "verdict": str(v)})
     return rows
 

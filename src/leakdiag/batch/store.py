@@ -54,6 +54,10 @@ RESULT_COLUMNS: dict[str, str] = {
     # the p-value is the smallest the healthy reference resolves (the score above every
     # healthy maximum): the true one may be smaller ("at most")
     "p_value_floor": "bool",
+    # what a whole-recording detector's size interval holds, in its words (the flow balance's
+    # model error), so that the store says what ``detect`` says, not "prediction interval"
+    # (a batch audit, 2026-11-29)
+    "leak_lpm_interval_holds": "string",
 }
 
 
