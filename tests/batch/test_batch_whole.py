@@ -109,6 +109,12 @@ def test_the_cli_takes_a_flow_balance_file(fleet, tmp_path, capsys):
     res = read_results(tmp_path / "res")
     assert res.set_index("recording")["alarm"].to_dict() == {"leak.parquet": True,
                                                              "ok.parquet": False}
+    # the decisions' basis: the false LEAKs chance alone would give (a batch audit, 2026-11-29)
+    expected = res["false_alarms_expected"].sum()
+    assert 0 < expected < 2
+    assert (f"  basis: were every recording healthy, chance alone would give about "
+            f"{expected:.3g} LEAK(s) from fb (the sum of each run's false_alarms_expected") \
+        in out.out
 
 
 def test_the_store_says_what_the_flow_balance_interval_holds(fleet, tmp_path, run_cli):

@@ -201,6 +201,16 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
         click.echo("detector decisions: " + ", ".join(
             f"{int(count.get(d, 0))} {w}" for d, w in (("leak", "LEAK"), ("no-leak", "NO LEAK"),
                                                       ("inconclusive", "INCONCLUSIVE"))))
+        if "false_alarms_expected" in judged:  # the counts' basis (a batch audit, 2026-11-29:
+            # 214 LEAKs of 300 files, 18 leaking, were printed without it)
+            exp = judged.groupby("name", sort=True)["false_alarms_expected"].sum(min_count=1)
+            exp = exp[exp.notna()]
+            if len(exp):
+                click.echo("  basis: were every recording healthy, chance alone would give "
+                           "about " + ", ".join(f"{v:.3g} LEAK(s) from {n}"
+                                                for n, v in exp.items())
+                           + " (the sum of each run's false_alarms_expected, at the level it "
+                           "was judged at)")
         for _, r in judged[refused_alarm.loc[judged.index]].iterrows():
             click.echo(f"  inconclusive: {r['recording']}: {r['name']}: "
                        f"{str(r['error']).removeprefix('alarm refused: ')}", err=True)
