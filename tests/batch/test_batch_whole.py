@@ -216,3 +216,20 @@ def test_a_refused_judgement_at_the_run_level_keeps_that_level_as_threshold(tmp_
     runs = st.runs_of(tmp_path.name)  # batch's actuator: the file's folder
     assert runs["status"].tolist() == ["inconclusive"]
     st.close()
+
+
+def test_two_actuator_folders_of_one_name_are_refused_before_the_work(fleet, tmp_path, run_cli):
+    # a batch audit (2026-11-29): refused only after every recording was judged, so nothing
+    # was stored and the decisions were never printed
+    import shutil
+
+    _, path, files = fleet
+    for site in ("siteA", "siteB"):
+        (tmp_path / site / "pump").mkdir(parents=True)
+        shutil.copy(files["ok"], tmp_path / site / "pump" / "run.parquet")
+    code, out, err = run_cli(["batch", str(tmp_path / "site*" / "pump" / "*.parquet"),
+                              "--detector", str(path), "-o", str(tmp_path / "res"),
+                              "--scheduler", "serial", "--no-progress", "--store",
+                              str(tmp_path / "ev.db")])
+    assert code == 2 and "have the same folder name 'pump'" in err, (out, err)
+    assert "recording(s)" not in out and not (tmp_path / "res").exists()

@@ -120,6 +120,12 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
 
         st = EventStore(store)
         click.get_current_context().call_on_close(st.close)
+        # the actuators' names come from the paths: two folders of one name are refused now,
+        # not after the whole job (a batch audit, 2026-11-29: nothing was stored then, and the
+        # decisions were never printed)
+        from leakdiag.store.writers import actuator_names
+
+        actuator_names(batch_inputs(list(inputs), out)[0], actuator_from)
     sched = None if scheduler == "serial" else scheduler
     if sched == "local":
         sched = LOCAL
