@@ -81,8 +81,9 @@ def test_two_monitors_at_once_the_alarm_of_one_is_not_hidden_by_the_other(tmp_pa
 def test_the_alarm_shown_is_the_newest_and_its_size_from_the_same_recording(tmp_path):
     """Finding 6: one batch job over a folder of two recordings that both alarm. The row
     showed the alarm with the earliest stream time whatever its recording (run1's 12.0 s) and
-    its leak size beside the newest run (run2). Now: run2's alarm, and no size (run2 has
-    none), its recording named in the row."""
+    its leak size beside the newest run (run2). Then: run2's alarm (the last written), without
+    size; since the session-26 batch audit: run1's, the recording whose alarm has a size, and
+    its size, its recording named in the row."""
     st = EventStore(tmp_path / "e.db")
     res = frame([row("/d/rigA/run1.parquet", alarm=True, alarm_time_s=12.0, onset_s=10.0,
                      leak_lpm=0.3),
@@ -90,8 +91,8 @@ def test_the_alarm_shown_is_the_newest_and_its_size_from_the_same_recording(tmp_
     record_batch(st, res, JOB)
     r = _state(st)
     assert r["state"] == "ALARM"
-    assert (r["last_alarm_time_s"], r["onset_s"]) == (70.879, 68.5)
-    assert r["leak_lpm"] is None and r["source"] == "/d/rigA/run2.parquet"
+    assert (r["last_alarm_time_s"], r["onset_s"], r["leak_lpm"]) == (12.0, 10.0, 0.3)
+    assert r["source"] == r["alarm_source"] == "/d/rigA/run1.parquet"
     # a later detect on run1 alone: its alarm is the newest now, with its size
     _tick()
     d = st.start_run("rigA", command="detect", source="/d/rigA/run1.parquet", feature="fb")

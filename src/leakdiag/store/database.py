@@ -815,11 +815,18 @@ class EventStore:
         the monitor's later alarm, and a live monitor's alarm stands while it keeps sending
         chunks in alarm.
 
+        ``batch`` runs are judged by recording (:func:`_batch_current`): the current runs of
+        every recording (its latest batch invocation's) are judged as one invocation, so the
+        state does not depend on how a folder's files were split across batch runs (a re-run
+        storing only an added file's runs cleared a leaking file's alarm).
+
         The alarm shown (time, onset, leak estimate) is the newest alarm by wall clock
         (``raised_at``; the standing ones when the state is ``ALARM``); of the alarms of its
         invocation on the same recording (``detect``'s methods, a batch job's detectors), the
         first in stream time, each run's latest episode; the leak estimate from the first of
-        those that has one.
+        those that has one. Of the current batch runs' alarms (several recordings, one
+        wall-clock time per batch run), the recording's with a leak size, then the earliest
+        in its recording, then the first file name (:func:`_shown_alarm`).
 
         The row also says which run gave the state and how it stands (``run``,
         :func:`_run_words`): "monitor stopped after 57 windows", or for a monitor still marked
@@ -836,7 +843,8 @@ class EventStore:
             Columns ``name``, ``system``, ``state``, ``run``, ``last_seen_at``, ``n_runs``,
             ``last_alarm_at``, ``last_alarm_time_s``, ``onset_s``, ``onset_censored``,
             ``leak_lpm``, ``leak_lpm_low``, ``leak_lpm_high``, ``leak_extrapolated`` (the size
-            an extrapolation), ``leak_interval`` (what the bracket is, in words), ``feature``,
+            an extrapolation), ``leak_interval`` (what the bracket is, in words),
+            ``alarm_source`` (the recording of the alarm shown), ``feature``,
             ``source`` (of the alarm shown
             when the state is ``ALARM``, else of the latest run) and ``error`` (for ``FAILED``,
             ``INCONCLUSIVE``, ``NOT JUDGED`` and ``NO DETECTOR``: the feature and reason of the
@@ -897,21 +905,24 @@ class EventStore:
                 r["session_at"], r["session_ended"] = latest, ended
         rows = []
         for a in act.itertuples():
-            invs = [_invocation(rs, [x for r in rs for x in alarms_of.get(r["id"], [])])
-                    for rs in invocations.get(a.id, {}).values()]
+            invs = _batch_current(invocations.get(a.id, {}), alarms_of)
+            # superseded batch runs (a later batch run judged their recording) take no part
+            live = [i for i in invs if not i["superseded"]]
             # an invocation without a detector judged nothing: it gives the state only while
             # the actuator has nothing else (NO DETECTOR), and never clears an alarm
-            judging = [i for i in invs if i["judging"]] or invs
-            current = max(judging, key=lambda i: (i["at"], i["last_id"])) if invs else None
-            ok_start = max((i["start"] for i in invs if i["verdict"] == "OK"), default=None)
-            standing = [i for i in invs if i["verdict"] == "ALARM"
+            judging = [i for i in live if i["judging"]] or live
+            current = max(judging, key=lambda i: (i["at"], i["last_id"])) if live else None
+            ok_start = max([i["start"] for i in live if i["verdict"] == "OK"]
+                           + [i["ok_since"] for i in live if i.get("ok_since") is not None],
+                           default=None)
+            standing = [i for i in live if i["verdict"] == "ALARM"
                         and not (ok_start is not None and ok_start > i["at"])]
             state = "ALARM" if standing else "NO DATA" if current is None else \
                 current["verdict"]
             if standing:
                 pool = [x for i in standing for x in i["alarms"] if _missing(x["cleared_time_s"])]
             else:
-                pool = [x for i in invs for x in i["alarms"]]
+                pool = [x for i in invs for x in i["alarms"]]  # superseded too
             la, size_row = _shown_alarm(pool)
             why, bad = None, []
             if state in ("FAILED", "INCONCLUSIVE", "NOT JUDGED", "NO DETECTOR"):
@@ -944,12 +955,13 @@ class EventStore:
                          "leak_lpm_high": g("leak_lpm_high", size_row),
                          "leak_extrapolated": g("leak_extrapolated", size_row),
                          "leak_interval": g("leak_interval", size_row),
+                         "alarm_source": g("source"),
                          "feature": None if shown is None else shown["feature"],
                          "source": None if shown is None else shown["source"], "error": why})
         cols = ["name", "system", "state", "run", "last_seen_at", "n_runs", "last_alarm_at",
                 "last_alarm_time_s", "onset_s", "onset_censored", "leak_lpm", "leak_lpm_low",
-                "leak_lpm_high", "leak_extrapolated", "leak_interval", "feature", "source",
-                "error"]
+                "leak_lpm_high", "leak_extrapolated", "leak_interval", "alarm_source",
+                "feature", "source", "error"]
         return pd.DataFrame(rows, columns=cols).sort_values("name", kind="stable") \
             .reset_index(drop=True)
 
@@ -1336,24 +1348,139 @@ def _invocation(runs: list[dict], alarms: list[dict]) -> dict:
             "verdict": verdict, "judging": bool(judging or alarms)}
 
 
+def _group(x: dict):
+    """The alarms :func:`_shown_alarm` chooses among together: those of one invocation on one
+    recording, or for ``batch`` those of its group (:func:`_batch_current`: every recording's
+    current runs, or one superseded invocation), every recording."""
+    return x["group"] if "group" in x else (x["invocation"], x["source"])
+
+
+def _stream_time(x: dict) -> float:
+    """An alarm's stream time, a missing one last."""
+    return math.inf if _missing(x["alarm_time_s"]) else float(x["alarm_time_s"])
+
+
 def _shown_alarm(pool: list[dict]):
     """The alarm a fleet row shows and the one whose leak estimate it shows (:meth:`fleet`).
 
-    The newest of ``pool`` by wall clock (then by id: the order the runs were written in);
-    then, of the alarms of its invocation on the same recording (each run's latest episode),
-    the first in stream time, and the first of those with a leak size.
+    The newest of ``pool`` by wall clock (then by id: the order the runs were written in)
+    gives the group (:func:`_group`). Of each recording's alarms in that group (each run's
+    latest episode), the first in stream time, and the first of those with a leak size. Of
+    several recordings (a batch job's folder, whose runs share one wall-clock time), the one
+    with a leak size, then the earliest alarm in its recording, then the first file name: not
+    the last row written (a session-26 audit: a feature detector's alarm without size on
+    ``rec049`` was shown instead of the flow balance's leak with size on ``rec012``).
+
+    Examples
+    --------
+    >>> t = 0
+    >>> a = [{"id": 1, "run_id": 1, "raised": t, "group": "b", "source": "rec012",
+    ...       "alarm_time_s": 40.0, "leak_lpm": 0.2},
+    ...      {"id": 2, "run_id": 2, "raised": t, "group": "b", "source": "rec049",
+    ...       "alarm_time_s": 5.0, "leak_lpm": None}]
+    >>> [x["source"] for x in _shown_alarm(a)]
+    ['rec012', 'rec012']
     """
     if not pool:
         return None, None
     newest = max(pool, key=lambda x: (x["raised"], x["id"]))
     latest: dict = {}  # run -> its latest episode
     for x in pool:
-        if x["invocation"] == newest["invocation"] and x["source"] == newest["source"]:
+        if _group(x) == _group(newest):
             if x["run_id"] not in latest or x["id"] > latest[x["run_id"]]["id"]:
                 latest[x["run_id"]] = x
-    group = sorted(latest.values(), key=lambda x: (x["alarm_time_s"], x["id"]))
-    sized = [x for x in group if not _missing(x["leak_lpm"])]
-    return group[0], (sized[0] if sized else group[0])
+    per_source: dict = {}
+    for x in latest.values():
+        per_source.setdefault(str(x["source"]), []).append(x)
+    picks = []
+    for xs in per_source.values():
+        group = sorted(xs, key=lambda x: (_stream_time(x), x["id"]))
+        sized = [x for x in group if not _missing(x["leak_lpm"])]
+        picks.append((group[0], sized[0] if sized else group[0]))
+    return min(picks, key=lambda p: (_missing(p[1]["leak_lpm"]), _stream_time(p[0]),
+                                     str(p[0]["source"])))
+
+
+def _batch_current(invocations: dict, alarms_of: dict) -> list[dict]:
+    """One actuator's invocations as :meth:`EventStore.fleet` judges them (:func:`_invocation`),
+    ``batch`` runs regrouped by recording.
+
+    A batch invocation stores only the result rows the store lacks, so a re-run after a file
+    was added or edited holds that file's runs alone: judged by itself it read as an ``OK`` of
+    the actuator and cleared a leaking file's standing alarm (a session-26 audit). So every
+    recording's *current* batch runs (those of the latest batch invocation that judged it,
+    by run id) are judged together, as one invocation: its verdict follows every recording's
+    current verdict, its activity is theirs, its start that of the latest such invocation (as
+    if the whole folder had been judged then). The superseded runs stay, marked
+    ``superseded``, for the alarm shown of an actuator not in alarm only.
+
+    Parameters
+    ----------
+    invocations : dict
+        Invocation id to its runs (dicts with ``command``, ``source``, ``invocation``,
+        ``id``, ``start``, ``at``, ``effective``...).
+    alarms_of : dict
+        Run id to its alarms (dicts; given a ``group`` here, :func:`_group`).
+
+    Returns
+    -------
+    list of dict
+        :func:`_invocation` of each, with ``superseded``.
+    """
+    latest: dict = {}  # recording -> invocation of its latest batch run
+    for inv, rs in invocations.items():
+        for r in rs:
+            if r["command"] == "batch":
+                src = str(r["source"])
+                if src not in latest or r["id"] > latest[src][1]:
+                    latest[src] = (inv, r["id"])
+    out, current, starts, batch = [], [], [], []
+    for inv, rs in invocations.items():
+        if not any(r["command"] == "batch" for r in rs):
+            out.append({**_invocation(rs, [x for r in rs for x in alarms_of.get(r["id"], [])]),
+                        "superseded": False})
+            continue
+        batch.append(rs)
+        mine = [r for r in rs if latest[str(r["source"])][0] == inv]
+        old = [r for r in rs if latest[str(r["source"])][0] != inv]
+        if mine:
+            current += mine
+            starts.append(min(r["start"] for r in rs))
+        if old:
+            for r in old:
+                for x in alarms_of.get(r["id"], []):
+                    x["group"] = ("batch", inv)
+            out.append({**_invocation(old, [x for r in old for x in alarms_of.get(r["id"], [])]),
+                        "superseded": True})
+    if current:
+        current.sort(key=lambda r: r["id"])
+        for r in current:
+            for x in alarms_of.get(r["id"], []):
+                x["group"] = ("batch",)
+        merged = _invocation(current, [x for r in current for x in alarms_of.get(r["id"], [])])
+        out.append({**merged, "start": max(starts), "superseded": False,
+                    "ok_since": _batch_ok_since(batch, alarms_of) if any(
+                        i["verdict"] == "ALARM" for i in out if not i["superseded"]) else None})
+    return out
+
+
+def _batch_ok_since(batch: list[list[dict]], alarms_of: dict):
+    """The start of the latest batch invocation after which every recording's current verdict
+    was OK (:func:`_batch_current`), or None: an OK of the whole folder then, which cleared an
+    alarm of another command active before it, as a batch of the whole folder at that time
+    would have (a later failed re-run of one file does not undo that)."""
+    cur: dict = {}  # recording -> its runs as of the invocation
+    since = None
+    for rs in sorted(batch, key=lambda rs: min(r["id"] for r in rs)):
+        mine: dict = {}
+        for r in rs:
+            mine.setdefault(str(r["source"]), []).append(r)
+        cur.update(mine)
+        runs = [r for v in cur.values() for r in v]
+        if _invocation(runs, [x for r in runs for x in alarms_of.get(r["id"], [])]
+                       )["verdict"] == "OK":
+            since = min(r["start"] for r in rs)
+    return since
 
 
 _SUMMARY_FIELDS = tuple(f.name for f in fields(ChunkSummary))
