@@ -237,6 +237,11 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                 last = "–" if r["last_alarm_at"] is None else (
                     f'{r["last_alarm_at"][:19].replace("T", " ")} '
                     f'(t={seconds(r["last_alarm_time_s"], 6)} s)')
+                # the recording of the alarm shown: a batch job's folder holds many
+                src = r.get("alarm_source")
+                where = "" if src is None or r["last_alarm_at"] is None else (
+                    f'<div class="note source" title="{html.escape(str(src))}">'
+                    f'in {html.escape(Path(str(src)).name)}</div>')
                 onset = "–" if r["onset_s"] is None else (
                     ("at or before " if r.get("onset_censored") else "")
                     + f'{seconds(r["onset_s"], 6)} s')
@@ -249,7 +254,7 @@ def make_app(board: LiveBoard | None = None, store: Any = None, token: str | Non
                     f'{html.escape(r["state"])}">{html.escape(r["state"])}</span>'
                     # the run that gave the state under the badge, not inside its colour
                     + (f'<div class="note run">{html.escape(r["run"])}</div>'
-                       if r.get("run") else "") + f'</td><td>{html.escape(last)}</td>'
+                       if r.get("run") else "") + f'</td><td>{html.escape(last)}{where}</td>'
                     f'<td>{html.escape(onset)}</td><td>{html.escape(leak)}</td>'
                     f'<td>{html.escape(str(r["last_seen_at"])[:19].replace("T", " "))}</td>'
                     f'<td>{html.escape(str(r["feature"]))}</td>{note}</tr>')
