@@ -233,3 +233,28 @@ def test_two_actuator_folders_of_one_name_are_refused_before_the_work(fleet, tmp
                               str(tmp_path / "ev.db")])
     assert code == 2 and "have the same folder name 'pump'" in err, (out, err)
     assert "recording(s)" not in out and not (tmp_path / "res").exists()
+
+
+def test_one_unchecked_note_per_file_with_streamed_and_whole_detectors(fleet, tmp_path,
+                                                                        run_cli):
+    # a batch audit (2026-11-29): a CSV file stating no rig and no load got one note from the
+    # streamed detectors and another from the flow balance, and batch printed both
+    import pandas as pd
+
+    _, path, files = fleet
+    healthy = sorted(str(p) for p in path.parent.glob("h*.parquet"))
+    acf = tmp_path / "acf.joblib"
+    code, out, err = run_cli(["fit", *[a for h in healthy for a in ("--healthy", h)], "-m",
+                              "acf-p1", "--false-alarm-rate", "30", "-o", str(acf)])
+    assert code == 0, err
+    rec = ld.io.read_recording(files["ok"])
+    frame = pd.DataFrame({"time": rec.time, **rec.channels})
+    csv = tmp_path / "bare.csv"   # no metadata: no rig, no load, no machine
+    frame.to_csv(csv, index=False)
+    code, out, err = run_cli(["batch", str(csv), "--detector", str(acf), "--detector",
+                              str(path), "-o", str(tmp_path / "res"), "--scheduler", "serial",
+                              "--no-progress"])
+    assert code in (0, 1), err
+    notes = read_results(tmp_path / "res")["unchecked"].dropna().unique()
+    assert len(notes) == 1 and "bare.csv" in notes[0], notes
+    assert (out + err).count(notes[0]) == 1

@@ -290,9 +290,13 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
         # a detector's own healthy file (its bytes or its samples): not judged by it
         own = _own_healthy(path, dets, src, config.column_map)
         # what of the recording its metadata leave unchecked (rig, load): one note per file
+        # (with the whole-recording detectors': one sentence for the file, not one per kind
+        # of detector, which batch printed twice per CSV file; a batch audit, 2026-11-29)
         unchecked = unchecked_note(path, src.meta, [
             (dpath, getattr(meta, "system", None), getattr(meta, "load", None))
-            for name, _, meta, dpath in dets if name not in refused], ADVICE_JOB)
+            for name, _, meta, dpath in dets if name not in refused] + [
+            (dpath, getattr(meta, "system", None), getattr(meta, "load", None),
+             fitted_machine(det)) for _, det, meta, dpath in whole], ADVICE_JOB)
         feats = [StreamingFeature(s, src.sample_rate, src.start_time) for _, _, s, _ in items]
         # a leakdiag Detector judges the whole streamed feature at the end (predict_series);
         # another scorer (anything with score_windows) scores it chunk by chunk
@@ -344,7 +348,7 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
         rows += [{**base, "status": "error", "kind": "detector", "name": name, "error": msg}
                  for name, msg in refused.items()]
         if whole:
-            rows += _whole_rows(path, config, whole, base)
+            rows += _whole_rows(path, config, whole, base, unchecked)
     except Exception as exc:  # noqa: BLE001 - a bad file must become a row, not stop the run
         msg = _in_job_words(str(exc))  # leakdiag's messages name file, channel and row
         if config.column_map is None and "missing channel(s)" in msg and "column map" not in msg:
@@ -501,7 +505,8 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
                         len(own), n_code, n_lib)
 
 
-def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list[dict]:
+def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict,
+                unchecked: str | None = None) -> list[dict]:
     """Rows of the whole-recording detectors of a job: the file read whole (as ``leakdiag
     detect`` reads it) and judged by each detector's ``predict``.
 
@@ -532,9 +537,9 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict) -> list
         except ValueError as exc:
             rows.append({**row, "status": "error", "error": _in_job_words(str(exc))})
             continue
-        row["unchecked"] = unchecked_note(path, rec.meta, [
-            (dpath, getattr(meta, "system", None), getattr(meta, "load", None),
-             fitted_machine(det))], ADVICE_JOB)
+        row["unchecked"] = unchecked if unchecked is not None else unchecked_note(
+            path, rec.meta, [(dpath, getattr(meta, "system", None),
+                              getattr(meta, "load", None), fitted_machine(det))], ADVICE_JOB)
         row["status"], row["threshold"] = "ok", float(det.threshold_)
         try:
             refuse_own_healthy(det, rec, "batch")
