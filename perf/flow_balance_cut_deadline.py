@@ -1,7 +1,11 @@
 """Detection at the 10-s deadline on the VCA without load, per unit (a session-26 audit study).
 
-Usage: ``python perf/flow_balance_cut_deadline.py [LEAK_LPM] [N_UNITS] [FIRST_UNIT]`` (defaults
-0.02, 40, 5001; run it alone, e.g. under the heavy-job lock; about 6 s per unit).
+Usage: ``python perf/flow_balance_cut_deadline.py [LEAK_LPM] [N_UNITS] [FIRST_UNIT] [MODE]``
+(defaults 0.02, 40, 5001; run it alone, e.g. under the heavy-job lock; about 6 s per unit).
+``MODE`` (an experiment, not leakdiag's behaviour): ``no-transducer-offsets`` draws each unit
+without its pressure transducers' zero errors; ``profile-offset`` switches on, for the VCA,
+the EHA's profile of the transducers' differential zero error in the size since the onset
+(``_flow_balance_vca.SIZE_PROFILES_PRESSURE_OFFSET``, monkeypatched).
 
 Each virtual machine ``u`` is fitted on 4 of its own healthy 120-s runs (no load,
 ``false_alarms_per_hour=0.3``); one held-out leaking run (onset uniform in 35-65 % of the run,
@@ -16,12 +20,29 @@ import sys
 import numpy as np
 from scipy.stats import binomtest
 
+import dataclasses
+
 import leakdiag as ld
+import leakdiag.detect._flow_balance_vca as vca_backend
 from leakdiag.detect.flow_balance import RefusedAlarm
+from leakdiag.sim.machine import draw_machine
 
 LEAK = float(sys.argv[1]) if len(sys.argv) > 1 else 0.02
 N_UNITS = int(sys.argv[2]) if len(sys.argv) > 2 else 40
 FIRST = int(sys.argv[3]) if len(sys.argv) > 3 else 5001
+MODE = sys.argv[4] if len(sys.argv) > 4 else ""
+if MODE == "profile-offset":
+    vca_backend.SIZE_PROFILES_PRESSURE_OFFSET = True
+
+
+
+
+def unit(u):
+    if MODE == "no-transducer-offsets":
+        return dataclasses.replace(draw_machine("vca", u), p1_offset_pa=0.0, p2_offset_pa=0.0)
+    return u
+
+
 DUR, N_FIT, DEADLINES = 120.0, 4, (10.0, 20.0, 30.0)
 
 
@@ -34,12 +55,12 @@ found = {d: 0 for d in DEADLINES}
 refused = {d: 0 for d in DEADLINES}
 for u in range(FIRST, FIRST + N_UNITS):
     rng = np.random.default_rng(u * 7 + 3)
-    fit = [ld.sim.simulate_vca(duration=DUR, leak_lpm=0.0, load="none", machine=u,
+    fit = [ld.sim.simulate_vca(duration=DUR, leak_lpm=0.0, load="none", machine=unit(u),
                                seed=70000 + 10 * u + i) for i in range(N_FIT)]
     det = ld.detect.FlowBalanceDetector(system="vca", false_alarms_per_hour=0.3).fit(fit)
     onset = float(rng.uniform(0.35, 0.65) * DUR)
-    rec = ld.sim.simulate_vca(duration=DUR, leak_lpm=LEAK, onset=onset, load="none", machine=u,
-                              seed=95000 + u, conditions=conditions(rng))
+    rec = ld.sim.simulate_vca(duration=DUR, leak_lpm=LEAK, onset=onset, load="none",
+                              machine=unit(u), seed=95000 + u, conditions=conditions(rng))
     for d in DEADLINES:
         try:
             v = det.predict(rec.slice_time(None, onset + d))
@@ -48,6 +69,6 @@ for u in range(FIRST, FIRST + N_UNITS):
             refused[d] += 1
 for d in DEADLINES:
     ci = binomtest(found[d], N_UNITS).proportion_ci(method="exact")
-    print(f"{LEAK:g} L/min, onset + {d:g} s: LEAK {found[d]}/{N_UNITS} = "
+    print(f"{MODE or 'as is'}: {LEAK:g} L/min, onset + {d:g} s: LEAK {found[d]}/{N_UNITS} = "
           f"{found[d] / N_UNITS:.1%} [{ci.low:.1%}, {ci.high:.1%}], refused {refused[d]}",
           flush=True)
