@@ -3,9 +3,10 @@
 Usage: ``python perf/flow_balance_cut_deadline.py [LEAK_LPM] [N_UNITS] [FIRST_UNIT] [MODE]``
 (defaults 0.02, 40, 5001; run it alone, e.g. under the heavy-job lock; about 6 s per unit).
 ``MODE`` (an experiment, not leakdiag's behaviour): ``no-transducer-offsets`` draws each unit
-without its pressure transducers' zero errors; ``profile-offset`` switches on, for the VCA,
-the EHA's profile of the transducers' differential zero error in the size since the onset
-(``_flow_balance_vca.SIZE_PROFILES_PRESSURE_OFFSET``, monkeypatched).
+without its pressure transducers' zero errors; ``no-profile`` switches off the profile of the
+transducers' differential zero error in the size since the onset, as before 2026-11-29
+(``_flow_balance_vca.OFFSET_PROFILED_LOADS`` emptied; ``profile-offset``, the name of the
+experiment that led to it, is now what leakdiag does).
 
 Each virtual machine ``u`` is fitted on 4 of its own healthy 120-s runs (no load,
 ``false_alarms_per_hour=0.3``); one held-out leaking run (onset uniform in 35-65 % of the run,
@@ -31,8 +32,8 @@ LEAK = float(sys.argv[1]) if len(sys.argv) > 1 else 0.02
 N_UNITS = int(sys.argv[2]) if len(sys.argv) > 2 else 40
 FIRST = int(sys.argv[3]) if len(sys.argv) > 3 else 5001
 MODE = sys.argv[4] if len(sys.argv) > 4 else ""
-if MODE == "profile-offset":
-    vca_backend.SIZE_PROFILES_PRESSURE_OFFSET = True
+if MODE == "no-profile":
+    vca_backend.OFFSET_PROFILED_LOADS = ()
 
 
 

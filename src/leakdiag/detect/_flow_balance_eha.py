@@ -24,6 +24,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from leakdiag.detect._flow_balance_kernel import eha_window_sums
+from leakdiag.detect._flow_balance_offset import offset_words
 from leakdiag.sim.eha.params import EHAParams
 
 __all__ = ["EHAPumpModel", "CHANNELS", "terms", "identify"]
@@ -34,28 +35,19 @@ _TH, _DX, _CA, _CB, _DPA, _DPB, _L, _PHI, _T, _FW, _PHIABS, _WA, _WB = range(13)
 #: Moving average of P1 - P2 for the mean |phi| (s), as for the VCA.
 DP_SMOOTHING_S = 0.005
 #: The size profiles the chamber transducers' differential zero error out (the residual does
-#: not depend on it, the leak law does; :mod:`._flow_balance_offset`).
-SIZE_PROFILES_PRESSURE_OFFSET = True
+#: not depend on it, the leak law does; :mod:`._flow_balance_offset`), under every load.
+OFFSET_PROFILED_LOADS = ("none", "spring", None)
 
 
-#: Differential zero error two calibrated chamber transducers can show, Pa (0.25 % of a
-#: 20.7 MPa full scale each, opposite signs): a profiled offset beyond it is flagged.
-PLAUSIBLE_OFFSET_PA = 2e5
+def size_profiles_pressure_offset(load: str | None) -> bool:
+    """Whether the size profiles the transducers' differential zero error (always)."""
+    return load in OFFSET_PROFILED_LOADS
 
 
 def size_interval_holds(offset_pa: float, offset_interval_pa=None) -> str:
     """What the size interval holds, in words (``offset_pa``: the zero error found, Pa;
     ``offset_interval_pa``: the offsets the leak's windows allow)."""
-    text = ("the coefficient's statistical error and the P1-P2 transducer zero error found on "
-            f"the leak's windows, {offset_pa / 1e3:+.3g} kPa")
-    if offset_interval_pa is not None:
-        lo, hi = offset_interval_pa
-        text += f" (the data allow {lo / 1e3:+.3g} to {hi / 1e3:+.3g} kPa)"
-    if abs(offset_pa) > PLAUSIBLE_OFFSET_PA:
-        text += (f"; beyond the +-{PLAUSIBLE_OFFSET_PA / 1e3:.0f} kPa two calibrated transducers "
-                 "can differ by: the offset is poorly determined here (large |P1-P2|, e.g. "
-                 "under load) or the transducers' zero needs checking")
-    return text
+    return offset_words(offset_pa, offset_interval_pa)
 
 
 @dataclass(frozen=True)

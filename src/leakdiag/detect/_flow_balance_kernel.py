@@ -205,3 +205,34 @@ def eha_window_sums(p1, p2, x, w, pa, pb, dps, starts, window, area, volume, ptr
         out[iw, 10] = pha
         out[iw, 11] = w[i0]
         out[iw, 12] = w[i1]
+
+
+@numba.njit(cache=True)
+def leak_law_window_sums(dp, dps, first, last, delta, ptr_leak, laminar, out):
+    """Per-window leak-law integrals with the differential pressure offset ``delta`` removed.
+
+    ``out[w]`` = ``[PHI, PHIABS]`` over samples ``first[w]`` to ``last[w]`` inclusive (sample
+    units): ``PHI = int phi(dp - delta) dt`` and ``PHIABS = int |phi(dps - delta)| dt``, the
+    columns of the same names of :func:`vca_window_sums` and :func:`eha_window_sums` (Eq. 2-4,
+    or 2-5 when ``laminar``) for a :math:`P_1` lowered by ``delta``; ``dp`` is the measured
+    ``P1 - P2`` and ``dps`` its moving average.
+    """
+    for w in range(first.shape[0]):
+        phs = 0.0
+        pha = 0.0
+        php = 0.0
+        pap = 0.0
+        for k in range(first[w], last[w] + 1):
+            if laminar:
+                ph = dp[k] - delta
+                pa_ = dps[k] - delta
+            else:
+                ph = _sqrt_reg(dp[k] - delta, ptr_leak)
+                pa_ = _sqrt_reg(dps[k] - delta, ptr_leak)
+            if k > first[w]:
+                phs += 0.5 * (ph + php)
+                pha += 0.5 * (abs(pa_) + abs(pap))
+            php = ph
+            pap = pa_
+        out[w, 0] = phs
+        out[w, 1] = pha

@@ -27,10 +27,14 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 from scipy.optimize import minimize_scalar
 from scipy.stats import chi2, norm
 
-__all__ = ["OffsetProfile", "profile_offset", "SEARCH_HALF_RANGE_PA", "GRID_POINTS"]
+from leakdiag.detect._flow_balance_kernel import leak_law_window_sums
+
+__all__ = ["OffsetProfile", "profile_offset", "leak_law_at", "offset_words",
+           "SEARCH_HALF_RANGE_PA", "GRID_POINTS", "PLAUSIBLE_OFFSET_PA"]
 
 #: Half-range of the offsets searched, Pa: twice the 100 kPa that two transducers of 0.25 %
 #: zero error on a 3000 psi (20.7 MPa) full scale can differ by (sim/machine.py draws within it).
@@ -39,6 +43,106 @@ SEARCH_HALF_RANGE_PA = 2e5
 GRID_POINTS = 41
 #: Times the range is doubled when the best grid point is at its edge.
 MAX_WIDENINGS = 2
+#: Differential zero error two calibrated chamber transducers can show, Pa (0.25 % of a
+#: 20.7 MPa full scale each, opposite signs): a profiled offset beyond it is flagged.
+PLAUSIBLE_OFFSET_PA = 2e5
+
+
+def offset_words(offset_pa: float, offset_interval_pa=None) -> str:
+    """What a size interval with the offset profiled holds, in words.
+
+    Parameters
+    ----------
+    offset_pa : float
+        The differential zero error found (:attr:`OffsetProfile.offset_pa`), Pa.
+    offset_interval_pa : tuple of float, optional
+        The offsets the leak's windows allow (:attr:`OffsetProfile.offset_interval_pa`), Pa.
+
+    Returns
+    -------
+    str
+        The words, flagging an offset beyond :data:`PLAUSIBLE_OFFSET_PA`.
+
+    Examples
+    --------
+    >>> offset_words(-3.2e4, (-4.1e4, -2.5e4)).split("windows, ")[1]
+    '-32 kPa (the data allow -41 to -25 kPa)'
+    """
+    text = ("the coefficient's statistical error and the P1-P2 transducer zero error found on "
+            f"the leak's windows, {offset_pa / 1e3:+.3g} kPa")
+    if offset_interval_pa is not None:
+        lo, hi = offset_interval_pa
+        text += f" (the data allow {lo / 1e3:+.3g} to {hi / 1e3:+.3g} kPa)"
+    if abs(offset_pa) > PLAUSIBLE_OFFSET_PA:
+        text += (f"; beyond the +-{PLAUSIBLE_OFFSET_PA / 1e3:.0f} kPa two calibrated transducers "
+                 "can differ by: the offset is poorly determined here (large |P1-P2|, e.g. "
+                 "under load) or the transducers' zero needs checking")
+    return text
+
+
+def leak_law_at(rec, start_s, end_s, smoothing_s: float, ptr_leak_pa: float,
+                laminar: bool) -> Callable[[float], tuple[np.ndarray, np.ndarray]]:
+    """The leak law's window integrals of ``rec`` as functions of the differential offset.
+
+    Only the leak law takes the offset: the rest of the balance (valve or pump flows, the
+    spool-clearance and baseline terms) is kept as the healthy identification calibrated it, on
+    the measured pressures (docs/detect.md 8.5). O(n) per offset, without recomputing the
+    balance's other window sums.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording, with channels ``p1`` and ``p2`` (Pa).
+    start_s, end_s : numpy.ndarray
+        The windows' first and last sample instants (s, the recording's clock), as the
+        detector's window terms give them (adjacent windows share their end sample).
+    smoothing_s : float
+        Moving average of ``P1 - P2`` for the mean ``|phi|`` (the backend's
+        ``DP_SMOOTHING_S``).
+    ptr_leak_pa : float
+        Laminar core of the turbulent leak law (Pa).
+    laminar : bool
+        Laminar leak law (Eq. 2-5) instead of the turbulent one (Eq. 2-4).
+
+    Returns
+    -------
+    callable
+        ``at(delta) -> (phi, phi_abs)``: per window ``int phi(P1 - P2 - delta) dt`` and
+        ``int |phi(smoothed P1 - P2 - delta)| dt`` (s Pa^0.5, or s Pa when laminar), the
+        window terms ``phi`` and ``phi_abs`` of a recording whose ``p1`` is lowered by
+        ``delta``.
+
+    Examples
+    --------
+    A laminar law on a constant difference of 5 kPa, one 2-s window at 10 Hz:
+
+    >>> import numpy as np
+    >>> from leakdiag.io.recording import Recording
+    >>> rec = Recording({"p1": np.full(21, 5e3), "p2": np.zeros(21)}, sample_rate=10.0)
+    >>> at = leak_law_at(rec, np.array([0.0]), np.array([2.0]), 0.0, 0.0, laminar=True)
+    >>> [float(v[0]) for v in at(2e3)]
+    [6000.0, 6000.0]
+    """
+    fs = float(rec.sample_rate)
+    p1 = np.asarray(rec.channels["p1"], dtype=np.float64)
+    p2 = np.asarray(rec.channels["p2"], dtype=np.float64)
+    dp = np.ascontiguousarray(p1 - p2)
+    dps = np.ascontiguousarray(uniform_filter1d(dp, max(1, int(round(smoothing_s * fs))),
+                                                mode="nearest"))
+    first = np.rint((np.asarray(start_s, dtype=np.float64) - rec.start_time) * fs)
+    last = np.rint((np.asarray(end_s, dtype=np.float64) - rec.start_time) * fs)
+    first, last = first.astype(np.int64), last.astype(np.int64)
+    if len(first) and (first.min() < 0 or last.max() >= len(dp) or np.any(last < first)):
+        raise ValueError("leak_law_at: windows outside the recording")
+
+    def at(delta: float) -> tuple[np.ndarray, np.ndarray]:
+        out = np.empty((len(first), 2))
+        leak_law_window_sums(dp, dps, first, last, float(delta), float(ptr_leak_pa),
+                             bool(laminar), out)
+        out *= 1.0 / fs  # as the balance's wrappers scale their sums
+        return out[:, 0], out[:, 1]
+
+    return at
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,7 @@ from leakdiag.detect._flow_balance_checks import (
     longest_hold,
     spike_sizes,
 )
-from leakdiag.detect._flow_balance_offset import profile_offset
+from leakdiag.detect._flow_balance_offset import leak_law_at, profile_offset
 from leakdiag.detect._flow_balance_size import FLEET_BAND_MISSES, band_words, size_band
 from leakdiag.detect._flow_balance_search import (
     GLRThreshold,
@@ -253,9 +253,10 @@ class FlowBalanceVerdict(Verdict):
     leak_law : str
         Leak law assumed.
     pressure_offset_pa : float or None
-        EHA: the differential zero error of the chamber transducers found on the leak's own
-        windows (:math:`o_1 - o_2`, Pa), subtracted from the measured :math:`P_1 - P_2` in the
-        leak law for the size; None for the VCA and without an alarm.
+        The differential zero error of the chamber transducers found on the leak's own windows
+        (:math:`o_1 - o_2`, Pa), subtracted from the measured :math:`P_1` for the size: the EHA,
+        and the VCA without load or under an unknown load; None for the VCA with the spring and
+        without an alarm.
     leak_lpm_interval_holds : str or None
         What ``leak_lpm_interval`` holds, in words (None without an alarm); with an alarm but
         no size (``leak_lpm`` None: the VCA without load and a leak there from the start), why
@@ -1711,10 +1712,10 @@ class FlowBalanceDetector(Detector):
             after the onset window to the end of the recording, the mean leak flow is that
             coefficient times the mean ``|phi|`` from the onset to the end (L/min) with an
             ``interval_level`` interval, and ``leak_lpm_at_reference`` the flow at ``reference_dp_pa``.
-            EHA: the size is taken at the differential pressure-transducer offset that fits
-            the leak's windows best (``pressure_offset_pa``, searched within +-200 kPa, widened
-            up to +-800 kPa while the best is at the edge), and its interval also holds the
-            offsets the data allow (docs/detect.md 8.5; ``leak_lpm_interval_holds`` names them
+            EHA, and the VCA without load (or under an unknown load): the size is taken at
+            the differential pressure-transducer offset that fits the leak's windows best
+            (``pressure_offset_pa``, searched within +-200 kPa, widened up to +-800 kPa while
+            the best is at the edge), and its interval also holds the offsets the data allow (docs/detect.md 8.5; ``leak_lpm_interval_holds`` names them
             and flags an offset beyond +-200 kPa).
 
         Raises
@@ -1757,7 +1758,9 @@ class FlowBalanceDetector(Detector):
         first = j + 1 if j + 1 < len(g) else j
         dur = float(t["duration"][j:].sum())
         be = self._backend()
-        if be.SIZE_PROFILES_PRESSURE_OFFSET:
+        load = self._load_of(recording)
+        profiled = be.size_profiles_pressure_offset(load)
+        if profiled:
             # the leak law's pressure difference carries the transducers' differential zero
             # error, which the healthy recordings cannot identify: profiled out on the leak's
             # own windows (_flow_balance_offset)
@@ -1766,9 +1769,9 @@ class FlowBalanceDetector(Detector):
                                        prof.mean_abs_law, prof.offset_pa)
             offset_range = prof.offset_interval_pa
             interval = tuple(v * LPM_PER_M3S for v in prof.size_interval)
-            size_sigma = None  # the growth check is not measured on the EHA
+            size_sigma = None  # the growth check is not measured where the offset is profiled
         else:
-            size_sigma = self._size_sigma(t, first, self._load_of(recording))
+            size_sigma = self._size_sigma(t, first, load)
             k, se = self._estimate(t, first, sigma=size_sigma)
             mean_phi = float(t["phi_abs"][j:].sum()) / dur
             zq = float(norm.ppf(0.5 + self.interval_level / 2))
@@ -1852,7 +1855,6 @@ class FlowBalanceDetector(Detector):
         lpm = k * mean_phi * LPM_PER_M3S
         ptr = be.leak_transition_pa(self._nominal())
         at_ref = k * _leak_law_value(float(self.reference_dp_pa), self.leak_law, ptr) * LPM_PER_M3S
-        load = self._load_of(recording)
         # the coefficient (and the flow at the reference dp from it) only where it was measured
         # to hold: the VCA without load gives it 0.13-1.05x the truth (docs/detect.md 8.5)
         coef_why = _coefficient_withheld(self.system, load)
@@ -1899,8 +1901,7 @@ class FlowBalanceDetector(Detector):
                 "onset is sized")
             coef = dict(leak_coefficient=None, leak_coefficient_se=None,
                         leak_lpm_at_reference=None, pressure_offset_pa=None)
-        elif not no_size and be.SIZE_PROFILES_PRESSURE_OFFSET and \
-                n_after < OFFSET_MIN_WINDOWS:
+        elif not no_size and profiled and n_after < OFFSET_MIN_WINDOWS:
             no_size = (
                 f"no size: only {n_after} window(s) follow the onset window before the "
                 f"recording ends, and the size profiles the chamber transducers' differential "
@@ -1908,11 +1909,11 @@ class FlowBalanceDetector(Detector):
                 "(docs/detect.md 8.5); a recording that goes on longer after the onset is sized")
             coef = dict(leak_coefficient=None, leak_coefficient_se=None,
                         leak_lpm_at_reference=None, pressure_offset_pa=None)
-        if no_size:
+        if no_size:  # no size, so no offset found for it either
             return FlowBalanceVerdict(
                 leak=True, onset_s=onset, alarm_time_s=alarm, leak_lpm=None,
                 leak_lpm_interval=None, shift=float(k / se), leak_lpm_interval_holds=no_size,
-                **coef, **common)
+                **{**coef, "pressure_offset_pa": None}, **common)
         # the model error the statistical interval does not hold: the ratio range measured on
         # virtual machines (_flow_balance_size; docs/detect.md 8.5, "Size interval")
         r_lo, r_hi, _, _ = size_band(self.system, load)
@@ -1928,7 +1929,7 @@ class FlowBalanceDetector(Detector):
                   "statistical part only, which knows no model error: the band's probability "
                   "is what the whole interval is promised to hold")
         growth = (self._growth(t, first, size_sigma)
-                  if load in GROWTH_MEASURED[self.system] else None)
+                  if load in GROWTH_MEASURED[self.system] and size_sigma is not None else None)
         recent = None
         if growth is not None and growth[0] >= GROWTH_RATIO and growth[1] >= GROWTH_Z:
             recent = growth[2] * float(t["phi_abs"][-RECENT_WINDOWS:].sum()) / float(
@@ -2107,14 +2108,19 @@ class FlowBalanceDetector(Detector):
     def _offset_profile(self, rec, first: int, j: int, dur: float):
         """Leak coefficient and mean ``|phi|`` since window ``j`` with the differential
         pressure offset profiled (:func:`~leakdiag.detect._flow_balance_offset.profile_offset`;
-        the coefficient from window ``first`` on)."""
-        channels = dict(rec.channels)
+        the coefficient from window ``first`` on). The offset moves the leak law only
+        (:func:`~leakdiag.detect._flow_balance_offset.leak_law_at`): the residual, the
+        nuisance and the error model stay as the healthy identification calibrated them on
+        the measured pressures."""
+        be = self._backend()
+        t = self._terms(rec)
+        law = leak_law_at(rec, t["start"], t["end"], be.DP_SMOOTHING_S,
+                          be.leak_transition_pa(self._nominal()), self.leak_law == "laminar")
 
         def evaluate(delta: float) -> tuple[float, float, float]:
-            shifted = replace(rec, channels={**channels, "p1": channels["p1"] - delta})
-            t = self._terms(shifted)
-            k, se = self._estimate(t, first)
-            return k, se, float(t["phi_abs"][j:].sum()) / dur
+            phi, phi_abs = law(delta)
+            k, se = self._estimate({**t, "phi": phi}, first)
+            return k, se, float(phi_abs[j:].sum()) / dur
 
         return profile_offset(evaluate, self.interval_level)
 
