@@ -118,3 +118,31 @@ def test_the_leak_law_sums_equal_the_eha_balance_too():
     _law_against_the_balance(det, rec)
     det_lam = FlowBalanceDetector(system="eha", leak_law="laminar").fit(healthy)
     _law_against_the_balance(det_lam, rec)
+
+
+def test_the_eha_profile_equals_the_balance_of_shifted_recordings():
+    # the EHA's balance depends on the pressures' zero only through its leak-law terms, so
+    # the fast profile is the profile over whole recomputed balances (the code before
+    # 2026-11-29, written out here as the reference)
+    from dataclasses import replace
+
+    from leakdiag.detect._flow_balance_offset import profile_offset
+
+    healthy = [ld.sim.simulate_eha(duration=40, leak_lpm=0.0, machine=17, seed=s)
+               for s in range(3)]
+    det = FlowBalanceDetector(system="eha").fit(healthy)
+    rec = ld.sim.simulate_eha(duration=40, leak_lpm=0.1, onset=20, machine=17, seed=9)
+    t = det._terms(rec)
+    j = int(np.searchsorted(t["start"], 20.0))
+    dur = float(t["duration"][j:].sum())
+
+    def evaluate(delta):
+        ts = det._terms(replace(rec, channels={**rec.channels, "p1": rec.channels["p1"] - delta}))
+        k, se = det._estimate(ts, j + 1)
+        return k, se, float(ts["phi_abs"][j:].sum()) / dur
+
+    ref = profile_offset(evaluate, det.interval_level)
+    fast = det._offset_profile(rec, j + 1, j, dur)
+    assert fast.offset_pa == pytest.approx(ref.offset_pa, abs=1.0)
+    assert fast.size == pytest.approx(ref.size, rel=1e-6)
+    assert fast.size_interval == pytest.approx(ref.size_interval, rel=1e-6)

@@ -2108,18 +2108,22 @@ class FlowBalanceDetector(Detector):
     def _offset_profile(self, rec, first: int, j: int, dur: float):
         """Leak coefficient and mean ``|phi|`` since window ``j`` with the differential
         pressure offset profiled (:func:`~leakdiag.detect._flow_balance_offset.profile_offset`;
-        the coefficient from window ``first`` on). The offset moves the leak law only
-        (:func:`~leakdiag.detect._flow_balance_offset.leak_law_at`): the residual, the
+        the coefficient from window ``first`` on). The offset moves the leak-law terms only
+        (:func:`~leakdiag.detect._flow_balance_offset.leak_law_at`): the leak's regressor and
+        the healthy baseline leak subtracted from the residual; the valve or pump flows, the
         nuisance and the error model stay as the healthy identification calibrated them on
-        the measured pressures."""
+        the measured pressures. On the EHA, whose other terms do not depend on the pressures'
+        zero, this is the balance of a recording with ``p1`` lowered by the offset."""
         be = self._backend()
         t = self._terms(rec)
         law = leak_law_at(rec, t["start"], t["end"], be.DP_SMOOTHING_S,
                           be.leak_transition_pa(self._nominal()), self.leak_law == "laminar")
+        kb = float(self.model_.baseline_leak_coefficient)
 
         def evaluate(delta: float) -> tuple[float, float, float]:
             phi, phi_abs = law(delta)
-            k, se = self._estimate({**t, "phi": phi}, first)
+            shifted = {**t, "phi": phi, "residual": t["residual"] - kb * (phi - t["phi"])}
+            k, se = self._estimate(shifted, first)
             return k, se, float(phi_abs[j:].sum()) / dur
 
         return profile_offset(evaluate, self.interval_level)
