@@ -141,13 +141,20 @@ def test_the_store_says_what_the_flow_balance_interval_holds(fleet, tmp_path, ru
     assert batch["leak_interval"] == det["leak_interval"]
 
 
-def test_a_refused_judgement_at_the_run_level_keeps_that_level_as_threshold(tmp_path):
+def test_a_refused_judgement_at_the_run_level_keeps_that_level_as_threshold(tmp_path,
+                                                                             monkeypatch):
     """An audit (2026-11-29): a run longer than a healthy segment is judged at its run level,
     and when the detector then refused its alarm ("... level 3.53 ..."), the row (and
     ``--store``) kept the fitted threshold (3.28). Four 20-s no-load runs of machine 31 fitted
     for 36 per hour (14-s segments); the first 30 s of a 0.5 L/min leak from 25 s alarm at
-    28.07 s with too little data after it."""
+    28.07 s with too little data after it. Refused as it was before the VCA's no-load size
+    profiled the transducers' zero error (it reads LEAK since, without a size:
+    tests/stream/test_monitor_segments.py); it stands for the refusals that remain."""
     import re
+
+    import leakdiag.detect._flow_balance_vca as vca_backend
+
+    monkeypatch.setattr(vca_backend, "OFFSET_PROFILED_LOADS", ())
 
     from leakdiag.detect.decision import raised_level
     from leakdiag.stream.detector_file import load_detector_file

@@ -357,7 +357,34 @@ def _segments(det, rec, seg):
     return out + ([] if last is None else [last])
 
 
-def test_a_leak_present_from_a_segments_start_is_not_called_a_sensor_fault(no_load_leak):
+def _without_offset_profile(monkeypatch):
+    """The VCA's no-load size as it was before 2026-11-29, without the profile of the pressure
+    transducers' differential zero error: the cases below were refused then (the zero error
+    took the leak coefficient below zero), and they stand here for the refusals that remain
+    possible (a seam, a sensor fault), whose handling these tests are about."""
+    import leakdiag.detect._flow_balance_vca as vca_backend
+
+    monkeypatch.setattr(vca_backend, "OFFSET_PROFILED_LOADS", ())
+
+
+def test_the_audits_refused_no_load_leaks_read_leak_with_the_offset_profiled(no_load_leak):
+    # the three cases below, as leakdiag judges them now (docs/detect.md 8.5, "Adopted for
+    # the VCA without load"): a leak, with no size where too few windows follow the onset
+    det, rec = no_load_leak
+    late = Recording({c: rec[c][:30000] for c in ("p1", "p2", "x", "u")}, 1000.0, 0.0,
+                     dict(rec.units), {"load": "none", "system": "vca", "source": "part"})
+    v = det.predict(late)
+    assert v.leak and 25.0 <= v.onset_s < v.alarm_time_s < 30.0 and v.leak_lpm is None
+    at_start = Recording({c: rec[c][35000:] for c in ("p1", "p2", "x", "u")}, 1000.0, 35.0,
+                         dict(rec.units), {"load": "none", "system": "vca", "source": "part"})
+    v = det.predict(at_start)
+    assert v.leak and v.onset_censored and v.leak_lpm is None
+    for seg in (30.0, 35.0):
+        assert [s.decision for s in _segments(det, rec, seg)] == ["LEAK", "LEAK"]
+
+
+def test_a_leak_present_from_a_segments_start_is_not_called_a_sensor_fault(no_load_leak,
+                                                                              monkeypatch):
     """The audit: the segment 35-50 s of a continuing 0.5 L/min leak (score 328) read "the leak
     coefficient ... is not positive (-6.95e-10 +- 5.8e-11): the flow balance does not describe
     this recording well (a sensor fault, ...)". A leak present from the start is fitted into
@@ -365,6 +392,7 @@ def test_a_leak_present_from_a_segments_start_is_not_called_a_sensor_fault(no_lo
     present from its start."""
     from leakdiag.detect.flow_balance import AlarmAtStart
 
+    _without_offset_profile(monkeypatch)
     det, rec = no_load_leak
     part = Recording({c: rec[c][35000:] for c in ("p1", "p2", "x", "u")}, 1000.0, 35.0,
                      dict(rec.units), {"load": "none", "system": "vca", "source": "part"})
@@ -383,12 +411,14 @@ def test_a_leak_present_from_a_segments_start_is_not_called_a_sensor_fault(no_lo
                                     "segment began")
 
 
-def test_a_late_alarm_whose_coefficient_is_not_positive_is_unconfirmed(no_load_leak):
+def test_a_late_alarm_whose_coefficient_is_not_positive_is_unconfirmed(no_load_leak,
+                                                                        monkeypatch):
     """The same audit's leak in 30-s segments: the alarm at 28.07 s, 1 s before the segment's
     end, gave k -2.7e-9 +- 1.8e-10 from its onset and read "a sensor fault?"; too few data
     follow it, and the next segment names it."""
     from leakdiag.detect.flow_balance import AlarmNotConfirmed
 
+    _without_offset_profile(monkeypatch)
     det, rec = no_load_leak
     part = Recording({c: rec[c][:30000] for c in ("p1", "p2", "x", "u")}, 1000.0, 0.0,
                      dict(rec.units), {"load": "none", "system": "vca", "source": "part"})
@@ -401,10 +431,11 @@ def test_a_late_alarm_whose_coefficient_is_not_positive_is_unconfirmed(no_load_l
 
 
 def test_a_stream_whose_only_alarm_is_refused_reads_inconclusive_not_unjudged(
-        no_load_leak, run_cli, tmp_path):
+        no_load_leak, run_cli, tmp_path, monkeypatch):
     """A review (2026-11-29): detect and batch read a file whose only alarm the detector refused
     INCONCLUSIVE (exit 0); monitor --segment printed the segment NOT JUDGED and, with no other
     segment, exited 2 with "no segment could be judged"."""
+    _without_offset_profile(monkeypatch)
     det, rec = no_load_leak
     part = Recording({c: rec[c][:30000] for c in ("p1", "p2", "x", "u")}, 1000.0, 0.0,
                      dict(rec.units), {"load": "none", "system": "vca"})
