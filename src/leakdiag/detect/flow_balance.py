@@ -1836,7 +1836,8 @@ class FlowBalanceDetector(Detector):
                 "leak", alarm, onset)
         if not k > 0.0 and end - alarm < LATE_ALARM_S:  # too few windows after a late alarm
             # (an audit, 2026-11-29: a 0.5 L/min leak from 25 s alarmed at 28.07 s in the
-            # segment 0-30 s, k -2.7e-9 +- 1.8e-10, was "a sensor fault?")
+            # segment 0-30 s, k -2.7e-9 +- 1.8e-10, was "a sensor fault?"; that k came from
+            # the transducers' zero error, and with it profiled the case reads LEAK)
             raise AlarmNotConfirmed(
                 f"{said}, but the leak coefficient estimated from the onset "
                 f"({seconds(onset)} s) to "
