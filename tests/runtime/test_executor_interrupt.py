@@ -18,7 +18,7 @@ import pytest
 #: ``leakdiag reproduce`` through its entry point, with cases that only say they started and
 #: sleep (the protocol's simulations would make the moment of the interrupt a matter of luck).
 SCRIPT = textwrap.dedent("""
-    import importlib, pathlib, sys, time
+    import importlib, pathlib, signal, sys, time
 
     from leakdiag.cli.main import main
 
@@ -29,6 +29,9 @@ SCRIPT = textwrap.dedent("""
         time.sleep(300)
 
     if __name__ == "__main__":  # not in the workers (spawned: they import this file)
+        # as at a terminal: a job started in the background (``make test &``) inherits SIGINT
+        # ignored, and Python then installs no KeyboardInterrupt handler (the run went on)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         flags = pathlib.Path(sys.argv[1])
         rp.build_cases = lambda cfg, systems: [{"flag": str(flags / f"running-{i}")}
                                                for i in range(4)]
@@ -54,11 +57,17 @@ def test_ctrl_c_on_a_local_cluster_prints_one_line(tmp_path):
             time.sleep(0.2)
         time.sleep(1.0)
         os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C at a terminal does
-        out, err = proc.communicate(timeout=90)
+        try:
+            out, err = proc.communicate(timeout=90)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            out, err = proc.communicate()  # closes the pipes (no ResourceWarning later)
+            pytest.fail("the run did not end within 90 s of Ctrl-C; it printed:\n"
+                        + out[-3000:] + "\n--- stderr ---\n" + err[-6000:])
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+            proc.communicate()
     assert proc.returncode == 1
     assert [line for line in err.splitlines() if line.strip()] == ["Aborted."], err
     assert out == ""
