@@ -1,4 +1,4 @@
-"""Leak size with the differential pressure-transducer offset profiled out (EHA flow balance).
+"""Leak size with the differential pressure-transducer offset profiled out (flow balance).
 
 The EHA's window residual, the leak volume of the flow balance (:mod:`._flow_balance_eha`),
 does not depend on the pressure transducers' zero errors: it uses the motor encoder, the piston
@@ -10,6 +10,12 @@ sized a 0.1 L/min leak 21 % low with an interval that excluded the truth (unit 1
 docs/detect.md 8.5). Healthy recordings cannot identify :math:`\\delta` (the leak term is zero
 there), but a leak's own windows can: the leak law's nonlinearity makes the fit of the residual
 on :math:`g(P_1 - P_2 - \\delta)` best at the true offset.
+
+The VCA without load has the same problem (its zero errors of tens of kPa took the leak's
+coefficient below zero and had leaks refused 10 s after their onset) and the same cure since
+2026-11-29; its residual does use the measured pressures (the valve flows of Eq. 2-2), but as
+the healthy identification calibrated them, so there too only the leak-law terms take the
+offset (:func:`leak_law_at`).
 
 :func:`profile_offset` maximises the profile log-likelihood of :math:`\\delta` over a bounded
 range, :math:`\\ell(\\delta) = \\tfrac12 (\\max(\\hat k(\\delta), 0) / \\mathrm{se}(\\delta))^2`
@@ -85,9 +91,10 @@ def leak_law_at(rec, start_s, end_s, smoothing_s: float, ptr_leak_pa: float,
     """The leak law's window integrals of ``rec`` as functions of the differential offset.
 
     Only the leak law takes the offset: the rest of the balance (valve or pump flows, the
-    spool-clearance and baseline terms) is kept as the healthy identification calibrated it, on
-    the measured pressures (docs/detect.md 8.5). O(n) per offset, without recomputing the
-    balance's other window sums.
+    spool-clearance term) is kept as the healthy identification calibrated it, on the measured
+    pressures; the caller shifts the healthy baseline leak term, a leak-law term, with it
+    (``FlowBalanceDetector._offset_profile``; docs/detect.md 8.5). O(n) per offset, without
+    recomputing the balance's other window sums.
 
     Parameters
     ----------
