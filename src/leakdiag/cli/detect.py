@@ -786,7 +786,8 @@ def detect(file, healthy, detectors, methods, system, column_map, cols, sample_r
         if ("leak_lpm" not in sized or sized["leak_lpm"].isna().all()) and not (
                 "leak_lpm_interval_holds" in sized
                 and sized["leak_lpm_interval_holds"].map(lambda v: isinstance(v, str)).any()):
-            calibrated = [r for r in sized.to_dict("records") if r.get("size_calibrated") in (True, 1)]
+            calibrated = [r for r in sized.to_dict("records")
+                          if r.get("size_calibrated") in (True, 1)]
             for r in calibrated:  # calibrated, yet no size: say why (a user audit, 2026-11-29:
                 # "no detector here is calibrated" was printed for a calibrated one)
                 why = ("the change was there from the first window judged, so no leak-free "
