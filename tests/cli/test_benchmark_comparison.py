@@ -107,6 +107,7 @@ def test_comparison_default_target_needs_its_default_fitting_runs(tmp_path, no_w
     (["--methods", "acf-p1"], "--methods does"),
     (["--systems", "vca"], "--systems does"),
     (["--loads", "none"], "--loads does"),
+    (["--sizes", "0.02"], "--sizes does"),
     (["--excitations", "operating"], "--excitations does"),
     (["--n-cal", "30"], "--n-cal does"),
     (["--n-healthy", "3"], "--n-healthy does"),

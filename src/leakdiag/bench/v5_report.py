@@ -16,7 +16,8 @@ from leakdiag.bench.report import method_style
 from leakdiag.bench.suite import EXCITATIONS
 from leakdiag.bench.v5_run import run_v5, work_lines
 from leakdiag.bench.v5_scoring import false_alarm_table, rate_text, size_table, summary_v5
-from leakdiag.bench.v5_suite import V5_DEFAULT_FAR, V5_QUICK_FAR, V5_QUICK_SUITES, V5_SUITES
+from leakdiag.bench.v5_suite import (V5_DEFAULT_FAR, V5_QUICK_FAR, V5_QUICK_SUITES, V5_SUITES,
+                                     restrict_sizes)
 from leakdiag.runtime.cache import resolve_cache_dir
 
 __all__ = ["run_benchmark_v5", "write_v5_report", "console_table", "nothing_judged_message",
@@ -31,7 +32,8 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
                      cache_dir: str | None = None, work_dir: str | None = None,
                      progress: bool = True, command: str = "leakdiag benchmark --suite v5",
                      unit_fit: int = 0, full_budget: bool = False,
-                     confidence: float | None = None, first_index: int | None = None):
+                     confidence: float | None = None, first_index: int | None = None,
+                     sizes=None):
     """Run benchmark v5 and write its report.
 
     Parameters
@@ -67,6 +69,9 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     first_index : int, optional
         First held-out index of each role and size (``V5Suite.first_test_index``): a fresh
         block of seeds.
+    sizes : sequence of float, optional
+        Leak sizes (L/min) to run, each one of every selected rig's suite; their runs keep the
+        whole suite's seeds (``V5Suite.size_indexes``).
 
     Returns
     -------
@@ -79,7 +84,7 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
     Raises
     ------
     ValueError
-        Unknown method, system, load or excitation; ``out_dir``, ``work_dir`` or the cache
+        Unknown method, system, load, excitation or size; ``out_dir``, ``work_dir`` or the cache
         folder cannot be written (checked before any work).
     NothingJudgedError
         No held-out run was judged (every fit failed): the report of the fits is written, and
@@ -110,6 +115,8 @@ def run_benchmark_v5(out_dir, *, quick: bool = False, methods=None, systems=None
             if bad:
                 raise ValueError(f"unknown load {bad[0]!r}; known: {list(V5_SUITES[s].loads)}")
             v = replace(v, loads=tuple(x for x in v.loads if x in loads) or tuple(loads))
+        if sizes is not None:
+            v = restrict_sizes(v, sizes)
         if excitations is not None:
             bad = [x for x in excitations if x not in EXCITATIONS]
             if bad:

@@ -13,14 +13,15 @@ Machine ids: training ``1 + i`` (block per group), test ``10_000_000 + seed``; t
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from leakdiag.bench.suite import EXCITATIONS, BenchCase, Nuisance
 
 __all__ = ["V5_VERSION", "V5Suite", "V5_SUITES", "V5_QUICK_SUITES", "build_v5_suite",
-           "V5_DEFAULT_FAR", "V5_QUICK_FAR", "DEADLINES_S"]
+           "restrict_sizes", "V5_DEFAULT_FAR", "V5_QUICK_FAR", "DEADLINES_S"]
 
 #: Version of the v5 suite (seeds, sizes, ranges). Bump on any change.
 V5_VERSION = "5.0"
@@ -71,6 +72,9 @@ class V5Suite:
         block of seeds for a final measurement. Indexes 0-999 healthy and 0-49 leaking are
         the full suite's, which the project's development has seen (benchmark audit
         2026-11-28, findings 3-4); the run counts ``n_test_*`` follow from it.
+    size_indexes : tuple of int, optional
+        Place of each of ``leak_lpm`` in the suite the seeds follow (``--sizes`` keeps a
+        restricted suite's runs those of the whole suite); None: ``0, 1, ...``.
     """
 
     system: str
@@ -87,6 +91,7 @@ class V5Suite:
     nuisance: Nuisance = field(default_factory=Nuisance)
     chunk: int = 25
     first_test_index: int = 0
+    size_indexes: tuple[int, ...] | None = None
 
 
 #: The full v5 suite (60-s runs: onset U[20, 28] s leaves >= 32 s for the 30-s deadline and
@@ -105,6 +110,44 @@ V5_QUICK_SUITES: dict[str, V5Suite] = {
     "eha": V5Suite("eha", (1.63,), ("none",), ("operating",), 30.0, (12.0, 15.0), 20, 20, 4,
                    (10e3, 10e3), 80_000_000, chunk=12),
 }
+
+
+def restrict_sizes(suite: V5Suite, sizes) -> V5Suite:
+    """The suite with only some of its leak sizes, each run keeping the whole suite's seed.
+
+    Parameters
+    ----------
+    suite : V5Suite
+        A whole suite (``size_indexes`` None).
+    sizes : sequence of float
+        Leak sizes (L/min), each one of ``suite.leak_lpm`` (to 1e-9 relative).
+
+    Returns
+    -------
+    V5Suite
+        ``leak_lpm`` the sizes given, in the suite's order, with their ``size_indexes``.
+
+    Raises
+    ------
+    ValueError
+        If a size is not one of the suite's, or the suite is already restricted.
+
+    Examples
+    --------
+    >>> s = restrict_sizes(V5_SUITES["vca"], [0.02, 0.005])
+    >>> s.leak_lpm, s.size_indexes
+    ((0.005, 0.02), (1, 3))
+    """
+    if suite.size_indexes is not None:
+        raise ValueError(f"{suite.system}: the suite's sizes are already restricted")
+    idx = [next((j for j, q in enumerate(suite.leak_lpm)
+                 if math.isclose(q, float(x), rel_tol=1e-9)), None) for x in sizes]
+    if None in idx:
+        raise ValueError(f"leak size {sizes[idx.index(None)]!r} L/min is not in the "
+                         f"{suite.system} suite's sizes {list(suite.leak_lpm)}")
+    idx = sorted(set(idx))
+    return replace(suite, leak_lpm=tuple(suite.leak_lpm[j] for j in idx),
+                   size_indexes=tuple(idx))
 
 
 def build_v5_suite(suites: dict[str, V5Suite]) -> list[BenchCase]:
@@ -130,7 +173,8 @@ def build_v5_suite(suites: dict[str, V5Suite]) -> list[BenchCase]:
 
     Notes
     -----
-    Seed of run ``i`` of role ``r``, load ``l``, excitation ``e``, size ``j``:
+    Seed of run ``i`` of role ``r``, load ``l``, excitation ``e``, size ``j`` (its place in
+    the whole suite, ``size_indexes``):
     ``base_seed + offset[r] + 500_000 l + 100_000 e + 10_000 j + i`` (``l`` the load's index
     in the full suite :data:`V5_SUITES`, ``e`` the excitation's in ``EXCITATIONS``; offsets cal 0,
     test_healthy 2 000 000, test_leak 4 000 000). Training machines are ``1 + i +
@@ -155,7 +199,12 @@ def build_v5_suite(suites: dict[str, V5Suite]) -> list[BenchCase]:
             for exc in s.excitations:
                 e = EXCITATIONS.index(exc)
                 plan = [("cal", 0, 0.0, s.n_cal), ("test_healthy", 0, 0.0, s.n_test_healthy)]
-                plan += [("test_leak", j, q, s.n_test_leak) for j, q in enumerate(s.leak_lpm)]
+                # the size's place in the whole suite (``--sizes``), as the load's above
+                js = s.size_indexes if s.size_indexes is not None else range(len(s.leak_lpm))
+                if len(js) != len(s.leak_lpm):
+                    raise ValueError(f"{name}: {len(js)} size indexes for {len(s.leak_lpm)} "
+                                     "sizes")
+                plan += [("test_leak", j, q, s.n_test_leak) for j, q in zip(js, s.leak_lpm)]
                 for role, j, q, n in plan:
                     first = 0 if role == "cal" else s.first_test_index
                     if first + n > 10_000:  # the next size's (or load's) seeds

@@ -42,6 +42,9 @@ def _command_line() -> str:
 @click.option("--methods", default=None, help="Comma-separated method names (default: all).")
 @click.option("--systems", default=None, help="Comma-separated rigs (vca, eha).")
 @click.option("--loads", default=None, help="v5: comma-separated loads (none, spring).")
+@click.option("--sizes", default=None,
+              help="v5: comma-separated leak sizes (L/min), each one of every selected rig's "
+                   "suite; their runs keep the whole suite's seeds.")
 @click.option("--excitations", default=None,
               help="Comma-separated excitation conditions (operating, structured).")
 @click.option("--n-cal", default=None, type=click.IntRange(min=1),
@@ -86,10 +89,10 @@ def _command_line() -> str:
               help="v5: resumable state (fits, result shards); default <cache>/bench-v5.")
 @click.option("--list-methods", is_flag=True, help="Print the registered methods and exit.")
 @click.option("--no-progress", is_flag=True, help="No progress bars.")
-def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal, n_test_healthy,
-              n_test_leak, first_index, unit_fit, full_budget, max_test_runs, n_fit, far,
-              confidence, onset_method, scheduler, workers, cache_dir, work_dir, list_methods,
-              no_progress):
+def benchmark(out_dir, suite, quick, methods, systems, loads, sizes, excitations, n_cal,
+              n_test_healthy, n_test_leak, first_index, unit_fit, full_budget, max_test_runs,
+              n_fit, far, confidence, onset_method, scheduler, workers, cache_dir, work_dir,
+              list_methods, no_progress):
     """Run the detection benchmark and write its report to --out (--suite comparison: the
     literature comparison's tables)."""
     from leakdiag.bench.registry import METHODS
@@ -124,6 +127,15 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
 
         if max_test_runs is not None:
             raise click.UsageError("--max-test-runs is for --suite v4; use --n-healthy/--n-leak")
+        size_list = None
+        if sizes is not None:
+            try:
+                size_list = [float(x) for x in split(sizes) or []]
+            except ValueError:
+                raise click.UsageError(f"--sizes {sizes!r}: not a comma-separated list of leak "
+                                       "sizes in L/min (e.g. 0.005,0.02)") from None
+            if not size_list:
+                raise click.UsageError("--sizes: no size given")
         try:
             res = run_benchmark_v5(out_dir, quick=quick, methods=split(methods),
                                    systems=split(systems), excitations=split(excitations),
@@ -133,7 +145,8 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
                                    n_workers=workers, cache_dir=cache_dir, work_dir=work_dir,
                                    progress=not no_progress, command=command,
                                    unit_fit=unit_fit, full_budget=full_budget,
-                                   confidence=confidence, first_index=first_index)
+                                   confidence=confidence, first_index=first_index,
+                                   sizes=size_list)
         except ValueError as exc:
             raise click.UsageError(str(exc)) from None
         _echo_removed(res["removed"], out_dir)
@@ -160,15 +173,17 @@ def benchmark(out_dir, suite, quick, methods, systems, loads, excitations, n_cal
 
 
 #: Options of suite v5 only (parameter name, flag): refused with --suite v4.
-_V5_ONLY = (("loads", "--loads"), ("n_cal", "--n-cal"), ("n_test_healthy", "--n-healthy"),
-            ("n_test_leak", "--n-leak"), ("first_index", "--first-index"),
-            ("unit_fit", "--unit-fit"), ("full_budget", "--full-budget"),
-            ("confidence", "--confidence"), ("work_dir", "--work-dir"))
+_V5_ONLY = (("loads", "--loads"), ("sizes", "--sizes"), ("n_cal", "--n-cal"),
+            ("n_test_healthy", "--n-healthy"), ("n_test_leak", "--n-leak"),
+            ("first_index", "--first-index"), ("unit_fit", "--unit-fit"),
+            ("full_budget", "--full-budget"), ("confidence", "--confidence"),
+            ("work_dir", "--work-dir"))
 
 
 #: Options that do not apply to --suite comparison (parameter name, flag): refused with it.
 _NOT_COMPARISON = (("quick", "--quick"), ("methods", "--methods"), ("systems", "--systems"),
-                   ("loads", "--loads"), ("excitations", "--excitations"), ("n_cal", "--n-cal"),
+                   ("loads", "--loads"), ("sizes", "--sizes"), ("excitations", "--excitations"),
+                   ("n_cal", "--n-cal"),
                    ("n_test_healthy", "--n-healthy"), ("n_test_leak", "--n-leak"),
                    ("first_index", "--first-index"), ("unit_fit", "--unit-fit"),
                    ("full_budget", "--full-budget"), ("max_test_runs", "--max-test-runs"), ("confidence", "--confidence"),
