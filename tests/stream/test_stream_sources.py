@@ -233,3 +233,32 @@ def test_paced_default_pieces_are_a_tenth_of_a_second():
     sizes = [len(p["p1"]) for p in paced(recording_chunks(rec, 5000), speed=1.0,
                                           clock=lambda: 1e9, sleep=lambda dt: None)]
     assert sizes == [100] * 50
+
+
+@pytest.mark.parametrize("fmt", ["parquet", "hdf5"])
+def test_following_a_binary_recording_is_refused_by_name(tmp_path, fmt):
+    """An audit (2026-11-29, session 28): ``monitor FILE.parquet --follow`` said only
+    "'utf-8' codec can't decode byte 0x80 in position 7"."""
+    from leakdiag.io import write_recording
+
+    rec = Recording({"p1": np.arange(5.0), "p2": np.arange(5.0)}, sample_rate=10.0)
+    path = tmp_path / f"rec.{'parquet' if fmt == 'parquet' else 'h5'}"
+    write_recording(rec, path)
+    kind = {"parquet": "Parquet", "hdf5": "HDF5"}[fmt]
+    with pytest.raises(RecordingError, match=re.escape(
+            f"{path}: a {kind} file, not delimited text: following (monitor --follow) reads a "
+            f"CSV file that is still being written, line by line; judge the {kind} file "
+            "without --follow")):
+        tail_csv(path, idle_timeout_s=0.1)
+
+
+def test_a_followed_line_that_is_not_utf8_is_named_with_its_line(tmp_path, run_cli):
+    path = tmp_path / "bad.csv"
+    path.write_bytes(b"time,p1,p2\n0.0,1,2\n0.001,\xff\xfe,3\n0.002,1,2\n")
+    with pytest.raises(RecordingError, match=re.escape(
+            f"{path}: line 3 is not UTF-8 text (invalid start byte: byte 0xff, byte 7 of the "
+            "line): following reads CSV text")):
+        list(tail_csv(path, idle_timeout_s=0.1).chunks)  # (the first lines read at the start)
+    code, _, err = run_cli(["monitor", str(path), "-c", "p1", "--follow", "--idle-timeout",
+                            "0.2"])
+    assert code == 2 and f"leakdiag: error: {path}: line 3 is not UTF-8 text" in err

@@ -294,6 +294,11 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
     return ChunkSource(gen(), fs, t0, chans, None, source, {})
 
 
+#: Leading bytes of the binary formats leakdiag reads (``leakdiag.io``): a followed file
+#: that starts with one is refused by name rather than decoded as text.
+_BINARY_MAGIC = ((b"PAR1", "Parquet"), (b"\x89HDF\r\n\x1a\n", "HDF5"), (b"MATLAB", "MAT"))
+
+
 def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
              sample_rate: float | None = None, poll_s: float = 0.05,
              idle_timeout_s: float | None = None, batch_lines: int = 1) -> ChunkSource:
@@ -343,7 +348,14 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
     """
     path = os.fspath(path)
     poll_s = check_positive(poll_s, "poll_s")
-    f = open(path, encoding="utf-8")
+    with open(path, "rb") as raw:  # a finished binary recording is not followed as text
+        head = raw.read(8)
+    kind = next((k for magic, k in _BINARY_MAGIC if head.startswith(magic)), None)
+    if kind is not None:
+        raise RecordingError(f"{path}: a {kind} file, not delimited text: following (monitor "
+                             "--follow) reads a CSV file that is still being written, line by "
+                             f"line; judge the {kind} file without --follow")
+    f = open(path, "rb")  # lines decoded one by one: a bad byte is named with its line
     done = [0]  # complete lines handed over (the header is line 1)
     ended = [False]  # the idle timeout ended the stream: later reads find nothing
 
@@ -366,19 +378,25 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
         if ended[0]:
             return ""
         idle = 0.0
-        partial = ""
+        partial = b""
         while True:
             line = f.readline()
             if line:
                 partial += line
-                if partial.endswith("\n"):
+                if partial.endswith(b"\n"):
                     done[0] += 1
-                    return partial
+                    try:
+                        return partial.decode("utf-8")
+                    except UnicodeDecodeError as exc:
+                        raise RecordingError(
+                            f"{path}: line {done[0]} is not UTF-8 text ({exc.reason}: byte "
+                            f"0x{partial[exc.start]:02x}, byte {exc.start + 1} of the line): "
+                            "following reads CSV text") from None
                 idle = 0.0  # part of a line arrived: the writer is alive
                 continue
             if idle_timeout_s is not None and idle >= idle_timeout_s:
                 ended[0] = True
-                return left_out(partial) if partial else ""
+                return left_out(partial.decode("utf-8", "replace")) if partial else ""
             time.sleep(poll_s)
             idle += poll_s
 
