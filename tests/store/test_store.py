@@ -1,6 +1,7 @@
 """Event store: schema, round trip, fleet state, concurrent writers, killed writer, versions."""
 
 import os
+import re
 import signal
 import sqlite3
 import subprocess
@@ -484,3 +485,20 @@ def test_a_version_3_store_is_upgraded_to_5(tmp_path):
     st.close()
     assert sqlite3.connect(db).execute("select version from schema_version").fetchall() == \
         [(5,)]
+
+
+def test_a_store_in_a_folder_that_does_not_exist_says_so(tmp_path, run_cli):
+    """A CLI audit (2026-11-29, session 28): ``--store nodir/x.db`` said only "unable to open
+    database file"."""
+    path = tmp_path / "nodir" / "x.db"
+    with pytest.raises(StoreError, match=re.escape(
+            f"{path}: cannot create the event store: the folder {tmp_path / 'nodir'} does not "
+            "exist (create it first")):
+        EventStore(path)
+    assert not (tmp_path / "nodir").exists()  # nothing made
+    csv = tmp_path / "r.csv"
+    csv.write_text("time,p1\n" + "".join(f"{i / 100},{i % 7}\n" for i in range(300)))
+    code, _, err = run_cli(["monitor", str(csv), "-c", "p1", "--window", "50", "--store",
+                            str(path)])
+    assert code == 2 and f"the folder {tmp_path / 'nodir'} does not exist" in err
+    EventStore(tmp_path / "x.db").close()  # an existing folder: made

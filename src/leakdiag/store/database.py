@@ -248,6 +248,11 @@ class EventStore:
         path = _sqlite_path(self.url) if self.is_sqlite else ""
         if not create and path and path != ":memory:" and not os.path.exists(path):
             raise StoreError(f"{path}: no such event store file")
+        folder = os.path.dirname(os.path.abspath(path)) if path and path != ":memory:" else ""
+        if create and folder and not os.path.isdir(folder):  # SQLite: "unable to open database"
+            raise StoreError(f"{path}: cannot create the event store: the folder {folder} does "
+                             "not exist (create it first; a store is one file, made in a folder "
+                             "that is there)")
         try:
             self.engine: Engine = create_engine(self.url)
         except Exception as exc:  # bad URL, missing driver
