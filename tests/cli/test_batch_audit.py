@@ -136,9 +136,10 @@ def test_batch_says_once_per_file_what_its_metadata_leave_unchecked(case, tmp_pa
                    f'[[detector]]\nname = "b"\npath = "{det}"\n')
     code, out, err = _batch(case, [plain, case["leak_path"]], tmp_path, job=job)
     assert code == 0, err
-    said = (f"leakdiag: warning: {plain} states no rig and no load in its metadata, so it was "
-            f"not checked against the rig 'vca' and the load 'none' of {det} (another rig or "
-            "load can look like a leak: state them as system and load in the [file] table of ")
+    said = (f"leakdiag: warning: {plain} states no rig and no load and no machine unit in its "
+            f"metadata, so it was not checked against the rig 'vca' and the load 'none' and the "
+            f"machine unit 'nominal' of {det} (another rig or load or machine unit can look like "
+            "a leak: state them as system and load and machine in the [file] table of ")
     assert _states_no(err) == [said + "the job's column map, or in the file's metadata)"]
     for args in (["monitor", plain, "--detector", det, "-q"],
                  ["detect", plain, "--detector", det, "--no-progress"]):

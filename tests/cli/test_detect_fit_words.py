@@ -355,14 +355,16 @@ def test_detect_says_what_a_file_without_rig_or_load_could_not_be_checked_for(fi
     capsys.readouterr()
     assert main(["detect", csv, "--detector", str(det), "--no-progress"]) == 0
     err = " ".join(capsys.readouterr().err.split())
-    assert ("leakdiag: warning: " + csv + " states no rig and no load in its metadata, so it "
-            f"was not checked against the rig 'vca' and the load 'none' of {det} (another rig "
-            "or load can look like a leak: state them as system and load in the [file] table "
-            "of a --map, or in the file's metadata)") in err
+    # (the machine unit too since session 28: the detector file records its healthy runs')
+    assert ("leakdiag: warning: " + csv + " states no rig and no load and no machine unit in "
+            "its metadata, so it was not checked against the rig 'vca' and the load 'none' and "
+            f"the machine unit 'nominal' of {det} (another rig or load or machine unit can look "
+            "like a leak: state them as system and load and machine in the [file] table of a "
+            "--map, or in the file's metadata)") in err
     assert err.count("states no") == 1
     toml = tmp_path / "map.toml"
-    toml.write_text('[file]\nsystem = "vca"\nload = "none"\n[channels]\np1 = "p1"\np2 = "p2"\n'
-                    'x = "x"\nu = "u"\n')
+    toml.write_text('[file]\nsystem = "vca"\nload = "none"\nmachine = "nominal"\n[channels]\n'
+                    'p1 = "p1"\np2 = "p2"\nx = "x"\nu = "u"\n')
     assert main(["detect", csv, "--detector", str(det), "--map", str(toml),
                  "--no-progress"]) == 0
     assert "states no" not in capsys.readouterr().err

@@ -210,12 +210,25 @@ def test_a_segment_that_expects_a_false_alarm_is_refused_and_bad_input_keeps_the
 
 def test_a_stream_of_another_machine_is_refused_per_segment(setup, run_cli, tmp_path):
     """The segments keep the input's metadata (a first version kept only system and load, so
-    the flow balance's check of the machine unit was skipped in monitor but not in detect)."""
+    the flow balance's check of the machine unit was skipped in monitor but not in detect).
+    Since 2026-11-29 (session 28) the detector file records its healthy recordings' machine
+    unit and every command refuses another machine's input before judging it; a file without
+    that record (written before) is still refused per segment by the flow balance."""
+    import dataclasses
+
+    from leakdiag.stream.detector_file import save_detector
+
     d, det_path, _, _ = setup
     other = write_recording(ld.sim.simulate_vca(duration=40.0, leak_lpm=0.0, load="spring",
                                                 machine=5, seed=9), tmp_path / "unit5.parquet")
     code, out, err = run_cli(["monitor", str(other), "--detector", str(det_path),
                               "--segment", "30"])
+    assert code == 2 and f"unit5.parquet: machine unit 5, but {det_path} was fitted on " \
+        "healthy recordings of machine unit 17" in err and "NOT JUDGED" not in out + err
+    det, meta = load_detector_file(det_path)  # the same detector, without the machine record
+    old = tmp_path / "old.joblib"
+    save_detector(det, dataclasses.replace(meta, machine=None), old)
+    code, out, err = run_cli(["monitor", str(other), "--detector", str(old), "--segment", "30"])
     assert code == 2 and "no segment could be judged" in err
     assert "NOT JUDGED 0-30 s: predict: " in out + err and "machine unit 5" in out + err
 

@@ -26,6 +26,7 @@ from leakdiag.batch.store import content_hash, finished_state, result_key, write
 from leakdiag.detect.measure import rms_change
 from leakdiag.features.series import FeatureSeries
 from leakdiag.io.checks import RESAMPLE_ADVICE
+from leakdiag.io.recording import machine_unit
 from leakdiag.runtime.executor import LOCAL, run_cases
 from leakdiag.stream.detector import as_scorer
 from leakdiag.stream.detector_file import (ADVICE_JOB, check_detector_fits, fitted_machine,
@@ -283,7 +284,8 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
             try:
                 check_detector_fits(meta, sample_rate=src.sample_rate, channels=src.channels,
                                     units=units, system=src.meta.get("system"), source=path,
-                                    path=dpath, load=src.meta.get("load"))
+                                    path=dpath, load=src.meta.get("load"),
+                                    machine=machine_unit(src.meta))
             except ValueError as exc:
                 refused[name] = _in_job_words(str(exc))
         items = [it for it in items if not (it[0] == "detector" and it[1] in refused)]
@@ -293,10 +295,11 @@ def run_case(path: str, config: BatchConfig) -> list[dict]:
         # (with the whole-recording detectors': one sentence for the file, not one per kind
         # of detector, which batch printed twice per CSV file; a batch audit, 2026-11-29)
         unchecked = unchecked_note(path, src.meta, [
-            (dpath, getattr(meta, "system", None), getattr(meta, "load", None))
+            (dpath, getattr(meta, "system", None), getattr(meta, "load", None),
+             getattr(meta, "machine", None))
             for name, _, meta, dpath in dets if name not in refused] + [
             (dpath, getattr(meta, "system", None), getattr(meta, "load", None),
-             fitted_machine(det)) for _, det, meta, dpath in whole], ADVICE_JOB)
+             fitted_machine(det, meta)) for _, det, meta, dpath in whole], ADVICE_JOB)
         feats = [StreamingFeature(s, src.sample_rate, src.start_time) for _, _, s, _ in items]
         # a leakdiag Detector judges the whole streamed feature at the end (predict_series);
         # another scorer (anything with score_windows) scores it chunk by chunk
@@ -533,13 +536,14 @@ def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict,
         try:
             check_detector_fits(meta, sample_rate=rec.sample_rate, channels=rec.channels,
                                 units=rec.units, system=rec.meta.get("system"), source=path,
-                                path=dpath, load=rec.meta.get("load"))
+                                path=dpath, load=rec.meta.get("load"),
+                                machine=machine_unit(rec.meta))
         except ValueError as exc:
             rows.append({**row, "status": "error", "error": _in_job_words(str(exc))})
             continue
         row["unchecked"] = unchecked if unchecked is not None else unchecked_note(
             path, rec.meta, [(dpath, getattr(meta, "system", None),
-                              getattr(meta, "load", None), fitted_machine(det))], ADVICE_JOB)
+                              getattr(meta, "load", None), fitted_machine(det, meta))], ADVICE_JOB)
         row["status"], row["threshold"] = "ok", float(det.threshold_)
         try:
             refuse_own_healthy(det, rec, "batch")

@@ -252,6 +252,7 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
     from leakdiag.cli.fit import channels_of_methods, common_load, system_of
     from leakdiag.detect.base import Alarm
     from leakdiag.detect.threshold import count_segments
+    from leakdiag.io.recording import machine_unit
     from leakdiag.stream.detector_file import (check_detector_fits, fitted_machine,
                                                 load_detector_file)
 
@@ -273,9 +274,10 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
         rig = rig or getattr(meta, "system", None)
         check_detector_fits(meta, sample_rate=rec.sample_rate, channels=rec.channels,
                             units=rec.units, system=rec.meta.get("system"), source=str(file),
-                            path=str(path), load=rec.meta.get("load"))
+                            path=str(path), load=rec.meta.get("load"),
+                            machine=machine_unit(rec.meta))
         fitted.append((str(path), getattr(meta, "system", None), getattr(meta, "load", None),
-                       fitted_machine(det)))
+                       fitted_machine(det, meta)))
         m = meta.method if meta else str(path)
         say(f"judging with {path} ({m})...")
         rows.append(_cannot_judge(det, rec, file, m)
@@ -293,6 +295,14 @@ def verdict_table(file, healthy=(), *, methods=None, system=None,
             raise ValueError(f"{file}: load {str(load)!r}, but the --healthy recordings are "
                              f"all load {fitted_load!r}: give healthy recordings under this "
                              "load")
+        from leakdiag.stream.detector_file import common_machine
+
+        fitted_unit, unit = common_machine(r.meta for r in train), machine_unit(rec.meta)
+        if fitted_unit is not None and unit is not None and unit != fitted_unit:
+            raise ValueError(f"{file}: machine unit {unit!r}, but the --healthy recordings are "
+                             f"all of machine unit {fitted_unit!r}: machines differ more than a "
+                             "leak changes what a detector measures; give healthy recordings "
+                             "of this machine")
         systems = {str(r.meta["system"]).lower() for r in train if r.meta.get("system")}
         fitted.append(("the --healthy recordings", systems.pop() if len(systems) == 1 else None,
                        fitted_load))

@@ -299,7 +299,7 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
     from leakdiag.cli._words import (MODEL_LEVEL_WORDS, check_longer_than_burn_in,
                                      few_healthy_words, in_cli_words, threshold_words)
     from leakdiag.batch.store import content_hash
-    from leakdiag.stream.detector_file import DetectorMeta, save_detector
+    from leakdiag.stream.detector_file import DetectorMeta, common_machine, save_detector
 
     if calibration and method == "flow-balance":
         raise click.BadParameter("flow-balance sizes a leak from the flow balance itself, not "
@@ -354,6 +354,7 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
                                                if recs[0].units.get(c)},
                         false_alarms_per_hour=float(false_alarm_rate), n_healthy=len(recs),
                         healthy_files=tuple(str(h) for h in healthy), load=common_load(recs),
+                        machine=common_machine(r.meta for r in recs),
                         # ("missing": a file not read by path, e.g. a pipe; not recorded)
                         healthy_sha256=tuple(x for x in map(content_hash, healthy)
                                              if x != "missing"))

@@ -424,6 +424,7 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
     stores one (one transaction per segment: a crash loses at most the segment being read)."""
     from leakdiag.cli.fit import detector_channels
     from leakdiag.stream import paced
+    from leakdiag.io.recording import machine_unit
     from leakdiag.stream.detector_file import (ADVICE_MAP, check_detector_fits,
                                                 unchecked_note)
     from leakdiag.stream.segments import DEFAULT_SEGMENT_S, SegmentJudge
@@ -440,13 +441,14 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
                                detector_path)
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
                         units=units, system=source.meta.get("system"), source=source.source,
-                        path=str(detector_path), load=source.meta.get("load"))
+                        path=str(detector_path), load=source.meta.get("load"),
+                        machine=machine_unit(source.meta))
     if meta is not None:
         from leakdiag.stream.detector_file import fitted_machine
 
         note = unchecked_note(str(source.source), source.meta, [
             (str(detector_path), meta.system, getattr(meta, "load", None),
-             fitted_machine(detector))], ADVICE_MAP)
+             fitted_machine(detector, meta))], ADVICE_MAP)
         if note is not None:
             click.echo(f"leakdiag: warning: {note}", err=True)
     st = None
@@ -657,6 +659,7 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     from leakdiag.io.checks import RESAMPLE_ADVICE
     from leakdiag.runtime.collector import frozen_collector
     from leakdiag.stream import Monitor, paced
+    from leakdiag.io.recording import machine_unit
     from leakdiag.stream.detector_file import check_detector_fits
 
     if live.get("store") is not None:  # '', an in-memory database, 'sqlite:/x': refused first
@@ -730,12 +733,14 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
                                detector_path)
     check_detector_fits(meta, sample_rate=source.sample_rate, channels=source.channels,
                         units=units, system=source.meta.get("system"), source=source.source,
-                        path=str(detector_path), load=source.meta.get("load"))
+                        path=str(detector_path), load=source.meta.get("load"),
+                        machine=machine_unit(source.meta))
     if meta is not None:  # what the input's metadata leave unchecked, as detect and batch say it
         from leakdiag.stream.detector_file import ADVICE_MAP, unchecked_note
 
         note = unchecked_note(str(source.source), source.meta, [
-            (str(detector_path), meta.system, getattr(meta, "load", None))], ADVICE_MAP)
+            (str(detector_path), meta.system, getattr(meta, "load", None),
+             getattr(meta, "machine", None))], ADVICE_MAP)
         if note is not None:
             click.echo(f"leakdiag: warning: {note}", err=True)
     mon = Monitor(spec, source.sample_rate, source.start_time, scorers=detector)

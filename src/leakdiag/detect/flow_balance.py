@@ -58,7 +58,7 @@ from leakdiag.detect.threshold import (
 )
 from leakdiag.features.series import FeatureSeries
 from leakdiag.io.checks import same_rate
-from leakdiag.io.recording import RecordingError, load_name
+from leakdiag.io.recording import RecordingError, load_name, machine_unit
 from leakdiag.sim.leak import LPM_PER_M3S
 
 __all__ = ["FlowBalanceDetector", "FlowBalanceVerdict", "LEAK_LAWS", "SYSTEMS",
@@ -211,13 +211,7 @@ def _operation(recs, channels, skip_s: float = 0.0) -> dict:
     channel's 1st-99th percentile range (``ranges``) and smallest and largest value
     (``extremes``) over all of them after ``skip_s`` (the burn-in)."""
     out: dict = {}
-    machines = set()
-    for r in recs:
-        m = r.meta.get("machine")
-        if isinstance(m, dict) and "unit" in m:
-            machines.add("nominal" if m["unit"] is None else m["unit"])
-        else:
-            machines.add(None)
+    machines = {machine_unit(r.meta) for r in recs}
     out["n_machines"] = len(machines - {None})  # distinct known units (a fleet fit: > 1)
     out["machine"] = machines.pop() if len(machines) == 1 else None
     loads = {load_name(r.meta.get("load")) for r in recs}

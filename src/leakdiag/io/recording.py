@@ -12,7 +12,7 @@ from leakdiag._validation import check_positive
 from leakdiag.io.checks import check_same_length, infer_sample_rate, same_rate
 from leakdiag.io.errors import RecordingError
 
-__all__ = ["Recording", "STANDARD_CHANNELS", "RecordingError", "load_name"]
+__all__ = ["Recording", "STANDARD_CHANNELS", "RecordingError", "load_name", "machine_unit"]
 
 #: Standard channels and their SI units (thesis notation: P1, P2, X, U).
 STANDARD_CHANNELS: dict[str, str] = {
@@ -49,6 +49,32 @@ def load_name(value) -> str | None:
         return None
     name = str(value).strip().lower()
     return name or None
+
+
+def machine_unit(meta) -> int | str | None:
+    """The machine unit a recording's metadata name: ``meta["machine"]["unit"]`` as the
+    simulators write it (``"nominal"`` for the nominal unit), else None (not said).
+
+    Parameters
+    ----------
+    meta : mapping
+        The recording's metadata.
+
+    Returns
+    -------
+    int, str or None
+
+    Examples
+    --------
+    >>> machine_unit({"machine": {"unit": 17}}), machine_unit({"machine": {"unit": None}})
+    (17, 'nominal')
+    >>> machine_unit({}) is None
+    True
+    """
+    m = meta.get("machine") if meta is not None else None
+    if isinstance(m, dict) and "unit" in m:
+        return "nominal" if m["unit"] is None else m["unit"]
+    return None
 
 
 @dataclass

@@ -27,7 +27,7 @@ from typing import Any
 
 from leakdiag._version import __version__
 from leakdiag.io.checks import same_rate
-from leakdiag.io.recording import load_name
+from leakdiag.io.recording import load_name, machine_unit
 
 __all__ = ["DetectorMeta", "save_detector", "load_detector_file", "check_detector_fits",
            "sniff_detector_file", "detector_code_fingerprint", "DetectorFileWarning",
@@ -97,6 +97,9 @@ class DetectorMeta:
     code_fingerprint : str or None
         :func:`detector_code_fingerprint` of the code that fitted the detector (set by
         :func:`save_detector`); None in files written before 2026-11-27.
+    machine : int, str or None
+        The machine unit every healthy recording's metadata names (:func:`~leakdiag.io.recording.machine_unit`); None
+        when they do not say or differ (a fleet fit; files written before 2026-11-29: None).
     """
 
     method: str
@@ -111,6 +114,21 @@ class DetectorMeta:
     load: str | None = None
     code_fingerprint: str | None = None
     healthy_sha256: tuple = ()
+    machine: int | str | None = None
+
+
+def common_machine(metas) -> int | str | None:
+    """The machine unit every one of ``metas`` names (:func:`~leakdiag.io.recording.machine_unit`), or None when
+    one does not say or they differ.
+
+    Examples
+    --------
+    >>> three = {"machine": {"unit": 3}}
+    >>> common_machine([three, three]), common_machine([three, {}])
+    (3, None)
+    """
+    units = {machine_unit(m) for m in metas}
+    return units.pop() if len(units) == 1 else None
 
 
 #: A module of each part: :func:`leakdiag.runtime.cache.code_fingerprint` hashes the whole
@@ -306,6 +324,9 @@ def _check_field(path: str, name: str, v: Any) -> None:
         if not isinstance(v, (list, tuple)) or not all(isinstance(c, str) for c in v) or \
                 (name == "channels" and not v):
             raise bad("a list of strings" + (" (at least one)" if name == "channels" else ""))
+    elif name == "machine":
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, str))):
+            raise bad("a machine unit (an integer or a name) or None")
     elif name == "units":
         if not isinstance(v, dict) or not all(isinstance(k, str) and
                                               (u is None or isinstance(u, str))
@@ -558,7 +579,7 @@ def _assumed_si_units(channels) -> dict[str, str]:
 def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
                         channels=None, units: dict | None = None, system: str | None = None,
                         source: str = "<recording>", path: str = "<detector>",
-                        load: str | None = None) -> None:
+                        load: str | None = None, machine=None) -> None:
     """Refuse a recording that disagrees with what the detector was fitted on.
 
     Parameters
@@ -583,6 +604,11 @@ def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
         The recording's load (from its metadata): refused when the detector's healthy
         recordings all named another one (a detector fitted without load judged healthy spring
         runs LEAK).
+    machine : int or str, optional
+        The recording's machine unit (:func:`machine_unit` of its metadata): refused when the
+        detector's healthy recordings all named another one (a CLI audit, 2026-11-29: feature
+        detectors judged healthy runs of other units LEAK, 3 of 7 pairs; units differ more
+        than a leak changes the features).
 
     Raises
     ------
@@ -610,6 +636,12 @@ def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
         raise ValueError(f"{source}: load {str(load)!r}, but {path} was fitted on healthy "
                          f"recordings with load {fitted_load!r}; fit one on healthy recordings "
                          "under this load")
+    fitted_unit = getattr(meta, "machine", None)
+    if machine is not None and fitted_unit is not None and machine != fitted_unit:
+        raise ValueError(f"{source}: machine unit {machine!r}, but {path} was fitted on healthy "
+                         f"recordings of machine unit {fitted_unit!r}: machines differ more "
+                         "than a leak changes what a detector measures; fit one on healthy "
+                         "recordings of this machine")
     if channels is not None:
         missing = [c for c in meta.channels if c not in set(channels)]
         if missing:
@@ -716,15 +748,17 @@ def own_healthy_samples_reason(detector, source: str, n_samples: int | None,
     return None if why is None else f"{source}: {why}"
 
 
-def fitted_machine(detector):
-    """The machine unit of a detector's healthy recordings, when it is identified per machine
-    (the flow balance's ``operation_["machine"]``: a unit id, ``"nominal"``, or None when
-    unknown or mixed); None for other detectors.
+def fitted_machine(detector, meta=None):
+    """The machine unit of a detector's healthy recordings: the flow balance's
+    ``operation_["machine"]`` (a unit id, ``"nominal"``, or None when unknown or mixed), else
+    the detector file's record (``meta.machine``, any method); None when neither says.
 
     Parameters
     ----------
     detector : object
         A fitted detector.
+    meta : DetectorMeta, optional
+        Its file's record.
 
     Returns
     -------
@@ -735,9 +769,12 @@ def fitted_machine(detector):
     >>> from types import SimpleNamespace
     >>> fitted_machine(SimpleNamespace(operation_={"machine": 57})), fitted_machine(object())
     (57, None)
+    >>> fitted_machine(object(), SimpleNamespace(machine=3))
+    3
     """
     op = getattr(detector, "operation_", None)
-    return op.get("machine") if isinstance(op, dict) else None
+    unit = op.get("machine") if isinstance(op, dict) else None
+    return unit if unit is not None else getattr(meta, "machine", None)
 
 
 def unchecked_note(source: str, meta, fitted, advice: str) -> str | None:
