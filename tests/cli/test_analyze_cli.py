@@ -474,3 +474,26 @@ def test_moments_of_adc_counts_are_said_to_depend_on_the_converters_zero(shared_
     assert main(["analyze", str(base), "--map", cmap, "-m", "autocorrelation", "-c", "p1",
                  "--onset", "1.5", "--chunk", "2"]) == 0
     assert "ADC counts" not in capsys.readouterr().err
+
+
+def test_verdict_csv_holds_the_runs_decision_beside_each_method(tmp_path):
+    """A CLI audit (2026-11-29, session 28): with ``--method all`` a method's row read
+    ``decision = leak`` (p = 0.0052 < 0.01 alone) while the run's decision, the rate split over
+    4 methods (0.0025 each), was INCONCLUSIVE, and verdict.csv had no overall decision: a
+    script reading it took the method's for the run's."""
+    from leakdiag.cli.analyze import verdict_table
+
+    t = pd.DataFrame({"method": ["a", "b", "c", "d"], "channels": ["p1"] * 4,
+                      "decision": ["leak", "no-leak", "no-leak", "no-leak"],
+                      "p_value": [0.0052, 0.4, 0.5, 0.6]})
+    v = verdict_table(t, 0.01)
+    assert v["decision"].tolist() == t["decision"].tolist()  # each method's own, unchanged
+    assert set(v["overall_decision"]) == {"no-leak"} and set(v["method_level"]) == {0.0025}
+    assert "a below 0.01 alone, not below the split level" in v["overall_reason"][0]
+    out = tmp_path / "o"
+    assert main(["analyze", "docs/examples/rig.csv", "--map", "docs/examples/map.toml",
+                 "-m", "autocorrelation", "-m", "metric-length", "-c", "p1", "--onset", "10",
+                 "-o", str(out)]) == 0
+    f = pd.read_csv(out / "verdict.csv")
+    assert f["overall_decision"].nunique() == 1 and f["method_level"].nunique() == 1
+    assert f["method_level"][0] == pytest.approx(0.01 / f["decision"].notna().sum())

@@ -11,7 +11,7 @@ from leakdiag.cli._features import FeatureChoice, check_setting_options, spec_fr
 from leakdiag.cli._options import false_alarm_option, healthy_option, recording_options
 from leakdiag.features.spec import thesis_defaults
 
-__all__ = ["analyze", "format_verdict", "decision_words"]
+__all__ = ["analyze", "format_verdict", "decision_words", "verdict_table"]
 
 #: The feature settings that are options of this command: messages name the option.
 _OPTION_OF = {"window": "--window", "overlap": "--overlap", "lag": "--lag",
@@ -227,7 +227,7 @@ def analyze(file, column_map, cols, sample_rate, time_unit, resample, method, sy
                    "change of the pressure's mean", err=True)
     if out:
         outp = Path(out)
-        _write_outputs(result, outp)
+        _write_outputs(result, outp, false_alarm_rate)
         click.echo(f"wrote {outp / 'verdict.csv'}, features.parquet, features.png")
 
 
@@ -258,11 +258,53 @@ def _fail_if_nothing_computed(file, table) -> None:
                          "variance (constant signal?), so there is nothing to analyse")
 
 
-def _write_outputs(result, out: Path) -> None:
+def verdict_table(table, false_alarm_rate: float):
+    """The verdict table as ``verdict.csv`` holds it: each method's row with the run's overall
+    decision beside it.
+
+    A method's ``decision`` is at its own ``false_alarm_rate``; the run's decision splits that
+    rate over the methods (:func:`~leakdiag.detect.analysis.overall_decision`), so a method can
+    read ``leak`` where the run reads ``inconclusive`` (a CLI audit, 2026-11-29: a script
+    reading ``decision`` took a method's "leak" for the run's). ``overall_decision`` and
+    ``overall_reason`` (the same on every row) say the run's, ``method_level`` the rate each
+    method's p-value was held to for it.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The verdict table (:attr:`leakdiag.detect.analysis.AnalysisResult.table`).
+    false_alarm_rate : float
+        The run's false-alarm rate.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy with the three columns added.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> t = pd.DataFrame({"method": ["a", "b"], "decision": ["leak", "no-leak"],
+    ...                   "p_value": [0.005, 0.4]})
+    >>> verdict_table(t, 0.01)[["decision", "overall_decision", "method_level"]].values.tolist()
+    [['leak', 'no-leak', 0.005], ['no-leak', 'no-leak', 0.005]]
+    """
+    from leakdiag.detect.analysis import overall_decision
+
+    dec, why = overall_decision(table, false_alarm_rate)
+    m = int(table["decision"].notna().sum()) if "decision" in table else 0
+    out = table.copy()
+    out["overall_decision"] = dec
+    out["overall_reason"] = why
+    out["method_level"] = false_alarm_rate / m if m else float("nan")
+    return out
+
+
+def _write_outputs(result, out: Path, false_alarm_rate: float) -> None:
     from leakdiag.report.figures import plot_feature_series, save_figure
 
     out.mkdir(parents=True, exist_ok=True)
-    result.table.to_csv(out / "verdict.csv", index=False)
+    verdict_table(result.table, false_alarm_rate).to_csv(out / "verdict.csv", index=False)
     result.features_frame().to_parquet(out / "features.parquet", index=False)
     rms = result.results if result.onset is not None else None
     fig = plot_feature_series(result.series, onset=result.onset, rms=rms)

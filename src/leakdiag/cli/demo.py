@@ -56,7 +56,7 @@ def demo(system, seed, out):
     result = analyze_recording(rec, thesis_defaults(system), onset=kw["onset"])
     click.echo("\nVerdict (thesis Sec. 5.2: mean RMS of the feature before/after the leak):")
     click.echo(format_verdict(result.table))
-    _write_outputs(result, outp)
+    _write_outputs(result, outp, 0.01)  # (the rate decision_words says below)
     click.echo(f"\nwrote {outp}/run.parquet, verdict.csv, features.parquet, features.png")
     click.echo("\nDoes it leak? (Mann-Whitney test of the chunk RMS values after vs before the "
                "onset; each method at 1 % false alarms per run, the overall decision with 1 % "
