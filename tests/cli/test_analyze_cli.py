@@ -497,3 +497,23 @@ def test_verdict_csv_holds_the_runs_decision_beside_each_method(tmp_path):
     f = pd.read_csv(out / "verdict.csv")
     assert f["overall_decision"].nunique() == 1 and f["method_level"].nunique() == 1
     assert f["method_level"][0] == pytest.approx(0.01 / f["decision"].notna().sum())
+
+
+def test_a_no_leak_of_analyze_says_what_it_does_not_rule_out():
+    """A CLI audit (2026-11-29, session 28): rig.csv, a 0.5 L/min leak, read "autocorrelation
+    p1: NO LEAK (-48.2 %, ... p=0.0325 >= 0.01)" and "Decision: NO LEAK" without a word of
+    what that NO LEAK covers (detect says it for its feature detectors)."""
+    from leakdiag.cli.analyze import decision_words
+
+    t = pd.DataFrame({"method": ["autocorrelation"], "channels": ["p1"],
+                      "decision": ["no-leak"], "p_value": [0.0325], "basis": ["before-after"],
+                      "reason": ["p=0.0325 >= 0.01"], "pct_change_signed": [-48.2]})
+    text = decision_words(t, 0.01)
+    assert text.splitlines()[-2].startswith("Decision: NO LEAK")
+    assert text.splitlines()[-1] == (
+        "  sensitivity: not stated: NO LEAK here means no change significant at this rate; a "
+        "leak whose change the chunks do not resolve is not ruled out (the flow balance, "
+        "leakdiag detect, states the smallest leak it would have seen; docs/detect.md section "
+        "6)")
+    leak = t.assign(decision=["leak"], p_value=[0.001])
+    assert "sensitivity" not in decision_words(leak, 0.01)

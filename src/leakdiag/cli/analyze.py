@@ -128,6 +128,12 @@ def decision_words(table, false_alarm_rate: float) -> str:
         lines.append(f"  {label}: {words[r['decision']]} ({pct}{basis}; {r['reason']})")
     dec, why = overall_decision(table, false_alarm_rate)
     lines.append(f"Decision: {words[dec]} -- {why}.")
+    if dec == "no-leak":  # no significant change, which is not "no leak of any size" (a CLI
+        # audit, 2026-11-29: rig.csv, 0.5 L/min, -48 %, p = 0.03, read NO LEAK without a word)
+        lines.append("  sensitivity: not stated: NO LEAK here means no change significant at "
+                     "this rate; a leak whose change the chunks do not resolve is not ruled out "
+                     "(the flow balance, leakdiag detect, states the smallest leak it would "
+                     "have seen; docs/detect.md section 6)")
     return "\n".join(lines)
 
 
