@@ -10,6 +10,7 @@ import re
 import pytest
 
 from leakdiag.io import RecordingError, read_recording
+from leakdiag.io.errors import CutLastRowWarning
 from leakdiag.io.text import read_text
 
 P1_P2 = {"p1": "p1", "p2": "p2"}
@@ -81,7 +82,9 @@ def test_row_lacking_only_unread_trailing_columns_is_read(tmp_path, newline):
     # p2 is followed by a field ("x") in the short row, so p2 is complete: decided to read it
     path = _write(tmp_path, ["time,p1,p2,note,extra", "0.0,1,50,a,b", "0.1,2,53,x"],
                   newline=newline)
-    rec = read_recording(path, P1_P2)
+    # read, and said (session 28: a CLI audit)
+    with pytest.warns(CutLastRowWarning, match="ends in a cut line"):
+        rec = read_recording(path, P1_P2)
     assert rec["p2"].tolist() == [50.0, 53.0]
     assert rec["p1"].tolist() == [1.0, 2.0]
 
@@ -232,3 +235,26 @@ def test_a_non_empty_field_beyond_the_header_is_refused_not_dropped(tmp_path):
     p = _write(tmp_path, ["time\tp1\tp2", "0.0\t1\t50\t\t", "0.1\t2\t51\t\t"], sep="\t",
                name="tabs.txt")  # trailing separators only: ignored, as documented
     assert read_recording(p).channels["p2"].tolist() == [50.0, 51.0]
+
+
+def test_a_cut_file_read_by_a_command_is_said_once(tmp_path):
+    """A CLI audit (2026-11-29, session 28): a CSV cut in the middle of a line, its last line
+    ending after the channels a command reads, was judged by ``analyze -c p1`` (and detect,
+    monitor) without a word; read_recording refused it. Now each command reads it and says so
+    once."""
+    path = _write(tmp_path, ["time,p1,p2,x"] + [f"{i / 100},{i % 5},{i % 3},0.1"
+                                                 for i in range(400)] + ["4.0,1,2,0.0"],
+                  newline=False)
+    path.write_text(path.read_text()[:-4])  # "4.0,1,2,0.0" cut to "4.0,1,2"
+    import subprocess
+    import sys
+
+    for args in (["analyze", str(path), "-c", "p1"], ["monitor", str(path), "-c", "p1", "-q"]):
+        # a process of its own: the warning shown as a user sees it (pytest raises warnings)
+        run = subprocess.run([sys.executable, "-m", "leakdiag.cli.main", *args],
+                             capture_output=True, text=True, timeout=120)
+        code, err = run.returncode, run.stderr
+        assert code == 0, err
+        assert err.count("ends in a cut line") == 1, args[0]
+        assert (f"{path}: its last line, row 400, has 3 of 4 fields (the columns read are "
+                "complete, so it is read)") in err

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from leakdiag.io import RecordingError, read_recording
+from leakdiag.io.errors import CutLastRowWarning
 from leakdiag.stream import csv_lines, open_chunks, tail_csv
 from leakdiag.stream.live import IncompleteLineWarning
 
@@ -86,9 +87,12 @@ def test_time_and_channels_cut_and_the_count_of_short_rows(tmp_path):
 @pytest.mark.parametrize("newline", [True, False])
 def test_row_lacking_only_unread_trailing_columns_is_read(tmp_path, newline):
     # p1 is followed by a field in the cut row ("5"), so p1 is complete: read it
-    assert _read(_write(tmp_path, CUT, newline), ["p1"]) == {"p1": [1.0, 2.0, 3.0, 4.0]}
+    # read, and said (session 28: a CLI audit)
+    with pytest.warns(CutLastRowWarning, match="ends in a cut line"):
+        assert _read(_write(tmp_path, CUT, newline), ["p1"]) == {"p1": [1.0, 2.0, 3.0, 4.0]}
     path = _write(tmp_path, ["time,p1,p2,note,extra", "0.0,1,50,a,b", "0.1,2,53,x"], newline)
-    assert _read(path, ["p1", "p2"]) == {"p1": [1.0, 2.0], "p2": [50.0, 53.0]}
+    with pytest.warns(CutLastRowWarning, match="ends in a cut line"):
+        assert _read(path, ["p1", "p2"]) == {"p1": [1.0, 2.0], "p2": [50.0, 53.0]}
 
 
 def test_row_ending_at_the_last_read_column_is_refused(tmp_path):
@@ -452,7 +456,8 @@ def test_separator_found_as_io_finds_it_and_rows_checked_with_it(tmp_path, sep):
                   "missing or cut", ["p1", "p2"])
     with pytest.raises(RecordingError, match="row 3 has 3 of 4 fields"):
         read_recording(path)
-    assert _read(path, ["p1"], chunk_samples=2) == {"p1": [1.0, 2.0, 3.0, 4.0]}
+    with pytest.warns(CutLastRowWarning, match="ends in a cut line"):
+        assert _read(path, ["p1"], chunk_samples=2) == {"p1": [1.0, 2.0, 3.0, 4.0]}
 
 
 def test_latin1_semicolon_file_and_blank_separated_file(tmp_path):
@@ -487,5 +492,7 @@ def test_a_middle_row_short_after_the_columns_read_is_refused(tmp_path, chunk_sa
         read_recording(path, channels=["p1", "p2"])
     # the last row cut after the columns read: read, whether its chunk is full or not
     last = _write(tmp_path, MIDDLE[:1] + MIDDLE[3:] + ["0.4,5,54,g"], name="cut.csv")
-    assert _read(last, ["p1", "p2"], chunk_samples=chunk_samples)["p2"] == [52, 53, 54]
-    assert read_recording(last, channels=["p1", "p2"])["p2"].tolist() == [52, 53, 54]
+    with pytest.warns(CutLastRowWarning, match="ends in a cut line"):
+        assert _read(last, ["p1", "p2"], chunk_samples=chunk_samples)["p2"] == [52, 53, 54]
+    with pytest.warns(CutLastRowWarning, match="ends in a cut line"):
+        assert read_recording(last, channels=["p1", "p2"])["p2"].tolist() == [52, 53, 54]

@@ -17,6 +17,7 @@ from leakdiag.io.api import read_recording, recording_units, write_recording
 from leakdiag.io.checks import check_channel_finite, check_length, infer_sample_rate
 from leakdiag.io.column_map import ChannelSpec, ColumnMap, load_column_map, parse_column_spec
 from leakdiag.io.column_spec import build_column_map
+from leakdiag.io.errors import CutLastRowWarning
 from leakdiag.io.recording import STANDARD_CHANNELS, Recording, RecordingError, load_name
 from leakdiag.io.resample import resample_linear
 from leakdiag.io.units import known_units, to_si, unit_factor, unit_quantity
@@ -25,6 +26,7 @@ __all__ = [
     "load_name",
     "Recording",
     "RecordingError",
+    "CutLastRowWarning",
     "STANDARD_CHANNELS",
     "read_recording",
     "write_recording",

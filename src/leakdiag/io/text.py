@@ -10,6 +10,7 @@ from typing import Mapping
 
 import numpy as np
 
+from leakdiag.io.errors import CutLastRowWarning
 from leakdiag.io.recording import Recording, RecordingError
 from leakdiag.io.table import RawTable, repeated_names
 
@@ -162,6 +163,21 @@ COMMENT_HINT = ("; it starts with '#', and leakdiag reads no comment lines ('#' 
                 "an Excel '#N/A' cell): remove the line")
 
 
+def cut_last_row_words(source: str, where: str, k: int, n: int) -> str:
+    """What is said of a last row of ``k`` of ``n`` fields that is read
+    (:class:`~leakdiag.io.errors.CutLastRowWarning`; :meth:`TextTable.check_rows` and the
+    chunked reader of :mod:`leakdiag.stream.files`).
+
+    Examples
+    --------
+    >>> cut_last_row_words("a.csv", "row 9", 4, 7)[:62]
+    'a.csv: its last line, row 9, has 4 of 7 fields (the columns re'
+    """
+    return (f"{source}: its last line, {where}, has {k} of {n} fields (the columns read are "
+            "complete, so it is read): the file ends in a cut line, as one cut while it was "
+            "written or copied does; it may hold only part of the recording")
+
+
 def short_row_error(source: str, where: str, k: int, n: int, read: dict[str, str],
                     pos: dict[str, int], more: str = "", first: object = None
                     ) -> RecordingError:
@@ -309,7 +325,11 @@ class TextTable(RawTable):
             )
         short = np.flatnonzero(counts <= probe)
         if len(short) and short[-1] == len(counts) - 1 and counts[-1] > last_probe:
-            short = short[:-1]  # the last row, cut after the columns read: read
+            short = short[:-1]  # the last row, cut after the columns read: read, and said
+            if not len(short):
+                warnings.warn(cut_last_row_words(self.source, f"row {len(counts) - 1}",
+                                                 int(counts[-1]), n), CutLastRowWarning,
+                              stacklevel=2)
         if not len(short):
             return
         more = f"; {len(short)} rows are short like this" if len(short) > 1 else ""

@@ -9,6 +9,7 @@ from __future__ import annotations
 import csv
 import itertools
 import os
+import warnings
 from typing import Callable, Iterator, Sequence
 
 import numpy as np
@@ -16,8 +17,9 @@ import numpy as np
 from leakdiag._validation import check_int
 from leakdiag.io.assemble import decimal_comma_hint
 from leakdiag.io.checks import check_same_length, timestamps_error
+from leakdiag.io.errors import CutLastRowWarning
 from leakdiag.io.recording import RecordingError
-from leakdiag.io.text import SEPARATOR_CANDIDATES
+from leakdiag.io.text import SEPARATOR_CANDIDATES, cut_last_row_words
 from leakdiag.stream.chunks import (DEFAULT_CHUNK_SAMPLES, TIME_COLUMN, ChunkSource, TimeAxis,
                                     _check_unique, _extra_field, _ForwardFault, _json_dict,
                                     _rate_start, _select, _short_row)
@@ -533,6 +535,8 @@ class _CsvRows:
         # a chunk's last row, short after the columns read, in a chunk that may not be the
         # file's last: (row, its error), raised when a later row comes
         self.pending: tuple[int, RecordingError] | None = None
+        # the short last row read, (row, its fields): said once at the end (finish)
+        self.cut: tuple[int, int] | None = None
 
     def first_row(self) -> int:
         """Check data row 0 for extra fields; return the fields of the widest rows pandas will
@@ -599,6 +603,7 @@ class _CsvRows:
                 self.pending = (row0 + len(df) - 1, _short_row(
                     self.path, f"row {row0 + len(df) - 1}", int(counts[-1]), self.n,
                     self.read, self.pos, first=first))
+            self.cut = (row0 + len(df) - 1, int(counts[-1]))
             short = short[:-1]
         first_short = row0 + int(short[0]) if len(short) else None
         if extra is not None and (first_short is None or extra[0] < first_short):
@@ -616,7 +621,11 @@ class _CsvRows:
                          self.read, self.pos, more, first=first)
 
     def finish(self, n_rows: int) -> None:
-        """At the end of the file: if rows were counted, pandas and the count must agree."""
+        """At the end of the file: if rows were counted, pandas and the count must agree; a
+        short last row read is said (:class:`~leakdiag.io.errors.CutLastRowWarning`)."""
+        if self.cut is not None and self.cut[0] == n_rows - 1:
+            warnings.warn(cut_last_row_words(self.path, f"row {self.cut[0]}", self.cut[1],
+                                             self.n), CutLastRowWarning, stacklevel=2)
         if self.fields.active:
             self.fields.rest()
             if self.fields.pos != n_rows:
