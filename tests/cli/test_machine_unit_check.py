@@ -60,3 +60,23 @@ def test_a_fleet_or_unstated_fit_checks_no_machine():
     fleet = DetectorMeta("acf-p1", "vca", 1000.0, ("p1",), {"p1": "Pa"})  # machine None
     check_detector_fits(fleet, sample_rate=1000.0, source="r.csv", path="d.joblib", machine=4)
     assert common_machine([{"machine": {"unit": 3}}, {"machine": {"unit": 4}}]) is None
+
+
+def test_fit_says_a_fleet_fit_of_several_units(files, tmp_path, run_cli):
+    """A CLI audit (2026-11-29, session 28): fit took healthy runs of three units with only the
+    generic "another machine's among them goes unnoticed"; a fleet fit is allowed (the
+    benchmark's fleet mode), and now said as one, and its file checks no unit."""
+    det = tmp_path / "fleet.joblib"
+    code, out, err = run_cli(["fit", *[a for k in ("a1", "b", "nominal") for a in
+                                       ("--healthy", str(files[k]))],
+                              "--method", "ccf-p1p2", "--false-alarm-rate", "40", "-o", str(det),
+                              "--no-progress"])
+    assert code == 0, err
+    assert ("the healthy recordings name 3 machine units (3, 4, nominal): a fleet fit, so the "
+            "recordings judged are not checked against a unit") in " ".join(out.split())
+    from leakdiag.stream.detector_file import load_detector_file
+
+    assert load_detector_file(det)[1].machine is None
+    code, out, err = run_cli(["detect", str(files["a_test"]), "--detector", str(det),
+                              "--no-progress"])
+    assert code == 0 and "machine unit" not in err.split("fitted by")[0]

@@ -384,3 +384,12 @@ def fit(healthy, method, system, column_map, cols, sample_rate, time_unit, resam
                    "longer recording carries the statistic over into the next segments, which "
                    "the healthy maxima do not cover: not guaranteed there (docs/detect.md "
                    "section 2)")
+    from leakdiag.io.recording import machine_unit
+
+    units = sorted({str(u) for u in (machine_unit(r.meta) for r in recs) if u is not None})
+    if len(units) > 1:  # a fleet fit: said, not left to a generic line (a CLI audit, 2026-11-29)
+        click.echo(f"  the healthy recordings name {len(units)} machine units "
+                   f"({', '.join(units)}): a fleet fit, so the recordings judged are not "
+                   "checked against a unit, and machines differ more than a small leak changes "
+                   "what a detector measures (a flow balance's size band is then no promise; "
+                   "docs/detect.md 8.5); fit one detector per machine where you can")
