@@ -141,13 +141,14 @@ def test_spring_load_false_alarm_is_not_confirmed_by_a_free_pressure_offset(tmp_
     alarms per hour on 4 healthy runs, healthy runs alarmed at that rate (as promised) but read
     LEAK 0.0026 L/min with an interval above zero, because the size profiled the transducers'
     differential offset and found -800 kPa (the search's edge; the true -85 kPa): the free
-    offset turned the unit's model error into a "lasting" leak. Under the spring the offset is
-    no longer profiled (as on the VCA) and such an alarm is refused as not lasting; a real
-    leak is still sized."""
-    from leakdiag.detect._flow_balance_eha import size_profiles_pressure_offset
+    offset turned the unit's model error into a "lasting" leak. Under the spring an alarm is
+    now confirmed on the measured pressures (the size still profiles the offset): such an alarm
+    is refused as not lasting; a real leak is still sized."""
+    from leakdiag.detect._flow_balance_eha import (confirms_with_offset_profile,
+                                                   size_profiles_pressure_offset)
 
-    assert not size_profiles_pressure_offset("spring")
-    assert size_profiles_pressure_offset("none") and size_profiles_pressure_offset(None)
+    assert size_profiles_pressure_offset("spring") and not confirms_with_offset_profile("spring")
+    assert confirms_with_offset_profile("none") and confirms_with_offset_profile(None)
 
     def sim(name, seed, *extra):
         path = tmp_path / f"{name}.parquet"
@@ -171,4 +172,4 @@ def test_spring_load_false_alarm_is_not_confirmed_by_a_free_pressure_offset(tmp_
                             "--detector", str(det), "--no-progress"])
     assert code == 0 and "Decision: LEAK" in out
     size = float(out.split("leak size (flow-balance): ")[1].split(" L/min")[0])
-    assert 0.27 < size < 0.33 and "zero error found" not in out
+    assert 0.27 < size < 0.33 and "zero error found on the leak's windows, -9" in out

@@ -35,22 +35,32 @@ _TH, _DX, _CA, _CB, _DPA, _DPB, _L, _PHI, _T, _FW, _PHIABS, _WA, _WB = range(13)
 #: Moving average of P1 - P2 for the mean |phi| (s), as for the VCA.
 DP_SMOOTHING_S = 0.005
 #: Loads under which the size profiles the chamber transducers' differential zero error out
-#: (the residual does not depend on it, the leak law does; :mod:`._flow_balance_offset`):
-#: without load, where P1 - P2 is small, and under an unknown load, which may be none. Not
-#: under the spring (leakdiag choice, 2026-11-29, session 28, as on the VCA): a P1 - P2 of MPa
-#: leaves the offset poorly determined, and the profile's free offset turned a unit's model error
-#: into confirmed leaks: healthy spring runs of unit 5 that alarmed at a permissive rate (25 per
-#: hour) read LEAK 0.0026 L/min, interval above zero, at an offset of -800 kPa (the search's
-#: edge; the true -85 kPa), 9 of 11, all refused as not lasting without the profile; the size
-#: band's 63 spring runs were sized 0.921-1.178x the truth without it, 0.931-1.178x with it
-#: (docs/detect.md 8.5).
-OFFSET_PROFILED_LOADS = ("none", None)
+#: (the residual does not depend on it, the leak law does; :mod:`._flow_balance_offset`): every
+#: load. Under the spring it sized the size band's 0.02 L/min runs better (held-out goal runs,
+#: 2026-11-29: intervals held 49 of 50 with it, 45 of 50 without).
+OFFSET_PROFILED_LOADS = ("none", "spring", None)
+#: Loads under which an alarm is also *confirmed* with the offset profiled (the refusal rules
+#: of ``predict``: the leak since the onset significantly above zero): without load, where
+#: P1 - P2 is small, and under an unknown load, which may be none. Under the spring it is
+#: confirmed on the measured pressures (leakdiag choice, 2026-11-29, session 28): a P1 - P2 of
+#: MPa leaves the offset poorly determined, and the profile's free offset turned a unit's model
+#: error into confirmed leaks: healthy spring runs of unit 5 that alarmed at a permissive rate
+#: (25 per hour) read LEAK 0.0026 L/min, interval above zero, at an offset of -800 kPa (the
+#: search's edge; the true -85 kPa), 9 of 11, all refused as not lasting on the measured
+#: pressures (docs/detect.md 8.5).
+OFFSET_CONFIRMED_LOADS = ("none", None)
 
 
 def size_profiles_pressure_offset(load: str | None) -> bool:
     """Whether the size profiles the transducers' differential zero error
     (:data:`OFFSET_PROFILED_LOADS`)."""
     return load in OFFSET_PROFILED_LOADS
+
+
+def confirms_with_offset_profile(load: str | None) -> bool:
+    """Whether an alarm is confirmed on the size's estimate with the offset profiled
+    (:data:`OFFSET_CONFIRMED_LOADS`), rather than on the measured pressures'."""
+    return load in OFFSET_CONFIRMED_LOADS
 
 
 def size_interval_holds(offset_pa: float | None = None, offset_interval_pa=None) -> str:

@@ -61,6 +61,13 @@ def size_profiles_pressure_offset(load: str | None) -> bool:
     return load in OFFSET_PROFILED_LOADS
 
 
+def confirms_with_offset_profile(load: str | None) -> bool:
+    """Whether an alarm is confirmed (the refusal rules of ``predict``) on the size's own
+    estimate with the offset profiled, rather than on the measured pressures': wherever the
+    VCA's size profiles it."""
+    return size_profiles_pressure_offset(load)
+
+
 def size_interval_holds(offset_pa: float | None = None, offset_interval_pa=None) -> str:
     """What the size interval holds, in words (``offset_pa`` None: no offset profiled)."""
     if offset_pa is None:

@@ -1785,6 +1785,16 @@ class FlowBalanceDetector(Detector):
             interval = ((k - zq * se) * mean_phi * LPM_PER_M3S,
                         (k + zq * se) * mean_phi * LPM_PER_M3S)
             offset = offset_range = None
+        # what the refusal rules below read: the size's own estimate, except where the offset
+        # is profiled for the size but poorly determined (the EHA under the spring): there the
+        # measured pressures' (a free offset confirmed a unit's model error as a lasting leak;
+        # the backends' confirms_with_offset_profile, docs/detect.md 8.5)
+        ck, cse, cint = k, se, interval
+        if profiled and not be.confirms_with_offset_profile(load):
+            ck, cse = self._estimate(t, first, sigma=self._size_sigma(t, first, load))
+            m0 = float(t["phi_abs"][j:].sum()) / dur * LPM_PER_M3S
+            zq = float(norm.ppf(0.5 + self.interval_level / 2))
+            cint = ((ck - zq * cse) * m0, (ck + zq * cse) * m0)
         onset, alarm = float(t["start"][j]), float(t["end"][i])
         # an onset in the first windows judged: the data cannot tell it from a leak there from
         # the start, so it is only an upper bound
@@ -1815,7 +1825,7 @@ class FlowBalanceDetector(Detector):
         end = float(t["end"][-1])
         said = (f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
                 f"{seconds(alarm)} s (score {smax:.3g}, level {h:.3g})")
-        if k > 0.0 and not interval[0] > 0.0:  # alarmed, but since the onset no evidence
+        if ck > 0.0 and not cint[0] > 0.0:  # alarmed, but since the onset no evidence
             # (an audit, 2026-11-28: a healthy file with a seam where the position matched, and
             # a healthy CSV resampled from jittered stamps, read LEAK with intervals below 0)
             late = (f"; {end - alarm:.3g} s of data after the alarm, too few to confirm a leak "
@@ -1823,17 +1833,17 @@ class FlowBalanceDetector(Detector):
             raise AlarmNotConfirmed(
                 f"{said}, but the leak estimated from the onset ({seconds(onset)} s) to the end "
                 "is "
-                f"not significantly above zero (its interval {interval[0]:.3g} to "
-                f"{interval[1]:.3g} L/min reaches zero){late}: "
+                f"not significantly above zero (its interval {cint[0]:.3g} to "
+                f"{cint[1]:.3g} L/min reaches zero){late}: "
                 "the alarm is not a leak that lasts (" + _chance_words(smax, h) + "a seam or "
                 "discontinuity, resampled time stamps, a sensor fault?); no verdict on a leak",
                 alarm, onset)
-        if not k > 0.0 and censored:  # a leak from the start, fitted into the null offset
+        if not ck > 0.0 and censored:  # a leak from the start, fitted into the null offset
             raise AlarmAtStart(
                 f"{said} with its onset within the first {CENSOR_WINDOWS} windows judged (at or "
                 f"before {seconds(onset)} s), but the leak coefficient estimated from there to "
                 "the end "
-                f"is not positive ({k:.3g} +- {se:.2g}): a leak present from the recording's "
+                f"is not positive ({ck:.3g} +- {cse:.2g}): a leak present from the recording's "
                 "start is fitted into the per-recording null offset and gain, so the data "
                 "cannot size it nor tell it from a disturbance at the start ("
                 + _chance_words(smax, h) + "a seam, a sensor fault, or a recording of another "
@@ -1841,22 +1851,22 @@ class FlowBalanceDetector(Detector):
                 "the map's [file] table or the file's metadata to have it checked?); judge a "
                 "recording that starts before the leak (docs/detect.md 8.5); no verdict on a "
                 "leak", alarm, onset)
-        if not k > 0.0 and end - alarm < LATE_ALARM_S:  # too few windows after a late alarm
+        if not ck > 0.0 and end - alarm < LATE_ALARM_S:  # too few windows after a late alarm
             # (an audit, 2026-11-29: a 0.5 L/min leak from 25 s alarmed at 28.07 s in the
             # segment 0-30 s, k -2.7e-9 +- 1.8e-10, was "a sensor fault?"; that k came from
             # the transducers' zero error, and with it profiled the case reads LEAK)
             raise AlarmNotConfirmed(
                 f"{said}, but the leak coefficient estimated from the onset "
                 f"({seconds(onset)} s) to "
-                f"the end is not positive ({k:.3g} +- {se:.2g}); {end - alarm:.3g} s of data "
+                f"the end is not positive ({ck:.3g} +- {cse:.2g}); {end - alarm:.3g} s of data "
                 "after the alarm, too few to confirm a leak that began there ("
                 + _chance_words(smax, h) + "a seam or discontinuity, a sensor fault?); no "
                 "verdict on a leak", alarm, onset)
-        if not k > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
+        if not ck > 0.0:  # the test alarmed on a span, but since the onset k is not a leak
             raise RefusedAlarm(
                 f"{said}, but the leak coefficient estimated from the onset "
                 f"({seconds(onset)} s) to "
-                f"the end is not positive ({k:.3g} +- {se:.2g}): the flow balance does not "
+                f"the end is not positive ({ck:.3g} +- {cse:.2g}): the flow balance does not "
                 "describe this recording well (" + _chance_words(smax, h) + "a sensor fault, "
                 "the channels' units, another machine or operation?); no verdict on a leak",
                 alarm, onset)
