@@ -244,11 +244,11 @@ def test_following_a_binary_recording_is_refused_by_name(tmp_path, fmt):
     rec = Recording({"p1": np.arange(5.0), "p2": np.arange(5.0)}, sample_rate=10.0)
     path = tmp_path / f"rec.{'parquet' if fmt == 'parquet' else 'h5'}"
     write_recording(rec, path)
-    kind = {"parquet": "Parquet", "hdf5": "HDF5"}[fmt]
+    kind = {"parquet": "a Parquet file", "hdf5": "an HDF5 file"}[fmt]
     with pytest.raises(RecordingError, match=re.escape(
-            f"{path}: a {kind} file, not delimited text: following (monitor --follow) reads a "
-            f"CSV file that is still being written, line by line; judge the {kind} file "
-            "without --follow")):
+            f"{path}: {kind} (a recording?), not delimited text: following (monitor --follow) "
+            "reads a CSV file that is still being written, line by line; judge a finished "
+            "recording without --follow")):
         tail_csv(path, idle_timeout_s=0.1)
 
 

@@ -53,7 +53,8 @@ _OTHER_MAGIC = ((b"PAR1", "a Parquet file (a recording?)"),
                 (b"\x89HDF\r\n\x1a\n", "an HDF5 file (a recording?)"),
                 (b"PK\x03\x04", "a zip archive (.npz, .xlsx?)"),
                 (b"\x93NUMPY", "a NumPy .npy array"),
-                (b"SQLite format 3\x00", "an SQLite database (an event store?)"))
+                (b"SQLite format 3\x00", "an SQLite database (an event store?)"),
+                (b"MATLAB", "a MATLAB .mat file (a recording?)"))
 #: Bytes read to tell the kind of a file.
 _SNIFF_BYTES = 512
 #: The keys of a format-2 file.
@@ -229,6 +230,19 @@ def _meta_sha256(meta: dict) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
+def binary_kind(head: bytes) -> str | None:
+    """What a file that starts with ``head`` is when its first bytes name a binary format
+    leakdiag knows (a recording, an archive, an event store): ``"a Parquet file (a
+    recording?)"``, ...; None otherwise (text, a pickle, unknown bytes).
+
+    Examples
+    --------
+    >>> binary_kind(b"PAR1"), binary_kind(b"time,p1")
+    ('a Parquet file (a recording?)', None)
+    """
+    return next((what for magic, what in _OTHER_MAGIC if head.startswith(magic)), None)
+
+
 def sniff_detector_file(path: str | os.PathLike) -> str | None:
     """What a file is when it cannot be a detector file, from its first bytes.
 
@@ -261,9 +275,9 @@ def sniff_detector_file(path: str | os.PathLike) -> str | None:
         head = f.read(_SNIFF_BYTES)
     if not head:
         return "empty (0 bytes)"
-    for magic, what in _OTHER_MAGIC:
-        if head.startswith(magic):
-            return what
+    what = binary_kind(head)
+    if what is not None:
+        return what
     if head.startswith(_PICKLE_MAGIC) or head.startswith(_COMPRESSED_MAGIC):
         return None
     # joblib's zlib container: a zlib header, 0x78 and a check byte (RFC 1950)

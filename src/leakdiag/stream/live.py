@@ -17,6 +17,7 @@ from leakdiag.io.checks import print_resolution
 from leakdiag.io.recording import RecordingError
 from leakdiag.stream.chunks import (TIME_COLUMN, ChunkSource, TimeAxis, _check_unique,
                                     _extra_field, _ForwardFault, _rate_start, _select, _short_row)
+from leakdiag.stream.detector_file import binary_kind
 from leakdiag.stream.files import _ends_quoted, _separator
 
 __all__ = ["csv_lines", "tail_csv", "paced", "stdin_source", "IncompleteLineWarning"]
@@ -294,11 +295,6 @@ def csv_lines(stream, channels: Sequence[str] | None = None, sample_rate: float 
     return ChunkSource(gen(), fs, t0, chans, None, source, {})
 
 
-#: Leading bytes of the binary formats leakdiag reads (``leakdiag.io``): a followed file
-#: that starts with one is refused by name rather than decoded as text.
-_BINARY_MAGIC = ((b"PAR1", "Parquet"), (b"\x89HDF\r\n\x1a\n", "HDF5"), (b"MATLAB", "MAT"))
-
-
 def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
              sample_rate: float | None = None, poll_s: float = 0.05,
              idle_timeout_s: float | None = None, batch_lines: int = 1) -> ChunkSource:
@@ -348,14 +344,14 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
     """
     path = os.fspath(path)
     poll_s = check_positive(poll_s, "poll_s")
-    with open(path, "rb") as raw:  # a finished binary recording is not followed as text
-        head = raw.read(8)
-    kind = next((k for magic, k in _BINARY_MAGIC if head.startswith(magic)), None)
-    if kind is not None:
-        raise RecordingError(f"{path}: a {kind} file, not delimited text: following (monitor "
-                             "--follow) reads a CSV file that is still being written, line by "
-                             f"line; judge the {kind} file without --follow")
     f = open(path, "rb")  # lines decoded one by one: a bad byte is named with its line
+    kind = binary_kind(f.read(32))  # a finished binary recording is not followed as text
+    if kind is not None:
+        f.close()
+        raise RecordingError(f"{path}: {kind}, not delimited text: following (monitor "
+                             "--follow) reads a CSV file that is still being written, line by "
+                             "line; judge a finished recording without --follow")
+    f.seek(0)
     done = [0]  # complete lines handed over (the header is line 1)
     ended = [False]  # the idle timeout ended the stream: later reads find nothing
 
