@@ -1779,11 +1779,7 @@ class FlowBalanceDetector(Detector):
             size_sigma = None  # the growth check is not measured where the offset is profiled
         else:
             size_sigma = self._size_sigma(t, first, load)
-            k, se = self._estimate(t, first, sigma=size_sigma)
-            mean_phi = float(t["phi_abs"][j:].sum()) / dur
-            zq = float(norm.ppf(0.5 + self.interval_level / 2))
-            interval = ((k - zq * se) * mean_phi * LPM_PER_M3S,
-                        (k + zq * se) * mean_phi * LPM_PER_M3S)
+            k, se, mean_phi, interval = self._measured_size(t, first, j, dur, size_sigma)
             offset = offset_range = None
         # what the refusal rules below read: the size's own estimate, except where the offset
         # is profiled for the size but poorly determined (the EHA under the spring): there the
@@ -1791,10 +1787,8 @@ class FlowBalanceDetector(Detector):
         # the backends' confirms_with_offset_profile, docs/detect.md 8.5)
         ck, cse, cint = k, se, interval
         if profiled and not be.confirms_with_offset_profile(load):
-            ck, cse = self._estimate(t, first, sigma=self._size_sigma(t, first, load))
-            m0 = float(t["phi_abs"][j:].sum()) / dur * LPM_PER_M3S
-            zq = float(norm.ppf(0.5 + self.interval_level / 2))
-            cint = ((ck - zq * cse) * m0, (ck + zq * cse) * m0)
+            ck, cse, _, cint = self._measured_size(t, first, j, dur,
+                                                   self._size_sigma(t, first, load))
         onset, alarm = float(t["start"][j]), float(t["end"][i])
         # an onset in the first windows judged: the data cannot tell it from a leak there from
         # the start, so it is only an upper bound
@@ -2122,6 +2116,16 @@ class FlowBalanceDetector(Detector):
         alarm at window ``i`` (every :math:`Z_j` of :meth:`_onset_profile` at or below zero):
         its onset then rests on the windows up to the alarm only."""
         return not np.any(self._onset_profile(t, i, j_span)[1] > 0)
+
+    def _measured_size(self, t: dict, first: int, j: int, dur: float, sigma: np.ndarray):
+        """Leak coefficient, its standard error, mean ``|phi|`` since window ``j`` and the
+        ``interval_level`` size interval (L/min) on the measured pressures (no offset profiled;
+        the coefficient from window ``first`` on, weights ``1 / sigma^2``)."""
+        k, se = self._estimate(t, first, sigma=sigma)
+        mean_phi = float(t["phi_abs"][j:].sum()) / dur
+        zq = float(norm.ppf(0.5 + self.interval_level / 2))
+        return k, se, mean_phi, ((k - zq * se) * mean_phi * LPM_PER_M3S,
+                                 (k + zq * se) * mean_phi * LPM_PER_M3S)
 
     def _offset_profile(self, rec, first: int, j: int, dur: float):
         """Leak coefficient and mean ``|phi|`` since window ``j`` with the differential
