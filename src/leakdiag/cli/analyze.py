@@ -295,14 +295,13 @@ def verdict_table(table, false_alarm_rate: float):
     >>> verdict_table(t, 0.01)[["decision", "overall_decision", "method_level"]].values.tolist()
     [['leak', 'no-leak', 0.005], ['no-leak', 'no-leak', 0.005]]
     """
-    from leakdiag.detect.analysis import overall_decision
+    from leakdiag.detect.analysis import overall_decision, split_level
 
     dec, why = overall_decision(table, false_alarm_rate)
-    m = int(table["decision"].notna().sum()) if "decision" in table else 0
     out = table.copy()
     out["overall_decision"] = dec
     out["overall_reason"] = why
-    out["method_level"] = false_alarm_rate / m if m else float("nan")
+    out["method_level"] = split_level(table, false_alarm_rate)
     return out
 
 

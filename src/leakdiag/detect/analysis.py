@@ -16,7 +16,7 @@ from leakdiag.features.spec import MethodSpec, compute_feature
 from leakdiag.features.series import FeatureSeries
 
 __all__ = ["Analysis", "analyze_recording", "VERDICT_COLUMNS", "DECISION_COLUMNS",
-           "overall_decision"]
+           "overall_decision", "split_level"]
 
 #: Columns of the verdict table, in order.
 VERDICT_COLUMNS = [
@@ -309,6 +309,21 @@ def analyze_recording(recording, specs, onset: float | None = None, chunk: int =
     return Analysis(table=table, series=series, results=results, onset=onset)
 
 
+def split_level(table, false_alarm_rate: float = 0.01) -> float:
+    """The level each row's p-value is held to for the overall decision
+    (:func:`overall_decision`): ``false_alarm_rate`` over the rows with a decision (NaN when
+    none has one).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> split_level(pd.DataFrame({"decision": ["leak", None, "no-leak"]}), 0.01)
+    0.005
+    """
+    m = int(table["decision"].notna().sum()) if "decision" in table else 0
+    return false_alarm_rate / m if m else float("nan")
+
+
 def overall_decision(table, false_alarm_rate: float = 0.01) -> tuple[str, str]:
     """One decision over the rows of a verdict table (Bonferroni union).
 
@@ -346,7 +361,7 @@ def overall_decision(table, false_alarm_rate: float = 0.01) -> tuple[str, str]:
     m = len(judged)
     if m == 0:
         return "inconclusive", "no method could judge the recording"
-    level = false_alarm_rate / m
+    level = split_level(table, false_alarm_rate)
     alone = judged[judged["decision"] == "leak"]
     # a row's own LEAK (at the full rate) that the split level does not carry: said wherever
     # the overall decision is not LEAK (a CLI audit, 2026-11-28, finding 3: an INCONCLUSIVE
