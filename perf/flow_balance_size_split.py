@@ -17,14 +17,13 @@ from leakdiag.bench.registry import make_detector
 from leakdiag.bench.v5_common import _simulate, v5_alarm
 from leakdiag.bench.v5_suite import V5_SUITES, build_v5_suite
 from leakdiag.bench.v5_unit import own_cases
-from leakdiag.sim.leak import LPM_PER_M3S
-
-#: The simulator's laminar core of the leak law (docs/models.md, "Regularised square roots").
-PTR_LEAK_PA = 1e4
+from leakdiag.sim.leak import LPM_PER_M3S, leak_flow
+from leakdiag.sim.vca.params import LEAK_TRANSITION_PRESSURE_PA
 
 
 def _g(dp):
-    return dp / (dp * dp + PTR_LEAK_PA ** 2) ** 0.25
+    """The simulator's leak law per unit coefficient (turbulent, its laminar core)."""
+    return leak_flow(1.0, dp, LEAK_TRANSITION_PRESSURE_PA, False)
 
 
 def main(sizes, first: int, stop: int) -> None:
