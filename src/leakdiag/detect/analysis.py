@@ -314,6 +314,17 @@ def split_level(table, false_alarm_rate: float = 0.01) -> float:
     (:func:`overall_decision`): ``false_alarm_rate`` over the rows with a decision (NaN when
     none has one).
 
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Verdict table with a ``decision`` column.
+    false_alarm_rate : float, default 0.01
+        Overall false-alarm rate per run.
+
+    Returns
+    -------
+    float
+
     Examples
     --------
     >>> import pandas as pd

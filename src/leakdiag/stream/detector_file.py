@@ -235,6 +235,15 @@ def binary_kind(head: bytes) -> str | None:
     leakdiag knows (a recording, an archive, an event store): ``"a Parquet file (a
     recording?)"``, ...; None otherwise (text, a pickle, unknown bytes).
 
+    Parameters
+    ----------
+    head : bytes
+        The file's first bytes (32 are enough).
+
+    Returns
+    -------
+    str or None
+
     Examples
     --------
     >>> binary_kind(b"PAR1"), binary_kind(b"time,p1")
