@@ -5,6 +5,9 @@ actuator's ALARM into OK; the alarm shown was the last file by name, without its
 
 import time
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from leakdiag.store import AlarmRecord, EventStore
 from leakdiag.store.writers import record_batch
 
@@ -112,3 +115,70 @@ def test_the_alarm_shown_prefers_a_size_then_the_earliest_not_the_last_file(tmp_
         "/d/u7/z.parquet", 0.5)
     st.close()
     st2.close()
+
+
+# -- _batch_ok_since counts each run once: against the plain re-judging of every prefix --------
+
+_EFFECTIVE = ("ok", "failed", "inconclusive", "unjudged", "waiting", "no detector", "running",
+              "stopped")
+
+
+def _verdict_reference(runs, alarms):
+    """An invocation's verdict as :func:`leakdiag.store.database._invocation` states it, in
+    plain comprehensions over its runs and alarms."""
+    judging = [r for r in runs if r["effective"] != "no detector"]
+    status = [r["effective"] for r in judging]
+    if any(a["cleared_time_s"] is None for a in alarms):
+        return "ALARM"
+    if not judging:
+        return "NO DATA" if sum(r["n_chunks"] for r in runs) == 0 and \
+            all(r["status"] in ("running", "stopped") for r in runs) else "NO DETECTOR"
+    if sum(r["n_chunks"] for r in judging if r["effective"] != "waiting") == 0 \
+            and not alarms and all(st in ("running", "stopped", "waiting") for st in status):
+        return "NO DATA"
+    if all(st == "failed" for st in status):
+        return "FAILED"
+    if any(st == "inconclusive" for st in status):
+        return "INCONCLUSIVE"
+    if any(st in ("failed", "unjudged") for st in status):
+        return "NOT JUDGED"
+    return "OK"
+
+
+def _ok_since_reference(batch, alarms_of):
+    """The definition: after each invocation, every recording's current runs judged together
+    (quadratic in the number of invocations)."""
+    cur, since = {}, None
+    for rs in sorted(batch, key=lambda rs: min(r["id"] for r in rs)):
+        mine = {}
+        for r in rs:
+            mine.setdefault(str(r["source"]), []).append(r)
+        cur.update(mine)
+        runs = [r for v in cur.values() for r in v]
+        if _verdict_reference(runs, [x for r in runs for x in alarms_of.get(r["id"], [])]
+                              ) == "OK":
+            since = min(r["start"] for r in rs)
+    return since
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.lists(st.tuples(st.integers(0, 3), st.sampled_from(_EFFECTIVE),
+                                   st.integers(0, 2), st.sampled_from((None, 0, 1)),
+                                   st.sampled_from(("done", "running", "stopped", "failed"))),
+                         min_size=1, max_size=4), min_size=1, max_size=8))
+def test_batch_ok_since_equals_rejudging_every_prefix(invocations):
+    from leakdiag.store.database import _batch_ok_since, _invocation
+
+    batch, alarms_of, rid = [], {}, 0
+    for k, inv in enumerate(invocations):
+        rs = []
+        for src, eff, n_chunks, alarm, status in inv:
+            rid += 1
+            rs.append({"id": rid, "source": f"f{src}", "effective": eff, "n_chunks": n_chunks,
+                       "status": status, "start": k, "at": k})
+            if alarm is not None:  # an alarm, standing (None) or cleared (at 30 s)
+                alarms_of[rid] = [{"cleared_time_s": None if alarm == 0 else 30.0}]
+        batch.append(rs)
+        mine = [x for r in rs for x in alarms_of.get(r["id"], [])]
+        assert _invocation(rs, mine)["verdict"] == _verdict_reference(rs, mine)
+    assert _batch_ok_since(batch, alarms_of) == _ok_since_reference(batch, alarms_of)

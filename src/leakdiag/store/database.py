@@ -17,6 +17,7 @@ import re
 import time
 import uuid
 import warnings
+from collections import Counter
 from dataclasses import asdict, fields
 from datetime import datetime, timezone
 from typing import Any, Callable
@@ -1330,27 +1331,53 @@ def _invocation(runs: list[dict], alarms: list[dict]) -> dict:
     clearing and shown OK; alarm rows a monitor wrote before schema version 5 may still hold
     a dip's time, which cannot be told from an end).
     """
-    judging = [r for r in runs if r["effective"] != "no detector"]
-    status = [r["effective"] for r in judging]
-    if any(_missing(a["cleared_time_s"]) for a in alarms):
-        verdict = "ALARM"
-    elif not judging:  # features only: nothing was judged (NO DATA before its first chunk)
-        verdict = "NO DATA" if sum(int(r["n_chunks"]) for r in runs) == 0 and \
-            all(r["status"] in ("running", "stopped") for r in runs) else "NO DETECTOR"
-    elif sum(int(r["n_chunks"]) for r in judging if r["effective"] != "waiting") == 0 \
-            and not alarms and all(st in ("running", "stopped", "waiting") for st in status):
-        verdict = "NO DATA"  # (a monitor stopped before its first window judged nothing)
-    elif all(st == "failed" for st in status):
-        verdict = "FAILED"  # nothing of it could be read or judged
-    elif any(st == "inconclusive" for st in status):
-        verdict = "INCONCLUSIVE"  # an alarm that is no evidence: neither an ALARM nor an OK
-    elif any(st in ("failed", "unjudged") for st in status):
-        verdict = "NOT JUDGED"  # no alarm, but a run of it was not judged: not an OK
-    else:
-        verdict = "OK"
+    tally = _tally(runs, alarms)
+    verdict = _tally_verdict(tally)
     return {"runs": runs, "alarms": alarms, "start": min(r["start"] for r in runs),
             "at": max(r["at"] for r in runs), "last_id": max(int(r["id"]) for r in runs),
-            "verdict": verdict, "judging": bool(judging or alarms)}
+            "verdict": verdict, "judging": bool(tally["judging"] or alarms)}
+
+
+def _tally(runs: list[dict], alarms: list[dict]) -> Counter:
+    """The counts of runs and alarms that :func:`_tally_verdict` judges an invocation by.
+
+    Counts add over disjoint sets of runs (with their alarms), so that a sequence of
+    invocations can be judged with each run counted once (:func:`_batch_ok_since`).
+    """
+    c: Counter = Counter()
+    for a in alarms:
+        c["alarms"] += 1
+        c["standing"] += _missing(a["cleared_time_s"])
+    for r in runs:
+        st = r["effective"]
+        c["chunks"] += int(r["n_chunks"])
+        c["not_running"] += r["status"] not in ("running", "stopped")
+        if st == "no detector":
+            continue
+        c["judging"] += 1
+        c["judged_chunks"] += int(r["n_chunks"]) if st != "waiting" else 0
+        c["started"] += st not in ("running", "stopped", "waiting")
+        c["failed"] += st == "failed"
+        c["inconclusive"] += st == "inconclusive"
+        c["unjudged"] += st in ("failed", "unjudged")
+    return c
+
+
+def _tally_verdict(c: Counter) -> str:
+    """An invocation's verdict from its :func:`_tally` (:func:`_invocation`)."""
+    if c["standing"]:
+        return "ALARM"
+    if not c["judging"]:  # features only: nothing was judged (NO DATA before its first chunk)
+        return "NO DATA" if c["chunks"] == 0 and c["not_running"] == 0 else "NO DETECTOR"
+    if c["judged_chunks"] == 0 and not c["alarms"] and c["started"] == 0:
+        return "NO DATA"  # (a monitor stopped before its first window judged nothing)
+    if c["failed"] == c["judging"]:
+        return "FAILED"  # nothing of it could be read or judged
+    if c["inconclusive"]:
+        return "INCONCLUSIVE"  # an alarm that is no evidence: neither an ALARM nor an OK
+    if c["unjudged"]:
+        return "NOT JUDGED"  # no alarm, but a run of it was not judged: not an OK
+    return "OK"
 
 
 def _group(x: dict):
@@ -1474,16 +1501,19 @@ def _batch_ok_since(batch: list[list[dict]], alarms_of: dict):
     was OK (:func:`_batch_current`), or None: an OK of the whole folder then, which cleared an
     alarm of another command active before it, as a batch of the whole folder at that time
     would have (a later failed re-run of one file does not undo that)."""
-    cur: dict = {}  # recording -> its runs as of the invocation
+    cur: dict = {}  # recording -> the tally of its runs as of the invocation
+    total: Counter = Counter()  # the sum of cur's tallies, kept as recordings are re-judged
     since = None
     for rs in sorted(batch, key=lambda rs: min(r["id"] for r in rs)):
         mine: dict = {}
         for r in rs:
             mine.setdefault(str(r["source"]), []).append(r)
-        cur.update(mine)
-        runs = [r for v in cur.values() for r in v]
-        if _invocation(runs, [x for r in runs for x in alarms_of.get(r["id"], [])]
-                       )["verdict"] == "OK":
+        for src, runs in mine.items():
+            if src in cur:
+                total.subtract(cur[src])
+            cur[src] = _tally(runs, [x for r in runs for x in alarms_of.get(r["id"], [])])
+            total.update(cur[src])
+        if _tally_verdict(total) == "OK":
             since = min(r["start"] for r in rs)
     return since
 
