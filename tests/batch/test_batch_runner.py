@@ -192,6 +192,8 @@ def test_resume_skips_finished_and_recomputes_changed(recordings):
     pattern = str(tmp / "recordings" / "**" / "*.parquet")
     s1 = run_batch([pattern], cfg, out, progress=False)
     assert (s1.n_inputs, s1.n_run, s1.n_errors) == (4, 4, 1)
+    broken = tmp / "recordings" / "rig0" / "broken.parquet"
+    assert s1.paths == tuple(sorted(os.path.abspath(p) for p in [*paths, broken]))
     df = read_results(out)
     assert len(df) == 3 * 3 + 1 and set(df["status"]) == {"ok", "error"}
     assert pd.read_parquet(out).shape == df.shape  # a plain Parquet dataset

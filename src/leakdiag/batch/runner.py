@@ -395,6 +395,9 @@ class BatchSummary:
         leakdiag code (another ``code_fingerprint``, or none recorded), computed again.
     n_other_libraries : int, default 0
         Of ``n_run``: the same for rows of the same code under other library versions.
+    paths : tuple of str, default ()
+        The recordings matched (absolute, sorted; :func:`batch_inputs`), those whose rows
+        this run's summary is about: a file added to the folder while the job ran is not.
     """
 
     n_inputs: int
@@ -405,6 +408,7 @@ class BatchSummary:
     n_own: int = 0
     n_other_code: int = 0
     n_other_libraries: int = 0
+    paths: tuple[str, ...] = ()
 
 
 def _todo(paths, config, out_dir, retry_errors, code):
@@ -505,7 +509,7 @@ def run_batch(inputs: Sequence[str], config: BatchConfig, out_dir: str | os.Path
     finally:
         bar.close()
     return BatchSummary(len(paths), len(paths) - len(todo), len(todo), n_err, os.fspath(out_dir),
-                        len(own), n_code, n_lib)
+                        len(own), n_code, n_lib, tuple(paths))
 
 
 def _whole_rows(path: str, config: BatchConfig, whole: list, base: dict,

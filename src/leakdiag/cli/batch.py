@@ -144,8 +144,7 @@ def batch(inputs, config_path, detectors, out, scheduler, workers, retry_errors,
             if s.n_own else ""))
 
     df = read_results(out)
-    matched, _ = batch_inputs(list(inputs), out)
-    mine = df[(df["job_digest"] == cfg.digest) & df["path"].isin(set(matched))]
+    mine = df[(df["job_digest"] == cfg.digest) & df["path"].isin(set(s.paths))]
     n_rows = len(mine)
     # a detector row that judged nothing (alarm empty: too short, a stuck channel, ...); one
     # whose detector alarmed and refused its alarm was judged, inconclusive (as detect says)
