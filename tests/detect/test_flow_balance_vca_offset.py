@@ -142,7 +142,31 @@ def test_the_eha_profile_equals_the_balance_of_shifted_recordings():
         return k, se, float(ts["phi_abs"][j:].sum()) / dur
 
     ref = profile_offset(evaluate, det.interval_level)
-    fast = det._offset_profile(rec, j + 1, j, dur)
+    fast = det._offset_profile(rec, t, j + 1, j, dur)
     assert fast.offset_pa == pytest.approx(ref.offset_pa, abs=1.0)
     assert fast.size == pytest.approx(ref.size, rel=1e-6)
     assert fast.size_interval == pytest.approx(ref.size_interval, rel=1e-6)
+
+
+def test_the_size_is_profiled_on_the_balance_the_scan_judged(case, monkeypatch):
+    # after an alarm the VCA refits the recording's null drift before the alarm's span
+    # (FlowBalanceDetector._causal_drift); the size's offset profile takes the scan's terms.
+    # Until session 29 it recomputed them with the whole-recording drift fit. The refit is
+    # forced here (on the first 10 windows judged) so that the two differ.
+    det, rec, onset = case
+
+    def refit(self, r, t, a, b, g, arg):
+        t2 = self._terms(r, drift_windows=self._skip(r) + 10)
+        return (t2, *self._ab(t2), *self._glr(t2))
+
+    monkeypatch.setattr(FlowBalanceDetector, "_causal_drift", refit)
+    v = det.predict(rec)
+    assert v.leak and v.pressure_offset_pa is not None
+    t2, whole = det._terms(rec, drift_windows=det._skip(rec) + 10), det._terms(rec)
+    j = int(np.searchsorted(t2["start"], v.onset_s))
+    assert t2["start"][j] == v.onset_s
+    dur = float(t2["duration"][j:].sum())
+    on_scan = det._offset_profile(rec, t2, j + 1, j, dur)
+    on_whole = det._offset_profile(rec, whole, j + 1, j, dur)
+    assert abs(on_scan.offset_pa - on_whole.offset_pa) > 10.0  # the two fits differ (27 Pa)
+    assert v.pressure_offset_pa == pytest.approx(on_scan.offset_pa, rel=1e-9)

@@ -1771,7 +1771,7 @@ class FlowBalanceDetector(Detector):
             # the leak law's pressure difference carries the transducers' differential zero
             # error, which the healthy recordings cannot identify: profiled out on the leak's
             # own windows (_flow_balance_offset)
-            prof = self._offset_profile(recording, first, j, dur)
+            prof = self._offset_profile(recording, t, first, j, dur)
             k, se, mean_phi, offset = (prof.coefficient, prof.coefficient_se,
                                        prof.mean_abs_law, prof.offset_pa)
             offset_range = prof.offset_interval_pa
@@ -2127,17 +2127,19 @@ class FlowBalanceDetector(Detector):
         return k, se, mean_phi, ((k - zq * se) * mean_phi * LPM_PER_M3S,
                                  (k + zq * se) * mean_phi * LPM_PER_M3S)
 
-    def _offset_profile(self, rec, first: int, j: int, dur: float):
+    def _offset_profile(self, rec, t: dict, first: int, j: int, dur: float):
         """Leak coefficient and mean ``|phi|`` since window ``j`` with the differential
         pressure offset profiled (:func:`~leakdiag.detect._flow_balance_offset.profile_offset`;
-        the coefficient from window ``first`` on). The offset moves the leak-law terms only
+        the coefficient from window ``first`` on), on the balance terms ``t`` of ``rec`` that
+        the scan judged (on the VCA with the null drift it refitted after an alarm, if any:
+        ``_causal_drift``; until session 29 the terms were recomputed here with the
+        whole-recording drift fit). The offset moves the leak-law terms only
         (:func:`~leakdiag.detect._flow_balance_offset.leak_law_at`): the leak's regressor and
         the healthy baseline leak subtracted from the residual; the valve or pump flows, the
         nuisance and the error model stay as the healthy identification calibrated them on
         the measured pressures. On the EHA, whose other terms do not depend on the pressures'
         zero, this is the balance of a recording with ``p1`` lowered by the offset."""
         be = self._backend()
-        t = self._terms(rec)
         law = leak_law_at(rec, t["start"], t["end"], be.DP_SMOOTHING_S,
                           be.leak_transition_pa(self._nominal()), self.leak_law == "laminar")
         kb = float(self.model_.baseline_leak_coefficient)
