@@ -184,3 +184,19 @@ def test_the_fraction_rule_is_relative_to_the_healthy_recordings(acf):
                                              r"than 82%, the healthy recordings had at most "
                                              r"64%;"):
         often.predict_series(s13, duration_s=float(s13.time[-1]) + 0.01)
+
+
+def test_fit_refuses_a_healthy_recording_whose_feature_is_never_defined():
+    """A statistics audit (2026-11-30): a healthy run with p1 stuck throughout was accepted by
+    fit, counted as segment maxima of 0 (understating the bound) and lifted the blind-span
+    limits to its whole length, so that a judged run 73 % undefined read NO LEAK."""
+    healthy = [ld.sim.simulate_vca(duration=40, leak_lpm=0.0, seed=s) for s in range(4)]
+    stuck = _freeze(healthy[3], "p1", 0.0)
+    det = make_detector("acf-p1", "vca", Alarm(false_alarms_per_hour=30.0))
+    with pytest.raises(ValueError, match=r"fit: healthy recording p1 frozen: no finite feature "
+                                         r"value in its \d+ window\(s\) after the 5-s burn-in "
+                                         r"\(zero variance: a constant or stuck channel\?\)"):
+        det.fit(healthy[:3] + [stuck])
+    # stuck for part of it only: accepted, its undefined span sets the blind-span limit
+    part = _freeze(healthy[3], "p1", 20.0)
+    assert 19.0 < det.fit(healthy[:3] + [part]).nan_span_healthy_s_ < 20.0

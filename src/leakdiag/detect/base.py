@@ -527,6 +527,18 @@ class Detector(BaseEstimator):
             raise ValueError(f"fit: the healthy recordings have different sample rates "
                              f"({', '.join(f'{r:g}' for r in rates)} Hz): windows and lags "
                              "are in samples; resample them to one rate")
+        for s, p in zip(series, parts):  # as predict refuses to judge such a recording
+            if len(s[1]) and not np.isfinite(s[1]).any():
+                # it would add segment maxima of 0 (the CUSUM holds across undefined windows),
+                # understating the bound, and lift the blind-span limits to the whole run (a
+                # statistics audit, 2026-11-30: 50 such runs beside 99 took a 1/150 bound to a
+                # measured 1/105; one stuck run let 73 % undefined windows read NO LEAK)
+                src = p[5]["source"] if len(p) > 5 else "<recording>"
+                raise ValueError(
+                    f"fit: healthy recording {src}: no finite feature value in its "
+                    f"{len(s[1])} window(s) after the {a.burn_in_s:g}-s burn-in (zero "
+                    "variance: a constant or stuck channel?): it holds no evidence of healthy "
+                    "behaviour; leave it out")
         values = np.concatenate([s[1] for s in series])
         values = values[np.isfinite(values)]
         if len(values) < 2:
