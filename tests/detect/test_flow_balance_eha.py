@@ -173,3 +173,55 @@ def test_spring_load_false_alarm_is_not_confirmed_by_a_free_pressure_offset(tmp_
     assert code == 0 and "Decision: LEAK" in out
     size = float(out.split("leak size (flow-balance): ")[1].split(" L/min")[0])
     assert 0.27 < size < 0.33 and "zero error found on the leak's windows, -9" in out
+
+
+def _channels(rec, **swap):
+    ch = {k: v.copy() for k, v in rec.channels.items()}
+    ch.update(swap)
+    return Recording(ch, rec.sample_rate, rec.start_time, dict(rec.units), dict(rec.meta))
+
+
+def test_a_reversed_position_sign_is_refused_not_read_as_a_leak():
+    # an API audit (2026-11-30): a healthy spring run with x's sign reversed (its position
+    # range is symmetric, so the range check passes it) read LEAK 0.8 L/min at p = 8e-5; the
+    # piston now moves against the pump model's volume (ratio -0.97, healthy 1)
+    from leakdiag.detect.flow_balance import _piston_valve_ratio
+
+    det = FlowBalanceDetector(system="eha", false_alarms_per_hour=1.0).fit(
+        [ld.sim.simulate_eha(duration=30, leak_lpm=0.0, load="spring", machine=17, seed=s)
+         for s in range(3)])
+    rec = ld.sim.simulate_eha(duration=30, leak_lpm=0.0, load="spring", machine=17, seed=40)
+    assert not det.predict(rec).leak
+    assert _piston_valve_ratio(det._terms(rec), 0) == pytest.approx(1.0, abs=0.01)
+    flipped = _channels(rec, x=-rec["x"])
+    assert _piston_valve_ratio(det._terms(flipped), 0) < -0.9
+    with pytest.raises(RecordingError, match=r"the piston moved against the pump's flow: the "
+                                             r"piston's volume is -0\.9\d times the pump "
+                                             r"model's .* the motor speed's or the position's "
+                                             r"sign is reversed"):
+        det.predict(flipped)
+
+
+def test_swapped_line_pressures_are_refused_at_fit_and_predict(fitted):
+    # the same audit: pa and pb swapped read a healthy run LEAK 0.07 L/min (the pump-leakage
+    # term changes sign); each line pressure is nearer its own chamber (Eqs. 3-7 to 3-12)
+    from leakdiag.detect._flow_balance_eha import wiring_problem
+
+    rec = ld.sim.simulate_eha(duration=30, leak_lpm=0.0, params=UNIT, seed=41)
+    p1, p2, pa, pb = (rec[c][2000:] for c in ("p1", "p2", "pa", "pb"))
+    own = np.mean(np.abs(pa - p1)) + np.mean(np.abs(pb - p2))
+    cross = np.mean(np.abs(pa - p2)) + np.mean(np.abs(pb - p1))
+    assert cross > 1.3 * own and wiring_problem(rec, 2000) is None
+    swapped = _channels(rec, pa=rec["pb"], pb=rec["pa"])
+    msg = (rf"the line pressures are nearer the other chamber than their own \(mean \|pa - p1\| "
+           rf"\+ \|pb - p2\| = {cross / 1e3:.4g} kPa against \|pa - p2\| \+ \|pb - p1\| = "
+           rf"{own / 1e3:.4g} kPa after the burn-in\)")
+    assert wiring_problem(swapped, 2000).startswith(msg.replace("\\", ""))
+    with pytest.raises(RecordingError, match="predict: .*" + msg):
+        fitted.predict(swapped)
+    healthy = [ld.sim.simulate_eha(duration=30, leak_lpm=0.0, params=UNIT, seed=s)
+               for s in range(3)]
+    with pytest.raises(RecordingError, match=r"fit: healthy recording 3 \(.*\): the line "
+                                             r"pressures are nearer the other chamber"):
+        FlowBalanceDetector(system="eha").fit(
+            healthy[:2] + [_channels(healthy[2], pa=healthy[2]["pb"], pb=healthy[2]["pa"])])

@@ -102,6 +102,47 @@ class EHAPumpModel:
         return asdict(self)
 
 
+def wiring_problem(rec, first: int) -> str | None:
+    """Why the line pressures cannot be those the balance assumes, or None.
+
+    The line orifices of Eqs. 3-7 to 3-12 sit between the pump's line ``pa`` (the thesis's
+    P_1) and chamber 1 (``p1``, its P_A) and between ``pb`` and chamber 2, so each line
+    pressure differs from its own chamber's by its orifice's drop, and from the other
+    chamber's by that drop plus ``P1 - P2``, which
+    takes the flow's direction (the load and friction are driven that way). With ``pa`` and
+    ``pb`` swapped (or the chambers), the pump-leakage term of the balance changes sign: a
+    healthy run read LEAK 0.07 L/min and a 0.02 L/min leak from 60 s was placed at the start
+    (an API audit, 2026-11-30). Measured on healthy virtual machines 1-20 (open and closed
+    loop): the mean distance to the other chamber is 1.38-2.2x that to its own without load,
+    6-12x with the spring; a swap inverts the ratio.
+
+    Parameters
+    ----------
+    rec : Recording
+        EHA recording with :data:`CHANNELS`.
+    first : int
+        First sample after the burn-in.
+
+    Returns
+    -------
+    str or None
+        The problem in words, or None when each line pressure is nearer its own chamber.
+    """
+    p1, p2, pa, pb = (np.asarray(rec[c], dtype=np.float64)[first:] for c in
+                      ("p1", "p2", "pa", "pb"))
+    if not len(p1):
+        return None
+    own = float(np.mean(np.abs(pa - p1)) + np.mean(np.abs(pb - p2)))
+    cross = float(np.mean(np.abs(pa - p2)) + np.mean(np.abs(pb - p1)))
+    if not cross < own:
+        return None
+    return (f"the line pressures are nearer the other chamber than their own (mean |pa - p1| "
+            f"+ |pb - p2| = {own / 1e3:.4g} kPa against |pa - p2| + |pb - p1| = "
+            f"{cross / 1e3:.4g} kPa after the burn-in): pa feeds chamber 1 (p1) and pb chamber 2 "
+            "(p2) through the line orifices of Eqs. 3-7 to 3-12, so pa and pb (or p1 and p2) look "
+            "swapped; map the channels so that they match (docs/io.md)")
+
+
 def default_params() -> EHAParams:
     """Table 3-1 plus the documented decisions (design values)."""
     return EHAParams()
@@ -151,7 +192,8 @@ def _terms_from_raw(raw: np.ndarray, nominal: EHAParams, model: EHAPumpModel) ->
          - nominal.piston_area_m2 * raw[:, _DX] - comp
          - model.baseline_leak_coefficient * raw[:, _PHI])
     return {"residual": r, "phi": raw[:, _PHI].copy(), "phi_abs": raw[:, _PHIABS].copy(),
-            "flow": qr * raw[:, _FW], "duration": raw[:, _T].copy(),
+            "flow": qr * raw[:, _FW], "pump_volume": qr * raw[:, _TH],
+            "duration": raw[:, _T].copy(),
             "edge_flow2": qr * qr * (raw[:, _WA] ** 2 + raw[:, _WB] ** 2),
             "compressibility": comp}
 
@@ -180,7 +222,8 @@ def terms(rec, nominal: EHAParams, model: EHAPumpModel, window: int, laminar: bo
     -------
     dict of numpy.ndarray
         ``residual`` (m^3), ``phi``, ``phi_abs``, ``flow`` (m^3 through the pump),
-        ``duration`` (s), ``edge_flow2``, ``compressibility`` (m^3).
+        ``pump_volume`` (m^3, signed: the pump model's displaced volume), ``duration`` (s),
+        ``edge_flow2``, ``compressibility`` (m^3).
     """
     return _terms_from_raw(raw_sums(rec, nominal, window, laminar), nominal, model)
 

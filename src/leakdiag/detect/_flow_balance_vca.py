@@ -669,6 +669,25 @@ def default_params() -> VCAParams:
     return VCAParams()
 
 
+def wiring_problem(rec, first: int) -> str | None:
+    """None: the VCA's channels carry no redundancy that tells their wiring (the EHA's line
+    pressures do, :func:`leakdiag.detect._flow_balance_eha.wiring_problem`); a reversed sign
+    of ``x`` or ``u`` is found after an alarm (``MIN_PISTON_VALVE_RATIO``).
+
+    Parameters
+    ----------
+    rec : Recording
+        VCA recording.
+    first : int
+        First sample after the burn-in.
+
+    Returns
+    -------
+    None
+    """
+    return None
+
+
 def check_params(p) -> VCAParams:
     """``p`` if it is a :class:`VCAParams`, else TypeError."""
     if not isinstance(p, VCAParams):

@@ -398,7 +398,11 @@ ODD_ONE_OUT_FACTOR = 5.0
 #: recordings, between 0 and 1 with a leak (the valve feeds it: measured 0.91-0.98 at 0.1,
 #: 0.35-0.49 at 0.5, -0.04 to 0.05 at 2 and -0.003 to 0.02 at 4 L/min on unit 17, both loads),
 #: -0.74 to -0.77 with the command's sign reversed from 50 s of 120-s runs; a quarter below the
-#: physical bound of 0.
+#: physical bound of 0. The EHA's piston against the pump model's volume likewise (since
+#: 2026-11-30, an API audit: a healthy run with the position's sign reversed read LEAK 0.8
+#: L/min): unit 17, 60-s runs, 1.000 healthy, 0.97-0.98 at 0.5, 0.45-0.78 at 2 and 0.28-0.63
+#: at 2.7 L/min (75 % of the pump's mean flow, the simulator's largest); -0.98 to -0.28 with
+#: the position's sign reversed, both loads.
 MIN_PISTON_VALVE_RATIO = -0.25
 #: Windows after the alarm that its own ratio needs (leakdiag choice: the GLR's history minimum).
 PISTON_VALVE_MIN_WINDOWS = 5
@@ -427,10 +431,11 @@ def _chance_words(score: float, level: float) -> str:
 
 def _piston_valve_ratio(t: dict, j: int) -> float | None:
     """Least-squares ratio of the piston's and compressibility volumes to the valve model's
-    volume over windows ``j`` on: ``1 - sum(r G) / sum(G^2)`` with ``G`` the model's valve
-    volume of the difference equation and ``r`` the window residual (``G - r`` is what the
-    piston and the compressibility took). None without the valve volume (EHA) or any flow."""
-    vol = t.get("valve_volume")
+    (VCA) or the pump model's (EHA) volume over windows ``j`` on: ``1 - sum(r G) / sum(G^2)``
+    with ``G`` the model's supplied volume of the difference equation and ``r`` the window
+    residual (``G - r`` is what the piston and the compressibility took). None without such
+    a volume or any flow."""
+    vol = t.get("valve_volume", t.get("pump_volume"))
     if vol is None:
         return None
     g, r = vol[j:], t["residual"][j:]
@@ -900,7 +905,9 @@ class FlowBalanceDetector(Detector):
         """Refuse a recording in which a channel the balance reads is constant after the
         burn-in (zero variance: a stuck sensor or a channel that was not recorded). Read as a
         measurement, a constant pressure, position, command or speed is flow that is not
-        there: a healthy run with ``p1`` held at its median was judged LEAK at p = 8e-5."""
+        there: a healthy run with ``p1`` held at its median was judged LEAK at p = 8e-5. Also
+        one whose channels the backend finds swapped (``wiring_problem``: the EHA's line
+        pressures)."""
         name = name or rec.meta.get("source", "<recording>")
         burn = float(self.burn_in_s)
         first = int(round(burn * rec.sample_rate))
@@ -912,6 +919,9 @@ class FlowBalanceDetector(Detector):
                     f"{len(x)} samples after the {burn:g}-s burn-in (rows {first} to "
                     f"{first + len(x) - 1}) are {x[0]:.6g}; the flow balance reads it as a "
                     "measurement and cannot use a recording without one")
+        why = self._backend().wiring_problem(rec, first)
+        if why:
+            raise RecordingError(f"{where}: {name}: {why}")
 
     def _limited_channels(self, rec, attribute: str):
         """``(channel, limit, samples after the burn-in, row of the first)`` for each channel
@@ -1807,14 +1817,16 @@ class FlowBalanceDetector(Detector):
             [_piston_valve_ratio(t, i)] if len(g) - i >= PISTON_VALVE_MIN_WINDOWS else [])
         ratio = min((x for x in ratios if x is not None), default=None)
         if ratio is not None and ratio < MIN_PISTON_VALVE_RATIO:
+            src, signs = (("valve", "command's") if self.system == "vca" else
+                          ("pump", "motor speed's"))
             raise RecordingError(
                 f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
                 f"{seconds(alarm)} s, but after the onset ({seconds(onset)} s) the piston moved "
                 "against "
-                f"the valve's flow: the piston's volume is {ratio:.2f} times the valve "
-                f"model's (1 on a healthy recording; a leak takes part of the valve's flow, "
+                f"the {src}'s flow: the piston's volume is {ratio:.2f} times the {src} "
+                f"model's (1 on a healthy recording; a leak takes part of the {src}'s flow, "
                 f"between 0 and 1; below {MIN_PISTON_VALVE_RATIO:g} no leak explains it): the "
-                "command's or the position's sign is reversed against the fit runs; no "
+                f"{signs} or the position's sign is reversed against the fit runs; no "
                 "verdict on a leak")
         end = float(t["end"][-1])
         said = (f"predict: {recording.meta.get('source', '<recording>')}: the test alarmed at "
