@@ -161,7 +161,7 @@ def test_detect_constant_healthy_file(files, capsys):
                  "--system", "vca",
                  "--methods", "acf-p1"])
     _one_error_line(capsys, code, "good.csv", "no method could judge it (1 tried)",
-                    "only 0 finite feature values", "healthy")
+                    "const.csv: no finite feature value in its 10 window(s)", "healthy")
 
 
 def test_detect_constant_file_is_not_called_healthy(files, capsys):

@@ -30,6 +30,33 @@ def test_clone_and_params_roundtrip():
     assert c.window == 30 and det.window == 20
 
 
+def test_parameters_changed_after_fit_are_refused_until_refit(fitted):
+    # an API audit (2026-11-30): set_params(lag=5) on a fitted feature detector read healthy
+    # runs LEAK at 150x the threshold, labelled with the new lag; a new target kept the old
+    # threshold without a word
+    import copy
+    import pickle
+
+    rec = synthetic(120.0, 99)
+    want = fitted.predict(rec)
+    det = copy.deepcopy(fitted).set_params(window=20)
+    with pytest.raises(ValueError, match=r"WindowMeanDetector: parameters changed since fit "
+                                         r"\(window: fitted with 50, now 20\): the fitted model, "
+                                         r"threshold and healthy statistics belong to the "
+                                         r"settings it was fitted with; fit it again, or set "
+                                         r"them back"):
+        det.predict(rec)
+    with pytest.raises(ValueError, match=r"alarm: fitted with Alarm\(false_alarms_per_hour=1\.0"):
+        copy.deepcopy(fitted).set_params(
+            alarm=Alarm(false_alarms_per_hour=5.0, burn_in_s=0.0)).score(rec)
+    assert det.set_params(window=WINDOW).predict(rec) == want  # set back
+    refit = clone(fitted).set_params(window=20).fit([synthetic(600.0, s) for s in range(6)])
+    assert refit.fitted_params_["window"] == 20 and refit.predict(rec).n_windows == 120 * 100 // 20
+    old = pickle.loads(pickle.dumps(fitted))  # a detector saved before the check
+    del old.fitted_params_
+    assert old.set_params(window=20).predict(rec).n_windows > 0  # not held: nothing to hold to
+
+
 def test_fit_learns_healthy_distribution(fitted):
     # the window mean of unit white noise: mean 0, std 1/sqrt(50)
     assert abs(fitted.mean_) < 4 * SIGMA / np.sqrt(6 * 1200)
@@ -326,3 +353,31 @@ def test_predict_refuses_another_rate_or_rig_than_the_healthy_runs():
     assert det.predict(other).leak in (True, False)  # no rig said: judged
     del det.sample_rate_, det.system_  # a detector saved before these existed: not checked
     det.predict(_with(other, meta={"system": "eha"}))
+
+
+def test_what_is_not_a_recording_is_refused_with_what_was_given(fitted):
+    # an API audit (2026-11-30): a DataFrame given to fit failed deep inside with "'str'
+    # object has no attribute 'sample_rate'" (its column names taken for recordings)
+    rec = synthetic(60.0, 7)
+    df = rec.to_pandas()
+    with pytest.raises(TypeError, match=r"^fit expects leakdiag Recording objects, got "
+                                        r"DataFrame \(a pandas DataFrame: leakdiag\.io\."
+                                        r"Recording\.from_pandas\(df\) makes one\)$"):
+        clone(fitted).fit(df)
+    with pytest.raises(TypeError, match=r"^fit expects .* got dict \(a mapping"):
+        clone(fitted).fit([dict(rec.channels)])
+    with pytest.raises(TypeError, match=r"^predict expects .* got str \(a file name: "
+                                        r"leakdiag\.io\.read_recording\(path\) reads one\)$"):
+        fitted.predict("run.parquet")
+    with pytest.raises(TypeError, match=r"^predict expects .* got NoneType"):
+        fitted.score(None)
+
+
+def test_the_lazily_loaded_names_are_listed_by_dir():
+    # an API audit (2026-11-30): dir(ld.detect), tab completion and help() listed no detector
+    import leakdiag.detect as d
+
+    assert set(d.__all__) <= set(dir(d))
+    assert {"FeatureDetector", "CombinedDetector", "FlowBalanceDetector", "judge_run"} <= set(
+        dir(d))
+    assert d.judge_run is __import__("leakdiag.detect.decision", fromlist=["x"]).judge_run

@@ -315,8 +315,9 @@ def test_detect_eha_flow_balance_states_the_profiled_transducer_offset(tmp_path,
     line = next(x for x in out.splitlines() if "leak size (flow-balance)" in x)
     size = float(line.split(": ")[1].split()[0])
     assert abs(size / rec.meta["leak_lpm_achieved"] - 1) <= 0.03
-    assert ("interval: the coefficient's statistical error and the P1-P2 transducer zero "
-            "error found on the leak's windows, -3") in line  # -32 kPa
+    assert ("interval: the coefficient's statistical error and an effective P1-P2 offset (the "
+            "transducers' zero error and whatever else shifts P1 - P2 at the working pressure) "
+            "found on the leak's windows, -3") in line  # -32 kPa
 
 
 def test_a_decision_names_the_methods_that_did_not_alarm():

@@ -364,8 +364,10 @@ def test_a_verdict_prints_in_words(machine17):
     head, holds = str(v).split("\n")
     assert head.startswith(f"LEAK (flow_balance): alarm at {v.alarm_time_s:.4g} s, onset "
                            f"{v.onset_s:.4g} s (glr); leak {v.leak_lpm:.3g} L/min, interval ")
+    floor = (" (the smallest the healthy reference resolves for this span: the score is above "
+             "every healthy maximum it holds)" if v.confidence_floor else "")
     assert head.endswith(f"; score max {v.score_max:.3g} against threshold {v.threshold:.3g}, "
-                         f"p-value {v.confidence:.3g}")
+                         f"p-value {v.confidence:.3g}{floor}")
     assert holds == f"  interval: {v.leak_lpm_interval_holds}"
     assert repr(v).startswith("FlowBalanceVerdict(leak=True, ")  # repr keeps every field
 
@@ -674,3 +676,63 @@ def test_fit_refuses_a_healthy_recording_the_others_read_as_leaking():
                        r"healthy .* recording 3 \(run7\.csv\): [0-9.]+\. A leaking recording"):
         FlowBalanceDetector(system="vca").fit([_bare(r) for r in runs[:2]] + [_bare(leaking)]
                                               + [_bare(r) for r in runs[2:]])
+
+
+def test_fit_settings_changed_after_fit_are_refused_predict_settings_are_not(fitted):
+    # an API audit (2026-11-30): a new false_alarms_per_hour kept the fitted threshold, and a
+    # new leak_law gave refusals blaming sensors or another machine
+    import copy
+
+    from sklearn.exceptions import NotFittedError
+
+    rec = _with_offset(ld.sim.simulate_vca(duration=40, leak_lpm=0.0, load="spring",
+                                           params=UNIT, seed=31))
+    for k, v in (("false_alarms_per_hour", 100.0), ("leak_law", "laminar"), ("window_s", 0.5)):
+        det = copy.deepcopy(fitted).set_params(**{k: v})
+        with pytest.raises(ValueError, match=rf"FlowBalanceDetector: parameters changed since "
+                                             rf"fit \({k}: fitted with .*, now {v!r}\)"):
+            det.predict(rec)
+    # the size interval's level and the reference difference are read by predict only
+    det = copy.deepcopy(fitted).set_params(interval_level=0.5, reference_dp_pa=2e6)
+    assert det.predict(rec).score_max == fitted.predict(rec).score_max
+    with pytest.raises(NotFittedError, match="FlowBalanceDetector is not fitted"):
+        FlowBalanceDetector().predict(rec)
+
+
+def test_what_is_not_a_recording_is_refused_by_the_flow_balance(fitted):
+    rec = ld.sim.simulate_vca(duration=30, leak_lpm=0.0, load="spring", params=UNIT, seed=32)
+    with pytest.raises(TypeError, match=r"^predict expects leakdiag Recording objects, got "
+                                        r"DataFrame \(a pandas DataFrame"):
+        fitted.predict(rec.to_pandas())
+    with pytest.raises(TypeError, match=r"^fit expects .* got DataFrame"):
+        FlowBalanceDetector().fit(rec.to_pandas())
+    with pytest.raises(TypeError, match=r"^fit expects .* got dict \(a mapping"):
+        FlowBalanceDetector().fit([dict(rec.channels)])
+    with pytest.raises(TypeError, match=r"^score expects .* got NoneType"):
+        fitted.score(None)
+
+
+def test_a_model_p_value_at_the_null_resolution_is_flagged_as_its_floor(fitted):
+    # an API audit (2026-11-30): every leak from 0.002 to 0.5 L/min read p = 8.12e-05, the
+    # GLR null's one episode in its simulated hours, with confidence_floor False
+    assert fitted.threshold_basis_.method == "glr-model"
+    rec = _with_offset(ld.sim.simulate_vca(duration=40, leak_lpm=0.3, onset=20, load="spring",
+                                           params=UNIT, seed=33))
+    v = fitted.predict(rec)
+    hours = v.n_windows * fitted.window_s / 3600.0
+    floor = -np.expm1(-hours / fitted.alarm_threshold_.simulated_hours)
+    assert v.leak and v.confidence == pytest.approx(floor, rel=1e-12) and v.confidence_floor
+    assert "(the smallest the healthy reference resolves for this span" in str(v)
+    h = _with_offset(ld.sim.simulate_vca(duration=40, leak_lpm=0.0, load="spring", params=UNIT,
+                                         seed=34))
+    v = fitted.predict(h)  # a healthy score: the model's own probability, above the floor
+    assert not v.leak and v.confidence > 10 * floor and not v.confidence_floor
+
+
+def test_a_setting_given_as_text_is_refused():
+    # an API audit (2026-11-30): false_alarms_per_hour="0.3" was fitted and kept as text
+    rec = ld.sim.simulate_vca(duration=20, leak_lpm=0.0, seed=1)
+    with pytest.raises(TypeError, match=r"false_alarms_per_hour='0\.3' must be a number"):
+        FlowBalanceDetector(false_alarms_per_hour="0.3").fit([rec])
+    with pytest.raises(TypeError, match=r"window_s=True must be a number, not a bool"):
+        FlowBalanceDetector(window_s=True).fit([rec])

@@ -96,8 +96,9 @@ def test_an_offset_beyond_what_two_transducers_can_differ_by_is_flagged():
     from leakdiag.detect._flow_balance_eha import size_interval_holds
 
     text = size_interval_holds(-3.65e5, (-4e5, 1e4))
-    assert text == ("the coefficient's statistical error and the P1-P2 transducer zero error "
-                    "found on the leak's windows, -365 kPa (the data allow -400 to +10 kPa); "
+    assert text == ("the coefficient's statistical error and an effective P1-P2 offset (the "
+                    "transducers' zero error and whatever else shifts P1 - P2 at the working "
+                    "pressure) found on the leak's windows, -365 kPa (the data allow -400 to +10 kPa); "
                     "beyond the +-200 kPa two calibrated transducers can differ by: the offset "
                     "is poorly determined here (large |P1-P2|, e.g. under load) or the "
                     "transducers' zero needs checking")
@@ -172,7 +173,7 @@ def test_spring_load_false_alarm_is_not_confirmed_by_a_free_pressure_offset(tmp_
                             "--detector", str(det), "--no-progress"])
     assert code == 0 and "Decision: LEAK" in out
     size = float(out.split("leak size (flow-balance): ")[1].split(" L/min")[0])
-    assert 0.27 < size < 0.33 and "zero error found on the leak's windows, -9" in out
+    assert 0.27 < size < 0.33 and "pressure) found on the leak's windows, -9" in out
 
 
 def _channels(rec, **swap):

@@ -64,7 +64,7 @@ def test_a_verdict_at_the_p_value_floor_says_so():
 
     args = (True, 10.0, 11.0, 0.5, None, None, None, 66.4, 3.3, None, "cusum", "x")
     assert "p-value 0.5 (the smallest the healthy reference resolves for this span: the " \
-        "score is above every healthy maximum)" in str(Verdict(*args, confidence_floor=True))
+        "score is above every healthy maximum it holds)" in str(Verdict(*args, confidence_floor=True))
     assert str(Verdict(*args)).endswith("p-value 0.5")
     assert Verdict(*args, confidence_floor=True).as_dict()["confidence_floor"] is True
 

@@ -60,7 +60,7 @@ def offset_words(offset_pa: float, offset_interval_pa=None) -> str:
     Parameters
     ----------
     offset_pa : float
-        The differential zero error found (:attr:`OffsetProfile.offset_pa`), Pa.
+        The effective differential offset found (:attr:`OffsetProfile.offset_pa`), Pa.
     offset_interval_pa : tuple of float, optional
         The offsets the leak's windows allow (:attr:`OffsetProfile.offset_interval_pa`), Pa.
 
@@ -74,8 +74,9 @@ def offset_words(offset_pa: float, offset_interval_pa=None) -> str:
     >>> offset_words(-3.2e4, (-4.1e4, -2.5e4)).split("windows, ")[1]
     '-32 kPa (the data allow -41 to -25 kPa)'
     """
-    text = ("the coefficient's statistical error and the P1-P2 transducer zero error found on "
-            f"the leak's windows, {offset_pa / 1e3:+.3g} kPa")
+    text = ("the coefficient's statistical error and an effective P1-P2 offset (the "
+            "transducers' zero error and whatever else shifts P1 - P2 at the working pressure) "
+            f"found on the leak's windows, {offset_pa / 1e3:+.3g} kPa")
     if offset_interval_pa is not None:
         lo, hi = offset_interval_pa
         text += f" (the data allow {lo / 1e3:+.3g} to {hi / 1e3:+.3g} kPa)"

@@ -41,7 +41,8 @@ no change on the healthy runs it was fitted on.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+import os
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -65,7 +66,7 @@ from leakdiag.detect.threshold import (
 from leakdiag.features.series import FeatureSeries
 from leakdiag.io.checks import same_rate
 from leakdiag.io.errors import RecordingError
-from leakdiag.io.recording import load_name
+from leakdiag.io.recording import load_name, machine_unit
 
 __all__ = ["Alarm", "Verdict", "Detector", "TooShortToJudge"]
 
@@ -162,7 +163,8 @@ class Verdict:
     Attributes
     ----------
     leak : bool
-        True if the CUSUM exceeded ``threshold``.
+        True if the alarm statistic (the CUSUM; the flow balance's GLR) crossed
+        ``threshold``.
     onset_s : float or None
         Estimated leak onset (s), None without an alarm.
     alarm_time_s : float or None
@@ -173,6 +175,10 @@ class Verdict:
         the recording spans: the probability that healthy operation scores at least this high.
         Small = strong evidence of a leak; a LEAK verdict has it <= the basis's bound (times
         ``m``); it never falls below ``1 / (n + 1)``, the resolution of the healthy reference.
+        On a model-based threshold (the flow balance's ``glr-model`` basis, when the healthy
+        maxima are too few) it is the model's probability of a healthy alarm at
+        ``score_max`` in this span instead, never below one episode in the GLR null's
+        simulated hours, that reference's resolution.
     leak_lpm : float or None
         Leak flow estimate in L/min when the detector has a calibration and raised an alarm.
     leak_lpm_interval : tuple of float or None
@@ -180,7 +186,8 @@ class Verdict:
     leak_lpm_in_range : bool or None
         Whether the feature shift lies inside the calibrated range.
     score_max : float
-        Largest CUSUM value after the burn-in (std units): the per-run statistic.
+        Largest value of the alarm statistic after the burn-in (the CUSUM, std units; the flow
+        balance's GLR, z scale): the per-run statistic.
     threshold : float
         CUSUM alarm level used.
     shift : float or None
@@ -204,8 +211,9 @@ class Verdict:
     confidence_floor : bool, default False
         True when ``confidence`` is the smallest p-value the healthy reference resolves for
         this span (a conformal p-value with ``score_max`` above every healthy maximum,
-        ``n_segments / (n + 1)``): the score is stronger evidence than the p-value can say,
-        and more healthy recordings resolve smaller p-values.
+        ``n_segments / (n + 1)``; on a model basis, the floor of one episode in the null's
+        simulated hours): the score is stronger evidence than the p-value can say, and more
+        healthy recordings (or a longer null simulation) resolve smaller p-values.
     """
 
     leak: bool
@@ -288,7 +296,7 @@ class Verdict:
         return (head + f"score max {self.score_max:.3g} against threshold {self.threshold:.3g}"
                 + (f", p-value {self.confidence:.3g}" if self.confidence is not None else "")
                 + (" (the smallest the healthy reference resolves for this span: the score "
-                   "is above every healthy maximum)" if self.confidence_floor else "")
+                   "is above every healthy maximum it holds)" if self.confidence_floor else "")
                 + (f"; {self.undefined_words}" if self.undefined_words else ""))
 
     def as_dict(self) -> dict[str, Any]:
@@ -332,14 +340,111 @@ class _Trace:
                                        time=self.time)
 
 
-def _as_recordings(recordings) -> Sequence:
-    """A sequence of recordings; a lazy sequence (loading on access) is kept as it is."""
+def check_recording_type(obj, where: str) -> None:
+    """Refuse what is not a recording (duck-typed: ``channels``, ``sample_rate`` and ``meta``)
+    with a TypeError that names what was given and how to make one (an API audit,
+    2026-11-30: a DataFrame given to fit failed deep inside with "'str' object has no
+    attribute 'sample_rate'", its column names taken for recordings).
+
+    Parameters
+    ----------
+    obj : object
+        What was given.
+    where : str
+        The method, for the message (``"fit"``, ``"predict"``...).
+
+    Raises
+    ------
+    TypeError
+        If ``obj`` is not a recording.
+    """
+    if all(hasattr(obj, a) for a in ("channels", "sample_rate", "meta")):
+        return
+    name = type(obj).__name__
+    if hasattr(obj, "columns") and hasattr(obj, "iloc"):
+        how = "a pandas DataFrame: leakdiag.io.Recording.from_pandas(df) makes one"
+    elif isinstance(obj, Mapping):
+        how = ("a mapping: leakdiag.io.Recording(channels, sample_rate) makes one of channel "
+               "arrays")
+    elif isinstance(obj, (str, bytes, os.PathLike)):
+        how = "a file name: leakdiag.io.read_recording(path) reads one"
+    else:
+        how = "leakdiag.io.Recording, read_recording or leakdiag.sim make one"
+    raise TypeError(f"{where} expects leakdiag Recording objects, got {name} ({how})")
+
+
+def _as_recordings(recordings, where: str = "fit") -> Sequence:
+    """A sequence of recordings; a lazy sequence (loading on access) is kept as it is (its
+    items are checked as they are used, :func:`check_recording_type`)."""
     if hasattr(recordings, "channels"):
         return [recordings]
+    if (recordings is None or isinstance(recordings, (str, bytes, os.PathLike, Mapping))
+            or hasattr(recordings, "columns")):
+        check_recording_type(recordings, where)  # not a sequence of recordings: refused
     recs = recordings if isinstance(recordings, Sequence) else list(recordings)
     if len(recs) == 0:
         raise ValueError("fit needs at least one healthy recording, got none")
     return recs
+
+
+def params_snapshot(estimator) -> dict:
+    """The estimator's parameters (``get_params(deep=False)``) as :meth:`Detector.fit` leaves
+    them, lists copied, for :func:`check_params_unchanged`.
+
+    Parameters
+    ----------
+    estimator : BaseEstimator
+        A detector.
+
+    Returns
+    -------
+    dict
+        Parameter name to value.
+    """
+    return {k: (list(v) if isinstance(v, list) else v)
+            for k, v in estimator.get_params(deep=False).items()}
+
+
+def _same_param(a, b) -> bool:
+    if a is b:
+        return True
+    try:
+        return bool(a == b)
+    except (TypeError, ValueError):  # arrays: elementwise
+        return bool(np.array_equal(np.asarray(a), np.asarray(b)))
+
+
+def check_params_unchanged(estimator) -> None:
+    """Refuse a fitted detector whose parameters changed after :meth:`fit` (``set_params`` or
+    an attribute): its model, threshold and healthy statistics belong to the settings it was
+    fitted with. An API audit (2026-11-30) found ``set_params(lag=5)`` on a fitted feature
+    detector read 3 of 3 healthy runs LEAK (score 3,900 against 26.9) under a label naming the
+    new lag, and a new ``false_alarms_per_hour`` silently kept the old threshold. Parameters
+    that only :meth:`predict` reads (the estimator's ``predict_time_params``, e.g. the flow
+    balance's ``interval_level``) may change.
+
+    Parameters
+    ----------
+    estimator : BaseEstimator
+        A fitted detector (one saved before this check, without ``fitted_params_``, passes).
+
+    Raises
+    ------
+    ValueError
+        Naming each changed parameter with its fitted and its present value.
+    """
+    snap = getattr(estimator, "fitted_params_", None)
+    if snap is None:
+        return
+    now = estimator.get_params(deep=False)
+    free = getattr(estimator, "predict_time_params", ())
+    changed = [k for k in snap if k in now and k not in free
+               and not _same_param(snap[k], now[k])]
+    if changed:
+        what = "; ".join(f"{k}: fitted with {snap[k]!r}, now {now[k]!r}" for k in changed)
+        raise ValueError(f"{type(estimator).__name__}: parameters changed since fit ({what}): "
+                         "the fitted model, threshold and healthy statistics belong to the "
+                         "settings it was fitted with; fit it again, or set them back")
 
 
 class Detector(BaseEstimator):
@@ -354,6 +459,9 @@ class Detector(BaseEstimator):
     #: (:meth:`_trace_of`), so the threshold's per-segment guarantee holds in every segment of
     #: a longer recording (union bound); a detector with a statistic of its own says False.
     restarts_per_segment: bool = True
+    #: Parameters that only ``predict`` reads, which may change after ``fit``
+    #: (:func:`check_params_unchanged`); every other one is held to its fitted value.
+    predict_time_params: tuple = ()
 
     # -------------------------------------------------------------- subclass hooks
     def _feature_series(self, recording) -> FeatureSeries:  # pragma: no cover - abstract
@@ -388,6 +496,7 @@ class Detector(BaseEstimator):
 
             raise NotFittedError(f"{type(self).__name__} is not fitted; call "
                                  "fit(healthy_recordings) first")
+        check_params_unchanged(self)
 
     def _series(self, recording) -> tuple[np.ndarray, np.ndarray, np.ndarray, FeatureSeries]:
         return self._after_burn_in(self._feature_series(recording), recording.start_time)
@@ -402,14 +511,20 @@ class Detector(BaseEstimator):
 
     def _trace(self, recording, level: float | None = None) -> _Trace:
         self._check_fitted()
+        check_recording_type(recording, "predict")
         self._check_like_healthy(recording.sample_rate, recording.meta.get("system"),
-                                 recording.meta.get("source", "<recording>"))
+                                 recording.meta.get("source", "<recording>"), recording.meta)
         return self._trace_of(*self._series(recording),
                               t0=recording.start_time + self._alarm().burn_in_s, level=level)
 
-    def _check_like_healthy(self, sample_rate, system, source: str) -> None:
+    def _check_like_healthy(self, sample_rate, system, source: str, meta=None) -> None:
         """Refuse a recording of another sample rate or rig than the healthy ones of ``fit``
-        (windows and lags are in samples; a feature's healthy level is the rig's)."""
+        (windows and lags are in samples; a feature's healthy level is the rig's), or whose
+        metadata ``meta`` states another load or machine unit than every healthy recording
+        stated (a feature's healthy level and spread are the load's and the unit's: an API
+        audit, 2026-11-30, found a spring-fitted feature detector judging a no-load run, and
+        one of unit 17 judging unit 23, NO LEAK without a word, where the flow balance and
+        the command line refuse them)."""
         rate = getattr(self, "sample_rate_", None)  # None: fitted before 2026-11-27
         if rate is not None and sample_rate is not None and \
                 not same_rate(sample_rate, rate):
@@ -423,6 +538,17 @@ class Detector(BaseEstimator):
             raise RecordingError(
                 f"{source}: a {str(system).lower()!r} recording, but {type(self).__name__} was "
                 f"fitted on {fitted!r} recordings; fit it on healthy recordings of this rig")
+        if meta is None:
+            return
+        for what, fitted, here in (
+                ("load", getattr(self, "healthy_load_", None), load_name(meta.get("load"))),
+                ("machine unit", getattr(self, "healthy_machine_", None), machine_unit(meta))):
+            if fitted is not None and here is not None and fitted != here:
+                raise RecordingError(
+                    f"{source}: recording of {what} {here!r}, but {type(self).__name__} was "
+                    f"fitted on healthy recordings of {what} {fitted!r}: its threshold is "
+                    f"the healthy variation there; fit it on healthy recordings of this "
+                    f"{what}")
 
     def _trace_of(self, t, start, v, fs, t0: float | None = None,
                   level: float | None = None) -> _Trace:
@@ -491,6 +617,7 @@ class Detector(BaseEstimator):
             different sample rates or rigs.
         """
         recs = _as_recordings(recordings)
+        self.__dict__.pop("fitted_params_", None)  # fitting anew: no settings to hold it to
         self._alarm()  # a bad alarm argument fails before any work
         self._fit_features(recs)
         parts = [self._fit_part(r) for r in recs]
@@ -502,6 +629,7 @@ class Detector(BaseEstimator):
         with ``info`` the recording's source, sample rate, rig, metadata leak and a digest of
         its samples (:func:`healthy_info`)."""
         a = self._alarm()
+        check_recording_type(recording, "fit")
         t, _, v, fs = self._series(recording)
         # digests of the channels the detector reads only: a copy of a healthy run with another
         # set of columns (a CSV export without the simulator's leak_flow, an extra temperature)
@@ -516,6 +644,7 @@ class Detector(BaseEstimator):
 
     def _fit_from_parts(self, parts: list, reference_maxima=None) -> "Detector":
         """The rest of :meth:`fit`, from :meth:`_fit_part` of every healthy recording."""
+        self.__dict__.pop("fitted_params_", None)
         a = self._alarm()
         series = [p[:4] for p in parts]
         spans = [p[4] for p in parts]
@@ -595,12 +724,17 @@ class Detector(BaseEstimator):
         # calibration on known leaks must share (calibrate)
         self.healthy_load_ = next((i["load"] for i in infos if i.get("load") is not None),
                                   None)
+        # ... and the machine unit, when every one of them names the same (None: unstated,
+        # or several: a fleet fit), which a judged recording that names its unit must share
+        units = {i.get("machine") for i in infos}
+        self.healthy_machine_ = units.pop() if len(units) == 1 else None
         # ... and the largest share of undefined windows in a healthy recording, which sets the
         # share a judged run may have (undefined_limit: a feature undefined in most healthy
         # windows, ccf u,x while an encoder holds its count, is not a stuck sensor)
         self.nan_fraction_healthy_ = max(
             float(np.mean(~np.isfinite(np.asarray(s[1], dtype=np.float64)))) if len(s[1])
             else 0.0 for s in series)
+        self.fitted_params_ = params_snapshot(self)  # what predict holds the fit to
         return self
 
     def segment_maxima(self, recordings) -> np.ndarray:
@@ -1262,7 +1396,7 @@ def healthy_info(recording, channels=None) -> dict:
     return {"source": str(meta.get("source", "<recording>")),
             "sample_rate": float(recording.sample_rate),
             "system": None if meta.get("system") is None else str(meta["system"]).lower(),
-            "load": load_name(meta.get("load")),
+            "load": load_name(meta.get("load")), "machine": machine_unit(meta),
             "leak_lpm": meta_leak_lpm(meta), "onset": meta.get("onset"),
             "digest": h.hexdigest()}
 

@@ -45,8 +45,9 @@ from leakdiag.detect._flow_balance_search import (
     step_information,
 )
 from leakdiag.detect._rig_units import check_flow_scale, check_rig_units
-from leakdiag.detect.base import (Detector, TooShortToJudge, Verdict, check_healthy, fingerprint,
-                                  healthy_info)
+from leakdiag.detect.base import (Detector, TooShortToJudge, Verdict, _as_recordings,
+                                  check_healthy, check_params_unchanged, check_recording_type,
+                                  fingerprint, healthy_info, params_snapshot)
 from leakdiag.detect.threshold import (
     InsufficientHealthyDataError,
     ReferenceMaxima,
@@ -248,10 +249,14 @@ class FlowBalanceVerdict(Verdict):
     leak_law : str
         Leak law assumed.
     pressure_offset_pa : float or None
-        The differential zero error of the chamber transducers found on the leak's own windows
-        (:math:`o_1 - o_2`, Pa), subtracted from the measured :math:`P_1` for the size: the EHA,
-        and the VCA without load or under an unknown load; None for the VCA with the spring and
-        without an alarm.
+        The effective differential pressure offset found on the leak's own windows (Pa),
+        subtracted from the measured :math:`P_1` in the leak law for the size: the EHA, and the
+        VCA without load or under an unknown load; None for the VCA with the spring and without
+        an alarm. It stands for the chamber transducers' zero error :math:`o_1 - o_2` and
+        whatever else shifts the leak law's pressure difference at the working pressure (gain
+        errors, the healthy fit's model error), so it is not a measurement of the zero error:
+        an API audit (2026-11-30) found +17 kPa where the unit's o1 - o2 was -2.6 kPa, with
+        the size right (docs/detect.md 8.5).
     leak_lpm_interval_holds : str or None
         What ``leak_lpm_interval`` holds, in words (None without an alarm); with an alarm but
         no size (``leak_lpm`` None: the VCA without load and a leak there from the start), why
@@ -743,6 +748,10 @@ class FlowBalanceDetector(Detector):
     #: segment its per-segment rate is not guaranteed (docs/detect.md section 2).
     restarts_per_segment = False
 
+    #: Read by predict only (the size interval's level, the flow's reference pressure
+    #: difference): they may change after fit (``check_params_unchanged``).
+    predict_time_params = ("interval_level", "reference_dp_pa")
+
     def __init__(self, system="vca", false_alarms_per_hour=1.0, window_s=1.0, max_span_s=30.0,
                  leak_law="turbulent", params=None, fit_bandwidth=False, fit_bulk_modulus=False,
                  burn_in_s=2.0, reference_dp_pa=1e6, interval_level=0.95, alarm=None,
@@ -772,6 +781,12 @@ class FlowBalanceDetector(Detector):
             raise ValueError(f"system={self.system!r} must be one of {SYSTEMS}")
         if self.leak_law not in LEAK_LAWS:
             raise ValueError(f"leak_law={self.leak_law!r} must be one of {LEAK_LAWS}")
+        for name in ("false_alarms_per_hour", "window_s", "max_span_s", "reference_dp_pa",
+                     "burn_in_s", "interval_level", "segment_s", "confidence"):
+            value = getattr(self, name)  # text is not taken: get_params would keep it as text
+            if value is not None and not isinstance(value, (int, float, np.integer,
+                                                            np.floating)):
+                raise TypeError(f"{name}={value!r} must be a number")
         check_positive(self.false_alarms_per_hour, "false_alarms_per_hour")
         check_positive(self.window_s, "window_s")
         check_positive(self.max_span_s, "max_span_s")
@@ -1284,9 +1299,11 @@ class FlowBalanceDetector(Detector):
     def _fit(self, recordings, _no_cross: bool = False,
              reference_maxima=None) -> "FlowBalanceDetector":
         self._validate()
-        recs = [recordings] if hasattr(recordings, "channels") else list(recordings)
-        if not recs:
-            raise ValueError("fit needs at least one healthy recording, got none")
+        if not _no_cross:  # fitting anew: no settings to hold it to (check_params_unchanged)
+            self.__dict__.pop("fitted_params_", None)
+        recs = list(_as_recordings(recordings))
+        for r in recs:
+            check_recording_type(r, "fit")
         for r in recs:
             self._check_recording(r, "fit", rate=float(recs[0].sample_rate))
         if not _no_cross:  # a cross-fit half holds recordings fit has checked
@@ -1409,6 +1426,7 @@ class FlowBalanceDetector(Detector):
         self.n_healthy_ = len(recs)
         self.sample_rate_ = float(recs[0].sample_rate)  # _check_recording refuses other rates
         self.feature_name_ = "flow_balance"
+        self.fitted_params_ = params_snapshot(self)  # what predict holds the fit to
         return self
 
     def _check_odd_one_out(self, recs: list) -> None:
@@ -1473,13 +1491,18 @@ class FlowBalanceDetector(Detector):
     # ------------------------------------------------------------------ outputs
     def _check_fitted(self) -> None:
         if not hasattr(self, "threshold_"):
-            raise ValueError("FlowBalanceDetector is not fitted; call fit(healthy_recordings) first")
+            from sklearn.exceptions import NotFittedError  # a ValueError and AttributeError
+
+            raise NotFittedError("FlowBalanceDetector is not fitted; call "
+                                 "fit(healthy_recordings) first")
+        check_params_unchanged(self)
 
     def _scan(self, rec, where: str, consistency: bool = True):
         """Window terms, per-window GLR sums and GLR trace of a checked recording;
         ``consistency=False`` skips the sum-equation gate (healthy reference runs, whose
         refusal would stop a benchmark's reference maxima, ``segment_maxima``)."""
         self._check_fitted()
+        check_recording_type(rec, where)
         self._check_recording(rec, where)
         n_win = self._monitored_windows(rec)
         if n_win < self._MIN_HISTORY:  # the GLR tests from its _MIN_HISTORY-th window on
@@ -2220,8 +2243,10 @@ class FlowBalanceDetector(Detector):
         resolution). Small = evidence of a leak, as ``Verdict.confidence`` everywhere.
         ``run``: judged at a :meth:`run_level`, whose basis is the conformal one only when
         the healthy maxima hold the run (:meth:`_run_rank`). Returns ``(p, at its floor)``,
-        the second True when the conformal p-value is the reference's resolution
-        (``ThresholdBasis.at_floor``; never on the model level).
+        the second True when the p-value is the reference's resolution: the conformal one's
+        (``ThresholdBasis.at_floor``), or on the model level the null's one episode in its
+        simulated hours (an API audit, 2026-11-30: every leak from 0.002 to 0.5 L/min read
+        p = 8.12e-05, that floor, with the floor flag False).
         """
         basis = getattr(self, "threshold_basis_", None)  # None: a file saved before bases
         n_win = len(t["end"])
@@ -2233,10 +2258,10 @@ class FlowBalanceDetector(Detector):
         # no smaller than the Monte-Carlo null resolves (one episode in its simulated hours):
         # beyond it the log-linear tail is a model, which gave p-values of 1e-286 and 0; at a
         # run level, the fitted tail the level rests on, to the same limit (run_level)
-        rate = (max(self._model_run_tail()[1] * th.tail_rate(smax),
-                    1.0 / (RUN_LEVEL_MAX_EXTRAPOLATION * th.simulated_hours))
-                if run else max(th.rate_at(smax), 1.0 / th.simulated_hours))
-        return float(-np.expm1(-rate * hours)), False
+        model, floor = ((self._model_run_tail()[1] * th.tail_rate(smax),
+                         1.0 / (RUN_LEVEL_MAX_EXTRAPOLATION * th.simulated_hours))
+                        if run else (th.rate_at(smax), 1.0 / th.simulated_hours))
+        return float(-np.expm1(-max(model, floor) * hours)), bool(model <= floor)
 
     def segment_maxima(self, recordings) -> np.ndarray:
         """GLR maxima of every complete segment of recordings (``segment_s`` of monitored

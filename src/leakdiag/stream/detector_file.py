@@ -773,8 +773,9 @@ def own_healthy_samples_reason(detector, source: str, n_samples: int | None,
 
 def fitted_machine(detector, meta=None):
     """The machine unit of a detector's healthy recordings: the flow balance's
-    ``operation_["machine"]`` (a unit id, ``"nominal"``, or None when unknown or mixed), else
-    the detector file's record (``meta.machine``, any method); None when neither says.
+    ``operation_["machine"]`` (a unit id, ``"nominal"``, or None when unknown or mixed), a
+    feature detector's ``healthy_machine_``, else the detector file's record
+    (``meta.machine``, any method); None when none says.
 
     Parameters
     ----------
@@ -797,6 +798,8 @@ def fitted_machine(detector, meta=None):
     """
     op = getattr(detector, "operation_", None)
     unit = op.get("machine") if isinstance(op, dict) else None
+    if unit is None:  # a feature detector's own record (since 2026-11-30)
+        unit = getattr(detector, "healthy_machine_", None)
     return unit if unit is not None else getattr(meta, "machine", None)
 
 
