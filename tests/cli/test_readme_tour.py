@@ -73,3 +73,9 @@ def test_readme_python_block_runs(tmp_path, monkeypatch, capsys):
     exec(compile(code, "README.md (Python)", "exec"), ns)  # noqa: S102 - our own README
     assert set(ns["a"].table["decision"]) <= {"leak", "no-leak", "inconclusive"}
     assert ns["rec2"].units["p1"] == "Pa" and ns["rec2"].sample_rate == 500.0
+    # the contract of issue 12: a 0.02 L/min leak from 60 s found and sized (its interval
+    # holds the truth), and the decision that judge_run gives for the run
+    v, truth = ns["v"], ns["suspect"].meta["leak_lpm_achieved"]
+    assert v.leak and 60.0 <= v.alarm_time_s <= 70.0 and abs(v.onset_s - 60.0) <= 5.0
+    assert v.leak_lpm_interval[0] <= truth <= v.leak_lpm_interval[1]
+    assert ns["j"].decision == "leak"
