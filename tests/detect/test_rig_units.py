@@ -47,7 +47,9 @@ def test_limits_by_hand():
                     meta={"source": "low.csv"})
     with pytest.raises(RecordingError, match=r"fit: low\.csv: the chamber pressures \(p1, p2\) "
                        r"stay below 1\.719e\+05 Pa, under 1% of the 17\.2 MPa pressure level"
-                       r".*in Python, a rig of another pressure level is given as params=\)$"):
+                       r".*in Python, convert the values with leakdiag\.io\.units\.to_si or read the "
+                       r"file with leakdiag\.io\.read_recording and a column map, and give a "
+                       r"rig of another pressure level as params=\)$"):
         check_rig_units(low, "fit", 0.6, 17.2e6, "the rig")
     assert PRESSURE_LEVEL_FRACTION == 0.01
 
@@ -97,7 +99,8 @@ def test_pressures_a_hundredfold_above_the_level_are_refused():
     # and pointed to "the rig's own parameters", which the command line does not take)
     msg = str(err.value)
     assert "as bar 100,000 times" in msg and "stated as kPa give 1,000" in msg
-    assert "in Python, a rig of another pressure level is given as params=" in msg
+    assert "in Python, convert the values with leakdiag.io.units.to_si" in msg
+    assert "give a rig of another pressure level as params=" in msg
     assert "rig's own parameters" not in msg
 
 

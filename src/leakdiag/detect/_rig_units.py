@@ -91,7 +91,7 @@ def check_rig_units(rec, where: str, stroke_m: float, pressure_level_pa: float,
     >>> check_rig_units(rec, "fit", 0.6, 17.2e6, "the flow balance (vca)")
     Traceback (most recent call last):
     ...
-    leakdiag.io.errors.RecordingError: fit: rig.csv: channel 'x' travels 20 m (from -8 to 12), more than the stroke of 0.6 m that the flow balance (vca) models (with 5% for noise and end stops): is the position in mm (or another unit) read as metres? State its unit (e.g. --col x=NAME:mm, or a column map; in Python, a rig of other dimensions is given as params=)
+    leakdiag.io.errors.RecordingError: fit: rig.csv: channel 'x' travels 20 m (from -8 to 12), more than the stroke of 0.6 m that the flow balance (vca) models (with 5% for noise and end stops): is the position in mm (or another unit) read as metres? State its unit (e.g. --col x=NAME:mm, or a column map; in Python, convert the values with leakdiag.io.units.to_si or read the file with leakdiag.io.read_recording and a column map, and give a rig of other dimensions as params=)
     """
     source = rec.meta.get("source", "<recording>")
     if position in rec.channels:
@@ -103,8 +103,9 @@ def check_rig_units(rec, where: str, stroke_m: float, pressure_level_pa: float,
                 f"{float(np.nanmin(x)):.4g} to {float(np.nanmax(x)):.4g}), more than the stroke "
                 f"of {stroke_m:g} m that {what} models (with {STROKE_TOLERANCE:.0%} for noise "
                 "and end stops): is the position in mm (or another unit) read as metres? State "
-                "its unit (e.g. --col x=NAME:mm, or a column map; in Python, a rig of other "
-                "dimensions is given as params=)")
+                "its unit (e.g. --col x=NAME:mm, or a column map; in Python, convert the values "
+                "with leakdiag.io.units.to_si or read the file with leakdiag.io.read_recording "
+                "and a column map, and give a rig of other dimensions as params=)")
     have = [c for c in pressures if c in rec.channels and np.asarray(rec[c]).size]
     if have:
         top = max(float(np.nanmax(np.asarray(rec[c], dtype=np.float64))) for c in have)
@@ -119,16 +120,18 @@ def check_rig_units(rec, where: str, stroke_m: float, pressure_level_pa: float,
                 f"pressure level that {what} models: no hydraulic chamber holds that; were "
                 "they read in too large a unit (values in pascals stated as kPa give 1,000 "
                 "times the pressure, as bar 100,000 times, as MPa 1,000,000 times)? State "
-                "their unit (e.g. --col p1=NAME:Pa, or a column map; in Python, a rig of "
-                "another pressure level is given as params=)")
+                "their unit (e.g. --col p1=NAME:Pa, or a column map; in Python, convert the values "
+                "with leakdiag.io.units.to_si or read the file with leakdiag.io.read_recording "
+                "and a column map, and give a rig of another pressure level as params=)")
         if top < floor:
             raise RecordingError(
                 f"{where}: {source}: the chamber pressures ({', '.join(have)}) stay below "
                 f"{top:.4g} Pa, under {PRESSURE_LEVEL_FRACTION:.0%} of the "
                 f"{pressure_level_pa / 1e6:g} MPa pressure level that {what} models: are "
                 "they in bar, MPa, kPa or psi read as pascals? State their unit (e.g. --col "
-                "p1=NAME:bar, or a column map; in Python, a rig of another pressure level is "
-                "given as params=)")
+                "p1=NAME:bar, or a column map; in Python, convert the values with "
+                "leakdiag.io.units.to_si or read the file with leakdiag.io.read_recording and a "
+                "column map, and give a rig of another pressure level as params=)")
 
 
 def check_flow_scale(factor: float, std: float, where: str, what: str, name: str,

@@ -133,7 +133,9 @@ def timestamps_error(source: str, column: str) -> RecordingError:
 
 #: End of the non-uniform time message; commands without ``--resample`` (monitor, batch) replace
 #: it with advice they can follow.
-RESAMPLE_ADVICE = "resample it explicitly (--resample RATE_HZ) rather than let leakdiag guess"
+RESAMPLE_ADVICE = ("resample it explicitly (--resample RATE_HZ; in Python, "
+                   "leakdiag.io.read_recording(path, resample=RATE_HZ)) rather than let "
+                   "leakdiag guess")
 #: Longest interval, in median intervals, that resampling fills (leakdiag choice, 2026-11-28):
 #: up to two missing samples between two kept ones. A longer interval is a gap: interpolating
 #: it invents data that a detector reads as measured (a flow-balance audit, 2026-11-28: healthy
