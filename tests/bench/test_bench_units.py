@@ -62,6 +62,12 @@ def test_per_run_target_conversion():
     assert per_run_target_per_hour(0.09, 65.0, 5.0) * 60.0 / 3600.0 == pytest.approx(0.09)
     with pytest.raises(ValueError, match="per_run"):
         per_run_target_per_hour(1.0, 100.0, 5.0)
+    # nothing monitored: refused (a statistics audit, 2026-11-30: ZeroDivisionError, and -36
+    # per hour at 4 s with a 5-s burn-in)
+    for duration in (5.0, 4.0):
+        with pytest.raises(ValueError, match=rf"duration_s={duration!r} leaves nothing "
+                                             r"monitored after burn_in_s=5\.0"):
+            per_run_target_per_hour(0.01, duration, 5.0)
 
 
 def test_registry_builds_unfitted_detectors():
@@ -380,3 +386,31 @@ def test_target_check_covers_every_method_with_the_common_threshold():
             check_target_supported(QUICK_SUITES, methods, 0.05)
     if "flow-balance" in METHODS:  # its own fit and threshold: not checked here
         check_target_supported(QUICK_SUITES, ["flow-balance"], 0.05)
+
+
+def test_v4_summary_gives_every_rate_its_count_and_interval():
+    # a statistics audit (2026-11-30): the v4 results gave the detection rate, the per-hour
+    # false-alarm rate and the size coverage bare
+    from leakdiag.detect.rates import clopper_pearson
+
+    healthy = pd.DataFrame({"role": "test_healthy", "leak_lpm": 0.0,
+                            "score_max": np.arange(20.0),
+                            "alarm": [True] * 2 + [False] * 18, "alarm_time_s": None,
+                            "onset_true_s": None, "onset_est_s": None})
+    hit = [True] * 7 + [False] * 3
+    leak = pd.DataFrame({"role": "test_leak", "leak_lpm": 0.2, "score_max": 50.0 + np.arange(10),
+                         "alarm": hit, "alarm_time_s": [12.0 if h else None for h in hit],
+                         "onset_true_s": 10.0, "onset_est_s": [10.5 if h else None for h in hit],
+                         "leak_lpm_est": 0.2, "leak_lpm_low": [0.1] * 5 + [0.3] * 5,
+                         "leak_lpm_high": 0.5})
+    runs = pd.concat([healthy, leak]).assign(method="m", system="vca", duration_s=65.0)
+    r = summarise(runs).iloc[0]
+    assert (r.detections, r.n_runs) == (7, 10)
+    assert (r.detection_low, r.detection_high) == pytest.approx(clopper_pearson(7, 10))
+    hours = (65.0 - 5.0) / 3600.0
+    lo, hi = clopper_pearson(2, 20)
+    assert r.false_alarms_per_hour == pytest.approx(0.1 / hours)
+    assert (r.far_per_hour_low, r.far_per_hour_high) == pytest.approx((lo / hours, hi / hours))
+    assert (r.n_size_estimates, r.n_covered) == (7, 5)  # lows of 0.3 miss the true 0.2
+    assert r.leak_interval_coverage == pytest.approx(5 / 7)
+    assert (r.coverage_low, r.coverage_high) == pytest.approx(clopper_pearson(5, 7))

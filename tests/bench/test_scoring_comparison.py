@@ -101,13 +101,25 @@ def test_comparison_table_rows_from_results_and_summary():
                         "leak_lpm": [0.05, 0.2, 1.0] * 2, "auc": [0.6, 0.8, 1.0, 0.5, 0.5, 0.7],
                         "detection_rate": [0.0, 0.4, 1.0, 0.0, 0.0, 0.2],
                         "onset_error_median_s": [np.nan, 2.0, 0.5, np.nan, np.nan, 4.0],
-                        "detection_delay_median_s": [np.nan, 8.0, 1.5, np.nan, np.nan, 30.0]})
+                        "detection_delay_median_s": [np.nan, 8.0, 1.5, np.nan, np.nan, 30.0],
+                        "n_runs": 5, "detections": [0, 2, 5, 0, 0, 1]})
     summ = pd.DataFrame({"method": ["a", "b"], "excitation": "operating",
                          "min_detectable_lpm": [1.0, np.nan], "false_alarms": [0, 2],
                          "n_test_healthy": [10, 10], "cpu_s_per_hour": [0.03, 38.5]})
     t = comparison_table(res, summ)
-    assert t["AUC 0.05"].tolist() == [0.6, 0.5] and t["det 1.0"].tolist() == [1.0, 0.2]
-    assert t["false alarms"].tolist() == ["0/10", "2/10"]
+    # every rate with its count and 95 % Clopper-Pearson interval (a statistics audit,
+    # 2026-11-30): 5/5 -> [(0.025)^(1/5), 1], 0/10 -> [0, 1 - 0.025^(1/10)]
+    assert t["AUC 0.05"].tolist() == [0.6, 0.5]
+    assert t["det 1.0 [95 % CI]"].tolist() == ["5/5 = 1 [0.478, 1]",
+                                               "1/5 = 0.2 [0.00505, 0.716]"]
+    assert t["false alarms [95 % CI]"].tolist() == ["0/10 = 0 [0, 0.308]",
+                                                    "2/10 = 0.2 [0.0252, 0.556]"]
+    assert f"{0.025 ** (1 / 5):.3g}" == "0.478" and f"{1 - 0.025 ** (1 / 10):.3g}" == "0.308"
     lines = table_markdown(t).splitlines()
-    assert lines[2] == "| a | operating | 1 | 0.6 | 0.8 | 1 | 0.4 | 1 | 0.5 | 1.5 | 0/10 | 0.03 |"
-    assert lines[3] == "| b | operating |  | 0.5 | 0.5 | 0.7 | 0 | 0.2 | 4 | 30 | 2/10 | 38.5 |"
+    assert lines[2] == ("| a | operating | 1 | 0.6 | 0.8 | 1 | 2/5 = 0.4 [0.0527, 0.853] | "
+                        "5/5 = 1 [0.478, 1] | 0.5 | 1.5 | 0/10 = 0 [0, 0.308] | 0.03 |")
+    # results written before the counts: the rate alone
+    old = comparison_table(res.drop(columns=["n_runs", "detections"]), summ)
+    assert old["det 1.0 [95 % CI]"].tolist() == [1.0, 0.2]
+    assert lines[3] == ("| b | operating |  | 0.5 | 0.5 | 0.7 | 0/5 = 0 [0, 0.522] | "
+                        "1/5 = 0.2 [0.00505, 0.716] | 4 | 30 | 2/10 = 0.2 [0.0252, 0.556] | 38.5 |")

@@ -41,7 +41,8 @@ def _fixed_result():
                         "leak_lpm": [0.05, 0.2, 1.0] * 2, "auc": [0.6, 0.8, 1.0, 0.5, 0.5, 0.7],
                         "detection_rate": [0.0, 0.4, 1.0, 0.0, 0.0, 0.2],
                         "onset_error_median_s": [np.nan, 2.0, 0.5, np.nan, np.nan, 4.0],
-                        "detection_delay_median_s": [np.nan, 8.0, 1.5, np.nan, np.nan, 30.0]})
+                        "detection_delay_median_s": [np.nan, 8.0, 1.5, np.nan, np.nan, 30.0],
+                        "n_runs": 5, "detections": [0, 2, 5, 0, 0, 1]})
     summ = pd.DataFrame({"method": ["a", "b"], "excitation": "operating",
                          "min_detectable_lpm": [1.0, np.nan], "false_alarms": [0, 2],
                          "n_test_healthy": [10, 10], "cpu_s_per_hour": [0.03, 38.5]})
@@ -49,36 +50,41 @@ def _fixed_result():
 
 
 #: What ``python -m leakdiag.bench.comparison OUT`` wrote and printed for :func:`_fixed_result`
-#: (captured from the former command before it was removed).
+#: (captured from the former command before it was removed; the detection counts and the
+#: 95 % intervals beside the rates since 2026-11-30, a statistics audit).
 EXPECTED_FILES = {
     "runs.csv": "method,system,excitation,role,leak_lpm,score_max,alarm,error\n"
                 "a,vca,operating,test_healthy,0.0,0.25,False,\n"
                 "a,vca,operating,test_leak,1.0,3.5,True,\n"
                 "b,vca,operating,error,,,,ValueError: x\n",
     "results.csv": "method,excitation,leak_lpm,auc,detection_rate,onset_error_median_s,"
-                   "detection_delay_median_s\n"
-                   "a,operating,0.05,0.6,0.0,,\n"
-                   "a,operating,0.2,0.8,0.4,2.0,8.0\n"
-                   "a,operating,1.0,1.0,1.0,0.5,1.5\n"
-                   "b,operating,0.05,0.5,0.0,,\n"
-                   "b,operating,0.2,0.5,0.0,,\n"
-                   "b,operating,1.0,0.7,0.2,4.0,30.0\n",
+                   "detection_delay_median_s,n_runs,detections\n"
+                   "a,operating,0.05,0.6,0.0,,,5,0\n"
+                   "a,operating,0.2,0.8,0.4,2.0,8.0,5,2\n"
+                   "a,operating,1.0,1.0,1.0,0.5,1.5,5,5\n"
+                   "b,operating,0.05,0.5,0.0,,,5,0\n"
+                   "b,operating,0.2,0.5,0.0,,,5,0\n"
+                   "b,operating,1.0,0.7,0.2,4.0,30.0,5,1\n",
     "summary.csv": "method,excitation,min_detectable_lpm,false_alarms,n_test_healthy,"
                    "cpu_s_per_hour\n"
                    "a,operating,1.0,0,10,0.03\n"
                    "b,operating,,2,10,38.5\n",
-    "table.md": "| method | excitation | MDL L/min | AUC 0.05 | AUC 0.2 | AUC 1.0 | det 0.2 | "
-                "det 1.0 | onset err 1.0 (s) | delay 1.0 (s) | false alarms | CPU s / h |\n"
+    "table.md": "| method | excitation | MDL L/min | AUC 0.05 | AUC 0.2 | AUC 1.0 | "
+                "det 0.2 [95 % CI] | det 1.0 [95 % CI] | onset err 1.0 (s) | delay 1.0 (s) | "
+                "false alarms [95 % CI] | CPU s / h |\n"
                 "|---|---|---|---|---|---|---|---|---|---|---|---|\n"
-                "| a | operating | 1 | 0.6 | 0.8 | 1 | 0.4 | 1 | 0.5 | 1.5 | 0/10 | 0.03 |\n"
-                "| b | operating |  | 0.5 | 0.5 | 0.7 | 0 | 0.2 | 4 | 30 | 2/10 | 38.5 |\n"}
+                "| a | operating | 1 | 0.6 | 0.8 | 1 | 2/5 = 0.4 [0.0527, 0.853] | "
+                "5/5 = 1 [0.478, 1] | 0.5 | 1.5 | 0/10 = 0 [0, 0.308] | 0.03 |\n"
+                "| b | operating |  | 0.5 | 0.5 | 0.7 | 0/5 = 0 [0, 0.522] | "
+                "1/5 = 0.2 [0.00505, 0.716] | 4 | 30 | 2/10 = 0.2 [0.0252, 0.556] | 38.5 |\n"}
 EXPECTED_STDOUT = (
-    "method excitation  MDL L/min  AUC 0.05  AUC 0.2  AUC 1.0  det 0.2  det 1.0  "
-    "onset err 1.0 (s)  delay 1.0 (s) false alarms  CPU s / h\n"
-    "     a  operating        1.0       0.6      0.8      1.0      0.4      1.0                "
-    "0.5            1.5         0/10       0.03\n"
-    "     b  operating        NaN       0.5      0.5      0.7      0.0      0.2                "
-    "4.0           30.0         2/10      38.50\n")
+    "method excitation  MDL L/min  AUC 0.05  AUC 0.2  AUC 1.0         det 0.2 [95 % CI]          "
+    "det 1.0 [95 % CI]  onset err 1.0 (s)  delay 1.0 (s)     false alarms [95 % CI]  CPU s / h\n"
+    "     a  operating        1.0       0.6      0.8      1.0 2/5 = 0.4 [0.0527, 0.853]         "
+    "5/5 = 1 [0.478, 1]                0.5            1.5        0/10 = 0 [0, 0.308]       0.03\n"
+    "     b  operating        NaN       0.5      0.5      0.7        0/5 = 0 [0, 0.522] 1/5 = "
+    "0.2 [0.00505, 0.716]                4.0           30.0 2/10 = 0.2 [0.0252, 0.556]      "
+    "38.50\n")
 
 
 def test_comparison_command_refuses_an_unsupported_target_before_any_output(tmp_path, no_work):

@@ -228,16 +228,18 @@ def comparison_table(results, summary):
     >>> import pandas as pd
     >>> res = pd.DataFrame({"method": "m", "excitation": "operating", "leak_lpm": [0.2, 1.0],
     ...     "auc": [0.5, 1.0], "detection_rate": [0.2, 1.0], "onset_error_median_s": [3.0, 1.0],
-    ...     "detection_delay_median_s": [9.0, 2.0]})
+    ...     "detection_delay_median_s": [9.0, 2.0], "n_runs": 10, "detections": [2, 10]})
     >>> summ = pd.DataFrame({"method": ["m"], "excitation": ["operating"],
     ...     "min_detectable_lpm": [1.0], "false_alarms": [1], "n_test_healthy": [10],
     ...     "cpu_s_per_hour": [0.04]})
     >>> print(table_markdown(comparison_table(res, summ)))
-    | method | excitation | MDL L/min | AUC 0.05 | AUC 0.2 | AUC 1.0 | det 0.2 | det 1.0 | onset err 1.0 (s) | delay 1.0 (s) | false alarms | CPU s / h |
+    | method | excitation | MDL L/min | AUC 0.05 | AUC 0.2 | AUC 1.0 | det 0.2 [95 % CI] | det 1.0 [95 % CI] | onset err 1.0 (s) | delay 1.0 (s) | false alarms [95 % CI] | CPU s / h |
     |---|---|---|---|---|---|---|---|---|---|---|---|
-    | m | operating | 1 |  | 0.5 | 1 | 0.2 | 1 | 1 | 2 | 1/10 | 0.04 |
+    | m | operating | 1 |  | 0.5 | 1 | 2/10 = 0.2 [0.0252, 0.556] | 10/10 = 1 [0.692, 1] | 1 | 2 | 1/10 = 0.1 [0.00253, 0.445] | 0.04 |
     """
     import pandas as pd
+
+    from leakdiag.bench.v5_scoring import rate_text
 
     rows = []
     for _, s in summary.iterrows():
@@ -247,14 +249,25 @@ def comparison_table(results, summary):
             v = g.loc[(g.leak_lpm - q).abs() < 1e-12, col]
             return float(v.iloc[0]) if len(v) else float("nan")
 
+        def det_at(q, g=g):  # runs detected of n, the rate and its Clopper-Pearson interval
+            row = g.loc[(g.leak_lpm - q).abs() < 1e-12]
+            if not len(row):
+                return float("nan")
+            if "n_runs" not in row:  # results without their counts: the rate alone
+                return float(row.detection_rate.iloc[0])
+            n = int(row.n_runs.iloc[0])
+            k = (row.detections.iloc[0] if "detections" in row else
+                 round(float(row.detection_rate.iloc[0]) * n))  # results before the count
+            return rate_text(k, n)
+
         rows.append({
             "method": s.method, "excitation": s.excitation,
             "MDL L/min": float(s.min_detectable_lpm),
             "AUC 0.05": at("auc", 0.05), "AUC 0.2": at("auc", 0.2), "AUC 1.0": at("auc", 1.0),
-            "det 0.2": at("detection_rate", 0.2), "det 1.0": at("detection_rate", 1.0),
+            "det 0.2 [95 % CI]": det_at(0.2), "det 1.0 [95 % CI]": det_at(1.0),
             "onset err 1.0 (s)": at("onset_error_median_s", 1.0),
             "delay 1.0 (s)": at("detection_delay_median_s", 1.0),
-            "false alarms": f"{int(s.false_alarms)}/{int(s.n_test_healthy)}",
+            "false alarms [95 % CI]": rate_text(s.false_alarms, s.n_test_healthy),
             "CPU s / h": float(s.cpu_s_per_hour)})
     return pd.DataFrame(rows)
 

@@ -220,7 +220,9 @@ def per_run_target_per_hour(per_run: float, duration_s: float, burn_in_s: float)
     Raises
     ------
     ValueError
-        If ``per_run`` is not in (0, 1).
+        If ``per_run`` is not in (0, 1), or the run is not longer than its burn-in (nothing
+        monitored: a statistics audit, 2026-11-30, found a ZeroDivisionError at equal lengths
+        and a negative rate per hour below).
 
     Examples
     --------
@@ -229,6 +231,9 @@ def per_run_target_per_hour(per_run: float, duration_s: float, burn_in_s: float)
     """
     if not 0.0 < per_run < 1.0:
         raise ValueError(f"per_run={per_run!r} must be in (0, 1)")
+    if not duration_s - burn_in_s > 0.0:
+        raise ValueError(f"duration_s={duration_s!r} leaves nothing monitored after "
+                         f"burn_in_s={burn_in_s!r}: a run must be longer than its burn-in")
     return per_run / ((duration_s - burn_in_s) / 3600.0)
 
 

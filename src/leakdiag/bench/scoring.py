@@ -122,7 +122,10 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None,
         excitation``, the size-estimate scores, ``cpu_s_per_hour`` (median over the method's
         held-out runs of the rig and excitation of CPU seconds per hour of signal; NaN if the
         runs carry no timing) and the false alarms' count with their 95 % Clopper-Pearson
-        interval, ``false_alarms, far_low, far_high``.
+        interval, ``false_alarms, far_low, far_high``, that interval per hour
+        (``far_per_hour_low, far_per_hour_high``) and the detections' count with theirs
+        (``detections, detection_low, detection_high``); the size scores carry the covered
+        count and its interval too (``n_covered, coverage_low, coverage_high``).
 
     Raises
     ------
@@ -171,6 +174,8 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None,
         hours = (float(healthy.duration_s.mean()) - burn_in_s) / 3600.0 if len(healthy) \
             else float("nan")
         far_h = far / hours if len(healthy) else float("nan")
+        far_h_lo, far_h_hi = ((far_lo / hours, far_hi / hours) if len(healthy)
+                              else (float("nan"), float("nan")))
         leak = g[g.role == "test_leak"]
         cpu_h = _cpu_per_hour(g)
         for q, lk in leak.groupby("leak_lpm", sort=True):
@@ -180,6 +185,7 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None,
             det = lk.alarm.astype(bool).to_numpy() & (alarm_t >= onset).to_numpy()
             err = np.abs(est - onset).to_numpy()[det]
             delay = (alarm_t - onset).to_numpy()[det]
+            det_lo, det_hi = clopper_pearson(int(det.sum()), len(lk))
             rows.append({
                 "method": method, "system": system, "leak_lpm": float(q), "n_runs": len(lk),
                 "auc": roc_auc(healthy.score_max, lk.score_max),
@@ -190,12 +196,13 @@ def summarise(runs, rated_flow_lpm: dict[str, float] | None = None,
                 "false_alarms_per_hour": far_h, "n_test_healthy": len(healthy),
                 "excitation": excitation, **_size_scores(lk, det, q),
                 "cpu_s_per_hour": cpu_h, "false_alarms": n_fa, "far_low": far_lo,
-                "far_high": far_hi,
+                "far_high": far_hi, "far_per_hour_low": far_h_lo, "far_per_hour_high": far_h_hi,
+                "detections": int(det.sum()), "detection_low": det_lo, "detection_high": det_hi,
             })
     return pd.DataFrame(rows, columns=RESULT_COLUMNS + ["leak_pct_rated", "false_alarms_per_hour",
                                                         "n_test_healthy", "excitation",
                                                         *_SIZE_COLUMNS, "cpu_s_per_hour",
-                                                        *_FAR_COLUMNS])
+                                                        *_FAR_COLUMNS, *_RATE_CI_COLUMNS])
 
 
 def _cpu_per_hour(g) -> float:
@@ -209,23 +216,36 @@ def _cpu_per_hour(g) -> float:
 
 #: False alarms of the held-out healthy runs: count and 95 % Clopper-Pearson interval.
 _FAR_COLUMNS = ("false_alarms", "far_low", "far_high")
-#: Leak-size estimation columns of the results (detected runs with a calibration).
-_SIZE_COLUMNS = ("leak_lpm_est_median", "leak_interval_coverage", "n_size_estimates")
+#: Leak-size estimation columns of the results (detected runs with a calibration): the
+#: coverage of the true size with its count and 95 % Clopper-Pearson interval.
+_SIZE_COLUMNS = ("leak_lpm_est_median", "leak_interval_coverage", "n_size_estimates",
+                 "n_covered", "coverage_low", "coverage_high")
+#: 95 % Clopper-Pearson intervals of the per-hour false-alarm rate (the per-run interval over
+#: the hours monitored per run) and of the detection rate, with its count (a statistics audit,
+#: 2026-11-30: the v4 results gave these rates bare).
+_RATE_CI_COLUMNS = ("far_per_hour_low", "far_per_hour_high", "detections", "detection_low",
+                    "detection_high")
 
 
 def _size_scores(lk, det, q) -> dict:
     """Median size estimate and interval coverage of the true size over detected runs."""
     import pandas as pd
 
+    nan = float("nan")
     if "leak_lpm_est" not in lk:
-        return {c: float("nan") for c in _SIZE_COLUMNS[:2]} | {"n_size_estimates": 0}
+        return {"leak_lpm_est_median": nan, "leak_interval_coverage": nan,
+                "n_size_estimates": 0, "n_covered": 0, "coverage_low": nan,
+                "coverage_high": nan}
     est = pd.to_numeric(lk.leak_lpm_est, errors="coerce").to_numpy()[det]
     lo = pd.to_numeric(lk.leak_lpm_low, errors="coerce").to_numpy()[det]
     hi = pd.to_numeric(lk.leak_lpm_high, errors="coerce").to_numpy()[det]
     ok = np.isfinite(est)
-    cover = ((lo[ok] <= q) & (q <= hi[ok])).mean() if ok.any() else float("nan")
+    covered = int(((lo[ok] <= q) & (q <= hi[ok])).sum())
+    cover = covered / int(ok.sum()) if ok.any() else nan
+    c_lo, c_hi = clopper_pearson(covered, int(ok.sum()))  # NaN without an estimate
     return {"leak_lpm_est_median": _q(est[ok], 0.5), "leak_interval_coverage": float(cover),
-            "n_size_estimates": int(ok.sum())}
+            "n_size_estimates": int(ok.sum()), "n_covered": covered, "coverage_low": c_lo,
+            "coverage_high": c_hi}
 
 
 def minimum_detectable(results, rated_flow_lpm: dict[str, float] | None = None,
