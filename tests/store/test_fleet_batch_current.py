@@ -117,6 +117,21 @@ def test_the_alarm_shown_prefers_a_size_then_the_earliest_not_the_last_file(tmp_
     st2.close()
 
 
+
+def test_a_failed_actuator_shows_its_detectors_reason_not_the_analysis_entrys(tmp_path):
+    # a workflow audit (2026-11-30): a job with an [[analysis]] entry stored its "no detector"
+    # note first, and the fleet row of a FAILED actuator (its detector refused the file's
+    # units) showed that note as the reason, and that run as the one that set the state
+    st = EventStore(tmp_path / "e.db")
+    why = "counts.parquet: channel 'p1' is in 'counts', but det.joblib was fitted on 'Pa'"
+    record_batch(st, frame([row("/d/u101/counts.parquet", kind="analysis", name="acf"),
+                            row("/d/u101/counts.parquet", status="error", error=why)]), JOB)
+    got = _row(st)
+    assert got["state"] == "FAILED"
+    assert got["error"].endswith(why) and "no detector" not in got["error"]
+    assert got["run"].startswith("batch failed")
+    st.close()
+
 # -- _batch_ok_since counts each run once: against the plain re-judging of every prefix --------
 
 _EFFECTIVE = ("ok", "failed", "inconclusive", "unjudged", "waiting", "no detector", "running",

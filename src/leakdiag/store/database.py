@@ -932,8 +932,12 @@ class EventStore:
             la, size_row = _shown_alarm(pool)
             why, bad = None, []
             if state in ("FAILED", "INCONCLUSIVE", "NOT JUDGED", "NO DETECTOR"):
-                kinds = ("inconclusive",) if state == "INCONCLUSIVE" else (
-                    "failed", "unjudged", "no detector")
+                # the runs that set the state: a run without a detector takes no part in a
+                # verdict, so it gives the reason of NO DETECTOR only (a workflow audit,
+                # 2026-11-30: a batch job's analysis entry, "no detector", was shown as the
+                # reason of a FAILED actuator whose detectors refused the file's units)
+                kinds = {"INCONCLUSIVE": ("inconclusive",),
+                         "NO DETECTOR": ("no detector",)}.get(state, ("failed", "unjudged"))
                 bad = [r for r in current["runs"] if r["effective"] in kinds
                        and not _missing(r["why"])]
                 why = f"{bad[0]['feature']}: {bad[0]['why']}" if bad else None
