@@ -181,6 +181,28 @@ def test_a_leak_found_earlier_continues_and_a_no_leak_says_from_when(setup, run_
     st.close()
 
 
+def test_a_stored_segments_size_interval_says_what_it_holds_as_detect_stores_it(setup,
+                                                                               run_cli):
+    # a workflow audit (2026-11-30): monitor --segment stored the flow balance's interval as a
+    # "prediction interval" where detect stores the balance's own words
+    from leakdiag.store import EventStore
+
+    d, det_path, path, _ = setup
+    db = d / "sizes.db"
+    for cmd, name in ((["monitor", "--segment", "100"], "seg"), (["detect"], "det")):
+        code, _, err = run_cli([cmd[0], str(path), "--detector", str(det_path), *cmd[1:],
+                                "--store", str(db), "--actuator", name, "--no-progress"
+                                if cmd[0] == "detect" else "-q"])
+        assert code == 0, err
+    st = EventStore(db, create=False)
+    rows = st.fleet().set_index("name")
+    st.close()
+    seg, det = rows.loc["seg"], rows.loc["det"]
+    assert seg["state"] == det["state"] == "ALARM" and seg["leak_lpm"] == det["leak_lpm"]
+    assert seg["leak_interval"] == det["leak_interval"]
+    assert seg["leak_interval"].startswith("interval: the coefficient's statistical error")
+
+
 def test_a_segment_that_expects_a_false_alarm_is_refused_and_bad_input_keeps_the_summary(
         setup, loose, run_cli, tmp_path):
     d, det_path, path, rec = setup

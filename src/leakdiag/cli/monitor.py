@@ -355,9 +355,13 @@ def _store_segment(st, actuator: str, source: str, method: str, sv, system,
     row = {"method": method, "leak": None, "error": sv.reason, "alarm_refused": sv.inconclusive}
     if sv.verdict is not None:
         d = sv.verdict.as_dict()
+        # with what the size's interval holds, as detect stores it (a workflow audit,
+        # 2026-11-30: the flow balance's interval was stored as a "prediction interval")
         row.update({k: d.get(k) for k in ("leak", "alarm_time_s", "score_max", "threshold",
                                             "onset_s", "leak_lpm", "leak_lpm_low",
-                                            "leak_lpm_high", "onset_censored")}, error=None)
+                                            "leak_lpm_high", "onset_censored",
+                                            "leak_lpm_in_range", "leak_lpm_interval_holds")},
+                   error=None)
         if sv.continues_from_onset_s is not None:  # the leak found earlier continues: its
             # onset, as the console says, not this segment's first windows (an audit,
             # 2026-11-29: the fleet page showed "at or before 45.2 s" for a leak from 25.8 s)
