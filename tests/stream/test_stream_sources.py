@@ -2,6 +2,7 @@
 lines; a growing file; real-time pacing with an injected clock."""
 
 import io
+import os
 import re
 import threading
 import time
@@ -262,3 +263,62 @@ def test_a_followed_line_that_is_not_utf8_is_named_with_its_line(tmp_path, run_c
     code, _, err = run_cli(["monitor", str(path), "-c", "p1", "--follow", "--idle-timeout",
                             "0.2"])
     assert code == 2 and f"leakdiag: error: {path}: line 3 is not UTF-8 text" in err
+
+
+def _follow_until_error(path, change, delay=0.15):
+    """Follow ``path`` while ``change()`` runs in a thread after ``delay`` s; the error."""
+    th = threading.Timer(delay, change)
+    th.start()
+    try:
+        with pytest.raises(RecordingError) as err:
+            list(tail_csv(path, poll_s=0.01, idle_timeout_s=3.0))
+    finally:
+        th.join()
+    return str(err.value)
+
+
+def test_a_followed_file_truncated_replaced_or_written_anew_is_an_error(tmp_path):
+    # a workflow audit (2026-11-30): after a logrotate copytruncate the monitor ended normally
+    # without reading the new file's lines, or read from the middle of one
+    path = tmp_path / "live.csv"
+    lines = "time,p1\n" + "".join(f"{i / 100:.2f},{i}\n" for i in range(5))
+    path.write_text(lines)
+    size = path.stat().st_size
+
+    def shorter():
+        path.write_text("time,p1\n0.00,7\n")  # opened "w": truncated, then written
+
+    msg = _follow_until_error(path, shorter)
+    assert msg == (f"{path}: the file was truncated to 15 bytes (read up to byte {size}) after "
+                   "line 6: following reads one file as it grows, so the lines written to it "
+                   "since were not read (a log rotation, or a writer that started the file "
+                   "again?); start the monitor again to read the new file from its start")
+    path.write_text(lines)
+
+    def same_size():  # truncated and written again as long as before: only its bytes tell
+        path.write_text(lines.replace(",0\n", ",9\n"))
+
+    assert "was written anew from its start (its first bytes changed) after line 6" in \
+        _follow_until_error(path, same_size)
+    path.write_text(lines)
+    other = tmp_path / "new.csv"
+
+    def rotated():  # renamed away and created anew
+        other.write_text(lines)
+        os.replace(other, path)
+
+    assert "was replaced by another file of that name after line 6" in \
+        _follow_until_error(path, rotated)
+
+
+def test_following_waits_for_a_file_to_be_created(tmp_path):
+    path = tmp_path / "later.csv"
+    th = threading.Timer(0.15, lambda: path.write_text("time,p1\n0.00,1\n0.01,2\n"))
+    th.start()
+    got = [v for c in tail_csv(path, poll_s=0.01, idle_timeout_s=2.0) for v in c["p1"]]
+    th.join()
+    assert got == [1.0, 2.0]
+    with pytest.raises(RecordingError, match=re.escape(
+            f"{tmp_path / 'never.csv'}: no such file after 0.1 s of waiting for it to be "
+            "created (--follow waits for a file's creation and growth, up to --idle-timeout)")):
+        tail_csv(tmp_path / "never.csv", poll_s=0.01, idle_timeout_s=0.1)

@@ -42,6 +42,10 @@ _PREVIEW = 80
 SNIFF_LINES = 1
 
 
+#: First bytes of a followed file kept to tell a file written anew from the one being read.
+_HEAD_BYTES = 4096
+
+
 class IncompleteLineWarning(UserWarning):
     """A followed file's last line had no newline when the idle timeout ended the stream (a
     write cut short): it was left out, not read as a sample (see :func:`tail_csv`)."""
@@ -324,7 +328,9 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
     ------
     RecordingError
         As :func:`csv_lines`; also when the idle timeout comes while the header line has no
-        newline yet (nothing can be read without the header).
+        newline yet (nothing can be read without the header) or before the file was created,
+        and when the file is truncated, replaced or written anew from its start while it is
+        followed (a log rotation: the new lines would not be read).
 
     Warns
     -----
@@ -344,7 +350,16 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
     """
     path = os.fspath(path)
     poll_s = check_positive(poll_s, "poll_s")
+    waited = 0.0  # a file the logger has not created yet is waited for, as its growth is
+    while not os.path.exists(path):  # (a workflow audit, 2026-11-30: a raw "[Errno 2]")
+        if idle_timeout_s is not None and waited >= idle_timeout_s:
+            raise RecordingError(f"{path}: no such file after {idle_timeout_s:g} s of waiting "
+                                 "for it to be created (--follow waits for a file's creation "
+                                 "and growth, up to --idle-timeout)")
+        time.sleep(poll_s)
+        waited += poll_s
     f = open(path, "rb")  # lines decoded one by one: a bad byte is named with its line
+    ino = os.fstat(f.fileno()).st_ino
     kind = binary_kind(f.read(32))  # a finished binary recording is not followed as text
     if kind is not None:
         f.close()
@@ -354,6 +369,28 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
     f.seek(0)
     done = [0]  # complete lines handed over (the header is line 1)
     ended = [False]  # the idle timeout ended the stream: later reads find nothing
+    head = bytearray()  # the file's first bytes as read, to tell a file written anew
+
+    def replaced() -> str | None:
+        """Why the file at ``path`` is no longer the one being read, or None: it is shorter
+        than what was read (truncated: logrotate's copytruncate, a writer that started it
+        again), another file (renamed away and created anew), or its first bytes changed
+        (truncated and written again past the point read). Asked at each wait for data, so
+        that nothing written to a new file is ignored without a word (a workflow audit,
+        2026-11-30: the monitor ended normally without reading the new file's lines)."""
+        try:
+            st = os.stat(path)
+        except FileNotFoundError:
+            return "removed or renamed away"
+        if st.st_ino != ino:
+            return "replaced by another file of that name"
+        if st.st_size < f.tell():
+            return f"truncated to {st.st_size} bytes (read up to byte {f.tell()})"
+        if head:
+            with open(path, "rb") as g:
+                if g.read(len(head)) != head:
+                    return "written anew from its start (its first bytes changed)"
+        return None
 
     def left_out(partial: str) -> str:
         """The line left unread at the idle timeout; a warning, or an error for the header."""
@@ -378,6 +415,8 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
         while True:
             line = f.readline()
             if line:
+                if len(head) < _HEAD_BYTES:
+                    head.extend(line[:_HEAD_BYTES - len(head)])
                 partial += line
                 if partial.endswith(b"\n"):
                     done[0] += 1
@@ -390,6 +429,13 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
                             "following reads CSV text") from None
                 idle = 0.0  # part of a line arrived: the writer is alive
                 continue
+            why = replaced()
+            if why is not None:
+                raise RecordingError(
+                    f"{path}: the file was {why} after line {done[0]}: following reads one "
+                    "file as it grows, so the lines written to it since were not read (a log "
+                    "rotation, or a writer that started the file again?); start the monitor "
+                    "again to read the new file from its start")
             if idle_timeout_s is not None and idle >= idle_timeout_s:
                 ended[0] = True
                 return left_out(partial.decode("utf-8", "replace")) if partial else ""
