@@ -439,3 +439,31 @@ def test_monitor_keeps_what_it_loaded_out_of_the_collector_while_it_runs(run_fil
     finally:
         if frozen_before:
             gc.unfreeze()
+
+
+def test_an_existing_events_file_is_replaced_with_a_note_or_appended_to(tmp_path):
+    # a workflow audit (2026-11-30): a monitor restarted with the same --events file wiped the
+    # earlier run's alarm lines without a word
+    import subprocess
+    import sys
+
+    import leakdiag as ld
+    from leakdiag.io import write_recording
+
+    rec = ld.sim.simulate_vca(duration=8, leak_lpm=0.0, seed=3)
+    path = write_recording(rec, tmp_path / "r.parquet")
+    events = tmp_path / "ev.jsonl"
+
+    def run(*extra):
+        return subprocess.run([sys.executable, "-m", "leakdiag.cli.main", "monitor", str(path),
+                               "-c", "p1", "--events", str(events), "-q", *extra],
+                              capture_output=True, text=True, check=True)
+
+    assert "note" not in run().stderr  # a new file: nothing to say
+    n = len(events.read_text().splitlines())
+    assert n > 10
+    assert run("--append-events").stderr == ""
+    assert len(events.read_text().splitlines()) == 2 * n
+    assert run().stderr == (f"leakdiag: note: {events} held {2 * n} line(s) of events: "
+                            "replaced (--append-events keeps them)\n")
+    assert len(events.read_text().splitlines()) == n

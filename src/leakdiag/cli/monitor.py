@@ -6,6 +6,7 @@ alarm); alarms are printed as they are raised and cleared.
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import time
@@ -343,6 +344,23 @@ def _stored_source(source) -> str:
     return s if s in ("-", "<stdin>") else os.path.realpath(s)
 
 
+def _open_events(events: str | None, append: bool):
+    """The ``--events`` stream: stdout for ``-``, the file appended to with
+    ``--append-events``, else replaced, with a note when it held lines (a workflow audit,
+    2026-11-30: a monitor restarted by a service wiped the killed run's alarm lines without a
+    word)."""
+    if events is None:
+        return None
+    if events == "-":
+        return sys.stdout
+    if not append and os.path.isfile(events) and os.path.getsize(events) > 0:
+        with open(events, "rb") as f:
+            n = sum(1 for _ in f)
+        click.echo(f"leakdiag: note: {events} held {n} line(s) of events: replaced "
+                   "(--append-events keeps them)", err=True)
+    return open(events, "a" if append else "w", encoding="utf-8")
+
+
 def _store_segment(st, actuator: str, source: str, method: str, sv, system,
                    session: dict | None = None) -> None:
     """One judged segment into the store, as ``detect --store`` stores a file's verdict, with
@@ -421,7 +439,7 @@ def _store_session_end(st, actuator: str, source, name: str, system, done, judge
 
 def _monitor_segments(detector, meta, detector_path, input_path, follow, replay, sample_rate,
                       chunk, idle_timeout, batch_lines, cmap, events, quiet, segment_s,
-                      store=None, actuator=None):
+                      store=None, actuator=None, append_events=False):
     """``monitor`` with a whole-recording detector: the stream judged in consecutive segments
     (:class:`leakdiag.stream.segments.SegmentJudge`), a line and a JSON event per segment and,
     with ``store``, each segment stored as a finished run with its verdict as ``detect``
@@ -504,8 +522,7 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
     judge = SegmentJudge(detector, chans, source.sample_rate, source.start_time, seg,
                          units=units, meta=source.meta, source=str(source.source))
     speed = None if input_path == "-" or follow else parse_replay(replay)
-    out = sys.stdout if events == "-" else (open(events, "w", encoding="utf-8") if events
-                                            else None)
+    out = _open_events(events, append_events)
     say = (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=out is sys.stdout))
     done: list = []
 
@@ -629,7 +646,11 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
 @click.option("--batch-lines", type=click.IntRange(min=1), default=1, show_default=True,
               help="CSV lines per chunk for stdin/--follow (more: faster, later events).")
 @click.option("--events", type=click.Path(dir_okay=False), default=None,
-              help="Write one JSON line per window to this file ('-' for stdout).")
+              help="Write one JSON line per window to this file ('-' for stdout); an "
+                   "existing file is replaced, with a note (see --append-events).")
+@click.option("--append-events", is_flag=True,
+              help="Append to an existing --events file instead of replacing it (a monitor "
+                   "restarted by a service keeps the earlier run's events).")
 @click.option("--quiet", "-q", is_flag=True, help="Do not print alarms and the summary.")
 @click.option("--segment", "segment_s", type=click.FloatRange(min=0, min_open=True),
               default=None,
@@ -639,7 +660,7 @@ def _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
 @live_options
 def monitor(file, input_path, replay, follow, idle_timeout, method, channels, lag, lag_ratio,
             window, overlap, detector_path, column_map, cols, sample_rate, time_unit, chunk,
-            batch_lines, events, quiet, segment_s, **live):
+            batch_lines, events, append_events, quiet, segment_s, **live):
     """Monitor a stream: feature value per window, detector score and alarm, as soon as known.
 
     FILE (or --input FILE) is a recording file, or '-' for CSV lines on stdin. Without
@@ -691,7 +712,8 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
         return _monitor_segments(detector, meta, detector_path, input_path, follow, replay,
                                  sample_rate, chunk, idle_timeout, batch_lines,
                                  column_map_from(column_map, cols, time_unit), events, quiet,
-                                 segment_s, live.get("store"), live.get("actuator"))
+                                 segment_s, live.get("store"), live.get("actuator"),
+                                 append_events=append_events)
     if segment_s is not None:
         if detector is None:  # (said "a streamed detector judges every window": none given)
             raise click.UsageError("--segment needs --detector FILE with a whole-recording "
@@ -749,11 +771,7 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
             click.echo(f"leakdiag: warning: {note}", err=True)
     mon = Monitor(spec, source.sample_rate, source.start_time, scorers=detector)
     speed = None if input_path == "-" or follow else parse_replay(replay)
-    out = None
-    if events == "-":
-        out = sys.stdout
-    elif events:
-        out = open(events, "w", encoding="utf-8")
+    out = _open_events(events, append_events)
     say = (lambda msg: None) if quiet else (lambda msg: click.echo(msg, err=out is sys.stdout))
     n_win = n_alarm = n_scored = 0  # windows; alarm raisings (OK -> ALARM); scored windows
     alarm_on = False
