@@ -323,9 +323,13 @@ def _close_hooks(hooks, exc, n_win: int, linger_s: float, say, stop: "StopSignal
             hooks.close(True, 0.0, say, f"stopped by {signal_name(exc)} after {n_win} windows",
                         stopped=True, unjudged=unjudged if n_win else None)
         else:
-            hooks.close(exc is None, linger_s, say,
-                        None if exc is None else f"{type(exc).__name__}: {exc}",
-                        unjudged=unjudged)
+            # bad input (a RecordingError) in its own words, a class name only for a bug, as
+            # batch stores its rows (a workflow audit, 2026-11-30: "RecordingError: ...")
+            from leakdiag.io.errors import RecordingError
+
+            why = (None if exc is None else str(exc) if isinstance(exc, RecordingError)
+                   else f"{type(exc).__name__}: {exc}")
+            hooks.close(exc is None, linger_s, say, why, unjudged=unjudged)
     except KeyboardInterrupt:
         pass
     finally:
