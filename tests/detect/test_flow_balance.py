@@ -736,3 +736,26 @@ def test_a_setting_given_as_text_is_refused():
         FlowBalanceDetector(false_alarms_per_hour="0.3").fit([rec])
     with pytest.raises(TypeError, match=r"window_s=True must be a number, not a bool"):
         FlowBalanceDetector(window_s=True).fit([rec])
+
+
+def test_the_drift_refit_is_keyed_to_the_level_judged_at(machine17, monkeypatch):
+    # a statistics audit (2026-11-30): the refit after an alarm used threshold_ even when
+    # predict judged at a higher run level, refitting for crossings the verdict ignores
+    det = machine17[1]
+    rec = ld.sim.simulate_vca(duration=60, leak_lpm=2.0, onset=40, load="spring", machine=17,
+                              seed=60)
+    refits = []
+    terms = FlowBalanceDetector._terms
+
+    def counted(self, r, drift_windows=None):
+        refits.append(drift_windows)
+        return terms(self, r, drift_windows)
+
+    monkeypatch.setattr(FlowBalanceDetector, "_terms", counted)
+    top = float(det.score(rec).values.max())
+    refits.clear()
+    v = det.predict(rec)  # at the threshold: the alarm is refitted before its span
+    assert v.leak and any(w is not None for w in refits)
+    refits.clear()
+    v = det.predict(rec, level=2 * top)  # no crossing at this level: nothing to refit
+    assert not v.leak and all(w is None for w in refits)

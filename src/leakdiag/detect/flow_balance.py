@@ -1509,7 +1509,7 @@ class FlowBalanceDetector(Detector):
                                  "fit(healthy_recordings) first")
         check_params_unchanged(self)
 
-    def _scan(self, rec, where: str, consistency: bool = True):
+    def _scan(self, rec, where: str, consistency: bool = True, level: float | None = None):
         """Window terms, per-window GLR sums and GLR trace of a checked recording;
         ``consistency=False`` skips the sum-equation gate (healthy reference runs, whose
         refusal would stop a benchmark's reference maxima, ``segment_maxima``)."""
@@ -1530,7 +1530,7 @@ class FlowBalanceDetector(Detector):
         a, b = self._ab(t)
         g, arg = self._glr(t)
         if consistency and getattr(self._backend(), "DRIFT_ITERATIONS", 0):
-            t, a, b, g, arg = self._causal_drift(rec, t, a, b, g, arg)
+            t, a, b, g, arg = self._causal_drift(rec, t, a, b, g, arg, level)
         if consistency:
             self._check_sum_gate(rec, t, where)
         return t, a, b, g, arg
@@ -1538,7 +1538,7 @@ class FlowBalanceDetector(Detector):
     #: Refits of the recording's null drift after an alarm (``_causal_drift``).
     _DRIFT_REFITS = 3
 
-    def _causal_drift(self, rec, t, a, b, g, arg):
+    def _causal_drift(self, rec, t, a, b, g, arg, level: float | None = None):
         """The scan again with the recording's null drift fitted before the first alarm's span.
 
         The VCA backend linearises each recording at its own null offset and drift, fitted on
@@ -1557,7 +1557,9 @@ class FlowBalanceDetector(Detector):
         Only a scan that alarmed is redone, and a run can only lose or delay an alarm by this:
         false alarms stay within the rate the threshold was calibrated for.
         """
-        h, skip = self.threshold_, self._skip(rec)
+        # at the level the verdict is judged at (a run level above the threshold: a statistics
+        # audit, 2026-11-30, found the refit keyed to the threshold there)
+        h, skip = (self.threshold_ if level is None else float(level)), self._skip(rec)
         above = np.flatnonzero(g >= h)
         if not len(above):
             return t, a, b, g, arg
@@ -1780,11 +1782,12 @@ class FlowBalanceDetector(Detector):
             reached), a one-sample outlier of ``u`` / ``speed``, the leak-free sum equation
             (VCA) off by more than its limit in some window (a sensor or model
             inconsistency), an alarm since whose onset the piston moved against the valve's
-            flow (VCA: a reversed command or position sign), or an alarm whose leak
+            or the pump's flow (a reversed command, speed or position sign), line pressures
+            nearer the other chamber (EHA: ``pa`` and ``pb`` swapped), or an alarm whose leak
             coefficient since the onset is not positive (docs/detect.md 8.4).
         """
         level = self._check_level(level)
-        t, a, b, g, arg = self._scan(recording, "predict")
+        t, a, b, g, arg = self._scan(recording, "predict", level=level)
         h = self.threshold_ if level is None else level
         smax = float(g.max()) if len(g) else 0.0
         confidence, floor = self._p_value(smax, t, recording, run=level is not None)
