@@ -669,13 +669,22 @@ def check_detector_fits(meta: DetectorMeta | None, *, sample_rate: float,
         missing = [c for c in meta.channels if c not in set(channels)]
         if missing:
             raise ValueError(f"{source}: no channel {', '.join(missing)}, which {path} reads")
-    if units is None:
+    assumed = units is None  # a plain CSV or a stream: its columns taken as SI
+    if assumed:
         units = _assumed_si_units(meta.channels)
     for c in meta.channels:
         want, got = meta.units.get(c), units.get(c)
         if want and got and want != got:
+            # how to state the units where nothing did (a workflow audit, 2026-11-30: a
+            # detector fitted on raw counts met a live stream, with no word that stdin and
+            # --follow have no way to state them)
+            how = (f"; the recording states no units, so its columns were taken as SI: state "
+                   f"them for a file (a column map: --map, --col {c}=NAME:{want}, or a batch "
+                   "job's column_map); stdin and --follow take SI values only, so to monitor "
+                   "a live stream fit the detector on recordings converted to SI (a column map "
+                   "with the sensor's gain, docs/io.md)") if assumed else ""
             raise ValueError(f"{source}: channel {c!r} is in {got!r}, but {path} was fitted "
-                             f"on {want!r}")
+                             f"on {want!r}{how}")
 
 
 #: Where a ``detect`` or ``monitor`` user states a recording's rig and load
