@@ -155,7 +155,7 @@ def test_the_size_is_profiled_on_the_balance_the_scan_judged(case, monkeypatch):
     # forced here (on the first 10 windows judged) so that the two differ.
     det, rec, onset = case
 
-    def refit(self, r, t, a, b, g, arg):
+    def refit(self, r, t, a, b, g, arg, level=None):
         t2 = self._terms(r, drift_windows=self._skip(r) + 10)
         return (t2, *self._ab(t2), *self._glr(t2))
 
