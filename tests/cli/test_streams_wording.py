@@ -86,8 +86,16 @@ def test_a_nan_is_named_as_detect_names_it_by_monitor_and_batch(run_cli, tmp_pat
     with pytest.raises(RecordingError) as exc:
         read_recording(path)
     assert str(exc.value) == want  # detect's words
-    code, out, err = run_cli(["monitor", path, "-c", "p1", "--chunk", "5200"])
+    events = tmp_path / "ev.jsonl"
+    code, out, err = run_cli(["monitor", path, "-c", "p1", "--chunk", "5200", "--events",
+                              str(events)])
     assert code == 2 and err.endswith(f"error: {want}\n"), err
+    # the windows before the first NaN are judged, as a followed file's lines are (a workflow
+    # audit, 2026-11-30: none of the chunk's were): the last ends before row 5000
+    import json
+
+    ends = [json.loads(ln)["time"] for ln in events.read_text().splitlines()]
+    assert len(ends) > 10 and ends[-1] < 5000 / 1000.0
     job = tmp_path / "job.toml"
     job.write_text('[[analysis]]\nmethod = "autocorrelation"\nchannels = ["p1"]\n')
     code, out, err = run_cli(["batch", path, "--config", str(job), "-o", str(tmp_path / "res"),

@@ -92,12 +92,23 @@ def _time_checked(chunks, axis: TimeAxis | None):
 def _checked(chunks, axis: TimeAxis | None, path: str, finite: bool):
     """Yield the channel chunks, their time checked (:func:`_time_checked`) and then their
     samples, with ``finite``, checked to be finite (:func:`_finite`), in the order of
-    :func:`leakdiag.io.read_recording`."""
+    :func:`leakdiag.io.read_recording`; a chunk with a non-finite sample is yielded up to its
+    first one, then the error raised."""
     try:
         timed = _time_checked(chunks, axis)
         for row0, chunk in timed:
             if finite:
-                _finite(chunk, timed, row0, path)
+                try:
+                    _finite(chunk, timed, row0, path)
+                except RecordingError:
+                    # the rows before the first non-finite one are handed over first, as a
+                    # followed file's lines are (a workflow audit, 2026-11-30: a NaN anywhere
+                    # in a 65,536-row chunk left its good windows before it unjudged)
+                    cut = min((int(np.flatnonzero(~np.isfinite(x))[0])
+                               for x in chunk.values() if not np.isfinite(x).all()), default=0)
+                    if cut:
+                        yield {c: x[:cut] for c, x in chunk.items()}
+                    raise
             yield chunk
     finally:
         chunks.close()  # the CSV reader and HDF5 file close also when the consumer stops early
