@@ -357,10 +357,9 @@ def _open_events(events: str | None, append: bool):
         return None
     if events == "-":
         return sys.stdout
-    if not append and os.path.isfile(events) and os.path.getsize(events) > 0:
-        with open(events, "rb") as f:
-            n = sum(1 for _ in f)
-        click.echo(f"leakdiag: note: {events} held {n} line(s) of events: replaced "
+    size = os.path.getsize(events) if os.path.isfile(events) else 0
+    if not append and size:  # its size, not its lines: a long run's file is not read
+        click.echo(f"leakdiag: note: {events} held {size} bytes of events: replaced "
                    "(--append-events keeps them)", err=True)
     return open(events, "a" if append else "w", encoding="utf-8")
 

@@ -20,7 +20,7 @@ from scipy.stats import norm
 from threadpoolctl import ThreadpoolController
 
 from leakdiag._format import seconds
-from leakdiag._validation import check_positive
+from leakdiag._validation import check_number, check_positive
 from leakdiag.detect import _flow_balance_eha as eha
 from leakdiag.detect import _flow_balance_vca as vca
 from leakdiag.detect._flow_balance_checks import (
@@ -783,10 +783,8 @@ class FlowBalanceDetector(Detector):
             raise ValueError(f"leak_law={self.leak_law!r} must be one of {LEAK_LAWS}")
         for name in ("false_alarms_per_hour", "window_s", "max_span_s", "reference_dp_pa",
                      "burn_in_s", "interval_level", "segment_s", "confidence"):
-            value = getattr(self, name)  # text is not taken: get_params would keep it as text
-            if value is not None and not isinstance(value, (int, float, np.integer,
-                                                            np.floating)):
-                raise TypeError(f"{name}={value!r} must be a number")
+            if getattr(self, name) is not None:  # text refused: get_params would keep it
+                check_number(getattr(self, name), name)
         check_positive(self.false_alarms_per_hour, "false_alarms_per_hour")
         check_positive(self.window_s, "window_s")
         check_positive(self.max_span_s, "max_span_s")
@@ -1309,9 +1307,8 @@ class FlowBalanceDetector(Detector):
         if not _no_cross:  # fitting anew: no settings to hold it to (check_params_unchanged)
             self.__dict__.pop("fitted_params_", None)
         recs = list(_as_recordings(recordings))
-        for r in recs:
+        for r in recs:  # (recs[0] is checked to be a recording before its rate is read)
             check_recording_type(r, "fit")
-        for r in recs:
             self._check_recording(r, "fit", rate=float(recs[0].sample_rate))
         if not _no_cross:  # a cross-fit half holds recordings fit has checked
             self._check_healthy(recs)

@@ -370,6 +370,7 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
     done = [0]  # complete lines handed over (the header is line 1)
     ended = [False]  # the idle timeout ended the stream: later reads find nothing
     head = bytearray()  # the file's first bytes as read, to tell a file written anew
+    seen = [None]  # (size, mtime) at the last wait whose head was compared
 
     def replaced() -> str | None:
         """Why the file at ``path`` is no longer the one being read, or None: it is shorter
@@ -386,7 +387,9 @@ def tail_csv(path: str | os.PathLike, channels: Sequence[str] | None = None,
             return "replaced by another file of that name"
         if st.st_size < f.tell():
             return f"truncated to {st.st_size} bytes (read up to byte {f.tell()})"
-        if head:
+        stamp = (st.st_size, st.st_mtime_ns)
+        if head and stamp != seen[0]:  # read again only after a write: not at every poll
+            seen[0] = stamp
             with open(path, "rb") as g:
                 if g.read(len(head)) != head:
                     return "written anew from its start (its first bytes changed)"
