@@ -253,9 +253,7 @@ def comparison_table(results, summary):
             row = g.loc[(g.leak_lpm - q).abs() < 1e-12]
             if not len(row):
                 return float("nan")
-            if "n_runs" not in row:  # results without their counts: the rate alone
-                return float(row.detection_rate.iloc[0])
-            n = int(row.n_runs.iloc[0])
+            n = int(row.n_runs.iloc[0])  # a column of every summarise result
             k = (row.detections.iloc[0] if "detections" in row else
                  round(float(row.detection_rate.iloc[0]) * n))  # results before the count
             return rate_text(k, n)
