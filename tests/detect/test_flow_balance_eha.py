@@ -165,7 +165,8 @@ def test_spring_load_false_alarm_is_not_confirmed_by_a_free_pressure_offset(tmp_
                             "flow-balance", "--false-alarm-rate", "25", "-o", str(det),
                             "--no-progress"])
     assert code == 0, err
-    code, out, _ = run_cli(["detect", sim("healthy", 110, "--leak", "0"), "--detector",
+    # seed 112: the first of 110-115 whose score crosses the level (1.7; 110 stayed at 1.69)
+    code, out, _ = run_cli(["detect", sim("healthy", 112, "--leak", "0"), "--detector",
                             str(det), "--no-progress"])
     assert "Decision: INCONCLUSIVE" in out and "Decision: LEAK" not in out
     assert "not significantly above zero" in out and "-800 kPa" not in out
@@ -173,7 +174,10 @@ def test_spring_load_false_alarm_is_not_confirmed_by_a_free_pressure_offset(tmp_
                             "--detector", str(det), "--no-progress"])
     assert code == 0 and "Decision: LEAK" in out
     size = float(out.split("leak size (flow-balance): ")[1].split(" L/min")[0])
-    assert 0.27 < size < 0.33 and "pressure) found on the leak's windows, -9" in out
+    offset_kpa = float(out.split("found on the leak's windows, ")[1].split(" kPa")[0])
+    # the unit's differential zero error is -85 kPa; the effective offset also holds what else
+    # shifts P1 - P2 at the working pressure (measured: -9x kPa two-sided, -100 high-side)
+    assert 0.27 < size < 0.33 and -130 <= offset_kpa <= -60
 
 
 def _channels(rec, **swap):
@@ -226,3 +230,115 @@ def test_swapped_line_pressures_are_refused_at_fit_and_predict(fitted):
                                              r"pressures are nearer the other chamber"):
         FlowBalanceDetector(system="eha").fit(
             healthy[:2] + [_channels(healthy[2], pa=healthy[2]["pb"], pb=healthy[2]["pa"])])
+
+
+def _high_side_reference(p1, p2, x, pa, pb, start, window, area, volume, line_volume, delta):
+    """Plain-Python ``eha_high_side_sums`` of one window (sample units)."""
+    ext = sg = l2 = ch = gg = 0.0
+    for k in range(start + 1, start + window):
+        d = ((pa[k] - pb[k]) + (pa[k - 1] - pb[k - 1])) / 2
+        xm = (x[k] + x[k - 1]) / 2
+        va, vb = volume + area * xm, volume - area * xm
+        if abs(d) > delta:
+            s = 1.0 if d > 0 else -1.0
+            ps, pc, v = (pa, p1, va) if s > 0 else (pb, p2, vb)
+            ext += s * (ps[k] + ps[k - 1]) / 2
+            sg += s
+            gg += 1.0
+            ch += 2 * s * (line_volume * (ps[k] - ps[k - 1]) + v * (pc[k] - pc[k - 1]))
+        else:
+            l2 += d
+            ch += (line_volume * ((pa[k] - pa[k - 1]) - (pb[k] - pb[k - 1]))
+                   + va * (p1[k] - p1[k - 1]) - vb * (p2[k] - p2[k - 1]))
+    return [ext, sg, l2, ch, gg]
+
+
+def test_high_side_kernel_matches_plain_python():
+    from leakdiag.detect._flow_balance_kernel import eha_high_side_sums
+
+    rng = np.random.default_rng(4)
+    n = 301
+    pa = 1.4e6 + 4e5 * np.sin(np.linspace(0, 9, n)) + 2e4 * rng.standard_normal(n)
+    pb = 1.4e6 - 4e5 * np.sin(np.linspace(0, 9, n)) + 2e4 * rng.standard_normal(n)
+    p1, p2 = pa - 3e4 * rng.random(n), pb + 3e4 * rng.random(n)
+    x = 0.01 * np.cos(np.linspace(0, 9, n))
+    starts = np.array([0, 100, 200], dtype=np.int64)
+    out = np.empty((3, 5))
+    eha_high_side_sums(p1, p2, x, pa, pb, starts, 101, 1e-3, 2e-4, 5e-5, 2e5, out)
+    for i, s in enumerate(starts):
+        ref = _high_side_reference(p1, p2, x, pa, pb, s, 101, 1e-3, 2e-4, 5e-5, 2e5)
+        np.testing.assert_allclose(out[i], ref, rtol=1e-12, atol=1e-9)
+    assert 0 < out[:, 4].sum() < 300  # both kinds of interval occur
+
+
+@pytest.mark.parametrize("rate", [1000.0, 4000.0])
+def test_high_side_balance_drops_the_make_up_flow(rate):
+    """Under the spring the low line sits at the charge pressure with its check valve open; the
+    two-side sum keeps half the make-up flow, the high line's continuity does not (Eqs. 3-16
+    to 3-19 with the valve shut). On a noise-free run with the true pump, what the high side
+    leaves on windows wholly on one side is the trapezoidal rule's error: it falls with the
+    sampling interval; the two-side sum's make-up flow does not."""
+    from leakdiag.detect._flow_balance_eha import HIGH_SIDE_DELTA_PA, raw_sums
+
+    rec = ld.sim.simulate_eha(duration=8, leak_lpm=0.0, seed=2, sensors=False, load="spring",
+                              sample_rate=rate)
+    ci, ce = P.pump_internal_leakage_m3_per_s_pa, P.pump_external_leakage_m3_per_s_pa
+    high = EHAPumpModel(1.0, ci, P.bulk_modulus_pa, high_side_delta_pa=HIGH_SIDE_DELTA_PA,
+                        case_drain_m3_per_s_pa=ce,
+                        charge_flow_m3_per_s=ce * P.accumulator_pressure_pa)
+    two = EHAPumpModel(1.0, ci + ce / 2, P.bulk_modulus_pa)
+    w = int(rate / 10)  # 0.1-s windows: about half lie wholly on one side
+    raw = raw_sums(rec, P, w, False, HIGH_SIDE_DELTA_PA)
+    one_side = raw[:, 17] >= raw[:, 8] - 1e-12
+    one_side[:2] = False  # the start-up transient
+    assert one_side.sum() >= 40
+    r_high = terms(rec, P, high, w, laminar=False)["residual"][one_side]
+    r_two = terms(rec, P, two, w, laminar=False)["residual"][one_side]
+    # measured: 1.8e-9 m^3 at 1 kHz, 3.2e-10 at 4 kHz; the two-side sum 1.1e-7 at both
+    assert np.abs(r_two).max() > 8e-8
+    assert np.abs(r_high).max() < (2.5e-9 if rate == 1000.0 else 5e-10)
+
+
+def test_identification_takes_the_high_side_under_load_only():
+    from leakdiag.detect._flow_balance_eha import HIGH_SIDE_DELTA_PA
+
+    spring = [ld.sim.simulate_eha(duration=30, leak_lpm=0.0, params=UNIT, seed=s, load="spring")
+              for s in range(4)]
+    det = FlowBalanceDetector(system="eha", false_alarms_per_hour=1.0).fit(spring)
+    assert det.model_.high_side_delta_pa == HIGH_SIDE_DELTA_PA
+    # the high side separates the cross-port leakage from the case drain (1.5 x nominal)
+    assert det.model_.pump_leakage_m3_per_s_pa == pytest.approx(
+        UNIT.pump_internal_leakage_m3_per_s_pa, rel=0.05)
+    assert det.model_.displacement_factor == pytest.approx(1.03, abs=2e-3)
+    rec = ld.sim.simulate_eha(duration=40, leak_lpm=0.02, onset=20, params=UNIT, seed=11,
+                              load="spring")
+    v = det.predict(rec)
+    assert v.leak and 20.0 <= v.alarm_time_s <= 25.0
+    lo, hi = v.leak_lpm_interval
+    assert lo <= rec.meta["leak_lpm_achieved"] <= hi
+
+
+def test_no_load_fit_keeps_the_two_side_sum(fitted):
+    assert fitted.model_.high_side_delta_pa is None
+    assert fitted.model_.case_drain_m3_per_s_pa == 0.0
+
+
+def test_spring_change_is_no_alarm_under_the_high_side_balance():
+    """An audit (2026-11-30, session 29): under the spring the two-side sum's make-up flow is a
+    leak-shaped model error that depends on the operating point; unit 313 fitted on 8 nominal
+    runs alarmed on a healthy run whose spring softened to 0.7x at 60 s (score 1.5 against a
+    level of 1.22, refused as not lasting; 17 of 40 such runs crossed). The high side has no
+    make-up flow: the same run stays under the level, a 0.005 L/min leak does not."""
+    fit = [ld.sim.simulate_eha(duration=120, leak_lpm=0.0, load="spring", machine=313,
+                               seed=1000 + i) for i in range(8)]
+    det = FlowBalanceDetector(system="eha", false_alarms_per_hour=1.0).fit(fit)
+    soft = ld.sim.EHAConditions(spring_change_time_s=60, spring_change_factor=0.7)
+    rec = ld.sim.simulate_eha(duration=120, leak_lpm=0.0, load="spring", machine=313, seed=7,
+                              conditions=soft)
+    v = det.predict(rec)
+    assert not v.leak and v.score_max < 0.6 * det.threshold_
+    rec = ld.sim.simulate_eha(duration=120, leak_lpm=0.005, onset=60, load="spring",
+                              machine=313, seed=7)
+    v = det.predict(rec)
+    assert v.leak and 60.0 <= v.alarm_time_s <= 70.0
+    assert v.leak_lpm == pytest.approx(rec.meta["leak_lpm_achieved"], rel=0.2)

@@ -13,17 +13,36 @@ accumulator check valves (both laminar in the line pressure difference). The lin
 Eqs. 3-9 to 3-12 and the piston's mechanics drop out. Integrated over a window the pump term is
 the shaft angle counted by the motor encoder, so that only the window end points carry noise.
 Every coefficient is linear: :func:`identify` is ordinary least squares on healthy windows.
+
+**High-side balance.** The two-side sum keeps half the accumulator make-up flow of the check
+valves, :math:`(Q_{cv,a} - Q_{cv,b})/2`, which no pressure law measured on the lines gives (the
+low line sits within the valve's opening range of the charge pressure, inside the transducers'
+noise). When the lines differ by more than :data:`HIGH_SIDE_DELTA_PA`, the high line's check
+valve is shut, and that line's continuity with its chamber alone (Eq. 3-16 + 3-18 for line A,
+3-17 + 3-19 for B) holds without it:
+
+.. math::
+
+    Q_l = \\frac{q_b}{2\\pi}\\omega - C_i (P_a - P_b) - s C_e (P_s - P_{acc}) - A\\dot x
+          - s\\frac{V_{line}\\dot P_s + V_s \\dot P_{c,s}}{\\beta},
+
+with :math:`s = \\pm 1` the high side, :math:`P_s` its line and :math:`P_{c,s}` its chamber
+pressure, :math:`C_i` the pump's cross-port and :math:`C_e` its case-drain leakage to the
+accumulator at :math:`P_{acc}` (linear in :math:`C_e` and :math:`C_e P_{acc}`). The other
+samples keep the two-side sum. :func:`identify` takes it when the healthy recordings spend at
+least :data:`HIGH_SIDE_MIN_FRACTION` of their time on one side (a load holds the lines apart).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from leakdiag.detect._flow_balance_kernel import eha_window_sums
+from leakdiag.detect._flow_balance_kernel import eha_high_side_sums, eha_window_sums
 from leakdiag.detect._flow_balance_offset import offset_words
 from leakdiag.sim.eha.params import EHAParams
 
@@ -49,6 +68,16 @@ OFFSET_PROFILED_LOADS = ("none", "spring", None)
 #: search's edge; the true -85 kPa), 9 of 11, all refused as not lasting on the measured
 #: pressures (docs/detect.md 8.5).
 OFFSET_CONFIRMED_LOADS = ("none", None)
+#: Line pressure difference (Pa) beyond which the high line's accumulator check valve counts as
+#: shut (leakdiag choice: four times the valves' opening range of 0.05 MPa, docs/models.md; the
+#: low line sat 0.01-0.03 MPa below the 1.4 MPa charge pressure in healthy runs of unit 313).
+HIGH_SIDE_DELTA_PA = 2e5
+#: Share of the healthy recordings' time with ``|pa - pb| > HIGH_SIDE_DELTA_PA`` from which the
+#: balance is the high side's (leakdiag choice; measured on unit 313's healthy runs, 2026-11-30:
+#: 0.89 under the spring, 0.35 without load). Without load the two-side sum was kept: the
+#: high-side fit there left a drive variation of 5 % as a leak-like misfit (half-run
+#: coefficient 9.5 standard errors, against 0 for the two-side sum).
+HIGH_SIDE_MIN_FRACTION = 0.6
 
 
 def size_profiles_pressure_offset(load: str | None) -> bool:
@@ -85,12 +114,24 @@ class EHAPumpModel:
         Effective bulk modulus (Pa).
     baseline_leak_coefficient : float
         Leak-law coefficient seen on the healthy recordings (subtracted before testing).
+    high_side_delta_pa : float or None, default None
+        None: the two-side sum, with ``pump_leakage_m3_per_s_pa`` the lumped :math:`C_p`.
+        Else the high-side balance (module docstring) on samples whose lines differ by more
+        than this (Pa); ``pump_leakage_m3_per_s_pa`` is then the cross-port :math:`C_i`.
+    case_drain_m3_per_s_pa : float, default 0.0
+        High-side balance: the case-drain leakage :math:`C_e` of each line.
+    charge_flow_m3_per_s : float, default 0.0
+        High-side balance: :math:`C_e P_{acc}` (the accumulator's charge pressure times
+        :math:`C_e`; the two are hardly separable, their product is identified).
     """
 
     displacement_factor: float
     pump_leakage_m3_per_s_pa: float
     bulk_modulus_pa: float
     baseline_leak_coefficient: float = 0.0
+    high_side_delta_pa: float | None = None
+    case_drain_m3_per_s_pa: float = 0.0
+    charge_flow_m3_per_s: float = 0.0
 
     def to_dict(self) -> dict:
         """Field name -> value.
@@ -160,8 +201,13 @@ def leak_transition_pa(p: EHAParams) -> float:
     return p.laminar_transition_pa
 
 
-def raw_sums(rec, nominal: EHAParams, window: int, laminar: bool) -> np.ndarray:
-    """Raw window sums (see ``eha_window_sums``), time integrals in s."""
+_EXT, _S, _L2, _CH, _G = range(13, 18)
+
+
+def raw_sums(rec, nominal: EHAParams, window: int, laminar: bool,
+             high_side_delta_pa: float | None = None) -> np.ndarray:
+    """Raw window sums (see ``eha_window_sums``), time integrals in s; with
+    ``high_side_delta_pa`` five more columns (``eha_high_side_sums``)."""
     arr = [np.ascontiguousarray(rec[c], dtype=np.float64) for c in CHANNELS]
     p1, p2, x, w, pa, pb = arr
     fs = rec.sample_rate
@@ -173,7 +219,14 @@ def raw_sums(rec, nominal: EHAParams, window: int, laminar: bool) -> np.ndarray:
     eha_window_sums(p1, p2, x, w, pa, pb, dps, starts, window + 1, nominal.piston_area_m2,
                     nominal.chamber_volume_m3, nominal.laminar_transition_pa, bool(laminar), out)
     out[:, [_TH, _L, _PHI, _T, _FW, _PHIABS]] /= fs
-    return out
+    if high_side_delta_pa is None:
+        return out
+    hs = np.empty((n_win, 5))
+    eha_high_side_sums(p1, p2, x, pa, pb, starts, window + 1, nominal.piston_area_m2,
+                       nominal.chamber_volume_m3, nominal.line_volume_m3,
+                       float(high_side_delta_pa), hs)
+    hs[:, [0, 1, 2, 4]] /= fs
+    return np.hstack([out, hs])
 
 
 def _pump_flow_per_rad(nominal: EHAParams) -> float:
@@ -185,10 +238,21 @@ def _compressibility(raw: np.ndarray, nominal: EHAParams) -> np.ndarray:
     return nominal.line_volume_m3 * (raw[:, _DPA] - raw[:, _DPB]) + raw[:, _CA] - raw[:, _CB]
 
 
+def _high_side(model: EHAPumpModel) -> float | None:
+    # a model saved before the high-side balance existed has no such field: the two-side sum
+    return getattr(model, "high_side_delta_pa", None)
+
+
 def _terms_from_raw(raw: np.ndarray, nominal: EHAParams, model: EHAPumpModel) -> dict:
     qr = _pump_flow_per_rad(nominal) * model.displacement_factor
-    comp = _compressibility(raw, nominal) / (2.0 * model.bulk_modulus_pa)
-    r = (qr * raw[:, _TH] - model.pump_leakage_m3_per_s_pa * raw[:, _L]
+    if _high_side(model) is None:
+        comp = _compressibility(raw, nominal) / (2.0 * model.bulk_modulus_pa)
+        drain = 0.0
+    else:
+        comp = raw[:, _CH] / (2.0 * model.bulk_modulus_pa)
+        drain = (model.case_drain_m3_per_s_pa * (raw[:, _EXT] + 0.5 * raw[:, _L2])
+                 - model.charge_flow_m3_per_s * raw[:, _S])
+    r = (qr * raw[:, _TH] - model.pump_leakage_m3_per_s_pa * raw[:, _L] - drain
          - nominal.piston_area_m2 * raw[:, _DX] - comp
          - model.baseline_leak_coefficient * raw[:, _PHI])
     return {"residual": r, "phi": raw[:, _PHI].copy(), "phi_abs": raw[:, _PHIABS].copy(),
@@ -225,7 +289,8 @@ def terms(rec, nominal: EHAParams, model: EHAPumpModel, window: int, laminar: bo
         ``pump_volume`` (m^3, signed: the pump model's displaced volume), ``duration`` (s),
         ``edge_flow2``, ``compressibility`` (m^3).
     """
-    return _terms_from_raw(raw_sums(rec, nominal, window, laminar), nominal, model)
+    return _terms_from_raw(raw_sums(rec, nominal, window, laminar, _high_side(model)), nominal,
+                           model)
 
 
 def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, fit_bulk_modulus,
@@ -233,9 +298,13 @@ def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, f
     """Identify the displacement factor and the pump leakage by least squares.
 
     Healthy windows satisfy ``A dX + comp/(2 beta) = d q TH - C_p L`` (linear in ``d, C_p``
-    and, with ``fit_bulk_modulus``, in ``1/beta``). The baseline leak is fitted afterwards on
-    the residual (second stage): fitted jointly, a turbulent baseline is confounded with ``d``
-    (the no-load pressure difference follows the velocity) and a laminar one is ``C_p``.
+    and, with ``fit_bulk_modulus``, in ``1/beta``); with the high-side balance (module
+    docstring; chosen when the recordings spend at least :data:`HIGH_SIDE_MIN_FRACTION` of
+    their time with the lines :data:`HIGH_SIDE_DELTA_PA` apart) ``C_p L`` becomes
+    ``C_i L + C_e (EXT + L2/2) - C_e P_acc S``, linear in ``C_i, C_e, C_e P_acc``. The baseline
+    leak is fitted afterwards on the residual (second stage): fitted jointly, a turbulent
+    baseline is confounded with ``d`` (the no-load pressure difference follows the velocity)
+    and a laminar one is ``C_p``.
 
     Parameters
     ----------
@@ -262,15 +331,21 @@ def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, f
     std : dict
         Standard errors of the identified fields.
     """
-    raws = [raw_sums(r, nominal, w, laminar)[sk:] for r, w, sk in zip(recs, windows, skips)]
+    raws = [raw_sums(r, nominal, w, laminar, HIGH_SIDE_DELTA_PA)[sk:]
+            for r, w, sk in zip(recs, windows, skips)]
     raw = np.concatenate(raws)
+    total = float(np.sum(raw[:, _T]))
+    high = total > 0 and float(np.sum(raw[:, _G])) >= HIGH_SIDE_MIN_FRACTION * total
     qr = _pump_flow_per_rad(nominal)
-    comp = _compressibility(raw, nominal)
+    comp = raw[:, _CH] if high else _compressibility(raw, nominal)
     y = nominal.piston_area_m2 * raw[:, _DX]
     # no baseline leak term: under the EHA's velocity-proportional load pressure a turbulent
     # baseline is confounded with the displacement, and a laminar one is the pump leakage
     cols = [qr * raw[:, _TH], -raw[:, _L]]
     names = ["displacement_factor", "pump_leakage_m3_per_s_pa"]
+    if high:
+        cols += [-(raw[:, _EXT] + 0.5 * raw[:, _L2]), raw[:, _S]]
+        names += ["case_drain_m3_per_s_pa", "charge_flow_m3_per_s"]
     if fit_bulk_modulus:
         cols.append(-comp / 2.0)
         names.append("inverse_bulk_modulus")
@@ -295,8 +370,13 @@ def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, f
                              "do not determine the bulk modulus (use fit_bulk_modulus=False)")
         beta = 1.0 / inv
         std["bulk_modulus_pa"] = float(std.pop("inverse_bulk_modulus")) * beta * beta
+    extra = {}
+    if high:
+        extra = {"high_side_delta_pa": HIGH_SIDE_DELTA_PA,
+                 "case_drain_m3_per_s_pa": float(vals["case_drain_m3_per_s_pa"]),
+                 "charge_flow_m3_per_s": float(vals["charge_flow_m3_per_s"])}
     model = EHAPumpModel(float(vals["displacement_factor"]),
-                         float(vals["pump_leakage_m3_per_s_pa"]), float(beta), 0.0)
+                         float(vals["pump_leakage_m3_per_s_pa"]), float(beta), 0.0, **extra)
     # second stage: the leak-law term left in the healthy residual (model approximations such
     # as the quasi-steady accumulator make-up flow) becomes the baseline, d and C_p unchanged
     r = _terms_from_raw(raw, nominal, model)["residual"]
@@ -306,6 +386,5 @@ def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, f
         k0 = float(phi @ r) / pp
         e = r - k0 * phi
         std["baseline_leak_coefficient"] = float(np.sqrt(float(e @ e) / max(1, len(e) - 1) / pp))
-        model = EHAPumpModel(model.displacement_factor, model.pump_leakage_m3_per_s_pa,
-                             model.bulk_modulus_pa, k0)
+        model = dataclasses.replace(model, baseline_leak_coefficient=k0)
     return model, std

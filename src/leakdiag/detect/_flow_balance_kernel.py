@@ -208,6 +208,55 @@ def eha_window_sums(p1, p2, x, w, pa, pb, dps, starts, window, area, volume, ptr
 
 
 @numba.njit(cache=True)
+def eha_high_side_sums(p1, p2, x, pa, pb, starts, window, area, volume, line_volume, delta,
+                       out):
+    """Per-window integrals of the EHA's high-side balance (Eqs. 3-16 to 3-19, one side).
+
+    Each sample interval whose mean line pressure difference ``pa - pb`` exceeds ``delta`` in
+    size takes the continuity of its *high* line and chamber (line A with chamber 1 for
+    ``s = +1``, line B with chamber 2 for ``s = -1``), whose accumulator check valve is shut;
+    the others (``g = 0``) take the two-side balance of :func:`eha_window_sums`. ``out[w]`` =
+    ``[EXT, S, L2, CH, G]`` (time integrals in sample units): ``EXT = int g s P_s dt`` (``P_s``
+    the high line's pressure), ``S = int g s dt``, ``L2 = int (1 - g)(P_a - P_b) dt``, ``CH`` =
+    the sum over intervals of ``2 s (V_line dP_s + V_s dP_chamber_s)`` where ``g = 1`` and of
+    ``V_line (dP_a - dP_b) + V_A dP_1 - V_B dP_2`` where ``g = 0``, and ``G = int g dt``.
+    """
+    n_win = starts.shape[0]
+    for iw in range(n_win):
+        i0 = starts[iw]
+        ext = 0.0
+        sg = 0.0
+        l2 = 0.0
+        ch = 0.0
+        gg = 0.0
+        for k in range(i0 + 1, i0 + window):
+            d = 0.5 * ((pa[k] - pb[k]) + (pa[k - 1] - pb[k - 1]))
+            xm = 0.5 * (x[k] + x[k - 1])
+            if d > delta:
+                ext += 0.5 * (pa[k] + pa[k - 1])
+                sg += 1.0
+                gg += 1.0
+                ch += 2.0 * (line_volume * (pa[k] - pa[k - 1])
+                             + (volume + area * xm) * (p1[k] - p1[k - 1]))
+            elif d < -delta:
+                ext -= 0.5 * (pb[k] + pb[k - 1])
+                sg -= 1.0
+                gg += 1.0
+                ch -= 2.0 * (line_volume * (pb[k] - pb[k - 1])
+                             + (volume - area * xm) * (p2[k] - p2[k - 1]))
+            else:
+                l2 += d
+                ch += (line_volume * ((pa[k] - pa[k - 1]) - (pb[k] - pb[k - 1]))
+                       + (volume + area * xm) * (p1[k] - p1[k - 1])
+                       - (volume - area * xm) * (p2[k] - p2[k - 1]))
+        out[iw, 0] = ext
+        out[iw, 1] = sg
+        out[iw, 2] = l2
+        out[iw, 3] = ch
+        out[iw, 4] = gg
+
+
+@numba.njit(cache=True)
 def leak_law_window_sums(dp, dps, first, last, delta, ptr_leak, laminar, out):
     """Per-window leak-law integrals with the differential pressure offset ``delta`` removed.
 
