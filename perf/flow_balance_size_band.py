@@ -1,6 +1,6 @@
 """How far the flow balance's leak size is from the truth on virtual machines (size band).
 
-``python -m perf.flow_balance_size_band [--per-size 9] [--out DIR]``
+``python -m perf.flow_balance_size_band [--per-size 9] [--systems vca,eha] [--out DIR]``
 
 For each rig and load, the benchmark v5 suite's leaking runs of index ``--first`` (default 10)
 on, ``--per-size`` of them per leak size: the runs the benchmark does not use (it judges
@@ -78,10 +78,18 @@ def main(argv=None) -> None:
     ap.add_argument("--per-size", type=int, default=9)
     ap.add_argument("--first", type=int, default=10)
     ap.add_argument("--out", default="size-band")
+    ap.add_argument("--systems", default=",".join(V5_SUITES),
+                    help="rigs to measure, comma-separated (default: all)")
     args = ap.parse_args(argv)
+    systems = args.systems.split(",")
+    unknown = sorted(set(systems) - set(V5_SUITES))
+    if unknown:
+        ap.error(f"--systems: unknown rig(s) {unknown}; choose from {sorted(V5_SUITES)}")
     state, rows = resume(args.out, rows_key(), COLUMNS, "size-band rows", filled=("seed",))
     seen = {int(r["seed"]) for r in rows}
     for system, suite in V5_SUITES.items():
+        if system not in systems:
+            continue
         cases = [c for c in build_v5_suite({system: suite}) if c.role == "test_leak"
                  and args.first <= c.nuisance["index"] < args.first + args.per_size]
         for c in cases:
