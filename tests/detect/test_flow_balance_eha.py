@@ -342,3 +342,14 @@ def test_spring_change_is_no_alarm_under_the_high_side_balance():
     v = det.predict(rec)
     assert v.leak and 60.0 <= v.alarm_time_s <= 70.0
     assert v.leak_lpm == pytest.approx(rec.meta["leak_lpm_achieved"], rel=0.2)
+
+
+def test_a_pump_model_saved_before_the_high_side_keeps_the_two_side_sum():
+    # a model pickled before the fields existed unpickles without them in its __dict__
+    old = EHAPumpModel.__new__(EHAPumpModel)
+    old.__dict__.update(displacement_factor=1.0, pump_leakage_m3_per_s_pa=7e-13,
+                        bulk_modulus_pa=P.bulk_modulus_pa, baseline_leak_coefficient=0.0)
+    rec = ld.sim.simulate_eha(duration=4, leak_lpm=0.0, seed=3, load="spring")
+    t_old = terms(rec, P, old, 500, laminar=False)
+    t_two = terms(rec, P, EHAPumpModel(1.0, 7e-13, P.bulk_modulus_pa), 500, laminar=False)
+    np.testing.assert_array_equal(t_old["residual"], t_two["residual"])
