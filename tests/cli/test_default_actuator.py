@@ -56,3 +56,14 @@ def test_a_stem_of_another_folder_is_refused_and_stdin_needs_a_name(run_cli, tmp
     write_recording(dataclasses.replace(rec), csv)
     code, out, err = run_cli(["monitor", "--input", "-", *base], stdin=csv.read_text())
     assert code == 2 and "--store with standard input needs --actuator NAME" in err, err
+
+
+def test_stdin_without_a_name_is_refused_before_the_detector_is_read(run_cli, tmp_path):
+    # an audit (2026-11-30): the detector's own warnings came first, then the usage error; a
+    # file that is no detector shows the order (its error was the one reported)
+    db, bad = tmp_path / "events.db", tmp_path / "bad.joblib"
+    bad.write_text("not a detector")
+    code, out, err = run_cli(["monitor", "-", "--detector", str(bad), "--store", str(db)],
+                             stdin="0,1,2\n")
+    assert code == 2 and "--store with standard input needs --actuator NAME" in err, err
+    assert "bad.joblib" not in err and not db.exists()

@@ -691,9 +691,14 @@ def monitor(file, input_path, replay, follow, idle_timeout, method, channels, la
     from leakdiag.stream.detector_file import check_detector_fits
 
     if live.get("store") is not None:  # '', an in-memory database, 'sqlite:/x': refused first
-        from leakdiag.store import store_url
+        from leakdiag.store import StoreError, store_url
+        from leakdiag.store.writers import check_stdin_named
 
         store_url(live["store"])
+        try:  # before the detector's own warnings (an audit, 2026-11-30)
+            check_stdin_named(input_path, live.get("actuator"))
+        except StoreError as exc:
+            raise click.UsageError(str(exc)) from None
     detector, meta = load_detector(detector_path) if detector_path else (None, None)
     ctx = click.get_current_context()
     given = [f"--{n.replace('_', '-')}" for n in ("channels", "lag", "lag_ratio", "window",

@@ -10,7 +10,8 @@ from pathlib import Path
 from leakdiag.store.database import ActuatorRigError, EventStore, StoreError
 from leakdiag.store.summary import AlarmRecord, ChunkSummary, FinishedRun
 
-__all__ = ["record_batch", "record_verdicts", "BatchWrite", "default_actuator"]
+__all__ = ["record_batch", "record_verdicts", "BatchWrite", "default_actuator",
+           "check_stdin_named"]
 
 
 def _num(v) -> float | None:
@@ -301,6 +302,27 @@ def _other_folder(store: EventStore, actuator: str, paths, known) -> str | None:
     return None
 
 
+def check_stdin_named(source: str, actuator: str | None) -> None:
+    """Refuse a stored run from standard input without ``--actuator`` (see
+    :func:`default_actuator`); callable before the store or a detector is opened.
+
+    Parameters
+    ----------
+    source : str
+        The input: a file path, or ``-`` / ``<stdin>``.
+    actuator : str or None
+        ``--actuator``.
+
+    Raises
+    ------
+    StoreError
+        For standard input without an actuator name.
+    """
+    if actuator is None and source in ("-", "<stdin>"):
+        raise StoreError("--store with standard input needs --actuator NAME: every run from "
+                         "standard input would otherwise be one actuator 'stdin'")
+
+
 def default_actuator(store: EventStore, source: str) -> str:
     """The actuator of a ``detect`` or ``monitor`` run given no ``--actuator``: the file's stem,
     unless that would merge two actuators.
@@ -328,9 +350,7 @@ def default_actuator(store: EventStore, source: str) -> str:
     StoreError
         For standard input, or a stem that the store holds for a file in another folder.
     """
-    if source in ("-", "<stdin>"):
-        raise StoreError("--store with standard input needs --actuator NAME: every run from "
-                         "standard input would otherwise be one actuator 'stdin'")
+    check_stdin_named(source, None)
     here = Path(source).resolve()
     name = here.stem
     if name not in store.actuator_names():  # a new actuator (any other store error raises)
