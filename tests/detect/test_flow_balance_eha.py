@@ -165,18 +165,20 @@ def test_spring_load_false_alarm_is_not_confirmed_by_a_free_pressure_offset(tmp_
                             "flow-balance", "--false-alarm-rate", "25", "-o", str(det),
                             "--no-progress"])
     assert code == 0, err
-    # seed 112: the first of 110-115 whose score crosses the level (1.7; 110 stayed at 1.69)
-    code, out, _ = run_cli(["detect", sim("healthy", 112, "--leak", "0"), "--detector",
-                            str(det), "--no-progress"])
-    assert "Decision: INCONCLUSIVE" in out and "Decision: LEAK" not in out
-    assert "not significantly above zero" in out and "-800 kPa" not in out
+    # since the high-side balance (2026-11-30) healthy runs 110-116 of this unit stay under
+    # the level (with the two-side sum seeds 110-129 crossed it and were refused); none may
+    # read LEAK, and none may quote the search's edge
+    for seed in (110, 112):
+        code, out, _ = run_cli(["detect", sim(f"healthy{seed}", seed, "--leak", "0"),
+                                "--detector", str(det), "--no-progress"])
+        assert code == 0 and "Decision: LEAK" not in out and "-800 kPa" not in out
     code, out, _ = run_cli(["detect", sim("leak", 111, "--leak", "0.3", "--onset", "60"),
                             "--detector", str(det), "--no-progress"])
     assert code == 0 and "Decision: LEAK" in out
     size = float(out.split("leak size (flow-balance): ")[1].split(" L/min")[0])
     offset_kpa = float(out.split("found on the leak's windows, ")[1].split(" kPa")[0])
     # the unit's differential zero error is -85 kPa; the effective offset also holds what else
-    # shifts P1 - P2 at the working pressure (measured: -9x kPa two-sided, -100 high-side)
+    # shifts P1 - P2 at the working pressure (measured: -9x kPa two-sided, -93 high-side)
     assert 0.27 < size < 0.33 and -130 <= offset_kpa <= -60
 
 
@@ -320,7 +322,7 @@ def test_identification_takes_the_high_side_under_load_only():
 
 def test_no_load_fit_keeps_the_two_side_sum(fitted):
     assert fitted.model_.high_side_delta_pa is None
-    assert fitted.model_.case_drain_m3_per_s_pa == 0.0
+    assert fitted.model_.case_drain_m3_per_s_pa == 0.0 == fitted.model_.high_side_share
 
 
 def test_spring_change_is_no_alarm_under_the_high_side_balance():
@@ -353,3 +355,63 @@ def test_a_pump_model_saved_before_the_high_side_keeps_the_two_side_sum():
     t_old = terms(rec, P, old, 500, laminar=False)
     t_two = terms(rec, P, EHAPumpModel(1.0, 7e-13, P.bulk_modulus_pa), 500, laminar=False)
     np.testing.assert_array_equal(t_old["residual"], t_two["residual"])
+
+
+def _line_offset(rec, pa_pa):
+    ch = {k: v.copy() for k, v in rec.channels.items()}
+    ch["pa"] = ch["pa"] + pa_pa
+    return Recording(ch, rec.sample_rate, rec.start_time, dict(rec.units), dict(rec.meta))
+
+
+@pytest.fixture(scope="module")
+def spring_runs():
+    return [ld.sim.simulate_eha(duration=40, leak_lpm=0.0, machine=313, seed=s, load="spring")
+            for s in range(4)]
+
+
+def test_a_line_transducer_zero_error_is_a_constant_flow_not_a_leak(spring_runs):
+    """An audit (2026-11-30): pa reading 100 kPa low in the fit and the judged runs gave 19 of
+    100 healthy spring runs of unit 313 a false alarm under the high-side balance (17 LEAK),
+    3 of 100 under the two-side sum: the offset moves the leakage term by C (pa - pb) and the
+    case drain of side A only, neither of which the balance had a term for. The constant flow
+    takes it: the identified constant moves by about the leakage times the offset, and the
+    leak's coefficient does not move."""
+    dets = {o: FlowBalanceDetector(system="eha", false_alarms_per_hour=1.0).fit(
+        [_line_offset(r, o) for r in spring_runs]) for o in (0.0, -1e5)}
+    m0, m1 = dets[0.0].model_, dets[-1e5].model_
+    shift = m1.constant_flow_m3_per_s - m0.constant_flow_m3_per_s
+    leakage = m0.pump_leakage_m3_per_s_pa + m0.case_drain_m3_per_s_pa
+    assert 0.5 * leakage * 1e5 < shift < 3.0 * leakage * 1e5  # measured 2.0x
+    rec = ld.sim.simulate_eha(duration=40, leak_lpm=0.02, onset=20, machine=313, seed=11,
+                              load="spring")
+    sizes = []
+    for o, det in dets.items():
+        v = det.predict(_line_offset(rec, o))
+        lo, hi = v.leak_lpm_interval
+        assert v.leak and lo <= rec.meta["leak_lpm_achieved"] <= hi
+        sizes.append(v.leak_lpm)
+    assert sizes[1] == pytest.approx(sizes[0], rel=0.05)
+
+
+def test_cross_fit_halves_take_the_whole_fit_s_balance():
+    from leakdiag.detect._flow_balance_eha import HIGH_SIDE_DELTA_PA, identify
+
+    recs = [ld.sim.simulate_eha(duration=20, leak_lpm=0.0, seed=s) for s in range(2)]
+    args = (recs, P, [500, 500], False, [4, 4], False, False)
+    assert identify(*args)[0].high_side_delta_pa is None  # no load: the two-side sum
+    high = EHAPumpModel(1.0, 6e-13, P.bulk_modulus_pa, high_side_delta_pa=HIGH_SIDE_DELTA_PA)
+    assert identify(*args, like=high)[0].high_side_delta_pa == HIGH_SIDE_DELTA_PA
+    two = identify(*args, like=EHAPumpModel(1.0, 6e-13, P.bulk_modulus_pa))[0]
+    assert two.high_side_delta_pa is None
+
+
+def test_a_run_with_more_flow_reversals_than_the_fit_is_refused(spring_runs):
+    det = FlowBalanceDetector(system="eha", false_alarms_per_hour=1.0).fit(spring_runs)
+    assert 0.85 < det.model_.high_side_share < 0.95
+    low = ld.sim.simulate_eha(duration=40, leak_lpm=0.02, onset=20, machine=313, seed=11,
+                              load="spring", amplitude=1.5)
+    with pytest.raises(RecordingError, match=r"differ by more than 0.2 MPa for 7\d% of the "
+                                             r"time.*against at least 8\d%"):
+        det.predict(low)
+    same = ld.sim.simulate_eha(duration=40, leak_lpm=0.0, machine=313, seed=12, load="spring")
+    assert not det.predict(same).leak

@@ -700,6 +700,11 @@ def leak_transition_pa(p: VCAParams) -> float:
     return p.leak_transition_pressure_pa
 
 
+def operating_problem(rec, model, first: int) -> None:
+    """The EHA's high-side balance refuses some operations; the VCA's balance none."""
+    return None
+
+
 def terms(rec, nominal: VCAParams, model: VCAValveModel, window: int, laminar: bool,
           quiet: bool = True, drift_windows: int | None = None) -> dict:
     """Window terms of one recording with a given model (see :func:`vca_terms`).
@@ -744,13 +749,13 @@ def terms(rec, nominal: VCAParams, model: VCAValveModel, window: int, laminar: b
 
 
 def identify(recs, nominal: VCAParams, windows, laminar, skips, fit_bandwidth, fit_bulk_modulus,
-             quiet: bool = True, fit_valve_timing: bool = False):
+             quiet: bool = True, fit_valve_timing: bool = False, like=None):
     """Identify the valve model on healthy recordings (see :func:`identify_vca`).
 
     ``quiet``: the same window boundaries as :func:`terms` (not for the 20 ms windows of the
     bandwidth / bulk-modulus identification, which must see the transients);
     ``fit_valve_timing``: identify ``valve_lead_s`` (not with ``fit_bandwidth``, which models
-    the same error nonlinearly).
+    the same error nonlinearly); ``like``: not used (the EHA's choice of balance).
     """
     arrays = [_arrays(r) for r in recs]
     rates = [r.sample_rate for r in recs]

@@ -1186,7 +1186,7 @@ class FlowBalanceDetector(Detector):
         out: list = [None] * len(recs)
         for a, b in (idx, idx[::-1]):
             other = clone(self)
-            other._fit([recs[i] for i in a], _no_cross=True)
+            other._fit([recs[i] for i in a], _no_cross=True, _like=self.model_)
             for i in b:
                 t = other._terms(recs[i])
                 g, _ = other._glr(t)
@@ -1301,8 +1301,8 @@ class FlowBalanceDetector(Detector):
         return self._fit(recordings, reference_maxima=reference_maxima)
 
     @_one_blas_thread
-    def _fit(self, recordings, _no_cross: bool = False,
-             reference_maxima=None) -> "FlowBalanceDetector":
+    def _fit(self, recordings, _no_cross: bool = False, reference_maxima=None,
+             _like=None) -> "FlowBalanceDetector":
         self._validate()
         if not _no_cross:  # fitting anew: no settings to hold it to (check_params_unchanged)
             self.__dict__.pop("fitted_params_", None)
@@ -1320,7 +1320,7 @@ class FlowBalanceDetector(Detector):
             recs, nominal, [self._window(r) for r in recs], self.leak_law == "laminar",
             [self._skip(r) for r in recs], self.fit_bandwidth, self.fit_bulk_modulus,
             quiet=bool(self.quiet_boundaries),
-            fit_valve_timing=bool(self.fit_valve_timing))
+            fit_valve_timing=bool(self.fit_valve_timing), like=_like)
         if not _no_cross:  # the fit the user asked for, not a cross-fit half of it (an
             # audit, 2026-11-29: one half of a chirp-driven fit gave -0.018 where the whole fit
             # gave 1.03, and refused it): a position or pressure in another unit scales the
@@ -1520,6 +1520,10 @@ class FlowBalanceDetector(Detector):
                 f"{where}: {source}: too short to judge: {self._too_short(rec, n_win)}")
         self._check_constant(rec, where)
         self._check_operation(rec, where)
+        why = self._backend().operating_problem(
+            rec, self.model_, int(round(float(self.burn_in_s) * rec.sample_rate)))
+        if why:
+            raise RecordingError(f"{where}: {rec.meta.get('source', '<recording>')}: {why}")
         self._check_holds(rec, where)
         self._check_spikes(rec, where)
         self._check_steps(rec, where)
