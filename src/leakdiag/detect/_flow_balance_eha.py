@@ -85,8 +85,11 @@ HIGH_SIDE_MIN_FRACTION = 0.6
 #: Unit 313 fitted at 3 V with the v5 variation (shares 0.88-0.90), three 0.02 L/min leaks per
 #: drive: sized 1.00-1.06x at 3 V (share 0.89), 0.90-0.95x at 2.5 V (0.86; one interval of
 #: three missed the truth), 0.79-0.82x at 2 V (0.82) and 0.71-0.73x at 1.5 V (0.75), every
-#: interval missing it.
-HIGH_SIDE_SHARE_MARGIN = 0.03
+#: interval missing it. 0.03 refused a benchmark-v5 leaking run of a detector fitted on 2 own
+#: runs (share 0.85 against 0.89: the v5 drive wanders by 5 %); 0.05 refused none of the size
+#: band's 63 spring runs nor of 400 held-out v5 runs of 8-run fits. Between the fit's share and
+#: the margin sizes can be biased low by 5-10 % (2.5 V above).
+HIGH_SIDE_SHARE_MARGIN = 0.05
 
 
 def size_profiles_pressure_offset(load: str | None) -> bool:
