@@ -30,11 +30,12 @@ __all__ = ["SIZE_RATIO_RANGE", "FLEET_BAND_MISSES", "size_band", "band_words"]
 #: the onset, measured by ``perf/flow_balance_size_band.py`` (2026-11-26, seventh session;
 #: remeasured 2026-11-29, session 27, when the VCA's no-load size began to profile the
 #: transducers' differential zero error: VCA without load 0.1253-1.6483 on 68 runs before; and
-#: 2026-11-30, session 30, when the EHA under the spring took the high-side balance: EHA with
+#: 2026-11-30, session 30, when the EHA under the spring took the high-side balance (its final
+#: form, c0625c7): EHA with
 #: the spring 0.9309-1.1783 on 63 runs before, without load unchanged to 1e-13).
 SIZE_RATIO_RANGE: dict[str, dict[str, tuple[float, float, int]]] = {
     "vca": {"none": (0.6498, 1.7655, 67), "spring": (0.7318, 1.1224, 72)},
-    "eha": {"none": (0.9835, 1.0873, 63), "spring": (0.9497, 1.1001, 63)},
+    "eha": {"none": (0.9835, 1.0873, 63), "spring": (0.9492, 1.1056, 63)},
 }
 
 
