@@ -78,18 +78,6 @@ HIGH_SIDE_DELTA_PA = 2e5
 #: high-side fit there left a drive variation of 5 % as a leak-like misfit (half-run
 #: coefficient 9.5 standard errors, against 0 for the two-side sum).
 HIGH_SIDE_MIN_FRACTION = 0.6
-#: How far below the fit's smallest per-recording share a judged recording's share of time
-#: with the lines apart may lie before the high-side balance refuses it (leakdiag choice, an
-#: audit of 2026-11-30): its case-drain and charge terms, identified at the fit's operation,
-#: extrapolate poorly, and a recording with more flow reversals (a lower drive) is sized low.
-#: Unit 313 fitted at 3 V with the v5 variation (shares 0.88-0.90), three 0.02 L/min leaks per
-#: drive: sized 1.00-1.06x at 3 V (share 0.89), 0.90-0.95x at 2.5 V (0.86; one interval of
-#: three missed the truth), 0.79-0.82x at 2 V (0.82) and 0.71-0.73x at 1.5 V (0.75), every
-#: interval missing it. 0.03 refused a benchmark-v5 leaking run of a detector fitted on 2 own
-#: runs (share 0.85 against 0.89: the v5 drive wanders by 5 %); 0.05 refused none of the size
-#: band's 63 spring runs nor of 400 held-out v5 runs of 8-run fits. Between the fit's share and
-#: the margin sizes can be biased low by 5-10 % (2.5 V above).
-HIGH_SIDE_SHARE_MARGIN = 0.05
 
 
 def size_profiles_pressure_offset(load: str | None) -> bool:
@@ -140,9 +128,6 @@ class EHAPumpModel:
         differential zero error, which also moves the case-drain term of the side it reads on
         (a pa reading 100 kPa low had given 19 of 100 healthy runs a false alarm without it,
         an audit of 2026-11-30).
-    high_side_share : float, default 0.0
-        High-side balance: the smallest share of time with the lines apart among the healthy
-        recordings (:data:`HIGH_SIDE_SHARE_MARGIN`).
     """
 
     displacement_factor: float
@@ -153,7 +138,6 @@ class EHAPumpModel:
     case_drain_m3_per_s_pa: float = 0.0
     charge_flow_m3_per_s: float = 0.0
     constant_flow_m3_per_s: float = 0.0
-    high_side_share: float = 0.0
 
     def to_dict(self) -> dict:
         """Field name -> value.
@@ -204,46 +188,6 @@ def wiring_problem(rec, first: int) -> str | None:
             f"{cross / 1e3:.4g} kPa after the burn-in): pa feeds chamber 1 (p1) and pb chamber 2 "
             "(p2) through the line orifices of Eqs. 3-7 to 3-12, so pa and pb (or p1 and p2) look "
             "swapped; map the channels so that they match (docs/io.md)")
-
-
-def operating_problem(rec, model: EHAPumpModel, first: int) -> str | None:
-    """Why the fitted balance does not describe this recording's operation, or None.
-
-    The high-side balance refuses a recording that spends much less of its time with the
-    lines apart than the healthy ones did (:data:`HIGH_SIDE_SHARE_MARGIN`): a lower drive,
-    another load. The two-side sum has no such limit.
-
-    Parameters
-    ----------
-    rec : Recording
-        EHA recording with :data:`CHANNELS`.
-    model : EHAPumpModel
-        The fitted model.
-    first : int
-        First sample after the burn-in.
-
-    Returns
-    -------
-    str or None
-        The problem in words, or None.
-    """
-    delta = _high_side(model)
-    fitted = float(getattr(model, "high_side_share", 0.0))
-    if delta is None or not fitted > 0:
-        return None
-    pa = np.asarray(rec["pa"], dtype=np.float64)[first:]
-    pb = np.asarray(rec["pb"], dtype=np.float64)[first:]
-    if len(pa) < 2:
-        return None
-    d = 0.5 * ((pa[1:] - pb[1:]) + (pa[:-1] - pb[:-1]))
-    share = float(np.mean(np.abs(d) > delta))
-    if share >= fitted - HIGH_SIDE_SHARE_MARGIN:
-        return None
-    return (f"its line pressures differ by more than {delta / 1e6:g} MPa for {share:.0%} of the "
-            f"time after the burn-in, against at least {fitted:.0%} in every healthy recording "
-            "the detector was fitted on: the high-side balance (docs/detect.md 8.5) is "
-            "identified for that operation, and more flow reversals (a lower drive, a lighter "
-            "load) were sized low; fit a detector on healthy recordings of this operation")
 
 
 def default_params() -> EHAParams:
@@ -443,12 +387,10 @@ def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, f
         std["bulk_modulus_pa"] = float(std.pop("inverse_bulk_modulus")) * beta * beta
     extra = {}
     if high:
-        shares = [float(np.sum(r[:, _G]) / np.sum(r[:, _T])) for r in raws if np.sum(r[:, _T])]
         extra = {"high_side_delta_pa": HIGH_SIDE_DELTA_PA,
                  "case_drain_m3_per_s_pa": float(vals["case_drain_m3_per_s_pa"]),
                  "charge_flow_m3_per_s": float(vals["charge_flow_m3_per_s"]),
-                 "constant_flow_m3_per_s": float(vals["constant_flow_m3_per_s"]),
-                 "high_side_share": min(shares) if shares else 0.0}
+                 "constant_flow_m3_per_s": float(vals["constant_flow_m3_per_s"])}
     model = EHAPumpModel(float(vals["displacement_factor"]),
                          float(vals["pump_leakage_m3_per_s_pa"]), float(beta), 0.0, **extra)
     # second stage: the leak-law term left in the healthy residual (model approximations such

@@ -700,11 +700,6 @@ def leak_transition_pa(p: VCAParams) -> float:
     return p.leak_transition_pressure_pa
 
 
-def operating_problem(rec, model, first: int) -> None:
-    """The EHA's high-side balance refuses some operations; the VCA's balance none."""
-    return None
-
-
 def terms(rec, nominal: VCAParams, model: VCAValveModel, window: int, laminar: bool,
           quiet: bool = True, drift_windows: int | None = None) -> dict:
     """Window terms of one recording with a given model (see :func:`vca_terms`).
