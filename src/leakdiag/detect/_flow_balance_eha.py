@@ -23,14 +23,16 @@ valve is shut, and that line's continuity with its chamber alone (Eq. 3-16 + 3-1
 
 .. math::
 
-    Q_l = \\frac{q_b}{2\\pi}\\omega - C_i (P_a - P_b) - s C_e (P_s - P_{acc}) - A\\dot x
+    Q_l = \\frac{q_b}{2\\pi}\\omega - C_i (P_a - P_b) - s C_e (P_s - P_{acc}) - c - A\\dot x
           - s\\frac{V_{line}\\dot P_s + V_s \\dot P_{c,s}}{\\beta},
 
 with :math:`s = \\pm 1` the high side, :math:`P_s` its line and :math:`P_{c,s}` its chamber
 pressure, :math:`C_i` the pump's cross-port and :math:`C_e` its case-drain leakage to the
-accumulator at :math:`P_{acc}` (linear in :math:`C_e` and :math:`C_e P_{acc}`). The other
-samples keep the two-side sum. :func:`identify` takes it when the healthy recordings spend at
-least :data:`HIGH_SIDE_MIN_FRACTION` of their time on one side (a load holds the lines apart).
+accumulator at :math:`P_{acc}` (linear in :math:`C_e` and :math:`C_e P_{acc}`), :math:`c` a
+constant flow (the leakage times the line transducers' differential zero error, which the
+case-drain term of one side also takes). The other samples keep the two-side sum.
+:func:`identify` takes it when the healthy recordings spend at least
+:data:`HIGH_SIDE_MIN_FRACTION` of their time on one side (a load holds the lines apart).
 """
 
 from __future__ import annotations
@@ -308,7 +310,8 @@ def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, f
     and, with ``fit_bulk_modulus``, in ``1/beta``); with the high-side balance (module
     docstring; chosen when the recordings spend at least :data:`HIGH_SIDE_MIN_FRACTION` of
     their time with the lines :data:`HIGH_SIDE_DELTA_PA` apart) ``C_p L`` becomes
-    ``C_i L + C_e (EXT + L2/2) - C_e P_acc S``, linear in ``C_i, C_e, C_e P_acc``. The baseline
+    ``C_i L + C_e (EXT + L2/2) - C_e P_acc S + c T``, linear in ``C_i, C_e, C_e P_acc, c``
+    (``T`` the window's duration). The baseline
     leak is fitted afterwards on the residual (second stage): fitted jointly, a turbulent
     baseline is confounded with ``d`` (the no-load pressure difference follows the velocity)
     and a laminar one is ``C_p``.
@@ -334,7 +337,7 @@ def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, f
     like : EHAPumpModel, optional
         Take its balance (two-side or high side) instead of choosing from the recordings: the
         cross-fit halves of a fit take the whole fit's (an audit, 2026-11-30: halves that chose
-        apart near the share's bound gave the other statistic's maxima and a level too low,
+        apart near the 60 % bound gave the other statistic's maxima and a level too low,
         10 of 60 held-out healthy runs crossing against 0 of 60 with one choice).
 
     Returns
