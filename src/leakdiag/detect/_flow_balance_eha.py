@@ -136,6 +136,7 @@ class EHAPumpModel:
     pump_leakage_m3_per_s_pa: float
     bulk_modulus_pa: float
     baseline_leak_coefficient: float = 0.0
+    # the fields' defaults are class attributes: a model pickled before they existed reads them
     high_side_delta_pa: float | None = None
     case_drain_m3_per_s_pa: float = 0.0
     charge_flow_m3_per_s: float = 0.0
@@ -246,14 +247,9 @@ def _compressibility(raw: np.ndarray, nominal: EHAParams) -> np.ndarray:
     return nominal.line_volume_m3 * (raw[:, _DPA] - raw[:, _DPB]) + raw[:, _CA] - raw[:, _CB]
 
 
-def _high_side(model: EHAPumpModel) -> float | None:
-    # a model saved before the high-side balance existed has no such field: the two-side sum
-    return getattr(model, "high_side_delta_pa", None)
-
-
 def _terms_from_raw(raw: np.ndarray, nominal: EHAParams, model: EHAPumpModel) -> dict:
     qr = _pump_flow_per_rad(nominal) * model.displacement_factor
-    if _high_side(model) is None:
+    if model.high_side_delta_pa is None:
         comp = _compressibility(raw, nominal) / (2.0 * model.bulk_modulus_pa)
         drain = 0.0
     else:
@@ -298,7 +294,7 @@ def terms(rec, nominal: EHAParams, model: EHAPumpModel, window: int, laminar: bo
         ``pump_volume`` (m^3, signed: the pump model's displaced volume), ``duration`` (s),
         ``edge_flow2``, ``compressibility`` (m^3).
     """
-    return _terms_from_raw(raw_sums(rec, nominal, window, laminar, _high_side(model)), nominal,
+    return _terms_from_raw(raw_sums(rec, nominal, window, laminar, model.high_side_delta_pa), nominal,
                            model)
 
 
@@ -351,7 +347,7 @@ def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, f
     raw = np.concatenate(raws)
     total = float(np.sum(raw[:, _T]))
     if like is not None:
-        high = _high_side(like) is not None
+        high = like.high_side_delta_pa is not None
     else:
         high = total > 0 and float(np.sum(raw[:, _G])) >= HIGH_SIDE_MIN_FRACTION * total
     qr = _pump_flow_per_rad(nominal)
