@@ -1,15 +1,17 @@
 """How far the flow balance's leak size is from the truth on virtual machines (size band).
 
-``python -m perf.flow_balance_size_band [--per-size 9] [--systems vca,eha] [--out DIR]``
+``python -m perf.flow_balance_size_band [--per-size 40] [--systems vca,eha] [--out DIR]``
 
 For each rig and load, the benchmark v5 suite's leaking runs of index ``--first`` (default 10)
 on, ``--per-size`` of them per leak size: the runs the benchmark does not use (it judges
 indexes 0-9), each its own virtual machine, fitted per unit on 2 own healthy runs as in the
-benchmark's per-unit mode. For every run detected at or after its onset the ratio
-``leak_lpm / leak_lpm_achieved`` (the verdict's size over the run's true mean leak after the
-onset) is written to ``DIR/size_ratios.csv``; per group the smallest and largest ratio of the
-detected runs are printed: the
-constants of ``detect/_flow_balance_size.py`` (docs/detect.md 8.5, "Size interval").
+benchmark's per-unit mode. For every run detected at or after its onset the verdict's size, its
+statistical interval and the run's true mean leak after the onset are written to
+``DIR/size_ratios.csv`` (with the ratio ``size / truth``). Each size's first half of the runs
+(by index) fits the scale of :class:`~leakdiag.detect._flow_balance_size.SizeErrorModel`
+(:func:`fit_scale`), the second half gives the scores (:func:`calibrate`); the models are
+printed: the constants of ``detect/_flow_balance_size.py`` (docs/detect.md 8.5, "Size
+interval").
 
 Resumable: after every run the rows so far are written whole (a temporary file and an atomic
 rename) to ``DIR/rows-<key>.csv``, the key a hash of what a row depends on (the alarm and fit
@@ -27,6 +29,8 @@ import argparse
 import hashlib
 import inspect
 import json
+import math
+import multiprocessing
 from pathlib import Path
 
 import numpy as np
@@ -38,12 +42,13 @@ FALSE_ALARM_PER_RUN, CONFIDENCE, N_OWN = 0.01, 0.95, 2
 #: the flow balance and its features, the benchmark's suite and helpers (``bench``).
 CODE_PARTS = ("_holds.py", "_validation.py", "bench", "detect", "features", "io", "sim")
 #: Columns of a row.
-COLUMNS = ["system", "load", "leak_lpm", "seed", "machine", "detected", "truth_lpm",
-           "leak_lpm_est", "ratio"]
+COLUMNS = ["system", "load", "leak_lpm", "seed", "machine", "index", "detected", "truth_lpm",
+           "leak_lpm_est", "stat_low_lpm", "stat_high_lpm", "ratio"]
 
 
-def _run_row(system, suite, c) -> dict:
-    """Fit the flow balance on the unit's own healthy runs and judge one leaking run."""
+def _judge(system, suite, c):
+    """Fit the flow balance on the unit's own healthy runs and judge one leaking run:
+    ``(verdict, true mean leak after the onset, detected at or after the onset with a size)``."""
     from leakdiag.bench.registry import make_detector
     from leakdiag.bench.v5_common import _simulate, v5_alarm
     from leakdiag.bench.v5_unit import own_cases
@@ -55,10 +60,83 @@ def _run_row(system, suite, c) -> dict:
     rec = _simulate(c)
     v = det.predict(rec)
     truth = float(rec.meta["leak_lpm_achieved"])
-    ok = bool(v.leak and v.alarm_time_s >= c.onset_s and v.leak_lpm is not None)
+    return v, truth, bool(v.leak and v.alarm_time_s >= c.onset_s and v.leak_lpm is not None)
+
+
+def _run_row(system, suite, c) -> dict:
+    """One row: the size, its statistical interval and the truth (:func:`_judge`)."""
+    v, truth, ok = _judge(system, suite, c)
+    stat = v.leak_lpm_interval_statistical if ok else (np.nan, np.nan)
     return {"system": system, "load": c.load, "leak_lpm": c.leak_lpm, "seed": c.seed,
-            "machine": c.nuisance["machine"], "detected": ok, "truth_lpm": truth,
-            "leak_lpm_est": v.leak_lpm, "ratio": v.leak_lpm / truth if ok else np.nan}
+            "machine": c.nuisance["machine"], "index": c.nuisance["index"], "detected": ok,
+            "truth_lpm": truth, "leak_lpm_est": v.leak_lpm if ok else np.nan,
+            "stat_low_lpm": stat[0], "stat_high_lpm": stat[1],
+            "ratio": v.leak_lpm / truth if ok else np.nan}
+
+
+def halves(df):
+    """``(fit, calibration)``: each leak size's runs of a group split at the median index.
+
+    The first half of the indexes per size (``index < first + per_size // 2`` for a study of
+    ``--first``, ``--per-size``) fits the scale, the second gives the scores; split on all
+    runs, detected or not, so that a missed run moves no other run to the other half.
+    """
+    idx = df["index"].astype(int)
+    lo = idx.groupby([df.system, df.load, df.leak_lpm]).transform("min")
+    hi = idx.groupby([df.system, df.load, df.leak_lpm]).transform("max")
+    fit = idx < lo + (hi - lo + 1) // 2
+    return df[fit], df[~fit]
+
+
+def fit_scale(det) -> tuple[float, float]:
+    """``(a, c)`` of the scale ``sqrt(a w^2 + (c s)^2)`` on one group's detected fit runs.
+
+    Non-negative least squares of the squared relative error ``((s - truth) / s)^2`` on
+    ``(w / s)^2`` and 1, on their means per leak size (each size weighted alike), ``w`` the
+    statistical interval's half-width.
+    """
+    from scipy.optimize import nnls
+
+    s = det.leak_lpm_est.to_numpy(float)
+    e2 = ((s - det.truth_lpm.to_numpy(float)) / s) ** 2
+    x = (((det.stat_high_lpm - det.stat_low_lpm) / 2).to_numpy(float) / s) ** 2
+    m = np.c_[e2, x]
+    g = np.asarray([m[(det.leak_lpm == size).to_numpy()].mean(axis=0)
+                    for size in sorted(set(det.leak_lpm))])
+    coef, _ = nnls(np.c_[g[:, 1], np.ones(len(g))], g[:, 0])
+    if not (coef > 0).any():
+        raise ValueError("size band: the fit runs give a zero scale")
+    return float(coef[0]), float(np.sqrt(coef[1]))
+
+
+def calibrate(fit_det, cal_det):
+    """The :class:`~leakdiag.detect._flow_balance_size.SizeErrorModel` of one group: the scale
+    from ``fit_det`` (:func:`fit_scale`), the extreme scores ``(s - truth) / rho`` of
+    ``cal_det``."""
+    from leakdiag.detect._flow_balance_size import SizeErrorModel
+
+    a, c = (float(f"{v:.4g}") for v in fit_scale(fit_det))  # the constants as printed
+    w = ((cal_det.stat_high_lpm - cal_det.stat_low_lpm) / 2).to_numpy(float)
+    s = cal_det.leak_lpm_est.to_numpy(float)
+    score = (s - cal_det.truth_lpm.to_numpy(float)) / np.sqrt(a * w ** 2 + (c * s) ** 2)
+    # rounded outwards, so the printed band holds every calibration run
+    return SizeErrorModel(a, c, math.floor(score.min() * 1e4) / 1e4,
+                          math.ceil(score.max() * 1e4) / 1e4, len(score), len(fit_det))
+
+
+def models(df) -> dict:
+    """``{(system, load): SizeErrorModel}`` of a study's rows (detected runs only)."""
+    fit, cal = (h[h.detected.astype(bool)] for h in halves(df))  # halves of all runs
+    out = {}
+    for key, g in cal.groupby(["system", "load"]):
+        f = fit[(fit.system == key[0]) & (fit.load == key[1])]
+        if len(f):  # (a study of one run per size has no fit half)
+            out[key] = calibrate(f, g)
+    return out
+
+
+def _run_star(args) -> dict:
+    return _run_row(*args)
 
 
 def rows_key() -> str:
@@ -66,6 +144,7 @@ def rows_key() -> str:
     from leakdiag._fingerprint import library_versions, parts_fingerprint
 
     obj = [FALSE_ALARM_PER_RUN, CONFIDENCE, N_OWN, inspect.getsource(_run_row),
+           inspect.getsource(_judge),
            parts_fingerprint(CODE_PARTS), library_versions()]
     return hashlib.sha256(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:16]
 
@@ -75,9 +154,11 @@ def main(argv=None) -> None:
     from leakdiag.bench.v5_suite import V5_SUITES, build_v5_suite
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--per-size", type=int, default=9)
+    ap.add_argument("--per-size", type=int, default=40)
     ap.add_argument("--first", type=int, default=10)
     ap.add_argument("--out", default="size-band")
+    ap.add_argument("--workers", type=int, default=1,
+                    help="processes judging runs (rows are written in the suite's order)")
     ap.add_argument("--systems", default=",".join(V5_SUITES),
                     help="rigs to measure, comma-separated (default: all)")
     args = ap.parse_args(argv)
@@ -92,18 +173,22 @@ def main(argv=None) -> None:
             continue
         cases = [c for c in build_v5_suite({system: suite}) if c.role == "test_leak"
                  and args.first <= c.nuisance["index"] < args.first + args.per_size]
-        for c in cases:
-            if c.seed in seen:
-                continue
-            rows.append(_run_row(system, suite, c))
-            save(state, rows, COLUMNS)
-            print(system, c.load, c.leak_lpm, c.seed, rows[-1]["ratio"], flush=True)
+        todo = [(system, suite, c) for c in cases if c.seed not in seen]
+        pool = multiprocessing.Pool(args.workers) if args.workers > 1 else None
+        try:
+            it = pool.imap(_run_star, todo) if pool else map(_run_star, todo)
+            for (_, _, c), row in zip(todo, it):
+                rows.append(row)
+                save(state, rows, COLUMNS)
+                print(system, c.load, c.leak_lpm, c.seed, row["ratio"], flush=True)
+        finally:
+            if pool:
+                pool.terminate()
     df = save(Path(args.out) / "size_ratios.csv", rows, COLUMNS)
-    print("group, detected runs, smallest and largest ratio:")
-    for (s, ld), g in df[df.detected.astype(bool)].groupby(["system", "load"]):
-        r = np.sort(g.ratio.to_numpy())
-        print(f"{s} {ld}: n={len(r)} min={r[0]:.4f} max={r[-1]:.4f} "
-              f"p2.5={np.quantile(r, 0.025):.4f} p97.5={np.quantile(r, 0.975):.4f}")
+    print("group: noise weight a, relative error c, scores low/high, calibration runs, fit runs")
+    for (sys_, ld), m in models(df).items():
+        print(f"{sys_} {ld}: SizeErrorModel({m.noise_weight:.4g}, {m.relative_error:.4g}, "
+              f"{m.score_low:.4f}, {m.score_high:.4f}, {m.n}, {m.n_fit})")
 
 
 if __name__ == "__main__":

@@ -148,7 +148,9 @@ def small_band(monkeypatch):
         made.append(alarm)
         det = FakeFlowBalance()
         det.predict = lambda rec: SimpleNamespace(
-            leak=True, alarm_time_s=math.inf, leak_lpm=1.1 * rec.meta["leak_lpm_achieved"])
+            leak=True, alarm_time_s=math.inf, leak_lpm=1.1 * rec.meta["leak_lpm_achieved"],
+            leak_lpm_interval_statistical=(rec.meta["leak_lpm_achieved"],
+                                           1.2 * rec.meta["leak_lpm_achieved"]))
         return det
 
     monkeypatch.setattr(common, "_simulate", fake_simulate)

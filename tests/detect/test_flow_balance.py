@@ -87,13 +87,21 @@ def test_planted_leak_found_with_onset_and_coefficient_in_interval(fitted):
     assert v.leak_lpm_at_reference == pytest.approx(v.leak_coefficient * 1e3 * 60_000, rel=1e-3)
 
 
+def _band_by_hand(model, lpm, stat):
+    """``[s - high rho, s - low rho]`` (low end at least 0) united with ``stat``, by hand."""
+    rho = math.sqrt(model.noise_weight * ((stat[1] - stat[0]) / 2) ** 2
+                    + (model.relative_error * lpm) ** 2)
+    return (min(stat[0], max(lpm - model.score_high * rho, 0.0)),
+            max(stat[1], lpm - model.score_low * rho))
+
+
 def test_size_interval_is_the_union_of_the_statistical_one_and_the_measured_model_error(fitted):
     """The benchmark found the coefficient's interval alone holding the truth in 7 of 67
-    no-load VCA runs: the interval is widened by the ratio range measured on virtual machines
+    no-load VCA runs: the interval is widened by the model error measured on virtual machines
     (detect/_flow_balance_size.py), recomputed here by hand from the verdict's numbers."""
     from scipy.stats import norm
 
-    from leakdiag.detect._flow_balance_size import SIZE_RATIO_RANGE
+    from leakdiag.detect._flow_balance_size import SIZE_ERROR_MODEL
 
     rec = _with_offset(ld.sim.simulate_vca(duration=60, leak_lpm=0.05, onset=30, load="spring",
                                            params=UNIT, seed=12))
@@ -102,28 +110,39 @@ def test_size_interval_is_the_union_of_the_statistical_one_and_the_measured_mode
     k, se, lpm = v.leak_coefficient, v.leak_coefficient_se, v.leak_lpm
     z = norm.ppf(0.975)  # interval_level 0.95
     stat = ((k - z * se) / k * lpm, (k + z * se) / k * lpm)  # (k +- z se) * mean |phi|
-    r_lo, r_hi, n = SIZE_RATIO_RANGE["vca"]["spring"]
-    assert 0 < r_lo < 1 < r_hi and n >= 30
-    want = (min(stat[0], lpm / r_hi), max(stat[1], lpm / r_lo))
-    assert v.leak_lpm_interval == pytest.approx(want, rel=1e-9)
+    assert v.leak_lpm_interval_statistical == pytest.approx(stat, rel=1e-9)
+    m = SIZE_ERROR_MODEL["vca"]["spring"]
+    assert m.score_low < 0 < m.score_high and m.n >= 100 and m.relative_error > 0
+    assert v.leak_lpm_interval == pytest.approx(_band_by_hand(m, lpm, stat), rel=1e-9)
     assert v.leak_lpm_interval[1] - v.leak_lpm_interval[0] > stat[1] - stat[0]
-    assert f"measured on {n} virtual machines (load spring: sizes {r_lo:.2f}-{r_hi:.2f}x" \
+    rho = math.sqrt(m.noise_weight * ((stat[1] - stat[0]) / 2) ** 2
+                    + (m.relative_error * lpm) ** 2)  # the band alone, in its words
+    assert (f"measured on {m.n} virtual machines (load spring: a size's error in scales that "
+            "grow with its statistical interval and with the size, here "
+            f"{lpm - m.score_high * rho:.3g}-{lpm - m.score_low * rho:.3g} L/min;") \
         in v.leak_lpm_interval_holds
+    assert v.leak_lpm_interval_holds.startswith(
+        f"the coefficient's statistical error (that part alone: {stat[0]:.3g}-{stat[1]:.3g} "
+        "L/min), and the model error")
+    assert f"probability >= {(m.n - 1) / (m.n + 1):.2f}" in v.leak_lpm_interval_holds
+    d = v.as_dict()
+    assert (d["leak_lpm_statistical_low"], d["leak_lpm_statistical_high"]) == pytest.approx(stat)
     lo, hi = v.leak_lpm_interval
     assert lo <= rec.meta["leak_lpm_achieved"] <= hi
 
 
 def test_interval_level_is_said_to_set_the_statistical_part_only(fitted):
     """The audit (2026-11-27, F6) found the same interval at interval_level 0.5, 0.8, 0.95 and
-    0.999: the measured model-error band dominates. The words say the level is the
-    statistical part's and that the band's probability is the interval's promise."""
+    0.999: the pooled ratio band dominated. The words say the level is the statistical part's
+    and that the band's probability is the interval's promise; since the band's scale grows
+    with the statistical half-width (2026-11-30), a higher level widens both, nested."""
     import copy
 
-    from leakdiag.detect._flow_balance_size import SIZE_RATIO_RANGE
+    from leakdiag.detect._flow_balance_size import SIZE_ERROR_MODEL
 
     rec = _with_offset(ld.sim.simulate_vca(duration=60, leak_lpm=0.05, onset=30, load="spring",
                                            params=UNIT, seed=12))
-    r_lo, r_hi, n = SIZE_RATIO_RANGE["vca"]["spring"]
+    m = SIZE_ERROR_MODEL["vca"]["spring"]
     intervals = []
     for level in (0.5, 0.999):
         det = copy.deepcopy(fitted)
@@ -131,39 +150,81 @@ def test_interval_level_is_said_to_set_the_statistical_part_only(fitted):
         v = det.predict(rec)
         assert (f"interval_level {level:g} is the level of the statistical part only"
                 in v.leak_lpm_interval_holds)
-        assert f"probability >= {(n - 1) / (n + 1):.2f}" in v.leak_lpm_interval_holds
-        lo, hi = v.leak_lpm_interval  # never narrower than the band
-        assert lo <= v.leak_lpm / r_hi * (1 + 1e-12) and hi >= v.leak_lpm / r_lo * (1 - 1e-12)
+        assert v.leak_lpm_interval == pytest.approx(
+            _band_by_hand(m, v.leak_lpm, v.leak_lpm_interval_statistical), rel=1e-12)
         intervals.append(v.leak_lpm_interval)
-    # the finding itself: the band contains both statistical intervals, so the level changes
-    # nothing here (what the words now say)
-    assert intervals[0] == pytest.approx(intervals[1], rel=1e-12)
+    assert intervals[1][0] < intervals[0][0] and intervals[1][1] > intervals[0][1]
 
 
-def test_size_band_constants_are_the_committed_study_s_extremes():
-    """SIZE_RATIO_RANGE is what perf/flow_balance_size_band.py measured (its CSV in docs)."""
+def test_size_band_constants_are_the_committed_study_s_models():
+    """SIZE_ERROR_MODEL is what perf/flow_balance_size_band.py measured (its CSV in docs):
+    the scale fitted on indexes 10-29, the scores of indexes 30-49, recomputed with a plain
+    loop for the scores and numpy's least squares for the scale."""
     import pandas as pd
 
-    from leakdiag.detect._flow_balance_size import SIZE_RATIO_RANGE
+    from leakdiag.detect._flow_balance_size import SIZE_ERROR_MODEL
 
     root = Path(__file__).resolve().parents[2]
     df = pd.read_csv(root / "docs" / "flow_balance_study" / "size_band" / "size_ratios.csv")
     det = df[df.detected.astype(bool)]
     assert det.ratio.notna().all() and df[~df.detected.astype(bool)].ratio.isna().all()
+    assert set(df["index"]) == set(range(10, 50))
+    assert (det.stat_low_lpm < det.leak_lpm_est).all() and (
+        det.leak_lpm_est < det.stat_high_lpm).all()
     for (system, load), g in det.groupby(["system", "load"]):
-        lo, hi, n = SIZE_RATIO_RANGE[system][load]
-        assert n == len(g)
-        assert (lo, hi) == pytest.approx((g.ratio.min(), g.ratio.max()), abs=5e-5)
+        m = SIZE_ERROR_MODEL[system][load]
+        fit, cal = g[g["index"] < 30], g[g["index"] >= 30]
+        assert (m.n, m.n_fit) == (len(cal), len(fit))
+        # the scale: least squares of per-size mean squared relative errors (the fit gives
+        # both terms positive here, so the non-negative solution is the plain one)
+        rows = []
+        for _, f in fit.groupby("leak_lpm"):
+            s, w = f.leak_lpm_est, (f.stat_high_lpm - f.stat_low_lpm) / 2
+            rows.append([((w / s) ** 2).mean(), 1.0, (((s - f.truth_lpm) / s) ** 2).mean()])
+        rows = np.array(rows)
+        coef = np.linalg.lstsq(rows[:, :2], rows[:, 2], rcond=None)[0]
+        if (coef > 0).all():  # (4 significant digits)
+            assert (m.noise_weight, m.relative_error) == pytest.approx(
+                (coef[0], math.sqrt(coef[1])), rel=6e-4)
+        else:  # the non-negative solution: a = 0, c^2 the mean of the per-size means
+            assert m.noise_weight == 0 and m.relative_error == pytest.approx(
+                math.sqrt(rows[:, 2].mean()), rel=6e-4)
+        scores = []
+        for r in cal.itertuples():
+            rho = math.sqrt(m.noise_weight * ((r.stat_high_lpm - r.stat_low_lpm) / 2) ** 2
+                            + (m.relative_error * r.leak_lpm_est) ** 2)
+            scores.append((r.leak_lpm_est - r.truth_lpm) / rho)
+        # rounded outwards to 4 decimals: every calibration run inside, by less than 1e-4
+        assert m.score_low <= min(scores) < m.score_low + 1e-4
+        assert m.score_high - 1e-4 < max(scores) <= m.score_high
 
 
-def test_size_band_of_an_unknown_load_is_the_widest_of_the_rig():
-    from leakdiag.detect._flow_balance_size import SIZE_RATIO_RANGE, size_band
+def test_size_band_of_an_unknown_load_is_the_hull_of_the_rig_s_loads():
+    from leakdiag.detect._flow_balance_size import SIZE_ERROR_MODEL, widen_interval
 
-    for system, table in SIZE_RATIO_RANGE.items():
-        lo, hi, n, basis = size_band(system, None)
-        assert basis == "any load" and n == min(v[2] for v in table.values())
-        assert lo == min(v[0] for v in table.values()) and hi == max(v[1] for v in table.values())
-        assert size_band(system, "spring")[:3] == table["spring"]
+    for system, table in SIZE_ERROR_MODEL.items():
+        for size, stat in [(0.02, (0.018, 0.022)), (1.0, (0.999, 1.001))]:
+            each = [_band_by_hand(m, size, stat) for m in table.values()]
+            assert widen_interval(system, None, size, stat) == pytest.approx(
+                (min(e[0] for e in each), max(e[1] for e in each)), rel=1e-12)
+            assert widen_interval(system, "spring", size, stat) == pytest.approx(
+                _band_by_hand(table["spring"], size, stat), rel=1e-12)
+
+
+def test_size_band_is_relative_for_large_leaks_and_follows_the_noise_for_small_ones():
+    """The band's scale sqrt(a w^2 + (c s)^2): with a statistical interval of zero width it is
+    c s, so the relative band is the same at every size; a wider statistical interval widens
+    it (the score is in scales, not in ratios of the size as before 2026-11-30)."""
+    from leakdiag.detect._flow_balance_size import SizeErrorModel
+
+    m = SizeErrorModel(0.25, 0.01, -2.0, 3.0, 99, 99)
+    assert m.band(1.0, 0.0) == pytest.approx((0.97, 1.02))
+    assert m.band(0.02, 0.0) == pytest.approx((0.0194, 0.0204))
+    lo, hi = m.band(0.02, 0.004)  # rho = sqrt(0.25 * 0.004^2 + 0.0002^2)
+    rho = math.sqrt(4e-6 + 4e-8)
+    assert (lo, hi) == pytest.approx((0.02 - 3 * rho, 0.02 + 2 * rho))
+    assert m.band(0.001, 0.01) == (0.0, pytest.approx(0.001 + 2 * math.sqrt(2.5e-5 + 1e-10)))
+    assert m.probability == pytest.approx(0.98)
 
 
 def test_healthy_run_no_alarm_and_standardised_scale(fitted):
@@ -306,7 +367,8 @@ def test_a_fleet_fit_has_no_machine_to_check():
 
 def test_a_fleet_fit_says_its_size_band_is_no_promise():
     """The size band was measured with each machine's own fit; fitted on several machines the
-    benchmark's fleet runs fell outside it in 11 of 188: the verdict says so."""
+    benchmark's fleet runs fell outside it in 14 of 183 (fleet-fresh-band/): the verdict says
+    so."""
     healthy = [ld.sim.simulate_vca(duration=40, leak_lpm=0.0, load="spring", machine=m, seed=s)
                for m in (3, 17) for s in (1, 2)]
     det = FlowBalanceDetector(system="vca").fit(healthy)
@@ -318,22 +380,19 @@ def test_a_fleet_fit_says_its_size_band_is_no_promise():
 
 
 def test_fleet_band_misses_are_those_of_the_committed_fleet_benchmark():
-    """FLEET_BAND_MISSES (quoted by a fleet fit's verdict) recomputed from the committed v5
-    fleet runs: each sized leaking run's interval widened by the band (a no-op where the run
-    recorded it already) against the run's achieved mean leak."""
+    """FLEET_BAND_MISSES (quoted by a fleet fit's verdict) recounted from the committed v5
+    fleet runs judged with the band of this code (fleet-fresh-band/, 2026-11-30): each sized
+    leaking run's recorded interval against the run's achieved mean leak."""
     import pandas as pd
 
-    from leakdiag.detect._flow_balance_size import FLEET_BAND_MISSES, SIZE_RATIO_RANGE
+    from leakdiag.detect._flow_balance_size import FLEET_BAND_MISSES
 
     runs = pd.read_csv(Path(__file__).resolve().parents[2] / "docs" / "benchmark" / "v5"
-                       / "fleet-conditional" / "runs.csv.gz")
+                       / "fleet-fresh-band" / "runs.csv.gz")
     f = runs[(runs.method == "flow-balance") & (runs.leak_lpm > 0) & runs.leak_lpm_low.notna()]
-    r_lo = [SIZE_RATIO_RANGE[s][ld_][0] for s, ld_ in zip(f.system, f.load)]
-    r_hi = [SIZE_RATIO_RANGE[s][ld_][1] for s, ld_ in zip(f.system, f.load)]
-    lo = np.minimum(f.leak_lpm_low, f.leak_lpm_est / np.array(r_hi))
-    hi = np.maximum(f.leak_lpm_high, f.leak_lpm_est / np.array(r_lo))
-    held = (lo <= f.leak_lpm_achieved) & (f.leak_lpm_achieved <= hi)
+    held = (f.leak_lpm_low <= f.leak_lpm_achieved) & (f.leak_lpm_achieved <= f.leak_lpm_high)
     assert FLEET_BAND_MISSES == (int((~held).sum()), len(f))
+    assert len(f) >= 150 and set(f.system) == {"vca", "eha"}
 
 
 def test_model_based_p_value_stops_at_the_null_resolution(machine17):

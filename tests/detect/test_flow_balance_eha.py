@@ -86,8 +86,10 @@ def test_no_load_size_profiles_the_transducers_differential_offset():
     assert v.as_dict()["pressure_offset_pa"] == v.pressure_offset_pa
     lo_d, hi_d = v.leak_lpm_interval_holds.rsplit("(the data allow ", 1)[1].split(" kPa)")[0] \
         .split(" to ")
-    assert (f"{v.pressure_offset_pa / 1e3:+.3g} kPa (the data allow {lo_d} to {hi_d} kPa), and "
-            "the model error measured on ") in v.leak_lpm_interval_holds
+    slo, shi = v.leak_lpm_interval_statistical
+    assert (f"{v.pressure_offset_pa / 1e3:+.3g} kPa (the data allow {lo_d} to {hi_d} kPa) (that "
+            f"part alone: {slo:.3g}-{shi:.3g} L/min), and the model error measured on ") \
+        in v.leak_lpm_interval_holds
     assert float(lo_d) * 1e3 <= v.pressure_offset_pa <= float(hi_d) * 1e3
     assert "beyond the +-200 kPa" not in v.leak_lpm_interval_holds  # a plausible offset
 

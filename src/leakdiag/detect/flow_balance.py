@@ -33,8 +33,8 @@ from leakdiag.detect._flow_balance_checks import (
     spike_sizes,
 )
 from leakdiag.detect._flow_balance_offset import leak_law_at, profile_offset
-from leakdiag.detect._flow_balance_size import (FLEET_BAND_MISSES, SIZE_RATIO_RANGE, band_words,
-                                               size_band)
+from leakdiag.detect._flow_balance_size import (FLEET_BAND_MISSES, SIZE_ERROR_MODEL, band_words,
+                                               widen_interval)
 from leakdiag.detect._flow_balance_search import (
     GLRThreshold,
     TargetBeyondNullError,
@@ -261,6 +261,10 @@ class FlowBalanceVerdict(Verdict):
         What ``leak_lpm_interval`` holds, in words (None without an alarm); with an alarm but
         no size (``leak_lpm`` None: the VCA without load and a leak there from the start), why
         no size is given.
+    leak_lpm_interval_statistical : tuple of float or None
+        The statistical part of ``leak_lpm_interval`` (L/min, level ``interval_level``: the
+        coefficient's standard error and, where profiled, the transducers' zero error), before
+        the model error measured on virtual machines widened it; None without a size.
     recent_leak_lpm : float or None
         For a leak recognised as growing (``GROWTH_MEASURED``: the VCA with the spring; the
         coefficient's second half since the onset at least ``GROWTH_RATIO`` times its first),
@@ -290,6 +294,7 @@ class FlowBalanceVerdict(Verdict):
     leak_law: str = "turbulent"
     pressure_offset_pa: float | None = None
     leak_lpm_interval_holds: str | None = None
+    leak_lpm_interval_statistical: tuple[float, float] | None = None
     recent_leak_lpm: float | None = None
     detectable_lpm: float | None = None
     detectable_from_s: float | None = None
@@ -323,6 +328,10 @@ class FlowBalanceVerdict(Verdict):
                   "reference_dp_pa": self.reference_dp_pa, "leak_law": self.leak_law,
                   "pressure_offset_pa": self.pressure_offset_pa,
                   "leak_lpm_interval_holds": self.leak_lpm_interval_holds,
+                  "leak_lpm_statistical_low": (self.leak_lpm_interval_statistical or
+                                               (None, None))[0],
+                  "leak_lpm_statistical_high": (self.leak_lpm_interval_statistical or
+                                                (None, None))[1],
                   "recent_leak_lpm": self.recent_leak_lpm,
                   "detectable_lpm": self.detectable_lpm,
                   "detectable_from_s": self.detectable_from_s,
@@ -571,7 +580,7 @@ def _coefficient_withheld(system: str, load: str | None) -> str:
     True
     """
     measured = COEFFICIENT_MEASURED[system]
-    if load in measured or (load is None and set(SIZE_RATIO_RANGE[system]) <= set(measured)):
+    if load in measured or (load is None and set(SIZE_ERROR_MODEL[system]) <= set(measured)):
         return ""
     if system == "vca" and load in ("none", None):
         return ("no leak coefficient nor flow at the reference pressure difference: on the VCA "
@@ -1973,11 +1982,13 @@ class FlowBalanceDetector(Detector):
                 leak=True, onset_s=onset, alarm_time_s=alarm, leak_lpm=None,
                 leak_lpm_interval=None, shift=float(k / se), leak_lpm_interval_holds=no_size,
                 **{**coef, "pressure_offset_pa": None}, **common)
-        # the model error the statistical interval does not hold: the ratio range measured on
+        # the model error the statistical interval does not hold: the band measured on
         # virtual machines (_flow_balance_size; docs/detect.md 8.5, "Size interval")
-        r_lo, r_hi, _, _ = size_band(self.system, load)
-        interval = (min(interval[0], lpm / r_hi), max(interval[1], lpm / r_lo))
-        holds = f"{be.size_interval_holds(offset, offset_range)}, {band_words(self.system, load)}"
+        statistical = (float(interval[0]), float(interval[1]))
+        interval = widen_interval(self.system, load, float(lpm), statistical)
+        holds = (f"{be.size_interval_holds(offset, offset_range)} (that part alone: "
+                 f"{statistical[0]:.3g}-{statistical[1]:.3g} L/min), "
+                 f"{band_words(self.system, load, float(lpm), statistical)}")
         n_units = (getattr(self, "operation_", None) or {}).get("n_machines", 0)
         if n_units > 1:
             holds += (f"; measured with each machine's own fit, while this detector was fitted "
@@ -2006,6 +2017,7 @@ class FlowBalanceDetector(Detector):
             leak=True, onset_s=onset, alarm_time_s=alarm,
             leak_lpm=float(lpm), leak_lpm_interval=(float(interval[0]), float(interval[1])),
             shift=float(k / se), leak_lpm_interval_holds=holds,
+            leak_lpm_interval_statistical=statistical,
             recent_leak_lpm=None if recent is None else float(recent), **coef, **common)
 
     def _detectable(self, t: dict, rec) -> tuple[float | None, float | None, str]:
