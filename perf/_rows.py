@@ -83,3 +83,41 @@ def save(path, rows: list[dict], columns: list[str]) -> pd.DataFrame:
     df = pd.DataFrame(rows, columns=columns)
     write_atomic(path, lambda tmp: df.to_csv(tmp, index=False))
     return df
+
+
+def leak_study_args(ap, argv, suites, out: str, per_size: int, first: int, what: str):
+    """Parse ``argv`` with the options the leaking-run studies share (``--per-size``,
+    ``--first``, ``--out``, ``--workers``, ``--systems``) and check the rigs;
+    ``(args, systems)``."""
+    ap.add_argument("--per-size", type=int, default=per_size)
+    ap.add_argument("--first", type=int, default=first)
+    ap.add_argument("--out", default=out)
+    ap.add_argument("--workers", type=int, default=1,
+                    help="processes judging runs (rows are written in the suite's order)")
+    ap.add_argument("--systems", default=",".join(suites),
+                    help=f"rigs to {what}, comma-separated (default: all)")
+    args = ap.parse_args(argv)
+    systems = args.systems.split(",")
+    unknown = sorted(set(systems) - set(suites))
+    if unknown:
+        ap.error(f"--systems: unknown rig(s) {unknown}; choose from {sorted(suites)}")
+    return args, systems
+
+
+def run_rows(todo: list, fn, workers: int, state, rows: list[dict], columns: list[str],
+             shown: str) -> None:
+    """Judge ``todo`` (argument tuples of ``fn``, a module-level function) in ``workers``
+    processes, in order, appending each row to ``rows`` and saving them all to ``state`` after
+    each; prints the system, load, size, seed and the row's ``shown`` column per row."""
+    import multiprocessing
+
+    pool = multiprocessing.Pool(workers) if workers > 1 else None
+    try:
+        it = pool.imap(fn, todo) if pool else map(fn, todo)
+        for (system, _, c), row in zip(todo, it):
+            rows.append(row)
+            save(state, rows, columns)
+            print(system, c.load, c.leak_lpm, c.seed, row.get(shown, ""), flush=True)
+    finally:
+        if pool:
+            pool.terminate()

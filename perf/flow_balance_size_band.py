@@ -30,7 +30,6 @@ import hashlib
 import inspect
 import json
 import math
-import multiprocessing
 from pathlib import Path
 
 import numpy as np
@@ -150,22 +149,11 @@ def rows_key() -> str:
 
 
 def main(argv=None) -> None:
-    from perf._rows import resume, save
+    from perf._rows import leak_study_args, resume, run_rows, save
     from leakdiag.bench.v5_suite import V5_SUITES, build_v5_suite
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--per-size", type=int, default=40)
-    ap.add_argument("--first", type=int, default=10)
-    ap.add_argument("--out", default="size-band")
-    ap.add_argument("--workers", type=int, default=1,
-                    help="processes judging runs (rows are written in the suite's order)")
-    ap.add_argument("--systems", default=",".join(V5_SUITES),
-                    help="rigs to measure, comma-separated (default: all)")
-    args = ap.parse_args(argv)
-    systems = args.systems.split(",")
-    unknown = sorted(set(systems) - set(V5_SUITES))
-    if unknown:
-        ap.error(f"--systems: unknown rig(s) {unknown}; choose from {sorted(V5_SUITES)}")
+    args, systems = leak_study_args(ap, argv, V5_SUITES, "size-band", 40, 10, "measure")
     state, rows = resume(args.out, rows_key(), COLUMNS, "size-band rows", filled=("seed",))
     seen = {int(r["seed"]) for r in rows}
     for system, suite in V5_SUITES.items():
@@ -174,16 +162,7 @@ def main(argv=None) -> None:
         cases = [c for c in build_v5_suite({system: suite}) if c.role == "test_leak"
                  and args.first <= c.nuisance["index"] < args.first + args.per_size]
         todo = [(system, suite, c) for c in cases if c.seed not in seen]
-        pool = multiprocessing.Pool(args.workers) if args.workers > 1 else None
-        try:
-            it = pool.imap(_run_star, todo) if pool else map(_run_star, todo)
-            for (_, _, c), row in zip(todo, it):
-                rows.append(row)
-                save(state, rows, COLUMNS)
-                print(system, c.load, c.leak_lpm, c.seed, row["ratio"], flush=True)
-        finally:
-            if pool:
-                pool.terminate()
+        run_rows(todo, _run_star, args.workers, state, rows, COLUMNS, "ratio")
     df = save(Path(args.out) / "size_ratios.csv", rows, COLUMNS)
     print("group: noise weight a, relative error c, scores low/high, calibration runs, fit runs")
     for (sys_, ld), m in models(df).items():

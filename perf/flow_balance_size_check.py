@@ -23,7 +23,6 @@ import argparse
 import hashlib
 import inspect
 import json
-import multiprocessing
 from dataclasses import replace
 from pathlib import Path
 
@@ -96,22 +95,11 @@ def summary(df) -> list[str]:
 
 
 def main(argv=None) -> None:
-    from perf._rows import resume, save
+    from perf._rows import leak_study_args, resume, run_rows, save
     from leakdiag.bench.v5_suite import V5_SUITES, build_v5_suite
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--first", type=int, default=3000)
-    ap.add_argument("--per-size", type=int, default=30)
-    ap.add_argument("--out", default="size-check")
-    ap.add_argument("--workers", type=int, default=1,
-                    help="processes judging runs (rows are written in the suite's order)")
-    ap.add_argument("--systems", default=",".join(V5_SUITES),
-                    help="rigs to check, comma-separated (default: all)")
-    args = ap.parse_args(argv)
-    systems = args.systems.split(",")
-    unknown = sorted(set(systems) - set(V5_SUITES))
-    if unknown:
-        ap.error(f"--systems: unknown rig(s) {unknown}; choose from {sorted(V5_SUITES)}")
+    args, systems = leak_study_args(ap, argv, V5_SUITES, "size-check", 30, 3000, "check")
     if args.first < 50:
         ap.error("--first: indexes 0-49 are the benchmark's and the size band's runs; "
                  "a held-out check takes 50 or more")
@@ -122,16 +110,7 @@ def main(argv=None) -> None:
                         n_test_leak=args.per_size, n_test_healthy=0, n_cal=0)
         todo = [(system, suite, c) for c in build_v5_suite({system: suite})
                 if c.role == "test_leak" and c.seed not in seen]
-        pool = multiprocessing.Pool(args.workers) if args.workers > 1 else None
-        try:
-            it = pool.imap(_check_star, todo) if pool else map(_check_star, todo)
-            for (_, _, c), row in zip(todo, it):
-                rows.append(row)
-                save(state, rows, COLUMNS)
-                print(system, c.load, c.leak_lpm, c.seed, row.get("held", ""), flush=True)
-        finally:
-            if pool:
-                pool.terminate()
+        run_rows(todo, _check_star, args.workers, state, rows, COLUMNS, "held")
     df = save(Path(args.out) / "size_check.csv", rows, COLUMNS)
     print("\n".join(summary(df)))
 

@@ -327,15 +327,21 @@ def test_no_load_fit_keeps_the_two_side_sum(fitted):
     assert fitted.model_.case_drain_m3_per_s_pa == 0.0 == fitted.model_.constant_flow_m3_per_s
 
 
-def test_spring_change_is_no_alarm_under_the_high_side_balance():
+@pytest.fixture(scope="module")
+def unit313():
+    """Unit 313 fitted on 8 nominal healthy 120-s runs under the spring (3-V drive)."""
+    fit = [ld.sim.simulate_eha(duration=120, leak_lpm=0.0, load="spring", machine=313,
+                               seed=1000 + i) for i in range(8)]
+    return FlowBalanceDetector(system="eha", false_alarms_per_hour=1.0).fit(fit)
+
+
+def test_spring_change_is_no_alarm_under_the_high_side_balance(unit313):
     """An audit (2026-11-30, session 29): under the spring the two-side sum's make-up flow is a
     leak-shaped model error that depends on the operating point; unit 313 fitted on 8 nominal
     runs alarmed on a healthy run whose spring softened to 0.7x at 60 s (score 1.5 against a
     level of 1.22, refused as not lasting; 17 of 40 such runs crossed). The high side has no
     make-up flow: the same run stays under the level, a 0.005 L/min leak does not."""
-    fit = [ld.sim.simulate_eha(duration=120, leak_lpm=0.0, load="spring", machine=313,
-                               seed=1000 + i) for i in range(8)]
-    det = FlowBalanceDetector(system="eha", false_alarms_per_hour=1.0).fit(fit)
+    det = unit313
     soft = ld.sim.EHAConditions(spring_change_time_s=60, spring_change_factor=0.7)
     rec = ld.sim.simulate_eha(duration=120, leak_lpm=0.0, load="spring", machine=313, seed=7,
                               conditions=soft)
@@ -407,3 +413,32 @@ def test_cross_fit_halves_take_the_whole_fit_s_balance():
     assert identify(*args, like=high)[0].high_side_delta_pa == HIGH_SIDE_DELTA_PA
     two = identify(*args, like=EHAPumpModel(1.0, 6e-13, P.bulk_modulus_pa))[0]
     assert two.high_side_delta_pa is None
+
+
+def test_a_run_at_a_lower_drive_than_the_fit_is_refused_or_not_sized(unit313):
+    """Audit F2 (2026-11-30): fitted at 3 V, a run at 1.5 V read a leak of about -0.006 L/min
+    on its healthy windows (z about -14), so a 0.02 L/min leak was sized 0.72-0.74x with every
+    interval missing the truth, and at 0.5 V 5 of 20 healthy runs read LEAK (scores within 2x
+    the level). Now a healthy run there is refused (no verdict), naming what it read; a leak's
+    strong alarm stands, without a size or coefficient."""
+    from leakdiag.detect._flow_balance_eha import NEGATIVE_LEAK_Z
+
+    rec = ld.sim.simulate_eha(duration=120, leak_lpm=0.0, load="spring", machine=313, seed=11,
+                              amplitude=1.5)
+    with pytest.raises(RecordingError, match="reads a leak of -0.00") as info:
+        unit313.predict(rec)
+    msg = str(info.value)
+    z = float(msg.split(" standard errors")[0].rsplit("(", 1)[1])
+    assert z < NEGATIVE_LEAK_Z == -5.0
+    assert "does not describe this recording's operation" in msg
+    assert "of the whole recording (no alarm)" in msg and "NO LEAK would not mean" in msg
+    rec = ld.sim.simulate_eha(duration=120, leak_lpm=0.02, onset=60, load="spring",
+                              machine=313, seed=11, amplitude=1.5)
+    v = unit313.predict(rec)
+    assert v.leak and 60.0 <= v.alarm_time_s <= 70.0 and v.score_max > 2 * v.threshold
+    assert v.leak_lpm is None and v.leak_lpm_interval is None and v.leak_coefficient is None
+    assert v.leak_lpm_interval_holds.startswith("no size: the flow balance reads a leak of -0.0")
+    assert "before the onset of the test's alarm" in v.leak_lpm_interval_holds
+    # the fit's own operation is judged: a healthy run at 3 V reads near zero
+    ok = ld.sim.simulate_eha(duration=120, leak_lpm=0.0, load="spring", machine=313, seed=11)
+    assert not unit313.predict(ok).leak

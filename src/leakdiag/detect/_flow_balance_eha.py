@@ -80,6 +80,15 @@ HIGH_SIDE_DELTA_PA = 2e5
 #: high-side fit there left a drive variation of 5 % as a leak-like misfit (half-run
 #: coefficient 9.5 standard errors, against 0 for the two-side sum).
 HIGH_SIDE_MIN_FRACTION = 0.6
+#: A recording judged with the high-side balance is refused when its leak-free windows (all, or
+#: those before the first alarm's onset window and the window before it) read a leak
+#: coefficient below this many standard errors
+#: (leakdiag choice, 2026-11-30): no leak is negative, so such a reading says the fit's drain
+#: terms do not carry over to the recording's operation. Measured on unit 313 fitted at 3 V
+#: (audit F2, docs/detect.md 8.5): healthy runs judged at 2 / 1.5 / 1 / 0.5 V read medians of
+#: -7.7 / -13.8 / -17.9 / -10.8 (at 0.5 V 5 of 20 read LEAK), while 460 runs at the fit's
+#: operation (unit 313 and the 400 held-out runs of units 311-314) stayed within -3.92 to +3.02.
+NEGATIVE_LEAK_Z = -5.0
 
 
 def size_profiles_pressure_offset(load: str | None) -> bool:

@@ -1789,13 +1789,17 @@ class FlowBalanceDetector(Detector):
             (VCA) off by more than its limit in some window (a sensor or model
             inconsistency), an alarm since whose onset the piston moved against the valve's
             or the pump's flow (a reversed command, speed or position sign), line pressures
-            nearer the other chamber (EHA: ``pa`` and ``pb`` swapped), or an alarm whose leak
-            coefficient since the onset is not positive (docs/detect.md 8.4).
+            nearer the other chamber (EHA: ``pa`` and ``pb`` swapped), an alarm whose leak
+            coefficient since the onset is not positive (docs/detect.md 8.4), or (the EHA's
+            high-side balance) leak-free windows that read a leak significantly below zero,
+            without an alarm or with one within ``CHANCE_SCORE_FACTOR`` of the level
+            (``_negative_leak``; docs/detect.md 8.5).
         """
         level = self._check_level(level)
         t, a, b, g, arg = self._scan(recording, "predict", level=level)
         h = self.threshold_ if level is None else level
         smax = float(g.max()) if len(g) else 0.0
+        biased = self._negative_leak(recording, t, g, arg, h)
         confidence, floor = self._p_value(smax, t, recording, run=level is not None)
         common = dict(confidence=confidence, confidence_floor=floor, leak_lpm_in_range=None,
                       score_max=smax, threshold=h,
@@ -1930,7 +1934,10 @@ class FlowBalanceDetector(Detector):
                     leak_coefficient_se=None if coef_why else se,
                     leak_lpm_at_reference=None if coef_why else float(at_ref),
                     pressure_offset_pa=offset)
-        no_size = _size_withheld(self.system, load, censored)
+        no_size = _size_withheld(self.system, load, censored) or biased
+        if biased:  # the coefficient is as biased as the size
+            coef = dict(leak_coefficient=None, leak_coefficient_se=None,
+                        leak_lpm_at_reference=None, pressure_offset_pa=None)
         n_after = len(g) - first
         if self._step_undetermined(t, i, int(arg[i])):
             # the recording locates no onset: said as what is known, an onset at or before the
@@ -2019,6 +2026,61 @@ class FlowBalanceDetector(Detector):
             shift=float(k / se), leak_lpm_interval_holds=holds,
             leak_lpm_interval_statistical=statistical,
             recent_leak_lpm=None if recent is None else float(recent), **coef, **common)
+
+    def _negative_leak(self, rec, t: dict, g: np.ndarray, arg: np.ndarray,
+                       h: float) -> str | None:
+        """Refuse, or say why not to size, a recording whose leak-free windows read a leak
+        significantly below zero.
+
+        Where the backend states a limit (``NEGATIVE_LEAK_Z``: the EHA's high-side balance;
+        audit F2, docs/detect.md 8.5), the leak coefficient on the windows before the first
+        alarm's onset window and the one before it (all windows without an alarm), in
+        standard errors: below the limit, the healthy model does not describe this recording's
+        operation (a lower drive or load than the fit's reads a negative leak there). Without
+        an alarm, or with one whose score is within :data:`CHANCE_SCORE_FACTOR` of the level
+        (at 0.5 V such runs of a healthy unit crossed), the recording is refused
+        (:class:`~leakdiag.io.recording.RecordingError`); a stronger alarm stands, as the bias
+        works against it, but its size would be low: the words why it is not given are
+        returned. None when the windows read no such leak.
+        """
+        zlim = getattr(self._backend(), "NEGATIVE_LEAK_Z", None)
+        if zlim is None or getattr(self.model_, "high_side_delta_pa", None) is None:
+            return None
+        above = np.flatnonzero(g >= h)
+        if len(above):  # leak-free: before the window the leak began in, with a window's margin
+            # (a leak's first, partly leaking window read -112 standard errors on a benchmark
+            # run of 1.63 L/min, and with it the windows before the alarm read a negative leak)
+            i = int(above[0])
+            stop = min(self._onset(t, i, int(arg[i])), int(arg[i])) - 1
+        else:
+            stop = len(g)
+        if stop < self._MIN_HISTORY:
+            return None
+        n = len(g)
+        part = {key: (v[:stop] if isinstance(v, np.ndarray) and v.shape[:1] == (n,) else v)
+                for key, v in t.items()}
+        k, se = self._estimate(part, 0)
+        if not (se > 0.0 and k / se < zlim):
+            return None
+        lpm = k * float(part["phi_abs"].sum()) / float(part["duration"].sum()) * LPM_PER_M3S
+        before = (f"before the onset of the test's alarm at {seconds(float(t['end'][above[0]]))}"
+                  " s" if len(above) else "of the whole recording (no alarm)")
+        read = (f"the flow balance reads a leak of {lpm:.3g} L/min on the {stop} windows "
+                f"{before} ({k / se:.3g} standard errors, below {zlim:g}): no leak is negative, "
+                "so the healthy model does not describe this recording's operation; its drain "
+                "terms were identified at the healthy recordings' operation and do not carry "
+                "over to a lower drive or load (docs/detect.md 8.5)")
+        smax = float(g.max())
+        if not len(above) or smax <= CHANCE_SCORE_FACTOR * h:
+            what = ("NO LEAK would not mean what it says" if not len(above) else
+                    f"the alarm (score {smax:.3g}, level {h:.3g}) is within "
+                    f"{CHANCE_SCORE_FACTOR:g}x the level, as such runs crossed")
+            raise RecordingError(
+                f"predict: {rec.meta.get('source', '<recording>')}: {read}. {what}; fit on "
+                "healthy recordings made at this operation. No verdict on a leak")
+        return (f"no size: {read}; the alarm stands (score {smax:.3g}, over "
+                f"{CHANCE_SCORE_FACTOR:g}x the level {h:.3g}: the bias works against it), but "
+                "a size would be low; fit on healthy recordings made at this operation")
 
     def _detectable(self, t: dict, rec) -> tuple[float | None, float | None, str]:
         """The smallest step leak over the last span that the test would have seen (NO LEAK).
