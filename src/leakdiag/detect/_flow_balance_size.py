@@ -5,9 +5,9 @@ load, the transducers' profiled zero error) holds only what the regression knows
 benchmark v5 (2026-11-26) measured how often it held the truth on held-out units: without
 load the VCA's sizes were 0.24-1.52x the truth and their +-1 % intervals held it in 7 of 67
 runs; with the spring and on the EHA the sizes were within a few per cent but the intervals,
-often narrower still, held it in as few as 0-4 of 10 runs at the larger sizes. What the intervals miss is model error (dither of
-the no-load pressure difference that 1 kHz sampling does not resolve, transducer gains, the
-valve model's bias; docs/detect.md 8.5).
+often narrower still, held it in as few as 0-4 of 10 runs at the larger sizes. What the
+intervals miss is model error (dither of the no-load pressure difference that 1 kHz sampling
+does not resolve, transducer gains, the valve model's bias; docs/detect.md 8.5).
 
 So the interval is widened to hold it, by normalised split conformal prediction (Lei et al.
 2018, Sec. 5.2, "locally weighted"; Vovk et al. 2005). A size ``s`` whose statistical interval
