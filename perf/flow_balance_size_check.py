@@ -9,8 +9,9 @@ leak size from index ``--first`` on (a block of seeds neither the band nor the b
 each its own virtual machine fitted on 2 own healthy runs as there) with the code as it is, and
 writes to ``DIR/size_check.csv`` the reported interval (statistical part and band), the
 statistical part alone and whether each held the run's true mean leak after the onset. A run
-whose alarm the detector refused (:class:`~leakdiag.detect.flow_balance.RefusedAlarm`) or
-that was not detected at or after its onset has no size and is not counted. Printed per rig
+the detector refused (:class:`~leakdiag.io.recording.RecordingError`: a refused alarm, or the
+EHA's negative leak on the leak-free windows) or that was not detected at or after its onset
+has no size and is not counted. Printed per rig
 and load: intervals held / sized runs with their 95 % Clopper-Pearson interval, per leak size
 the count and the median width relative to the size.
 
@@ -39,14 +40,14 @@ COLUMNS = ["system", "load", "leak_lpm", "seed", "machine", "index", "sized", "r
 def _check_row(system, suite, c) -> dict:
     """Judge one leaking run (:func:`perf.flow_balance_size_band._judge`) and say whether its
     intervals hold the truth."""
-    from leakdiag.detect.flow_balance import RefusedAlarm
+    from leakdiag.io.recording import RecordingError
 
     row = {"system": system, "load": c.load, "leak_lpm": c.leak_lpm, "seed": c.seed,
            "machine": c.nuisance["machine"], "index": c.nuisance["index"], "sized": False,
            "refused": ""}
     try:
         v, truth, ok = band._judge(system, suite, c)
-    except RefusedAlarm as e:  # no verdict on a leak: not sized
+    except RecordingError as e:  # no verdict on a leak (a refused alarm, a refused run)
         from leakdiag.bench.v5_common import _simulate
 
         return {**row, "refused": type(e).__name__,

@@ -17,8 +17,9 @@ from perf import flow_balance_size_check as check
 def fake_judge(monkeypatch):
     """Sizes 1.1x the truth; the reported interval 1.0-1.2x except at the largest EHA size
     (1.15-1.2x: missed); the statistical part 1.05-1.15x (missed everywhere); the 0.05 L/min
-    runs refused."""
+    runs' alarms refused, the 0.1 L/min runs refused."""
     from leakdiag.detect.flow_balance import AlarmNotConfirmed
+    from leakdiag.io.recording import RecordingError
 
     calls = []
 
@@ -26,6 +27,8 @@ def fake_judge(monkeypatch):
         calls.append(c.seed)
         if c.leak_lpm == 0.05:
             raise AlarmNotConfirmed("predict: not confirmed", 30.0, 25.0)
+        if c.leak_lpm == 0.1:  # a refused run (the EHA's negative leak), not only an alarm
+            raise RecordingError("predict: the flow balance reads a leak of -0.004 L/min")
         t = c.leak_lpm
         lo = 1.15 * t if c.leak_lpm == max(suite.leak_lpm) else 1.0 * t
         v = SimpleNamespace(leak_lpm=1.1 * t, leak_lpm_interval=(lo, 1.2 * t),
@@ -45,14 +48,16 @@ def test_size_check_counts_held_intervals_and_refusals(tmp_path, capsys, fake_ju
     df = pd.read_csv(tmp_path / "size_check.csv")
     # the EHA suite: 7 sizes x 2 loads x 2 runs, indexes 3000 and 3001
     assert len(df) == 28 and set(df["index"]) == {3000, 3001}
-    assert (df.refused == "AlarmNotConfirmed").sum() == 4 and (~df.sized).sum() == 4
+    assert (df.refused == "AlarmNotConfirmed").sum() == 4
+    assert (df.refused == "RecordingError").sum() == 4 and (~df.sized).sum() == 8
     sized = df[df.sized]
     assert not sized.stat_held.astype(bool).any()
     assert (~sized.held.astype(bool)).sum() == 4  # 1.63 L/min, both loads, both runs
     out = capsys.readouterr().out
-    # 6 sized sizes x 2 runs = 12 per load, 10 held; Clopper-Pearson of 10/12
-    assert re.search(r"^eha spring: intervals held 10/12 \[51\.6, 97\.9 %\] \(statistical part "
-                     r"alone 0/12\)$", out, re.M), out
+    # 5 sized sizes x 2 runs = 10 per load, 8 held; Clopper-Pearson of 8/10
+    assert re.search(r"^eha spring: intervals held 8/10 \[44\.4, 97\.5 %\] \(statistical part "
+                     r"alone 0/10\)$", out, re.M), out
+    assert "  0.1 L/min:" not in out
     assert "  1.63 L/min: 0/2, median width 0.045 of the size" in out
     assert "  0.02 L/min: 2/2, median width 0.182 of the size" in out
     n = len(fake_judge)
