@@ -47,31 +47,32 @@ COLUMNS = ["system", "load", "leak_lpm", "seed", "machine", "index", "detected",
 
 def _judge(system, suite, c):
     """Fit the flow balance on the unit's own healthy runs and judge one leaking run:
-    ``(verdict, true mean leak after the onset, detected at or after the onset with a size)``."""
+    ``(verdict, true mean leak after the onset, detected at or after the onset with a size,
+    refusal)``; a run the detector refuses (a refused alarm, the EHA's negative leak: a
+    :class:`~leakdiag.io.recording.RecordingError`) has verdict None and its class name as
+    the refusal, else the refusal is ``""``."""
     from leakdiag.bench.registry import make_detector
     from leakdiag.bench.v5_common import _simulate, v5_alarm
     from leakdiag.bench.v5_unit import own_cases
+    from leakdiag.io.recording import RecordingError
 
     own = [_simulate(o) for o in own_cases(c, N_OWN, suite.nuisance)]
     det = make_detector("flow-balance", system,
                         v5_alarm(FALSE_ALARM_PER_RUN, c.duration_s, confidence=CONFIDENCE))
     det.fit(own)
     rec = _simulate(c)
-    v = det.predict(rec)
     truth = float(rec.meta["leak_lpm_achieved"])
-    return v, truth, bool(v.leak and v.alarm_time_s >= c.onset_s and v.leak_lpm is not None)
+    try:
+        v = det.predict(rec)
+    except RecordingError as e:
+        return None, truth, False, type(e).__name__
+    return v, truth, bool(v.leak and v.alarm_time_s >= c.onset_s and v.leak_lpm is not None), ""
 
 
 def _run_row(system, suite, c) -> dict:
     """One row: the size, its statistical interval and the truth (:func:`_judge`); a run the
     detector refuses (a refused alarm, the EHA's negative leak) counts as not detected."""
-    from leakdiag.bench.v5_common import _simulate
-    from leakdiag.io.recording import RecordingError
-
-    try:
-        v, truth, ok = _judge(system, suite, c)
-    except RecordingError:
-        v, truth, ok = None, float(_simulate(c).meta["leak_lpm_achieved"]), False
+    v, truth, ok, _ = _judge(system, suite, c)
     stat = v.leak_lpm_interval_statistical if ok else (np.nan, np.nan)
     return {"system": system, "load": c.load, "leak_lpm": c.leak_lpm, "seed": c.seed,
             "machine": c.nuisance["machine"], "index": c.nuisance["index"], "detected": ok,

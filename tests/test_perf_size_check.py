@@ -4,42 +4,47 @@ replaced by a fake whose intervals hold or miss by construction (the suites are 
 from __future__ import annotations
 
 import re
+import math
 from types import SimpleNamespace
 
 import pandas as pd
 import pytest
 
-from perf import flow_balance_size_band as band
 from perf import flow_balance_size_check as check
 
 
 @pytest.fixture()
 def fake_judge(monkeypatch):
-    """Sizes 1.1x the truth; the reported interval 1.0-1.2x except at the largest EHA size
-    (1.15-1.2x: missed); the statistical part 1.05-1.15x (missed everywhere); the 0.05 L/min
-    runs' alarms refused, the 0.1 L/min runs refused."""
+    """The real ``_judge`` with a fake simulator and detector: sizes 1.1x the truth; the
+    reported interval 1.0-1.2x except at the largest EHA size (1.15-1.2x: missed); the
+    statistical part 1.05-1.15x (missed everywhere); the 0.05 L/min runs' alarms refused, the
+    0.1 L/min runs refused (a plain RecordingError, as the EHA's negative leak)."""
+    import leakdiag.bench.registry as registry
+    import leakdiag.bench.v5_common as common
     from leakdiag.detect.flow_balance import AlarmNotConfirmed
     from leakdiag.io.recording import RecordingError
 
-    calls = []
+    judged = []
 
-    def judge(system, suite, c):
-        calls.append(c.seed)
-        if c.leak_lpm == 0.05:
+    def predict(rec):
+        t = rec.meta["leak_lpm_achieved"]
+        judged.append(t)
+        if t == 0.05:
             raise AlarmNotConfirmed("predict: not confirmed", 30.0, 25.0)
-        if c.leak_lpm == 0.1:  # a refused run (the EHA's negative leak), not only an alarm
+        if t == 0.1:
             raise RecordingError("predict: the flow balance reads a leak of -0.004 L/min")
-        t = c.leak_lpm
-        lo = 1.15 * t if c.leak_lpm == max(suite.leak_lpm) else 1.0 * t
-        v = SimpleNamespace(leak_lpm=1.1 * t, leak_lpm_interval=(lo, 1.2 * t),
-                            leak_lpm_interval_statistical=(1.05 * t, 1.15 * t))
-        return v, t, True
+        lo = 1.15 * t if t == 1.63 else 1.0 * t
+        return SimpleNamespace(leak=True, alarm_time_s=math.inf, leak_lpm=1.1 * t,
+                               leak_lpm_interval=(lo, 1.2 * t),
+                               leak_lpm_interval_statistical=(1.05 * t, 1.15 * t))
 
-    monkeypatch.setattr(band, "_judge", judge)
-    import leakdiag.bench.v5_common as common
+    def fake_detector(method, system, alarm):
+        return SimpleNamespace(fit=lambda healthy: None, predict=predict)
+
     monkeypatch.setattr(common, "_simulate",
                         lambda c: SimpleNamespace(meta={"leak_lpm_achieved": c.leak_lpm}))
-    return calls
+    monkeypatch.setattr(registry, "make_detector", fake_detector)
+    return judged
 
 
 def test_size_check_counts_held_intervals_and_refusals(tmp_path, capsys, fake_judge):

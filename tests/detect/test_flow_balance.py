@@ -200,14 +200,18 @@ def test_size_band_constants_are_the_committed_study_s_models():
 
 
 def test_size_band_of_an_unknown_load_is_the_hull_of_the_rig_s_loads():
-    from leakdiag.detect._flow_balance_size import SIZE_ERROR_MODEL, widen_interval
+    from leakdiag.detect._flow_balance_size import SIZE_ERROR_MODEL, size_band
 
     for system, table in SIZE_ERROR_MODEL.items():
         for size, stat in [(0.02, (0.018, 0.022)), (1.0, (0.999, 1.001))]:
             each = [_band_by_hand(m, size, stat) for m in table.values()]
-            assert widen_interval(system, None, size, stat) == pytest.approx(
+            both = size_band(system, None, size, stat)
+            assert (min(stat[0], both[0]), max(stat[1], both[1])) == pytest.approx(
                 (min(e[0] for e in each), max(e[1] for e in each)), rel=1e-12)
-            assert widen_interval(system, "spring", size, stat) == pytest.approx(
+            bands = [m.band(size, (stat[1] - stat[0]) / 2) for m in table.values()]
+            assert both == (min(b[0] for b in bands), max(b[1] for b in bands))
+            spring = size_band(system, "spring", size, stat)
+            assert (min(stat[0], spring[0]), max(stat[1], spring[1])) == pytest.approx(
                 _band_by_hand(table["spring"], size, stat), rel=1e-12)
 
 

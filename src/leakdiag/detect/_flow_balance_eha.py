@@ -103,6 +103,12 @@ def confirms_with_offset_profile(load: str | None) -> bool:
     return load in OFFSET_CONFIRMED_LOADS
 
 
+def negative_leak_limit(model: "EHAPumpModel") -> float | None:
+    """:data:`NEGATIVE_LEAK_Z` for a model with the high-side balance, else None (the
+    two-side sum: not measured to need it)."""
+    return None if model.high_side_delta_pa is None else NEGATIVE_LEAK_Z
+
+
 def size_interval_holds(offset_pa: float | None = None, offset_interval_pa=None) -> str:
     """What the size interval holds, in words (``offset_pa``: the zero error found, Pa, None
     when not profiled; ``offset_interval_pa``: the offsets the leak's windows allow)."""
@@ -303,8 +309,8 @@ def terms(rec, nominal: EHAParams, model: EHAPumpModel, window: int, laminar: bo
         ``pump_volume`` (m^3, signed: the pump model's displaced volume), ``duration`` (s),
         ``edge_flow2``, ``compressibility`` (m^3).
     """
-    return _terms_from_raw(raw_sums(rec, nominal, window, laminar, model.high_side_delta_pa), nominal,
-                           model)
+    return _terms_from_raw(raw_sums(rec, nominal, window, laminar, model.high_side_delta_pa),
+                           nominal, model)
 
 
 def identify(recs, nominal: EHAParams, windows, laminar, skips, fit_bandwidth, fit_bulk_modulus,

@@ -42,7 +42,7 @@ import math
 from dataclasses import dataclass
 
 __all__ = ["SizeErrorModel", "SIZE_ERROR_MODEL", "FLEET_BAND_MISSES", "size_models",
-           "widen_interval", "band_words"]
+           "size_band", "band_words"]
 
 
 @dataclass(frozen=True)
@@ -146,9 +146,10 @@ def size_models(system: str, load: str | None) -> tuple[list[SizeErrorModel], st
     return list(table.values()), "any load"
 
 
-def widen_interval(system: str, load: str | None, size_lpm: float,
-                   statistical: tuple[float, float]) -> tuple[float, float]:
-    """The reported size interval: the statistical one and the measured band, united.
+def size_band(system: str, load: str | None, size_lpm: float,
+              statistical: tuple[float, float]) -> tuple[float, float]:
+    """The measured model-error band of a size (the hull of the load's models' bands); the
+    reported interval is its union with the statistical one.
 
     Parameters
     ----------
@@ -167,33 +168,27 @@ def widen_interval(system: str, load: str | None, size_lpm: float,
 
     Examples
     --------
-    >>> lo, hi = widen_interval("eha", "spring", 0.1, (0.099, 0.101))
+    >>> lo, hi = size_band("eha", "spring", 0.1, (0.099, 0.101))
     >>> lo < 0.099 and hi > 0.101
     True
     """
     half = (statistical[1] - statistical[0]) / 2.0
     bands = [m.band(size_lpm, half) for m in size_models(system, load)[0]]
-    return (min([statistical[0]] + [b[0] for b in bands]),
-            max([statistical[1]] + [b[1] for b in bands]))
+    return min(b[0] for b in bands), max(b[1] for b in bands)
 
 
-def band_words(system: str, load: str | None, size_lpm: float,
-               statistical: tuple[float, float]) -> str:
-    """What the widened interval holds, in words, with this size's band.
+def band_words(system: str, load: str | None, band: tuple[float, float]) -> str:
+    """What the widened interval holds, in words, with this size's band (:func:`size_band`).
 
     Examples
     --------
-    >>> band_words("eha", "spring", 0.1, (0.099, 0.101)).startswith(
-    ...     "and the model error measured on ")
+    >>> band_words("eha", "spring", (0.09, 0.11)).startswith("and the model error measured on ")
     True
     """
     models, basis = size_models(system, load)
-    n = min(m.n for m in models)
-    half = (statistical[1] - statistical[0]) / 2.0
-    bands = [m.band(size_lpm, half) for m in models]
-    lo, hi = min(b[0] for b in bands), max(b[1] for b in bands)
-    return (f"and the model error measured on {n} virtual machines ({basis}: a size's error "
-            "in scales that grow with its statistical interval and with the size, here "
-            f"{lo:.3g}-{hi:.3g} L/min; probability >= {(n - 1) / (n + 1):.2f} if this machine "
-            "is like them and the leak, like theirs, a step that began after the first windows "
-            "judged, docs/detect.md 8.5)")
+    p = min(m.probability for m in models)
+    return (f"and the model error measured on {min(m.n for m in models)} virtual machines "
+            f"({basis}: a size's error in scales that grow with its statistical interval and "
+            f"with the size, here {band[0]:.3g}-{band[1]:.3g} L/min; probability >= {p:.2f} if "
+            "this machine is like them and the leak, like theirs, a step that began after the "
+            "first windows judged, docs/detect.md 8.5)")

@@ -68,6 +68,12 @@ def confirms_with_offset_profile(load: str | None) -> bool:
     return size_profiles_pressure_offset(load)
 
 
+def negative_leak_limit(model) -> None:
+    """None: the VCA's leak-free windows are not checked for a negative leak (the EHA's
+    ``negative_leak_limit``; not measured here)."""
+    return None
+
+
 def size_interval_holds(offset_pa: float | None = None, offset_interval_pa=None) -> str:
     """What the size interval holds, in words (``offset_pa`` None: no offset profiled)."""
     if offset_pa is None:

@@ -34,7 +34,7 @@ from leakdiag.detect._flow_balance_checks import (
 )
 from leakdiag.detect._flow_balance_offset import leak_law_at, profile_offset
 from leakdiag.detect._flow_balance_size import (FLEET_BAND_MISSES, SIZE_ERROR_MODEL, band_words,
-                                               widen_interval)
+                                               size_band)
 from leakdiag.detect._flow_balance_search import (
     GLRThreshold,
     TargetBeyondNullError,
@@ -322,16 +322,14 @@ class FlowBalanceVerdict(Verdict):
         dict
         """
         d = super().as_dict()
+        stat = self.leak_lpm_interval_statistical or (None, None)
         d.update({"leak_coefficient": self.leak_coefficient,
                   "leak_coefficient_se": self.leak_coefficient_se,
                   "leak_lpm_at_reference": self.leak_lpm_at_reference,
                   "reference_dp_pa": self.reference_dp_pa, "leak_law": self.leak_law,
                   "pressure_offset_pa": self.pressure_offset_pa,
                   "leak_lpm_interval_holds": self.leak_lpm_interval_holds,
-                  "leak_lpm_statistical_low": (self.leak_lpm_interval_statistical or
-                                               (None, None))[0],
-                  "leak_lpm_statistical_high": (self.leak_lpm_interval_statistical or
-                                                (None, None))[1],
+                  "leak_lpm_statistical_low": stat[0], "leak_lpm_statistical_high": stat[1],
                   "recent_leak_lpm": self.recent_leak_lpm,
                   "detectable_lpm": self.detectable_lpm,
                   "detectable_from_s": self.detectable_from_s,
@@ -1799,21 +1797,26 @@ class FlowBalanceDetector(Detector):
         t, a, b, g, arg = self._scan(recording, "predict", level=level)
         h = self.threshold_ if level is None else level
         smax = float(g.max()) if len(g) else 0.0
-        biased = self._negative_leak(recording, t, g, arg, h)
+        above = np.flatnonzero(g >= h)
+        i = int(above[0]) if len(above) else None
+        j = None if i is None else self._onset(t, i, int(arg[i]))
+        # leak-free: all windows, or those before the first alarm's onset window (or its span)
+        # with a window's margin (a leak's first, partly leaking window read -112 standard
+        # errors on a benchmark run of 1.63 L/min)
+        biased = self._negative_leak(recording, t, smax, h, len(g) if i is None else
+                                     min(j, int(arg[i])) - 1, None if i is None else
+                                     float(t["end"][i]))
         confidence, floor = self._p_value(smax, t, recording, run=level is not None)
         common = dict(confidence=confidence, confidence_floor=floor, leak_lpm_in_range=None,
                       score_max=smax, threshold=h,
                       onset_method="glr", detector="flow_balance",
                       n_segments=self._n_segments(t, recording), n_windows=len(g),
                       reference_dp_pa=float(self.reference_dp_pa), leak_law=self.leak_law)
-        above = np.flatnonzero(g >= h)
-        if len(above) == 0:
+        if i is None:
             lpm, start, why = self._detectable(t, recording)
             return FlowBalanceVerdict(leak=False, onset_s=None, alarm_time_s=None, leak_lpm=None,
                                       leak_lpm_interval=None, shift=None, detectable_lpm=lpm,
                                       detectable_from_s=start, detectable_why=why, **common)
-        i = int(above[0])
-        j = self._onset(t, i, int(arg[i]))
         i, j, transient = self._lasting_alarm(t, g, h, arg, i, j, self._load_of(recording))
         if transient:
             common["transient_alarms"] = transient
@@ -1992,10 +1995,11 @@ class FlowBalanceDetector(Detector):
         # the model error the statistical interval does not hold: the band measured on
         # virtual machines (_flow_balance_size; docs/detect.md 8.5, "Size interval")
         statistical = (float(interval[0]), float(interval[1]))
-        interval = widen_interval(self.system, load, float(lpm), statistical)
+        band = size_band(self.system, load, float(lpm), statistical)
+        interval = (min(statistical[0], band[0]), max(statistical[1], band[1]))
         holds = (f"{be.size_interval_holds(offset, offset_range)} (that part alone: "
                  f"{statistical[0]:.3g}-{statistical[1]:.3g} L/min), "
-                 f"{band_words(self.system, load, float(lpm), statistical)}")
+                 f"{band_words(self.system, load, band)}")
         n_units = (getattr(self, "operation_", None) or {}).get("n_machines", 0)
         if n_units > 1:
             holds += (f"; measured with each machine's own fit, while this detector was fitted "
@@ -2027,52 +2031,41 @@ class FlowBalanceDetector(Detector):
             leak_lpm_interval_statistical=statistical,
             recent_leak_lpm=None if recent is None else float(recent), **coef, **common)
 
-    def _negative_leak(self, rec, t: dict, g: np.ndarray, arg: np.ndarray,
-                       h: float) -> str | None:
+    def _negative_leak(self, rec, t: dict, smax: float, h: float, stop: int,
+                       alarm: float | None) -> str | None:
         """Refuse, or say why not to size, a recording whose leak-free windows read a leak
         significantly below zero.
 
-        Where the backend states a limit (``NEGATIVE_LEAK_Z``: the EHA's high-side balance;
-        audit F2, docs/detect.md 8.5), the leak coefficient on the windows before the first
-        alarm's onset window and the one before it (all windows without an alarm), in
-        standard errors: below the limit, the healthy model does not describe this recording's
-        operation (a lower drive or load than the fit's reads a negative leak there). Without
-        an alarm, or with one whose score is within :data:`CHANCE_SCORE_FACTOR` of the level
-        (at 0.5 V such runs of a healthy unit crossed), the recording is refused
+        Where the backend states a limit (``negative_leak_limit``: the EHA's high-side
+        balance, ``NEGATIVE_LEAK_Z``; audit F2, docs/detect.md 8.5), the leak coefficient on
+        the leak-free windows ``0 .. stop - 1`` (``alarm``: the first alarm's time, None
+        without one), in standard errors: below the limit, the healthy model does not describe
+        this recording's operation (a lower drive or load than the fit's reads a negative leak
+        there). Without an alarm, or with scores within :data:`CHANCE_SCORE_FACTOR` of the
+        level ``h`` (at 0.5 V such runs of a healthy unit crossed), the recording is refused
         (:class:`~leakdiag.io.recording.RecordingError`); a stronger alarm stands, as the bias
         works against it, but its size would be low: the words why it is not given are
         returned. None when the windows read no such leak.
         """
-        zlim = getattr(self._backend(), "NEGATIVE_LEAK_Z", None)
-        if zlim is None or getattr(self.model_, "high_side_delta_pa", None) is None:
+        zlim = self._backend().negative_leak_limit(self.model_)
+        if zlim is None or stop < self._MIN_HISTORY:
             return None
-        above = np.flatnonzero(g >= h)
-        if len(above):  # leak-free: before the window the leak began in, with a window's margin
-            # (a leak's first, partly leaking window read -112 standard errors on a benchmark
-            # run of 1.63 L/min, and with it the windows before the alarm read a negative leak)
-            i = int(above[0])
-            stop = min(self._onset(t, i, int(arg[i])), int(arg[i])) - 1
-        else:
-            stop = len(g)
-        if stop < self._MIN_HISTORY:
-            return None
-        n = len(g)
+        n = len(t["phi"])
         part = {key: (v[:stop] if isinstance(v, np.ndarray) and v.shape[:1] == (n,) else v)
                 for key, v in t.items()}
         k, se = self._estimate(part, 0)
         if not (se > 0.0 and k / se < zlim):
             return None
         lpm = k * float(part["phi_abs"].sum()) / float(part["duration"].sum()) * LPM_PER_M3S
-        before = (f"before the onset of the test's alarm at {seconds(float(t['end'][above[0]]))}"
-                  " s" if len(above) else "of the whole recording (no alarm)")
+        before = ("of the whole recording (no alarm)" if alarm is None else
+                  f"before the onset of the test's alarm at {seconds(alarm)} s")
         read = (f"the flow balance reads a leak of {lpm:.3g} L/min on the {stop} windows "
                 f"{before} ({k / se:.3g} standard errors, below {zlim:g}): no leak is negative, "
                 "so the healthy model does not describe this recording's operation; its drain "
                 "terms were identified at the healthy recordings' operation and do not carry "
                 "over to a lower drive or load (docs/detect.md 8.5)")
-        smax = float(g.max())
-        if not len(above) or smax <= CHANCE_SCORE_FACTOR * h:
-            what = ("NO LEAK would not mean what it says" if not len(above) else
+        if alarm is None or smax <= CHANCE_SCORE_FACTOR * h:
+            what = ("NO LEAK would not mean what it says" if alarm is None else
                     f"the alarm (score {smax:.3g}, level {h:.3g}) is within "
                     f"{CHANCE_SCORE_FACTOR:g}x the level, as such runs crossed")
             raise RecordingError(
